@@ -1,0 +1,31 @@
+// Camera rays and the ray–box test. Keep in sync with src/model/camera.rs (Camera::ray) and
+// src/model/volume.rs (Aabb::intersect). Positions are relative to the volume's lower corner.
+
+struct Ray {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+}
+
+// proj.x > 0.5: perspective with proj.y, proj.z = tan of the half angles in x and y;
+// otherwise orthographic with proj.y, proj.z = half width and half height.
+fn camera_ray(px: u32, py: u32, w: u32, h: u32, eye: vec3<f32>, forward: vec3<f32>,
+              right: vec3<f32>, up: vec3<f32>, proj: vec4<f32>) -> Ray {
+    let sx = 2.0 * (f32(px) + 0.5) / f32(w) - 1.0;
+    let sy = 1.0 - 2.0 * (f32(py) + 0.5) / f32(h);
+    if (proj.x > 0.5) {
+        return Ray(eye, normalize(forward + (sx * proj.y) * right + (sy * proj.z) * up));
+    }
+    return Ray(eye + (sx * proj.y) * right + (sy * proj.z) * up, forward);
+}
+
+// Entry and exit distances of the ray through the box [0, size]; empty when x >= y.
+fn box_hit(o: vec3<f32>, d: vec3<f32>, size: vec3<f32>) -> vec2<f32> {
+    // Axis-parallel rays have zero components; a tiny stand-in avoids 0 * inf = NaN.
+    let safe = select(d, vec3<f32>(1e-30), abs(d) < vec3<f32>(1e-30));
+    let inv = 1.0 / safe;
+    let ta = -o * inv;
+    let tb = (size - o) * inv;
+    let near = min(ta, tb);
+    let far = max(ta, tb);
+    return vec2<f32>(max(max(near.x, near.y), near.z), min(min(far.x, far.y), far.z));
+}

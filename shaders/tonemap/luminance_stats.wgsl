@@ -1,0 +1,126 @@
+// Log-luminance statistics of an HDR image: mean, max and min of ln(L_w) over pixels whose
+// exposed Rec. 709 luminance L_w is finite and > 0 (missing NaN/Inf pixels and black pixels are
+// left out). Keeping logs means an image near 1e-30 or 1e30 never under- or overflows; the
+// summands are O(10), so f32 partial sums (Kahan per thread, a tree per workgroup) are stable.
+// CPU reference: src/tonemap/cpu.rs `luminance_log_stats`.
+//
+// Two passes, both in this file:
+//   partial_stats  dispatch (G, 1, 1) workgroups of 256, G = min(ceil(n / 256), 1024); each
+//                  thread strides over the image by G * 256 pixels. Writes partials[workgroup].
+//   finish_stats   dispatch (1, 1, 1); combines arrayLength(&partials) partials into `stats`.
+//
+// Bindings (group 0):
+//   @binding(0) params    uniform    ToneMapParams  (width, height, exposure_ev are read)
+//   @binding(1) image     storage, read        array<vec4<f32>>  (partial_stats)
+//   @binding(3) stats     storage, read_write  LuminanceStats    (finish_stats)
+//   @binding(6) partials  storage, read_write  array<vec4<f32>>, exactly G elements:
+//                         (sum ln L, count, max ln L, min ln L) per workgroup
+
+struct ToneMapParams {
+    width: u32, height: u32, op: u32, bins: u32,
+    exposure_ev: f32, offset: f32, inv_gamma: f32, saturation: f32,
+    key: f32, white: f32, bias: f32, ld_max: f32,
+    ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
+    sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
+    pass_index: u32, sigma: f32, radius: u32, direction: u32,
+}
+
+struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
+
+const WORKGROUP: u32 = 256u;
+const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
+const LN2: f32 = 0.6931471805599453;
+// Stand-ins for -inf / +inf (WGSL has no infinite literals).
+const LOW: f32 = -3.0e38;
+const HIGH: f32 = 3.0e38;
+
+@group(0) @binding(0) var<uniform> params: ToneMapParams;
+@group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> stats: LuminanceStats;
+@group(0) @binding(6) var<storage, read_write> partials: array<vec4<f32>>;
+
+var<workgroup> shared_acc: array<vec4<f32>, WORKGROUP>;
+
+// Inf and NaN have an all-ones exponent; testing bits is immune to fast-math NaN folding.
+fn is_missing(p: vec4<f32>) -> bool {
+    let exponent = bitcast<vec4<u32>>(p) & vec4<u32>(0x7f800000u);
+    return any(exponent == vec4<u32>(0x7f800000u));
+}
+
+fn combine(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(a.x + b.x, a.y + b.y, max(a.z, b.z), min(a.w, b.w));
+}
+
+fn reduce_workgroup(local: u32, value: vec4<f32>) -> vec4<f32> {
+    shared_acc[local] = value;
+    workgroupBarrier();
+    for (var half = WORKGROUP / 2u; half > 0u; half = half / 2u) {
+        if local < half {
+            shared_acc[local] = combine(shared_acc[local], shared_acc[local + half]);
+        }
+        workgroupBarrier();
+    }
+    return shared_acc[0];
+}
+
+@compute @workgroup_size(256)
+fn partial_stats(
+    @builtin(local_invocation_index) local: u32,
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let n = params.width * params.height;
+    let stride = groups.x * WORKGROUP;
+    let exposure_log = params.exposure_ev * LN2;
+    var sum = 0.0;
+    var compensation = 0.0;
+    var count = 0.0;
+    var hi = LOW;
+    var lo = HIGH;
+    for (var i = group.x * WORKGROUP + local; i < n; i = i + stride) {
+        let p = image[i];
+        if is_missing(p) {
+            continue;
+        }
+        let y = dot(max(p.rgb, vec3<f32>(0.0)), REC709);
+        if y <= 0.0 {
+            continue;
+        }
+        let v = log(y) + exposure_log;
+        // Kahan summation over the thread's strided pixels.
+        let t = v - compensation;
+        let s = sum + t;
+        compensation = (s - sum) - t;
+        sum = s;
+        count = count + 1.0;
+        hi = max(hi, v);
+        lo = min(lo, v);
+    }
+    let total = reduce_workgroup(local, vec4<f32>(sum, count, hi, lo));
+    if local == 0u {
+        partials[group.x] = total;
+    }
+}
+
+@compute @workgroup_size(256)
+fn finish_stats(@builtin(local_invocation_index) local: u32) {
+    let groups = arrayLength(&partials);
+    var acc = vec4<f32>(0.0, 0.0, LOW, HIGH);
+    for (var i = local; i < groups; i = i + WORKGROUP) {
+        acc = combine(acc, partials[i]);
+    }
+    let total = reduce_workgroup(local, acc);
+    if local == 0u {
+        let count = u32(round(total.y));
+        stats.count = count;
+        if count > 0u {
+            stats.mean_log = total.x / total.y;
+            stats.max_log = total.z;
+            stats.min_log = total.w;
+        } else {
+            stats.mean_log = 0.0;
+            stats.max_log = 0.0;
+            stats.min_log = 0.0;
+        }
+    }
+}

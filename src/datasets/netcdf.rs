@@ -1,0 +1,724 @@
+//! NetCDF grids in and out. Reading covers classic (CDF-1/2/5) and NetCDF-4 (HDF5) files through
+//! the pure-Rust `netcdf-reader` crate, applying the CF rules a viewer needs: values equal to
+//! `_FillValue` or `missing_value` (or outside `valid_range`) become NaN, then packed integers are
+//! unpacked as `stored * scale_factor + add_offset`. Writing produces CF-1.8 classic NetCDF through
+//! `netcdf-writer`, into a temporary file that is renamed into place, so a failed write never
+//! leaves a half-written file behind. Only the root group of a NetCDF-4 file is read.
+
+use std::io::Write;
+use std::path::Path;
+
+use netcdf_reader::{NcAttrValue, NcFile};
+use netcdf_writer::{NcFileBuilder, NcWriteOptions};
+
+use crate::error::{Error, Result};
+
+/// One attribute value, reduced to what CF metadata needs.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NcAttribute {
+    Text(String),
+    Numbers(Vec<f64>),
+}
+
+/// Dimensions as `(name, length)`, slowest first.
+pub type Dims = Vec<(String, usize)>;
+
+/// A variable read with CF decoding applied: `data` is in physical units, C order (last dimension
+/// fastest), with fill and missing values as NaN.
+#[derive(Debug, Clone)]
+pub struct NcVariable {
+    pub name: String,
+    pub dims: Dims,
+    pub data: Vec<f64>,
+    pub units: Option<String>,
+    pub long_name: Option<String>,
+    /// Every attribute of the variable in file order, including the CF ones already applied.
+    pub attributes: Vec<(String, NcAttribute)>,
+}
+
+impl NcVariable {
+    pub fn attribute(&self, name: &str) -> Option<&NcAttribute> {
+        self.attributes
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v)
+    }
+}
+
+/// Sample types `write_grid` stores as they are (NC_FLOAT or NC_DOUBLE).
+pub trait GridValue: netcdf_writer::NcFillValueType + sealed::Sealed {
+    /// NaN of this type, declared as `_FillValue` so NaN cells read back as missing everywhere.
+    const NAN: Self;
+}
+impl GridValue for f32 {
+    const NAN: Self = f32::NAN;
+}
+impl GridValue for f64 {
+    const NAN: Self = f64::NAN;
+}
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for f32 {}
+    impl Sealed for f64 {}
+}
+
+/// A data variable to write: `(name, values in C order, units, long_name)`.
+pub type GridVar<'a, T> = (&'a str, &'a [T], &'a str, &'a str);
+/// A coordinate axis to write: `(dimension name, coordinate values, units)`.
+pub type GridCoord<'a> = (&'a str, &'a [f64], &'a str);
+
+/// Every variable of the root group with its dimensions, in file order.
+pub fn list_variables(path: impl AsRef<Path>) -> Result<Vec<(String, Dims)>> {
+    let path = path.as_ref();
+    let file = open(path)?;
+    let vars = file.variables().map_err(|e| reader_error(path, e))?;
+    vars.iter()
+        .map(|v| Ok((v.name().to_string(), dims_of(path, v)?)))
+        .collect()
+}
+
+/// Reads one variable with CF masking and unpacking applied. A name the file lacks gives an
+/// error that lists the variables it has.
+pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {
+    let path = path.as_ref();
+    let file = open(path)?;
+    let vars = file.variables().map_err(|e| reader_error(path, e))?;
+    let Some(var) = vars.iter().find(|v| v.name() == name) else {
+        let available: Vec<&str> = vars.iter().map(|v| v.name()).collect();
+        return Err(Error::format(
+            path,
+            format!(
+                "no variable '{name}'; the file has: {}",
+                if available.is_empty() {
+                    "no variables".to_string()
+                } else {
+                    available.join(", ")
+                }
+            ),
+        ));
+    };
+    if !var.dtype().is_primitive() || matches!(var.dtype(), netcdf_reader::NcType::Char) {
+        return Err(Error::format(
+            path,
+            format!(
+                "variable '{name}' has type {:?}; only numeric variables can be read",
+                var.dtype()
+            ),
+        ));
+    }
+    let dims = dims_of(path, var)?;
+    let data = file
+        .read_variable_unpacked_masked(name)
+        .map_err(|e| reader_error(path, e))?;
+    // Arrays come back in C order; the slice copy is a memcpy, unlike a per-element iteration.
+    let data: Vec<f64> = match data.as_slice() {
+        Some(contiguous) => contiguous.to_vec(),
+        None => data.iter().copied().collect(),
+    };
+    let expected = dims
+        .iter()
+        .try_fold(1usize, |acc, (_, n)| acc.checked_mul(*n));
+    if expected != Some(data.len()) {
+        return Err(Error::format(
+            path,
+            format!(
+                "variable '{name}' holds {} values, its dimensions need {expected:?}",
+                data.len()
+            ),
+        ));
+    }
+    let attributes: Vec<(String, NcAttribute)> = var
+        .attributes()
+        .iter()
+        .filter_map(|a| convert_attribute(&a.value).map(|v| (a.name.clone(), v)))
+        .collect();
+    let text = |key: &str| {
+        attributes.iter().find_map(|(n, v)| match v {
+            NcAttribute::Text(s) if n == key => Some(s.clone()),
+            _ => None,
+        })
+    };
+    Ok(NcVariable {
+        name: name.to_string(),
+        units: text("units"),
+        long_name: text("long_name"),
+        dims,
+        data,
+        attributes,
+    })
+}
+
+/// The coordinate variable of a dimension (a 1-D variable named like it), CF-decoded, or `None`
+/// when the dimension has no coordinate variable. Coordinates must be finite and strictly
+/// monotonic, since cell positions are derived from them.
+pub fn read_coordinate(path: impl AsRef<Path>, dim_name: &str) -> Result<Option<Vec<f64>>> {
+    let path = path.as_ref();
+    let file = open(path)?;
+    let dims = file.dimensions().map_err(|e| reader_error(path, e))?;
+    if !dims.iter().any(|d| d.name == dim_name) {
+        let names: Vec<&str> = dims.iter().map(|d| d.name.as_str()).collect();
+        return Err(Error::format(
+            path,
+            format!(
+                "no dimension '{dim_name}'; the file has: {}",
+                names.join(", ")
+            ),
+        ));
+    }
+    let vars = file.variables().map_err(|e| reader_error(path, e))?;
+    let is_coordinate = |v: &&netcdf_reader::NcVariable| {
+        v.name() == dim_name && v.dimensions().len() == 1 && v.dimensions()[0].name == dim_name
+    };
+    if !vars.iter().any(|v| is_coordinate(&v)) {
+        return Ok(None);
+    }
+    drop(file);
+    let values = read_variable(path, dim_name)?.data;
+    check_monotonic(&values)
+        .map_err(|msg| Error::format(path, format!("coordinate '{dim_name}' {msg}")))?;
+    Ok(Some(values))
+}
+
+/// Writes a CF-1.8 classic NetCDF file (64-bit offset, or CDF-5 when a variable is too large for
+/// it). `coords` name the dimensions, slowest first (e.g. `lat`, `lon`, or `z`, `y`, `x`); every
+/// variable in `vars` spans all of them, in C order. NaN values are declared missing through a
+/// NaN `_FillValue`, which is what xarray writes too.
+pub fn write_grid<T: GridValue>(
+    path: impl AsRef<Path>,
+    coords: &[GridCoord<'_>],
+    vars: &[GridVar<'_, T>],
+    global_attrs: &[(&str, &str)],
+) -> Result<()> {
+    let path = path.as_ref();
+    if coords.is_empty() {
+        return Err(Error::invalid(
+            "coords",
+            "at least one coordinate axis is required",
+        ));
+    }
+    let mut builder = NcFileBuilder::new();
+    let mut dim_ids = Vec::with_capacity(coords.len());
+    for &(name, values, units) in coords {
+        check_name("coords", name)?;
+        if values.is_empty() {
+            // A zero length would declare the classic format's unlimited dimension.
+            return Err(Error::invalid(
+                format!("coords.{name}"),
+                "needs at least one value",
+            ));
+        }
+        check_monotonic(values)
+            .map_err(|msg| Error::invalid(format!("coords.{name}"), format!("coordinate {msg}")))?;
+        let dim = builder
+            .add_dimension(name, values.len() as u64)
+            .map_err(|e| Error::invalid(format!("coords.{name}"), e.to_string()))?;
+        let var = builder
+            .add_variable::<f64>(name, &[dim])
+            .map_err(|e| Error::invalid(format!("coords.{name}"), e.to_string()))?;
+        for (key, value) in coordinate_attributes(name, units) {
+            add_text_attr(&mut builder, var, key, &value)?;
+        }
+        builder
+            .write_variable(var, values)
+            .map_err(|e| Error::invalid(format!("coords.{name}"), e.to_string()))?;
+        dim_ids.push(dim);
+    }
+    let cells = coords
+        .iter()
+        .try_fold(1usize, |acc, c| acc.checked_mul(c.1.len()))
+        .ok_or_else(|| {
+            Error::invalid("coords", "the grid has more cells than memory can address")
+        })?;
+    for &(name, values, units, long_name) in vars {
+        check_name("vars", name)?;
+        if values.len() != cells {
+            return Err(Error::invalid(
+                format!("vars.{name}"),
+                format!("has {} values; the coordinates need {cells}", values.len()),
+            ));
+        }
+        let var = builder
+            .add_variable::<T>(name, &dim_ids)
+            .map_err(|e| Error::invalid(format!("vars.{name}"), e.to_string()))?;
+        builder
+            .set_variable_fill_value(var, T::NAN)
+            .map_err(|e| Error::invalid(format!("vars.{name}"), e.to_string()))?;
+        if !units.is_empty() {
+            add_text_attr(&mut builder, var, "units", units)?;
+        }
+        if !long_name.is_empty() {
+            add_text_attr(&mut builder, var, "long_name", long_name)?;
+        }
+        builder
+            .write_variable(var, values)
+            .map_err(|e| Error::invalid(format!("vars.{name}"), e.to_string()))?;
+    }
+    let mut has_conventions = false;
+    for &(key, value) in global_attrs {
+        has_conventions |= key == "Conventions";
+        builder
+            .add_attribute(key, NcAttrValue::Chars(value.to_string()))
+            .map_err(|e| Error::invalid(format!("global_attrs.{key}"), e.to_string()))?;
+    }
+    if !has_conventions {
+        builder
+            .add_attribute("Conventions", NcAttrValue::Chars("CF-1.8".into()))
+            .map_err(|e| Error::invalid("global_attrs.Conventions", e.to_string()))?;
+    }
+    write_atomically(path, |out| {
+        builder
+            .write(out, NcWriteOptions::default())
+            .map(|_| ())
+            .map_err(|e| match e {
+                netcdf_writer::Error::Io(io) => io,
+                other => std::io::Error::other(other.to_string()),
+            })
+    })
+}
+
+/// Writes a cell-centred volume of `dims = [nx, ny, nz]` cells as one variable on dimensions
+/// (z, y, x), `data` x fastest. The coordinates are the cell centres
+/// `origin + (i + 0.5) * spacing`, so `origin` is the volume's minimum corner, as in `vti`.
+#[allow(clippy::too_many_arguments)]
+pub fn write_volume(
+    path: impl AsRef<Path>,
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    origin: [f64; 3],
+    length_units: &str,
+    var: GridVar<'_, f32>,
+    global_attrs: &[(&str, &str)],
+) -> Result<()> {
+    for (axis, (&n, &d)) in ["x", "y", "z"].iter().zip(dims.iter().zip(&spacing)) {
+        if n == 0 {
+            return Err(Error::invalid(format!("dims.{axis}"), "must be at least 1"));
+        }
+        if !(d.is_finite() && d > 0.0) {
+            return Err(Error::invalid(
+                format!("spacing.{axis}"),
+                "must be finite and > 0",
+            ));
+        }
+    }
+    let centres = |a: usize| -> Vec<f64> {
+        (0..dims[a])
+            .map(|i| origin[a] + (i as f64 + 0.5) * spacing[a])
+            .collect()
+    };
+    let (x, y, z) = (centres(0), centres(1), centres(2));
+    let coords = [
+        ("z", &z[..], length_units),
+        ("y", &y[..], length_units),
+        ("x", &x[..], length_units),
+    ];
+    write_grid(path, &coords, &[var], global_attrs)
+}
+
+/// Runs `write` against a temporary file next to `path`, then renames it over `path`.
+pub(crate) fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".hdrvis-").suffix(".part");
+    // Temporary files are owner-only by default; ask for 0o666 so that, once renamed, the file
+    // gets the usual permissions the umask allows, like any file the user creates.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let tmp = builder.tempfile_in(dir).map_err(|e| Error::io(path, e))?;
+    {
+        let mut out = std::io::BufWriter::new(tmp.as_file());
+        write(&mut out).map_err(|e| Error::io(path, e))?;
+        out.flush().map_err(|e| Error::io(path, e))?;
+    }
+    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
+    Ok(())
+}
+
+fn open(path: &Path) -> Result<NcFile> {
+    // Distinguish "cannot open" (an I/O error) from "not a valid NetCDF file" (a format error).
+    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    check_hdf5_length(path, &mut file)?;
+    NcFile::open(path).map_err(|e| reader_error(path, e))
+}
+
+/// A truncated NetCDF-4 file can still decode when the lost tail held other objects, so, as the
+/// HDF5 library does, compare the end-of-file address its superblock records with the file's
+/// size. Classic files need no such check: their header fixes every variable's extent, which the
+/// reader checks against the file size.
+fn check_hdf5_length(path: &Path, file: &mut std::fs::File) -> Result<()> {
+    use std::io::{Read, Seek, SeekFrom};
+    const SIGNATURE: [u8; 8] = [0x89, b'H', b'D', b'F', b'\r', b'\n', 0x1a, b'\n'];
+    let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    // The superblock sits at 0 or, after a user block, at 512, 1024, 2048, ... (HDF5 file format
+    // specification, section II.A).
+    let mut at = 0u64;
+    while at + 64 <= len {
+        let mut head = [0u8; 64];
+        file.seek(SeekFrom::Start(at))
+            .map_err(|e| Error::io(path, e))?;
+        file.read_exact(&mut head).map_err(|e| Error::io(path, e))?;
+        if head[..8] == SIGNATURE {
+            let version = head[8];
+            let (offset_size, base_at) = match version {
+                0 => (head[13] as usize, 24),
+                1 => (head[13] as usize, 28),
+                2 | 3 => (head[9] as usize, 12),
+                _ => return Ok(()), // unknown layout: leave the verdict to the reader
+            };
+            if !matches!(offset_size, 2 | 4 | 8) {
+                return Err(Error::format(
+                    path,
+                    format!("HDF5 superblock has offset size {offset_size}"),
+                ));
+            }
+            let field = |i: usize| {
+                let start = base_at + i * offset_size;
+                head[start..start + offset_size]
+                    .iter()
+                    .rev()
+                    .fold(0u64, |acc, &b| (acc << 8) | u64::from(b))
+            };
+            let base = field(0);
+            // Fields after the base address: v0/1 free-space info then EOF; v2/3 extension then EOF.
+            let eof = base.saturating_add(field(2));
+            if eof > len {
+                return Err(Error::format(
+                    path,
+                    format!("truncated NetCDF-4/HDF5 file: {len} bytes, its superblock says {eof}"),
+                ));
+            }
+            return Ok(());
+        }
+        at = if at == 0 { 512 } else { at * 2 };
+    }
+    Ok(())
+}
+
+fn reader_error(path: &Path, e: netcdf_reader::Error) -> Error {
+    let msg = e.to_string().replace(['\n', '\r'], " ");
+    Error::format(path, format!("not a readable NetCDF file: {msg}"))
+}
+
+fn dims_of(path: &Path, var: &netcdf_reader::NcVariable) -> Result<Dims> {
+    var.dimensions()
+        .iter()
+        .map(|d| {
+            let n = usize::try_from(d.size).map_err(|_| {
+                Error::format(
+                    path,
+                    format!("dimension '{}' size {} is too large", d.name, d.size),
+                )
+            })?;
+            Ok((d.name.clone(), n))
+        })
+        .collect()
+}
+
+fn convert_attribute(value: &NcAttrValue) -> Option<NcAttribute> {
+    value
+        .as_string()
+        .map(NcAttribute::Text)
+        .or_else(|| value.as_f64_vec().map(NcAttribute::Numbers))
+}
+
+fn check_monotonic(values: &[f64]) -> std::result::Result<(), String> {
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(format!(
+            "value {i} is {}; coordinates must be finite",
+            values[i]
+        ));
+    }
+    let increasing = values.windows(2).all(|w| w[1] > w[0]);
+    let decreasing = values.windows(2).all(|w| w[1] < w[0]);
+    if increasing || decreasing {
+        Ok(())
+    } else {
+        Err("is not strictly monotonic".to_string())
+    }
+}
+
+fn check_name(field: &str, name: &str) -> Result<()> {
+    let ok = !name.is_empty()
+        && name
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            format!("{field}.{name}"),
+            "names must start with a letter or '_' and use only letters, digits, '_', '-', '.'",
+        ))
+    }
+}
+
+fn coordinate_attributes(name: &str, units: &str) -> Vec<(&'static str, String)> {
+    let mut attrs = Vec::new();
+    if !units.is_empty() {
+        attrs.push(("units", units.to_string()));
+    }
+    let (standard_name, axis) = match name {
+        "lat" | "latitude" => (Some("latitude"), Some("Y")),
+        "lon" | "longitude" => (Some("longitude"), Some("X")),
+        "x" => (None, Some("X")),
+        "y" => (None, Some("Y")),
+        "z" | "depth" | "height" => (None, Some("Z")),
+        "time" => (Some("time"), Some("T")),
+        _ => (None, None),
+    };
+    if let Some(s) = standard_name {
+        attrs.push(("standard_name", s.to_string()));
+    }
+    if let Some(a) = axis {
+        attrs.push(("axis", a.to_string()));
+    }
+    attrs
+}
+
+fn add_text_attr(
+    builder: &mut NcFileBuilder,
+    var: netcdf_writer::VariableId,
+    key: &str,
+    value: &str,
+) -> Result<()> {
+    builder
+        .add_variable_attribute(var, key, NcAttrValue::Chars(value.to_string()))
+        .map_err(|e| Error::invalid(format!("attribute {key}"), e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn fixture(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("datasets/fixtures")
+            .join(name)
+    }
+
+    // The formulas below are the ones datasets/fixtures/make_fixtures.py wrote.
+    const LAT: [f64; 5] = [-60.0, -30.0, 0.0, 30.0, 60.0];
+    fn sst_truth(lat: f64, lon: f64) -> f64 {
+        15.0 + 10.0 * lat.to_radians().cos() + 2.0 * (2.0 * lon.to_radians()).sin()
+    }
+    fn sst_is_land(i: usize, j: usize) -> bool {
+        (i * 8 + j) % 7 == 3
+    }
+
+    #[test]
+    fn netcdf4_fixture_is_unpacked_and_masked() {
+        let path = fixture("sst_packed_nc4.nc");
+        let listed = list_variables(&path).unwrap();
+        let names: Vec<&str> = listed.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["lat", "lon", "sst"]);
+        let sst = read_variable(&path, "sst").unwrap();
+        assert_eq!(sst.dims, [("lat".to_string(), 5), ("lon".to_string(), 8)]);
+        assert_eq!(sst.units.as_deref(), Some("degC"));
+        assert_eq!(sst.long_name.as_deref(), Some("sea surface temperature"));
+        assert_eq!(
+            sst.attribute("_FillValue"),
+            Some(&NcAttribute::Numbers(vec![-32767.0]))
+        );
+        let lat = read_coordinate(&path, "lat").unwrap().unwrap();
+        let lon = read_coordinate(&path, "lon").unwrap().unwrap();
+        assert_eq!(lat, LAT);
+        assert_eq!(lon, (0..8).map(|j| 45.0 * j as f64).collect::<Vec<_>>());
+        let (mut masked, mut checked) = (0, 0);
+        for (i, &lat_i) in lat.iter().enumerate() {
+            for (j, &lon_j) in lon.iter().enumerate() {
+                let got = sst.data[i * 8 + j];
+                if sst_is_land(i, j) {
+                    assert!(got.is_nan(), "({i},{j}) should be fill, got {got}");
+                    masked += 1;
+                } else {
+                    // Packing rounds to the nearest 0.01 (scale_factor); unpacking in f64 from
+                    // the f32 attributes adds at most ~1e-6 more.
+                    let want = sst_truth(lat_i, lon_j);
+                    assert!(
+                        (got - want).abs() <= 0.005 + 1e-5,
+                        "({i},{j}): {got} vs {want}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!((masked, checked), (6, 34));
+    }
+
+    #[test]
+    fn classic_fixture_reads_missing_value_as_nan() {
+        let path = fixture("volume_classic.nc");
+        let t = read_variable(&path, "temperature").unwrap();
+        let dims: Vec<usize> = t.dims.iter().map(|d| d.1).collect();
+        assert_eq!(dims, [2, 3, 4]);
+        assert_eq!(t.units.as_deref(), Some("K"));
+        for k in 0..2 {
+            for j in 0..3 {
+                for i in 0..4 {
+                    let got = t.data[(k * 3 + j) * 4 + i];
+                    if (k, j, i) == (1, 2, 3) {
+                        assert!(got.is_nan());
+                    } else {
+                        assert_eq!(got, (1000 + 100 * k + 10 * j + i) as f64);
+                    }
+                }
+            }
+        }
+        assert_eq!(
+            read_coordinate(&path, "x").unwrap().unwrap(),
+            [0.5, 1.5, 2.5, 3.5]
+        );
+    }
+
+    #[test]
+    fn missing_variable_error_lists_the_available_ones() {
+        let err = read_variable(fixture("sst_packed_nc4.nc"), "chlorophyll").unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("sst_packed_nc4.nc"), "{text}");
+        assert!(
+            text.contains("no variable 'chlorophyll'; the file has: lat, lon, sst"),
+            "{text}"
+        );
+        assert!(!text.contains('\n'));
+    }
+
+    #[test]
+    fn non_monotonic_coordinate_is_a_format_error() {
+        let err = read_coordinate(fixture("nonmonotonic_coord.nc"), "x").unwrap_err();
+        assert!(matches!(err, Error::Format { .. }), "{err}");
+        assert!(err.to_string().contains("not strictly monotonic"), "{err}");
+        assert!(read_coordinate(fixture("volume_classic.nc"), "nope").is_err());
+    }
+
+    #[test]
+    fn truncated_files_give_one_line_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, var) in [
+            ("volume_classic.nc", "temperature"),
+            ("sst_packed_nc4.nc", "sst"),
+        ] {
+            let bytes = std::fs::read(fixture(name)).unwrap();
+            let cut_path = dir.path().join(name);
+            // Every cut of the small classic file; a spread of cuts of the HDF5 one.
+            let step = if bytes.len() < 2000 { 1 } else { 61 };
+            for len in (0..bytes.len()).step_by(step) {
+                std::fs::write(&cut_path, &bytes[..len]).unwrap();
+                let Err(err) = read_variable(&cut_path, var) else {
+                    panic!("{name} cut to {len} bytes was read without error");
+                };
+                let text = err.to_string();
+                assert!(text.contains(name) && !text.contains('\n'), "{text}");
+            }
+        }
+    }
+
+    #[test]
+    fn write_grid_round_trips_with_nan_and_attributes() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("grid.nc");
+        let lat = [10.0, 20.0, 30.0];
+        let lon = [100.0, 110.0];
+        let data = [1.5, f64::NAN, -2.25, 1e30, 0.0, 7.0];
+        write_grid(
+            &path,
+            &[
+                ("lat", &lat, "degrees_north"),
+                ("lon", &lon, "degrees_east"),
+            ],
+            &[("elevation", &data, "m", "surface elevation")],
+            &[("title", "round trip")],
+        )
+        .unwrap();
+        let v = read_variable(&path, "elevation").unwrap();
+        assert_eq!(v.dims, [("lat".to_string(), 3), ("lon".to_string(), 2)]);
+        assert_eq!(v.units.as_deref(), Some("m"));
+        assert_eq!(v.long_name.as_deref(), Some("surface elevation"));
+        for (got, want) in v.data.iter().zip(data) {
+            assert!(
+                got == &want || (got.is_nan() && want.is_nan()),
+                "{got} vs {want}"
+            );
+        }
+        assert_eq!(read_coordinate(&path, "lon").unwrap().unwrap(), lon);
+        // Only the final file is left in the directory: the temporary one was renamed.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn write_volume_puts_coordinates_at_cell_centres() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("vol.nc");
+        let data: Vec<f32> = (0..24).map(|v| v as f32 * 0.5).collect();
+        write_volume(
+            &path,
+            [4, 3, 2],
+            [1.0, 2.0, 0.5],
+            [0.0, -3.0, 10.0],
+            "km",
+            ("rho", &data, "kg m-3", "density"),
+            &[],
+        )
+        .unwrap();
+        let v = read_variable(&path, "rho").unwrap();
+        let names: Vec<&str> = v.dims.iter().map(|d| d.0.as_str()).collect();
+        assert_eq!(names, ["z", "y", "x"]);
+        assert_eq!(v.data, data.iter().map(|&x| x as f64).collect::<Vec<_>>());
+        assert_eq!(
+            read_coordinate(&path, "x").unwrap().unwrap(),
+            [0.5, 1.5, 2.5, 3.5]
+        );
+        assert_eq!(
+            read_coordinate(&path, "y").unwrap().unwrap(),
+            [-2.0, 0.0, 2.0]
+        );
+        assert_eq!(
+            read_coordinate(&path, "z").unwrap().unwrap(),
+            [10.25, 10.75]
+        );
+    }
+
+    #[test]
+    fn bad_writes_are_rejected_and_leave_no_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.nc");
+        let x = [0.0, 2.0, 1.0];
+        let err = write_grid(
+            &path,
+            &[("x", &x, "m")],
+            &[("v", &[1.0f32, 2.0, 3.0][..], "", "")],
+            &[],
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("coords.x: coordinate is not strictly monotonic"),
+            "{err}"
+        );
+        let x = [0.0, 1.0];
+        let err = write_grid(
+            &path,
+            &[("x", &x, "m")],
+            &[("v", &[1.0f32][..], "", "")],
+            &[],
+        )
+        .unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "vars.v: has 1 values; the coordinates need 2"
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}

@@ -1,0 +1,351 @@
+//! Raw volumes described by an NRRD header: a detached `.nhdr` naming its `data file`, or an
+//! attached `.nrrd` whose data follow the blank line after the header. Fields read: `type`,
+//! `dimension` (3), `sizes` (fastest axis first: x, y, z), `endian`, `encoding` (raw), `spacings`
+//! or a diagonal `space directions`, `space origin`, `byte skip`. Voxels are treated as cells.
+
+use crate::error::{Error, Result};
+use crate::model::Volume;
+use std::path::Path;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Sample {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Sample {
+    fn parse(s: &str) -> Option<Sample> {
+        Some(match s {
+            "signed char" | "int8" | "int8_t" | "char" => Sample::I8,
+            "uchar" | "unsigned char" | "uint8" | "uint8_t" => Sample::U8,
+            "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
+                Sample::I16
+            }
+            "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => {
+                Sample::U16
+            }
+            "int" | "signed int" | "int32" | "int32_t" => Sample::I32,
+            "uint" | "unsigned int" | "uint32" | "uint32_t" => Sample::U32,
+            "float" => Sample::F32,
+            "double" => Sample::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Sample::I8 | Sample::U8 => 1,
+            Sample::I16 | Sample::U16 => 2,
+            Sample::I32 | Sample::U32 | Sample::F32 => 4,
+            Sample::F64 => 8,
+        }
+    }
+
+    fn decode(self, b: &[u8], big: bool) -> f32 {
+        macro_rules! num {
+            ($t:ty, $n:literal) => {{
+                let a: [u8; $n] = b.try_into().unwrap();
+                (if big {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                }) as f32
+            }};
+        }
+        match self {
+            Sample::I8 => b[0] as i8 as f32,
+            Sample::U8 => b[0] as f32,
+            Sample::I16 => num!(i16, 2),
+            Sample::U16 => num!(u16, 2),
+            Sample::I32 => num!(i32, 4),
+            Sample::U32 => num!(u32, 4),
+            Sample::F32 => num!(f32, 4),
+            Sample::F64 => num!(f64, 8),
+        }
+    }
+}
+
+fn parse_vector(s: &str) -> Option<Vec<f64>> {
+    let inner = s.trim().strip_prefix('(')?.strip_suffix(')')?;
+    inner.split(',').map(|x| x.trim().parse().ok()).collect()
+}
+
+pub fn read_nrrd(path: &Path) -> Result<Volume> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if !bytes.starts_with(b"NRRD000") {
+        return Err(Error::format(
+            path,
+            "not an NRRD header: expected the magic line NRRD0001..NRRD0005",
+        ));
+    }
+    // The header ends at the first empty line (attached data follow it) or at the end of file.
+    let mut header_end = bytes.len();
+    let mut data_start = bytes.len();
+    let mut pos = 0;
+    while pos < bytes.len() {
+        let nl = bytes[pos..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map(|i| pos + i);
+        let end = nl.unwrap_or(bytes.len());
+        let line = &bytes[pos..end];
+        if line.is_empty() || line == b"\r" {
+            header_end = pos;
+            data_start = end + 1;
+            break;
+        }
+        pos = end + 1;
+    }
+    let header = std::str::from_utf8(&bytes[..header_end])
+        .map_err(|_| Error::format(path, "header is not text"))?;
+
+    let mut fields = std::collections::HashMap::new();
+    for (n, line) in header.lines().enumerate().skip(1) {
+        let line = line.trim_end_matches('\r');
+        if line.starts_with('#') || line.trim().is_empty() {
+            continue;
+        }
+        // Key/value pairs (key:=value) are user metadata; only fields (key: value) matter here.
+        if line.contains(":=") {
+            continue;
+        }
+        let Some((k, v)) = line.split_once(": ") else {
+            return Err(Error::format(
+                path,
+                format!("line {}: expected \"field: value\", got {line:?}", n + 1),
+            ));
+        };
+        fields.insert(k.trim().to_ascii_lowercase(), v.trim().to_string());
+    }
+    let get = |k: &str| fields.get(k).map(String::as_str);
+    let need = |k: &str| {
+        get(k).ok_or_else(|| Error::format(path, format!("missing required field \"{k}\"")))
+    };
+
+    let sample = Sample::parse(need("type")?).ok_or_else(|| {
+        Error::format(
+            path,
+            format!(
+                "unsupported type {:?}; expected float, double, (u)char, (u)short or (u)int",
+                get("type").unwrap_or("")
+            ),
+        )
+    })?;
+    let dimension: usize = need("dimension")?
+        .parse()
+        .map_err(|_| Error::format(path, "dimension: expected an integer"))?;
+    if dimension != 3 {
+        return Err(Error::format(
+            path,
+            format!("dimension: expected 3, got {dimension}"),
+        ));
+    }
+    let sizes: Vec<usize> = need("sizes")?
+        .split_whitespace()
+        .map(|s| s.parse::<usize>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| Error::format(path, "sizes: expected three non-negative integers"))?;
+    if sizes.len() != 3 {
+        return Err(Error::format(
+            path,
+            format!("sizes: expected 3 values, got {}", sizes.len()),
+        ));
+    }
+    let dims = [sizes[0], sizes[1], sizes[2]];
+    crate::model::volume::check_dims(&dims, &format!("{}: sizes", path.display()))?;
+    let encoding = get("encoding").unwrap_or("raw");
+    if encoding != "raw" {
+        return Err(Error::format(
+            path,
+            format!("encoding {encoding:?} is not supported; expected raw"),
+        ));
+    }
+    let big = match get("endian") {
+        None | Some("little") => false,
+        Some("big") => true,
+        Some(e) => {
+            return Err(Error::format(
+                path,
+                format!("endian: expected little or big, got {e:?}"),
+            ))
+        }
+    };
+    if sample.size() > 1 && get("endian").is_none() {
+        return Err(Error::format(
+            path,
+            "missing required field \"endian\" for a multi-byte type",
+        ));
+    }
+    let mut spacing = [1.0; 3];
+    if let Some(s) = get("spacings") {
+        let v: Vec<f64> = s
+            .split_whitespace()
+            .filter_map(|x| x.parse().ok())
+            .collect();
+        if v.len() != 3 {
+            return Err(Error::format(path, "spacings: expected three numbers"));
+        }
+        spacing = [v[0], v[1], v[2]];
+    } else if let Some(s) = get("space directions") {
+        let dirs: Vec<Vec<f64>> = s
+            .split(')')
+            .filter(|p| p.contains('('))
+            .map(|p| parse_vector(&format!("{})", p.trim())))
+            .collect::<Option<_>>()
+            .ok_or_else(|| {
+                Error::format(
+                    path,
+                    "space directions: expected three vectors like (1,0,0)",
+                )
+            })?;
+        if dirs.len() != 3 || dirs.iter().any(|d| d.len() != 3) {
+            return Err(Error::format(
+                path,
+                "space directions: expected three 3-vectors",
+            ));
+        }
+        for a in 0..3 {
+            let off_diagonal = (0..3).filter(|&b| b != a).any(|b| dirs[a][b] != 0.0);
+            if off_diagonal {
+                return Err(Error::format(
+                    path,
+                    "space directions: only axis-aligned (diagonal) grids are supported",
+                ));
+            }
+            spacing[a] = dirs[a][a].abs();
+        }
+    }
+    let mut origin = [0.0; 3];
+    if let Some(s) = get("space origin") {
+        let v = parse_vector(s)
+            .filter(|v| v.len() == 3)
+            .ok_or_else(|| Error::format(path, "space origin: expected a vector like (0,0,0)"))?;
+        // NRRD's origin is the first sample's position; our origin is the volume's corner.
+        for a in 0..3 {
+            origin[a] = v[a] - 0.5 * spacing[a];
+        }
+    }
+    let skip: usize = match get("byte skip") {
+        None => 0,
+        Some(s) => s.parse().map_err(|_| {
+            Error::format(
+                path,
+                "byte skip: expected a non-negative integer (-1 is not supported)",
+            )
+        })?,
+    };
+
+    let count = dims[0] * dims[1] * dims[2];
+    let need_bytes = count * sample.size();
+    let owned;
+    let (data_path, raw): (std::path::PathBuf, &[u8]) = match get("data file")
+        .or_else(|| get("datafile"))
+    {
+        Some(name) => {
+            let p = path.parent().unwrap_or(Path::new(".")).join(name);
+            let len = std::fs::metadata(&p).map_err(|e| Error::io(&p, e))?.len() as usize;
+            if len < skip + need_bytes {
+                return Err(Error::format(&p, format!("holds {len} bytes but the header {} needs {} ({}x{}x{} {:?} + {skip} skipped)", path.display(), skip + need_bytes, dims[0], dims[1], dims[2], sample)));
+            }
+            owned = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+            (p, &owned[skip..])
+        }
+        None => {
+            if data_start + skip > bytes.len() {
+                return Err(Error::format(
+                    path,
+                    "no data: expected a \"data file\" field or data after a blank line",
+                ));
+            }
+            (path.to_path_buf(), &bytes[data_start + skip..])
+        }
+    };
+    if raw.len() < need_bytes {
+        return Err(Error::format(
+            &data_path,
+            format!("holds {} data bytes but {need_bytes} are needed", raw.len()),
+        ));
+    }
+    let data: Vec<f32> = raw[..need_bytes]
+        .chunks_exact(sample.size())
+        .map(|b| sample.decode(b, big))
+        .collect();
+    let name = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("volume");
+    let mut v = Volume::new(name, dims, spacing, origin, data)
+        .map_err(|e| Error::format(path, e.to_string()))?;
+    if let Some(u) = get("space units") {
+        v.units = u.trim_matches('"').to_string();
+    }
+    Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_detached_big_endian_shorts() {
+        let dir = tempfile::tempdir().unwrap();
+        let raw: Vec<u8> = (0..24i16)
+            .flat_map(|v| (v * 100 - 1000).to_be_bytes())
+            .collect();
+        std::fs::write(dir.path().join("v.raw"), raw).unwrap();
+        let hdr = "NRRD0004\n# test\ntype: short\ndimension: 3\nsizes: 4 3 2\nendian: big\nencoding: raw\nspacings: 0.5 1 2\ndata file: v.raw\n";
+        std::fs::write(dir.path().join("v.nhdr"), hdr).unwrap();
+        let v = read_nrrd(&dir.path().join("v.nhdr")).unwrap();
+        assert_eq!(v.dims, [4, 3, 2]);
+        assert_eq!(v.spacing, [0.5, 1.0, 2.0]);
+        assert_eq!(
+            v.data[v.index(1, 2, 1)],
+            ((1 + 4 * 2 + 12) * 100 - 1000) as f32
+        );
+    }
+
+    #[test]
+    fn size_mismatch_and_bad_headers_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("v.raw"), [0u8; 10]).unwrap();
+        let hdr = "NRRD0004\ntype: float\ndimension: 3\nsizes: 4 3 2\nendian: little\nencoding: raw\ndata file: v.raw\n";
+        std::fs::write(dir.path().join("v.nhdr"), hdr).unwrap();
+        let e = read_nrrd(&dir.path().join("v.nhdr"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("v.raw") && e.contains("96"), "{e}");
+        std::fs::write(dir.path().join("b.nhdr"), "NRRD0004\ntype: quaternion\n").unwrap();
+        assert!(read_nrrd(&dir.path().join("b.nhdr"))
+            .unwrap_err()
+            .to_string()
+            .contains("unsupported type"));
+        std::fs::write(dir.path().join("c.nhdr"), "hello").unwrap();
+        assert!(read_nrrd(&dir.path().join("c.nhdr")).is_err());
+        let hdr =
+            "NRRD0004\ntype: float\ndimension: 3\nsizes: 0 3 2\nendian: little\ndata file: v.raw\n";
+        std::fs::write(dir.path().join("z.nhdr"), hdr).unwrap();
+        assert!(read_nrrd(&dir.path().join("z.nhdr"))
+            .unwrap_err()
+            .to_string()
+            .contains("sizes"));
+    }
+
+    #[test]
+    fn reads_attached_data() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut bytes =
+            b"NRRD0004\ntype: float\ndimension: 3\nsizes: 2 1 1\nendian: little\nencoding: raw\n\n"
+                .to_vec();
+        bytes.extend(1.5f32.to_le_bytes());
+        bytes.extend((-2.0f32).to_le_bytes());
+        std::fs::write(dir.path().join("a.nrrd"), bytes).unwrap();
+        let v = read_nrrd(&dir.path().join("a.nrrd")).unwrap();
+        assert_eq!(v.data, vec![1.5, -2.0]);
+    }
+}

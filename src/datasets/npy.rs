@@ -1,0 +1,189 @@
+//! NumPy `.npy` arrays (C order; f32, f64, i16, u16, u8 and the other plain numeric types) read
+//! through the `npyz` crate, with the declared size checked against the file before anything is
+//! allocated; and `.npy` output for generated fields.
+
+use crate::error::{Error, Result};
+use npyz::{DType, TypeChar};
+use std::path::Path;
+
+/// An n-dimensional array read from disk, converted to the requested float type.
+#[derive(Clone, Debug)]
+pub struct NpyArray<T> {
+    /// Shape as NumPy reports it (slowest axis first).
+    pub shape: Vec<usize>,
+    pub data: Vec<T>,
+    /// The on-disk dtype, e.g. "<f4".
+    pub dtype: String,
+}
+
+/// Floating types an array can be read into.
+pub trait ReadAs: Copy + Send + 'static {
+    fn from_f64(v: f64) -> Self;
+    fn from_f32(v: f32) -> Self;
+}
+impl ReadAs for f32 {
+    fn from_f64(v: f64) -> Self {
+        v as f32
+    }
+    fn from_f32(v: f32) -> Self {
+        v
+    }
+}
+impl ReadAs for f64 {
+    fn from_f64(v: f64) -> Self {
+        v
+    }
+    fn from_f32(v: f32) -> Self {
+        v as f64
+    }
+}
+
+pub fn read_npy<T: ReadAs>(path: &Path) -> Result<NpyArray<T>> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let file_len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    read_npy_from(std::io::BufReader::new(file), file_len, path)
+}
+
+/// Reads an array from any reader (a plain file or a member of an `.npz` archive); `byte_len` is
+/// the stored size, used to refuse headers that promise more data than exists.
+pub fn read_npy_from<T: ReadAs, R: std::io::Read>(
+    reader: R,
+    byte_len: u64,
+    path: &Path,
+) -> Result<NpyArray<T>> {
+    let npy = npyz::NpyFile::new(reader)
+        .map_err(|e| Error::format(path, format!("not a valid .npy file: {e}")))?;
+    let shape: Vec<usize> = npy.shape().iter().map(|&s| s as usize).collect();
+    if npy.order() == npyz::Order::Fortran {
+        return Err(Error::format(
+            path,
+            "array is in Fortran order; expected C order (save with np.ascontiguousarray)",
+        ));
+    }
+    let ts = match npy.dtype() {
+        DType::Plain(ts) => ts,
+        other => {
+            return Err(Error::format(
+                path,
+                format!(
+                    "unsupported dtype {}; expected a plain numeric type such as <f4",
+                    other.descr()
+                ),
+            ))
+        }
+    };
+    let dtype = ts.to_string();
+    let item = ts.num_bytes().unwrap_or(0) as u64;
+    let count: u64 = shape.iter().map(|&s| s as u64).product();
+    if count.saturating_mul(item) > byte_len {
+        return Err(Error::format(
+            path,
+            format!(
+                "header declares shape {shape:?} of {dtype} ({} bytes) but the file holds only {byte_len} bytes",
+                count.saturating_mul(item)
+            ),
+        ));
+    }
+    let trunc =
+        |e: std::io::Error| Error::format(path, format!("data truncated or unreadable: {e}"));
+    let data: Vec<T> = match (ts.type_char(), item) {
+        (TypeChar::Float, 4) => npy
+            .into_vec::<f32>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(T::from_f32)
+            .collect(),
+        (TypeChar::Float, 8) => npy
+            .into_vec::<f64>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(T::from_f64)
+            .collect(),
+        (TypeChar::Float, 2) => npy
+            .into_vec::<half::f16>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f32(v.to_f32()))
+            .collect(),
+        (TypeChar::Int, 1) => npy
+            .into_vec::<i8>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f32(v as f32))
+            .collect(),
+        (TypeChar::Int, 2) => npy
+            .into_vec::<i16>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f32(v as f32))
+            .collect(),
+        (TypeChar::Int, 4) => npy
+            .into_vec::<i32>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f64(v as f64))
+            .collect(),
+        (TypeChar::Int, 8) => npy
+            .into_vec::<i64>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f64(v as f64))
+            .collect(),
+        (TypeChar::Uint, 1) | (TypeChar::Bool, 1) => npy
+            .into_vec::<u8>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f32(v as f32))
+            .collect(),
+        (TypeChar::Uint, 2) => npy
+            .into_vec::<u16>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f32(v as f32))
+            .collect(),
+        (TypeChar::Uint, 4) => npy
+            .into_vec::<u32>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f64(v as f64))
+            .collect(),
+        (TypeChar::Uint, 8) => npy
+            .into_vec::<u64>()
+            .map_err(trunc)?
+            .into_iter()
+            .map(|v| T::from_f64(v as f64))
+            .collect(),
+        _ => {
+            return Err(Error::format(
+                path,
+                format!("unsupported dtype {dtype}; expected float (f2/f4/f8), int or uint"),
+            ))
+        }
+    };
+    if data.len() as u64 != count {
+        return Err(Error::format(
+            path,
+            format!("expected {count} values, read {}", data.len()),
+        ));
+    }
+    Ok(NpyArray { shape, data, dtype })
+}
+
+/// Writes a C-ordered f32 array atomically.
+pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
+    use npyz::WriterBuilder;
+    crate::io::write_atomic(path, |w| {
+        let shape: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
+        let mut writer = npyz::WriteOptions::new()
+            .default_dtype()
+            .shape(&shape)
+            .writer(w)
+            .begin_nd()
+            .map_err(|e| Error::io(path, e))?;
+        writer
+            .extend(data.iter().copied())
+            .map_err(|e| Error::io(path, e))?;
+        writer.finish().map_err(|e| Error::io(path, e))?;
+        Ok(())
+    })
+}

@@ -1,0 +1,791 @@
+//! VTK XML ImageData (`.vti`) volumes, for ParaView and VisIt. Our volumes are cell-centred, so
+//! they are written as `CellData` on a grid of `n + 1` points per axis (`WholeExtent 0 nx 0 ny 0
+//! nz`) whose `Origin` is the volume's minimum corner: ParaView then draws each value over the
+//! box it stands for, with no half-voxel shift. Writing uses a raw appended little-endian block
+//! after a UInt64 byte count, the most compact uncompressed layout VTK defines. Reading accepts
+//! one uncompressed scalar array in ascii, inline base64 or appended (raw or base64) form; a
+//! `PointData` array is read as cells centred on its points (origin moved back half a voxel).
+
+use std::path::Path;
+
+use base64::Engine as _;
+use quick_xml::events::{BytesStart, Event};
+
+use crate::error::{Error, Result};
+
+/// A cell-centred scalar volume: `dims = [nx, ny, nz]` cells of size `spacing`, the first cell's
+/// minimum corner at `origin`, values x fastest then y then z.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VtiVolume {
+    pub dims: [usize; 3],
+    pub spacing: [f64; 3],
+    pub origin: [f64; 3],
+    pub name: String,
+    pub data: Vec<f32>,
+}
+
+/// Writes a volume as a `.vti` file readable by ParaView, through a temporary file renamed into
+/// place.
+pub fn write_vti(
+    path: impl AsRef<Path>,
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    origin: [f64; 3],
+    name: &str,
+    data: &[f32],
+) -> Result<()> {
+    let path = path.as_ref();
+    for (axis, (&n, &d)) in ["x", "y", "z"].iter().zip(dims.iter().zip(&spacing)) {
+        if n == 0 {
+            return Err(Error::invalid(format!("dims.{axis}"), "must be at least 1"));
+        }
+        if !(d.is_finite() && d > 0.0) {
+            return Err(Error::invalid(
+                format!("spacing.{axis}"),
+                format!("is {d}; must be finite and > 0"),
+            ));
+        }
+    }
+    if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
+        return Err(Error::invalid("origin", format!("has {o}; must be finite")));
+    }
+    let cells = dims.iter().try_fold(1usize, |acc, &n| acc.checked_mul(n));
+    if cells != Some(data.len()) {
+        return Err(Error::invalid(
+            "data",
+            format!(
+                "has {} values; dims {}x{}x{} need {}",
+                data.len(),
+                dims[0],
+                dims[1],
+                dims[2],
+                cells.map_or("more than usize::MAX".to_string(), |c| c.to_string())
+            ),
+        ));
+    }
+    if name.is_empty()
+        || name
+            .chars()
+            .any(|c| matches!(c, '"' | '<' | '>' | '&') || c.is_control())
+    {
+        return Err(Error::invalid(
+            "name",
+            "must be non-empty without quotes, '<', '>', '&' or control characters",
+        ));
+    }
+    let [nx, ny, nz] = dims;
+    let header = format!(
+        "<?xml version=\"1.0\"?>\n\
+         <VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n\
+         \x20 <ImageData WholeExtent=\"0 {nx} 0 {ny} 0 {nz}\" Origin=\"{} {} {}\" Spacing=\"{} {} {}\" Direction=\"1 0 0 0 1 0 0 0 1\">\n\
+         \x20   <Piece Extent=\"0 {nx} 0 {ny} 0 {nz}\">\n\
+         \x20     <PointData>\n\
+         \x20     </PointData>\n\
+         \x20     <CellData Scalars=\"{name}\">\n\
+         \x20       <DataArray type=\"Float32\" Name=\"{name}\" format=\"appended\" offset=\"0\"/>\n\
+         \x20     </CellData>\n\
+         \x20   </Piece>\n\
+         \x20 </ImageData>\n\
+         \x20 <AppendedData encoding=\"raw\">\n   _",
+        origin[0], origin[1], origin[2], spacing[0], spacing[1], spacing[2],
+    );
+    crate::datasets::netcdf::write_atomically(path, |out| {
+        out.write_all(header.as_bytes())?;
+        out.write_all(&((data.len() * 4) as u64).to_le_bytes())?;
+        let mut block = Vec::with_capacity(64 * 1024);
+        for chunk in data.chunks(16 * 1024) {
+            block.clear();
+            block.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
+            out.write_all(&block)?;
+        }
+        out.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
+    })
+}
+
+/// Reads a `.vti` file's scalar array: the `CellData` array named by its `Scalars` attribute (or
+/// its first), else the first `PointData` array. Compressed files are refused with an error that
+/// says so.
+pub fn read_vti(path: impl AsRef<Path>) -> Result<VtiVolume> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    read_vti_bytes(path, &bytes)
+}
+
+/// `read_vti` on bytes already in memory; `path` only names the file in errors.
+fn read_vti_bytes(path: &Path, bytes: &[u8]) -> Result<VtiVolume> {
+    let doc = parse_document(bytes).map_err(|msg| Error::format(path, msg))?;
+    let fail = |msg: String| Error::format(path, msg);
+
+    let extent = doc
+        .whole_extent
+        .ok_or_else(|| fail("ImageData has no WholeExtent".into()))?;
+    if let Some(piece) = doc.piece_extent {
+        if piece != extent {
+            return Err(fail(
+                "multi-piece ImageData is not supported; save it as one piece".into(),
+            ));
+        }
+    }
+    let spacing = doc.spacing.unwrap_or([1.0; 3]);
+    if spacing.iter().any(|d| !(d.is_finite() && *d > 0.0)) {
+        return Err(fail(format!(
+            "Spacing {spacing:?} must be finite and positive"
+        )));
+    }
+    let mut origin = doc.origin.unwrap_or([0.0; 3]);
+    if origin.iter().any(|o| !o.is_finite()) {
+        return Err(fail(format!("Origin {origin:?} must be finite")));
+    }
+    let array = doc
+        .pick_array()
+        .ok_or_else(|| fail("ImageData has no CellData or PointData array".into()))?;
+    if array.components != 1 {
+        return Err(fail(format!(
+            "array '{}' has {} components; only scalars are supported",
+            array.name, array.components
+        )));
+    }
+    let mut dims = [0usize; 3];
+    for a in 0..3 {
+        let (lo, hi) = (extent[2 * a], extent[2 * a + 1]);
+        if hi < lo {
+            return Err(fail(format!("WholeExtent {extent:?} is empty")));
+        }
+        let points = hi
+            .checked_sub(lo)
+            .and_then(|span| usize::try_from(span).ok())
+            .and_then(|span| span.checked_add(1))
+            .ok_or_else(|| fail(format!("WholeExtent {extent:?} too large")))?;
+        origin[a] += lo as f64 * spacing[a];
+        dims[a] = if array.on_points {
+            origin[a] -= 0.5 * spacing[a];
+            points
+        } else {
+            // A flat axis (one point) still holds one layer of cells in VTK's convention.
+            (points - 1).max(1)
+        };
+    }
+    let count = dims
+        .iter()
+        .try_fold(1usize, |acc, &n| acc.checked_mul(n))
+        .ok_or_else(|| fail(format!("WholeExtent {extent:?} too large")))?;
+    let element = array
+        .element_type
+        .ok_or_else(|| fail(format!("array '{}' has an unknown type", array.name)))?;
+
+    let raw: Vec<u8> = match array.format.as_str() {
+        "ascii" => Vec::new(),
+        "binary" => {
+            let text: Vec<u8> = array
+                .text
+                .iter()
+                .copied()
+                .filter(|b| !b.is_ascii_whitespace())
+                .collect();
+            decode_base64_block(&text, doc.header_size, doc.little_endian).map_err(fail)?
+        }
+        "appended" => {
+            let start = doc
+                .appended_start
+                .ok_or_else(|| fail("array is appended but the file has no AppendedData".into()))?;
+            let offset = usize::try_from(array.offset.unwrap_or(0))
+                .map_err(|_| fail("offset too large".into()))?;
+            let from = start
+                .checked_add(offset)
+                .filter(|&f| f <= bytes.len())
+                .ok_or_else(|| {
+                    fail(format!(
+                        "appended offset {offset} is past the end of the file"
+                    ))
+                })?;
+            if doc.appended_raw {
+                read_raw_block(&bytes[from..], doc.header_size, doc.little_endian).map_err(fail)?
+            } else {
+                let text: Vec<u8> = bytes[from..]
+                    .iter()
+                    .copied()
+                    .take_while(|&b| b != b'<')
+                    .filter(|b| !b.is_ascii_whitespace())
+                    .collect();
+                decode_base64_block(&text, doc.header_size, doc.little_endian).map_err(fail)?
+            }
+        }
+        other => {
+            return Err(fail(format!(
+                "DataArray format '{other}' is not one of ascii, binary, appended"
+            )))
+        }
+    };
+    let data = if array.format == "ascii" {
+        let text = std::str::from_utf8(&array.text)
+            .map_err(|_| fail("ascii DataArray is not UTF-8".into()))?;
+        text.split_ascii_whitespace()
+            .map(|t| {
+                t.parse::<f64>()
+                    .map(|v| v as f32)
+                    .map_err(|_| fail(format!("'{t}' in ascii DataArray is not a number")))
+            })
+            .collect::<Result<Vec<f32>>>()?
+    } else {
+        if raw.len() % element.size() != 0 {
+            return Err(fail(format!(
+                "{} data bytes is not a whole number of {}-byte values",
+                raw.len(),
+                element.size()
+            )));
+        }
+        raw.chunks_exact(element.size())
+            .map(|b| element.to_f32(b, doc.little_endian))
+            .collect()
+    };
+    if data.len() != count {
+        return Err(fail(format!(
+            "array '{}' has {} values; the extent needs {count} ({})",
+            array.name,
+            data.len(),
+            if array.on_points { "points" } else { "cells" }
+        )));
+    }
+    Ok(VtiVolume {
+        dims,
+        spacing,
+        origin,
+        name: array.name.clone(),
+        data,
+    })
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Element {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    I64,
+    U64,
+    F32,
+    F64,
+}
+
+impl Element {
+    fn parse(name: &str) -> Option<Self> {
+        Some(match name {
+            "Int8" | "Char" => Element::I8,
+            "UInt8" | "UnsignedChar" => Element::U8,
+            "Int16" | "Short" => Element::I16,
+            "UInt16" | "UnsignedShort" => Element::U16,
+            "Int32" | "Int" => Element::I32,
+            "UInt32" | "UnsignedInt" => Element::U32,
+            "Int64" | "Long" => Element::I64,
+            "UInt64" | "UnsignedLong" => Element::U64,
+            "Float32" | "Float" => Element::F32,
+            "Float64" | "Double" => Element::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Element::I8 | Element::U8 => 1,
+            Element::I16 | Element::U16 => 2,
+            Element::I32 | Element::U32 | Element::F32 => 4,
+            Element::I64 | Element::U64 | Element::F64 => 8,
+        }
+    }
+
+    fn to_f32(self, b: &[u8], little: bool) -> f32 {
+        macro_rules! get {
+            ($t:ty) => {{
+                let a = b.try_into().expect("chunk has the element size");
+                if little {
+                    <$t>::from_le_bytes(a)
+                } else {
+                    <$t>::from_be_bytes(a)
+                }
+            }};
+        }
+        match self {
+            Element::I8 => b[0] as i8 as f32,
+            Element::U8 => b[0] as f32,
+            Element::I16 => get!(i16) as f32,
+            Element::U16 => get!(u16) as f32,
+            Element::I32 => get!(i32) as f32,
+            Element::U32 => get!(u32) as f32,
+            Element::I64 => get!(i64) as f32,
+            Element::U64 => get!(u64) as f32,
+            Element::F32 => get!(f32),
+            Element::F64 => get!(f64) as f32,
+        }
+    }
+}
+
+#[derive(Debug, Default)]
+struct ArrayInfo {
+    name: String,
+    element_type: Option<Element>,
+    format: String,
+    offset: Option<u64>,
+    components: usize,
+    on_points: bool,
+    text: Vec<u8>,
+}
+
+#[derive(Debug)]
+struct Document {
+    little_endian: bool,
+    header_size: usize,
+    whole_extent: Option<[i64; 6]>,
+    piece_extent: Option<[i64; 6]>,
+    origin: Option<[f64; 3]>,
+    spacing: Option<[f64; 3]>,
+    cell_scalars: Option<String>,
+    point_scalars: Option<String>,
+    arrays: Vec<ArrayInfo>,
+    appended_start: Option<usize>,
+    appended_raw: bool,
+}
+
+impl Document {
+    fn pick_array(&self) -> Option<&ArrayInfo> {
+        let named = |on_points: bool, wanted: &Option<String>| {
+            let mut of_kind = self.arrays.iter().filter(move |a| a.on_points == on_points);
+            match wanted {
+                Some(w) => of_kind
+                    .clone()
+                    .find(|a| &a.name == w)
+                    .or_else(|| of_kind.next()),
+                None => of_kind.next(),
+            }
+        };
+        named(false, &self.cell_scalars).or_else(|| named(true, &self.point_scalars))
+    }
+}
+
+/// Walks the XML up to the `AppendedData` marker; the binary block after it is not XML.
+fn parse_document(bytes: &[u8]) -> std::result::Result<Document, String> {
+    let mut reader = quick_xml::Reader::from_reader(bytes);
+    let mut doc = Document {
+        little_endian: true,
+        header_size: 4,
+        whole_extent: None,
+        piece_extent: None,
+        origin: None,
+        spacing: None,
+        cell_scalars: None,
+        point_scalars: None,
+        arrays: Vec::new(),
+        appended_start: None,
+        appended_raw: true,
+    };
+    let mut saw_root = false;
+    let mut section: Option<bool> = None; // Some(on_points) inside PointData/CellData
+    let mut open_array: Option<ArrayInfo> = None;
+    let mut buf = Vec::new();
+    loop {
+        let event = reader.read_event_into(&mut buf).map_err(|e| {
+            format!(
+                "not valid VTK XML near byte {}: {e}",
+                reader.error_position()
+            )
+        })?;
+        match event {
+            Event::Start(ref tag) | Event::Empty(ref tag) => {
+                let is_empty = matches!(event, Event::Empty(_));
+                match tag.local_name().as_ref() {
+                    "VTKFile" => {
+                        saw_root = true;
+                        let kind = attr(tag, "type")?.unwrap_or_default();
+                        if kind != "ImageData" {
+                            return Err(format!("VTKFile type is '{kind}', expected ImageData"));
+                        }
+                        if let Some(c) = attr(tag, "compressor")? {
+                            return Err(format!(
+                                "compressed .vti ({c}) is not supported; save it uncompressed"
+                            ));
+                        }
+                        doc.little_endian =
+                            attr(tag, "byte_order")?.as_deref() != Some("BigEndian");
+                        doc.header_size = match attr(tag, "header_type")?.as_deref() {
+                            None | Some("UInt32") => 4,
+                            Some("UInt64") => 8,
+                            Some(other) => {
+                                return Err(format!(
+                                    "header_type '{other}' is not UInt32 or UInt64"
+                                ))
+                            }
+                        };
+                    }
+                    _ if !saw_root => return Err("the root element is not VTKFile".into()),
+                    "ImageData" => {
+                        doc.whole_extent = attr(tag, "WholeExtent")?
+                            .map(|s| numbers(&s, "WholeExtent"))
+                            .transpose()?;
+                        doc.origin = attr(tag, "Origin")?
+                            .map(|s| numbers(&s, "Origin"))
+                            .transpose()?;
+                        doc.spacing = attr(tag, "Spacing")?
+                            .map(|s| numbers(&s, "Spacing"))
+                            .transpose()?;
+                        if let Some(d) = attr(tag, "Direction")? {
+                            let d: [f64; 9] = numbers(&d, "Direction")?;
+                            if d != [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] {
+                                return Err(
+                                    "rotated ImageData (non-identity Direction) is not supported"
+                                        .into(),
+                                );
+                            }
+                        }
+                    }
+                    "Piece" => {
+                        if doc.piece_extent.is_some() {
+                            return Err(
+                                "multi-piece ImageData is not supported; save it as one piece"
+                                    .into(),
+                            );
+                        }
+                        doc.piece_extent = attr(tag, "Extent")?
+                            .map(|s| numbers(&s, "Extent"))
+                            .transpose()?;
+                    }
+                    "PointData" | "CellData" => {
+                        let on_points = tag.local_name().as_ref() == "PointData";
+                        let scalars = attr(tag, "Scalars")?;
+                        if on_points {
+                            doc.point_scalars = scalars
+                        } else {
+                            doc.cell_scalars = scalars
+                        }
+                        section = (!is_empty).then_some(on_points);
+                    }
+                    "DataArray" => {
+                        if let Some(on_points) = section {
+                            let type_name = attr(tag, "type")?.unwrap_or_default();
+                            let array = ArrayInfo {
+                                name: attr(tag, "Name")?.unwrap_or_default(),
+                                element_type: Element::parse(&type_name),
+                                format: attr(tag, "format")?.unwrap_or_else(|| "ascii".into()),
+                                offset: attr(tag, "offset")?
+                                    .map(|s| {
+                                        s.trim().parse().map_err(|_| {
+                                            format!("DataArray offset '{s}' is not a number")
+                                        })
+                                    })
+                                    .transpose()?,
+                                components: attr(tag, "NumberOfComponents")?
+                                    .map(|s| {
+                                        s.trim().parse().map_err(|_| {
+                                            format!("NumberOfComponents '{s}' is not a number")
+                                        })
+                                    })
+                                    .transpose()?
+                                    .unwrap_or(1),
+                                on_points,
+                                text: Vec::new(),
+                            };
+                            if is_empty {
+                                doc.arrays.push(array)
+                            } else {
+                                open_array = Some(array)
+                            }
+                        }
+                    }
+                    "AppendedData" => {
+                        let encoding = attr(tag, "encoding")?.unwrap_or_else(|| "raw".into());
+                        doc.appended_raw = match encoding.as_str() {
+                            "raw" => true,
+                            "base64" => false,
+                            other => {
+                                return Err(format!(
+                                    "AppendedData encoding '{other}' is not raw or base64"
+                                ))
+                            }
+                        };
+                        // The block starts after the first '_' following the tag.
+                        let after_tag = usize::try_from(reader.buffer_position())
+                            .map_err(|_| "file too large".to_string())?;
+                        let underscore = bytes[after_tag..]
+                            .iter()
+                            .position(|&b| b == b'_')
+                            .ok_or("AppendedData has no '_' marker")?;
+                        doc.appended_start = Some(after_tag + underscore + 1);
+                        break;
+                    }
+                    _ => {}
+                }
+            }
+            Event::Text(text) => {
+                if let Some(array) = open_array.as_mut() {
+                    array.text.extend_from_slice(text.as_bytes());
+                }
+            }
+            Event::End(tag) => match tag.local_name().as_ref() {
+                "DataArray" => doc.arrays.extend(open_array.take()),
+                "PointData" | "CellData" => section = None,
+                _ => {}
+            },
+            Event::Eof => break,
+            _ => {}
+        }
+        buf.clear();
+    }
+    if !saw_root {
+        return Err("no VTKFile element: not a VTK XML file".into());
+    }
+    Ok(doc)
+}
+
+fn attr(tag: &BytesStart<'_>, key: &str) -> std::result::Result<Option<String>, String> {
+    match tag.try_get_attribute(key) {
+        Ok(Some(a)) => a
+            .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+            .map(|v| Some(v.into_owned()))
+            .map_err(|e| format!("attribute {key}: {e}")),
+        Ok(None) => Ok(None),
+        Err(e) => Err(format!("attributes of <{}>: {e}", tag.name().as_ref())),
+    }
+}
+
+fn numbers<T: std::str::FromStr + Copy + Default, const N: usize>(
+    text: &str,
+    what: &str,
+) -> std::result::Result<[T; N], String> {
+    let parsed: Vec<T> = text
+        .split_ascii_whitespace()
+        .map(|t| {
+            t.parse()
+                .map_err(|_| format!("{what} '{text}' is not {N} numbers"))
+        })
+        .collect::<std::result::Result<_, _>>()?;
+    parsed
+        .try_into()
+        .map_err(|_| format!("{what} '{text}' is not {N} numbers"))
+}
+
+fn byte_count(header: &[u8], little: bool) -> u64 {
+    let fold = |acc: u64, &b: &u8| (acc << 8) | u64::from(b);
+    if little {
+        header.iter().rev().fold(0, fold)
+    } else {
+        header.iter().fold(0, fold)
+    }
+}
+
+/// An uncompressed appended block: a byte count of `header_size` bytes, then the data.
+fn read_raw_block(
+    block: &[u8],
+    header_size: usize,
+    little: bool,
+) -> std::result::Result<Vec<u8>, String> {
+    let header = block
+        .get(..header_size)
+        .ok_or("appended data ends inside a block header")?;
+    let n = usize::try_from(byte_count(header, little))
+        .map_err(|_| "block byte count too large".to_string())?;
+    let end = header_size
+        .checked_add(n)
+        .ok_or("block byte count too large")?;
+    let data = block
+        .get(header_size..end)
+        .ok_or_else(|| format!("appended data ends before its {n} bytes"))?;
+    Ok(data.to_vec())
+}
+
+/// An uncompressed base64 block. VTK encodes the byte count and the data as one stream, but some
+/// writers encode the count on its own (then its padding '=' ends the first group); accept both.
+fn decode_base64_block(
+    text: &[u8],
+    header_size: usize,
+    little: bool,
+) -> std::result::Result<Vec<u8>, String> {
+    let engine = base64::engine::general_purpose::STANDARD;
+    let header_chars = header_size.div_ceil(3) * 4;
+    let prefix = text
+        .get(..header_chars)
+        .ok_or("base64 DataArray is shorter than its byte count")?;
+    let separate = prefix.last() == Some(&b'=') && text.len() > header_chars;
+    let decoded_prefix = engine
+        .decode(prefix)
+        .map_err(|e| format!("bad base64 in DataArray: {e}"))?;
+    let n = usize::try_from(byte_count(&decoded_prefix[..header_size], little))
+        .map_err(|_| "block byte count too large".to_string())?;
+    if separate {
+        let data = engine
+            .decode(&text[header_chars..])
+            .map_err(|e| format!("bad base64 in DataArray: {e}"))?;
+        return data
+            .get(..n)
+            .map(<[u8]>::to_vec)
+            .ok_or_else(|| format!("DataArray holds {} bytes, its count says {n}", data.len()));
+    }
+    let total = header_size
+        .checked_add(n)
+        .ok_or("block byte count too large")?;
+    let chars = total
+        .div_ceil(3)
+        .checked_mul(4)
+        .ok_or("block byte count too large")?;
+    let stream = text
+        .get(..chars)
+        .ok_or_else(|| format!("base64 DataArray ends before its {n} bytes"))?;
+    let decoded = engine
+        .decode(stream)
+        .map_err(|e| format!("bad base64 in DataArray: {e}"))?;
+    decoded
+        .get(header_size..total)
+        .map(<[u8]>::to_vec)
+        .ok_or_else(|| format!("DataArray ends before its {n} bytes"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn fixture(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("datasets/fixtures")
+            .join(name)
+    }
+
+    /// What datasets/fixtures/make_fixtures.py gave VTK: 4x3x2 cells, value 100k + 10j + i.
+    fn fixture_volume() -> VtiVolume {
+        let data = (0..2)
+            .flat_map(|k| {
+                (0..3).flat_map(move |j| (0..4).map(move |i| (100 * k + 10 * j + i) as f32))
+            })
+            .collect();
+        VtiVolume {
+            dims: [4, 3, 2],
+            spacing: [0.5, 0.25, 2.0],
+            origin: [-1.0, 2.0, 0.5],
+            name: "density".into(),
+            data,
+        }
+    }
+
+    #[test]
+    fn reads_vtk_written_fixtures_in_every_uncompressed_layout() {
+        for name in [
+            "cells_ascii.vti",
+            "cells_binary.vti",
+            "cells_appended.vti",
+            "cells_appended_base64.vti",
+        ] {
+            assert_eq!(read_vti(fixture(name)).unwrap(), fixture_volume(), "{name}");
+        }
+    }
+
+    #[test]
+    fn compressed_file_is_refused_clearly() {
+        let err = read_vti(fixture("cells_zlib.vti")).unwrap_err().to_string();
+        assert!(
+            err.contains("cells_zlib.vti")
+                && err.contains("compressed .vti (vtkZLibDataCompressor) is not supported"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn write_then_read_round_trips_bit_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v.vti");
+        let data = vec![
+            0.0,
+            -1.5,
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            f32::NAN,
+            1e-30,
+            3.25,
+            7.0,
+            8.0,
+            9.0,
+            10.0,
+            11.0,
+        ];
+        write_vti(
+            &path,
+            [3, 2, 2],
+            [0.1, 0.2, 0.3],
+            [1.0, -2.0, 1e6],
+            "rho",
+            &data,
+        )
+        .unwrap();
+        let v = read_vti(&path).unwrap();
+        assert_eq!(
+            (v.dims, v.spacing, v.origin, v.name.as_str()),
+            ([3, 2, 2], [0.1, 0.2, 0.3], [1.0, -2.0, 1e6], "rho")
+        );
+        let bits = |d: &[f32]| d.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&v.data), bits(&data));
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn point_data_becomes_cells_centred_on_the_points() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.vti");
+        // Two points along x at 10 and 12, written as uncompressed inline base64 (UInt32 count).
+        let mut block = 8u32.to_le_bytes().to_vec();
+        block.extend([1.0f32, 2.0].iter().flat_map(|v| v.to_le_bytes()));
+        let text = base64::engine::general_purpose::STANDARD.encode(&block);
+        std::fs::write(&path, format!(
+            "<VTKFile type=\"ImageData\" version=\"0.1\" byte_order=\"LittleEndian\">\
+             <ImageData WholeExtent=\"0 1 0 0 0 0\" Origin=\"10 0 0\" Spacing=\"2 1 1\"><Piece Extent=\"0 1 0 0 0 0\">\
+             <PointData Scalars=\"s\"><DataArray type=\"Float32\" Name=\"s\" format=\"binary\">{text}</DataArray></PointData>\
+             <CellData></CellData></Piece></ImageData></VTKFile>")).unwrap();
+        let v = read_vti(&path).unwrap();
+        assert_eq!(
+            (v.dims, v.origin, v.data),
+            ([2, 1, 1], [9.0, -0.5, -0.5], vec![1.0, 2.0])
+        );
+    }
+
+    #[test]
+    fn truncated_and_garbage_files_give_one_line_errors() {
+        let cut = Path::new("cut.vti");
+        for name in [
+            "cells_ascii.vti",
+            "cells_binary.vti",
+            "cells_appended.vti",
+            "cells_appended_base64.vti",
+        ] {
+            let bytes = std::fs::read(fixture(name)).unwrap();
+            for len in 0..bytes.len() {
+                // Cutting only the closing tags of a file loses no data, so success is allowed then.
+                match read_vti_bytes(cut, &bytes[..len]) {
+                    Ok(v) => assert_eq!(v, fixture_volume(), "{name} cut to {len}"),
+                    Err(e) => {
+                        let text = e.to_string();
+                        assert!(
+                            text.starts_with("cut.vti: ") && !text.contains('\n'),
+                            "{text}"
+                        );
+                    }
+                }
+            }
+        }
+        let garbage = b"\x89HDF\r\n\x1a\n not xml at all";
+        assert!(read_vti_bytes(cut, garbage).is_err());
+        // The path-based entry point reports the same way.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("cut.vti");
+        std::fs::write(&path, &garbage[..]).unwrap();
+        assert!(read_vti(&path).unwrap_err().to_string().contains("cut.vti"));
+    }
+
+    #[test]
+    fn bad_parameters_are_rejected() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.vti");
+        let err = write_vti(&path, [2, 2, 2], [1.0; 3], [0.0; 3], "a", &[0.0; 7]).unwrap_err();
+        assert_eq!(err.to_string(), "data: has 7 values; dims 2x2x2 need 8");
+        let err =
+            write_vti(&path, [2, 2, 2], [1.0, 0.0, 1.0], [0.0; 3], "a", &[0.0; 8]).unwrap_err();
+        assert!(err.to_string().starts_with("spacing.y:"), "{err}");
+        assert!(!path.exists());
+    }
+}

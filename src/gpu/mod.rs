@@ -1,0 +1,245 @@
+//! The one GPU context: a headless wgpu instance, adapter, device and queue, chosen Vulkan first
+//! (lavapipe on CPU-only nodes, any real GPU), with GL through EGL (Mesa's llvmpipe) as the
+//! fallback. Capabilities that change how hdrvis renders — float32 filtering, f64 and f16 in
+//! shaders, texture limits — are detected here, and every missing one has a working path.
+
+pub mod readback;
+pub mod shader;
+
+use crate::error::{Error, Result};
+use std::sync::Arc;
+
+/// Environment variable that selects the backend when `--backend` is not given.
+pub const BACKEND_ENV: &str = "HDRVIS_BACKEND";
+/// Environment variable listing capabilities to treat as missing (comma-separated), so the
+/// fallback paths can be exercised on any machine: `float32_filterable`, `shader_f64`, `shader_f16`.
+pub const DISABLE_ENV: &str = "HDRVIS_DISABLE_FEATURES";
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BackendChoice {
+    Auto,
+    Vulkan,
+    Gl,
+}
+
+impl BackendChoice {
+    pub fn parse(s: &str) -> Result<BackendChoice> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" | "" => Ok(BackendChoice::Auto),
+            "vulkan" | "vk" => Ok(BackendChoice::Vulkan),
+            "gl" | "gles" | "opengl" | "egl" => Ok(BackendChoice::Gl),
+            _ => Err(Error::invalid(
+                "backend",
+                format!("expected auto, vulkan or gl, got {s:?}"),
+            )),
+        }
+    }
+
+    /// The explicit choice if given, else `HDRVIS_BACKEND`, else auto.
+    pub fn resolve(explicit: Option<&str>) -> Result<BackendChoice> {
+        match explicit {
+            Some(s) => BackendChoice::parse(s),
+            None => match std::env::var(BACKEND_ENV) {
+                Ok(v) => BackendChoice::parse(&v).map_err(|_| {
+                    Error::invalid(
+                        BACKEND_ENV,
+                        format!("expected auto, vulkan or gl, got {v:?}"),
+                    )
+                }),
+                Err(_) => Ok(BackendChoice::Auto),
+            },
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            BackendChoice::Auto => "auto",
+            BackendChoice::Vulkan => "vulkan",
+            BackendChoice::Gl => "gl",
+        }
+    }
+}
+
+/// What the adapter can do that matters to hdrvis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Capabilities {
+    /// Hardware trilinear filtering of R32Float textures; otherwise exact manual trilinear.
+    pub float32_filterable: bool,
+    pub shader_f64: bool,
+    pub shader_f16: bool,
+    pub max_texture_3d: u32,
+    pub max_texture_2d: u32,
+    pub max_buffer_size: u64,
+    pub max_storage_buffer_binding_size: u64,
+}
+
+pub struct GpuContext {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub caps: Capabilities,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "GpuContext({})", self.describe())
+    }
+}
+
+fn disabled_features() -> Vec<String> {
+    std::env::var(DISABLE_ENV)
+        .map(|v| {
+            v.split(',')
+                .map(|s| s.trim().to_ascii_lowercase())
+                .filter(|s| !s.is_empty())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn type_rank(t: wgpu::DeviceType) -> u32 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    }
+}
+
+impl GpuContext {
+    /// Opens the best adapter for the choice: on auto, Vulkan adapters first (real GPUs before
+    /// CPU rasterizers), then GL.
+    pub fn new(choice: BackendChoice) -> Result<Arc<GpuContext>> {
+        let tries: &[wgpu::Backends] = match choice {
+            BackendChoice::Auto => &[wgpu::Backends::VULKAN, wgpu::Backends::GL],
+            BackendChoice::Vulkan => &[wgpu::Backends::VULKAN],
+            BackendChoice::Gl => &[wgpu::Backends::GL],
+        };
+        for &backends in tries {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = backends;
+            let instance = wgpu::Instance::new(desc);
+            let mut adapters = pollster::block_on(instance.enumerate_adapters(backends));
+            adapters.sort_by_key(|a| type_rank(a.get_info().device_type));
+            if let Some(adapter) = adapters.into_iter().next() {
+                return GpuContext::open(instance, adapter);
+            }
+        }
+        let hint = match choice {
+            BackendChoice::Gl => "install Mesa's EGL/GL drivers (Debian: apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri)",
+            _ => "install a Vulkan driver (Debian: apt-get install mesa-vulkan-drivers, which provides lavapipe on CPU-only machines) or use --backend gl with Mesa's EGL",
+        };
+        Err(Error::Gpu(format!(
+            "no GPU adapter found for backend {}: {hint}",
+            choice.name()
+        )))
+    }
+
+    fn open(instance: wgpu::Instance, adapter: wgpu::Adapter) -> Result<Arc<GpuContext>> {
+        let info = adapter.get_info();
+        let features = adapter.features();
+        let limits = adapter.limits();
+        let disabled = disabled_features();
+        let off = |name: &str| disabled.iter().any(|d| d == name);
+        let mut wanted = wgpu::Features::empty();
+        for (f, name) in [
+            (wgpu::Features::FLOAT32_FILTERABLE, "float32_filterable"),
+            (wgpu::Features::SHADER_F64, "shader_f64"),
+            (wgpu::Features::SHADER_F16, "shader_f16"),
+        ] {
+            if features.contains(f) && !off(name) {
+                wanted |= f;
+            }
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("hdrvis"),
+            required_features: wanted,
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| Error::Gpu(format!("cannot open device on {}: {e}", info.name)))?;
+        let caps = Capabilities {
+            float32_filterable: wanted.contains(wgpu::Features::FLOAT32_FILTERABLE),
+            shader_f64: wanted.contains(wgpu::Features::SHADER_F64),
+            shader_f16: wanted.contains(wgpu::Features::SHADER_F16),
+            max_texture_3d: limits.max_texture_dimension_3d,
+            max_texture_2d: limits.max_texture_dimension_2d,
+            max_buffer_size: limits.max_buffer_size,
+            max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size as u64,
+        };
+        Ok(Arc::new(GpuContext {
+            instance,
+            adapter,
+            device,
+            queue,
+            info,
+            caps,
+        }))
+    }
+
+    pub fn backend_name(&self) -> &'static str {
+        match self.info.backend {
+            wgpu::Backend::Vulkan => "Vulkan",
+            wgpu::Backend::Gl => "GL",
+            wgpu::Backend::Metal => "Metal",
+            wgpu::Backend::Dx12 => "DX12",
+            _ => "other",
+        }
+    }
+
+    /// One line: adapter, backend and driver, for image metadata and benchmark headers.
+    pub fn describe(&self) -> String {
+        let driver = [self.info.driver.as_str(), self.info.driver_info.as_str()]
+            .iter()
+            .filter(|s| !s.is_empty())
+            .cloned()
+            .collect::<Vec<_>>()
+            .join(" ");
+        format!(
+            "{} ({}, {})",
+            self.info.name,
+            self.backend_name(),
+            if driver.is_empty() {
+                "driver unknown"
+            } else {
+                &driver
+            }
+        )
+    }
+
+    /// The `hdrvis doctor` report.
+    pub fn report(&self) -> String {
+        let yes = |b: bool| if b { "yes" } else { "no" };
+        let c = &self.caps;
+        format!(
+            "adapter:  {}\nbackend:  {}\ntype:     {:?}\ndriver:   {} {}\nfloat32 filtering: {}{}\nshader f64: {}\nshader f16: {}\nmax 3-D texture: {}^3 voxels\nmax 2-D texture: {} px\nmax buffer: {} MiB\nmax storage binding: {} MiB",
+            self.info.name,
+            self.backend_name(),
+            self.info.device_type,
+            self.info.driver,
+            self.info.driver_info,
+            yes(c.float32_filterable),
+            if c.float32_filterable { " (hardware trilinear)" } else { " (exact manual trilinear in the shader)" },
+            yes(c.shader_f64),
+            yes(c.shader_f16),
+            c.max_texture_3d,
+            c.max_texture_2d,
+            c.max_buffer_size >> 20,
+            c.max_storage_buffer_binding_size >> 20,
+        )
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
+            .map(|_| ())
+            .map_err(|e| Error::Gpu(format!("waiting for the device failed: {e}")))
+    }
+}

@@ -1,0 +1,98 @@
+//! PNG display views of HDR images: a plain exposure (× 2^EV) followed by the sRGB curve, 8-bit or
+//! 16-bit, composited over the image's own background (colour is premultiplied, so RGB is final).
+//! Real tone-mapping operators feed the same writer with display-referred values.
+
+use crate::error::{Error, Result};
+use crate::model::colormap::linear_to_srgb;
+use crate::model::HdrImage;
+use std::path::Path;
+
+/// Display-referred linear RGB in [0, 1] → sRGB-encoded 8-bit. Non-finite values (missing) show as 0.
+pub fn encode_srgb8(v: f64) -> u8 {
+    if !v.is_finite() {
+        return 0;
+    }
+    (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5).floor() as u8
+}
+
+pub fn encode_srgb16(v: f64) -> u16 {
+    if !v.is_finite() {
+        return 0;
+    }
+    (linear_to_srgb(v.clamp(0.0, 1.0)) * 65535.0 + 0.5).floor() as u16
+}
+
+/// Writes display-referred linear values (clamped to [0, 1]) as an sRGB PNG.
+pub fn write_display_png(image: &HdrImage, path: &Path, sixteen_bit: bool) -> Result<()> {
+    let (w, h) = (image.width, image.height);
+    if w == 0 || h == 0 {
+        return Err(Error::invalid("image", "cannot write an empty image"));
+    }
+    crate::io::write_atomic(path, |writer| {
+        let encoder = image::codecs::png::PngEncoder::new(writer);
+        use image::ImageEncoder;
+        let result = if sixteen_bit {
+            let bytes: Vec<u8> = image
+                .pixels
+                .iter()
+                .flat_map(|p| [p[0], p[1], p[2]])
+                .flat_map(|v| encode_srgb16(v as f64).to_be_bytes())
+                .collect();
+            encoder.write_image(&bytes, w, h, image::ExtendedColorType::Rgb16)
+        } else {
+            let bytes: Vec<u8> = image
+                .pixels
+                .iter()
+                .flat_map(|p| [p[0], p[1], p[2]])
+                .map(|v| encode_srgb8(v as f64))
+                .collect();
+            encoder.write_image(&bytes, w, h, image::ExtendedColorType::Rgb8)
+        };
+        result.map_err(|e| Error::format(path, format!("cannot encode PNG: {e}")))
+    })
+}
+
+/// The plain view: linear values × 2^EV, then sRGB.
+pub fn write_exposed_png(image: &HdrImage, path: &Path, exposure_ev: f64) -> Result<()> {
+    if !exposure_ev.is_finite() {
+        return Err(Error::invalid(
+            "exposure",
+            format!("expected a finite number of stops, got {exposure_ev}"),
+        ));
+    }
+    let gain = 2f64.powf(exposure_ev) as f32;
+    let mut view = image.clone();
+    for p in &mut view.pixels {
+        for c in p.iter_mut().take(3) {
+            *c *= gain;
+        }
+    }
+    write_display_png(&view, path, false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_encoding_endpoints_and_midtone() {
+        assert_eq!(encode_srgb8(0.0), 0);
+        assert_eq!(encode_srgb8(1.0), 255);
+        assert_eq!(encode_srgb8(5.0), 255);
+        assert_eq!(encode_srgb8(f64::NAN), 0);
+        // 18 % grey encodes to 118 in sRGB.
+        assert_eq!(encode_srgb8(0.18), 118);
+    }
+
+    #[test]
+    fn png_written_and_decodable() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut img = HdrImage::new(2, 1);
+        img.pixels[0] = [0.09, 0.09, 0.09, 1.0];
+        let p = dir.path().join("v.png");
+        write_exposed_png(&img, &p, 1.0).unwrap();
+        let back = image::open(&p).unwrap().to_rgb8();
+        assert_eq!(back.get_pixel(0, 0).0, [118, 118, 118]);
+        assert_eq!(back.get_pixel(1, 0).0, [0, 0, 0]);
+    }
+}

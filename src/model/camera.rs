@@ -1,0 +1,306 @@
+//! Cameras: perspective and orthographic, built from look-at, orbit or an axis-aligned view that
+//! frames a bounding box exactly. A camera turns a pixel (i, j) of a W×H image into a world ray; the
+//! GPU ray caster and the CPU reference both use this definition, so they trace the same rays.
+
+use super::volume::Aabb;
+use crate::error::{Error, Result};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Vertical field of view in degrees; the horizontal one follows from the image's aspect.
+    Perspective { fov_y_deg: f64 },
+    /// Half the visible width and height in world units; the image fills exactly that window.
+    Orthographic { half_width: f64, half_height: f64 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    pub fn parse(s: &str) -> Result<Axis> {
+        match s {
+            "x" | "X" => Ok(Axis::X),
+            "y" | "Y" => Ok(Axis::Y),
+            "z" | "Z" => Ok(Axis::Z),
+            _ => Err(Error::invalid(
+                "axis",
+                format!("expected \"x\", \"y\" or \"z\", got {s:?}"),
+            )),
+        }
+    }
+}
+
+/// A camera with an orthonormal frame: rays leave `eye` along `forward`, image x grows along
+/// `right`, image rows go from `up` (row 0) downwards.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: [f64; 3],
+    pub forward: [f64; 3],
+    pub right: [f64; 3],
+    pub up: [f64; 3],
+    pub projection: Projection,
+}
+
+pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn add_scaled(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let n = norm(a);
+    [a[0] / n, a[1] / n, a[2] / n]
+}
+
+fn check_finite(field: &str, v: &[f64]) -> Result<()> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            field,
+            format!("expected finite numbers, got {v:?}"),
+        ))
+    }
+}
+
+impl Camera {
+    /// A perspective camera at `eye` looking at `target`, with `up` giving the vertical.
+    pub fn look_at(
+        eye: [f64; 3],
+        target: [f64; 3],
+        up: [f64; 3],
+        fov_y_deg: f64,
+    ) -> Result<Camera> {
+        check_finite("camera.eye", &eye)?;
+        check_finite("camera.target", &target)?;
+        check_finite("camera.up", &up)?;
+        if !(fov_y_deg.is_finite() && fov_y_deg > 0.0 && fov_y_deg < 180.0) {
+            return Err(Error::invalid(
+                "camera.fov",
+                format!("expected degrees in (0, 180), got {fov_y_deg}"),
+            ));
+        }
+        let (forward, right, up) = frame(eye, target, up)?;
+        Ok(Camera {
+            eye,
+            forward,
+            right,
+            up,
+            projection: Projection::Perspective { fov_y_deg },
+        })
+    }
+
+    /// An orthographic camera looking from `eye` towards `target` showing a window of
+    /// `2·half_width × 2·half_height` world units.
+    pub fn ortho_look_at(
+        eye: [f64; 3],
+        target: [f64; 3],
+        up: [f64; 3],
+        half_width: f64,
+        half_height: f64,
+    ) -> Result<Camera> {
+        check_finite("camera.eye", &eye)?;
+        check_finite("camera.target", &target)?;
+        check_finite("camera.up", &up)?;
+        for (f, v) in [
+            ("camera.half_width", half_width),
+            ("camera.half_height", half_height),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::invalid(
+                    f,
+                    format!("expected a finite value > 0, got {v}"),
+                ));
+            }
+        }
+        let (forward, right, up) = frame(eye, target, up)?;
+        Ok(Camera {
+            eye,
+            forward,
+            right,
+            up,
+            projection: Projection::Orthographic {
+                half_width,
+                half_height,
+            },
+        })
+    }
+
+    /// A perspective camera orbiting `bounds`: azimuth about +z from +x, elevation above the
+    /// x–y plane, at a distance that fits the bounding sphere in the field of view.
+    pub fn orbit(
+        bounds: &Aabb,
+        azimuth_deg: f64,
+        elevation_deg: f64,
+        fov_y_deg: f64,
+    ) -> Result<Camera> {
+        check_finite("camera.azimuth", &[azimuth_deg])?;
+        check_finite("camera.elevation", &[elevation_deg])?;
+        if !(fov_y_deg.is_finite() && fov_y_deg > 0.0 && fov_y_deg < 180.0) {
+            return Err(Error::invalid(
+                "camera.fov",
+                format!("expected degrees in (0, 180), got {fov_y_deg}"),
+            ));
+        }
+        let radius = 0.5 * bounds.diagonal();
+        let distance = radius / (0.5 * fov_y_deg.to_radians()).sin() * 1.05;
+        let (az, el) = (
+            azimuth_deg.to_radians(),
+            elevation_deg.clamp(-89.9, 89.9).to_radians(),
+        );
+        let dir = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
+        let center = bounds.center();
+        Camera::look_at(
+            add_scaled(center, dir, distance),
+            center,
+            [0.0, 0.0, 1.0],
+            fov_y_deg,
+        )
+    }
+
+    /// The orthographic view along an axis that frames `bounds` exactly: pixel centres sit at
+    /// (i + 0.5)/W of the extent. "x" looks from +x (right = +y, up = +z), "y" from −y
+    /// (right = +x, up = +z), "z" from +z (right = +x, up = +y).
+    pub fn axis(axis: Axis, bounds: &Aabb) -> Camera {
+        let s = bounds.size();
+        let c = bounds.center();
+        let (forward, right, up) = match axis {
+            Axis::X => ([-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]),
+            Axis::Y => ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+            Axis::Z => ([0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        };
+        let extent = |v: [f64; 3]| (v[0] * s[0] + v[1] * s[1] + v[2] * s[2]).abs();
+        let depth = extent(forward);
+        Camera {
+            eye: add_scaled(c, forward, -(0.5 * depth + 1.0 + 0.01 * bounds.diagonal())),
+            forward,
+            right,
+            up,
+            projection: Projection::Orthographic {
+                half_width: 0.5 * extent(right),
+                half_height: 0.5 * extent(up),
+            },
+        }
+    }
+
+    /// The world ray through the centre of pixel (px, py) of a `width × height` image.
+    pub fn ray(&self, px: u32, py: u32, width: u32, height: u32) -> ([f64; 3], [f64; 3]) {
+        let sx = 2.0 * (px as f64 + 0.5) / width as f64 - 1.0;
+        let sy = 1.0 - 2.0 * (py as f64 + 0.5) / height as f64;
+        match self.projection {
+            Projection::Orthographic {
+                half_width,
+                half_height,
+            } => {
+                let o = add_scaled(
+                    add_scaled(self.eye, self.right, sx * half_width),
+                    self.up,
+                    sy * half_height,
+                );
+                (o, self.forward)
+            }
+            Projection::Perspective { fov_y_deg } => {
+                let ty = (0.5 * fov_y_deg.to_radians()).tan();
+                let tx = ty * width as f64 / height as f64;
+                let d = add_scaled(
+                    add_scaled(self.forward, self.right, sx * tx),
+                    self.up,
+                    sy * ty,
+                );
+                (self.eye, normalize(d))
+            }
+        }
+    }
+
+    /// One-line description for image metadata.
+    pub fn describe(&self) -> String {
+        let p = match self.projection {
+            Projection::Perspective { fov_y_deg } => format!("perspective fov {fov_y_deg}"),
+            Projection::Orthographic {
+                half_width,
+                half_height,
+            } => format!("orthographic {}x{}", 2.0 * half_width, 2.0 * half_height),
+        };
+        format!(
+            "{p}; eye {:?}; forward {:?}; up {:?}",
+            self.eye, self.forward, self.up
+        )
+    }
+}
+
+fn frame(eye: [f64; 3], target: [f64; 3], up: [f64; 3]) -> Result<([f64; 3], [f64; 3], [f64; 3])> {
+    let f = sub(target, eye);
+    if norm(f) == 0.0 {
+        return Err(Error::invalid(
+            "camera.target",
+            "must differ from camera.eye",
+        ));
+    }
+    let forward = normalize(f);
+    let r = cross(forward, up);
+    if norm(r) < 1e-12 * norm(up).max(1e-300) {
+        return Err(Error::invalid(
+            "camera.up",
+            "must not be parallel to the view direction",
+        ));
+    }
+    let right = normalize(r);
+    Ok((forward, right, cross(right, forward)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_view_frames_bounds_exactly() {
+        let b = Aabb {
+            lo: [0.0, 0.0, 0.0],
+            hi: [4.0, 2.0, 8.0],
+        };
+        let cam = Camera::axis(Axis::Z, &b);
+        let (o, d) = cam.ray(0, 0, 4, 2);
+        assert_eq!(d, [0.0, 0.0, -1.0]);
+        assert!((o[0] - 0.5).abs() < 1e-12 && (o[1] - 1.5).abs() < 1e-12);
+        let (o, _) = cam.ray(3, 1, 4, 2);
+        assert!((o[0] - 3.5).abs() < 1e-12 && (o[1] - 0.5).abs() < 1e-12);
+        let cam = Camera::axis(Axis::X, &b);
+        let (o, d) = cam.ray(0, 0, 2, 8);
+        assert_eq!(d, [-1.0, 0.0, 0.0]);
+        assert!((o[1] - 0.5).abs() < 1e-12 && (o[2] - 7.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn look_at_rejects_non_finite_and_degenerate() {
+        assert!(Camera::look_at([f64::NAN, 0.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 30.0).is_err());
+        assert!(Camera::look_at([0.0, 0.0, 5.0], [0.0; 3], [0.0, 0.0, 1.0], 30.0).is_err());
+        assert!(Camera::look_at([5.0, 0.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 0.0).is_err());
+    }
+
+    #[test]
+    fn orbit_looks_at_centre() {
+        let b = Aabb {
+            lo: [0.0; 3],
+            hi: [2.0; 3],
+        };
+        let cam = Camera::orbit(&b, 30.0, 20.0, 40.0).unwrap();
+        let (o, d) = cam.ray(50, 50, 101, 101);
+        // The central ray passes through the box centre.
+        let t = (1.0 - o[0]) / d[0];
+        assert!((o[1] + t * d[1] - 1.0).abs() < 1e-9 && (o[2] + t * d[2] - 1.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,179 @@
+//! Named colour maps, taken from the `colorgrad` crate rather than hand-typed tables. Maps are
+//! defined in display (sRGB-encoded) colour; [`Colormap::linear_rgb`] converts to linear light,
+//! which is what an HDR image holds, so a map shows its intended colours after the sRGB curve.
+
+use crate::error::{Error, Result};
+use colorgrad::Gradient;
+
+/// Every colour-map name hdrvis accepts. `sinebow` and `rainbow` are cyclic (for wrapped data).
+pub const COLORMAP_NAMES: &[&str] = &[
+    "viridis",
+    "magma",
+    "inferno",
+    "plasma",
+    "cividis",
+    "turbo",
+    "cubehelix",
+    "warm",
+    "cool",
+    "spectral",
+    "rd_bu",
+    "rd_yl_bu",
+    "br_bg",
+    "blues",
+    "greens",
+    "greys",
+    "oranges",
+    "reds",
+    "yl_or_rd",
+    "sinebow",
+    "rainbow",
+    "white",
+];
+
+/// Colour maps that wrap around (the colour at 0 equals the colour at 1).
+pub const CYCLIC_COLORMAPS: &[&str] = &["sinebow", "rainbow"];
+
+pub struct Colormap {
+    name: String,
+    gradient: Option<Box<dyn Gradient + Send + Sync>>,
+}
+
+impl std::fmt::Debug for Colormap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Colormap({})", self.name)
+    }
+}
+
+impl Colormap {
+    pub fn by_name(name: &str) -> Result<Colormap> {
+        use colorgrad::preset as p;
+        let gradient: Option<Box<dyn Gradient + Send + Sync>> = match name {
+            "viridis" => Some(Box::new(p::viridis())),
+            "magma" => Some(Box::new(p::magma())),
+            "inferno" => Some(Box::new(p::inferno())),
+            "plasma" => Some(Box::new(p::plasma())),
+            "cividis" => Some(Box::new(p::cividis())),
+            "turbo" => Some(Box::new(p::turbo())),
+            "cubehelix" => Some(Box::new(p::cubehelix_default())),
+            "warm" => Some(Box::new(p::warm())),
+            "cool" => Some(Box::new(p::cool())),
+            "spectral" => Some(Box::new(p::spectral())),
+            "rd_bu" => Some(Box::new(p::rd_bu())),
+            "rd_yl_bu" => Some(Box::new(p::rd_yl_bu())),
+            "br_bg" => Some(Box::new(p::br_bg())),
+            "blues" => Some(Box::new(p::blues())),
+            "greens" => Some(Box::new(p::greens())),
+            "greys" => Some(Box::new(p::greys())),
+            "oranges" => Some(Box::new(p::oranges())),
+            "reds" => Some(Box::new(p::reds())),
+            "yl_or_rd" => Some(Box::new(p::yl_or_rd())),
+            "sinebow" => Some(Box::new(p::sinebow())),
+            "rainbow" => Some(Box::new(p::rainbow())),
+            "white" => None,
+            _ => {
+                return Err(Error::invalid(
+                    "colormap",
+                    format!(
+                        "unknown colour map {name:?}; known: {}",
+                        COLORMAP_NAMES.join(", ")
+                    ),
+                ))
+            }
+        };
+        Ok(Colormap {
+            name: name.to_string(),
+            gradient,
+        })
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub fn is_cyclic(&self) -> bool {
+        CYCLIC_COLORMAPS.contains(&self.name.as_str())
+    }
+
+    /// Display-encoded colour at t in [0, 1] (clamped).
+    pub fn srgb(&self, t: f64) -> [f64; 3] {
+        match &self.gradient {
+            None => [1.0; 3],
+            Some(g) => {
+                let c = g.at(t.clamp(0.0, 1.0) as f32);
+                [c.r as f64, c.g as f64, c.b as f64].map(|v| v.clamp(0.0, 1.0))
+            }
+        }
+    }
+
+    /// Linear-light colour at t in [0, 1] (clamped).
+    pub fn linear_rgb(&self, t: f64) -> [f64; 3] {
+        self.srgb(t).map(srgb_to_linear)
+    }
+}
+
+/// The IEC 61966-2-1 sRGB decoding curve.
+pub fn srgb_to_linear(v: f64) -> f64 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The IEC 61966-2-1 sRGB encoding curve.
+pub fn linear_to_srgb(v: f64) -> f64 {
+    if v <= 0.0031308 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_listed_name_resolves_and_unknown_lists_names() {
+        for n in COLORMAP_NAMES {
+            let c = Colormap::by_name(n).unwrap();
+            let rgb = c.linear_rgb(0.3);
+            assert!(rgb.iter().all(|v| (0.0..=1.0).contains(v)), "{n}");
+        }
+        let e = Colormap::by_name("jet").unwrap_err().to_string();
+        assert!(e.contains("viridis") && e.contains("jet"), "{e}");
+    }
+
+    #[test]
+    fn viridis_endpoints_match_the_published_map() {
+        // matplotlib's viridis starts at #440154 and ends at #fde725 (the preset ends at #fee825).
+        let c = Colormap::by_name("viridis").unwrap();
+        let a = c.srgb(0.0);
+        assert!(
+            (a[0] - 0x44 as f64 / 255.0).abs() < 2e-3 && (a[2] - 0x54 as f64 / 255.0).abs() < 2e-3
+        );
+        let b = c.srgb(1.0);
+        assert!((b[0] - 0xfe as f64 / 255.0).abs() < 5e-3);
+    }
+
+    #[test]
+    fn cyclic_maps_wrap() {
+        for n in CYCLIC_COLORMAPS {
+            let c = Colormap::by_name(n).unwrap();
+            let (a, b) = (c.srgb(0.0), c.srgb(1.0));
+            assert!(
+                (0..3).all(|i| (a[i] - b[i]).abs() < 2e-2),
+                "{n}: {a:?} vs {b:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn srgb_curve_round_trips() {
+        for i in 0..=100 {
+            let v = i as f64 / 100.0;
+            assert!((linear_to_srgb(srgb_to_linear(v)) - v).abs() < 1e-12);
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! Data and maths only: volumes, cameras, transfer functions, colour maps and HDR images. Nothing
+//! here knows about wgpu, Rhai or the terminal; the renderers, the scripts and the CLI all build on
+//! these types.
+
+pub mod camera;
+pub mod colormap;
+pub mod image;
+pub mod transfer;
+pub mod volume;
+
+pub use camera::{Axis, Camera, Projection};
+pub use image::HdrImage;
+pub use transfer::{Lens, LutTransfer, Scale, TransferFunction};
+pub use volume::{Aabb, Volume, VolumeStats};

@@ -1,0 +1,505 @@
+//! HDR transfer functions, as the paper describes them: a data scale (linear, log10, symlog) with
+//! an optional magnification lens that widens a chosen sub-range, then colour from a named colour
+//! map, emission that may exceed 1 and extinction set in decades, all baked into a float lookup
+//! table indexed in the scaled space. Beside it, the physical emission–absorption function
+//! (emission e·v and extinction a·v per voxel length, grey) that tests compare with closed forms.
+//!
+//! A [`TransferFunction`] is what users write; [`ResolvedTransfer`] fixes the domain against a
+//! volume's statistics and holds the exact numbers both the GPU and the CPU reference evaluate.
+
+use super::colormap::Colormap;
+use super::volume::VolumeStats;
+use crate::error::{Error, Result};
+
+/// Number of entries of the baked lookup table.
+pub const LUT_SIZE: usize = 4096;
+
+/// Smallest positive normal f32: the floor applied before a logarithm, on the GPU and the CPU alike.
+pub const LOG_FLOOR: f64 = 1.175_494_4e-38;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scale {
+    Linear,
+    Log10,
+    /// sign(v)·log10(1 + |v|/linthresh): logarithmic for large magnitudes, linear near zero.
+    Symlog {
+        linthresh: f64,
+    },
+}
+
+impl Scale {
+    pub fn parse(name: &str, linthresh: Option<f64>) -> Result<Scale> {
+        match name {
+            "linear" => Ok(Scale::Linear),
+            "log10" | "log" => Ok(Scale::Log10),
+            "symlog" => Ok(Scale::Symlog {
+                linthresh: linthresh.unwrap_or(0.0),
+            }),
+            _ => Err(Error::invalid(
+                "scale",
+                format!("unknown scale {name:?}; known: linear, log10, symlog"),
+            )),
+        }
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Scale::Linear => "linear",
+            Scale::Log10 => "log10",
+            Scale::Symlog { .. } => "symlog",
+        }
+    }
+
+    /// The scaled value before normalisation to the domain.
+    pub fn apply(&self, v: f64) -> f64 {
+        match *self {
+            Scale::Linear => v,
+            Scale::Log10 => v.max(LOG_FLOOR).log10(),
+            Scale::Symlog { linthresh } => {
+                v.signum() * (v.abs() / linthresh).ln_1p() / std::f64::consts::LN_10
+            }
+        }
+    }
+
+    fn code(&self) -> u32 {
+        match self {
+            Scale::Linear => 0,
+            Scale::Log10 => 1,
+            Scale::Symlog { .. } => 2,
+        }
+    }
+}
+
+/// Non-linear magnification of the data sub-range [lo, hi]: that range takes `factor` times the
+/// share of the colour/opacity table it would otherwise get (at most all of it but a sliver).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    pub lo: f64,
+    pub hi: f64,
+    pub factor: f64,
+}
+
+/// A colour-map transfer function with log-scaled emission and opacity.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LutTransfer {
+    pub scale: Scale,
+    /// Data range mapped onto [0, 1]; `None` takes it from the volume (finite min/max, or the
+    /// smallest positive value for log10).
+    pub domain: Option<[f64; 2]>,
+    pub lens: Option<Lens>,
+    pub colormap: String,
+    /// Control points (t, log10 emission) over the scaled value t in [0, 1], piecewise linear.
+    pub emission: Vec<[f64; 2]>,
+    /// Control points (t, log10 extinction per voxel length), piecewise linear: decades of opacity.
+    pub opacity: Vec<[f64; 2]>,
+    /// Scaled values below this are fully transparent and dark.
+    pub transparent_below: f64,
+}
+
+impl Default for LutTransfer {
+    fn default() -> Self {
+        LutTransfer {
+            scale: Scale::Linear,
+            domain: None,
+            lens: None,
+            colormap: "viridis".into(),
+            emission: vec![[0.0, 0.0], [1.0, 0.0]],
+            opacity: vec![[0.0, -3.0], [1.0, 0.0]],
+            transparent_below: 0.0,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum TransferFunction {
+    /// Grey emission e·v and extinction a·v per voxel length (v clamped at 0 from below).
+    EmissionAbsorption {
+        emission: f64,
+        absorption: f64,
+    },
+    Lut(LutTransfer),
+}
+
+impl TransferFunction {
+    pub fn emission_absorption(emission: f64, absorption: f64) -> Result<TransferFunction> {
+        for (f, v) in [("tf.emission", emission), ("tf.absorption", absorption)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::invalid(
+                    f,
+                    format!("expected a finite value >= 0, got {v}"),
+                ));
+            }
+        }
+        Ok(TransferFunction::EmissionAbsorption {
+            emission,
+            absorption,
+        })
+    }
+
+    pub fn describe(&self) -> String {
+        match self {
+            TransferFunction::EmissionAbsorption {
+                emission,
+                absorption,
+            } => format!("emission-absorption e={emission} a={absorption}"),
+            TransferFunction::Lut(l) => format!(
+                "lut scale={} domain={:?} lens={:?} colormap={} emission={:?} opacity={:?} transparent_below={}",
+                l.scale.name(),
+                l.domain,
+                l.lens,
+                l.colormap,
+                l.emission,
+                l.opacity,
+                l.transparent_below
+            ),
+        }
+    }
+
+    /// Fixes the domain against the volume's statistics and bakes the table.
+    pub fn resolve(&self, stats: &VolumeStats) -> Result<ResolvedTransfer> {
+        match self {
+            TransferFunction::EmissionAbsorption {
+                emission,
+                absorption,
+            } => Ok(ResolvedTransfer {
+                kind: TfKind::EmissionAbsorption {
+                    emission: *emission,
+                    absorption: *absorption,
+                },
+                mapping: ScaleMapping::identity(),
+                lut: Vec::new(),
+            }),
+            TransferFunction::Lut(l) => l.resolve(stats),
+        }
+    }
+}
+
+impl LutTransfer {
+    fn resolve(&self, stats: &VolumeStats) -> Result<ResolvedTransfer> {
+        let [lo, hi] = match (self.domain, self.scale) {
+            (Some(d), _) => d,
+            (None, Scale::Log10) => [
+                stats.min_positive.ok_or_else(|| {
+                    Error::invalid("tf.scale", "log10 needs positive data values, and this volume has none; use symlog or give a domain")
+                })?,
+                stats.max,
+            ],
+            (None, _) => [stats.min, stats.max],
+        };
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Err(Error::invalid(
+                "tf.domain",
+                "expected finite bounds (the volume has no finite values?)",
+            ));
+        }
+        if let Scale::Log10 = self.scale {
+            if lo <= 0.0 {
+                return Err(Error::invalid(
+                    "tf.domain",
+                    format!("log10 needs a domain above 0, got [{lo}, {hi}]"),
+                ));
+            }
+        }
+        let scale = match self.scale {
+            Scale::Symlog { linthresh } if linthresh <= 0.0 || !linthresh.is_finite() => {
+                Scale::Symlog {
+                    linthresh: (1e-3 * lo.abs().max(hi.abs())).max(f64::MIN_POSITIVE),
+                }
+            }
+            s => s,
+        };
+        let (s_lo, s_hi) = (scale.apply(lo), scale.apply(hi));
+        // A constant volume gives a zero-width domain; every voxel then maps to t = 0.
+        let inv_range = if s_hi > s_lo {
+            1.0 / (s_hi - s_lo)
+        } else {
+            0.0
+        };
+        let mut mapping = ScaleMapping {
+            scale,
+            s_lo,
+            inv_range,
+            lens: None,
+        };
+        if let Some(lens) = self.lens {
+            if !(lens.factor.is_finite() && lens.factor >= 1.0) {
+                return Err(Error::invalid(
+                    "tf.lens.factor",
+                    format!("expected a finite value >= 1, got {}", lens.factor),
+                ));
+            }
+            if !(lens.lo < lens.hi) {
+                return Err(Error::invalid(
+                    "tf.lens",
+                    format!("expected lo < hi, got [{}, {}]", lens.lo, lens.hi),
+                ));
+            }
+            let ta = mapping.base(lens.lo);
+            let tb = mapping.base(lens.hi);
+            if tb > ta {
+                let width = (lens.factor * (tb - ta)).min(0.98_f64.max(tb - ta));
+                let k = if tb - ta < 1.0 {
+                    (1.0 - width) / (1.0 - (tb - ta))
+                } else {
+                    1.0
+                };
+                mapping.lens = Some([ta, tb, ta * k, ta * k + width]);
+            }
+        }
+        for (field, pts) in [
+            ("tf.emission", &self.emission),
+            ("tf.opacity", &self.opacity),
+        ] {
+            if pts.is_empty() || pts.iter().any(|p| !p[0].is_finite() || !p[1].is_finite()) {
+                return Err(Error::invalid(
+                    field,
+                    "expected at least one [t, log10 value] point with finite numbers",
+                ));
+            }
+            if pts.windows(2).any(|w| w[1][0] < w[0][0]) {
+                return Err(Error::invalid(field, "control points must be sorted by t"));
+            }
+            if pts.iter().any(|p| p[1] > 30.0 || p[1] < -30.0) {
+                return Err(Error::invalid(field, "log10 values must lie in [-30, 30]"));
+            }
+        }
+        let cmap = Colormap::by_name(&self.colormap)?;
+        let lut = (0..LUT_SIZE)
+            .map(|i| {
+                let t = i as f64 / (LUT_SIZE - 1) as f64;
+                if t < self.transparent_below {
+                    return [0.0; 4];
+                }
+                let e = 10f64.powf(piecewise(&self.emission, t));
+                let s = 10f64.powf(piecewise(&self.opacity, t));
+                let c = cmap.linear_rgb(t);
+                [c[0] * e, c[1] * e, c[2] * e, s]
+            })
+            .collect();
+        Ok(ResolvedTransfer {
+            kind: TfKind::Lut,
+            mapping,
+            lut,
+        })
+    }
+}
+
+/// Piecewise-linear interpolation through sorted control points, constant beyond the ends.
+pub fn piecewise(points: &[[f64; 2]], t: f64) -> f64 {
+    let first = points[0];
+    if t <= first[0] {
+        return first[1];
+    }
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if t <= b[0] {
+            let span = b[0] - a[0];
+            return if span > 0.0 {
+                a[1] + (b[1] - a[1]) * (t - a[0]) / span
+            } else {
+                b[1]
+            };
+        }
+    }
+    points[points.len() - 1][1]
+}
+
+/// The map from a data value to the table coordinate t in [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScaleMapping {
+    pub scale: Scale,
+    pub s_lo: f64,
+    pub inv_range: f64,
+    /// Lens as (ta, tb, out_a, out_b): [ta, tb] of the base coordinate maps onto [out_a, out_b].
+    pub lens: Option<[f64; 4]>,
+}
+
+impl ScaleMapping {
+    fn identity() -> Self {
+        ScaleMapping {
+            scale: Scale::Linear,
+            s_lo: 0.0,
+            inv_range: 1.0,
+            lens: None,
+        }
+    }
+
+    fn base(&self, v: f64) -> f64 {
+        ((self.scale.apply(v) - self.s_lo) * self.inv_range).clamp(0.0, 1.0)
+    }
+
+    pub fn map(&self, v: f64) -> f64 {
+        let t = self.base(v);
+        match self.lens {
+            None => t,
+            Some(l) => lens_map(t, l),
+        }
+    }
+
+    pub fn scale_code(&self) -> u32 {
+        self.scale.code()
+    }
+
+    pub fn linthresh(&self) -> f64 {
+        match self.scale {
+            Scale::Symlog { linthresh } => linthresh,
+            _ => 1.0,
+        }
+    }
+}
+
+fn lens_map(t: f64, [ta, tb, oa, ob]: [f64; 4]) -> f64 {
+    if t < ta {
+        if ta > 0.0 {
+            t * oa / ta
+        } else {
+            oa
+        }
+    } else if t <= tb {
+        oa + (t - ta) * (ob - oa) / (tb - ta)
+    } else if tb < 1.0 {
+        ob + (t - tb) * (1.0 - ob) / (1.0 - tb)
+    } else {
+        ob
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TfKind {
+    EmissionAbsorption { emission: f64, absorption: f64 },
+    Lut,
+}
+
+/// A transfer function with every number fixed: what the GPU uploads and the CPU reference uses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResolvedTransfer {
+    pub kind: TfKind,
+    pub mapping: ScaleMapping,
+    /// LUT_SIZE entries of (r·e, g·e, b·e, extinction) in linear light; empty for emission–absorption.
+    pub lut: Vec<[f64; 4]>,
+}
+
+impl ResolvedTransfer {
+    /// Emission (linear RGB per voxel length) and extinction (per voxel length) for a finite value.
+    pub fn eval(&self, v: f64) -> ([f64; 3], f64) {
+        match self.kind {
+            TfKind::EmissionAbsorption {
+                emission,
+                absorption,
+            } => {
+                let v = v.max(0.0);
+                ([emission * v; 3], absorption * v)
+            }
+            TfKind::Lut => {
+                let t = self.mapping.map(v);
+                let x = t * (LUT_SIZE - 1) as f64;
+                let i = (x.floor() as usize).min(LUT_SIZE - 2);
+                let f = x - i as f64;
+                let (a, b) = (self.lut[i], self.lut[i + 1]);
+                let l = |c: usize| a[c] + (b[c] - a[c]) * f;
+                ([l(0), l(1), l(2)], l(3))
+            }
+        }
+    }
+
+    /// The table rounded to f32, as the GPU holds it; the CPU reference evaluates the same numbers.
+    pub fn lut_f32(&self) -> Vec<[f32; 4]> {
+        self.lut.iter().map(|e| e.map(|v| v as f32)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stats(min: f64, max: f64) -> VolumeStats {
+        VolumeStats {
+            min,
+            max,
+            min_positive: Some(min.max(1e-30)),
+            min_abs_nonzero: Some(min.abs().max(1e-30)),
+            finite: 1,
+            non_finite: 0,
+        }
+    }
+
+    #[test]
+    fn log_scale_maps_decades_evenly() {
+        let tf = TransferFunction::Lut(LutTransfer {
+            scale: Scale::Log10,
+            domain: Some([1e-3, 1e2]),
+            ..Default::default()
+        });
+        let r = tf.resolve(&stats(0.0, 1.0)).unwrap();
+        assert!((r.mapping.map(1e-3) - 0.0).abs() < 1e-12);
+        assert!((r.mapping.map(1.0) - 0.6).abs() < 1e-12);
+        assert!((r.mapping.map(1e2) - 1.0).abs() < 1e-12);
+        // Zeros and negatives fall to the low end instead of producing NaN.
+        assert_eq!(r.mapping.map(0.0), 0.0);
+        assert_eq!(r.mapping.map(-5.0), 0.0);
+    }
+
+    #[test]
+    fn opacity_is_set_in_decades() {
+        let tf = TransferFunction::Lut(LutTransfer {
+            domain: Some([0.0, 1.0]),
+            opacity: vec![[0.0, -4.0], [1.0, 0.0]],
+            ..Default::default()
+        });
+        let r = tf.resolve(&stats(0.0, 1.0)).unwrap();
+        assert!((r.eval(0.0).1 - 1e-4).abs() < 1e-16);
+        assert!((r.eval(1.0).1 - 1.0).abs() < 1e-12);
+        // Halfway is the geometric mean: two decades down.
+        let mid = r.eval(0.5).1;
+        assert!((mid.log10() + 2.0).abs() < 1e-3, "{mid}");
+    }
+
+    #[test]
+    fn lens_magnifies_its_subrange_and_stays_monotonic() {
+        let tf = TransferFunction::Lut(LutTransfer {
+            domain: Some([0.0, 1.0]),
+            lens: Some(Lens {
+                lo: 0.4,
+                hi: 0.5,
+                factor: 4.0,
+            }),
+            ..Default::default()
+        });
+        let m = tf.resolve(&stats(0.0, 1.0)).unwrap().mapping;
+        assert!(((m.map(0.5) - m.map(0.4)) - 0.4).abs() < 1e-12);
+        let mut prev = -1.0;
+        for i in 0..=1000 {
+            let t = m.map(i as f64 / 1000.0);
+            assert!(t >= prev);
+            prev = t;
+        }
+        assert!((m.map(1.0) - 1.0).abs() < 1e-12 && m.map(0.0) == 0.0);
+    }
+
+    #[test]
+    fn symlog_is_odd_and_linear_near_zero() {
+        let s = Scale::Symlog { linthresh: 1e-3 };
+        assert!((s.apply(-2.0) + s.apply(2.0)).abs() < 1e-15);
+        assert!((s.apply(1e-9) - 1e-6 / std::f64::consts::LN_10).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_parameters_are_rejected() {
+        assert!(TransferFunction::emission_absorption(-1.0, 1.0).is_err());
+        let tf = TransferFunction::Lut(LutTransfer {
+            scale: Scale::Log10,
+            domain: Some([-1.0, 1.0]),
+            ..Default::default()
+        });
+        assert!(tf.resolve(&stats(0.0, 1.0)).is_err());
+        let tf = TransferFunction::Lut(LutTransfer {
+            colormap: "nope".into(),
+            ..Default::default()
+        });
+        assert!(tf
+            .resolve(&stats(0.0, 1.0))
+            .unwrap_err()
+            .to_string()
+            .contains("viridis"));
+    }
+}

@@ -1,0 +1,368 @@
+//! The scalar volume: a regular grid of cell-centred voxels with spacing, origin, name and units.
+//! A volume of n voxels with spacing s spans n·s along that axis, and voxel i samples the point
+//! origin + (i + 0.5)·s. Values are stored as f32 in x-fastest order, the layout of a C-ordered
+//! NumPy array of shape (nz, ny, nx); NaN and ±Inf mark missing values.
+
+use crate::error::{Error, Result};
+
+/// Axis-aligned bounding box in world units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+}
+
+impl Aabb {
+    pub fn size(&self) -> [f64; 3] {
+        [
+            self.hi[0] - self.lo[0],
+            self.hi[1] - self.lo[1],
+            self.hi[2] - self.lo[2],
+        ]
+    }
+
+    pub fn center(&self) -> [f64; 3] {
+        [
+            0.5 * (self.lo[0] + self.hi[0]),
+            0.5 * (self.lo[1] + self.hi[1]),
+            0.5 * (self.lo[2] + self.hi[2]),
+        ]
+    }
+
+    pub fn diagonal(&self) -> f64 {
+        let s = self.size();
+        (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
+    }
+
+    /// Parametric entry and exit of the ray o + t·d (slab method); `None` when it misses.
+    pub fn intersect(&self, o: [f64; 3], d: [f64; 3]) -> Option<(f64, f64)> {
+        let mut t0 = f64::NEG_INFINITY;
+        let mut t1 = f64::INFINITY;
+        for a in 0..3 {
+            let inv = 1.0 / d[a];
+            let ta = (self.lo[a] - o[a]) * inv;
+            let tb = (self.hi[a] - o[a]) * inv;
+            // A ray parallel to a slab and outside it gives NaN here; treat it as a miss.
+            let (near, far) = if ta <= tb { (ta, tb) } else { (tb, ta) };
+            if near.is_nan() || far.is_nan() {
+                if o[a] < self.lo[a] || o[a] > self.hi[a] {
+                    return None;
+                }
+                continue;
+            }
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+        }
+        (t1 > t0).then_some((t0, t1))
+    }
+}
+
+/// Summary statistics over the finite voxels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeStats {
+    pub min: f64,
+    pub max: f64,
+    /// Smallest strictly positive value, the natural lower end of a log scale.
+    pub min_positive: Option<f64>,
+    /// Smallest non-zero magnitude, the natural linear threshold of a symlog scale.
+    pub min_abs_nonzero: Option<f64>,
+    pub finite: usize,
+    pub non_finite: usize,
+}
+
+#[derive(Clone, Debug)]
+pub struct Volume {
+    pub name: String,
+    pub units: String,
+    /// Voxel counts (nx, ny, nz).
+    pub dims: [usize; 3],
+    /// Voxel size along x, y, z in world units.
+    pub spacing: [f64; 3],
+    /// World position of the volume's lower corner (not of the first voxel centre).
+    pub origin: [f64; 3],
+    pub data: Vec<f32>,
+}
+
+/// Largest voxel count per axis accepted anywhere; far beyond any file a user has, small enough
+/// that products cannot overflow.
+pub const MAX_DIM: usize = 1 << 16;
+
+impl Volume {
+    /// Builds a volume after checking dims, spacing and data length.
+    pub fn new(
+        name: impl Into<String>,
+        dims: [usize; 3],
+        spacing: [f64; 3],
+        origin: [f64; 3],
+        data: Vec<f32>,
+    ) -> Result<Self> {
+        check_dims(&dims, "dims")?;
+        for (a, s) in spacing.iter().enumerate() {
+            if !(s.is_finite() && *s > 0.0) {
+                return Err(Error::invalid(
+                    format!("spacing[{a}]"),
+                    format!("expected a finite value > 0, got {s}"),
+                ));
+            }
+        }
+        if origin.iter().any(|o| !o.is_finite()) {
+            return Err(Error::invalid("origin", "expected finite coordinates"));
+        }
+        let n = dims[0] * dims[1] * dims[2];
+        if data.len() != n {
+            return Err(Error::invalid(
+                "data",
+                format!(
+                    "expected {n} values for dims {}x{}x{}, got {}",
+                    dims[0],
+                    dims[1],
+                    dims[2],
+                    data.len()
+                ),
+            ));
+        }
+        Ok(Volume {
+            name: name.into(),
+            units: String::new(),
+            dims,
+            spacing,
+            origin,
+            data,
+        })
+    }
+
+    /// Builds a unit-spacing volume at the origin by evaluating `f(x, y, z)` at voxel centres.
+    pub fn from_fn(
+        name: &str,
+        dims: [usize; 3],
+        f: impl Fn(f64, f64, f64) -> f64 + Sync,
+    ) -> Result<Self> {
+        use rayon::prelude::*;
+        check_dims(&dims, "dims")?;
+        let [nx, ny, nz] = dims;
+        let mut data = vec![0f32; nx * ny * nz];
+        data.par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(k, slab)| {
+                for j in 0..ny {
+                    for i in 0..nx {
+                        slab[j * nx + i] = f(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) as f32;
+                    }
+                }
+            });
+        Volume::new(name, dims, [1.0; 3], [0.0; 3], data)
+    }
+
+    pub fn voxel_count(&self) -> usize {
+        self.dims[0] * self.dims[1] * self.dims[2]
+    }
+
+    pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        (k * self.dims[1] + j) * self.dims[0] + i
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        let mut hi = [0.0; 3];
+        for (a, h) in hi.iter_mut().enumerate() {
+            *h = self.origin[a] + self.dims[a] as f64 * self.spacing[a];
+        }
+        Aabb {
+            lo: self.origin,
+            hi,
+        }
+    }
+
+    /// The length of one "voxel" for step sizes and optical depths: the smallest spacing.
+    pub fn voxel_length(&self) -> f64 {
+        self.spacing.iter().cloned().fold(f64::INFINITY, f64::min)
+    }
+
+    pub fn stats(&self) -> VolumeStats {
+        use rayon::prelude::*;
+        let identity = || VolumeStats {
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            min_positive: None,
+            min_abs_nonzero: None,
+            finite: 0,
+            non_finite: 0,
+        };
+        let min_opt = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(x), Some(y)) => Some(x.min(y)),
+            (x, None) => x,
+            (None, y) => y,
+        };
+        self.data
+            .par_chunks(1 << 16)
+            .map(|chunk| {
+                let mut s = identity();
+                for &v in chunk {
+                    if !v.is_finite() {
+                        s.non_finite += 1;
+                        continue;
+                    }
+                    let v = v as f64;
+                    s.finite += 1;
+                    s.min = s.min.min(v);
+                    s.max = s.max.max(v);
+                    if v > 0.0 {
+                        s.min_positive = min_opt(s.min_positive, Some(v));
+                    }
+                    if v != 0.0 {
+                        s.min_abs_nonzero = min_opt(s.min_abs_nonzero, Some(v.abs()));
+                    }
+                }
+                s
+            })
+            .reduce(identity, |a, b| VolumeStats {
+                min: a.min.min(b.min),
+                max: a.max.max(b.max),
+                min_positive: min_opt(a.min_positive, b.min_positive),
+                min_abs_nonzero: min_opt(a.min_abs_nonzero, b.min_abs_nonzero),
+                finite: a.finite + b.finite,
+                non_finite: a.non_finite + b.non_finite,
+            })
+    }
+
+    /// Value at voxel (i, j, k) with indices clamped to the grid, as clamp-to-edge texturing does.
+    pub fn voxel_clamped(&self, i: i64, j: i64, k: i64) -> f32 {
+        let c = |v: i64, n: usize| v.clamp(0, n as i64 - 1) as usize;
+        self.data[self.index(c(i, self.dims[0]), c(j, self.dims[1]), c(k, self.dims[2]))]
+    }
+
+    /// Exact trilinear interpolation in f64 at world position `p`, cell-centred, clamp-to-edge.
+    /// Any non-finite voxel among the eight neighbours makes the sample non-finite (missing).
+    pub fn sample_trilinear(&self, p: [f64; 3]) -> f64 {
+        let mut base = [0i64; 3];
+        let mut frac = [0f64; 3];
+        for a in 0..3 {
+            let g = (p[a] - self.origin[a]) / self.spacing[a] - 0.5;
+            let f = g.floor();
+            base[a] = f as i64;
+            frac[a] = g - f;
+        }
+        let mut acc = 0.0;
+        for corner in 0..8 {
+            let di = corner & 1;
+            let dj = (corner >> 1) & 1;
+            let dk = (corner >> 2) & 1;
+            let w = (if di == 1 { frac[0] } else { 1.0 - frac[0] })
+                * (if dj == 1 { frac[1] } else { 1.0 - frac[1] })
+                * (if dk == 1 { frac[2] } else { 1.0 - frac[2] });
+            let v = self.voxel_clamped(
+                base[0] + di as i64,
+                base[1] + dj as i64,
+                base[2] + dk as i64,
+            ) as f64;
+            if !v.is_finite() {
+                return f64::NAN;
+            }
+            acc += w * v;
+        }
+        acc
+    }
+}
+
+/// Rejects zero or absurd dimensions, and volumes larger than the memory this machine has,
+/// before anything is allocated.
+pub fn check_dims(dims: &[usize], field: &str) -> Result<()> {
+    for (a, &n) in dims.iter().enumerate() {
+        if n == 0 || n > MAX_DIM {
+            return Err(Error::invalid(
+                field,
+                format!("axis {a} has {n} voxels; expected 1 to {MAX_DIM}"),
+            ));
+        }
+    }
+    let bytes = dims.iter().product::<usize>() as u64 * 4;
+    check_allocation(bytes, field)
+}
+
+/// Refuses an allocation that would exceed the memory currently available (Linux
+/// `/proc/meminfo`); elsewhere it allows everything.
+pub fn check_allocation(bytes: u64, what: &str) -> Result<()> {
+    if let Some(avail) = available_memory_bytes() {
+        if bytes > avail {
+            return Err(Error::invalid(
+                what,
+                format!(
+                    "needs {:.1} GiB but only {:.1} GiB of memory is available",
+                    bytes as f64 / (1u64 << 30) as f64,
+                    avail as f64 / (1u64 << 30) as f64
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn available_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_and_voxel_centres() {
+        let v = Volume::new(
+            "v",
+            [4, 2, 3],
+            [0.5, 1.0, 2.0],
+            [1.0, 0.0, -3.0],
+            vec![0.0; 24],
+        )
+        .unwrap();
+        let b = v.bounds();
+        assert_eq!(b.lo, [1.0, 0.0, -3.0]);
+        assert_eq!(b.hi, [3.0, 2.0, 3.0]);
+        assert_eq!(v.voxel_length(), 0.5);
+    }
+
+    #[test]
+    fn trilinear_reproduces_linear_fields_and_voxel_values() {
+        let v = Volume::from_fn("ramp", [5, 6, 7], |x, y, z| 2.0 * x - y + 0.5 * z).unwrap();
+        // At voxel centres it returns the voxel; between them, linear fields are exact.
+        assert!((v.sample_trilinear([2.5, 3.5, 4.5]) - (5.0 - 3.5 + 2.25)).abs() < 1e-12);
+        assert!((v.sample_trilinear([1.7, 2.2, 3.9]) - (3.4 - 2.2 + 1.95)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn refuses_zero_and_absurd_dims() {
+        assert!(Volume::new("v", [0, 1, 1], [1.0; 3], [0.0; 3], vec![]).is_err());
+        let err = check_dims(&[60000, 60000, 60000], "dims").unwrap_err();
+        assert!(err.to_string().contains("GiB"), "{err}");
+    }
+
+    #[test]
+    fn stats_skip_missing_values() {
+        let v = Volume::new(
+            "v",
+            [4, 1, 1],
+            [1.0; 3],
+            [0.0; 3],
+            vec![f32::NAN, -2.0, 1e-20, 5.0],
+        )
+        .unwrap();
+        let s = v.stats();
+        assert_eq!((s.min, s.max, s.non_finite, s.finite), (-2.0, 5.0, 1, 3));
+        assert_eq!(s.min_positive, Some(1e-20f32 as f64));
+    }
+
+    #[test]
+    fn ray_box_intersection() {
+        let b = Aabb {
+            lo: [0.0; 3],
+            hi: [2.0; 3],
+        };
+        assert_eq!(
+            b.intersect([1.0, 1.0, 5.0], [0.0, 0.0, -1.0]),
+            Some((3.0, 5.0))
+        );
+        assert_eq!(b.intersect([3.0, 1.0, 5.0], [0.0, 0.0, -1.0]), None);
+    }
+}

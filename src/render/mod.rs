@@ -1,0 +1,127 @@
+//! Renderers: the GPU volume ray caster and its f64 CPU reference, sharing one set of options so
+//! they trace the same rays through the same optical model.
+
+pub mod cpu_reference;
+pub mod volume;
+
+use crate::error::{Error, Result};
+use crate::model::{Camera, TransferFunction};
+
+/// How the volume is interpolated between voxel centres.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FilterMode {
+    /// Hardware trilinear where the adapter filters float32 textures, exact otherwise.
+    Auto,
+    /// The texture unit's trilinear filter (on many GPUs its weights have only 8 fractional bits).
+    Hardware,
+    /// Eight texel loads and f32 weights in the shader: the same numbers as the CPU reference.
+    Exact,
+}
+
+impl FilterMode {
+    pub fn parse(s: &str) -> Result<FilterMode> {
+        match s {
+            "auto" => Ok(FilterMode::Auto),
+            "hardware" => Ok(FilterMode::Hardware),
+            "exact" => Ok(FilterMode::Exact),
+            _ => Err(Error::invalid(
+                "filter",
+                format!("expected auto, hardware or exact, got {s:?}"),
+            )),
+        }
+    }
+}
+
+/// Everything a volume render depends on besides the volume.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumeRenderOptions {
+    pub width: u32,
+    pub height: u32,
+    pub camera: Camera,
+    pub tf: TransferFunction,
+    /// Distance between samples in voxels (the smallest spacing is one voxel).
+    pub step: f64,
+    /// Offset each ray's first sample by a per-pixel random fraction of a step.
+    pub jitter: bool,
+    pub seed: u32,
+    /// Rays stop once their transmittance falls below this (0 never stops early).
+    pub early_exit: f64,
+    /// Linear RGB seen through the volume.
+    pub background: [f64; 3],
+    pub filter: FilterMode,
+}
+
+/// Default early-ray-termination threshold on transmittance: what is left behind it can change
+/// a pixel by at most this fraction of the saturated emission.
+pub const DEFAULT_EARLY_EXIT: f64 = 1e-5;
+
+impl VolumeRenderOptions {
+    pub fn new(camera: Camera, tf: TransferFunction) -> Self {
+        VolumeRenderOptions {
+            width: 512,
+            height: 512,
+            camera,
+            tf,
+            step: 1.0,
+            jitter: false,
+            seed: 0,
+            early_exit: DEFAULT_EARLY_EXIT,
+            background: [0.0; 3],
+            filter: FilterMode::Auto,
+        }
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        for (f, v) in [("width", self.width), ("height", self.height)] {
+            if v == 0 || v > 16384 {
+                return Err(Error::invalid(
+                    f,
+                    format!("expected 1 to 16384 pixels, got {v}"),
+                ));
+            }
+        }
+        if !(self.step.is_finite() && self.step >= 1e-4 && self.step <= 1e4) {
+            return Err(Error::invalid(
+                "step",
+                format!(
+                    "expected a step in voxels within [1e-4, 1e4], got {}",
+                    self.step
+                ),
+            ));
+        }
+        if !(self.early_exit.is_finite() && (0.0..1.0).contains(&self.early_exit)) {
+            return Err(Error::invalid(
+                "early_exit",
+                format!(
+                    "expected a transmittance in [0, 1), got {}",
+                    self.early_exit
+                ),
+            ));
+        }
+        if self.background.iter().any(|c| !c.is_finite()) {
+            return Err(Error::invalid(
+                "background",
+                "expected three finite numbers",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Optical depth at which rays stop.
+    pub fn stop_optical_depth(&self) -> f64 {
+        if self.early_exit > 0.0 {
+            -self.early_exit.ln()
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// Per-pixel jitter fraction in [0, 1), identical to the shader's `hash_u32`.
+pub fn jitter_fraction(px: u32, py: u32, width: u32, height: u32, seed: u32) -> f64 {
+    let x = px.wrapping_add(width.wrapping_mul(py.wrapping_add(height.wrapping_mul(seed))));
+    let state = x.wrapping_mul(747796405).wrapping_add(2891336453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277803737);
+    let r = (word >> 22) ^ word;
+    (r >> 8) as f64 / 16777216.0
+}

@@ -1,0 +1,473 @@
+//! The GPU volume ray caster (`shaders/volume.wgsl`): uploads a volume once as an R32Float 3-D
+//! texture (in slabs, so no single copy exceeds buffer limits), builds one compute pipeline per
+//! needed specialisation — hardware or exact filtering, transfer-function kind, data scale,
+//! lens, jitter — and renders HDR images of any camera.
+
+use super::{FilterMode, VolumeRenderOptions};
+use crate::error::{Error, Result};
+use crate::gpu::{readback, shader, GpuContext};
+use crate::model::transfer::{TfKind, LUT_SIZE};
+use crate::model::{HdrImage, Projection, Volume, VolumeStats};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+/// Host mirror of `Params` in shaders/volume.wgsl — keep in sync.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct VolumeParams {
+    eye: [f32; 4],
+    forward: [f32; 4],
+    right: [f32; 4],
+    up: [f32; 4],
+    proj: [f32; 4],
+    box_size: [f32; 4],
+    background: [f32; 4],
+    scale: [f32; 4],
+    lens: [f32; 4],
+    tf: [f32; 4],
+    march: [f32; 4],
+    image: [u32; 4],
+}
+
+/// A volume resident on the GPU, with what the renderer needs to know about it.
+pub struct GpuVolume {
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    pub name: String,
+    pub dims: [usize; 3],
+    pub spacing: [f64; 3],
+    pub origin: [f64; 3],
+    pub stats: VolumeStats,
+}
+
+impl GpuVolume {
+    pub fn upload(ctx: &GpuContext, volume: &Volume) -> Result<GpuVolume> {
+        let limit = ctx.caps.max_texture_3d as usize;
+        if volume.dims.iter().any(|&d| d > limit) {
+            return Err(Error::Gpu(format!(
+                "volume {} is {}x{}x{} voxels but this adapter's 3-D textures hold at most {limit} per axis",
+                volume.name, volume.dims[0], volume.dims[1], volume.dims[2]
+            )));
+        }
+        let [nx, ny, nz] = volume.dims;
+        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("volume"),
+            size: wgpu::Extent3d {
+                width: nx as u32,
+                height: ny as u32,
+                depth_or_array_layers: nz as u32,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        // Slabs of whole z-slices, at most 64 MiB each, keep staging copies small.
+        let slice_bytes = nx * ny * 4;
+        let slab = ((64usize << 20) / slice_bytes).clamp(1, nz);
+        let mut z = 0;
+        while z < nz {
+            let count = slab.min(nz - z);
+            let data = &volume.data[z * nx * ny..(z + count) * nx * ny];
+            ctx.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d {
+                        x: 0,
+                        y: 0,
+                        z: z as u32,
+                    },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                bytemuck::cast_slice(data),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(nx as u32 * 4),
+                    rows_per_image: Some(ny as u32),
+                },
+                wgpu::Extent3d {
+                    width: nx as u32,
+                    height: ny as u32,
+                    depth_or_array_layers: count as u32,
+                },
+            );
+            ctx.queue.submit([]);
+            z += count;
+        }
+        ctx.wait()?;
+        let view = texture.create_view(&Default::default());
+        Ok(GpuVolume {
+            texture,
+            view,
+            name: volume.name.clone(),
+            dims: volume.dims,
+            spacing: volume.spacing,
+            origin: volume.origin,
+            stats: volume.stats(),
+        })
+    }
+
+    pub fn bytes(&self) -> u64 {
+        (self.texture.width() as u64)
+            * (self.texture.height() as u64)
+            * (self.texture.depth_or_array_layers() as u64)
+            * 4
+    }
+
+    fn size(&self) -> [f64; 3] {
+        [0, 1, 2].map(|a| self.dims[a] as f64 * self.spacing[a])
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct PipelineKey {
+    hw_filter: bool,
+    tf_kind: u32,
+    scale: u32,
+    lens: bool,
+    jitter: bool,
+}
+
+/// Builds pipelines on demand and renders volumes; one per GPU context.
+pub struct VolumeRenderer {
+    ctx: Arc<GpuContext>,
+    pipelines: Mutex<HashMap<PipelineKey, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
+    sampler: wgpu::Sampler,
+}
+
+/// What a render did, for benchmarks and `--stats`.
+#[derive(Clone, Debug, Default)]
+pub struct RenderTiming {
+    /// From submission to the image in host memory, seconds.
+    pub seconds: f64,
+    /// Whether the pipeline for this variant had to be compiled first.
+    pub compiled_pipeline: bool,
+}
+
+impl VolumeRenderer {
+    pub fn new(ctx: Arc<GpuContext>) -> Self {
+        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("volume trilinear"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            address_mode_w: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Nearest,
+            ..Default::default()
+        });
+        VolumeRenderer {
+            ctx,
+            pipelines: Mutex::new(HashMap::new()),
+            sampler,
+        }
+    }
+
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    fn pipeline(
+        &self,
+        key: PipelineKey,
+    ) -> Result<(Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>, bool)> {
+        let mut cache = self.pipelines.lock().expect("pipeline cache poisoned");
+        if let Some(p) = cache.get(&key) {
+            return Ok((p.clone(), false));
+        }
+        let defines: &[&str] = if key.hw_filter { &["HW_FILTER"] } else { &[] };
+        let src = shader::load("volume.wgsl", defines)?;
+        let device = &self.ctx.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("volume.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(src.into()),
+        });
+        let mut entries = vec![
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float {
+                        filterable: key.hw_filter,
+                    },
+                    view_dimension: wgpu::TextureViewDimension::D3,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 3,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::StorageTexture {
+                    access: wgpu::StorageTextureAccess::WriteOnly,
+                    format: wgpu::TextureFormat::Rgba32Float,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                },
+                count: None,
+            },
+        ];
+        if key.hw_filter {
+            entries.push(wgpu::BindGroupLayoutEntry {
+                binding: 4,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            });
+        }
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("volume"),
+            entries: &entries,
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("volume"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let constants = [
+            ("TF_KIND", key.tf_kind as f64),
+            ("SCALE_KIND", key.scale as f64),
+            ("USE_LENS", key.lens as u32 as f64),
+            ("JITTER", key.jitter as u32 as f64),
+        ];
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("volume ray cast"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("volume pipeline failed to build: {e}")));
+        }
+        let entry = Arc::new((pipeline, layout));
+        cache.insert(key, entry.clone());
+        Ok((entry, true))
+    }
+
+    /// Renders an HDR image of `volume`.
+    pub fn render(
+        &self,
+        volume: &GpuVolume,
+        opts: &VolumeRenderOptions,
+    ) -> Result<(HdrImage, RenderTiming)> {
+        opts.validate()?;
+        let max2d = self.ctx.caps.max_texture_2d;
+        if opts.width > max2d || opts.height > max2d {
+            return Err(Error::invalid(
+                "width",
+                format!("this adapter's images hold at most {max2d} pixels per side"),
+            ));
+        }
+        let tf = opts.tf.resolve(&volume.stats)?;
+        let hw_filter = match opts.filter {
+            FilterMode::Exact => false,
+            FilterMode::Auto => self.ctx.caps.float32_filterable,
+            FilterMode::Hardware => {
+                if !self.ctx.caps.float32_filterable {
+                    return Err(Error::invalid(
+                        "filter",
+                        "this adapter cannot filter float32 textures; use \"exact\" or \"auto\"",
+                    ));
+                }
+                true
+            }
+        };
+        let (tf_kind, tf_consts) = match tf.kind {
+            TfKind::Lut => (0u32, [0.0f32; 4]),
+            TfKind::EmissionAbsorption {
+                emission,
+                absorption,
+            } => (1, [emission as f32, absorption as f32, 0.0, 0.0]),
+        };
+        let key = PipelineKey {
+            hw_filter,
+            tf_kind,
+            scale: tf.mapping.scale_code(),
+            lens: tf.mapping.lens.is_some(),
+            jitter: opts.jitter,
+        };
+        let (pipeline, compiled) = self.pipeline(key)?;
+        let (pipeline, layout) = (&pipeline.0, &pipeline.1);
+
+        let cam = &opts.camera;
+        let lo = volume.origin;
+        let eye = [cam.eye[0] - lo[0], cam.eye[1] - lo[1], cam.eye[2] - lo[2]];
+        let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
+        let proj = match cam.projection {
+            Projection::Perspective { fov_y_deg } => {
+                let ty = (0.5 * fov_y_deg.to_radians()).tan();
+                [
+                    1.0,
+                    (ty * opts.width as f64 / opts.height as f64) as f32,
+                    ty as f32,
+                    0.0,
+                ]
+            }
+            Projection::Orthographic {
+                half_width,
+                half_height,
+            } => [0.0, half_width as f32, half_height as f32, 0.0],
+        };
+        let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+        let lens = tf.mapping.lens.unwrap_or([0.0, 1.0, 0.0, 1.0]);
+        let params = VolumeParams {
+            eye: v4(eye, 0.0),
+            forward: v4(cam.forward, 0.0),
+            right: v4(cam.right, 0.0),
+            up: v4(cam.up, 0.0),
+            proj,
+            box_size: v4(volume.size(), 0.0),
+            background: v4(opts.background, 0.0),
+            scale: [
+                tf.mapping.s_lo as f32,
+                tf.mapping.inv_range as f32,
+                tf.mapping.linthresh() as f32,
+                (LUT_SIZE - 1) as f32,
+            ],
+            lens: lens.map(|v| v as f32),
+            tf: tf_consts,
+            march: [
+                (opts.step * voxel) as f32,
+                (1.0 / voxel) as f32,
+                opts.stop_optical_depth().min(f32::MAX as f64) as f32,
+                0.0,
+            ],
+            image: [opts.width, opts.height, opts.seed, 0],
+        };
+        let device = &self.ctx.device;
+        use wgpu::util::DeviceExt;
+        let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("volume params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let lut: Vec<[f32; 4]> = if tf.lut.is_empty() {
+            vec![[0.0; 4]; 2]
+        } else {
+            tf.lut_f32()
+        };
+        let lut_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("transfer lut"),
+            contents: bytemuck::cast_slice(&lut),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let out = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("hdr image"),
+            size: wgpu::Extent3d {
+                width: opts.width,
+                height: opts.height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba32Float,
+            usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let out_view = out.create_view(&Default::default());
+        let mut entries = vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: params_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(&volume.view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: lut_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::TextureView(&out_view),
+            },
+        ];
+        if hw_filter {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 4,
+                resource: wgpu::BindingResource::Sampler(&self.sampler),
+            });
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("volume"),
+            layout,
+            entries: &entries,
+        });
+        let start = std::time::Instant::now();
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups(opts.width.div_ceil(8), opts.height.div_ceil(8), 1);
+        }
+        self.ctx.queue.submit([enc.finish()]);
+        let pixels = readback::read_rgba32f_texture(&self.ctx, &out)?;
+        let seconds = start.elapsed().as_secs_f64();
+        let mut image = HdrImage::from_pixels(opts.width, opts.height, pixels);
+        image.set_meta(
+            "dataset",
+            format!(
+                "{} {}x{}x{} spacing {:?}",
+                volume.name, volume.dims[0], volume.dims[1], volume.dims[2], volume.spacing
+            ),
+        );
+        image.set_meta("camera", cam.describe());
+        image.set_meta("tf", opts.tf.describe());
+        image.set_meta("precision", "f32");
+        image.set_meta(
+            "step",
+            format!(
+                "{} voxels{}",
+                opts.step,
+                if opts.jitter { ", jittered" } else { "" }
+            ),
+        );
+        image.set_meta(
+            "filter",
+            if hw_filter {
+                "hardware trilinear"
+            } else {
+                "exact trilinear"
+            },
+        );
+        image.set_meta("adapter", self.ctx.describe());
+        Ok((
+            image,
+            RenderTiming {
+                seconds,
+                compiled_pipeline: compiled,
+            },
+        ))
+    }
+}

@@ -1,0 +1,5 @@
+//! Integration tests, one binary with a module per area. GPU tests run on the default adapter
+//! (lavapipe in CI) and, where marked, on the GL fallback too.
+
+mod common;
+mod volume_render;
