@@ -35,7 +35,11 @@ override JITTER: bool = false;
 
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var volume_tex: texture_3d<f32>;
+#if HW_FILTER
+@group(0) @binding(2) var lut_tex: texture_1d<f32>;
+#else
 @group(0) @binding(2) var<storage, read> lut: array<vec4<f32>>;
+#endif
 @group(0) @binding(3) var out_image: texture_storage_2d<rgba32float, write>;
 #if HW_FILTER
 @group(0) @binding(4) var volume_sampler: sampler;
@@ -99,9 +103,15 @@ fn transfer(v: f32) -> vec4<f32> {
         let c = max(v, 0.0);
         return vec4<f32>(vec3<f32>(P.tf.x * c), P.tf.y * c);
     }
+#if HW_FILTER
+    // Texel centres sit at (i + 0.5) / N: map t in [0, 1] onto the first and last centres.
+    let n = P.scale.w + 1.0;
+    return textureSampleLevel(lut_tex, volume_sampler, (scaled(v) * P.scale.w + 0.5) / n, 0.0);
+#else
     let x = scaled(v) * P.scale.w;
     let i = min(u32(x), u32(P.scale.w) - 1u);
     return mix(lut[i], lut[i + 1u], x - f32(i));
+#endif
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -117,6 +127,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let t_enter = max(hit.x, 0.0);
     let t_exit = hit.y;
     var tau = 0.0;
+    var transmittance = 1.0;
     var color = vec3<f32>(0.0);
     if (t_exit > t_enter) {
         let ds = P.march.x;
@@ -142,12 +153,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let len = (tb - ta) * voxels_per_unit;
             ta = tb;
             let v = sample_volume(uvw0 + duvw * mid);
-            if (!is_finite_f32(v)) {
-                continue;
-            }
-            let ea = transfer(v);
+            // Missing values (NaN/Inf nearby) emit and absorb nothing; a select rather than a
+            // branch keeps the SIMD lanes of CPU rasterizers together.
+            let ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
             let x = ea.a * len;
-            color += exp(-tau) * ea.rgb * (len * escape_fraction(x));
+            // One exponential per step: the segment's absorbed fraction gives both its escape
+            // fraction and the transmittance update. The optical depth is still accumulated
+            // separately, for alpha and for the stopping test.
+            let absorbed = one_minus_exp_neg(x);
+            let escape = select(1.0 - x * (0.5 - x * (0.16666667 - x * 0.041666668)), absorbed / x, x >= 0.03);
+            color += transmittance * ea.rgb * (len * escape);
+            transmittance *= 1.0 - absorbed;
             tau += x;
             if (tau > stop_tau) {
                 break;

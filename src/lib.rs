@@ -6,11 +6,14 @@
 //! Dependency direction: `model` and `datasets` know nothing of the GPU; `gpu` and `render` are
 //! the only users of wgpu; `script` is the only user of Rhai.
 
+pub mod bench;
 pub mod datasets;
 pub mod error;
 pub mod gpu;
 pub mod io;
 pub mod model;
 pub mod render;
+pub mod script;
+pub mod tonemap;
 
 pub use error::{Error, Result};

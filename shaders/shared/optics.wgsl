@@ -10,15 +10,6 @@ fn one_minus_exp_neg(x: f32) -> f32 {
     return 1.0 - exp(-x);
 }
 
-// (1 - exp(-x)) / x: the share of a homogeneous segment's emission that escapes it; 1 as x -> 0.
-// With it a segment contributes exactly e/a (1 - exp(-a L)), whatever its length.
-fn escape_fraction(x: f32) -> f32 {
-    if (x < 0.03) {
-        return 1.0 - x * (0.5 - x * (0.16666667 - x * 0.041666668));
-    }
-    return (1.0 - exp(-x)) / x;
-}
-
 // Finite test on the bit pattern: compilers may fold `v != v` away, a bit test they cannot.
 fn is_finite_f32(v: f32) -> bool {
     return (bitcast<u32>(v) & 0x7f800000u) != 0x7f800000u;

@@ -1,6 +1,7 @@
-// Durand & Dorsey 2002 fast bilateral tone mapping, as an exact windowed bilateral filter (no
+// Durand & Dorsey 2002 fast bilateral tone mapping, as a direct windowed bilateral filter (no
 // piecewise-linear acceleration) so that it matches the CPU reference: log10 luminance l is
-// filtered over a (2 radius + 1)^2 window, radius = ceil(2 sigma_s) (params.rs
+// filtered over the taps at multiples of tap_stride (params.rs `bilateral_stride`: 1 up to
+// sigma_s = 8 px, then about sigma_s / 4) within radius = ceil(2 sigma_s) (params.rs
 // `bilateral_radius`), with weights exp(-d^2 / 2 sigma_s^2) exp(-(l_q - l_p)^2 / 2 sigma_r^2);
 // missing and black pixels have weight 0. The base B is compressed by
 // c = min(log10(contrast) / (max B - min B), 1) with max B mapped to 1, the detail l - B kept:
@@ -15,7 +16,7 @@
 //
 // Bindings (group 0):
 //   @binding(0)  params      uniform    ToneMapParams (sigma_spatial_px, sigma_range, radius,
-//                                       contrast_log10, exposure-independent)
+//                                       tap_stride, contrast_log10; exposure cancels out)
 //   @binding(1)  image       storage, read        array<vec4<f32>>  (bilateral, apply)
 //   @binding(2)  output      storage, read_write  array<vec4<f32>>  (apply)
 //   @binding(6)  partials    storage, read_write  array<vec4<f32>>  (unused, count, max B, min B)
@@ -30,6 +31,7 @@ struct ToneMapParams {
     ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
     sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
     pass_index: u32, sigma: f32, radius: u32, direction: u32,
+    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
 }
 
 const WORKGROUP: u32 = 256u;
@@ -83,16 +85,17 @@ fn bilateral(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     let x = i32(i % params.width);
     let y = i32(i / params.width);
     let r = i32(params.radius);
+    let stride = i32(max(params.tap_stride, 1u));
     let inv_two_var_s = 1.0 / (2.0 * params.sigma_spatial_px * params.sigma_spatial_px);
     let inv_two_var_r = 1.0 / (2.0 * params.sigma_range * params.sigma_range);
     var num = 0.0;
     var den = 0.0;
-    for (var dy = -r; dy <= r; dy = dy + 1) {
+    for (var dy = -(r / stride) * stride; dy <= r; dy = dy + stride) {
         let sy = y + dy;
         if sy < 0 || sy >= i32(params.height) {
             continue;
         }
-        for (var dx = -r; dx <= r; dx = dx + 1) {
+        for (var dx = -(r / stride) * stride; dx <= r; dx = dx + stride) {
             let sx = x + dx;
             if sx < 0 || sx >= i32(params.width) {
                 continue;
@@ -162,15 +165,18 @@ fn range_finish(@builtin(local_invocation_index) local: u32) {
 fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
     var ratio = colour / y;
     if params.saturation != 1.0 {
-        let powered = pow(max(ratio, vec3<f32>(1.0e-30)), vec3<f32>(params.saturation));
+        let powered = pow(ratio, vec3<f32>(params.saturation));
         ratio = select(powered, vec3<f32>(0.0), ratio <= vec3<f32>(0.0));
         if params.saturation == 0.0 {
             ratio = vec3<f32>(1.0);
         }
     }
     let v = clamp(ratio * ld + params.offset, vec3<f32>(0.0), vec3<f32>(1.0));
-    return select(pow(max(v, vec3<f32>(1.0e-30)), vec3<f32>(params.inv_gamma)), vec3<f32>(0.0),
-        v <= vec3<f32>(0.0));
+    if params.inv_gamma == 1.0 {
+        return v;
+    }
+    // The select discards pow's indeterminate value at 0.
+    return select(pow(v, vec3<f32>(params.inv_gamma)), vec3<f32>(0.0), v <= vec3<f32>(0.0));
 }
 
 @compute @workgroup_size(256)

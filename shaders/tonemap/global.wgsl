@@ -26,6 +26,7 @@ struct ToneMapParams {
     ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
     sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
     pass_index: u32, sigma: f32, radius: u32, direction: u32,
+    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
 }
 
 struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
@@ -116,20 +117,23 @@ fn display_luminance(log_lw: f32) -> f32 {
     }
 }
 
-// (C / L_w)^s * L_d, + offset, clamped, ^(1 / gamma). pow(0, y) is undefined in WGSL, hence
-// the selects.
+// (C / L_w)^s * L_d, + offset, clamped, ^(1 / gamma). pow(0, y) is indeterminate in WGSL,
+// hence the selects.
 fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
     var ratio = colour / y;
     if params.saturation != 1.0 {
-        let powered = pow(max(ratio, vec3<f32>(1.0e-30)), vec3<f32>(params.saturation));
+        let powered = pow(ratio, vec3<f32>(params.saturation));
         ratio = select(powered, vec3<f32>(0.0), ratio <= vec3<f32>(0.0));
         if params.saturation == 0.0 {
             ratio = vec3<f32>(1.0);
         }
     }
     let v = clamp(ratio * ld + params.offset, vec3<f32>(0.0), vec3<f32>(1.0));
-    return select(pow(max(v, vec3<f32>(1.0e-30)), vec3<f32>(params.inv_gamma)), vec3<f32>(0.0),
-        v <= vec3<f32>(0.0));
+    if params.inv_gamma == 1.0 {
+        return v;
+    }
+    // The select discards pow's indeterminate value at 0.
+    return select(pow(v, vec3<f32>(params.inv_gamma)), vec3<f32>(0.0), v <= vec3<f32>(0.0));
 }
 
 @compute @workgroup_size(256)

@@ -10,7 +10,7 @@
 //   finish_stats   dispatch (1, 1, 1); combines arrayLength(&partials) partials into `stats`.
 //
 // Bindings (group 0):
-//   @binding(0) params    uniform    ToneMapParams  (width, height, exposure_ev are read)
+//   @binding(0) params    uniform    ToneMapParams  (partial_stats: width, height, exposure_ev)
 //   @binding(1) image     storage, read        array<vec4<f32>>  (partial_stats)
 //   @binding(3) stats     storage, read_write  LuminanceStats    (finish_stats)
 //   @binding(6) partials  storage, read_write  array<vec4<f32>>, exactly G elements:
@@ -23,6 +23,7 @@ struct ToneMapParams {
     ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
     sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
     pass_index: u32, sigma: f32, radius: u32, direction: u32,
+    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
 }
 
 struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }

@@ -35,6 +35,7 @@ struct ToneMapParams {
     ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
     sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
     pass_index: u32, sigma: f32, radius: u32, direction: u32,
+    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
 }
 
 struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
@@ -145,15 +146,18 @@ fn select_scale(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workg
 fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
     var ratio = colour / y;
     if params.saturation != 1.0 {
-        let powered = pow(max(ratio, vec3<f32>(1.0e-30)), vec3<f32>(params.saturation));
+        let powered = pow(ratio, vec3<f32>(params.saturation));
         ratio = select(powered, vec3<f32>(0.0), ratio <= vec3<f32>(0.0));
         if params.saturation == 0.0 {
             ratio = vec3<f32>(1.0);
         }
     }
     let v = clamp(ratio * ld + params.offset, vec3<f32>(0.0), vec3<f32>(1.0));
-    return select(pow(max(v, vec3<f32>(1.0e-30)), vec3<f32>(params.inv_gamma)), vec3<f32>(0.0),
-        v <= vec3<f32>(0.0));
+    if params.inv_gamma == 1.0 {
+        return v;
+    }
+    // The select discards pow's indeterminate value at 0.
+    return select(pow(v, vec3<f32>(params.inv_gamma)), vec3<f32>(0.0), v <= vec3<f32>(0.0));
 }
 
 @compute @workgroup_size(256)

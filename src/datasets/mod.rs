@@ -2,6 +2,9 @@
 //! datasets work lands, the generators of the paper's case studies. `load_volume` picks the
 //! reader from the file name.
 
+pub mod cache;
+pub mod generate;
+pub mod info;
 pub mod mantle;
 pub mod netcdf;
 pub mod nhdr;
@@ -14,9 +17,21 @@ use crate::error::{Error, Result};
 use crate::model::Volume;
 use std::path::Path;
 
-/// Loads a scalar volume, choosing the reader by extension: `.npy` (shape (nz, ny, nx)),
-/// `.nhdr`/`.nrrd`.
+/// Loads a scalar volume, choosing the reader by extension; see [`load_volume_var`].
 pub fn load_volume(path: &Path) -> Result<Volume> {
+    load_volume_var(path, None)
+}
+
+/// Loads a scalar volume, choosing the reader by extension: `.npy` (shape (nz, ny, nx)),
+/// `.npz` (the array `var`, else the largest 3-D one), `.nc` (the variable `var`, else the first
+/// 3-D data variable; dimensions (z, y, x), leading length-1 dimensions such as a single time
+/// step are dropped), `.vti`, `.nhdr`/`.nrrd`. For NetCDF, an axis whose coordinate variable is
+/// evenly spaced (within 1e-5 of its mean step) gets that spacing and the origin
+/// `first centre - spacing / 2`, since values are cell centred; a decreasing coordinate is
+/// flipped so that the volume runs in increasing coordinate; an axis without a coordinate
+/// variable, or an unevenly spaced one, is indexed (spacing 1, origin 0). Units come from the
+/// variable's `units` attribute.
+pub fn load_volume_var(path: &Path, var: Option<&str>) -> Result<Volume> {
     if !path.exists() {
         return Err(Error::io(
             path,
@@ -25,10 +40,25 @@ pub fn load_volume(path: &Path) -> Result<Volume> {
     }
     match crate::io::extension(path).as_str() {
         "npy" => volume_from_npy(path),
+        "npz" => volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None]),
+        "nc" | "nc4" | "cdf" | "netcdf" => volume_from_netcdf(path, var),
+        "vti" => {
+            let vti = vti::read_vti(path)?;
+            if let Some(wanted) = var.filter(|w| *w != vti.name) {
+                return Err(Error::format(
+                    path,
+                    format!("no array '{wanted}'; the file has: {}", vti.name),
+                ));
+            }
+            Volume::new(vti.name, vti.dims, vti.spacing, vti.origin, vti.data)
+                .map_err(|e| Error::format(path, e.to_string()))
+        }
         "nhdr" | "nrrd" => nhdr::read_nrrd(path),
         other => Err(Error::format(
             path,
-            format!("unknown volume format {other:?}; expected .npy, .nhdr or .nrrd"),
+            format!(
+                "unknown volume format {other:?}; expected .npy, .npz, .nc, .vti, .nhdr or .nrrd"
+            ),
         )),
     }
 }
@@ -52,4 +82,479 @@ fn volume_from_npy(path: &Path) -> Result<Volume> {
         .unwrap_or("volume");
     Volume::new(name, dims, [1.0; 3], [0.0; 3], arr.data)
         .map_err(|e| Error::format(path, e.to_string()))
+}
+
+/// A 2-D field for the surface renderer: `(shape [ny, nx], values in C order (x fastest),
+/// coordinates (x, y) when the file has them)`. `.npy`: the array; `.npz`: the array `var`, else
+/// the largest 2-D one, with coordinates from arrays named `x`/`lon`/`longitude` and
+/// `y`/`lat`/`latitude` of matching lengths; `.nc`: the variable `var`, else the first 2-D data
+/// variable, with its dimensions' coordinate variables. Leading length-1 dimensions are dropped.
+/// Coordinates are returned as stored (they may decrease). NaN marks missing values.
+#[allow(clippy::type_complexity)]
+pub fn load_grid_arrays(
+    path: &Path,
+    var: Option<&str>,
+) -> Result<(Vec<usize>, Vec<f64>, Option<(Vec<f64>, Vec<f64>)>)> {
+    let grid = read_grid(path, var)?;
+    let coords = match (grid.x, grid.y) {
+        (Some(x), Some(y)) => Some((x.values, y.values)),
+        _ => None,
+    };
+    Ok((grid.shape.to_vec(), grid.data, coords))
+}
+
+/// One coordinate axis of a grid file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridAxis {
+    pub name: String,
+    pub units: Option<String>,
+    pub values: Vec<f64>,
+}
+
+/// A 2-D field with its metadata, as [`load_grid_arrays`] reads it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridFile {
+    pub name: String,
+    pub units: Option<String>,
+    /// `[ny, nx]`, x fastest.
+    pub shape: [usize; 2],
+    pub data: Vec<f64>,
+    pub x: Option<GridAxis>,
+    pub y: Option<GridAxis>,
+}
+
+/// [`load_grid_arrays`] with the names and units of the variable and its coordinates.
+pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
+    let array = read_array(path, var, Some(2))?;
+    let [ny, nx] = [array.shape[0], array.shape[1]];
+    let (x, y) = match crate::io::extension(path).as_str() {
+        "npz" => {
+            let find = |names: [&str; 3], len: usize| -> Result<Option<GridAxis>> {
+                let listed = list_arrays(path)?;
+                for name in names {
+                    if listed.iter().any(|a| a.name == name && a.shape == [len]) {
+                        let axis = read_array(path, Some(name), Some(1))?;
+                        return Ok(Some(GridAxis {
+                            name: name.to_string(),
+                            units: None,
+                            values: axis.data,
+                        }));
+                    }
+                }
+                Ok(None)
+            };
+            (
+                find(["x", "lon", "longitude"], nx)?,
+                find(["y", "lat", "latitude"], ny)?,
+            )
+        }
+        "nc" | "nc4" | "cdf" | "netcdf" => {
+            let axis = |dim: &str| -> Result<Option<GridAxis>> {
+                Ok(match netcdf::read_coordinate(path, dim)? {
+                    Some(values) => Some(GridAxis {
+                        name: dim.to_string(),
+                        units: netcdf::read_variable(path, dim)?.units,
+                        values,
+                    }),
+                    None => None,
+                })
+            };
+            (axis(&array.dims[1])?, axis(&array.dims[0])?)
+        }
+        _ => (None, None),
+    };
+    Ok(GridFile {
+        name: array.name,
+        units: array.units,
+        shape: [ny, nx],
+        data: array.data,
+        x,
+        y,
+    })
+}
+
+/// Name, shape and on-disk type of one array or variable in a file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArrayListing {
+    pub name: String,
+    pub shape: Vec<usize>,
+    pub dtype: String,
+    /// A NetCDF coordinate variable (1-D, named like its dimension).
+    pub is_coordinate: bool,
+}
+
+/// One array read in full, values converted to f64 (C order), NaN for missing values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArrayData {
+    pub name: String,
+    /// Dimension names (NetCDF); `dim0`, `dim1`, ... elsewhere.
+    pub dims: Vec<String>,
+    pub shape: Vec<usize>,
+    pub dtype: String,
+    pub units: Option<String>,
+    pub data: Vec<f64>,
+    /// Values the file marks as missing (`_FillValue`, `missing_value`, outside `valid_range`),
+    /// already turned into NaN; 0 for formats without such a convention.
+    pub fill_count: usize,
+}
+
+/// The arrays a file holds: every variable of a NetCDF file, every member of an `.npz`, the one
+/// array of `.npy`, `.vti`, `.nhdr`/`.nrrd` files.
+pub fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
+    match crate::io::extension(path).as_str() {
+        "npz" => {
+            let mut archive = open_npz(path)?;
+            let names: Vec<String> = archive.array_names().map(str::to_string).collect();
+            let mut listed = Vec::with_capacity(names.len());
+            for name in names {
+                let npy = archive
+                    .by_name(&name)
+                    .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?
+                    .ok_or_else(|| Error::format(path, format!("array '{name}' vanished")))?;
+                listed.push(ArrayListing {
+                    shape: npy.shape().iter().map(|&s| s as usize).collect(),
+                    dtype: npy.dtype().descr(),
+                    is_coordinate: false,
+                    name,
+                });
+            }
+            Ok(listed)
+        }
+        "nc" | "nc4" | "cdf" | "netcdf" => {
+            let file = netcdf_reader::NcFile::open(path)
+                .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+            let vars = file
+                .variables()
+                .map_err(|e| Error::format(path, e.to_string()))?;
+            Ok(vars
+                .iter()
+                .map(|v| ArrayListing {
+                    name: v.name().to_string(),
+                    shape: v.shape().iter().map(|&s| s as usize).collect(),
+                    dtype: format!("{:?}", v.dtype()).to_lowercase(),
+                    is_coordinate: v.is_coordinate_variable(),
+                })
+                .collect())
+        }
+        _ => {
+            let array = read_array(path, None, None)?;
+            Ok(vec![ArrayListing {
+                name: array.name,
+                shape: array.shape,
+                dtype: array.dtype,
+                is_coordinate: false,
+            }])
+        }
+    }
+}
+
+/// Reads one array. `var` picks it by name (an error lists the available ones); without it an
+/// `.npz` gives its largest array and a NetCDF file its first numeric variable that is not a
+/// coordinate. With `rank`, leading length-1 dimensions are dropped down to that rank and an
+/// array of another rank is refused (or, without `var`, skipped).
+pub fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+    if !path.exists() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        ));
+    }
+    let fits = |shape: &[usize]| rank.is_none_or(|r| squeezed(shape, r).len() == r);
+    let rank_name = rank.map(|r| format!("{r}-D ")).unwrap_or_default();
+    let ext = crate::io::extension(path);
+    let mut array = match ext.as_str() {
+        "npy" => {
+            let npy = npy::read_npy::<f64>(path)?;
+            let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("array");
+            plain_array(name, npy.shape, npy.dtype, npy.data)
+        }
+        "npz" => {
+            let listed = list_arrays(path)?;
+            let name = match var {
+                Some(v) => v.to_string(),
+                None => listed
+                    .iter()
+                    .filter(|a| fits(&a.shape))
+                    .max_by_key(|a| a.shape.iter().product::<usize>())
+                    .map(|a| a.name.clone())
+                    .ok_or_else(|| no_array(path, &rank_name, &listed))?,
+            };
+            if !listed.iter().any(|a| a.name == name) {
+                return Err(missing_array(path, &name, &listed));
+            }
+            let mut archive = open_npz(path)?;
+            let member = npyz::npz::file_name_from_array_name(&name);
+            let entry = archive
+                .zip_archive()
+                .by_name(&member)
+                .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
+            let size = entry.size();
+            let npy = npy::read_npy_from::<f64, _>(entry, size, path)?;
+            plain_array(&name, npy.shape, npy.dtype, npy.data)
+        }
+        "nc" | "nc4" | "cdf" | "netcdf" => {
+            let listed = list_arrays(path)?;
+            let numeric = |a: &&ArrayListing| a.dtype != "char" && a.dtype != "string";
+            let name = match var {
+                Some(v) => v.to_string(),
+                None => listed
+                    .iter()
+                    .filter(numeric)
+                    .find(|a| !a.is_coordinate && fits(&a.shape))
+                    .map(|a| a.name.clone())
+                    .ok_or_else(|| no_array(path, &rank_name, &listed))?,
+            };
+            let listing = listed
+                .iter()
+                .find(|a| a.name == name)
+                .ok_or_else(|| missing_array(path, &name, &listed))?;
+            let variable = netcdf::read_variable(path, &name)?;
+            let file = netcdf_reader::NcFile::open(path)
+                .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+            // Missing values become NaN when decoded; NaN already stored raw is not a fill.
+            let raw_nan = file
+                .read_variable_as_f64(&name)
+                .map_err(|e| Error::format(path, e.to_string()))?
+                .iter()
+                .filter(|v| v.is_nan())
+                .count();
+            let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
+            ArrayData {
+                name,
+                dims: variable.dims.iter().map(|(d, _)| d.clone()).collect(),
+                shape: variable.dims.iter().map(|(_, n)| *n).collect(),
+                dtype: listing.dtype.clone(),
+                units: variable.units,
+                fill_count: decoded_nan.saturating_sub(raw_nan),
+                data: variable.data,
+            }
+        }
+        "vti" | "nhdr" | "nrrd" => {
+            let volume = if ext == "vti" {
+                let v = vti::read_vti(path)?;
+                Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
+                    .map_err(|e| Error::format(path, e.to_string()))?
+            } else {
+                nhdr::read_nrrd(path)?
+            };
+            if let Some(wanted) = var.filter(|w| *w != volume.name) {
+                return Err(Error::format(
+                    path,
+                    format!("no array '{wanted}'; the file has: {}", volume.name),
+                ));
+            }
+            let [nx, ny, nz] = volume.dims;
+            let mut array = plain_array(
+                &volume.name,
+                vec![nz, ny, nx],
+                "float32 (as loaded)".to_string(),
+                volume.data.iter().map(|&v| v as f64).collect(),
+            );
+            array.dims = vec!["z".into(), "y".into(), "x".into()];
+            array.units = (!volume.units.is_empty()).then_some(volume.units);
+            array
+        }
+        other => {
+            return Err(Error::format(
+                path,
+                format!(
+                "unknown array format {other:?}; expected .npy, .npz, .nc, .vti, .nhdr or .nrrd"
+            ),
+            ))
+        }
+    };
+    if let Some(r) = rank {
+        let kept = squeezed(&array.shape, r).len();
+        if kept != r {
+            return Err(Error::format(
+                path,
+                format!(
+                    "'{}' has shape {:?}; expected a {r}-D array",
+                    array.name, array.shape
+                ),
+            ));
+        }
+        let dropped = array.shape.len() - kept;
+        array.shape.drain(..dropped);
+        array.dims.drain(..dropped);
+    }
+    Ok(array)
+}
+
+/// The shape without leading length-1 dimensions beyond `rank` (a single time step, say).
+fn squeezed(shape: &[usize], rank: usize) -> &[usize] {
+    let mut start = 0;
+    while shape.len() - start > rank && shape[start] == 1 {
+        start += 1;
+    }
+    &shape[start..]
+}
+
+fn plain_array(name: &str, shape: Vec<usize>, dtype: String, data: Vec<f64>) -> ArrayData {
+    ArrayData {
+        name: name.to_string(),
+        dims: (0..shape.len()).map(|a| format!("dim{a}")).collect(),
+        shape,
+        dtype,
+        units: None,
+        data,
+        fill_count: 0,
+    }
+}
+
+fn open_npz(path: &Path) -> Result<npyz::npz::NpzArchive<std::io::BufReader<std::fs::File>>> {
+    npyz::npz::NpzArchive::open(path)
+        .map_err(|e| Error::format(path, format!("not a readable .npz archive: {e}")))
+}
+
+fn describe(listed: &[ArrayListing]) -> String {
+    if listed.is_empty() {
+        return "no arrays".to_string();
+    }
+    listed
+        .iter()
+        .map(|a| format!("{} {:?}", a.name, a.shape))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn missing_array(path: &Path, name: &str, listed: &[ArrayListing]) -> Error {
+    Error::format(
+        path,
+        format!("no variable '{name}'; the file has: {}", describe(listed)),
+    )
+}
+
+fn no_array(path: &Path, rank_name: &str, listed: &[ArrayListing]) -> Error {
+    Error::format(
+        path,
+        format!(
+            "no {rank_name}data array to pick; name one with --var; the file has: {}",
+            describe(listed)
+        ),
+    )
+}
+
+fn volume_from_netcdf(path: &Path, var: Option<&str>) -> Result<Volume> {
+    let array = read_array(path, var, Some(3))?;
+    let mut axes = [None, None, None];
+    // Volume axes are x, y, z; the array's dimensions run z, y, x.
+    for (axis, dim) in axes.iter_mut().zip(array.dims.iter().rev()) {
+        *axis = netcdf::read_coordinate(path, dim)?;
+    }
+    volume_from_array(path, array, axes)
+}
+
+/// Builds a volume from a 3-D array (z, y, x) and optional cell-centre coordinates per volume
+/// axis (x, y, z).
+fn volume_from_array(path: &Path, array: ArrayData, axes: [Option<Vec<f64>>; 3]) -> Result<Volume> {
+    let dims = [array.shape[2], array.shape[1], array.shape[0]];
+    crate::model::volume::check_dims(&dims, &format!("{}: shape", path.display()))?;
+    let mut data: Vec<f32> = array.data.iter().map(|&v| v as f32).collect();
+    let mut spacing = [1.0; 3];
+    let mut origin = [0.0; 3];
+    for (a, coord) in axes.iter().enumerate() {
+        let Some(values) = coord.as_deref() else {
+            continue;
+        };
+        match values {
+            [single] => origin[a] = single - 0.5,
+            [first, .., last] => {
+                let step = (last - first) / (values.len() - 1) as f64;
+                let even = values
+                    .windows(2)
+                    .all(|w| ((w[1] - w[0]) - step).abs() <= 1e-5 * step.abs());
+                if !even {
+                    continue;
+                }
+                spacing[a] = step.abs();
+                origin[a] = first.min(*last) - 0.5 * step.abs();
+                if step < 0.0 {
+                    flip_axis(&mut data, dims, a);
+                }
+            }
+            [] => {}
+        }
+    }
+    let mut volume = Volume::new(array.name, dims, spacing, origin, data)
+        .map_err(|e| Error::format(path, e.to_string()))?;
+    volume.units = array.units.unwrap_or_default();
+    Ok(volume)
+}
+
+/// Reverses the order of the voxels along volume axis `axis` (0 = x, 1 = y, 2 = z).
+fn flip_axis(data: &mut [f32], dims: [usize; 3], axis: usize) {
+    let [nx, ny, nz] = dims;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let (ti, tj, tk) = match axis {
+                    0 => (nx - 1 - i, j, k),
+                    1 => (i, ny - 1 - j, k),
+                    _ => (i, j, nz - 1 - k),
+                };
+                let (a, b) = ((k * ny + j) * nx + i, (tk * ny + tj) * nx + ti);
+                if a < b {
+                    data.swap(a, b);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod load_tests {
+    use super::*;
+
+    #[test]
+    fn netcdf_volume_round_trips_dims_spacing_origin_and_data() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v.nc");
+        let data: Vec<f32> = (0..4 * 3 * 2).map(|i| i as f32 * 0.5 - 3.0).collect();
+        netcdf::write_volume(
+            &path,
+            [4, 3, 2],
+            [0.5, 2.0, 10.0],
+            [-1.0, 4.0, -20.0],
+            "km",
+            ("rho", &data, "kg m-3", "density"),
+            &[],
+        )
+        .unwrap();
+        let v = load_volume(&path).unwrap();
+        assert_eq!((v.name.as_str(), v.units.as_str()), ("rho", "kg m-3"));
+        assert_eq!(v.dims, [4, 3, 2]);
+        for a in 0..3 {
+            assert!((v.spacing[a] - [0.5, 2.0, 10.0][a]).abs() < 1e-12);
+            assert!((v.origin[a] - [-1.0, 4.0, -20.0][a]).abs() < 1e-12);
+        }
+        assert_eq!(v.data, data);
+        let err = load_volume_var(&path, Some("t")).unwrap_err().to_string();
+        assert!(
+            err.contains("no variable 't'") && err.contains("rho"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn decreasing_coordinates_are_flipped_and_2d_grids_load() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.nc");
+        let (z, y, x) = ([1.0], [30.0, 20.0], [0.0, 1.0, 2.0]);
+        let values: Vec<f64> = (0..6).map(f64::from).collect();
+        netcdf::write_grid::<f64>(
+            &path,
+            &[("z", &z, "m"), ("y", &y, "m"), ("x", &x, "m")],
+            &[("h", &values, "m", "height")],
+            &[],
+        )
+        .unwrap();
+        // A single z level still makes a volume; y runs 30 -> 20 on disk, 20 -> 30 in memory.
+        let v = load_volume(&path).unwrap();
+        assert_eq!((v.dims, v.spacing[1], v.origin[1]), ([3, 2, 1], 10.0, 15.0));
+        assert_eq!(v.data, [3.0, 4.0, 5.0, 0.0, 1.0, 2.0]);
+        let (shape, data, coords) = load_grid_arrays(&path, None).unwrap();
+        assert_eq!((shape, data), (vec![2, 3], values));
+        assert_eq!(coords, Some((x.to_vec(), y.to_vec())));
+    }
 }

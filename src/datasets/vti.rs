@@ -227,7 +227,7 @@ fn read_vti_bytes(path: &Path, bytes: &[u8]) -> Result<VtiVolume> {
             })
             .collect::<Result<Vec<f32>>>()?
     } else {
-        if raw.len() % element.size() != 0 {
+        if !raw.len().is_multiple_of(element.size()) {
             return Err(fail(format!(
                 "{} data bytes is not a whole number of {}-byte values",
                 raw.len(),

@@ -168,7 +168,7 @@ impl GpuContext {
             max_texture_3d: limits.max_texture_dimension_3d,
             max_texture_2d: limits.max_texture_dimension_2d,
             max_buffer_size: limits.max_buffer_size,
-            max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size as u64,
+            max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
         };
         Ok(Arc::new(GpuContext {
             instance,

@@ -228,7 +228,7 @@ impl LutTransfer {
                     format!("expected a finite value >= 1, got {}", lens.factor),
                 ));
             }
-            if !(lens.lo < lens.hi) {
+            if lens.lo.partial_cmp(&lens.hi) != Some(std::cmp::Ordering::Less) {
                 return Err(Error::invalid(
                     "tf.lens",
                     format!("expected lo < hi, got [{}, {}]", lens.lo, lens.hi),

@@ -182,10 +182,20 @@ impl VolumeRenderer {
         let src = shader::load("volume.wgsl", defines)?;
         let device = &self.ctx.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("volume.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(src.into()),
-        });
+        // SAFETY: wgpu's injected runtime checks (buffer index clamps, loop counters) cost about
+        // a third of the ray caster's time on lavapipe. The shader needs neither: every table
+        // index is clamped to [0, LUT_SIZE - 2] by construction, texel loads clamp their
+        // coordinates to the texture, stores are guarded by the image size, and the one loop
+        // runs a finite, precomputed number of steps.
+        let module = unsafe {
+            device.create_shader_module_trusted(
+                wgpu::ShaderModuleDescriptor {
+                    label: Some("volume.wgsl"),
+                    source: wgpu::ShaderSource::Wgsl(src.into()),
+                },
+                wgpu::ShaderRuntimeChecks::unchecked(),
+            )
+        };
         let mut entries = vec![
             wgpu::BindGroupLayoutEntry {
                 binding: 0,
@@ -212,10 +222,18 @@ impl VolumeRenderer {
             wgpu::BindGroupLayoutEntry {
                 binding: 2,
                 visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: true },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
+                ty: if key.hw_filter {
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D1,
+                        multisampled: false,
+                    }
+                } else {
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    }
                 },
                 count: None,
             },
@@ -379,6 +397,26 @@ impl VolumeRenderer {
             contents: bytemuck::cast_slice(&lut),
             usage: wgpu::BufferUsages::STORAGE,
         });
+        let lut_tex = device.create_texture_with_data(
+            &self.ctx.queue,
+            &wgpu::TextureDescriptor {
+                label: Some("transfer lut texture"),
+                size: wgpu::Extent3d {
+                    width: lut.len() as u32,
+                    height: 1,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D1,
+                format: wgpu::TextureFormat::Rgba32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(&lut),
+        );
+        let lut_view = lut_tex.create_view(&Default::default());
         let out = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("hdr image"),
             size: wgpu::Extent3d {
@@ -405,7 +443,11 @@ impl VolumeRenderer {
             },
             wgpu::BindGroupEntry {
                 binding: 2,
-                resource: lut_buf.as_entire_binding(),
+                resource: if hw_filter {
+                    wgpu::BindingResource::TextureView(&lut_view)
+                } else {
+                    lut_buf.as_entire_binding()
+                },
             },
             wgpu::BindGroupEntry {
                 binding: 3,

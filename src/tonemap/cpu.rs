@@ -11,7 +11,8 @@
 use rayon::prelude::*;
 
 use super::params::{
-    bilateral_radius, blur_sigma, durand_sigma_pixels, gaussian_radius, Operator, ToneMapSettings,
+    bilateral_radius, bilateral_stride, blur_sigma, durand_sigma_pixels, gaussian_radius, Operator,
+    ToneMapSettings,
 };
 use crate::error::{Error, Result};
 use crate::model::image::HdrImage;
@@ -445,14 +446,18 @@ fn reinhard_local(
         .collect()
 }
 
-/// Durand & Dorsey 2002: direct (brute-force, exact) bilateral filter of log10 luminance over a
-/// (2 radius + 1)^2 window with radius = ceil(2 sigma_s), Gaussian spatial and range weights;
-/// missing and black pixels get weight 0. The base is compressed so that its range becomes
+/// Durand & Dorsey 2002: direct (brute-force) bilateral filter of log10 luminance over the taps
+/// at multiples of [`bilateral_stride`] within radius = ceil(2 sigma_s) (every pixel up to
+/// sigma_s = 8 px), Gaussian spatial and range weights; missing and black pixels get weight 0. The base is compressed so that its range becomes
 /// log10(contrast) (never expanded) with its maximum at 1; the detail layer is kept.
 fn durand(scene: &Scene, contrast: f64, sigma_spatial: f64, sigma_range: f64) -> Vec<f64> {
     let (width, height) = (scene.width, scene.height);
     let sigma_px = durand_sigma_pixels(sigma_spatial, width as u32, height as u32);
     let radius = bilateral_radius(sigma_px) as isize;
+    let stride = bilateral_stride(sigma_px) as usize;
+    let offsets: Vec<isize> = (-(radius / stride as isize) * stride as isize..=radius)
+        .step_by(stride)
+        .collect();
     let log_l: Vec<f64> = scene
         .lum
         .iter()
@@ -464,7 +469,8 @@ fn durand(scene: &Scene, contrast: f64, sigma_spatial: f64, sigma_range: f64) ->
             }
         })
         .collect();
-    let spatial: Vec<f64> = (-radius..=radius)
+    let spatial: Vec<f64> = offsets
+        .iter()
         .map(|k| (-(k * k) as f64 / (2.0 * sigma_px * sigma_px)).exp())
         .collect();
     let base: Vec<f64> = (0..width * height)
@@ -476,12 +482,12 @@ fn durand(scene: &Scene, contrast: f64, sigma_spatial: f64, sigma_range: f64) ->
             }
             let (x, y) = ((p % width) as isize, (p / width) as isize);
             let (mut num, mut den) = (0.0, 0.0);
-            for dy in -radius..=radius {
+            for (&dy, &wy) in offsets.iter().zip(&spatial) {
                 let sy = y + dy;
                 if sy < 0 || sy >= height as isize {
                     continue;
                 }
-                for dx in -radius..=radius {
+                for (&dx, &wx) in offsets.iter().zip(&spatial) {
                     let sx = x + dx;
                     if sx < 0 || sx >= width as isize {
                         continue;
@@ -491,9 +497,7 @@ fn durand(scene: &Scene, contrast: f64, sigma_spatial: f64, sigma_range: f64) ->
                         continue;
                     }
                     let d = (v - centre) / sigma_range;
-                    let w = spatial[(dy + radius) as usize]
-                        * spatial[(dx + radius) as usize]
-                        * (-0.5 * d * d).exp();
+                    let w = wy * wx * (-0.5 * d * d).exp();
                     num += w * v;
                     den += w;
                 }
@@ -666,11 +670,13 @@ pub fn false_colour_log10(
     }
     let scene = Scene::new(img, exposure_ev);
     let (low, high) = match decades {
-        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && hi > lo => (lo, hi),
+        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && hi > lo && hi - lo <= 100.0 => {
+            (lo, hi)
+        }
         Some((lo, hi)) => {
             return Err(Error::invalid(
                 "false_colour.decades",
-                format!("({lo}, {hi}) must be finite with high > low"),
+                format!("({lo}, {hi}) must be finite with low < high <= low + 100"),
             ))
         }
         None => match scene.stats() {
@@ -900,6 +906,7 @@ mod tests {
                 grey(&[1e-40, 3e-41, 1e-44, 0.0, 2e-39, 1e-42], 3),
             ),
             ("1x1", grey(&[0.5], 1)),
+            ("0x0", HdrImage::new(0, 0)),
             ("1xN", grey(&[0.1, 10.0, 1e3, 0.0, 1e-4, 2.0, f32::NAN], 7)),
             (
                 "Nx1",
@@ -1064,6 +1071,15 @@ mod tests {
         }
         let out = tonemap_cpu(&img, &settings(Operator::Linear)).unwrap();
         assert!((out.pixels[0][0] - 0.3).abs() < 1e-7);
+        // Offset then gamma on the display side: (0.3 - 0.1)^(1 / 2) = 0.4472136.
+        let s = ToneMapSettings {
+            offset: -0.1,
+            gamma: 2.0,
+            ..settings(Operator::Linear)
+        };
+        let out = tonemap_cpu(&img, &s).unwrap();
+        assert!((out.pixels[0][0] - 0.447_213_6).abs() < 1e-6);
+        assert_eq!(out.pixels[0][2], 0.0); // 0.05 - 0.1 clamps to 0
     }
 
     #[test]
@@ -1180,8 +1196,30 @@ mod tests {
             )
             .validate(&module)
             .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+            // The Rust mirrors must keep the WGSL structs' sizes and member counts.
+            for ty in module.types.iter().map(|(_, ty)| ty) {
+                let expected = match ty.name.as_deref() {
+                    Some("ToneMapParams") => {
+                        Some((size_of::<crate::tonemap::params::ToneMapParams>(), 28))
+                    }
+                    Some("LuminanceStats") => {
+                        Some((size_of::<crate::tonemap::params::LuminanceStats>(), 4))
+                    }
+                    _ => None,
+                };
+                if let (Some((size, count)), naga::TypeInner::Struct { members, span }) =
+                    (expected, &ty.inner)
+                {
+                    assert_eq!(
+                        (*span as usize, members.len()),
+                        (size, count),
+                        "{}",
+                        path.display()
+                    );
+                }
+            }
             checked += 1;
         }
-        assert!(checked >= 5, "only {checked} shaders in {}", dir.display());
+        assert!(checked >= 6, "only {checked} shaders in {}", dir.display());
     }
 }

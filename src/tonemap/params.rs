@@ -335,6 +335,14 @@ pub fn bilateral_radius(sigma_pixels: f64) -> u32 {
     (2.0 * sigma_pixels).ceil().max(1.0) as u32
 }
 
+/// Spacing of the bilateral window's taps: every pixel up to sigma_s = 8 px, then about four
+/// taps per sigma_s, so the cost stops growing as sigma_s^2 (a 1024 px image has sigma_s = 20 px:
+/// 17 x 17 taps instead of 83 x 83). The sampled spatial Gaussian is renormalised, and offset 0
+/// is always a tap, so edges stay preserved.
+pub fn bilateral_stride(sigma_pixels: f64) -> u32 {
+    ((sigma_pixels / 4.0).floor() as u32).max(1)
+}
+
 fn positive(field: &str, value: f64) -> Result<()> {
     if value > 0.0 && value.is_finite() {
         Ok(())
@@ -420,7 +428,7 @@ impl ToneMapSettings {
 
 /// The uniform block every shader in `shaders/tonemap/` declares as `ToneMapParams`.
 /// Keep in sync with the WGSL struct `ToneMapParams` (same field order, all 4-byte scalars,
-/// 96 bytes). Pass-specific fields (`pass_index`, `sigma`, `radius`, `direction`) vary between
+/// 112 bytes). Pass-specific fields (`pass_index`, `sigma`, `radius`, `direction`) vary between
 /// dispatches of one operator: write one uniform per dispatch or use dynamic offsets.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -441,9 +449,9 @@ pub struct ToneMapParams {
     pub white: f32,
     /// Drago bias.
     pub bias: f32,
-    /// Drago or Ward display maximum (cd/m2).
+    /// Drago or Ward display maximum (cd/m2); false colour: high decade (log10).
     pub ld_max: f32,
-    /// Ward display minimum (cd/m2).
+    /// Ward display minimum (cd/m2); false colour: low decade (log10).
     pub ld_min: f32,
     /// Durand: log10 of the target contrast.
     pub contrast_log10: f32,
@@ -455,18 +463,25 @@ pub struct ToneMapParams {
     pub sharpness: f32,
     /// Reinhard local: epsilon.
     pub epsilon: f32,
-    /// Reinhard local: ratio^2 (the s^2 of the next scale relative to this one).
+    /// Reinhard local: ratio between successive scales (kept for reference; the host computes
+    /// `scale` and `sigma` per pass from it).
     pub ratio: f32,
-    /// Reinhard local: scale s of the centre Gaussian of the current `select_scale` pass.
+    /// Reinhard local: scale s = ratio^i of the centre Gaussian of the current `select_scale`.
     pub scale: f32,
-    /// Index of the current pass (Reinhard local: centre scale index).
+    /// Index of the current pass (Reinhard local `select_scale`: centre scale index i).
     pub pass_index: u32,
-    /// Gaussian sigma in pixels for the current `blur` pass, or Durand's window radius source.
+    /// Gaussian sigma in pixels for the current Reinhard local `blur` pass ([`blur_sigma`]).
     pub sigma: f32,
-    /// Window half-width in pixels for the current blur/bilateral pass.
+    /// Window half-width in pixels: [`gaussian_radius`] for a blur pass, [`bilateral_radius`]
+    /// for Durand, the legend strip height for the false-colour view.
     pub radius: u32,
     /// Blur direction for the current pass: 0 horizontal, 1 vertical.
     pub direction: u32,
+    /// Durand: spacing in pixels of the bilateral window's taps ([`bilateral_stride`]).
+    pub tap_stride: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 impl ToneMapParams {
@@ -523,6 +538,7 @@ impl ToneMapParams {
                 p.sigma_spatial_px = sigma_px as f32;
                 p.sigma_range = sigma_range as f32;
                 p.radius = bilateral_radius(sigma_px);
+                p.tap_stride = bilateral_stride(sigma_px);
             }
         }
         p

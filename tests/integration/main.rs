@@ -1,5 +1,6 @@
 //! Integration tests, one binary with a module per area. GPU tests run on the default adapter
 //! (lavapipe in CI) and, where marked, on the GL fallback too.
 
+mod cli;
 mod common;
 mod volume_render;

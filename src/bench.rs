@@ -1,0 +1,288 @@
+//! Benchmarks (`hdrvis bench …`): timings live here, never in pass/fail tests. Each reports the
+//! adapter, the median of several runs and derived rates, and can run a named peer side by side
+//! on the same data in the same run.
+
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
+use crate::render::volume::{GpuVolume, VolumeRenderer};
+use crate::render::VolumeRenderOptions;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// One measured configuration.
+#[derive(Clone, Debug)]
+pub struct BenchRow {
+    pub name: String,
+    pub image: (u32, u32),
+    /// Samples a ray-caster takes at one sample per voxel without early termination.
+    pub samples: u64,
+    pub runs_ms: Vec<f64>,
+    pub peer: Option<PeerResult>,
+}
+
+#[derive(Clone, Debug)]
+pub struct PeerResult {
+    pub name: String,
+    pub detail: String,
+    pub median_ms: Option<f64>,
+    pub error: Option<String>,
+}
+
+pub fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(|a, b| a.total_cmp(b));
+    let n = s.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    }
+}
+
+impl BenchRow {
+    pub fn median_ms(&self) -> f64 {
+        median(&self.runs_ms)
+    }
+    pub fn msamples_per_s(&self) -> f64 {
+        self.samples as f64 / 1e6 / (self.median_ms() / 1e3)
+    }
+}
+
+/// The benchmark volume: Gaussian blobs spanning five decades over a faint floor, like the
+/// HDR fields of the paper, generated in memory (not timed).
+pub fn bench_volume(n: usize) -> Result<Volume> {
+    let f = n as f64;
+    Volume::from_fn(&format!("hdr-blobs {n}^3"), [n, n, n], move |x, y, z| {
+        let g = |cx: f64, cy: f64, cz: f64, s: f64, amp: f64| {
+            let d2 = (x - cx * f).powi(2) + (y - cy * f).powi(2) + (z - cz * f).powi(2);
+            amp * (-d2 / (2.0 * (s * f).powi(2))).exp()
+        };
+        1e-4 + g(0.35, 0.4, 0.5, 0.10, 10.0)
+            + g(0.65, 0.6, 0.45, 0.14, 0.05)
+            + g(0.5, 0.3, 0.65, 0.06, 1e-3)
+    })
+}
+
+/// The benchmark transfer function: log10 scale over five decades, log opacity.
+pub fn bench_tf() -> TransferFunction {
+    TransferFunction::Lut(LutTransfer {
+        scale: Scale::Log10,
+        domain: Some([1e-4, 10.0]),
+        colormap: "inferno".into(),
+        emission: vec![[0.0, -1.0], [1.0, 1.0]],
+        opacity: vec![[0.0, -4.0], [0.5, -2.5], [1.0, -1.0]],
+        ..Default::default()
+    })
+}
+
+/// Times the volume ray caster on `sizes` (volume side, image side), axis view, one sample per voxel.
+pub fn bench_volume_render(
+    ctx: Arc<GpuContext>,
+    sizes: &[(usize, u32)],
+    runs: usize,
+    peer: Option<&Path>,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<BenchRow>> {
+    let renderer = VolumeRenderer::new(ctx);
+    let mut rows = Vec::new();
+    for &(n, px) in sizes {
+        log(&format!("generating {n}^3 volume ..."));
+        let vol = bench_volume(n)?;
+        let gv = GpuVolume::upload(renderer.context(), &vol)?;
+        let mut opts = VolumeRenderOptions::new(Camera::axis(Axis::Z, &vol.bounds()), bench_tf());
+        opts.width = px;
+        opts.height = px;
+        opts.step = 1.0;
+        // Warm-up: pipeline compilation and first-touch costs are not part of a frame.
+        renderer.render(&gv, &opts)?;
+        let mut runs_ms = Vec::new();
+        for _ in 0..runs.max(1) {
+            let (_, t) = renderer.render(&gv, &opts)?;
+            runs_ms.push(t.seconds * 1e3);
+        }
+        let name = format!("{n}^3 -> {px}^2");
+        log(&format!("{name}: median {:.1} ms", median(&runs_ms)));
+        let peer_result = peer.map(|script| run_vtk_peer(script, &vol, px, runs, log));
+        rows.push(BenchRow {
+            name,
+            image: (px, px),
+            samples: px as u64 * px as u64 * n as u64,
+            runs_ms,
+            peer: peer_result,
+        });
+    }
+    Ok(rows)
+}
+
+/// Runs VTK's vtkGPUVolumeRayCastMapper through `tests/python/vtk_volume_bench.py` on the same
+/// volume, image size, sample distance and (sampled) transfer function.
+fn run_vtk_peer(
+    script: &Path,
+    vol: &Volume,
+    px: u32,
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> PeerResult {
+    let fail = |e: String| PeerResult {
+        name: "vtk".into(),
+        detail: String::new(),
+        median_ms: None,
+        error: Some(e),
+    };
+    let dir = match tempfile::tempdir() {
+        Ok(d) => d,
+        Err(e) => return fail(e.to_string()),
+    };
+    let npy = dir.path().join("volume.npy");
+    if let Err(e) = crate::datasets::npy::write_npy_f32(
+        &npy,
+        &[vol.dims[2], vol.dims[1], vol.dims[0]],
+        &vol.data,
+    ) {
+        return fail(e.to_string());
+    }
+    // VTK's transfer functions are piecewise linear in the value: sample ours at log-spaced values.
+    let tf = match bench_tf().resolve(&vol.stats()) {
+        Ok(t) => t,
+        Err(e) => return fail(e.to_string()),
+    };
+    let mut color = Vec::new();
+    let mut opacity = Vec::new();
+    for i in 0..=64 {
+        let v = 10f64.powf(-4.0 + 5.0 * i as f64 / 64.0);
+        let (e, s) = tf.eval(v);
+        color.push(format!(
+            "[{v:e}, {}, {}, {}]",
+            e[0].min(1.0),
+            e[1].min(1.0),
+            e[2].min(1.0)
+        ));
+        opacity.push(format!("[{v:e}, {}]", -(-s).exp_m1()));
+    }
+    let json = format!(
+        "{{\"color\": [{}], \"opacity\": [{}], \"scalar_opacity_unit_distance\": 1.0}}",
+        color.join(", "),
+        opacity.join(", ")
+    );
+    let tf_path = dir.path().join("tf.json");
+    if let Err(e) = std::fs::write(&tf_path, json) {
+        return fail(e.to_string());
+    }
+    log(&format!("running peer vtk at {px}^2 ..."));
+    let out = std::process::Command::new("python3")
+        .arg(script)
+        .args(["--npy", &npy.display().to_string()])
+        .args(["--width", &px.to_string(), "--height", &px.to_string()])
+        .args([
+            "--sample-distance",
+            "1.0",
+            "--runs",
+            &runs.max(1).to_string(),
+        ])
+        .args(["--tf", &tf_path.display().to_string()])
+        .output();
+    let out = match out {
+        Ok(o) => o,
+        Err(e) => return fail(format!("cannot run python3: {e}")),
+    };
+    if !out.status.success() {
+        return fail(
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .last()
+                .unwrap_or("failed")
+                .to_string(),
+        );
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .rev()
+        .find(|l| l.trim_start().starts_with('{'))
+        .unwrap_or("");
+    let field = |key: &str| -> Option<String> {
+        let start = line.find(&format!("\"{key}\""))? + key.len() + 3;
+        let rest = line[start..].trim_start();
+        if let Some(stripped) = rest.strip_prefix('"') {
+            Some(stripped[..stripped.find('"')?].to_string())
+        } else {
+            Some(
+                rest[..rest.find([',', '}']).unwrap_or(rest.len())]
+                    .trim()
+                    .to_string(),
+            )
+        }
+    };
+    match field("median_ms").and_then(|m| m.parse::<f64>().ok()) {
+        Some(m) => PeerResult {
+            name: "vtk".into(),
+            detail: format!(
+                "VTK {} on {}",
+                field("vtk_version").unwrap_or_default(),
+                field("gl_renderer").unwrap_or_default()
+            ),
+            median_ms: Some(m),
+            error: None,
+        },
+        None => fail(format!("unexpected peer output: {line}")),
+    }
+}
+
+/// The peer script, looked up beside the working directory or the crate's source.
+pub fn vtk_peer_script() -> Result<PathBuf> {
+    let rel = Path::new("tests/python/vtk_volume_bench.py");
+    for base in [
+        std::env::current_dir().ok(),
+        Some(PathBuf::from(env!("CARGO_MANIFEST_DIR"))),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        let p = base.join(rel);
+        if p.exists() {
+            return Ok(p);
+        }
+    }
+    Err(Error::invalid(
+        "--peer",
+        "tests/python/vtk_volume_bench.py not found; run from the hdrvis source tree",
+    ))
+}
+
+/// The table `hdrvis bench volume` prints.
+pub fn format_volume_table(adapter: &str, rows: &[BenchRow]) -> String {
+    let mut s = format!("adapter: {adapter}\nvolume benchmark: HDR blobs, log10 TF, axis view, f32, 1 sample/voxel, median of runs\n");
+    s.push_str(&format!(
+        "{:<18} {:>12} {:>10} {:>11} {:>11}  {}\n",
+        "scene", "samples", "median ms", "Msamples/s", "runs", "peer"
+    ));
+    for r in rows {
+        let peer = match &r.peer {
+            None => String::new(),
+            Some(p) => match (p.median_ms, &p.error) {
+                (Some(m), _) => format!(
+                    "{} {:.1} ms ({:.2}x slower than hdrvis) [{}]",
+                    p.name,
+                    m,
+                    m / r.median_ms(),
+                    p.detail
+                ),
+                (None, Some(e)) => format!("peer {} unavailable: {e}", p.name),
+                _ => String::new(),
+            },
+        };
+        s.push_str(&format!(
+            "{:<18} {:>10.1} M {:>10.1} {:>11.1} {:>11}  {}\n",
+            r.name,
+            r.samples as f64 / 1e6,
+            r.median_ms(),
+            r.msamples_per_s(),
+            r.runs_ms.len(),
+            peer
+        ));
+    }
+    s
+}

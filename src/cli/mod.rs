@@ -1,0 +1,68 @@
+//! Command-line definitions (clap). Parsing only: every command calls into the library.
+
+pub mod datasets;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(name = "hdrvis", version, about = "Headless HDR visualisation of geoscience data", long_about = None)]
+pub struct Cli {
+    /// GPU backend: auto (Vulkan, then GL), vulkan or gl. Default from HDRVIS_BACKEND, else auto.
+    #[arg(long, global = true)]
+    pub backend: Option<String>,
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Run a Rhai script: `hdrvis run SCRIPT.rhai [--out DIR] [--set KEY=VALUE]...`
+    Run(RunArgs),
+    /// Print the GPU adapter, backend, driver and capabilities.
+    Doctor,
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+    /// Generate a dataset (into the cache unless -o is given) and print its path.
+    #[command(subcommand)]
+    Gen(datasets::GenCommand),
+    /// Describe a data file: shape, range, dynamic range, histogram.
+    Info(datasets::InfoArgs),
+    /// Run the built-in demo scene (also what `hdrvis` does with no command).
+    Demo {
+        /// Output folder.
+        #[arg(long, default_value = "out/demo")]
+        out: PathBuf,
+    },
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    pub script: PathBuf,
+    /// Output folder: every file the script writes goes here.
+    #[arg(long, short, default_value = "out")]
+    pub out: PathBuf,
+    /// Script parameter read by `param(name, default)`; repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Extra folder the script may read; repeatable.
+    #[arg(long = "allow-path", value_name = "DIR")]
+    pub allow_paths: Vec<PathBuf>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum BenchCommand {
+    /// Volume ray casting: 256^3 -> 512^2 and 513^3 -> 1024^2, one sample per voxel.
+    Volume {
+        /// Timed runs per size (after one warm-up).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Only the small size (quick check).
+        #[arg(long)]
+        quick: bool,
+        /// Run a peer on the same data side by side: `vtk` (vtkGPUVolumeRayCastMapper via pip's vtk).
+        #[arg(long)]
+        peer: Option<String>,
+    },
+}

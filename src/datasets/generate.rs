@@ -1,0 +1,893 @@
+//! The generators as jobs: plain parameter structs for the Okada, tsunami and mantle fields,
+//! independent of any command-line parser, each with a stable cache key (FNV-1a over a canonical
+//! text of every parameter, see [`super::cache`]) and a `run` that writes the result. The output
+//! format follows the file's extension: NetCDF (`.nc`, CF-1.8 classic, with units, long names and
+//! the parameters as global attributes) or `.npy` (one array; which one is said on each job).
+//! Every write goes through a temporary file renamed into place.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+
+use super::mantle::{self, MantleField, MantleOptions};
+use super::okada::{self, Elastic, FaultSegment};
+use super::tsunami::{self, TsunamiOptions};
+use super::{cache, netcdf};
+use crate::error::{Error, Result};
+
+/// Bumped whenever a generator's output changes for the same parameters, so old cache entries
+/// are not reused.
+const GENERATOR_VERSION: u32 = 1;
+
+/// File formats the generators write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    NetCdf,
+    Npy,
+}
+
+impl OutputFormat {
+    /// The format a file name asks for: `.nc` (or `.nc4`, `.cdf`, `.netcdf`) or `.npy`.
+    pub fn from_path(path: &Path) -> Result<Self> {
+        match crate::io::extension(path).as_str() {
+            "nc" | "nc4" | "cdf" | "netcdf" => Ok(OutputFormat::NetCdf),
+            "npy" => Ok(OutputFormat::Npy),
+            other => Err(Error::invalid(
+                "output",
+                format!(
+                    "{}: unknown extension {other:?}; expected .nc or .npy",
+                    path.display()
+                ),
+            )),
+        }
+    }
+
+    pub fn extension(self) -> &'static str {
+        match self {
+            OutputFormat::NetCdf => "nc",
+            OutputFormat::Npy => "npy",
+        }
+    }
+}
+
+/// Any of the three jobs, for callers that handle them alike.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Job {
+    Okada(OkadaJob),
+    Tsunami(TsunamiJob),
+    Mantle(MantleJob),
+}
+
+impl Job {
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Job::Okada(_) => "okada",
+            Job::Tsunami(_) => "tsunami",
+            Job::Mantle(_) => "mantle",
+        }
+    }
+
+    pub fn cache_key(&self) -> String {
+        match self {
+            Job::Okada(job) => job.cache_key(),
+            Job::Tsunami(job) => job.cache_key(),
+            Job::Mantle(job) => job.cache_key(),
+        }
+    }
+
+    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64)) -> Result<()> {
+        match self {
+            Job::Okada(job) => job.run(out, progress),
+            Job::Tsunami(job) => job.run(out, progress),
+            Job::Mantle(job) => job.run(out, progress),
+        }
+    }
+
+    /// The job's output in the dataset cache, generated on a miss.
+    pub fn run_cached(
+        &self,
+        format: OutputFormat,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<PathBuf> {
+        cache::cached(self.kind(), &self.cache_key(), format.extension(), |path| {
+            self.run(path, progress)
+        })
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Okada
+// ---------------------------------------------------------------------------------------------
+
+/// Displacement of a half-space by rectangular faults on a square grid of `n` x `n` nodes
+/// spanning `extent_m` and centred on the origin (x east, y north), at `observation_depth_m`
+/// below the surface (0: the surface, Okada 1985; deeper: Okada 1992). NetCDF output holds `ux`,
+/// `uy`, `uz` (metres, f64) on coordinates `y`, `x` (metres); `.npy` output is one f64 array of
+/// shape (3, ny, nx) stacking ux, uy, uz in that order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OkadaJob {
+    pub segments: Vec<FaultSegment>,
+    pub elastic: Elastic,
+    pub extent_m: f64,
+    pub n: usize,
+    pub observation_depth_m: f64,
+}
+
+impl Default for OkadaJob {
+    /// The paper's case II (Yuan et al. 2008, section 3.2) on a 1000 km square, 1001 nodes a side.
+    fn default() -> Self {
+        OkadaJob {
+            segments: vec![FaultSegment::paper_case_ii()],
+            elastic: Elastic::default(),
+            extent_m: 1.0e6,
+            n: 1001,
+            observation_depth_m: 0.0,
+        }
+    }
+}
+
+impl OkadaJob {
+    fn canonical(&self) -> String {
+        format!(
+            "okada v{GENERATOR_VERSION}; poisson={:?}; extent_m={:?}; n={}; observation_depth_m={:?}; {}",
+            self.elastic.poisson(),
+            self.extent_m,
+            self.n,
+            self.observation_depth_m,
+            segments_canonical(&self.segments)
+        )
+    }
+
+    pub fn cache_key(&self) -> String {
+        cache::key_of(&self.canonical())
+    }
+
+    /// Computes the field and writes it to `out` (`.nc` or `.npy`).
+    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64)) -> Result<()> {
+        let format = OutputFormat::from_path(out)?;
+        if !(self.observation_depth_m.is_finite() && self.observation_depth_m >= 0.0) {
+            return Err(Error::invalid(
+                "observation_depth_m",
+                format!(
+                    "must be finite and >= 0 m (positive down), got {}",
+                    self.observation_depth_m
+                ),
+            ));
+        }
+        if self.segments.is_empty() {
+            return Err(Error::invalid("segments", "at least one fault is required"));
+        }
+        progress(0.0);
+        let mut field = okada::surface_field(&self.segments, &self.elastic, self.extent_m, self.n)?;
+        if self.observation_depth_m > 0.0 {
+            let z = -self.observation_depth_m;
+            let n = self.n;
+            let rows: Vec<Vec<[f64; 3]>> = (0..n)
+                .into_par_iter()
+                .map(|j| {
+                    (0..n)
+                        .map(|i| {
+                            okada::displacement_at(
+                                &self.segments,
+                                &self.elastic,
+                                field.x[i],
+                                field.y[j],
+                                z,
+                            )
+                        })
+                        .collect::<Result<Vec<_>>>()
+                })
+                .collect::<Result<Vec<_>>>()?;
+            for (j, row) in rows.iter().enumerate() {
+                for (i, u) in row.iter().enumerate() {
+                    field.ux[j * n + i] = u[0];
+                    field.uy[j * n + i] = u[1];
+                    field.uz[j * n + i] = u[2];
+                }
+            }
+        }
+        match format {
+            OutputFormat::NetCdf => {
+                let poisson = format!("{}", self.elastic.poisson());
+                let extent = format!("{}", self.extent_m);
+                let depth = format!("{}", self.observation_depth_m);
+                let table = segments_table(&self.segments);
+                let key = self.cache_key();
+                let level = if self.observation_depth_m > 0.0 {
+                    "at depth"
+                } else {
+                    "surface"
+                };
+                let long = |axis: &str| format!("{axis} {level} displacement");
+                let (lx, ly, lz) = (long("eastward"), long("northward"), long("upward"));
+                netcdf::write_grid::<f64>(
+                    out,
+                    &[("y", &field.y, "m"), ("x", &field.x, "m")],
+                    &[
+                        ("ux", &field.ux, "m", &lx),
+                        ("uy", &field.uy, "m", &ly),
+                        ("uz", &field.uz, "m", &lz),
+                    ],
+                    &[
+                        ("title", "Okada rectangular-dislocation displacement"),
+                        (
+                            "source",
+                            "hdrvis gen okada: Okada (1985) at the surface, Okada (1992) at depth",
+                        ),
+                        (
+                            "conventions_note",
+                            "x east, y north, z up; origin at the surface point above the first \
+                             fault's centroid; faults dip to the right of their strike",
+                        ),
+                        ("poisson_ratio", &poisson),
+                        ("extent_m", &extent),
+                        ("observation_depth_m", &depth),
+                        ("segments", &table),
+                        ("hdrvis_cache_key", &key),
+                    ],
+                )?;
+            }
+            OutputFormat::Npy => {
+                let n = self.n;
+                let mut stack = Vec::with_capacity(3 * n * n);
+                for component in [&field.ux, &field.uy, &field.uz] {
+                    stack.extend_from_slice(component);
+                }
+                write_npy_f64(out, &[3, n, n], &stack)?;
+            }
+        }
+        progress(1.0);
+        Ok(())
+    }
+}
+
+/// Every field of every segment, in a fixed order and full precision.
+fn segments_canonical(segments: &[FaultSegment]) -> String {
+    let mut text = String::new();
+    for s in segments {
+        let _ = write!(
+            text,
+            "[strike={:?} dip={:?} rake={:?} slip={:?} length={:?} width={:?} depth={:?} ref={} opening={:?} x={:?} y={:?}]",
+            s.strike_deg,
+            s.dip_deg,
+            s.rake_deg,
+            s.slip_m,
+            s.length_m,
+            s.width_m,
+            s.depth_m,
+            s.depth_ref,
+            s.opening_m,
+            s.x_m,
+            s.y_m
+        );
+    }
+    text
+}
+
+/// The segments as a table `parse_segment_table` reads back, for the file's metadata.
+fn segments_table(segments: &[FaultSegment]) -> String {
+    let mut text = String::from(
+        "x_m y_m depth_m strike_deg dip_deg rake_deg length_m width_m slip_m opening_m depth_ref\n",
+    );
+    for s in segments {
+        let _ = writeln!(
+            text,
+            "{} {} {} {} {} {} {} {} {} {} {}",
+            s.x_m,
+            s.y_m,
+            s.depth_m,
+            s.strike_deg,
+            s.dip_deg,
+            s.rake_deg,
+            s.length_m,
+            s.width_m,
+            s.slip_m,
+            s.opening_m,
+            s.depth_ref
+        );
+    }
+    text
+}
+
+/// Writes a C-ordered f64 array atomically (generated fields are computed in f64).
+fn write_npy_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
+    use npyz::WriterBuilder;
+    crate::io::write_atomic(path, |w| {
+        let shape: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
+        let mut writer = npyz::WriteOptions::new()
+            .default_dtype()
+            .shape(&shape)
+            .writer(w)
+            .begin_nd()
+            .map_err(|e| Error::io(path, e))?;
+        writer
+            .extend(data.iter().copied())
+            .map_err(|e| Error::io(path, e))?;
+        writer.finish().map_err(|e| Error::io(path, e))
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Tsunami
+// ---------------------------------------------------------------------------------------------
+
+/// Where the tsunami's still-water depth comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BathymetrySource {
+    /// `tsunami::synthetic_south_china_sea(n, extent_m)`.
+    Synthetic { n: usize, extent_m: f64 },
+    /// A 2-D elevation grid (positive up, metres) read with `read_grid`: `.npz` or `.nc` with
+    /// longitude/latitude (degrees; converted with `grid_spacing_from_lonlat`) or x/y (metres)
+    /// coordinates. `var` names the elevation array; without it the largest 2-D array (npz) or
+    /// the first 2-D data variable (nc) is used. Rows and columns are reordered to run south to
+    /// north and west to east.
+    File { path: PathBuf, var: Option<String> },
+}
+
+/// A tsunami run: the sea floor moves by the vertical Okada displacement `uz` of `segments`
+/// (default: `manila_trench_source`, scaled into the synthetic basin, or centred on a file
+/// grid), taken as the initial sea-surface elevation, then `tsunami::simulate` propagates it.
+/// Segment positions are metres from the grid's south-west corner. NetCDF output holds
+/// `max_abs_eta` (m), `arrival_time` (s, missing where the wave never arrived), `depth` (m,
+/// positive down, negative on land) and `initial_eta` (m) on coordinates `y`, `x` (cell centres,
+/// metres from the south-west corner); `.npy` output is `max_abs_eta` alone, f64 of shape
+/// (ny, nx).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TsunamiJob {
+    pub bathymetry: BathymetrySource,
+    pub segments: Option<Vec<FaultSegment>>,
+    pub elastic: Elastic,
+    pub options: TsunamiOptions,
+}
+
+impl Default for TsunamiJob {
+    fn default() -> Self {
+        TsunamiJob {
+            bathymetry: BathymetrySource::Synthetic {
+                n: 1000,
+                extent_m: tsunami::SOUTH_CHINA_SEA_EXTENT_M,
+            },
+            segments: None,
+            elastic: Elastic::default(),
+            options: TsunamiOptions::default(),
+        }
+    }
+}
+
+impl TsunamiJob {
+    fn canonical(&self) -> String {
+        let bathymetry = match &self.bathymetry {
+            BathymetrySource::Synthetic { n, extent_m } => {
+                format!("synthetic n={n} extent_m={extent_m:?}")
+            }
+            // The file's bytes, not its name, identify the grid; an unreadable file gets a key
+            // from its name and fails when run.
+            BathymetrySource::File { path, var } => match std::fs::read(path) {
+                Ok(bytes) => format!("file fnv={:016x} var={var:?}", cache::fnv1a64(&bytes)),
+                Err(_) => format!("file path={} var={var:?}", path.display()),
+            },
+        };
+        let o = &self.options;
+        format!(
+            "tsunami v{GENERATOR_VERSION}; {bathymetry}; source={}; poisson={:?}; duration_s={:?}; dt_s={:?}; boundary={:?}; nonlinear={}; manning_n={:?}; arrival_threshold_m={:?}; g={:?}",
+            self.segments
+                .as_deref()
+                .map(segments_canonical)
+                .unwrap_or_else(|| "manila".into()),
+            self.elastic.poisson(),
+            o.duration_s,
+            o.dt_s,
+            o.boundary,
+            o.nonlinear,
+            o.manning_n,
+            o.arrival_threshold_m,
+            o.g
+        )
+    }
+
+    pub fn cache_key(&self) -> String {
+        cache::key_of(&self.canonical())
+    }
+
+    /// The still-water depth grid the job runs on.
+    pub fn load_bathymetry(&self) -> Result<tsunami::Bathymetry> {
+        match &self.bathymetry {
+            BathymetrySource::Synthetic { n, extent_m } => {
+                if !(2..=16384).contains(n) {
+                    return Err(Error::invalid(
+                        "n",
+                        format!("cells per side must lie in [2, 16384], got {n}"),
+                    ));
+                }
+                if !(extent_m.is_finite() && *extent_m > 0.0) {
+                    return Err(Error::invalid(
+                        "extent_m",
+                        format!("must be finite and > 0, got {extent_m}"),
+                    ));
+                }
+                Ok(tsunami::synthetic_south_china_sea(*n, *extent_m))
+            }
+            BathymetrySource::File { path, var } => bathymetry_from_file(path, var.as_deref()),
+        }
+    }
+
+    /// The faults that lift the sea floor, in the grid's frame.
+    pub fn source_segments(&self, bathy: &tsunami::Bathymetry) -> Vec<FaultSegment> {
+        if let Some(segments) = &self.segments {
+            return segments.clone();
+        }
+        let manila = tsunami::manila_trench_source();
+        let (x_m, y_m) = match self.bathymetry {
+            BathymetrySource::Synthetic { extent_m, .. } => {
+                let scaled = manila.scaled_to_extent(extent_m);
+                (scaled.x_m, scaled.y_m)
+            }
+            BathymetrySource::File { .. } => (
+                0.5 * bathy.nx as f64 * bathy.dx_m,
+                0.5 * bathy.ny as f64 * bathy.dy_m,
+            ),
+        };
+        vec![FaultSegment {
+            strike_deg: manila.strike_deg,
+            dip_deg: manila.dip_deg,
+            rake_deg: manila.rake_deg,
+            slip_m: manila.slip_m,
+            length_m: manila.length_m,
+            width_m: manila.width_m,
+            depth_m: manila.depth_m,
+            depth_ref: okada::DepthRef::Centroid,
+            opening_m: 0.0,
+            x_m,
+            y_m,
+        }]
+    }
+
+    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64)) -> Result<()> {
+        let format = OutputFormat::from_path(out)?;
+        let bathy = self.load_bathymetry()?;
+        let segments = self.source_segments(&bathy);
+        let (nx, ny) = (bathy.nx, bathy.ny);
+        let x: Vec<f64> = (0..nx).map(|i| (i as f64 + 0.5) * bathy.dx_m).collect();
+        let y: Vec<f64> = (0..ny).map(|j| (j as f64 + 0.5) * bathy.dy_m).collect();
+        // Validates the segments once, so the parallel loop below cannot fail half-way.
+        okada::displacement_at(&segments, &self.elastic, 0.0, 0.0, 0.0)?;
+        let rows: Vec<Vec<f64>> = y
+            .par_iter()
+            .map(|&yj| {
+                x.iter()
+                    .map(|&xi| {
+                        okada::displacement_at(&segments, &self.elastic, xi, yj, 0.0).map(|u| u[2])
+                    })
+                    .collect::<Result<Vec<f64>>>()
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let eta0: Vec<f64> = rows.concat();
+        let result = tsunami::simulate(&bathy, &eta0, &self.options, progress)?;
+        match format {
+            OutputFormat::Npy => write_npy_f64(out, &[ny, nx], &result.max_abs_eta),
+            OutputFormat::NetCdf => {
+                let o = &self.options;
+                let bathymetry = match &self.bathymetry {
+                    BathymetrySource::Synthetic { n, extent_m } => format!(
+                        "synthetic South-China-Sea-like basin, {n} x {n} cells over {extent_m} m"
+                    ),
+                    BathymetrySource::File { path, var } => format!(
+                        "{} (variable {})",
+                        path.display(),
+                        var.as_deref().unwrap_or("chosen automatically")
+                    ),
+                };
+                let texts = [
+                    format!("{}", o.duration_s),
+                    format!("{}", result.dt_s),
+                    format!("{}", result.steps),
+                    format!("{:?}", o.boundary).to_lowercase(),
+                    format!("{}", o.nonlinear),
+                    format!("{}", o.arrival_threshold_m),
+                    format!("{}", self.elastic.poisson()),
+                    segments_table(&segments),
+                    self.cache_key(),
+                ];
+                netcdf::write_grid::<f64>(
+                    out,
+                    &[("y", &y, "m"), ("x", &x, "m")],
+                    &[
+                        ("max_abs_eta", &result.max_abs_eta, "m", "maximum absolute sea-surface elevation over the run"),
+                        ("arrival_time", &result.arrival_time_s, "s", "first time |eta| exceeded the arrival threshold"),
+                        ("depth", &bathy.depth_m, "m", "still-water depth, positive down, negative on land"),
+                        ("initial_eta", &eta0, "m", "initial sea-surface elevation: Okada sea-floor uplift"),
+                    ],
+                    &[
+                        ("title", "Tsunami maximum wave height and arrival time"),
+                        ("source", "hdrvis gen tsunami: linear (or nonlinear) shallow-water equations, staggered leap-frog C grid"),
+                        ("bathymetry", &bathymetry),
+                        ("duration_s", &texts[0]),
+                        ("dt_s", &texts[1]),
+                        ("steps", &texts[2]),
+                        ("boundary", &texts[3]),
+                        ("nonlinear", &texts[4]),
+                        ("arrival_threshold_m", &texts[5]),
+                        ("poisson_ratio", &texts[6]),
+                        ("segments", &texts[7]),
+                        ("hdrvis_cache_key", &texts[8]),
+                    ],
+                )
+            }
+        }
+    }
+}
+
+/// Reads an elevation grid (positive up) and turns it into bathymetry on a south-to-north,
+/// west-to-east raster.
+fn bathymetry_from_file(path: &Path, var: Option<&str>) -> Result<tsunami::Bathymetry> {
+    let grid = super::read_grid(path, var)?;
+    let (Some(x), Some(y)) = (grid.x, grid.y) else {
+        return Err(Error::format(
+            path,
+            format!(
+                "'{}' has no coordinates; the bathymetry needs lon/lat (degrees) or x/y (metres) axes",
+                grid.name
+            ),
+        ));
+    };
+    let [ny, nx] = grid.shape;
+    let degrees = |axis: &super::GridAxis| {
+        matches!(axis.name.as_str(), "lon" | "longitude" | "lat" | "latitude")
+            || axis
+                .units
+                .as_deref()
+                .is_some_and(|u| u.starts_with("degree"))
+    };
+    let (dx, dy) = if degrees(&x) && degrees(&y) {
+        tsunami::grid_spacing_from_lonlat(&x.values, &y.values)?
+    } else {
+        let step = |axis: &super::GridAxis| -> Result<f64> {
+            let v = &axis.values;
+            if v.len() < 2 {
+                return Err(Error::format(
+                    path,
+                    format!("coordinate '{}' needs at least 2 values", axis.name),
+                ));
+            }
+            Ok(((v[v.len() - 1] - v[0]) / (v.len() - 1) as f64).abs())
+        };
+        (step(&x)?, step(&y)?)
+    };
+    let flip_x = x.values.len() > 1 && x.values[1] < x.values[0];
+    let flip_y = y.values.len() > 1 && y.values[1] < y.values[0];
+    let mut elevation = vec![0.0; nx * ny];
+    for j in 0..ny {
+        let sj = if flip_y { ny - 1 - j } else { j };
+        for i in 0..nx {
+            let si = if flip_x { nx - 1 - i } else { i };
+            elevation[j * nx + i] = grid.data[sj * nx + si];
+        }
+    }
+    tsunami::bathymetry_from_elevation(&elevation, nx, ny, dx, dy).map_err(|e| match e {
+        Error::Invalid { field, msg } => Error::format(path, format!("{field}: {msg}")),
+        other => other,
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Mantle
+// ---------------------------------------------------------------------------------------------
+
+/// The synthetic mantle-convection volume of `mantle::generate`: n^3 cells over [-1, 1]^3 (the
+/// surface radius is 1), NaN outside the shell. NetCDF output holds the requested fields
+/// (`temperature`, `fluctuation`, `viscosity`; non-dimensional, f32) on coordinates `z`, `y`, `x`
+/// (cell centres, units of the surface radius); `.npy` output is one field, f32 of shape
+/// (n, n, n), so exactly one must be requested.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct MantleJob {
+    pub options: MantleOptions,
+}
+
+impl MantleJob {
+    fn canonical(&self) -> String {
+        let o = &self.options;
+        let fields: Vec<&str> = MantleField::ALL
+            .iter()
+            .filter(|f| o.fields.contains(**f))
+            .map(|f| f.name())
+            .collect();
+        let resolution = o
+            .resolution
+            .map(|r| format!("{}x{}x{}", r.radial, r.theta, r.phi))
+            .unwrap_or_else(|| "auto".into());
+        format!(
+            "mantle v{GENERATOR_VERSION}; n={}; seed={}; plumes={}; slabs={}; rayleigh={:?}; epsilon={:?}; degree={}; order={}; viscosity_contrast={:?}; fields={}; resolution={resolution}",
+            o.n,
+            o.seed,
+            o.plumes,
+            o.slabs,
+            o.rayleigh,
+            o.epsilon,
+            o.degree,
+            o.order,
+            o.viscosity_contrast,
+            fields.join(",")
+        )
+    }
+
+    pub fn cache_key(&self) -> String {
+        cache::key_of(&self.canonical())
+    }
+
+    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64)) -> Result<()> {
+        let format = OutputFormat::from_path(out)?;
+        let o = &self.options;
+        let wanted: Vec<MantleField> = MantleField::ALL
+            .into_iter()
+            .filter(|f| o.fields.contains(*f))
+            .collect();
+        if format == OutputFormat::Npy && wanted.len() != 1 {
+            return Err(Error::invalid(
+                "field",
+                format!(
+                    "a .npy file holds one array but {} fields were asked for; choose one of \
+                     temperature, fluctuation, viscosity, or write .nc",
+                    wanted.len()
+                ),
+            ));
+        }
+        let volume = mantle::generate(o, progress)?;
+        let n = volume.n;
+        match format {
+            OutputFormat::Npy => {
+                let data = volume.field(wanted[0]).unwrap_or(&[]);
+                super::npy::write_npy_f32(out, &[n, n, n], data)
+            }
+            OutputFormat::NetCdf => {
+                let centres: Vec<f64> = (0..n)
+                    .map(|i| mantle::MantleVolume::cell_centre(n, i))
+                    .collect();
+                let vars: Vec<netcdf::GridVar<'_, f32>> = wanted
+                    .iter()
+                    .map(|&f| {
+                        let long_name = match f {
+                            MantleField::Temperature => "non-dimensional temperature (1 at the core-mantle boundary, 0 at the surface)",
+                            MantleField::Fluctuation => "temperature minus its mean over the sphere of the same radius",
+                            MantleField::Viscosity => "relative viscosity r_mu^(0.5 - T)",
+                        };
+                        (f.name(), volume.field(f).unwrap_or(&[]), "1", long_name)
+                    })
+                    .collect();
+                let s = volume.spherical;
+                let texts = [
+                    format!("{}", o.seed),
+                    format!("{}", o.plumes),
+                    format!("{}", o.slabs),
+                    format!("{}", o.rayleigh),
+                    format!("{}", o.epsilon),
+                    format!("{}", o.degree),
+                    format!("{}", o.order),
+                    format!("{}", o.viscosity_contrast),
+                    format!("{} x {} x {} (r, theta, phi)", s.radial, s.theta, s.phi),
+                    self.cache_key(),
+                ];
+                netcdf::write_grid::<f32>(
+                    out,
+                    &[("z", &centres, "1"), ("y", &centres, "1"), ("x", &centres, "1")],
+                    &vars,
+                    &[
+                        ("title", "Synthetic mantle convection in a spherical shell"),
+                        ("source", "hdrvis gen mantle: Zhong et al. (2008) initial condition with boundary layers, plumes and slabs, resampled trilinearly from a spherical grid"),
+                        ("length_units_note", "coordinates in units of the surface radius; shell 0.55 <= r <= 1; NaN outside"),
+                        ("seed", &texts[0]),
+                        ("plumes", &texts[1]),
+                        ("slabs", &texts[2]),
+                        ("rayleigh", &texts[3]),
+                        ("epsilon", &texts[4]),
+                        ("degree", &texts[5]),
+                        ("order", &texts[6]),
+                        ("viscosity_contrast", &texts[7]),
+                        ("spherical_grid", &texts[8]),
+                        ("hdrvis_cache_key", &texts[9]),
+                    ],
+                )
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_are_stable_and_tell_parameters_apart() {
+        let base = OkadaJob::default();
+        assert_eq!(base.cache_key(), OkadaJob::default().cache_key());
+        assert_eq!(base.cache_key().len(), 16);
+        let mut deeper = base.clone();
+        deeper.segments[0].depth_m += 1.0;
+        let mut finer = base.clone();
+        finer.n += 1;
+        let mut softer = base.clone();
+        softer.elastic = Elastic::from_poisson(0.3).unwrap();
+        let keys = [&base, &deeper, &finer, &softer].map(|j| j.cache_key());
+        for a in 0..keys.len() {
+            for b in a + 1..keys.len() {
+                assert_ne!(keys[a], keys[b], "jobs {a} and {b}");
+            }
+        }
+        let mut tsunami = TsunamiJob::default();
+        let key = tsunami.cache_key();
+        tsunami.options.nonlinear = true;
+        assert_ne!(key, tsunami.cache_key());
+        let mut mantle = MantleJob::default();
+        let key = mantle.cache_key();
+        mantle.options.seed = 2;
+        assert_ne!(key, mantle.cache_key());
+    }
+
+    #[test]
+    fn okada_netcdf_matches_displacement_at() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("okada.nc");
+        let job = OkadaJob {
+            n: 21,
+            ..OkadaJob::default()
+        };
+        job.run(&out, &mut |_| {}).unwrap();
+        let names: Vec<String> = netcdf::list_variables(&out)
+            .unwrap()
+            .into_iter()
+            .map(|(n, _)| n)
+            .collect();
+        assert_eq!(names, ["y", "x", "ux", "uy", "uz"]);
+        let x = netcdf::read_coordinate(&out, "x").unwrap().unwrap();
+        let y = netcdf::read_coordinate(&out, "y").unwrap().unwrap();
+        assert_eq!((x[0], x[20], y[10]), (-5.0e5, 5.0e5, 0.0));
+        let components = ["ux", "uy", "uz"].map(|c| netcdf::read_variable(&out, c).unwrap());
+        assert_eq!(components[2].units.as_deref(), Some("m"));
+        assert_eq!(
+            components[2].dims,
+            [("y".to_string(), 21), ("x".to_string(), 21)]
+        );
+        for (i, j) in [(10, 10), (3, 17), (12, 9), (0, 0)] {
+            let expected =
+                okada::displacement_at(&job.segments, &job.elastic, x[i], y[j], 0.0).unwrap();
+            for c in 0..3 {
+                assert_eq!(
+                    components[c].data[j * 21 + i],
+                    expected[c],
+                    "node ({i}, {j}) c{c}"
+                );
+            }
+        }
+        // Normal faulting subsides the surface above the fault.
+        assert!(components[2].data[10 * 21 + 10] < 0.0);
+    }
+
+    #[test]
+    fn okada_npy_is_a_component_stack() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("okada.npy");
+        let job = OkadaJob {
+            n: 5,
+            ..OkadaJob::default()
+        };
+        job.run(&out, &mut |_| {}).unwrap();
+        let arr = super::super::npy::read_npy::<f64>(&out).unwrap();
+        assert_eq!(arr.shape, [3, 5, 5]);
+        let field = okada::surface_field(&job.segments, &job.elastic, 1.0e6, 5).unwrap();
+        assert_eq!(&arr.data[50..75], &field.uz[..]);
+    }
+
+    #[test]
+    fn okada_refuses_bad_output_and_parameters() {
+        let dir = tempfile::tempdir().unwrap();
+        let job = OkadaJob::default();
+        let err = job.run(&dir.path().join("a.txt"), &mut |_| {}).unwrap_err();
+        assert!(err.to_string().starts_with("output:"), "{err}");
+        let mut bad = OkadaJob { n: 5, ..job };
+        bad.segments[0].dip_deg = 95.0;
+        let err = bad.run(&dir.path().join("a.nc"), &mut |_| {}).unwrap_err();
+        assert!(err.to_string().contains("[-90, 90]"), "{err}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn tiny_tsunami_runs_and_records_its_fields() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("t.nc");
+        let job = TsunamiJob {
+            bathymetry: BathymetrySource::Synthetic {
+                n: 32,
+                extent_m: tsunami::SOUTH_CHINA_SEA_EXTENT_M,
+            },
+            options: TsunamiOptions {
+                duration_s: 600.0,
+                ..TsunamiOptions::default()
+            },
+            ..TsunamiJob::default()
+        };
+        let mut last = 0.0;
+        job.run(&out, &mut |f| last = f).unwrap();
+        assert_eq!(last, 1.0);
+        let max = netcdf::read_variable(&out, "max_abs_eta").unwrap();
+        let eta0 = netcdf::read_variable(&out, "initial_eta").unwrap();
+        let depth = netcdf::read_variable(&out, "depth").unwrap();
+        assert_eq!(max.dims, [("y".to_string(), 32), ("x".to_string(), 32)]);
+        // The maximum includes the initial state, on every wet cell.
+        for ((m, e), d) in max.data.iter().zip(&eta0.data).zip(&depth.data) {
+            if *d > 0.0 {
+                assert!(*m >= e.abs() - 1e-12);
+            }
+        }
+        let peak = eta0.data.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+        assert!(
+            peak > 0.1,
+            "an 8 m thrust lifts the sea floor by metres, got {peak}"
+        );
+    }
+
+    #[test]
+    fn tsunami_reads_lonlat_bathymetry_from_npz() {
+        use npyz::WriterBuilder;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("topo.npz");
+        let (nx, ny) = (12, 10);
+        // Latitude stored north first, as rasters often are: the reader flips it.
+        let lon: Vec<f64> = (0..nx).map(|i| 120.0 + 0.1 * i as f64).collect();
+        let lat: Vec<f64> = (0..ny).map(|j| 20.0 - 0.1 * j as f64).collect();
+        let topo: Vec<f64> = (0..nx * ny)
+            .map(|k| if k < nx { 50.0 } else { -3000.0 })
+            .collect();
+        {
+            let mut npz = npyz::npz::NpzWriter::create(&path).unwrap();
+            for (name, shape, data) in [
+                ("topo", vec![ny as u64, nx as u64], &topo),
+                ("longitude", vec![nx as u64], &lon),
+                ("latitude", vec![ny as u64], &lat),
+            ] {
+                let mut w = npz
+                    .array::<f64>(name, Default::default())
+                    .unwrap()
+                    .default_dtype()
+                    .shape(&shape)
+                    .begin_nd()
+                    .unwrap();
+                w.extend(data.iter().copied()).unwrap();
+                w.finish().unwrap();
+            }
+        }
+        let job = TsunamiJob {
+            bathymetry: BathymetrySource::File {
+                path: path.clone(),
+                var: None,
+            },
+            ..TsunamiJob::default()
+        };
+        let bathy = job.load_bathymetry().unwrap();
+        assert_eq!((bathy.nx, bathy.ny), (nx, ny));
+        // The first stored row (northernmost, land) becomes the last row.
+        assert!(bathy.depth_m[(ny - 1) * nx..].iter().all(|&d| d == -50.0));
+        assert_eq!(bathy.depth_m[0], 3000.0);
+        // 0.1 degree of latitude on a 6371 km sphere is 11.119 km.
+        assert!((bathy.dy_m - 11_119.49).abs() < 0.1, "{}", bathy.dy_m);
+    }
+
+    #[test]
+    fn tiny_mantle_writes_every_field_and_refuses_npy_of_all() {
+        let dir = tempfile::tempdir().unwrap();
+        let job = MantleJob {
+            options: MantleOptions {
+                n: 17,
+                ..MantleOptions::default()
+            },
+        };
+        let out = dir.path().join("m.nc");
+        job.run(&out, &mut |_| {}).unwrap();
+        let t = netcdf::read_variable(&out, "temperature").unwrap();
+        assert_eq!(t.dims.iter().map(|d| d.1).collect::<Vec<_>>(), [17, 17, 17]);
+        assert!(netcdf::read_variable(&out, "viscosity").is_ok());
+        // Corner cells lie outside the shell and are missing.
+        assert!(t.data[0].is_nan());
+        let err = job.run(&dir.path().join("m.npy"), &mut |_| {}).unwrap_err();
+        assert!(err.to_string().starts_with("field:"), "{err}");
+    }
+}

@@ -1,0 +1,317 @@
+//! Script API: datasets, transfer functions, cameras, volume rendering and output. Names fixed by
+//! the issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`,
+//! `save_exr`, `save_png`, `param`.
+
+use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
+use super::ScriptHost;
+use crate::model::{Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume};
+use crate::render::{FilterMode, VolumeRenderOptions};
+use rhai::{Dynamic, Engine, Map};
+use std::sync::Arc;
+
+/// A camera as scripts describe it; views that frame "the volume" are fixed at render time.
+#[derive(Clone, Debug)]
+pub enum ScriptCamera {
+    Axis(Axis),
+    Orbit {
+        azimuth: f64,
+        elevation: f64,
+        fov: f64,
+    },
+    Fixed(Camera),
+}
+
+impl ScriptCamera {
+    fn resolve(&self, volume: &Volume) -> crate::Result<Camera> {
+        match self {
+            ScriptCamera::Axis(a) => Ok(Camera::axis(*a, &volume.bounds())),
+            ScriptCamera::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => Camera::orbit(&volume.bounds(), *azimuth, *elevation, *fov),
+            ScriptCamera::Fixed(c) => Ok(*c),
+        }
+    }
+}
+
+pub type ScriptVolume = Arc<Volume>;
+pub type ScriptImage = Arc<HdrImage>;
+
+const RENDER_KEYS: &[&str] = &[
+    "tf",
+    "camera",
+    "width",
+    "height",
+    "step",
+    "jitter",
+    "seed",
+    "early_exit",
+    "background",
+    "filter",
+];
+const LUT_KEYS: &[&str] = &[
+    "scale",
+    "linthresh",
+    "domain",
+    "lens",
+    "colormap",
+    "emission",
+    "opacity",
+    "transparent_below",
+];
+const MANTLE_KEYS: &[&str] = &["n", "seed", "field", "plumes", "slabs"];
+
+pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+    engine
+        .register_type_with_name::<ScriptVolume>("Volume")
+        .register_type_with_name::<TransferFunction>("TransferFunction")
+        .register_type_with_name::<ScriptCamera>("Camera")
+        .register_type_with_name::<ScriptImage>("Image");
+
+    engine.register_get("name", |v: &mut ScriptVolume| v.name.clone());
+    engine.register_get("dims", |v: &mut ScriptVolume| -> rhai::Array {
+        v.dims.iter().map(|&d| Dynamic::from(d as i64)).collect()
+    });
+    engine.register_get("width", |i: &mut ScriptImage| i.width as i64);
+    engine.register_get("height", |i: &mut ScriptImage| i.height as i64);
+
+    let h = host.clone();
+    engine.register_fn("load_volume", move |path: &str| -> RResult<ScriptVolume> {
+        let p = h.sandbox.read_path(path).map_err(to_rhai)?;
+        Ok(Arc::new(crate::datasets::load_volume(&p).map_err(to_rhai)?))
+    });
+
+    engine.register_fn("generate_mantle", |opts: Map| -> RResult<ScriptVolume> {
+        use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
+        check_keys(&opts, MANTLE_KEYS, "generate_mantle")?;
+        let mut o = MantleOptions::default();
+        let mut field = MantleField::Fluctuation;
+        for (k, v) in &opts {
+            match k.as_str() {
+                "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
+                "seed" => o.seed = int(v, "seed")? as u64,
+                "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
+                "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
+                "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
+                _ => unreachable!("checked keys"),
+            }
+        }
+        o.fields = MantleFields::only(field);
+        let m = generate(&o, &mut |_| {}).map_err(to_rhai)?;
+        let n = m.n;
+        let data = m.field(field).map(|d| d.to_vec()).unwrap_or_default();
+        let mut v = Volume::new(
+            format!("mantle-{} n={n} seed={}", field.name(), o.seed),
+            [n; 3],
+            [2.0 / n as f64; 3],
+            [-1.0; 3],
+            data,
+        )
+        .map_err(to_rhai)?;
+        v.units = "non-dimensional".into();
+        Ok(Arc::new(v))
+    });
+
+    engine.register_fn("volume_stats", |v: &mut ScriptVolume| -> Map {
+        let s = v.stats();
+        let mut m = Map::new();
+        m.insert("min".into(), Dynamic::from(s.min));
+        m.insert("max".into(), Dynamic::from(s.max));
+        m.insert(
+            "min_positive".into(),
+            s.min_positive.map(Dynamic::from).unwrap_or(Dynamic::UNIT),
+        );
+        m.insert("finite".into(), Dynamic::from(s.finite as i64));
+        m.insert("missing".into(), Dynamic::from(s.non_finite as i64));
+        m
+    });
+
+    engine.register_fn(
+        "tf_emission_absorption",
+        |e: Dynamic, a: Dynamic| -> RResult<TransferFunction> {
+            TransferFunction::emission_absorption(num(&e, "emission")?, num(&a, "absorption")?)
+                .map_err(to_rhai)
+        },
+    );
+
+    engine.register_fn("tf_lut", |opts: Map| -> RResult<TransferFunction> {
+        check_keys(&opts, LUT_KEYS, "tf_lut")?;
+        let mut l = LutTransfer::default();
+        let mut scale = "linear".to_string();
+        let mut linthresh = None;
+        for (k, v) in &opts {
+            match k.as_str() {
+                "scale" => scale = string(v, "scale")?,
+                "linthresh" => linthresh = Some(num(v, "linthresh")?),
+                "domain" => {
+                    let d = points(&Dynamic::from(vec![v.clone()]), "domain")?;
+                    l.domain = Some(d[0]);
+                }
+                "lens" => {
+                    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+                        to_rhai(crate::Error::invalid(
+                            "lens",
+                            "expected a map #{lo, hi, factor}",
+                        ))
+                    })?;
+                    check_keys(&m, &["lo", "hi", "factor"], "lens")?;
+                    let get = |key: &str| {
+                        m.get(key)
+                            .ok_or_else(|| {
+                                to_rhai(crate::Error::invalid("lens", format!("missing {key}")))
+                            })
+                            .and_then(|x| num(x, key))
+                    };
+                    l.lens = Some(Lens {
+                        lo: get("lo")?,
+                        hi: get("hi")?,
+                        factor: get("factor")?,
+                    });
+                }
+                "colormap" => l.colormap = string(v, "colormap")?,
+                "emission" => l.emission = points(v, "emission")?,
+                "opacity" => l.opacity = points(v, "opacity")?,
+                "transparent_below" => l.transparent_below = num(v, "transparent_below")?,
+                _ => unreachable!("checked keys"),
+            }
+        }
+        l.scale = Scale::parse(&scale, linthresh).map_err(to_rhai)?;
+        crate::model::colormap::Colormap::by_name(&l.colormap).map_err(to_rhai)?;
+        Ok(TransferFunction::Lut(l))
+    });
+
+    engine.register_fn("camera_axis", |axis: &str| -> RResult<ScriptCamera> {
+        Ok(ScriptCamera::Axis(Axis::parse(axis).map_err(to_rhai)?))
+    });
+    engine.register_fn(
+        "camera_orbit",
+        |az: Dynamic, el: Dynamic| -> RResult<ScriptCamera> {
+            Ok(ScriptCamera::Orbit {
+                azimuth: num(&az, "azimuth")?,
+                elevation: num(&el, "elevation")?,
+                fov: 35.0,
+            })
+        },
+    );
+    engine.register_fn(
+        "camera_orbit",
+        |az: Dynamic, el: Dynamic, fov: Dynamic| -> RResult<ScriptCamera> {
+            Ok(ScriptCamera::Orbit {
+                azimuth: num(&az, "azimuth")?,
+                elevation: num(&el, "elevation")?,
+                fov: num(&fov, "fov")?,
+            })
+        },
+    );
+    engine.register_fn(
+        "camera_look_at",
+        |eye: Dynamic, target: Dynamic, up: Dynamic, fov: Dynamic| -> RResult<ScriptCamera> {
+            Ok(ScriptCamera::Fixed(
+                Camera::look_at(
+                    vec3(&eye, "eye")?,
+                    vec3(&target, "target")?,
+                    vec3(&up, "up")?,
+                    num(&fov, "fov")?,
+                )
+                .map_err(to_rhai)?,
+            ))
+        },
+    );
+
+    let h = host.clone();
+    engine.register_fn("render_volume", move |volume: &mut ScriptVolume, opts: Map| -> RResult<ScriptImage> {
+        check_keys(&opts, RENDER_KEYS, "render_volume")?;
+        let tf = match opts.get("tf") {
+            Some(v) => v.clone().try_cast::<TransferFunction>().ok_or_else(|| to_rhai(crate::Error::invalid("tf", "expected a TransferFunction (from tf_lut or tf_emission_absorption)")))?,
+            None => return err("tf", "render_volume needs a transfer function: tf: tf_lut(#{...}) or tf_emission_absorption(e, a)"),
+        };
+        let camera = match opts.get("camera") {
+            Some(v) => v.clone().try_cast::<ScriptCamera>().ok_or_else(|| to_rhai(crate::Error::invalid("camera", "expected a Camera (from camera_axis, camera_orbit or camera_look_at)")))?,
+            None => ScriptCamera::Orbit { azimuth: 30.0, elevation: 25.0, fov: 35.0 },
+        };
+        let mut o = VolumeRenderOptions::new(camera.resolve(volume).map_err(to_rhai)?, tf);
+        for (k, v) in &opts {
+            match k.as_str() {
+                "tf" | "camera" => {}
+                "width" => o.width = int(v, "width")?.clamp(0, u32::MAX as i64) as u32,
+                "height" => o.height = int(v, "height")?.clamp(0, u32::MAX as i64) as u32,
+                "step" => o.step = num(v, "step")?,
+                "jitter" => o.jitter = boolean(v, "jitter")?,
+                "seed" => o.seed = int(v, "seed")? as u32,
+                "early_exit" => o.early_exit = num(v, "early_exit")?,
+                "background" => o.background = vec3(v, "background")?,
+                "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
+                _ => unreachable!("checked keys"),
+            }
+        }
+        let renderer = h.renderer().map_err(to_rhai)?;
+        let gv = h.upload(volume).map_err(to_rhai)?;
+        let (img, _) = renderer.render(&gv, &o).map_err(to_rhai)?;
+        Ok(Arc::new(img))
+    });
+
+    let h = host.clone();
+    engine.register_fn(
+        "save_exr",
+        move |img: &mut ScriptImage, path: &str| -> RResult<()> {
+            let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+            crate::io::exr::write_exr(img, &p).map_err(to_rhai)?;
+            h.written.lock().expect("poisoned").push(p);
+            Ok(())
+        },
+    );
+    let h = host.clone();
+    let save_png = move |img: &mut ScriptImage, path: &str, ev: f64| -> RResult<()> {
+        let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+        crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
+        h.written.lock().expect("poisoned").push(p);
+        Ok(())
+    };
+    let save_png2 = save_png.clone();
+    engine.register_fn("save_png", move |img: &mut ScriptImage, path: &str| {
+        save_png2(img, path, 0.0)
+    });
+    engine.register_fn(
+        "save_png",
+        move |img: &mut ScriptImage, path: &str, ev: Dynamic| -> RResult<()> {
+            save_png(img, path, num(&ev, "exposure")?)
+        },
+    );
+
+    let h = host;
+    engine.register_fn(
+        "param",
+        move |name: &str, default: Dynamic| -> RResult<Dynamic> {
+            let Some(text) = h.sets.get(name) else {
+                return Ok(default);
+            };
+            let bad = |what: &str| {
+                err::<Dynamic>(
+                    &format!("--set {name}"),
+                    format!("expected {what} (the type of the default), got {text:?}"),
+                )
+            };
+            if default.is_int() {
+                text.trim()
+                    .parse::<i64>()
+                    .map(Dynamic::from)
+                    .or_else(|_| bad("an integer"))
+            } else if default.is_float() {
+                text.trim()
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .map(Dynamic::from)
+                    .map_or_else(|| bad("a finite number"), Ok)
+            } else if default.is_bool() {
+                text.trim()
+                    .parse::<bool>()
+                    .map(Dynamic::from)
+                    .or_else(|_| bad("true or false"))
+            } else {
+                Ok(Dynamic::from(text.clone()))
+            }
+        },
+    );
+}

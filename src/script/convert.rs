@@ -1,0 +1,108 @@
+//! Conversions between Rhai values and hdrvis types: numbers that may be written as integers or
+//! floats, vectors as arrays, and option maps whose unknown keys are errors listing the known ones.
+
+use crate::error::Error;
+use rhai::{Dynamic, EvalAltResult, Map, Position};
+
+pub type RResult<T> = Result<T, Box<EvalAltResult>>;
+
+/// Library errors become Rhai runtime errors; the caller's position is filled in by Rhai.
+pub fn to_rhai(e: Error) -> Box<EvalAltResult> {
+    Box::new(EvalAltResult::ErrorRuntime(
+        e.to_string().into(),
+        Position::NONE,
+    ))
+}
+
+pub fn err<T>(field: &str, msg: impl Into<String>) -> RResult<T> {
+    Err(to_rhai(Error::invalid(field, msg)))
+}
+
+pub fn num(v: &Dynamic, field: &str) -> RResult<f64> {
+    if let Ok(f) = v.as_float() {
+        Ok(f)
+    } else if let Ok(i) = v.as_int() {
+        Ok(i as f64)
+    } else {
+        err(field, format!("expected a number, got {}", v.type_name()))
+    }
+}
+
+pub fn int(v: &Dynamic, field: &str) -> RResult<i64> {
+    v.as_int()
+        .or_else(|_| err(field, format!("expected an integer, got {}", v.type_name())))
+}
+
+pub fn boolean(v: &Dynamic, field: &str) -> RResult<bool> {
+    v.as_bool().or_else(|_| {
+        err(
+            field,
+            format!("expected true or false, got {}", v.type_name()),
+        )
+    })
+}
+
+pub fn string(v: &Dynamic, field: &str) -> RResult<String> {
+    v.clone()
+        .into_string()
+        .or_else(|t| err(field, format!("expected a string, got {t}")))
+}
+
+pub fn vec3(v: &Dynamic, field: &str) -> RResult<[f64; 3]> {
+    let arr = v
+        .clone()
+        .into_array()
+        .or_else(|t| err(field, format!("expected an array of 3 numbers, got {t}")))?;
+    if arr.len() != 3 {
+        return err(field, format!("expected 3 numbers, got {}", arr.len()));
+    }
+    Ok([
+        num(&arr[0], field)?,
+        num(&arr[1], field)?,
+        num(&arr[2], field)?,
+    ])
+}
+
+/// Control points [[t, value], ...].
+pub fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
+    let arr = v.clone().into_array().or_else(|t| {
+        err(
+            field,
+            format!("expected an array of [t, value] pairs, got {t}"),
+        )
+    })?;
+    arr.iter()
+        .map(|p| {
+            let pair = p
+                .clone()
+                .into_array()
+                .or_else(|t| err(field, format!("expected [t, value], got {t}")))?;
+            if pair.len() != 2 {
+                return err(field, "expected [t, value] pairs");
+            }
+            Ok([num(&pair[0], field)?, num(&pair[1], field)?])
+        })
+        .collect()
+}
+
+/// Rejects keys outside `known`, naming them and listing the known ones.
+pub fn check_keys(map: &Map, known: &[&str], what: &str) -> RResult<()> {
+    let mut unknown: Vec<&str> = map
+        .keys()
+        .map(|k| k.as_str())
+        .filter(|k| !known.contains(k))
+        .collect();
+    if unknown.is_empty() {
+        return Ok(());
+    }
+    unknown.sort();
+    err(
+        what,
+        format!(
+            "unknown option{} {}; known options: {}",
+            if unknown.len() > 1 { "s" } else { "" },
+            unknown.join(", "),
+            known.join(", ")
+        ),
+    )
+}

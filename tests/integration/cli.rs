@@ -1,0 +1,233 @@
+//! The binary as users run it: scripts producing EXR/PNG read back by independent readers, and
+//! bad input answered by a one-line error, a non-zero exit and no output file.
+
+use hdrvis::model::Volume;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+pub fn hdrvis(args: &[&str], cwd: &Path) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("run hdrvis");
+    let clean = |b: &[u8]| {
+        String::from_utf8_lossy(b)
+            .lines()
+            // Mesa's EGL probe prints this on machines without a Wayland session; it is not ours.
+            .filter(|l| !l.contains("XDG_RUNTIME_DIR"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    (
+        out.status.code().unwrap_or(-1),
+        clean(&out.stdout),
+        clean(&out.stderr),
+    )
+}
+
+fn write_volume(dir: &Path) -> PathBuf {
+    let v = Volume::from_fn("blob", [24, 20, 16], |x, y, z| {
+        (-((x - 12.0).powi(2) + (y - 10.0).powi(2) + (z - 8.0).powi(2)) / 18.0).exp()
+    })
+    .unwrap();
+    let p = dir.join("blob.npy");
+    hdrvis::datasets::npy::write_npy_f32(&p, &[16, 20, 24], &v.data).unwrap();
+    p
+}
+
+/// Runs a Python cross-check; exit 77 means its modules are missing, which fails the test when
+/// HDRVIS_REQUIRE_PYTHON=1 (as in CI) and skips it otherwise.
+pub fn python_check(script: &str, args: &[&str]) -> Option<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/python")
+        .join(script);
+    let out = Command::new("python3").arg(&path).args(args).output();
+    let required = std::env::var("HDRVIS_REQUIRE_PYTHON").as_deref() == Ok("1");
+    match out {
+        Ok(o) if o.status.code() == Some(77) || o.status.code().is_none() => {
+            assert!(
+                !required,
+                "{script}: python modules missing: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            eprintln!(
+                "skipping {script}: {}",
+                String::from_utf8_lossy(&o.stderr).trim()
+            );
+            None
+        }
+        Ok(o) => Some(format!(
+            "exit {}\n{}{}",
+            o.status.code().unwrap_or(-1),
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        )),
+        Err(e) => {
+            assert!(!required, "python3 not runnable: {e}");
+            None
+        }
+    }
+}
+
+#[test]
+fn script_renders_and_writes_exr_read_by_openexr() {
+    let dir = tempfile::tempdir().unwrap();
+    write_volume(dir.path());
+    let script = r#"
+        let v = load_volume("blob.npy");
+        let img = render_volume(v, #{ tf: tf_emission_absorption(2.0, 0.5), camera: camera_axis("z"),
+                                      width: 24, height: 20, step: param("step", 0.5) });
+        save_exr(img, "blob.exr");
+        save_png(img, "views/blob.png", 1);
+    "#;
+    std::fs::write(dir.path().join("s.rhai"), script).unwrap();
+    let (code, stdout, stderr) = hdrvis(
+        &["run", "s.rhai", "--out", "o", "--set", "step=0.25"],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("blob.exr"), "{stdout}");
+    let exr = dir.path().join("o/blob.exr");
+    let img = hdrvis::io::exr::read_exr(&exr).unwrap();
+    assert_eq!((img.width, img.height), (24, 20));
+    assert!(
+        img.meta("adapter").is_some() && img.meta("tf").unwrap().contains("emission-absorption")
+    );
+    let png = image::open(dir.path().join("o/views/blob.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (24, 20));
+    let centre = img.pixel(12, 10);
+    let arg = format!("12,10,R,{}", centre[0]);
+    if let Some(report) = python_check(
+        "check_exr.py",
+        &[exr.to_str().unwrap(), "R", "G", "B", "A", "--pixel", &arg],
+    ) {
+        assert!(report.starts_with("exit 0"), "{report}");
+    }
+}
+
+fn assert_one_line_error(code: i32, stderr: &str, needle: &str) {
+    assert_ne!(code, 0, "expected failure, stderr: {stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert!(
+        lines.first().is_some_and(|l| l.starts_with("error: ")),
+        "{stderr}"
+    );
+    assert!(stderr.contains(needle), "expected {needle:?} in: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn bad_volume_inputs_are_one_line_errors_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Header/data size mismatch, malformed header, unsupported dtype, zero and absurd dims.
+    std::fs::write(d.join("short.raw"), [0u8; 100]).unwrap();
+    std::fs::write(d.join("mismatch.nhdr"), "NRRD0004\ntype: float\ndimension: 3\nsizes: 8 8 8\nendian: little\nencoding: raw\ndata file: short.raw\n").unwrap();
+    std::fs::write(d.join("malformed.nhdr"), "NRRD0004\ntype float\n").unwrap();
+    std::fs::write(
+        d.join("zero.nhdr"),
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 0 8 8\nendian: little\ndata file: short.raw\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("absurd.nhdr"), "NRRD0004\ntype: float\ndimension: 3\nsizes: 60000 60000 60000\nendian: little\ndata file: short.raw\n").unwrap();
+    let mut complex = b"\x93NUMPY\x01\x00".to_vec();
+    let header = "{'descr': '<c8', 'fortran_order': False, 'shape': (2, 2, 2), }";
+    let pad = 64 - (10 + header.len() + 1) % 64;
+    let h = format!("{header}{}\n", " ".repeat(pad));
+    complex.extend((h.len() as u16).to_le_bytes());
+    complex.extend(h.as_bytes());
+    complex.extend([0u8; 64]);
+    std::fs::write(d.join("complex.npy"), complex).unwrap();
+    let cases = [
+        ("missing.npy", "missing.npy"),
+        ("mismatch.nhdr", "short.raw"),
+        ("malformed.nhdr", "malformed.nhdr"),
+        ("zero.nhdr", "sizes"),
+        ("absurd.nhdr", "sizes"),
+        ("complex.npy", "dtype"),
+    ];
+    for (file, needle) in cases {
+        let script = format!(
+            "let v = load_volume(\"{file}\");\nlet img = render_volume(v, #{{ tf: tf_emission_absorption(1, 1) }});\nsave_exr(img, \"x.exr\");\n"
+        );
+        std::fs::write(d.join("s.rhai"), script).unwrap();
+        let (code, _, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], d);
+        assert_one_line_error(code, &stderr, needle);
+        // The error points at the script line and column with a caret.
+        assert!(stderr.contains("s.rhai:1:9"), "{stderr}");
+        assert!(!d.join("o/x.exr").exists());
+    }
+}
+
+#[test]
+fn bad_script_calls_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_volume(d);
+    let cases = [
+        ("render_volume(load_volume(\"blob.npy\"), #{ tf: tf_emission_absorption(1, 1), colour: 3 })", "unknown option colour; known options: tf, camera"),
+        ("camera_look_at([0.0/0.0, 0, 0], [1, 1, 1], [0, 0, 1], 30)", "camera.eye"),
+        ("render_volume(load_volume(\"blob.npy\"), #{ tf: tf_emission_absorption(1, 1), step: -1 })", "step"),
+        ("tf_lut(#{ colormap: \"jet\" })", "viridis"),
+        ("load_volume(\"/etc/passwd\")", "outside the folders"),
+        ("save_exr(render_volume(load_volume(\"blob.npy\"), #{ tf: tf_emission_absorption(1, 1) }), \"../escape.exr\")", "outside the output folder"),
+        ("let x = ;", "s.rhai:1:"),
+    ];
+    for (line, needle) in cases {
+        std::fs::write(d.join("s.rhai"), line).unwrap();
+        let (code, _, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], d);
+        assert_one_line_error(code, &stderr, needle);
+    }
+    assert!(!d.join("escape.exr").exists());
+    let (code, _, stderr) = hdrvis(&["run", "s.rhai", "--set", "novalue"], d);
+    assert_one_line_error(code, &stderr, "KEY=VALUE");
+    std::fs::write(d.join("p.rhai"), "let n = param(\"n\", 3);").unwrap();
+    let (code, _, stderr) = hdrvis(&["run", "p.rhai", "--set", "n=three"], d);
+    assert_one_line_error(code, &stderr, "expected an integer");
+}
+
+#[test]
+fn doctor_reports_adapter_and_capabilities() {
+    let dir = tempfile::tempdir().unwrap();
+    for backend in ["vulkan", "gl"] {
+        let (code, stdout, stderr) = hdrvis(&["doctor", "--backend", backend], dir.path());
+        assert_eq!(code, 0, "{stderr}");
+        for key in [
+            "adapter:",
+            "backend:",
+            "driver:",
+            "float32 filtering:",
+            "shader f64:",
+            "max 3-D texture:",
+        ] {
+            assert!(stdout.contains(key), "{backend}: {stdout}");
+        }
+    }
+    let (code, _, stderr) = hdrvis(&["doctor", "--backend", "metal2"], dir.path());
+    assert_one_line_error(code, &stderr, "expected auto, vulkan or gl");
+}
+
+#[test]
+fn demo_runs_with_small_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/demo.rhai");
+    let (code, stdout, stderr) = hdrvis(
+        &[
+            "run",
+            script.to_str().unwrap(),
+            "--out",
+            "o",
+            "--set",
+            "n=32",
+            "--set",
+            "size=48",
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("demo.exr"));
+    let img = hdrvis::io::exr::read_exr(&dir.path().join("o/demo.exr")).unwrap();
+    assert!(img.pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
+    assert!(img.pixels.iter().any(|p| p[0] > 0.0), "demo image is black");
+}
