@@ -35,11 +35,10 @@ override JITTER: bool = false;
 
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var volume_tex: texture_3d<f32>;
-#if HW_FILTER
-@group(0) @binding(2) var lut_tex: texture_1d<f32>;
-#else
-@group(0) @binding(2) var<storage, read> lut: array<vec4<f32>>;
-#endif
+// The transfer table as an N x 1 texture read with textureLoad (GLES has no 1-D textures): on CPU rasterizers texel loads
+// are cheaper than storage-buffer gathers, and the f32 interpolation below matches the CPU
+// reference exactly (no fixed-point filter weights).
+@group(0) @binding(2) var lut: texture_2d<f32>;
 @group(0) @binding(3) var out_image: texture_storage_2d<rgba32float, write>;
 #if HW_FILTER
 @group(0) @binding(4) var volume_sampler: sampler;
@@ -103,15 +102,9 @@ fn transfer(v: f32) -> vec4<f32> {
         let c = max(v, 0.0);
         return vec4<f32>(vec3<f32>(P.tf.x * c), P.tf.y * c);
     }
-#if HW_FILTER
-    // Texel centres sit at (i + 0.5) / N: map t in [0, 1] onto the first and last centres.
-    let n = P.scale.w + 1.0;
-    return textureSampleLevel(lut_tex, volume_sampler, (scaled(v) * P.scale.w + 0.5) / n, 0.0);
-#else
     let x = scaled(v) * P.scale.w;
-    let i = min(u32(x), u32(P.scale.w) - 1u);
-    return mix(lut[i], lut[i + 1u], x - f32(i));
-#endif
+    let i = min(i32(x), i32(P.scale.w) - 1);
+    return mix(textureLoad(lut, vec2<i32>(i, 0), 0), textureLoad(lut, vec2<i32>(i + 1, 0), 0), x - f32(i));
 }
 
 @compute @workgroup_size(8, 8, 1)

@@ -22,11 +22,21 @@ pub const SOURCES: &[(&str, &str)] = &[
 /// with, so tests can validate each variant.
 pub const PIPELINES: &[(&str, &[&[&str]])] = &[("volume.wgsl", &[&[], &["HW_FILTER"]])];
 
-fn source(name: &str) -> Result<&'static str> {
+/// Development aid: with `HDRVIS_SHADER_DIR` set, shaders are read from that folder at run time
+/// instead of the copies embedded at build time, so a shader can be tuned without rebuilding.
+pub const SHADER_DIR_ENV: &str = "HDRVIS_SHADER_DIR";
+
+fn source(name: &str) -> Result<std::borrow::Cow<'static, str>> {
+    if let Ok(dir) = std::env::var(SHADER_DIR_ENV) {
+        let path = std::path::Path::new(&dir).join(name);
+        return std::fs::read_to_string(&path)
+            .map(Into::into)
+            .map_err(|e| Error::io(&path, e));
+    }
     SOURCES
         .iter()
         .find(|(n, _)| *n == name)
-        .map(|(_, s)| *s)
+        .map(|(_, s)| (*s).into())
         .ok_or_else(|| Error::Gpu(format!("shader {name} is not embedded")))
 }
 

@@ -222,18 +222,10 @@ impl VolumeRenderer {
             wgpu::BindGroupLayoutEntry {
                 binding: 2,
                 visibility: wgpu::ShaderStages::COMPUTE,
-                ty: if key.hw_filter {
-                    wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D1,
-                        multisampled: false,
-                    }
-                } else {
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    }
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
                 },
                 count: None,
             },
@@ -392,11 +384,6 @@ impl VolumeRenderer {
         } else {
             tf.lut_f32()
         };
-        let lut_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("transfer lut"),
-            contents: bytemuck::cast_slice(&lut),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
         let lut_tex = device.create_texture_with_data(
             &self.ctx.queue,
             &wgpu::TextureDescriptor {
@@ -408,7 +395,7 @@ impl VolumeRenderer {
                 },
                 mip_level_count: 1,
                 sample_count: 1,
-                dimension: wgpu::TextureDimension::D1,
+                dimension: wgpu::TextureDimension::D2,
                 format: wgpu::TextureFormat::Rgba32Float,
                 usage: wgpu::TextureUsages::TEXTURE_BINDING,
                 view_formats: &[],
@@ -443,11 +430,7 @@ impl VolumeRenderer {
             },
             wgpu::BindGroupEntry {
                 binding: 2,
-                resource: if hw_filter {
-                    wgpu::BindingResource::TextureView(&lut_view)
-                } else {
-                    lut_buf.as_entire_binding()
-                },
+                resource: wgpu::BindingResource::TextureView(&lut_view),
             },
             wgpu::BindGroupEntry {
                 binding: 3,
