@@ -45,6 +45,11 @@ fn run(cli: Cli) -> Result<()> {
             println!("{}", ctx.report());
             Ok(())
         }
+        Some(Command::Bench(BenchCommand::Datasets { runs, quick })) => {
+            let rows = hdrvis::bench::bench_generators(runs, quick, &mut |m| eprintln!("{m}"))?;
+            print!("{}", hdrvis::bench::format_generator_table(&rows));
+            Ok(())
+        }
         Some(Command::Bench(BenchCommand::Volume { runs, quick, peer })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();

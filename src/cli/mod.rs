@@ -65,4 +65,12 @@ pub enum BenchCommand {
         #[arg(long)]
         peer: Option<String>,
     },
+    /// Dataset generators: okada 1001^2, mantle 513^3, tsunami 1000^2 for 2 simulated hours.
+    Datasets {
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Small sizes (quick check).
+        #[arg(long)]
+        quick: bool,
+    },
 }
