@@ -307,7 +307,11 @@ pub struct GeneratorTiming {
 /// temporary folder: Okada on a 1001² grid (the paper's case II), the 513³ mantle (temperature
 /// only), and the linear tsunami on 1000² cells for two simulated hours. Run in that order
 /// because peak memory is a high-water mark.
-pub fn bench_generators(runs: usize, quick: bool, log: &mut dyn FnMut(&str)) -> Result<Vec<GeneratorTiming>> {
+pub fn bench_generators(
+    runs: usize,
+    quick: bool,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<GeneratorTiming>> {
     use crate::datasets::generate::{Job, MantleJob, OkadaJob, TsunamiJob};
     use crate::datasets::mantle::{MantleField, MantleFields, MantleOptions};
     let dir = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
@@ -327,9 +331,18 @@ pub fn bench_generators(runs: usize, quick: bool, log: &mut dyn FnMut(&str)) -> 
         };
     }
     let jobs = [
-        (format!("okada {0}x{0} (paper case II)", okada.n), Job::Okada(okada)),
-        (format!("mantle {0}^3 temperature", mantle.n), Job::Mantle(MantleJob { options: mantle })),
-        ("tsunami synthetic basin, 2 h".to_string(), Job::Tsunami(tsunami)),
+        (
+            format!("okada {0}x{0} (paper case II)", okada.n),
+            Job::Okada(okada),
+        ),
+        (
+            format!("mantle {0}^3 temperature", mantle.n),
+            Job::Mantle(MantleJob { options: mantle }),
+        ),
+        (
+            "tsunami synthetic basin, 2 h".to_string(),
+            Job::Tsunami(tsunami),
+        ),
     ];
     let mut out = Vec::new();
     for (name, job) in jobs {
@@ -352,15 +365,23 @@ pub fn bench_generators(runs: usize, quick: bool, log: &mut dyn FnMut(&str)) -> 
 }
 
 pub fn format_generator_table(rows: &[GeneratorTiming]) -> String {
-    let mut s = format!("dataset generators (NetCDF output included), {} threads\n", rayon::current_num_threads());
-    s.push_str(&format!("{:<34} {:>10} {:>6} {:>16}\n", "generator", "median s", "runs", "peak memory MiB"));
+    let mut s = format!(
+        "dataset generators (NetCDF output included), {} threads\n",
+        rayon::current_num_threads()
+    );
+    s.push_str(&format!(
+        "{:<34} {:>10} {:>6} {:>16}\n",
+        "generator", "median s", "runs", "peak memory MiB"
+    ));
     for r in rows {
         s.push_str(&format!(
             "{:<34} {:>10.2} {:>6} {:>16}\n",
             r.name,
             median(&r.runs_s),
             r.runs_s.len(),
-            r.peak_mib.map(|m| format!("{m:.0}")).unwrap_or_else(|| "?".into())
+            r.peak_mib
+                .map(|m| format!("{m:.0}"))
+                .unwrap_or_else(|| "?".into())
         ));
     }
     s

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 const DEMO_SCRIPT: &str = include_str!("../scripts/demo.rhai");
 
 fn main() {
+    quiet_wayland_probe();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         eprintln!("error: {e}");
@@ -78,6 +79,17 @@ fn run(cli: Cli) -> Result<()> {
             print!("{}", hdrvis::bench::format_volume_table(&adapter, &rows));
             Ok(())
         }
+    }
+}
+
+/// The Vulkan loader's Wayland probe prints "XDG_RUNTIME_DIR is invalid or not set" on headless
+/// nodes, where no Wayland session exists; pointing it at the temp folder makes the probe fail
+/// quietly. Runs before any thread starts, and only when no Wayland session is configured.
+fn quiet_wayland_probe() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none()
+        && std::env::var_os("WAYLAND_DISPLAY").is_none()
+    {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
 }
 

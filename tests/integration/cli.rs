@@ -231,3 +231,34 @@ fn demo_runs_with_small_parameters() {
     assert!(img.pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
     assert!(img.pixels.iter().any(|p| p[0] > 0.0), "demo image is black");
 }
+
+#[test]
+fn backend_from_environment_and_missing_capability_fallback() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .arg("doctor")
+        .env("HDRVIS_BACKEND", "gl")
+        .env("HDRVIS_DISABLE_FEATURES", "float32_filterable,shader_f64")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    assert!(stdout.contains("backend:  GL"), "{stdout}");
+    assert!(
+        stdout.contains("float32 filtering: no (exact manual trilinear"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("shader f64: no"), "{stdout}");
+    // No Vulkan driver: one line naming the package to install.
+    let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(["doctor", "--backend", "vulkan"])
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("mesa-vulkan-drivers"), "{stderr}");
+}
