@@ -269,6 +269,29 @@ fn gpu_matches_cpu_reference_with_log_opacity_transfer() {
             );
         }
     }
+    // Jitter: the same per-pixel offsets on the GPU and the CPU (one hash), so the same match.
+    o.jitter = true;
+    o.seed = 3;
+    o.filter = FilterMode::Exact;
+    let cpu_j = render_volume_f64(&vol, &o).unwrap();
+    assert!(
+        cpu_j.iter().zip(&cpu).any(|(a, b)| a[0] != b[0]),
+        "jitter changed nothing"
+    );
+    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        let gpu = gpu_render(backend, &vol, &o);
+        let worst = gpu
+            .iter()
+            .zip(&cpu_j)
+            .flat_map(|(g, c)| {
+                (0..3).map(move |ch| (g[ch] - c[ch]).abs() / c[ch].abs().max(1e-3 * peak))
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-3,
+            "{backend:?} jittered: worst relative difference {worst}"
+        );
+    }
 }
 
 #[test]
