@@ -41,6 +41,10 @@ fn run(cli: Cli) -> Result<()> {
             cli::datasets::run_gen(&cmd).map(|p| println!("{}", p.display()))
         }
         Some(Command::Info(args)) => cli::datasets::run_info(&args).map(|r| print!("{r}")),
+        Some(Command::Api) => {
+            print!("{}", hdrvis::script::api_reference());
+            Ok(())
+        }
         Some(Command::Doctor) => {
             let ctx = GpuContext::new(backend)?;
             println!("{}", ctx.report());

@@ -21,6 +21,8 @@ pub enum Command {
     Run(RunArgs),
     /// Print the GPU adapter, backend, driver and capabilities.
     Doctor,
+    /// Print the script API reference (Markdown).
+    Api,
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),

@@ -3,6 +3,7 @@
 //! Paths a script reads resolve against its own folder and must stay inside the script folder,
 //! the output folder or folders the user allowed; outputs go only under the output folder.
 
+pub mod api_doc;
 mod api_render;
 mod convert;
 mod sandbox;
@@ -36,7 +37,7 @@ impl ScriptOptions {
             sets: Vec::new(),
             allowed_paths: Vec::new(),
             backend: BackendChoice::Auto,
-            max_operations: 500_000_000,
+            max_operations: 100_000_000,
         }
     }
 }
@@ -104,6 +105,24 @@ pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
     engine
 }
 
+/// The API reference of the engine scripts run in.
+pub fn api_reference() -> String {
+    api_doc::reference_markdown()
+}
+
+#[cfg(test)]
+pub(crate) fn test_host() -> Arc<ScriptHost> {
+    let dir = std::env::temp_dir();
+    Arc::new(ScriptHost {
+        sandbox: Sandbox::new(&dir, &dir.join("hdrvis-test-out"), &[]).unwrap(),
+        sets: HashMap::new(),
+        backend: BackendChoice::Auto,
+        renderer: OnceLock::new(),
+        uploads: Mutex::new(Vec::new()),
+        written: Mutex::new(Vec::new()),
+    })
+}
+
 /// Runs a script file.
 pub fn run_script_file(path: &Path, opts: &ScriptOptions) -> Result<ScriptReport> {
     let source = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
@@ -148,6 +167,16 @@ pub fn run_script_source(
 fn describe_eval_error(name: &str, source: &str, err: &EvalAltResult) -> String {
     // Errors raised inside registered functions carry the call site as their position.
     let mut msg = err.to_string();
+    if let EvalAltResult::ErrorFunctionNotFound(sig, _) = err {
+        let fn_name = sig.split(['(', ' ']).next().unwrap_or(sig);
+        let known = api_doc::signatures_named(fn_name);
+        if !known.is_empty() {
+            msg = format!(
+                "wrong arguments in call {sig}; expected {}",
+                known.join(" or ")
+            );
+        }
+    }
     if let Some(idx) = msg.rfind(" (line ") {
         msg.truncate(idx);
     }
@@ -166,5 +195,34 @@ pub fn format_error(name: &str, source: &str, msg: &str, pos: Position) -> Strin
             )
         }
         _ => format!("{name}: {msg}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_registered_function_is_documented_and_vice_versa() {
+        let engine = new_engine(test_host(), 1000);
+        let registered = api_doc::registered(&engine);
+        let documented = api_doc::documented();
+        let undocumented: Vec<_> = registered.difference(&documented).collect();
+        let stale: Vec<_> = documented.difference(&registered).collect();
+        assert!(
+            undocumented.is_empty(),
+            "registered but not in api_doc::API: {undocumented:?}"
+        );
+        assert!(stale.is_empty(), "documented but not registered: {stale:?}");
+    }
+
+    #[test]
+    fn docs_api_md_is_current() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/api.md");
+        let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            on_disk == api_reference(),
+            "docs/api.md is stale: regenerate it with `cargo run -- api > docs/api.md`"
+        );
     }
 }

@@ -262,3 +262,43 @@ fn backend_from_environment_and_missing_capability_fallback() {
     assert!(!out.status.success());
     assert!(stderr.contains("mesa-vulkan-drivers"), "{stderr}");
 }
+
+#[test]
+fn sandbox_stops_runaway_scripts_in_bounded_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases = [
+        ("loop { }", "operations"),
+        ("let a = []; a.pad(1000000000, 0);", "array"),
+        ("fn f(x) { f(x + 1) } f(0);", "stack overflow"),
+        ("let s = \"x\"; loop { s += s; }", "string"),
+        ("eval(\"1\")", "eval"),
+        ("import \"other\" as m;", "module"),
+    ];
+    for (src, needle) in cases {
+        std::fs::write(d.join("s.rhai"), src).unwrap();
+        let start = std::time::Instant::now();
+        let (code, _, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], d);
+        assert_ne!(code, 0, "{src}");
+        assert!(stderr.to_lowercase().contains(needle), "{src}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(
+            start.elapsed().as_secs() < 60,
+            "{src} took {:?}",
+            start.elapsed()
+        );
+    }
+}
+
+#[test]
+fn wrong_argument_types_name_the_expected_signature() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.rhai"), "let img = render_volume(1, 2);").unwrap();
+    let (code, _, stderr) = hdrvis(&["run", "s.rhai"], dir.path());
+    assert_ne!(code, 0);
+    assert!(
+        stderr.contains("render_volume(volume: Volume, options: map) -> Image"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("s.rhai:1:11"), "{stderr}");
+}

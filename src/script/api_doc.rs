@@ -1,0 +1,121 @@
+//! The script API reference. Each registered function has an entry here (area, signature,
+//! description); a test checks that the entries and the engine's registered functions are the
+//! same set, and `hdrvis api` prints the reference that `docs/api.md` holds.
+
+use std::collections::BTreeSet;
+
+pub struct ApiEntry {
+    pub area: &'static str,
+    pub name: &'static str,
+    /// Parameter names with types, as shown to users.
+    pub params: &'static [&'static str],
+    pub returns: &'static str,
+    pub doc: &'static str,
+}
+
+const fn e(
+    area: &'static str,
+    name: &'static str,
+    params: &'static [&'static str],
+    returns: &'static str,
+    doc: &'static str,
+) -> ApiEntry {
+    ApiEntry {
+        area,
+        name,
+        params,
+        returns,
+        doc,
+    }
+}
+
+/// Areas in the order the reference lists them.
+pub const AREAS: &[&str] = &[
+    "datasets",
+    "transfer functions",
+    "cameras",
+    "rendering",
+    "output",
+    "parameters and sweeps",
+];
+
+pub const API: &[ApiEntry] = &[
+    e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x) or .vti, relative to the script's folder."),
+    e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3: #{n, seed, field: \"temperature\"|\"fluctuation\"|\"viscosity\", plumes, slabs}; outside the shell is missing (NaN)."),
+    e("datasets", "volume_stats", &["volume: Volume"], "map", "#{min, max, min_positive, finite, missing} over the finite voxels."),
+    e("datasets", "get$name", &["volume: Volume"], "string", "volume.name"),
+    e("datasets", "get$dims", &["volume: Volume"], "array", "volume.dims: [nx, ny, nz]"),
+    e("transfer functions", "tf_emission_absorption", &["e: number", "a: number"], "TransferFunction", "Grey emission e·v and extinction a·v per voxel length."),
+    e("transfer functions", "tf_lut", &["options: map"], "TransferFunction", "HDR table: #{scale: \"linear\"|\"log10\"|\"symlog\", linthresh, domain: [lo, hi], lens: #{lo, hi, factor}, colormap, emission: [[t, log10 e], ...], opacity: [[t, log10 sigma], ...], transparent_below}."),
+    e("cameras", "camera_axis", &["axis: string"], "Camera", "Orthographic view along \"x\", \"y\" or \"z\" framing the volume exactly."),
+    e("cameras", "camera_orbit", &["azimuth: number", "elevation: number"], "Camera", "Perspective camera orbiting the volume's centre (degrees; fov 35)."),
+    e("cameras", "camera_orbit", &["azimuth: number", "elevation: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
+    e("cameras", "camera_look_at", &["eye: array", "target: array", "up: array", "fov: number"], "Camera", "Free perspective camera."),
+    e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast: #{tf, camera, width, height, step (voxels), jitter, seed, early_exit, background: [r, g, b], filter: \"auto\"|\"hardware\"|\"exact\"}."),
+    e("rendering", "get$width", &["image: Image"], "int", "image.width"),
+    e("rendering", "get$height", &["image: Image"], "int", "image.height"),
+    e("output", "save_exr", &["image: Image", "path: string"], "()", "Linear OpenEXR (float R, G, B, A plus extra channels and provenance), under the output folder."),
+    e("output", "save_png", &["image: Image", "path: string"], "()", "8-bit sRGB view of the image at 0 EV, under the output folder."),
+    e("output", "save_png", &["image: Image", "path: string", "exposure: number"], "()", "8-bit sRGB view at the given exposure in stops."),
+    e("parameters and sweeps", "param", &["name: string", "default: any"], "any", "The value of `--set name=value`, parsed as the default's type; the default when not set."),
+];
+
+/// (name, arity) of every documented function.
+pub fn documented() -> BTreeSet<(String, usize)> {
+    API.iter()
+        .map(|e| (e.name.to_string(), e.params.len()))
+        .collect()
+}
+
+/// (name, arity) of every function registered in `engine` (standard packages excluded).
+pub fn registered(engine: &rhai::Engine) -> BTreeSet<(String, usize)> {
+    engine
+        .gen_fn_signatures(false)
+        .into_iter()
+        .filter_map(|sig| {
+            let (name, rest) = sig.split_once('(')?;
+            let params = rest.split_once(')')?.0;
+            let arity = if params.trim().is_empty() {
+                0
+            } else {
+                params.matches("_:").count().max(params.split(',').count())
+            };
+            Some((name.to_string(), arity))
+        })
+        .collect()
+}
+
+/// User-facing signature, e.g. `render_volume(volume: Volume, options: map) -> Image`, with
+/// property getters shown as properties.
+pub fn signature(e: &ApiEntry) -> String {
+    match e.name.strip_prefix("get$") {
+        Some(prop) => format!(
+            "{}.{prop} -> {}",
+            e.params[0].split(':').next().unwrap_or("x"),
+            e.returns
+        ),
+        None => format!("{}({}) -> {}", e.name, e.params.join(", "), e.returns),
+    }
+}
+
+/// Signatures of the functions named `name`, for "expected one of" error messages.
+pub fn signatures_named(name: &str) -> Vec<String> {
+    API.iter()
+        .filter(|e| e.name == name)
+        .map(signature)
+        .collect()
+}
+
+/// The reference as Markdown (what `hdrvis api` prints and docs/api.md holds).
+pub fn reference_markdown() -> String {
+    let mut s = String::from(
+        "# hdrvis script API\n\nGenerated by `hdrvis api` from the functions the engine registers; a test keeps this file current.\nPaths read resolve against the script's folder; outputs go under `--out`. Options maps reject unknown keys.\n",
+    );
+    for area in AREAS {
+        s.push_str(&format!("\n## {area}\n\n"));
+        for e in API.iter().filter(|e| e.area == *area) {
+            s.push_str(&format!("- `{}` — {}\n", signature(e), e.doc));
+        }
+    }
+    s
+}
