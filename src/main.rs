@@ -31,6 +31,8 @@ fn run(cli: Cli) -> Result<()> {
             opts.backend = backend;
             opts.allowed_paths = args.allow_paths.clone();
             opts.sets = parse_sets(&args.sets)?;
+            opts.resume = args.resume;
+            opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
             let report = run_script_file(&args.script, &opts)?;
             for p in report.written {
                 println!("wrote {}", p.display());

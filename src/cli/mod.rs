@@ -51,6 +51,9 @@ pub struct RunArgs {
     /// Extra folder the script may read; repeatable.
     #[arg(long = "allow-path", value_name = "DIR")]
     pub allow_paths: Vec<PathBuf>,
+    /// Skip outputs that already exist (resume an interrupted sweep).
+    #[arg(long)]
+    pub resume: bool,
 }
 
 #[derive(Subcommand, Debug)]

@@ -57,6 +57,9 @@ pub const API: &[ApiEntry] = &[
     e("output", "save_exr", &["image: Image", "path: string"], "()", "Linear OpenEXR (float R, G, B, A plus extra channels and provenance), under the output folder."),
     e("output", "save_png", &["image: Image", "path: string"], "()", "8-bit sRGB view of the image at 0 EV, under the output folder."),
     e("output", "save_png", &["image: Image", "path: string", "exposure: number"], "()", "8-bit sRGB view at the given exposure in stops."),
+    e("parameters and sweeps", "already_done", &["path: string"], "bool", "True when `--resume` is on and this output already exists: skip its work."),
+    e("parameters and sweeps", "progress", &["done: int", "total: int"], "()", "Progress bar with ETA on stderr (when it is a terminal)."),
+    e("parameters and sweeps", "progress", &["done: int", "total: int", "label: string"], "()", "As above, with a label."),
     e("parameters and sweeps", "param", &["name: string", "default: any"], "any", "The value of `--set name=value`, parsed as the default's type; the default when not set."),
 ];
 

@@ -256,6 +256,9 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "save_exr",
         move |img: &mut ScriptImage, path: &str| -> RResult<()> {
             let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+            if h.already_done(&p) {
+                return Ok(());
+            }
             crate::io::exr::write_exr(img, &p).map_err(to_rhai)?;
             h.written.lock().expect("poisoned").push(p);
             Ok(())
@@ -264,6 +267,9 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     let h = host.clone();
     let save_png = move |img: &mut ScriptImage, path: &str, ev: f64| -> RResult<()> {
         let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+        if h.already_done(&p) {
+            return Ok(());
+        }
         crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
         h.written.lock().expect("poisoned").push(p);
         Ok(())
@@ -278,6 +284,19 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             save_png(img, path, num(&ev, "exposure")?)
         },
     );
+
+    let h = host.clone();
+    engine.register_fn("already_done", move |path: &str| -> RResult<bool> {
+        Ok(h.already_done(&h.sandbox.write_path(path).map_err(to_rhai)?))
+    });
+    let h = host.clone();
+    engine.register_fn("progress", move |done: i64, total: i64| {
+        h.progress(done.max(0) as u64, total.max(0) as u64, "")
+    });
+    let h = host.clone();
+    engine.register_fn("progress", move |done: i64, total: i64, label: &str| {
+        h.progress(done.max(0) as u64, total.max(0) as u64, label)
+    });
 
     let h = host;
     engine.register_fn(

@@ -28,6 +28,11 @@ pub struct ScriptOptions {
     pub backend: BackendChoice,
     /// Operation budget: a runaway loop stops with an error after this many operations.
     pub max_operations: u64,
+    /// `--resume`: outputs that already exist are not written again, and `already_done(path)`
+    /// tells the script so it can skip the work.
+    pub resume: bool,
+    /// Show progress bars on stderr (`progress(i, n)`); off for tests and pipes.
+    pub progress: bool,
 }
 
 impl ScriptOptions {
@@ -38,6 +43,8 @@ impl ScriptOptions {
             allowed_paths: Vec::new(),
             backend: BackendChoice::Auto,
             max_operations: 100_000_000,
+            resume: false,
+            progress: true,
         }
     }
 }
@@ -58,9 +65,41 @@ pub(crate) struct ScriptHost {
     /// address cannot be reused while the entry lives.
     uploads: Mutex<Vec<(Arc<crate::model::Volume>, Arc<GpuVolume>)>>,
     pub written: Mutex<Vec<PathBuf>>,
+    pub resume: bool,
+    progress_enabled: bool,
+    progress: Mutex<Option<indicatif::ProgressBar>>,
 }
 
 impl ScriptHost {
+    /// Whether an output may be skipped: `--resume` is on and the file is already there.
+    pub fn already_done(&self, path: &Path) -> bool {
+        self.resume && path.is_file()
+    }
+
+    /// Reports loop progress on stderr with an ETA; the bar is created on the first call.
+    pub fn progress(&self, done: u64, total: u64, label: &str) {
+        if !self.progress_enabled {
+            return;
+        }
+        let mut slot = self.progress.lock().expect("progress poisoned");
+        let bar = slot.get_or_insert_with(|| {
+            let bar = indicatif::ProgressBar::new(total);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} eta {eta}")
+                    .expect("valid template")
+                    .progress_chars("=> "),
+            );
+            bar
+        });
+        bar.set_length(total);
+        bar.set_position(done.min(total));
+        bar.set_message(label.to_string());
+        if done >= total {
+            bar.finish();
+            *slot = None;
+        }
+    }
+
     pub fn renderer(&self) -> Result<Arc<VolumeRenderer>> {
         if let Some(r) = self.renderer.get() {
             return Ok(r.clone());
@@ -120,6 +159,9 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         renderer: OnceLock::new(),
         uploads: Mutex::new(Vec::new()),
         written: Mutex::new(Vec::new()),
+        resume: false,
+        progress_enabled: false,
+        progress: Mutex::new(None),
     })
 }
 
@@ -145,6 +187,9 @@ pub fn run_script_source(
     for (k, v) in &opts.sets {
         sets.insert(k.clone(), v.clone());
     }
+    if opts.resume {
+        remove_stale_temporaries(&opts.out_dir);
+    }
     let host = Arc::new(ScriptHost {
         sandbox,
         sets,
@@ -152,6 +197,9 @@ pub fn run_script_source(
         renderer: OnceLock::new(),
         uploads: Mutex::new(Vec::new()),
         written: Mutex::new(Vec::new()),
+        resume: opts.resume,
+        progress_enabled: opts.progress,
+        progress: Mutex::new(None),
     });
     let engine = new_engine(host.clone(), opts.max_operations);
     let ast = engine
@@ -162,6 +210,28 @@ pub fn run_script_source(
         .map_err(|e| Error::Script(describe_eval_error(name, source, &e)))?;
     let written = host.written.lock().expect("written list poisoned").clone();
     Ok(ScriptReport { written })
+}
+
+/// A run killed mid-write leaves its temporary file (`.hdrvis-*.tmp`, see io::write_atomic)
+/// behind; the finished outputs are never partial, so resuming only has to sweep these away.
+fn remove_stale_temporaries(dir: &Path) {
+    let walk = |d: &Path, stack: &mut Vec<PathBuf>| {
+        if let Ok(entries) = std::fs::read_dir(d) {
+            for e in entries.flatten() {
+                let p = e.path();
+                let name = e.file_name().to_string_lossy().to_string();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if name.starts_with(".hdrvis-") && name.ends_with(".tmp") {
+                    let _ = std::fs::remove_file(&p);
+                }
+            }
+        }
+    };
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        walk(&d, &mut stack);
+    }
 }
 
 fn describe_eval_error(name: &str, source: &str, err: &EvalAltResult) -> String {

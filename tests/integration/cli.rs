@@ -302,3 +302,82 @@ fn wrong_argument_types_name_the_expected_signature() {
     );
     assert!(stderr.contains("s.rhai:1:11"), "{stderr}");
 }
+
+#[test]
+fn sweep_killed_midway_resumes_to_the_same_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_volume(d);
+    let sweep = r#"
+        let v = load_volume("blob.npy");
+        let evs = [-3, -2, -1, 0, 1, 2, 3, 4];
+        for i in 0..evs.len() {
+            let name = `sweep/a${i}.exr`;
+            if !already_done(name) {
+                let img = render_volume(v, #{ tf: tf_emission_absorption(0.5 + i, 0.2), camera: camera_orbit(20.0 * i, 15.0),
+                                              width: 256, height: 256, step: 0.1 });
+                save_exr(img, name);
+                save_png(img, `sweep/a${i}.png`, evs[i]);
+            }
+            progress(i + 1, evs.len(), "sweep");
+        }
+    "#;
+    std::fs::write(d.join("sweep.rhai"), sweep).unwrap();
+    // Reference: an uninterrupted run.
+    let (code, _, stderr) = hdrvis(&["run", "sweep.rhai", "--out", "full"], d);
+    assert_eq!(code, 0, "{stderr}");
+    // Interrupted: kill the process once some outputs exist.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(["run", "sweep.rhai", "--out", "part"])
+        .current_dir(d)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    loop {
+        let n = std::fs::read_dir(d.join("part/sweep"))
+            .map(|r| r.count())
+            .unwrap_or(0);
+        if n >= 5 || t0.elapsed().as_secs() > 60 {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let finished = std::fs::read_dir(d.join("part/sweep"))
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with('a')
+        })
+        .count();
+    assert!(
+        finished < 16,
+        "the run finished before it could be interrupted"
+    );
+    let (code, _, stderr) = hdrvis(&["run", "sweep.rhai", "--out", "part", "--resume"], d);
+    assert_eq!(code, 0, "{stderr}");
+    let list = |root: &str| {
+        let mut v: Vec<String> = std::fs::read_dir(d.join(root).join("sweep"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(list("full"), list("part"));
+    assert_eq!(list("part").len(), 16);
+    for name in list("part").iter().filter(|n| n.ends_with(".exr")) {
+        let a = hdrvis::io::exr::read_exr(&d.join("full/sweep").join(name)).unwrap();
+        let b = hdrvis::io::exr::read_exr(&d.join("part/sweep").join(name)).unwrap();
+        assert_eq!(a.pixels, b.pixels, "{name}");
+    }
+    for name in list("part").iter().filter(|n| n.ends_with(".png")) {
+        image::open(d.join("part/sweep").join(name)).unwrap();
+    }
+}
