@@ -32,6 +32,8 @@ override TF_KIND: u32 = 0u;
 override SCALE_KIND: u32 = 0u;
 override USE_LENS: bool = false;
 override JITTER: bool = false;
+// 0: f32, 1: 8-bit framebuffer emulation, 2: binary16 emulation, 3: f32 with compensated sums.
+override PRECISION: u32 = 0u;
 
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var volume_tex: texture_3d<f32>;
@@ -74,6 +76,16 @@ fn sample_volume(uvw: vec3<f32>) -> f32 {
 
 const LOG10_2: f32 = 0.30102999566;
 
+// Rounds to the nearest 8-bit framebuffer level in [0, 1].
+fn quantize8(v: f32) -> f32 {
+    return round(clamp(v, 0.0, 1.0) * 255.0) / 255.0;
+}
+
+// Rounds to binary16 (through the packing builtins, so the same on every adapter).
+fn round16(v: f32) -> f32 {
+    return unpack2x16float(pack2x16float(vec2<f32>(v, 0.0))).x;
+}
+
 // Data value -> table coordinate in [0, 1] (see ScaleMapping::map).
 fn scaled(v: f32) -> f32 {
     var s = v;
@@ -107,6 +119,88 @@ fn transfer(v: f32) -> vec4<f32> {
     return mix(textureLoad(lut, vec2<i32>(i, 0), 0), textureLoad(lut, vec2<i32>(i + 1, 0), 0), x - f32(i));
 }
 
+// What a ray carries from step to step.
+struct RayState {
+    color: vec3<f32>,
+    color_carry: vec3<f32>,
+    tau: f32,
+    tau_carry: f32,
+    transmittance: f32,
+    // End of the previous segment.
+    ta: f32,
+    stopped: bool,
+}
+
+// The fixed quantities of one ray's march.
+struct March {
+    t_enter: f32,
+    t_exit: f32,
+    first: f32,
+    ds: f32,
+    voxels_per_unit: f32,
+    stop_tau: f32,
+    steps: u32,
+    uvw0: vec3<f32>,
+    duvw: vec3<f32>,
+}
+
+// Segment k of the ray: sample at its midpoint, integrate emission and absorption over it.
+fn march_step(s: ptr<function, RayState>, m: March, k: u32) {
+    if ((*s).stopped || k >= m.steps) {
+        return;
+    }
+    let tb = min(m.t_enter + m.first + f32(k) * m.ds, m.t_exit);
+    let mid = 0.5 * ((*s).ta + tb);
+    let len = (tb - (*s).ta) * m.voxels_per_unit;
+    (*s).ta = tb;
+    let v = sample_volume(m.uvw0 + m.duvw * mid);
+    // Missing values (NaN/Inf nearby) emit and absorb nothing; a select rather than a branch
+    // keeps the SIMD lanes of CPU rasterizers together.
+    let ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
+    let x = ea.a * len;
+    // One exponential per step: the segment's absorbed fraction gives both its escape fraction
+    // and the transmittance update. The optical depth is still accumulated separately, for
+    // alpha and for the stopping test.
+    let absorbed = one_minus_exp_neg(x);
+    let escape = select(1.0 - x * (0.5 - x * (0.16666667 - x * 0.041666668)), absorbed / x, x >= 0.03);
+    let contribution = (*s).transmittance * ea.rgb * (len * escape);
+    if (PRECISION == 3u) {
+        // Kahan: carry the low-order bits each sum drops.
+        let yc = contribution - (*s).color_carry;
+        let tc = (*s).color + yc;
+        (*s).color_carry = (tc - (*s).color) - yc;
+        (*s).color = tc;
+        let yt = x - (*s).tau_carry;
+        let tt = (*s).tau + yt;
+        (*s).tau_carry = (tt - (*s).tau) - yt;
+        (*s).tau = tt;
+        (*s).transmittance = exp(-tt);
+    } else if (PRECISION == 1u) {
+        // An 8-bit RGBA framebuffer: alpha = 1 - T and colour stored as 8-bit levels.
+        let c = (*s).color + contribution;
+        (*s).color = vec3<f32>(quantize8(c.x), quantize8(c.y), quantize8(c.z));
+        let alpha8 = quantize8(1.0 - (*s).transmittance * (1.0 - absorbed));
+        (*s).transmittance = 1.0 - alpha8;
+        (*s).tau = select(-log((*s).transmittance), 1e30, (*s).transmittance <= 0.0);
+    } else if (PRECISION == 2u) {
+        let c = (*s).color + contribution;
+        (*s).color = vec3<f32>(round16(c.x), round16(c.y), round16(c.z));
+        (*s).transmittance = round16((*s).transmittance * (1.0 - absorbed));
+        (*s).tau = round16((*s).tau + x);
+    } else {
+        (*s).color += contribution;
+        (*s).transmittance *= 1.0 - absorbed;
+        (*s).tau += x;
+    }
+    if ((*s).tau > m.stop_tau) {
+        (*s).stopped = true;
+    }
+}
+
+// Steps per loop iteration. llvmpipe ends any loop after 65535 iterations, so a ray can take at
+// most 4 * 65535 steps (src/render/volume.rs refuses renders that would need more).
+const UNROLL: u32 = 4u;
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = P.image.x;
@@ -119,13 +213,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let hit = box_hit(ray.origin, ray.dir, size);
     let t_enter = max(hit.x, 0.0);
     let t_exit = hit.y;
-    var tau = 0.0;
-    var transmittance = 1.0;
-    var color = vec3<f32>(0.0);
+    var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, t_enter, false);
     if (t_exit > t_enter) {
         let ds = P.march.x;
-        let voxels_per_unit = P.march.y;
-        let stop_tau = P.march.z;
         var first = ds;
         if (JITTER) {
             let r = hash_u32(gid.x + w * (gid.y + h * P.image.z));
@@ -137,32 +227,23 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             n = u32(ceil((span - first) / ds)) + 1u;
         }
         let inv_size = 1.0 / size;
-        let uvw0 = ray.origin * inv_size;
-        let duvw = ray.dir * inv_size;
-        var ta = t_enter;
-        for (var k = 0u; k < n; k++) {
-            let tb = min(t_enter + first + f32(k) * ds, t_exit);
-            let mid = 0.5 * (ta + tb);
-            let len = (tb - ta) * voxels_per_unit;
-            ta = tb;
-            let v = sample_volume(uvw0 + duvw * mid);
-            // Missing values (NaN/Inf nearby) emit and absorb nothing; a select rather than a
-            // branch keeps the SIMD lanes of CPU rasterizers together.
-            let ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
-            let x = ea.a * len;
-            // One exponential per step: the segment's absorbed fraction gives both its escape
-            // fraction and the transmittance update. The optical depth is still accumulated
-            // separately, for alpha and for the stopping test.
-            let absorbed = one_minus_exp_neg(x);
-            let escape = select(1.0 - x * (0.5 - x * (0.16666667 - x * 0.041666668)), absorbed / x, x >= 0.03);
-            color += transmittance * ea.rgb * (len * escape);
-            transmittance *= 1.0 - absorbed;
-            tau += x;
-            if (tau > stop_tau) {
+        let m = March(t_enter, t_exit, first, ds, P.march.y, P.march.z, n, ray.origin * inv_size, ray.dir * inv_size);
+        for (var k = 0u; k < n; k += UNROLL) {
+            march_step(&s, m, k);
+            march_step(&s, m, k + 1u);
+            march_step(&s, m, k + 2u);
+            march_step(&s, m, k + 3u);
+            if (s.stopped) {
                 break;
             }
         }
     }
-    let alpha = one_minus_exp_neg(tau);
-    textureStore(out_image, vec2<i32>(gid.xy), vec4<f32>(color + exp(-tau) * P.background.rgb, alpha));
+    var alpha = one_minus_exp_neg(s.tau);
+    if (PRECISION == 1u) {
+        alpha = 1.0 - s.transmittance;
+        let c = s.color + s.transmittance * P.background.rgb;
+        textureStore(out_image, vec2<i32>(gid.xy), vec4<f32>(quantize8(c.x), quantize8(c.y), quantize8(c.z), alpha));
+        return;
+    }
+    textureStore(out_image, vec2<i32>(gid.xy), vec4<f32>(s.color + exp(-s.tau) * P.background.rgb, alpha));
 }

@@ -49,6 +49,67 @@ pub struct VolumeRenderOptions {
     /// Linear RGB seen through the volume.
     pub background: [f64; 3],
     pub filter: FilterMode,
+    /// Arithmetic of the compositing loop.
+    pub precision: Precision,
+}
+
+/// How the compositing loop accumulates colour and optical depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Precision {
+    /// 8-bit framebuffer emulation: colour and alpha clamped to [0, 1] and quantised to 8 bits
+    /// after every step (the paper's baseline).
+    U8,
+    /// Colour, transmittance and optical depth rounded to binary16 after every step (emulated
+    /// with pack2x16float, so the same on every adapter).
+    F16,
+    /// f32 throughout (the default).
+    F32,
+    /// f32 with Kahan-compensated sums of colour and optical depth, transmittance recomputed
+    /// from the compensated optical depth.
+    F32c,
+    /// f64, on the CPU reference path.
+    F64,
+}
+
+impl Precision {
+    pub const NAMES: &'static [&'static str] = &["u8", "f16", "f32", "f32c", "f64"];
+
+    pub fn parse(s: &str) -> Result<Precision> {
+        match s {
+            "u8" => Ok(Precision::U8),
+            "f16" => Ok(Precision::F16),
+            "f32" => Ok(Precision::F32),
+            "f32c" => Ok(Precision::F32c),
+            "f64" => Ok(Precision::F64),
+            _ => Err(Error::invalid(
+                "precision",
+                format!(
+                    "unknown precision {s:?}; known: {}",
+                    Precision::NAMES.join(", ")
+                ),
+            )),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::U8 => "u8",
+            Precision::F16 => "f16",
+            Precision::F32 => "f32",
+            Precision::F32c => "f32c",
+            Precision::F64 => "f64",
+        }
+    }
+
+    /// The shader's PRECISION override constant (f64 does not run in the shader).
+    pub fn shader_code(self) -> u32 {
+        match self {
+            Precision::F32 | Precision::F64 => 0,
+            Precision::U8 => 1,
+            Precision::F16 => 2,
+            Precision::F32c => 3,
+        }
+    }
 }
 
 /// Default early-ray-termination threshold on transmittance: what is left behind it can change
@@ -68,6 +129,7 @@ impl VolumeRenderOptions {
             early_exit: DEFAULT_EARLY_EXIT,
             background: [0.0; 3],
             filter: FilterMode::Auto,
+            precision: Precision::F32,
         }
     }
 

@@ -29,6 +29,10 @@ struct VolumeParams {
     image: [u32; 4],
 }
 
+/// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
+/// (lavapipe, and GL on Mesa) ends any loop after 65535 iterations.
+pub const MAX_STEPS_PER_RAY: u64 = 4 * 65535;
+
 /// A volume resident on the GPU, with what the renderer needs to know about it.
 pub struct GpuVolume {
     texture: wgpu::Texture,
@@ -129,6 +133,7 @@ struct PipelineKey {
     scale: u32,
     lens: bool,
     jitter: bool,
+    precision: u32,
 }
 
 /// Builds pipelines on demand and renders volumes; one per GPU context.
@@ -262,6 +267,7 @@ impl VolumeRenderer {
             ("SCALE_KIND", key.scale as f64),
             ("USE_LENS", key.lens as u32 as f64),
             ("JITTER", key.jitter as u32 as f64),
+            ("PRECISION", key.precision as f64),
         ];
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("volume ray cast"),
@@ -289,11 +295,30 @@ impl VolumeRenderer {
         opts: &VolumeRenderOptions,
     ) -> Result<(HdrImage, RenderTiming)> {
         opts.validate()?;
+        if opts.precision == super::Precision::F64 {
+            return Err(Error::invalid(
+                "precision",
+                "f64 compositing runs on the CPU reference path, not in the GPU ray caster",
+            ));
+        }
         let max2d = self.ctx.caps.max_texture_2d;
         if opts.width > max2d || opts.height > max2d {
             return Err(Error::invalid(
                 "width",
                 format!("this adapter's images hold at most {max2d} pixels per side"),
+            ));
+        }
+        let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+        let diagonal = volume.size().iter().map(|s| s * s).sum::<f64>().sqrt();
+        let steps = diagonal / (opts.step * voxel) + 2.0;
+        if steps > MAX_STEPS_PER_RAY as f64 {
+            return Err(Error::invalid(
+                "step",
+                format!(
+                    "a ray through this volume would take up to {steps:.0} steps at step {}; at most {MAX_STEPS_PER_RAY} are supported, so use a step of at least {:.2e} voxels",
+                    opts.step,
+                    diagonal / voxel / (MAX_STEPS_PER_RAY as f64 - 2.0)
+                ),
             ));
         }
         let tf = opts.tf.resolve(&volume.stats)?;
@@ -323,6 +348,7 @@ impl VolumeRenderer {
             scale: tf.mapping.scale_code(),
             lens: tf.mapping.lens.is_some(),
             jitter: opts.jitter,
+            precision: opts.precision.shader_code(),
         };
         let (pipeline, compiled) = self.pipeline(key)?;
         let (pipeline, layout) = (&pipeline.0, &pipeline.1);
@@ -346,7 +372,6 @@ impl VolumeRenderer {
                 half_height,
             } => [0.0, half_width as f32, half_height as f32, 0.0],
         };
-        let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
         let lens = tf.mapping.lens.unwrap_or([0.0, 1.0, 0.0, 1.0]);
         let params = VolumeParams {
             eye: v4(eye, 0.0),
@@ -469,7 +494,7 @@ impl VolumeRenderer {
         );
         image.set_meta("camera", cam.describe());
         image.set_meta("tf", opts.tf.describe());
-        image.set_meta("precision", "f32");
+        image.set_meta("precision", opts.precision.name());
         image.set_meta(
             "step",
             format!(

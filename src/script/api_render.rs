@@ -5,7 +5,7 @@
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
 use super::ScriptHost;
 use crate::model::{Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume};
-use crate::render::{FilterMode, VolumeRenderOptions};
+use crate::render::{FilterMode, Precision, VolumeRenderOptions};
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
@@ -49,6 +49,7 @@ const RENDER_KEYS: &[&str] = &[
     "early_exit",
     "background",
     "filter",
+    "precision",
 ];
 const LUT_KEYS: &[&str] = &[
     "scale",
@@ -242,8 +243,15 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
                 "early_exit" => o.early_exit = num(v, "early_exit")?,
                 "background" => o.background = vec3(v, "background")?,
                 "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
+                "precision" => o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?,
                 _ => unreachable!("checked keys"),
             }
+        }
+        if o.precision == Precision::F64 {
+            let mut img = crate::render::cpu_reference::render_volume_cpu(volume, &o).map_err(to_rhai)?;
+            img.set_meta("precision", "f64 (CPU)");
+            img.set_meta("tf", o.tf.describe());
+            return Ok(Arc::new(img));
         }
         let renderer = h.renderer().map_err(to_rhai)?;
         let gv = h.upload(volume).map_err(to_rhai)?;

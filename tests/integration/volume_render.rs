@@ -217,7 +217,7 @@ fn log_tf() -> TransferFunction {
 }
 
 /// Blobs spanning five decades on a faint background: a non-trivial HDR volume.
-fn hdr_blobs(n: usize) -> Volume {
+pub fn hdr_blobs(n: usize) -> Volume {
     let f = n as f64;
     Volume::from_fn("hdr-blobs", [n, n, n], move |x, y, z| {
         let g = |cx: f64, cy: f64, cz: f64, s: f64, amp: f64| {

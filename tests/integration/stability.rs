@@ -1,0 +1,243 @@
+//! Numerical stability of the compositing variants: hard cases each compared with the f64 CPU
+//! reference on Vulkan (lavapipe) and the GL fallback, and the paper's claim that 8-bit
+//! compositing loses faint structure that float compositing keeps.
+
+use crate::common::renderer;
+use hdrvis::gpu::BackendChoice;
+use hdrvis::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
+use hdrvis::render::cpu_reference::render_volume_f64;
+use hdrvis::render::volume::GpuVolume;
+use hdrvis::render::{FilterMode, Precision, VolumeRenderOptions};
+
+const BACKENDS: [BackendChoice; 2] = [BackendChoice::Vulkan, BackendChoice::Gl];
+
+fn gpu(backend: BackendChoice, vol: &Volume, o: &VolumeRenderOptions) -> Vec<[f64; 4]> {
+    let r = renderer(backend);
+    let gv = GpuVolume::upload(r.context(), vol).unwrap();
+    r.render(&gv, o)
+        .unwrap()
+        .0
+        .pixels
+        .iter()
+        .map(|p| p.map(|v| v as f64))
+        .collect()
+}
+
+/// Relative RMS error of the colour channels against the reference.
+fn rel_rms(got: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (g, r) in got.iter().zip(reference) {
+        for c in 0..3 {
+            num += (g[c] - r[c]).powi(2);
+            den += r[c].powi(2);
+        }
+    }
+    (num / den.max(1e-300)).sqrt()
+}
+
+/// Fraction of pixels whose luminance is off by more than 1 % of the reference's.
+fn lost_detail(got: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
+    let y = |p: &[f64; 4]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    let lit: Vec<_> = got
+        .iter()
+        .zip(reference)
+        .filter(|(_, r)| y(r) > 0.0)
+        .collect();
+    lit.iter()
+        .filter(|(g, r)| (y(g) - y(r)).abs() > 0.01 * y(r))
+        .count() as f64
+        / lit.len().max(1) as f64
+}
+
+fn axis(vol: &Volume, tf: TransferFunction, step: f64) -> VolumeRenderOptions {
+    let mut o = VolumeRenderOptions::new(Camera::axis(Axis::Z, &vol.bounds()), tf);
+    o.width = vol.dims[0] as u32;
+    o.height = vol.dims[1] as u32;
+    o.step = step;
+    o.early_exit = 0.0;
+    o.filter = FilterMode::Exact;
+    o
+}
+
+fn all_finite(p: &[[f64; 4]]) -> bool {
+    p.iter().all(|p| p.iter().all(|v| v.is_finite()))
+}
+
+#[test]
+fn tiny_extinction_over_a_hundred_thousand_steps() {
+    let vol = Volume::from_fn("thin", [2, 2, 1000], |_, _, _| 1.0).unwrap();
+    let o = axis(
+        &vol,
+        TransferFunction::emission_absorption(1.0, 1e-9).unwrap(),
+        0.01,
+    );
+    let reference = render_volume_f64(&vol, &o).unwrap();
+    for backend in BACKENDS {
+        for precision in [Precision::F32, Precision::F32c] {
+            let mut o = o.clone();
+            o.precision = precision;
+            let g = gpu(backend, &vol, &o);
+            let err = rel_rms(&g, &reference);
+            let limit = if precision == Precision::F32c {
+                1e-6
+            } else {
+                1e-3
+            };
+            assert!(err < limit, "{backend:?} {precision:?}: rel RMS {err}");
+            let alpha_err = (g[0][3] - reference[0][3]).abs() / reference[0][3];
+            assert!(
+                alpha_err < 1e-2,
+                "{backend:?} {precision:?}: alpha {} vs {}",
+                g[0][3],
+                reference[0][3]
+            );
+        }
+    }
+}
+
+#[test]
+fn data_spanning_sixty_decades_with_log_scale() {
+    let n = 32;
+    let vol = Volume::from_fn("decades", [n, n, n], |x, y, z| {
+        10f64.powf(-30.0 + 60.0 * (x + 0.3 * y + 0.1 * z) / (1.4 * 32.0))
+    })
+    .unwrap();
+    let tf = TransferFunction::Lut(LutTransfer {
+        scale: Scale::Log10,
+        domain: Some([1e-30, 1e30]),
+        colormap: "viridis".into(),
+        emission: vec![[0.0, -2.0], [1.0, 2.0]],
+        opacity: vec![[0.0, -6.0], [1.0, -1.0]],
+        ..Default::default()
+    });
+    let o = axis(&vol, tf, 0.5);
+    let reference = render_volume_f64(&vol, &o).unwrap();
+    for backend in BACKENDS {
+        let g = gpu(backend, &vol, &o);
+        assert!(all_finite(&g));
+        let err = rel_rms(&g, &reference);
+        assert!(err < 1e-4, "{backend:?}: rel RMS {err}");
+    }
+}
+
+#[test]
+fn constant_zero_and_negative_volumes_under_log_scales() {
+    let cases: Vec<(&str, Volume, Scale)> = vec![
+        (
+            "constant",
+            Volume::from_fn("c", [8, 8, 8], |_, _, _| 3.5).unwrap(),
+            Scale::Linear,
+        ),
+        (
+            "zeros and negatives in log10",
+            Volume::from_fn("z", [8, 8, 8], |x, _, _| if x < 4.0 { 0.0 } else { -x }).unwrap(),
+            Scale::Log10,
+        ),
+        (
+            "symlog around zero",
+            Volume::from_fn("s", [8, 8, 8], |x, y, _| (x - 4.0) * (y - 4.0)).unwrap(),
+            Scale::Symlog { linthresh: 0.0 },
+        ),
+    ];
+    for (name, vol, scale) in cases {
+        let tf = TransferFunction::Lut(LutTransfer {
+            scale,
+            domain: if scale == Scale::Log10 {
+                Some([1e-3, 10.0])
+            } else {
+                None
+            },
+            ..Default::default()
+        });
+        let o = axis(&vol, tf, 0.5);
+        let reference = render_volume_f64(&vol, &o).unwrap();
+        assert!(all_finite(&reference), "{name}");
+        for backend in BACKENDS {
+            let g = gpu(backend, &vol, &o);
+            assert!(all_finite(&g), "{name} {backend:?}");
+            let err = rel_rms(&g, &reference);
+            assert!(err < 1e-5, "{name} {backend:?}: rel RMS {err}");
+        }
+    }
+}
+
+#[test]
+fn very_small_and_very_large_steps() {
+    let vol = crate::volume_render::hdr_blobs(24);
+    for step in [1e-3, 100.0] {
+        let tf = TransferFunction::emission_absorption(0.5, 0.3).unwrap();
+        let mut o = axis(&vol, tf, step);
+        o.width = 12;
+        o.height = 12;
+        let reference = render_volume_f64(&vol, &o).unwrap();
+        for backend in BACKENDS {
+            let g = gpu(backend, &vol, &o);
+            assert!(all_finite(&g));
+            let err = rel_rms(&g, &reference);
+            assert!(err < 1e-3, "step {step} {backend:?}: rel RMS {err}");
+        }
+    }
+}
+
+/// The paper's argument in numbers: on the mantle, 8-bit compositing loses faint structure that
+/// float compositing keeps.
+#[test]
+fn eight_bit_compositing_loses_the_faint_structure_f32_keeps() {
+    use hdrvis::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
+    let m = generate(
+        &MantleOptions {
+            n: 48,
+            fields: MantleFields::only(MantleField::Fluctuation),
+            ..Default::default()
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    let vol = Volume::new(
+        "mantle",
+        [48; 3],
+        [2.0 / 48.0; 3],
+        [-1.0; 3],
+        m.fluctuation.clone(),
+    )
+    .unwrap();
+    let tf = TransferFunction::Lut(LutTransfer {
+        scale: Scale::Symlog { linthresh: 1e-3 },
+        domain: Some([-0.3, 0.45]),
+        colormap: "spectral".into(),
+        emission: vec![[0.0, -1.0], [0.45, -3.0], [0.55, -3.0], [1.0, -0.5]],
+        opacity: vec![[0.0, -1.5], [0.4, -3.5], [0.6, -3.5], [1.0, -1.0]],
+        ..Default::default()
+    });
+    let mut o =
+        VolumeRenderOptions::new(Camera::orbit(&vol.bounds(), 30.0, 20.0, 30.0).unwrap(), tf);
+    (o.width, o.height, o.step) = (64, 64, 0.5);
+    o.filter = FilterMode::Exact;
+    let reference = render_volume_f64(&vol, &o).unwrap();
+    let mut results = Vec::new();
+    for precision in [
+        Precision::U8,
+        Precision::F16,
+        Precision::F32,
+        Precision::F32c,
+    ] {
+        o.precision = precision;
+        let g = gpu(BackendChoice::Vulkan, &vol, &o);
+        results.push((
+            precision,
+            rel_rms(&g, &reference),
+            lost_detail(&g, &reference),
+        ));
+    }
+    let get = |p: Precision| *results.iter().find(|r| r.0 == p).unwrap();
+    let (_, rms32, lost32) = get(Precision::F32);
+    let (_, rms8, lost8) = get(Precision::U8);
+    assert!(rms32 < 1e-4, "f32 rel RMS {rms32}");
+    assert!(lost32 < 1e-3, "f32 lost detail {lost32}");
+    assert!(
+        lost8 > 0.2 && rms8 > 100.0 * rms32,
+        "u8 should lose detail: {results:?}"
+    );
+    let (_, rms16, _) = get(Precision::F16);
+    assert!(rms16 > rms32 && rms16 < rms8, "{results:?}");
+}
