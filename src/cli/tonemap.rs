@@ -95,7 +95,11 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     }
     check_ev("--exposure", args.exposure)?;
     let mut pairs: Vec<(String, f64)> = Vec::new();
-    for (name, value) in [("key", args.key), ("white", args.white), ("bias", args.bias)] {
+    for (name, value) in [
+        ("key", args.key),
+        ("white", args.white),
+        ("bias", args.bias),
+    ] {
         if let Some(v) = value {
             pairs.push((name.to_string(), v));
         }
@@ -175,7 +179,9 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
 fn with_flag(e: Error, flag: &str) -> Error {
     match e {
         Error::Invalid { field, msg } if field == "operator" => Error::invalid(flag, msg),
-        Error::Invalid { field, msg } => Error::invalid(format!("{field} (--{})", last(&field)), msg),
+        Error::Invalid { field, msg } => {
+            Error::invalid(format!("{field} (--{})", last(&field)), msg)
+        }
         other => other,
     }
 }

@@ -132,7 +132,9 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "false_colour",
         move |img: &mut ScriptImage| -> RResult<ScriptImage> {
-            Ok(Arc::new(m()?.false_colour(img, 0.0, None).map_err(to_rhai)?))
+            Ok(Arc::new(
+                m()?.false_colour(img, 0.0, None).map_err(to_rhai)?,
+            ))
         },
     );
 }

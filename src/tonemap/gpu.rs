@@ -117,7 +117,10 @@ impl GpuToneMapper {
 
     /// Number of pipelines built so far (for tests of the cache).
     pub fn cached_pipelines(&self) -> usize {
-        self.pipelines.lock().expect("pipeline cache poisoned").len()
+        self.pipelines
+            .lock()
+            .expect("pipeline cache poisoned")
+            .len()
     }
 
     fn check_image(&self, img: &HdrImage) -> Result<()> {
@@ -189,7 +192,9 @@ impl GpuToneMapper {
     }
 
     /// Tone-maps `img` with `settings`: display-referred linear RGBA in [0, 1] (before the sRGB
-    /// curve), missing pixels (any NaN/Inf component) as (0, 0, 0, 0). The result carries the
+    /// curve), missing pixels (any NaN/Inf component) as (0, 0, 0, 0). Images holding values
+    /// below ~2^-110 (denormals) are uploaded lifted by 2^k with k stops taken off the exposure,
+    /// so GPUs that flush denormals still see them (`lift_tiny_values`). The result carries the
     /// input's metadata plus `tonemap` (operator name), `transfer = display-linear` and
     /// `display_referred = 1`.
     pub fn tonemap(&self, img: &HdrImage, settings: &ToneMapSettings) -> Result<HdrImage> {
@@ -198,13 +203,19 @@ impl GpuToneMapper {
         let (w, h) = (img.width, img.height);
         let n = w * h;
         let px_bytes = n as u64 * 16;
-        let base = ToneMapParams::new(settings, w, h);
+        let lifted = lift_tiny_values(&img.pixels);
+        let (upload, lift_ev): (&[[f32; 4]], i32) = match &lifted {
+            Some((pixels, k)) => (pixels, *k),
+            None => (&img.pixels, 0),
+        };
+        let mut base = ToneMapParams::new(settings, w, h);
+        base.exposure_ev = (settings.exposure_ev - lift_ev as f64) as f32;
         let device = &self.ctx.device;
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
 
         let params = self.uniform(&base);
-        let image = self.storage_init("hdr image", bytemuck::cast_slice(&img.pixels));
+        let image = self.storage_init("hdr image", bytemuck::cast_slice(upload));
         let output = self.storage("display image", px_bytes);
         let groups = reduce_groups(n);
         let partials = self.storage("partials", groups as u64 * 16);
@@ -369,19 +380,24 @@ impl GpuToneMapper {
         self.check_image(img)?;
         let (low, high) = false_colour_decades(img, exposure_ev, decades)?;
         let (w, h) = (img.width, img.height);
+        let lifted = lift_tiny_values(&img.pixels);
+        let (upload, lift_ev): (&[[f32; 4]], i32) = match &lifted {
+            Some((pixels, k)) => (pixels, *k),
+            None => (&img.pixels, 0),
+        };
         let device = &self.ctx.device;
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let params = self.uniform(&ToneMapParams {
             width: w,
             height: h,
-            exposure_ev: exposure_ev as f32,
+            exposure_ev: (exposure_ev - lift_ev as f64) as f32,
             ld_min: low as f32,
             ld_max: high as f32,
             radius: legend_height(h),
             ..Default::default()
         });
-        let image = self.storage_init("hdr image", bytemuck::cast_slice(&img.pixels));
+        let image = self.storage_init("hdr image", bytemuck::cast_slice(upload));
         let output = self.storage("false colour", w as u64 * h as u64 * 16);
         let lut = self.storage_init("turbo lut", bytemuck::cast_slice(&turbo_lut()));
         let mut rec = self.record(w, h);
@@ -505,7 +521,9 @@ impl Recording<'_> {
         let invalid = pollster::block_on(validation.pop());
         let out_of_memory = pollster::block_on(oom.pop());
         if let Some(e) = out_of_memory {
-            return Err(Error::Gpu(format!("out of GPU memory while tone mapping: {e}")));
+            return Err(Error::Gpu(format!(
+                "out of GPU memory while tone mapping: {e}"
+            )));
         }
         if let Some(e) = invalid {
             return Err(Error::Gpu(format!("tone-mapping pass failed: {e}")));
@@ -514,6 +532,42 @@ impl Recording<'_> {
         let pixels: &[[f32; 4]] = bytemuck::cast_slice(&bytes[..n as usize * 16]);
         Ok(pixels.to_vec())
     }
+}
+
+/// Smallest component magnitude passed to the shaders unchanged: below it (denormals
+/// included), a Rec. 709 weighted sum can reach the denormal range, which GPUs may flush to
+/// zero (lavapipe does).
+const TINY: f32 = 7.7e-34; // about 2^-110
+
+/// When `pixels` hold finite non-zero values below [`TINY`], a copy multiplied by 2^k and the
+/// k (stops) to take off the exposure: exact (a power of two, no overflow by construction) and
+/// invisible in the result, since the shaders apply exposure to ln L, after the weighted sum.
+fn lift_tiny_values(pixels: &[[f32; 4]]) -> Option<(Vec<[f32; 4]>, i32)> {
+    let mut has_tiny = false;
+    let mut largest = 0.0f32;
+    for p in pixels {
+        for &v in &p[..3] {
+            let a = v.abs();
+            if a.is_finite() {
+                has_tiny |= a != 0.0 && a < TINY;
+                largest = largest.max(a);
+            }
+        }
+    }
+    if !has_tiny {
+        return None;
+    }
+    let headroom = (f32::MAX / largest.max(f32::MIN_POSITIVE)).log2().floor() as i32 - 2;
+    let k = headroom.clamp(0, 96);
+    if k == 0 {
+        return None;
+    }
+    let gain = 2f32.powi(k);
+    let lifted = pixels
+        .iter()
+        .map(|p| [p[0] * gain, p[1] * gain, p[2] * gain, p[3]])
+        .collect();
+    Some((lifted, k))
 }
 
 /// Per-pixel dispatch size (X, Y) with X * Y * 256 >= n and X within the 65535 limit; the
@@ -541,5 +595,15 @@ mod tests {
             let g = reduce_groups(n);
             assert!((1..=MAX_REDUCE_GROUPS).contains(&g));
         }
+    }
+
+    #[test]
+    fn tiny_values_are_lifted_exactly() {
+        assert!(lift_tiny_values(&[[1e-3, 1.0, 1e30, 1.0]]).is_none());
+        let (lifted, k) = lift_tiny_values(&[[1e-40, 0.0, 1e-3, 0.5], [f32::NAN; 4]]).unwrap();
+        assert!(k > 0);
+        assert_eq!(lifted[0][0] as f64, 1e-40f32 as f64 * 2f64.powi(k));
+        assert_eq!(lifted[0][3], 0.5);
+        assert!(lifted[1][0].is_nan());
     }
 }
