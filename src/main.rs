@@ -44,7 +44,7 @@ fn run(cli: Cli) -> Result<()> {
         Some(Command::Bench(BenchCommand::Tonemap { runs, quick })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
-            let sizes: &[u32] = if quick { &[1024] } else { &[1024, 4096] };
+            let sizes: &[u32] = if quick { &[1024] } else { &[1024, 2048, 4096] };
             let rows =
                 hdrvis::tonemap::bench::bench_tonemap(ctx, sizes, runs, &mut |m| eprintln!("{m}"))?;
             print!(

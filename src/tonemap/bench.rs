@@ -1,4 +1,5 @@
-//! `hdrvis bench tonemap`: every operator on synthetic HDR images (1024² and 4096² by default),
+//! `hdrvis bench tonemap`: every operator on synthetic HDR images (1024², 2048² and 4096² by
+//! default; a size whose RGBA f32 buffer exceeds the adapter's binding limit is reported as skipped),
 //! timed end to end through [`GpuToneMapper::tonemap`] — upload, every pass, readback — after
 //! one warm-up call that builds the pipelines. Reports the adapter and the median of the runs,
 //! against the targets on 1024² (global operators 30 ms, local ones 300 ms).
@@ -30,6 +31,8 @@ pub struct ToneMapBenchRow {
     pub local: bool,
     pub size: u32,
     pub runs_ms: Vec<f64>,
+    /// Why this size was not run (the image does not fit this adapter's buffer bindings).
+    pub skipped: Option<String>,
 }
 
 impl ToneMapBenchRow {
@@ -70,7 +73,28 @@ pub fn bench_tonemap(
     let mapper = GpuToneMapper::new(ctx);
     let runs = runs.max(1);
     let mut rows = Vec::new();
+    let caps = mapper.context().caps.clone();
+    let limit = caps
+        .max_storage_buffer_binding_size
+        .min(caps.max_buffer_size);
     for &size in sizes {
+        let bytes = size as u64 * size as u64 * 16;
+        if bytes > limit {
+            let why = format!(
+                "{size}x{size} RGBA f32 is {} MiB; this adapter binds at most {} MiB",
+                bytes >> 20,
+                limit >> 20
+            );
+            progress(&format!("skipping: {why}"));
+            rows.extend(OPERATORS.iter().map(|op| ToneMapBenchRow {
+                op: op.name(),
+                local: op.is_local(),
+                size,
+                runs_ms: Vec::new(),
+                skipped: Some(why.clone()),
+            }));
+            continue;
+        }
         progress(&format!("generating a {size}x{size} HDR image"));
         let img = synthetic_hdr(size, size);
         for op in OPERATORS {
@@ -91,6 +115,7 @@ pub fn bench_tonemap(
                 local: op.is_local(),
                 size,
                 runs_ms,
+                skipped: None,
             };
             progress(&format!(
                 "{:15} {size}x{size}: median {:.1} ms",
@@ -107,13 +132,22 @@ pub fn bench_tonemap(
 pub fn format_tonemap_table(adapter: &str, rows: &[ToneMapBenchRow]) -> String {
     let mut s = format!(
         "adapter: {adapter}\ntone mapping, end to end (upload, passes, readback), median of {} runs after a warm-up\n",
-        rows.first().map_or(0, |r| r.runs_ms.len())
+        rows.iter().map(|r| r.runs_ms.len()).max().unwrap_or(0)
     );
     s += &format!(
         "{:15} {:>6} {:>11} {:>11} {:>11}  {}\n",
         "operator", "kind", "image", "median ms", "Mpx/s", "target"
     );
     for r in rows {
+        if let Some(why) = &r.skipped {
+            s += &format!(
+                "{:15} {:>6} {:>11}  skipped: {why}\n",
+                r.op,
+                if r.local { "local" } else { "global" },
+                format!("{}x{}", r.size, r.size),
+            );
+            continue;
+        }
         let mpx = (r.size as f64).powi(2) / 1e6 / (r.median_ms() / 1e3);
         let target = match r.target_ms() {
             Some(t) if r.median_ms() <= t => format!("<= {t} ms: met"),
