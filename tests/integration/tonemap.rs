@@ -496,3 +496,59 @@ fn tonemap_cli_bad_input_is_one_line_nonzero_and_writes_nothing() {
         .collect();
     assert!(leftovers.is_empty());
 }
+
+#[test]
+fn tonemap_script_api_brackets_tonemaps_and_saves_display_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let img = grey(16, 8, |i| 10f32.powf(-2.0 + 4.0 * i as f32 / 127.0));
+    hdrvis::io::exr::write_exr(&img, &d.join("in.exr")).unwrap();
+    std::fs::write(
+        d.join("post.rhai"),
+        r#"
+let hdr = load_image("in.exr");
+let views = bracket(hdr, [-1.0, 0.0, 1.0]);
+if views.len() != 3 { throw "bracket"; }
+for (v, i) in views { save_png(v, `ev${i}.png`); }
+let ldr = tonemap(hdr, #{op: "reinhard", key: 0.18, white: 2.0, saturation: 1.0});
+save_png(ldr, "reinhard.png");
+save_exr(ldr, "reinhard.exr");
+save_png(tonemap(exposure(hdr, 1.0), "durand"), "durand.png");
+save_png(false_colour(hdr), "fc.png");
+"#,
+    )
+    .unwrap();
+    let (rc, _, err) = hdrvis(&["run", "post.rhai", "--out", "out"], d);
+    assert_eq!(rc, 0, "{err}");
+    // save_png of a tone-mapped image writes its display values through sRGB only.
+    let display = hdrvis::io::exr::read_exr(&d.join("out/reinhard.exr")).unwrap();
+    let png = image::open(d.join("out/reinhard.png")).unwrap().to_rgb8();
+    for (p, q) in display.pixels.iter().zip(png.pixels()) {
+        assert_eq!(q[0], hdrvis::io::png::encode_srgb8(p[0] as f64));
+    }
+    for f in ["ev0.png", "ev1.png", "ev2.png", "durand.png", "fc.png"] {
+        assert!(d.join("out").join(f).exists(), "{f}");
+    }
+
+    for (script, needle) in [
+        (
+            r#"tonemap(load_image("in.exr"), #{op: "reinhard", kee: 1.0});"#,
+            "unknown option kee; known options: op, exposure",
+        ),
+        (
+            r#"save_png(tonemap(load_image("in.exr"), "aces"), "x.png", 2.0);"#,
+            "display-referred",
+        ),
+        (
+            r#"tonemap(load_image("in.exr"), #{op: "reinhard", key: -1.0});"#,
+            "reinhard.key",
+        ),
+        (r#"exposure(load_image("in.exr"), 1.0 / 0.0);"#, "finite"),
+    ] {
+        std::fs::write(d.join("bad.rhai"), script).unwrap();
+        let (rc, _, err) = hdrvis(&["run", "bad.rhai", "--out", "bad"], d);
+        assert_ne!(rc, 0, "{script}");
+        assert!(err.contains(needle), "{script}: {err}");
+        assert!(!d.join("bad/x.png").exists());
+    }
+}
