@@ -9,7 +9,7 @@
 use super::cpu::{false_colour_decades, legend_height, turbo_lut};
 use super::params::{blur_sigma, gaussian_radius, Operator, ToneMapParams, ToneMapSettings};
 use crate::error::{Error, Result};
-use crate::gpu::{readback, shader, GpuContext};
+use crate::gpu::{shader, GpuContext};
 use crate::model::HdrImage;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -528,9 +528,24 @@ impl Recording<'_> {
         if let Some(e) = invalid {
             return Err(Error::Gpu(format!("tone-mapping pass failed: {e}")));
         }
-        let bytes = readback::map_read(ctx, &staging)?;
-        let pixels: &[[f32; 4]] = bytemuck::cast_slice(&bytes[..n as usize * 16]);
-        Ok(pixels.to_vec())
+        // Mapped ranges are aligned, so the pixels are cast in place and copied out once.
+        let slice = staging.slice(..n * 16);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        ctx.wait()?;
+        rx.recv()
+            .map_err(|_| Error::Gpu("readback was never answered".into()))?
+            .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+        let pixels = {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| Error::Gpu(format!("readback mapping failed: {e}")))?;
+            bytemuck::cast_slice::<u8, [f32; 4]>(&view).to_vec()
+        };
+        staging.unmap();
+        Ok(pixels)
     }
 }
 
