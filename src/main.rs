@@ -47,6 +47,19 @@ fn run(cli: Cli) -> Result<()> {
             print!("{}", hdrvis::script::api_reference());
             Ok(())
         }
+        Some(Command::Tonemap(args)) => cli::tonemap::run_tonemap(&args, backend),
+        Some(Command::Bench(BenchCommand::Tonemap { runs, quick })) => {
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let sizes: &[u32] = if quick { &[1024] } else { &[1024, 2048, 4096] };
+            let rows =
+                hdrvis::tonemap::bench::bench_tonemap(ctx, sizes, runs, &mut |m| eprintln!("{m}"))?;
+            print!(
+                "{}",
+                hdrvis::tonemap::bench::format_tonemap_table(&adapter, &rows)
+            );
+            Ok(())
+        }
         Some(Command::Doctor) => {
             let ctx = GpuContext::new(backend)?;
             println!("{}", ctx.report());

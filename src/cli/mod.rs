@@ -1,6 +1,7 @@
 //! Command-line definitions (clap). Parsing only: every command calls into the library.
 
 pub mod datasets;
+pub mod tonemap;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -31,6 +32,8 @@ pub enum Command {
     Gen(datasets::GenCommand),
     /// Describe a data file: shape, range, dynamic range, histogram.
     Info(datasets::InfoArgs),
+    /// Tone-map an HDR OpenEXR into a display PNG or EXR: `hdrvis tonemap IN.exr -o OUT.png --op reinhard`
+    Tonemap(tonemap::ToneMapArgs),
     /// Run the built-in demo scene (also what `hdrvis` does with no command).
     Demo {
         /// Output folder.
@@ -75,6 +78,15 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 3)]
         runs: usize,
         /// Small sizes (quick check).
+        #[arg(long)]
+        quick: bool,
+    },
+    /// Tone mapping: every operator on 1024^2, 2048^2 and 4096^2 synthetic HDR images, median ms.
+    Tonemap {
+        /// Timed runs per operator and size (after one warm-up).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Only the 1024^2 size (quick check).
         #[arg(long)]
         quick: bool,
     },

@@ -16,11 +16,43 @@ pub const SOURCES: &[(&str, &str)] = &[
         "shared/optics.wgsl",
         include_str!("../../shaders/shared/optics.wgsl"),
     ),
+    (
+        "tonemap/luminance_stats.wgsl",
+        include_str!("../../shaders/tonemap/luminance_stats.wgsl"),
+    ),
+    (
+        "tonemap/global.wgsl",
+        include_str!("../../shaders/tonemap/global.wgsl"),
+    ),
+    (
+        "tonemap/ward_histogram.wgsl",
+        include_str!("../../shaders/tonemap/ward_histogram.wgsl"),
+    ),
+    (
+        "tonemap/reinhard_local.wgsl",
+        include_str!("../../shaders/tonemap/reinhard_local.wgsl"),
+    ),
+    (
+        "tonemap/durand_bilateral.wgsl",
+        include_str!("../../shaders/tonemap/durand_bilateral.wgsl"),
+    ),
+    (
+        "tonemap/false_colour.wgsl",
+        include_str!("../../shaders/tonemap/false_colour.wgsl"),
+    ),
 ];
 
 /// The pipeline shaders (not the shared pieces) with every define combination they are built
 /// with, so tests can validate each variant.
-pub const PIPELINES: &[(&str, &[&[&str]])] = &[("volume.wgsl", &[&[], &["HW_FILTER"]])];
+pub const PIPELINES: &[(&str, &[&[&str]])] = &[
+    ("volume.wgsl", &[&[], &["HW_FILTER"]]),
+    ("tonemap/luminance_stats.wgsl", &[&[]]),
+    ("tonemap/global.wgsl", &[&[]]),
+    ("tonemap/ward_histogram.wgsl", &[&[]]),
+    ("tonemap/reinhard_local.wgsl", &[&[]]),
+    ("tonemap/durand_bilateral.wgsl", &[&[]]),
+    ("tonemap/false_colour.wgsl", &[&[]]),
+];
 
 /// Development aid: with `HDRVIS_SHADER_DIR` set, shaders are read from that folder at run time
 /// instead of the copies embedded at build time, so a shader can be tuned without rebuilding.

@@ -1,6 +1,7 @@
 //! Script API: datasets, transfer functions, cameras, volume rendering and output. Names fixed by
 //! the issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`,
-//! `save_exr`, `save_png`, `param`.
+//! `save_exr`, `save_png`, `param`. `save_png` writes an HDR image exposed by 2^EV then sRGB,
+//! and a display-referred image (`display_referred = 1`: tone-mapped, false colour) as it is.
 
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
 use super::ScriptHost;
@@ -273,12 +274,26 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         },
     );
     let h = host.clone();
+    // A display-referred image (tone-mapped or false colour, metadata `display_referred = 1`)
+    // already holds display values: it is written with the sRGB curve only, and asking for an
+    // exposure on it is an error (expose the HDR image before tone mapping instead).
     let save_png = move |img: &mut ScriptImage, path: &str, ev: f64| -> RResult<()> {
+        let display = crate::tonemap::is_display_referred(img);
+        if display && ev != 0.0 {
+            return err(
+                "save_png",
+                format!("exposure {ev} given for a tone-mapped (display-referred) image; apply exposure to the HDR image, or in tonemap(image, #{{exposure: {ev}}})"),
+            );
+        }
         let p = h.sandbox.write_path(path).map_err(to_rhai)?;
         if h.already_done(&p) {
             return Ok(());
         }
-        crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
+        if display {
+            crate::io::png::write_display_png(img, &p, false).map_err(to_rhai)?;
+        } else {
+            crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
+        }
         h.written.lock().expect("poisoned").push(p);
         Ok(())
     };

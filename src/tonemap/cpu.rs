@@ -651,6 +651,37 @@ pub fn turbo_lut() -> Vec<[f32; 4]> {
         .collect()
 }
 
+/// The whole decades (low, high) of log10 luminance the false-colour view spans: `decades` when
+/// given (checked), else those spanning the image's positive luminance after `exposure_ev`.
+/// Shared by [`false_colour_log10`] and the GPU false-colour pass.
+pub fn false_colour_decades(
+    img: &HdrImage,
+    exposure_ev: f64,
+    decades: Option<(f64, f64)>,
+) -> Result<(f64, f64)> {
+    let range = match decades {
+        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && hi > lo && hi - lo <= 100.0 => {
+            (lo, hi)
+        }
+        Some((lo, hi)) => {
+            return Err(Error::invalid(
+                "false_colour.decades",
+                format!("({lo}, {hi}) must be finite with low < high <= low + 100"),
+            ))
+        }
+        None => match luminance_log_stats(img, exposure_ev) {
+            Some(s) => {
+                // The slack keeps f32(0.01) from opening the decade below.
+                let lo = (s.min_log / std::f64::consts::LN_10 + 1e-6).floor();
+                let hi = (s.max_log / std::f64::consts::LN_10 - 1e-6).ceil();
+                (lo, hi.max(lo + 1.0))
+            }
+            None => (0.0, 1.0),
+        },
+    };
+    Ok(range)
+}
+
 /// False-colour view of log10 luminance (after `exposure_ev`) through turbo, over whole decades
 /// `decades` = (low, high) or, by default, those spanning the image. Black pixels take the low
 /// end, missing ones a neutral grey. When the image is at least 16 pixels tall a legend strip is
@@ -669,26 +700,7 @@ pub fn false_colour_log10(
         ));
     }
     let scene = Scene::new(img, exposure_ev);
-    let (low, high) = match decades {
-        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && hi > lo && hi - lo <= 100.0 => {
-            (lo, hi)
-        }
-        Some((lo, hi)) => {
-            return Err(Error::invalid(
-                "false_colour.decades",
-                format!("({lo}, {hi}) must be finite with low < high <= low + 100"),
-            ))
-        }
-        None => match scene.stats() {
-            Some(s) => {
-                // The slack keeps f32(0.01) from opening the decade below.
-                let lo = (s.min_log / std::f64::consts::LN_10 + 1e-6).floor();
-                let hi = (s.max_log / std::f64::consts::LN_10 - 1e-6).ceil();
-                (lo, hi.max(lo + 1.0))
-            }
-            None => (0.0, 1.0),
-        },
-    };
+    let (low, high) = false_colour_decades(img, exposure_ev, decades)?;
     let (width, height) = (img.width as usize, img.height as usize);
     let mut pixels: Vec<[f32; 4]> = scene
         .lum

@@ -5,4 +5,5 @@ mod cli;
 mod common;
 mod datasets;
 mod stability;
+mod tonemap;
 mod volume_render;

@@ -1,0 +1,202 @@
+//! `hdrvis tonemap IN.exr -o OUT.png|OUT.exr`: tone-maps any RGB(A) OpenEXR (float or half, from
+//! any producer) on the GPU with a chosen operator, or draws its false-colour view, and writes a
+//! display image: PNG in sRGB (8-bit, or 16-bit on request) or EXR holding display-referred
+//! linear values in [0, 1]. Every option is checked before the input is read, and outputs are
+//! written atomically, so bad input leaves no file behind.
+
+use hdrvis::gpu::{BackendChoice, GpuContext};
+use hdrvis::tonemap::cpu::{auto_exposure_key, auto_exposure_percentile};
+use hdrvis::tonemap::{check_ev, GpuToneMapper, Operator, ToneMapSettings};
+use hdrvis::{Error, Result};
+use std::path::PathBuf;
+
+/// Percentile of luminance that `--auto-exposure percentile` maps to display white.
+const AUTO_PERCENTILE: f64 = 99.0;
+
+#[derive(clap::Args, Debug)]
+#[command(allow_negative_numbers = true)]
+pub struct ToneMapArgs {
+    /// Input OpenEXR (RGB or RGBA, float or half; a luminance-only Y file is shown grey).
+    pub input: PathBuf,
+    /// Output: .png (sRGB) or .exr (display-referred linear, [0, 1]).
+    #[arg(long, short)]
+    pub output: PathBuf,
+    /// Operator: linear, drago, reinhard, ward, aces, reinhard-local, durand.
+    #[arg(long, default_value = "reinhard")]
+    pub op: String,
+    /// Exposure in stops applied before the operator (added to --auto-exposure's).
+    #[arg(long, default_value_t = 0.0)]
+    pub exposure: f64,
+    /// Key a of reinhard and reinhard-local (> 0; paper: 0.18).
+    #[arg(long)]
+    pub key: Option<f64>,
+    /// L_white of reinhard in scaled luminance (> 0; default: the largest, so it maps to 1).
+    #[arg(long)]
+    pub white: Option<f64>,
+    /// Bias of drago, in (0, 1] (paper: 0.85).
+    #[arg(long)]
+    pub bias: Option<f64>,
+    /// Colour saturation s in C_d = (C / L_w)^s L_d, in [0, 10].
+    #[arg(long, default_value_t = 1.0)]
+    pub saturation: f64,
+    /// Display gamma, applied as v^(1/gamma) before the sRGB curve, in [0.1, 10].
+    #[arg(long, default_value_t = 1.0)]
+    pub gamma: f64,
+    /// Offset added to display values before clamping, in [-1, 1].
+    #[arg(long, default_value_t = 0.0)]
+    pub offset: f64,
+    /// Any other operator parameter by its paper name, e.g. `--param contrast=8`; repeatable.
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// Write a 16-bit PNG.
+    #[arg(long)]
+    pub sixteen_bit: bool,
+    /// Choose the exposure from the image: `key` (log-average to 0.18, or --key) or
+    /// `percentile` (the 99th percentile of luminance to 1).
+    #[arg(long, value_name = "key|percentile")]
+    pub auto_exposure: Option<String>,
+    /// Write the false-colour view of log10 luminance (with a legend) instead of tone mapping.
+    #[arg(long)]
+    pub false_colour: bool,
+}
+
+enum Format {
+    Png,
+    Exr,
+}
+
+/// Checks the options, reads the input, tone-maps it on `backend` and writes the output.
+pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
+    let input = args.input.display().to_string();
+    let format = match args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
+        Some("png") => Format::Png,
+        Some("exr") => Format::Exr,
+        _ => {
+            return Err(Error::invalid(
+                "--output",
+                format!(
+                    "{}: expected a .png or .exr file name",
+                    args.output.display()
+                ),
+            ))
+        }
+    };
+    if args.sixteen_bit && matches!(format, Format::Exr) {
+        return Err(Error::invalid(
+            "--sixteen-bit",
+            "applies to PNG output only (EXR output is 32-bit float)",
+        ));
+    }
+    check_ev("--exposure", args.exposure)?;
+    let mut pairs: Vec<(String, f64)> = Vec::new();
+    for (name, value) in [
+        ("key", args.key),
+        ("white", args.white),
+        ("bias", args.bias),
+    ] {
+        if let Some(v) = value {
+            pairs.push((name.to_string(), v));
+        }
+    }
+    for p in &args.params {
+        let parsed = p
+            .split_once('=')
+            .and_then(|(k, v)| Some((k.trim().to_string(), v.trim().parse::<f64>().ok()?)));
+        match parsed {
+            Some(kv) if !kv.0.is_empty() => pairs.push(kv),
+            _ => {
+                return Err(Error::invalid(
+                    "--param",
+                    format!("expected NAME=NUMBER, got {p:?}"),
+                ))
+            }
+        }
+    }
+    let borrowed: Vec<(&str, f64)> = pairs.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let op = Operator::parse(&args.op, &borrowed).map_err(|e| with_flag(e, "--op"))?;
+    let mut settings = ToneMapSettings {
+        exposure_ev: args.exposure,
+        offset: args.offset,
+        gamma: args.gamma,
+        saturation: args.saturation,
+        op,
+    };
+    settings.validate()?;
+    let auto = match args.auto_exposure.as_deref() {
+        None => None,
+        Some(m @ ("key" | "percentile")) => Some(m),
+        Some(other) => {
+            return Err(Error::invalid(
+                "--auto-exposure",
+                format!("unknown mode {other:?}; known: key, percentile"),
+            ))
+        }
+    };
+
+    let img = hdrvis::io::exr::read_exr(&args.input).map_err(one_line)?;
+    if let Some(mode) = auto {
+        let key = args.key.unwrap_or(0.18);
+        let ev = match mode {
+            "key" => auto_exposure_key(&img, key)?,
+            _ => auto_exposure_percentile(&img, AUTO_PERCENTILE, 1.0)?,
+        };
+        settings.exposure_ev = (settings.exposure_ev + ev).clamp(-200.0, 200.0);
+        eprintln!("{input}: auto exposure ({mode}) {ev:+.2} EV");
+    }
+    let ctx = GpuContext::new(backend)?;
+    let adapter = ctx.describe();
+    let mapper = GpuToneMapper::new(ctx);
+    let out = if args.false_colour {
+        mapper.false_colour(&img, settings.exposure_ev, None)?
+    } else {
+        mapper.tonemap(&img, &settings)?
+    };
+    match format {
+        Format::Png => hdrvis::io::png::write_display_png(&out, &args.output, args.sixteen_bit)?,
+        Format::Exr => hdrvis::io::exr::write_exr(&out, &args.output)?,
+    }
+    let view = if args.false_colour {
+        "false colour".to_string()
+    } else {
+        format!("{} at {:+.2} EV", op.name(), settings.exposure_ev)
+    };
+    println!(
+        "wrote {} ({}x{}, {view}, {adapter})",
+        args.output.display(),
+        out.width,
+        out.height
+    );
+    Ok(())
+}
+
+/// Prefixes an operator error with the flag that carried it, so the line names the input.
+fn with_flag(e: Error, flag: &str) -> Error {
+    match e {
+        Error::Invalid { field, msg } if field == "operator" => Error::invalid(flag, msg),
+        Error::Invalid { field, msg } => {
+            Error::invalid(format!("{field} (--{})", last(&field)), msg)
+        }
+        other => other,
+    }
+}
+
+fn last(field: &str) -> &str {
+    field.rsplit('.').next().unwrap_or(field)
+}
+
+/// Readers' messages can span lines; the CLI prints exactly one.
+fn one_line(e: Error) -> Error {
+    match e {
+        Error::Format { path, msg } => Error::Format {
+            path,
+            msg: msg.split_whitespace().collect::<Vec<_>>().join(" "),
+        },
+        other => other,
+    }
+}

@@ -1,0 +1,140 @@
+//! Script API: post-processing of HDR images — `load_image`, `exposure`, `bracket`, `tonemap`,
+//! `false_colour` — without re-rendering: each works on an image value a script already holds
+//! (a render or a loaded EXR). Tone mapping runs on the GPU of the script's context, shared with
+//! the volume renderer. Tone-mapped and false-colour images are marked `display_referred = 1`;
+//! `save_png` (registered with the render API) writes those with the sRGB curve only.
+
+use super::api_render::ScriptImage;
+use super::convert::{check_keys, err, num, string, to_rhai, RResult};
+use super::ScriptHost;
+use crate::tonemap::{GpuToneMapper, Operator, ToneMapSettings};
+use rhai::{Array, Dynamic, Engine, Map};
+use std::sync::{Arc, OnceLock};
+
+/// Options of `tonemap(image, #{...})`: the settings shared by every operator, then every
+/// operator parameter (each operator accepts its own, see [`Operator::param_names`]).
+const TONEMAP_KEYS: &[&str] = &[
+    "op",
+    "exposure",
+    "saturation",
+    "gamma",
+    "offset",
+    "key",
+    "white",
+    "bias",
+    "ld_min",
+    "ld_max",
+    "bins",
+    "alpha1",
+    "ratio",
+    "phi",
+    "epsilon",
+    "scales",
+    "contrast",
+    "sigma_spatial",
+    "sigma_range",
+];
+
+/// Builds tone-mapping settings from a script's option map (defaults: Reinhard global, 0 EV).
+pub fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
+    check_keys(opts, TONEMAP_KEYS, "tonemap")?;
+    let mut s = ToneMapSettings::default();
+    let mut op_name = "reinhard".to_string();
+    let mut params: Vec<(String, f64)> = Vec::new();
+    for (k, v) in opts {
+        match k.as_str() {
+            "op" => op_name = string(v, "op")?,
+            "exposure" => s.exposure_ev = num(v, "exposure")?,
+            "saturation" => s.saturation = num(v, "saturation")?,
+            "gamma" => s.gamma = num(v, "gamma")?,
+            "offset" => s.offset = num(v, "offset")?,
+            other => params.push((other.to_string(), num(v, other)?)),
+        }
+    }
+    let borrowed: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    s.op = Operator::parse(&op_name, &borrowed).map_err(to_rhai)?;
+    s.validate().map_err(to_rhai)?;
+    Ok(s)
+}
+
+pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+    let mapper: Arc<OnceLock<Arc<GpuToneMapper>>> = Arc::new(OnceLock::new());
+    let get_mapper = {
+        let host = host.clone();
+        move || -> RResult<Arc<GpuToneMapper>> {
+            if let Some(m) = mapper.get() {
+                return Ok(m.clone());
+            }
+            let ctx = host.renderer().map_err(to_rhai)?.context().clone();
+            Ok(mapper
+                .get_or_init(|| Arc::new(GpuToneMapper::new(ctx)))
+                .clone())
+        }
+    };
+
+    let h = host.clone();
+    engine.register_fn("load_image", move |path: &str| -> RResult<ScriptImage> {
+        let p = h.sandbox.read_path(path).map_err(to_rhai)?;
+        Ok(Arc::new(crate::io::exr::read_exr(&p).map_err(to_rhai)?))
+    });
+
+    engine.register_fn(
+        "exposure",
+        |img: &mut ScriptImage, ev: Dynamic| -> RResult<ScriptImage> {
+            let ev = num(&ev, "exposure")?;
+            Ok(Arc::new(
+                crate::tonemap::exposure(img, ev).map_err(to_rhai)?,
+            ))
+        },
+    );
+
+    engine.register_fn(
+        "bracket",
+        |img: &mut ScriptImage, evs: Array| -> RResult<Array> {
+            let evs = evs
+                .iter()
+                .map(|v| num(v, "bracket"))
+                .collect::<RResult<Vec<f64>>>()?;
+            let images = crate::tonemap::bracket(img, &evs).map_err(to_rhai)?;
+            Ok(images
+                .into_iter()
+                .map(|i| Dynamic::from(Arc::new(i)))
+                .collect())
+        },
+    );
+
+    let m = get_mapper.clone();
+    engine.register_fn(
+        "tonemap",
+        move |img: &mut ScriptImage, opts: Map| -> RResult<ScriptImage> {
+            if crate::tonemap::is_display_referred(img) {
+                return err(
+                    "tonemap",
+                    "this image is already display-referred (tone-mapped); tone-map the HDR image",
+                );
+            }
+            let settings = settings_from_map(&opts)?;
+            Ok(Arc::new(m()?.tonemap(img, &settings).map_err(to_rhai)?))
+        },
+    );
+    let m = get_mapper.clone();
+    engine.register_fn(
+        "tonemap",
+        move |img: &mut ScriptImage, op: &str| -> RResult<ScriptImage> {
+            let mut opts = Map::new();
+            opts.insert("op".into(), op.into());
+            let settings = settings_from_map(&opts)?;
+            Ok(Arc::new(m()?.tonemap(img, &settings).map_err(to_rhai)?))
+        },
+    );
+
+    let m = get_mapper;
+    engine.register_fn(
+        "false_colour",
+        move |img: &mut ScriptImage| -> RResult<ScriptImage> {
+            Ok(Arc::new(
+                m()?.false_colour(img, 0.0, None).map_err(to_rhai)?,
+            ))
+        },
+    );
+}

@@ -1,0 +1,554 @@
+//! Tone mapping: every GPU operator against its f64 CPU reference (synthetic images and a real
+//! volume render, on Vulkan and on GL), closed forms (Reinhard's global curve, +1 EV doubling),
+//! monotonicity of the global operators, hard images, and `hdrvis tonemap` on bad input.
+//!
+//! Tolerance: the passes compute in f32 (luminance kept as logs) and the references in f64; on
+//! display-referred values in [0, 1] the two agree to [`TOL`] absolute (measured ~5e-6).
+
+use crate::cli::hdrvis;
+use crate::common::renderer;
+use hdrvis::gpu::BackendChoice;
+use hdrvis::model::{Axis, Camera, HdrImage};
+use hdrvis::render::volume::GpuVolume;
+use hdrvis::render::VolumeRenderOptions;
+use hdrvis::tonemap::cpu::{false_colour_log10, tonemap_cpu};
+use hdrvis::tonemap::{GpuToneMapper, Operator, ToneMapSettings};
+use std::path::Path;
+use std::sync::{Arc, OnceLock};
+
+/// Largest |GPU - CPU| allowed on display values in [0, 1].
+const TOL: f32 = 5e-5;
+
+fn mapper(backend: BackendChoice) -> Arc<GpuToneMapper> {
+    static VK: OnceLock<Arc<GpuToneMapper>> = OnceLock::new();
+    static GL: OnceLock<Arc<GpuToneMapper>> = OnceLock::new();
+    let cell = match backend {
+        BackendChoice::Gl => &GL,
+        _ => &VK,
+    };
+    cell.get_or_init(|| Arc::new(GpuToneMapper::new(renderer(backend).context().clone())))
+        .clone()
+}
+
+const ALL: [Operator; 8] = [
+    Operator::Linear,
+    Operator::DRAGO,
+    Operator::REINHARD,
+    Operator::Reinhard {
+        key: 0.18,
+        white: Some(1.5),
+    },
+    Operator::WARD,
+    Operator::Aces,
+    Operator::REINHARD_LOCAL,
+    Operator::DURAND,
+];
+
+const GLOBAL: [Operator; 5] = [
+    Operator::Linear,
+    Operator::DRAGO,
+    Operator::REINHARD,
+    Operator::WARD,
+    Operator::Aces,
+];
+
+fn settings(op: Operator) -> ToneMapSettings {
+    ToneMapSettings {
+        op,
+        ..Default::default()
+    }
+}
+
+fn grey(w: u32, h: u32, f: impl Fn(u32) -> f32) -> HdrImage {
+    HdrImage::from_pixels(
+        w,
+        h,
+        (0..w * h)
+            .map(|i| {
+                let v = f(i);
+                [v, v, v, 1.0]
+            })
+            .collect(),
+    )
+}
+
+/// Largest |a - b| over every channel; NaN anywhere counts as infinitely different.
+fn max_diff(a: &HdrImage, b: &HdrImage) -> (f32, usize) {
+    assert_eq!(a.pixels.len(), b.pixels.len());
+    let mut worst = (0.0f32, 0);
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        for k in 0..4 {
+            let d = if p[k].is_nan() || q[k].is_nan() {
+                f32::INFINITY
+            } else {
+                (p[k] - q[k]).abs()
+            };
+            if d > worst.0 {
+                worst = (d, i);
+            }
+        }
+    }
+    worst
+}
+
+fn synthetic() -> Vec<(&'static str, HdrImage)> {
+    let (w, h) = (97u32, 61u32);
+    let mut pixels: Vec<[f32; 4]> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            let l =
+                10f64.powf(3.0 * (x / 13.0).sin() * (y / 11.0).cos() + 0.5 * (x * y / 50.0).sin());
+            [
+                l as f32,
+                (l * (0.5 + 0.4 * (x / 5.0).cos())) as f32,
+                (l * 0.3) as f32,
+                1.0,
+            ]
+        })
+        .collect();
+    pixels[5 * w as usize + 7] = [f32::NAN, 0.0, 0.0, 1.0];
+    pixels[40 * w as usize + 60] = [0.0, 0.0, 0.0, 0.5];
+    pixels[20 * w as usize + 20] = [f32::INFINITY, 1.0, 1.0, 1.0];
+    let mut outlier = grey(8, 8, |i| 1e-3 * (1.0 + (i % 7) as f32 * 0.1));
+    outlier.pixels[27] = [1e30, 1e30, 1e30, 1.0];
+    vec![
+        (
+            "smooth 97x61 with NaN/Inf",
+            HdrImage::from_pixels(w, h, pixels),
+        ),
+        ("1e30 among 1e-3", outlier),
+        // ln of the log-average is about -70: the product of the values, or their sum of
+        // logs in f32 without care, under- or overflows.
+        (
+            "log-average underflow",
+            grey(20, 15, |i| if i % 2 == 0 { 4e-30 } else { 2.5e-31 }),
+        ),
+        ("denormals", grey(9, 7, |i| 1e-40 * (1 + i % 5) as f32)),
+        ("zeros", grey(3, 5, |_| 0.0)),
+        (
+            "1x1",
+            HdrImage::from_pixels(1, 1, vec![[0.5, 0.2, 0.1, 1.0]]),
+        ),
+        // Exponents off round decades: Ward's histogram spans [min, max] log luminance in
+        // 100 bins, and a value exactly on a bin edge may fall either side in f32 and f64.
+        (
+            "1xN",
+            grey(1, 37, |i| {
+                10f32.powf((i as f32 * 0.731) % 8.0 - 4.0 + 0.013)
+            }),
+        ),
+        (
+            "Nx1",
+            grey(41, 1, |i| {
+                10f32.powf((i as f32 * 0.577) % 6.0 - 3.0 + 0.029)
+            }),
+        ),
+    ]
+}
+
+fn compare_all(backend: BackendChoice, images: &[(&str, HdrImage)]) -> f32 {
+    let m = mapper(backend);
+    let mut worst_all = 0.0f32;
+    for (name, img) in images {
+        for op in ALL {
+            for (ev, sat, gamma, offset) in [(0.0, 1.0, 1.0, 0.0), (1.5, 0.6, 2.2, -0.02)] {
+                let s = ToneMapSettings {
+                    op,
+                    exposure_ev: ev,
+                    saturation: sat,
+                    gamma,
+                    offset,
+                };
+                let cpu = tonemap_cpu(img, &s).unwrap();
+                let gpu = m.tonemap(img, &s).unwrap();
+                let (worst, at) = max_diff(&cpu, &gpu);
+                assert!(
+                    worst <= TOL,
+                    "{backend:?} {name} {} ev {ev}: |cpu - gpu| = {worst} at {at}: cpu {:?} gpu {:?}",
+                    op.name(),
+                    cpu.pixels[at],
+                    gpu.pixels[at]
+                );
+                assert!(gpu.pixels.iter().flatten().all(|v| (0.0..=1.0).contains(v)));
+                worst_all = worst_all.max(worst);
+            }
+        }
+    }
+    eprintln!("{backend:?}: worst |cpu - gpu| over every operator = {worst_all:.2e}");
+    worst_all
+}
+
+#[test]
+fn tonemap_gpu_matches_cpu_on_synthetic_and_hard_images_vulkan() {
+    compare_all(BackendChoice::Vulkan, &synthetic());
+}
+
+#[test]
+fn tonemap_gpu_matches_cpu_on_synthetic_and_hard_images_gl() {
+    compare_all(BackendChoice::Gl, &synthetic());
+}
+
+fn volume_render(backend: BackendChoice) -> HdrImage {
+    let vol = hdrvis::bench::bench_volume(64).unwrap();
+    let r = renderer(backend);
+    let gv = GpuVolume::upload(r.context(), &vol).unwrap();
+    let mut opts = VolumeRenderOptions::new(
+        Camera::axis(Axis::Z, &vol.bounds()),
+        hdrvis::bench::bench_tf(),
+    );
+    opts.width = 96;
+    opts.height = 80;
+    r.render(&gv, &opts).unwrap().0
+}
+
+#[test]
+fn tonemap_gpu_matches_cpu_on_a_volume_render() {
+    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        let img = volume_render(backend);
+        let lum = img.luminance();
+        let (lo, hi) = lum
+            .iter()
+            .filter(|l| **l > 0.0)
+            .fold((f32::MAX, 0.0f32), |(a, b), &l| (a.min(l), b.max(l)));
+        eprintln!("{backend:?} render: luminance {lo:.2e} .. {hi:.2e}");
+        assert!(hi / lo > 100.0, "the render should be HDR");
+        compare_all(backend, &[("volume render", img)]);
+    }
+}
+
+#[test]
+fn tonemap_false_colour_matches_cpu() {
+    let m = mapper(BackendChoice::Vulkan);
+    for (name, img) in synthetic() {
+        let cpu = false_colour_log10(&img, 0.0, None).unwrap();
+        let gpu = m.false_colour(&img, 0.0, None).unwrap();
+        let (worst, _) = max_diff(&cpu, &gpu);
+        assert!(worst < 1e-2, "{name}: {worst}");
+        assert_eq!(
+            cpu.meta("false_colour.log10_min"),
+            gpu.meta("false_colour.log10_min")
+        );
+    }
+}
+
+#[test]
+fn tonemap_reinhard_global_closed_form() {
+    // L_d = L (1 + L / L_white^2) / (1 + L), L = key / Lbar * L_w, Lbar = exp(mean ln L_w).
+    let img = grey(64, 3, |i| 10f32.powf(-3.0 + 6.0 * (i % 64) as f32 / 63.0));
+    let lbar = (img.pixels.iter().map(|p| (p[0] as f64).ln()).sum::<f64>()
+        / img.pixels.len() as f64)
+        .exp();
+    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        for (key, white) in [(0.18, 1.5), (0.5, 20.0), (0.09, 0.7)] {
+            let s = settings(Operator::Reinhard {
+                key,
+                white: Some(white),
+            });
+            let out = mapper(backend).tonemap(&img, &s).unwrap();
+            let mut worst = 0.0f64;
+            for (p, q) in img.pixels.iter().zip(&out.pixels) {
+                let l = key / lbar * p[0] as f64;
+                let ld = (l * (1.0 + l / (white * white)) / (1.0 + l)).min(1.0);
+                worst = worst.max((ld - q[0] as f64).abs());
+            }
+            assert!(worst < 2e-6, "{backend:?} key {key} white {white}: {worst}");
+        }
+    }
+}
+
+#[test]
+fn tonemap_one_stop_doubles_linear_values() {
+    let img = grey(16, 4, |i| 0.001 + 0.4 * i as f32 / 64.0);
+    let up = hdrvis::tonemap::exposure(&img, 1.0).unwrap();
+    for (a, b) in img.pixels.iter().zip(&up.pixels) {
+        assert_eq!(b[0], 2.0 * a[0]);
+    }
+    // Through the GPU's exposure (inside the linear operator, values stay below 1).
+    let m = mapper(BackendChoice::Vulkan);
+    let base = m.tonemap(&img, &settings(Operator::Linear)).unwrap();
+    let exposed = m
+        .tonemap(
+            &img,
+            &ToneMapSettings {
+                exposure_ev: 1.0,
+                ..settings(Operator::Linear)
+            },
+        )
+        .unwrap();
+    for (a, b) in base.pixels.iter().zip(&exposed.pixels) {
+        assert!(
+            (b[0] - 2.0 * a[0]).abs() <= 1e-6 * b[0].max(1e-3),
+            "{a:?} {b:?}"
+        );
+    }
+    let views = hdrvis::tonemap::bracket(&img, &[-1.0, 0.0, 1.0, 2.0]).unwrap();
+    assert_eq!(views[3].pixels[5][1], 4.0 * img.pixels[5][1]);
+}
+
+#[test]
+fn tonemap_global_operators_are_monotonic() {
+    // Eight decades of grey, in increasing order.
+    let img = grey(512, 1, |i| 10f32.powf(-4.0 + 8.0 * i as f32 / 511.0));
+    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        for op in GLOBAL {
+            let out = mapper(backend).tonemap(&img, &settings(op)).unwrap();
+            for w in out.pixels.windows(2) {
+                assert!(
+                    w[1][0] >= w[0][0] - 1e-7,
+                    "{backend:?} {} not monotonic: {} then {}",
+                    op.name(),
+                    w[0][0],
+                    w[1][0]
+                );
+            }
+            assert!(out.pixels[511][0] > out.pixels[0][0], "{}", op.name());
+        }
+    }
+}
+
+#[test]
+fn tonemap_missing_pixels_are_not_spread_by_local_blurs() {
+    // A constant image with a hole: normalised convolutions see the same neighbourhood mean,
+    // so every other pixel must come out exactly as without the hole.
+    let plain = grey(33, 29, |_| 0.7);
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        let mut holed = plain.clone();
+        holed.pixels[14 * 33 + 16] = [bad, 0.7, 0.7, 1.0];
+        holed.pixels[3] = [0.7, 0.7, bad, 1.0];
+        for op in [Operator::REINHARD_LOCAL, Operator::DURAND] {
+            let m = mapper(BackendChoice::Vulkan);
+            let a = m.tonemap(&plain, &settings(op)).unwrap();
+            let b = m.tonemap(&holed, &settings(op)).unwrap();
+            for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+                if i == 14 * 33 + 16 || i == 3 {
+                    assert_eq!(*q, [0.0; 4], "missing pixel shown as transparent black");
+                } else {
+                    for k in 0..4 {
+                        assert!(
+                            (p[k] - q[k]).abs() < 1e-6,
+                            "{} {bad}: pixel {i} {p:?} {q:?}",
+                            op.name()
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn tonemap_pipelines_are_cached() {
+    let ctx = renderer(BackendChoice::Vulkan).context().clone();
+    let m = GpuToneMapper::new(ctx);
+    let img = grey(8, 8, |i| i as f32);
+    m.tonemap(&img, &settings(Operator::DURAND)).unwrap();
+    let built = m.cached_pipelines();
+    m.tonemap(
+        &img,
+        &ToneMapSettings {
+            exposure_ev: 2.0,
+            ..settings(Operator::DURAND)
+        },
+    )
+    .unwrap();
+    assert_eq!(m.cached_pipelines(), built);
+}
+
+// --- the binary on files -------------------------------------------------------------------
+
+fn write_half_exr(path: &Path, channels: &[&str], w: usize, h: usize) {
+    use exr::prelude::*;
+    let list: Vec<AnyChannel<FlatSamples>> = channels
+        .iter()
+        .enumerate()
+        .map(|(c, name)| {
+            let data = (0..w * h)
+                .map(|i| f16::from_f32(0.01 * (1.0 + c as f32) * 10f32.powf((i % 7) as f32 * 0.6)))
+                .collect();
+            AnyChannel::new(*name, FlatSamples::F16(data))
+        })
+        .collect();
+    let layer = Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list.into_iter().collect()),
+    );
+    Image::from_layer(layer).write().to_file(path).unwrap();
+}
+
+#[test]
+fn tonemap_cli_reads_half_exr_and_writes_png_and_exr() {
+    let dir = tempfile::tempdir().unwrap();
+    write_half_exr(&dir.path().join("in.exr"), &["R", "G", "B", "A"], 24, 16);
+    let (rc, out, err) = hdrvis(
+        &["tonemap", "in.exr", "-o", "o8.png", "--op", "durand"],
+        dir.path(),
+    );
+    assert_eq!(rc, 0, "{out} {err}");
+    let png = image::open(dir.path().join("o8.png")).unwrap();
+    assert_eq!(png.color(), image::ColorType::Rgb8);
+    let (rc, _, err) = hdrvis(
+        &[
+            "tonemap",
+            "in.exr",
+            "-o",
+            "o16.png",
+            "--sixteen-bit",
+            "--exposure",
+            "-1.5",
+            "--key",
+            "0.3",
+        ],
+        dir.path(),
+    );
+    assert_eq!(rc, 0, "{err}");
+    assert_eq!(
+        image::open(dir.path().join("o16.png")).unwrap().color(),
+        image::ColorType::Rgb16
+    );
+    let (rc, _, err) = hdrvis(
+        &[
+            "tonemap",
+            "in.exr",
+            "-o",
+            "o.exr",
+            "--op",
+            "ward",
+            "--auto-exposure",
+            "key",
+        ],
+        dir.path(),
+    );
+    assert_eq!(rc, 0, "{err}");
+    let back = hdrvis::io::exr::read_exr(&dir.path().join("o.exr")).unwrap();
+    assert!(back
+        .pixels
+        .iter()
+        .flatten()
+        .all(|v| (0.0..=1.0).contains(v)));
+    assert!(back.pixels.iter().any(|p| p[0] > 0.5));
+    let (rc, _, err) = hdrvis(
+        &["tonemap", "in.exr", "-o", "fc.png", "--false-colour"],
+        dir.path(),
+    );
+    assert_eq!(rc, 0, "{err}");
+}
+
+#[test]
+fn tonemap_cli_bad_input_is_one_line_nonzero_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_half_exr(&d.join("good.exr"), &["R", "G", "B"], 8, 8);
+    write_half_exr(&d.join("depth.exr"), &["Z"], 8, 8);
+    std::fs::write(d.join("text.exr"), "not an image\n").unwrap();
+    let bytes = std::fs::read(d.join("good.exr")).unwrap();
+    std::fs::write(d.join("cut.exr"), &bytes[..bytes.len() / 2]).unwrap();
+    let cases: &[(&[&str], &[&str])] = &[
+        (&["text.exr"], &["text.exr", "OpenEXR"]),
+        (&["cut.exr"], &["cut.exr"]),
+        (&["depth.exr"], &["depth.exr", "R, G, B", "Z"]),
+        (
+            &["good.exr", "--op", "fattal"],
+            &[
+                "--op",
+                "fattal",
+                "linear, drago, reinhard, ward, aces, reinhard-local, durand",
+            ],
+        ),
+        (&["good.exr", "--key", "0"], &["--key", "> 0"]),
+        (
+            &["good.exr", "--key", "-1", "--op", "reinhard-local"],
+            &["--key", "> 0"],
+        ),
+        (&["good.exr", "--white", "-2"], &["--white", "> 0"]),
+        (
+            &["good.exr", "--exposure", "nan"],
+            &["--exposure", "finite", "[-200, 200]"],
+        ),
+        (
+            &["good.exr", "--exposure", "inf"],
+            &["--exposure", "finite"],
+        ),
+        (
+            &["good.exr", "--bias", "1.5", "--op", "drago"],
+            &["--bias", "(0, 1]"],
+        ),
+    ];
+    for (args, needles) in cases {
+        for out in ["o.png", "o.exr"] {
+            let mut full = vec!["tonemap"];
+            full.extend_from_slice(args);
+            full.extend_from_slice(&["-o", out]);
+            let (rc, _, err) = hdrvis(&full, d);
+            assert_ne!(rc, 0, "{full:?}");
+            assert_eq!(err.trim().lines().count(), 1, "{full:?}: {err}");
+            for n in *needles {
+                assert!(err.contains(n), "{full:?}: {err:?} lacks {n:?}");
+            }
+            assert!(!d.join(out).exists(), "{full:?} left {out}");
+        }
+    }
+    let leftovers: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with(".hdrvis-"))
+        .collect();
+    assert!(leftovers.is_empty());
+}
+
+#[test]
+fn tonemap_script_api_brackets_tonemaps_and_saves_display_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let img = grey(16, 8, |i| 10f32.powf(-2.0 + 4.0 * i as f32 / 127.0));
+    hdrvis::io::exr::write_exr(&img, &d.join("in.exr")).unwrap();
+    std::fs::write(
+        d.join("post.rhai"),
+        r#"
+let hdr = load_image("in.exr");
+let views = bracket(hdr, [-1.0, 0.0, 1.0]);
+if views.len() != 3 { throw "bracket"; }
+for (v, i) in views { save_png(v, `ev${i}.png`); }
+let ldr = tonemap(hdr, #{op: "reinhard", key: 0.18, white: 2.0, saturation: 1.0});
+save_png(ldr, "reinhard.png");
+save_exr(ldr, "reinhard.exr");
+save_png(tonemap(exposure(hdr, 1.0), "durand"), "durand.png");
+save_png(false_colour(hdr), "fc.png");
+"#,
+    )
+    .unwrap();
+    let (rc, _, err) = hdrvis(&["run", "post.rhai", "--out", "out"], d);
+    assert_eq!(rc, 0, "{err}");
+    // save_png of a tone-mapped image writes its display values through sRGB only.
+    let display = hdrvis::io::exr::read_exr(&d.join("out/reinhard.exr")).unwrap();
+    let png = image::open(d.join("out/reinhard.png")).unwrap().to_rgb8();
+    for (p, q) in display.pixels.iter().zip(png.pixels()) {
+        assert_eq!(q[0], hdrvis::io::png::encode_srgb8(p[0] as f64));
+    }
+    for f in ["ev0.png", "ev1.png", "ev2.png", "durand.png", "fc.png"] {
+        assert!(d.join("out").join(f).exists(), "{f}");
+    }
+
+    for (script, needle) in [
+        (
+            r#"tonemap(load_image("in.exr"), #{op: "reinhard", kee: 1.0});"#,
+            "unknown option kee; known options: op, exposure",
+        ),
+        (
+            r#"save_png(tonemap(load_image("in.exr"), "aces"), "x.png", 2.0);"#,
+            "display-referred",
+        ),
+        (
+            r#"tonemap(load_image("in.exr"), #{op: "reinhard", key: -1.0});"#,
+            "reinhard.key",
+        ),
+        (r#"exposure(load_image("in.exr"), 1.0 / 0.0);"#, "finite"),
+    ] {
+        std::fs::write(d.join("bad.rhai"), script).unwrap();
+        let (rc, _, err) = hdrvis(&["run", "bad.rhai", "--out", "bad"], d);
+        assert_ne!(rc, 0, "{script}");
+        assert!(err.contains(needle), "{script}: {err}");
+        assert!(!d.join("bad/x.png").exists());
+    }
+}
