@@ -65,6 +65,17 @@ fn run(cli: Cli) -> Result<()> {
             println!("{}", ctx.report());
             Ok(())
         }
+        Some(Command::Bench(BenchCommand::Accuracy { runs, size, n, out })) => {
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let scenes = hdrvis::bench::accuracy_scenes(size, n)?;
+            let rows =
+                hdrvis::bench::bench_accuracy(ctx, &scenes, runs, &mut |m| eprintln!("{m}"))?;
+            print!("{}", hdrvis::bench::format_accuracy_table(&adapter, &rows));
+            let (csv, json) = hdrvis::bench::write_accuracy_files(&out, &rows)?;
+            println!("wrote {} and {}", csv.display(), json.display());
+            Ok(())
+        }
         Some(Command::Bench(BenchCommand::Datasets { runs, quick })) => {
             let rows = hdrvis::bench::bench_generators(runs, quick, &mut |m| eprintln!("{m}"))?;
             print!("{}", hdrvis::bench::format_generator_table(&rows));

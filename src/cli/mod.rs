@@ -73,6 +73,21 @@ pub enum BenchCommand {
         #[arg(long)]
         peer: Option<String>,
     },
+    /// What accuracy costs: every compositing precision (u8, f16, f32, f32c, f64) timed and
+    /// compared with the f64 reference on the mantle and HDR-blob scenes.
+    Accuracy {
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 256)]
+        size: u32,
+        /// Volume side in voxels.
+        #[arg(long, default_value_t = 128)]
+        n: usize,
+        /// Folder for accuracy.csv and accuracy.json.
+        #[arg(long, default_value = "out/bench-accuracy")]
+        out: PathBuf,
+    },
     /// Dataset generators: okada 1001^2, mantle 513^3, tsunami 1000^2 for 2 simulated hours.
     Datasets {
         #[arg(long, default_value_t = 3)]
