@@ -9,6 +9,14 @@ use crate::error::{Error, Result};
 pub const SOURCES: &[(&str, &str)] = &[
     ("volume.wgsl", include_str!("../../shaders/volume.wgsl")),
     (
+        "surface_data.wgsl",
+        include_str!("../../shaders/surface_data.wgsl"),
+    ),
+    (
+        "surface_fringe.wgsl",
+        include_str!("../../shaders/surface_fringe.wgsl"),
+    ),
+    (
         "shared/camera.wgsl",
         include_str!("../../shaders/shared/camera.wgsl"),
     ),
@@ -20,7 +28,11 @@ pub const SOURCES: &[(&str, &str)] = &[
 
 /// The pipeline shaders (not the shared pieces) with every define combination they are built
 /// with, so tests can validate each variant.
-pub const PIPELINES: &[(&str, &[&[&str]])] = &[("volume.wgsl", &[&[], &["HW_FILTER"]])];
+pub const PIPELINES: &[(&str, &[&[&str]])] = &[
+    ("volume.wgsl", &[&[], &["HW_FILTER"]]),
+    ("surface_data.wgsl", &[&[]]),
+    ("surface_fringe.wgsl", &[&[]]),
+];
 
 /// Development aid: with `HDRVIS_SHADER_DIR` set, shaders are read from that folder at run time
 /// instead of the copies embedded at build time, so a shader can be tuned without rebuilding.

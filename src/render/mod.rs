@@ -2,6 +2,7 @@
 //! they trace the same rays through the same optical model.
 
 pub mod cpu_reference;
+pub mod surface;
 pub mod volume;
 
 use crate::error::{Error, Result};

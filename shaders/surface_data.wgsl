@@ -1,0 +1,165 @@
+// Interference surfaces, step 1 (the data pass): one invocation per pixel finds the grid point
+// it shows — in map view directly (pixel centres on grid nodes at the default size), in the
+// perspective view by marching the camera ray over the relief and refining the hit by bisection —
+// and writes up to four properties there into float targets in one pass: the f32 part `hi` of
+// (d − d_ref) and the f32 remainder `rest`, so the fringe pass can keep f64 precision through the
+// phase. Missing nodes never leak into neighbours: interpolation weights only valid corners, and a
+// pixel is missing when its nearest node is. Keep Params in sync with src/render/surface.rs
+// (DataParams).
+#include "shared/camera.wgsl"
+
+struct Params {
+    eye: vec4<f32>,
+    forward: vec4<f32>,
+    right: vec4<f32>,
+    up: vec4<f32>,
+    proj: vec4<f32>,
+    // x, y: world spacing of nodes; z: world units per height unit (exaggeration); w: height at z = 0
+    cell: vec4<f32>,
+    // xyz: direction towards the light; w: ambient fraction
+    light: vec4<f32>,
+    // box size in world units (relief box), w unused
+    box_size: vec4<f32>,
+    // x: nx, y: ny, z: width, w: height
+    dims: vec4<u32>,
+}
+
+// 1: map view (top-down orthographic, pixel centres spread evenly over the nodes); 0: perspective.
+override MAP_VIEW: u32 = 1u;
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var node_hi: texture_2d<f32>;
+@group(0) @binding(2) var node_rest: texture_2d<f32>;
+@group(0) @binding(3) var node_valid: texture_2d<f32>;
+@group(0) @binding(4) var node_height: texture_2d<f32>;
+@group(0) @binding(5) var out_hi: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(6) var out_rest: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(7) var out_mask: texture_storage_2d<rgba32float, write>;
+
+struct Sample {
+    hi: vec4<f32>,
+    rest: vec4<f32>,
+    mask: u32,
+}
+
+// Bilinear sample of the properties at continuous node coordinates (u along x, v along y),
+// weighting valid corners only; `mask` has bit p set when property p's nearest node is valid.
+fn sample_props(u: f32, v: f32) -> Sample {
+    let nmax = vec2<f32>(f32(params.dims.x - 1u), f32(params.dims.y - 1u));
+    let uv = clamp(vec2<f32>(u, v), vec2<f32>(0.0), nmax);
+    let base = min(vec2<u32>(floor(uv)), params.dims.xy - vec2<u32>(1u));
+    let f = uv - vec2<f32>(base);
+    let next = min(base + vec2<u32>(1u), params.dims.xy - vec2<u32>(1u));
+    let c = array<vec2<u32>, 4>(base, vec2<u32>(next.x, base.y), vec2<u32>(base.x, next.y), next);
+    let w = array<f32, 4>((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+    var hi = vec4<f32>(0.0);
+    var rest = vec4<f32>(0.0);
+    var wsum = vec4<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        let valid = textureLoad(node_valid, c[k], 0);
+        let wk = w[k] * valid;
+        hi += wk * textureLoad(node_hi, c[k], 0);
+        rest += wk * textureLoad(node_rest, c[k], 0);
+        wsum += wk;
+    }
+    let near = select(base, next, f >= vec2<f32>(0.5));
+    let nv = textureLoad(node_valid, near, 0);
+    let ok = nv > vec4<f32>(0.5) & wsum > vec4<f32>(0.0);
+    let safe = select(vec4<f32>(1.0), wsum, ok);
+    var mask = 0u;
+    for (var p = 0u; p < 4u; p++) {
+        if (ok[p]) {
+            mask |= 1u << p;
+        }
+    }
+    return Sample(select(vec4<f32>(0.0), hi / safe, ok), select(vec4<f32>(0.0), rest / safe, ok), mask);
+}
+
+fn height_at(u: f32, v: f32) -> f32 {
+    let nmax = vec2<f32>(f32(params.dims.x - 1u), f32(params.dims.y - 1u));
+    let uv = clamp(vec2<f32>(u, v), vec2<f32>(0.0), nmax);
+    let base = min(vec2<u32>(floor(uv)), params.dims.xy - vec2<u32>(1u));
+    let f = uv - vec2<f32>(base);
+    let next = min(base + vec2<u32>(1u), params.dims.xy - vec2<u32>(1u));
+    let h00 = textureLoad(node_height, base, 0).x;
+    let h10 = textureLoad(node_height, vec2<u32>(next.x, base.y), 0).x;
+    let h01 = textureLoad(node_height, vec2<u32>(base.x, next.y), 0).x;
+    let h11 = textureLoad(node_height, next, 0).x;
+    let h = mix(mix(h00, h10, f.x), mix(h01, h11, f.x), f.y);
+    return (h - params.cell.w) * params.cell.z;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let w = params.dims.z;
+    let h = params.dims.w;
+    if (gid.x >= w || gid.y >= h) {
+        return;
+    }
+    let px = vec2<i32>(gid.xy);
+    var u: f32;
+    var v: f32;
+    var shade = 1.0;
+    var hit = true;
+    if (MAP_VIEW == 1u) {
+        // Pixel centres spread evenly over the node range; at the default size (one pixel per
+        // node) u and v are exact integers. Row 0 is the northern (largest y) row.
+        let scale = vec2<f32>(f32(params.dims.x), f32(params.dims.y)) / vec2<f32>(f32(w), f32(h));
+        u = (f32(gid.x) + 0.5) * scale.x - 0.5;
+        let row = (f32(gid.y) + 0.5) * scale.y - 0.5;
+        v = f32(params.dims.y - 1u) - row;
+    } else {
+        let ray = camera_ray(gid.x, gid.y, w, h, params.eye.xyz, params.forward.xyz,
+                             params.right.xyz, params.up.xyz, params.proj);
+        let span = box_hit(ray.origin, ray.dir, params.box_size.xyz);
+        hit = false;
+        if (span.x < span.y) {
+            let t0 = max(span.x, 0.0);
+            let horiz = max(length(ray.dir.xy), 1e-6);
+            let cell = min(params.cell.x, params.cell.y);
+            let dt = max(0.5 * cell / horiz, (span.y - t0) / 4096.0);
+            let steps = u32(ceil((span.y - t0) / dt));
+            var prev = t0;
+            for (var s = 0u; s <= steps; s++) {
+                let t = min(t0 + f32(s) * dt, span.y);
+                let p = ray.origin + t * ray.dir;
+                if (p.z <= height_at(p.x / params.cell.x, p.y / params.cell.y)) {
+                    var lo = prev;
+                    var hi_t = t;
+                    for (var k = 0; k < 12; k++) {
+                        let mid = 0.5 * (lo + hi_t);
+                        let q = ray.origin + mid * ray.dir;
+                        if (q.z <= height_at(q.x / params.cell.x, q.y / params.cell.y)) {
+                            hi_t = mid;
+                        } else {
+                            lo = mid;
+                        }
+                    }
+                    let q = ray.origin + hi_t * ray.dir;
+                    u = q.x / params.cell.x;
+                    v = q.y / params.cell.y;
+                    hit = true;
+                    break;
+                }
+                prev = t;
+            }
+        }
+        if (hit) {
+            let dzdx = (height_at(u + 1.0, v) - height_at(u - 1.0, v)) / (2.0 * params.cell.x);
+            let dzdy = (height_at(u, v + 1.0) - height_at(u, v - 1.0)) / (2.0 * params.cell.y);
+            let n = normalize(vec3<f32>(-dzdx, -dzdy, 1.0));
+            let amb = params.light.w;
+            shade = amb + (1.0 - amb) * max(dot(n, normalize(params.light.xyz)), 0.0);
+        }
+    }
+    if (!hit) {
+        textureStore(out_hi, px, vec4<f32>(0.0));
+        textureStore(out_rest, px, vec4<f32>(0.0));
+        textureStore(out_mask, px, vec4<f32>(0.0));
+        return;
+    }
+    let s = sample_props(u, v);
+    textureStore(out_hi, px, s.hi);
+    textureStore(out_rest, px, s.rest);
+    textureStore(out_mask, px, vec4<f32>(f32(s.mask), shade, 0.0, 0.0));
+}
