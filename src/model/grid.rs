@@ -230,11 +230,11 @@ impl Grid {
         Grid::from_arrays(name, nx, ny, vec![(name.to_string(), v)])
     }
 
-    /// Loads a 2-D field: `.npy` (one property named after the file, or `value`), `.npz` (every
-    /// array of the chosen or largest array's 2-D shape becomes a property; `x`/`lon` and
-    /// `y`/`lat` arrays are coordinates, an array named `elevation`, `topo`, `height` or `z` of
-    /// that shape is the elevation), `.nc` (the variable `var` or the first 2-D one). `var` picks
-    /// one array; with it only that array is a property.
+    /// Loads a 2-D field: `.npy` (one property named after the file), `.npz` and NetCDF (every
+    /// non-coordinate array of the chosen or default array's 2-D shape becomes a property, sorted
+    /// by name; `x`/`lon` and `y`/`lat` arrays are coordinates; an array named `elevation`,
+    /// `topo`, `topography`, `height` or `z` of that shape is the elevation). `var` picks one
+    /// array; with it only that array is a property (plus the elevation).
     pub fn load(path: &Path, var: Option<&str>) -> Result<Grid> {
         let file = crate::datasets::read_grid(path, var)?;
         let [ny, nx] = file.shape;
@@ -248,10 +248,10 @@ impl Grid {
         };
         let x = axis(file.x, "x", nx);
         let y = axis(file.y, "y", ny);
-        let mut props = vec![(file.name.clone(), file.data)];
+        let mut props = vec![(file.name.clone(), file.data, file.units.unwrap_or_default())];
         let mut elevation = None;
         let ext = crate::io::extension(path);
-        if ext == "npz" {
+        if matches!(ext.as_str(), "npz" | "nc" | "nc4" | "cdf" | "netcdf") {
             let coord_names = [
                 x.name.as_str(),
                 y.name.as_str(),
@@ -263,7 +263,8 @@ impl Grid {
                 "latitude",
             ];
             for a in crate::datasets::list_arrays(path)? {
-                if a.name == file.name || coord_names.contains(&a.name.as_str()) {
+                if a.name == file.name || a.is_coordinate || coord_names.contains(&a.name.as_str())
+                {
                     continue;
                 }
                 let is_elev = ["elevation", "topo", "topography", "height", "z"]
@@ -276,7 +277,7 @@ impl Grid {
                 if is_elev {
                     elevation = Some(arr.data);
                 } else {
-                    props.push((a.name, arr.data));
+                    props.push((a.name, arr.data, arr.units.unwrap_or_default()));
                 }
             }
             props.sort_by(|a, b| a.0.cmp(&b.0));
@@ -286,18 +287,10 @@ impl Grid {
             .and_then(|s| s.to_str())
             .unwrap_or("grid")
             .to_string();
+        let units: Vec<String> = props.iter().map(|p| p.2.clone()).collect();
+        let props = props.into_iter().map(|(n, v, _)| (n, v)).collect();
         let mut g = Grid::with_coords(&name, x, y, props, elevation)?;
-        if let Some(u) = file.units {
-            if let Some(slot) = g.units.iter_mut().zip(&g.properties).find_map(|(u, (n, _))| {
-                if *n == file.name {
-                    Some(u)
-                } else {
-                    None
-                }
-            }) {
-                *slot = u;
-            }
-        }
+        g.units = units;
         Ok(g)
     }
 

@@ -4,6 +4,7 @@
 //! the output folder or folders the user allowed; outputs go only under the output folder.
 
 mod api_render;
+mod api_surface;
 mod convert;
 mod sandbox;
 
@@ -100,7 +101,8 @@ pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
         .set_module_resolver(rhai::module_resolvers::DummyModuleResolver::new());
     // `eval` would let a script build code from strings and dodge the checks on its source.
     engine.disable_symbol("eval");
-    api_render::register(&mut engine, host);
+    api_render::register(&mut engine, host.clone());
+    api_surface::register(&mut engine, host);
     engine
 }
 

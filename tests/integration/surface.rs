@@ -325,3 +325,70 @@ fn perspective_view_with_relief_renders_lit_fringes() {
     }
 }
 
+
+#[test]
+fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
+    use hdrvis::datasets::generate::OkadaJob;
+    let dir = tempfile::tempdir().unwrap();
+    let nc = dir.path().join("okada.nc");
+    let job = OkadaJob {
+        n: 65,
+        extent_m: 2.0e5,
+        ..Default::default()
+    };
+    job.run(&nc, &mut |_| {}).unwrap();
+    let grid = Grid::load(&nc, None).unwrap();
+    assert_eq!(grid.property_names(), vec!["ux", "uy", "uz"]);
+    assert_eq!(grid.units(2), "m");
+    let script = r#"
+        let g = load_grid("okada.nc");
+        let imgs = render_surface(g, #{ nu: 8, mode: "cyclic", property: ["ux", "uy", "uz"] });
+        for i in 0..3 { save_exr(imgs[i], `u${i}.exr`); }
+        let one = render_surface(g, #{ nu: 2.5, mode: "modulated", property: "uz", log_color: true, absolute: true });
+        save_exr(one, "uz_mod.exr");
+        let bar = surface_colorbar(g, #{ nu: 8, mode: "cyclic", property: "uz", width: 64, height: 4 });
+        save_exr(bar, "bar.exr");
+        let persp = render_surface(g, #{ nu: 8, property: "uz", view: camera_orbit(30, 40), relief: "uz", exaggeration: 20000, width: 64, height: 48 });
+        save_exr(persp, "persp.exr");
+    "#;
+    let out = dir.path().join("out");
+    let mut o = hdrvis::script::ScriptOptions::new(&out);
+    o.backend = BackendChoice::Vulkan;
+    let report = hdrvis::script::run_script_source(script, "t.rhai", dir.path(), &o).unwrap();
+    assert_eq!(report.written.len(), 6);
+    for (i, name) in ["ux", "uy", "uz"].iter().enumerate() {
+        let img = hdrvis::io::exr::read_exr(&out.join(format!("u{i}.exr"))).unwrap();
+        let f: Vec<f64> = channel(&img, "fringe").iter().map(|&v| v as f64).collect();
+        let v = channel(&img, name);
+        let d = grid.property(name).unwrap();
+        assert_eq!(f.len(), 65 * 65);
+        for row in 0..65 {
+            for px in 0..65 {
+                let k = row * 65 + px;
+                let node = node_of(&grid, px, row);
+                assert!((f[k] - fringe_f64(8.0, d[node])).abs() < 1e-5, "{name} {px},{row}");
+                assert!((v[k] as f64 - d[node]).abs() < 1e-6);
+            }
+        }
+    }
+    let bar = hdrvis::io::exr::read_exr(&out.join("bar.exr")).unwrap();
+    assert_eq!((bar.width, bar.height), (64, 4));
+    let e = hdrvis::script::run_script_source(
+        r#"let g = load_grid("okada.nc"); render_surface(g, #{ nu: 1, colour: "x" });"#,
+        "t.rhai",
+        dir.path(),
+        &o,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("colour") && e.contains("log_color"), "{e}");
+    let e = hdrvis::script::run_script_source(
+        r#"let g = load_grid("okada.nc"); render_surface(g, #{ nu: 1, property: "uw" });"#,
+        "t.rhai",
+        dir.path(),
+        &o,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("uw") && e.contains("ux, uy, uz"), "{e}");
+}
