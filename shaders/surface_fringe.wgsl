@@ -15,19 +15,23 @@ struct Params {
     refs: vec4<f32>,
     // x: modulation depth, y: floor of |d| for log colour
     shade: vec4<f32>,
-    // x: property slot, y: mode (0 cyclic, 1 modulated, 2 direct), z: absolute, w: log colour
+    // x: property slot (also the SLOT constant), y: mode (0 cyclic, 1 modulated, 2 direct), z: absolute, w: log colour
     mode: vec4<u32>,
     // x: width, y: height, z: LUT size
     dims: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var data_hi: texture_2d<f32>;
-@group(0) @binding(2) var data_rest: texture_2d<f32>;
-@group(0) @binding(3) var data_mask: texture_2d<f32>;
-@group(0) @binding(4) var lut: texture_2d<f32>;
-@group(0) @binding(5) var out_color: texture_storage_2d<rgba32float, write>;
-@group(0) @binding(6) var out_value: texture_storage_2d<r32float, write>;
+// Storage buffers, pixels row-major from the top (plain loads and stores are fast on CPU
+// rasterizers). The property slot is a pipeline constant, so no vector is indexed dynamically.
+@group(0) @binding(1) var<storage, read> data_hi: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> data_rest: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> data_mask: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> lut: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> out_color: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> out_value: array<f32>;
+
+override SLOT: u32 = 0u;
 
 const TAU: f32 = 6.283185307179586;
 
@@ -54,8 +58,8 @@ fn colormap(t: f32) -> vec3<f32> {
     let x = clamp(t, 0.0, 1.0) * f32(n - 1u);
     let i = min(u32(x), n - 2u);
     let f = x - f32(i);
-    let a = textureLoad(lut, vec2<u32>(i, 0u), 0).xyz;
-    let b = textureLoad(lut, vec2<u32>(i + 1u, 0u), 0).xyz;
+    let a = lut[i].xyz;
+    let b = lut[i + 1u].xyz;
     return mix(a, b, f);
 }
 
@@ -64,18 +68,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= params.dims.x || gid.y >= params.dims.y) {
         return;
     }
-    let px = vec2<i32>(gid.xy);
-    let slot = params.mode.x;
-    let m = textureLoad(data_mask, px, 0);
+    let px = gid.y * params.dims.x + gid.x;
+    let slot = SLOT;
+    let m = data_mask[px];
     let bits = u32(m.x);
     if ((bits & (1u << slot)) == 0u) {
         // Missing (a hole or no surface): fringe −1 tells the host; nothing else is touched.
-        textureStore(out_color, px, vec4<f32>(0.0, 0.0, 0.0, -1.0));
-        textureStore(out_value, px, vec4<f32>(0.0));
+        out_color[px] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+        out_value[px] = 0.0;
         return;
     }
-    let hi = textureLoad(data_hi, px, 0)[slot];
-    let rest = textureLoad(data_rest, px, 0)[slot];
+    let hi = data_hi[px][slot];
+    let rest = data_rest[px][slot];
     let d = params.refs.y + (hi + rest);
     var ph = phase(hi, rest);
     if (params.mode.z == 1u && d < 0.0) {
@@ -102,6 +106,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         colour *= (1.0 - depth) + depth * fringe;
     }
     colour *= m.y;
-    textureStore(out_color, px, vec4<f32>(colour, fringe));
-    textureStore(out_value, px, vec4<f32>(d, 0.0, 0.0, 0.0));
+    out_color[px] = vec4<f32>(colour, fringe);
+    out_value[px] = d;
 }

@@ -267,8 +267,8 @@ impl Grid {
                 {
                     continue;
                 }
-                let is_elev = ["elevation", "topo", "topography", "height", "z"]
-                    .contains(&a.name.as_str());
+                let is_elev =
+                    ["elevation", "topo", "topography", "height", "z"].contains(&a.name.as_str());
                 let squeezed: Vec<usize> = a.shape.iter().cloned().filter(|&s| s != 1).collect();
                 if squeezed != [ny, nx] || (var.is_some() && !is_elev) {
                     continue;
@@ -421,8 +421,14 @@ mod tests {
             units: "deg".into(),
             values: vec![5.0, 4.0],
         };
-        let g = Grid::with_coords("g", x, y, vec![("v".into(), vec![1.0, 2.0, 3.0, 4.0])], None)
-            .unwrap();
+        let g = Grid::with_coords(
+            "g",
+            x,
+            y,
+            vec![("v".into(), vec![1.0, 2.0, 3.0, 4.0])],
+            None,
+        )
+        .unwrap();
         assert_eq!(g.x().values, vec![1.0, 2.0]);
         assert_eq!(g.property("v").unwrap(), &[4.0, 3.0, 2.0, 1.0]);
     }

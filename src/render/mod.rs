@@ -3,6 +3,7 @@
 
 pub mod cpu_reference;
 pub mod surface;
+pub mod surface_bench;
 pub mod volume;
 
 use crate::error::{Error, Result};

@@ -15,6 +15,8 @@
 //! fraction; the cosine sees an argument in [−π, π]. This holds to ~1e-6 of a period for ν·d up
 //! to ~10¹⁰ at pixels on grid nodes (map view at the default size); between nodes the values are
 //! interpolated in f32 relative to d_ref.
+//!
+//! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 
 use crate::error::{Error, Result};
 use crate::gpu::{readback, shader, GpuContext};
@@ -230,7 +232,10 @@ impl SurfaceOptions {
         if self.nu.len() != 1 && self.nu.len() != n {
             return Err(Error::invalid(
                 "nu",
-                format!("expected one ν or one per property ({n}), got {}", self.nu.len()),
+                format!(
+                    "expected one ν or one per property ({n}), got {}",
+                    self.nu.len()
+                ),
             ));
         }
         if !(self.modulation.is_finite() && (0.0..=1.0).contains(&self.modulation)) {
@@ -292,14 +297,23 @@ pub fn fringe_f64(nu: f64, d: f64) -> f64 {
 
 /// Step-1 results on the GPU, with what step 2 needs to know about them.
 struct DataTargets {
-    hi: wgpu::Texture,
-    rest: wgpu::Texture,
-    mask: wgpu::Texture,
+    hi: wgpu::Buffer,
+    rest: wgpu::Buffer,
+    mask: wgpu::Buffer,
     width: u32,
     height: u32,
     /// Per rendered property: name, units, d_ref, finite range.
     props: Vec<(String, String, f64, Option<(f64, f64)>)>,
     view: String,
+    /// Fringe-pass outputs and their staging copies, reused by every step-2 run on these targets.
+    outputs: Mutex<Option<FringeOutputs>>,
+}
+
+struct FringeOutputs {
+    color: wgpu::Buffer,
+    value: wgpu::Buffer,
+    color_staging: wgpu::Buffer,
+    value_staging: wgpu::Buffer,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -324,33 +338,20 @@ pub struct SurfaceCounters {
 pub struct SurfaceRenderer {
     ctx: Arc<GpuContext>,
     data_pipelines: Mutex<HashMap<bool, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
-    fringe_pipeline: Mutex<Option<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
+    fringe_pipelines: Mutex<HashMap<usize, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
     cache: Mutex<Vec<(DataKey, Arc<DataTargets>)>>,
     data_passes: AtomicU64,
     fringe_passes: AtomicU64,
 }
 
-fn storage_entry(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
+fn buffer_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::StorageTexture {
-            access: wgpu::StorageTextureAccess::WriteOnly,
-            format,
-            view_dimension: wgpu::TextureViewDimension::D2,
-        },
-        count: None,
-    }
-}
-
-fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
         },
         count: None,
     }
@@ -369,16 +370,12 @@ fn uniform_entry() -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-fn view_of(t: &wgpu::Texture) -> wgpu::TextureView {
-    t.create_view(&Default::default())
-}
-
 impl SurfaceRenderer {
     pub fn new(ctx: Arc<GpuContext>) -> Self {
         SurfaceRenderer {
             ctx,
             data_pipelines: Mutex::new(HashMap::new()),
-            fringe_pipeline: Mutex::new(None),
+            fringe_pipelines: Mutex::new(HashMap::new()),
             cache: Mutex::new(Vec::new()),
             data_passes: AtomicU64::new(0),
             fringe_passes: AtomicU64::new(0),
@@ -412,10 +409,19 @@ impl SurfaceRenderer {
         let device = &self.ctx.device;
         let src = shader::load(name, &[])?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(name),
-            source: wgpu::ShaderSource::Wgsl(src.into()),
-        });
+        // SAFETY: wgpu's injected bounds checks cost a large share of these small kernels on
+        // lavapipe, and neither shader needs them: every invocation returns early outside the
+        // image, pixel buffers hold exactly width × height entries, node indices are clamped to
+        // the grid, and the lookup-table index is clamped to [0, LUT_SIZE − 2].
+        let module = unsafe {
+            device.create_shader_module_trusted(
+                wgpu::ShaderModuleDescriptor {
+                    label: Some(name),
+                    source: wgpu::ShaderSource::Wgsl(src.into()),
+                },
+                wgpu::ShaderRuntimeChecks::unchecked(),
+            )
+        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some(label),
             entries,
@@ -450,16 +456,15 @@ impl SurfaceRenderer {
         if let Some(p) = cache.get(&map) {
             return Ok(p.clone());
         }
-        let f = wgpu::TextureFormat::Rgba32Float;
         let entries = [
             uniform_entry(),
-            texture_entry(1),
-            texture_entry(2),
-            texture_entry(3),
-            texture_entry(4),
-            storage_entry(5, f),
-            storage_entry(6, f),
-            storage_entry(7, f),
+            buffer_entry(1, true),
+            buffer_entry(2, true),
+            buffer_entry(3, true),
+            buffer_entry(4, true),
+            buffer_entry(5, false),
+            buffer_entry(6, false),
+            buffer_entry(7, false),
         ];
         let p = self.build(
             "surface_data.wgsl",
@@ -471,65 +476,80 @@ impl SurfaceRenderer {
         Ok(p)
     }
 
-    fn fringe_pipeline(&self) -> Result<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>> {
-        let mut slot = self.fringe_pipeline.lock().expect("pipeline cache poisoned");
-        if let Some(p) = &*slot {
+    fn fringe_pipeline(
+        &self,
+        slot: usize,
+    ) -> Result<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>> {
+        let mut cache = self
+            .fringe_pipelines
+            .lock()
+            .expect("pipeline cache poisoned");
+        if let Some(p) = cache.get(&slot) {
             return Ok(p.clone());
         }
         let entries = [
             uniform_entry(),
-            texture_entry(1),
-            texture_entry(2),
-            texture_entry(3),
-            texture_entry(4),
-            storage_entry(5, wgpu::TextureFormat::Rgba32Float),
-            storage_entry(6, wgpu::TextureFormat::R32Float),
+            buffer_entry(1, true),
+            buffer_entry(2, true),
+            buffer_entry(3, true),
+            buffer_entry(4, true),
+            buffer_entry(5, false),
+            buffer_entry(6, false),
         ];
-        let p = self.build("surface_fringe.wgsl", "surface fringe pass", &entries, &[])?;
-        *slot = Some(p.clone());
+        let p = self.build(
+            "surface_fringe.wgsl",
+            "surface fringe pass",
+            &entries,
+            &[("SLOT", slot as f64)],
+        )?;
+        cache.insert(slot, p.clone());
         Ok(p)
     }
 
-    fn node_texture(&self, label: &str, w: u32, h: u32, format: wgpu::TextureFormat, bytes: &[u8]) -> wgpu::Texture {
+    fn input_buffer(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;
-        self.ctx.device.create_texture_with_data(
-            &self.ctx.queue,
-            &wgpu::TextureDescriptor {
+        self.ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
-                size: wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
-            wgpu::util::TextureDataOrder::LayerMajor,
-            bytes,
-        )
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
     }
 
-    fn target(&self, label: &str, w: u32, h: u32, format: wgpu::TextureFormat) -> wgpu::Texture {
-        self.ctx.device.create_texture(&wgpu::TextureDescriptor {
+    fn output_buffer(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
-            size: wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
+            size: bytes.max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
         })
+    }
+
+    fn bind(
+        &self,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        uniform: &wgpu::Buffer,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: uniform.as_entire_binding(),
+        }];
+        for (i, b) in buffers.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: i as u32 + 1,
+                resource: b.as_entire_binding(),
+            });
+        }
+        self.ctx
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout,
+                entries: &entries,
+            })
     }
 
     fn resolve_size(&self, grid: &Grid, opts: &SurfaceOptions) -> Result<(u32, u32)> {
@@ -538,25 +558,40 @@ impl SurfaceRenderer {
             _ => (512, 512),
         };
         let (w, h) = (opts.width.unwrap_or(dw), opts.height.unwrap_or(dh));
-        let max2d = self.ctx.caps.max_texture_2d;
-        if w > max2d || h > max2d || grid.nx() as u32 > max2d || grid.ny() as u32 > max2d {
+        let limit = self.ctx.caps.max_storage_buffer_binding_size;
+        let largest = (w as u64 * h as u64).max((grid.nx() * grid.ny()) as u64) * 16;
+        if largest > limit {
             return Err(Error::invalid(
                 "width",
-                format!("this adapter's images hold at most {max2d} pixels per side"),
+                format!(
+                    "{w}x{h} pixels on a {}x{} grid need {} MiB buffers; this adapter binds at most {} MiB",
+                    grid.nx(),
+                    grid.ny(),
+                    largest >> 20,
+                    limit >> 20
+                ),
             ));
         }
         Ok((w, h))
     }
 
     /// Step 1, cached: the data targets for these options.
-    fn data_pass(&self, grid: &Grid, opts: &SurfaceOptions, props: &[usize]) -> Result<Arc<DataTargets>> {
+    fn data_pass(
+        &self,
+        grid: &Grid,
+        opts: &SurfaceOptions,
+        props: &[usize],
+    ) -> Result<Arc<DataTargets>> {
         let (width, height) = self.resolve_size(grid, opts)?;
         let key = DataKey {
             grid: grid.id(),
             view: opts.view.key(),
             width,
             height,
-            properties: props.iter().map(|&i| grid.property_at(i).0.to_string()).collect(),
+            properties: props
+                .iter()
+                .map(|&i| grid.property_at(i).0.to_string())
+                .collect(),
             relief: if opts.view == SurfaceView::Map {
                 None
             } else {
@@ -601,14 +636,26 @@ impl SurfaceRenderer {
             (SurfaceView::Map, _) | (_, None) | (_, Some("none")) => None,
             (_, Some("elevation")) => Some(
                 grid.elevation()
-                    .ok_or_else(|| Error::invalid("relief", format!("grid {:?} has no elevation; use a property name or none", grid.name())))?
+                    .ok_or_else(|| {
+                        Error::invalid(
+                            "relief",
+                            format!(
+                                "grid {:?} has no elevation; use a property name or none",
+                                grid.name()
+                            ),
+                        )
+                    })?
                     .to_vec(),
             ),
             (_, Some(name)) => Some(grid.property(name)?.to_vec()),
         };
         // Flat surfaces (no relief or no exaggeration) get heights 0 and an effective factor 1.
         let relief = relief.filter(|_| opts.exaggeration > 0.0);
-        let exag = if relief.is_some() { opts.exaggeration } else { 1.0 };
+        let exag = if relief.is_some() {
+            opts.exaggeration
+        } else {
+            1.0
+        };
         let (hmin, hmax) = relief
             .as_ref()
             .and_then(|r| {
@@ -626,17 +673,10 @@ impl SurfaceRenderer {
                 .collect(),
             None => vec![0.0; n],
         };
-        let f4 = wgpu::TextureFormat::Rgba32Float;
-        let t_hi = self.node_texture("surface nodes hi", nx as u32, ny as u32, f4, bytemuck::cast_slice(&hi));
-        let t_rest = self.node_texture("surface nodes rest", nx as u32, ny as u32, f4, bytemuck::cast_slice(&rest));
-        let t_valid = self.node_texture("surface nodes valid", nx as u32, ny as u32, f4, bytemuck::cast_slice(&valid));
-        let t_height = self.node_texture(
-            "surface nodes height",
-            nx as u32,
-            ny as u32,
-            wgpu::TextureFormat::R32Float,
-            bytemuck::cast_slice(&heights),
-        );
+        let t_hi = self.input_buffer("surface nodes hi", bytemuck::cast_slice(&hi));
+        let t_rest = self.input_buffer("surface nodes rest", bytemuck::cast_slice(&rest));
+        let t_valid = self.input_buffer("surface nodes valid", bytemuck::cast_slice(&valid));
+        let t_height = self.input_buffer("surface nodes height", bytemuck::cast_slice(&heights));
         // World: x = i·sx, y = j·sy, z = (h − hmin)·exaggeration.
         let sx = grid.x().spacing().abs().max(f64::MIN_POSITIVE);
         let sy = grid.y().spacing().abs().max(f64::MIN_POSITIVE);
@@ -672,7 +712,12 @@ impl SurfaceRenderer {
             right: [0.0; 4],
             up: [0.0; 4],
             proj: [0.0; 4],
-            cell: [sx as f32, sy as f32, exag as f32, (hmin + z_lo / exag) as f32],
+            cell: [
+                sx as f32,
+                sy as f32,
+                exag as f32,
+                (hmin + z_lo / exag) as f32,
+            ],
             light: [-0.4, -0.5, 0.77, 0.3],
             box_size: v4(size, 0.0),
             dims: [nx as u32, ny as u32, width, height],
@@ -687,7 +732,12 @@ impl SurfaceRenderer {
             params.proj = match cam.projection {
                 Projection::Perspective { fov_y_deg } => {
                     let ty = (0.5 * fov_y_deg.to_radians()).tan();
-                    [1.0, (ty * width as f64 / height as f64) as f32, ty as f32, 0.0]
+                    [
+                        1.0,
+                        (ty * width as f64 / height as f64) as f32,
+                        ty as f32,
+                        0.0,
+                    ]
                 }
                 Projection::Orthographic {
                     half_width,
@@ -703,25 +753,16 @@ impl SurfaceRenderer {
             contents: bytemuck::bytes_of(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let o_hi = self.target("surface data hi", width, height, f4);
-        let o_rest = self.target("surface data rest", width, height, f4);
-        let o_mask = self.target("surface data mask", width, height, f4);
-        let views = [&t_hi, &t_rest, &t_valid, &t_height, &o_hi, &o_rest, &o_mask].map(view_of);
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: ubuf.as_entire_binding(),
-        }];
-        for (i, v) in views.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: i as u32 + 1,
-                resource: wgpu::BindingResource::TextureView(v),
-            });
-        }
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("surface data"),
-            layout: &pipeline.1,
-            entries: &entries,
-        });
+        let px = width as u64 * height as u64 * 16;
+        let o_hi = self.output_buffer("surface data hi", px);
+        let o_rest = self.output_buffer("surface data rest", px);
+        let o_mask = self.output_buffer("surface data mask", px);
+        let bind = self.bind(
+            "surface data",
+            &pipeline.1,
+            &ubuf,
+            &[&t_hi, &t_rest, &t_valid, &t_height, &o_hi, &o_rest, &o_mask],
+        );
         let mut enc = device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
@@ -739,6 +780,7 @@ impl SurfaceRenderer {
             height,
             props: meta,
             view: opts.view.describe(),
+            outputs: Mutex::new(None),
         });
         let mut cache = self.cache.lock().expect("surface cache poisoned");
         cache.retain(|(k, _)| *k != key);
@@ -754,7 +796,10 @@ impl SurfaceRenderer {
         if opts.properties.is_empty() {
             return Ok(vec![0]);
         }
-        opts.properties.iter().map(|p| grid.property_index(p)).collect()
+        opts.properties
+            .iter()
+            .map(|p| grid.property_index(p))
+            .collect()
     }
 
     /// Renders every requested property from one (cached) data pass; one image per property.
@@ -789,7 +834,11 @@ impl SurfaceRenderer {
             } else {
                 0.0
             };
-            let floor = if amin_pos > 0.0 { amin_pos } else { amax * 1e-6 };
+            let floor = if amin_pos > 0.0 {
+                amin_pos
+            } else {
+                amax * 1e-6
+            };
             let floor = if floor > 0.0 { floor } else { 1.0 };
             let (a, b) = (floor.log10(), amax.max(floor).log10());
             (a, if b > a { 1.0 / (b - a) } else { 0.0 }, floor)
@@ -808,9 +857,19 @@ impl SurfaceRenderer {
         let [na, nb, nc] = split_nu(nu);
         let params = FringeParams {
             nu: [na, nb, nc, nu as f32],
-            refs: [(nu * d_ref).rem_euclid(1.0) as f32, d_ref as f32, c_lo as f32, c_inv as f32],
+            refs: [
+                (nu * d_ref).rem_euclid(1.0) as f32,
+                d_ref as f32,
+                c_lo as f32,
+                c_inv as f32,
+            ],
             shade: [opts.modulation as f32, floor as f32, 0.0, 0.0],
-            mode: [slot as u32, opts.mode.code(), opts.absolute as u32, opts.log_color as u32],
+            mode: [
+                slot as u32,
+                opts.mode.code(),
+                opts.absolute as u32,
+                opts.log_color as u32,
+            ],
             dims: [data.width, data.height, LUT_SIZE as u32, 0],
         };
         let lut: Vec<[f32; 4]> = (0..LUT_SIZE)
@@ -819,7 +878,7 @@ impl SurfaceRenderer {
                 [c[0] as f32, c[1] as f32, c[2] as f32, 1.0]
             })
             .collect();
-        let pipeline = self.fringe_pipeline()?;
+        let pipeline = self.fringe_pipeline(slot)?;
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
         let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -827,26 +886,31 @@ impl SurfaceRenderer {
             contents: bytemuck::bytes_of(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let lut_tex = self.node_texture("surface lut", LUT_SIZE as u32, 1, wgpu::TextureFormat::Rgba32Float, bytemuck::cast_slice(&lut));
+        let lut_buf = self.input_buffer("surface lut", bytemuck::cast_slice(&lut));
         let (w, h) = (data.width, data.height);
-        let out = self.target("surface image", w, h, wgpu::TextureFormat::Rgba32Float);
-        let out_value = self.target("surface value", w, h, wgpu::TextureFormat::R32Float);
-        let views = [&data.hi, &data.rest, &data.mask, &lut_tex, &out, &out_value].map(view_of);
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: ubuf.as_entire_binding(),
-        }];
-        for (i, v) in views.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: i as u32 + 1,
-                resource: wgpu::BindingResource::TextureView(v),
-            });
-        }
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("surface fringe"),
-            layout: &pipeline.1,
-            entries: &entries,
+        let n = w as u64 * h as u64;
+        let mut outputs = data.outputs.lock().expect("surface outputs poisoned");
+        let staging = |label: &str, bytes: u64| {
+            self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(16),
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        };
+        let outs = outputs.get_or_insert_with(|| FringeOutputs {
+            color: self.output_buffer("surface image", n * 16),
+            value: self.output_buffer("surface value", n * 4),
+            color_staging: staging("surface image readback", n * 16),
+            value_staging: staging("surface value readback", n * 4),
         });
+        let (out, out_value) = (&outs.color, &outs.value);
+        let bind = self.bind(
+            "surface fringe",
+            &pipeline.1,
+            &ubuf,
+            &[&data.hi, &data.rest, &data.mask, &lut_buf, out, out_value],
+        );
         let mut enc = device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
@@ -854,10 +918,28 @@ impl SurfaceRenderer {
             pass.set_bind_group(0, &bind, &[]);
             pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
         }
+        enc.copy_buffer_to_buffer(out, 0, &outs.color_staging, 0, (n * 16).max(16));
+        enc.copy_buffer_to_buffer(out_value, 0, &outs.value_staging, 0, (n * 4).max(16));
+        let prof = std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some();
+        let t0 = std::time::Instant::now();
         self.ctx.queue.submit([enc.finish()]);
+        if prof {
+            self.ctx.wait()?;
+            eprintln!("fringe compute {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
+        }
         self.fringe_passes.fetch_add(1, Ordering::Relaxed);
-        let mut pixels = readback::read_rgba32f_texture(&self.ctx, &out)?;
-        let mut values: Vec<f32> = read_r32f_texture(&self.ctx, &out_value)?;
+        let mut pixels: Vec<[f32; 4]> = read_mapped(&self.ctx, &outs.color_staging, n * 16)?;
+        if prof {
+            eprintln!("+ rgba readback {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
+        }
+        let mut values: Vec<f32> = read_mapped(&self.ctx, &outs.value_staging, n * 4)?;
+        drop(outputs);
+        if prof {
+            eprintln!(
+                "+ value readback {:.2} ms",
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+        }
         let mut fringe = Vec::with_capacity(pixels.len());
         for (p, v) in pixels.iter_mut().zip(values.iter_mut()) {
             if p[3] < 0.0 {
@@ -869,12 +951,27 @@ impl SurfaceRenderer {
                 p[3] = 1.0;
             }
         }
+        if prof {
+            eprintln!("+ host {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
+        }
         let mut image = HdrImage::from_pixels(w, h, pixels);
-        let channel = if name.is_empty() { "value".to_string() } else { name.clone() };
-        let channel = if channel == "fringe" { "value".to_string() } else { channel };
+        let channel = if name.is_empty() {
+            "value".to_string()
+        } else {
+            name.clone()
+        };
+        let channel = if channel == "fringe" {
+            "value".to_string()
+        } else {
+            channel
+        };
         image.extra_channels.push((channel, values));
         image.extra_channels.push(("fringe".to_string(), fringe));
-        let u = if units.is_empty() { "data units".to_string() } else { units };
+        let u = if units.is_empty() {
+            "data units".to_string()
+        } else {
+            units
+        };
         image.set_meta("property", name);
         image.set_meta("nu", format!("{nu}"));
         image.set_meta("resolution", format!("{} {u} per fringe (1/nu)", 1.0 / nu));
@@ -889,54 +986,23 @@ impl SurfaceRenderer {
             },
         );
         image.set_meta("view", data.view.clone());
-        image.set_meta("phase", "f64 via d_ref + hi + rest and exact 12-bit partial products");
+        image.set_meta(
+            "phase",
+            "f64 via d_ref + hi + rest and exact 12-bit partial products",
+        );
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
     }
 }
 
-/// Reads an R32Float texture back as row-major values.
-fn read_r32f_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Result<Vec<f32>> {
-    let (w, h) = (texture.width(), texture.height());
-    let row = w as u64 * 4;
-    let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64;
-    let padded = row.div_ceil(align) * align;
-    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback r32f"),
-        size: padded * h as u64,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    enc.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo {
-            texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded as u32),
-                rows_per_image: Some(h),
-            },
-        },
-        wgpu::Extent3d {
-            width: w,
-            height: h,
-            depth_or_array_layers: 1,
-        },
-    );
-    ctx.queue.submit([enc.finish()]);
-    let bytes = readback::map_read(ctx, &buffer)?;
-    let mut out = Vec::with_capacity(w as usize * h as usize);
-    for y in 0..h as usize {
-        let start = y * padded as usize;
-        out.extend_from_slice(bytemuck::cast_slice::<u8, f32>(&bytes[start..start + row as usize]));
-    }
-    Ok(out)
+/// Maps a MAP_READ buffer the GPU has filled and copies its first `bytes` out as `T`s.
+fn read_mapped<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    staging: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<T>> {
+    let raw = readback::map_read(ctx, staging)?;
+    Ok(bytemuck::pod_collect_to_vec(&raw[..bytes as usize]))
 }
 
 /// A colour bar for a surface render (a separate image): horizontal, `width × height`, left to
@@ -946,7 +1012,10 @@ fn read_r32f_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Result<Vec<f3
 pub fn colorbar(grid: &Grid, opts: &SurfaceOptions, width: u32, height: u32) -> Result<HdrImage> {
     opts.validate()?;
     if width == 0 || height == 0 || width > 16384 || height > 16384 {
-        return Err(Error::invalid("width", "expected 1 to 16384 pixels per side"));
+        return Err(Error::invalid(
+            "width",
+            "expected 1 to 16384 pixels per side",
+        ));
     }
     let p = SurfaceRenderer::property_indices(grid, opts)?[0];
     let nu = opts.nu_for(0);
@@ -956,7 +1025,14 @@ pub fn colorbar(grid: &Grid, opts: &SurfaceOptions, width: u32, height: u32) -> 
         _ => grid.range(p).unwrap_or((0.0, 1.0)),
     };
     let (lo, hi) = if opts.absolute && opts.mode != FringeMode::Cyclic {
-        (if lo < 0.0 && hi > 0.0 { 0.0 } else { lo.abs().min(hi.abs()) }, lo.abs().max(hi.abs()))
+        (
+            if lo < 0.0 && hi > 0.0 {
+                0.0
+            } else {
+                lo.abs().min(hi.abs())
+            },
+            lo.abs().max(hi.abs()),
+        )
     } else {
         (lo, hi)
     };
@@ -967,10 +1043,23 @@ pub fn colorbar(grid: &Grid, opts: &SurfaceOptions, width: u32, height: u32) -> 
             FringeMode::Cyclic => (nu * d).rem_euclid(1.0),
             _ if opts.log_color => {
                 let floor = if lo > 0.0 { lo } else { hi.abs() * 1e-6 };
-                let (a, b) = (floor.max(f64::MIN_POSITIVE).log10(), hi.abs().max(floor).log10());
-                if b > a { (d.abs().max(floor).log10() - a) / (b - a) } else { 0.0 }
+                let (a, b) = (
+                    floor.max(f64::MIN_POSITIVE).log10(),
+                    hi.abs().max(floor).log10(),
+                );
+                if b > a {
+                    (d.abs().max(floor).log10() - a) / (b - a)
+                } else {
+                    0.0
+                }
             }
-            _ => if hi > lo { (d - lo) / (hi - lo) } else { 0.0 },
+            _ => {
+                if hi > lo {
+                    (d - lo) / (hi - lo)
+                } else {
+                    0.0
+                }
+            }
         };
         let mut c = cmap.linear_rgb(t);
         if opts.mode != FringeMode::Direct {
@@ -983,7 +1072,11 @@ pub fn colorbar(grid: &Grid, opts: &SurfaceOptions, width: u32, height: u32) -> 
     }
     let (name, _) = grid.property_at(p);
     let units = grid.units(p);
-    let u = if units.is_empty() { "data units" } else { units };
+    let u = if units.is_empty() {
+        "data units"
+    } else {
+        units
+    };
     img.set_meta("property", name);
     img.set_meta("resolution", format!("{} {u} per fringe (1/nu)", 1.0 / nu));
     img.set_meta("colorbar_domain", format!("{lo} {hi} {u}"));

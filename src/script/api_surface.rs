@@ -90,7 +90,9 @@ fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
                         other => {
                             return err(
                                 "view",
-                                format!("expected \"map\", \"perspective\" or a camera, got {other:?}"),
+                                format!(
+                                    "expected \"map\", \"perspective\" or a camera, got {other:?}"
+                                ),
                             )
                         }
                     }
@@ -167,25 +169,38 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             }
         },
     );
-    engine.register_fn(
-        "render_surface",
-        |_: &mut ScriptGrid| -> RResult<Dynamic> {
-            err(
-                "render_surface",
-                format!("expected render_surface(grid, #{{...}}) with keys {}", SURFACE_KEYS.join(", ")),
-            )
-        },
-    );
+    engine.register_fn("render_surface", |_: &mut ScriptGrid| -> RResult<Dynamic> {
+        err(
+            "render_surface",
+            format!(
+                "expected render_surface(grid, #{{...}}) with keys {}",
+                SURFACE_KEYS.join(", ")
+            ),
+        )
+    });
 
     engine.register_fn(
         "surface_colorbar",
         |grid: &mut ScriptGrid, opts: Map| -> RResult<ScriptImage> {
             let mut rest = opts.clone();
-            let w = rest.remove("width").map(|v| int(&v, "width")).transpose()?.unwrap_or(256);
-            let hgt = rest.remove("height").map(|v| int(&v, "height")).transpose()?.unwrap_or(16);
+            let w = rest
+                .remove("width")
+                .map(|v| int(&v, "width"))
+                .transpose()?
+                .unwrap_or(256);
+            let hgt = rest
+                .remove("height")
+                .map(|v| int(&v, "height"))
+                .transpose()?
+                .unwrap_or(16);
             let (o, _) = parse_options(grid, &rest)?;
-            let img = colorbar(grid, &o, w.clamp(0, 16384) as u32, hgt.clamp(0, 16384) as u32)
-                .map_err(to_rhai)?;
+            let img = colorbar(
+                grid,
+                &o,
+                w.clamp(0, 16384) as u32,
+                hgt.clamp(0, 16384) as u32,
+            )
+            .map_err(to_rhai)?;
             Ok(Arc::new(img))
         },
     );

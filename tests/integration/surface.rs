@@ -5,7 +5,9 @@
 use crate::common::renderer;
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::Grid;
-use hdrvis::render::surface::{fringe_f64, FringeMode, SurfaceOptions, SurfaceRenderer, SurfaceView};
+use hdrvis::render::surface::{
+    fringe_f64, FringeMode, SurfaceOptions, SurfaceRenderer, SurfaceView,
+};
 use std::sync::Arc;
 
 const BACKENDS: [BackendChoice; 2] = [BackendChoice::Vulkan, BackendChoice::Gl];
@@ -52,14 +54,20 @@ fn analytic_fields_match_closed_form_in_map_view() {
     let (nx, ny) = (96, 64);
     let fields: Vec<(&str, Box<dyn Fn(usize, usize) -> f64>)> = vec![
         ("ramp", Box::new(|i, _| 0.05 * i as f64 - 1.3)),
-        ("quadratic", Box::new(|i, j| {
-            let (x, y) = (i as f64 / 95.0 - 0.5, j as f64 / 63.0 - 0.5);
-            7.0 * (x * x + 0.7 * y * y)
-        })),
-        ("gaussian", Box::new(|i, j| {
-            let (x, y) = (i as f64 - 40.0, j as f64 - 30.0);
-            3.0 * (-(x * x + y * y) / 300.0).exp()
-        })),
+        (
+            "quadratic",
+            Box::new(|i, j| {
+                let (x, y) = (i as f64 / 95.0 - 0.5, j as f64 / 63.0 - 0.5);
+                7.0 * (x * x + 0.7 * y * y)
+            }),
+        ),
+        (
+            "gaussian",
+            Box::new(|i, j| {
+                let (x, y) = (i as f64 - 40.0, j as f64 - 30.0);
+                3.0 * (-(x * x + y * y) / 300.0).exp()
+            }),
+        ),
     ];
     for backend in BACKENDS {
         let r = surface_renderer(backend);
@@ -111,15 +119,21 @@ fn phase_stays_within_1e_3_of_f64_near_a_million() {
         1.0e6 + 0.0371 * i as f64 + 1.3e-3 * (j as f64 * 0.7).sin() + 1e-4 * i as f64 * j as f64
     })
     .unwrap();
-    let wide = Grid::from_fn("wide", nx, ny, |i, j| 1.0e6 * (i as f64 / 127.0) + 0.01 * j as f64)
-        .unwrap();
+    let wide = Grid::from_fn("wide", nx, ny, |i, j| {
+        1.0e6 * (i as f64 / 127.0) + 0.01 * j as f64
+    })
+    .unwrap();
     for backend in BACKENDS {
         let r = surface_renderer(backend);
         for grid in [&g, &wide] {
             let img = r.render(grid, &opts(8.0)).unwrap().remove(0);
             let err = max_fringe_error(grid, &img, 8.0, 0);
             assert!(err < 1e-3, "{backend:?} {}: {err}", grid.name());
-            assert!(err < 1e-5, "{backend:?} {}: {err} (expected far better than 1e-3)", grid.name());
+            assert!(
+                err < 1e-5,
+                "{backend:?} {}: {err} (expected far better than 1e-3)",
+                grid.name()
+            );
         }
     }
 }
@@ -138,7 +152,10 @@ fn four_property_grid() -> Grid {
         vec![
             ("ux".into(), mk(&|x, y| 0.01 * x - 0.02 * y)),
             ("uy".into(), mk(&|x, y| (0.1 * x).sin() * (0.07 * y).cos())),
-            ("uz".into(), mk(&|x, y| 1e-3 * (x - 40.0).powi(2) + y * 1e-2)),
+            (
+                "uz".into(),
+                mk(&|x, y| 1e-3 * (x - 40.0).powi(2) + y * 1e-2),
+            ),
             ("w".into(), mk(&|x, y| 5e5 + 0.3 * x + 0.11 * y)),
         ],
     )
@@ -166,10 +183,20 @@ fn four_properties_in_one_pass_equal_single_renders() {
             let one = r.render(&g, &single).unwrap().remove(0);
             for ch in ["fringe", name] {
                 let (a, b) = (channel(&all[k], ch), channel(&one, ch));
-                let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0f32, f32::max);
-                assert!(worst <= 1e-6 * if ch == "w" { 5e5 } else { 1.0 }, "{backend:?} {name} {ch}: {worst}");
+                let worst = a
+                    .iter()
+                    .zip(b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0f32, f32::max);
+                assert!(
+                    worst <= 1e-6 * if ch == "w" { 5e5 } else { 1.0 },
+                    "{backend:?} {name} {ch}: {worst}"
+                );
             }
-            let worst = all[k].pixels.iter().zip(&one.pixels)
+            let worst = all[k]
+                .pixels
+                .iter()
+                .zip(&one.pixels)
                 .flat_map(|(p, q)| (0..4).map(move |c| (p[c] - q[c]).abs()))
                 .fold(0f32, f32::max);
             assert!(worst < 1e-6, "{backend:?} {name}: {worst}");
@@ -210,7 +237,8 @@ fn changing_nu_or_mode_reruns_only_the_fringe_pass() {
 #[test]
 fn nan_holes_are_missing_and_do_not_touch_neighbours() {
     let (nx, ny) = (32, 24);
-    let hole = |i: usize, j: usize| (10..14).contains(&i) && (5..8).contains(&j) || (i, j) == (0, 0);
+    let hole =
+        |i: usize, j: usize| (10..14).contains(&i) && (5..8).contains(&j) || (i, j) == (0, 0);
     let g = Grid::from_fn("h", nx, ny, |i, j| {
         if hole(i, j) {
             f64::NAN
@@ -250,7 +278,10 @@ fn nan_holes_are_missing_and_do_not_touch_neighbours() {
         assert!(holes > 0 && holes < 77 * 50 / 10, "{holes}");
         let vals = channel(&big, "h");
         let (lo, hi) = g.range(0).unwrap();
-        assert!(vals.iter().filter(|v| v.is_finite()).all(|&v| v as f64 >= lo - 1e-5 && v as f64 <= hi + 1e-5));
+        assert!(vals
+            .iter()
+            .filter(|v| v.is_finite())
+            .all(|&v| v as f64 >= lo - 1e-5 && v as f64 <= hi + 1e-5));
     }
 }
 
@@ -259,14 +290,23 @@ fn constant_field_renders_one_fringe_value() {
     let g = Grid::from_fn("c", 16, 16, |_, _| 0.3).unwrap();
     for backend in BACKENDS {
         let r = surface_renderer(backend);
-        for mode in [FringeMode::Cyclic, FringeMode::Modulated, FringeMode::Direct] {
+        for mode in [
+            FringeMode::Cyclic,
+            FringeMode::Modulated,
+            FringeMode::Direct,
+        ] {
             let mut o = opts(1.0);
             o.mode = mode;
             o.log_color = mode == FringeMode::Modulated;
             let img = r.render(&g, &o).unwrap().remove(0);
             let expect = fringe_f64(1.0, 0.3);
-            assert!(channel(&img, "fringe").iter().all(|&f| (f as f64 - expect).abs() < 1e-5));
-            assert!(img.pixels.iter().all(|p| p.iter().all(|c| c.is_finite()) && p[3] == 1.0));
+            assert!(channel(&img, "fringe")
+                .iter()
+                .all(|&f| (f as f64 - expect).abs() < 1e-5));
+            assert!(img
+                .pixels
+                .iter()
+                .all(|p| p.iter().all(|c| c.is_finite()) && p[3] == 1.0));
         }
     }
 }
@@ -285,9 +325,14 @@ fn bad_input_is_a_clear_error() {
     assert!(e.contains("uq") && e.contains("ux, uy, uz, w"), "{e}");
     o.properties = vec!["ux".into(); 5];
     assert!(r.render(&g, &o).is_err());
-    let e = Grid::from_arrays("m", 4, 4, vec![("a".into(), vec![0.0; 16]), ("b".into(), vec![0.0; 12])])
-        .unwrap_err()
-        .to_string();
+    let e = Grid::from_arrays(
+        "m",
+        4,
+        4,
+        vec![("a".into(), vec![0.0; 16]), ("b".into(), vec![0.0; 12])],
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("\"b\"") && e.contains("12"), "{e}");
     assert_eq!(r.counters().data_passes, 0);
 }
@@ -324,7 +369,6 @@ fn perspective_view_with_relief_renders_lit_fringes() {
         }
     }
 }
-
 
 #[test]
 fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
@@ -366,7 +410,10 @@ fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
             for px in 0..65 {
                 let k = row * 65 + px;
                 let node = node_of(&grid, px, row);
-                assert!((f[k] - fringe_f64(8.0, d[node])).abs() < 1e-5, "{name} {px},{row}");
+                assert!(
+                    (f[k] - fringe_f64(8.0, d[node])).abs() < 1e-5,
+                    "{name} {px},{row}"
+                );
                 assert!((v[k] as f64 - d[node]).abs() < 1e-6);
             }
         }
