@@ -295,6 +295,9 @@ pub fn fringe_f64(nu: f64, d: f64) -> f64 {
     0.5 + 0.5 * (std::f64::consts::TAU * (ph - ph.round())).cos()
 }
 
+/// Name, units, d_ref and finite range of a rendered property.
+type PropMeta = (String, String, f64, Option<(f64, f64)>);
+
 /// Step-1 results on the GPU, with what step 2 needs to know about them.
 struct DataTargets {
     hi: wgpu::Buffer,
@@ -303,7 +306,7 @@ struct DataTargets {
     width: u32,
     height: u32,
     /// Per rendered property: name, units, d_ref, finite range.
-    props: Vec<(String, String, f64, Option<(f64, f64)>)>,
+    props: Vec<PropMeta>,
     view: String,
     /// Fringe-pass outputs and their staging copies, reused by every step-2 run on these targets.
     outputs: Mutex<Option<FringeOutputs>>,

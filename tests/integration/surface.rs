@@ -49,10 +49,12 @@ fn max_fringe_error(grid: &Grid, img: &hdrvis::model::HdrImage, nu: f64, prop: u
     worst
 }
 
+type Field = Box<dyn Fn(usize, usize) -> f64>;
+
 #[test]
 fn analytic_fields_match_closed_form_in_map_view() {
     let (nx, ny) = (96, 64);
-    let fields: Vec<(&str, Box<dyn Fn(usize, usize) -> f64>)> = vec![
+    let fields: Vec<(&str, Field)> = vec![
         ("ramp", Box::new(|i, _| 0.05 * i as f64 - 1.3)),
         (
             "quadratic",
