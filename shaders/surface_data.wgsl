@@ -22,6 +22,8 @@ struct Params {
     box_size: vec4<f32>,
     // x: nx, y: ny, z: width, w: height
     dims: vec4<u32>,
+    // x: number of properties written
+    counts: vec4<u32>,
 }
 
 // 1: map view (top-down orthographic, pixel centres spread evenly over the nodes); 0: perspective.
@@ -34,9 +36,11 @@ override MAP_VIEW: u32 = 1u;
 @group(0) @binding(2) var<storage, read> node_rest: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> node_valid: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> node_height: array<f32>;
-@group(0) @binding(5) var<storage, read_write> out_hi: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read_write> out_rest: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read_write> out_mask: array<vec4<f32>>;
+// Outputs are planes, one per property (index slot · width · height + pixel), so the fringe
+// pass reads only the property it shows; the mask holds (valid bits, shading) per pixel.
+@group(0) @binding(5) var<storage, read_write> out_hi: array<f32>;
+@group(0) @binding(6) var<storage, read_write> out_rest: array<f32>;
+@group(0) @binding(7) var<storage, read_write> out_mask: array<vec2<f32>>;
 
 fn node(c: vec2<u32>) -> u32 {
     return c.y * params.dims.x + c.x;
@@ -171,13 +175,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     if (!hit) {
-        out_hi[px] = vec4<f32>(0.0);
-        out_rest[px] = vec4<f32>(0.0);
-        out_mask[px] = vec4<f32>(0.0);
+        for (var p = 0u; p < params.counts.x; p++) {
+            out_hi[p * w * h + px] = 0.0;
+            out_rest[p * w * h + px] = 0.0;
+        }
+        out_mask[px] = vec2<f32>(0.0);
         return;
     }
     let s = sample_props(u, v);
-    out_hi[px] = s.hi;
-    out_rest[px] = s.rest;
-    out_mask[px] = vec4<f32>(f32(s.mask), shade, 0.0, 0.0);
+    for (var p = 0u; p < params.counts.x; p++) {
+        out_hi[p * w * h + px] = s.hi[p];
+        out_rest[p * w * h + px] = s.rest[p];
+    }
+    out_mask[px] = vec2<f32>(f32(s.mask), shade);
 }

@@ -24,9 +24,9 @@ struct Params {
 @group(0) @binding(0) var<uniform> params: Params;
 // Storage buffers, pixels row-major from the top (plain loads and stores are fast on CPU
 // rasterizers). The property slot is a pipeline constant, so no vector is indexed dynamically.
-@group(0) @binding(1) var<storage, read> data_hi: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> data_rest: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> data_mask: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> data_hi: array<f32>;
+@group(0) @binding(2) var<storage, read> data_rest: array<f32>;
+@group(0) @binding(3) var<storage, read> data_mask: array<vec2<f32>>;
 @group(0) @binding(4) var<storage, read> lut: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> out_color: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> out_value: array<f32>;
@@ -78,8 +78,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         out_value[px] = 0.0;
         return;
     }
-    let hi = data_hi[px][slot];
-    let rest = data_rest[px][slot];
+    let plane = slot * params.dims.x * params.dims.y + px;
+    let hi = data_hi[plane];
+    let rest = data_rest[plane];
     let d = params.refs.y + (hi + rest);
     var ph = phase(hi, rest);
     if (params.mode.z == 1u && d < 0.0) {

@@ -19,7 +19,7 @@
 //! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 
 use crate::error::{Error, Result};
-use crate::gpu::{readback, shader, GpuContext};
+use crate::gpu::{shader, GpuContext};
 use crate::model::colormap::Colormap;
 use crate::model::{Aabb, Camera, Grid, HdrImage, Projection};
 use std::collections::HashMap;
@@ -46,6 +46,7 @@ struct DataParams {
     light: [f32; 4],
     box_size: [f32; 4],
     dims: [u32; 4],
+    counts: [u32; 4],
 }
 
 /// Host mirror of `Params` in shaders/surface_fringe.wgsl — keep in sync.
@@ -724,6 +725,7 @@ impl SurfaceRenderer {
             light: [-0.4, -0.5, 0.77, 0.3],
             box_size: v4(size, 0.0),
             dims: [nx as u32, ny as u32, width, height],
+            counts: [props.len() as u32, 0, 0, 0],
         };
         if let Some(cam) = camera {
             // Positions relative to the box's lower corner (z = z_lo).
@@ -756,10 +758,11 @@ impl SurfaceRenderer {
             contents: bytemuck::bytes_of(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let px = width as u64 * height as u64 * 16;
-        let o_hi = self.output_buffer("surface data hi", px);
-        let o_rest = self.output_buffer("surface data rest", px);
-        let o_mask = self.output_buffer("surface data mask", px);
+        let px = width as u64 * height as u64;
+        let planes = px * 4 * props.len() as u64;
+        let o_hi = self.output_buffer("surface data hi", planes);
+        let o_rest = self.output_buffer("surface data rest", planes);
+        let o_mask = self.output_buffer("surface data mask", px * 8);
         let bind = self.bind(
             "surface data",
             &pipeline.1,
@@ -810,7 +813,14 @@ impl SurfaceRenderer {
         opts.validate()?;
         let props = Self::property_indices(grid, opts)?;
         let colormap = Colormap::by_name(opts.colormap_name())?;
+        let t0 = std::time::Instant::now();
         let data = self.data_pass(grid, opts, &props)?;
+        if std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some() {
+            eprintln!(
+                "data pass (or cache hit) {:.2} ms",
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+        }
         (0..props.len())
             .map(|slot| self.fringe_pass(&data, slot, opts.nu_for(slot), opts, &colormap))
             .collect()
@@ -1004,8 +1014,23 @@ fn read_mapped<T: bytemuck::Pod>(
     staging: &wgpu::Buffer,
     bytes: u64,
 ) -> Result<Vec<T>> {
-    let raw = readback::map_read(ctx, staging)?;
-    Ok(bytemuck::pod_collect_to_vec(&raw[..bytes as usize]))
+    let slice = staging.slice(..bytes.max(16));
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.wait()?;
+    rx.recv()
+        .map_err(|_| Error::Gpu("readback was never answered".into()))?
+        .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+    let out = {
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| Error::Gpu(format!("readback mapping failed: {e}")))?;
+        bytemuck::pod_collect_to_vec(&view[..bytes as usize])
+    };
+    staging.unmap();
+    Ok(out)
 }
 
 /// A colour bar for a surface render (a separate image): horizontal, `width × height`, left to

@@ -64,6 +64,9 @@ pub fn bench_surface(
         let t = Instant::now();
         let img = renderer.render(&grid, &o)?;
         nu_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        if std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some() {
+            eprintln!("render {:.2} ms", nu_ms[r]);
+        }
         std::hint::black_box(img);
     }
     let nu_row = SurfaceBenchRow {
