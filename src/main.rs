@@ -81,6 +81,18 @@ fn run(cli: Cli) -> Result<()> {
             print!("{}", hdrvis::bench::format_generator_table(&rows));
             Ok(())
         }
+        Some(Command::Bench(BenchCommand::Surface { runs, n })) => {
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let rows = hdrvis::render::surface_bench::bench_surface(ctx, n, runs, &mut |m| {
+                eprintln!("{m}")
+            })?;
+            print!(
+                "{}",
+                hdrvis::render::surface_bench::format_surface_table(&adapter, &rows)
+            );
+            Ok(())
+        }
         Some(Command::Bench(BenchCommand::Volume { runs, quick, peer })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();

@@ -105,4 +105,14 @@ pub enum BenchCommand {
         #[arg(long)]
         quick: bool,
     },
+    /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
+    /// two-step render, medians.
+    Surface {
+        /// Timed runs per case (after one warm-up).
+        #[arg(long, default_value_t = 9)]
+        runs: usize,
+        /// Grid nodes per side.
+        #[arg(long, default_value_t = 1024)]
+        n: usize,
+    },
 }

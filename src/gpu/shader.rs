@@ -9,6 +9,14 @@ use crate::error::{Error, Result};
 pub const SOURCES: &[(&str, &str)] = &[
     ("volume.wgsl", include_str!("../../shaders/volume.wgsl")),
     (
+        "surface_data.wgsl",
+        include_str!("../../shaders/surface_data.wgsl"),
+    ),
+    (
+        "surface_fringe.wgsl",
+        include_str!("../../shaders/surface_fringe.wgsl"),
+    ),
+    (
         "shared/camera.wgsl",
         include_str!("../../shaders/shared/camera.wgsl"),
     ),
@@ -52,6 +60,8 @@ pub const PIPELINES: &[(&str, &[&[&str]])] = &[
     ("tonemap/reinhard_local.wgsl", &[&[]]),
     ("tonemap/durand_bilateral.wgsl", &[&[]]),
     ("tonemap/false_colour.wgsl", &[&[]]),
+    ("surface_data.wgsl", &[&[]]),
+    ("surface_fringe.wgsl", &[&[]]),
 ];
 
 /// Development aid: with `HDRVIS_SHADER_DIR` set, shaders are read from that folder at run time

@@ -4,11 +4,13 @@
 
 pub mod camera;
 pub mod colormap;
+pub mod grid;
 pub mod image;
 pub mod transfer;
 pub mod volume;
 
 pub use camera::{Axis, Camera, Projection};
+pub use grid::{Grid, GridCoords};
 pub use image::HdrImage;
 pub use transfer::{Lens, LutTransfer, Scale, TransferFunction};
 pub use volume::{Aabb, Volume, VolumeStats};

@@ -2,6 +2,8 @@
 //! they trace the same rays through the same optical model.
 
 pub mod cpu_reference;
+pub mod surface;
+pub mod surface_bench;
 pub mod volume;
 
 use crate::error::{Error, Result};

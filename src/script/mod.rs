@@ -6,6 +6,7 @@
 pub mod api_doc;
 mod api_post;
 mod api_render;
+mod api_surface;
 mod convert;
 mod sandbox;
 
@@ -142,7 +143,8 @@ pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
     // `eval` would let a script build code from strings and dodge the checks on its source.
     engine.disable_symbol("eval");
     api_render::register(&mut engine, host.clone());
-    api_post::register(&mut engine, host);
+    api_post::register(&mut engine, host.clone());
+    api_surface::register(&mut engine, host);
     engine
 }
 

@@ -5,5 +5,6 @@ mod cli;
 mod common;
 mod datasets;
 mod stability;
+mod surface;
 mod tonemap;
 mod volume_render;

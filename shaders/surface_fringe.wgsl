@@ -1,0 +1,112 @@
+// Interference surfaces, step 2 (the fringe pass): I = (1 + cos 2πν·d)/2 per pixel from the data
+// pass's targets, with a colour lookup: cyclic (colour from the wrapped phase frac(ν·d), one cycle
+// of a cyclic map per fringe), modulated (colour over the data range, optionally log-scaled, times
+// the fringes) or direct (colour only). The phase keeps f64 precision: d − d_ref arrives as
+// hi + rest (two f32s), ν as three f32 parts; hi and ν's leading parts have 12 significant bits
+// (hi is split here by masking mantissa bits), so their products are exact in f32 and their
+// fractions are taken before anything is added; frac(ν·d_ref) comes from the host in f64.
+// Keep Params in sync with src/render/surface.rs (FringeParams).
+
+struct Params {
+    // ν split: x (12 bits) + y (12 bits) + z (rest) = ν; w = f32(ν)
+    nu: vec4<f32>,
+    // x: frac(ν·d_ref) from f64; y: f32(d_ref); z: colour lower bound (linear: minus d_ref; log:
+    // log10 of the floor); w: 1 / colour range
+    refs: vec4<f32>,
+    // x: modulation depth, y: floor of |d| for log colour
+    shade: vec4<f32>,
+    // x: property slot (also the SLOT constant), y: mode (0 cyclic, 1 modulated, 2 direct), z: absolute, w: log colour
+    mode: vec4<u32>,
+    // x: width, y: height, z: LUT size
+    dims: vec4<u32>,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+// Storage buffers, pixels row-major from the top (plain loads and stores are fast on CPU
+// rasterizers). The property slot is a pipeline constant, so no vector is indexed dynamically.
+@group(0) @binding(1) var<storage, read> data_hi: array<f32>;
+@group(0) @binding(2) var<storage, read> data_rest: array<f32>;
+@group(0) @binding(3) var<storage, read> data_mask: array<vec2<f32>>;
+@group(0) @binding(4) var<storage, read> lut: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> out_color: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> out_value: array<f32>;
+
+override SLOT: u32 = 0u;
+
+const TAU: f32 = 6.283185307179586;
+
+fn fr(x: f32) -> f32 {
+    return x - floor(x);
+}
+
+// The leading 12 significant bits of x (the low 12 of the 23 mantissa bits cleared).
+fn lead12(x: f32) -> f32 {
+    return bitcast<f32>(bitcast<u32>(x) & 0xFFFFF000u);
+}
+
+// frac(ν·(d_ref + hi + rest)) in [0, 1).
+fn phase(hi: f32, rest: f32) -> f32 {
+    let h1 = lead12(hi);
+    let h2 = hi - h1;
+    let nu = params.nu;
+    let small = nu.y * h2 + nu.z * hi + nu.w * rest;
+    return fr(fr(nu.x * h1) + fr(nu.x * h2) + fr(nu.y * h1) + fr(small) + params.refs.x);
+}
+
+fn colormap(t: f32) -> vec3<f32> {
+    let n = params.dims.z;
+    let x = clamp(t, 0.0, 1.0) * f32(n - 1u);
+    let i = min(u32(x), n - 2u);
+    let f = x - f32(i);
+    let a = lut[i].xyz;
+    let b = lut[i + 1u].xyz;
+    return mix(a, b, f);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= params.dims.x || gid.y >= params.dims.y) {
+        return;
+    }
+    let px = gid.y * params.dims.x + gid.x;
+    let slot = SLOT;
+    let m = data_mask[px];
+    let bits = u32(m.x);
+    if ((bits & (1u << slot)) == 0u) {
+        // Missing (a hole or no surface): fringe −1 tells the host; nothing else is touched.
+        out_color[px] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+        out_value[px] = 0.0;
+        return;
+    }
+    let plane = slot * params.dims.x * params.dims.y + px;
+    let hi = data_hi[plane];
+    let rest = data_rest[plane];
+    let d = params.refs.y + (hi + rest);
+    var ph = phase(hi, rest);
+    if (params.mode.z == 1u && d < 0.0) {
+        ph = fr(1.0 - ph);
+    }
+    // cos of an argument in [−π, π] for the best f32 accuracy.
+    let centred = ph - round(ph);
+    let fringe = 0.5 + 0.5 * cos(TAU * centred);
+    var colour: vec3<f32>;
+    var t: f32;
+    if (params.mode.y == 0u) {
+        t = ph;
+    } else if (params.mode.w == 1u) {
+        let a = max(abs(d), params.shade.y);
+        t = (log(a) * 0.4342944819032518 - params.refs.z) * params.refs.w;
+    } else if (params.mode.z == 1u) {
+        t = (abs(d) - params.refs.z) * params.refs.w;
+    } else {
+        t = ((hi + rest) - params.refs.z) * params.refs.w;
+    }
+    colour = colormap(t);
+    if (params.mode.y != 2u) {
+        let depth = params.shade.x;
+        colour *= (1.0 - depth) + depth * fringe;
+    }
+    colour *= m.y;
+    out_color[px] = vec4<f32>(colour, fringe);
+    out_value[px] = d;
+}

@@ -1,0 +1,435 @@
+//! The surface model: a 2-D field on a regular grid with x/y (or lon/lat) node coordinates and
+//! their units, one or more named properties of the same shape and an optional elevation for
+//! relief. Coordinates are stored increasing (rows and columns of a file stored north-to-south or
+//! east-to-west are flipped on construction), so image rows map to grid rows the same way for every
+//! source. NaN marks a missing value. Each grid gets a unique identity on construction, which the
+//! surface renderer uses to key its cached data passes; the fields are private so that identity
+//! cannot go stale.
+
+use crate::error::{Error, Result};
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+static NEXT_ID: AtomicU64 = AtomicU64::new(1);
+
+/// One grid axis: node coordinates (increasing), the axis name and its units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridCoords {
+    pub name: String,
+    pub units: String,
+    pub values: Vec<f64>,
+}
+
+impl GridCoords {
+    /// Node indices 0, 1, ... as coordinates (for files without coordinate arrays).
+    pub fn index(name: &str, n: usize) -> GridCoords {
+        GridCoords {
+            name: name.to_string(),
+            units: "node".to_string(),
+            values: (0..n).map(|i| i as f64).collect(),
+        }
+    }
+
+    /// Mean node spacing (positive).
+    pub fn spacing(&self) -> f64 {
+        let n = self.values.len();
+        if n < 2 {
+            1.0
+        } else {
+            (self.values[n - 1] - self.values[0]) / (n - 1) as f64
+        }
+    }
+}
+
+/// A 2-D field on a regular grid. Values are row-major, index `j * nx + i` for node
+/// (`x[i]`, `y[j]`), with x and y increasing.
+#[derive(Clone, Debug)]
+pub struct Grid {
+    id: u64,
+    name: String,
+    nx: usize,
+    ny: usize,
+    x: GridCoords,
+    y: GridCoords,
+    properties: Vec<(String, Vec<f64>)>,
+    units: Vec<String>,
+    elevation: Option<Vec<f64>>,
+}
+
+impl PartialEq for Grid {
+    fn eq(&self, other: &Self) -> bool {
+        self.id == other.id
+    }
+}
+
+fn check_axis(axis: &GridCoords, n: usize, which: &str) -> Result<()> {
+    if axis.values.len() != n {
+        return Err(Error::invalid(
+            which,
+            format!(
+                "{} has {} coordinates but the grid has {n} nodes along it",
+                axis.name,
+                axis.values.len()
+            ),
+        ));
+    }
+    if axis.values.iter().any(|v| !v.is_finite()) {
+        return Err(Error::invalid(
+            which,
+            format!("{} coordinates must be finite", axis.name),
+        ));
+    }
+    let inc = axis.values.windows(2).all(|w| w[1] > w[0]);
+    let dec = axis.values.windows(2).all(|w| w[1] < w[0]);
+    if !(inc || dec) {
+        return Err(Error::invalid(
+            which,
+            format!("{} coordinates must be strictly monotonic", axis.name),
+        ));
+    }
+    Ok(())
+}
+
+impl Grid {
+    /// A grid from named properties, each `ny * nx` values row-major. `shapes` of the properties
+    /// are checked against `[ny, nx]`; a mismatch names the property and both shapes.
+    pub fn from_arrays(
+        name: &str,
+        nx: usize,
+        ny: usize,
+        properties: Vec<(String, Vec<f64>)>,
+    ) -> Result<Grid> {
+        Grid::with_coords(
+            name,
+            GridCoords::index("x", nx),
+            GridCoords::index("y", ny),
+            properties,
+            None,
+        )
+    }
+
+    /// The full constructor: coordinates (increasing or decreasing; stored increasing),
+    /// properties and an optional elevation, all validated.
+    pub fn with_coords(
+        name: &str,
+        x: GridCoords,
+        y: GridCoords,
+        properties: Vec<(String, Vec<f64>)>,
+        elevation: Option<Vec<f64>>,
+    ) -> Result<Grid> {
+        let (nx, ny) = (x.values.len(), y.values.len());
+        if nx < 1 || ny < 1 {
+            return Err(Error::invalid("grid", "a grid needs at least one node"));
+        }
+        if nx > 16384 || ny > 16384 {
+            return Err(Error::invalid(
+                "grid",
+                format!("{nx}x{ny} nodes: at most 16384 per side"),
+            ));
+        }
+        check_axis(&x, nx, "x")?;
+        check_axis(&y, ny, "y")?;
+        if properties.is_empty() {
+            return Err(Error::invalid("grid", "a grid needs at least one property"));
+        }
+        for (i, (n, v)) in properties.iter().enumerate() {
+            if v.len() != nx * ny {
+                return Err(Error::invalid(
+                    "grid",
+                    format!(
+                        "property {n:?} has {} values but the grid is {ny}x{nx} (ny x nx) = {} nodes{}",
+                        v.len(),
+                        nx * ny,
+                        properties
+                            .first()
+                            .filter(|_| i > 0)
+                            .map(|(f, _)| format!(" like {f:?}"))
+                            .unwrap_or_default()
+                    ),
+                ));
+            }
+            if properties[..i].iter().any(|(m, _)| m == n) {
+                return Err(Error::invalid(
+                    "grid",
+                    format!("property {n:?} appears twice"),
+                ));
+            }
+        }
+        if let Some(e) = &elevation {
+            if e.len() != nx * ny {
+                return Err(Error::invalid(
+                    "elevation",
+                    format!(
+                        "{} values but the grid is {ny}x{nx} (ny x nx) = {} nodes",
+                        e.len(),
+                        nx * ny
+                    ),
+                ));
+            }
+        }
+        let units = vec![String::new(); properties.len()];
+        let mut g = Grid {
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+            name: name.to_string(),
+            nx,
+            ny,
+            x,
+            y,
+            properties,
+            units,
+            elevation,
+        };
+        g.make_increasing();
+        Ok(g)
+    }
+
+    fn make_increasing(&mut self) {
+        let (nx, ny) = (self.nx, self.ny);
+        let flip_x = nx > 1 && self.x.values[1] < self.x.values[0];
+        let flip_y = ny > 1 && self.y.values[1] < self.y.values[0];
+        if !(flip_x || flip_y) {
+            return;
+        }
+        let remap = |v: &mut Vec<f64>| {
+            let old = v.clone();
+            for j in 0..ny {
+                let sj = if flip_y { ny - 1 - j } else { j };
+                for i in 0..nx {
+                    let si = if flip_x { nx - 1 - i } else { i };
+                    v[j * nx + i] = old[sj * nx + si];
+                }
+            }
+        };
+        for (_, v) in &mut self.properties {
+            remap(v);
+        }
+        if let Some(e) = &mut self.elevation {
+            remap(e);
+        }
+        if flip_x {
+            self.x.values.reverse();
+        }
+        if flip_y {
+            self.y.values.reverse();
+        }
+    }
+
+    /// A grid from one generated or computed field, for tests and generators.
+    pub fn from_fn(
+        name: &str,
+        nx: usize,
+        ny: usize,
+        f: impl Fn(usize, usize) -> f64,
+    ) -> Result<Grid> {
+        let mut v = Vec::with_capacity(nx * ny);
+        for j in 0..ny {
+            for i in 0..nx {
+                v.push(f(i, j));
+            }
+        }
+        Grid::from_arrays(name, nx, ny, vec![(name.to_string(), v)])
+    }
+
+    /// Loads a 2-D field: `.npy` (one property named after the file), `.npz` and NetCDF (every
+    /// non-coordinate array of the chosen or default array's 2-D shape becomes a property, sorted
+    /// by name; `x`/`lon` and `y`/`lat` arrays are coordinates; an array named `elevation`,
+    /// `topo`, `topography`, `height` or `z` of that shape is the elevation). `var` picks one
+    /// array; with it only that array is a property (plus the elevation).
+    pub fn load(path: &Path, var: Option<&str>) -> Result<Grid> {
+        let file = crate::datasets::read_grid(path, var)?;
+        let [ny, nx] = file.shape;
+        let axis = |a: Option<crate::datasets::GridAxis>, name: &str, n: usize| match a {
+            Some(a) => GridCoords {
+                name: a.name,
+                units: a.units.unwrap_or_default(),
+                values: a.values,
+            },
+            None => GridCoords::index(name, n),
+        };
+        let x = axis(file.x, "x", nx);
+        let y = axis(file.y, "y", ny);
+        let mut props = vec![(file.name.clone(), file.data, file.units.unwrap_or_default())];
+        let mut elevation = None;
+        let ext = crate::io::extension(path);
+        if matches!(ext.as_str(), "npz" | "nc" | "nc4" | "cdf" | "netcdf") {
+            let coord_names = [
+                x.name.as_str(),
+                y.name.as_str(),
+                "x",
+                "y",
+                "lon",
+                "lat",
+                "longitude",
+                "latitude",
+            ];
+            for a in crate::datasets::list_arrays(path)? {
+                if a.name == file.name || a.is_coordinate || coord_names.contains(&a.name.as_str())
+                {
+                    continue;
+                }
+                let is_elev =
+                    ["elevation", "topo", "topography", "height", "z"].contains(&a.name.as_str());
+                let squeezed: Vec<usize> = a.shape.iter().cloned().filter(|&s| s != 1).collect();
+                if squeezed != [ny, nx] || (var.is_some() && !is_elev) {
+                    continue;
+                }
+                let arr = crate::datasets::read_array(path, Some(&a.name), Some(2))?;
+                if is_elev {
+                    elevation = Some(arr.data);
+                } else {
+                    props.push((a.name, arr.data, arr.units.unwrap_or_default()));
+                }
+            }
+            props.sort_by(|a, b| a.0.cmp(&b.0));
+        }
+        let name = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("grid")
+            .to_string();
+        let units: Vec<String> = props.iter().map(|p| p.2.clone()).collect();
+        let props = props.into_iter().map(|(n, v, _)| (n, v)).collect();
+        let mut g = Grid::with_coords(&name, x, y, props, elevation)?;
+        g.units = units;
+        Ok(g)
+    }
+
+    pub fn id(&self) -> u64 {
+        self.id
+    }
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    pub fn nx(&self) -> usize {
+        self.nx
+    }
+    pub fn ny(&self) -> usize {
+        self.ny
+    }
+    pub fn x(&self) -> &GridCoords {
+        &self.x
+    }
+    pub fn y(&self) -> &GridCoords {
+        &self.y
+    }
+    pub fn elevation(&self) -> Option<&[f64]> {
+        self.elevation.as_deref()
+    }
+    pub fn property_names(&self) -> Vec<&str> {
+        self.properties.iter().map(|(n, _)| n.as_str()).collect()
+    }
+
+    /// Index of a property; an unknown name is an error listing the known ones.
+    pub fn property_index(&self, name: &str) -> Result<usize> {
+        self.properties
+            .iter()
+            .position(|(n, _)| n == name)
+            .ok_or_else(|| {
+                Error::invalid(
+                    "property",
+                    format!(
+                        "grid {:?} has no property {name:?}; known: {}",
+                        self.name,
+                        self.property_names().join(", ")
+                    ),
+                )
+            })
+    }
+
+    /// The values of a property; an unknown name is an error listing the known ones.
+    pub fn property(&self, name: &str) -> Result<&[f64]> {
+        Ok(&self.properties[self.property_index(name)?].1)
+    }
+
+    pub fn property_at(&self, index: usize) -> (&str, &[f64]) {
+        let (n, v) = &self.properties[index];
+        (n, v)
+    }
+
+    pub fn units(&self, index: usize) -> &str {
+        &self.units[index]
+    }
+
+    /// Sets the units of a property (a new identity is not needed: units do not change pixels).
+    pub fn set_units(&mut self, name: &str, units: &str) -> Result<()> {
+        let i = self.property_index(name)?;
+        self.units[i] = units.to_string();
+        Ok(())
+    }
+
+    /// Adds (or replaces) the elevation; the grid gets a new identity.
+    pub fn with_elevation(mut self, elevation: Vec<f64>) -> Result<Grid> {
+        if elevation.len() != self.nx * self.ny {
+            return Err(Error::invalid(
+                "elevation",
+                format!(
+                    "{} values but the grid is {}x{} (ny x nx)",
+                    elevation.len(),
+                    self.ny,
+                    self.nx
+                ),
+            ));
+        }
+        self.elevation = Some(elevation);
+        self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        Ok(self)
+    }
+
+    /// Finite minimum and maximum of a property (None when every value is missing).
+    pub fn range(&self, index: usize) -> Option<(f64, f64)> {
+        let v = &self.properties[index].1;
+        let mut r: Option<(f64, f64)> = None;
+        for &x in v.iter().filter(|x| x.is_finite()) {
+            r = Some(match r {
+                None => (x, x),
+                Some((a, b)) => (a.min(x), b.max(x)),
+            });
+        }
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mismatched_shapes_and_unknown_names_are_errors() {
+        let e = Grid::from_arrays(
+            "g",
+            3,
+            2,
+            vec![("a".into(), vec![0.0; 6]), ("b".into(), vec![0.0; 5])],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("\"b\"") && e.contains("5 values"), "{e}");
+        let g = Grid::from_arrays("g", 3, 2, vec![("a".into(), vec![0.0; 6])]).unwrap();
+        let e = g.property("zz").unwrap_err().to_string();
+        assert!(e.contains("zz") && e.contains("known: a"), "{e}");
+    }
+
+    #[test]
+    fn decreasing_coordinates_are_flipped() {
+        let x = GridCoords {
+            name: "lon".into(),
+            units: "deg".into(),
+            values: vec![2.0, 1.0],
+        };
+        let y = GridCoords {
+            name: "lat".into(),
+            units: "deg".into(),
+            values: vec![5.0, 4.0],
+        };
+        let g = Grid::with_coords(
+            "g",
+            x,
+            y,
+            vec![("v".into(), vec![1.0, 2.0, 3.0, 4.0])],
+            None,
+        )
+        .unwrap();
+        assert_eq!(g.x().values, vec![1.0, 2.0]);
+        assert_eq!(g.property("v").unwrap(), &[4.0, 3.0, 2.0, 1.0]);
+    }
+}

@@ -1,0 +1,1137 @@
+//! Interference-based surface rendering (Yuan et al. 2008, section 2.1) in two GPU steps. Step 1,
+//! the data pass (`shaders/surface_data.wgsl`), renders a grid in map view or in a lit 3-D
+//! perspective view with relief and writes up to four properties per pixel into float targets in
+//! one pass. Step 2, the fringe pass (`shaders/surface_fringe.wgsl`), turns one property into
+//! I = (1 + cos 2πν·d)/2 with a colour lookup. [`SurfaceRenderer`] caches step-1 targets keyed by
+//! (grid identity, view, size, properties, relief), so changing ν, the colour mode or the colour
+//! map re-runs only step 2.
+//!
+//! Phase precision: per node the host computes d − d_ref in f64 (d_ref = the middle of the
+//! property's range) and uploads it as hi = f32(d − d_ref) and rest = f32((d − d_ref) − hi). ν is
+//! split on the host into ν₁ + ν₂ + ν₃ with 12 significant bits in ν₁ and ν₂; the shader splits hi
+//! into h₁ + h₂ of 12 significant bits each by masking mantissa bits. The four products νᵢ·hⱼ
+//! (i, j ≤ 2) are then exact in f32, their fractions are taken separately, and the small terms
+//! ν₂h₂ + ν₃·hi + ν·rest and frac(ν·d_ref) (computed in f64 on the host) are added before a last
+//! fraction; the cosine sees an argument in [−π, π]. This holds to ~1e-6 of a period for ν·d up
+//! to ~10¹⁰ at pixels on grid nodes (map view at the default size); between nodes the values are
+//! interpolated in f32 relative to d_ref.
+//!
+//! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
+
+use crate::error::{Error, Result};
+use crate::gpu::{shader, GpuContext};
+use crate::model::colormap::Colormap;
+use crate::model::{Aabb, Camera, Grid, HdrImage, Projection};
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// Most properties one data pass writes (one RGBA32F target component each).
+pub const MAX_PROPERTIES: usize = 4;
+/// Entries in the colour lookup table.
+pub const LUT_SIZE: usize = 256;
+/// Step-1 results kept per renderer.
+const CACHE_ENTRIES: usize = 4;
+
+/// Host mirror of `Params` in shaders/surface_data.wgsl — keep in sync.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct DataParams {
+    eye: [f32; 4],
+    forward: [f32; 4],
+    right: [f32; 4],
+    up: [f32; 4],
+    proj: [f32; 4],
+    cell: [f32; 4],
+    light: [f32; 4],
+    box_size: [f32; 4],
+    dims: [u32; 4],
+    counts: [u32; 4],
+}
+
+/// Host mirror of `Params` in shaders/surface_fringe.wgsl — keep in sync.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct FringeParams {
+    nu: [f32; 4],
+    refs: [f32; 4],
+    shade: [f32; 4],
+    mode: [u32; 4],
+    dims: [u32; 4],
+}
+
+/// How the surface is seen in step 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SurfaceView {
+    /// Top-down orthographic, north up; by default one pixel per grid node.
+    Map,
+    /// Perspective orbit around the relief (degrees; azimuth about +z from +x).
+    Orbit {
+        azimuth: f64,
+        elevation: f64,
+        fov: f64,
+    },
+    /// Any camera, in the surface's world space: x = (x − x₀), y = (y − y₀) in coordinate units,
+    /// z = (height − min height) × exaggeration.
+    Camera(Camera),
+}
+
+impl SurfaceView {
+    fn key(&self) -> Vec<u64> {
+        match self {
+            SurfaceView::Map => vec![0],
+            SurfaceView::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => vec![1, azimuth.to_bits(), elevation.to_bits(), fov.to_bits()],
+            SurfaceView::Camera(c) => {
+                let mut k = vec![2];
+                for v in [c.eye, c.forward, c.right, c.up] {
+                    k.extend(v.iter().map(|x| x.to_bits()));
+                }
+                match c.projection {
+                    Projection::Perspective { fov_y_deg } => k.push(fov_y_deg.to_bits()),
+                    Projection::Orthographic {
+                        half_width,
+                        half_height,
+                    } => k.extend([half_width.to_bits(), half_height.to_bits()]),
+                }
+                k
+            }
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            SurfaceView::Map => "map (top-down orthographic, north up)".into(),
+            SurfaceView::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => format!("orbit azimuth {azimuth} elevation {elevation} fov {fov}"),
+            SurfaceView::Camera(c) => c.describe(),
+        }
+    }
+}
+
+/// The three colour modes of the paper's Fig. 3.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FringeMode {
+    /// (a) The wrapped phase frac(ν·d) through a cyclic colour map: one colour cycle per fringe.
+    Cyclic,
+    /// (b) A colour over the data range (optionally log-scaled), modulated by the fringes.
+    Modulated,
+    /// (c) A colour map without fringes (the `fringe` channel is still written).
+    Direct,
+}
+
+impl FringeMode {
+    pub fn parse(s: &str) -> Result<FringeMode> {
+        match s {
+            "cyclic" => Ok(FringeMode::Cyclic),
+            "modulated" => Ok(FringeMode::Modulated),
+            "direct" => Ok(FringeMode::Direct),
+            _ => Err(Error::invalid(
+                "mode",
+                format!("expected \"cyclic\", \"modulated\" or \"direct\", got {s:?}"),
+            )),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            FringeMode::Cyclic => "cyclic",
+            FringeMode::Modulated => "modulated",
+            FringeMode::Direct => "direct",
+        }
+    }
+
+    fn code(self) -> u32 {
+        match self {
+            FringeMode::Cyclic => 0,
+            FringeMode::Modulated => 1,
+            FringeMode::Direct => 2,
+        }
+    }
+}
+
+/// Everything a surface render depends on besides the grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceOptions {
+    /// Properties to render (1 to 4), all from one data pass; empty means the grid's first.
+    pub properties: Vec<String>,
+    /// ν per property (one value applies to all).
+    pub nu: Vec<f64>,
+    pub mode: FringeMode,
+    /// Colour map name; `None` picks `sinebow` for cyclic mode and `viridis` otherwise.
+    pub colormap: Option<String>,
+    /// Modulation depth m in [0, 1]: colour × (1 − m + m·I).
+    pub modulation: f64,
+    /// Use |d| (for colour; the fringe intensity is symmetric in d).
+    pub absolute: bool,
+    /// Log-scaled colour over |d| in modulated/direct modes.
+    pub log_color: bool,
+    pub view: SurfaceView,
+    /// Image size; `None` is the grid's node count (map view) or 512 (other views).
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    /// Height for relief in 3-D views: `elevation`, a property name, or `None` (flat).
+    pub relief: Option<String>,
+    pub exaggeration: f64,
+}
+
+impl Default for SurfaceOptions {
+    fn default() -> Self {
+        SurfaceOptions {
+            properties: Vec::new(),
+            nu: vec![1.0],
+            mode: FringeMode::Cyclic,
+            colormap: None,
+            modulation: 1.0,
+            absolute: false,
+            log_color: false,
+            view: SurfaceView::Map,
+            width: None,
+            height: None,
+            relief: None,
+            exaggeration: 1.0,
+        }
+    }
+}
+
+/// ν must be finite and positive.
+pub fn check_nu(nu: f64) -> Result<()> {
+    if nu.is_finite() && nu > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            "nu",
+            format!("expected a finite frequency > 0 (fringes per data unit), got {nu}"),
+        ))
+    }
+}
+
+impl SurfaceOptions {
+    pub fn validate(&self) -> Result<()> {
+        if self.properties.len() > MAX_PROPERTIES {
+            return Err(Error::invalid(
+                "property",
+                format!(
+                    "at most {MAX_PROPERTIES} properties per data pass, got {}",
+                    self.properties.len()
+                ),
+            ));
+        }
+        if self.nu.is_empty() {
+            return Err(Error::invalid("nu", "expected at least one value"));
+        }
+        for &nu in &self.nu {
+            check_nu(nu)?;
+        }
+        let n = self.properties.len().max(1);
+        if self.nu.len() != 1 && self.nu.len() != n {
+            return Err(Error::invalid(
+                "nu",
+                format!(
+                    "expected one ν or one per property ({n}), got {}",
+                    self.nu.len()
+                ),
+            ));
+        }
+        if !(self.modulation.is_finite() && (0.0..=1.0).contains(&self.modulation)) {
+            return Err(Error::invalid(
+                "modulation",
+                format!("expected a depth in [0, 1], got {}", self.modulation),
+            ));
+        }
+        if !(self.exaggeration.is_finite() && self.exaggeration >= 0.0) {
+            return Err(Error::invalid(
+                "exaggeration",
+                format!("expected a finite factor >= 0, got {}", self.exaggeration),
+            ));
+        }
+        for (f, v) in [("width", self.width), ("height", self.height)] {
+            if let Some(v) = v {
+                if v == 0 || v > 16384 {
+                    return Err(Error::invalid(
+                        f,
+                        format!("expected 1 to 16384 pixels, got {v}"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn nu_for(&self, i: usize) -> f64 {
+        if self.nu.len() == 1 {
+            self.nu[0]
+        } else {
+            self.nu[i]
+        }
+    }
+
+    fn colormap_name(&self) -> &str {
+        match &self.colormap {
+            Some(c) => c,
+            None if self.mode == FringeMode::Cyclic => "sinebow",
+            None => "viridis",
+        }
+    }
+}
+
+/// ν split into 12 + 12 significant bits and an f32 remainder (see the module notes).
+pub fn split_nu(nu: f64) -> [f32; 3] {
+    let lead = |x: f64| f32::from_bits((x as f32).to_bits() & 0xFFFF_F000);
+    let a = lead(nu);
+    let b = lead(nu - a as f64);
+    let c = (nu - a as f64 - b as f64) as f32;
+    [a, b, c]
+}
+
+/// The f64 reference: (1 + cos 2πν·d)/2 with the phase reduced before the cosine.
+pub fn fringe_f64(nu: f64, d: f64) -> f64 {
+    let ph = (nu * d).rem_euclid(1.0);
+    0.5 + 0.5 * (std::f64::consts::TAU * (ph - ph.round())).cos()
+}
+
+/// Name, units, d_ref and finite range of a rendered property.
+type PropMeta = (String, String, f64, Option<(f64, f64)>);
+
+/// Step-1 results on the GPU, with what step 2 needs to know about them.
+struct DataTargets {
+    hi: wgpu::Buffer,
+    rest: wgpu::Buffer,
+    mask: wgpu::Buffer,
+    width: u32,
+    height: u32,
+    /// Per rendered property: name, units, d_ref, finite range.
+    props: Vec<PropMeta>,
+    view: String,
+    /// Fringe-pass outputs and their staging copies, reused by every step-2 run on these targets.
+    outputs: Mutex<Option<FringeOutputs>>,
+}
+
+struct FringeOutputs {
+    color: wgpu::Buffer,
+    value: wgpu::Buffer,
+    color_staging: wgpu::Buffer,
+    value_staging: wgpu::Buffer,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+struct DataKey {
+    grid: u64,
+    view: Vec<u64>,
+    width: u32,
+    height: u32,
+    properties: Vec<String>,
+    relief: Option<String>,
+    exaggeration: u64,
+}
+
+/// Counters for tests and benchmarks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SurfaceCounters {
+    pub data_passes: u64,
+    pub fringe_passes: u64,
+}
+
+/// The two-step surface renderer with its pipelines and step-1 cache; one per GPU context.
+pub struct SurfaceRenderer {
+    ctx: Arc<GpuContext>,
+    data_pipelines: Mutex<HashMap<bool, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
+    fringe_pipelines: Mutex<HashMap<usize, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
+    cache: Mutex<Vec<(DataKey, Arc<DataTargets>)>>,
+    data_passes: AtomicU64,
+    fringe_passes: AtomicU64,
+}
+
+fn buffer_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn uniform_entry() -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl SurfaceRenderer {
+    pub fn new(ctx: Arc<GpuContext>) -> Self {
+        SurfaceRenderer {
+            ctx,
+            data_pipelines: Mutex::new(HashMap::new()),
+            fringe_pipelines: Mutex::new(HashMap::new()),
+            cache: Mutex::new(Vec::new()),
+            data_passes: AtomicU64::new(0),
+            fringe_passes: AtomicU64::new(0),
+        }
+    }
+
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// How many data and fringe passes this renderer has run.
+    pub fn counters(&self) -> SurfaceCounters {
+        SurfaceCounters {
+            data_passes: self.data_passes.load(Ordering::Relaxed),
+            fringe_passes: self.fringe_passes.load(Ordering::Relaxed),
+        }
+    }
+
+    /// Drops the cached step-1 targets (the next render runs step 1 again).
+    pub fn clear_cache(&self) {
+        self.cache.lock().expect("surface cache poisoned").clear();
+    }
+
+    fn build(
+        &self,
+        name: &str,
+        label: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+        constants: &[(&str, f64)],
+    ) -> Result<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>> {
+        let device = &self.ctx.device;
+        let src = shader::load(name, &[])?;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        // SAFETY: wgpu's injected bounds checks cost a large share of these small kernels on
+        // lavapipe, and neither shader needs them: every invocation returns early outside the
+        // image, pixel buffers hold exactly width × height entries, node indices are clamped to
+        // the grid, and the lookup-table index is clamped to [0, LUT_SIZE − 2].
+        let module = unsafe {
+            device.create_shader_module_trusted(
+                wgpu::ShaderModuleDescriptor {
+                    label: Some(name),
+                    source: wgpu::ShaderSource::Wgsl(src.into()),
+                },
+                wgpu::ShaderRuntimeChecks::unchecked(),
+            )
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(label),
+            entries,
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("{label} pipeline failed to build: {e}")));
+        }
+        Ok(Arc::new((pipeline, layout)))
+    }
+
+    fn data_pipeline(
+        &self,
+        map: bool,
+    ) -> Result<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>> {
+        let mut cache = self.data_pipelines.lock().expect("pipeline cache poisoned");
+        if let Some(p) = cache.get(&map) {
+            return Ok(p.clone());
+        }
+        let entries = [
+            uniform_entry(),
+            buffer_entry(1, true),
+            buffer_entry(2, true),
+            buffer_entry(3, true),
+            buffer_entry(4, true),
+            buffer_entry(5, false),
+            buffer_entry(6, false),
+            buffer_entry(7, false),
+        ];
+        let p = self.build(
+            "surface_data.wgsl",
+            "surface data pass",
+            &entries,
+            &[("MAP_VIEW", map as u32 as f64)],
+        )?;
+        cache.insert(map, p.clone());
+        Ok(p)
+    }
+
+    fn fringe_pipeline(
+        &self,
+        slot: usize,
+    ) -> Result<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>> {
+        let mut cache = self
+            .fringe_pipelines
+            .lock()
+            .expect("pipeline cache poisoned");
+        if let Some(p) = cache.get(&slot) {
+            return Ok(p.clone());
+        }
+        let entries = [
+            uniform_entry(),
+            buffer_entry(1, true),
+            buffer_entry(2, true),
+            buffer_entry(3, true),
+            buffer_entry(4, true),
+            buffer_entry(5, false),
+            buffer_entry(6, false),
+        ];
+        let p = self.build(
+            "surface_fringe.wgsl",
+            "surface fringe pass",
+            &entries,
+            &[("SLOT", slot as f64)],
+        )?;
+        cache.insert(slot, p.clone());
+        Ok(p)
+    }
+
+    fn input_buffer(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+        use wgpu::util::DeviceExt;
+        self.ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+    }
+
+    fn output_buffer(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        })
+    }
+
+    fn bind(
+        &self,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        uniform: &wgpu::Buffer,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: uniform.as_entire_binding(),
+        }];
+        for (i, b) in buffers.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: i as u32 + 1,
+                resource: b.as_entire_binding(),
+            });
+        }
+        self.ctx
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout,
+                entries: &entries,
+            })
+    }
+
+    fn resolve_size(&self, grid: &Grid, opts: &SurfaceOptions) -> Result<(u32, u32)> {
+        let (dw, dh) = match opts.view {
+            SurfaceView::Map => (grid.nx() as u32, grid.ny() as u32),
+            _ => (512, 512),
+        };
+        let (w, h) = (opts.width.unwrap_or(dw), opts.height.unwrap_or(dh));
+        let limit = self.ctx.caps.max_storage_buffer_binding_size;
+        let largest = (w as u64 * h as u64).max((grid.nx() * grid.ny()) as u64) * 16;
+        if largest > limit {
+            return Err(Error::invalid(
+                "width",
+                format!(
+                    "{w}x{h} pixels on a {}x{} grid need {} MiB buffers; this adapter binds at most {} MiB",
+                    grid.nx(),
+                    grid.ny(),
+                    largest >> 20,
+                    limit >> 20
+                ),
+            ));
+        }
+        Ok((w, h))
+    }
+
+    /// Step 1, cached: the data targets for these options.
+    fn data_pass(
+        &self,
+        grid: &Grid,
+        opts: &SurfaceOptions,
+        props: &[usize],
+    ) -> Result<Arc<DataTargets>> {
+        let (width, height) = self.resolve_size(grid, opts)?;
+        let key = DataKey {
+            grid: grid.id(),
+            view: opts.view.key(),
+            width,
+            height,
+            properties: props
+                .iter()
+                .map(|&i| grid.property_at(i).0.to_string())
+                .collect(),
+            relief: if opts.view == SurfaceView::Map {
+                None
+            } else {
+                opts.relief.clone()
+            },
+            exaggeration: if opts.view == SurfaceView::Map {
+                0
+            } else {
+                opts.exaggeration.to_bits()
+            },
+        };
+        {
+            let cache = self.cache.lock().expect("surface cache poisoned");
+            if let Some((_, t)) = cache.iter().find(|(k, _)| *k == key) {
+                return Ok(t.clone());
+            }
+        }
+        let (nx, ny) = (grid.nx(), grid.ny());
+        let n = nx * ny;
+        let mut hi = vec![[0f32; 4]; n];
+        let mut rest = vec![[0f32; 4]; n];
+        let mut valid = vec![[0f32; 4]; n];
+        let mut meta = Vec::new();
+        for (slot, &p) in props.iter().enumerate() {
+            let (name, values) = grid.property_at(p);
+            let range = grid.range(p);
+            let d_ref = range.map(|(a, b)| 0.5 * (a + b)).unwrap_or(0.0);
+            for k in 0..n {
+                let d = values[k];
+                if d.is_finite() {
+                    let off = d - d_ref;
+                    let h = off as f32;
+                    hi[k][slot] = h;
+                    rest[k][slot] = (off - h as f64) as f32;
+                    valid[k][slot] = 1.0;
+                }
+            }
+            meta.push((name.to_string(), grid.units(p).to_string(), d_ref, range));
+        }
+        // Relief heights (world z before exaggeration), holes at the lowest height.
+        let relief: Option<Vec<f64>> = match (&opts.view, opts.relief.as_deref()) {
+            (SurfaceView::Map, _) | (_, None) | (_, Some("none")) => None,
+            (_, Some("elevation")) => Some(
+                grid.elevation()
+                    .ok_or_else(|| {
+                        Error::invalid(
+                            "relief",
+                            format!(
+                                "grid {:?} has no elevation; use a property name or none",
+                                grid.name()
+                            ),
+                        )
+                    })?
+                    .to_vec(),
+            ),
+            (_, Some(name)) => Some(grid.property(name)?.to_vec()),
+        };
+        // Flat surfaces (no relief or no exaggeration) get heights 0 and an effective factor 1.
+        let relief = relief.filter(|_| opts.exaggeration > 0.0);
+        let exag = if relief.is_some() {
+            opts.exaggeration
+        } else {
+            1.0
+        };
+        let (hmin, hmax) = relief
+            .as_ref()
+            .and_then(|r| {
+                r.iter()
+                    .filter(|v| v.is_finite())
+                    .fold(None, |acc: Option<(f64, f64)>, &v| {
+                        Some(acc.map_or((v, v), |(a, b)| (a.min(v), b.max(v))))
+                    })
+            })
+            .unwrap_or((0.0, 0.0));
+        let heights: Vec<f32> = match &relief {
+            Some(r) => r
+                .iter()
+                .map(|&v| if v.is_finite() { v as f32 } else { hmin as f32 })
+                .collect(),
+            None => vec![0.0; n],
+        };
+        let t_hi = self.input_buffer("surface nodes hi", bytemuck::cast_slice(&hi));
+        let t_rest = self.input_buffer("surface nodes rest", bytemuck::cast_slice(&rest));
+        let t_valid = self.input_buffer("surface nodes valid", bytemuck::cast_slice(&valid));
+        let t_height = self.input_buffer("surface nodes height", bytemuck::cast_slice(&heights));
+        // World: x = i·sx, y = j·sy, z = (h − hmin)·exaggeration.
+        let sx = grid.x().spacing().abs().max(f64::MIN_POSITIVE);
+        let sy = grid.y().spacing().abs().max(f64::MIN_POSITIVE);
+        let mut size = [
+            (nx.max(2) - 1) as f64 * sx,
+            (ny.max(2) - 1) as f64 * sy,
+            (hmax - hmin) * exag,
+        ];
+        // A flat surface still needs a box of some thickness for the ray test.
+        let thin = 1e-4 * size[0].max(size[1]);
+        let z_lo = if size[2] < thin { -thin } else { 0.0 };
+        size[2] = size[2].max(thin) - z_lo;
+        let map = opts.view == SurfaceView::Map;
+        let camera = match opts.view {
+            SurfaceView::Map => None,
+            SurfaceView::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => {
+                let b = Aabb {
+                    lo: [0.0, 0.0, z_lo],
+                    hi: [size[0], size[1], size[2] + z_lo],
+                };
+                Some(Camera::orbit(&b, azimuth, elevation, fov)?)
+            }
+            SurfaceView::Camera(c) => Some(c),
+        };
+        let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
+        let mut params = DataParams {
+            eye: [0.0; 4],
+            forward: [0.0; 4],
+            right: [0.0; 4],
+            up: [0.0; 4],
+            proj: [0.0; 4],
+            cell: [
+                sx as f32,
+                sy as f32,
+                exag as f32,
+                (hmin + z_lo / exag) as f32,
+            ],
+            light: [-0.4, -0.5, 0.77, 0.3],
+            box_size: v4(size, 0.0),
+            dims: [nx as u32, ny as u32, width, height],
+            counts: [props.len() as u32, 0, 0, 0],
+        };
+        if let Some(cam) = camera {
+            // Positions relative to the box's lower corner (z = z_lo).
+            let eye = [cam.eye[0], cam.eye[1], cam.eye[2] - z_lo];
+            params.eye = v4(eye, 0.0);
+            params.forward = v4(cam.forward, 0.0);
+            params.right = v4(cam.right, 0.0);
+            params.up = v4(cam.up, 0.0);
+            params.proj = match cam.projection {
+                Projection::Perspective { fov_y_deg } => {
+                    let ty = (0.5 * fov_y_deg.to_radians()).tan();
+                    [
+                        1.0,
+                        (ty * width as f64 / height as f64) as f32,
+                        ty as f32,
+                        0.0,
+                    ]
+                }
+                Projection::Orthographic {
+                    half_width,
+                    half_height,
+                } => [0.0, half_width as f32, half_height as f32, 0.0],
+            };
+        }
+        let pipeline = self.data_pipeline(map)?;
+        let device = &self.ctx.device;
+        use wgpu::util::DeviceExt;
+        let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("surface data params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let px = width as u64 * height as u64;
+        let planes = px * 4 * props.len() as u64;
+        let o_hi = self.output_buffer("surface data hi", planes);
+        let o_rest = self.output_buffer("surface data rest", planes);
+        let o_mask = self.output_buffer("surface data mask", px * 8);
+        let bind = self.bind(
+            "surface data",
+            &pipeline.1,
+            &ubuf,
+            &[&t_hi, &t_rest, &t_valid, &t_height, &o_hi, &o_rest, &o_mask],
+        );
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline.0);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+        }
+        self.ctx.queue.submit([enc.finish()]);
+        self.data_passes.fetch_add(1, Ordering::Relaxed);
+        let targets = Arc::new(DataTargets {
+            hi: o_hi,
+            rest: o_rest,
+            mask: o_mask,
+            width,
+            height,
+            props: meta,
+            view: opts.view.describe(),
+            outputs: Mutex::new(None),
+        });
+        let mut cache = self.cache.lock().expect("surface cache poisoned");
+        cache.retain(|(k, _)| *k != key);
+        if cache.len() >= CACHE_ENTRIES {
+            cache.remove(0);
+        }
+        cache.push((key, targets.clone()));
+        Ok(targets)
+    }
+
+    /// Resolves the property list to grid indices (unknown names list the known ones).
+    fn property_indices(grid: &Grid, opts: &SurfaceOptions) -> Result<Vec<usize>> {
+        if opts.properties.is_empty() {
+            return Ok(vec![0]);
+        }
+        opts.properties
+            .iter()
+            .map(|p| grid.property_index(p))
+            .collect()
+    }
+
+    /// Renders every requested property from one (cached) data pass; one image per property.
+    pub fn render(&self, grid: &Grid, opts: &SurfaceOptions) -> Result<Vec<HdrImage>> {
+        opts.validate()?;
+        let props = Self::property_indices(grid, opts)?;
+        let colormap = Colormap::by_name(opts.colormap_name())?;
+        let t0 = std::time::Instant::now();
+        let data = self.data_pass(grid, opts, &props)?;
+        if std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some() {
+            eprintln!(
+                "data pass (or cache hit) {:.2} ms",
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+        }
+        (0..props.len())
+            .map(|slot| self.fringe_pass(&data, slot, opts.nu_for(slot), opts, &colormap))
+            .collect()
+    }
+
+    /// Step 2 for one property slot of a data pass.
+    fn fringe_pass(
+        &self,
+        data: &DataTargets,
+        slot: usize,
+        nu: f64,
+        opts: &SurfaceOptions,
+        colormap: &Colormap,
+    ) -> Result<HdrImage> {
+        check_nu(nu)?;
+        let (name, units, d_ref, range) = data.props[slot].clone();
+        let (lo, hi) = range.unwrap_or((d_ref, d_ref));
+        let (c_lo, c_inv, floor) = if opts.log_color && opts.mode != FringeMode::Cyclic {
+            let amax = lo.abs().max(hi.abs());
+            let amin_pos = if lo > 0.0 {
+                lo
+            } else if hi < 0.0 {
+                -hi
+            } else {
+                0.0
+            };
+            let floor = if amin_pos > 0.0 {
+                amin_pos
+            } else {
+                amax * 1e-6
+            };
+            let floor = if floor > 0.0 { floor } else { 1.0 };
+            let (a, b) = (floor.log10(), amax.max(floor).log10());
+            (a, if b > a { 1.0 / (b - a) } else { 0.0 }, floor)
+        } else if opts.absolute {
+            let (a, b) = if lo >= 0.0 {
+                (lo, hi)
+            } else if hi <= 0.0 {
+                (-hi, -lo)
+            } else {
+                (0.0, lo.abs().max(hi.abs()))
+            };
+            (a, if b > a { 1.0 / (b - a) } else { 0.0 }, 0.0)
+        } else {
+            (lo - d_ref, if hi > lo { 1.0 / (hi - lo) } else { 0.0 }, 0.0)
+        };
+        let [na, nb, nc] = split_nu(nu);
+        let params = FringeParams {
+            nu: [na, nb, nc, nu as f32],
+            refs: [
+                (nu * d_ref).rem_euclid(1.0) as f32,
+                d_ref as f32,
+                c_lo as f32,
+                c_inv as f32,
+            ],
+            shade: [opts.modulation as f32, floor as f32, 0.0, 0.0],
+            mode: [
+                slot as u32,
+                opts.mode.code(),
+                opts.absolute as u32,
+                opts.log_color as u32,
+            ],
+            dims: [data.width, data.height, LUT_SIZE as u32, 0],
+        };
+        let lut: Vec<[f32; 4]> = (0..LUT_SIZE)
+            .map(|i| {
+                let c = colormap.linear_rgb(i as f64 / (LUT_SIZE - 1) as f64);
+                [c[0] as f32, c[1] as f32, c[2] as f32, 1.0]
+            })
+            .collect();
+        let pipeline = self.fringe_pipeline(slot)?;
+        let device = &self.ctx.device;
+        use wgpu::util::DeviceExt;
+        let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("surface fringe params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let lut_buf = self.input_buffer("surface lut", bytemuck::cast_slice(&lut));
+        let (w, h) = (data.width, data.height);
+        let n = w as u64 * h as u64;
+        let mut outputs = data.outputs.lock().expect("surface outputs poisoned");
+        let staging = |label: &str, bytes: u64| {
+            self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(16),
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        };
+        let outs = outputs.get_or_insert_with(|| FringeOutputs {
+            color: self.output_buffer("surface image", n * 16),
+            value: self.output_buffer("surface value", n * 4),
+            color_staging: staging("surface image readback", n * 16),
+            value_staging: staging("surface value readback", n * 4),
+        });
+        let (out, out_value) = (&outs.color, &outs.value);
+        let bind = self.bind(
+            "surface fringe",
+            &pipeline.1,
+            &ubuf,
+            &[&data.hi, &data.rest, &data.mask, &lut_buf, out, out_value],
+        );
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline.0);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        }
+        enc.copy_buffer_to_buffer(out, 0, &outs.color_staging, 0, (n * 16).max(16));
+        enc.copy_buffer_to_buffer(out_value, 0, &outs.value_staging, 0, (n * 4).max(16));
+        let prof = std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some();
+        let t0 = std::time::Instant::now();
+        self.ctx.queue.submit([enc.finish()]);
+        if prof {
+            self.ctx.wait()?;
+            eprintln!("fringe compute {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
+        }
+        self.fringe_passes.fetch_add(1, Ordering::Relaxed);
+        let mut pixels: Vec<[f32; 4]> = read_mapped(&self.ctx, &outs.color_staging, n * 16)?;
+        if prof {
+            eprintln!("+ rgba readback {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
+        }
+        let mut values: Vec<f32> = read_mapped(&self.ctx, &outs.value_staging, n * 4)?;
+        drop(outputs);
+        if prof {
+            eprintln!(
+                "+ value readback {:.2} ms",
+                t0.elapsed().as_secs_f64() * 1e3
+            );
+        }
+        let mut fringe = Vec::with_capacity(pixels.len());
+        for (p, v) in pixels.iter_mut().zip(values.iter_mut()) {
+            if p[3] < 0.0 {
+                fringe.push(f32::NAN);
+                *v = f32::NAN;
+                *p = [0.0; 4];
+            } else {
+                fringe.push(p[3]);
+                p[3] = 1.0;
+            }
+        }
+        if prof {
+            eprintln!("+ host {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
+        }
+        let mut image = HdrImage::from_pixels(w, h, pixels);
+        let channel = if name.is_empty() {
+            "value".to_string()
+        } else {
+            name.clone()
+        };
+        let channel = if channel == "fringe" {
+            "value".to_string()
+        } else {
+            channel
+        };
+        image.extra_channels.push((channel, values));
+        image.extra_channels.push(("fringe".to_string(), fringe));
+        let u = if units.is_empty() {
+            "data units".to_string()
+        } else {
+            units
+        };
+        image.set_meta("property", name);
+        image.set_meta("nu", format!("{nu}"));
+        image.set_meta("resolution", format!("{} {u} per fringe (1/nu)", 1.0 / nu));
+        image.set_meta("mode", opts.mode.name());
+        image.set_meta("colormap", colormap.name());
+        image.set_meta("modulation", format!("{}", opts.modulation));
+        image.set_meta(
+            "data_range",
+            match range {
+                Some((a, b)) => format!("{a} {b}"),
+                None => "all missing".to_string(),
+            },
+        );
+        image.set_meta("view", data.view.clone());
+        image.set_meta(
+            "phase",
+            "f64 via d_ref + hi + rest and exact 12-bit partial products",
+        );
+        image.set_meta("adapter", self.ctx.describe());
+        Ok(image)
+    }
+}
+
+/// Maps a MAP_READ buffer the GPU has filled and copies its first `bytes` out as `T`s.
+fn read_mapped<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    staging: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<T>> {
+    let slice = staging.slice(..bytes.max(16));
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.wait()?;
+    rx.recv()
+        .map_err(|_| Error::Gpu("readback was never answered".into()))?
+        .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+    let out = {
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| Error::Gpu(format!("readback mapping failed: {e}")))?;
+        bytemuck::pod_collect_to_vec(&view[..bytes as usize])
+    };
+    staging.unmap();
+    Ok(out)
+}
+
+/// A colour bar for a surface render (a separate image): horizontal, `width × height`, left to
+/// right over the colour domain — for cyclic mode one fringe period (0 to 1/ν), otherwise the
+/// property's data range — with the fringes of ν drawn in unless the mode is direct. The
+/// resolution 1/ν and the domain are recorded in the metadata.
+pub fn colorbar(grid: &Grid, opts: &SurfaceOptions, width: u32, height: u32) -> Result<HdrImage> {
+    opts.validate()?;
+    if width == 0 || height == 0 || width > 16384 || height > 16384 {
+        return Err(Error::invalid(
+            "width",
+            "expected 1 to 16384 pixels per side",
+        ));
+    }
+    let p = SurfaceRenderer::property_indices(grid, opts)?[0];
+    let nu = opts.nu_for(0);
+    let cmap = Colormap::by_name(opts.colormap_name())?;
+    let (lo, hi) = match opts.mode {
+        FringeMode::Cyclic => (0.0, 1.0 / nu),
+        _ => grid.range(p).unwrap_or((0.0, 1.0)),
+    };
+    let (lo, hi) = if opts.absolute && opts.mode != FringeMode::Cyclic {
+        (
+            if lo < 0.0 && hi > 0.0 {
+                0.0
+            } else {
+                lo.abs().min(hi.abs())
+            },
+            lo.abs().max(hi.abs()),
+        )
+    } else {
+        (lo, hi)
+    };
+    let mut img = HdrImage::new(width, height);
+    for x in 0..width {
+        let d = lo + (hi - lo) * (x as f64 + 0.5) / width as f64;
+        let t = match opts.mode {
+            FringeMode::Cyclic => (nu * d).rem_euclid(1.0),
+            _ if opts.log_color => {
+                let floor = if lo > 0.0 { lo } else { hi.abs() * 1e-6 };
+                let (a, b) = (
+                    floor.max(f64::MIN_POSITIVE).log10(),
+                    hi.abs().max(floor).log10(),
+                );
+                if b > a {
+                    (d.abs().max(floor).log10() - a) / (b - a)
+                } else {
+                    0.0
+                }
+            }
+            _ => {
+                if hi > lo {
+                    (d - lo) / (hi - lo)
+                } else {
+                    0.0
+                }
+            }
+        };
+        let mut c = cmap.linear_rgb(t);
+        if opts.mode != FringeMode::Direct {
+            let k = (1.0 - opts.modulation) + opts.modulation * fringe_f64(nu, d);
+            c = c.map(|v| v * k);
+        }
+        for y in 0..height {
+            img.pixels[(y * width + x) as usize] = [c[0] as f32, c[1] as f32, c[2] as f32, 1.0];
+        }
+    }
+    let (name, _) = grid.property_at(p);
+    let units = grid.units(p);
+    let u = if units.is_empty() {
+        "data units"
+    } else {
+        units
+    };
+    img.set_meta("property", name);
+    img.set_meta("resolution", format!("{} {u} per fringe (1/nu)", 1.0 / nu));
+    img.set_meta("colorbar_domain", format!("{lo} {hi} {u}"));
+    img.set_meta("mode", opts.mode.name());
+    img.set_meta("colormap", cmap.name());
+    Ok(img)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nu_split_is_exact_and_short() {
+        for nu in [8.0, 1.0 / 3.0, 12345.678901, 1e-7] {
+            let [a, b, c] = split_nu(nu);
+            assert_eq!(a.to_bits() & 0xFFF, 0);
+            assert_eq!(b.to_bits() & 0xFFF, 0);
+            let sum = a as f64 + b as f64 + c as f64;
+            assert!((sum - nu).abs() <= nu * 1e-14, "{nu}: {sum}");
+        }
+    }
+
+    #[test]
+    fn bad_nu_is_an_error() {
+        for nu in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(check_nu(nu).is_err());
+        }
+    }
+}

@@ -1,0 +1,207 @@
+//! Script API for interference surfaces: `load_grid(path)`, `load_grid(path, name)`,
+//! `render_surface(grid, options)` and `surface_colorbar(grid, options)`. One `SurfaceRenderer`
+//! per script run caches the data pass, so rendering the same grid and view again with another
+//! ν, mode or colour map runs only the fringe pass. `property` may be one name (the result is one
+//! image) or an array of up to four names (the result is an array of images, all from one data
+//! pass).
+
+use super::api_render::{ScriptCamera, ScriptImage};
+use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResult};
+use super::ScriptHost;
+use crate::model::{Axis, Grid};
+use crate::render::surface::{colorbar, FringeMode, SurfaceOptions, SurfaceRenderer, SurfaceView};
+use rhai::{Dynamic, Engine, Map};
+use std::sync::{Arc, OnceLock};
+
+pub type ScriptGrid = Arc<Grid>;
+
+/// Every key `render_surface` accepts.
+pub const SURFACE_KEYS: &[&str] = &[
+    "nu",
+    "mode",
+    "colormap",
+    "property",
+    "view",
+    "width",
+    "height",
+    "modulation",
+    "absolute",
+    "log_color",
+    "exaggeration",
+    "relief",
+];
+
+fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
+    match v.clone().into_array() {
+        Ok(a) => a.iter().map(|x| num(x, field)).collect(),
+        Err(_) => Ok(vec![num(v, field)?]),
+    }
+}
+
+/// Parses the option map; the boolean says whether `property` was an array.
+fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
+    check_keys(opts, SURFACE_KEYS, "render_surface")?;
+    let mut o = SurfaceOptions::default();
+    let mut many = false;
+    for (k, v) in opts {
+        match k.as_str() {
+            "nu" => o.nu = numbers(v, "nu")?,
+            "mode" => o.mode = FringeMode::parse(&string(v, "mode")?).map_err(to_rhai)?,
+            "colormap" => o.colormap = Some(string(v, "colormap")?),
+            "property" => match v.clone().into_array() {
+                Ok(a) => {
+                    many = true;
+                    o.properties = a
+                        .iter()
+                        .map(|p| string(p, "property"))
+                        .collect::<RResult<_>>()?;
+                    if o.properties.is_empty() {
+                        return err("property", "expected at least one property name");
+                    }
+                }
+                Err(_) => o.properties = vec![string(v, "property")?],
+            },
+            "view" => {
+                o.view = if let Some(c) = v.clone().try_cast::<ScriptCamera>() {
+                    match c {
+                        ScriptCamera::Axis(Axis::Z) => SurfaceView::Map,
+                        ScriptCamera::Axis(_) => {
+                            return err("view", "a surface is seen from above: camera_axis(\"z\"), \"map\", \"perspective\" or camera_orbit(...)")
+                        }
+                        ScriptCamera::Orbit {
+                            azimuth,
+                            elevation,
+                            fov,
+                        } => SurfaceView::Orbit {
+                            azimuth,
+                            elevation,
+                            fov,
+                        },
+                        ScriptCamera::Fixed(c) => SurfaceView::Camera(c),
+                    }
+                } else {
+                    match string(v, "view")?.as_str() {
+                        "map" => SurfaceView::Map,
+                        "perspective" | "3d" => SurfaceView::Orbit {
+                            azimuth: -60.0,
+                            elevation: 35.0,
+                            fov: 40.0,
+                        },
+                        other => {
+                            return err(
+                                "view",
+                                format!(
+                                    "expected \"map\", \"perspective\" or a camera, got {other:?}"
+                                ),
+                            )
+                        }
+                    }
+                }
+            }
+            "width" => o.width = Some(int(v, "width")?.clamp(0, u32::MAX as i64) as u32),
+            "height" => o.height = Some(int(v, "height")?.clamp(0, u32::MAX as i64) as u32),
+            "modulation" => o.modulation = num(v, "modulation")?,
+            "absolute" => o.absolute = boolean(v, "absolute")?,
+            "log_color" => o.log_color = boolean(v, "log_color")?,
+            "exaggeration" => o.exaggeration = num(v, "exaggeration")?,
+            "relief" => o.relief = Some(string(v, "relief")?),
+            _ => unreachable!("checked keys"),
+        }
+    }
+    // Relief defaults to the grid's elevation in 3-D views.
+    if o.relief.is_none() && o.view != SurfaceView::Map && grid.elevation().is_some() {
+        o.relief = Some("elevation".into());
+    }
+    Ok((o, many))
+}
+
+pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+    engine.register_type_with_name::<ScriptGrid>("Grid");
+    engine.register_get("nx", |g: &mut ScriptGrid| g.nx() as i64);
+    engine.register_get("ny", |g: &mut ScriptGrid| g.ny() as i64);
+    engine.register_get("name", |g: &mut ScriptGrid| g.name().to_string());
+    engine.register_get("properties", |g: &mut ScriptGrid| -> rhai::Array {
+        g.property_names()
+            .into_iter()
+            .map(|n| Dynamic::from(n.to_string()))
+            .collect()
+    });
+
+    let h = host.clone();
+    engine.register_fn("load_grid", move |path: &str| -> RResult<ScriptGrid> {
+        let p = h.sandbox.read_path(path).map_err(to_rhai)?;
+        Ok(Arc::new(Grid::load(&p, None).map_err(to_rhai)?))
+    });
+    let h = host.clone();
+    engine.register_fn(
+        "load_grid",
+        move |path: &str, name: &str| -> RResult<ScriptGrid> {
+            let p = h.sandbox.read_path(path).map_err(to_rhai)?;
+            Ok(Arc::new(Grid::load(&p, Some(name)).map_err(to_rhai)?))
+        },
+    );
+
+    let surface: Arc<OnceLock<Arc<SurfaceRenderer>>> = Arc::new(OnceLock::new());
+    let h = host;
+    engine.register_fn(
+        "render_surface",
+        move |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
+            let (o, many) = parse_options(grid, &opts)?;
+            let renderer = match surface.get() {
+                Some(r) => r.clone(),
+                None => {
+                    let ctx = h.renderer().map_err(to_rhai)?.context().clone();
+                    surface
+                        .get_or_init(|| Arc::new(SurfaceRenderer::new(ctx)))
+                        .clone()
+                }
+            };
+            let mut images = renderer.render(grid, &o).map_err(to_rhai)?;
+            if many {
+                Ok(Dynamic::from(
+                    images
+                        .into_iter()
+                        .map(|i| Dynamic::from(Arc::new(i) as ScriptImage))
+                        .collect::<rhai::Array>(),
+                ))
+            } else {
+                Ok(Dynamic::from(Arc::new(images.remove(0)) as ScriptImage))
+            }
+        },
+    );
+    engine.register_fn("render_surface", |_: &mut ScriptGrid| -> RResult<Dynamic> {
+        err(
+            "render_surface",
+            format!(
+                "expected render_surface(grid, #{{...}}) with keys {}",
+                SURFACE_KEYS.join(", ")
+            ),
+        )
+    });
+
+    engine.register_fn(
+        "surface_colorbar",
+        |grid: &mut ScriptGrid, opts: Map| -> RResult<ScriptImage> {
+            let mut rest = opts.clone();
+            let w = rest
+                .remove("width")
+                .map(|v| int(&v, "width"))
+                .transpose()?
+                .unwrap_or(256);
+            let hgt = rest
+                .remove("height")
+                .map(|v| int(&v, "height"))
+                .transpose()?
+                .unwrap_or(16);
+            let (o, _) = parse_options(grid, &rest)?;
+            let img = colorbar(
+                grid,
+                &o,
+                w.clamp(0, 16384) as u32,
+                hgt.clamp(0, 16384) as u32,
+            )
+            .map_err(to_rhai)?;
+            Ok(Arc::new(img))
+        },
+    );
+}

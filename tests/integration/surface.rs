@@ -1,0 +1,443 @@
+//! Interference surfaces: the fringe channel against (1 + cos 2πνd)/2 for analytic fields in map
+//! view, fringe counts, f64 phase stability at ν·d ≈ 8·10⁶, four properties in one data pass,
+//! the step-1 cache, holes, constant fields and bad input — on Vulkan and GL.
+
+use crate::common::renderer;
+use hdrvis::gpu::BackendChoice;
+use hdrvis::model::Grid;
+use hdrvis::render::surface::{
+    fringe_f64, FringeMode, SurfaceOptions, SurfaceRenderer, SurfaceView,
+};
+use std::sync::Arc;
+
+const BACKENDS: [BackendChoice; 2] = [BackendChoice::Vulkan, BackendChoice::Gl];
+
+fn surface_renderer(backend: BackendChoice) -> SurfaceRenderer {
+    SurfaceRenderer::new(renderer(backend).context().clone())
+}
+
+fn channel<'a>(img: &'a hdrvis::model::HdrImage, name: &str) -> &'a [f32] {
+    &img.extra_channels
+        .iter()
+        .find(|(n, _)| n == name)
+        .unwrap_or_else(|| panic!("no channel {name}"))
+        .1
+}
+
+/// In map view at the default size, pixel (i, r) shows node (i, ny − 1 − r).
+fn node_of(grid: &Grid, px: usize, row: usize) -> usize {
+    (grid.ny() - 1 - row) * grid.nx() + px
+}
+
+fn opts(nu: f64) -> SurfaceOptions {
+    SurfaceOptions {
+        nu: vec![nu],
+        ..Default::default()
+    }
+}
+
+fn max_fringe_error(grid: &Grid, img: &hdrvis::model::HdrImage, nu: f64, prop: usize) -> f64 {
+    let f = channel(img, "fringe");
+    let (_, d) = grid.property_at(prop);
+    let mut worst: f64 = 0.0;
+    for row in 0..grid.ny() {
+        for px in 0..grid.nx() {
+            let expect = fringe_f64(nu, d[node_of(grid, px, row)]);
+            worst = worst.max((f[row * grid.nx() + px] as f64 - expect).abs());
+        }
+    }
+    worst
+}
+
+type Field = Box<dyn Fn(usize, usize) -> f64>;
+
+#[test]
+fn analytic_fields_match_closed_form_in_map_view() {
+    let (nx, ny) = (96, 64);
+    let fields: Vec<(&str, Field)> = vec![
+        ("ramp", Box::new(|i, _| 0.05 * i as f64 - 1.3)),
+        (
+            "quadratic",
+            Box::new(|i, j| {
+                let (x, y) = (i as f64 / 95.0 - 0.5, j as f64 / 63.0 - 0.5);
+                7.0 * (x * x + 0.7 * y * y)
+            }),
+        ),
+        (
+            "gaussian",
+            Box::new(|i, j| {
+                let (x, y) = (i as f64 - 40.0, j as f64 - 30.0);
+                3.0 * (-(x * x + y * y) / 300.0).exp()
+            }),
+        ),
+    ];
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        for (name, f) in &fields {
+            let g = Grid::from_fn(name, nx, ny, f).unwrap();
+            for nu in [1.0, 3.7, 25.0] {
+                let img = r.render(&g, &opts(nu)).unwrap().remove(0);
+                assert_eq!((img.width, img.height), (nx as u32, ny as u32));
+                let err = max_fringe_error(&g, &img, nu, 0);
+                assert!(err < 1e-5, "{backend:?} {name} nu {nu}: {err}");
+                // The value channel carries d, named after the property.
+                let v = channel(&img, name);
+                let d = g.property(name).unwrap();
+                assert!((v[0] as f64 - d[node_of(&g, 0, 0)]).abs() < 1e-5);
+            }
+        }
+    }
+}
+
+#[test]
+fn ramp_maxima_count_equals_nu_times_range() {
+    // d = i/(n-1) on [0, 1] along x: ν·Δd maxima (interior peaks, plus the one at d = 0).
+    let n = 1000;
+    let g = Grid::from_fn("ramp", n, 3, |i, _| i as f64 / (n - 1) as f64).unwrap();
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        for nu in [5.0, 12.0, 40.0] {
+            let img = r.render(&g, &opts(nu)).unwrap().remove(0);
+            let f = &channel(&img, "fringe")[n..2 * n];
+            let mut peaks = 0;
+            for i in 0..n {
+                let left = if i > 0 { f[i - 1] } else { f32::MIN };
+                let right = if i + 1 < n { f[i + 1] } else { f32::MIN };
+                if f[i] >= left && f[i] > right {
+                    peaks += 1;
+                }
+            }
+            // Maxima at d = k/ν for k = 0..=ν·Δd: ν·Δd + 1 including both ends.
+            assert_eq!(peaks as f64, nu + 1.0, "{backend:?} nu {nu}");
+        }
+    }
+}
+
+#[test]
+fn phase_stays_within_1e_3_of_f64_near_a_million() {
+    // d ≈ 10⁶ with variations far below f32 resolution at that magnitude; ν = 8.
+    let (nx, ny) = (128, 32);
+    let g = Grid::from_fn("d", nx, ny, |i, j| {
+        1.0e6 + 0.0371 * i as f64 + 1.3e-3 * (j as f64 * 0.7).sin() + 1e-4 * i as f64 * j as f64
+    })
+    .unwrap();
+    let wide = Grid::from_fn("wide", nx, ny, |i, j| {
+        1.0e6 * (i as f64 / 127.0) + 0.01 * j as f64
+    })
+    .unwrap();
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        for grid in [&g, &wide] {
+            let img = r.render(grid, &opts(8.0)).unwrap().remove(0);
+            let err = max_fringe_error(grid, &img, 8.0, 0);
+            assert!(err < 1e-3, "{backend:?} {}: {err}", grid.name());
+            assert!(
+                err < 1e-5,
+                "{backend:?} {}: {err} (expected far better than 1e-3)",
+                grid.name()
+            );
+        }
+    }
+}
+
+fn four_property_grid() -> Grid {
+    let (nx, ny) = (80, 50);
+    let mk = |f: &dyn Fn(f64, f64) -> f64| -> Vec<f64> {
+        (0..nx * ny)
+            .map(|k| f((k % nx) as f64, (k / nx) as f64))
+            .collect()
+    };
+    Grid::from_arrays(
+        "four",
+        nx,
+        ny,
+        vec![
+            ("ux".into(), mk(&|x, y| 0.01 * x - 0.02 * y)),
+            ("uy".into(), mk(&|x, y| (0.1 * x).sin() * (0.07 * y).cos())),
+            (
+                "uz".into(),
+                mk(&|x, y| 1e-3 * (x - 40.0).powi(2) + y * 1e-2),
+            ),
+            ("w".into(), mk(&|x, y| 5e5 + 0.3 * x + 0.11 * y)),
+        ],
+    )
+    .unwrap()
+}
+
+#[test]
+fn four_properties_in_one_pass_equal_single_renders() {
+    let g = four_property_grid();
+    let names = ["ux", "uy", "uz", "w"];
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        let mut o = opts(8.0);
+        o.properties = names.iter().map(|s| s.to_string()).collect();
+        o.nu = vec![8.0, 3.0, 20.0, 8.0];
+        o.mode = FringeMode::Modulated;
+        let before = r.counters().data_passes;
+        let all = r.render(&g, &o).unwrap();
+        assert_eq!(r.counters().data_passes, before + 1);
+        assert_eq!(all.len(), 4);
+        for (k, name) in names.iter().enumerate() {
+            let mut single = o.clone();
+            single.properties = vec![name.to_string()];
+            single.nu = vec![o.nu[k]];
+            let one = r.render(&g, &single).unwrap().remove(0);
+            for ch in ["fringe", name] {
+                let (a, b) = (channel(&all[k], ch), channel(&one, ch));
+                let worst = a
+                    .iter()
+                    .zip(b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0f32, f32::max);
+                assert!(
+                    worst <= 1e-6 * if ch == "w" { 5e5 } else { 1.0 },
+                    "{backend:?} {name} {ch}: {worst}"
+                );
+            }
+            let worst = all[k]
+                .pixels
+                .iter()
+                .zip(&one.pixels)
+                .flat_map(|(p, q)| (0..4).map(move |c| (p[c] - q[c]).abs()))
+                .fold(0f32, f32::max);
+            assert!(worst < 1e-6, "{backend:?} {name}: {worst}");
+            assert!(max_fringe_error(&g, &all[k], o.nu[k], k) < 1e-5);
+        }
+    }
+}
+
+#[test]
+fn changing_nu_or_mode_reruns_only_the_fringe_pass() {
+    let g = Arc::new(four_property_grid());
+    let r = surface_renderer(BackendChoice::Vulkan);
+    let mut o = opts(2.0);
+    o.properties = vec!["ux".into(), "uz".into()];
+    r.render(&g, &o).unwrap();
+    let c0 = r.counters();
+    assert_eq!(c0.data_passes, 1);
+    for (nu, mode, cmap) in [
+        (3.0, FringeMode::Cyclic, None),
+        (3.0, FringeMode::Modulated, Some("magma")),
+        (0.5, FringeMode::Direct, None),
+    ] {
+        o.nu = vec![nu];
+        o.mode = mode;
+        o.colormap = cmap.map(str::to_string);
+        let imgs = r.render(&g, &o).unwrap();
+        assert!(max_fringe_error(&g, &imgs[1], nu, 2) < 1e-5);
+    }
+    let c1 = r.counters();
+    assert_eq!(c1.data_passes, 1, "ν/mode changes must not re-run step 1");
+    assert_eq!(c1.fringe_passes, c0.fringe_passes + 6);
+    // A different size or view does.
+    o.width = Some(40);
+    r.render(&g, &o).unwrap();
+    assert_eq!(r.counters().data_passes, 2);
+}
+
+#[test]
+fn nan_holes_are_missing_and_do_not_touch_neighbours() {
+    let (nx, ny) = (32, 24);
+    let hole =
+        |i: usize, j: usize| (10..14).contains(&i) && (5..8).contains(&j) || (i, j) == (0, 0);
+    let g = Grid::from_fn("h", nx, ny, |i, j| {
+        if hole(i, j) {
+            f64::NAN
+        } else {
+            0.1 * i as f64 + 0.03 * j as f64
+        }
+    })
+    .unwrap();
+    let nu = 4.0;
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        // Also at a non-native size (bilinear between nodes): no NaN may leak.
+        let img = r.render(&g, &opts(nu)).unwrap().remove(0);
+        let f = channel(&img, "fringe");
+        let v = channel(&img, "h");
+        let d = g.property("h").unwrap();
+        for row in 0..ny {
+            for px in 0..nx {
+                let k = row * nx + px;
+                let node = node_of(&g, px, row);
+                if d[node].is_nan() {
+                    assert!(f[k].is_nan() && v[k].is_nan() && img.pixels[k][3] == 0.0);
+                } else {
+                    assert!((f[k] as f64 - fringe_f64(nu, d[node])).abs() < 1e-5);
+                    assert_eq!(img.pixels[k][3], 1.0);
+                    assert!(img.pixels[k].iter().all(|c| c.is_finite()));
+                }
+            }
+        }
+        let mut o = opts(nu);
+        o.width = Some(77);
+        o.height = Some(50);
+        o.mode = FringeMode::Modulated;
+        let big = r.render(&g, &o).unwrap().remove(0);
+        assert!(big.pixels.iter().all(|p| p.iter().all(|c| c.is_finite())));
+        let holes = big.pixels.iter().filter(|p| p[3] == 0.0).count();
+        assert!(holes > 0 && holes < 77 * 50 / 10, "{holes}");
+        let vals = channel(&big, "h");
+        let (lo, hi) = g.range(0).unwrap();
+        assert!(vals
+            .iter()
+            .filter(|v| v.is_finite())
+            .all(|&v| v as f64 >= lo - 1e-5 && v as f64 <= hi + 1e-5));
+    }
+}
+
+#[test]
+fn constant_field_renders_one_fringe_value() {
+    let g = Grid::from_fn("c", 16, 16, |_, _| 0.3).unwrap();
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        for mode in [
+            FringeMode::Cyclic,
+            FringeMode::Modulated,
+            FringeMode::Direct,
+        ] {
+            let mut o = opts(1.0);
+            o.mode = mode;
+            o.log_color = mode == FringeMode::Modulated;
+            let img = r.render(&g, &o).unwrap().remove(0);
+            let expect = fringe_f64(1.0, 0.3);
+            assert!(channel(&img, "fringe")
+                .iter()
+                .all(|&f| (f as f64 - expect).abs() < 1e-5));
+            assert!(img
+                .pixels
+                .iter()
+                .all(|p| p.iter().all(|c| c.is_finite()) && p[3] == 1.0));
+        }
+    }
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let g = four_property_grid();
+    let r = surface_renderer(BackendChoice::Vulkan);
+    for nu in [0.0, -2.0, f64::NAN, f64::INFINITY] {
+        let e = r.render(&g, &opts(nu)).unwrap_err().to_string();
+        assert!(e.contains("nu"), "{e}");
+    }
+    let mut o = opts(1.0);
+    o.properties = vec!["uq".into()];
+    let e = r.render(&g, &o).unwrap_err().to_string();
+    assert!(e.contains("uq") && e.contains("ux, uy, uz, w"), "{e}");
+    o.properties = vec!["ux".into(); 5];
+    assert!(r.render(&g, &o).is_err());
+    let e = Grid::from_arrays(
+        "m",
+        4,
+        4,
+        vec![("a".into(), vec![0.0; 16]), ("b".into(), vec![0.0; 12])],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("\"b\"") && e.contains("12"), "{e}");
+    assert_eq!(r.counters().data_passes, 0);
+}
+
+#[test]
+fn perspective_view_with_relief_renders_lit_fringes() {
+    let (nx, ny) = (64, 64);
+    let g = Grid::from_fn("z", nx, ny, |i, j| {
+        let (x, y) = (i as f64 - 32.0, j as f64 - 32.0);
+        10.0 * (-(x * x + y * y) / 200.0).exp()
+    })
+    .unwrap();
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        let mut o = opts(0.5);
+        o.view = SurfaceView::Orbit {
+            azimuth: 30.0,
+            elevation: 35.0,
+            fov: 40.0,
+        };
+        o.relief = Some("z".into());
+        o.exaggeration = 2.0;
+        o.width = Some(96);
+        o.height = Some(72);
+        let img = r.render(&g, &o).unwrap().remove(0);
+        let covered = img.pixels.iter().filter(|p| p[3] == 1.0).count();
+        assert!(covered > 96 * 72 / 10, "{backend:?}: {covered} pixels hit");
+        // Fringe intensity is still (1 + cos 2πνd)/2 of the value found at each pixel.
+        let (f, v) = (channel(&img, "fringe"), channel(&img, "z"));
+        for k in 0..f.len() {
+            if f[k].is_finite() {
+                assert!((f[k] as f64 - fringe_f64(0.5, v[k] as f64)).abs() < 1e-4);
+            }
+        }
+    }
+}
+
+#[test]
+fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
+    use hdrvis::datasets::generate::OkadaJob;
+    let dir = tempfile::tempdir().unwrap();
+    let nc = dir.path().join("okada.nc");
+    let job = OkadaJob {
+        n: 65,
+        extent_m: 2.0e5,
+        ..Default::default()
+    };
+    job.run(&nc, &mut |_| {}).unwrap();
+    let grid = Grid::load(&nc, None).unwrap();
+    assert_eq!(grid.property_names(), vec!["ux", "uy", "uz"]);
+    assert_eq!(grid.units(2), "m");
+    let script = r#"
+        let g = load_grid("okada.nc");
+        let imgs = render_surface(g, #{ nu: 8, mode: "cyclic", property: ["ux", "uy", "uz"] });
+        for i in 0..3 { save_exr(imgs[i], `u${i}.exr`); }
+        let one = render_surface(g, #{ nu: 2.5, mode: "modulated", property: "uz", log_color: true, absolute: true });
+        save_exr(one, "uz_mod.exr");
+        let bar = surface_colorbar(g, #{ nu: 8, mode: "cyclic", property: "uz", width: 64, height: 4 });
+        save_exr(bar, "bar.exr");
+        let persp = render_surface(g, #{ nu: 8, property: "uz", view: camera_orbit(30, 40), relief: "uz", exaggeration: 20000, width: 64, height: 48 });
+        save_exr(persp, "persp.exr");
+    "#;
+    let out = dir.path().join("out");
+    let mut o = hdrvis::script::ScriptOptions::new(&out);
+    o.backend = BackendChoice::Vulkan;
+    let report = hdrvis::script::run_script_source(script, "t.rhai", dir.path(), &o).unwrap();
+    assert_eq!(report.written.len(), 6);
+    for (i, name) in ["ux", "uy", "uz"].iter().enumerate() {
+        let img = hdrvis::io::exr::read_exr(&out.join(format!("u{i}.exr"))).unwrap();
+        let f: Vec<f64> = channel(&img, "fringe").iter().map(|&v| v as f64).collect();
+        let v = channel(&img, name);
+        let d = grid.property(name).unwrap();
+        assert_eq!(f.len(), 65 * 65);
+        for row in 0..65 {
+            for px in 0..65 {
+                let k = row * 65 + px;
+                let node = node_of(&grid, px, row);
+                assert!(
+                    (f[k] - fringe_f64(8.0, d[node])).abs() < 1e-5,
+                    "{name} {px},{row}"
+                );
+                assert!((v[k] as f64 - d[node]).abs() < 1e-6);
+            }
+        }
+    }
+    let bar = hdrvis::io::exr::read_exr(&out.join("bar.exr")).unwrap();
+    assert_eq!((bar.width, bar.height), (64, 4));
+    let e = hdrvis::script::run_script_source(
+        r#"let g = load_grid("okada.nc"); render_surface(g, #{ nu: 1, colour: "x" });"#,
+        "t.rhai",
+        dir.path(),
+        &o,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("colour") && e.contains("log_color"), "{e}");
+    let e = hdrvis::script::run_script_source(
+        r#"let g = load_grid("okada.nc"); render_surface(g, #{ nu: 1, property: "uw" });"#,
+        "t.rhai",
+        dir.path(),
+        &o,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("uw") && e.contains("ux, uy, uz"), "{e}");
+}
