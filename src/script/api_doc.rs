@@ -42,6 +42,7 @@ pub const AREAS: &[&str] = &[
 pub const API: &[ApiEntry] = &[
     e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x) or .vti, relative to the script's folder."),
     e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3: #{n, seed, field: \"temperature\"|\"fluctuation\"|\"viscosity\", plumes, slabs}; outside the shell is missing (NaN)."),
+    e("datasets", "generate", &["kind: string", "options: map"], "string", "Path of a cached NetCDF dataset, generated on a miss: \"okada\" #{strike, dip, rake, slip, length, width, depth, depth_ref, extent, n} (ux, uy, uz), \"tsunami\" #{n, extent, duration, boundary} (max_abs_eta, arrival_time, depth), \"mantle\" #{n, seed, field, plumes, slabs}."),
     e("datasets", "volume_stats", &["volume: Volume"], "map", "#{min, max, min_positive, finite, missing} over the finite voxels."),
     e("datasets", "get$name", &["volume: Volume"], "string", "volume.name (grids have .name too)"),
     e("datasets", "get$dims", &["volume: Volume"], "array", "volume.dims: [nx, ny, nz]"),

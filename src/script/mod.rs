@@ -3,6 +3,7 @@
 //! Paths a script reads resolve against its own folder and must stay inside the script folder,
 //! the output folder or folders the user allowed; outputs go only under the output folder.
 
+mod api_datasets;
 pub mod api_doc;
 mod api_post;
 mod api_render;
@@ -144,6 +145,7 @@ pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
     engine.disable_symbol("eval");
     api_render::register(&mut engine, host.clone());
     api_post::register(&mut engine, host.clone());
+    api_datasets::register(&mut engine);
     api_surface::register(&mut engine, host);
     engine
 }
@@ -186,7 +188,10 @@ pub fn run_script_source(
     script_dir: &Path,
     opts: &ScriptOptions,
 ) -> Result<ScriptReport> {
-    let sandbox = Sandbox::new(script_dir, &opts.out_dir, &opts.allowed_paths)?;
+    // Generated datasets live in the cache; scripts read them through `generate`.
+    let mut readable = opts.allowed_paths.clone();
+    readable.push(crate::datasets::cache::cache_dir());
+    let sandbox = Sandbox::new(script_dir, &opts.out_dir, &readable)?;
     let mut sets = HashMap::new();
     for (k, v) in &opts.sets {
         sets.insert(k.clone(), v.clone());
