@@ -308,6 +308,10 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         },
     );
 
+    engine.register_fn("preview", |img: &mut ScriptImage| -> RResult<()> {
+        preview(img).map_err(to_rhai)
+    });
+
     let h = host.clone();
     engine.register_fn("already_done", move |path: &str| -> RResult<bool> {
         Ok(h.already_done(&h.sandbox.write_path(path).map_err(to_rhai)?))
@@ -356,4 +360,30 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             }
         },
     );
+}
+
+/// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal
+/// speaks them, else half blocks); a no-op otherwise, so scripts can call it in batch runs.
+pub fn preview(img: &HdrImage) -> crate::Result<()> {
+    use std::io::IsTerminal;
+    if !std::io::stdout().is_terminal() || img.width == 0 || img.height == 0 {
+        return Ok(());
+    }
+    // Display-referred images show as they are; HDR images as the plain 0 EV view.
+    let bytes: Vec<u8> = img
+        .pixels
+        .iter()
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .map(|v| crate::io::png::encode_srgb8(v as f64))
+        .collect();
+    let rgb = image::RgbImage::from_raw(img.width, img.height, bytes)
+        .ok_or_else(|| crate::Error::invalid("preview", "image buffer has the wrong size"))?;
+    let config = viuer::Config {
+        absolute_offset: false,
+        width: Some(60),
+        ..Default::default()
+    };
+    viuer::print(&image::DynamicImage::ImageRgb8(rgb), &config)
+        .map(|_| ())
+        .map_err(|e| crate::Error::invalid("preview", format!("terminal preview failed: {e}")))
 }

@@ -381,3 +381,31 @@ fn sweep_killed_midway_resumes_to_the_same_files() {
         image::open(d.join("part/sweep").join(name)).unwrap();
     }
 }
+
+#[test]
+fn derived_fields_subsets_presets_and_preview() {
+    let dir = tempfile::tempdir().unwrap();
+    write_volume(dir.path());
+    // The script checks its own numbers and throws on a mismatch.
+    let script = r#"
+        let v = load_volume("blob.npy");
+        let s = volume_stats(v);
+        let l = volume_stats(volume_log10(v));
+        if (l.max - s.max.log()).abs() > 1e-5 { throw `log10 max ${l.max}`; }
+        let m = volume_stats(volume_magnitude([v, v, v]));
+        if (m.max - s.max * 3.0.sqrt()).abs() > 1e-5 { throw `magnitude max ${m.max}`; }
+        let a = volume_stats(volume_abs(v));
+        if a.min < 0.0 { throw "abs"; }
+        let sub = volume_subset(v, [2, 3, 4], [10, 9, 8]);
+        if sub.dims != [8, 6, 4] { throw `subset dims ${sub.dims}`; }
+        let img = render_volume(sub, #{ tf: tf_preset("log-inferno"), width: 16, height: 16 });
+        preview(img);
+        save_exr(img, "sub.exr");
+    "#;
+    std::fs::write(dir.path().join("d.rhai"), script).unwrap();
+    let (code, _, stderr) = hdrvis(&["run", "d.rhai", "--out", "o"], dir.path());
+    assert_eq!(code, 0, "{stderr}");
+    std::fs::write(dir.path().join("e.rhai"), "tf_preset(\"rainbowish\")").unwrap();
+    let (code, _, stderr) = hdrvis(&["run", "e.rhai"], dir.path());
+    assert_one_line_error(code, &stderr, "log-inferno");
+}
