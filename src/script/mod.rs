@@ -6,6 +6,7 @@
 mod api_datasets;
 pub mod api_doc;
 mod api_fields;
+mod api_grids;
 mod api_post;
 mod api_render;
 mod api_surface;
@@ -148,6 +149,7 @@ pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
     api_post::register(&mut engine, host.clone());
     api_datasets::register(&mut engine);
     api_fields::register(&mut engine);
+    api_grids::register(&mut engine);
     api_surface::register(&mut engine, host);
     engine
 }

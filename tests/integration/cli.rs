@@ -409,3 +409,36 @@ fn derived_fields_subsets_presets_and_preview() {
     let (code, _, stderr) = hdrvis(&["run", "e.rhai"], dir.path());
     assert_one_line_error(code, &stderr, "log-inferno");
 }
+
+#[test]
+fn grid_statistics_derived_properties_and_subsets() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = r#"
+        let g = load_grid(generate("okada", #{ n: 41, extent: 200000.0 }));
+        let s = grid_stats(g, "uz");
+        if s.finite != 41 * 41 || s.missing != 0 { throw `stats ${s}`; }
+        let m = grid_magnitude(g, ["ux", "uy", "uz"], "u");
+        let ms = grid_stats(m, "u");
+        if ms.min < 0.0 || ms.max < s.max || ms.max < -s.min { throw `magnitude ${ms}`; }
+        let l = grid_derive(m, "u", "log10", "log_u");
+        if (grid_stats(l, "log_u").max - ms.max.log()).abs() > 1e-9 { throw "log10"; }
+        let sub = grid_subset(l, [10, 5], [30, 25]);
+        if sub.nx != 20 || sub.ny != 20 { throw `subset ${sub.nx} x ${sub.ny}`; }
+        if !sub.properties.contains("log_u") { throw "properties"; }
+        save_exr(render_surface(sub, #{ property: "u", nu: 4.0 }), "sub.exr");
+    "#;
+    std::fs::write(dir.path().join("g.rhai"), script).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(["run", "g.rhai", "--out", "o"])
+        .env("HDRVIS_CACHE", dir.path().join("cache"))
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let img = hdrvis::io::exr::read_exr(&dir.path().join("o/sub.exr")).unwrap();
+    assert_eq!((img.width, img.height), (20, 20));
+}
