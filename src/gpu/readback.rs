@@ -51,7 +51,17 @@ pub fn read_rgba32f_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Result
 
 /// Maps a MAP_READ buffer and copies its contents out.
 pub fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
-    let slice = buffer.slice(..);
+    read_mapped(ctx, buffer, buffer.size())
+}
+
+/// Maps a MAP_READ buffer the GPU has filled and copies its first `bytes` out as `T`s: the one
+/// readback path of the renderers and the tone mapper.
+pub fn read_mapped<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<T>> {
+    let slice = buffer.slice(..bytes.max(16).min(buffer.size()));
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
@@ -60,10 +70,12 @@ pub fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
     rx.recv()
         .map_err(|_| Error::Gpu("readback was never answered".into()))?
         .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
-    let data = slice
-        .get_mapped_range()
-        .map_err(|e| Error::Gpu(format!("readback mapping failed: {e}")))?
-        .to_vec();
+    let out = {
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| Error::Gpu(format!("readback mapping failed: {e}")))?;
+        bytemuck::pod_collect_to_vec(&view[..bytes.min(view.len() as u64) as usize])
+    };
     buffer.unmap();
-    Ok(data)
+    Ok(out)
 }

@@ -941,11 +941,13 @@ impl SurfaceRenderer {
             eprintln!("fringe compute {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
         }
         self.fringe_passes.fetch_add(1, Ordering::Relaxed);
-        let mut pixels: Vec<[f32; 4]> = read_mapped(&self.ctx, &outs.color_staging, n * 16)?;
+        let mut pixels: Vec<[f32; 4]> =
+            crate::gpu::readback::read_mapped(&self.ctx, &outs.color_staging, n * 16)?;
         if prof {
             eprintln!("+ rgba readback {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
         }
-        let mut values: Vec<f32> = read_mapped(&self.ctx, &outs.value_staging, n * 4)?;
+        let mut values: Vec<f32> =
+            crate::gpu::readback::read_mapped(&self.ctx, &outs.value_staging, n * 4)?;
         drop(outputs);
         if prof {
             eprintln!(
@@ -1006,31 +1008,6 @@ impl SurfaceRenderer {
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
     }
-}
-
-/// Maps a MAP_READ buffer the GPU has filled and copies its first `bytes` out as `T`s.
-fn read_mapped<T: bytemuck::Pod>(
-    ctx: &GpuContext,
-    staging: &wgpu::Buffer,
-    bytes: u64,
-) -> Result<Vec<T>> {
-    let slice = staging.slice(..bytes.max(16));
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.wait()?;
-    rx.recv()
-        .map_err(|_| Error::Gpu("readback was never answered".into()))?
-        .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
-    let out = {
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| Error::Gpu(format!("readback mapping failed: {e}")))?;
-        bytemuck::pod_collect_to_vec(&view[..bytes as usize])
-    };
-    staging.unmap();
-    Ok(out)
 }
 
 /// A colour bar for a surface render (a separate image): horizontal, `width × height`, left to

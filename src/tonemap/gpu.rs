@@ -528,24 +528,7 @@ impl Recording<'_> {
         if let Some(e) = invalid {
             return Err(Error::Gpu(format!("tone-mapping pass failed: {e}")));
         }
-        // Mapped ranges are aligned, so the pixels are cast in place and copied out once.
-        let slice = staging.slice(..n * 16);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        ctx.wait()?;
-        rx.recv()
-            .map_err(|_| Error::Gpu("readback was never answered".into()))?
-            .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
-        let pixels = {
-            let view = slice
-                .get_mapped_range()
-                .map_err(|e| Error::Gpu(format!("readback mapping failed: {e}")))?;
-            bytemuck::cast_slice::<u8, [f32; 4]>(&view).to_vec()
-        };
-        staging.unmap();
-        Ok(pixels)
+        crate::gpu::readback::read_mapped::<[f32; 4]>(ctx, &staging, n * 16)
     }
 }
 
