@@ -3,6 +3,7 @@
 //! fallback. Capabilities that change how hdrvis renders — float32 filtering, f64 and f16 in
 //! shaders, texture limits — are detected here, and every missing one has a working path.
 
+pub mod layout;
 pub mod readback;
 pub mod shader;
 

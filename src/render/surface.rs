@@ -348,32 +348,6 @@ pub struct SurfaceRenderer {
     fringe_passes: AtomicU64,
 }
 
-fn buffer_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn uniform_entry() -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding: 0,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 impl SurfaceRenderer {
     pub fn new(ctx: Arc<GpuContext>) -> Self {
         SurfaceRenderer {
@@ -461,14 +435,14 @@ impl SurfaceRenderer {
             return Ok(p.clone());
         }
         let entries = [
-            uniform_entry(),
-            buffer_entry(1, true),
-            buffer_entry(2, true),
-            buffer_entry(3, true),
-            buffer_entry(4, true),
-            buffer_entry(5, false),
-            buffer_entry(6, false),
-            buffer_entry(7, false),
+            crate::gpu::layout::uniform_buffer(0),
+            crate::gpu::layout::storage_buffer(1, true),
+            crate::gpu::layout::storage_buffer(2, true),
+            crate::gpu::layout::storage_buffer(3, true),
+            crate::gpu::layout::storage_buffer(4, true),
+            crate::gpu::layout::storage_buffer(5, false),
+            crate::gpu::layout::storage_buffer(6, false),
+            crate::gpu::layout::storage_buffer(7, false),
         ];
         let p = self.build(
             "surface_data.wgsl",
@@ -492,13 +466,13 @@ impl SurfaceRenderer {
             return Ok(p.clone());
         }
         let entries = [
-            uniform_entry(),
-            buffer_entry(1, true),
-            buffer_entry(2, true),
-            buffer_entry(3, true),
-            buffer_entry(4, true),
-            buffer_entry(5, false),
-            buffer_entry(6, false),
+            crate::gpu::layout::uniform_buffer(0),
+            crate::gpu::layout::storage_buffer(1, true),
+            crate::gpu::layout::storage_buffer(2, true),
+            crate::gpu::layout::storage_buffer(3, true),
+            crate::gpu::layout::storage_buffer(4, true),
+            crate::gpu::layout::storage_buffer(5, false),
+            crate::gpu::layout::storage_buffer(6, false),
         ];
         let p = self.build(
             "surface_fringe.wgsl",
