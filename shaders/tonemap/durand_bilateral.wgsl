@@ -24,18 +24,9 @@
 //                                       0 missing, 1 black, 2 positive luminance
 //   @binding(13) base_range  storage, read_write  vec4<f32>         (min B, max B, count, 0)
 
-struct ToneMapParams {
-    width: u32, height: u32, op: u32, bins: u32,
-    exposure_ev: f32, offset: f32, inv_gamma: f32, saturation: f32,
-    key: f32, white: f32, bias: f32, ld_max: f32,
-    ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
-    sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
-    pass_index: u32, sigma: f32, radius: u32, direction: u32,
-    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
-}
+#include "shared/tonemap_common.wgsl"
 
 const WORKGROUP: u32 = 256u;
-const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 const LOG10_E: f32 = 0.4342944819032518;
 const LN10: f32 = 2.302585092994046;
 const LOW: f32 = -3.0e38;
@@ -49,15 +40,6 @@ const HIGH: f32 = 3.0e38;
 @group(0) @binding(13) var<storage, read_write> base_range: vec4<f32>;
 
 var<workgroup> shared_acc: array<vec4<f32>, WORKGROUP>;
-
-fn is_missing(p: vec4<f32>) -> bool {
-    let exponent = bitcast<vec4<u32>>(p) & vec4<u32>(0x7f800000u);
-    return any(exponent == vec4<u32>(0x7f800000u));
-}
-
-fn pixel_index(id: vec3<u32>, groups: vec3<u32>) -> u32 {
-    return id.x + id.y * groups.x * 256u;
-}
 
 // (log10 luminance, kind) of a pixel; exposure only shifts l and cancels in the result.
 fn log_luminance(p: vec4<f32>) -> vec2<f32> {
@@ -160,23 +142,6 @@ fn range_finish(@builtin(local_invocation_index) local: u32) {
     if local == 0u {
         base_range = vec4<f32>(total.w, total.z, total.y, 0.0);
     }
-}
-
-fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
-    var ratio = colour / y;
-    if params.saturation != 1.0 {
-        let powered = pow(ratio, vec3<f32>(params.saturation));
-        ratio = select(powered, vec3<f32>(0.0), ratio <= vec3<f32>(0.0));
-        if params.saturation == 0.0 {
-            ratio = vec3<f32>(1.0);
-        }
-    }
-    let v = clamp(ratio * ld + params.offset, vec3<f32>(0.0), vec3<f32>(1.0));
-    if params.inv_gamma == 1.0 {
-        return v;
-    }
-    // The select discards pow's indeterminate value at 0.
-    return select(pow(v, vec3<f32>(params.inv_gamma)), vec3<f32>(0.0), v <= vec3<f32>(0.0));
 }
 
 @compute @workgroup_size(256)

@@ -15,17 +15,8 @@
 //   @binding(2)  output   storage, read_write  array<vec4<f32>>
 //   @binding(14) lut      storage, read        array<vec4<f32>>  (>= 2 entries)
 
-struct ToneMapParams {
-    width: u32, height: u32, op: u32, bins: u32,
-    exposure_ev: f32, offset: f32, inv_gamma: f32, saturation: f32,
-    key: f32, white: f32, bias: f32, ld_max: f32,
-    ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
-    sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
-    pass_index: u32, sigma: f32, radius: u32, direction: u32,
-    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
-}
+#include "shared/tonemap_common.wgsl"
 
-const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 const LOG10_2: f32 = 0.3010299956639812;
 const LOG10_E: f32 = 0.4342944819032518;
 const MISSING_GREY: f32 = 0.2;
@@ -34,11 +25,6 @@ const MISSING_GREY: f32 = 0.2;
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> output: array<vec4<f32>>;
 @group(0) @binding(14) var<storage, read> lut: array<vec4<f32>>;
-
-fn is_missing(p: vec4<f32>) -> bool {
-    let exponent = bitcast<vec4<u32>>(p) & vec4<u32>(0x7f800000u);
-    return any(exponent == vec4<u32>(0x7f800000u));
-}
 
 fn colour_map(t: f32) -> vec4<f32> {
     let last = arrayLength(&lut) - 1u;

@@ -19,19 +19,8 @@
 //   @binding(3) stats   storage, read        LuminanceStats
 //   @binding(4) cdf     storage, read        array<f32>, bins + 1 entries (cdf[0] < 0: linear)
 
-struct ToneMapParams {
-    width: u32, height: u32, op: u32, bins: u32,
-    exposure_ev: f32, offset: f32, inv_gamma: f32, saturation: f32,
-    key: f32, white: f32, bias: f32, ld_max: f32,
-    ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
-    sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
-    pass_index: u32, sigma: f32, radius: u32, direction: u32,
-    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
-}
+#include "shared/tonemap_common.wgsl"
 
-struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
-
-const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 const LN2: f32 = 0.6931471805599453;
 const LN10: f32 = 2.302585092994046;
 // ln of the largest L kept finite after exp (e^88 = 1.65e38 < f32 max).
@@ -42,11 +31,6 @@ const MAX_LOG: f32 = 88.0;
 @group(0) @binding(2) var<storage, read_write> output: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> stats: LuminanceStats;
 @group(0) @binding(4) var<storage, read> cdf: array<f32>;
-
-fn is_missing(p: vec4<f32>) -> bool {
-    let exponent = bitcast<vec4<u32>>(p) & vec4<u32>(0x7f800000u);
-    return any(exponent == vec4<u32>(0x7f800000u));
-}
 
 // ln(1 + e^t) without overflow for large t or cancellation for small e^t.
 fn ln1p_exp(t: f32) -> f32 {
@@ -115,25 +99,6 @@ fn display_luminance(log_lw: f32) -> f32 {
         case 4u: { return aces(log_lw); }
         default: { return 0.0; }
     }
-}
-
-// (C / L_w)^s * L_d, + offset, clamped, ^(1 / gamma). pow(0, y) is indeterminate in WGSL,
-// hence the selects.
-fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
-    var ratio = colour / y;
-    if params.saturation != 1.0 {
-        let powered = pow(ratio, vec3<f32>(params.saturation));
-        ratio = select(powered, vec3<f32>(0.0), ratio <= vec3<f32>(0.0));
-        if params.saturation == 0.0 {
-            ratio = vec3<f32>(1.0);
-        }
-    }
-    let v = clamp(ratio * ld + params.offset, vec3<f32>(0.0), vec3<f32>(1.0));
-    if params.inv_gamma == 1.0 {
-        return v;
-    }
-    // The select discards pow's indeterminate value at 0.
-    return select(pow(v, vec3<f32>(params.inv_gamma)), vec3<f32>(0.0), v <= vec3<f32>(0.0));
 }
 
 @compute @workgroup_size(256)

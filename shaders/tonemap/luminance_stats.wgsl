@@ -16,20 +16,9 @@
 //   @binding(6) partials  storage, read_write  array<vec4<f32>>, exactly G elements:
 //                         (sum ln L, count, max ln L, min ln L) per workgroup
 
-struct ToneMapParams {
-    width: u32, height: u32, op: u32, bins: u32,
-    exposure_ev: f32, offset: f32, inv_gamma: f32, saturation: f32,
-    key: f32, white: f32, bias: f32, ld_max: f32,
-    ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
-    sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
-    pass_index: u32, sigma: f32, radius: u32, direction: u32,
-    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
-}
-
-struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
+#include "shared/tonemap_common.wgsl"
 
 const WORKGROUP: u32 = 256u;
-const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 const LN2: f32 = 0.6931471805599453;
 // Stand-ins for -inf / +inf (WGSL has no infinite literals).
 const LOW: f32 = -3.0e38;
@@ -41,12 +30,6 @@ const HIGH: f32 = 3.0e38;
 @group(0) @binding(6) var<storage, read_write> partials: array<vec4<f32>>;
 
 var<workgroup> shared_acc: array<vec4<f32>, WORKGROUP>;
-
-// Inf and NaN have an all-ones exponent; testing bits is immune to fast-math NaN folding.
-fn is_missing(p: vec4<f32>) -> bool {
-    let exponent = bitcast<vec4<u32>>(p) & vec4<u32>(0x7f800000u);
-    return any(exponent == vec4<u32>(0x7f800000u));
-}
 
 fn combine(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
     return vec4<f32>(a.x + b.x, a.y + b.y, max(a.z, b.z), min(a.w, b.w));

@@ -19,21 +19,10 @@
 //   @binding(4) cdf     storage, read_write  array<f32>, >= bins + 1    (ceiling_cdf)
 //   @binding(5) counts  storage, read_write  array<atomic<u32>, 256>
 
-struct ToneMapParams {
-    width: u32, height: u32, op: u32, bins: u32,
-    exposure_ev: f32, offset: f32, inv_gamma: f32, saturation: f32,
-    key: f32, white: f32, bias: f32, ld_max: f32,
-    ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
-    sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
-    pass_index: u32, sigma: f32, radius: u32, direction: u32,
-    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
-}
-
-struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
+#include "shared/tonemap_common.wgsl"
 
 const MAX_BINS: u32 = 256u;
 const WORKGROUP: u32 = 256u;
-const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 const LN2: f32 = 0.6931471805599453;
 const TOLERANCE: f32 = 0.025;
 const MAX_ITERATIONS: u32 = 100u;
@@ -45,11 +34,6 @@ const MAX_ITERATIONS: u32 = 100u;
 @group(0) @binding(5) var<storage, read_write> counts: array<atomic<u32>, MAX_BINS>;
 
 var<workgroup> local_counts: array<atomic<u32>, MAX_BINS>;
-
-fn is_missing(p: vec4<f32>) -> bool {
-    let exponent = bitcast<vec4<u32>>(p) & vec4<u32>(0x7f800000u);
-    return any(exponent == vec4<u32>(0x7f800000u));
-}
 
 @compute @workgroup_size(256)
 fn histogram(

@@ -25,6 +25,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/shared/optics.wgsl"),
     ),
     (
+        "shared/tonemap_common.wgsl",
+        include_str!("../../shaders/shared/tonemap_common.wgsl"),
+    ),
+    (
         "tonemap/luminance_stats.wgsl",
         include_str!("../../shaders/tonemap/luminance_stats.wgsl"),
     ),

@@ -1195,7 +1195,9 @@ mod tests {
             if path.extension().and_then(|e| e.to_str()) != Some("wgsl") {
                 continue;
             }
-            let source = std::fs::read_to_string(&path).unwrap();
+            // Through the project's loader, which resolves `#include "shared/..."`.
+            let name = format!("tonemap/{}", path.file_name().unwrap().to_string_lossy());
+            let source = crate::gpu::shader::load(&name, &[]).unwrap();
             let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| {
                 panic!(
                     "{}",

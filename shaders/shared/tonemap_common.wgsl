@@ -1,0 +1,44 @@
+// Shared by the tone-mapping shaders (shaders/tonemap/). ToneMapParams and LuminanceStats
+// mirror src/tonemap/params.rs — keep in sync.
+
+struct ToneMapParams {
+    width: u32, height: u32, op: u32, bins: u32,
+    exposure_ev: f32, offset: f32, inv_gamma: f32, saturation: f32,
+    key: f32, white: f32, bias: f32, ld_max: f32,
+    ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
+    sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
+    pass_index: u32, sigma: f32, radius: u32, direction: u32,
+    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
+}
+
+struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
+
+const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
+
+fn is_missing(p: vec4<f32>) -> bool {
+    let exponent = bitcast<vec4<u32>>(p) & vec4<u32>(0x7f800000u);
+    return any(exponent == vec4<u32>(0x7f800000u));
+}
+
+fn pixel_index(id: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return id.x + id.y * groups.x * 256u;
+}
+
+// (C / L_w)^s * L_d, + offset, clamped, ^(1 / gamma). pow(0, y) is indeterminate in WGSL,
+// hence the selects.
+fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
+    var ratio = colour / y;
+    if params.saturation != 1.0 {
+        let powered = pow(ratio, vec3<f32>(params.saturation));
+        ratio = select(powered, vec3<f32>(0.0), ratio <= vec3<f32>(0.0));
+        if params.saturation == 0.0 {
+            ratio = vec3<f32>(1.0);
+        }
+    }
+    let v = clamp(ratio * ld + params.offset, vec3<f32>(0.0), vec3<f32>(1.0));
+    if params.inv_gamma == 1.0 {
+        return v;
+    }
+    // The select discards pow's indeterminate value at 0.
+    return select(pow(v, vec3<f32>(params.inv_gamma)), vec3<f32>(0.0), v <= vec3<f32>(0.0));
+}
