@@ -311,6 +311,9 @@ struct DataTargets {
     view: String,
     /// Fringe-pass outputs and their staging copies, reused by every step-2 run on these targets.
     outputs: Mutex<Option<FringeOutputs>>,
+    /// Per property slot, the value channel as returned (missing pixels NaN): it depends on the
+    /// data pass only, so step 2 reads it back once and a ν or mode change reuses it.
+    values: Mutex<HashMap<usize, Vec<f32>>>,
 }
 
 struct FringeOutputs {
@@ -761,6 +764,7 @@ impl SurfaceRenderer {
             props: meta,
             view: opts.view.describe(),
             outputs: Mutex::new(None),
+            values: Mutex::new(HashMap::new()),
         });
         let mut cache = self.cache.lock().expect("surface cache poisoned");
         cache.retain(|(k, _)| *k != key);
@@ -905,8 +909,16 @@ impl SurfaceRenderer {
             pass.set_bind_group(0, &bind, &[]);
             pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
         }
+        let cached_values = data
+            .values
+            .lock()
+            .expect("surface values poisoned")
+            .get(&slot)
+            .cloned();
         enc.copy_buffer_to_buffer(out, 0, &outs.color_staging, 0, (n * 16).max(16));
-        enc.copy_buffer_to_buffer(out_value, 0, &outs.value_staging, 0, (n * 4).max(16));
+        if cached_values.is_none() {
+            enc.copy_buffer_to_buffer(out_value, 0, &outs.value_staging, 0, (n * 4).max(16));
+        }
         let prof = std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some();
         let t0 = std::time::Instant::now();
         self.ctx.queue.submit([enc.finish()]);
@@ -920,8 +932,23 @@ impl SurfaceRenderer {
         if prof {
             eprintln!("+ rgba readback {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
         }
-        let mut values: Vec<f32> =
-            crate::gpu::readback::read_mapped(&self.ctx, &outs.value_staging, n * 4)?;
+        let values: Vec<f32> = match cached_values {
+            Some(v) => v,
+            None => {
+                let mut v: Vec<f32> =
+                    crate::gpu::readback::read_mapped(&self.ctx, &outs.value_staging, n * 4)?;
+                for (value, p) in v.iter_mut().zip(&pixels) {
+                    if p[3] < 0.0 {
+                        *value = f32::NAN;
+                    }
+                }
+                data.values
+                    .lock()
+                    .expect("surface values poisoned")
+                    .insert(slot, v.clone());
+                v
+            }
+        };
         drop(outputs);
         if prof {
             eprintln!(
@@ -929,17 +956,21 @@ impl SurfaceRenderer {
                 t0.elapsed().as_secs_f64() * 1e3
             );
         }
-        let mut fringe = Vec::with_capacity(pixels.len());
-        for (p, v) in pixels.iter_mut().zip(values.iter_mut()) {
-            if p[3] < 0.0 {
-                fringe.push(f32::NAN);
-                *v = f32::NAN;
-                *p = [0.0; 4];
-            } else {
-                fringe.push(p[3]);
-                p[3] = 1.0;
-            }
-        }
+        // The fringe rides in alpha; a negative alpha marks a missing pixel.
+        use rayon::prelude::*;
+        let fringe: Vec<f32> = pixels
+            .par_iter_mut()
+            .map(|p| {
+                if p[3] < 0.0 {
+                    *p = [0.0; 4];
+                    f32::NAN
+                } else {
+                    let f = p[3];
+                    p[3] = 1.0;
+                    f
+                }
+            })
+            .collect();
         if prof {
             eprintln!("+ host {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
         }

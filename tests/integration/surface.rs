@@ -213,7 +213,7 @@ fn changing_nu_or_mode_reruns_only_the_fringe_pass() {
     let r = surface_renderer(BackendChoice::Vulkan);
     let mut o = opts(2.0);
     o.properties = vec!["ux".into(), "uz".into()];
-    r.render(&g, &o).unwrap();
+    let first = r.render(&g, &o).unwrap();
     let c0 = r.counters();
     assert_eq!(c0.data_passes, 1);
     for (nu, mode, cmap) in [
@@ -226,6 +226,19 @@ fn changing_nu_or_mode_reruns_only_the_fringe_pass() {
         o.colormap = cmap.map(str::to_string);
         let imgs = r.render(&g, &o).unwrap();
         assert!(max_fringe_error(&g, &imgs[1], nu, 2) < 1e-5);
+        // The value channel is read back once per data pass and reused: still the data.
+        for (img, name) in imgs.iter().zip(["ux", "uz"]) {
+            let (a, b) = (
+                channel(img, name),
+                channel(&first[if name == "ux" { 0 } else { 1 }], name),
+            );
+            assert!(
+                a.iter()
+                    .zip(b)
+                    .all(|(x, y)| x == y || (x.is_nan() && y.is_nan())),
+                "{name}"
+            );
+        }
     }
     let c1 = r.counters();
     assert_eq!(c1.data_passes, 1, "ν/mode changes must not re-run step 1");
