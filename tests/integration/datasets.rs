@@ -94,3 +94,45 @@ fn generated_mantle_renders_from_netcdf() {
     assert!(img.pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
     assert!(img.pixels.iter().any(|p| p[3] > 0.0));
 }
+
+#[test]
+fn tsunami_on_real_bathymetry() {
+    // matplotlib's topobathy.npz (Cascadia margin, see datasets/README.md): land cells are walls,
+    // so the wave height is zero there and positive and finite over the sea.
+    let dir = tempfile::tempdir().unwrap();
+    let bathy = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/topobathy.npz");
+    let (code, _, stderr) = hdrvis(
+        &[
+            "gen",
+            "tsunami",
+            "--bathymetry",
+            bathy.to_str().unwrap(),
+            "--duration",
+            "1800",
+            "-o",
+            "t.nc",
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let file = dir.path().join("t.nc");
+    let eta = hdrvis::datasets::netcdf::read_variable(&file, "max_abs_eta").unwrap();
+    let depth = hdrvis::datasets::netcdf::read_variable(&file, "depth").unwrap();
+    assert_eq!(eta.data.len(), 91 * 120);
+    assert!(eta.data.iter().all(|v| v.is_finite() && *v >= 0.0));
+    let sea: Vec<f64> = eta
+        .data
+        .iter()
+        .zip(&depth.data)
+        .filter(|(_, d)| **d > 0.0)
+        .map(|(e, _)| *e)
+        .collect();
+    let land = eta
+        .data
+        .iter()
+        .zip(&depth.data)
+        .filter(|(_, d)| **d <= 0.0)
+        .map(|(e, _)| *e);
+    assert!(sea.len() > 1000 && sea.iter().filter(|e| **e > 0.0).count() > sea.len() / 2);
+    assert!(land.into_iter().all(|e| e == 0.0));
+}
