@@ -456,6 +456,32 @@ pub fn accuracy_scenes(size: u32, n: usize) -> Result<Vec<AccuracyScene>> {
     Ok(scenes)
 }
 
+/// Relative RMS error of the colour channels of `got` against `reference`.
+pub fn relative_rms(got: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (g, r) in got.iter().zip(reference) {
+        for c in 0..3 {
+            num += (g[c] - r[c]).powi(2);
+            den += r[c].powi(2);
+        }
+    }
+    (num / den.max(1e-300)).sqrt()
+}
+
+/// Fraction of lit pixels whose Rec. 709 luminance is off by more than 1 % of the reference's.
+pub fn lost_detail(got: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
+    let y = |p: &[f64; 4]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    let lit: Vec<_> = got
+        .iter()
+        .zip(reference)
+        .filter(|(_, r)| y(r) > 0.0)
+        .collect();
+    lit.iter()
+        .filter(|(g, r)| (y(g) - y(r)).abs() > 0.01 * y(r))
+        .count() as f64
+        / lit.len().max(1) as f64
+}
+
 fn accuracy_metrics(
     got: &[[f64; 4]],
     reference: &[[f64; 4]],
@@ -466,25 +492,12 @@ fn accuracy_metrics(
         .iter()
         .map(|p| p[0].max(p[1]).max(p[2]))
         .fold(0.0, f64::max);
-    let (mut num, mut den, mut max_rel) = (0.0, 0.0, 0.0f64);
-    for (g, r) in got.iter().zip(reference) {
-        for c in 0..3 {
-            num += (g[c] - r[c]).powi(2);
-            den += r[c].powi(2);
-            max_rel = max_rel.max((g[c] - r[c]).abs() / r[c].abs().max(1e-3 * peak));
-        }
-    }
-    let y = |p: &[f64; 4]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-    let lit: Vec<_> = got
+    let max_rel = got
         .iter()
         .zip(reference)
-        .filter(|(_, r)| y(r) > 0.0)
-        .collect();
-    let lost = lit
-        .iter()
-        .filter(|(g, r)| (y(g) - y(r)).abs() > 0.01 * y(r))
-        .count() as f64
-        / lit.len().max(1) as f64;
+        .flat_map(|(g, r)| (0..3).map(move |c| (g[c] - r[c]).abs() / r[c].abs().max(1e-3 * peak)))
+        .fold(0.0f64, f64::max);
+    let (rel_rms, lost) = (relative_rms(got, reference), lost_detail(got, reference));
     // The same display transform for both: Reinhard global with the reference's statistics is
     // not available per image, so each is tone-mapped on its own, as a user would see it.
     let to_image = |p: &[[f64; 4]]| {
@@ -510,7 +523,7 @@ fn accuracy_metrics(
     } else {
         10.0 * (255.0f64 * 255.0 / mse).log10()
     };
-    Ok(((num / den.max(1e-300)).sqrt(), max_rel, psnr, lost))
+    Ok((rel_rms, max_rel, psnr, lost))
 }
 
 /// Times every precision variant on each scene and measures its error against the f64 CPU

@@ -234,7 +234,7 @@ impl OkadaJob {
                 for component in [&field.ux, &field.uy, &field.uz] {
                     stack.extend_from_slice(component);
                 }
-                write_npy_f64(out, &[3, n, n], &stack)?;
+                super::npy::write_npy::<f64>(out, &[3, n, n], &stack)?;
             }
         }
         progress(1.0);
@@ -288,24 +288,6 @@ fn segments_table(segments: &[FaultSegment]) -> String {
         );
     }
     text
-}
-
-/// Writes a C-ordered f64 array atomically (generated fields are computed in f64).
-fn write_npy_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
-    use npyz::WriterBuilder;
-    crate::io::write_atomic(path, |w| {
-        let shape: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
-        let mut writer = npyz::WriteOptions::new()
-            .default_dtype()
-            .shape(&shape)
-            .writer(w)
-            .begin_nd()
-            .map_err(|e| Error::io(path, e))?;
-        writer
-            .extend(data.iter().copied())
-            .map_err(|e| Error::io(path, e))?;
-        writer.finish().map_err(|e| Error::io(path, e))
-    })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -465,7 +447,7 @@ impl TsunamiJob {
         let eta0: Vec<f64> = rows.concat();
         let result = tsunami::simulate(&bathy, &eta0, &self.options, progress)?;
         match format {
-            OutputFormat::Npy => write_npy_f64(out, &[ny, nx], &result.max_abs_eta),
+            OutputFormat::Npy => super::npy::write_npy::<f64>(out, &[ny, nx], &result.max_abs_eta),
             OutputFormat::NetCdf => {
                 let o = &self.options;
                 let bathymetry = match &self.bathymetry {

@@ -169,8 +169,12 @@ pub fn read_npy_from<T: ReadAs, R: std::io::Read>(
     Ok(NpyArray { shape, data, dtype })
 }
 
-/// Writes a C-ordered f32 array atomically.
-pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
+/// Writes a C-ordered array (f32 or f64) atomically.
+pub fn write_npy<T: npyz::AutoSerialize + Copy>(
+    path: &Path,
+    shape: &[usize],
+    data: &[T],
+) -> Result<()> {
     use npyz::WriterBuilder;
     crate::io::write_atomic(path, |w| {
         let shape: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
@@ -183,7 +187,11 @@ pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
         writer
             .extend(data.iter().copied())
             .map_err(|e| Error::io(path, e))?;
-        writer.finish().map_err(|e| Error::io(path, e))?;
-        Ok(())
+        writer.finish().map_err(|e| Error::io(path, e))
     })
+}
+
+/// Writes a C-ordered f32 array atomically.
+pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
+    write_npy(path, shape, data)
 }

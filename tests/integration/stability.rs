@@ -3,6 +3,7 @@
 //! compositing loses faint structure that float compositing keeps.
 
 use crate::common::renderer;
+use hdrvis::bench::{lost_detail, relative_rms as rel_rms};
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
 use hdrvis::render::cpu_reference::render_volume_f64;
@@ -21,32 +22,6 @@ fn gpu(backend: BackendChoice, vol: &Volume, o: &VolumeRenderOptions) -> Vec<[f6
         .iter()
         .map(|p| p.map(|v| v as f64))
         .collect()
-}
-
-/// Relative RMS error of the colour channels against the reference.
-fn rel_rms(got: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
-    let (mut num, mut den) = (0.0, 0.0);
-    for (g, r) in got.iter().zip(reference) {
-        for c in 0..3 {
-            num += (g[c] - r[c]).powi(2);
-            den += r[c].powi(2);
-        }
-    }
-    (num / den.max(1e-300)).sqrt()
-}
-
-/// Fraction of pixels whose luminance is off by more than 1 % of the reference's.
-fn lost_detail(got: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
-    let y = |p: &[f64; 4]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-    let lit: Vec<_> = got
-        .iter()
-        .zip(reference)
-        .filter(|(_, r)| y(r) > 0.0)
-        .collect();
-    lit.iter()
-        .filter(|(g, r)| (y(g) - y(r)).abs() > 0.01 * y(r))
-        .count() as f64
-        / lit.len().max(1) as f64
 }
 
 fn axis(vol: &Volume, tf: TransferFunction, step: f64) -> VolumeRenderOptions {
