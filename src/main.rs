@@ -33,9 +33,15 @@ fn run(cli: Cli) -> Result<()> {
             opts.sets = parse_sets(&args.sets)?;
             opts.resume = args.resume;
             opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
+            opts.cache_mib = hdrvis::render::cache::budget_mib(args.cache_mib)?;
             let report = run_script_file(&args.script, &opts)?;
-            for p in report.written {
+            for p in &report.written {
                 println!("wrote {}", p.display());
+            }
+            if args.stats {
+                for r in &report.passes {
+                    println!("{r}");
+                }
             }
             Ok(())
         }

@@ -57,6 +57,13 @@ pub struct RunArgs {
     /// Skip outputs that already exist (resume an interrupted sweep).
     #[arg(long)]
     pub resume: bool,
+    /// Print one line per pass: `pass NAME ran MS` or `pass NAME cached`.
+    #[arg(long)]
+    pub stats: bool,
+    /// Memory budget of the result cache in MiB (default from HDRVIS_CACHE_MIB, else 2048):
+    /// results of unchanged stages are reused within a run, least recently used evicted first.
+    #[arg(long, value_name = "MIB")]
+    pub cache_mib: Option<u64>,
 }
 
 #[derive(Subcommand, Debug)]

@@ -1,7 +1,10 @@
 //! Renderers: the GPU volume ray caster and its f64 CPU reference, sharing one set of options so
 //! they trace the same rays through the same optical model.
 
+pub mod cache;
 pub mod cpu_reference;
+pub mod passes;
+pub mod session;
 pub mod surface;
 pub mod surface_bench;
 pub mod volume;

@@ -7,6 +7,7 @@ use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai
 use super::ScriptHost;
 use crate::model::{Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume};
 use crate::render::{FilterMode, Precision, VolumeRenderOptions};
+
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
@@ -81,39 +82,47 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_volume", move |path: &str| -> RResult<ScriptVolume> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        Ok(Arc::new(crate::datasets::load_volume(&p).map_err(to_rhai)?))
+        h.session.load_volume(&p, None).map_err(to_rhai)
     });
 
-    engine.register_fn("generate_mantle", |opts: Map| -> RResult<ScriptVolume> {
-        use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
-        check_keys(&opts, MANTLE_KEYS, "generate_mantle")?;
-        let mut o = MantleOptions::default();
-        let mut field = MantleField::Fluctuation;
-        for (k, v) in &opts {
-            match k.as_str() {
-                "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
-                "seed" => o.seed = int(v, "seed")? as u64,
-                "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
-                "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
-                "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
-                _ => unreachable!("checked keys"),
+    let h = host.clone();
+    engine.register_fn(
+        "generate_mantle",
+        move |opts: Map| -> RResult<ScriptVolume> {
+            use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
+            check_keys(&opts, MANTLE_KEYS, "generate_mantle")?;
+            let mut o = MantleOptions::default();
+            let mut field = MantleField::Fluctuation;
+            for (k, v) in &opts {
+                match k.as_str() {
+                    "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
+                    "seed" => o.seed = int(v, "seed")? as u64,
+                    "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
+                    "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
+                    "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
+                    _ => unreachable!("checked keys"),
+                }
             }
-        }
-        o.fields = MantleFields::only(field);
-        let m = generate(&o, &mut |_| {}).map_err(to_rhai)?;
-        let n = m.n;
-        let data = m.field(field).map(|d| d.to_vec()).unwrap_or_default();
-        let mut v = Volume::new(
-            format!("mantle-{} n={n} seed={}", field.name(), o.seed),
-            [n; 3],
-            [2.0 / n as f64; 3],
-            [-1.0; 3],
-            data,
-        )
-        .map_err(to_rhai)?;
-        v.units = "non-dimensional".into();
-        Ok(Arc::new(v))
-    });
+            o.fields = MantleFields::only(field);
+            // Generation takes seconds at 256³; a re-run of the script (TUI, sweep) reuses it.
+            h.session
+                .generated_volume(&("mantle", &o, field.name()), || {
+                    let m = generate(&o, &mut |_| {})?;
+                    let n = m.n;
+                    let data = m.field(field).map(|d| d.to_vec()).unwrap_or_default();
+                    let mut v = Volume::new(
+                        format!("mantle-{} n={n} seed={}", field.name(), o.seed),
+                        [n; 3],
+                        [2.0 / n as f64; 3],
+                        [-1.0; 3],
+                        data,
+                    )?;
+                    v.units = "non-dimensional".into();
+                    Ok(v)
+                })
+                .map_err(to_rhai)
+        },
+    );
 
     engine.register_fn("volume_stats", |v: &mut ScriptVolume| -> Map {
         let s = v.stats();
@@ -248,16 +257,7 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
                 _ => unreachable!("checked keys"),
             }
         }
-        if o.precision == Precision::F64 {
-            let mut img = crate::render::cpu_reference::render_volume_cpu(volume, &o).map_err(to_rhai)?;
-            img.set_meta("precision", "f64 (CPU)");
-            img.set_meta("tf", o.tf.describe());
-            return Ok(Arc::new(img));
-        }
-        let renderer = h.renderer().map_err(to_rhai)?;
-        let gv = h.upload(volume).map_err(to_rhai)?;
-        let (img, _) = renderer.render(&gv, &o).map_err(to_rhai)?;
-        Ok(Arc::new(img))
+        h.session.raycast(volume, &o).map_err(to_rhai)
     });
 
     let h = host.clone();
@@ -268,7 +268,10 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             if h.already_done(&p) {
                 return Ok(());
             }
+            let t = std::time::Instant::now();
             crate::io::exr::write_exr(img, &p).map_err(to_rhai)?;
+            h.session
+                .record_sink("save-exr", t.elapsed().as_secs_f64() * 1e3);
             h.written.lock().expect("poisoned").push(p);
             Ok(())
         },
@@ -289,11 +292,14 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         if h.already_done(&p) {
             return Ok(());
         }
+        let t = std::time::Instant::now();
         if display {
             crate::io::png::write_display_png(img, &p, false).map_err(to_rhai)?;
         } else {
             crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
         }
+        h.session
+            .record_sink("save-png", t.elapsed().as_secs_f64() * 1e3);
         h.written.lock().expect("poisoned").push(p);
         Ok(())
     };

@@ -9,9 +9,9 @@ use super::api_render::{ScriptCamera, ScriptImage};
 use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResult};
 use super::ScriptHost;
 use crate::model::{Axis, Grid};
-use crate::render::surface::{colorbar, FringeMode, SurfaceOptions, SurfaceRenderer, SurfaceView};
+use crate::render::surface::{colorbar, FringeMode, SurfaceOptions, SurfaceView};
 use rhai::{Dynamic, Engine, Map};
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 pub type ScriptGrid = Arc<Grid>;
 
@@ -130,33 +130,23 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_grid", move |path: &str| -> RResult<ScriptGrid> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        Ok(Arc::new(Grid::load(&p, None).map_err(to_rhai)?))
+        h.session.load_grid(&p, None).map_err(to_rhai)
     });
     let h = host.clone();
     engine.register_fn(
         "load_grid",
         move |path: &str, name: &str| -> RResult<ScriptGrid> {
             let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-            Ok(Arc::new(Grid::load(&p, Some(name)).map_err(to_rhai)?))
+            h.session.load_grid(&p, Some(name)).map_err(to_rhai)
         },
     );
 
-    let surface: Arc<OnceLock<Arc<SurfaceRenderer>>> = Arc::new(OnceLock::new());
     let h = host;
     engine.register_fn(
         "render_surface",
         move |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
             let (o, many) = parse_options(grid, &opts)?;
-            let renderer = match surface.get() {
-                Some(r) => r.clone(),
-                None => {
-                    let ctx = h.renderer().map_err(to_rhai)?.context().clone();
-                    surface
-                        .get_or_init(|| Arc::new(SurfaceRenderer::new(ctx)))
-                        .clone()
-                }
-            };
-            let mut images = renderer.render(grid, &o).map_err(to_rhai)?;
+            let mut images = h.session.surface(grid, &o).map_err(to_rhai)?.to_vec();
             if many {
                 Ok(Dynamic::from(
                     images

@@ -14,12 +14,13 @@ mod convert;
 mod sandbox;
 
 use crate::error::{Error, Result};
-use crate::gpu::{BackendChoice, GpuContext};
-use crate::render::volume::{GpuVolume, VolumeRenderer};
+use crate::gpu::BackendChoice;
+use crate::render::passes::PassRecord;
+use crate::render::session::RenderSession;
 use rhai::{Engine, EvalAltResult, Position};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 pub use sandbox::Sandbox;
 
@@ -38,6 +39,11 @@ pub struct ScriptOptions {
     pub resume: bool,
     /// Show progress bars on stderr (`progress(i, n)`); off for tests and pipes.
     pub progress: bool,
+    /// The session whose result cache and renderers the run uses; a new one when `None`. The TUI
+    /// and sweeps pass the same session to every run, so unchanged stages are not recomputed.
+    pub session: Option<Arc<RenderSession>>,
+    /// Result-cache budget of a new session, MiB.
+    pub cache_mib: u64,
 }
 
 impl ScriptOptions {
@@ -50,6 +56,8 @@ impl ScriptOptions {
             max_operations: 100_000_000,
             resume: false,
             progress: true,
+            session: None,
+            cache_mib: crate::render::cache::DEFAULT_BUDGET_MIB,
         }
     }
 }
@@ -58,17 +66,15 @@ impl ScriptOptions {
 #[derive(Debug, Default, Clone)]
 pub struct ScriptReport {
     pub written: Vec<PathBuf>,
+    /// Every pass of the run, in order: what ran (with its time) and what came from the cache.
+    pub passes: Vec<PassRecord>,
 }
 
 /// State shared by the registered functions of one run.
 pub(crate) struct ScriptHost {
     pub sandbox: Sandbox,
     pub sets: HashMap<String, String>,
-    pub backend: BackendChoice,
-    renderer: OnceLock<Arc<VolumeRenderer>>,
-    /// Uploaded volumes keyed by the address of the script's volume; the Arc is kept so the
-    /// address cannot be reused while the entry lives.
-    uploads: Mutex<Vec<(Arc<crate::model::Volume>, Arc<GpuVolume>)>>,
+    pub session: Arc<RenderSession>,
     pub written: Mutex<Vec<PathBuf>>,
     pub resume: bool,
     progress_enabled: bool,
@@ -103,28 +109,6 @@ impl ScriptHost {
             bar.finish();
             *slot = None;
         }
-    }
-
-    pub fn renderer(&self) -> Result<Arc<VolumeRenderer>> {
-        if let Some(r) = self.renderer.get() {
-            return Ok(r.clone());
-        }
-        let ctx = GpuContext::new(self.backend)?;
-        Ok(self
-            .renderer
-            .get_or_init(|| Arc::new(VolumeRenderer::new(ctx)))
-            .clone())
-    }
-
-    pub fn upload(&self, volume: &Arc<crate::model::Volume>) -> Result<Arc<GpuVolume>> {
-        let renderer = self.renderer()?;
-        let mut uploads = self.uploads.lock().expect("upload cache poisoned");
-        if let Some((_, g)) = uploads.iter().find(|(v, _)| Arc::ptr_eq(v, volume)) {
-            return Ok(g.clone());
-        }
-        let g = Arc::new(GpuVolume::upload(renderer.context(), volume)?);
-        uploads.push((volume.clone(), g.clone()));
-        Ok(g)
     }
 }
 
@@ -165,9 +149,7 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
     Arc::new(ScriptHost {
         sandbox: Sandbox::new(&dir, &dir.join("hdrvis-test-out"), &[]).unwrap(),
         sets: HashMap::new(),
-        backend: BackendChoice::Auto,
-        renderer: OnceLock::new(),
-        uploads: Mutex::new(Vec::new()),
+        session: Arc::new(RenderSession::new(BackendChoice::Auto, 1 << 30)),
         written: Mutex::new(Vec::new()),
         resume: false,
         progress_enabled: false,
@@ -203,12 +185,18 @@ pub fn run_script_source(
     if opts.resume {
         remove_stale_temporaries(&opts.out_dir);
     }
+    let session = opts.session.clone().unwrap_or_else(|| {
+        Arc::new(RenderSession::new(
+            opts.backend,
+            opts.cache_mib.saturating_mul(1 << 20),
+        ))
+    });
+    // The log holds this run's passes only; what earlier runs left is theirs.
+    session.log().take();
     let host = Arc::new(ScriptHost {
         sandbox,
         sets,
-        backend: opts.backend,
-        renderer: OnceLock::new(),
-        uploads: Mutex::new(Vec::new()),
+        session: session.clone(),
         written: Mutex::new(Vec::new()),
         resume: opts.resume,
         progress_enabled: opts.progress,
@@ -222,7 +210,10 @@ pub fn run_script_source(
         .run_ast(&ast)
         .map_err(|e| Error::Script(describe_eval_error(name, source, &e)))?;
     let written = host.written.lock().expect("written list poisoned").clone();
-    Ok(ScriptReport { written })
+    Ok(ScriptReport {
+        written,
+        passes: session.log().take(),
+    })
 }
 
 /// A run killed mid-write leaves its temporary file (`.hdrvis-*.tmp`, see io::write_atomic)
