@@ -273,6 +273,7 @@ impl RenderSession {
             .debug(opts)
             .finish();
         self.stage("raycast", key, image_bytes, append_pass, || {
+            let mut detail = raycast_effects(opts);
             let img = if opts.precision == Precision::F64 {
                 let mut img = super::cpu_reference::render_volume_cpu(volume, opts)?;
                 img.set_meta("precision", "f64 (CPU)");
@@ -280,9 +281,13 @@ impl RenderSession {
                 img
             } else {
                 let gv = self.upload(volume)?;
-                self.volume_renderer()?.render(&gv, opts)?.0
+                let (img, timing) = self.volume_renderer()?.render(&gv, opts)?;
+                if timing.compiled_pipeline {
+                    detail.push("pipeline built".into());
+                }
+                img
             };
-            Ok((img, raycast_effects(opts)))
+            Ok((img, detail.join(", ")))
         })
     }
 
@@ -382,8 +387,8 @@ impl Gpu {
     }
 }
 
-/// The effects compiled into a ray cast, as the pass record's detail.
-fn raycast_effects(opts: &VolumeRenderOptions) -> String {
+/// The effects compiled into a ray cast, for the pass record's detail.
+fn raycast_effects(opts: &VolumeRenderOptions) -> Vec<String> {
     let mut effects = Vec::new();
     if opts.precision == Precision::F64 {
         effects.push("f64 CPU".to_string());
@@ -393,7 +398,7 @@ fn raycast_effects(opts: &VolumeRenderOptions) -> String {
     if opts.jitter {
         effects.push("jitter".into());
     }
-    effects.join(", ")
+    effects
 }
 
 /// Appends a pass to the image's `passes` metadata, so the image says how it was made.

@@ -429,7 +429,7 @@ impl SurfaceRenderer {
                 constants,
                 zero_initialize_workgroup_memory: false,
             },
-            cache: None,
+            cache: self.ctx.pipeline_cache(),
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("{label} pipeline failed to build: {e}")));

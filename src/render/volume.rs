@@ -236,7 +236,7 @@ impl VolumeRenderer {
                 constants: &constants,
                 zero_initialize_workgroup_memory: false,
             },
-            cache: None,
+            cache: self.ctx.pipeline_cache(),
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("volume pipeline failed to build: {e}")));

@@ -182,3 +182,60 @@ fn stats_flag_prints_one_line_per_pass() {
         assert!(ms >= 0.0 && rest[4] == "ms", "{l}");
     }
 }
+
+#[test]
+fn the_pipeline_cache_is_saved_where_the_backend_has_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let hdrvis = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+            .args(args)
+            .env("HDRVIS_CACHE", &cache)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    let doctor = hdrvis(&["doctor"]);
+    let line = doctor
+        .lines()
+        .find(|l| l.starts_with("pipeline cache: "))
+        .expect("doctor reports the pipeline cache");
+    let script = dir.path().join("s.rhai");
+    std::fs::write(&script, VOLUME_SCENE).unwrap();
+    let out = dir.path().join("out");
+    hdrvis(&[
+        "run",
+        script.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let files: Vec<_> = std::fs::read_dir(cache.join("pipelines"))
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    if line.starts_with("pipeline cache: yes") {
+        assert_eq!(files.len(), 1, "{files:?}");
+        let bytes = std::fs::metadata(&files[0]).unwrap().len();
+        assert!(bytes > 0, "an empty cache file");
+        // A second run loads it (a corrupt or foreign file would be rejected, not crash).
+        hdrvis(&[
+            "run",
+            script.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        std::fs::write(&files[0], b"not a pipeline cache").unwrap();
+        hdrvis(&[
+            "run",
+            script.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+    } else {
+        assert!(files.is_empty(), "{files:?}");
+    }
+}
