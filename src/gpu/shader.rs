@@ -57,7 +57,10 @@ pub const SOURCES: &[(&str, &str)] = &[
 /// The pipeline shaders (not the shared pieces) with every define combination they are built
 /// with, so tests can validate each variant.
 pub const PIPELINES: &[(&str, &[&[&str]])] = &[
-    ("volume.wgsl", &[&[], &["HW_FILTER"]]),
+    (
+        "volume.wgsl",
+        &[&[], &["HW_FILTER"], &["SHADING"], &["HW_FILTER", "SHADING"]],
+    ),
     ("tonemap/luminance_stats.wgsl", &[&[]]),
     ("tonemap/global.wgsl", &[&[]]),
     ("tonemap/ward_histogram.wgsl", &[&[]]),

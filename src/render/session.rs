@@ -395,6 +395,9 @@ fn raycast_effects(opts: &VolumeRenderOptions) -> Vec<String> {
     } else if opts.precision != Precision::F32 {
         effects.push(opts.precision.name().to_string());
     }
+    if opts.shading.is_some() {
+        effects.push("shading".into());
+    }
     if opts.jitter {
         effects.push("jitter".into());
     }

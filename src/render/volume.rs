@@ -27,6 +27,7 @@ struct VolumeParams {
     tf: [f32; 4],
     march: [f32; 4],
     image: [u32; 4],
+    shading: [f32; 4],
 }
 
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
@@ -134,6 +135,7 @@ struct PipelineKey {
     lens: bool,
     jitter: bool,
     precision: u32,
+    shading: bool,
 }
 
 /// Builds pipelines on demand and renders volumes; one per GPU context.
@@ -183,7 +185,15 @@ impl VolumeRenderer {
         if let Some(p) = cache.get(&key) {
             return Ok((p.clone(), false));
         }
-        let defines: &[&str] = if key.hw_filter { &["HW_FILTER"] } else { &[] };
+        // Absent effects are left out of the source, not just switched off.
+        let mut defines = Vec::new();
+        if key.hw_filter {
+            defines.push("HW_FILTER");
+        }
+        if key.shading {
+            defines.push("SHADING");
+        }
+        let defines = &defines[..];
         let src = shader::load("volume.wgsl", defines)?;
         let device = &self.ctx.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -307,6 +317,7 @@ impl VolumeRenderer {
             lens: tf.mapping.lens.is_some(),
             jitter: opts.jitter,
             precision: opts.precision.shader_code(),
+            shading: opts.shading.is_some(),
         };
         let (pipeline, compiled) = self.pipeline(key)?;
         let (pipeline, layout) = (&pipeline.0, &pipeline.1);
@@ -354,6 +365,14 @@ impl VolumeRenderer {
                 0.0,
             ],
             image: [opts.width, opts.height, opts.seed, 0],
+            shading: opts.shading.map_or([0.0; 4], |s| {
+                [
+                    s.ambient as f32,
+                    s.diffuse as f32,
+                    s.specular as f32,
+                    s.shininess as f32,
+                ]
+            }),
         };
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
@@ -469,6 +488,15 @@ impl VolumeRenderer {
                 "exact trilinear"
             },
         );
+        if let Some(sh) = &opts.shading {
+            image.set_meta(
+                "shading",
+                format!(
+                    "Blinn-Phong headlight ambient {} diffuse {} specular {} shininess {}",
+                    sh.ambient, sh.diffuse, sh.specular, sh.shininess
+                ),
+            );
+        }
         image.set_meta("adapter", self.ctx.describe());
         Ok((
             image,

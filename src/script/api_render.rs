@@ -6,7 +6,7 @@
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
 use super::ScriptHost;
 use crate::model::{Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume};
-use crate::render::{FilterMode, Precision, VolumeRenderOptions};
+use crate::render::{FilterMode, Precision, Shading, VolumeRenderOptions};
 
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
@@ -52,7 +52,9 @@ const RENDER_KEYS: &[&str] = &[
     "background",
     "filter",
     "precision",
+    "shading",
 ];
+const SHADING_KEYS: &[&str] = &["ambient", "diffuse", "specular", "shininess"];
 const LUT_KEYS: &[&str] = &[
     "scale",
     "linthresh",
@@ -254,6 +256,7 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
                 "background" => o.background = vec3(v, "background")?,
                 "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
                 "precision" => o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?,
+                "shading" => o.shading = shading(v)?,
                 _ => unreachable!("checked keys"),
             }
         }
@@ -366,6 +369,33 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             }
         },
     );
+}
+
+/// `shading: true` (the default coefficients), `false`, or a map of coefficients.
+fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
+    if v.is_bool() {
+        return Ok(boolean(v, "shading")?.then(Shading::default));
+    }
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+        to_rhai(crate::Error::invalid(
+            "shading",
+            "expected true, false or a map #{ambient, diffuse, specular, shininess}",
+        ))
+    })?;
+    check_keys(&m, SHADING_KEYS, "shading")?;
+    let mut s = Shading::default();
+    for (k, x) in &m {
+        let x = num(x, k)?;
+        match k.as_str() {
+            "ambient" => s.ambient = x,
+            "diffuse" => s.diffuse = x,
+            "specular" => s.specular = x,
+            "shininess" => s.shininess = x,
+            _ => unreachable!("checked keys"),
+        }
+    }
+    s.validate().map_err(to_rhai)?;
+    Ok(Some(s))
 }
 
 /// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal
