@@ -87,6 +87,19 @@ fn run(cli: Cli) -> Result<()> {
             print!("{}", hdrvis::bench::format_generator_table(&rows));
             Ok(())
         }
+        Some(Command::Bench(BenchCommand::Effects { runs, n, size })) => {
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let rows =
+                hdrvis::render::effects_bench::bench_effects(ctx, n, size, runs, &mut |m| {
+                    eprintln!("{m}")
+                })?;
+            print!(
+                "{}",
+                hdrvis::render::effects_bench::format_effects_table(&adapter, n, size, &rows)
+            );
+            Ok(())
+        }
         Some(Command::Bench(BenchCommand::Surface { runs, n })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();

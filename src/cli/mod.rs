@@ -114,6 +114,19 @@ pub enum BenchCommand {
     },
     /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
     /// two-step render, medians.
+    /// What each effect costs: a ray cast plain, with shading, with jitter; and a ten-image
+    /// exposure sweep from one render against ten full renders.
+    Effects {
+        /// Timed runs per case (after one warm-up).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Volume side in voxels.
+        #[arg(long, default_value_t = 256)]
+        n: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 512)]
+        size: u32,
+    },
     Surface {
         /// Timed runs per case (after one warm-up).
         #[arg(long, default_value_t = 9)]

@@ -3,6 +3,7 @@
 
 pub mod cache;
 pub mod cpu_reference;
+pub mod effects_bench;
 pub mod passes;
 pub mod session;
 pub mod surface;

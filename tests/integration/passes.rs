@@ -239,3 +239,29 @@ fn the_pipeline_cache_is_saved_where_the_backend_has_one() {
         assert!(files.is_empty(), "{files:?}");
     }
 }
+
+#[test]
+fn effects_benchmark_counts_one_ray_cast_for_the_sweep_and_ten_without_the_cache() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args([
+            "bench", "effects", "--n", "24", "--size", "32", "--runs", "1",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8_lossy(&out.stdout);
+    let raycasts = |prefix: &str| -> usize {
+        let line = table
+            .lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("{table}"));
+        line.split_whitespace().last().unwrap().parse().unwrap()
+    };
+    assert_eq!(raycasts("10 exposures, one render"), 1, "{table}");
+    assert_eq!(raycasts("10 exposures, 10 full renders"), 10, "{table}");
+    assert!(table.contains("ray cast + shading"), "{table}");
+}
