@@ -71,15 +71,38 @@ fn run(cli: Cli) -> Result<()> {
             println!("{}", ctx.report());
             Ok(())
         }
-        Some(Command::Bench(BenchCommand::Accuracy { runs, size, n, out })) => {
+        Some(Command::Bench(BenchCommand::Accuracy {
+            runs,
+            size,
+            n,
+            out,
+            scene,
+        })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
-            let scenes = hdrvis::bench::accuracy_scenes(size, n)?;
-            let rows =
-                hdrvis::bench::bench_accuracy(ctx, &scenes, runs, &mut |m| eprintln!("{m}"))?;
-            print!("{}", hdrvis::bench::format_accuracy_table(&adapter, &rows));
-            let (csv, json) = hdrvis::bench::write_accuracy_files(&out, &rows)?;
-            println!("wrote {} and {}", csv.display(), json.display());
+            use hdrvis::bench::accuracy;
+            let scenes = accuracy::accuracy_scenes(size, n, scene.as_deref())?;
+            let rows = accuracy::bench_accuracy(ctx, &scenes, runs, &mut |m| eprintln!("{m}"))?;
+            print!("{}", accuracy::format_accuracy_table(&adapter, &rows));
+            let (csv, json) = accuracy::write_accuracy_files(&out, &rows)?;
+            let chart = accuracy::write_accuracy_chart(&out, &adapter, &rows)?;
+            println!(
+                "wrote {}, {} and {}",
+                csv.display(),
+                json.display(),
+                chart.display()
+            );
+            if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+                let config = viuer::Config {
+                    absolute_offset: false,
+                    width: Some(80),
+                    ..Default::default()
+                };
+                // A terminal that cannot show images still has the file.
+                if let Ok(img) = image::open(&chart) {
+                    let _ = viuer::print(&img, &config);
+                }
+            }
             Ok(())
         }
         Some(Command::Bench(BenchCommand::Datasets { runs, quick })) => {

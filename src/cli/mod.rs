@@ -91,9 +91,12 @@ pub enum BenchCommand {
         /// Volume side in voxels.
         #[arg(long, default_value_t = 128)]
         n: usize,
-        /// Folder for accuracy.csv and accuracy.json.
+        /// Folder for accuracy.csv, accuracy.json and the chart accuracy.png.
         #[arg(long, default_value = "out/bench-accuracy")]
         out: PathBuf,
+        /// Only this scene (mantle, blobs); all by default.
+        #[arg(long)]
+        scene: Option<String>,
     },
     /// Dataset generators: okada 1001^2, mantle 513^3, tsunami 1000^2 for 2 simulated hours.
     Datasets {
