@@ -223,6 +223,30 @@ pub fn bench_accuracy(
                 lost_detail,
             });
         }
+        // f64 on the GPU where the adapter has shader f64 (lavapipe does).
+        let f64_gpu = crate::render::volume_f64::F64RayCaster::new(renderer.context().clone());
+        if f64_gpu.available() {
+            o.precision = Precision::F64;
+            f64_gpu.render(&gv, &o)?;
+            let mut ms = Vec::new();
+            let mut got = Vec::new();
+            for _ in 0..runs.max(1) {
+                let t = std::time::Instant::now();
+                got = f64_gpu.render(&gv, &o)?;
+                ms.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+            let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+                accuracy_metrics(&got, &reference, o.width, o.height)?;
+            rows.push(AccuracyRow {
+                scene: scene.name.clone(),
+                variant: "f64 (GPU)".into(),
+                median_ms: median(&ms),
+                rel_rms,
+                max_rel,
+                psnr_8bit,
+                lost_detail,
+            });
+        }
         // The other knob: coarser steps in f32, against the same reference (step 0.5).
         o.precision = Precision::F32;
         let base_step = scene.options.step;

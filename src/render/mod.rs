@@ -9,6 +9,7 @@ pub mod session;
 pub mod surface;
 pub mod surface_bench;
 pub mod volume;
+pub mod volume_f64;
 
 use crate::error::{Error, Result};
 use crate::model::{Camera, TransferFunction};

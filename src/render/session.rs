@@ -27,6 +27,7 @@ pub const PASSES_META: &str = "passes";
 
 struct Gpu {
     volume: Arc<VolumeRenderer>,
+    volume_f64: Arc<super::volume_f64::F64RayCaster>,
     surface: Arc<SurfaceRenderer>,
     tonemap: Arc<GpuToneMapper>,
 }
@@ -274,7 +275,23 @@ impl RenderSession {
             .finish();
         self.stage("raycast", key, image_bytes, append_pass, || {
             let mut detail = raycast_effects(opts);
-            let img = if opts.precision == Precision::F64 {
+            let f64_gpu = opts.precision == Precision::F64
+                && opts.shading.is_none()
+                && self.gpu()?.volume_f64.available();
+            let img = if f64_gpu {
+                let gv = self.upload(volume)?;
+                let pixels = self.gpu()?.volume_f64.render(&gv, opts)?;
+                let mut img = HdrImage::from_pixels(
+                    opts.width,
+                    opts.height,
+                    pixels.iter().map(|p| p.map(|v| v as f32)).collect(),
+                );
+                img.set_meta("precision", "f64 (GPU)");
+                img.set_meta("tf", opts.tf.describe());
+                img.set_meta("camera", opts.camera.describe());
+                img.set_meta("adapter", self.context()?.describe());
+                img
+            } else if opts.precision == Precision::F64 {
                 let mut img = super::cpu_reference::render_volume_cpu(volume, opts)?;
                 img.set_meta("precision", "f64 (CPU)");
                 img.set_meta("tf", opts.tf.describe());
@@ -381,6 +398,7 @@ impl Gpu {
     fn new(ctx: Arc<GpuContext>) -> Self {
         Gpu {
             volume: Arc::new(VolumeRenderer::new(ctx.clone())),
+            volume_f64: Arc::new(super::volume_f64::F64RayCaster::new(ctx.clone())),
             surface: Arc::new(SurfaceRenderer::new(ctx.clone())),
             tonemap: Arc::new(GpuToneMapper::new(ctx)),
         }
@@ -391,7 +409,7 @@ impl Gpu {
 fn raycast_effects(opts: &VolumeRenderOptions) -> Vec<String> {
     let mut effects = Vec::new();
     if opts.precision == Precision::F64 {
-        effects.push("f64 CPU".to_string());
+        effects.push("f64".to_string());
     } else if opts.precision != Precision::F32 {
         effects.push(opts.precision.name().to_string());
     }

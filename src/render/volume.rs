@@ -46,6 +46,11 @@ pub struct GpuVolume {
 }
 
 impl GpuVolume {
+    /// The R32Float 3-D texture view, for other ray casters of the same volume.
+    pub fn view(&self) -> &wgpu::TextureView {
+        &self.view
+    }
+
     pub fn upload(ctx: &GpuContext, volume: &Volume) -> Result<GpuVolume> {
         let limit = ctx.caps.max_texture_3d as usize;
         if volume.dims.iter().any(|&d| d > limit) {

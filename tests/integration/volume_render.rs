@@ -382,3 +382,49 @@ fn gradient_shading_matches_the_cpu_reference_and_is_absent_when_off() {
     let on = hdrvis::gpu::shader::load("volume.wgsl", &["SHADING"]).unwrap();
     assert!(!off.contains("shading_factor") && on.contains("shading_factor"));
 }
+
+#[test]
+fn gpu_f64_matches_the_cpu_reference_to_1e_9() {
+    use hdrvis::render::volume_f64::F64RayCaster;
+    let r = renderer(BackendChoice::Vulkan);
+    let f64_caster = F64RayCaster::new(r.context().clone());
+    if !f64_caster.available() {
+        eprintln!("skipped: this adapter has no shader f64");
+        return;
+    }
+    let mut vol = hdr_blobs(32);
+    // Missing voxels take the same path on both.
+    vol.data[5000] = f32::NAN;
+    let gv = GpuVolume::upload(r.context(), &vol).unwrap();
+    let cams = [
+        Camera::orbit(&vol.bounds(), 35.0, 25.0, 40.0).unwrap(),
+        Camera::axis(Axis::X, &vol.bounds()),
+    ];
+    let ea = TransferFunction::emission_absorption(3.0, 0.7).unwrap();
+    for (cam, tf, jitter) in [
+        (cams[0], log_tf(), false),
+        (cams[1], log_tf(), true),
+        (cams[0], ea, false),
+    ] {
+        let mut o = VolumeRenderOptions::new(cam, tf);
+        (o.width, o.height, o.step, o.jitter, o.seed) = (40, 36, 0.5, jitter, 9);
+        let cpu = render_volume_f64(&vol, &o).unwrap();
+        let gpu = f64_caster.render(&gv, &o).unwrap();
+        let peak = cpu
+            .iter()
+            .map(|p| p[0].max(p[1]).max(p[2]))
+            .fold(0.0, f64::max);
+        let worst = gpu
+            .iter()
+            .zip(&cpu)
+            .flat_map(|(g, c)| {
+                (0..4).map(move |ch| (g[ch] - c[ch]).abs() / c[ch].abs().max(1e-9 * peak.max(1.0)))
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-9,
+            "{}: worst relative difference {worst}",
+            o.tf.describe()
+        );
+    }
+}
