@@ -8,7 +8,8 @@ struct ToneMapParams {
     ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
     sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
     pass_index: u32, sigma: f32, radius: u32, direction: u32,
-    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
+    cell: u32, grid_width: u32, grid_height: u32, levels: u32,
+    first_level: f32, level_step: f32, src_offset: u32, dst_offset: u32,
 }
 
 struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
