@@ -14,22 +14,22 @@
 //   prepare     one item per pixel             image, stats -> pyramid level 0
 //   downsample  one item per cell of level k   pyramid (src_offset: level k-1) -> (dst_offset: k)
 //   for each scale i, on its level k_i (cell = 2^k, grid_width x grid_height cells):
-//     blur direction 0   pyramid (src_offset) -> tmp
-//     blur direction 1   tmp -> blurred (dst_offset)
+//     blur_x   pyramid (src_offset) -> tmp
+//     blur_y   tmp -> blurred (dst_offset)
 //   apply       one item per pixel             image, stats, blurred, scales -> output
 //
 // Bindings (group 0):
-//   @binding(0)  params    uniform    ToneMapParams (per pass: sigma, radius, direction, cell,
+//   @binding(0)  params    uniform    ToneMapParams (per pass: sigma, radius, cell,
 //                                     grid_width, grid_height, src_offset, dst_offset; apply:
 //                                     levels = number of scales + 1)
 //   @binding(1)  image     storage, read        array<vec4<f32>>  (prepare, apply)
 //   @binding(2)  output    storage, read_write  array<vec4<f32>>  (apply)
 //   @binding(3)  stats     storage, read        LuminanceStats    (prepare, apply)
-//   @binding(8)  blur_in   storage, read        array<vec2<f32>>  (blur)
-//   @binding(9)  blur_out  storage, read_write  array<vec2<f32>>  (blur)
+//   @binding(8)  blur_in   storage, read        array<vec2<f32>>  (blur_x, blur_y)
+//   @binding(9)  blur_out  storage, read_write  array<vec2<f32>>  (blur_x, blur_y)
 //   @binding(10) pyramid   storage, read_write  array<vec2<f32>>  (prepare, downsample)
 //   @binding(11) blurred   storage, read        array<vec2<f32>>  (apply)
-//   @binding(18) scales    storage, read        array<vec4<u32>>  per scale i: (offset in
+//   @binding(18) scales    uniform    array<vec4<u32>, 17>  per scale i: (offset in
 //                                     blurred, k, bits of f32 s_i = ratio^i, 0)
 
 #include "shared/tonemap_common.wgsl"
@@ -37,6 +37,8 @@
 const LN2: f32 = 0.6931471805599453;
 const MAX_LOG: f32 = 88.0;
 const MAX_TAPS: u32 = 256u;
+// Scales + 1 blurs at most (params.rs: scales <= 16).
+const MAX_SCALES: u32 = 17u;
 
 @group(0) @binding(0) var<uniform> params: ToneMapParams;
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
@@ -46,7 +48,7 @@ const MAX_TAPS: u32 = 256u;
 @group(0) @binding(9) var<storage, read_write> blur_out: array<vec2<f32>>;
 @group(0) @binding(10) var<storage, read_write> pyramid: array<vec2<f32>>;
 @group(0) @binding(11) var<storage, read> blurred: array<vec2<f32>>;
-@group(0) @binding(18) var<storage, read> scales: array<vec4<u32>>;
+@group(0) @binding(18) var<uniform> scales: array<vec4<u32>, MAX_SCALES>;
 
 var<workgroup> taps: array<f32, MAX_TAPS>;
 
@@ -96,39 +98,62 @@ fn downsample(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     pyramid[params.dst_offset + c] = acc;
 }
 
-@compute @workgroup_size(256)
-fn blur(
-    @builtin(global_invocation_id) id: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
-    // The pass's Gaussian taps, once per workgroup (radius <= 127 by validation).
+// The pass's Gaussian taps, once per workgroup (radius <= 127 by validation); returns the radius.
+fn load_taps(local: u32) -> i32 {
     let r = i32(min(params.radius, MAX_TAPS / 2u - 1u));
     if local <= u32(r) {
         let k = f32(local);
         taps[local] = exp(-k * k / (2.0 * params.sigma * params.sigma));
     }
     workgroupBarrier();
+    return r;
+}
+
+// Two entry points rather than a branch on a uniform: Mesa's CPU rasterizers would run both.
+@compute @workgroup_size(256)
+fn blur_x(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let r = load_taps(local);
     let c = pixel_index(id, groups);
     if c >= params.grid_width * params.grid_height {
         return;
     }
     let x = i32(c % params.grid_width);
-    let y = i32(c / params.grid_width);
+    let row = params.src_offset + c - u32(x);
+    let last = i32(params.grid_width) - 1;
     var acc = vec2<f32>(0.0);
-    if params.direction == 0u {
-        let row = params.src_offset + u32(y) * params.grid_width;
-        let lo = max(-r, -x);
-        let hi = min(r, i32(params.grid_width) - 1 - x);
-        for (var k = lo; k <= hi; k = k + 1) {
-            acc = acc + taps[abs(k)] * blur_in[row + u32(x + k)];
-        }
-    } else {
-        let lo = max(-r, -y);
-        let hi = min(r, i32(params.grid_height) - 1 - y);
-        for (var k = lo; k <= hi; k = k + 1) {
-            acc = acc + taps[abs(k)] * blur_in[params.src_offset + u32(y + k) * params.grid_width + u32(x)];
-        }
+    // The same taps for every lane (a uniform loop; taps outside the grid weigh 0), which
+    // Mesa's CPU rasterizers run far faster than per-lane loop bounds.
+    for (var k = -r; k <= r; k = k + 1) {
+        let sx = x + k;
+        let weight = select(0.0, taps[abs(k)], sx >= 0 && sx <= last);
+        acc = acc + weight * blur_in[row + u32(clamp(sx, 0, last))];
+    }
+    blur_out[params.dst_offset + c] = acc;
+}
+
+@compute @workgroup_size(256)
+fn blur_y(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let r = load_taps(local);
+    let c = pixel_index(id, groups);
+    if c >= params.grid_width * params.grid_height {
+        return;
+    }
+    let x = c % params.grid_width;
+    let y = i32(c / params.grid_width);
+    let last = i32(params.grid_height) - 1;
+    var acc = vec2<f32>(0.0);
+    for (var k = -r; k <= r; k = k + 1) {
+        let sy = y + k;
+        let weight = select(0.0, taps[abs(k)], sy >= 0 && sy <= last);
+        acc = acc + weight * blur_in[params.src_offset + u32(clamp(sy, 0, last)) * params.grid_width + x];
     }
     blur_out[params.dst_offset + c] = acc;
 }
@@ -176,14 +201,15 @@ fn apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
     let l = scaled_luminance(p);
     var v1 = scale_value(0u, x, y);
     var chosen = v1;
+    var done = false;
+    // Every lane runs every scale (no per-pixel break), so the loop and the level test in
+    // scale_value stay uniform; a pixel's choice freezes at its first failing scale.
     for (var s = 0u; s + 1u < params.levels; s = s + 1u) {
         let v2 = scale_value(s + 1u, x, y);
         let scale = bitcast<f32>(scales[s].z);
         let activity = (v1 - v2) / (params.sharpness / (scale * scale) + v1);
-        if abs(activity) >= params.epsilon {
-            break;
-        }
-        chosen = v1;
+        done = done || abs(activity) >= params.epsilon;
+        chosen = select(v1, chosen, done);
         v1 = v2;
     }
     let colour = max(p.rgb, vec3<f32>(0.0));

@@ -36,10 +36,40 @@ pub const DISPLAY_REFERRED: &str = "display_referred";
 pub struct GpuToneMapper {
     ctx: Arc<GpuContext>,
     modules: Mutex<HashMap<&'static str, Arc<wgpu::ShaderModule>>>,
-    pipelines: Mutex<HashMap<(&'static str, &'static str), Arc<wgpu::ComputePipeline>>>,
+    pipelines:
+        Mutex<HashMap<(&'static str, &'static str, Specialisation), Arc<wgpu::ComputePipeline>>>,
     /// Buffers kept between calls; the lock is held for a whole call, so concurrent calls on
     /// one mapper take turns.
     buffers: Mutex<BufferCache>,
+}
+
+/// Values of the pipeline-overridable constants of `shaders/shared/tonemap_common.wgsl`: the
+/// operator and whether saturation and gamma are 1. Branches on uniforms cost as much as both
+/// sides on Mesa's CPU rasterizers (the global pass ran every operator for every pixel), so
+/// each combination gets its own pipeline with the others compiled out.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+struct Specialisation {
+    op: u32,
+    plain_saturation: bool,
+    plain_gamma: bool,
+}
+
+impl Specialisation {
+    fn of(p: &ToneMapParams) -> Specialisation {
+        Specialisation {
+            op: p.op,
+            plain_saturation: p.saturation == 1.0,
+            plain_gamma: p.inv_gamma == 1.0,
+        }
+    }
+
+    fn constants(&self) -> [(&'static str, f64); 3] {
+        [
+            ("OP", self.op as f64),
+            ("PLAIN_SATURATION", self.plain_saturation as u8 as f64),
+            ("PLAIN_GAMMA", self.plain_gamma as u8 as f64),
+        ]
+    }
 }
 
 /// The buffers of the last call, reused while the sizes stay the same.
@@ -107,6 +137,7 @@ fn new_storage(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
 /// One tone-mapping call being recorded: the context, its encoder and the uploaded image.
 struct Recording<'a> {
     mapper: &'a GpuToneMapper,
+    spec: Specialisation,
     encoder: wgpu::CommandEncoder,
     width: u32,
     height: u32,
@@ -155,12 +186,13 @@ impl GpuToneMapper {
         &self,
         file: &'static str,
         entry: &'static str,
+        spec: Specialisation,
     ) -> Result<Arc<wgpu::ComputePipeline>> {
         if let Some(p) = self
             .pipelines
             .lock()
             .expect("pipeline cache poisoned")
-            .get(&(file, entry))
+            .get(&(file, entry, spec))
         {
             return Ok(p.clone());
         }
@@ -172,7 +204,11 @@ impl GpuToneMapper {
             layout: None,
             module: &module,
             entry_point: Some(entry),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &spec.constants(),
+                // Every shader writes its workgroup memory before reading it.
+                zero_initialize_workgroup_memory: false,
+            },
             cache: None,
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -184,7 +220,7 @@ impl GpuToneMapper {
         self.pipelines
             .lock()
             .expect("pipeline cache poisoned")
-            .insert((file, entry), pipeline.clone());
+            .insert((file, entry, spec), pipeline.clone());
         Ok(pipeline)
     }
 
@@ -266,9 +302,11 @@ impl GpuToneMapper {
         let px_bytes = n as u64 * 16;
         let ctx = &*self.ctx;
         let mut cache = self.buffers.lock().expect("tone-mapping buffers poisoned");
+        let profile = Profile::start();
         let wants_range = matches!(settings.op, Operator::DurandBilateral { .. });
         let scan = upload_image(ctx, cache.image(ctx, px_bytes), &img.pixels, wants_range)?;
         let image = cache.image(ctx, px_bytes).buffer.clone();
+        profile.mark("upload");
         let mut base = ToneMapParams::new(settings, w, h);
         base.exposure_ev = (settings.exposure_ev - scan.lift_ev as f64) as f32;
         let device = &ctx.device;
@@ -280,7 +318,7 @@ impl GpuToneMapper {
         let groups = reduce_groups(n);
         let partials = cache.scratch(ctx, "partials", groups as u64 * 16);
         let stats = cache.scratch(ctx, "luminance stats", 16);
-        let mut rec = self.record(w, h);
+        let mut rec = self.record(w, h, Specialisation::of(&base));
         rec.reduce(
             "tonemap/luminance_stats.wgsl",
             "partial_stats",
@@ -323,8 +361,16 @@ impl GpuToneMapper {
                 let blurred = cache.scratch(ctx, "reinhard blurred", blurred_len as u64 * 8);
                 let largest = levels.iter().map(|&k| level_cells(k)).max().unwrap_or(n);
                 let tmp = cache.scratch(ctx, "reinhard blur tmp", largest as u64 * 8);
+                let mut table_padded = [[0u32; 4]; 17];
+                table_padded[..table.len()].copy_from_slice(&table);
                 let table_buffer =
-                    self.storage_init("reinhard scales", bytemuck::cast_slice(&table));
+                    self.ctx
+                        .device
+                        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some("reinhard scales"),
+                            contents: bytemuck::cast_slice(&table_padded),
+                            usage: wgpu::BufferUsages::UNIFORM,
+                        });
                 rec.pixels(
                     file,
                     "prepare",
@@ -350,10 +396,9 @@ impl GpuToneMapper {
                 for (i, (&sigma, &k)) in sigmas.iter().zip(&levels).enumerate() {
                     let cell = 1u32 << k;
                     let sigma_cells = grid_sigma(sigma, cell);
-                    let pass = |direction: u32, src_offset: u32, dst_offset: u32| ToneMapParams {
+                    let pass = |src_offset: u32, dst_offset: u32| ToneMapParams {
                         sigma: sigma_cells as f32,
                         radius: gaussian_radius(sigma_cells),
-                        direction,
                         cell,
                         grid_width: w.div_ceil(cell),
                         grid_height: h.div_ceil(cell),
@@ -361,18 +406,18 @@ impl GpuToneMapper {
                         dst_offset,
                         ..base
                     };
-                    let across = self.uniform(&pass(0, pyramid_offsets[k as usize], 0));
+                    let across = self.uniform(&pass(pyramid_offsets[k as usize], 0));
                     rec.items(
                         level_cells(k),
                         file,
-                        "blur",
+                        "blur_x",
                         &[(0, &across), (8, &pyramid), (9, &tmp)],
                     )?;
-                    let down = self.uniform(&pass(1, 0, table[i][0]));
+                    let down = self.uniform(&pass(0, table[i][0]));
                     rec.items(
                         level_cells(k),
                         file,
-                        "blur",
+                        "blur_y",
                         &[(0, &down), (8, &tmp), (9, &blurred)],
                     )?;
                 }
@@ -491,7 +536,8 @@ impl GpuToneMapper {
                 )?;
             }
         }
-        let pixels = rec.finish(cache.output(ctx, px_bytes), validation, oom)?;
+        profile.mark("record");
+        let pixels = rec.finish(cache.output(ctx, px_bytes), validation, oom, &profile)?;
         drop(cache);
         let mut out = HdrImage::from_pixels(w, h, pixels);
         out.extra_channels = img.extra_channels.clone();
@@ -546,13 +592,18 @@ impl GpuToneMapper {
             ..Default::default()
         });
         let lut = self.storage_init("turbo lut", bytemuck::cast_slice(&turbo_lut()));
-        let mut rec = self.record(w, h);
+        let mut rec = self.record(w, h, Specialisation::default());
         rec.pixels(
             "tonemap/false_colour.wgsl",
             "false_colour",
             &[(0, &params), (1, &image), (2, &output), (14, &lut)],
         )?;
-        let pixels = rec.finish(cache.output(ctx, px_bytes), validation, oom)?;
+        let pixels = rec.finish(
+            cache.output(ctx, px_bytes),
+            validation,
+            oom,
+            &Profile::start(),
+        )?;
         drop(cache);
         let mut out = HdrImage::from_pixels(w, h, pixels);
         out.metadata = img.metadata.clone();
@@ -563,9 +614,10 @@ impl GpuToneMapper {
         Ok(out)
     }
 
-    fn record(&self, width: u32, height: u32) -> Recording<'_> {
+    fn record(&self, width: u32, height: u32, spec: Specialisation) -> Recording<'_> {
         Recording {
             mapper: self,
+            spec,
             encoder: self
                 .ctx
                 .device
@@ -586,7 +638,7 @@ impl Recording<'_> {
         bindings: &[(u32, &wgpu::Buffer)],
         groups: (u32, u32),
     ) -> Result<()> {
-        let pipeline = self.mapper.pipeline(file, entry)?;
+        let pipeline = self.mapper.pipeline(file, entry, self.spec)?;
         let entries: Vec<wgpu::BindGroupEntry> = bindings
             .iter()
             .map(|(binding, buffer)| wgpu::BindGroupEntry {
@@ -664,12 +716,17 @@ impl Recording<'_> {
         output: &ReadbackBuffer,
         validation: wgpu::ErrorScopeGuard,
         oom: wgpu::ErrorScopeGuard,
+        profile: &Profile,
     ) -> Result<Vec<[f32; 4]>> {
         let ctx = &self.mapper.ctx;
         let bytes = self.width as u64 * self.height as u64 * 16;
         let mut encoder = self.encoder;
         output.record_copy(&mut encoder, bytes);
         ctx.queue.submit([encoder.finish()]);
+        if profile.on() {
+            ctx.wait()?;
+            profile.mark("passes");
+        }
         let invalid = pollster::block_on(validation.pop());
         let out_of_memory = pollster::block_on(oom.pop());
         if let Some(e) = out_of_memory {
@@ -680,7 +737,29 @@ impl Recording<'_> {
         if let Some(e) = invalid {
             return Err(Error::Gpu(format!("tone-mapping pass failed: {e}")));
         }
-        output.read(ctx, bytes)
+        let pixels = output.read(ctx, bytes);
+        profile.mark("readback");
+        pixels
+    }
+}
+
+/// Stage times on stderr when `HDRVIS_TONEMAP_PROFILE` is set (for finding where a call's time
+/// goes; the benchmark measures whole calls).
+struct Profile(Option<std::time::Instant>);
+
+impl Profile {
+    fn start() -> Profile {
+        Profile(std::env::var_os("HDRVIS_TONEMAP_PROFILE").map(|_| std::time::Instant::now()))
+    }
+
+    fn on(&self) -> bool {
+        self.0.is_some()
+    }
+
+    fn mark(&self, stage: &str) {
+        if let Some(t) = self.0 {
+            eprintln!("tonemap {stage}: {:.2} ms", t.elapsed().as_secs_f64() * 1e3);
+        }
     }
 }
 
