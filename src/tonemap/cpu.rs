@@ -645,13 +645,11 @@ fn bilinear_on(plane: &[[f64; 2]], cell: u32, gw: u32, gh: u32, x: usize, y: usi
     let (y0, y1, fy) = axis(y, gh);
     let gw = gw as usize;
     let at = |cx: usize, cy: usize| plane[cy * gw + cx];
-    let mut out = [0.0; 2];
-    for k in 0..2 {
+    [0, 1].map(|k| {
         let top = at(x0, y0)[k] * (1.0 - fx) + at(x1, y0)[k] * fx;
         let bottom = at(x0, y1)[k] * (1.0 - fx) + at(x1, y1)[k] * fx;
-        out[k] = top * (1.0 - fy) + bottom * fy;
-    }
-    out
+        top * (1.0 - fy) + bottom * fy
+    })
 }
 
 /// The sRGB transfer curve, IEC 61966-2-1 (exact piecewise form), for a value in [0, 1].

@@ -36,12 +36,14 @@ pub const DISPLAY_REFERRED: &str = "display_referred";
 pub struct GpuToneMapper {
     ctx: Arc<GpuContext>,
     modules: Mutex<HashMap<&'static str, Arc<wgpu::ShaderModule>>>,
-    pipelines:
-        Mutex<HashMap<(&'static str, &'static str, Specialisation), Arc<wgpu::ComputePipeline>>>,
+    pipelines: Mutex<HashMap<PipelineKey, Arc<wgpu::ComputePipeline>>>,
     /// Buffers kept between calls; the lock is held for a whole call, so concurrent calls on
     /// one mapper take turns.
     buffers: Mutex<BufferCache>,
 }
+
+/// (shader file, entry point, specialisation).
+type PipelineKey = (&'static str, &'static str, Specialisation);
 
 /// Values of the pipeline-overridable constants of `shaders/shared/tonemap_common.wgsl`: the
 /// operator and whether saturation and gamma are 1. Branches on uniforms cost as much as both
