@@ -1108,6 +1108,71 @@ pub fn colorbar(grid: &Grid, opts: &SurfaceOptions, width: u32, height: u32) -> 
     Ok(img)
 }
 
+/// The legend's statement of the resolution: "1 fringe = 0.125 m" (1/ν in the property's
+/// units, "data units" when it has none).
+pub fn resolution_label(nu: f64, units: &str) -> String {
+    let u = if units.is_empty() {
+        "data units"
+    } else {
+        units
+    };
+    format!(
+        "1 fringe = {} {u}",
+        crate::model::text::format_number(1.0 / nu)
+    )
+}
+
+/// Height in pixels of the colour bar at the top of a [`legend`].
+pub const LEGEND_BAR_HEIGHT: u32 = 16;
+
+/// A legend for a surface render, `width` pixels wide: the colour bar of [`colorbar`] on top,
+/// then in white text on black the resolution ("1 fringe = 0.125 m"), ν and the mode, and the
+/// bar's domain (its ends, left and right). Text is drawn twice as large when it fits.
+pub fn legend(grid: &Grid, opts: &SurfaceOptions, width: u32) -> Result<HdrImage> {
+    use crate::model::text::{draw_text, format_number, text_width, GLYPH};
+    let bar = colorbar(grid, opts, width, LEGEND_BAR_HEIGHT)?;
+    let p = SurfaceRenderer::property_indices(grid, opts)?[0];
+    let nu = opts.nu_for(0);
+    let units = grid.units(p);
+    let label = resolution_label(nu, units);
+    let detail = format!("ν = {} ({})", format_number(nu), opts.mode.name());
+    let domain: Vec<f64> = bar
+        .meta("colorbar_domain")
+        .unwrap_or("")
+        .split_whitespace()
+        .take(2)
+        .filter_map(|v| v.parse().ok())
+        .collect();
+    let (left, right) = match domain[..] {
+        [lo, hi] => (format_number(lo), format_number(hi)),
+        _ => (String::new(), String::new()),
+    };
+    let widest = [label.as_str(), detail.as_str()]
+        .iter()
+        .map(|t| text_width(t, 1))
+        .max()
+        .unwrap_or(0)
+        .max(text_width(&left, 1) + text_width(&right, 1) + GLYPH);
+    let scale = if 2 * widest + 4 <= width { 2 } else { 1 };
+    let line = GLYPH * scale + 4;
+    let height = LEGEND_BAR_HEIGHT + 4 + 3 * line;
+    let mut img = HdrImage::new(width, height);
+    for px in img.pixels.iter_mut() {
+        *px = [0.0, 0.0, 0.0, 1.0];
+    }
+    img.pixels[..bar.pixels.len()].copy_from_slice(&bar.pixels);
+    let white = [1.0, 1.0, 1.0, 1.0];
+    let top = (LEGEND_BAR_HEIGHT + 4) as i64;
+    let right_x = width as i64 - text_width(&right, scale) as i64 - 2;
+    draw_text(&mut img, 2, top, &left, scale, white);
+    draw_text(&mut img, right_x.max(2), top, &right, scale, white);
+    draw_text(&mut img, 2, top + line as i64, &label, scale, white);
+    draw_text(&mut img, 2, top + 2 * line as i64, &detail, scale, white);
+    img.metadata = bar.metadata.clone();
+    img.set_meta("legend", label.as_str());
+    Ok(img)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
