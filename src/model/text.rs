@@ -94,9 +94,9 @@ mod tests {
         draw_text(&mut img, 3, 2, "1=", 2, white);
         let one = glyph('1');
         assert!(one.iter().any(|r| *r != 0));
-        for gy in 0..8 {
+        for (gy, bits) in one.iter().enumerate() {
             for gx in 0..8 {
-                let lit = one[gy] & (1 << gx) != 0;
+                let lit = bits & (1 << gx) != 0;
                 for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                     let p = img.pixels[(2 + gy * 2 + dy) * 40 + 3 + gx * 2 + dx];
                     assert_eq!(p == white, lit, "glyph pixel ({gx}, {gy})");

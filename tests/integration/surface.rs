@@ -461,8 +461,10 @@ fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
 #[test]
 fn legend_states_the_resolution_in_drawn_text() {
     use hdrvis::render::surface::{legend, resolution_label, LEGEND_BAR_HEIGHT};
-    let mut g = Grid::from_fn("wave", 64, 32, |i, j| (i as f64 - 30.0) * 0.01 + j as f64 * 1e-3)
-        .unwrap();
+    let mut g = Grid::from_fn("wave", 64, 32, |i, j| {
+        (i as f64 - 30.0) * 0.01 + j as f64 * 1e-3
+    })
+    .unwrap();
     g.set_units("wave", "m").unwrap();
     assert_eq!(resolution_label(8.0, "m"), "1 fringe = 0.125 m");
     assert_eq!(resolution_label(3.0, ""), "1 fringe = 0.3333 data units");
@@ -495,16 +497,19 @@ fn legend_states_the_resolution_in_drawn_text() {
         .zip(&b.pixels[text_rows])
         .filter(|(p, q)| p != q)
         .count();
-    assert!(differing > 50, "nu 8 and nu 4 legends differ in text: {differing}");
+    assert!(
+        differing > 50,
+        "nu 8 and nu 4 legends differ in text: {differing}"
+    );
     // The label's glyphs are where the layout puts them: line 2 starts with '1' at x = 2.
     let scale = 2usize;
     let line = 8 * scale + 4;
     let y0 = LEGEND_BAR_HEIGHT as usize + 4 + line;
     let one = hdrvis::model::text::glyph('1');
-    for gy in 0..8 {
+    for (gy, bits) in one.iter().enumerate() {
         for gx in 0..8 {
             let p = a.pixels[(y0 + gy * scale) * 400 + 2 + gx * scale];
-            assert_eq!(p == [1.0; 4], one[gy] & (1 << gx) != 0, "({gx}, {gy})");
+            assert_eq!(p == [1.0; 4], bits & (1 << gx) != 0, "({gx}, {gy})");
         }
     }
 }
