@@ -32,6 +32,13 @@ struct Params {
 @group(0) @binding(6) var<storage, read_write> out_value: array<f32>;
 
 override SLOT: u32 = 0u;
+// The colour mode (0 cyclic, 1 modulated, 2 direct), `absolute`, `log_color`, and whether the
+// value plane is written (not when the host already holds it from an earlier pass) are
+// pipeline constants too: Mesa's CPU rasterizers run both sides of branches on uniforms.
+override MODE: u32 = 0u;
+override ABSOLUTE: bool = false;
+override LOG_COLOR: bool = false;
+override WRITE_VALUE: bool = true;
 
 const TAU: f32 = 6.283185307179586;
 
@@ -75,7 +82,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if ((bits & (1u << slot)) == 0u) {
         // Missing (a hole or no surface): fringe −1 tells the host; nothing else is touched.
         out_color[px] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
-        out_value[px] = 0.0;
+        if (WRITE_VALUE) {
+            out_value[px] = 0.0;
+        }
         return;
     }
     let plane = slot * params.dims.x * params.dims.y + px;
@@ -83,7 +92,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let rest = data_rest[plane];
     let d = params.refs.y + (hi + rest);
     var ph = phase(hi, rest);
-    if (params.mode.z == 1u && d < 0.0) {
+    if (ABSOLUTE && d < 0.0) {
         ph = fr(1.0 - ph);
     }
     // cos of an argument in [−π, π] for the best f32 accuracy.
@@ -91,22 +100,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let fringe = 0.5 + 0.5 * cos(TAU * centred);
     var colour: vec3<f32>;
     var t: f32;
-    if (params.mode.y == 0u) {
+    if (MODE == 0u) {
         t = ph;
-    } else if (params.mode.w == 1u) {
+    } else if (LOG_COLOR) {
         let a = max(abs(d), params.shade.y);
         t = (log(a) * 0.4342944819032518 - params.refs.z) * params.refs.w;
-    } else if (params.mode.z == 1u) {
+    } else if (ABSOLUTE) {
         t = (abs(d) - params.refs.z) * params.refs.w;
     } else {
         t = ((hi + rest) - params.refs.z) * params.refs.w;
     }
     colour = colormap(t);
-    if (params.mode.y != 2u) {
+    if (MODE != 2u) {
         let depth = params.shade.x;
         colour *= (1.0 - depth) + depth * fringe;
     }
     colour *= m.y;
     out_color[px] = vec4<f32>(colour, fringe);
-    out_value[px] = d;
+    if (WRITE_VALUE) {
+        out_value[px] = d;
+    }
 }

@@ -8,10 +8,18 @@ struct ToneMapParams {
     ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
     sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
     pass_index: u32, sigma: f32, radius: u32, direction: u32,
-    tap_stride: u32, _pad0: u32, _pad1: u32, _pad2: u32,
+    cell: u32, grid_width: u32, grid_height: u32, levels: u32,
+    first_level: f32, level_step: f32, src_offset: u32, dst_offset: u32,
 }
 
 struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
+
+// Specialisation (src/tonemap/gpu.rs `Specialisation`): the operator (ToneMapParams.op) and
+// whether saturation and 1 / gamma are exactly 1, as pipeline constants, so that no pass
+// branches on them at run time (Mesa's CPU rasterizers run both sides of such branches).
+override OP: u32 = 0u;
+override PLAIN_SATURATION: bool = true;
+override PLAIN_GAMMA: bool = true;
 
 const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 
@@ -28,7 +36,7 @@ fn pixel_index(id: vec3<u32>, groups: vec3<u32>) -> u32 {
 // hence the selects.
 fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
     var ratio = colour / y;
-    if params.saturation != 1.0 {
+    if !PLAIN_SATURATION {
         let powered = pow(ratio, vec3<f32>(params.saturation));
         ratio = select(powered, vec3<f32>(0.0), ratio <= vec3<f32>(0.0));
         if params.saturation == 0.0 {
@@ -36,7 +44,7 @@ fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
         }
     }
     let v = clamp(ratio * ld + params.offset, vec3<f32>(0.0), vec3<f32>(1.0));
-    if params.inv_gamma == 1.0 {
+    if PLAIN_GAMMA {
         return v;
     }
     // The select discards pow's indeterminate value at 0.

@@ -1,28 +1,37 @@
-// Durand & Dorsey 2002 fast bilateral tone mapping, as a direct windowed bilateral filter (no
-// piecewise-linear acceleration) so that it matches the CPU reference: log10 luminance l is
-// filtered over the taps at multiples of tap_stride (params.rs `bilateral_stride`: 1 up to
-// sigma_s = 8 px, then about sigma_s / 4) within radius = ceil(2 sigma_s) (params.rs
-// `bilateral_radius`), with weights exp(-d^2 / 2 sigma_s^2) exp(-(l_q - l_p)^2 / 2 sigma_r^2);
-// missing and black pixels have weight 0. The base B is compressed by
+// Durand & Dorsey 2002 fast bilateral tone mapping with their own acceleration (section 5.1):
+// the bilateral filter of log10 luminance l as a piecewise-linear function of intensity,
+// computed on a downsampled grid (params.rs `DurandGrid`). Levels i_j = first_level +
+// j level_step; the grid's cells hold the mean l of their cell x cell pixels and how many were
+// valid; per level, pairs (w mean, w) with w = count exp(max(-(mean - i_j)^2 / 2 sigma_r^2, -80))
+// are blurred by a Gaussian of `sigma` cells within `radius` cells; a pixel interpolates the two
+// levels around its own l, each read bilinearly from the grid as (sum w mean) / (sum w).
+// Missing and black pixels have weight 0. The base B is compressed by
 // c = min(log10(contrast) / (max B - min B), 1) with max B mapped to 1, the detail l - B kept:
 // L_d = 10^((B - max B) c + l - B). CPU reference: src/tonemap/cpu.rs `durand`.
 //
-// Host sequence (per-pixel dispatches (X, Y, 1) workgroups of 256, X * Y * 256 >= n,
-// pixel = global_id.x + global_id.y * X * 256):
-//   bilateral                     image -> layers
+// Host sequence (dispatches (X, Y, 1) workgroups of 256, X * Y * 256 >= items,
+// item = global_id.x + global_id.y * X * 256):
+//   grid_splat     one item per cell            image -> cells
+//   grid_blur_x    one item per (level, cell)   cells -> tmp
+//   grid_blur_y    one item per (level, cell)   tmp -> levels
+//   base           one item per pixel           image, levels -> layers
 //   range_partial  (G, 1, 1), G = min(ceil(n / 256), 1024): layers -> partials (G elements)
 //   range_finish   (1, 1, 1):     partials -> base_range
-//   apply                         image, layers, base_range -> output
+//   apply          one item per pixel           image, layers, base_range -> output
 //
 // Bindings (group 0):
-//   @binding(0)  params      uniform    ToneMapParams (sigma_spatial_px, sigma_range, radius,
-//                                       tap_stride, contrast_log10; exposure cancels out)
-//   @binding(1)  image       storage, read        array<vec4<f32>>  (bilateral, apply)
+//   @binding(0)  params      uniform    ToneMapParams (width, height, cell, grid_width,
+//                                       grid_height, levels, first_level, level_step, sigma,
+//                                       radius, sigma_range, contrast_log10; exposure cancels)
+//   @binding(1)  image       storage, read        array<vec4<f32>>
 //   @binding(2)  output      storage, read_write  array<vec4<f32>>  (apply)
 //   @binding(6)  partials    storage, read_write  array<vec4<f32>>  (unused, count, max B, min B)
 //   @binding(12) layers      storage, read_write  array<vec4<f32>>  (B, l, kind, 0), kind:
 //                                       0 missing, 1 black, 2 positive luminance
 //   @binding(13) base_range  storage, read_write  vec4<f32>         (min B, max B, count, 0)
+//   @binding(15) cells       storage, read_write  array<vec2<f32>>  (mean l, count) per cell
+//   @binding(16) tmp         storage, read_write  array<vec2<f32>>  levels x cells
+//   @binding(17) grid_levels storage, read_write  array<vec2<f32>>  levels x cells
 
 #include "shared/tonemap_common.wgsl"
 
@@ -31,6 +40,7 @@ const LOG10_E: f32 = 0.4342944819032518;
 const LN10: f32 = 2.302585092994046;
 const LOW: f32 = -3.0e38;
 const HIGH: f32 = 3.0e38;
+const MIN_LOG_WEIGHT: f32 = -80.0;
 
 @group(0) @binding(0) var<uniform> params: ToneMapParams;
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
@@ -38,6 +48,9 @@ const HIGH: f32 = 3.0e38;
 @group(0) @binding(6) var<storage, read_write> partials: array<vec4<f32>>;
 @group(0) @binding(12) var<storage, read_write> layers: array<vec4<f32>>;
 @group(0) @binding(13) var<storage, read_write> base_range: vec4<f32>;
+@group(0) @binding(15) var<storage, read_write> cells: array<vec2<f32>>;
+@group(0) @binding(16) var<storage, read_write> tmp: array<vec2<f32>>;
+@group(0) @binding(17) var<storage, read_write> grid_levels: array<vec2<f32>>;
 
 var<workgroup> shared_acc: array<vec4<f32>, WORKGROUP>;
 
@@ -54,7 +67,106 @@ fn log_luminance(p: vec4<f32>) -> vec2<f32> {
 }
 
 @compute @workgroup_size(256)
-fn bilateral(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn grid_splat(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = pixel_index(id, groups);
+    if c >= params.grid_width * params.grid_height {
+        return;
+    }
+    let x0 = (c % params.grid_width) * params.cell;
+    let y0 = (c / params.grid_width) * params.cell;
+    let x1 = min(x0 + params.cell, params.width);
+    let y1 = min(y0 + params.cell, params.height);
+    var sum = 0.0;
+    var count = 0.0;
+    for (var y = y0; y < y1; y = y + 1u) {
+        for (var x = x0; x < x1; x = x + 1u) {
+            let l = log_luminance(image[y * params.width + x]);
+            if l.y == 2.0 {
+                sum = sum + l.x;
+                count = count + 1.0;
+            }
+        }
+    }
+    cells[c] = vec2<f32>(select(0.0, sum / count, count > 0.0), count);
+}
+
+fn spatial_weight(k: i32) -> f32 {
+    return exp(-f32(k * k) / (2.0 * params.sigma * params.sigma));
+}
+
+@compute @workgroup_size(256)
+fn grid_blur_x(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let item = pixel_index(id, groups);
+    let n_cells = params.grid_width * params.grid_height;
+    if item >= n_cells * params.levels {
+        return;
+    }
+    let level = params.first_level + f32(item / n_cells) * params.level_step;
+    let c = item % n_cells;
+    let x = i32(c % params.grid_width);
+    let row = c - u32(x);
+    let r = i32(params.radius);
+    var acc = vec2<f32>(0.0);
+    for (var k = -r; k <= r; k = k + 1) {
+        let sx = x + k;
+        if sx < 0 || sx >= i32(params.grid_width) {
+            continue;
+        }
+        let cell = cells[row + u32(sx)];
+        if cell.y == 0.0 {
+            continue;
+        }
+        let d = (cell.x - level) / params.sigma_range;
+        let w = spatial_weight(k) * cell.y * exp(max(-0.5 * d * d, MIN_LOG_WEIGHT));
+        acc = acc + vec2<f32>(w * cell.x, w);
+    }
+    tmp[item] = acc;
+}
+
+@compute @workgroup_size(256)
+fn grid_blur_y(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let item = pixel_index(id, groups);
+    let n_cells = params.grid_width * params.grid_height;
+    if item >= n_cells * params.levels {
+        return;
+    }
+    let c = item % n_cells;
+    let plane = item - c;
+    let x = c % params.grid_width;
+    let y = i32(c / params.grid_width);
+    let r = i32(params.radius);
+    var acc = vec2<f32>(0.0);
+    for (var k = -r; k <= r; k = k + 1) {
+        let sy = y + k;
+        if sy < 0 || sy >= i32(params.grid_height) {
+            continue;
+        }
+        acc = acc + spatial_weight(k) * tmp[plane + u32(sy) * params.grid_width + x];
+    }
+    grid_levels[item] = acc;
+}
+
+// Bilinear interpolation of one level at pixel (x, y): cell c's centre is at pixel
+// (c + 0.5) cell - 0.5, clamped to the outermost centres. As cpu.rs `bilinear_on`.
+fn grid_axis(p: u32, n: u32) -> vec3<f32> {
+    let u = clamp((f32(p) + 0.5) / f32(params.cell) - 0.5, 0.0, f32(n - 1u));
+    let i0 = floor(u);
+    return vec3<f32>(i0, min(i0 + 1.0, f32(n - 1u)), u - i0);
+}
+
+fn level_value(level: u32, ax: vec3<f32>, ay: vec3<f32>) -> f32 {
+    let plane = level * params.grid_width * params.grid_height;
+    let w = params.grid_width;
+    let r0 = plane + u32(ay.x) * w;
+    let r1 = plane + u32(ay.y) * w;
+    let top = mix(grid_levels[r0 + u32(ax.x)], grid_levels[r0 + u32(ax.y)], ax.z);
+    let bottom = mix(grid_levels[r1 + u32(ax.x)], grid_levels[r1 + u32(ax.y)], ax.z);
+    let v = mix(top, bottom, ay.z);
+    return v.x / v.y;
+}
+
+@compute @workgroup_size(256)
+fn base(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = pixel_index(id, groups);
     if i >= params.width * params.height {
         return;
@@ -64,36 +176,14 @@ fn bilateral(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
         layers[i] = vec4<f32>(0.0, 0.0, centre.y, 0.0);
         return;
     }
-    let x = i32(i % params.width);
-    let y = i32(i / params.width);
-    let r = i32(params.radius);
-    let stride = i32(max(params.tap_stride, 1u));
-    let inv_two_var_s = 1.0 / (2.0 * params.sigma_spatial_px * params.sigma_spatial_px);
-    let inv_two_var_r = 1.0 / (2.0 * params.sigma_range * params.sigma_range);
-    var num = 0.0;
-    var den = 0.0;
-    for (var dy = -(r / stride) * stride; dy <= r; dy = dy + stride) {
-        let sy = y + dy;
-        if sy < 0 || sy >= i32(params.height) {
-            continue;
-        }
-        for (var dx = -(r / stride) * stride; dx <= r; dx = dx + stride) {
-            let sx = x + dx;
-            if sx < 0 || sx >= i32(params.width) {
-                continue;
-            }
-            let q = log_luminance(image[u32(sy) * params.width + u32(sx)]);
-            if q.y < 2.0 {
-                continue;
-            }
-            let d = q.x - centre.x;
-            let w = exp(-f32(dx * dx + dy * dy) * inv_two_var_s - d * d * inv_two_var_r);
-            num = num + w * q.x;
-            den = den + w;
-        }
-    }
-    // den >= 1: the centre's own weight.
-    layers[i] = vec4<f32>(num / den, centre.x, 2.0, 0.0);
+    let t = (centre.x - params.first_level) / params.level_step;
+    let j = clamp(floor(t), 0.0, f32(params.levels - 2u));
+    let f = clamp(t - j, 0.0, 1.0);
+    let ax = grid_axis(i % params.width, params.grid_width);
+    let ay = grid_axis(i / params.width, params.grid_height);
+    let lower = level_value(u32(j), ax, ay);
+    let upper = level_value(u32(j) + 1u, ax, ay);
+    layers[i] = vec4<f32>(mix(lower, upper, f), centre.x, 2.0, 0.0);
 }
 
 fn combine(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {

@@ -91,7 +91,7 @@ fn aces(log_lw: f32) -> f32 {
 }
 
 fn display_luminance(log_lw: f32) -> f32 {
-    switch params.op {
+    switch OP {
         case 0u: { return exp(min(log_lw, 0.0)); }
         case 1u: { return drago(log_lw); }
         case 2u: { return reinhard(log_lw); }

@@ -1,50 +1,64 @@
 // Reinhard, Stark, Shirley, Ferwerda 2002 automatic dodging-and-burning (their eqs. 5-9).
 // Gaussian i (0-based) has sigma_i = alpha1 ratio^i / sqrt 2 px (params.rs `blur_sigma`); the
 // blurs are normalised convolutions, sum(w L m) / sum(w m) with mask m = 0 at missing pixels
-// and outside the image, done separably on (L m, m) pairs with a sampled Gaussian over
-// radius = ceil(3 sigma) (params.rs `gaussian_radius`). Per pixel, the scale is the last one,
-// scanning up from s = 1, whose activity |V_i - V_i+1| / (2^phi key / s^2 + V_i) < epsilon;
-// L_d = L / (1 + V_chosen). CPU reference: src/tonemap/cpu.rs `reinhard_local`.
+// and outside the image, computed on a pyramid of (L m, m) pairs: level k has cells of 2^k
+// pixels, each the mean of four cells of level k - 1 (cells outside count as (0, 0)). Scale i
+// is blurred separably on level k_i (params.rs `reinhard_level`; level 0 is the image) with a
+// sampled Gaussian of `sigma` cells (params.rs `grid_sigma`) over radius = ceil(3 sigma), and
+// read back bilinearly. Per pixel, the scale is the last one, scanning up from s = 1, whose
+// activity |V_i - V_i+1| / (2^phi key / s^2 + V_i) < epsilon; L_d = L / (1 + V_chosen).
+// CPU reference: src/tonemap/cpu.rs `reinhard_local` / `reinhard_blurs`.
 //
-// Host sequence (all dispatches (X, Y, 1) workgroups of 256 with X * Y * 256 >= n,
-// pixel = global_id.x + global_id.y * X * 256), `stats` from luminance_stats.wgsl:
-//   prepare                                   image, stats -> state, weighted
-//   blur (direction 0, sigma_0), (direction 1) weighted -> tmp -> A
-//   for i in 0..scales:
-//     blur (0, sigma_i+1), blur (1, sigma_i+1) weighted -> tmp -> B
-//     select_scale (pass_index i, scale = ratio^i)  state, centre A, surround B
-//     swap A and B
-//   apply                                     image, state -> output
-// Each dispatch's uniform sets the pass fields (direction, sigma, radius, pass_index, scale).
+// Host sequence (dispatches (X, Y, 1) workgroups of 256 with X * Y * 256 >= items,
+// item = global_id.x + global_id.y * X * 256), `stats` from luminance_stats.wgsl:
+//   prepare     one item per pixel             image, stats -> pyramid level 0
+//   downsample  one item per cell of level k   pyramid (src_offset: level k-1) -> (dst_offset: k)
+//   for each scale i, on its level k_i (cell = 2^k, grid_width x grid_height cells):
+//     blur_x   pyramid (src_offset) -> tmp
+//     blur_y   tmp -> blurred (dst_offset)
+//   apply       one item per pixel             image, stats, blurred, scales -> output
 //
 // Bindings (group 0):
-//   @binding(0)  params    uniform    ToneMapParams
+//   @binding(0)  params    uniform    ToneMapParams (per pass: sigma, radius, cell,
+//                                     grid_width, grid_height, src_offset, dst_offset; apply:
+//                                     levels = number of scales + 1)
 //   @binding(1)  image     storage, read        array<vec4<f32>>  (prepare, apply)
 //   @binding(2)  output    storage, read_write  array<vec4<f32>>  (apply)
-//   @binding(3)  stats     storage, read        LuminanceStats    (prepare)
-//   @binding(7)  state     storage, read_write  array<vec4<f32>>  (L, mask, chosen V, done)
-//   @binding(8)  blur_in   storage, read        array<vec2<f32>>  (blur)
-//   @binding(9)  blur_out  storage, read_write  array<vec2<f32>>  (prepare: weighted; blur)
-//   @binding(10) centre    storage, read        array<vec2<f32>>  (select_scale)
-//   @binding(11) surround  storage, read        array<vec2<f32>>  (select_scale)
+//   @binding(3)  stats     storage, read        LuminanceStats    (prepare, apply)
+//   @binding(8)  blur_in   storage, read        array<vec2<f32>>  (blur_x, blur_y)
+//   @binding(9)  blur_out  storage, read_write  array<vec2<f32>>  (blur_x, blur_y)
+//   @binding(10) pyramid   storage, read_write  array<vec2<f32>>  (prepare, downsample)
+//   @binding(11) blurred   storage, read        array<vec2<f32>>  (apply)
+//   @binding(18) scales    uniform    array<vec4<u32>, 17>  per scale i: (offset in
+//                                     blurred, k, bits of f32 s_i = ratio^i, 0)
 
 #include "shared/tonemap_common.wgsl"
 
 const LN2: f32 = 0.6931471805599453;
 const MAX_LOG: f32 = 88.0;
+const MAX_TAPS: u32 = 256u;
+// Scales + 1 blurs at most (params.rs: scales <= 16).
+const MAX_SCALES: u32 = 17u;
 
 @group(0) @binding(0) var<uniform> params: ToneMapParams;
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> output: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> stats: LuminanceStats;
-@group(0) @binding(7) var<storage, read_write> state: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read> blur_in: array<vec2<f32>>;
 @group(0) @binding(9) var<storage, read_write> blur_out: array<vec2<f32>>;
-@group(0) @binding(10) var<storage, read> centre: array<vec2<f32>>;
-@group(0) @binding(11) var<storage, read> surround: array<vec2<f32>>;
+@group(0) @binding(10) var<storage, read_write> pyramid: array<vec2<f32>>;
+@group(0) @binding(11) var<storage, read> blurred: array<vec2<f32>>;
+@group(0) @binding(18) var<uniform> scales: array<vec4<u32>, MAX_SCALES>;
 
-fn normalised(v: vec2<f32>) -> f32 {
-    return select(0.0, v.x / v.y, v.y > 0.0);
+var<workgroup> taps: array<f32, MAX_TAPS>;
+
+// Scaled luminance L = key / Lbar * L_w (0 for black pixels), as prepare and apply need it.
+fn scaled_luminance(p: vec4<f32>) -> f32 {
+    let y = dot(max(p.rgb, vec3<f32>(0.0)), REC709);
+    if y > 0.0 && stats.count > 0u {
+        return exp(min(log(params.key) + log(y) + params.exposure_ev * LN2 - stats.mean_log, MAX_LOG));
+    }
+    return 0.0;
 }
 
 @compute @workgroup_size(256)
@@ -55,72 +69,120 @@ fn prepare(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     }
     let p = image[i];
     if is_missing(p) {
-        state[i] = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-        blur_out[i] = vec2<f32>(0.0);
-        return;
+        pyramid[i] = vec2<f32>(0.0);
+    } else {
+        pyramid[i] = vec2<f32>(scaled_luminance(p), 1.0);
     }
-    let y = dot(max(p.rgb, vec3<f32>(0.0)), REC709);
-    var l = 0.0;
-    if y > 0.0 && stats.count > 0u {
-        l = exp(min(log(params.key) + log(y) + params.exposure_ev * LN2 - stats.mean_log, MAX_LOG));
-    }
-    state[i] = vec4<f32>(l, 1.0, 0.0, 0.0);
-    blur_out[i] = vec2<f32>(l, 1.0);
 }
 
 @compute @workgroup_size(256)
-fn blur(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = pixel_index(id, groups);
-    if i >= params.width * params.height {
+fn downsample(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let c = pixel_index(id, groups);
+    if c >= params.grid_width * params.grid_height {
         return;
     }
-    let x = i32(i % params.width);
-    let y = i32(i / params.width);
-    let r = i32(params.radius);
-    let inv_two_var = 1.0 / (2.0 * params.sigma * params.sigma);
+    // The level above has ceil(width / (cell / 2)) x ceil(height / (cell / 2)) cells.
+    let half = params.cell / 2u;
+    let sw = (params.width + half - 1u) / half;
+    let sh = (params.height + half - 1u) / half;
+    let x = 2u * (c % params.grid_width);
+    let y = 2u * (c / params.grid_width);
+    var acc = vec2<f32>(0.0);
+    for (var dy = 0u; dy < 2u; dy = dy + 1u) {
+        for (var dx = 0u; dx < 2u; dx = dx + 1u) {
+            if x + dx < sw && y + dy < sh {
+                acc = acc + 0.25 * pyramid[params.src_offset + (y + dy) * sw + x + dx];
+            }
+        }
+    }
+    pyramid[params.dst_offset + c] = acc;
+}
+
+// The pass's Gaussian taps, once per workgroup (radius <= 127 by validation); returns the radius.
+fn load_taps(local: u32) -> i32 {
+    let r = i32(min(params.radius, MAX_TAPS / 2u - 1u));
+    if local <= u32(r) {
+        let k = f32(local);
+        taps[local] = exp(-k * k / (2.0 * params.sigma * params.sigma));
+    }
+    workgroupBarrier();
+    return r;
+}
+
+// Two entry points rather than a branch on a uniform: Mesa's CPU rasterizers would run both.
+@compute @workgroup_size(256)
+fn blur_x(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let r = load_taps(local);
+    let c = pixel_index(id, groups);
+    if c >= params.grid_width * params.grid_height {
+        return;
+    }
+    let x = i32(c % params.grid_width);
+    let row = params.src_offset + c - u32(x);
+    let last = i32(params.grid_width) - 1;
+    var acc = vec2<f32>(0.0);
+    // The same taps for every lane (a uniform loop; taps outside the grid weigh 0), which
+    // Mesa's CPU rasterizers run far faster than per-lane loop bounds.
+    for (var k = -r; k <= r; k = k + 1) {
+        let sx = x + k;
+        let weight = select(0.0, taps[abs(k)], sx >= 0 && sx <= last);
+        acc = acc + weight * blur_in[row + u32(clamp(sx, 0, last))];
+    }
+    blur_out[params.dst_offset + c] = acc;
+}
+
+@compute @workgroup_size(256)
+fn blur_y(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let r = load_taps(local);
+    let c = pixel_index(id, groups);
+    if c >= params.grid_width * params.grid_height {
+        return;
+    }
+    let x = c % params.grid_width;
+    let y = i32(c / params.grid_width);
+    let last = i32(params.grid_height) - 1;
     var acc = vec2<f32>(0.0);
     for (var k = -r; k <= r; k = k + 1) {
-        var sx = x;
-        var sy = y;
-        if params.direction == 0u {
-            sx = x + k;
-        } else {
-            sy = y + k;
-        }
-        if sx < 0 || sy < 0 || sx >= i32(params.width) || sy >= i32(params.height) {
-            continue;
-        }
-        let w = exp(-f32(k * k) * inv_two_var);
-        acc = acc + w * blur_in[u32(sy) * params.width + u32(sx)];
+        let sy = y + k;
+        let weight = select(0.0, taps[abs(k)], sy >= 0 && sy <= last);
+        acc = acc + weight * blur_in[params.src_offset + u32(clamp(sy, 0, last)) * params.grid_width + x];
     }
-    blur_out[i] = acc;
+    blur_out[params.dst_offset + c] = acc;
 }
 
-@compute @workgroup_size(256)
-fn select_scale(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = pixel_index(id, groups);
-    if i >= params.width * params.height {
-        return;
+// V_i at pixel (x, y): the normalised blur of scale i, read bilinearly from its level (level 0:
+// the pixel itself). Cell c's centre is at pixel (c + 0.5) 2^k - 0.5, clamped to the outermost
+// centres, as cpu.rs `bilinear_on`.
+fn scale_value(i: u32, x: u32, y: u32) -> f32 {
+    let entry = scales[i];
+    var v: vec2<f32>;
+    if entry.y == 0u {
+        v = blurred[entry.x + y * params.width + x];
+    } else {
+        let cell = 1u << entry.y;
+        let gw = (params.width + cell - 1u) / cell;
+        let gh = (params.height + cell - 1u) / cell;
+        let u = clamp((f32(x) + 0.5) / f32(cell) - 0.5, 0.0, f32(gw - 1u));
+        let w = clamp((f32(y) + 0.5) / f32(cell) - 0.5, 0.0, f32(gh - 1u));
+        let x0 = floor(u);
+        let y0 = floor(w);
+        let x1 = min(u32(x0) + 1u, gw - 1u);
+        let y1 = min(u32(y0) + 1u, gh - 1u);
+        let r0 = entry.x + u32(y0) * gw;
+        let r1 = entry.x + y1 * gw;
+        let top = mix(blurred[r0 + u32(x0)], blurred[r0 + x1], u - x0);
+        let bottom = mix(blurred[r1 + u32(x0)], blurred[r1 + x1], u - x0);
+        v = mix(top, bottom, w - y0);
     }
-    var s = state[i];
-    if s.y == 0.0 {
-        return;
-    }
-    let v1 = normalised(centre[i]);
-    let v2 = normalised(surround[i]);
-    if params.pass_index == 0u {
-        s.z = v1;
-        s.w = 0.0;
-    }
-    if s.w == 0.0 {
-        let activity = (v1 - v2) / (params.sharpness / (params.scale * params.scale) + v1);
-        if abs(activity) >= params.epsilon {
-            s.w = 1.0;
-        } else {
-            s.z = v1;
-        }
-    }
-    state[i] = s;
+    return select(0.0, v.x / v.y, v.y > 0.0);
 }
 
 @compute @workgroup_size(256)
@@ -134,12 +196,27 @@ fn apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
         output[i] = vec4<f32>(0.0);
         return;
     }
+    let x = i % params.width;
+    let y = i / params.width;
+    let l = scaled_luminance(p);
+    var v1 = scale_value(0u, x, y);
+    var chosen = v1;
+    var done = false;
+    // Every lane runs every scale (no per-pixel break), so the loop and the level test in
+    // scale_value stay uniform; a pixel's choice freezes at its first failing scale.
+    for (var s = 0u; s + 1u < params.levels; s = s + 1u) {
+        let v2 = scale_value(s + 1u, x, y);
+        let scale = bitcast<f32>(scales[s].z);
+        let activity = (v1 - v2) / (params.sharpness / (scale * scale) + v1);
+        done = done || abs(activity) >= params.epsilon;
+        chosen = select(v1, chosen, done);
+        v1 = v2;
+    }
     let colour = max(p.rgb, vec3<f32>(0.0));
-    let y = dot(colour, REC709);
-    let s = state[i];
+    let y_w = dot(colour, REC709);
     var rgb = compose(vec3<f32>(0.0), 1.0, 0.0);
-    if y > 0.0 && s.x > 0.0 {
-        rgb = compose(colour, y, s.x / (1.0 + s.z));
+    if y_w > 0.0 && l > 0.0 {
+        rgb = compose(colour, y_w, l / (1.0 + chosen));
     }
     output[i] = vec4<f32>(rgb, clamp(p.a, 0.0, 1.0));
 }

@@ -6,6 +6,7 @@
 pub mod layout;
 pub mod readback;
 pub mod shader;
+pub mod transfer;
 
 use crate::error::{Error, Result};
 use std::sync::Arc;
@@ -13,7 +14,8 @@ use std::sync::Arc;
 /// Environment variable that selects the backend when `--backend` is not given.
 pub const BACKEND_ENV: &str = "HDRVIS_BACKEND";
 /// Environment variable listing capabilities to treat as missing (comma-separated), so the
-/// fallback paths can be exercised on any machine: `float32_filterable`, `shader_f64`, `shader_f16`.
+/// fallback paths can be exercised on any machine: `float32_filterable`, `shader_f64`, `shader_f16`,
+/// `mappable_primary_buffers`.
 pub const DISABLE_ENV: &str = "HDRVIS_DISABLE_FEATURES";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -72,6 +74,10 @@ pub struct Capabilities {
     pub max_texture_2d: u32,
     pub max_buffer_size: u64,
     pub max_storage_buffer_binding_size: u64,
+    /// Storage buffers may also be MAP_READ / MAP_WRITE (wgpu's MAPPABLE_PRIMARY_BUFFERS),
+    /// requested only on CPU adapters, where device memory is host memory: uploads and
+    /// readbacks then skip the staging copy (see [`transfer`]).
+    pub mappable_primary_buffers: bool,
 }
 
 pub struct GpuContext {
@@ -224,6 +230,15 @@ impl GpuContext {
                 wanted |= f;
             }
         }
+        // On a real GPU mapped storage buffers would live in slow host-visible memory; on a
+        // CPU rasterizer every buffer is host memory, and mapping saves a full copy each way.
+        let mappable = wgpu::Features::MAPPABLE_PRIMARY_BUFFERS;
+        if info.device_type == wgpu::DeviceType::Cpu
+            && features.contains(mappable)
+            && !off("mappable_primary_buffers")
+        {
+            wanted |= mappable;
+        }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("hdrvis"),
             required_features: wanted,
@@ -239,6 +254,7 @@ impl GpuContext {
             max_texture_2d: limits.max_texture_dimension_2d,
             max_buffer_size: limits.max_buffer_size,
             max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
+            mappable_primary_buffers: wanted.contains(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS),
         };
         let pipeline_cache = if wanted.contains(wgpu::Features::PIPELINE_CACHE) {
             PersistentPipelineCache::open(&device, &info)
@@ -291,7 +307,7 @@ impl GpuContext {
         let yes = |b: bool| if b { "yes" } else { "no" };
         let c = &self.caps;
         format!(
-            "adapter:  {}\nbackend:  {}\ntype:     {:?}\ndriver:   {} {}\nfloat32 filtering: {}{}\nshader f64: {}\nshader f16: {}\nmax 3-D texture: {}^3 voxels\nmax 2-D texture: {} px\nmax buffer: {} MiB\nmax storage binding: {} MiB",
+            "adapter:  {}\nbackend:  {}\ntype:     {:?}\ndriver:   {} {}\nfloat32 filtering: {}{}\nshader f64: {}\nshader f16: {}\nmax 3-D texture: {}^3 voxels\nmax 2-D texture: {} px\nmax buffer: {} MiB\nmax storage binding: {} MiB\nmapped storage buffers: {}",
             self.info.name,
             self.backend_name(),
             self.info.device_type,
@@ -305,6 +321,7 @@ impl GpuContext {
             c.max_texture_2d,
             c.max_buffer_size >> 20,
             c.max_storage_buffer_binding_size >> 20,
+            yes(c.mappable_primary_buffers),
         ) + "\npipeline cache: "
             + match self.pipeline_cache_path() {
                 Some(p) => format!("yes ({})", p.display()),

@@ -6,6 +6,7 @@ pub mod camera;
 pub mod colormap;
 pub mod grid;
 pub mod image;
+pub mod text;
 pub mod transfer;
 pub mod volume;
 

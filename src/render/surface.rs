@@ -19,6 +19,7 @@
 //! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 
 use crate::error::{Error, Result};
+use crate::gpu::transfer::ReadbackBuffer;
 use crate::gpu::{shader, GpuContext};
 use crate::model::colormap::Colormap;
 use crate::model::{Aabb, Camera, Grid, HdrImage, Projection};
@@ -316,11 +317,21 @@ struct DataTargets {
     values: Mutex<HashMap<usize, Vec<f32>>>,
 }
 
+/// Step-2 outputs, mapped directly on CPU adapters (no staging copy of the 16 MiB colour
+/// buffer at 1024²; see [`crate::gpu::transfer`]).
 struct FringeOutputs {
-    color: wgpu::Buffer,
-    value: wgpu::Buffer,
-    color_staging: wgpu::Buffer,
-    value_staging: wgpu::Buffer,
+    color: ReadbackBuffer,
+    value: ReadbackBuffer,
+}
+
+/// What a fringe pipeline is specialised on (pipeline constants of surface_fringe.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct FringeVariant {
+    slot: usize,
+    mode: u32,
+    absolute: bool,
+    log_color: bool,
+    write_value: bool,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -353,7 +364,8 @@ pub struct SurfaceTiming {
 pub struct SurfaceRenderer {
     ctx: Arc<GpuContext>,
     data_pipelines: Mutex<HashMap<bool, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
-    fringe_pipelines: Mutex<HashMap<usize, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
+    fringe_pipelines:
+        Mutex<HashMap<FringeVariant, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
     cache: Mutex<Vec<(DataKey, Arc<DataTargets>)>>,
     data_passes: AtomicU64,
     fringe_passes: AtomicU64,
@@ -467,13 +479,13 @@ impl SurfaceRenderer {
 
     fn fringe_pipeline(
         &self,
-        slot: usize,
+        variant: FringeVariant,
     ) -> Result<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>> {
         let mut cache = self
             .fringe_pipelines
             .lock()
             .expect("pipeline cache poisoned");
-        if let Some(p) = cache.get(&slot) {
+        if let Some(p) = cache.get(&variant) {
             return Ok(p.clone());
         }
         let entries = [
@@ -489,9 +501,15 @@ impl SurfaceRenderer {
             "surface_fringe.wgsl",
             "surface fringe pass",
             &entries,
-            &[("SLOT", slot as f64)],
+            &[
+                ("SLOT", variant.slot as f64),
+                ("MODE", variant.mode as f64),
+                ("ABSOLUTE", variant.absolute as u8 as f64),
+                ("LOG_COLOR", variant.log_color as u8 as f64),
+                ("WRITE_VALUE", variant.write_value as u8 as f64),
+            ],
         )?;
-        cache.insert(slot, p.clone());
+        cache.insert(variant, p.clone());
         Ok(p)
     }
 
@@ -889,7 +907,19 @@ impl SurfaceRenderer {
                 [c[0] as f32, c[1] as f32, c[2] as f32, 1.0]
             })
             .collect();
-        let pipeline = self.fringe_pipeline(slot)?;
+        let cached_values = data
+            .values
+            .lock()
+            .expect("surface values poisoned")
+            .get(&slot)
+            .cloned();
+        let pipeline = self.fringe_pipeline(FringeVariant {
+            slot,
+            mode: opts.mode.code(),
+            absolute: opts.absolute,
+            log_color: opts.log_color,
+            write_value: cached_values.is_none(),
+        })?;
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
         let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -901,21 +931,12 @@ impl SurfaceRenderer {
         let (w, h) = (data.width, data.height);
         let n = w as u64 * h as u64;
         let mut outputs = data.outputs.lock().expect("surface outputs poisoned");
-        let staging = |label: &str, bytes: u64| {
-            self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: bytes.max(16),
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            })
-        };
+        let none = wgpu::BufferUsages::empty();
         let outs = outputs.get_or_insert_with(|| FringeOutputs {
-            color: self.output_buffer("surface image", n * 16),
-            value: self.output_buffer("surface value", n * 4),
-            color_staging: staging("surface image readback", n * 16),
-            value_staging: staging("surface value readback", n * 4),
+            color: ReadbackBuffer::new(&self.ctx, "surface image", n * 16, none),
+            value: ReadbackBuffer::new(&self.ctx, "surface value", n * 4, none),
         });
-        let (out, out_value) = (&outs.color, &outs.value);
+        let (out, out_value) = (&outs.color.buffer, &outs.value.buffer);
         let bind = self.bind(
             "surface fringe",
             &pipeline.1,
@@ -929,15 +950,9 @@ impl SurfaceRenderer {
             pass.set_bind_group(0, &bind, &[]);
             pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
         }
-        let cached_values = data
-            .values
-            .lock()
-            .expect("surface values poisoned")
-            .get(&slot)
-            .cloned();
-        enc.copy_buffer_to_buffer(out, 0, &outs.color_staging, 0, (n * 16).max(16));
+        outs.color.record_copy(&mut enc, n * 16);
         if cached_values.is_none() {
-            enc.copy_buffer_to_buffer(out_value, 0, &outs.value_staging, 0, (n * 4).max(16));
+            outs.value.record_copy(&mut enc, n * 4);
         }
         let prof = std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some();
         let t0 = std::time::Instant::now();
@@ -947,16 +962,14 @@ impl SurfaceRenderer {
             eprintln!("fringe compute {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
         }
         self.fringe_passes.fetch_add(1, Ordering::Relaxed);
-        let mut pixels: Vec<[f32; 4]> =
-            crate::gpu::readback::read_mapped(&self.ctx, &outs.color_staging, n * 16)?;
+        let mut pixels: Vec<[f32; 4]> = outs.color.read(&self.ctx, n * 16)?;
         if prof {
             eprintln!("+ rgba readback {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
         }
         let values: Vec<f32> = match cached_values {
             Some(v) => v,
             None => {
-                let mut v: Vec<f32> =
-                    crate::gpu::readback::read_mapped(&self.ctx, &outs.value_staging, n * 4)?;
+                let mut v: Vec<f32> = outs.value.read(&self.ctx, n * 4)?;
                 for (value, p) in v.iter_mut().zip(&pixels) {
                     if p[3] < 0.0 {
                         *value = f32::NAN;
@@ -1112,6 +1125,71 @@ pub fn colorbar(grid: &Grid, opts: &SurfaceOptions, width: u32, height: u32) -> 
     img.set_meta("colorbar_domain", format!("{lo} {hi} {u}"));
     img.set_meta("mode", opts.mode.name());
     img.set_meta("colormap", cmap.name());
+    Ok(img)
+}
+
+/// The legend's statement of the resolution: "1 fringe = 0.125 m" (1/ν in the property's
+/// units, "data units" when it has none).
+pub fn resolution_label(nu: f64, units: &str) -> String {
+    let u = if units.is_empty() {
+        "data units"
+    } else {
+        units
+    };
+    format!(
+        "1 fringe = {} {u}",
+        crate::model::text::format_number(1.0 / nu)
+    )
+}
+
+/// Height in pixels of the colour bar at the top of a [`legend`].
+pub const LEGEND_BAR_HEIGHT: u32 = 16;
+
+/// A legend for a surface render, `width` pixels wide: the colour bar of [`colorbar`] on top,
+/// then in white text on black the resolution ("1 fringe = 0.125 m"), ν and the mode, and the
+/// bar's domain (its ends, left and right). Text is drawn twice as large when it fits.
+pub fn legend(grid: &Grid, opts: &SurfaceOptions, width: u32) -> Result<HdrImage> {
+    use crate::model::text::{draw_text, format_number, text_width, GLYPH};
+    let bar = colorbar(grid, opts, width, LEGEND_BAR_HEIGHT)?;
+    let p = SurfaceRenderer::property_indices(grid, opts)?[0];
+    let nu = opts.nu_for(0);
+    let units = grid.units(p);
+    let label = resolution_label(nu, units);
+    let detail = format!("ν = {} ({})", format_number(nu), opts.mode.name());
+    let domain: Vec<f64> = bar
+        .meta("colorbar_domain")
+        .unwrap_or("")
+        .split_whitespace()
+        .take(2)
+        .filter_map(|v| v.parse().ok())
+        .collect();
+    let (left, right) = match domain[..] {
+        [lo, hi] => (format_number(lo), format_number(hi)),
+        _ => (String::new(), String::new()),
+    };
+    let widest = [label.as_str(), detail.as_str()]
+        .iter()
+        .map(|t| text_width(t, 1))
+        .max()
+        .unwrap_or(0)
+        .max(text_width(&left, 1) + text_width(&right, 1) + GLYPH);
+    let scale = if 2 * widest + 4 <= width { 2 } else { 1 };
+    let line = GLYPH * scale + 4;
+    let height = LEGEND_BAR_HEIGHT + 4 + 3 * line;
+    let mut img = HdrImage::new(width, height);
+    for px in img.pixels.iter_mut() {
+        *px = [0.0, 0.0, 0.0, 1.0];
+    }
+    img.pixels[..bar.pixels.len()].copy_from_slice(&bar.pixels);
+    let white = [1.0, 1.0, 1.0, 1.0];
+    let top = (LEGEND_BAR_HEIGHT + 4) as i64;
+    let right_x = width as i64 - text_width(&right, scale) as i64 - 2;
+    draw_text(&mut img, 2, top, &left, scale, white);
+    draw_text(&mut img, right_x.max(2), top, &right, scale, white);
+    draw_text(&mut img, 2, top + line as i64, &label, scale, white);
+    draw_text(&mut img, 2, top + 2 * line as i64, &detail, scale, white);
+    img.metadata = bar.metadata.clone();
+    img.set_meta("legend", label.as_str());
     Ok(img)
 }
 

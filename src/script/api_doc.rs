@@ -35,6 +35,8 @@ pub const AREAS: &[&str] = &[
     "transfer functions",
     "cameras",
     "rendering",
+    "surfaces",
+    "exposure and tone mapping",
     "output",
     "parameters and sweeps",
 ];
@@ -72,6 +74,7 @@ pub const API: &[ApiEntry] = &[
     e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2: #{nu (number or one per property), mode: \"cyclic\"|\"modulated\"|\"direct\", colormap, property (name, or an array of up to four rendered from one data pass, returning an array), view: \"map\" or a Camera, width, height, modulation, absolute, log_color, exaggeration, relief}. The EXR gets the data value and `fringe` channels."),
     e("surfaces", "render_surface", &["grid: Grid"], "Image", "An error naming the options render_surface needs."),
     e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for the same options (plus width, height), with the resolution 1/nu in its metadata."),
+    e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for the same options (plus width, default 384): the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text."),
     e("exposure and tone mapping", "load_image", &["path: string"], "Image", "Reads an RGB(A) OpenEXR (float or half, from any producer) as an HDR image."),
     e("exposure and tone mapping", "exposure", &["image: Image", "ev: number"], "Image", "The HDR image times 2^ev (no re-render)."),
     e("exposure and tone mapping", "bracket", &["image: Image", "evs: array"], "array", "One exposed HDR image per EV, all from the same render."),

@@ -9,7 +9,7 @@ use super::api_render::{ScriptCamera, ScriptImage};
 use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResult};
 use super::ScriptHost;
 use crate::model::{Axis, Grid};
-use crate::render::surface::{colorbar, FringeMode, SurfaceOptions, SurfaceView};
+use crate::render::surface::{colorbar, legend, FringeMode, SurfaceOptions, SurfaceView};
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
@@ -191,6 +191,21 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
                 hgt.clamp(0, 16384) as u32,
             )
             .map_err(to_rhai)?;
+            Ok(Arc::new(img))
+        },
+    );
+
+    engine.register_fn(
+        "surface_legend",
+        |grid: &mut ScriptGrid, opts: Map| -> RResult<ScriptImage> {
+            let mut rest = opts.clone();
+            let w = rest
+                .remove("width")
+                .map(|v| int(&v, "width"))
+                .transpose()?
+                .unwrap_or(384);
+            let (o, _) = parse_options(grid, &rest)?;
+            let img = legend(grid, &o, w.clamp(0, 16384) as u32).map_err(to_rhai)?;
             Ok(Arc::new(img))
         },
     );

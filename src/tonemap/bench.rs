@@ -31,6 +31,9 @@ pub struct ToneMapBenchRow {
     pub local: bool,
     pub size: u32,
     pub runs_ms: Vec<f64>,
+    /// Processor time of the whole process (every thread, the CPU rasterizer's included) per
+    /// run, where the OS reports it: less sensitive than wall time to other work on the machine.
+    pub cpu_ms: Option<f64>,
     /// Why this size was not run (the image does not fit this adapter's buffer bindings).
     pub skipped: Option<String>,
 }
@@ -91,6 +94,7 @@ pub fn bench_tonemap(
                 local: op.is_local(),
                 size,
                 runs_ms: Vec::new(),
+                cpu_ms: None,
                 skipped: Some(why.clone()),
             }));
             continue;
@@ -104,17 +108,23 @@ pub fn bench_tonemap(
             };
             mapper.tonemap(&img, &settings)?;
             let mut runs_ms = Vec::with_capacity(runs);
+            let cpu_before = process_cpu_ms();
             for _ in 0..runs {
                 let t = Instant::now();
                 let out = mapper.tonemap(&img, &settings)?;
                 runs_ms.push(t.elapsed().as_secs_f64() * 1e3);
                 drop(out);
             }
+            let cpu_ms = match (cpu_before, process_cpu_ms()) {
+                (Some(a), Some(b)) => Some((b - a) / runs as f64),
+                _ => None,
+            };
             let row = ToneMapBenchRow {
                 op: op.name(),
                 local: op.is_local(),
                 size,
                 runs_ms,
+                cpu_ms,
                 skipped: None,
             };
             progress(&format!(
@@ -128,6 +138,17 @@ pub fn bench_tonemap(
     Ok(rows)
 }
 
+/// User plus system time of this process so far in ms, from `/proc/self/stat` (Linux; clock
+/// ticks of 10 ms, so meaningful summed over several runs), or `None` elsewhere.
+pub fn process_cpu_ms() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    Some(ticks * 10.0)
+}
+
 /// The benchmark's table: adapter, then one line per operator and size.
 pub fn format_tonemap_table(adapter: &str, rows: &[ToneMapBenchRow]) -> String {
     let mut s = format!(
@@ -135,8 +156,8 @@ pub fn format_tonemap_table(adapter: &str, rows: &[ToneMapBenchRow]) -> String {
         rows.iter().map(|r| r.runs_ms.len()).max().unwrap_or(0)
     );
     s += &format!(
-        "{:15} {:>6} {:>11} {:>11} {:>11}  {}\n",
-        "operator", "kind", "image", "median ms", "Mpx/s", "target"
+        "{:15} {:>6} {:>11} {:>11} {:>11} {:>11}  {}\n",
+        "operator", "kind", "image", "median ms", "CPU ms/run", "Mpx/s", "target"
     );
     for r in rows {
         if let Some(why) = &r.skipped {
@@ -155,11 +176,12 @@ pub fn format_tonemap_table(adapter: &str, rows: &[ToneMapBenchRow]) -> String {
             None => String::new(),
         };
         s += &format!(
-            "{:15} {:>6} {:>11} {:>11.1} {:>11.1}  {}\n",
+            "{:15} {:>6} {:>11} {:>11.1} {:>11} {:>11.1}  {}\n",
             r.op,
             if r.local { "local" } else { "global" },
             format!("{}x{}", r.size, r.size),
             r.median_ms(),
+            r.cpu_ms.map_or("-".to_string(), |c| format!("{c:.0}")),
             mpx,
             target
         );

@@ -330,17 +330,120 @@ pub fn gaussian_radius(sigma: f64) -> u32 {
     (3.0 * sigma).ceil().max(1.0) as u32
 }
 
-/// Half-width of Durand's bilateral window (2 sigma_s, where the spatial weight is e^-2).
-pub fn bilateral_radius(sigma_pixels: f64) -> u32 {
-    (2.0 * sigma_pixels).ceil().max(1.0) as u32
+/// Standard deviation, in cells, of a Gaussian of `sigma_px` pixels computed on a grid of
+/// `cell`-pixel cells that was filled by box averaging and is read back by bilinear
+/// interpolation: box and tent add about cell^2 / 4 of variance between them, which is taken off
+/// so that the whole chain blurs by about `sigma_px`. A grid of one-pixel cells is the image
+/// itself (nothing to take off).
+pub fn grid_sigma(sigma_px: f64, cell: u32) -> f64 {
+    if cell <= 1 {
+        return sigma_px;
+    }
+    let z = cell as f64;
+    (sigma_px * sigma_px / (z * z) - 0.25).max(0.25).sqrt()
 }
 
-/// Spacing of the bilateral window's taps: every pixel up to sigma_s = 8 px, then about four
-/// taps per sigma_s, so the cost stops growing as sigma_s^2 (a 1024 px image has sigma_s = 20 px:
-/// 17 x 17 taps instead of 83 x 83). The sampled spatial Gaussian is renormalised, and offset 0
-/// is always a tap, so edges stay preserved.
-pub fn bilateral_stride(sigma_pixels: f64) -> u32 {
-    ((sigma_pixels / 4.0).floor() as u32).max(1)
+/// Reinhard's blurs at reduced resolution: scale `index` is blurred on pyramid level
+/// [`reinhard_level`] (level k halves the image k times by 2x2 averaging of the (L m, m) pairs),
+/// where its sigma still spans at least this many cells.
+pub const REINHARD_MIN_LEVEL_SIGMA: f64 = 0.8;
+
+/// Deepest pyramid level of Reinhard's blurs.
+pub const REINHARD_MAX_LEVEL: u32 = 6;
+
+/// The pyramid level on which Reinhard's Gaussian of `sigma_px` pixels is computed: the
+/// coarsest whose cells of 2^k pixels leave sigma_px / 2^k >= [`REINHARD_MIN_LEVEL_SIGMA`].
+pub fn reinhard_level(sigma_px: f64) -> u32 {
+    let mut k = 0;
+    while k < REINHARD_MAX_LEVEL
+        && sigma_px / f64::from(1u32 << (k + 1)) >= REINHARD_MIN_LEVEL_SIGMA
+    {
+        k += 1;
+    }
+    k
+}
+
+/// Most intensity levels of Durand's piecewise-linear bilateral filter.
+pub const DURAND_MAX_LEVELS: u32 = 64;
+/// Largest side, in cells, of Durand's downsampled grid (bounds its memory: 256^2 cells x
+/// [`DURAND_MAX_LEVELS`] levels x 8 bytes = 32 MiB).
+pub const DURAND_MAX_GRID_SIDE: u32 = 256;
+/// Smallest range weight of Durand's filter, e^-80: far levels still weigh (very little) so
+/// that a normalisation never divides 0 by 0, in f32 as in f64.
+pub const DURAND_MIN_LOG_WEIGHT: f64 = -80.0;
+
+/// Durand & Dorsey's own acceleration (their section 5.1): the bilateral filter of log10
+/// luminance as a piecewise-linear function of intensity. Levels i_j = first + j step span the
+/// image's log10 luminance at most sigma_r apart; the image is box-averaged onto a grid of
+/// `cell`-pixel cells; per level, the range weights w = count exp(-(mean - i_j)^2 / 2 sigma_r^2)
+/// and w mean are blurred by a Gaussian of `sigma_cells` ([`grid_sigma`]) within `radius`
+/// cells (2 sigma); each pixel interpolates the two levels around its own l, each read
+/// bilinearly from the grid as (sum w mean) / (sum w).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DurandGrid {
+    pub cell: u32,
+    pub grid_width: u32,
+    pub grid_height: u32,
+    pub sigma_cells: f64,
+    pub radius: u32,
+    pub levels: u32,
+    pub first_level: f64,
+    pub level_step: f64,
+}
+
+impl DurandGrid {
+    /// The grid for an image of `width` x `height` whose positive luminance spans
+    /// [`log10_min`, `log10_max`] (log10 units).
+    pub fn new(
+        width: u32,
+        height: u32,
+        sigma_spatial: f64,
+        sigma_range: f64,
+        log10_min: f64,
+        log10_max: f64,
+    ) -> DurandGrid {
+        let sigma_px = durand_sigma_pixels(sigma_spatial, width, height);
+        let by_sigma = (sigma_px / 2.0).floor().max(1.0) as u32;
+        let by_memory = width.max(height).div_ceil(DURAND_MAX_GRID_SIDE);
+        let cell = by_sigma.max(by_memory).max(1);
+        let sigma_cells = grid_sigma(sigma_px, cell);
+        let range = (log10_max - log10_min).max(0.0);
+        let levels = if range > 0.0 {
+            ((range / sigma_range).ceil() as u32 + 1).clamp(2, DURAND_MAX_LEVELS)
+        } else {
+            2
+        };
+        let level_step = if range > 0.0 {
+            range / (levels - 1) as f64
+        } else {
+            sigma_range
+        };
+        DurandGrid {
+            cell,
+            grid_width: width.div_ceil(cell),
+            grid_height: height.div_ceil(cell),
+            sigma_cells,
+            radius: (2.0 * sigma_cells).ceil().max(1.0) as u32,
+            levels,
+            first_level: if log10_min.is_finite() {
+                log10_min
+            } else {
+                0.0
+            },
+            level_step,
+        }
+    }
+
+    pub fn cells(&self) -> u32 {
+        self.grid_width * self.grid_height
+    }
+
+    /// The two levels around log10 luminance `l` and the weight of the upper one.
+    pub fn bracket(&self, l: f64) -> (u32, f64) {
+        let t = (l - self.first_level) / self.level_step;
+        let j = t.floor().clamp(0.0, (self.levels - 2) as f64);
+        (j as u32, (t - j).clamp(0.0, 1.0))
+    }
 }
 
 fn positive(field: &str, value: f64) -> Result<()> {
@@ -428,7 +531,7 @@ impl ToneMapSettings {
 
 /// The uniform block every shader in `shaders/tonemap/` declares as `ToneMapParams`.
 /// Keep in sync with the WGSL struct `ToneMapParams` (same field order, all 4-byte scalars,
-/// 112 bytes). Pass-specific fields (`pass_index`, `sigma`, `radius`, `direction`) vary between
+/// 128 bytes). Pass-specific fields (`pass_index`, `sigma`, `radius`, `direction`) vary between
 /// dispatches of one operator: write one uniform per dispatch or use dynamic offsets.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -472,16 +575,26 @@ pub struct ToneMapParams {
     pub pass_index: u32,
     /// Gaussian sigma in pixels for the current Reinhard local `blur` pass ([`blur_sigma`]).
     pub sigma: f32,
-    /// Window half-width in pixels: [`gaussian_radius`] for a blur pass, [`bilateral_radius`]
-    /// for Durand, the legend strip height for the false-colour view.
+    /// Window half-width: [`gaussian_radius`] for a Reinhard blur pass, the grid blur's radius
+    /// in cells for Durand, the legend strip height for the false-colour view.
     pub radius: u32,
     /// Blur direction for the current pass: 0 horizontal, 1 vertical.
     pub direction: u32,
-    /// Durand: spacing in pixels of the bilateral window's taps ([`bilateral_stride`]).
-    pub tap_stride: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// Durand: grid cell side in pixels; Reinhard local: cell side of the pass's pyramid
+    /// level (2^k).
+    pub cell: u32,
+    /// Durand: grid size in cells; Reinhard local: size of the pass's pyramid level.
+    pub grid_width: u32,
+    pub grid_height: u32,
+    /// Durand: number of intensity levels; Reinhard local: number of blurred scales.
+    pub levels: u32,
+    /// Durand: log10 luminance of level 0 (of the uploaded image, before exposure).
+    pub first_level: f32,
+    /// Durand: log10 luminance between levels.
+    pub level_step: f32,
+    /// Offset (in elements) of the current pass's source / destination in a shared buffer.
+    pub src_offset: u32,
+    pub dst_offset: u32,
 }
 
 impl ToneMapParams {
@@ -537,8 +650,6 @@ impl ToneMapParams {
                 p.contrast_log10 = contrast.log10() as f32;
                 p.sigma_spatial_px = sigma_px as f32;
                 p.sigma_range = sigma_range as f32;
-                p.radius = bilateral_radius(sigma_px);
-                p.tap_stride = bilateral_stride(sigma_px);
             }
         }
         p

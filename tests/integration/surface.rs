@@ -454,3 +454,62 @@ fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
     .to_string();
     assert!(e.contains("uw") && e.contains("ux, uy, uz"), "{e}");
 }
+
+/// The legend states the resolution 1/ν in data units as text drawn into the image: the label
+/// reads "1 fringe = 0.125 m" at ν = 8, the text rows hold glyph pixels, and another ν changes
+/// the text pixels while the colour bar's own rows keep their shape.
+#[test]
+fn legend_states_the_resolution_in_drawn_text() {
+    use hdrvis::render::surface::{legend, resolution_label, LEGEND_BAR_HEIGHT};
+    let mut g = Grid::from_fn("wave", 64, 32, |i, j| {
+        (i as f64 - 30.0) * 0.01 + j as f64 * 1e-3
+    })
+    .unwrap();
+    g.set_units("wave", "m").unwrap();
+    assert_eq!(resolution_label(8.0, "m"), "1 fringe = 0.125 m");
+    assert_eq!(resolution_label(3.0, ""), "1 fringe = 0.3333 data units");
+    let at = |nu: f64| {
+        let o = SurfaceOptions {
+            nu: vec![nu],
+            mode: FringeMode::Cyclic,
+            ..Default::default()
+        };
+        legend(&g, &o, 400).unwrap()
+    };
+    let (a, b) = (at(8.0), at(4.0));
+    assert_eq!(a.meta("legend"), Some("1 fringe = 0.125 m"));
+    assert_eq!(b.meta("legend"), Some("1 fringe = 0.25 m"));
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let text_rows = (LEGEND_BAR_HEIGHT as usize * 400)..a.pixels.len();
+    let lit = |img: &hdrvis::model::HdrImage| {
+        img.pixels[text_rows.clone()]
+            .iter()
+            .filter(|p| **p == [1.0, 1.0, 1.0, 1.0])
+            .count()
+    };
+    // Around 20 glyphs per line, ~20 lit font pixels each, drawn 2x2.
+    assert!(lit(&a) > 1000, "{}", lit(&a));
+    assert!(a.pixels[text_rows.clone()]
+        .iter()
+        .all(|p| *p == [1.0; 4] || *p == [0.0, 0.0, 0.0, 1.0]));
+    let differing = a.pixels[text_rows.clone()]
+        .iter()
+        .zip(&b.pixels[text_rows])
+        .filter(|(p, q)| p != q)
+        .count();
+    assert!(
+        differing > 50,
+        "nu 8 and nu 4 legends differ in text: {differing}"
+    );
+    // The label's glyphs are where the layout puts them: line 2 starts with '1' at x = 2.
+    let scale = 2usize;
+    let line = 8 * scale + 4;
+    let y0 = LEGEND_BAR_HEIGHT as usize + 4 + line;
+    let one = hdrvis::model::text::glyph('1');
+    for (gy, bits) in one.iter().enumerate() {
+        for gx in 0..8 {
+            let p = a.pixels[(y0 + gy * scale) * 400 + 2 + gx * scale];
+            assert_eq!(p == [1.0; 4], bits & (1 << gx) != 0, "({gx}, {gy})");
+        }
+    }
+}

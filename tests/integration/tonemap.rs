@@ -216,6 +216,77 @@ fn tonemap_gpu_matches_cpu_on_a_volume_render() {
     }
 }
 
+/// The local operators' accelerations at work: Durand's grid downsampled (cells of 3 and 16
+/// pixels) and Reinhard's blurs on pyramid levels up to 5, against the CPU references, which
+/// run the same algorithms in f64.
+#[test]
+fn tonemap_accelerated_local_operators_match_cpu_on_downsampled_grids() {
+    use hdrvis::tonemap::params::{blur_sigma, reinhard_level, DurandGrid};
+    let (w, h) = (320u32, 200u32);
+    let mut img = HdrImage::from_pixels(
+        w,
+        h,
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                let edge = if x > 150.0 + 20.0 * (y / 30.0).sin() {
+                    2.5
+                } else {
+                    0.0
+                };
+                let l = 10f64.powf(edge + 1.5 * (x / 23.0).sin() * (y / 17.0).cos() - 2.0);
+                [l as f32, (l * 0.6) as f32, (l * 0.35) as f32, 1.0]
+            })
+            .collect(),
+    );
+    img.pixels[77 * w as usize + 91] = [f32::NAN, 1.0, 1.0, 1.0];
+    img.pixels[3] = [0.0, 0.0, 0.0, 1.0];
+    let wide_durand = Operator::DurandBilateral {
+        contrast: 5.0,
+        sigma_spatial: 0.1,
+        sigma_range: 0.4,
+    };
+    let wide_reinhard = Operator::ReinhardLocal {
+        key: 0.18,
+        alpha1: 1.0,
+        ratio: 1.6,
+        phi: 8.0,
+        epsilon: 0.05,
+        scales: 8,
+    };
+    assert_eq!(DurandGrid::new(w, h, 0.02, 0.4, -3.0, 2.0).cell, 3);
+    assert_eq!(DurandGrid::new(w, h, 0.1, 0.4, -3.0, 2.0).cell, 16);
+    assert_eq!(reinhard_level(blur_sigma(1.0, 1.6, 8)), 5);
+    let m = mapper(BackendChoice::Vulkan);
+    let mut worst_all = 0.0f32;
+    for op in [
+        Operator::DURAND,
+        wide_durand,
+        Operator::REINHARD_LOCAL,
+        wide_reinhard,
+    ] {
+        for ev in [0.0, -3.0] {
+            let s = ToneMapSettings {
+                op,
+                exposure_ev: ev,
+                ..Default::default()
+            };
+            let cpu = tonemap_cpu(&img, &s).unwrap();
+            let gpu = m.tonemap(&img, &s).unwrap();
+            let (worst, at) = max_diff(&cpu, &gpu);
+            assert!(
+                worst <= TOL,
+                "{} ev {ev}: |cpu - gpu| = {worst} at {at}: cpu {:?} gpu {:?}",
+                op.name(),
+                cpu.pixels[at],
+                gpu.pixels[at]
+            );
+            worst_all = worst_all.max(worst);
+        }
+    }
+    eprintln!("accelerated local operators: worst |cpu - gpu| = {worst_all:.2e}");
+}
+
 #[test]
 fn tonemap_false_colour_matches_cpu() {
     let m = mapper(BackendChoice::Vulkan);
