@@ -9,7 +9,7 @@ use super::convert::{check_keys, err, num, string, to_rhai, RResult};
 use super::ScriptHost;
 use crate::tonemap::{GpuToneMapper, Operator, ToneMapSettings};
 use rhai::{Array, Dynamic, Engine, Map};
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 /// Options of `tonemap(image, #{...})`: the settings shared by every operator, then every
 /// operator parameter (each operator accepts its own, see [`Operator::param_names`]).
@@ -58,24 +58,17 @@ pub fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
 }
 
 pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
-    let mapper: Arc<OnceLock<Arc<GpuToneMapper>>> = Arc::new(OnceLock::new());
     let get_mapper = {
         let host = host.clone();
-        move || -> RResult<Arc<GpuToneMapper>> {
-            if let Some(m) = mapper.get() {
-                return Ok(m.clone());
-            }
-            let ctx = host.renderer().map_err(to_rhai)?.context().clone();
-            Ok(mapper
-                .get_or_init(|| Arc::new(GpuToneMapper::new(ctx)))
-                .clone())
-        }
+        move || -> RResult<Arc<GpuToneMapper>> { host.session.tone_mapper().map_err(to_rhai) }
     };
 
     let h = host.clone();
     engine.register_fn("load_image", move |path: &str| -> RResult<ScriptImage> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        Ok(Arc::new(crate::io::exr::read_exr(&p).map_err(to_rhai)?))
+        let img = Arc::new(crate::io::exr::read_exr(&p).map_err(to_rhai)?);
+        h.note_image(&img);
+        Ok(img)
     });
 
     engine.register_fn(

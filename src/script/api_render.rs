@@ -4,10 +4,11 @@
 //! and a display-referred image (`display_referred = 1`: tone-mapped, false colour) as it is.
 
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
-use super::ScriptHost;
+use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::model::{Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume};
 use crate::render::{FilterMode, Precision, VolumeRenderOptions};
 use rhai::{Dynamic, Engine, Map};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// A camera as scripts describe it; views that frame "the volume" are fixed at render time.
@@ -81,39 +82,54 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_volume", move |path: &str| -> RResult<ScriptVolume> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        Ok(Arc::new(crate::datasets::load_volume(&p).map_err(to_rhai)?))
+        h.session.load_volume(&p).map_err(to_rhai)
     });
 
-    engine.register_fn("generate_mantle", |opts: Map| -> RResult<ScriptVolume> {
-        use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
-        check_keys(&opts, MANTLE_KEYS, "generate_mantle")?;
-        let mut o = MantleOptions::default();
-        let mut field = MantleField::Fluctuation;
-        for (k, v) in &opts {
-            match k.as_str() {
-                "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
-                "seed" => o.seed = int(v, "seed")? as u64,
-                "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
-                "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
-                "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
-                _ => unreachable!("checked keys"),
+    let h = host.clone();
+    engine.register_fn(
+        "generate_mantle",
+        move |opts: Map| -> RResult<ScriptVolume> {
+            use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
+            check_keys(&opts, MANTLE_KEYS, "generate_mantle")?;
+            let mut o = MantleOptions::default();
+            let mut field = MantleField::Fluctuation;
+            for (k, v) in &opts {
+                match k.as_str() {
+                    "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
+                    "seed" => o.seed = int(v, "seed")? as u64,
+                    "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
+                    "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
+                    "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
+                    _ => unreachable!("checked keys"),
+                }
             }
-        }
-        o.fields = MantleFields::only(field);
-        let m = generate(&o, &mut |_| {}).map_err(to_rhai)?;
-        let n = m.n;
-        let data = m.field(field).map(|d| d.to_vec()).unwrap_or_default();
-        let mut v = Volume::new(
-            format!("mantle-{} n={n} seed={}", field.name(), o.seed),
-            [n; 3],
-            [2.0 / n as f64; 3],
-            [-1.0; 3],
-            data,
-        )
-        .map_err(to_rhai)?;
-        v.units = "non-dimensional".into();
-        Ok(Arc::new(v))
-    });
+            o.fields = MantleFields::only(field);
+            let key = format!(
+                "mantle {} {} {} {} {}",
+                field.name(),
+                o.n,
+                o.seed,
+                o.plumes,
+                o.slabs
+            );
+            h.session
+                .generated(key, || {
+                    let m = generate(&o, &mut |_| {})?;
+                    let n = m.n;
+                    let data = m.field(field).map(|d| d.to_vec()).unwrap_or_default();
+                    let mut v = Volume::new(
+                        format!("mantle-{} n={n} seed={}", field.name(), o.seed),
+                        [n; 3],
+                        [2.0 / n as f64; 3],
+                        [-1.0; 3],
+                        data,
+                    )?;
+                    v.units = "non-dimensional".into();
+                    Ok(v)
+                })
+                .map_err(to_rhai)
+        },
+    );
 
     engine.register_fn("volume_stats", |v: &mut ScriptVolume| -> Map {
         let s = v.stats();
@@ -252,12 +268,16 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             let mut img = crate::render::cpu_reference::render_volume_cpu(volume, &o).map_err(to_rhai)?;
             img.set_meta("precision", "f64 (CPU)");
             img.set_meta("tf", o.tf.describe());
-            return Ok(Arc::new(img));
+            let img = Arc::new(img);
+            h.note_image(&img);
+            return Ok(img);
         }
         let renderer = h.renderer().map_err(to_rhai)?;
         let gv = h.upload(volume).map_err(to_rhai)?;
         let (img, _) = renderer.render(&gv, &o).map_err(to_rhai)?;
-        Ok(Arc::new(img))
+        let img = Arc::new(img);
+        h.note_image(&img);
+        Ok(img)
     });
 
     let h = host.clone();
@@ -265,6 +285,7 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "save_exr",
         move |img: &mut ScriptImage, path: &str| -> RResult<()> {
             let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+            h.note_image(img);
             if h.already_done(&p) {
                 return Ok(());
             }
@@ -308,7 +329,15 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         },
     );
 
-    engine.register_fn("preview", |img: &mut ScriptImage| -> RResult<()> {
+    let h = host.clone();
+    engine.register_fn("preview", move |img: &mut ScriptImage| -> RResult<()> {
+        if h.capture_previews {
+            h.previews
+                .lock()
+                .expect("previews poisoned")
+                .push(img.clone());
+            return Ok(());
+        }
         preview(img).map_err(to_rhai)
     });
 
@@ -329,7 +358,34 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "param",
         move |name: &str, default: Dynamic| -> RResult<Dynamic> {
-            let Some(text) = h.sets.get(name) else {
+            let value = param_value(&h.sets, name, &default)?;
+            let kind = if default.is_int() {
+                ParamKind::Int
+            } else if default.is_float() {
+                ParamKind::Float
+            } else if default.is_bool() {
+                ParamKind::Bool
+            } else {
+                ParamKind::Text
+            };
+            h.note_param(ParamRecord {
+                name: name.to_string(),
+                kind,
+                default: default.to_string(),
+                value: value.to_string(),
+            });
+            Ok(value)
+        },
+    );
+}
+
+/// The value `param(name, default)` returns: the `--set` override parsed as the default's type,
+/// or the default.
+fn param_value(sets: &HashMap<String, String>, name: &str, default: &Dynamic) -> RResult<Dynamic> {
+    let default = default.clone();
+    {
+        {
+            let Some(text) = sets.get(name) else {
                 return Ok(default);
             };
             let bad = |what: &str| {
@@ -358,8 +414,8 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             } else {
                 Ok(Dynamic::from(text.clone()))
             }
-        },
-    );
+        }
+    }
 }
 
 /// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal

@@ -1,17 +1,17 @@
 //! Script API for interference surfaces: `load_grid(path)`, `load_grid(path, name)`,
 //! `render_surface(grid, options)` and `surface_colorbar(grid, options)`. One `SurfaceRenderer`
-//! per script run caches the data pass, so rendering the same grid and view again with another
-//! ν, mode or colour map runs only the fringe pass. `property` may be one name (the result is one
-//! image) or an array of up to four names (the result is an array of images, all from one data
-//! pass).
+//! per script session (one run, or every run of a TUI session) caches the data pass, so
+//! rendering the same grid and view again with another ν, mode or colour map runs only the
+//! fringe pass. `property` may be one name (the result is one image) or an array of up to four
+//! names (the result is an array of images, all from one data pass).
 
 use super::api_render::{ScriptCamera, ScriptImage};
 use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResult};
 use super::ScriptHost;
 use crate::model::{Axis, Grid};
-use crate::render::surface::{colorbar, FringeMode, SurfaceOptions, SurfaceRenderer, SurfaceView};
+use crate::render::surface::{colorbar, FringeMode, SurfaceOptions, SurfaceView};
 use rhai::{Dynamic, Engine, Map};
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 pub type ScriptGrid = Arc<Grid>;
 
@@ -130,42 +130,41 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_grid", move |path: &str| -> RResult<ScriptGrid> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        Ok(Arc::new(Grid::load(&p, None).map_err(to_rhai)?))
+        h.session.load_grid(&p, None).map_err(to_rhai)
     });
     let h = host.clone();
     engine.register_fn(
         "load_grid",
         move |path: &str, name: &str| -> RResult<ScriptGrid> {
             let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-            Ok(Arc::new(Grid::load(&p, Some(name)).map_err(to_rhai)?))
+            h.session.load_grid(&p, Some(name)).map_err(to_rhai)
         },
     );
 
-    let surface: Arc<OnceLock<Arc<SurfaceRenderer>>> = Arc::new(OnceLock::new());
     let h = host;
     engine.register_fn(
         "render_surface",
         move |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
             let (o, many) = parse_options(grid, &opts)?;
-            let renderer = match surface.get() {
-                Some(r) => r.clone(),
-                None => {
-                    let ctx = h.renderer().map_err(to_rhai)?.context().clone();
-                    surface
-                        .get_or_init(|| Arc::new(SurfaceRenderer::new(ctx)))
-                        .clone()
-                }
-            };
-            let mut images = renderer.render(grid, &o).map_err(to_rhai)?;
+            let renderer = h.session.surface_renderer().map_err(to_rhai)?;
+            let images: Vec<ScriptImage> = renderer
+                .render(grid, &o)
+                .map_err(to_rhai)?
+                .into_iter()
+                .map(Arc::new)
+                .collect();
+            if let Some(first) = images.first() {
+                h.note_image(first);
+            }
             if many {
                 Ok(Dynamic::from(
                     images
                         .into_iter()
-                        .map(|i| Dynamic::from(Arc::new(i) as ScriptImage))
+                        .map(Dynamic::from)
                         .collect::<rhai::Array>(),
                 ))
             } else {
-                Ok(Dynamic::from(Arc::new(images.remove(0)) as ScriptImage))
+                Ok(Dynamic::from(images[0].clone()))
             }
         },
     );

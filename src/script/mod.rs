@@ -12,16 +12,19 @@ mod api_render;
 mod api_surface;
 mod convert;
 mod sandbox;
+pub mod session;
 
 use crate::error::{Error, Result};
-use crate::gpu::{BackendChoice, GpuContext};
+use crate::gpu::BackendChoice;
+use crate::model::HdrImage;
 use crate::render::volume::{GpuVolume, VolumeRenderer};
 use rhai::{Engine, EvalAltResult, Position};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 pub use sandbox::Sandbox;
+pub use session::ScriptSession;
 
 /// How a script is run: where it writes, what `param()` returns, what else it may read.
 #[derive(Clone, Debug)]
@@ -38,6 +41,11 @@ pub struct ScriptOptions {
     pub resume: bool,
     /// Show progress bars on stderr (`progress(i, n)`); off for tests and pipes.
     pub progress: bool,
+    /// GPU objects and loaded data kept between runs (`hdrvis tui`); `None` starts afresh.
+    pub session: Option<Arc<ScriptSession>>,
+    /// Keep the images passed to `preview(image)` in [`ScriptReport::previews`] instead of
+    /// printing them to the terminal (the TUI shows them itself).
+    pub capture_previews: bool,
 }
 
 impl ScriptOptions {
@@ -50,26 +58,55 @@ impl ScriptOptions {
             max_operations: 100_000_000,
             resume: false,
             progress: true,
+            session: None,
+            capture_previews: false,
         }
     }
 }
 
-/// What a run produced, for the CLI to report.
+/// The type of a script parameter, taken from the default given to `param(name, default)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamKind {
+    Int,
+    Float,
+    Bool,
+    Text,
+}
+
+/// One `param(name, default)` call of a run: what the script accepts and what it got.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamRecord {
+    pub name: String,
+    pub kind: ParamKind,
+    /// The default as the script wrote it (`to_string` of the value).
+    pub default: String,
+    /// The value the script received (the default, or the `--set` override).
+    pub value: String,
+}
+
+/// What a run produced, for the CLI and the TUI to report and show.
 #[derive(Debug, Default, Clone)]
 pub struct ScriptReport {
     pub written: Vec<PathBuf>,
+    /// Every parameter the script asked for, in first-call order.
+    pub params: Vec<ParamRecord>,
+    /// Images passed to `preview(image)` when [`ScriptOptions::capture_previews`] is on.
+    pub previews: Vec<Arc<HdrImage>>,
+    /// The last image the script rendered, loaded or saved (what the TUI shows when the script
+    /// previews nothing).
+    pub last_image: Option<Arc<HdrImage>>,
 }
 
 /// State shared by the registered functions of one run.
 pub(crate) struct ScriptHost {
     pub sandbox: Sandbox,
     pub sets: HashMap<String, String>,
-    pub backend: BackendChoice,
-    renderer: OnceLock<Arc<VolumeRenderer>>,
-    /// Uploaded volumes keyed by the address of the script's volume; the Arc is kept so the
-    /// address cannot be reused while the entry lives.
-    uploads: Mutex<Vec<(Arc<crate::model::Volume>, Arc<GpuVolume>)>>,
+    pub session: Arc<ScriptSession>,
     pub written: Mutex<Vec<PathBuf>>,
+    pub params: Mutex<Vec<ParamRecord>>,
+    pub capture_previews: bool,
+    pub previews: Mutex<Vec<Arc<HdrImage>>>,
+    pub last_image: Mutex<Option<Arc<HdrImage>>>,
     pub resume: bool,
     progress_enabled: bool,
     progress: Mutex<Option<indicatif::ProgressBar>>,
@@ -106,25 +143,25 @@ impl ScriptHost {
     }
 
     pub fn renderer(&self) -> Result<Arc<VolumeRenderer>> {
-        if let Some(r) = self.renderer.get() {
-            return Ok(r.clone());
-        }
-        let ctx = GpuContext::new(self.backend)?;
-        Ok(self
-            .renderer
-            .get_or_init(|| Arc::new(VolumeRenderer::new(ctx)))
-            .clone())
+        self.session.renderer()
     }
 
     pub fn upload(&self, volume: &Arc<crate::model::Volume>) -> Result<Arc<GpuVolume>> {
-        let renderer = self.renderer()?;
-        let mut uploads = self.uploads.lock().expect("upload cache poisoned");
-        if let Some((_, g)) = uploads.iter().find(|(v, _)| Arc::ptr_eq(v, volume)) {
-            return Ok(g.clone());
+        self.session.upload(volume)
+    }
+
+    /// Remembers the image most recently produced, for [`ScriptReport::last_image`].
+    pub fn note_image(&self, img: &Arc<HdrImage>) {
+        *self.last_image.lock().expect("last image poisoned") = Some(img.clone());
+    }
+
+    /// Records a `param()` call (the first call of a name wins the list position).
+    pub fn note_param(&self, record: ParamRecord) {
+        let mut params = self.params.lock().expect("params poisoned");
+        match params.iter_mut().find(|p| p.name == record.name) {
+            Some(p) => *p = record,
+            None => params.push(record),
         }
-        let g = Arc::new(GpuVolume::upload(renderer.context(), volume)?);
-        uploads.push((volume.clone(), g.clone()));
-        Ok(g)
     }
 }
 
@@ -165,10 +202,12 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
     Arc::new(ScriptHost {
         sandbox: Sandbox::new(&dir, &dir.join("hdrvis-test-out"), &[]).unwrap(),
         sets: HashMap::new(),
-        backend: BackendChoice::Auto,
-        renderer: OnceLock::new(),
-        uploads: Mutex::new(Vec::new()),
+        session: ScriptSession::new(BackendChoice::Auto),
         written: Mutex::new(Vec::new()),
+        params: Mutex::new(Vec::new()),
+        capture_previews: false,
+        previews: Mutex::new(Vec::new()),
+        last_image: Mutex::new(None),
         resume: false,
         progress_enabled: false,
         progress: Mutex::new(None),
@@ -203,13 +242,19 @@ pub fn run_script_source(
     if opts.resume {
         remove_stale_temporaries(&opts.out_dir);
     }
+    let session = opts
+        .session
+        .clone()
+        .unwrap_or_else(|| ScriptSession::new(opts.backend));
     let host = Arc::new(ScriptHost {
         sandbox,
         sets,
-        backend: opts.backend,
-        renderer: OnceLock::new(),
-        uploads: Mutex::new(Vec::new()),
+        session: session.clone(),
         written: Mutex::new(Vec::new()),
+        params: Mutex::new(Vec::new()),
+        capture_previews: opts.capture_previews,
+        previews: Mutex::new(Vec::new()),
+        last_image: Mutex::new(None),
         resume: opts.resume,
         progress_enabled: opts.progress,
         progress: Mutex::new(None),
@@ -218,11 +263,22 @@ pub fn run_script_source(
     let ast = engine
         .compile(source)
         .map_err(|e| Error::Script(format_error(name, source, &e.to_string(), e.position())))?;
-    engine
+    let outcome = engine
         .run_ast(&ast)
-        .map_err(|e| Error::Script(describe_eval_error(name, source, &e)))?;
-    let written = host.written.lock().expect("written list poisoned").clone();
-    Ok(ScriptReport { written })
+        .map_err(|e| Error::Script(describe_eval_error(name, source, &e)));
+    // Also after a failed run: what it loaded stays cached for the corrected script.
+    session.end_run();
+    drop(engine);
+    outcome?;
+    fn take<T: Default>(m: &Mutex<T>) -> T {
+        std::mem::take(&mut *m.lock().expect("run state poisoned"))
+    }
+    Ok(ScriptReport {
+        written: take(&host.written),
+        params: take(&host.params),
+        previews: take(&host.previews),
+        last_image: take(&host.last_image),
+    })
 }
 
 /// A run killed mid-write leaves its temporary file (`.hdrvis-*.tmp`, see io::write_atomic)

@@ -1,0 +1,365 @@
+//! How pictures reach the terminal. The protocol is found by asking the terminal (environment
+//! variables do not cross SSH): ratatui-image's query (kitty graphics, DA1 sixel flag, cell size
+//! in pixels, kitty's `o=z` compression) with a timeout, or forced with `--protocol` /
+//! `HDRVIS_TUI_PROTOCOL`. Workarounds for known pitfalls:
+//!
+//! * tmux: ratatui-image recognises tmux only from `TERM`/`TERM_PROGRAM`, which are often
+//!   `screen`/unset; [`prepare_environment`] also trusts `$TMUX`, so queries and images are
+//!   wrapped in tmux passthrough (and `allow-passthrough` is switched on for the pane).
+//! * sixel inside tmux < 3.4: tmux does not know about a passed-through image, so it does not
+//!   clear it; the TUI clears the screen whenever the picture changes
+//!   ([`Display::redraw_on_change`]), and the picture never touches the last row (a sixel
+//!   there would scroll the screen).
+//! * kitty < 0.28 has no Unicode placeholders, which ratatui-image's kitty images need: the
+//!   terminal's version is asked (XTVERSION) and older kitty falls back to half blocks, said so
+//!   in the status line.
+//! * kitty over SSH: images are sent directly in the escape stream (`t=d`, no shared files),
+//!   zlib-compressed (`o=z`) where the terminal says it can inflate.
+
+use crate::error::{Error, Result};
+use ratatui::layout::Rect;
+use ratatui_image::picker::{cap_parser::QueryStdioOptions, Picker, ProtocolType};
+use ratatui_image::protocol::Protocol;
+use std::time::Duration;
+
+/// Environment variable that overrides `--protocol auto`.
+pub const PROTOCOL_ENV: &str = "HDRVIS_TUI_PROTOCOL";
+
+/// The protocol asked for on the command line or in the environment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProtocolChoice {
+    Auto,
+    Kitty,
+    Sixel,
+    Iterm2,
+    Halfblocks,
+}
+
+impl ProtocolChoice {
+    pub fn parse(s: &str) -> Result<ProtocolChoice> {
+        Ok(match s.trim().to_ascii_lowercase().as_str() {
+            "auto" => ProtocolChoice::Auto,
+            "kitty" => ProtocolChoice::Kitty,
+            "sixel" => ProtocolChoice::Sixel,
+            "iterm2" => ProtocolChoice::Iterm2,
+            "halfblocks" => ProtocolChoice::Halfblocks,
+            other => return Err(Error::invalid(
+                "--protocol",
+                format!(
+                    "unknown protocol {other:?}; expected auto, kitty, sixel, iterm2 or halfblocks"
+                ),
+            )),
+        })
+    }
+
+    /// `--protocol` if given, else `HDRVIS_TUI_PROTOCOL`, else auto.
+    pub fn resolve(explicit: Option<&str>) -> Result<ProtocolChoice> {
+        match explicit {
+            Some(s) => Self::parse(s),
+            None => match std::env::var(PROTOCOL_ENV) {
+                Ok(s) if !s.trim().is_empty() => {
+                    Self::parse(&s).map_err(|e| Error::invalid(PROTOCOL_ENV, e.to_string()))
+                }
+                _ => Ok(ProtocolChoice::Auto),
+            },
+        }
+    }
+
+    fn forced(self) -> Option<ProtocolType> {
+        match self {
+            ProtocolChoice::Auto => None,
+            ProtocolChoice::Kitty => Some(ProtocolType::Kitty),
+            ProtocolChoice::Sixel => Some(ProtocolType::Sixel),
+            ProtocolChoice::Iterm2 => Some(ProtocolType::Iterm2),
+            ProtocolChoice::Halfblocks => Some(ProtocolType::Halfblocks),
+        }
+    }
+}
+
+/// Whether this process runs inside tmux (by `$TMUX`, which tmux always sets, or the terminal
+/// names ratatui-image looks at).
+pub fn in_tmux() -> bool {
+    std::env::var_os("TMUX").is_some_and(|v| !v.is_empty())
+        || std::env::var("TERM").is_ok_and(|t| t.starts_with("tmux"))
+        || std::env::var("TERM_PROGRAM").is_ok_and(|t| t == "tmux")
+}
+
+/// Makes ratatui-image see tmux when only `$TMUX` says so. Changes this process's environment:
+/// call it before any other thread starts.
+pub fn prepare_environment() {
+    let term_says_tmux = std::env::var("TERM").is_ok_and(|t| t.starts_with("tmux"))
+        || std::env::var("TERM_PROGRAM").is_ok_and(|t| t == "tmux");
+    if in_tmux() && !term_says_tmux {
+        std::env::set_var("TERM_PROGRAM", "tmux");
+    }
+}
+
+/// The tmux server's version as (major, minor), e.g. (3, 3) for "3.3a".
+pub fn tmux_version() -> Option<(u32, u32)> {
+    let out = std::process::Command::new("tmux")
+        .args(["display-message", "-p", "#{version}"])
+        .stdin(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()?;
+    parse_version(String::from_utf8_lossy(&out.stdout).trim())
+}
+
+/// "3.3a" -> (3, 3); "0.26.5" -> (0, 26); "next-3.5" -> (3, 5).
+pub fn parse_version(s: &str) -> Option<(u32, u32)> {
+    let s = s.trim_start_matches(|c: char| !c.is_ascii_digit());
+    let mut parts = s.split(|c: char| !c.is_ascii_digit());
+    let major = parts.next()?.parse().ok()?;
+    let minor = parts.next().and_then(|m| m.parse().ok()).unwrap_or(0);
+    Some((major, minor))
+}
+
+/// The chosen protocol with what the status line should say about it.
+#[derive(Clone)]
+pub struct Display {
+    pub picker: Picker,
+    /// e.g. `sixel`, `kitty (compressed)`, `halfblocks: the terminal shows no graphics`.
+    pub note: String,
+    /// Clear the screen when the picture changes (sixel through tmux passthrough).
+    pub redraw_on_change: bool,
+}
+
+impl Display {
+    /// A display for tests and benchmarks: `protocol` at a fixed cell size, no terminal query.
+    pub fn fixed(protocol: ProtocolType, cell: (u16, u16)) -> Display {
+        #[allow(deprecated)] // the only constructor that takes a cell size without a terminal
+        let mut picker = Picker::from_fontsize(cell.into());
+        picker.set_protocol_type(protocol);
+        Display {
+            picker,
+            note: name(protocol).to_string(),
+            redraw_on_change: false,
+        }
+    }
+
+    /// The area's size in pixels at the terminal's cell size.
+    pub fn pixels(&self, area: Rect) -> (u32, u32) {
+        let fs = self.picker.font_size();
+        (
+            area.width as u32 * fs.width as u32,
+            area.height as u32 * fs.height as u32,
+        )
+    }
+
+    /// Encodes `img` (already at most [`Display::pixels`] of `area`) for the terminal.
+    pub fn encode(&self, img: image::RgbImage, area: Rect) -> Result<Protocol> {
+        self.picker
+            .new_protocol(
+                image::DynamicImage::ImageRgb8(img),
+                area.as_size(),
+                ratatui_image::Resize::Fit(None),
+            )
+            .map_err(|e| Error::invalid("terminal image", e.to_string()))
+    }
+}
+
+fn name(p: ProtocolType) -> &'static str {
+    match p {
+        ProtocolType::Halfblocks => "halfblocks",
+        ProtocolType::Sixel => "sixel",
+        ProtocolType::Kitty => "kitty",
+        ProtocolType::Iterm2 => "iterm2",
+    }
+}
+
+/// Finds how to show pictures. Must run after the terminal entered raw mode and the alternate
+/// screen and before events are read (the answers arrive on stdin).
+pub fn detect(choice: ProtocolChoice) -> Display {
+    let options = QueryStdioOptions {
+        timeout: Duration::from_millis(1500),
+        kitty_compression: true,
+        ..QueryStdioOptions::default()
+    };
+    let queried = Picker::from_query_stdio_with_options(options);
+    let (mut picker, answered) = match queried {
+        Ok(p) => (p, true),
+        Err(_) => (Picker::halfblocks(), false),
+    };
+    let tmux = picker.tmux_detected();
+    let mut note;
+    if let Some(forced) = choice.forced() {
+        picker.set_protocol_type(forced);
+        note = format!("{} (forced)", name(forced));
+    } else {
+        let p = picker.protocol_type();
+        note = name(p).to_string();
+        if p == ProtocolType::Halfblocks {
+            note = if answered {
+                "halfblocks: the terminal shows no graphics".into()
+            } else {
+                "halfblocks: the terminal did not answer".into()
+            };
+        }
+        if p == ProtocolType::Kitty {
+            if let Some(v) = terminal_version(tmux) {
+                if let Some(rest) = v.strip_prefix("kitty") {
+                    if parse_version(rest).is_some_and(|ver| ver < (0, 28)) {
+                        picker.set_protocol_type(ProtocolType::Halfblocks);
+                        note =
+                            format!("halfblocks: {v} predates Unicode placeholders (kitty 0.28)");
+                    }
+                }
+            }
+        }
+    }
+    if picker.protocol_type() == ProtocolType::Kitty
+        && picker
+            .capabilities()
+            .contains(&ratatui_image::picker::Capability::KittyCompression)
+    {
+        note.push_str(" (compressed)");
+    }
+    let mut redraw_on_change = false;
+    if tmux && picker.protocol_type() != ProtocolType::Halfblocks {
+        let version = tmux_version();
+        note.push_str(" via tmux");
+        if picker.protocol_type() == ProtocolType::Sixel && version.is_none_or(|v| v < (3, 4)) {
+            redraw_on_change = true;
+        }
+    }
+    Display {
+        picker,
+        note,
+        redraw_on_change,
+    }
+}
+
+/// The terminal's name and version from XTVERSION (`CSI > 0 q`), e.g. `kitty(0.26.5)`; through
+/// tmux passthrough when `tmux`, so the outer terminal answers. `None` when it does not answer
+/// within half a second.
+pub fn terminal_version(tmux: bool) -> Option<String> {
+    use rustix::termios::{self, LocalModes, OptionalActions};
+    use std::io::{Read, Write};
+    let stdin = std::io::stdin();
+    let saved = termios::tcgetattr(&stdin).ok()?;
+    let mut raw = saved.clone();
+    raw.local_modes &= !(LocalModes::ICANON | LocalModes::ECHO);
+    termios::tcsetattr(&stdin, OptionalActions::Drain, &raw).ok()?;
+    // The status report (CSI 5 n) always gets an answer, so the read ends even when XTVERSION
+    // is not understood.
+    let query = if tmux {
+        "\x1bPtmux;\x1b\x1b[>0q\x1b\\\x1b[5n"
+    } else {
+        "\x1b[>0q\x1b[5n"
+    };
+    let mut out = std::io::stdout();
+    let _ = out.write_all(query.as_bytes()).and_then(|_| out.flush());
+    let mut answer = Vec::new();
+    let deadline = std::time::Instant::now() + Duration::from_millis(500);
+    let mut fds = [rustix::event::PollFd::new(
+        &stdin,
+        rustix::event::PollFlags::IN,
+    )];
+    while std::time::Instant::now() < deadline && !answer.ends_with(b"\x1b[0n") {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        let timeout = rustix::event::Timespec {
+            tv_sec: 0,
+            tv_nsec: left.subsec_nanos() as _,
+        };
+        match rustix::event::poll(&mut fds, Some(&timeout)) {
+            Ok(n) if n > 0 => {
+                let mut buf = [0u8; 256];
+                match std::io::stdin().lock().read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => answer.extend_from_slice(&buf[..n]),
+                }
+            }
+            _ => break,
+        }
+    }
+    let _ = termios::tcsetattr(&stdin, OptionalActions::Now, &saved);
+    parse_xtversion(&String::from_utf8_lossy(&answer))
+}
+
+/// The text of an XTVERSION answer, `ESC P > | text ESC \`.
+pub fn parse_xtversion(answer: &str) -> Option<String> {
+    let start = answer.find("\x1bP>|")? + 4;
+    let end = answer[start..].find("\x1b\\")? + start;
+    Some(answer[start..end].trim().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn choices_parse_and_bad_ones_name_the_option() {
+        assert_eq!(
+            ProtocolChoice::parse("Sixel").unwrap(),
+            ProtocolChoice::Sixel
+        );
+        assert_eq!(ProtocolChoice::parse("auto").unwrap(), ProtocolChoice::Auto);
+        let e = ProtocolChoice::parse("png").unwrap_err().to_string();
+        assert!(
+            e.starts_with("--protocol:") && e.contains("halfblocks"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn versions_and_xtversion_answers_parse() {
+        assert_eq!(parse_version("3.3a"), Some((3, 3)));
+        assert_eq!(parse_version("(0.26.5)"), Some((0, 26)));
+        assert_eq!(parse_version("next-3.5"), Some((3, 5)));
+        assert_eq!(
+            parse_xtversion("\x1bP>|kitty(0.26.5)\x1b\\\x1b[0n").as_deref(),
+            Some("kitty(0.26.5)")
+        );
+        assert_eq!(parse_xtversion("\x1b[0n"), None);
+    }
+
+    #[test]
+    fn sixel_and_kitty_payloads_decode_to_the_picture() {
+        use crate::tui::decode::{decode_kitty, decode_sixel};
+        use ratatui::buffer::Buffer;
+        use ratatui::widgets::Widget;
+        let area = Rect::new(0, 0, 12, 5);
+        // A smooth two-axis gradient: every pixel distinct, so misplaced rows or columns show.
+        for protocol in [ProtocolType::Sixel, ProtocolType::Kitty] {
+            let display = Display::fixed(protocol, (10, 20));
+            let (w, h) = display.pixels(area);
+            assert_eq!((w, h), (120, 100));
+            let img = image::RgbImage::from_fn(w, h, |x, y| {
+                image::Rgb([(x * 2) as u8, (y * 2) as u8, 128])
+            });
+            let encoded = display.encode(img.clone(), area).unwrap();
+            let mut buf = Buffer::empty(area);
+            ratatui_image::Image::new(&encoded).render(area, &mut buf);
+            let payload = buf[(0, 0)].symbol().to_string();
+            let decoded = if protocol == ProtocolType::Sixel {
+                decode_sixel(&payload).unwrap()
+            } else {
+                decode_kitty(&payload).unwrap()
+            };
+            assert_eq!((decoded.width, decoded.height), (w, h), "{protocol:?}");
+            let mut sum = 0u64;
+            let mut worst = 0u8;
+            for y in 0..h {
+                for x in 0..w {
+                    let d = decoded.pixel(x, y);
+                    let e = img.get_pixel(x, y).0;
+                    for k in 0..3 {
+                        let diff = d[k].abs_diff(e[k]);
+                        sum += diff as u64;
+                        worst = worst.max(diff);
+                    }
+                }
+            }
+            let mean = sum as f64 / (w * h * 3) as f64;
+            match protocol {
+                // Raw RGBA: exact.
+                ProtocolType::Kitty => assert_eq!(worst, 0),
+                // A 256-colour palette (and percent-coded colours): close, not exact.
+                _ => assert!(
+                    mean < 4.0 && worst < 24,
+                    "{protocol:?}: mean {mean}, worst {worst}"
+                ),
+            }
+        }
+    }
+}
