@@ -351,7 +351,7 @@ mod tests {
         let s = format!("\x1b_Gq=2,a=T,f=32,s=3,v=2,o=z,m=1;{a}\x1b\\\x1b_Gm=0;{b}\x1b\\");
         let d = decode_kitty(&s).unwrap();
         assert_eq!((d.width, d.height), (3, 2));
-        assert_eq!(d.pixel(1, 1), [28, 35, 42, 49]);
+        assert_eq!(d.pixel(1, 1), [112, 119, 126, 133]); // pixel 4: bytes 16..20, times 7
         assert!(
             decode_kitty("\x1b_Gf=32,s=2,v=2;AAAA\x1b\\").is_err(),
             "size mismatch"

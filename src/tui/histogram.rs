@@ -119,15 +119,16 @@ mod tests {
 
     #[test]
     fn counts_decades_and_skips_dark_and_missing_pixels() {
-        // Luminance of grey v is v; values 1e-3, 1e-2 (x2), 1e0, plus 0 and NaN.
+        // Luminance of grey v is v; values 1e-3, 10^-1.5 (x2), 1e0, plus 0 and NaN: three
+        // one-decade bins, the middle values at a bin centre.
         let grey = |v: f32| [v, v, v, 1.0];
         let img = HdrImage::from_pixels(
             6,
             1,
             vec![
                 grey(1e-3),
-                grey(1e-2),
-                grey(1e-2),
+                grey(10f32.powf(-1.5)),
+                grey(10f32.powf(-1.5)),
                 grey(1.0),
                 grey(0.0),
                 grey(f32::NAN),

@@ -203,38 +203,40 @@ fn draw_histogram(frame: &mut Frame, app: &App, area: Rect) {
 
 fn draw_status(frame: &mut Frame, app: &App, area: Rect) {
     let s = &app.status;
-    let mut parts: Vec<Span> = Vec::new();
     let dim = Style::default().fg(Color::DarkGray);
-    if !s.adapter.is_empty() {
-        parts.push(Span::raw(s.adapter.clone()));
-        parts.push(Span::styled(" │ ", dim));
-    }
+    // Most important first: a narrow terminal cuts the line on the right.
+    let mut segments: Vec<Span> = vec![Span::styled("? help", dim)];
     if s.busy {
-        parts.push(Span::styled(
-            "rendering… ",
+        segments.push(Span::styled(
+            "rendering…",
             Style::default().fg(Color::Yellow),
         ));
     }
-    if let Some(ms) = s.render_ms {
-        parts.push(Span::raw(format!("{} {ms:.0} ms", s.stage)));
-        parts.push(Span::styled(" │ ", dim));
-    }
-    if !s.passes.is_empty() {
-        parts.push(Span::raw(format!("passes: {}", s.passes.join(", "))));
-        parts.push(Span::styled(" │ ", dim));
-    }
-    if !app.protocol_note.is_empty() {
-        parts.push(Span::raw(app.protocol_note.clone()));
-        parts.push(Span::styled(" │ ", dim));
-    }
     if !app.message.is_empty() {
-        parts.push(Span::styled(
+        segments.push(Span::styled(
             app.message.clone(),
             Style::default().fg(Color::Green),
         ));
-        parts.push(Span::styled(" │ ", dim));
     }
-    parts.push(Span::styled("? help  q quit", dim));
+    if !s.adapter.is_empty() {
+        segments.push(Span::raw(s.adapter.clone()));
+    }
+    if let Some(ms) = s.render_ms {
+        segments.push(Span::raw(format!("{} {ms:.0} ms", s.stage)));
+    }
+    if !s.passes.is_empty() {
+        segments.push(Span::raw(format!("passes: {}", s.passes.join(", "))));
+    }
+    if !app.protocol_note.is_empty() {
+        segments.push(Span::raw(app.protocol_note.clone()));
+    }
+    let mut parts = Vec::new();
+    for (i, seg) in segments.into_iter().enumerate() {
+        if i > 0 {
+            parts.push(Span::styled(" │ ", dim));
+        }
+        parts.push(seg);
+    }
     frame.render_widget(Paragraph::new(Line::from(parts)), area);
 }
 
@@ -255,7 +257,11 @@ fn draw_help(frame: &mut Frame, area: Rect) {
     } else {
         entries.len()
     } as u16;
-    let width = if two_columns { 98 } else { area.width.min(60) };
+    let width = if two_columns {
+        area.width.min(120) - 2
+    } else {
+        area.width.min(60)
+    };
     let height = (rows + 2).min(area.height);
     let rect = Rect::new(
         area.x + (area.width - width) / 2,
@@ -372,7 +378,7 @@ mod tests {
             &lines[0][..],
             format!(
                 "┌ tui_demo.rhai {}┐┌ view {}┐",
-                "─".repeat(34),
+                "─".repeat(33),
                 "─".repeat(22)
             )
         );
@@ -402,13 +408,13 @@ mod tests {
         );
         assert!(lines[15].contains("log10 luminance"));
         assert!(
-            lines[22].contains("window"),
+            lines[21].contains("window"),
             "histogram label row: {:?}",
-            lines[22]
+            lines[21]
         );
         assert_eq!(
             lines[23].trim_end(),
-            "llvmpipe (Vulkan) │ full 123 ms │ passes: volume 120 ms │ halfblocks │ ? help  q quit"
+            "? help │ llvmpipe (Vulkan) │ full 123 ms │ passes: volume 120 ms │ halfblocks"
         );
     }
 
@@ -439,7 +445,7 @@ mod tests {
     fn help_overlay_lists_every_key() {
         let mut app = demo_app();
         app.show_help = true;
-        for (w, h) in [(120, 40), (80, 40)] {
+        for (w, h) in [(100, 40), (80, 40)] {
             let text = render(&app, w, h, None).join("\n");
             for (keys, _, what) in KEYS {
                 assert!(text.contains(keys), "{w}x{h}: missing {keys}");
