@@ -138,9 +138,14 @@ impl ScriptSession {
             .clone())
     }
 
-    /// The adapter's one-line description, when the GPU has been started.
+    /// The adapter's name and backend, e.g. `llvmpipe (Vulkan)`, once the GPU has started.
     pub fn adapter(&self) -> Option<String> {
-        self.renderer.get().map(|r| r.context().describe())
+        self.renderer.get().map(|r| {
+            let ctx = r.context();
+            let full = ctx.describe();
+            let name = full.split(" (").next().unwrap_or(&full).to_string();
+            format!("{name} ({})", ctx.backend_name())
+        })
     }
 
     pub fn surface_renderer(&self) -> Result<Arc<SurfaceRenderer>> {

@@ -311,7 +311,14 @@ fn event_loop(
         }
         while let Ok(saved) = save_rx.try_recv() {
             app.message = match saved {
-                Ok((exr, png)) => format!("saved {} + {}", exr.display(), png.display()),
+                Ok((exr, png)) => {
+                    let name = |p: &Path| {
+                        p.file_name()
+                            .map(|n| n.to_string_lossy().to_string())
+                            .unwrap_or_default()
+                    };
+                    format!("saved {} + {}", name(&exr), name(&png))
+                }
                 Err(e) => format!("save failed: {e}"),
             };
             dirty = true;

@@ -1,7 +1,8 @@
 //! How pictures reach the terminal. The protocol is found by asking the terminal (environment
-//! variables do not cross SSH): ratatui-image's query (kitty graphics, DA1 sixel flag, cell size
-//! in pixels, kitty's `o=z` compression) with a timeout, or forced with `--protocol` /
-//! `HDRVIS_TUI_PROTOCOL`. Workarounds for known pitfalls:
+//! variables do not cross SSH): [`probe`] sends the kitty graphics query, XTVERSION, the cell
+//! size query and DA1 (sixel flag) and reads the answers with `poll` and a deadline; or it is
+//! forced with `--protocol` / `HDRVIS_TUI_PROTOCOL`. Pictures are encoded by ratatui-image.
+//! Workarounds for known pitfalls:
 //!
 //! * tmux: ratatui-image recognises tmux only from `TERM`/`TERM_PROGRAM`, which are often
 //!   `screen`/unset; [`prepare_environment`] also trusts `$TMUX`, so queries and images are
@@ -11,8 +12,11 @@
 //!   ([`Display::redraw_on_change`]), and the picture never touches the last row (a sixel
 //!   there would scroll the screen).
 //! * kitty < 0.28 has no Unicode placeholders, which ratatui-image's kitty images need: the
-//!   terminal's version is asked (XTVERSION) and older kitty falls back to half blocks, said so
+//!   terminal's version (XTVERSION) decides, and older kitty falls back to half blocks, said so
 //!   in the status line.
+//! * ratatui-image's own query reads stdin on a thread that stays blocked when the answers do
+//!   not parse (seen inside tmux 3.3) and then steals key presses: it is used only with a
+//!   terminal that has just answered as kitty (to learn its `o=z` compression).
 //! * kitty over SSH: images are sent directly in the escape stream (`t=d`, no shared files),
 //!   zlib-compressed (`o=z`) where the terminal says it can inflate.
 
@@ -169,20 +173,159 @@ fn name(p: ProtocolType) -> &'static str {
     }
 }
 
+/// What the terminal said to [`probe`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Probe {
+    /// The status report came back (the terminal answers queries at all).
+    pub answered: bool,
+    pub kitty: bool,
+    pub sixel: bool,
+    /// Cell size in pixels (width, height) from `CSI 16 t`.
+    pub cell: Option<(u16, u16)>,
+    /// XTVERSION text, e.g. `kitty(0.26.5)` or `XTerm(390)`.
+    pub version: Option<String>,
+}
+
+/// Asks the terminal, through tmux passthrough when `tmux`: kitty graphics (a 1-pixel query
+/// image), XTVERSION, cell size, primary device attributes (sixel is attribute 4), and a status
+/// report that every terminal answers, which ends the read. Reads with `poll` and a deadline, so
+/// no thread is left behind reading stdin (it would steal key presses).
+pub fn probe(tmux: bool, timeout: Duration) -> Probe {
+    let (start, esc, end) = if tmux {
+        ("\x1bPtmux;", "\x1b\x1b", "\x1b\\")
+    } else {
+        ("", "\x1b", "")
+    };
+    let query = format!(
+        "{start}{esc}_Gi=31,s=1,v=1,a=q,t=d,f=24;AAAA{esc}\\{esc}[>0q{esc}[16t{esc}[c{end}\x1b[5n"
+    );
+    let answer = String::from_utf8_lossy(&exchange(&query, timeout)).to_string();
+    parse_probe(&answer)
+}
+
+/// Parses the answers to [`probe`]'s queries.
+pub fn parse_probe(answer: &str) -> Probe {
+    let mut p = Probe {
+        answered: answer.contains("\x1b[0n"),
+        kitty: answer.contains("\x1b_Gi=31;OK"),
+        version: parse_xtversion(answer),
+        ..Probe::default()
+    };
+    // DA1: ESC [ ? a ; b ; ... c
+    if let Some(i) = answer.find("\x1b[?") {
+        if let Some(j) = answer[i..].find('c') {
+            p.sixel = answer[i + 3..i + j].split(';').any(|a| a == "4");
+        }
+    }
+    // Cell size: ESC [ 6 ; height ; width t
+    if let Some(i) = answer.find("\x1b[6;") {
+        if let Some(j) = answer[i..].find('t') {
+            let nums: Vec<u16> = answer[i + 4..i + j]
+                .split(';')
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            if let [h, w] = nums[..] {
+                if w > 0 && h > 0 {
+                    p.cell = Some((w, h));
+                }
+            }
+        }
+    }
+    p
+}
+
+/// Writes `query` with the terminal in non-canonical, no-echo mode and collects what comes back
+/// until the status report's answer (`ESC [ 0 n`) or the deadline.
+fn exchange(query: &str, timeout: Duration) -> Vec<u8> {
+    use rustix::termios::{self, LocalModes, OptionalActions};
+    use std::io::{Read, Write};
+    let stdin = std::io::stdin();
+    let Ok(saved) = termios::tcgetattr(&stdin) else {
+        return Vec::new();
+    };
+    let mut raw = saved.clone();
+    raw.local_modes &= !(LocalModes::ICANON | LocalModes::ECHO);
+    if termios::tcsetattr(&stdin, OptionalActions::Drain, &raw).is_err() {
+        return Vec::new();
+    }
+    let mut out = std::io::stdout();
+    let _ = out.write_all(query.as_bytes()).and_then(|_| out.flush());
+    let mut answer = Vec::new();
+    let deadline = std::time::Instant::now() + timeout;
+    while !answer.windows(4).any(|w| w == b"\x1b[0n") {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            break;
+        }
+        let mut fds = [rustix::event::PollFd::new(
+            &stdin,
+            rustix::event::PollFlags::IN,
+        )];
+        let wait = rustix::event::Timespec {
+            tv_sec: left.as_secs() as _,
+            tv_nsec: left.subsec_nanos() as _,
+        };
+        match rustix::event::poll(&mut fds, Some(&wait)) {
+            Ok(n) if n > 0 => {
+                let mut buf = [0u8; 512];
+                match std::io::stdin().lock().read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => answer.extend_from_slice(&buf[..n]),
+                }
+            }
+            _ => break,
+        }
+    }
+    let _ = termios::tcsetattr(&stdin, OptionalActions::Now, &saved);
+    answer
+}
+
+/// The cell size from the terminal's window size in pixels, when it reports one.
+fn cell_from_winsize() -> Option<(u16, u16)> {
+    let ws = rustix::termios::tcgetwinsize(std::io::stdout()).ok()?;
+    (ws.ws_xpixel > 0 && ws.ws_ypixel > 0 && ws.ws_col > 0 && ws.ws_row > 0)
+        .then(|| (ws.ws_xpixel / ws.ws_col, ws.ws_ypixel / ws.ws_row))
+}
+
 /// Finds how to show pictures. Must run after the terminal entered raw mode and the alternate
 /// screen and before events are read (the answers arrive on stdin).
 pub fn detect(choice: ProtocolChoice) -> Display {
-    let options = QueryStdioOptions {
-        timeout: Duration::from_millis(1500),
-        kitty_compression: true,
-        ..QueryStdioOptions::default()
+    if choice == ProtocolChoice::Halfblocks {
+        let mut picker = Picker::halfblocks();
+        picker.set_protocol_type(ProtocolType::Halfblocks);
+        return Display {
+            picker,
+            note: "halfblocks (forced)".into(),
+            redraw_on_change: false,
+        };
+    }
+    let tmux = in_tmux();
+    let found = probe(tmux, Duration::from_millis(1500));
+    // ratatui-image's own query learns kitty's o=z compression; it is asked only of a terminal
+    // that just answered as kitty, so its reader thread finishes.
+    let queried = if found.answered && found.kitty {
+        let options = QueryStdioOptions {
+            timeout: Duration::from_millis(1500),
+            kitty_compression: true,
+            ..QueryStdioOptions::default()
+        };
+        Picker::from_query_stdio_with_options(options).ok()
+    } else {
+        None
     };
-    let queried = Picker::from_query_stdio_with_options(options);
-    let (mut picker, answered) = match queried {
-        Ok(p) => (p, true),
-        Err(_) => (Picker::halfblocks(), false),
-    };
-    let tmux = picker.tmux_detected();
+    let mut picker = queried.unwrap_or_else(|| {
+        let cell = found.cell.or_else(cell_from_winsize).unwrap_or((10, 20));
+        #[allow(deprecated)] // the constructor for a cell size found without ratatui-image
+        let mut p = Picker::from_fontsize(cell.into());
+        p.set_protocol_type(if found.kitty {
+            ProtocolType::Kitty
+        } else if found.sixel {
+            ProtocolType::Sixel
+        } else {
+            ProtocolType::Halfblocks
+        });
+        p
+    });
     let mut note;
     if let Some(forced) = choice.forced() {
         picker.set_protocol_type(forced);
@@ -191,14 +334,14 @@ pub fn detect(choice: ProtocolChoice) -> Display {
         let p = picker.protocol_type();
         note = name(p).to_string();
         if p == ProtocolType::Halfblocks {
-            note = if answered {
+            note = if found.answered {
                 "halfblocks: the terminal shows no graphics".into()
             } else {
                 "halfblocks: the terminal did not answer".into()
             };
         }
         if p == ProtocolType::Kitty {
-            if let Some(v) = terminal_version(tmux) {
+            if let Some(v) = &found.version {
                 if let Some(rest) = v.strip_prefix("kitty") {
                     if parse_version(rest).is_some_and(|ver| ver < (0, 28)) {
                         picker.set_protocol_type(ProtocolType::Halfblocks);
@@ -218,9 +361,10 @@ pub fn detect(choice: ProtocolChoice) -> Display {
     }
     let mut redraw_on_change = false;
     if tmux && picker.protocol_type() != ProtocolType::Halfblocks {
-        let version = tmux_version();
         note.push_str(" via tmux");
-        if picker.protocol_type() == ProtocolType::Sixel && version.is_none_or(|v| v < (3, 4)) {
+        if picker.protocol_type() == ProtocolType::Sixel
+            && tmux_version().is_none_or(|v| v < (3, 4))
+        {
             redraw_on_change = true;
         }
     }
@@ -229,53 +373,6 @@ pub fn detect(choice: ProtocolChoice) -> Display {
         note,
         redraw_on_change,
     }
-}
-
-/// The terminal's name and version from XTVERSION (`CSI > 0 q`), e.g. `kitty(0.26.5)`; through
-/// tmux passthrough when `tmux`, so the outer terminal answers. `None` when it does not answer
-/// within half a second.
-pub fn terminal_version(tmux: bool) -> Option<String> {
-    use rustix::termios::{self, LocalModes, OptionalActions};
-    use std::io::{Read, Write};
-    let stdin = std::io::stdin();
-    let saved = termios::tcgetattr(&stdin).ok()?;
-    let mut raw = saved.clone();
-    raw.local_modes &= !(LocalModes::ICANON | LocalModes::ECHO);
-    termios::tcsetattr(&stdin, OptionalActions::Drain, &raw).ok()?;
-    // The status report (CSI 5 n) always gets an answer, so the read ends even when XTVERSION
-    // is not understood.
-    let query = if tmux {
-        "\x1bPtmux;\x1b\x1b[>0q\x1b\\\x1b[5n"
-    } else {
-        "\x1b[>0q\x1b[5n"
-    };
-    let mut out = std::io::stdout();
-    let _ = out.write_all(query.as_bytes()).and_then(|_| out.flush());
-    let mut answer = Vec::new();
-    let deadline = std::time::Instant::now() + Duration::from_millis(500);
-    let mut fds = [rustix::event::PollFd::new(
-        &stdin,
-        rustix::event::PollFlags::IN,
-    )];
-    while std::time::Instant::now() < deadline && !answer.ends_with(b"\x1b[0n") {
-        let left = deadline.saturating_duration_since(std::time::Instant::now());
-        let timeout = rustix::event::Timespec {
-            tv_sec: 0,
-            tv_nsec: left.subsec_nanos() as _,
-        };
-        match rustix::event::poll(&mut fds, Some(&timeout)) {
-            Ok(n) if n > 0 => {
-                let mut buf = [0u8; 256];
-                match std::io::stdin().lock().read(&mut buf) {
-                    Ok(0) | Err(_) => break,
-                    Ok(n) => answer.extend_from_slice(&buf[..n]),
-                }
-            }
-            _ => break,
-        }
-    }
-    let _ = termios::tcsetattr(&stdin, OptionalActions::Now, &saved);
-    parse_xtversion(&String::from_utf8_lossy(&answer))
 }
 
 /// The text of an XTVERSION answer, `ESC P > | text ESC \`.
@@ -313,6 +410,24 @@ mod tests {
             Some("kitty(0.26.5)")
         );
         assert_eq!(parse_xtversion("\x1b[0n"), None);
+    }
+
+    #[test]
+    fn probe_answers_parse() {
+        // xterm -ti vt340: DA1 with 4 (sixel), a cell size, no kitty.
+        let xterm = "\x1bP>|XTerm(379)\x1b\\\x1b[6;17;8t\x1b[?63;1;2;4;6;9;15;22c\x1b[0n";
+        let p = parse_probe(xterm);
+        assert!(p.answered && p.sixel && !p.kitty);
+        assert_eq!(p.cell, Some((8, 17)));
+        assert_eq!(p.version.as_deref(), Some("XTerm(379)"));
+        // kitty 0.26: graphics OK, no sixel.
+        let kitty = "\x1b_Gi=31;OK\x1b\\\x1bP>|kitty(0.26.5)\x1b\\\x1b[?62;c\x1b[0n";
+        let p = parse_probe(kitty);
+        assert!(p.kitty && !p.sixel && p.answered);
+        // tmux 3.3 itself: no graphics.
+        let p = parse_probe("\x1b[?1;2c\x1b[0n");
+        assert!(p.answered && !p.kitty && !p.sixel && p.cell.is_none());
+        assert!(!parse_probe("").answered);
     }
 
     #[test]
