@@ -270,3 +270,176 @@ fn script_errors_show_with_caret_and_a_fixed_file_reloads() {
     t.keys(&["q"]);
     assert_restored(&t, "tui-exit=0");
 }
+
+/// Reads an X window dump (`xwd`, ZPixmap, 24/32 bits per pixel) into RGB.
+fn read_xwd(b: &[u8]) -> Option<image::RgbImage> {
+    let field = |i: usize| -> Option<u32> {
+        Some(u32::from_be_bytes(b.get(i * 4..i * 4 + 4)?.try_into().ok()?))
+    };
+    let (header, format, width, height) = (field(0)?, field(2)?, field(4)?, field(5)?);
+    let (byte_order, bpp, stride) = (field(7)?, field(11)?, field(12)? as usize);
+    let masks = [field(14)?, field(15)?, field(16)?];
+    let ncolors = field(19)? as usize;
+    if format != 2 || bpp != 32 {
+        return None;
+    }
+    let data = b.get(header as usize + ncolors * 12..)?;
+    let mut img = image::RgbImage::new(width, height);
+    for y in 0..height {
+        for x in 0..width {
+            let o = y as usize * stride + x as usize * 4;
+            let raw: [u8; 4] = data.get(o..o + 4)?.try_into().ok()?;
+            let p = if byte_order == 0 {
+                u32::from_le_bytes(raw)
+            } else {
+                u32::from_be_bytes(raw)
+            };
+            let c = masks.map(|m| ((p & m) >> m.trailing_zeros()) as u8);
+            img.put_pixel(x, y, image::Rgb(c));
+        }
+    }
+    Some(img)
+}
+
+/// Waits for a file to appear.
+fn wait_file(path: &Path, timeout: Duration) -> bool {
+    let t0 = Instant::now();
+    while t0.elapsed() < timeout {
+        if path.exists() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    false
+}
+
+/// Kills a child process on drop.
+struct Child(std::process::Child);
+
+impl Drop for Child {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn xterm_vt340_shows_the_sixel_picture() {
+    if !tools(&["Xvfb", "xterm", "xwd"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    // A picture to find: green everywhere, a red square in its top-left quarter (orientation).
+    let (w, h) = (96u32, 64u32);
+    let pixels = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if x < w / 4 && y < h / 4 {
+                [1.0, 0.0, 0.0, 1.0]
+            } else {
+                [0.0, 1.0, 0.0, 1.0]
+            }
+        })
+        .collect();
+    let exr = dir.path().join("target.exr");
+    hdrvis::io::exr::write_exr(&hdrvis::model::HdrImage::from_pixels(w, h, pixels), &exr).unwrap();
+
+    let display = format!(":{}", 50 + std::process::id() % 200);
+    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{}", &display[1..]));
+    let _xvfb = Child(
+        Command::new("Xvfb")
+            .args([&display, "-screen", "0", "800x600x24", "-nolisten", "tcp"])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    assert!(
+        wait_file(&socket, Duration::from_secs(10)),
+        "Xvfb did not start"
+    );
+    let shell = format!(
+        "{} tui {} --out {}; sleep 30",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        exr.display(),
+        dir.path().join("out").display()
+    );
+    let _xterm = Child(
+        Command::new("xterm")
+            .args([
+                "-display",
+                &display,
+                "-ti",
+                "vt340",
+                "-xrm",
+                "XTerm*numColorRegisters: 256",
+                "-geometry",
+                "80x24+0+0",
+                "-e",
+                "sh",
+                "-c",
+                &shell,
+            ])
+            .env_remove("TMUX")
+            .env_remove("HDRVIS_TUI_PROTOCOL")
+            .spawn()
+            .unwrap(),
+    );
+    let shot = dir.path().join("shot.png");
+    let t0 = Instant::now();
+    let (mut found, mut last) = (None, String::new());
+    while t0.elapsed() < Duration::from_secs(60) && found.is_none() {
+        std::thread::sleep(Duration::from_millis(500));
+        let grab = Command::new("xwd")
+            .args(["-root", "-silent", "-display", &display])
+            .output()
+            .unwrap();
+        let Some(img) = read_xwd(&grab.stdout) else {
+            continue;
+        };
+        img.save(&shot).unwrap();
+        if let Some(keep) = std::env::var_os("HDRVIS_KEEP_SCREENSHOT") {
+            let _ = std::fs::copy(&shot, keep);
+        }
+        // The bounding box of saturated green and red pixels.
+        let is = |p: &image::Rgb<u8>, c: usize| {
+            p[c] > 200 && (0..3).filter(|&k| k != c).all(|k| p[k] < 60)
+        };
+        let bbox = |c: usize| {
+            let mut b: Option<(u32, u32, u32, u32)> = None;
+            let mut n = 0u32;
+            for (x, y, p) in img.enumerate_pixels() {
+                if is(p, c) {
+                    n += 1;
+                    b = Some(match b {
+                        None => (x, y, x, y),
+                        Some((x0, y0, x1, y1)) => (x0.min(x), y0.min(y), x1.max(x), y1.max(y)),
+                    });
+                }
+            }
+            b.map(|b| (b, n))
+        };
+        last = format!("green {:?}, red {:?}", bbox(1), bbox(0));
+        if let (Some((g, gn)), Some((r, rn))) = (bbox(1), bbox(0)) {
+            if gn > 2000 && rn > 100 {
+                found = Some((g, r, gn, rn));
+            }
+        }
+    }
+    let ((gx0, gy0, gx1, gy1), (rx0, ry0, rx1, ry1), gn, rn) =
+        found.unwrap_or_else(|| panic!("no picture in the screenshot after 60 s: {last}"));
+    let (gw, gh) = ((gx1 - gx0 + 1) as f64, (gy1 - gy0 + 1) as f64);
+    // The picture keeps its 3:2 aspect, the red square sits in its top-left quarter, and red
+    // covers about 1/16 of it.
+    assert!((gw / gh - 1.5).abs() < 0.1, "aspect {gw}x{gh}");
+    assert!(
+        rx0 <= gx0 + 2 && ry0 <= gy0 + 2,
+        "red at ({rx0}, {ry0}), picture at ({gx0}, {gy0})"
+    );
+    assert!(((rx1 - rx0 + 1) as f64 / gw - 0.25).abs() < 0.05);
+    assert!(((ry1 - ry0 + 1) as f64 / gh - 0.25).abs() < 0.05);
+    let red_share = rn as f64 / (gn + rn) as f64;
+    assert!(
+        (red_share - 1.0 / 16.0).abs() < 0.02,
+        "red share {red_share}"
+    );
+}
