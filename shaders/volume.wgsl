@@ -24,6 +24,8 @@ struct Params {
     march: vec4<f32>,
     // x: width, y: height, z: jitter seed
     image: vec4<u32>,
+    // Blinn–Phong under a headlight: x ambient, y diffuse, z specular, w shininess (SHADING only)
+    shading: vec4<f32>,
 }
 
 // 0: lookup table, 1: emission–absorption e·v, a·v.
@@ -142,7 +144,32 @@ struct March {
     steps: u32,
     uvw0: vec3<f32>,
     duvw: vec3<f32>,
+    // Unit ray direction in world space (the headlight shines along it).
+    dir: vec3<f32>,
 }
+
+#if SHADING
+// Blinn–Phong factor at texture coordinate uvw under a headlight (light and eye along -dir, so
+// the half vector is the light vector), two-sided; the normal is the gradient of the data value
+// from central differences one voxel apart. Where the gradient vanishes or touches a missing
+// value the sample keeps its unshaded emission (factor 1). Matches shading_factor in
+// src/render/cpu_reference.rs.
+fn shading_factor(uvw: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let dims = vec3<f32>(textureDimensions(volume_tex));
+    let h = 1.0 / dims;
+    let spacing = P.box_size.xyz / dims;
+    let gx = sample_volume(uvw + vec3<f32>(h.x, 0.0, 0.0)) - sample_volume(uvw - vec3<f32>(h.x, 0.0, 0.0));
+    let gy = sample_volume(uvw + vec3<f32>(0.0, h.y, 0.0)) - sample_volume(uvw - vec3<f32>(0.0, h.y, 0.0));
+    let gz = sample_volume(uvw + vec3<f32>(0.0, 0.0, h.z)) - sample_volume(uvw - vec3<f32>(0.0, 0.0, h.z));
+    let g = vec3<f32>(gx, gy, gz) / (2.0 * spacing);
+    let len2 = dot(g, g);
+    if (!(len2 > 0.0) || !is_finite_f32(len2)) {
+        return 1.0;
+    }
+    let c = abs(dot(g, dir)) * inverseSqrt(len2);
+    return P.shading.x + P.shading.y * c + P.shading.z * pow(c, P.shading.w);
+}
+#endif
 
 // Segment k of the ray: sample at its midpoint, integrate emission and absorption over it.
 fn march_step(s: ptr<function, RayState>, m: March, k: u32) {
@@ -156,7 +183,12 @@ fn march_step(s: ptr<function, RayState>, m: March, k: u32) {
     let v = sample_volume(m.uvw0 + m.duvw * mid);
     // Missing values (NaN/Inf nearby) emit and absorb nothing; a select rather than a branch
     // keeps the SIMD lanes of CPU rasterizers together.
-    let ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
+    var ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
+#if SHADING
+    if (any(ea.rgb > vec3<f32>(0.0))) {
+        ea = vec4<f32>(ea.rgb * shading_factor(m.uvw0 + m.duvw * mid, m.dir), ea.a);
+    }
+#endif
     let x = ea.a * len;
     // One exponential per step: the segment's absorbed fraction gives both its escape fraction
     // and the transmittance update. The optical depth is still accumulated separately, for
@@ -227,7 +259,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             n = u32(ceil((span - first) / ds)) + 1u;
         }
         let inv_size = 1.0 / size;
-        let m = March(t_enter, t_exit, first, ds, P.march.y, P.march.z, n, ray.origin * inv_size, ray.dir * inv_size);
+        let m = March(t_enter, t_exit, first, ds, P.march.y, P.march.z, n, ray.origin * inv_size, ray.dir * inv_size, ray.dir);
         for (var k = 0u; k < n; k += UNROLL) {
             march_step(&s, m, k);
             march_step(&s, m, k + 1u);

@@ -33,12 +33,18 @@ fn run(cli: Cli) -> Result<()> {
             opts.sets = parse_sets(&args.sets)?;
             opts.resume = args.resume;
             opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
+            opts.cache_mib = hdrvis::render::cache::budget_mib(args.cache_mib)?;
             opts.capture_previews = args.preview;
             let protocol =
                 hdrvis::tui::protocol::ProtocolChoice::resolve(args.protocol.as_deref())?;
             let report = run_script_file(&args.script, &opts)?;
             for p in &report.written {
                 println!("wrote {}", p.display());
+            }
+            if args.stats {
+                for r in &report.passes {
+                    println!("{r}");
+                }
             }
             if args.preview {
                 let images: Vec<_> = if report.previews.is_empty() {
@@ -64,6 +70,7 @@ fn run(cli: Cli) -> Result<()> {
                 allowed_paths: args.allow_paths.clone(),
                 backend,
                 protocol: hdrvis::tui::protocol::ProtocolChoice::resolve(args.protocol.as_deref())?,
+                cache_mib: hdrvis::render::cache::budget_mib(None)?,
             };
             hdrvis::tui::run_tui(&opts)
         }
@@ -99,20 +106,56 @@ fn run(cli: Cli) -> Result<()> {
             println!("{}", ctx.report());
             Ok(())
         }
-        Some(Command::Bench(BenchCommand::Accuracy { runs, size, n, out })) => {
+        Some(Command::Bench(BenchCommand::Accuracy {
+            runs,
+            size,
+            n,
+            out,
+            scene,
+        })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
-            let scenes = hdrvis::bench::accuracy_scenes(size, n)?;
-            let rows =
-                hdrvis::bench::bench_accuracy(ctx, &scenes, runs, &mut |m| eprintln!("{m}"))?;
-            print!("{}", hdrvis::bench::format_accuracy_table(&adapter, &rows));
-            let (csv, json) = hdrvis::bench::write_accuracy_files(&out, &rows)?;
-            println!("wrote {} and {}", csv.display(), json.display());
+            use hdrvis::bench::accuracy;
+            let scenes = accuracy::accuracy_scenes(size, n, scene.as_deref())?;
+            let rows = accuracy::bench_accuracy(ctx, &scenes, runs, &mut |m| eprintln!("{m}"))?;
+            print!("{}", accuracy::format_accuracy_table(&adapter, &rows));
+            let (csv, json) = accuracy::write_accuracy_files(&out, &rows)?;
+            let chart = accuracy::write_accuracy_chart(&out, &adapter, &rows)?;
+            println!(
+                "wrote {}, {} and {}",
+                csv.display(),
+                json.display(),
+                chart.display()
+            );
+            if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+                let config = viuer::Config {
+                    absolute_offset: false,
+                    width: Some(80),
+                    ..Default::default()
+                };
+                // A terminal that cannot show images still has the file.
+                if let Ok(img) = image::open(&chart) {
+                    let _ = viuer::print(&img, &config);
+                }
+            }
             Ok(())
         }
         Some(Command::Bench(BenchCommand::Datasets { runs, quick })) => {
             let rows = hdrvis::bench::bench_generators(runs, quick, &mut |m| eprintln!("{m}"))?;
             print!("{}", hdrvis::bench::format_generator_table(&rows));
+            Ok(())
+        }
+        Some(Command::Bench(BenchCommand::Effects { runs, n, size })) => {
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let rows =
+                hdrvis::render::effects_bench::bench_effects(ctx, n, size, runs, &mut |m| {
+                    eprintln!("{m}")
+                })?;
+            print!(
+                "{}",
+                hdrvis::render::effects_bench::format_effects_table(&adapter, n, size, &rows)
+            );
             Ok(())
         }
         Some(Command::Bench(BenchCommand::Surface { runs, n })) => {

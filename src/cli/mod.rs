@@ -60,6 +60,13 @@ pub struct RunArgs {
     /// Skip outputs that already exist (resume an interrupted sweep).
     #[arg(long)]
     pub resume: bool,
+    /// Print one line per pass: `pass NAME ran MS` or `pass NAME cached`.
+    #[arg(long)]
+    pub stats: bool,
+    /// Memory budget of the result cache in MiB (default from HDRVIS_CACHE_MIB, else 2048):
+    /// results of unchanged stages are reused within a run, least recently used evicted first.
+    #[arg(long, value_name = "MIB")]
+    pub cache_mib: Option<u64>,
     /// After the run, print the result images inline once (the images passed to preview(),
     /// else the last one rendered): kitty, iTerm2, sixel or half blocks.
     #[arg(long)]
@@ -114,9 +121,12 @@ pub enum BenchCommand {
         /// Volume side in voxels.
         #[arg(long, default_value_t = 128)]
         n: usize,
-        /// Folder for accuracy.csv and accuracy.json.
+        /// Folder for accuracy.csv, accuracy.json and the chart accuracy.png.
         #[arg(long, default_value = "out/bench-accuracy")]
         out: PathBuf,
+        /// Only this scene (mantle, blobs); all by default.
+        #[arg(long)]
+        scene: Option<String>,
     },
     /// Dataset generators: okada 1001^2, mantle 513^3, tsunami 1000^2 for 2 simulated hours.
     Datasets {
@@ -147,6 +157,19 @@ pub enum BenchCommand {
     },
     /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
     /// two-step render, medians.
+    /// What each effect costs: a ray cast plain, with shading, with jitter; and a ten-image
+    /// exposure sweep from one render against ten full renders.
+    Effects {
+        /// Timed runs per case (after one warm-up).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Volume side in voxels.
+        #[arg(long, default_value_t = 256)]
+        n: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 512)]
+        size: u32,
+    },
     Surface {
         /// Timed runs per case (after one warm-up).
         #[arg(long, default_value_t = 9)]

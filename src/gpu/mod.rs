@@ -81,7 +81,20 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
     pub caps: Capabilities,
+    /// The driver's compiled pipelines, loaded from and saved to disk where the backend supports
+    /// it (Vulkan), so that a second run does not compile its shaders again.
+    pipeline_cache: Option<PersistentPipelineCache>,
 }
+
+struct PersistentPipelineCache {
+    cache: wgpu::PipelineCache,
+    path: std::path::PathBuf,
+    /// Size of the data loaded from disk; the cache is written back only when it changed.
+    loaded_len: usize,
+}
+
+/// Environment variable that turns the on-disk pipeline cache off (`0`).
+pub const PIPELINE_CACHE_ENV: &str = "HDRVIS_PIPELINE_CACHE";
 
 impl std::fmt::Debug for GpuContext {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -98,6 +111,61 @@ fn disabled_features() -> Vec<String> {
                 .collect()
         })
         .unwrap_or_default()
+}
+
+impl PersistentPipelineCache {
+    fn open(device: &wgpu::Device, info: &wgpu::AdapterInfo) -> Option<Self> {
+        if std::env::var(PIPELINE_CACHE_ENV).is_ok_and(|v| v.trim() == "0") {
+            return None;
+        }
+        let key = wgpu::util::pipeline_cache_key(info)?;
+        // The driver version is part of the file name: an updated driver starts a fresh cache.
+        let driver: String = format!("{}_{}", info.driver, info.driver_info)
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+            .collect();
+        let path = crate::datasets::cache::cache_dir()
+            .join("pipelines")
+            .join(format!("{key}_{driver}.bin"));
+        let data = std::fs::read(&path).ok();
+        // SAFETY: the data is either absent or what `get_data` of a cache for this adapter
+        // (same vendor, device and driver in the file name) returned; with `fallback` the
+        // driver validates the header and starts empty when it does not match.
+        let cache = unsafe {
+            device.create_pipeline_cache(&wgpu::PipelineCacheDescriptor {
+                label: Some("hdrvis pipelines"),
+                data: data.as_deref(),
+                fallback: true,
+            })
+        };
+        Some(PersistentPipelineCache {
+            cache,
+            path,
+            loaded_len: data.map_or(0, |d| d.len()),
+        })
+    }
+
+    fn save(&self) {
+        let Some(data) = self.cache.get_data() else {
+            return;
+        };
+        if data.len() == self.loaded_len {
+            return;
+        }
+        if let Some(dir) = self.path.parent() {
+            let _ = std::fs::create_dir_all(dir);
+        }
+        let _ = crate::io::write_atomic(&self.path, |f| {
+            use std::io::Write;
+            f.write_all(&data).map_err(|e| Error::io(&self.path, e))
+        });
+    }
+}
+
+impl Drop for GpuContext {
+    fn drop(&mut self) {
+        self.save_pipeline_cache();
+    }
 }
 
 fn type_rank(t: wgpu::DeviceType) -> u32 {
@@ -150,6 +218,7 @@ impl GpuContext {
             (wgpu::Features::FLOAT32_FILTERABLE, "float32_filterable"),
             (wgpu::Features::SHADER_F64, "shader_f64"),
             (wgpu::Features::SHADER_F16, "shader_f16"),
+            (wgpu::Features::PIPELINE_CACHE, "pipeline_cache"),
         ] {
             if features.contains(f) && !off(name) {
                 wanted |= f;
@@ -171,6 +240,11 @@ impl GpuContext {
             max_buffer_size: limits.max_buffer_size,
             max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
         };
+        let pipeline_cache = if wanted.contains(wgpu::Features::PIPELINE_CACHE) {
+            PersistentPipelineCache::open(&device, &info)
+        } else {
+            None
+        };
         Ok(Arc::new(GpuContext {
             instance,
             adapter,
@@ -178,6 +252,7 @@ impl GpuContext {
             queue,
             info,
             caps,
+            pipeline_cache,
         }))
     }
 
@@ -230,7 +305,30 @@ impl GpuContext {
             c.max_texture_2d,
             c.max_buffer_size >> 20,
             c.max_storage_buffer_binding_size >> 20,
-        )
+        ) + "\npipeline cache: "
+            + match self.pipeline_cache_path() {
+                Some(p) => format!("yes ({})", p.display()),
+                None => "no (this backend compiles pipelines on every run)".to_string(),
+            }
+            .as_str()
+    }
+
+    /// The pipeline cache to pass to pipeline creation (`None` where the backend has none).
+    pub fn pipeline_cache(&self) -> Option<&wgpu::PipelineCache> {
+        self.pipeline_cache.as_ref().map(|p| &p.cache)
+    }
+
+    /// Where the pipeline cache lives on disk, if there is one.
+    pub fn pipeline_cache_path(&self) -> Option<&std::path::Path> {
+        self.pipeline_cache.as_ref().map(|p| p.path.as_path())
+    }
+
+    /// Writes the pipeline cache to disk if pipelines were added since it was loaded; also done
+    /// when the context is dropped. Failures only cost the next run its head start.
+    pub fn save_pipeline_cache(&self) {
+        if let Some(p) = &self.pipeline_cache {
+            p.save();
+        }
     }
 
     /// Blocks until all submitted work is done.

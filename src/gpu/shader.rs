@@ -9,6 +9,10 @@ use crate::error::{Error, Result};
 pub const SOURCES: &[(&str, &str)] = &[
     ("volume.wgsl", include_str!("../../shaders/volume.wgsl")),
     (
+        "volume_f64.wgsl",
+        include_str!("../../shaders/volume_f64.wgsl"),
+    ),
+    (
         "surface_data.wgsl",
         include_str!("../../shaders/surface_data.wgsl"),
     ),
@@ -57,7 +61,11 @@ pub const SOURCES: &[(&str, &str)] = &[
 /// The pipeline shaders (not the shared pieces) with every define combination they are built
 /// with, so tests can validate each variant.
 pub const PIPELINES: &[(&str, &[&[&str]])] = &[
-    ("volume.wgsl", &[&[], &["HW_FILTER"]]),
+    (
+        "volume.wgsl",
+        &[&[], &["HW_FILTER"], &["SHADING"], &["HW_FILTER", "SHADING"]],
+    ),
+    ("volume_f64.wgsl", &[&[]]),
     ("tonemap/luminance_stats.wgsl", &[&[]]),
     ("tonemap/global.wgsl", &[&[]]),
     ("tonemap/ward_histogram.wgsl", &[&[]]),

@@ -297,6 +297,12 @@ impl Grid {
     pub fn id(&self) -> u64 {
         self.id
     }
+    /// Bytes held by the property and elevation arrays.
+    pub fn bytes(&self) -> u64 {
+        let values = self.properties.iter().map(|(_, v)| v.len()).sum::<usize>()
+            + self.elevation.as_ref().map_or(0, |e| e.len());
+        values as u64 * 8
+    }
     pub fn name(&self) -> &str {
         &self.name
     }

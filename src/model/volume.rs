@@ -232,6 +232,20 @@ impl Volume {
 
     /// Exact trilinear interpolation in f64 at world position `p`, cell-centred, clamp-to-edge.
     /// Any non-finite voxel among the eight neighbours makes the sample non-finite (missing).
+    /// Gradient of the trilinear field at `p` by central differences one voxel apart along each
+    /// axis (the shading normal; the shader takes the same differences).
+    pub fn gradient(&self, p: [f64; 3]) -> [f64; 3] {
+        let mut g = [0.0; 3];
+        for (a, ga) in g.iter_mut().enumerate() {
+            let h = self.spacing[a];
+            let (mut lo, mut hi) = (p, p);
+            lo[a] -= h;
+            hi[a] += h;
+            *ga = (self.sample_trilinear(hi) - self.sample_trilinear(lo)) / (2.0 * h);
+        }
+        g
+    }
+
     pub fn sample_trilinear(&self, p: [f64; 3]) -> f64 {
         let mut base = [0i64; 3];
         let mut frac = [0f64; 3];

@@ -76,7 +76,13 @@ pub fn render_volume_f64(volume: &Volume, opts: &VolumeRenderOptions) -> Result<
                             if !v.is_finite() {
                                 continue;
                             }
-                            let (e, a) = tf.eval(v);
+                            let (mut e, a) = tf.eval(v);
+                            if let Some(sh) = &opts.shading {
+                                if e.iter().any(|&c| c > 0.0) {
+                                    let f = sh.factor(volume.gradient(p), d);
+                                    e = e.map(|c| c * f);
+                                }
+                            }
                             let x = a * len;
                             let weight = (-tau).exp() * len * escape_fraction(x);
                             for c in 0..3 {

@@ -1,10 +1,15 @@
 //! Renderers: the GPU volume ray caster and its f64 CPU reference, sharing one set of options so
 //! they trace the same rays through the same optical model.
 
+pub mod cache;
 pub mod cpu_reference;
+pub mod effects_bench;
+pub mod passes;
+pub mod session;
 pub mod surface;
 pub mod surface_bench;
 pub mod volume;
+pub mod volume_f64;
 
 use crate::error::{Error, Result};
 use crate::model::{Camera, TransferFunction};
@@ -53,6 +58,66 @@ pub struct VolumeRenderOptions {
     pub filter: FilterMode,
     /// Arithmetic of the compositing loop.
     pub precision: Precision,
+    /// Gradient-based Blinn–Phong shading of the emission; `None` compiles no shading code.
+    pub shading: Option<Shading>,
+}
+
+/// Blinn–Phong shading of each sample's emission under a headlight: the emission is multiplied
+/// by ambient + diffuse·|n·l| + specular·|n·l|^shininess, where n is the unit gradient of the
+/// data (central differences one voxel apart) and l the ray direction (light at the eye, so the
+/// half vector is l). Two-sided, because an iso-surface of a scalar field has no outside.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shading {
+    pub ambient: f64,
+    pub diffuse: f64,
+    pub specular: f64,
+    pub shininess: f64,
+}
+
+impl Default for Shading {
+    fn default() -> Self {
+        Shading {
+            ambient: 0.3,
+            diffuse: 0.7,
+            specular: 0.3,
+            shininess: 32.0,
+        }
+    }
+}
+
+impl Shading {
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [
+            ("shading.ambient", self.ambient),
+            ("shading.diffuse", self.diffuse),
+            ("shading.specular", self.specular),
+        ] {
+            if !(v.is_finite() && (0.0..=100.0).contains(&v)) {
+                return Err(Error::invalid(
+                    name,
+                    format!("expected a finite coefficient in [0, 100], got {v}"),
+                ));
+            }
+        }
+        if !(self.shininess.is_finite() && (1.0..=10_000.0).contains(&self.shininess)) {
+            return Err(Error::invalid(
+                "shading.shininess",
+                format!("expected an exponent in [1, 10000], got {}", self.shininess),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The factor for a gradient `g` (any length) and unit ray direction `d`; 1 where the
+    /// gradient vanishes or is not finite.
+    pub fn factor(&self, g: [f64; 3], d: [f64; 3]) -> f64 {
+        let len2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+        if !(len2 > 0.0 && len2.is_finite()) {
+            return 1.0;
+        }
+        let c = (g[0] * d[0] + g[1] * d[1] + g[2] * d[2]).abs() / len2.sqrt();
+        self.ambient + self.diffuse * c + self.specular * c.powf(self.shininess)
+    }
 }
 
 /// How the compositing loop accumulates colour and optical depth.
@@ -132,6 +197,7 @@ impl VolumeRenderOptions {
             background: [0.0; 3],
             filter: FilterMode::Auto,
             precision: Precision::F32,
+            shading: None,
         }
     }
 
@@ -161,6 +227,9 @@ impl VolumeRenderOptions {
                     self.early_exit
                 ),
             ));
+        }
+        if let Some(s) = &self.shading {
+            s.validate()?;
         }
         if self.background.iter().any(|c| !c.is_finite()) {
             return Err(Error::invalid(

@@ -27,6 +27,7 @@ struct VolumeParams {
     tf: [f32; 4],
     march: [f32; 4],
     image: [u32; 4],
+    shading: [f32; 4],
 }
 
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
@@ -45,6 +46,11 @@ pub struct GpuVolume {
 }
 
 impl GpuVolume {
+    /// The R32Float 3-D texture view, for other ray casters of the same volume.
+    pub fn view(&self) -> &wgpu::TextureView {
+        &self.view
+    }
+
     pub fn upload(ctx: &GpuContext, volume: &Volume) -> Result<GpuVolume> {
         let limit = ctx.caps.max_texture_3d as usize;
         if volume.dims.iter().any(|&d| d > limit) {
@@ -134,6 +140,7 @@ struct PipelineKey {
     lens: bool,
     jitter: bool,
     precision: u32,
+    shading: bool,
 }
 
 /// Builds pipelines on demand and renders volumes; one per GPU context.
@@ -183,7 +190,15 @@ impl VolumeRenderer {
         if let Some(p) = cache.get(&key) {
             return Ok((p.clone(), false));
         }
-        let defines: &[&str] = if key.hw_filter { &["HW_FILTER"] } else { &[] };
+        // Absent effects are left out of the source, not just switched off.
+        let mut defines = Vec::new();
+        if key.hw_filter {
+            defines.push("HW_FILTER");
+        }
+        if key.shading {
+            defines.push("SHADING");
+        }
+        let defines = &defines[..];
         let src = shader::load("volume.wgsl", defines)?;
         let device = &self.ctx.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -236,7 +251,7 @@ impl VolumeRenderer {
                 constants: &constants,
                 zero_initialize_workgroup_memory: false,
             },
-            cache: None,
+            cache: self.ctx.pipeline_cache(),
         });
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(format!("volume pipeline failed to build: {e}")));
@@ -307,6 +322,7 @@ impl VolumeRenderer {
             lens: tf.mapping.lens.is_some(),
             jitter: opts.jitter,
             precision: opts.precision.shader_code(),
+            shading: opts.shading.is_some(),
         };
         let (pipeline, compiled) = self.pipeline(key)?;
         let (pipeline, layout) = (&pipeline.0, &pipeline.1);
@@ -354,6 +370,14 @@ impl VolumeRenderer {
                 0.0,
             ],
             image: [opts.width, opts.height, opts.seed, 0],
+            shading: opts.shading.map_or([0.0; 4], |s| {
+                [
+                    s.ambient as f32,
+                    s.diffuse as f32,
+                    s.specular as f32,
+                    s.shininess as f32,
+                ]
+            }),
         };
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
@@ -469,6 +493,15 @@ impl VolumeRenderer {
                 "exact trilinear"
             },
         );
+        if let Some(sh) = &opts.shading {
+            image.set_meta(
+                "shading",
+                format!(
+                    "Blinn-Phong headlight ambient {} diffuse {} specular {} shininess {}",
+                    sh.ambient, sh.diffuse, sh.specular, sh.shininess
+                ),
+            );
+        }
         image.set_meta("adapter", self.ctx.describe());
         Ok((
             image,

@@ -57,7 +57,7 @@ pub const API: &[ApiEntry] = &[
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number"], "Camera", "Perspective camera orbiting the volume's centre (degrees; fov 35)."),
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
     e("cameras", "camera_look_at", &["eye: array", "target: array", "up: array", "fov: number"], "Camera", "Free perspective camera."),
-    e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast: #{tf, camera, width, height, step (voxels), jitter, seed, early_exit, background: [r, g, b], filter: \"auto\"|\"hardware\"|\"exact\", precision: \"u8\"|\"f16\"|\"f32\"|\"f32c\"|\"f64\" (f64 on the CPU)}."),
+    e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast: #{tf, camera, width, height, step (voxels), jitter, seed, early_exit, background: [r, g, b], filter: \"auto\"|\"hardware\"|\"exact\", precision: \"u8\"|\"f16\"|\"f32\"|\"f32c\"|\"f64\" (f64 on the CPU), shading: true|false|#{ambient, diffuse, specular, shininess} (Blinn–Phong headlight on the data gradient; absent = no shading code)}. Results are cached: an identical call returns the earlier image without a ray cast."),
     e("rendering", "get$width", &["image: Image"], "int", "image.width"),
     e("rendering", "get$height", &["image: Image"], "int", "image.height"),
     e("surfaces", "load_grid", &["path: string"], "Grid", "A 2-D field from .npy, .npz or .nc; every same-shape array becomes a property (elevation-like names become the relief)."),

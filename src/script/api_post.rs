@@ -7,7 +7,7 @@
 use super::api_render::ScriptImage;
 use super::convert::{check_keys, err, num, string, to_rhai, RResult};
 use super::ScriptHost;
-use crate::tonemap::{GpuToneMapper, Operator, ToneMapSettings};
+use crate::tonemap::{Operator, ToneMapSettings};
 use rhai::{Array, Dynamic, Engine, Map};
 use std::sync::Arc;
 
@@ -58,76 +58,73 @@ pub fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
 }
 
 pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
-    let get_mapper = {
-        let host = host.clone();
-        move || -> RResult<Arc<GpuToneMapper>> { host.session.tone_mapper().map_err(to_rhai) }
-    };
-
     let h = host.clone();
     engine.register_fn("load_image", move |path: &str| -> RResult<ScriptImage> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        let img = Arc::new(crate::io::exr::read_exr(&p).map_err(to_rhai)?);
+        let img = h.session.load_image(&p).map_err(to_rhai)?;
         h.note_image(&img);
         Ok(img)
     });
 
+    let h = host.clone();
     engine.register_fn(
         "exposure",
-        |img: &mut ScriptImage, ev: Dynamic| -> RResult<ScriptImage> {
+        move |img: &mut ScriptImage, ev: Dynamic| -> RResult<ScriptImage> {
             let ev = num(&ev, "exposure")?;
-            Ok(Arc::new(
-                crate::tonemap::exposure(img, ev).map_err(to_rhai)?,
-            ))
+            h.session.exposure(img, ev).map_err(to_rhai)
         },
     );
 
+    let h = host.clone();
     engine.register_fn(
         "bracket",
-        |img: &mut ScriptImage, evs: Array| -> RResult<Array> {
+        move |img: &mut ScriptImage, evs: Array| -> RResult<Array> {
             let evs = evs
                 .iter()
                 .map(|v| num(v, "bracket"))
                 .collect::<RResult<Vec<f64>>>()?;
-            let images = crate::tonemap::bracket(img, &evs).map_err(to_rhai)?;
-            Ok(images
-                .into_iter()
-                .map(|i| Dynamic::from(Arc::new(i)))
-                .collect())
+            crate::tonemap::check_bracket(&evs).map_err(to_rhai)?;
+            evs.iter()
+                .map(|&ev| {
+                    h.session
+                        .exposure(img, ev)
+                        .map(Dynamic::from)
+                        .map_err(to_rhai)
+                })
+                .collect()
         },
     );
 
-    let m = get_mapper.clone();
+    let h = host.clone();
+    let tonemap = move |img: &ScriptImage, opts: &Map| -> RResult<ScriptImage> {
+        if crate::tonemap::is_display_referred(img) {
+            return err(
+                "tonemap",
+                "this image is already display-referred (tone-mapped); tone-map the HDR image",
+            );
+        }
+        let settings = settings_from_map(opts)?;
+        h.session.tonemap(img, &settings).map_err(to_rhai)
+    };
+    let tonemap2 = tonemap.clone();
     engine.register_fn(
         "tonemap",
-        move |img: &mut ScriptImage, opts: Map| -> RResult<ScriptImage> {
-            if crate::tonemap::is_display_referred(img) {
-                return err(
-                    "tonemap",
-                    "this image is already display-referred (tone-mapped); tone-map the HDR image",
-                );
-            }
-            let settings = settings_from_map(&opts)?;
-            Ok(Arc::new(m()?.tonemap(img, &settings).map_err(to_rhai)?))
-        },
+        move |img: &mut ScriptImage, opts: Map| -> RResult<ScriptImage> { tonemap2(img, &opts) },
     );
-    let m = get_mapper.clone();
     engine.register_fn(
         "tonemap",
         move |img: &mut ScriptImage, op: &str| -> RResult<ScriptImage> {
             let mut opts = Map::new();
             opts.insert("op".into(), op.into());
-            let settings = settings_from_map(&opts)?;
-            Ok(Arc::new(m()?.tonemap(img, &settings).map_err(to_rhai)?))
+            tonemap(img, &opts)
         },
     );
 
-    let m = get_mapper;
+    let h = host;
     engine.register_fn(
         "false_colour",
         move |img: &mut ScriptImage| -> RResult<ScriptImage> {
-            Ok(Arc::new(
-                m()?.false_colour(img, 0.0, None).map_err(to_rhai)?,
-            ))
+            h.session.false_colour(img).map_err(to_rhai)
         },
     );
 }

@@ -6,9 +6,10 @@
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
 use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::model::{Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume};
-use crate::render::{FilterMode, Precision, VolumeRenderOptions};
-use rhai::{Dynamic, Engine, Map};
+use crate::render::{FilterMode, Precision, Shading, VolumeRenderOptions};
 use std::collections::HashMap;
+
+use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
 /// A camera as scripts describe it; views that frame "the volume" are fixed at render time.
@@ -52,7 +53,9 @@ const RENDER_KEYS: &[&str] = &[
     "background",
     "filter",
     "precision",
+    "shading",
 ];
+const SHADING_KEYS: &[&str] = &["ambient", "diffuse", "specular", "shininess"];
 const LUT_KEYS: &[&str] = &[
     "scale",
     "linthresh",
@@ -82,7 +85,7 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_volume", move |path: &str| -> RResult<ScriptVolume> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        h.session.load_volume(&p).map_err(to_rhai)
+        h.session.load_volume(&p, None).map_err(to_rhai)
     });
 
     let h = host.clone();
@@ -104,16 +107,9 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
                 }
             }
             o.fields = MantleFields::only(field);
-            let key = format!(
-                "mantle {} {} {} {} {}",
-                field.name(),
-                o.n,
-                o.seed,
-                o.plumes,
-                o.slabs
-            );
+            // Generation takes seconds at 256³; a re-run of the script (TUI, sweep) reuses it.
             h.session
-                .generated(key, || {
+                .generated_volume(&("mantle", &o, field.name()), || {
                     let m = generate(&o, &mut |_| {})?;
                     let n = m.n;
                     let data = m.field(field).map(|d| d.to_vec()).unwrap_or_default();
@@ -261,21 +257,11 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
                 "background" => o.background = vec3(v, "background")?,
                 "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
                 "precision" => o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?,
+                "shading" => o.shading = shading(v)?,
                 _ => unreachable!("checked keys"),
             }
         }
-        if o.precision == Precision::F64 {
-            let mut img = crate::render::cpu_reference::render_volume_cpu(volume, &o).map_err(to_rhai)?;
-            img.set_meta("precision", "f64 (CPU)");
-            img.set_meta("tf", o.tf.describe());
-            let img = Arc::new(img);
-            h.note_image(&img);
-            return Ok(img);
-        }
-        let renderer = h.renderer().map_err(to_rhai)?;
-        let gv = h.upload(volume).map_err(to_rhai)?;
-        let (img, _) = renderer.render(&gv, &o).map_err(to_rhai)?;
-        let img = Arc::new(img);
+        let img = h.session.raycast(volume, &o).map_err(to_rhai)?;
         h.note_image(&img);
         Ok(img)
     });
@@ -289,7 +275,10 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             if h.already_done(&p) {
                 return Ok(());
             }
+            let t = std::time::Instant::now();
             crate::io::exr::write_exr(img, &p).map_err(to_rhai)?;
+            h.session
+                .record_sink("save-exr", t.elapsed().as_secs_f64() * 1e3);
             h.written.lock().expect("poisoned").push(p);
             Ok(())
         },
@@ -310,11 +299,14 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         if h.already_done(&p) {
             return Ok(());
         }
+        let t = std::time::Instant::now();
         if display {
             crate::io::png::write_display_png(img, &p, false).map_err(to_rhai)?;
         } else {
             crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
         }
+        h.session
+            .record_sink("save-png", t.elapsed().as_secs_f64() * 1e3);
         h.written.lock().expect("poisoned").push(p);
         Ok(())
     };
@@ -416,6 +408,33 @@ fn param_value(sets: &HashMap<String, String>, name: &str, default: &Dynamic) ->
             }
         }
     }
+}
+
+/// `shading: true` (the default coefficients), `false`, or a map of coefficients.
+fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
+    if v.is_bool() {
+        return Ok(boolean(v, "shading")?.then(Shading::default));
+    }
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+        to_rhai(crate::Error::invalid(
+            "shading",
+            "expected true, false or a map #{ambient, diffuse, specular, shininess}",
+        ))
+    })?;
+    check_keys(&m, SHADING_KEYS, "shading")?;
+    let mut s = Shading::default();
+    for (k, x) in &m {
+        let x = num(x, k)?;
+        match k.as_str() {
+            "ambient" => s.ambient = x,
+            "diffuse" => s.diffuse = x,
+            "specular" => s.specular = x,
+            "shininess" => s.shininess = x,
+            _ => unreachable!("checked keys"),
+        }
+    }
+    s.validate().map_err(to_rhai)?;
+    Ok(Some(s))
 }
 
 /// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal

@@ -1,9 +1,9 @@
 //! Script API for interference surfaces: `load_grid(path)`, `load_grid(path, name)`,
 //! `render_surface(grid, options)` and `surface_colorbar(grid, options)`. One `SurfaceRenderer`
-//! per script session (one run, or every run of a TUI session) caches the data pass, so
-//! rendering the same grid and view again with another ν, mode or colour map runs only the
-//! fringe pass. `property` may be one name (the result is one image) or an array of up to four
-//! names (the result is an array of images, all from one data pass).
+//! per script run caches the data pass, so rendering the same grid and view again with another
+//! ν, mode or colour map runs only the fringe pass. `property` may be one name (the result is one
+//! image) or an array of up to four names (the result is an array of images, all from one data
+//! pass).
 
 use super::api_render::{ScriptCamera, ScriptImage};
 use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResult};
@@ -146,25 +146,19 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "render_surface",
         move |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
             let (o, many) = parse_options(grid, &opts)?;
-            let renderer = h.session.surface_renderer().map_err(to_rhai)?;
-            let images: Vec<ScriptImage> = renderer
-                .render(grid, &o)
-                .map_err(to_rhai)?
-                .into_iter()
-                .map(Arc::new)
-                .collect();
+            let mut images = h.session.surface(grid, &o).map_err(to_rhai)?.to_vec();
             if let Some(first) = images.first() {
-                h.note_image(first);
+                h.note_image(&Arc::new(first.clone()));
             }
             if many {
                 Ok(Dynamic::from(
                     images
                         .into_iter()
-                        .map(Dynamic::from)
+                        .map(|i| Dynamic::from(Arc::new(i) as ScriptImage))
                         .collect::<rhai::Array>(),
                 ))
             } else {
-                Ok(Dynamic::from(images[0].clone()))
+                Ok(Dynamic::from(Arc::new(images.remove(0)) as ScriptImage))
             }
         },
     );

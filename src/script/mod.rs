@@ -12,19 +12,18 @@ mod api_render;
 mod api_surface;
 mod convert;
 mod sandbox;
-pub mod session;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
 use crate::model::HdrImage;
-use crate::render::volume::{GpuVolume, VolumeRenderer};
+use crate::render::passes::PassRecord;
+use crate::render::session::RenderSession;
 use rhai::{Engine, EvalAltResult, Position};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 pub use sandbox::Sandbox;
-pub use session::ScriptSession;
 
 /// How a script is run: where it writes, what `param()` returns, what else it may read.
 #[derive(Clone, Debug)]
@@ -41,10 +40,13 @@ pub struct ScriptOptions {
     pub resume: bool,
     /// Show progress bars on stderr (`progress(i, n)`); off for tests and pipes.
     pub progress: bool,
-    /// GPU objects and loaded data kept between runs (`hdrvis tui`); `None` starts afresh.
-    pub session: Option<Arc<ScriptSession>>,
+    /// The session whose result cache and renderers the run uses; a new one when `None`. The TUI
+    /// and sweeps pass the same session to every run, so unchanged stages are not recomputed.
+    pub session: Option<Arc<RenderSession>>,
+    /// Result-cache budget of a new session, MiB.
+    pub cache_mib: u64,
     /// Keep the images passed to `preview(image)` in [`ScriptReport::previews`] instead of
-    /// printing them to the terminal (the TUI shows them itself).
+    /// printing them to the terminal (`hdrvis tui` shows them itself, `run --preview` at the end).
     pub capture_previews: bool,
 }
 
@@ -59,6 +61,7 @@ impl ScriptOptions {
             resume: false,
             progress: true,
             session: None,
+            cache_mib: crate::render::cache::DEFAULT_BUDGET_MIB,
             capture_previews: false,
         }
     }
@@ -84,10 +87,12 @@ pub struct ParamRecord {
     pub value: String,
 }
 
-/// What a run produced, for the CLI and the TUI to report and show.
+/// What a run produced, for the CLI to report.
 #[derive(Debug, Default, Clone)]
 pub struct ScriptReport {
     pub written: Vec<PathBuf>,
+    /// Every pass of the run, in order: what ran (with its time) and what came from the cache.
+    pub passes: Vec<PassRecord>,
     /// Every parameter the script asked for, in first-call order.
     pub params: Vec<ParamRecord>,
     /// Images passed to `preview(image)` when [`ScriptOptions::capture_previews`] is on.
@@ -101,7 +106,7 @@ pub struct ScriptReport {
 pub(crate) struct ScriptHost {
     pub sandbox: Sandbox,
     pub sets: HashMap<String, String>,
-    pub session: Arc<ScriptSession>,
+    pub session: Arc<RenderSession>,
     pub written: Mutex<Vec<PathBuf>>,
     pub params: Mutex<Vec<ParamRecord>>,
     pub capture_previews: bool,
@@ -113,6 +118,20 @@ pub(crate) struct ScriptHost {
 }
 
 impl ScriptHost {
+    /// Remembers the image most recently produced, for [`ScriptReport::last_image`].
+    pub fn note_image(&self, img: &Arc<HdrImage>) {
+        *self.last_image.lock().expect("last image poisoned") = Some(img.clone());
+    }
+
+    /// Records a `param()` call (the first call of a name keeps its list position).
+    pub fn note_param(&self, record: ParamRecord) {
+        let mut params = self.params.lock().expect("params poisoned");
+        match params.iter_mut().find(|p| p.name == record.name) {
+            Some(p) => *p = record,
+            None => params.push(record),
+        }
+    }
+
     /// Whether an output may be skipped: `--resume` is on and the file is already there.
     pub fn already_done(&self, path: &Path) -> bool {
         self.resume && path.is_file()
@@ -139,28 +158,6 @@ impl ScriptHost {
         if done >= total {
             bar.finish();
             *slot = None;
-        }
-    }
-
-    pub fn renderer(&self) -> Result<Arc<VolumeRenderer>> {
-        self.session.renderer()
-    }
-
-    pub fn upload(&self, volume: &Arc<crate::model::Volume>) -> Result<Arc<GpuVolume>> {
-        self.session.upload(volume)
-    }
-
-    /// Remembers the image most recently produced, for [`ScriptReport::last_image`].
-    pub fn note_image(&self, img: &Arc<HdrImage>) {
-        *self.last_image.lock().expect("last image poisoned") = Some(img.clone());
-    }
-
-    /// Records a `param()` call (the first call of a name wins the list position).
-    pub fn note_param(&self, record: ParamRecord) {
-        let mut params = self.params.lock().expect("params poisoned");
-        match params.iter_mut().find(|p| p.name == record.name) {
-            Some(p) => *p = record,
-            None => params.push(record),
         }
     }
 }
@@ -202,7 +199,7 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
     Arc::new(ScriptHost {
         sandbox: Sandbox::new(&dir, &dir.join("hdrvis-test-out"), &[]).unwrap(),
         sets: HashMap::new(),
-        session: ScriptSession::new(BackendChoice::Auto),
+        session: Arc::new(RenderSession::new(BackendChoice::Auto, 1 << 30)),
         written: Mutex::new(Vec::new()),
         params: Mutex::new(Vec::new()),
         capture_previews: false,
@@ -242,10 +239,14 @@ pub fn run_script_source(
     if opts.resume {
         remove_stale_temporaries(&opts.out_dir);
     }
-    let session = opts
-        .session
-        .clone()
-        .unwrap_or_else(|| ScriptSession::new(opts.backend));
+    let session = opts.session.clone().unwrap_or_else(|| {
+        Arc::new(RenderSession::new(
+            opts.backend,
+            opts.cache_mib.saturating_mul(1 << 20),
+        ))
+    });
+    // The log holds this run's passes only; what earlier runs left is theirs.
+    session.log().take();
     let host = Arc::new(ScriptHost {
         sandbox,
         sets,
@@ -263,18 +264,16 @@ pub fn run_script_source(
     let ast = engine
         .compile(source)
         .map_err(|e| Error::Script(format_error(name, source, &e.to_string(), e.position())))?;
-    let outcome = engine
+    engine
         .run_ast(&ast)
-        .map_err(|e| Error::Script(describe_eval_error(name, source, &e)));
-    // Also after a failed run: what it loaded stays cached for the corrected script.
-    session.end_run();
+        .map_err(|e| Error::Script(describe_eval_error(name, source, &e)))?;
     drop(engine);
-    outcome?;
     fn take<T: Default>(m: &Mutex<T>) -> T {
         std::mem::take(&mut *m.lock().expect("run state poisoned"))
     }
     Ok(ScriptReport {
         written: take(&host.written),
+        passes: session.log().take(),
         params: take(&host.params),
         previews: take(&host.previews),
         last_image: take(&host.last_image),

@@ -55,13 +55,19 @@ pub fn exposure(img: &HdrImage, ev: f64) -> Result<HdrImage> {
 /// An exposure bracket: one exposed copy of `img` per entry of `evs` (as the paper's Fig. 5,
 /// four exposures of one HDR render), computed from the image alone, never re-rendered.
 pub fn bracket(img: &HdrImage, evs: &[f64]) -> Result<Vec<HdrImage>> {
+    check_bracket(evs)?;
+    evs.iter().map(|&ev| exposure(img, ev)).collect()
+}
+
+/// A bracket holds 1 to 64 exposures.
+pub fn check_bracket(evs: &[f64]) -> Result<()> {
     if evs.is_empty() || evs.len() > 64 {
         return Err(Error::invalid(
             "bracket",
             format!("expected 1 to 64 exposures, got {}", evs.len()),
         ));
     }
-    evs.iter().map(|&ev| exposure(img, ev)).collect()
+    Ok(())
 }
 
 /// Whether `img` holds display-referred values in [0, 1] (tone-mapped or false colour), which a

@@ -11,7 +11,8 @@
 
 use crate::error::Result;
 use crate::gpu::BackendChoice;
-use crate::script::{ScriptOptions, ScriptSession};
+use crate::render::session::RenderSession;
+use crate::script::ScriptOptions;
 use crate::tui::app::{Action, App, Effect, Source, LOW_RES_SCALE, PREVIEW_SCALE};
 use crate::tui::protocol::Display;
 use crate::tui::worker::{prepare, render_scene};
@@ -50,7 +51,10 @@ pub fn bench_tui(
     let dir = tempfile::tempdir().map_err(|e| crate::Error::io(std::env::temp_dir(), e))?;
     let script = dir.path().join("tui_demo.rhai");
     std::fs::write(&script, DEMO).map_err(|e| crate::Error::io(&script, e))?;
-    let session = ScriptSession::new(backend);
+    let session = Arc::new(RenderSession::new(
+        backend,
+        crate::render::cache::DEFAULT_BUDGET_MIB << 20,
+    ));
     let mut base = ScriptOptions::new(dir.path().join("out"));
     base.backend = backend;
     base.progress = false;
@@ -121,7 +125,7 @@ pub fn bench_tui(
             }
         }
     }
-    let adapter = session.adapter().unwrap_or_default();
+    let adapter = crate::tui::worker::adapter_of(&session).unwrap_or_default();
     Ok((adapter, rows))
 }
 
@@ -137,7 +141,7 @@ fn size_label(scene: &str, n: usize) -> String {
 fn run(
     script: &Path,
     base: &ScriptOptions,
-    session: &Arc<ScriptSession>,
+    session: &Arc<RenderSession>,
     app: &App,
 ) -> Result<crate::tui::worker::Scene> {
     let mut sets = app.script_sets();

@@ -19,7 +19,8 @@ pub mod worker;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
-use crate::script::{ScriptOptions, ScriptSession};
+use crate::render::session::RenderSession;
+use crate::script::ScriptOptions;
 use app::{Action, App, Effect, Source};
 use protocol::ProtocolChoice;
 use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind};
@@ -43,6 +44,8 @@ pub struct TuiOptions {
     pub allowed_paths: Vec<PathBuf>,
     pub backend: BackendChoice,
     pub protocol: ProtocolChoice,
+    /// Result-cache budget of the session, MiB.
+    pub cache_mib: u64,
 }
 
 /// The input's kind by extension: `.exr` is an image, anything else a script.
@@ -115,7 +118,10 @@ fn event_loop(
     let redraw_on_change = display.redraw_on_change;
     let (wake_tx, _wake_rx) = channel();
     let (view_tx, view_rx) = worker::spawn_view_worker(display, wake_tx.clone());
-    let session = ScriptSession::new(opts.backend);
+    let session = Arc::new(RenderSession::new(
+        opts.backend,
+        opts.cache_mib.saturating_mul(1 << 20),
+    ));
     let mut base = ScriptOptions::new(&opts.out_dir);
     base.backend = opts.backend;
     base.allowed_paths = opts.allowed_paths.clone();
@@ -275,7 +281,7 @@ fn event_loop(
                         }
                         app.hdr = Some(scene.image);
                         app.set_params(scene.params);
-                        app.status.passes = vec![format!("script {:.0} ms", done.ms)];
+                        app.status.passes = worker::pass_summary(&scene.passes);
                         view_started = Instant::now();
                         send_view(&app, &mut requests, image_area);
                     }
@@ -296,7 +302,7 @@ fn event_loop(
                     picture = Some(prepared.protocol);
                     app.histogram = prepared.histogram;
                     let total = view_started.elapsed().as_secs_f64() * 1e3;
-                    app.status.passes.retain(|p| p.starts_with("script"));
+                    app.status.passes.retain(|p| !p.starts_with("view "));
                     app.status.passes.push(format!(
                         "view {:.0} ms (key→picture {total:.0} ms)",
                         done.ms

@@ -1,5 +1,6 @@
 //! The slow work, off the UI thread. The render worker re-runs the script (one
-//! [`ScriptSession`] for the whole TUI session, so data, uploads and the GPU stay) first at
+//! [`RenderSession`] for the whole TUI session, so loaded data, uploads, renders and the GPU
+//! stay in its result cache and only the passes a change touches run again) first at
 //! `preview_scale` 0.25 when the script reads it, then at full resolution, skipping the full run
 //! when a newer request is already waiting. The view worker turns the HDR image into what the
 //! terminal shows (downsample, tone-map, encode for the protocol, histogram). Both keep only the
@@ -7,7 +8,9 @@
 
 use crate::error::{Error, Result};
 use crate::model::HdrImage;
-use crate::script::{run_script_file, ParamRecord, ScriptOptions, ScriptSession};
+use crate::render::passes::{PassOutcome, PassRecord};
+use crate::render::session::RenderSession;
+use crate::script::{run_script_file, ParamRecord, ScriptOptions};
 use crate::tui::app::{LOW_RES_SCALE, PREVIEW_SCALE};
 use crate::tui::histogram::LogHistogram;
 use crate::tui::protocol::Display;
@@ -24,6 +27,27 @@ use std::time::Instant;
 pub struct Scene {
     pub image: Arc<HdrImage>,
     pub params: Vec<ParamRecord>,
+    /// The passes of the run: what ran and what came from the session's cache.
+    pub passes: Vec<PassRecord>,
+}
+
+/// Passes for the status line: `raycast 41 ms`, cached ones as `load (cached)`.
+pub fn pass_summary(passes: &[PassRecord]) -> Vec<String> {
+    passes
+        .iter()
+        .map(|p| match p.outcome {
+            PassOutcome::Ran { ms } => format!("{} {ms:.0} ms", p.name),
+            PassOutcome::Cached => format!("{} (cached)", p.name),
+        })
+        .collect()
+}
+
+/// The adapter's name and backend, e.g. `llvmpipe (Vulkan)`, once a run has started the GPU.
+pub fn adapter_of(session: &RenderSession) -> Option<String> {
+    let ctx = session.context().ok()?;
+    let full = ctx.describe();
+    let name = full.split(" (").next().unwrap_or(&full).to_string();
+    Some(format!("{name} ({})", ctx.backend_name()))
 }
 
 /// Runs the script once with `sets` in `session` and picks the image to show: the last one
@@ -31,7 +55,7 @@ pub struct Scene {
 pub fn render_scene(
     script: &std::path::Path,
     base: &ScriptOptions,
-    session: &Arc<ScriptSession>,
+    session: &Arc<RenderSession>,
     sets: Vec<(String, String)>,
 ) -> Result<Scene> {
     let mut opts = base.clone();
@@ -54,6 +78,7 @@ pub fn render_scene(
     Ok(Scene {
         image,
         params: report.params,
+        passes: report.passes,
     })
 }
 
@@ -82,7 +107,7 @@ pub struct RenderDone {
 pub fn spawn_render_worker(
     script: PathBuf,
     base: ScriptOptions,
-    session: Arc<ScriptSession>,
+    session: Arc<RenderSession>,
     wake: Sender<()>,
 ) -> (Sender<RenderJob>, Receiver<RenderDone>) {
     let (job_tx, job_rx) = channel::<RenderJob>();
@@ -120,7 +145,7 @@ pub fn spawn_render_worker(
                         low_res: true,
                         outcome,
                         ms,
-                        adapter: session.adapter(),
+                        adapter: adapter_of(&session),
                     });
                     if sent.is_err() {
                         return;
@@ -141,7 +166,7 @@ pub fn spawn_render_worker(
                     low_res: false,
                     outcome,
                     ms,
-                    adapter: session.adapter(),
+                    adapter: adapter_of(&session),
                 });
                 if sent.is_err() {
                     return;

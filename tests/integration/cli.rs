@@ -442,3 +442,67 @@ fn grid_statistics_derived_properties_and_subsets() {
     let img = hdrvis::io::exr::read_exr(&dir.path().join("o/sub.exr")).unwrap();
     assert_eq!((img.width, img.height), (20, 20));
 }
+
+#[test]
+fn accuracy_report_writes_table_files_and_chart() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("acc");
+    let (code, stdout, stderr) = hdrvis(
+        &[
+            "bench",
+            "accuracy",
+            "--runs",
+            "1",
+            "--size",
+            "32",
+            "--n",
+            "24",
+            "--scene",
+            "mantle",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    for variant in [
+        "u8",
+        "f16",
+        "f32",
+        "f32c",
+        "f32 step 1",
+        "f32 step 2",
+        "f64 (CPU)",
+    ] {
+        assert!(
+            stdout
+                .lines()
+                .any(|l| l.starts_with(&format!("mantle   {variant} "))),
+            "{variant} missing:\n{stdout}"
+        );
+    }
+    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    // f64 (GPU) joins where the adapter has shader f64 (lavapipe does), within 1e-12 of the CPU.
+    let has_gpu_f64 = rows.iter().any(|r| r[1] == "f64 (GPU)");
+    assert_eq!(rows.len(), 7 + has_gpu_f64 as usize, "{csv}");
+    let rel = |v: &str| -> f64 { rows.iter().find(|r| r[1] == v).unwrap()[3].parse().unwrap() };
+    // The paper's claim on the mantle: 8-bit compositing loses what f32 keeps.
+    assert!(rel("u8") > 1e-2 && rel("f32") < 1e-4, "{csv}");
+    assert!(rel("f16") > rel("f32"));
+    if has_gpu_f64 {
+        assert!(rel("f64 (GPU)") < 1e-12, "{csv}");
+    }
+    let chart = image::open(out.join("accuracy.png")).unwrap();
+    assert_eq!((chart.width(), chart.height()), (960, 640));
+    let (code, _, stderr) = hdrvis(&["bench", "accuracy", "--scene", "nope"], dir.path());
+    assert_ne!(code, 0);
+    assert!(
+        stderr.contains("unknown scene \"nope\"; known: mantle, blobs"),
+        "{stderr}"
+    );
+}

@@ -4,6 +4,7 @@
 mod cli;
 mod common;
 mod datasets;
+mod passes;
 mod scripts;
 mod stability;
 mod surface;

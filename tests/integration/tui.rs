@@ -274,7 +274,9 @@ fn script_errors_show_with_caret_and_a_fixed_file_reloads() {
 /// Reads an X window dump (`xwd`, ZPixmap, 24/32 bits per pixel) into RGB.
 fn read_xwd(b: &[u8]) -> Option<image::RgbImage> {
     let field = |i: usize| -> Option<u32> {
-        Some(u32::from_be_bytes(b.get(i * 4..i * 4 + 4)?.try_into().ok()?))
+        Some(u32::from_be_bytes(
+            b.get(i * 4..i * 4 + 4)?.try_into().ok()?,
+        ))
     };
     let (header, format, width, height) = (field(0)?, field(2)?, field(4)?, field(5)?);
     let (byte_order, bpp, stride) = (field(7)?, field(11)?, field(12)? as usize);

@@ -1,0 +1,423 @@
+//! What accuracy costs (`hdrvis bench accuracy`): each compositing precision (u8, f16, f32, f32c,
+//! f64 on the CPU) and coarser steps, timed and compared with the f64 CPU reference on the same
+//! rays and transfer table — relative RMS and maximum error of the HDR image, PSNR of the 8-bit
+//! tone-mapped view, and the fraction of pixels that lost detail — as a table, CSV, JSON and a
+//! log–log chart of error against time.
+
+use super::{bench_tf, bench_volume, median};
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::model::{Camera, Scale, TransferFunction, Volume};
+use crate::render::volume::{GpuVolume, VolumeRenderer};
+use crate::render::VolumeRenderOptions;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// One precision variant's cost and error against the f64 reference.
+#[derive(Clone, Debug)]
+pub struct AccuracyRow {
+    pub scene: String,
+    pub variant: String,
+    pub median_ms: f64,
+    /// sqrt(Σ(x − ref)²) / sqrt(Σ ref²) over the colour channels of the HDR image.
+    pub rel_rms: f64,
+    /// Largest |x − ref| / max(|ref|, 1e-3 · peak) over the colour channels.
+    pub max_rel: f64,
+    /// PSNR of the 8-bit Reinhard-tone-mapped image against the reference's, dB (inf when equal).
+    pub psnr_8bit: f64,
+    /// Fraction of lit pixels whose HDR luminance is off by more than 1 %.
+    pub lost_detail: f64,
+}
+
+/// A named accuracy scene: a volume and render options.
+pub struct AccuracyScene {
+    pub name: String,
+    pub volume: Volume,
+    pub options: VolumeRenderOptions,
+}
+
+/// The built-in accuracy scenes: the mantle's temperature fluctuation (symlog TF, as in the
+/// demo) and the HDR blobs of the volume benchmark (log10 TF), both in perspective.
+pub fn accuracy_scenes(size: u32, n: usize, only: Option<&str>) -> Result<Vec<AccuracyScene>> {
+    const NAMES: &[&str] = &["mantle", "blobs"];
+    if let Some(name) = only {
+        if !NAMES.contains(&name) {
+            return Err(Error::invalid(
+                "scene",
+                format!("unknown scene {name:?}; known: {}", NAMES.join(", ")),
+            ));
+        }
+    }
+    use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
+    use crate::model::transfer::LutTransfer;
+    let m = generate(
+        &MantleOptions {
+            n,
+            seed: 7,
+            fields: MantleFields::only(MantleField::Fluctuation),
+            ..Default::default()
+        },
+        &mut |_| {},
+    )?;
+    let mantle = Volume::new(
+        format!("mantle fluctuation {n}^3"),
+        [n; 3],
+        [2.0 / n as f64; 3],
+        [-1.0; 3],
+        m.fluctuation,
+    )?;
+    let mantle_tf = TransferFunction::Lut(LutTransfer {
+        scale: Scale::Symlog { linthresh: 1e-3 },
+        domain: Some([-0.3, 0.45]),
+        colormap: "spectral".into(),
+        emission: vec![[0.0, -1.0], [0.45, -3.0], [0.55, -3.0], [1.0, -0.5]],
+        opacity: vec![[0.0, -1.5], [0.4, -3.5], [0.6, -3.5], [1.0, -1.0]],
+        ..Default::default()
+    });
+    let blobs = bench_volume(n)?;
+    let mut scenes = Vec::new();
+    for (name, volume, tf) in [("mantle", mantle, mantle_tf), ("blobs", blobs, bench_tf())] {
+        if only.is_some_and(|o| o != name) {
+            continue;
+        }
+        let mut o =
+            VolumeRenderOptions::new(Camera::orbit(&volume.bounds(), 35.0, 20.0, 25.0)?, tf);
+        o.width = size;
+        o.height = size;
+        o.step = 0.5;
+        scenes.push(AccuracyScene {
+            name: name.to_string(),
+            volume,
+            options: o,
+        });
+    }
+    Ok(scenes)
+}
+
+/// Relative RMS error of the colour channels of `got` against `reference`.
+pub fn relative_rms(got: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (g, r) in got.iter().zip(reference) {
+        for c in 0..3 {
+            num += (g[c] - r[c]).powi(2);
+            den += r[c].powi(2);
+        }
+    }
+    (num / den.max(1e-300)).sqrt()
+}
+
+/// Fraction of lit pixels whose Rec. 709 luminance is off by more than 1 % of the reference's.
+pub fn lost_detail(got: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
+    let y = |p: &[f64; 4]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    let lit: Vec<_> = got
+        .iter()
+        .zip(reference)
+        .filter(|(_, r)| y(r) > 0.0)
+        .collect();
+    lit.iter()
+        .filter(|(g, r)| (y(g) - y(r)).abs() > 0.01 * y(r))
+        .count() as f64
+        / lit.len().max(1) as f64
+}
+
+fn accuracy_metrics(
+    got: &[[f64; 4]],
+    reference: &[[f64; 4]],
+    w: u32,
+    h: u32,
+) -> Result<(f64, f64, f64, f64)> {
+    let peak = reference
+        .iter()
+        .map(|p| p[0].max(p[1]).max(p[2]))
+        .fold(0.0, f64::max);
+    let max_rel = got
+        .iter()
+        .zip(reference)
+        .flat_map(|(g, r)| (0..3).map(move |c| (g[c] - r[c]).abs() / r[c].abs().max(1e-3 * peak)))
+        .fold(0.0f64, f64::max);
+    let (rel_rms, lost) = (relative_rms(got, reference), lost_detail(got, reference));
+    // The same display transform for both: Reinhard global with the reference's statistics is
+    // not available per image, so each is tone-mapped on its own, as a user would see it.
+    let to_image = |p: &[[f64; 4]]| {
+        crate::model::HdrImage::from_pixels(w, h, p.iter().map(|q| q.map(|v| v as f32)).collect())
+    };
+    let settings = crate::tonemap::params::ToneMapSettings::default();
+    let a = crate::tonemap::cpu::to_srgb8(&crate::tonemap::cpu::tonemap_cpu(
+        &to_image(got),
+        &settings,
+    )?);
+    let b = crate::tonemap::cpu::to_srgb8(&crate::tonemap::cpu::tonemap_cpu(
+        &to_image(reference),
+        &settings,
+    )?);
+    let mse = a
+        .iter()
+        .zip(&b)
+        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2)))
+        .sum::<f64>()
+        / (3 * a.len()) as f64;
+    let psnr = if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (255.0f64 * 255.0 / mse).log10()
+    };
+    Ok((rel_rms, max_rel, psnr, lost))
+}
+
+/// Times every precision variant on each scene and measures its error against the f64 CPU
+/// reference (which is also timed, as the `f64` variant).
+pub fn bench_accuracy(
+    ctx: Arc<GpuContext>,
+    scenes: &[AccuracyScene],
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<AccuracyRow>> {
+    use crate::render::cpu_reference::render_volume_f64;
+    use crate::render::Precision;
+    let renderer = VolumeRenderer::new(ctx);
+    let mut rows = Vec::new();
+    for scene in scenes {
+        log(&format!("{}: f64 reference on the CPU ...", scene.name));
+        let mut o = scene.options.clone();
+        o.precision = Precision::F64;
+        let mut f64_ms = Vec::new();
+        let mut reference = Vec::new();
+        for _ in 0..runs.clamp(1, 3) {
+            let t = std::time::Instant::now();
+            reference = render_volume_f64(&scene.volume, &o)?;
+            f64_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        let gv = GpuVolume::upload(renderer.context(), &scene.volume)?;
+        for precision in [
+            Precision::U8,
+            Precision::F16,
+            Precision::F32,
+            Precision::F32c,
+        ] {
+            o.precision = precision;
+            renderer.render(&gv, &o)?;
+            let mut ms = Vec::new();
+            let mut last = None;
+            for _ in 0..runs.max(1) {
+                let (img, t) = renderer.render(&gv, &o)?;
+                ms.push(t.seconds * 1e3);
+                last = Some(img);
+            }
+            let img = last.expect("at least one run");
+            let got: Vec<[f64; 4]> = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
+            let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+                accuracy_metrics(&got, &reference, o.width, o.height)?;
+            log(&format!(
+                "{} {}: {:.1} ms, rel RMS {rel_rms:.2e}",
+                scene.name,
+                precision.name(),
+                median(&ms)
+            ));
+            rows.push(AccuracyRow {
+                scene: scene.name.clone(),
+                variant: precision.name().into(),
+                median_ms: median(&ms),
+                rel_rms,
+                max_rel,
+                psnr_8bit,
+                lost_detail,
+            });
+        }
+        // f64 on the GPU where the adapter has shader f64 (lavapipe does).
+        let f64_gpu = crate::render::volume_f64::F64RayCaster::new(renderer.context().clone());
+        if f64_gpu.available() {
+            o.precision = Precision::F64;
+            f64_gpu.render(&gv, &o)?;
+            let mut ms = Vec::new();
+            let mut got = Vec::new();
+            for _ in 0..runs.max(1) {
+                let t = std::time::Instant::now();
+                got = f64_gpu.render(&gv, &o)?;
+                ms.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+            let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+                accuracy_metrics(&got, &reference, o.width, o.height)?;
+            rows.push(AccuracyRow {
+                scene: scene.name.clone(),
+                variant: "f64 (GPU)".into(),
+                median_ms: median(&ms),
+                rel_rms,
+                max_rel,
+                psnr_8bit,
+                lost_detail,
+            });
+        }
+        // The other knob: coarser steps in f32, against the same reference (step 0.5).
+        o.precision = Precision::F32;
+        let base_step = scene.options.step;
+        for factor in [2.0, 4.0] {
+            o.step = base_step * factor;
+            renderer.render(&gv, &o)?;
+            let mut ms = Vec::new();
+            let mut last = None;
+            for _ in 0..runs.max(1) {
+                let (img, t) = renderer.render(&gv, &o)?;
+                ms.push(t.seconds * 1e3);
+                last = Some(img);
+            }
+            let img = last.expect("at least one run");
+            let got: Vec<[f64; 4]> = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
+            let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+                accuracy_metrics(&got, &reference, o.width, o.height)?;
+            rows.push(AccuracyRow {
+                scene: scene.name.clone(),
+                variant: format!("f32 step {}", o.step),
+                median_ms: median(&ms),
+                rel_rms,
+                max_rel,
+                psnr_8bit,
+                lost_detail,
+            });
+        }
+        o.step = base_step;
+        rows.push(AccuracyRow {
+            scene: scene.name.clone(),
+            variant: "f64 (CPU)".into(),
+            median_ms: median(&f64_ms),
+            rel_rms: 0.0,
+            max_rel: 0.0,
+            psnr_8bit: f64::INFINITY,
+            lost_detail: 0.0,
+        });
+    }
+    Ok(rows)
+}
+
+pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
+    let mut s = format!("adapter: {adapter}\naccuracy against the f64 CPU reference (same rays, same transfer table)\n");
+    s.push_str(&format!(
+        "{:<8} {:<13} {:>10} {:>11} {:>11} {:>12} {:>12}\n",
+        "scene", "variant", "median ms", "rel RMS", "max rel", "PSNR 8-bit", "lost detail"
+    ));
+    for r in rows {
+        s.push_str(&format!(
+            "{:<8} {:<13} {:>10.1} {:>11.2e} {:>11.2e} {:>12} {:>11.2}%\n",
+            r.scene,
+            r.variant,
+            r.median_ms,
+            r.rel_rms,
+            r.max_rel,
+            if r.psnr_8bit.is_finite() {
+                format!("{:.1} dB", r.psnr_8bit)
+            } else {
+                "exact".into()
+            },
+            100.0 * r.lost_detail
+        ));
+    }
+    for line in f32_cost_summary(rows) {
+        s.push_str(&line);
+        s.push('\n');
+    }
+    s
+}
+
+/// Per scene: the fastest variant within 1e-3 relative RMS, and f32's time against it.
+pub fn f32_cost_summary(rows: &[AccuracyRow]) -> Vec<String> {
+    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    scenes
+        .into_iter()
+        .filter_map(|scene| {
+            let of_scene = rows.iter().filter(|r| r.scene == scene);
+            let fastest = of_scene
+                .clone()
+                .filter(|r| r.rel_rms <= 1e-3 && !r.variant.starts_with("f64"))
+                .min_by(|a, b| a.median_ms.total_cmp(&b.median_ms))?;
+            let f32 = of_scene.clone().find(|r| r.variant == "f32")?;
+            Some(format!(
+                "{scene}: fastest variant within 1e-3 rel RMS is {} ({:.1} ms); f32 has rel RMS {:.1e} at {:.2}x its time",
+                fastest.variant,
+                fastest.median_ms,
+                f32.rel_rms,
+                f32.median_ms / fastest.median_ms
+            ))
+        })
+        .collect()
+}
+
+/// The chart of error against time (log–log), one colour per scene, written as `accuracy.png`.
+pub fn write_accuracy_chart(dir: &Path, adapter: &str, rows: &[AccuracyRow]) -> Result<PathBuf> {
+    let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    let series: Vec<super::chart::Series> = scenes
+        .iter()
+        .map(|scene| super::chart::Series {
+            name: scene.to_string(),
+            points: rows
+                .iter()
+                .filter(|r| r.scene == *scene)
+                .map(|r| (r.median_ms, r.rel_rms, r.variant.clone()))
+                .collect(),
+        })
+        .collect();
+    let (w, h) = (960, 640);
+    // The adapter's name without the driver details, which would not fit.
+    let short = adapter.split(" (").next().unwrap_or(adapter);
+    let title = format!("What accuracy costs: error against time on {short}");
+    let rgb = super::chart::log_log_chart(
+        &title,
+        "median time per frame (ms)",
+        "relative RMS error against f64",
+        &series,
+        w,
+        h,
+    )?;
+    let path = dir.join("accuracy.png");
+    super::chart::write_rgb_png(&path, &rgb, w, h)?;
+    Ok(path)
+}
+
+/// CSV and JSON of the accuracy rows, written atomically into `dir`.
+pub fn write_accuracy_files(dir: &Path, rows: &[AccuracyRow]) -> Result<(PathBuf, PathBuf)> {
+    use std::io::Write;
+    let csv = dir.join("accuracy.csv");
+    let json = dir.join("accuracy.json");
+    let num = |v: f64| {
+        if v.is_finite() {
+            format!("{v:e}")
+        } else {
+            "null".into()
+        }
+    };
+    crate::io::write_atomic(&csv, |w| {
+        writeln!(
+            w,
+            "scene,variant,median_ms,rel_rms,max_rel,psnr_8bit_db,lost_detail"
+        )
+        .map_err(|e| Error::io(&csv, e))?;
+        for r in rows {
+            writeln!(
+                w,
+                "{},{},{},{},{},{},{}",
+                r.scene,
+                r.variant,
+                r.median_ms,
+                r.rel_rms,
+                r.max_rel,
+                num(r.psnr_8bit),
+                r.lost_detail
+            )
+            .map_err(|e| Error::io(&csv, e))?;
+        }
+        Ok(())
+    })?;
+    crate::io::write_atomic(&json, |w| {
+        let items: Vec<String> = rows
+            .iter()
+            .map(|r| {
+                format!(
+                    "{{\"scene\": \"{}\", \"variant\": \"{}\", \"median_ms\": {}, \"rel_rms\": {}, \"max_rel\": {}, \"psnr_8bit_db\": {}, \"lost_detail\": {}}}",
+                    r.scene, r.variant, num(r.median_ms), num(r.rel_rms), num(r.max_rel), num(r.psnr_8bit), num(r.lost_detail)
+                )
+            })
+            .collect();
+        writeln!(w, "[\n  {}\n]", items.join(",\n  ")).map_err(|e| Error::io(&json, e))
+    })?;
+    Ok((csv, json))
+}
