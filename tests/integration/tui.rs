@@ -445,3 +445,75 @@ fn xterm_vt340_shows_the_sixel_picture() {
         "red share {red_share}"
     );
 }
+
+#[test]
+fn the_demo_script_reports_params_previews_and_reuses_the_session() {
+    use hdrvis::gpu::BackendChoice;
+    use hdrvis::render::session::RenderSession;
+    use hdrvis::script::{run_script_file, ParamKind, ScriptOptions};
+    use std::sync::Arc;
+    let dir = tempfile::tempdir().unwrap();
+    let session = Arc::new(RenderSession::new(BackendChoice::Auto, 1 << 30));
+    let mut opts = ScriptOptions::new(dir.path());
+    opts.session = Some(session);
+    opts.capture_previews = true;
+    opts.progress = false;
+    for scene in ["volume", "surface"] {
+        opts.sets = vec![
+            ("scene".into(), scene.into()),
+            ("n".into(), "40".into()),
+            ("preview_scale".into(), "0.25".into()),
+        ];
+        let first = run_script_file(&demo_script(), &opts).unwrap();
+        assert_eq!(first.previews.len(), 1, "{scene}: one preview() captured");
+        assert!(first.written.is_empty(), "{scene}: preview() wrote nothing");
+        assert_eq!(first.previews[0].width, 96, "{scene}: 384 x 0.25");
+        let names: Vec<&str> = first.params.iter().map(|p| p.name.as_str()).collect();
+        let camera_or_nu: &[&str] = if scene == "volume" {
+            &[
+                "azimuth",
+                "elevation",
+                "zoom",
+                "opacity",
+                "lens_lo",
+                "lens_hi",
+            ]
+        } else {
+            &["nu", "mode"]
+        };
+        for n in ["scene", "n", "preview_scale", "size"]
+            .iter()
+            .chain(camera_or_nu)
+        {
+            assert!(names.contains(n), "{scene}: {n} missing from {names:?}");
+        }
+        let scale = first
+            .params
+            .iter()
+            .find(|p| p.name == "preview_scale")
+            .unwrap();
+        assert_eq!(
+            (scale.kind, scale.value.as_str()),
+            (ParamKind::Float, "0.25")
+        );
+        // Change what the TUI's keys change: the data stages come from the session's cache.
+        let key = if scene == "volume" { "azimuth" } else { "nu" };
+        opts.sets.push((key.into(), "50.0".into()));
+        let second = run_script_file(&demo_script(), &opts).unwrap();
+        let cached: Vec<String> = second
+            .passes
+            .iter()
+            .filter(|p| p.is_cached())
+            .map(|p| p.name.clone())
+            .collect();
+        assert!(
+            !cached.is_empty(),
+            "{scene}: nothing reused: {:?}",
+            second.passes
+        );
+        assert_ne!(
+            first.previews[0].pixels, second.previews[0].pixels,
+            "{scene}: {key} changed the picture"
+        );
+    }
+}
