@@ -237,10 +237,7 @@ pub fn decode_kitty(data: &str) -> Result<DecodedImage> {
     let mut payload = String::new();
     let mut rest = data.as_str();
     let mut first = true;
-    loop {
-        let Some(start) = rest.find("\x1b_G") else {
-            break;
-        };
+    while let Some(start) = rest.find("\x1b_G") {
         let body = &rest[start + 3..];
         let end = body
             .find("\x1b\\")

@@ -444,7 +444,8 @@ mod tests {
         let gradient = |x: u32, y: u32| image::Rgb([(x * 2) as u8, (y * 2) as u8, 128]);
         let blocks =
             |x: u32, y: u32| image::Rgb([(x / 20 % 6 * 51) as u8, (y / 50 % 2 * 255) as u8, 102]);
-        let cases: [(ProtocolType, &dyn Fn(u32, u32) -> image::Rgb<u8>, bool); 4] = [
+        type Pattern<'a> = &'a dyn Fn(u32, u32) -> image::Rgb<u8>;
+        let cases: [(ProtocolType, Pattern, bool); 4] = [
             (ProtocolType::Sixel, &gradient, false),
             (ProtocolType::Kitty, &gradient, true),
             (ProtocolType::Sixel, &blocks, true),

@@ -106,7 +106,7 @@ pub fn watch_signals(
     use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])
         .map_err(|e| Error::invalid("signals", e.to_string()))?;
-    Ok(std::thread::Builder::new()
+    std::thread::Builder::new()
         .name("hdrvis-signals".into())
         .spawn(move || {
             if let Some(sig) = signals.forever().next() {
@@ -118,5 +118,5 @@ pub fn watch_signals(
                 }
             }
         })
-        .map_err(|e| Error::invalid("signals", e.to_string()))?)
+        .map_err(|e| Error::invalid("signals", e.to_string()))
 }
