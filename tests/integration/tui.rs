@@ -113,15 +113,40 @@ fn tui_command(script: &Path, out: &Path, extra: &str) -> String {
     )
 }
 
-/// After the TUI ended: normal screen, the exit line, the prompt, and a cooked terminal.
+/// After the TUI ended: normal screen, the exit line, a cooked terminal (`stty` reports
+/// `icanon` and `echo`, not `-icanon`/`-echo`), and the prompt back.
 fn assert_restored(t: &Tmux, exit: &str) {
     let s = t.wait_for(exit, Duration::from_secs(10));
     assert!(!t.alternate_screen(), "alternate screen still on:\n{s}");
-    let s = t.wait_for("ready$", Duration::from_secs(5));
-    assert!(s.contains("icanon echo"), "raw mode left on:\n{s}");
+    let t0 = Instant::now();
+    let s = loop {
+        let s = t.screen();
+        // The typed command line holds neither "icanon echo" nor "-icanon"; only stty's output.
+        if s.contains("icanon echo") || s.contains("-icanon") || s.contains("-echo ") {
+            break s;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "no stty output:\n{s}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
     assert!(
-        !s.contains("log10 luminance"),
-        "the TUI is still on screen:\n{s}"
+        s.contains("icanon echo") && !s.contains("-icanon") && !s.contains("-echo "),
+        "raw mode left on:\n{s}"
+    );
+    let t0 = Instant::now();
+    while t.screen().matches("ready$").count() < 2 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "no prompt:\n{}",
+            t.screen()
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(
+        !t.screen().contains("log10 luminance"),
+        "the TUI is still on screen"
     );
 }
 
