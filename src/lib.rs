@@ -32,5 +32,6 @@ pub mod model;
 pub mod render;
 pub mod script;
 pub mod tonemap;
+pub mod tui;
 
 pub use error::{Error, Result};

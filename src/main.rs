@@ -34,6 +34,9 @@ fn run(cli: Cli) -> Result<()> {
             opts.resume = args.resume;
             opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
             opts.cache_mib = hdrvis::render::cache::budget_mib(args.cache_mib)?;
+            opts.capture_previews = args.preview;
+            let protocol =
+                hdrvis::tui::protocol::ProtocolChoice::resolve(args.protocol.as_deref())?;
             let report = run_script_file(&args.script, &opts)?;
             for p in &report.written {
                 println!("wrote {}", p.display());
@@ -43,6 +46,38 @@ fn run(cli: Cli) -> Result<()> {
                     println!("{r}");
                 }
             }
+            if args.preview {
+                let images: Vec<_> = if report.previews.is_empty() {
+                    report.last_image.into_iter().collect()
+                } else {
+                    report.previews
+                };
+                for (i, img) in images.iter().enumerate() {
+                    let title = format!("{} image {}", args.script.display(), i + 1);
+                    if !hdrvis::tui::preview::print_inline(img, &title, protocol, 60)? {
+                        eprintln!("--preview: stdout is not a terminal; no inline images");
+                        break;
+                    }
+                }
+            }
+            Ok(())
+        }
+        Some(Command::Tui(args)) => {
+            let opts = hdrvis::tui::TuiOptions {
+                input: args.input.clone(),
+                out_dir: args.out.clone(),
+                sets: parse_sets(&args.sets)?,
+                allowed_paths: args.allow_paths.clone(),
+                backend,
+                protocol: hdrvis::tui::protocol::ProtocolChoice::resolve(args.protocol.as_deref())?,
+                cache_mib: hdrvis::render::cache::budget_mib(None)?,
+            };
+            hdrvis::tui::run_tui(&opts)
+        }
+        Some(Command::Bench(BenchCommand::Tui { runs, n })) => {
+            let (adapter, rows) =
+                hdrvis::tui::bench::bench_tui(backend, n, runs, &mut |m| eprintln!("{m}"))?;
+            print!("{}", hdrvis::tui::bench::format_tui_table(&adapter, &rows));
             Ok(())
         }
         Some(Command::Gen(cmd)) => {

@@ -34,6 +34,9 @@ pub enum Command {
     Info(datasets::InfoArgs),
     /// Tone-map an HDR OpenEXR into a display PNG or EXR: `hdrvis tonemap IN.exr -o OUT.png --op reinhard`
     Tonemap(tonemap::ToneMapArgs),
+    /// Interactive terminal viewer: `hdrvis tui SCRIPT.rhai` (the script's scene and params) or
+    /// `hdrvis tui IMAGE.exr` (exposure, operator, false colour, channels). `?` lists the keys.
+    Tui(TuiArgs),
     /// Run the built-in demo scene (also what `hdrvis` does with no command).
     Demo {
         /// Output folder.
@@ -64,6 +67,33 @@ pub struct RunArgs {
     /// results of unchanged stages are reused within a run, least recently used evicted first.
     #[arg(long, value_name = "MIB")]
     pub cache_mib: Option<u64>,
+    /// After the run, print the result images inline once (the images passed to preview(),
+    /// else the last one rendered): kitty, iTerm2, sixel or half blocks.
+    #[arg(long)]
+    pub preview: bool,
+    /// Inline image protocol for --preview: auto, kitty, sixel, iterm2, halfblocks
+    /// (default from HDRVIS_TUI_PROTOCOL, else auto).
+    #[arg(long)]
+    pub protocol: Option<String>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct TuiArgs {
+    /// A .rhai script or an OpenEXR image.
+    pub input: PathBuf,
+    /// Output folder: saved views (s) and the script's own outputs.
+    #[arg(long, short, default_value = "out")]
+    pub out: PathBuf,
+    /// Script parameter read by `param(name, default)`; repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Extra folder the script may read; repeatable.
+    #[arg(long = "allow-path", value_name = "DIR")]
+    pub allow_paths: Vec<PathBuf>,
+    /// Image protocol: auto (ask the terminal), kitty, sixel, iterm2, halfblocks
+    /// (default from HDRVIS_TUI_PROTOCOL, else auto).
+    #[arg(long)]
+    pub protocol: Option<String>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -114,6 +144,16 @@ pub enum BenchCommand {
         /// Only the 1024^2 size (quick check).
         #[arg(long)]
         quick: bool,
+    },
+    /// TUI responsiveness: key press to updated preview (exposure, operator, ν, camera) on a
+    /// 256^3 volume and a 513^2 surface at preview size, medians.
+    Tui {
+        /// Timed runs per case (after one warm-up).
+        #[arg(long, default_value_t = 9)]
+        runs: usize,
+        /// Volume side in voxels (the surface grid is 2n+1 nodes per side).
+        #[arg(long, default_value_t = 256)]
+        n: usize,
     },
     /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
     /// two-step render, medians.

@@ -81,14 +81,14 @@ pub const API: &[ApiEntry] = &[
     e("exposure and tone mapping", "tonemap", &["image: Image", "options: map"], "Image", "Display-referred image in [0, 1]: #{op: \"linear\"|\"drago\"|\"reinhard\"|\"ward\"|\"aces\"|\"reinhard-local\"|\"durand\", exposure, key, white, bias, saturation, gamma, offset, ...} (GPU, with an f64 CPU reference)."),
     e("exposure and tone mapping", "tonemap", &["image: Image", "op: string"], "Image", "As above with the operator's defaults."),
     e("exposure and tone mapping", "false_colour", &["image: Image"], "Image", "False-colour view of log10 luminance with a decade legend."),
-    e("output", "preview", &["image: Image"], "()", "Shows the image inline when stdout is a terminal (kitty, iTerm2, sixel or half blocks); a no-op otherwise."),
+    e("output", "preview", &["image: Image"], "()", "Shows the image inline when stdout is a terminal (kitty, iTerm2, sixel or half blocks); a no-op otherwise. Under `hdrvis tui` the last previewed image is what the TUI shows; under `hdrvis run --preview` previews are printed once after the run."),
     e("output", "save_exr", &["image: Image", "path: string"], "()", "Linear OpenEXR (float R, G, B, A plus extra channels and provenance), under the output folder."),
     e("output", "save_png", &["image: Image", "path: string"], "()", "8-bit sRGB view of the image at 0 EV, under the output folder."),
     e("output", "save_png", &["image: Image", "path: string", "exposure: number"], "()", "8-bit sRGB view at the given exposure in stops."),
     e("parameters and sweeps", "already_done", &["path: string"], "bool", "True when `--resume` is on and this output already exists: skip its work."),
     e("parameters and sweeps", "progress", &["done: int", "total: int"], "()", "Progress bar with ETA on stderr (when it is a terminal)."),
     e("parameters and sweeps", "progress", &["done: int", "total: int", "label: string"], "()", "As above, with a label."),
-    e("parameters and sweeps", "param", &["name: string", "default: any"], "any", "The value of `--set name=value`, parsed as the default's type; the default when not set."),
+    e("parameters and sweeps", "param", &["name: string", "default: any"], "any", "The value of `--set name=value`, parsed as the default's type; the default when not set. `hdrvis tui` lists every param and re-runs the script when one changes."),
 ];
 
 /// (name, arity) of every documented function.

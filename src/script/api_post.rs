@@ -61,7 +61,9 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_image", move |path: &str| -> RResult<ScriptImage> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        h.session.load_image(&p).map_err(to_rhai)
+        let img = h.session.load_image(&p).map_err(to_rhai)?;
+        h.note_image(&img);
+        Ok(img)
     });
 
     let h = host.clone();

@@ -4,9 +4,10 @@
 //! and a display-referred image (`display_referred = 1`: tone-mapped, false colour) as it is.
 
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
-use super::ScriptHost;
+use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::model::{Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume};
 use crate::render::{FilterMode, Precision, Shading, VolumeRenderOptions};
+use std::collections::HashMap;
 
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
@@ -260,7 +261,9 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
                 _ => unreachable!("checked keys"),
             }
         }
-        h.session.raycast(volume, &o).map_err(to_rhai)
+        let img = h.session.raycast(volume, &o).map_err(to_rhai)?;
+        h.note_image(&img);
+        Ok(img)
     });
 
     let h = host.clone();
@@ -268,6 +271,7 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "save_exr",
         move |img: &mut ScriptImage, path: &str| -> RResult<()> {
             let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+            h.note_image(img);
             if h.already_done(&p) {
                 return Ok(());
             }
@@ -317,7 +321,15 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         },
     );
 
-    engine.register_fn("preview", |img: &mut ScriptImage| -> RResult<()> {
+    let h = host.clone();
+    engine.register_fn("preview", move |img: &mut ScriptImage| -> RResult<()> {
+        if h.capture_previews {
+            h.previews
+                .lock()
+                .expect("previews poisoned")
+                .push(img.clone());
+            return Ok(());
+        }
         preview(img).map_err(to_rhai)
     });
 
@@ -338,7 +350,34 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "param",
         move |name: &str, default: Dynamic| -> RResult<Dynamic> {
-            let Some(text) = h.sets.get(name) else {
+            let value = param_value(&h.sets, name, &default)?;
+            let kind = if default.is_int() {
+                ParamKind::Int
+            } else if default.is_float() {
+                ParamKind::Float
+            } else if default.is_bool() {
+                ParamKind::Bool
+            } else {
+                ParamKind::Text
+            };
+            h.note_param(ParamRecord {
+                name: name.to_string(),
+                kind,
+                default: default.to_string(),
+                value: value.to_string(),
+            });
+            Ok(value)
+        },
+    );
+}
+
+/// The value `param(name, default)` returns: the `--set` override parsed as the default's type,
+/// or the default.
+fn param_value(sets: &HashMap<String, String>, name: &str, default: &Dynamic) -> RResult<Dynamic> {
+    let default = default.clone();
+    {
+        {
+            let Some(text) = sets.get(name) else {
                 return Ok(default);
             };
             let bad = |what: &str| {
@@ -367,8 +406,8 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             } else {
                 Ok(Dynamic::from(text.clone()))
             }
-        },
-    );
+        }
+    }
 }
 
 /// `shading: true` (the default coefficients), `false`, or a map of coefficients.

@@ -147,6 +147,9 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         move |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
             let (o, many) = parse_options(grid, &opts)?;
             let mut images = h.session.surface(grid, &o).map_err(to_rhai)?.to_vec();
+            if let Some(first) = images.first() {
+                h.note_image(&Arc::new(first.clone()));
+            }
             if many {
                 Ok(Dynamic::from(
                     images

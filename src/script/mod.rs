@@ -15,6 +15,7 @@ mod sandbox;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
+use crate::model::HdrImage;
 use crate::render::passes::PassRecord;
 use crate::render::session::RenderSession;
 use rhai::{Engine, EvalAltResult, Position};
@@ -44,6 +45,9 @@ pub struct ScriptOptions {
     pub session: Option<Arc<RenderSession>>,
     /// Result-cache budget of a new session, MiB.
     pub cache_mib: u64,
+    /// Keep the images passed to `preview(image)` in [`ScriptReport::previews`] instead of
+    /// printing them to the terminal (`hdrvis tui` shows them itself, `run --preview` at the end).
+    pub capture_previews: bool,
 }
 
 impl ScriptOptions {
@@ -58,8 +62,29 @@ impl ScriptOptions {
             progress: true,
             session: None,
             cache_mib: crate::render::cache::DEFAULT_BUDGET_MIB,
+            capture_previews: false,
         }
     }
+}
+
+/// The type of a script parameter, taken from the default given to `param(name, default)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamKind {
+    Int,
+    Float,
+    Bool,
+    Text,
+}
+
+/// One `param(name, default)` call of a run: what the script accepts and what it got.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamRecord {
+    pub name: String,
+    pub kind: ParamKind,
+    /// The default as the script wrote it (`to_string` of the value).
+    pub default: String,
+    /// The value the script received (the default, or the `--set` override).
+    pub value: String,
 }
 
 /// What a run produced, for the CLI to report.
@@ -68,6 +93,13 @@ pub struct ScriptReport {
     pub written: Vec<PathBuf>,
     /// Every pass of the run, in order: what ran (with its time) and what came from the cache.
     pub passes: Vec<PassRecord>,
+    /// Every parameter the script asked for, in first-call order.
+    pub params: Vec<ParamRecord>,
+    /// Images passed to `preview(image)` when [`ScriptOptions::capture_previews`] is on.
+    pub previews: Vec<Arc<HdrImage>>,
+    /// The last image the script rendered, loaded or saved (what the TUI shows when the script
+    /// previews nothing).
+    pub last_image: Option<Arc<HdrImage>>,
 }
 
 /// State shared by the registered functions of one run.
@@ -76,12 +108,30 @@ pub(crate) struct ScriptHost {
     pub sets: HashMap<String, String>,
     pub session: Arc<RenderSession>,
     pub written: Mutex<Vec<PathBuf>>,
+    pub params: Mutex<Vec<ParamRecord>>,
+    pub capture_previews: bool,
+    pub previews: Mutex<Vec<Arc<HdrImage>>>,
+    pub last_image: Mutex<Option<Arc<HdrImage>>>,
     pub resume: bool,
     progress_enabled: bool,
     progress: Mutex<Option<indicatif::ProgressBar>>,
 }
 
 impl ScriptHost {
+    /// Remembers the image most recently produced, for [`ScriptReport::last_image`].
+    pub fn note_image(&self, img: &Arc<HdrImage>) {
+        *self.last_image.lock().expect("last image poisoned") = Some(img.clone());
+    }
+
+    /// Records a `param()` call (the first call of a name keeps its list position).
+    pub fn note_param(&self, record: ParamRecord) {
+        let mut params = self.params.lock().expect("params poisoned");
+        match params.iter_mut().find(|p| p.name == record.name) {
+            Some(p) => *p = record,
+            None => params.push(record),
+        }
+    }
+
     /// Whether an output may be skipped: `--resume` is on and the file is already there.
     pub fn already_done(&self, path: &Path) -> bool {
         self.resume && path.is_file()
@@ -151,6 +201,10 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         sets: HashMap::new(),
         session: Arc::new(RenderSession::new(BackendChoice::Auto, 1 << 30)),
         written: Mutex::new(Vec::new()),
+        params: Mutex::new(Vec::new()),
+        capture_previews: false,
+        previews: Mutex::new(Vec::new()),
+        last_image: Mutex::new(None),
         resume: false,
         progress_enabled: false,
         progress: Mutex::new(None),
@@ -198,6 +252,10 @@ pub fn run_script_source(
         sets,
         session: session.clone(),
         written: Mutex::new(Vec::new()),
+        params: Mutex::new(Vec::new()),
+        capture_previews: opts.capture_previews,
+        previews: Mutex::new(Vec::new()),
+        last_image: Mutex::new(None),
         resume: opts.resume,
         progress_enabled: opts.progress,
         progress: Mutex::new(None),
@@ -209,10 +267,16 @@ pub fn run_script_source(
     engine
         .run_ast(&ast)
         .map_err(|e| Error::Script(describe_eval_error(name, source, &e)))?;
-    let written = host.written.lock().expect("written list poisoned").clone();
+    drop(engine);
+    fn take<T: Default>(m: &Mutex<T>) -> T {
+        std::mem::take(&mut *m.lock().expect("run state poisoned"))
+    }
     Ok(ScriptReport {
-        written,
+        written: take(&host.written),
         passes: session.log().take(),
+        params: take(&host.params),
+        previews: take(&host.previews),
+        last_image: take(&host.last_image),
     })
 }
 

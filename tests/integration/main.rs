@@ -9,4 +9,5 @@ mod scripts;
 mod stability;
 mod surface;
 mod tonemap;
+mod tui;
 mod volume_render;

@@ -13,6 +13,11 @@ fn every_script_runs_and_writes_valid_images() {
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "rhai"))
+        // Interactive scenes preview instead of writing files; tests/integration/tui.rs runs them.
+        .filter(|p| {
+            !p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("tui_"))
+        })
         .collect();
     scripts.sort();
     assert!(

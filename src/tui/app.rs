@@ -1,0 +1,647 @@
+//! The TUI's state and what keys do to it, without a terminal: an [`App`] struct, an [`Action`]
+//! per key ([`KEYS`] is the one table the help overlay, the README and the key handler share),
+//! and [`App::apply`], which changes the state and says what has to happen next ([`Effect`]):
+//! redisplay the HDR image already held (exposure, operator, channel), re-run the script with new
+//! parameter values (camera, ν, transfer function), save, reload or quit.
+//!
+//! Script contract: every `param(name, default)` the script calls is listed in the parameter
+//! panel and can be stepped; these names have keys of their own: `azimuth`, `elevation` (degrees),
+//! `zoom` (a factor), `nu`, `mode` (surfaces), `opacity` (decades added to the transfer
+//! function's extinction), `lens_lo`, `lens_hi` (the magnification window, in data values), and `preview_scale` (set by the TUI: 0.25 for the quick first render, 1 for
+//! the full one).
+
+use crate::model::HdrImage;
+use crate::script::{ParamKind, ParamRecord};
+use crate::tui::histogram::LogHistogram;
+use crate::tui::view::{main_parameter, Channel, ViewSettings, VIEW_OPERATORS};
+use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// The parameter the TUI sets for the quick low-resolution render (then 1 for the full one).
+pub const PREVIEW_SCALE: &str = "preview_scale";
+/// Scale of the quick first render.
+pub const LOW_RES_SCALE: f64 = 0.25;
+/// Exposure step of `+` / `-`, in stops.
+pub const EV_STEP: f64 = 0.5;
+
+/// Something a key asks for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Action {
+    Quit,
+    ExposureUp,
+    ExposureDown,
+    ExposureReset,
+    NextOperator,
+    PrevOperator,
+    OperatorParamUp,
+    OperatorParamDown,
+    ToggleFalseColour,
+    NextChannel,
+    OrbitLeft,
+    OrbitRight,
+    OrbitUp,
+    OrbitDown,
+    ZoomIn,
+    ZoomOut,
+    NuUp,
+    NuDown,
+    NextMode,
+    OpacityUp,
+    OpacityDown,
+    LensLeft,
+    LensRight,
+    LensWider,
+    LensNarrower,
+    SelectNext,
+    SelectPrev,
+    StepUp,
+    StepDown,
+    Save,
+    Reload,
+    ToggleHelp,
+}
+
+/// Every key binding: (keys as shown, action, what it does). The help overlay lists exactly this.
+pub const KEYS: &[(&str, Action, &str)] = &[
+    ("+ / =", Action::ExposureUp, "exposure +0.5 EV"),
+    ("-", Action::ExposureDown, "exposure -0.5 EV"),
+    ("0", Action::ExposureReset, "exposure 0 EV"),
+    ("o", Action::NextOperator, "next tone-mapping operator"),
+    ("O", Action::PrevOperator, "previous operator"),
+    (
+        "]",
+        Action::OperatorParamUp,
+        "operator parameter up (key, bias…)",
+    ),
+    ("[", Action::OperatorParamDown, "operator parameter down"),
+    (
+        "f",
+        Action::ToggleFalseColour,
+        "false colour (log10 luminance)",
+    ),
+    (
+        "c",
+        Action::NextChannel,
+        "channel: RGB, R, G, B, A, Y, extra",
+    ),
+    ("Left / h", Action::OrbitLeft, "orbit: azimuth -15°"),
+    ("Right / l", Action::OrbitRight, "orbit: azimuth +15°"),
+    ("Up / k", Action::OrbitUp, "orbit: elevation +10°"),
+    ("Down / j", Action::OrbitDown, "orbit: elevation -10°"),
+    ("z", Action::ZoomIn, "zoom in (x1.25)"),
+    ("Z", Action::ZoomOut, "zoom out"),
+    ("n", Action::NuUp, "interference ν x1.25"),
+    ("N", Action::NuDown, "interference ν /1.25"),
+    (
+        "m",
+        Action::NextMode,
+        "surface mode: cyclic/modulated/direct",
+    ),
+    ("a", Action::OpacityUp, "TF opacity +0.25 decade"),
+    ("A", Action::OpacityDown, "opacity -0.25 decade"),
+    ("<", Action::LensLeft, "magnification window left"),
+    (">", Action::LensRight, "magnification window right"),
+    ("w", Action::LensWider, "magnification window wider"),
+    ("W", Action::LensNarrower, "magnification window narrower"),
+    ("Tab", Action::SelectNext, "select next parameter"),
+    ("Shift-Tab", Action::SelectPrev, "select previous parameter"),
+    ("PgUp / .", Action::StepUp, "selected parameter up"),
+    ("PgDn / ,", Action::StepDown, "selected parameter down"),
+    ("s", Action::Save, "save view: EXR + PNG into --out"),
+    ("r", Action::Reload, "reload (also when the file changes)"),
+    ("? / F1", Action::ToggleHelp, "this help"),
+    ("q / Ctrl-C", Action::Quit, "quit"),
+];
+
+/// The action bound to a key, if any.
+pub fn action_for_key(key: KeyEvent) -> Option<Action> {
+    use Action::*;
+    if key.modifiers.contains(KeyModifiers::CONTROL) {
+        return matches!(key.code, KeyCode::Char('c')).then_some(Quit);
+    }
+    Some(match key.code {
+        KeyCode::Char('q') => Quit,
+        KeyCode::Char('+') | KeyCode::Char('=') => ExposureUp,
+        KeyCode::Char('-') | KeyCode::Char('_') => ExposureDown,
+        KeyCode::Char('0') => ExposureReset,
+        KeyCode::Char('o') => NextOperator,
+        KeyCode::Char('O') => PrevOperator,
+        KeyCode::Char(']') => OperatorParamUp,
+        KeyCode::Char('[') => OperatorParamDown,
+        KeyCode::Char('f') => ToggleFalseColour,
+        KeyCode::Char('c') => NextChannel,
+        KeyCode::Left | KeyCode::Char('h') => OrbitLeft,
+        KeyCode::Right | KeyCode::Char('l') => OrbitRight,
+        KeyCode::Up | KeyCode::Char('k') => OrbitUp,
+        KeyCode::Down | KeyCode::Char('j') => OrbitDown,
+        KeyCode::Char('z') => ZoomIn,
+        KeyCode::Char('Z') => ZoomOut,
+        KeyCode::Char('n') => NuUp,
+        KeyCode::Char('N') => NuDown,
+        KeyCode::Char('m') => NextMode,
+        KeyCode::Char('a') => OpacityUp,
+        KeyCode::Char('A') => OpacityDown,
+        KeyCode::Char('<') => LensLeft,
+        KeyCode::Char('>') => LensRight,
+        KeyCode::Char('w') => LensWider,
+        KeyCode::Char('W') => LensNarrower,
+        KeyCode::Tab => SelectNext,
+        KeyCode::BackTab => SelectPrev,
+        KeyCode::PageUp | KeyCode::Char('.') => StepUp,
+        KeyCode::PageDown | KeyCode::Char(',') => StepDown,
+        KeyCode::Char('s') => Save,
+        KeyCode::Char('r') => Reload,
+        KeyCode::Char('?') | KeyCode::F(1) => ToggleHelp,
+        _ => return None,
+    })
+}
+
+/// What has to happen after an action.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Effect {
+    /// Nothing changed (a key for a parameter the script does not have, for instance).
+    None,
+    /// Only the view of the HDR image changed: tone-map and encode again, no re-render.
+    Redisplay,
+    /// A script parameter changed: re-run the script (quick preview, then full resolution).
+    Rerender,
+    Save,
+    Reload,
+    Quit,
+    /// Only the screen changed (help overlay, selection).
+    Redraw,
+}
+
+/// What the TUI shows: a script's scene or an HDR image file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Source {
+    Script(PathBuf),
+    Image(PathBuf),
+}
+
+/// The last render's report for the status line.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderStatus {
+    pub adapter: String,
+    pub render_ms: Option<f64>,
+    /// Passes that ran in the last render with their times, e.g. `volume 212 ms`. The script
+    /// layer's per-pass log fills this when it reports one; until then the whole run is timed.
+    pub passes: Vec<String>,
+    /// `preview` (quick low-resolution) or `full`.
+    pub stage: String,
+    pub busy: bool,
+}
+
+/// The whole state of the TUI.
+#[derive(Clone, Debug)]
+pub struct App {
+    pub source: Source,
+    pub out_dir: PathBuf,
+    /// Parameters the script asked for in its last successful run.
+    pub params: Vec<ParamRecord>,
+    /// Values set by keys, sent to the script as `--set` overrides.
+    pub overrides: BTreeMap<String, String>,
+    /// Overrides given on the command line, kept under the interactive ones.
+    pub base_sets: Vec<(String, String)>,
+    pub selected: usize,
+    pub view: ViewSettings,
+    /// The last good HDR image (kept when a reload fails).
+    pub hdr: Option<Arc<HdrImage>>,
+    pub histogram: Option<LogHistogram>,
+    pub status: RenderStatus,
+    /// The last script error, multi-line with the caret; cleared by a good run.
+    pub error: Option<String>,
+    /// A one-line notice (saved files, protocol fallback).
+    pub message: String,
+    /// How images reach the terminal, e.g. `sixel` or `halfblocks (no graphics answer)`.
+    pub protocol_note: String,
+    pub show_help: bool,
+}
+
+impl App {
+    pub fn new(source: Source, out_dir: PathBuf, base_sets: Vec<(String, String)>) -> App {
+        App {
+            source,
+            out_dir,
+            params: Vec::new(),
+            overrides: BTreeMap::new(),
+            base_sets,
+            selected: 0,
+            view: ViewSettings::default(),
+            hdr: None,
+            histogram: None,
+            status: RenderStatus::default(),
+            error: None,
+            message: String::new(),
+            protocol_note: String::new(),
+            show_help: false,
+        }
+    }
+
+    /// The `--set` pairs of the next run: command-line ones, then the keys' overrides (the
+    /// render worker adds the preview scale).
+    pub fn script_sets(&self) -> Vec<(String, String)> {
+        let mut sets: Vec<(String, String)> = self
+            .base_sets
+            .iter()
+            .filter(|(k, _)| !self.overrides.contains_key(k))
+            .cloned()
+            .collect();
+        sets.extend(self.overrides.iter().map(|(k, v)| (k.clone(), v.clone())));
+        sets
+    }
+
+    /// The parameters shown in the panel (the preview scale is the TUI's own).
+    pub fn panel_params(&self) -> Vec<&ParamRecord> {
+        self.params
+            .iter()
+            .filter(|p| p.name != PREVIEW_SCALE)
+            .collect()
+    }
+
+    /// Whether the script reads `preview_scale`, so a quick low-resolution run is worth doing.
+    pub fn has_preview_scale(&self) -> bool {
+        self.params.iter().any(|p| p.name == PREVIEW_SCALE)
+    }
+
+    /// The current value of a parameter (override, else what the script last received).
+    pub fn param_value(&self, name: &str) -> Option<String> {
+        self.overrides.get(name).cloned().or_else(|| {
+            self.params
+                .iter()
+                .find(|p| p.name == name)
+                .map(|p| p.value.clone())
+        })
+    }
+
+    /// Takes a finished run's parameter list (values the script received).
+    pub fn set_params(&mut self, params: Vec<ParamRecord>) {
+        self.params = params;
+        let n = self.panel_params().len();
+        if self.selected >= n {
+            self.selected = n.saturating_sub(1);
+        }
+    }
+
+    /// Changes a numeric parameter with `f`; `Effect::None` when the script has no such
+    /// parameter or it is not a number.
+    fn step_number(&mut self, name: &str, f: impl Fn(f64) -> f64) -> Effect {
+        let Some(record) = self.params.iter().find(|p| p.name == name) else {
+            self.message = format!("the script has no param(\"{name}\", ...)");
+            return Effect::None;
+        };
+        let kind = record.kind;
+        let Some(current) = self
+            .param_value(name)
+            .and_then(|v| v.trim().parse::<f64>().ok())
+        else {
+            return Effect::None;
+        };
+        let next = f(current);
+        let text = match kind {
+            ParamKind::Int => format!("{}", next.round() as i64),
+            ParamKind::Float => format_float(next),
+            _ => return Effect::None,
+        };
+        self.overrides.insert(name.to_string(), text);
+        Effect::Rerender
+    }
+
+    /// Steps the selected panel parameter up (`dir` = 1) or down (-1) by a step that suits it.
+    fn step_selected(&mut self, dir: f64) -> Effect {
+        let Some(record) = self.panel_params().get(self.selected).map(|p| (*p).clone()) else {
+            return Effect::None;
+        };
+        match record.kind {
+            ParamKind::Bool => {
+                let v = self.param_value(&record.name).unwrap_or_default() == "true";
+                self.overrides.insert(record.name, (!v).to_string());
+                Effect::Rerender
+            }
+            ParamKind::Text => {
+                if record.name == "mode" {
+                    self.cycle_mode()
+                } else {
+                    self.message = format!("{} is text; set it with --set", record.name);
+                    Effect::None
+                }
+            }
+            ParamKind::Int => self.step_number(&record.name, |v| {
+                if v.abs() >= 64.0 {
+                    if dir > 0.0 {
+                        v * 2.0
+                    } else {
+                        (v / 2.0).round()
+                    }
+                } else {
+                    v + dir
+                }
+            }),
+            ParamKind::Float => {
+                let name = record.name.clone();
+                match well_known_step(&name) {
+                    Some(Step::Add(d)) => self.step_number(&name, |v| v + dir * d),
+                    Some(Step::Mul(m)) => {
+                        self.step_number(&name, |v| if dir > 0.0 { v * m } else { v / m })
+                    }
+                    None => self.step_number(&name, |v| {
+                        if v == 0.0 {
+                            dir * 0.1
+                        } else {
+                            v * if dir > 0.0 { 1.1 } else { 1.0 / 1.1 }
+                        }
+                    }),
+                }
+            }
+        }
+    }
+
+    fn cycle_mode(&mut self) -> Effect {
+        const MODES: [&str; 3] = ["cyclic", "modulated", "direct"];
+        let Some(current) = self.param_value("mode") else {
+            self.message = "the script has no param(\"mode\", ...)".into();
+            return Effect::None;
+        };
+        let i = MODES.iter().position(|m| *m == current).unwrap_or(0);
+        self.overrides
+            .insert("mode".into(), MODES[(i + 1) % MODES.len()].into());
+        Effect::Rerender
+    }
+
+    /// Moves the magnification window [lens_lo, lens_hi] (data values) by `shift` of its width
+    /// and widens it by `grow` of its width on each side.
+    fn lens(&mut self, shift: f64, grow: f64) -> Effect {
+        let get = |n: &str| self.param_value(n).and_then(|v| v.parse::<f64>().ok());
+        let (Some(lo), Some(hi)) = (get("lens_lo"), get("lens_hi")) else {
+            self.message = "the script has no param(\"lens_lo\"/\"lens_hi\", ...)".into();
+            return Effect::None;
+        };
+        let width = (hi - lo).abs().max(1e-12);
+        let (lo, hi) = (lo + (shift - grow) * width, hi + (shift + grow) * width);
+        if hi <= lo {
+            return Effect::None;
+        }
+        self.overrides.insert("lens_lo".into(), format_float(lo));
+        self.overrides.insert("lens_hi".into(), format_float(hi));
+        Effect::Rerender
+    }
+
+    /// Applies an action and says what has to follow.
+    pub fn apply(&mut self, action: Action) -> Effect {
+        use Action::*;
+        let is_script = matches!(self.source, Source::Script(_));
+        let scene_action = matches!(
+            action,
+            OrbitLeft
+                | OrbitRight
+                | OrbitUp
+                | OrbitDown
+                | ZoomIn
+                | ZoomOut
+                | NuUp
+                | NuDown
+                | NextMode
+                | OpacityUp
+                | OpacityDown
+                | LensLeft
+                | LensRight
+                | LensWider
+                | LensNarrower
+                | StepUp
+                | StepDown
+        );
+        if scene_action && !is_script {
+            self.message = "an image file has no scene parameters".into();
+            return Effect::Redraw;
+        }
+        match action {
+            Quit => Effect::Quit,
+            ExposureUp | ExposureDown | ExposureReset => {
+                self.view.exposure_ev = match action {
+                    ExposureUp => (self.view.exposure_ev + EV_STEP).min(crate::tonemap::MAX_EV),
+                    ExposureDown => (self.view.exposure_ev - EV_STEP).max(-crate::tonemap::MAX_EV),
+                    _ => 0.0,
+                };
+                Effect::Redisplay
+            }
+            NextOperator | PrevOperator => {
+                let n = VIEW_OPERATORS.len();
+                let d = if action == NextOperator { 1 } else { n - 1 };
+                self.view.operator = (self.view.operator + d) % n;
+                self.view.op_param = None;
+                Effect::Redisplay
+            }
+            OperatorParamUp | OperatorParamDown => {
+                let Some((name, default, step, lo, hi)) = main_parameter(self.view.operator_name())
+                else {
+                    self.message = format!("{} has no parameter", self.view.operator_name());
+                    return Effect::Redraw;
+                };
+                let d = if action == OperatorParamUp {
+                    step
+                } else {
+                    -step
+                };
+                let v = (self.view.op_param.unwrap_or(default) + d).clamp(lo, hi);
+                self.view.op_param = Some((v * 1e6).round() / 1e6);
+                self.message = format!("{name} = {}", self.view.op_param.unwrap_or(default));
+                Effect::Redisplay
+            }
+            ToggleFalseColour => {
+                self.view.false_colour = !self.view.false_colour;
+                Effect::Redisplay
+            }
+            NextChannel => {
+                let all = Channel::all(self.hdr.as_deref());
+                let i = all
+                    .iter()
+                    .position(|c| *c == self.view.channel)
+                    .unwrap_or(0);
+                self.view.channel = all[(i + 1) % all.len()].clone();
+                Effect::Redisplay
+            }
+            OrbitLeft => self.step_number("azimuth", |v| v - 15.0),
+            OrbitRight => self.step_number("azimuth", |v| v + 15.0),
+            OrbitUp => self.step_number("elevation", |v| (v + 10.0).min(89.0)),
+            OrbitDown => self.step_number("elevation", |v| (v - 10.0).max(-89.0)),
+            ZoomIn => self.step_number("zoom", |v| v * 1.25),
+            ZoomOut => self.step_number("zoom", |v| v / 1.25),
+            NuUp => self.step_number("nu", |v| v * 1.25),
+            NuDown => self.step_number("nu", |v| v / 1.25),
+            NextMode => self.cycle_mode(),
+            OpacityUp => self.step_number("opacity", |v| v + 0.25),
+            OpacityDown => self.step_number("opacity", |v| v - 0.25),
+            LensLeft => self.lens(-0.25, 0.0),
+            LensRight => self.lens(0.25, 0.0),
+            LensWider => self.lens(0.0, 0.125),
+            LensNarrower => self.lens(0.0, -0.1),
+            SelectNext | SelectPrev => {
+                let n = self.panel_params().len().max(1);
+                self.selected = if action == SelectNext {
+                    (self.selected + 1) % n
+                } else {
+                    (self.selected + n - 1) % n
+                };
+                Effect::Redraw
+            }
+            StepUp => self.step_selected(1.0),
+            StepDown => self.step_selected(-1.0),
+            Save => Effect::Save,
+            Reload => Effect::Reload,
+            ToggleHelp => {
+                self.show_help = !self.show_help;
+                Effect::Redraw
+            }
+        }
+    }
+}
+
+/// How the panel steps a well-known float parameter.
+enum Step {
+    Add(f64),
+    Mul(f64),
+}
+
+fn well_known_step(name: &str) -> Option<Step> {
+    Some(match name {
+        "azimuth" => Step::Add(15.0),
+        "elevation" => Step::Add(10.0),
+        "zoom" | "nu" => Step::Mul(1.25),
+        "opacity" => Step::Add(0.25),
+        "exposure" => Step::Add(0.5),
+        _ => return None,
+    })
+}
+
+/// A float as `param()` parses it back: always with a decimal point, no noise digits.
+fn format_float(v: f64) -> String {
+    let rounded = (v * 1e9).round() / 1e9;
+    let s = format!("{rounded}");
+    if s.contains(['.', 'e', 'E']) || !rounded.is_finite() {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(name: &str, kind: ParamKind, value: &str) -> ParamRecord {
+        ParamRecord {
+            name: name.into(),
+            kind,
+            default: value.into(),
+            value: value.into(),
+        }
+    }
+
+    fn script_app() -> App {
+        let mut app = App::new(Source::Script("s.rhai".into()), "out".into(), Vec::new());
+        app.set_params(vec![
+            record("azimuth", ParamKind::Float, "30.0"),
+            record("elevation", ParamKind::Float, "85.0"),
+            record("zoom", ParamKind::Float, "1.0"),
+            record("n", ParamKind::Int, "128"),
+            record("mode", ParamKind::Text, "cyclic"),
+            record("lens_lo", ParamKind::Float, "0.4"),
+            record("lens_hi", ParamKind::Float, "0.6"),
+            record(PREVIEW_SCALE, ParamKind::Float, "1.0"),
+        ]);
+        app
+    }
+
+    #[test]
+    fn exposure_and_operator_keys_redisplay_without_rerendering() {
+        let mut app = script_app();
+        assert_eq!(app.apply(Action::ExposureUp), Effect::Redisplay);
+        assert_eq!(app.view.exposure_ev, 0.5);
+        assert_eq!(app.apply(Action::NextOperator), Effect::Redisplay);
+        assert_eq!(app.view.operator_name(), "linear");
+        app.apply(Action::NextOperator);
+        assert_eq!(app.apply(Action::OperatorParamUp), Effect::Redisplay);
+        assert_eq!(app.view.op_param, Some(0.21));
+        assert!(app.overrides.is_empty(), "no script parameter changed");
+    }
+
+    #[test]
+    fn camera_keys_step_the_well_known_parameters() {
+        let mut app = script_app();
+        assert_eq!(app.apply(Action::OrbitRight), Effect::Rerender);
+        assert_eq!(app.overrides["azimuth"], "45.0");
+        app.apply(Action::OrbitUp);
+        assert_eq!(app.overrides["elevation"], "89.0", "clamped below the pole");
+        app.apply(Action::ZoomIn);
+        assert_eq!(app.overrides["zoom"], "1.25");
+        assert_eq!(app.apply(Action::NextMode), Effect::Rerender);
+        assert_eq!(app.overrides["mode"], "modulated");
+        // No `nu` parameter: nothing to do, and the user is told so.
+        assert_eq!(app.apply(Action::NuUp), Effect::None);
+        assert!(app.message.contains("nu"));
+        app.apply(Action::LensRight);
+        assert_eq!(
+            (
+                app.overrides["lens_lo"].as_str(),
+                app.overrides["lens_hi"].as_str()
+            ),
+            ("0.45", "0.65")
+        );
+        let sets = app.script_sets();
+        assert!(sets.contains(&("azimuth".into(), "45.0".into())));
+        assert!(app.has_preview_scale());
+        assert_eq!(app.panel_params().len(), 7);
+    }
+
+    #[test]
+    fn the_selected_parameter_steps_by_its_kind() {
+        let mut app = script_app();
+        app.selected = 3; // n = 128, an integer >= 64: doubles
+        assert_eq!(app.apply(Action::StepUp), Effect::Rerender);
+        assert_eq!(app.overrides["n"], "256");
+        app.apply(Action::StepDown);
+        app.apply(Action::StepDown);
+        assert_eq!(app.overrides["n"], "64");
+        app.apply(Action::SelectPrev);
+        assert_eq!(app.selected, 2);
+    }
+
+    #[test]
+    fn every_action_has_a_key_and_every_key_its_action() {
+        use ratatui::crossterm::event::KeyEvent;
+        for (keys, action, _) in KEYS {
+            let first = keys.split(" / ").next().unwrap();
+            let code = match first {
+                "Left" => KeyCode::Left,
+                "Right" => KeyCode::Right,
+                "Up" => KeyCode::Up,
+                "Down" => KeyCode::Down,
+                "Tab" => KeyCode::Tab,
+                "Shift-Tab" => KeyCode::BackTab,
+                "PgUp" => KeyCode::PageUp,
+                "PgDn" => KeyCode::PageDown,
+                "+" => KeyCode::Char('+'),
+                s if s.chars().count() == 1 => KeyCode::Char(s.chars().next().unwrap()),
+                other => panic!("unparsed key {other}"),
+            };
+            assert_eq!(
+                action_for_key(KeyEvent::new(code, KeyModifiers::NONE)),
+                Some(*action),
+                "{keys}"
+            );
+        }
+        let ctrl_c = KeyEvent::new(KeyCode::Char('c'), KeyModifiers::CONTROL);
+        assert_eq!(action_for_key(ctrl_c), Some(Action::Quit));
+    }
+
+    #[test]
+    fn an_image_file_has_no_scene_to_change() {
+        let mut app = App::new(Source::Image("a.exr".into()), "out".into(), Vec::new());
+        assert_eq!(app.apply(Action::OrbitLeft), Effect::Redraw);
+        assert_eq!(app.apply(Action::ExposureDown), Effect::Redisplay);
+        assert_eq!(format_float(2.0), "2.0");
+        assert_eq!(format_float(0.1 + 0.2), "0.3");
+    }
+}

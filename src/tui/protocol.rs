@@ -1,0 +1,507 @@
+//! How pictures reach the terminal. The protocol is found by asking the terminal (environment
+//! variables do not cross SSH): [`probe`] sends the kitty graphics query, XTVERSION, the cell
+//! size query and DA1 (sixel flag) and reads the answers with `poll` and a deadline; or it is
+//! forced with `--protocol` / `HDRVIS_TUI_PROTOCOL`. Pictures are encoded by ratatui-image.
+//! Workarounds for known pitfalls:
+//!
+//! * tmux: ratatui-image recognises tmux only from `TERM`/`TERM_PROGRAM`, which are often
+//!   `screen`/unset; [`prepare_environment`] also trusts `$TMUX`, so queries and images are
+//!   wrapped in tmux passthrough (and `allow-passthrough` is switched on for the pane).
+//! * sixel inside tmux < 3.4: tmux does not know about a passed-through image, so it does not
+//!   clear it; the TUI clears the screen whenever the picture changes
+//!   ([`Display::redraw_on_change`]), and the picture never touches the last row (a sixel
+//!   there would scroll the screen).
+//! * kitty < 0.28 has no Unicode placeholders, which ratatui-image's kitty images need: the
+//!   terminal's version (XTVERSION) decides, and older kitty falls back to half blocks, said so
+//!   in the status line.
+//! * ratatui-image's own query reads stdin on a thread that stays blocked when the answers do
+//!   not parse (seen inside tmux 3.3) and then steals key presses: it is used only with a
+//!   terminal that has just answered as kitty (to learn its `o=z` compression).
+//! * kitty over SSH: images are sent directly in the escape stream (`t=d`, no shared files),
+//!   zlib-compressed (`o=z`) where the terminal says it can inflate.
+
+use crate::error::{Error, Result};
+use ratatui::layout::Rect;
+use ratatui_image::picker::{cap_parser::QueryStdioOptions, Picker, ProtocolType};
+use ratatui_image::protocol::Protocol;
+use std::time::Duration;
+
+/// Environment variable that overrides `--protocol auto`.
+pub const PROTOCOL_ENV: &str = "HDRVIS_TUI_PROTOCOL";
+
+/// The protocol asked for on the command line or in the environment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProtocolChoice {
+    Auto,
+    Kitty,
+    Sixel,
+    Iterm2,
+    Halfblocks,
+}
+
+impl ProtocolChoice {
+    pub fn parse(s: &str) -> Result<ProtocolChoice> {
+        Ok(match s.trim().to_ascii_lowercase().as_str() {
+            "auto" => ProtocolChoice::Auto,
+            "kitty" => ProtocolChoice::Kitty,
+            "sixel" => ProtocolChoice::Sixel,
+            "iterm2" => ProtocolChoice::Iterm2,
+            "halfblocks" => ProtocolChoice::Halfblocks,
+            other => {
+                return Err(Error::invalid(
+                    "--protocol",
+                    format!(
+                    "unknown protocol {other:?}; expected auto, kitty, sixel, iterm2 or halfblocks"
+                ),
+                ))
+            }
+        })
+    }
+
+    /// `--protocol` if given, else `HDRVIS_TUI_PROTOCOL`, else auto.
+    pub fn resolve(explicit: Option<&str>) -> Result<ProtocolChoice> {
+        match explicit {
+            Some(s) => Self::parse(s),
+            None => match std::env::var(PROTOCOL_ENV) {
+                Ok(s) if !s.trim().is_empty() => {
+                    Self::parse(&s).map_err(|e| Error::invalid(PROTOCOL_ENV, e.to_string()))
+                }
+                _ => Ok(ProtocolChoice::Auto),
+            },
+        }
+    }
+
+    fn forced(self) -> Option<ProtocolType> {
+        match self {
+            ProtocolChoice::Auto => None,
+            ProtocolChoice::Kitty => Some(ProtocolType::Kitty),
+            ProtocolChoice::Sixel => Some(ProtocolType::Sixel),
+            ProtocolChoice::Iterm2 => Some(ProtocolType::Iterm2),
+            ProtocolChoice::Halfblocks => Some(ProtocolType::Halfblocks),
+        }
+    }
+}
+
+/// Whether this process runs inside tmux (by `$TMUX`, which tmux always sets, or the terminal
+/// names ratatui-image looks at).
+pub fn in_tmux() -> bool {
+    std::env::var_os("TMUX").is_some_and(|v| !v.is_empty())
+        || std::env::var("TERM").is_ok_and(|t| t.starts_with("tmux"))
+        || std::env::var("TERM_PROGRAM").is_ok_and(|t| t == "tmux")
+}
+
+/// Makes ratatui-image see tmux when only `$TMUX` says so. Changes this process's environment:
+/// call it before any other thread starts.
+pub fn prepare_environment() {
+    let term_says_tmux = std::env::var("TERM").is_ok_and(|t| t.starts_with("tmux"))
+        || std::env::var("TERM_PROGRAM").is_ok_and(|t| t == "tmux");
+    if in_tmux() && !term_says_tmux {
+        std::env::set_var("TERM_PROGRAM", "tmux");
+    }
+}
+
+/// The tmux server's version as (major, minor), e.g. (3, 3) for "3.3a".
+pub fn tmux_version() -> Option<(u32, u32)> {
+    let out = std::process::Command::new("tmux")
+        .args(["display-message", "-p", "#{version}"])
+        .stdin(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()?;
+    parse_version(String::from_utf8_lossy(&out.stdout).trim())
+}
+
+/// "3.3a" -> (3, 3); "0.26.5" -> (0, 26); "next-3.5" -> (3, 5).
+pub fn parse_version(s: &str) -> Option<(u32, u32)> {
+    let s = s.trim_start_matches(|c: char| !c.is_ascii_digit());
+    let mut parts = s.split(|c: char| !c.is_ascii_digit());
+    let major = parts.next()?.parse().ok()?;
+    let minor = parts.next().and_then(|m| m.parse().ok()).unwrap_or(0);
+    Some((major, minor))
+}
+
+/// The chosen protocol with what the status line should say about it.
+#[derive(Clone)]
+pub struct Display {
+    pub picker: Picker,
+    /// e.g. `sixel`, `kitty (compressed)`, `halfblocks: the terminal shows no graphics`.
+    pub note: String,
+    /// Clear the screen when the picture changes (sixel through tmux passthrough).
+    pub redraw_on_change: bool,
+}
+
+impl Display {
+    /// A display for tests and benchmarks: `protocol` at a fixed cell size, no terminal query.
+    pub fn fixed(protocol: ProtocolType, cell: (u16, u16)) -> Display {
+        #[allow(deprecated)] // the only constructor that takes a cell size without a terminal
+        let mut picker = Picker::from_fontsize(cell.into());
+        picker.set_protocol_type(protocol);
+        Display {
+            picker,
+            note: name(protocol).to_string(),
+            redraw_on_change: false,
+        }
+    }
+
+    /// The area's size in pixels at the terminal's cell size.
+    pub fn pixels(&self, area: Rect) -> (u32, u32) {
+        let fs = self.picker.font_size();
+        (
+            area.width as u32 * fs.width as u32,
+            area.height as u32 * fs.height as u32,
+        )
+    }
+
+    /// Encodes `img` (already at most [`Display::pixels`] of `area`) for the terminal.
+    pub fn encode(&self, img: image::RgbImage, area: Rect) -> Result<Protocol> {
+        self.picker
+            .new_protocol(
+                image::DynamicImage::ImageRgb8(img),
+                area.as_size(),
+                ratatui_image::Resize::Fit(None),
+            )
+            .map_err(|e| Error::invalid("terminal image", e.to_string()))
+    }
+}
+
+fn name(p: ProtocolType) -> &'static str {
+    match p {
+        ProtocolType::Halfblocks => "halfblocks",
+        ProtocolType::Sixel => "sixel",
+        ProtocolType::Kitty => "kitty",
+        ProtocolType::Iterm2 => "iterm2",
+    }
+}
+
+/// What the terminal said to [`probe`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Probe {
+    /// The status report came back (the terminal answers queries at all).
+    pub answered: bool,
+    pub kitty: bool,
+    pub sixel: bool,
+    /// Cell size in pixels (width, height) from `CSI 16 t`.
+    pub cell: Option<(u16, u16)>,
+    /// XTVERSION text, e.g. `kitty(0.26.5)` or `XTerm(390)`.
+    pub version: Option<String>,
+}
+
+/// Asks the terminal, through tmux passthrough when `tmux`: kitty graphics (a 1-pixel query
+/// image), XTVERSION, cell size, primary device attributes (sixel is attribute 4), and a status
+/// report that every terminal answers, which ends the read. Reads with `poll` and a deadline, so
+/// no thread is left behind reading stdin (it would steal key presses).
+pub fn probe(tmux: bool, timeout: Duration) -> Probe {
+    let (start, esc, end) = if tmux {
+        ("\x1bPtmux;", "\x1b\x1b", "\x1b\\")
+    } else {
+        ("", "\x1b", "")
+    };
+    let query = format!(
+        "{start}{esc}_Gi=31,s=1,v=1,a=q,t=d,f=24;AAAA{esc}\\{esc}[>0q{esc}[16t{esc}[c{end}\x1b[5n"
+    );
+    let answer = String::from_utf8_lossy(&exchange(&query, timeout)).to_string();
+    parse_probe(&answer)
+}
+
+/// Parses the answers to [`probe`]'s queries.
+pub fn parse_probe(answer: &str) -> Probe {
+    let mut p = Probe {
+        answered: answer.contains("\x1b[0n"),
+        kitty: answer.contains("\x1b_Gi=31;OK"),
+        version: parse_xtversion(answer),
+        ..Probe::default()
+    };
+    // DA1: ESC [ ? a ; b ; ... c
+    if let Some(i) = answer.find("\x1b[?") {
+        if let Some(j) = answer[i..].find('c') {
+            p.sixel = answer[i + 3..i + j].split(';').any(|a| a == "4");
+        }
+    }
+    // Cell size: ESC [ 6 ; height ; width t
+    if let Some(i) = answer.find("\x1b[6;") {
+        if let Some(j) = answer[i..].find('t') {
+            let nums: Vec<u16> = answer[i + 4..i + j]
+                .split(';')
+                .filter_map(|v| v.parse().ok())
+                .collect();
+            if let [h, w] = nums[..] {
+                if w > 0 && h > 0 {
+                    p.cell = Some((w, h));
+                }
+            }
+        }
+    }
+    p
+}
+
+/// Writes `query` with the terminal in non-canonical, no-echo mode and collects what comes back
+/// until the status report's answer (`ESC [ 0 n`) or the deadline.
+fn exchange(query: &str, timeout: Duration) -> Vec<u8> {
+    use rustix::termios::{self, LocalModes, OptionalActions};
+    use std::io::{Read, Write};
+    let stdin = std::io::stdin();
+    let Ok(saved) = termios::tcgetattr(&stdin) else {
+        return Vec::new();
+    };
+    let mut raw = saved.clone();
+    raw.local_modes &= !(LocalModes::ICANON | LocalModes::ECHO);
+    if termios::tcsetattr(&stdin, OptionalActions::Drain, &raw).is_err() {
+        return Vec::new();
+    }
+    let mut out = std::io::stdout();
+    let _ = out.write_all(query.as_bytes()).and_then(|_| out.flush());
+    let mut answer = Vec::new();
+    let deadline = std::time::Instant::now() + timeout;
+    while !answer.windows(4).any(|w| w == b"\x1b[0n") {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            break;
+        }
+        let mut fds = [rustix::event::PollFd::new(
+            &stdin,
+            rustix::event::PollFlags::IN,
+        )];
+        let wait = rustix::event::Timespec {
+            tv_sec: left.as_secs() as _,
+            tv_nsec: left.subsec_nanos() as _,
+        };
+        match rustix::event::poll(&mut fds, Some(&wait)) {
+            Ok(n) if n > 0 => {
+                let mut buf = [0u8; 512];
+                match std::io::stdin().lock().read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => answer.extend_from_slice(&buf[..n]),
+                }
+            }
+            _ => break,
+        }
+    }
+    let _ = termios::tcsetattr(&stdin, OptionalActions::Now, &saved);
+    answer
+}
+
+/// The cell size from the terminal's window size in pixels, when it reports one.
+fn cell_from_winsize() -> Option<(u16, u16)> {
+    let ws = rustix::termios::tcgetwinsize(std::io::stdout()).ok()?;
+    (ws.ws_xpixel > 0 && ws.ws_ypixel > 0 && ws.ws_col > 0 && ws.ws_row > 0)
+        .then(|| (ws.ws_xpixel / ws.ws_col, ws.ws_ypixel / ws.ws_row))
+}
+
+/// Finds how to show pictures. Must run after the terminal entered raw mode and the alternate
+/// screen and before events are read (the answers arrive on stdin).
+pub fn detect(choice: ProtocolChoice) -> Display {
+    if choice == ProtocolChoice::Halfblocks {
+        let mut picker = Picker::halfblocks();
+        picker.set_protocol_type(ProtocolType::Halfblocks);
+        return Display {
+            picker,
+            note: "halfblocks (forced)".into(),
+            redraw_on_change: false,
+        };
+    }
+    let tmux = in_tmux();
+    let found = probe(tmux, Duration::from_millis(1500));
+    // ratatui-image's own query learns kitty's o=z compression; it is asked only of a terminal
+    // that just answered as kitty, so its reader thread finishes.
+    let queried = if found.answered && found.kitty {
+        let options = QueryStdioOptions {
+            timeout: Duration::from_millis(1500),
+            kitty_compression: true,
+            ..QueryStdioOptions::default()
+        };
+        Picker::from_query_stdio_with_options(options).ok()
+    } else {
+        None
+    };
+    let mut picker = queried.unwrap_or_else(|| {
+        let cell = found.cell.or_else(cell_from_winsize).unwrap_or((10, 20));
+        #[allow(deprecated)] // the constructor for a cell size found without ratatui-image
+        let mut p = Picker::from_fontsize(cell.into());
+        p.set_protocol_type(if found.kitty {
+            ProtocolType::Kitty
+        } else if found.sixel {
+            ProtocolType::Sixel
+        } else {
+            ProtocolType::Halfblocks
+        });
+        p
+    });
+    let mut note;
+    if let Some(forced) = choice.forced() {
+        picker.set_protocol_type(forced);
+        note = format!("{} (forced)", name(forced));
+    } else {
+        let p = picker.protocol_type();
+        note = name(p).to_string();
+        if p == ProtocolType::Halfblocks {
+            note = if found.answered {
+                "halfblocks: the terminal shows no graphics".into()
+            } else {
+                "halfblocks: the terminal did not answer".into()
+            };
+        }
+        if p == ProtocolType::Kitty {
+            if let Some(v) = &found.version {
+                if let Some(rest) = v.strip_prefix("kitty") {
+                    if parse_version(rest).is_some_and(|ver| ver < (0, 28)) {
+                        picker.set_protocol_type(ProtocolType::Halfblocks);
+                        note =
+                            format!("halfblocks: {v} predates Unicode placeholders (kitty 0.28)");
+                    }
+                }
+            }
+        }
+    }
+    if picker.protocol_type() == ProtocolType::Kitty
+        && picker
+            .capabilities()
+            .contains(&ratatui_image::picker::Capability::KittyCompression)
+    {
+        note.push_str(" (compressed)");
+    }
+    let mut redraw_on_change = false;
+    if tmux && picker.protocol_type() != ProtocolType::Halfblocks {
+        note.push_str(" via tmux");
+        if picker.protocol_type() == ProtocolType::Sixel
+            && tmux_version().is_none_or(|v| v < (3, 4))
+        {
+            redraw_on_change = true;
+        }
+    }
+    Display {
+        picker,
+        note,
+        redraw_on_change,
+    }
+}
+
+/// The text of an XTVERSION answer, `ESC P > | text ESC \`.
+pub fn parse_xtversion(answer: &str) -> Option<String> {
+    let start = answer.find("\x1bP>|")? + 4;
+    let end = answer[start..].find("\x1b\\")? + start;
+    Some(answer[start..end].trim().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn choices_parse_and_bad_ones_name_the_option() {
+        assert_eq!(
+            ProtocolChoice::parse("Sixel").unwrap(),
+            ProtocolChoice::Sixel
+        );
+        assert_eq!(ProtocolChoice::parse("auto").unwrap(), ProtocolChoice::Auto);
+        let e = ProtocolChoice::parse("png").unwrap_err().to_string();
+        assert!(
+            e.starts_with("--protocol:") && e.contains("halfblocks"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn versions_and_xtversion_answers_parse() {
+        assert_eq!(parse_version("3.3a"), Some((3, 3)));
+        assert_eq!(parse_version("(0.26.5)"), Some((0, 26)));
+        assert_eq!(parse_version("next-3.5"), Some((3, 5)));
+        assert_eq!(
+            parse_xtversion("\x1bP>|kitty(0.26.5)\x1b\\\x1b[0n").as_deref(),
+            Some("kitty(0.26.5)")
+        );
+        assert_eq!(parse_xtversion("\x1b[0n"), None);
+    }
+
+    #[test]
+    fn probe_answers_parse() {
+        // xterm -ti vt340: DA1 with 4 (sixel), a cell size, no kitty.
+        let xterm = "\x1bP>|XTerm(379)\x1b\\\x1b[6;17;8t\x1b[?63;1;2;4;6;9;15;22c\x1b[0n";
+        let p = parse_probe(xterm);
+        assert!(p.answered && p.sixel && !p.kitty);
+        assert_eq!(p.cell, Some((8, 17)));
+        assert_eq!(p.version.as_deref(), Some("XTerm(379)"));
+        // kitty 0.26: graphics OK, no sixel.
+        let kitty = "\x1b_Gi=31;OK\x1b\\\x1bP>|kitty(0.26.5)\x1b\\\x1b[?62;c\x1b[0n";
+        let p = parse_probe(kitty);
+        assert!(p.kitty && !p.sixel && p.answered);
+        // tmux 3.3 itself: no graphics.
+        let p = parse_probe("\x1b[?1;2c\x1b[0n");
+        assert!(p.answered && !p.kitty && !p.sixel && p.cell.is_none());
+        assert!(!parse_probe("").answered);
+    }
+
+    #[test]
+    fn sixel_and_kitty_payloads_decode_to_the_picture() {
+        use crate::tui::decode::{decode_kitty, decode_sixel};
+        use ratatui::buffer::Buffer;
+        use ratatui::widgets::Widget;
+        let area = Rect::new(0, 0, 12, 5);
+        // A smooth two-axis gradient: every pixel distinct, so misplaced rows or columns show.
+        // Two pictures: a smooth two-axis gradient (3000 colours: every pixel distinct, so
+        // misplaced rows or columns show; a sixel palette of 256 must approximate it), and
+        // blocks of 12 colours whose levels (multiples of 51) sixel's percent scale holds
+        // exactly, which must come back bit-exact from both protocols.
+        let gradient = |x: u32, y: u32| image::Rgb([(x * 2) as u8, (y * 2) as u8, 128]);
+        let blocks =
+            |x: u32, y: u32| image::Rgb([(x / 20 % 6 * 51) as u8, (y / 50 % 2 * 255) as u8, 102]);
+        type Pattern<'a> = &'a dyn Fn(u32, u32) -> image::Rgb<u8>;
+        let cases: [(ProtocolType, Pattern, bool); 4] = [
+            (ProtocolType::Sixel, &gradient, false),
+            (ProtocolType::Kitty, &gradient, true),
+            (ProtocolType::Sixel, &blocks, true),
+            (ProtocolType::Kitty, &blocks, true),
+        ];
+        for (protocol, pattern, exact) in cases {
+            let display = Display::fixed(protocol, (10, 20));
+            let (w, h) = display.pixels(area);
+            assert_eq!((w, h), (120, 100));
+            let img = image::RgbImage::from_fn(w, h, pattern);
+            let encoded = display.encode(img.clone(), area).unwrap();
+            let mut buf = Buffer::empty(area);
+            ratatui_image::Image::new(&encoded).render(area, &mut buf);
+            let payload = buf[(0, 0)].symbol().to_string();
+            let decoded = if protocol == ProtocolType::Sixel {
+                decode_sixel(&payload).unwrap()
+            } else {
+                decode_kitty(&payload).unwrap()
+            };
+            assert_eq!((decoded.width, decoded.height), (w, h), "{protocol:?}");
+            // Per pixel (a palette quantiser may dither) and over 8 x 8 blocks (what the eye
+            // sees, and where dithering must average out).
+            let mut sum = 0u64;
+            let mut worst = 0u8;
+            let mut worst_block = 0f64;
+            for by in 0..h / 8 {
+                for bx in 0..w / 8 {
+                    let mut block = [0f64; 3];
+                    for y in by * 8..by * 8 + 8 {
+                        for x in bx * 8..bx * 8 + 8 {
+                            let d = decoded.pixel(x, y);
+                            let e = img.get_pixel(x, y).0;
+                            for k in 0..3 {
+                                let diff = d[k].abs_diff(e[k]);
+                                sum += diff as u64;
+                                worst = worst.max(diff);
+                                block[k] += d[k] as f64 - e[k] as f64;
+                            }
+                        }
+                    }
+                    for b in block {
+                        worst_block = worst_block.max((b / 64.0).abs());
+                    }
+                }
+            }
+            let mean = sum as f64 / ((w / 8) * (h / 8) * 64 * 3) as f64;
+            if exact {
+                assert_eq!(worst, 0, "{protocol:?}");
+            } else {
+                // Palette quantisation: a few levels per pixel on average; the worst 8 x 8
+                // block (near the gradient's dark edge, where the palette is sparse) within 32.
+                assert!(
+                    mean < 6.0 && worst_block < 32.0,
+                    "{protocol:?}: mean {mean}, worst block {worst_block}, worst pixel {worst}"
+                );
+            }
+        }
+    }
+}

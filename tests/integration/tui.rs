@@ -1,0 +1,544 @@
+//! The real `hdrvis tui` binary driven inside tmux (send-keys, capture-pane): open a scene, save,
+//! change exposure, save again, quit; the saved EXR and PNG files exist and differ exactly as an
+//! exposure change should, and the terminal is restored (alternate screen left, shell prompt
+//! back, line editing and echo on). Also: SIGTERM restores the terminal, a script error shows
+//! with line and caret inside the TUI and a corrected file reloads by itself. And a real terminal:
+//! xterm in VT340 mode (sixel) under Xvfb shows the picture, located in a screenshot.
+//!
+//! Missing tmux, xterm or Xvfb skip with a printed reason, unless `HDRVIS_REQUIRE_TUI_TOOLS=1`
+//! (CI), which turns a missing tool into a failure.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+fn have(tool: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {tool} >/dev/null 2>&1")])
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// Whether the tools are there; without them the test is skipped, or fails under CI.
+fn tools(list: &[&str]) -> bool {
+    let missing: Vec<&str> = list.iter().copied().filter(|t| !have(t)).collect();
+    if missing.is_empty() {
+        return true;
+    }
+    if std::env::var("HDRVIS_REQUIRE_TUI_TOOLS").as_deref() == Ok("1") {
+        panic!("HDRVIS_REQUIRE_TUI_TOOLS=1 but {missing:?} not installed");
+    }
+    eprintln!(
+        "skipped: {missing:?} not installed (apt-get install tmux xterm xvfb x11-apps imagemagick)"
+    );
+    false
+}
+
+/// A tmux server of its own (`-L`), one 80 × 24 window running a plain shell.
+struct Tmux {
+    socket: String,
+}
+
+impl Tmux {
+    fn start(name: &str) -> Tmux {
+        let socket = format!("hdrvis-test-{}-{name}", std::process::id());
+        let t = Tmux { socket };
+        let shell = "env -u TMUX PS1='ready$ ' TERM=xterm-256color bash --norc --noprofile";
+        t.tmux(&["new-session", "-d", "-x", "80", "-y", "24", shell]);
+        t.wait_for("ready$", Duration::from_secs(10));
+        t
+    }
+
+    fn tmux(&self, args: &[&str]) -> String {
+        let out = Command::new("tmux")
+            .args(["-L", &self.socket, "-f", "/dev/null"])
+            .args(args)
+            .output()
+            .expect("tmux runs");
+        String::from_utf8_lossy(&out.stdout).to_string()
+    }
+
+    fn screen(&self) -> String {
+        self.tmux(&["capture-pane", "-p"])
+    }
+
+    fn keys(&self, keys: &[&str]) {
+        let mut args = vec!["send-keys"];
+        args.extend_from_slice(keys);
+        self.tmux(&args);
+    }
+
+    fn line(&self, text: &str) {
+        self.tmux(&["send-keys", "-l", text]);
+        self.tmux(&["send-keys", "Enter"]);
+    }
+
+    fn wait_for(&self, text: &str, timeout: Duration) -> String {
+        let t0 = Instant::now();
+        loop {
+            let s = self.screen();
+            if s.contains(text) {
+                return s;
+            }
+            if t0.elapsed() > timeout {
+                panic!("waited {timeout:?} for {text:?}; screen:\n{s}");
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    fn alternate_screen(&self) -> bool {
+        self.tmux(&["display-message", "-p", "#{alternate_on}"])
+            .trim()
+            == "1"
+    }
+}
+
+impl Drop for Tmux {
+    fn drop(&mut self) {
+        self.tmux(&["kill-server"]);
+    }
+}
+
+fn demo_script() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/tui_demo.rhai")
+}
+
+fn tui_command(script: &Path, out: &Path, extra: &str) -> String {
+    format!(
+        "{} tui {} --out {} --protocol halfblocks --set n=40 --set size=64 {extra}; echo \"tui\"-exit=$?; stty -a | grep -o -- '-\\?icanon\\|-\\?echo ' | tr '\\n' ' '; echo",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        script.display(),
+        out.display()
+    )
+}
+
+/// After the TUI ended: normal screen, the exit line, a cooked terminal (`stty` reports
+/// `icanon` and `echo`, not `-icanon`/`-echo`), and the prompt back.
+fn assert_restored(t: &Tmux, exit: &str) {
+    let s = t.wait_for(exit, Duration::from_secs(10));
+    assert!(!t.alternate_screen(), "alternate screen still on:\n{s}");
+    let t0 = Instant::now();
+    let s = loop {
+        let s = t.screen();
+        // The typed command line holds neither "icanon echo" nor "-icanon"; only stty's output.
+        if s.contains("icanon echo") || s.contains("-icanon") || s.contains("-echo ") {
+            break s;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "no stty output:\n{s}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(
+        s.contains("icanon echo") && !s.contains("-icanon") && !s.contains("-echo "),
+        "raw mode left on:\n{s}"
+    );
+    let t0 = Instant::now();
+    while t.screen().matches("ready$").count() < 2 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "no prompt:\n{}",
+            t.screen()
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(
+        !t.screen().contains("log10 luminance"),
+        "the TUI is still on screen"
+    );
+}
+
+fn srgb_decode(v: u8) -> f64 {
+    let c = v as f64 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+#[test]
+fn open_save_expose_save_quit_in_tmux() {
+    if !tools(&["tmux"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let t = Tmux::start("save");
+    t.line(&tui_command(&demo_script(), &out, ""));
+    t.wait_for("image    64×64 full", Duration::from_secs(60));
+    assert!(t.alternate_screen());
+    t.keys(&["s"]);
+    t.wait_for("saved tui_demo_view001.exr", Duration::from_secs(20));
+    t.keys(&["+"]);
+    t.wait_for("exposure +0.5 EV", Duration::from_secs(5));
+    t.keys(&["s"]);
+    t.wait_for("saved tui_demo_view002.exr", Duration::from_secs(20));
+    t.keys(&["q"]);
+    assert_restored(&t, "tui-exit=0");
+
+    let exr =
+        |i: u32| hdrvis::io::exr::read_exr(&out.join(format!("tui_demo_view00{i}.exr"))).unwrap();
+    let png = |i: u32| {
+        image::open(out.join(format!("tui_demo_view00{i}.png")))
+            .unwrap()
+            .to_rgb8()
+    };
+    let (e1, e2) = (exr(1), exr(2));
+    assert_eq!((e1.width, e1.height), (64, 64));
+    let gain = 2f64.sqrt();
+    let mut lit = 0;
+    for (a, b) in e1.pixels.iter().zip(&e2.pixels) {
+        for k in 0..3 {
+            if a[k].is_finite() {
+                let expect = a[k] as f64 * gain;
+                assert!(
+                    (b[k] as f64 - expect).abs() <= 1e-6 * expect.abs() + 1e-30,
+                    "{} vs {expect}",
+                    b[k]
+                );
+                lit += (a[k] > 0.0) as usize;
+            }
+        }
+        assert_eq!(a[3], b[3], "alpha is not exposed");
+    }
+    assert!(lit > 100, "the view has content");
+    // The PNGs are the 0 EV and +0.5 EV display views: linear values sqrt(2) apart wherever
+    // neither clips (within 8-bit quantisation), never darker.
+    let (p1, p2) = (png(1), png(2));
+    let mut compared = 0;
+    for (a, b) in p1.pixels().zip(p2.pixels()) {
+        for k in 0..3 {
+            assert!(b[k] >= a[k]);
+            if a[k] >= 40 && b[k] < 250 {
+                let ratio = srgb_decode(b[k]) / srgb_decode(a[k]);
+                assert!(
+                    (ratio - gain).abs() < 0.06,
+                    "{} -> {}: ratio {ratio}",
+                    a[k],
+                    b[k]
+                );
+                compared += 1;
+            }
+        }
+    }
+    assert!(
+        compared > 50,
+        "too few unclipped pixels to compare ({compared})"
+    );
+}
+
+#[test]
+fn sigterm_restores_the_terminal() {
+    if !tools(&["tmux", "pkill"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let t = Tmux::start("sigterm");
+    t.line(&tui_command(
+        &demo_script(),
+        &dir.path().join("out"),
+        "--set scene=volume",
+    ));
+    t.wait_for("log10 luminance", Duration::from_secs(60));
+    // The shell's child is the TUI.
+    let shell = t.tmux(&["display-message", "-p", "#{pane_pid}"]);
+    let status = Command::new("pkill")
+        .args(["-TERM", "-P", shell.trim()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert_restored(&t, "tui-exit=");
+}
+
+#[test]
+fn script_errors_show_with_caret_and_a_fixed_file_reloads() {
+    if !tools(&["tmux"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("scene.rhai");
+    let good = std::fs::read_to_string(demo_script()).unwrap();
+    std::fs::write(&script, &good).unwrap();
+    let t = Tmux::start("error");
+    t.line(&tui_command(&script, &dir.path().join("out"), ""));
+    t.wait_for("image    64×64 full", Duration::from_secs(60));
+    // Break the file: an unknown function on the first line; the TUI reloads on its own.
+    std::fs::write(
+        &script,
+        format!("let broken = no_such_function(1);\n{good}"),
+    )
+    .unwrap();
+    let s = t.wait_for("script error", Duration::from_secs(30));
+    assert!(s.contains("scene.rhai:1:14"), "{s}");
+    assert!(s.contains("let broken = no_such_function(1);"), "{s}");
+    let lines: Vec<&str> = s.lines().collect();
+    let src = lines.iter().position(|l| l.contains("let broken")).unwrap();
+    let caret = lines[src + 1]
+        .find('^')
+        .expect("caret under the source line");
+    assert_eq!(caret, lines[src].find("let broken").unwrap() + 13);
+    assert!(
+        s.contains("image    64×64"),
+        "the last good image is kept:\n{s}"
+    );
+    // Fix it: the error goes away.
+    std::fs::write(&script, &good).unwrap();
+    t.wait_for("full", Duration::from_secs(30));
+    let t0 = Instant::now();
+    while t.screen().contains("script error") {
+        assert!(t0.elapsed() < Duration::from_secs(30), "{}", t.screen());
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    t.keys(&["q"]);
+    assert_restored(&t, "tui-exit=0");
+}
+
+/// Reads an X window dump (`xwd`, ZPixmap, 24/32 bits per pixel) into RGB.
+fn read_xwd(b: &[u8]) -> Option<image::RgbImage> {
+    let field = |i: usize| -> Option<u32> {
+        Some(u32::from_be_bytes(
+            b.get(i * 4..i * 4 + 4)?.try_into().ok()?,
+        ))
+    };
+    let (header, format, width, height) = (field(0)?, field(2)?, field(4)?, field(5)?);
+    let (byte_order, bpp, stride) = (field(7)?, field(11)?, field(12)? as usize);
+    let masks = [field(14)?, field(15)?, field(16)?];
+    let ncolors = field(19)? as usize;
+    if format != 2 || bpp != 32 {
+        return None;
+    }
+    let data = b.get(header as usize + ncolors * 12..)?;
+    let mut img = image::RgbImage::new(width, height);
+    for y in 0..height {
+        for x in 0..width {
+            let o = y as usize * stride + x as usize * 4;
+            let raw: [u8; 4] = data.get(o..o + 4)?.try_into().ok()?;
+            let p = if byte_order == 0 {
+                u32::from_le_bytes(raw)
+            } else {
+                u32::from_be_bytes(raw)
+            };
+            let c = masks.map(|m| ((p & m) >> m.trailing_zeros()) as u8);
+            img.put_pixel(x, y, image::Rgb(c));
+        }
+    }
+    Some(img)
+}
+
+/// Waits for a file to appear.
+fn wait_file(path: &Path, timeout: Duration) -> bool {
+    let t0 = Instant::now();
+    while t0.elapsed() < timeout {
+        if path.exists() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    false
+}
+
+/// Kills a child process on drop.
+struct Child(std::process::Child);
+
+impl Drop for Child {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn xterm_vt340_shows_the_sixel_picture() {
+    if !tools(&["Xvfb", "xterm", "xwd"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    // A picture to find: green everywhere, a red square in its top-left quarter (orientation).
+    let (w, h) = (96u32, 64u32);
+    let pixels = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if x < w / 4 && y < h / 4 {
+                [1.0, 0.0, 0.0, 1.0]
+            } else {
+                [0.0, 1.0, 0.0, 1.0]
+            }
+        })
+        .collect();
+    let exr = dir.path().join("target.exr");
+    hdrvis::io::exr::write_exr(&hdrvis::model::HdrImage::from_pixels(w, h, pixels), &exr).unwrap();
+
+    let display = format!(":{}", 50 + std::process::id() % 200);
+    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{}", &display[1..]));
+    let _xvfb = Child(
+        Command::new("Xvfb")
+            .args([&display, "-screen", "0", "800x600x24", "-nolisten", "tcp"])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    assert!(
+        wait_file(&socket, Duration::from_secs(10)),
+        "Xvfb did not start"
+    );
+    let shell = format!(
+        "{} tui {} --out {}; sleep 30",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        exr.display(),
+        dir.path().join("out").display()
+    );
+    let _xterm = Child(
+        Command::new("xterm")
+            .args([
+                "-display",
+                &display,
+                "-ti",
+                "vt340",
+                "-xrm",
+                "XTerm*numColorRegisters: 256",
+                "-geometry",
+                "80x24+0+0",
+                "-e",
+                "sh",
+                "-c",
+                &shell,
+            ])
+            .env_remove("TMUX")
+            .env_remove("HDRVIS_TUI_PROTOCOL")
+            .spawn()
+            .unwrap(),
+    );
+    let shot = dir.path().join("shot.png");
+    let t0 = Instant::now();
+    let (mut found, mut last) = (None, String::new());
+    while t0.elapsed() < Duration::from_secs(60) && found.is_none() {
+        std::thread::sleep(Duration::from_millis(500));
+        let grab = Command::new("xwd")
+            .args(["-root", "-silent", "-display", &display])
+            .output()
+            .unwrap();
+        let Some(img) = read_xwd(&grab.stdout) else {
+            continue;
+        };
+        img.save(&shot).unwrap();
+        if let Some(keep) = std::env::var_os("HDRVIS_KEEP_SCREENSHOT") {
+            let _ = std::fs::copy(&shot, keep);
+        }
+        // The bounding box of saturated green and red pixels.
+        let is = |p: &image::Rgb<u8>, c: usize| {
+            p[c] > 200 && (0..3).filter(|&k| k != c).all(|k| p[k] < 60)
+        };
+        let bbox = |c: usize| {
+            let mut b: Option<(u32, u32, u32, u32)> = None;
+            let mut n = 0u32;
+            for (x, y, p) in img.enumerate_pixels() {
+                if is(p, c) {
+                    n += 1;
+                    b = Some(match b {
+                        None => (x, y, x, y),
+                        Some((x0, y0, x1, y1)) => (x0.min(x), y0.min(y), x1.max(x), y1.max(y)),
+                    });
+                }
+            }
+            b.map(|b| (b, n))
+        };
+        last = format!("green {:?}, red {:?}", bbox(1), bbox(0));
+        if let (Some((g, gn)), Some((r, rn))) = (bbox(1), bbox(0)) {
+            if gn > 2000 && rn > 100 {
+                found = Some((g, r, gn, rn));
+            }
+        }
+    }
+    let ((gx0, gy0, gx1, gy1), (rx0, ry0, rx1, ry1), gn, rn) =
+        found.unwrap_or_else(|| panic!("no picture in the screenshot after 60 s: {last}"));
+    let (gw, gh) = ((gx1 - gx0 + 1) as f64, (gy1 - gy0 + 1) as f64);
+    // The picture keeps its 3:2 aspect, the red square sits in its top-left quarter, and red
+    // covers about 1/16 of it.
+    assert!((gw / gh - 1.5).abs() < 0.1, "aspect {gw}x{gh}");
+    assert!(
+        rx0 <= gx0 + 2 && ry0 <= gy0 + 2,
+        "red at ({rx0}, {ry0}), picture at ({gx0}, {gy0})"
+    );
+    assert!(((rx1 - rx0 + 1) as f64 / gw - 0.25).abs() < 0.05);
+    assert!(((ry1 - ry0 + 1) as f64 / gh - 0.25).abs() < 0.05);
+    let red_share = rn as f64 / (gn + rn) as f64;
+    assert!(
+        (red_share - 1.0 / 16.0).abs() < 0.02,
+        "red share {red_share}"
+    );
+}
+
+#[test]
+fn the_demo_script_reports_params_previews_and_reuses_the_session() {
+    use hdrvis::gpu::BackendChoice;
+    use hdrvis::render::session::RenderSession;
+    use hdrvis::script::{run_script_file, ParamKind, ScriptOptions};
+    use std::sync::Arc;
+    let dir = tempfile::tempdir().unwrap();
+    let session = Arc::new(RenderSession::new(BackendChoice::Auto, 1 << 30));
+    let mut opts = ScriptOptions::new(dir.path());
+    opts.session = Some(session);
+    opts.capture_previews = true;
+    opts.progress = false;
+    for scene in ["volume", "surface"] {
+        opts.sets = vec![
+            ("scene".into(), scene.into()),
+            ("n".into(), "40".into()),
+            ("preview_scale".into(), "0.25".into()),
+        ];
+        let first = run_script_file(&demo_script(), &opts).unwrap();
+        assert_eq!(first.previews.len(), 1, "{scene}: one preview() captured");
+        assert!(first.written.is_empty(), "{scene}: preview() wrote nothing");
+        assert_eq!(first.previews[0].width, 96, "{scene}: 384 x 0.25");
+        let names: Vec<&str> = first.params.iter().map(|p| p.name.as_str()).collect();
+        let camera_or_nu: &[&str] = if scene == "volume" {
+            &[
+                "azimuth",
+                "elevation",
+                "zoom",
+                "opacity",
+                "lens_lo",
+                "lens_hi",
+            ]
+        } else {
+            &["nu", "mode"]
+        };
+        for n in ["scene", "n", "preview_scale", "size"]
+            .iter()
+            .chain(camera_or_nu)
+        {
+            assert!(names.contains(n), "{scene}: {n} missing from {names:?}");
+        }
+        let scale = first
+            .params
+            .iter()
+            .find(|p| p.name == "preview_scale")
+            .unwrap();
+        assert_eq!(
+            (scale.kind, scale.value.as_str()),
+            (ParamKind::Float, "0.25")
+        );
+        // Change what the TUI's keys change: the data stages come from the session's cache.
+        let key = if scene == "volume" { "azimuth" } else { "nu" };
+        opts.sets.push((key.into(), "50.0".into()));
+        let second = run_script_file(&demo_script(), &opts).unwrap();
+        let cached: Vec<String> = second
+            .passes
+            .iter()
+            .filter(|p| p.is_cached())
+            .map(|p| p.name.clone())
+            .collect();
+        assert!(
+            !cached.is_empty(),
+            "{scene}: nothing reused: {:?}",
+            second.passes
+        );
+        assert_ne!(
+            first.previews[0].pixels, second.previews[0].pixels,
+            "{scene}: {key} changed the picture"
+        );
+    }
+}
