@@ -106,7 +106,8 @@ pub enum BenchCommand {
         #[arg(long)]
         quick: bool,
     },
-    /// Tone mapping: every operator on 1024^2, 2048^2 and 4096^2 synthetic HDR images, median ms.
+    /// Tone mapping: every operator on 1024^2, 2048^2 and 4096^2 synthetic HDR images (in bands
+    /// of rows beyond one storage binding), median ms.
     Tonemap {
         /// Timed runs per operator and size (after one warm-up).
         #[arg(long, default_value_t = 5)]
