@@ -81,7 +81,8 @@ pub enum BenchCommand {
         peer: Option<String>,
     },
     /// What accuracy costs: every compositing precision (u8, f16, f32, f32c, f64) timed and
-    /// compared with the f64 reference on the mantle and HDR-blob scenes.
+    /// compared with the f64 reference on the mantle and HDR-blob scenes, and the naive and
+    /// range-reduced interference phase on the tsunami and fault surfaces.
     Accuracy {
         #[arg(long, default_value_t = 3)]
         runs: usize,
@@ -94,7 +95,10 @@ pub enum BenchCommand {
         /// Folder for accuracy.csv, accuracy.json and the chart accuracy.png.
         #[arg(long, default_value = "out/bench-accuracy")]
         out: PathBuf,
-        /// Only this scene (mantle, blobs); all by default.
+        /// Nodes per side of the tsunami and fault grids.
+        #[arg(long, default_value_t = 256)]
+        grid: usize,
+        /// Only this scene (mantle, blobs, tsunami, fault); all by default.
         #[arg(long)]
         scene: Option<String>,
     },

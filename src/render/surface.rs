@@ -14,7 +14,9 @@
 //! ν₂h₂ + ν₃·hi + ν·rest and frac(ν·d_ref) (computed in f64 on the host) are added before a last
 //! fraction; the cosine sees an argument in [−π, π]. This holds to ~1e-6 of a period for ν·d up
 //! to ~10¹⁰ at pixels on grid nodes (map view at the default size); between nodes the values are
-//! interpolated in f32 relative to d_ref.
+//! interpolated in f32 relative to d_ref. For comparison, [`PhaseMethod::Naive`] specialises the
+//! fringe pass to what a straightforward implementation does (d as one f32, cos 2πν·d in f32);
+//! `hdrvis bench accuracy` measures both.
 //!
 //! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 
@@ -157,6 +159,47 @@ impl FringeMode {
     }
 }
 
+/// How the fringe pass evaluates the phase 2π·ν·d.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PhaseMethod {
+    /// d kept as d_ref + hi + rest, ν split into short parts, fractions taken before the sums
+    /// (see the module notes): ~1e-6 of a period for ν·d up to ~1e10.
+    #[default]
+    Reduced,
+    /// What a straightforward implementation does: d as one f32, cos(2π·ν·d) evaluated directly
+    /// in f32 with no reference subtraction or range reduction. Kept to measure what the
+    /// reduction buys (`hdrvis bench accuracy`).
+    Naive,
+}
+
+impl PhaseMethod {
+    pub fn parse(s: &str) -> Result<PhaseMethod> {
+        match s {
+            "reduced" => Ok(PhaseMethod::Reduced),
+            "naive" => Ok(PhaseMethod::Naive),
+            _ => Err(Error::invalid(
+                "phase",
+                format!("expected \"reduced\" or \"naive\", got {s:?}"),
+            )),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            PhaseMethod::Reduced => "reduced",
+            PhaseMethod::Naive => "naive",
+        }
+    }
+
+    /// What the image metadata says about the phase.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PhaseMethod::Reduced => "f64 via d_ref + hi + rest and exact 12-bit partial products",
+            PhaseMethod::Naive => "naive: cos(2 pi nu d) in f32 with d as one f32",
+        }
+    }
+}
+
 /// Everything a surface render depends on besides the grid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
@@ -180,6 +223,8 @@ pub struct SurfaceOptions {
     /// Height for relief in 3-D views: `elevation`, a property name, or `None` (flat).
     pub relief: Option<String>,
     pub exaggeration: f64,
+    /// How the fringe pass evaluates the phase (reduced by default).
+    pub phase: PhaseMethod,
 }
 
 impl Default for SurfaceOptions {
@@ -197,6 +242,7 @@ impl Default for SurfaceOptions {
             height: None,
             relief: None,
             exaggeration: 1.0,
+            phase: PhaseMethod::Reduced,
         }
     }
 }
@@ -461,6 +507,7 @@ struct FringeVariant {
     absolute: bool,
     log_color: bool,
     write_value: bool,
+    naive_phase: bool,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -636,6 +683,7 @@ impl SurfaceRenderer {
                 ("ABSOLUTE", variant.absolute as u8 as f64),
                 ("LOG_COLOR", variant.log_color as u8 as f64),
                 ("WRITE_VALUE", variant.write_value as u8 as f64),
+                ("NAIVE_PHASE", variant.naive_phase as u8 as f64),
             ],
         )?;
         cache.insert(variant, p.clone());
@@ -975,6 +1023,7 @@ impl SurfaceRenderer {
             absolute: opts.absolute,
             log_color: opts.log_color,
             write_value: cached_values.is_none(),
+            naive_phase: opts.phase == PhaseMethod::Naive,
         })?;
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
@@ -1095,10 +1144,7 @@ impl SurfaceRenderer {
             },
         );
         image.set_meta("view", data.view.clone());
-        image.set_meta(
-            "phase",
-            "f64 via d_ref + hi + rest and exact 12-bit partial products",
-        );
+        image.set_meta("phase", opts.phase.describe());
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
     }

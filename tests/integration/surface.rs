@@ -6,7 +6,7 @@ use crate::common::renderer;
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::Grid;
 use hdrvis::render::surface::{
-    fringe_f64, FringeMode, SurfaceOptions, SurfaceRenderer, SurfaceView,
+    fringe_f64, FringeMode, PhaseMethod, SurfaceOptions, SurfaceRenderer, SurfaceView,
 };
 use hdrvis::render::surface_reference::{surface_reference, SurfaceReference};
 use std::sync::Arc;
@@ -384,6 +384,67 @@ fn perspective_view_with_relief_renders_lit_fringes() {
             }
         }
     }
+}
+
+/// The naive phase (d as one f32, cos 2πν·d in f32) is what the range reduction is measured
+/// against: where ν·d is small both agree with f64, at ν·d ≈ 8·10⁵ the naive fringes are wrong
+/// by a large part of their range while the reduced ones stay within 1e-5. Scripts select it
+/// with `phase: "naive"`.
+#[test]
+fn naive_phase_loses_at_large_nu_d_what_the_reduced_phase_keeps() {
+    let (nx, ny) = (96, 40);
+    let small = Grid::from_fn("d", nx, ny, |i, j| 0.37 * i as f64 - 0.05 * j as f64).unwrap();
+    let large = Grid::from_fn("d", nx, ny, |i, j| {
+        1.0e5 + 0.0173 * i as f64 + 0.0041 * j as f64 + 2e-3 * (0.3 * i as f64).sin()
+    })
+    .unwrap();
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        let mut errors = Vec::new();
+        for grid in [&small, &large] {
+            for phase in [PhaseMethod::Naive, PhaseMethod::Reduced] {
+                let o = SurfaceOptions { phase, ..opts(8.0) };
+                let img = r.render(grid, &o).unwrap().remove(0);
+                assert!(img.meta("phase").unwrap().starts_with(match phase {
+                    PhaseMethod::Naive => "naive",
+                    PhaseMethod::Reduced => "f64",
+                }));
+                errors.push(max_fringe_error(grid, &img, 8.0, 0));
+            }
+        }
+        let [small_naive, small_reduced, large_naive, large_reduced] = errors[..] else {
+            unreachable!()
+        };
+        eprintln!("{backend:?}: naive/reduced max fringe error, nu*d < 300: {small_naive:.1e}/{small_reduced:.1e}; nu*d ~ 8e5: {large_naive:.1e}/{large_reduced:.1e}");
+        assert!(small_naive < 1e-4 && small_reduced < 1e-5, "{errors:?}");
+        assert!(large_reduced < 1e-5, "{errors:?}");
+        // f32 spacing at 1e5 is 7.8e-3: ν times that is 1/16 of a fringe before the cosine
+        // loses more at arguments of 5e6 rad.
+        assert!(large_naive > 0.1, "{errors:?}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    hdrvis::datasets::npy::write_npy::<f64>(
+        &dir.path().join("d.npy"),
+        &[ny, nx],
+        large.property("d").unwrap(),
+    )
+    .unwrap();
+    let mut o = hdrvis::script::ScriptOptions::new(dir.path().join("out"));
+    o.backend = BackendChoice::Vulkan;
+    let run = |src: &str| hdrvis::script::run_script_source(src, "t.rhai", dir.path(), &o);
+    run(r#"let g = load_grid("d.npy");
+           let a = render_surface(g, #{ nu: 8, phase: "naive" });
+           let b = render_surface(g, #{ nu: 8, phase: "reduced" });
+           save_exr(a, "a.exr"); save_exr(b, "b.exr");"#)
+    .unwrap();
+    let a = hdrvis::io::exr::read_exr(&dir.path().join("out/a.exr")).unwrap();
+    let b = hdrvis::io::exr::read_exr(&dir.path().join("out/b.exr")).unwrap();
+    assert!(max_fringe_error(&large, &a, 8.0, 0) > 0.1);
+    assert!(max_fringe_error(&large, &b, 8.0, 0) < 1e-5);
+    let e = run(r#"render_surface(load_grid("d.npy"), #{ nu: 8, phase: "exact" });"#)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("phase") && e.contains("naive"), "{e}");
 }
 
 /// A 64² grid with relief (a hill and a ridge that hides part of the slope behind it from
