@@ -39,6 +39,10 @@ override MODE: u32 = 0u;
 override ABSOLUTE: bool = false;
 override LOG_COLOR: bool = false;
 override WRITE_VALUE: bool = true;
+// The naive phase (src/render/surface.rs `PhaseMethod::Naive`): d as one f32 and cos(2π·ν·d)
+// evaluated directly, as a straightforward implementation would; only for measuring what the
+// reduction buys.
+override NAIVE_PHASE: bool = false;
 
 const TAU: f32 = 6.283185307179586;
 
@@ -91,13 +95,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let hi = data_hi[plane];
     let rest = data_rest[plane];
     let d = params.refs.y + (hi + rest);
-    var ph = phase(hi, rest);
-    if (ABSOLUTE && d < 0.0) {
-        ph = fr(1.0 - ph);
+    var ph: f32;
+    var fringe: f32;
+    if (NAIVE_PHASE) {
+        let arg = TAU * params.nu.w * d;
+        ph = fr(params.nu.w * d);
+        if (ABSOLUTE && d < 0.0) {
+            ph = fr(1.0 - ph);
+        }
+        fringe = 0.5 + 0.5 * cos(arg);
+    } else {
+        ph = phase(hi, rest);
+        if (ABSOLUTE && d < 0.0) {
+            ph = fr(1.0 - ph);
+        }
+        // cos of an argument in [−π, π] for the best f32 accuracy.
+        let centred = ph - round(ph);
+        fringe = 0.5 + 0.5 * cos(TAU * centred);
     }
-    // cos of an argument in [−π, π] for the best f32 accuracy.
-    let centred = ph - round(ph);
-    let fringe = 0.5 + 0.5 * cos(TAU * centred);
     var colour: vec3<f32>;
     var t: f32;
     if (MODE == 0u) {

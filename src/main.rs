@@ -110,13 +110,14 @@ fn run(cli: Cli) -> Result<()> {
             runs,
             size,
             n,
+            grid,
             out,
             scene,
         })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
             use hdrvis::bench::accuracy;
-            let scenes = accuracy::accuracy_scenes(size, n, scene.as_deref())?;
+            let scenes = accuracy::accuracy_scenes(size, n, grid, scene.as_deref())?;
             let rows = accuracy::bench_accuracy(ctx, &scenes, runs, &mut |m| eprintln!("{m}"))?;
             print!("{}", accuracy::format_accuracy_table(&adapter, &rows));
             let (csv, json) = accuracy::write_accuracy_files(&out, &rows)?;

@@ -9,7 +9,8 @@ struct ToneMapParams {
     sharpness: f32, epsilon: f32, ratio: f32, scale: f32,
     pass_index: u32, sigma: f32, radius: u32, direction: u32,
     cell: u32, grid_width: u32, grid_height: u32, levels: u32,
-    first_level: f32, level_step: f32, src_offset: u32, dst_offset: u32,
+    first_level: f32, level_step: f32, band_first: u32, dst_offset: u32,
+    band_rows: u32, window_first: u32, pad0: u32, pad1: u32,
 }
 
 struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
@@ -31,6 +32,11 @@ fn is_missing(p: vec4<f32>) -> bool {
 fn pixel_index(id: vec3<u32>, groups: vec3<u32>) -> u32 {
     return id.x + id.y * groups.x * 256u;
 }
+
+// Bands: an image larger than one storage binding is processed in bands of rows
+// [band_first, band_first + band_rows) (of pixels, or of a pass's grid cells); per-pixel
+// buffers are bound as windows starting at the band's first row, so an item index within the
+// band is also its index in those windows. Global coordinates add band_first back.
 
 // (C / L_w)^s * L_d, + offset, clamped, ^(1 / gamma). pow(0, y) is indeterminate in WGSL,
 // hence the selects.

@@ -10,7 +10,10 @@
 // L_d = 10^((B - max B) c + l - B). CPU reference: src/tonemap/cpu.rs `durand`.
 //
 // Host sequence (dispatches (X, Y, 1) workgroups of 256, X * Y * 256 >= items,
-// item = global_id.x + global_id.y * X * 256):
+// item = global_id.x + global_id.y * X * 256). The splat and the per-pixel passes run over
+// bands of rows [band_first, band_first + band_rows) (grid rows for the splat, pixel rows
+// otherwise; one band when every buffer fits one binding), with image, output and layers bound
+// as windows from the band's first row (the splat's image window from row window_first):
 //   grid_splat     one item per cell            image -> cells
 //   grid_blur_x    one item per (level, cell)   cells -> tmp
 //   grid_blur_y    one item per (level, cell)   tmp -> levels
@@ -68,26 +71,27 @@ fn log_luminance(p: vec4<f32>) -> vec2<f32> {
 
 @compute @workgroup_size(256)
 fn grid_splat(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    // Bands of grid rows; the image window starts at pixel row window_first.
     let c = pixel_index(id, groups);
-    if c >= params.grid_width * params.grid_height {
+    if c >= params.grid_width * params.band_rows {
         return;
     }
     let x0 = (c % params.grid_width) * params.cell;
-    let y0 = (c / params.grid_width) * params.cell;
+    let y0 = (params.band_first + c / params.grid_width) * params.cell;
     let x1 = min(x0 + params.cell, params.width);
     let y1 = min(y0 + params.cell, params.height);
     var sum = 0.0;
     var count = 0.0;
     for (var y = y0; y < y1; y = y + 1u) {
         for (var x = x0; x < x1; x = x + 1u) {
-            let l = log_luminance(image[y * params.width + x]);
+            let l = log_luminance(image[(y - params.window_first) * params.width + x]);
             if l.y == 2.0 {
                 sum = sum + l.x;
                 count = count + 1.0;
             }
         }
     }
-    cells[c] = vec2<f32>(select(0.0, sum / count, count > 0.0), count);
+    cells[params.band_first * params.grid_width + c] = vec2<f32>(select(0.0, sum / count, count > 0.0), count);
 }
 
 fn spatial_weight(k: i32) -> f32 {
@@ -168,7 +172,7 @@ fn level_value(level: u32, ax: vec3<f32>, ay: vec3<f32>) -> f32 {
 @compute @workgroup_size(256)
 fn base(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = pixel_index(id, groups);
-    if i >= params.width * params.height {
+    if i >= params.width * params.band_rows {
         return;
     }
     let centre = log_luminance(image[i]);
@@ -180,7 +184,7 @@ fn base(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
     let j = clamp(floor(t), 0.0, f32(params.levels - 2u));
     let f = clamp(t - j, 0.0, 1.0);
     let ax = grid_axis(i % params.width, params.grid_width);
-    let ay = grid_axis(i / params.width, params.grid_height);
+    let ay = grid_axis(params.band_first + i / params.width, params.grid_height);
     let lower = level_value(u32(j), ax, ay);
     let upper = level_value(u32(j) + 1u, ax, ay);
     layers[i] = vec4<f32>(mix(lower, upper, f), centre.x, 2.0, 0.0);
@@ -208,7 +212,7 @@ fn range_partial(
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let n = params.width * params.height;
+    let n = params.width * params.band_rows;
     var acc = vec4<f32>(0.0, 0.0, LOW, HIGH);
     for (var i = group.x * WORKGROUP + local; i < n; i = i + groups.x * WORKGROUP) {
         let layer = layers[i];
@@ -237,7 +241,7 @@ fn range_finish(@builtin(local_invocation_index) local: u32) {
 @compute @workgroup_size(256)
 fn apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = pixel_index(id, groups);
-    if i >= params.width * params.height {
+    if i >= params.width * params.band_rows {
         return;
     }
     let p = image[i];

@@ -35,14 +35,15 @@ fn colour_map(t: f32) -> vec4<f32> {
 
 @compute @workgroup_size(256)
 fn false_colour(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    // Index within the band (image and output are bound from its first row); y is global.
     let i = id.x + id.y * groups.x * 256u;
-    if i >= params.width * params.height {
+    if i >= params.width * params.band_rows {
         return;
     }
     let low = params.ld_min;
     let high = params.ld_max;
     let x = i % params.width;
-    let y = i / params.width;
+    let y = params.band_first + i / params.width;
     if params.radius > 0u && y >= params.height - params.radius && params.width >= 2u {
         let span = f32(params.width - 1u);
         var colour = colour_map(f32(x) / span);

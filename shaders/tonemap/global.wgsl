@@ -106,8 +106,9 @@ fn apply_global(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
+    // Index within the band (image and output are bound from its first row).
     let i = id.x + id.y * groups.x * 256u;
-    if i >= params.width * params.height {
+    if i >= params.width * params.band_rows {
         return;
     }
     let p = image[i];

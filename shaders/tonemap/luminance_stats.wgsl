@@ -5,8 +5,9 @@
 // CPU reference: src/tonemap/cpu.rs `luminance_log_stats`.
 //
 // Two passes, both in this file:
-//   partial_stats  dispatch (G, 1, 1) workgroups of 256, G = min(ceil(n / 256), 1024); each
-//                  thread strides over the image by G * 256 pixels. Writes partials[workgroup].
+//   partial_stats  dispatch (G, 1, 1) workgroups of 256 per band of rows (G >= 1 and <= 1024);
+//                  each thread strides over the band by G * 256 pixels. Writes
+//                  partials[workgroup] of the band's window of `partials`.
 //   finish_stats   dispatch (1, 1, 1); combines arrayLength(&partials) partials into `stats`.
 //
 // Bindings (group 0):
@@ -53,7 +54,8 @@ fn partial_stats(
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let n = params.width * params.height;
+    // The band's pixels (the image window starts at its first row).
+    let n = params.width * params.band_rows;
     let stride = groups.x * WORKGROUP;
     let exposure_log = params.exposure_ev * LN2;
     var sum = 0.0;

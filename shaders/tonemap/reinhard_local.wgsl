@@ -10,27 +10,35 @@
 // CPU reference: src/tonemap/cpu.rs `reinhard_local` / `reinhard_blurs`.
 //
 // Host sequence (dispatches (X, Y, 1) workgroups of 256 with X * Y * 256 >= items,
-// item = global_id.x + global_id.y * X * 256), `stats` from luminance_stats.wgsl:
-//   prepare     one item per pixel             image, stats -> pyramid level 0
-//   downsample  one item per cell of level k   pyramid (src_offset: level k-1) -> (dst_offset: k)
+// item = global_id.x + global_id.y * X * 256), `stats` from luminance_stats.wgsl. Every pass
+// runs over bands of rows [band_first, band_first + band_rows) of its item grid (one band when
+// the buffers fit one binding each; src/tonemap/gpu.rs `record_reinhard`), with the large
+// buffers bound as windows that start at the band's first row unless said otherwise:
+//   prepare     one item per pixel           image, stats -> level 0 (pyramid)
+//   downsample  one item per cell of level k level k-1 (blur_in, window from row
+//                                            window_first) -> level k (blur_out)
 //   for each scale i, on its level k_i (cell = 2^k, grid_width x grid_height cells):
-//     blur_x   pyramid (src_offset) -> tmp
-//     blur_y   tmp -> blurred (dst_offset)
-//   apply       one item per pixel             image, stats, blurred, scales -> output
+//     blur_x    level k (blur_in) -> this scale's horizontal blur (blur_out)
+//   per pixel band, for each scale i:
+//     blur_y    horizontal blur (blur_in, window from row window_first) -> the rows of the
+//               scale this band reads, at dst_offset in the band's `blurred` buffer
+//   apply       one item per pixel           image, stats, blurred, scales -> output
 //
 // Bindings (group 0):
 //   @binding(0)  params    uniform    ToneMapParams (per pass: sigma, radius, cell,
-//                                     grid_width, grid_height, src_offset, dst_offset; apply:
-//                                     levels = number of scales + 1)
+//                                     grid_width, grid_height, band_first, band_rows,
+//                                     window_first, dst_offset; apply: levels = number of
+//                                     scales + 1)
 //   @binding(1)  image     storage, read        array<vec4<f32>>  (prepare, apply)
 //   @binding(2)  output    storage, read_write  array<vec4<f32>>  (apply)
 //   @binding(3)  stats     storage, read        LuminanceStats    (prepare, apply)
-//   @binding(8)  blur_in   storage, read        array<vec2<f32>>  (blur_x, blur_y)
-//   @binding(9)  blur_out  storage, read_write  array<vec2<f32>>  (blur_x, blur_y)
-//   @binding(10) pyramid   storage, read_write  array<vec2<f32>>  (prepare, downsample)
+//   @binding(8)  blur_in   storage, read        array<vec2<f32>>  (downsample, blur_x, blur_y)
+//   @binding(9)  blur_out  storage, read_write  array<vec2<f32>>  (downsample, blur_x, blur_y)
+//   @binding(10) pyramid   storage, read_write  array<vec2<f32>>  (prepare: level 0)
 //   @binding(11) blurred   storage, read        array<vec2<f32>>  (apply)
 //   @binding(18) scales    uniform    array<vec4<u32>, 17>  per scale i: (offset in
-//                                     blurred, k, bits of f32 s_i = ratio^i, 0)
+//                                     blurred, k, bits of f32 s_i = ratio^i, first row of
+//                                     level k held in blurred)
 
 #include "shared/tonemap_common.wgsl"
 
@@ -64,7 +72,7 @@ fn scaled_luminance(p: vec4<f32>) -> f32 {
 @compute @workgroup_size(256)
 fn prepare(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = pixel_index(id, groups);
-    if i >= params.width * params.height {
+    if i >= params.width * params.band_rows {
         return;
     }
     let p = image[i];
@@ -78,24 +86,25 @@ fn prepare(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
 @compute @workgroup_size(256)
 fn downsample(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let c = pixel_index(id, groups);
-    if c >= params.grid_width * params.grid_height {
+    if c >= params.grid_width * params.band_rows {
         return;
     }
-    // The level above has ceil(width / (cell / 2)) x ceil(height / (cell / 2)) cells.
+    // The level above has ceil(width / (cell / 2)) x ceil(height / (cell / 2)) cells; its
+    // window starts at row window_first.
     let half = params.cell / 2u;
     let sw = (params.width + half - 1u) / half;
     let sh = (params.height + half - 1u) / half;
     let x = 2u * (c % params.grid_width);
-    let y = 2u * (c / params.grid_width);
+    let y = 2u * (params.band_first + c / params.grid_width);
     var acc = vec2<f32>(0.0);
     for (var dy = 0u; dy < 2u; dy = dy + 1u) {
         for (var dx = 0u; dx < 2u; dx = dx + 1u) {
             if x + dx < sw && y + dy < sh {
-                acc = acc + 0.25 * pyramid[params.src_offset + (y + dy) * sw + x + dx];
+                acc = acc + 0.25 * blur_in[(y + dy - params.window_first) * sw + x + dx];
             }
         }
     }
-    pyramid[params.dst_offset + c] = acc;
+    blur_out[c] = acc;
 }
 
 // The pass's Gaussian taps, once per workgroup (radius <= 127 by validation); returns the radius.
@@ -118,11 +127,12 @@ fn blur_x(
 ) {
     let r = load_taps(local);
     let c = pixel_index(id, groups);
-    if c >= params.grid_width * params.grid_height {
+    if c >= params.grid_width * params.band_rows {
         return;
     }
+    // Rows are independent: in and out windows both start at the band's first row.
     let x = i32(c % params.grid_width);
-    let row = params.src_offset + c - u32(x);
+    let row = c - u32(x);
     let last = i32(params.grid_width) - 1;
     var acc = vec2<f32>(0.0);
     // The same taps for every lane (a uniform loop; taps outside the grid weigh 0), which
@@ -132,7 +142,7 @@ fn blur_x(
         let weight = select(0.0, taps[abs(k)], sx >= 0 && sx <= last);
         acc = acc + weight * blur_in[row + u32(clamp(sx, 0, last))];
     }
-    blur_out[params.dst_offset + c] = acc;
+    blur_out[c] = acc;
 }
 
 @compute @workgroup_size(256)
@@ -143,17 +153,18 @@ fn blur_y(
 ) {
     let r = load_taps(local);
     let c = pixel_index(id, groups);
-    if c >= params.grid_width * params.grid_height {
+    if c >= params.grid_width * params.band_rows {
         return;
     }
+    // The input window starts at row window_first, at least the radius above the band (or 0).
     let x = c % params.grid_width;
-    let y = i32(c / params.grid_width);
+    let y = i32(params.band_first + c / params.grid_width);
     let last = i32(params.grid_height) - 1;
     var acc = vec2<f32>(0.0);
     for (var k = -r; k <= r; k = k + 1) {
         let sy = y + k;
         let weight = select(0.0, taps[abs(k)], sy >= 0 && sy <= last);
-        acc = acc + weight * blur_in[params.src_offset + u32(clamp(sy, 0, last)) * params.grid_width + x];
+        acc = acc + weight * blur_in[(u32(clamp(sy, 0, last)) - params.window_first) * params.grid_width + x];
     }
     blur_out[params.dst_offset + c] = acc;
 }
@@ -165,7 +176,7 @@ fn scale_value(i: u32, x: u32, y: u32) -> f32 {
     let entry = scales[i];
     var v: vec2<f32>;
     if entry.y == 0u {
-        v = blurred[entry.x + y * params.width + x];
+        v = blurred[entry.x + (y - entry.w) * params.width + x];
     } else {
         let cell = 1u << entry.y;
         let gw = (params.width + cell - 1u) / cell;
@@ -176,8 +187,8 @@ fn scale_value(i: u32, x: u32, y: u32) -> f32 {
         let y0 = floor(w);
         let x1 = min(u32(x0) + 1u, gw - 1u);
         let y1 = min(u32(y0) + 1u, gh - 1u);
-        let r0 = entry.x + u32(y0) * gw;
-        let r1 = entry.x + y1 * gw;
+        let r0 = entry.x + (u32(y0) - entry.w) * gw;
+        let r1 = entry.x + (y1 - entry.w) * gw;
         let top = mix(blurred[r0 + u32(x0)], blurred[r0 + x1], u - x0);
         let bottom = mix(blurred[r1 + u32(x0)], blurred[r1 + x1], u - x0);
         v = mix(top, bottom, w - y0);
@@ -188,7 +199,7 @@ fn scale_value(i: u32, x: u32, y: u32) -> f32 {
 @compute @workgroup_size(256)
 fn apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = pixel_index(id, groups);
-    if i >= params.width * params.height {
+    if i >= params.width * params.band_rows {
         return;
     }
     let p = image[i];
@@ -197,7 +208,7 @@ fn apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     let x = i % params.width;
-    let y = i / params.width;
+    let y = params.band_first + i / params.width;
     let l = scaled_luminance(p);
     var v1 = scale_value(0u, x, y);
     var chosen = v1;

@@ -43,7 +43,7 @@ fn histogram(
 ) {
     atomicStore(&local_counts[local], 0u);
     workgroupBarrier();
-    let n = params.width * params.height;
+    let n = params.width * params.band_rows;
     let bins = min(params.bins, MAX_BINS);
     let width = (stats.max_log - stats.min_log) / f32(bins);
     if width > 0.0 {

@@ -1,13 +1,18 @@
-//! What accuracy costs (`hdrvis bench accuracy`): each compositing precision (u8, f16, f32, f32c,
-//! f64 on the CPU) and coarser steps, timed and compared with the f64 CPU reference on the same
-//! rays and transfer table — relative RMS and maximum error of the HDR image, PSNR of the 8-bit
-//! tone-mapped view, and the fraction of pixels that lost detail — as a table, CSV, JSON and a
-//! log–log chart of error against time.
+//! What accuracy costs (`hdrvis bench accuracy`): on the volume scenes (mantle, blobs) each
+//! compositing precision (u8, f16, f32, f32c, f64 on the CPU) and coarser steps, timed and
+//! compared with the f64 CPU reference on the same rays and transfer table; on the surface scenes
+//! of the paper's case studies (tsunami, Fig. 3; fault, Fig. 4) the interference phase evaluated
+//! naively in f32 and range-reduced, timed (the fringe pass) and compared with the f64 fringe
+//! image — relative RMS and maximum error, PSNR of the 8-bit tone-mapped view, and the fraction
+//! of pixels that lost detail — as a table, CSV, JSON and a log–log chart of error against time.
 
 use super::{bench_tf, bench_volume, median};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
-use crate::model::{Camera, Scale, TransferFunction, Volume};
+use crate::model::{Camera, Grid, Scale, TransferFunction, Volume};
+use crate::render::surface::{
+    fringe_f64, FringeMode, PhaseMethod, SurfaceOptions, SurfaceRenderer,
+};
 use crate::render::volume::{GpuVolume, VolumeRenderer};
 use crate::render::VolumeRenderOptions;
 use std::path::{Path, PathBuf};
@@ -29,25 +34,122 @@ pub struct AccuracyRow {
     pub lost_detail: f64,
 }
 
-/// A named accuracy scene: a volume and render options.
+/// A named accuracy scene.
 pub struct AccuracyScene {
     pub name: String,
-    pub volume: Volume,
-    pub options: VolumeRenderOptions,
+    pub kind: SceneKind,
 }
 
+/// What an accuracy scene renders.
+pub enum SceneKind {
+    /// A volume ray cast: the compositing precisions and step sizes are compared.
+    Volume {
+        volume: Volume,
+        options: VolumeRenderOptions,
+    },
+    /// An interference surface in map view at one pixel per node: the phase methods are
+    /// compared on its fringe intensity I = (1 + cos 2πν·d)/2.
+    Surface { grid: Grid, options: SurfaceOptions },
+}
+
+/// Names of the built-in scenes, in report order.
+pub const SCENE_NAMES: &[&str] = &["mantle", "blobs", "tsunami", "fault"];
+
 /// The built-in accuracy scenes: the mantle's temperature fluctuation (symlog TF, as in the
-/// demo) and the HDR blobs of the volume benchmark (log10 TF), both in perspective.
-pub fn accuracy_scenes(size: u32, n: usize, only: Option<&str>) -> Result<Vec<AccuracyScene>> {
-    const NAMES: &[&str] = &["mantle", "blobs"];
+/// demo) and the HDR blobs of the volume benchmark (log10 TF), both in perspective, `size`²
+/// pixels from `n`³ voxels; and the paper's two surface case studies on `grid`² nodes
+/// ([`tsunami_scene`], [`fault_scene`]), generated through the dataset cache.
+pub fn accuracy_scenes(
+    size: u32,
+    n: usize,
+    grid: usize,
+    only: Option<&str>,
+) -> Result<Vec<AccuracyScene>> {
     if let Some(name) = only {
-        if !NAMES.contains(&name) {
+        if !SCENE_NAMES.contains(&name) {
             return Err(Error::invalid(
                 "scene",
-                format!("unknown scene {name:?}; known: {}", NAMES.join(", ")),
+                format!("unknown scene {name:?}; known: {}", SCENE_NAMES.join(", ")),
             ));
         }
     }
+    let wants = |name: &str| only.is_none_or(|o| o == name);
+    let mut scenes = Vec::new();
+    if wants("mantle") || wants("blobs") {
+        scenes.extend(volume_scenes(size, n, only)?);
+    }
+    if wants("tsunami") {
+        scenes.push(tsunami_scene(grid)?);
+    }
+    if wants("fault") {
+        scenes.push(fault_scene(grid)?);
+    }
+    Ok(scenes)
+}
+
+/// The paper's case I (Fig. 3) at large ν·d: the total water column over the sea floor at the
+/// wave's maximum, depth + max |η| (m; land missing), of the generated South-China-Sea-like
+/// tsunami on `n`² cells, at ν = 10 per metre (one fringe per 10 cm of wave height, as
+/// `scripts/tsunami.rhai`): metres of wave on kilometres of water put ν·d at 10⁴–4·10⁴.
+pub fn tsunami_scene(n: usize) -> Result<AccuracyScene> {
+    use crate::datasets::generate::{BathymetrySource, Job, OutputFormat, TsunamiJob};
+    let job = TsunamiJob {
+        bathymetry: BathymetrySource::Synthetic {
+            n,
+            extent_m: crate::datasets::tsunami::SOUTH_CHINA_SEA_EXTENT_M,
+        },
+        ..Default::default()
+    };
+    let path = Job::Tsunami(job).run_cached(OutputFormat::NetCdf, &mut |_| {})?;
+    let g = Grid::load(&path, None)?;
+    let (eta, depth) = (g.property("max_abs_eta")?, g.property("depth")?);
+    let column: Vec<f64> = eta
+        .iter()
+        .zip(depth)
+        .map(|(&e, &h)| if h > 0.0 { h + e } else { f64::NAN })
+        .collect();
+    let grid = Grid::from_arrays("tsunami", g.nx(), g.ny(), vec![("column".into(), column)])?;
+    Ok(AccuracyScene {
+        name: "tsunami".into(),
+        kind: SceneKind::Surface {
+            grid,
+            options: surface_options(10.0),
+        },
+    })
+}
+
+/// The paper's case II (Fig. 4) at large ν·d: the vertical displacement uz of the paper's
+/// buried normal fault (Okada 1985) on `n`² nodes at ν = 8 per metre (the paper's value), as
+/// an absolute position 100 km from the frame's origin (as projected or geocentric coordinates
+/// are): ν·d ≈ 8·10⁵, while the displacement itself varies by metres.
+pub fn fault_scene(n: usize) -> Result<AccuracyScene> {
+    use crate::datasets::generate::{Job, OkadaJob, OutputFormat};
+    let job = OkadaJob {
+        n,
+        ..Default::default()
+    };
+    let path = Job::Okada(job).run_cached(OutputFormat::NetCdf, &mut |_| {})?;
+    let g = Grid::load(&path, None)?;
+    let uz: Vec<f64> = g.property("uz")?.iter().map(|&v| 1.0e5 + v).collect();
+    let grid = Grid::from_arrays("fault", g.nx(), g.ny(), vec![("uz".into(), uz)])?;
+    Ok(AccuracyScene {
+        name: "fault".into(),
+        kind: SceneKind::Surface {
+            grid,
+            options: surface_options(8.0),
+        },
+    })
+}
+
+fn surface_options(nu: f64) -> SurfaceOptions {
+    SurfaceOptions {
+        nu: vec![nu],
+        mode: FringeMode::Cyclic,
+        ..Default::default()
+    }
+}
+
+fn volume_scenes(size: u32, n: usize, only: Option<&str>) -> Result<Vec<AccuracyScene>> {
     use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
     use crate::model::transfer::LutTransfer;
     let m = generate(
@@ -87,8 +189,7 @@ pub fn accuracy_scenes(size: u32, n: usize, only: Option<&str>) -> Result<Vec<Ac
         o.step = 0.5;
         scenes.push(AccuracyScene {
             name: name.to_string(),
-            volume,
-            options: o,
+            kind: SceneKind::Volume { volume, options: o },
         });
     }
     Ok(scenes)
@@ -164,11 +265,141 @@ fn accuracy_metrics(
     Ok((rel_rms, max_rel, psnr, lost))
 }
 
-/// Times every precision variant on each scene and measures its error against the f64 CPU
-/// reference (which is also timed, as the `f64` variant).
+/// Times every variant on each scene and measures its error against the f64 CPU reference
+/// (which is also timed, as the `f64 (CPU)` variant).
 pub fn bench_accuracy(
     ctx: Arc<GpuContext>,
     scenes: &[AccuracyScene],
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<AccuracyRow>> {
+    let mut rows = Vec::new();
+    for scene in scenes {
+        match &scene.kind {
+            SceneKind::Volume { volume, options } => rows.extend(bench_volume_scene(
+                ctx.clone(),
+                &scene.name,
+                volume,
+                options,
+                runs,
+                log,
+            )?),
+            SceneKind::Surface { grid, options } => rows.extend(bench_surface_scene(
+                ctx.clone(),
+                &scene.name,
+                grid,
+                options,
+                runs,
+                log,
+            )?),
+        }
+    }
+    Ok(rows)
+}
+
+/// The fringe intensity of a map-view image as an opaque grey image (missing pixels 0).
+fn grey(fringe: impl Iterator<Item = f64>) -> Vec<[f64; 4]> {
+    fringe
+        .map(|f| {
+            if f.is_finite() {
+                [f, f, f, 1.0]
+            } else {
+                [0.0; 4]
+            }
+        })
+        .collect()
+}
+
+/// The phase methods on one surface scene: each fringe pass timed (the data pass is cached)
+/// and its fringe intensity compared with (1 + cos 2πν·d)/2 evaluated in f64 at the node each
+/// pixel shows (map view, one pixel per node); the f64 evaluation on the CPU is timed too.
+fn bench_surface_scene(
+    ctx: Arc<GpuContext>,
+    name: &str,
+    grid: &Grid,
+    options: &SurfaceOptions,
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<AccuracyRow>> {
+    use rayon::prelude::*;
+    let renderer = SurfaceRenderer::new(ctx);
+    let nu = options.nu[0];
+    let (nx, ny) = (grid.nx(), grid.ny());
+    let d = grid.property_at(0).1;
+    let mut f64_ms = Vec::new();
+    let mut reference = Vec::new();
+    log(&format!("{name}: f64 fringes on the CPU ..."));
+    for _ in 0..runs.max(1) {
+        let t = std::time::Instant::now();
+        // Pixel (i, r) shows node (i, ny − 1 − r) in map view.
+        reference = grey(
+            (0..nx * ny)
+                .into_par_iter()
+                .map(|k| fringe_f64(nu, d[(ny - 1 - k / nx) * nx + k % nx]))
+                .collect::<Vec<_>>()
+                .into_iter(),
+        );
+        f64_ms.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let mut rows = Vec::new();
+    for (phase, variant) in [
+        (PhaseMethod::Naive, "naive f32"),
+        (PhaseMethod::Reduced, "reduced"),
+    ] {
+        let o = SurfaceOptions {
+            phase,
+            ..options.clone()
+        };
+        renderer.render(grid, &o)?;
+        let mut ms = Vec::new();
+        let mut last = None;
+        for _ in 0..runs.max(1) {
+            let (mut images, timing) = renderer.render_timed(grid, &o)?;
+            ms.push(timing.fringe_ms);
+            last = Some(images.remove(0));
+        }
+        let img = last.expect("at least one run");
+        let fringe = img
+            .extra_channels
+            .iter()
+            .find(|(n, _)| n == "fringe")
+            .map(|(_, v)| v)
+            .ok_or_else(|| Error::Gpu("surface image without a fringe channel".into()))?;
+        let got = grey(fringe.iter().map(|&v| v as f64));
+        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+            accuracy_metrics(&got, &reference, nx as u32, ny as u32)?;
+        log(&format!(
+            "{name} {variant}: {:.1} ms, rel RMS {rel_rms:.2e}",
+            median(&ms)
+        ));
+        rows.push(AccuracyRow {
+            scene: name.to_string(),
+            variant: variant.into(),
+            median_ms: median(&ms),
+            rel_rms,
+            max_rel,
+            psnr_8bit,
+            lost_detail,
+        });
+    }
+    rows.push(AccuracyRow {
+        scene: name.to_string(),
+        variant: "f64 (CPU)".into(),
+        median_ms: median(&f64_ms),
+        rel_rms: 0.0,
+        max_rel: 0.0,
+        psnr_8bit: f64::INFINITY,
+        lost_detail: 0.0,
+    });
+    Ok(rows)
+}
+
+/// The compositing precisions and coarser steps on one volume scene.
+fn bench_volume_scene(
+    ctx: Arc<GpuContext>,
+    name: &str,
+    volume: &Volume,
+    options: &VolumeRenderOptions,
     runs: usize,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<AccuracyRow>> {
@@ -176,115 +407,113 @@ pub fn bench_accuracy(
     use crate::render::Precision;
     let renderer = VolumeRenderer::new(ctx);
     let mut rows = Vec::new();
-    for scene in scenes {
-        log(&format!("{}: f64 reference on the CPU ...", scene.name));
-        let mut o = scene.options.clone();
-        o.precision = Precision::F64;
-        let mut f64_ms = Vec::new();
-        let mut reference = Vec::new();
-        for _ in 0..runs.clamp(1, 3) {
-            let t = std::time::Instant::now();
-            reference = render_volume_f64(&scene.volume, &o)?;
-            f64_ms.push(t.elapsed().as_secs_f64() * 1e3);
+    log(&format!("{name}: f64 reference on the CPU ..."));
+    let mut o = options.clone();
+    o.precision = Precision::F64;
+    let mut f64_ms = Vec::new();
+    let mut reference = Vec::new();
+    for _ in 0..runs.clamp(1, 3) {
+        let t = std::time::Instant::now();
+        reference = render_volume_f64(volume, &o)?;
+        f64_ms.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let gv = GpuVolume::upload(renderer.context(), volume)?;
+    for precision in [
+        Precision::U8,
+        Precision::F16,
+        Precision::F32,
+        Precision::F32c,
+    ] {
+        o.precision = precision;
+        renderer.render(&gv, &o)?;
+        let mut ms = Vec::new();
+        let mut last = None;
+        for _ in 0..runs.max(1) {
+            let (img, t) = renderer.render(&gv, &o)?;
+            ms.push(t.seconds * 1e3);
+            last = Some(img);
         }
-        let gv = GpuVolume::upload(renderer.context(), &scene.volume)?;
-        for precision in [
-            Precision::U8,
-            Precision::F16,
-            Precision::F32,
-            Precision::F32c,
-        ] {
-            o.precision = precision;
-            renderer.render(&gv, &o)?;
-            let mut ms = Vec::new();
-            let mut last = None;
-            for _ in 0..runs.max(1) {
-                let (img, t) = renderer.render(&gv, &o)?;
-                ms.push(t.seconds * 1e3);
-                last = Some(img);
-            }
-            let img = last.expect("at least one run");
-            let got: Vec<[f64; 4]> = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
-            let (rel_rms, max_rel, psnr_8bit, lost_detail) =
-                accuracy_metrics(&got, &reference, o.width, o.height)?;
-            log(&format!(
-                "{} {}: {:.1} ms, rel RMS {rel_rms:.2e}",
-                scene.name,
-                precision.name(),
-                median(&ms)
-            ));
-            rows.push(AccuracyRow {
-                scene: scene.name.clone(),
-                variant: precision.name().into(),
-                median_ms: median(&ms),
-                rel_rms,
-                max_rel,
-                psnr_8bit,
-                lost_detail,
-            });
-        }
-        // f64 on the GPU where the adapter has shader f64 (lavapipe does).
-        let f64_gpu = crate::render::volume_f64::F64RayCaster::new(renderer.context().clone());
-        if f64_gpu.available() {
-            o.precision = Precision::F64;
-            f64_gpu.render(&gv, &o)?;
-            let mut ms = Vec::new();
-            let mut got = Vec::new();
-            for _ in 0..runs.max(1) {
-                let t = std::time::Instant::now();
-                got = f64_gpu.render(&gv, &o)?;
-                ms.push(t.elapsed().as_secs_f64() * 1e3);
-            }
-            let (rel_rms, max_rel, psnr_8bit, lost_detail) =
-                accuracy_metrics(&got, &reference, o.width, o.height)?;
-            rows.push(AccuracyRow {
-                scene: scene.name.clone(),
-                variant: "f64 (GPU)".into(),
-                median_ms: median(&ms),
-                rel_rms,
-                max_rel,
-                psnr_8bit,
-                lost_detail,
-            });
-        }
-        // The other knob: coarser steps in f32, against the same reference (step 0.5).
-        o.precision = Precision::F32;
-        let base_step = scene.options.step;
-        for factor in [2.0, 4.0] {
-            o.step = base_step * factor;
-            renderer.render(&gv, &o)?;
-            let mut ms = Vec::new();
-            let mut last = None;
-            for _ in 0..runs.max(1) {
-                let (img, t) = renderer.render(&gv, &o)?;
-                ms.push(t.seconds * 1e3);
-                last = Some(img);
-            }
-            let img = last.expect("at least one run");
-            let got: Vec<[f64; 4]> = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
-            let (rel_rms, max_rel, psnr_8bit, lost_detail) =
-                accuracy_metrics(&got, &reference, o.width, o.height)?;
-            rows.push(AccuracyRow {
-                scene: scene.name.clone(),
-                variant: format!("f32 step {}", o.step),
-                median_ms: median(&ms),
-                rel_rms,
-                max_rel,
-                psnr_8bit,
-                lost_detail,
-            });
-        }
-        o.step = base_step;
+        let img = last.expect("at least one run");
+        let got: Vec<[f64; 4]> = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
+        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+            accuracy_metrics(&got, &reference, o.width, o.height)?;
+        log(&format!(
+            "{} {}: {:.1} ms, rel RMS {rel_rms:.2e}",
+            name,
+            precision.name(),
+            median(&ms)
+        ));
         rows.push(AccuracyRow {
-            scene: scene.name.clone(),
-            variant: "f64 (CPU)".into(),
-            median_ms: median(&f64_ms),
-            rel_rms: 0.0,
-            max_rel: 0.0,
-            psnr_8bit: f64::INFINITY,
-            lost_detail: 0.0,
+            scene: name.to_string(),
+            variant: precision.name().into(),
+            median_ms: median(&ms),
+            rel_rms,
+            max_rel,
+            psnr_8bit,
+            lost_detail,
         });
     }
+    // f64 on the GPU where the adapter has shader f64 (lavapipe does).
+    let f64_gpu = crate::render::volume_f64::F64RayCaster::new(renderer.context().clone());
+    if f64_gpu.available() {
+        o.precision = Precision::F64;
+        f64_gpu.render(&gv, &o)?;
+        let mut ms = Vec::new();
+        let mut got = Vec::new();
+        for _ in 0..runs.max(1) {
+            let t = std::time::Instant::now();
+            got = f64_gpu.render(&gv, &o)?;
+            ms.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+            accuracy_metrics(&got, &reference, o.width, o.height)?;
+        rows.push(AccuracyRow {
+            scene: name.to_string(),
+            variant: "f64 (GPU)".into(),
+            median_ms: median(&ms),
+            rel_rms,
+            max_rel,
+            psnr_8bit,
+            lost_detail,
+        });
+    }
+    // The other knob: coarser steps in f32, against the same reference (step 0.5).
+    o.precision = Precision::F32;
+    let base_step = options.step;
+    for factor in [2.0, 4.0] {
+        o.step = base_step * factor;
+        renderer.render(&gv, &o)?;
+        let mut ms = Vec::new();
+        let mut last = None;
+        for _ in 0..runs.max(1) {
+            let (img, t) = renderer.render(&gv, &o)?;
+            ms.push(t.seconds * 1e3);
+            last = Some(img);
+        }
+        let img = last.expect("at least one run");
+        let got: Vec<[f64; 4]> = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
+        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+            accuracy_metrics(&got, &reference, o.width, o.height)?;
+        rows.push(AccuracyRow {
+            scene: name.to_string(),
+            variant: format!("f32 step {}", o.step),
+            median_ms: median(&ms),
+            rel_rms,
+            max_rel,
+            psnr_8bit,
+            lost_detail,
+        });
+    }
+    o.step = base_step;
+    rows.push(AccuracyRow {
+        scene: name.to_string(),
+        variant: "f64 (CPU)".into(),
+        median_ms: median(&f64_ms),
+        rel_rms: 0.0,
+        max_rel: 0.0,
+        psnr_8bit: f64::INFINITY,
+        lost_detail: 0.0,
+    });
     Ok(rows)
 }
 
@@ -325,6 +554,17 @@ pub fn f32_cost_summary(rows: &[AccuracyRow]) -> Vec<String> {
         .into_iter()
         .filter_map(|scene| {
             let of_scene = rows.iter().filter(|r| r.scene == scene);
+            if let (Some(naive), Some(reduced)) = (
+                of_scene.clone().find(|r| r.variant == "naive f32"),
+                of_scene.clone().find(|r| r.variant == "reduced"),
+            ) {
+                return Some(format!(
+                    "{scene}: the reduced phase has rel RMS {:.1e} against {:.1e} for the naive f32 phase, at {:.2}x its time",
+                    reduced.rel_rms,
+                    naive.rel_rms,
+                    reduced.median_ms / naive.median_ms
+                ));
+            }
             let fastest = of_scene
                 .clone()
                 .filter(|r| r.rel_rms <= 1e-3 && !r.variant.starts_with("f64"))

@@ -111,7 +111,8 @@ pub enum BenchCommand {
         peer: Option<String>,
     },
     /// What accuracy costs: every compositing precision (u8, f16, f32, f32c, f64) timed and
-    /// compared with the f64 reference on the mantle and HDR-blob scenes.
+    /// compared with the f64 reference on the mantle and HDR-blob scenes, and the naive and
+    /// range-reduced interference phase on the tsunami and fault surfaces.
     Accuracy {
         #[arg(long, default_value_t = 3)]
         runs: usize,
@@ -124,7 +125,10 @@ pub enum BenchCommand {
         /// Folder for accuracy.csv, accuracy.json and the chart accuracy.png.
         #[arg(long, default_value = "out/bench-accuracy")]
         out: PathBuf,
-        /// Only this scene (mantle, blobs); all by default.
+        /// Nodes per side of the tsunami and fault grids.
+        #[arg(long, default_value_t = 256)]
+        grid: usize,
+        /// Only this scene (mantle, blobs, tsunami, fault); all by default.
         #[arg(long)]
         scene: Option<String>,
     },
@@ -136,7 +140,8 @@ pub enum BenchCommand {
         #[arg(long)]
         quick: bool,
     },
-    /// Tone mapping: every operator on 1024^2, 2048^2 and 4096^2 synthetic HDR images, median ms.
+    /// Tone mapping: every operator on 1024^2, 2048^2 and 4096^2 synthetic HDR images (in bands
+    /// of rows beyond one storage binding), median ms.
     Tonemap {
         /// Timed runs per operator and size (after one warm-up).
         #[arg(long, default_value_t = 5)]

@@ -8,6 +8,7 @@ pub mod passes;
 pub mod session;
 pub mod surface;
 pub mod surface_bench;
+pub mod surface_reference;
 pub mod volume;
 pub mod volume_f64;
 

@@ -14,7 +14,9 @@
 //! ν₂h₂ + ν₃·hi + ν·rest and frac(ν·d_ref) (computed in f64 on the host) are added before a last
 //! fraction; the cosine sees an argument in [−π, π]. This holds to ~1e-6 of a period for ν·d up
 //! to ~10¹⁰ at pixels on grid nodes (map view at the default size); between nodes the values are
-//! interpolated in f32 relative to d_ref.
+//! interpolated in f32 relative to d_ref. For comparison, [`PhaseMethod::Naive`] specialises the
+//! fringe pass to what a straightforward implementation does (d as one f32, cos 2πν·d in f32);
+//! `hdrvis bench accuracy` measures both.
 //!
 //! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 
@@ -157,6 +159,47 @@ impl FringeMode {
     }
 }
 
+/// How the fringe pass evaluates the phase 2π·ν·d.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PhaseMethod {
+    /// d kept as d_ref + hi + rest, ν split into short parts, fractions taken before the sums
+    /// (see the module notes): ~1e-6 of a period for ν·d up to ~1e10.
+    #[default]
+    Reduced,
+    /// What a straightforward implementation does: d as one f32, cos(2π·ν·d) evaluated directly
+    /// in f32 with no reference subtraction or range reduction. Kept to measure what the
+    /// reduction buys (`hdrvis bench accuracy`).
+    Naive,
+}
+
+impl PhaseMethod {
+    pub fn parse(s: &str) -> Result<PhaseMethod> {
+        match s {
+            "reduced" => Ok(PhaseMethod::Reduced),
+            "naive" => Ok(PhaseMethod::Naive),
+            _ => Err(Error::invalid(
+                "phase",
+                format!("expected \"reduced\" or \"naive\", got {s:?}"),
+            )),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            PhaseMethod::Reduced => "reduced",
+            PhaseMethod::Naive => "naive",
+        }
+    }
+
+    /// What the image metadata says about the phase.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PhaseMethod::Reduced => "f64 via d_ref + hi + rest and exact 12-bit partial products",
+            PhaseMethod::Naive => "naive: cos(2 pi nu d) in f32 with d as one f32",
+        }
+    }
+}
+
 /// Everything a surface render depends on besides the grid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
@@ -180,6 +223,8 @@ pub struct SurfaceOptions {
     /// Height for relief in 3-D views: `elevation`, a property name, or `None` (flat).
     pub relief: Option<String>,
     pub exaggeration: f64,
+    /// How the fringe pass evaluates the phase (reduced by default).
+    pub phase: PhaseMethod,
 }
 
 impl Default for SurfaceOptions {
@@ -197,6 +242,7 @@ impl Default for SurfaceOptions {
             height: None,
             relief: None,
             exaggeration: 1.0,
+            phase: PhaseMethod::Reduced,
         }
     }
 }
@@ -297,6 +343,135 @@ pub fn fringe_f64(nu: f64, d: f64) -> f64 {
     0.5 + 0.5 * (std::f64::consts::TAU * (ph - ph.round())).cos()
 }
 
+/// Direction towards the light of the 3-D views (normalised where used) and the ambient share:
+/// shade = ambient + (1 − ambient)·max(n·l, 0). Shared by the data pass and its CPU reference.
+pub const LIGHT_DIRECTION: [f64; 3] = [-0.4, -0.5, 0.77];
+pub const LIGHT_AMBIENT: f64 = 0.3;
+
+/// The image size a render gets: the options' size, else the grid's node counts in map view and
+/// 512² in other views.
+pub fn default_size(grid: &Grid, opts: &SurfaceOptions) -> (u32, u32) {
+    let (dw, dh) = match opts.view {
+        SurfaceView::Map => (grid.nx() as u32, grid.ny() as u32),
+        _ => (512, 512),
+    };
+    (opts.width.unwrap_or(dw), opts.height.unwrap_or(dh))
+}
+
+/// Where the surface sits in world space and how it is seen, as both the data pass and its f64
+/// CPU reference ([`super::surface_reference`]) use it. World: x = i·sx, y = j·sy in coordinate
+/// units from the first node, z = (height − hmin)·exaggeration − z_lo, so that the relief box
+/// is [0, box_size] (a flat surface gets a thin box around z = −z_lo).
+#[derive(Clone, Debug)]
+pub struct SurfaceGeometry {
+    /// Relief height per node before exaggeration (holes at the lowest height; 0 when flat).
+    pub heights: Vec<f64>,
+    /// Node spacing (sx, sy) in world units.
+    pub spacing: [f64; 2],
+    /// World z per height unit (1 for a flat surface).
+    pub exaggeration: f64,
+    /// Lowest relief height.
+    pub height_min: f64,
+    /// World z of the box's lower corner before the shift to 0 (negative for a flat surface).
+    pub z_lo: f64,
+    pub box_size: [f64; 3],
+    /// The camera with its eye relative to the box's lower corner; `None` in map view.
+    pub camera: Option<Camera>,
+}
+
+impl SurfaceGeometry {
+    pub fn new(grid: &Grid, opts: &SurfaceOptions) -> Result<Self> {
+        let (nx, ny) = (grid.nx(), grid.ny());
+        // Relief heights (world z before exaggeration), holes at the lowest height.
+        let relief: Option<Vec<f64>> = match (&opts.view, opts.relief.as_deref()) {
+            (SurfaceView::Map, _) | (_, None) | (_, Some("none")) => None,
+            (_, Some("elevation")) => Some(
+                grid.elevation()
+                    .ok_or_else(|| {
+                        Error::invalid(
+                            "relief",
+                            format!(
+                                "grid {:?} has no elevation; use a property name or none",
+                                grid.name()
+                            ),
+                        )
+                    })?
+                    .to_vec(),
+            ),
+            (_, Some(name)) => Some(grid.property(name)?.to_vec()),
+        };
+        // Flat surfaces (no relief or no exaggeration) get heights 0 and an effective factor 1.
+        let relief = relief.filter(|_| opts.exaggeration > 0.0);
+        let exag = if relief.is_some() {
+            opts.exaggeration
+        } else {
+            1.0
+        };
+        let (hmin, hmax) = relief
+            .as_ref()
+            .and_then(|r| {
+                r.iter()
+                    .filter(|v| v.is_finite())
+                    .fold(None, |acc: Option<(f64, f64)>, &v| {
+                        Some(acc.map_or((v, v), |(a, b)| (a.min(v), b.max(v))))
+                    })
+            })
+            .unwrap_or((0.0, 0.0));
+        let heights: Vec<f64> = match &relief {
+            Some(r) => r
+                .iter()
+                .map(|&v| if v.is_finite() { v } else { hmin })
+                .collect(),
+            None => vec![0.0; nx * ny],
+        };
+        let sx = grid.x().spacing().abs().max(f64::MIN_POSITIVE);
+        let sy = grid.y().spacing().abs().max(f64::MIN_POSITIVE);
+        let mut size = [
+            (nx.max(2) - 1) as f64 * sx,
+            (ny.max(2) - 1) as f64 * sy,
+            (hmax - hmin) * exag,
+        ];
+        // A flat surface still needs a box of some thickness for the ray test.
+        let thin = 1e-4 * size[0].max(size[1]);
+        let z_lo = if size[2] < thin { -thin } else { 0.0 };
+        size[2] = size[2].max(thin) - z_lo;
+        let camera = match opts.view {
+            SurfaceView::Map => None,
+            SurfaceView::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => {
+                let b = Aabb {
+                    lo: [0.0, 0.0, z_lo],
+                    hi: [size[0], size[1], size[2] + z_lo],
+                };
+                Some(Camera::orbit(&b, azimuth, elevation, fov)?)
+            }
+            SurfaceView::Camera(c) => Some(c),
+        };
+        // Positions relative to the box's lower corner (z = z_lo).
+        let camera = camera.map(|mut c| {
+            c.eye[2] -= z_lo;
+            c
+        });
+        Ok(SurfaceGeometry {
+            heights,
+            spacing: [sx, sy],
+            exaggeration: exag,
+            height_min: hmin,
+            z_lo,
+            box_size: size,
+            camera,
+        })
+    }
+
+    /// The height whose world z is 0 (the box floor): hmin + z_lo / exaggeration.
+    pub fn height_at_floor(&self) -> f64 {
+        self.height_min + self.z_lo / self.exaggeration
+    }
+}
+
 /// Name, units, d_ref and finite range of a rendered property.
 type PropMeta = (String, String, f64, Option<(f64, f64)>);
 
@@ -332,6 +507,7 @@ struct FringeVariant {
     absolute: bool,
     log_color: bool,
     write_value: bool,
+    naive_phase: bool,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -507,6 +683,7 @@ impl SurfaceRenderer {
                 ("ABSOLUTE", variant.absolute as u8 as f64),
                 ("LOG_COLOR", variant.log_color as u8 as f64),
                 ("WRITE_VALUE", variant.write_value as u8 as f64),
+                ("NAIVE_PHASE", variant.naive_phase as u8 as f64),
             ],
         )?;
         cache.insert(variant, p.clone());
@@ -560,11 +737,7 @@ impl SurfaceRenderer {
     }
 
     fn resolve_size(&self, grid: &Grid, opts: &SurfaceOptions) -> Result<(u32, u32)> {
-        let (dw, dh) = match opts.view {
-            SurfaceView::Map => (grid.nx() as u32, grid.ny() as u32),
-            _ => (512, 512),
-        };
-        let (w, h) = (opts.width.unwrap_or(dw), opts.height.unwrap_or(dh));
+        let (w, h) = default_size(grid, opts);
         let limit = self.ctx.caps.max_storage_buffer_binding_size;
         let largest = (w as u64 * h as u64).max((grid.nx() * grid.ny()) as u64) * 16;
         if largest > limit {
@@ -638,80 +811,13 @@ impl SurfaceRenderer {
             }
             meta.push((name.to_string(), grid.units(p).to_string(), d_ref, range));
         }
-        // Relief heights (world z before exaggeration), holes at the lowest height.
-        let relief: Option<Vec<f64>> = match (&opts.view, opts.relief.as_deref()) {
-            (SurfaceView::Map, _) | (_, None) | (_, Some("none")) => None,
-            (_, Some("elevation")) => Some(
-                grid.elevation()
-                    .ok_or_else(|| {
-                        Error::invalid(
-                            "relief",
-                            format!(
-                                "grid {:?} has no elevation; use a property name or none",
-                                grid.name()
-                            ),
-                        )
-                    })?
-                    .to_vec(),
-            ),
-            (_, Some(name)) => Some(grid.property(name)?.to_vec()),
-        };
-        // Flat surfaces (no relief or no exaggeration) get heights 0 and an effective factor 1.
-        let relief = relief.filter(|_| opts.exaggeration > 0.0);
-        let exag = if relief.is_some() {
-            opts.exaggeration
-        } else {
-            1.0
-        };
-        let (hmin, hmax) = relief
-            .as_ref()
-            .and_then(|r| {
-                r.iter()
-                    .filter(|v| v.is_finite())
-                    .fold(None, |acc: Option<(f64, f64)>, &v| {
-                        Some(acc.map_or((v, v), |(a, b)| (a.min(v), b.max(v))))
-                    })
-            })
-            .unwrap_or((0.0, 0.0));
-        let heights: Vec<f32> = match &relief {
-            Some(r) => r
-                .iter()
-                .map(|&v| if v.is_finite() { v as f32 } else { hmin as f32 })
-                .collect(),
-            None => vec![0.0; n],
-        };
+        let geo = SurfaceGeometry::new(grid, opts)?;
+        let heights: Vec<f32> = geo.heights.iter().map(|&h| h as f32).collect();
         let t_hi = self.input_buffer("surface nodes hi", bytemuck::cast_slice(&hi));
         let t_rest = self.input_buffer("surface nodes rest", bytemuck::cast_slice(&rest));
         let t_valid = self.input_buffer("surface nodes valid", bytemuck::cast_slice(&valid));
         let t_height = self.input_buffer("surface nodes height", bytemuck::cast_slice(&heights));
-        // World: x = i·sx, y = j·sy, z = (h − hmin)·exaggeration.
-        let sx = grid.x().spacing().abs().max(f64::MIN_POSITIVE);
-        let sy = grid.y().spacing().abs().max(f64::MIN_POSITIVE);
-        let mut size = [
-            (nx.max(2) - 1) as f64 * sx,
-            (ny.max(2) - 1) as f64 * sy,
-            (hmax - hmin) * exag,
-        ];
-        // A flat surface still needs a box of some thickness for the ray test.
-        let thin = 1e-4 * size[0].max(size[1]);
-        let z_lo = if size[2] < thin { -thin } else { 0.0 };
-        size[2] = size[2].max(thin) - z_lo;
         let map = opts.view == SurfaceView::Map;
-        let camera = match opts.view {
-            SurfaceView::Map => None,
-            SurfaceView::Orbit {
-                azimuth,
-                elevation,
-                fov,
-            } => {
-                let b = Aabb {
-                    lo: [0.0, 0.0, z_lo],
-                    hi: [size[0], size[1], size[2] + z_lo],
-                };
-                Some(Camera::orbit(&b, azimuth, elevation, fov)?)
-            }
-            SurfaceView::Camera(c) => Some(c),
-        };
         let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
         let mut params = DataParams {
             eye: [0.0; 4],
@@ -720,20 +826,18 @@ impl SurfaceRenderer {
             up: [0.0; 4],
             proj: [0.0; 4],
             cell: [
-                sx as f32,
-                sy as f32,
-                exag as f32,
-                (hmin + z_lo / exag) as f32,
+                geo.spacing[0] as f32,
+                geo.spacing[1] as f32,
+                geo.exaggeration as f32,
+                geo.height_at_floor() as f32,
             ],
-            light: [-0.4, -0.5, 0.77, 0.3],
-            box_size: v4(size, 0.0),
+            light: v4(LIGHT_DIRECTION, LIGHT_AMBIENT),
+            box_size: v4(geo.box_size, 0.0),
             dims: [nx as u32, ny as u32, width, height],
             counts: [props.len() as u32, 0, 0, 0],
         };
-        if let Some(cam) = camera {
-            // Positions relative to the box's lower corner (z = z_lo).
-            let eye = [cam.eye[0], cam.eye[1], cam.eye[2] - z_lo];
-            params.eye = v4(eye, 0.0);
+        if let Some(cam) = &geo.camera {
+            params.eye = v4(cam.eye, 0.0);
             params.forward = v4(cam.forward, 0.0);
             params.right = v4(cam.right, 0.0);
             params.up = v4(cam.up, 0.0);
@@ -919,6 +1023,7 @@ impl SurfaceRenderer {
             absolute: opts.absolute,
             log_color: opts.log_color,
             write_value: cached_values.is_none(),
+            naive_phase: opts.phase == PhaseMethod::Naive,
         })?;
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
@@ -1039,10 +1144,7 @@ impl SurfaceRenderer {
             },
         );
         image.set_meta("view", data.view.clone());
-        image.set_meta(
-            "phase",
-            "f64 via d_ref + hi + rest and exact 12-bit partial products",
-        );
+        image.set_meta("phase", opts.phase.describe());
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
     }

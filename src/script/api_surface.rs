@@ -9,7 +9,9 @@ use super::api_render::{ScriptCamera, ScriptImage};
 use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResult};
 use super::ScriptHost;
 use crate::model::{Axis, Grid};
-use crate::render::surface::{colorbar, legend, FringeMode, SurfaceOptions, SurfaceView};
+use crate::render::surface::{
+    colorbar, legend, FringeMode, PhaseMethod, SurfaceOptions, SurfaceView,
+};
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
@@ -29,6 +31,7 @@ pub const SURFACE_KEYS: &[&str] = &[
     "log_color",
     "exaggeration",
     "relief",
+    "phase",
 ];
 
 fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
@@ -105,6 +108,7 @@ fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
             "log_color" => o.log_color = boolean(v, "log_color")?,
             "exaggeration" => o.exaggeration = num(v, "exaggeration")?,
             "relief" => o.relief = Some(string(v, "relief")?),
+            "phase" => o.phase = PhaseMethod::parse(&string(v, "phase")?).map_err(to_rhai)?,
             _ => unreachable!("checked keys"),
         }
     }

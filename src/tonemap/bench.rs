@@ -1,5 +1,6 @@
 //! `hdrvis bench tonemap`: every operator on synthetic HDR images (1024², 2048² and 4096² by
-//! default; a size whose RGBA f32 buffer exceeds the adapter's binding limit is reported as skipped),
+//! default; sizes beyond one storage binding run in bands of rows, and the table says how many;
+//! a size whose RGBA f32 buffer exceeds the adapter's largest buffer is reported as skipped),
 //! timed end to end through [`GpuToneMapper::tonemap`] — upload, every pass, readback — after
 //! one warm-up call that builds the pipelines. Reports the adapter and the median of the runs,
 //! against the targets on 1024² (global operators 30 ms, local ones 300 ms).
@@ -34,7 +35,9 @@ pub struct ToneMapBenchRow {
     /// Processor time of the whole process (every thread, the CPU rasterizer's included) per
     /// run, where the OS reports it: less sensitive than wall time to other work on the machine.
     pub cpu_ms: Option<f64>,
-    /// Why this size was not run (the image does not fit this adapter's buffer bindings).
+    /// Bands of rows the image was processed in (1: every buffer bound whole).
+    pub bands: usize,
+    /// Why this size was not run (the image does not fit this adapter's largest buffer).
     pub skipped: Option<String>,
 }
 
@@ -77,14 +80,12 @@ pub fn bench_tonemap(
     let runs = runs.max(1);
     let mut rows = Vec::new();
     let caps = mapper.context().caps.clone();
-    let limit = caps
-        .max_storage_buffer_binding_size
-        .min(caps.max_buffer_size);
+    let limit = caps.max_buffer_size;
     for &size in sizes {
         let bytes = size as u64 * size as u64 * 16;
         if bytes > limit {
             let why = format!(
-                "{size}x{size} RGBA f32 is {} MiB; this adapter binds at most {} MiB",
+                "{size}x{size} RGBA f32 is {} MiB; this adapter's buffers hold at most {} MiB",
                 bytes >> 20,
                 limit >> 20
             );
@@ -95,6 +96,7 @@ pub fn bench_tonemap(
                 size,
                 runs_ms: Vec::new(),
                 cpu_ms: None,
+                bands: 0,
                 skipped: Some(why.clone()),
             }));
             continue;
@@ -125,12 +127,15 @@ pub fn bench_tonemap(
                 size,
                 runs_ms,
                 cpu_ms,
+                bands: mapper.bands_for(size, size, &op)?,
                 skipped: None,
             };
             progress(&format!(
-                "{:15} {size}x{size}: median {:.1} ms",
+                "{:15} {size}x{size}: median {:.1} ms ({} band{})",
                 row.op,
-                row.median_ms()
+                row.median_ms(),
+                row.bands,
+                if row.bands == 1 { "" } else { "s" }
             ));
             rows.push(row);
         }
@@ -156,8 +161,8 @@ pub fn format_tonemap_table(adapter: &str, rows: &[ToneMapBenchRow]) -> String {
         rows.iter().map(|r| r.runs_ms.len()).max().unwrap_or(0)
     );
     s += &format!(
-        "{:15} {:>6} {:>11} {:>11} {:>11} {:>11}  {}\n",
-        "operator", "kind", "image", "median ms", "CPU ms/run", "Mpx/s", "target"
+        "{:15} {:>6} {:>11} {:>6} {:>11} {:>11} {:>11}  {}\n",
+        "operator", "kind", "image", "bands", "median ms", "CPU ms/run", "Mpx/s", "target"
     );
     for r in rows {
         if let Some(why) = &r.skipped {
@@ -176,10 +181,11 @@ pub fn format_tonemap_table(adapter: &str, rows: &[ToneMapBenchRow]) -> String {
             None => String::new(),
         };
         s += &format!(
-            "{:15} {:>6} {:>11} {:>11.1} {:>11} {:>11.1}  {}\n",
+            "{:15} {:>6} {:>11} {:>6} {:>11.1} {:>11} {:>11.1}  {}\n",
             r.op,
             if r.local { "local" } else { "global" },
             format!("{}x{}", r.size, r.size),
+            r.bands,
             r.median_ms(),
             r.cpu_ms.map_or("-".to_string(), |c| format!("{c:.0}")),
             mpx,

@@ -1336,7 +1336,7 @@ mod tests {
             for ty in module.types.iter().map(|(_, ty)| ty) {
                 let expected = match ty.name.as_deref() {
                     Some("ToneMapParams") => {
-                        Some((size_of::<crate::tonemap::params::ToneMapParams>(), 32))
+                        Some((size_of::<crate::tonemap::params::ToneMapParams>(), 36))
                     }
                     Some("LuminanceStats") => {
                         Some((size_of::<crate::tonemap::params::LuminanceStats>(), 4))

@@ -8,6 +8,7 @@
 //! directly ([`crate::gpu::transfer`]). The f64 CPU references in [`super::cpu`] define what
 //! each pass must compute; the integration tests compare the two.
 
+use super::bands::{self, Band, Window};
 use super::cpu::{false_colour_decades, legend_height, turbo_lut};
 use super::params::{
     blur_sigma, gaussian_radius, grid_sigma, reinhard_level, DurandGrid, Operator, ToneMapParams,
@@ -40,6 +41,9 @@ pub struct GpuToneMapper {
     /// Buffers kept between calls; the lock is held for a whole call, so concurrent calls on
     /// one mapper take turns.
     buffers: Mutex<BufferCache>,
+    /// Most bytes one binding of an image-sized buffer may span: the adapter's storage-binding
+    /// limit, or less for tests ([`Self::with_window_limit`]).
+    window_limit: u64,
 }
 
 /// (shader file, entry point, specialisation).
@@ -143,6 +147,8 @@ struct Recording<'a> {
     encoder: wgpu::CommandEncoder,
     width: u32,
     height: u32,
+    /// Windows (byte ranges) for the next dispatch's bindings; the rest are bound whole.
+    windows: Vec<(u32, Window)>,
 }
 
 impl GpuToneMapper {
@@ -150,12 +156,76 @@ impl GpuToneMapper {
     /// opened with the adapter's own limits, so images up to the adapter's storage-buffer
     /// binding size (16 bytes a pixel) fit.
     pub fn new(ctx: Arc<GpuContext>) -> Self {
+        Self::with_window_limit(ctx, u64::MAX)
+    }
+
+    /// A mapper that binds at most `bytes` of any image-sized buffer at once (never more than
+    /// the adapter allows), so that the banded paths for images beyond one binding run on small
+    /// images in tests. The per-grid buffers of Durand's filter (at most 32 MiB by
+    /// construction, within every adapter's binding limit) are always bound whole.
+    pub fn with_window_limit(ctx: Arc<GpuContext>, bytes: u64) -> Self {
+        let window_limit = bytes.min(ctx.caps.max_storage_buffer_binding_size);
         GpuToneMapper {
             ctx,
             modules: Mutex::new(HashMap::new()),
             pipelines: Mutex::new(HashMap::new()),
             buffers: Mutex::new(BufferCache::default()),
+            window_limit,
         }
+    }
+
+    /// Byte alignment of binding offsets.
+    fn align(&self) -> u64 {
+        (self.ctx.device.limits().min_storage_buffer_offset_alignment as u64).max(16)
+    }
+
+    /// The pixel bands of a `w` × `h` image: as many rows per band as keep every image-sized
+    /// window (16 bytes a pixel) within the window limit and `fits` (an operator's own
+    /// buffers), in multiples that keep window offsets aligned.
+    fn plan(&self, w: u32, h: u32, fits: impl Fn(u32) -> bool) -> Result<PixelPlan> {
+        let align = self.align();
+        let step = bands::row_step(w as u64 * 8, align);
+        let rows = bands::band_rows(h, step, "tone mapping", |r| {
+            r as u64 * w as u64 * 16 <= self.window_limit && fits(r)
+        })?;
+        let group_step = bands::row_step(16, align);
+        let groups = reduce_groups(rows * w).next_multiple_of(group_step);
+        Ok(PixelPlan {
+            width: w,
+            bands: bands::split(h, rows),
+            groups,
+            align,
+        })
+    }
+
+    /// How many bands of rows a `width` × `height` image is tone-mapped in with `op`: 1 when
+    /// every image-sized buffer fits one binding (4096² RGBA f32 takes 2 on lavapipe's
+    /// 128 MiB bindings, more for Reinhard's blurred scales).
+    pub fn bands_for(&self, width: u32, height: u32, op: &Operator) -> Result<usize> {
+        let reinhard = match *op {
+            Operator::ReinhardLocal {
+                alpha1,
+                ratio,
+                scales,
+                ..
+            } => Some(ReinhardPlan::new(width, height, alpha1, ratio, scales)),
+            _ => None,
+        };
+        let plan = self.plan(width, height, |rows| {
+            reinhard
+                .as_ref()
+                .is_none_or(|r| r.band_fits(rows, self.window_limit, self.align()))
+        })?;
+        Ok(plan.bands.len())
+    }
+
+    /// `base` for one band of items.
+    fn band_uniform(&self, base: &ToneMapParams, band: Band) -> wgpu::Buffer {
+        self.uniform(&ToneMapParams {
+            band_first: band.first,
+            band_rows: band.rows,
+            ..*base
+        })
     }
 
     pub fn context(&self) -> &Arc<GpuContext> {
@@ -250,16 +320,15 @@ impl GpuToneMapper {
                 ),
             ));
         }
+        // Buffers larger than one binding are bound in windows of rows; the buffer itself must
+        // fit the adapter's largest buffer.
         let bytes = n * 16;
-        let caps = &self.ctx.caps;
-        let limit = caps
-            .max_storage_buffer_binding_size
-            .min(caps.max_buffer_size);
+        let limit = self.ctx.caps.max_buffer_size;
         if bytes > limit {
             return Err(Error::invalid(
                 "image",
                 format!(
-                    "{}x{} needs {} MiB per RGBA f32 buffer but this adapter binds at most {} MiB; tone-map a smaller image",
+                    "{}x{} needs {} MiB per RGBA f32 buffer but this adapter's buffers hold at most {} MiB; tone-map a smaller image",
                     img.width,
                     img.height,
                     bytes >> 20,
@@ -315,129 +384,45 @@ impl GpuToneMapper {
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
 
-        let params = self.uniform(&base);
         let output = cache.output(ctx, px_bytes).buffer.clone();
-        let groups = reduce_groups(n);
-        let partials = cache.scratch(ctx, "partials", groups as u64 * 16);
+        let reinhard = match settings.op {
+            Operator::ReinhardLocal {
+                alpha1,
+                ratio,
+                scales,
+                ..
+            } => Some(ReinhardPlan::new(w, h, alpha1, ratio, scales)),
+            _ => None,
+        };
+        let plan = self.plan(w, h, |rows| {
+            reinhard
+                .as_ref()
+                .is_none_or(|r| r.band_fits(rows, self.window_limit, self.align()))
+        })?;
         let stats = cache.scratch(ctx, "luminance stats", 16);
+        let partials = cache.scratch(ctx, "partials", plan.partials_bytes());
         let mut rec = self.record(w, h, Specialisation::of(&base));
-        rec.reduce(
-            "tonemap/luminance_stats.wgsl",
-            "partial_stats",
-            &[(0, &params), (1, &image), (6, &partials)],
-        )?;
+        for (b, &band) in plan.bands.iter().enumerate() {
+            let u = self.band_uniform(&base, band);
+            rec.window(1, plan.pixel_window(band, 16))
+                .window(6, plan.partials_window(b));
+            rec.dispatch(
+                "tonemap/luminance_stats.wgsl",
+                "partial_stats",
+                &[(0, &u), (1, &image), (6, &partials)],
+                (plan.groups, 1),
+            )?;
+        }
         rec.single(
             "tonemap/luminance_stats.wgsl",
             "finish_stats",
             &[(3, &stats), (6, &partials)],
         )?;
         match settings.op {
-            Operator::ReinhardLocal {
-                alpha1,
-                ratio,
-                scales,
-                ..
-            } => {
-                let file = "tonemap/reinhard_local.wgsl";
-                let sigmas: Vec<f64> = (0..=scales).map(|i| blur_sigma(alpha1, ratio, i)).collect();
-                let levels: Vec<u32> = sigmas.iter().map(|&s| reinhard_level(s)).collect();
-                let deepest = levels.iter().copied().max().unwrap_or(0);
-                let level_cells = |k: u32| -> u32 { w.div_ceil(1 << k) * h.div_ceil(1 << k) };
-                // Pyramid levels one after another; each scale's blur after the previous one.
-                let pyramid_offsets: Vec<u32> = (0..=deepest)
-                    .scan(0u32, |at, k| {
-                        let here = *at;
-                        *at += level_cells(k);
-                        Some(here)
-                    })
-                    .collect();
-                let pyramid_len = pyramid_offsets[deepest as usize] + level_cells(deepest);
-                let mut table = Vec::with_capacity(levels.len());
-                let mut blurred_len = 0u32;
-                for (i, &k) in levels.iter().enumerate() {
-                    let scale = ratio.powi(i as i32) as f32;
-                    table.push([blurred_len, k, scale.to_bits(), 0]);
-                    blurred_len += level_cells(k);
-                }
-                let pyramid = cache.scratch(ctx, "reinhard pyramid", pyramid_len as u64 * 8);
-                let blurred = cache.scratch(ctx, "reinhard blurred", blurred_len as u64 * 8);
-                let largest = levels.iter().map(|&k| level_cells(k)).max().unwrap_or(n);
-                let tmp = cache.scratch(ctx, "reinhard blur tmp", largest as u64 * 8);
-                let mut table_padded = [[0u32; 4]; 17];
-                table_padded[..table.len()].copy_from_slice(&table);
-                let table_buffer =
-                    self.ctx
-                        .device
-                        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                            label: Some("reinhard scales"),
-                            contents: bytemuck::cast_slice(&table_padded),
-                            usage: wgpu::BufferUsages::UNIFORM,
-                        });
-                rec.pixels(
-                    file,
-                    "prepare",
-                    &[(0, &params), (1, &image), (3, &stats), (10, &pyramid)],
-                )?;
-                for k in 1..=deepest {
-                    let cell = 1u32 << k;
-                    let u = self.uniform(&ToneMapParams {
-                        cell,
-                        grid_width: w.div_ceil(cell),
-                        grid_height: h.div_ceil(cell),
-                        src_offset: pyramid_offsets[k as usize - 1],
-                        dst_offset: pyramid_offsets[k as usize],
-                        ..base
-                    });
-                    rec.items(
-                        level_cells(k),
-                        file,
-                        "downsample",
-                        &[(0, &u), (10, &pyramid)],
-                    )?;
-                }
-                for (i, (&sigma, &k)) in sigmas.iter().zip(&levels).enumerate() {
-                    let cell = 1u32 << k;
-                    let sigma_cells = grid_sigma(sigma, cell);
-                    let pass = |src_offset: u32, dst_offset: u32| ToneMapParams {
-                        sigma: sigma_cells as f32,
-                        radius: gaussian_radius(sigma_cells),
-                        cell,
-                        grid_width: w.div_ceil(cell),
-                        grid_height: h.div_ceil(cell),
-                        src_offset,
-                        dst_offset,
-                        ..base
-                    };
-                    let across = self.uniform(&pass(pyramid_offsets[k as usize], 0));
-                    rec.items(
-                        level_cells(k),
-                        file,
-                        "blur_x",
-                        &[(0, &across), (8, &pyramid), (9, &tmp)],
-                    )?;
-                    let down = self.uniform(&pass(0, table[i][0]));
-                    rec.items(
-                        level_cells(k),
-                        file,
-                        "blur_y",
-                        &[(0, &down), (8, &tmp), (9, &blurred)],
-                    )?;
-                }
-                let u = self.uniform(&ToneMapParams {
-                    levels: scales + 1,
-                    ..base
-                });
-                rec.pixels(
-                    file,
-                    "apply",
-                    &[
-                        (0, &u),
-                        (1, &image),
-                        (2, &output),
-                        (3, &stats),
-                        (11, &blurred),
-                        (18, &table_buffer),
-                    ],
+            Operator::ReinhardLocal { .. } => {
+                let r = reinhard.as_ref().expect("planned above");
+                self.record_reinhard(
+                    &mut rec, &mut cache, r, &plan, &base, &image, &output, &stats,
                 )?;
             }
             Operator::DurandBilateral {
@@ -447,7 +432,7 @@ impl GpuToneMapper {
             } => {
                 let (lo, hi) = scan.log10_luminance.unwrap_or((0.0, 0.0));
                 let grid = DurandGrid::new(w, h, sigma_spatial, sigma_range, lo, hi);
-                let u = self.uniform(&ToneMapParams {
+                let durand = ToneMapParams {
                     cell: grid.cell,
                     grid_width: grid.grid_width,
                     grid_height: grid.grid_height,
@@ -457,7 +442,8 @@ impl GpuToneMapper {
                     sigma: grid.sigma_cells as f32,
                     radius: grid.radius,
                     ..base
-                });
+                };
+                let u = self.uniform(&durand);
                 let cells = grid.cells();
                 let planes = cells as u64 * grid.levels as u64 * 8;
                 let layers = cache.scratch(ctx, "durand layers", px_bytes);
@@ -466,12 +452,38 @@ impl GpuToneMapper {
                 let grid_levels = cache.scratch(ctx, "durand levels", planes);
                 let range = cache.scratch(ctx, "durand base range", 16);
                 let file = "tonemap/durand_bilateral.wgsl";
-                rec.items(
-                    cells,
-                    file,
-                    "grid_splat",
-                    &[(0, &u), (1, &image), (15, &grid_cells)],
-                )?;
+                // The splat reads `cell` pixel rows per grid row: bands of grid rows whose
+                // pixel rows fit one window.
+                let row_bytes = w as u64 * 16;
+                let align = self.align();
+                let limit = self.window_limit;
+                let grid_rows = bands::band_rows(grid.grid_height, 1, "durand splat", |r| {
+                    (r as u64 * grid.cell as u64 + bands::row_step(row_bytes, align) as u64)
+                        * row_bytes
+                        <= limit
+                })?;
+                for band in bands::split(grid.grid_height, grid_rows) {
+                    let rows = bands::window(
+                        0,
+                        row_bytes,
+                        band.first * grid.cell,
+                        (band.end() * grid.cell).min(h),
+                        align,
+                    );
+                    let u = self.uniform(&ToneMapParams {
+                        band_first: band.first,
+                        band_rows: band.rows,
+                        window_first: rows.first_row,
+                        ..durand
+                    });
+                    rec.window(1, rows);
+                    rec.items(
+                        grid.grid_width * band.rows,
+                        file,
+                        "grid_splat",
+                        &[(0, &u), (1, &image), (15, &grid_cells)],
+                    )?;
+                }
                 let items = cells * grid.levels;
                 rec.items(
                     items,
@@ -485,28 +497,44 @@ impl GpuToneMapper {
                     "grid_blur_y",
                     &[(0, &u), (16, &tmp), (17, &grid_levels)],
                 )?;
-                rec.pixels(
-                    file,
-                    "base",
-                    &[(0, &u), (1, &image), (12, &layers), (17, &grid_levels)],
-                )?;
-                rec.reduce(
-                    file,
-                    "range_partial",
-                    &[(0, &u), (6, &partials), (12, &layers)],
-                )?;
+                for (b, &band) in plan.bands.iter().enumerate() {
+                    let u = self.band_uniform(&durand, band);
+                    rec.window(1, plan.pixel_window(band, 16))
+                        .window(12, plan.pixel_window(band, 16));
+                    rec.pixels(
+                        band,
+                        file,
+                        "base",
+                        &[(0, &u), (1, &image), (12, &layers), (17, &grid_levels)],
+                    )?;
+                    rec.window(12, plan.pixel_window(band, 16))
+                        .window(6, plan.partials_window(b));
+                    rec.dispatch(
+                        file,
+                        "range_partial",
+                        &[(0, &u), (6, &partials), (12, &layers)],
+                        (plan.groups, 1),
+                    )?;
+                }
                 rec.single(file, "range_finish", &[(6, &partials), (13, &range)])?;
-                rec.pixels(
-                    file,
-                    "apply",
-                    &[
-                        (0, &u),
-                        (1, &image),
-                        (2, &output),
-                        (12, &layers),
-                        (13, &range),
-                    ],
-                )?;
+                for &band in &plan.bands {
+                    let u = self.band_uniform(&durand, band);
+                    rec.window(1, plan.pixel_window(band, 16))
+                        .window(2, plan.pixel_window(band, 16))
+                        .window(12, plan.pixel_window(band, 16));
+                    rec.pixels(
+                        band,
+                        file,
+                        "apply",
+                        &[
+                            (0, &u),
+                            (1, &image),
+                            (2, &output),
+                            (12, &layers),
+                            (13, &range),
+                        ],
+                    )?;
+                }
             }
             _ => {
                 let cdf = cache.scratch(ctx, "ward cdf", 257 * 4);
@@ -514,28 +542,34 @@ impl GpuToneMapper {
                     let counts = cache.scratch(ctx, "ward counts", 256 * 4);
                     rec.encoder.clear_buffer(&counts, 0, None);
                     let file = "tonemap/ward_histogram.wgsl";
-                    rec.reduce(
-                        file,
-                        "histogram",
-                        &[(0, &params), (1, &image), (3, &stats), (5, &counts)],
-                    )?;
+                    for &band in &plan.bands {
+                        let u = self.band_uniform(&base, band);
+                        rec.window(1, plan.pixel_window(band, 16));
+                        rec.dispatch(
+                            file,
+                            "histogram",
+                            &[(0, &u), (1, &image), (3, &stats), (5, &counts)],
+                            (plan.groups, 1),
+                        )?;
+                    }
+                    let params = self.uniform(&base);
                     rec.single(
                         file,
                         "ceiling_cdf",
                         &[(0, &params), (3, &stats), (4, &cdf), (5, &counts)],
                     )?;
                 }
-                rec.pixels(
-                    "tonemap/global.wgsl",
-                    "apply_global",
-                    &[
-                        (0, &params),
-                        (1, &image),
-                        (2, &output),
-                        (3, &stats),
-                        (4, &cdf),
-                    ],
-                )?;
+                for &band in &plan.bands {
+                    let u = self.band_uniform(&base, band);
+                    rec.window(1, plan.pixel_window(band, 16))
+                        .window(2, plan.pixel_window(band, 16));
+                    rec.pixels(
+                        band,
+                        "tonemap/global.wgsl",
+                        "apply_global",
+                        &[(0, &u), (1, &image), (2, &output), (3, &stats), (4, &cdf)],
+                    )?;
+                }
             }
         }
         profile.mark("record");
@@ -584,7 +618,7 @@ impl GpuToneMapper {
         let device = &ctx.device;
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let params = self.uniform(&ToneMapParams {
+        let base = ToneMapParams {
             width: w,
             height: h,
             exposure_ev: (exposure_ev - scan.lift_ev as f64) as f32,
@@ -592,14 +626,21 @@ impl GpuToneMapper {
             ld_max: high as f32,
             radius: legend_height(h),
             ..Default::default()
-        });
+        };
         let lut = self.storage_init("turbo lut", bytemuck::cast_slice(&turbo_lut()));
+        let plan = self.plan(w, h, |_| true)?;
         let mut rec = self.record(w, h, Specialisation::default());
-        rec.pixels(
-            "tonemap/false_colour.wgsl",
-            "false_colour",
-            &[(0, &params), (1, &image), (2, &output), (14, &lut)],
-        )?;
+        for &band in &plan.bands {
+            let u = self.band_uniform(&base, band);
+            rec.window(1, plan.pixel_window(band, 16))
+                .window(2, plan.pixel_window(band, 16));
+            rec.pixels(
+                band,
+                "tonemap/false_colour.wgsl",
+                "false_colour",
+                &[(0, &u), (1, &image), (2, &output), (14, &lut)],
+            )?;
+        }
         let pixels = rec.finish(
             cache.output(ctx, px_bytes),
             validation,
@@ -628,7 +669,383 @@ impl GpuToneMapper {
                 }),
             width,
             height,
+            windows: Vec::new(),
         }
+    }
+
+    /// Reinhard's dodging and burning after the statistics: the pyramid, the blurs, and per
+    /// pixel band the rows of every blurred scale that band reads, then the scale selection.
+    /// Pyramid levels alternate between two buffers (a downsample reads one and writes the
+    /// other), each scale's horizontal blur is kept whole, and the vertical blur writes only
+    /// the rows a band needs into a band-sized buffer (one band: the whole image, as before).
+    #[allow(clippy::too_many_arguments)]
+    fn record_reinhard(
+        &self,
+        rec: &mut Recording<'_>,
+        cache: &mut BufferCache,
+        r: &ReinhardPlan,
+        plan: &PixelPlan,
+        base: &ToneMapParams,
+        image: &wgpu::Buffer,
+        output: &wgpu::Buffer,
+        stats: &wgpu::Buffer,
+    ) -> Result<()> {
+        let ctx = &*self.ctx;
+        let file = "tonemap/reinhard_local.wgsl";
+        let (w, h) = (r.width, r.height);
+        let align = self.align();
+        let limit = self.window_limit;
+        let offsets = r.pyramid_offsets(align);
+        let parity_bytes = |p: u32| {
+            (0..=r.deepest)
+                .filter(|k| k % 2 == p)
+                .map(|k| offsets[k as usize] + r.level_bytes(k))
+                .max()
+                .unwrap_or(16)
+        };
+        let pyramid = [
+            cache.scratch(ctx, "reinhard pyramid even", parity_bytes(0)),
+            cache.scratch(ctx, "reinhard pyramid odd", parity_bytes(1)),
+        ];
+        let level_buffer = |k: u32| &pyramid[(k % 2) as usize];
+        let tmp: Vec<wgpu::Buffer> = r
+            .levels
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| cache.scratch(ctx, TMP_LABELS[i], r.level_bytes(k)))
+            .collect();
+        let level_params = |k: u32| {
+            let cell = 1u32 << k;
+            ToneMapParams {
+                cell,
+                grid_width: w.div_ceil(cell),
+                grid_height: h.div_ceil(cell),
+                ..*base
+            }
+        };
+        // Level 0: the pixels' (L m, m).
+        for &band in &plan.bands {
+            let u = self.band_uniform(base, band);
+            rec.window(1, plan.pixel_window(band, 16)).window(
+                10,
+                bands::window(offsets[0], w as u64 * 8, band.first, band.end(), align),
+            );
+            rec.pixels(
+                band,
+                file,
+                "prepare",
+                &[(0, &u), (1, image), (3, stats), (10, level_buffer(0))],
+            )?;
+        }
+        for k in 1..=r.deepest {
+            let (gw, gh) = r.level_size(k);
+            let (sw, sh) = r.level_size(k - 1);
+            let (row, src_row) = (gw as u64 * 8, sw as u64 * 8);
+            let rows =
+                bands::band_rows(gh, bands::row_step(row, align), "reinhard pyramid", |n| {
+                    n as u64 * row <= limit
+                        && (2 * n as u64 + bands::row_step(src_row, align) as u64) * src_row
+                            <= limit
+                })?;
+            for band in bands::split(gh, rows) {
+                let src = bands::window(
+                    offsets[k as usize - 1],
+                    src_row,
+                    2 * band.first,
+                    (2 * band.end()).min(sh),
+                    align,
+                );
+                let u = self.uniform(&ToneMapParams {
+                    band_first: band.first,
+                    band_rows: band.rows,
+                    window_first: src.first_row,
+                    ..level_params(k)
+                });
+                rec.window(8, src).window(
+                    9,
+                    bands::window(offsets[k as usize], row, band.first, band.end(), align),
+                );
+                rec.items(
+                    gw * band.rows,
+                    file,
+                    "downsample",
+                    &[(0, &u), (8, level_buffer(k - 1)), (9, level_buffer(k))],
+                )?;
+            }
+        }
+        // Each scale's horizontal blur, whole, on its level.
+        for (i, &k) in r.levels.iter().enumerate() {
+            let (gw, gh) = r.level_size(k);
+            let row = gw as u64 * 8;
+            let rows = bands::band_rows(gh, bands::row_step(row, align), "reinhard blur", |n| {
+                n as u64 * row <= limit
+            })?;
+            let blur = ToneMapParams {
+                sigma: r.sigma_cells[i] as f32,
+                radius: r.radius[i],
+                ..level_params(k)
+            };
+            for band in bands::split(gh, rows) {
+                let u = self.band_uniform(&blur, band);
+                rec.window(
+                    8,
+                    bands::window(offsets[k as usize], row, band.first, band.end(), align),
+                )
+                .window(9, bands::window(0, row, band.first, band.end(), align));
+                rec.items(
+                    gw * band.rows,
+                    file,
+                    "blur_x",
+                    &[(0, &u), (8, level_buffer(k)), (9, &tmp[i])],
+                )?;
+            }
+        }
+        let band_planes: Vec<Vec<Band>> = plan.bands.iter().map(|&b| r.planes_for(b)).collect();
+        let largest = band_planes
+            .iter()
+            .map(|planes| r.planes_bytes(planes))
+            .max()
+            .unwrap_or(16);
+        let blurred = cache.scratch(ctx, "reinhard blurred", largest);
+        for (&band, planes) in plan.bands.iter().zip(&band_planes) {
+            let mut table = [[0u32; 4]; 17];
+            let mut at = 0u32;
+            for (i, (&k, rows)) in r.levels.iter().zip(planes).enumerate() {
+                let (gw, gh) = r.level_size(k);
+                let halo = bands::window(
+                    0,
+                    gw as u64 * 8,
+                    rows.first.saturating_sub(r.radius[i]),
+                    (rows.end() + r.radius[i]).min(gh),
+                    align,
+                );
+                let u = self.uniform(&ToneMapParams {
+                    sigma: r.sigma_cells[i] as f32,
+                    radius: r.radius[i],
+                    band_first: rows.first,
+                    band_rows: rows.rows,
+                    window_first: halo.first_row,
+                    dst_offset: at,
+                    ..level_params(k)
+                });
+                rec.window(8, halo);
+                rec.items(
+                    gw * rows.rows,
+                    file,
+                    "blur_y",
+                    &[(0, &u), (8, &tmp[i]), (9, &blurred)],
+                )?;
+                let scale = r.ratio.powi(i as i32) as f32;
+                table[i] = [at, k, scale.to_bits(), rows.first];
+                at += gw * rows.rows;
+            }
+            let table_buffer =
+                self.ctx
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("reinhard scales"),
+                        contents: bytemuck::cast_slice(&table),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
+            let u = self.band_uniform(
+                &ToneMapParams {
+                    levels: r.levels.len() as u32,
+                    ..*base
+                },
+                band,
+            );
+            rec.window(1, plan.pixel_window(band, 16))
+                .window(2, plan.pixel_window(band, 16));
+            rec.pixels(
+                band,
+                file,
+                "apply",
+                &[
+                    (0, &u),
+                    (1, image),
+                    (2, output),
+                    (3, stats),
+                    (11, &blurred),
+                    (18, &table_buffer),
+                ],
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Labels of the per-scale horizontal-blur buffers of Reinhard's operator (at most 17 scales).
+const TMP_LABELS: [&str; 17] = [
+    "reinhard blur 0",
+    "reinhard blur 1",
+    "reinhard blur 2",
+    "reinhard blur 3",
+    "reinhard blur 4",
+    "reinhard blur 5",
+    "reinhard blur 6",
+    "reinhard blur 7",
+    "reinhard blur 8",
+    "reinhard blur 9",
+    "reinhard blur 10",
+    "reinhard blur 11",
+    "reinhard blur 12",
+    "reinhard blur 13",
+    "reinhard blur 14",
+    "reinhard blur 15",
+    "reinhard blur 16",
+];
+
+/// The pixel bands of one call and the reduction layout over them.
+struct PixelPlan {
+    width: u32,
+    bands: Vec<Band>,
+    /// Workgroups of a strided reduction per band (a multiple that keeps the partials'
+    /// windows aligned); the partials buffer holds `groups` entries per band.
+    groups: u32,
+    align: u64,
+}
+
+impl PixelPlan {
+    /// The window of a per-pixel buffer of `bytes` a pixel over `band` (it starts at the band's
+    /// first row: bands are multiples of the alignment step).
+    fn pixel_window(&self, band: Band, bytes: u64) -> Window {
+        let w = bands::window(
+            0,
+            self.width as u64 * bytes,
+            band.first,
+            band.end(),
+            self.align,
+        );
+        debug_assert_eq!(w.first_row, band.first);
+        w
+    }
+
+    fn partials_bytes(&self) -> u64 {
+        self.bands.len() as u64 * self.groups as u64 * 16
+    }
+
+    fn partials_window(&self, band_index: usize) -> Window {
+        let size = self.groups as u64 * 16;
+        Window {
+            offset: band_index as u64 * size,
+            size,
+            first_row: 0,
+        }
+    }
+}
+
+/// Reinhard's scales on their pyramid levels (params.rs: `blur_sigma`, `reinhard_level`,
+/// `grid_sigma`) for one image size.
+struct ReinhardPlan {
+    width: u32,
+    height: u32,
+    ratio: f64,
+    /// Pyramid level of each scale.
+    levels: Vec<u32>,
+    sigma_cells: Vec<f64>,
+    radius: Vec<u32>,
+    deepest: u32,
+}
+
+impl ReinhardPlan {
+    fn new(width: u32, height: u32, alpha1: f64, ratio: f64, scales: u32) -> Self {
+        let sigmas: Vec<f64> = (0..=scales).map(|i| blur_sigma(alpha1, ratio, i)).collect();
+        let levels: Vec<u32> = sigmas.iter().map(|&s| reinhard_level(s)).collect();
+        let sigma_cells: Vec<f64> = sigmas
+            .iter()
+            .zip(&levels)
+            .map(|(&s, &k)| grid_sigma(s, 1 << k))
+            .collect();
+        ReinhardPlan {
+            width,
+            height,
+            ratio,
+            radius: sigma_cells.iter().map(|&s| gaussian_radius(s)).collect(),
+            deepest: levels.iter().copied().max().unwrap_or(0),
+            levels,
+            sigma_cells,
+        }
+    }
+
+    fn level_size(&self, k: u32) -> (u32, u32) {
+        (self.width.div_ceil(1 << k), self.height.div_ceil(1 << k))
+    }
+
+    fn level_bytes(&self, k: u32) -> u64 {
+        let (gw, gh) = self.level_size(k);
+        gw as u64 * gh as u64 * 8
+    }
+
+    /// Byte offset of each level in its parity's buffer (aligned, so windows can start there).
+    fn pyramid_offsets(&self, align: u64) -> Vec<u64> {
+        let mut next = [0u64; 2];
+        (0..=self.deepest)
+            .map(|k| {
+                let p = (k % 2) as usize;
+                let here = next[p];
+                next[p] = (here + self.level_bytes(k)).next_multiple_of(align);
+                here
+            })
+            .collect()
+    }
+
+    /// The cell rows of level k that the bilinear read of pixel row y touches (as the apply
+    /// pass: cell centres at (c + 0.5)·2^k − 0.5, clamped to the outermost).
+    fn cell_rows(&self, k: u32, y: u32) -> (u32, u32) {
+        if k == 0 {
+            return (y, y);
+        }
+        let gh = self.level_size(k).1;
+        let cell = (1u32 << k) as f64;
+        let v = ((y as f64 + 0.5) / cell - 0.5).clamp(0.0, (gh - 1) as f64);
+        let y0 = v.floor() as u32;
+        (y0, (y0 + 1).min(gh - 1))
+    }
+
+    /// Per scale, the rows of its level that pixel rows `band` read.
+    fn planes_for(&self, band: Band) -> Vec<Band> {
+        self.levels
+            .iter()
+            .map(|&k| {
+                let first = self.cell_rows(k, band.first).0;
+                let last = self.cell_rows(k, band.end() - 1).1;
+                Band {
+                    first,
+                    rows: last - first + 1,
+                }
+            })
+            .collect()
+    }
+
+    fn planes_bytes(&self, planes: &[Band]) -> u64 {
+        planes
+            .iter()
+            .zip(&self.levels)
+            .map(|(p, &k)| p.rows as u64 * self.level_size(k).0 as u64 * 8)
+            .sum()
+    }
+
+    /// Whether a band of `rows` pixel rows keeps Reinhard's windows within `limit`: level 0
+    /// of the pyramid, the band's blurred rows of every scale, and each vertical blur's input
+    /// (the band's rows plus the blur's radius on both sides).
+    fn band_fits(&self, rows: u32, limit: u64, align: u64) -> bool {
+        let rows = rows.min(self.height);
+        let worst = Band {
+            first: (self.height - rows) / 2,
+            rows,
+        };
+        let planes = self.planes_for(worst);
+        let halo_fits = planes
+            .iter()
+            .zip(&self.levels)
+            .zip(&self.radius)
+            .all(|((p, &k), &r)| {
+                let row = self.level_size(k).0 as u64 * 8;
+                (p.rows as u64 + 2 * r as u64 + bands::row_step(row, align) as u64) * row <= limit
+            });
+        rows as u64 * self.width as u64 * 8 <= limit
+            && self.planes_bytes(&planes) <= limit
+            && halo_fits
     }
 }
 
@@ -641,11 +1058,19 @@ impl Recording<'_> {
         groups: (u32, u32),
     ) -> Result<()> {
         let pipeline = self.mapper.pipeline(file, entry, self.spec)?;
+        let windows = std::mem::take(&mut self.windows);
         let entries: Vec<wgpu::BindGroupEntry> = bindings
             .iter()
             .map(|(binding, buffer)| wgpu::BindGroupEntry {
                 binding: *binding,
-                resource: buffer.as_entire_binding(),
+                resource: match windows.iter().find(|(b, _)| b == binding) {
+                    Some((_, w)) => wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer,
+                        offset: w.offset,
+                        size: wgpu::BufferSize::new(w.size),
+                    }),
+                    None => buffer.as_entire_binding(),
+                },
             })
             .collect();
         let bind_group = self
@@ -669,14 +1094,21 @@ impl Recording<'_> {
         Ok(())
     }
 
-    /// One invocation per pixel.
+    /// Binds `window` of the buffer at `binding` in the next dispatch.
+    fn window(&mut self, binding: u32, window: Window) -> &mut Self {
+        self.windows.push((binding, window));
+        self
+    }
+
+    /// One invocation per pixel of `band`.
     fn pixels(
         &mut self,
+        band: Band,
         file: &'static str,
         entry: &'static str,
         bindings: &[(u32, &wgpu::Buffer)],
     ) -> Result<()> {
-        let groups = pixel_groups(self.width * self.height);
+        let groups = pixel_groups(self.width * band.rows);
         self.dispatch(file, entry, bindings, groups)
     }
 
@@ -689,17 +1121,6 @@ impl Recording<'_> {
         bindings: &[(u32, &wgpu::Buffer)],
     ) -> Result<()> {
         self.dispatch(file, entry, bindings, pixel_groups(count))
-    }
-
-    /// A strided reduction over the image in [`reduce_groups`] workgroups.
-    fn reduce(
-        &mut self,
-        file: &'static str,
-        entry: &'static str,
-        bindings: &[(u32, &wgpu::Buffer)],
-    ) -> Result<()> {
-        let groups = reduce_groups(self.width * self.height);
-        self.dispatch(file, entry, bindings, (groups, 1))
     }
 
     /// One workgroup (combining partial results).

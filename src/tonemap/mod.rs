@@ -3,6 +3,7 @@
 //! exposure in stops and exposure brackets (several views of one HDR image, no re-render), and
 //! the `hdrvis bench tonemap` benchmark.
 
+pub mod bands;
 pub mod bench;
 pub mod cpu;
 pub mod gpu;

@@ -531,7 +531,7 @@ impl ToneMapSettings {
 
 /// The uniform block every shader in `shaders/tonemap/` declares as `ToneMapParams`.
 /// Keep in sync with the WGSL struct `ToneMapParams` (same field order, all 4-byte scalars,
-/// 128 bytes). Pass-specific fields (`pass_index`, `sigma`, `radius`, `direction`) vary between
+/// 144 bytes). Pass-specific fields (`pass_index`, `sigma`, `radius`, `direction`) vary between
 /// dispatches of one operator: write one uniform per dispatch or use dynamic offsets.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -592,9 +592,19 @@ pub struct ToneMapParams {
     pub first_level: f32,
     /// Durand: log10 luminance between levels.
     pub level_step: f32,
-    /// Offset (in elements) of the current pass's source / destination in a shared buffer.
-    pub src_offset: u32,
+    /// First row (of pixels, or of cells of the pass's grid) of the band of items this dispatch
+    /// covers: images larger than one storage binding are processed in bands of rows, each
+    /// binding a window of the large buffers (see `gpu.rs`, "Bands and windows").
+    pub band_first: u32,
+    /// Offset (in elements) of the current pass's destination in a shared buffer.
     pub dst_offset: u32,
+    /// Rows in this dispatch's band.
+    pub band_rows: u32,
+    /// First row of the window bound for a pass's input when it is not the band itself (the
+    /// band plus a halo, or the rows a downsample reads).
+    pub window_first: u32,
+    /// Uniform structs are a multiple of 16 bytes.
+    pub _pad: [u32; 2],
 }
 
 impl ToneMapParams {
@@ -608,6 +618,7 @@ impl ToneMapParams {
             offset: settings.offset as f32,
             inv_gamma: (1.0 / settings.gamma) as f32,
             saturation: settings.saturation as f32,
+            band_rows: height,
             ..Default::default()
         };
         match settings.op {

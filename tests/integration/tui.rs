@@ -328,20 +328,29 @@ fn read_xwd(b: &[u8]) -> Option<image::RgbImage> {
     Some(img)
 }
 
-/// Waits for a file to appear.
-fn wait_file(path: &Path, timeout: Duration) -> bool {
-    let t0 = Instant::now();
-    while t0.elapsed() < timeout {
-        if path.exists() {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    false
-}
-
 /// Kills a child process on drop.
 struct Child(std::process::Child);
+
+/// Stops a child process with SIGTERM on drop (so Xvfb removes its lock file and socket), and
+/// kills it when it has not gone within two seconds.
+struct Terminated(std::process::Child);
+
+impl Drop for Terminated {
+    fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.0.id().to_string()])
+            .status();
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(2) {
+            if let Ok(Some(_)) = self.0.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
 
 impl Drop for Child {
     fn drop(&mut self) {
@@ -371,19 +380,31 @@ fn xterm_vt340_shows_the_sixel_picture() {
     let exr = dir.path().join("target.exr");
     hdrvis::io::exr::write_exr(&hdrvis::model::HdrImage::from_pixels(w, h, pixels), &exr).unwrap();
 
-    let display = format!(":{}", 50 + std::process::id() % 200);
-    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{}", &display[1..]));
-    let _xvfb = Child(
-        Command::new("Xvfb")
-            .args([&display, "-screen", "0", "800x600x24", "-nolisten", "tcp"])
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
-    assert!(
-        wait_file(&socket, Duration::from_secs(10)),
-        "Xvfb did not start"
-    );
+    // Xvfb picks a free display itself and writes its number to the pipe, so stale lock files
+    // or a parallel run never make this test wait on a display that is not there.
+    let mut xvfb = Command::new("Xvfb")
+        .args([
+            "-displayfd",
+            "1",
+            "-screen",
+            "0",
+            "800x600x24",
+            "-nolisten",
+            "tcp",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut number = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(xvfb.stdout.take().unwrap()),
+        &mut number,
+    )
+    .unwrap();
+    let _xvfb = Terminated(xvfb);
+    let display = format!(":{}", number.trim());
+    assert!(number.trim().parse::<u32>().is_ok(), "Xvfb did not start");
     let shell = format!(
         "{} tui {} --out {}; sleep 30",
         env!("CARGO_BIN_EXE_hdrvis"),
