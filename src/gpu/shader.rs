@@ -21,6 +21,14 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/shared/camera.wgsl"),
     ),
     (
+        "volume_bricked.wgsl",
+        include_str!("../../shaders/volume_bricked.wgsl"),
+    ),
+    (
+        "shared/march.wgsl",
+        include_str!("../../shaders/shared/march.wgsl"),
+    ),
+    (
         "shared/optics.wgsl",
         include_str!("../../shaders/shared/optics.wgsl"),
     ),
@@ -58,6 +66,7 @@ pub const SOURCES: &[(&str, &str)] = &[
 /// with, so tests can validate each variant.
 pub const PIPELINES: &[(&str, &[&[&str]])] = &[
     ("volume.wgsl", &[&[], &["HW_FILTER"]]),
+    ("volume_bricked.wgsl", &[&[], &["HW_FILTER"]]),
     ("tonemap/luminance_stats.wgsl", &[&[]]),
     ("tonemap/global.wgsl", &[&[]]),
     ("tonemap/ward_histogram.wgsl", &[&[]]),

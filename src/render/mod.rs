@@ -1,6 +1,7 @@
 //! Renderers: the GPU volume ray caster and its f64 CPU reference, sharing one set of options so
 //! they trace the same rays through the same optical model.
 
+pub mod bricked;
 pub mod cpu_reference;
 pub mod surface;
 pub mod surface_bench;
