@@ -32,6 +32,13 @@ fn run(cli: Cli) -> Result<()> {
             opts.allowed_paths = args.allow_paths.clone();
             opts.sets = parse_sets(&args.sets)?;
             opts.resume = args.resume;
+            if let Some(m) = args.gpu_memory.filter(|m| !(m.is_finite() && *m > 0.0)) {
+                return Err(Error::invalid(
+                    "--gpu-memory",
+                    format!("expected MiB > 0, got {m}"),
+                ));
+            }
+            opts.gpu_memory_mib = args.gpu_memory;
             opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
             let report = run_script_file(&args.script, &opts)?;
             for p in report.written {

@@ -57,6 +57,10 @@ pub struct RunArgs {
     /// Skip outputs that already exist (resume an interrupted sweep).
     #[arg(long)]
     pub resume: bool,
+    /// GPU memory budget of every render in MiB (the scripts' `memory_budget` default): larger
+    /// volumes stream through a brick cache of this size.
+    #[arg(long = "gpu-memory", value_name = "MIB")]
+    pub gpu_memory: Option<f64>,
 }
 
 #[derive(Subcommand, Debug)]

@@ -283,6 +283,15 @@ impl VolumeRenderer {
             origin: volume.origin,
             stats: &volume.stats,
         };
+        // `auto` takes the exact filter here: the texture unit would see atlas coordinates that
+        // depend on where a brick landed in the cache, so its rounding of the weights would make
+        // the image depend on the cache; the exact path reads the same texels with the same
+        // weights as the plain render, whatever the layout.
+        let mut exact = opts.clone();
+        if exact.filter == super::FilterMode::Auto {
+            exact.filter = super::FilterMode::Exact;
+        }
+        let opts = &exact;
         let frame = self.frame(&geometry, opts, true)?;
         let skip = skip && matches!(opts.precision, Precision::F32 | Precision::F16);
         let empty = if skip {

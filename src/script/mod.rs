@@ -3,6 +3,7 @@
 //! Paths a script reads resolve against its own folder and must stay inside the script folder,
 //! the output folder or folders the user allowed; outputs go only under the output folder.
 
+mod api_bricks;
 mod api_datasets;
 pub mod api_doc;
 mod api_fields;
@@ -38,6 +39,8 @@ pub struct ScriptOptions {
     pub resume: bool,
     /// Show progress bars on stderr (`progress(i, n)`); off for tests and pipes.
     pub progress: bool,
+    /// Default `memory_budget` of every render, in MiB of GPU memory (`--gpu-memory`).
+    pub gpu_memory_mib: Option<f64>,
 }
 
 impl ScriptOptions {
@@ -50,6 +53,7 @@ impl ScriptOptions {
             max_operations: 100_000_000,
             resume: false,
             progress: true,
+            gpu_memory_mib: None,
         }
     }
 }
@@ -73,6 +77,9 @@ pub(crate) struct ScriptHost {
     pub resume: bool,
     progress_enabled: bool,
     progress: Mutex<Option<indicatif::ProgressBar>>,
+    /// Default memory budget of renders (MiB), and the bricked path's caches.
+    pub gpu_memory_mib: Option<f64>,
+    pub(crate) bricks: api_bricks::BrickState,
 }
 
 impl ScriptHost {
@@ -146,6 +153,7 @@ pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
     // `eval` would let a script build code from strings and dodge the checks on its source.
     engine.disable_symbol("eval");
     api_render::register(&mut engine, host.clone());
+    api_bricks::register(&mut engine, host.clone());
     api_post::register(&mut engine, host.clone());
     api_datasets::register(&mut engine);
     api_fields::register(&mut engine);
@@ -172,6 +180,8 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         resume: false,
         progress_enabled: false,
         progress: Mutex::new(None),
+        gpu_memory_mib: None,
+        bricks: Default::default(),
     })
 }
 
@@ -213,6 +223,8 @@ pub fn run_script_source(
         resume: opts.resume,
         progress_enabled: opts.progress,
         progress: Mutex::new(None),
+        gpu_memory_mib: opts.gpu_memory_mib,
+        bricks: Default::default(),
     });
     let engine = new_engine(host.clone(), opts.max_operations);
     let ast = engine
