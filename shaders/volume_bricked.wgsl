@@ -33,6 +33,8 @@ struct Bricks {
     grid: vec4<u32>,
     // Atlas slots per axis; w: flags (1: first pass, 2: last pass, 4: keep ray state).
     slots: vec4<u32>,
+    // 1 / atlas size in texels (xyz).
+    inv_atlas: vec4<f32>,
 }
 
 override TF_KIND: u32 = 0u;
@@ -77,39 +79,33 @@ struct March {
     duvw: vec3<f32>,
 }
 
-// Where the ray is: next sample, the brick it last looked up, and whether it waits for one.
+// Where the ray is: next sample, the current brick's page entry and the atlas offset of its
+// stored copy relative to global voxel indices, and whether it waits for a brick.
 struct Cursor {
     k: u32,
-    brick: u32,
+    // Samples before this index lie in the current brick.
+    k_end: u32,
     entry: u32,
+    offset: vec3<i32>,
     blocked: bool,
 }
 
-// Trilinear sample at voxel position `pv` (voxel centres at i + 0.5) inside brick `bc`, whose
-// stored copy sits in atlas slot `slot`.
-fn sample_brick(pv: vec3<f32>, bc: vec3<u32>, slot: u32) -> f32 {
-    let edge = i32(BR.grid.w);
-    let sc = vec3<i32>(
-        i32(slot % BR.slots.x),
-        i32((slot / BR.slots.x) % BR.slots.y),
-        i32(slot / (BR.slots.x * BR.slots.y)),
-    ) * edge;
-    // Global index of the stored brick's first voxel (one before the brick's corner).
-    let base = vec3<i32>(bc * BR.dims.w) - vec3<i32>(1);
+// Trilinear sample at voxel position `pv` (voxel centres at i + 0.5) of the brick whose stored
+// copy starts at atlas texel `offset` + (global voxel index).
+fn sample_brick(pv: vec3<f32>, offset: vec3<i32>) -> f32 {
 #if HW_FILTER
-    let uvw = (vec3<f32>(sc - base) + pv) / vec3<f32>(textureDimensions(atlas));
+    let uvw = (vec3<f32>(offset) + pv) * BR.inv_atlas.xyz;
     return textureSampleLevel(atlas, volume_sampler, uvw, 0.0).r;
 #else
     // The same interpolation as volume.wgsl's exact path: global indices clamped to the volume,
-    // then moved into the slot (the apron holds every voxel a sample in this brick can touch).
+    // then moved into the slot. The sample's brick is floor(pv / B), so its footprint lies in
+    // the brick's interior and apron by construction.
     let g = pv - 0.5;
     let g0 = floor(g);
     let f = g - g0;
     let top = vec3<i32>(BR.dims.xyz) - vec3<i32>(1);
-    let lo = vec3<i32>(0);
-    let hi = vec3<i32>(edge - 1);
-    let a = clamp(clamp(vec3<i32>(g0), vec3<i32>(0), top) - base, lo, hi) + sc;
-    let b = clamp(clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top) - base, lo, hi) + sc;
+    let a = clamp(vec3<i32>(g0), vec3<i32>(0), top) + offset;
+    let b = clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top) + offset;
     let c000 = textureLoad(atlas, vec3<i32>(a.x, a.y, a.z), 0).r;
     let c100 = textureLoad(atlas, vec3<i32>(b.x, a.y, a.z), 0).r;
     let c010 = textureLoad(atlas, vec3<i32>(a.x, b.y, a.z), 0).r;
@@ -130,7 +126,12 @@ fn segment_end(m: March, k: u32) -> f32 {
     return min(m.t_enter + m.first + f32(k) * m.ds, m.t_exit);
 }
 
-// Sample k of the ray (or a jump over an empty brick).
+// Sample k of the ray (or a jump over an empty brick). When a sample leaves the samples known to
+// lie in the current brick, its brick is looked up (the brick that owns its position) and the
+// run of samples that stay in that brick is computed from the brick's exit: samples whose
+// segment ends before the exit face have their midpoint inside the brick (to within rounding,
+// far less than the half voxel of apron), so they read the brick's stored copy without further
+// checks. Each sample is still taken once, in order, from a copy holding its footprint.
 fn march_step(s: ptr<function, RayState>, c: ptr<function, Cursor>, m: March) {
     if ((*s).stopped || (*c).blocked || (*c).k >= m.steps) {
         return;
@@ -138,44 +139,51 @@ fn march_step(s: ptr<function, RayState>, c: ptr<function, Cursor>, m: March) {
     let k = (*c).k;
     let tb = segment_end(m, k);
     let mid = 0.5 * ((*s).ta + tb);
-    let uvw = m.uvw0 + m.duvw * mid;
-    let pv = uvw * vec3<f32>(BR.dims.xyz);
-    // The brick that owns this sample: a pure function of its position, so every sample belongs
-    // to exactly one brick in every pass. B is a power of two, so the scaling is exact.
-    let bc = vec3<u32>(clamp(floor(pv / f32(BR.dims.w)), vec3<f32>(0.0), vec3<f32>(BR.grid.xyz - vec3<u32>(1u))));
-    let id = bc.x + BR.grid.x * (bc.y + BR.grid.y * bc.z);
-    if (id != (*c).brick) {
-        (*c).brick = id;
-        (*c).entry = pages[id];
-    }
-    let entry = (*c).entry;
-    if (entry == ABSENT) {
-        atomicStore(&requests[id], 1u);
-        (*c).blocked = true;
-        return;
-    }
-    if (entry == EMPTY) {
-        // Every sample up to the brick's exit is transparent: jump to the last segment that ends
-        // a full step before the exit (the rest are stepped, each owned by a brick again).
+    let pv = (m.uvw0 + m.duvw * mid) * vec3<f32>(BR.dims.xyz);
+    if (k >= (*c).k_end) {
+        // B is a power of two, so the scaling is exact.
+        let bc = vec3<u32>(clamp(floor(pv / f32(BR.dims.w)), vec3<f32>(0.0), vec3<f32>(BR.grid.xyz - vec3<u32>(1u))));
+        let id = bc.x + BR.grid.x * (bc.y + BR.grid.y * bc.z);
+        let entry = pages[id];
+        if (entry == ABSENT) {
+            atomicStore(&requests[id], 1u);
+            (*c).blocked = true;
+            return;
+        }
+        (*c).entry = entry;
+        let slot = select(entry, 0u, entry == EMPTY);
+        let sc = vec3<i32>(
+            i32(slot % BR.slots.x),
+            i32((slot / BR.slots.x) % BR.slots.y),
+            i32(slot / (BR.slots.x * BR.slots.y)),
+        ) * i32(BR.grid.w);
+        // The stored copy's first voxel is one before the brick's corner.
+        (*c).offset = sc - (vec3<i32>(bc * BR.dims.w) - vec3<i32>(1));
+        // Where the ray leaves the brick, in the ray's own parameter.
         let ov = m.uvw0 * vec3<f32>(BR.dims.xyz);
         let dv = m.duvw * vec3<f32>(BR.dims.xyz);
         let safe = select(dv, vec3<f32>(1e-30), abs(dv) < vec3<f32>(1e-30));
         let face = vec3<f32>(bc + select(vec3<u32>(0u), vec3<u32>(1u), dv > vec3<f32>(0.0))) * f32(BR.dims.w);
         let tf = (face - ov) / safe;
         let t_out = min(min(tf.x, tf.y), tf.z);
-        let jump = floor((t_out - m.t_enter - m.first) / m.ds);
-        var next = k + 1u;
-        if (jump > f32(next)) {
-            next = u32(min(jump, f32(m.steps)));
+        // Samples j < last end no later than t_out.
+        let last = floor((t_out - m.t_enter - m.first) / m.ds) + 1.0;
+        var end = k + 1u;
+        if (last > f32(end)) {
+            end = u32(min(last, f32(m.steps)));
         }
-        (*s).ta = segment_end(m, next - 1u);
-        (*c).k = next;
-        return;
+        (*c).k_end = end;
+        if (entry == EMPTY) {
+            // Every sample up to the exit is transparent: they would add exactly nothing.
+            (*s).ta = segment_end(m, end - 1u);
+            (*c).k = end;
+            return;
+        }
     }
     let len = (tb - (*s).ta) * m.voxels_per_unit;
     (*s).ta = tb;
     (*c).k = k + 1u;
-    let v = sample_brick(pv, bc, entry);
+    let v = sample_brick(pv, (*c).offset);
     composite(s, select(vec4<f32>(0.0), transfer(v), is_finite_f32(v)), len, m.stop_tau);
 }
 
@@ -194,7 +202,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let t_enter = max(hit.x, 0.0);
     let t_exit = hit.y;
     var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, t_enter, false);
-    var c = Cursor(0u, 0xffffffffu, 0u, false);
+    var c = Cursor(0u, 0u, 0u, vec3<i32>(0), false);
     var done = !(t_exit > t_enter);
     if ((flags & FIRST_PASS) == 0u) {
         let a = ray_state[3u * pixel];

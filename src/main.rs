@@ -83,6 +83,35 @@ fn run(cli: Cli) -> Result<()> {
             println!("wrote {} and {}", csv.display(), json.display());
             Ok(())
         }
+        Some(Command::Bench(BenchCommand::Bricks {
+            runs,
+            n,
+            size,
+            brick,
+        })) => {
+            use hdrvis::render::bricked_bench::{bench_skipping, format_skipping_table};
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let rows = bench_skipping(ctx, n, size, brick, runs, &mut |m| eprintln!("{m}"))?;
+            print!("{}", format_skipping_table(&adapter, n, size, &rows));
+            Ok(())
+        }
+        Some(Command::Bench(BenchCommand::Large {
+            runs,
+            n,
+            size,
+            gpu_memory,
+            brick,
+        })) => {
+            use hdrvis::render::bricked_bench::{bench_large, format_large_report};
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let report = bench_large(ctx, n, size, gpu_memory, brick, runs, &mut |m| {
+                eprintln!("{m}")
+            })?;
+            print!("{}", format_large_report(&adapter, &report));
+            Ok(())
+        }
         Some(Command::Bench(BenchCommand::Datasets { runs, quick })) => {
             let rows = hdrvis::bench::bench_generators(runs, quick, &mut |m| eprintln!("{m}"))?;
             print!("{}", hdrvis::bench::format_generator_table(&rows));

@@ -92,6 +92,39 @@ pub enum BenchCommand {
         #[arg(long, default_value = "out/bench-accuracy")]
         out: PathBuf,
     },
+    /// Empty-space skipping: the mantle's temperature fluctuation N^3 -> SIZE^2 with the plain
+    /// ray caster, bricked, and bricked with skipping (Fig. 5 TF and hot plumes only).
+    Bricks {
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Volume side in voxels.
+        #[arg(long, default_value_t = 513)]
+        n: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 1024)]
+        size: u32,
+        /// Brick edge in voxels (8, 16, 32, 64, 128).
+        #[arg(long, default_value_t = 32)]
+        brick: usize,
+    },
+    /// Out-of-core rendering: an N^3 f32 volume written to the dataset cache as .npy (once),
+    /// memory-mapped, rendered with a GPU memory budget; reports time and peak memory.
+    Large {
+        #[arg(long, default_value_t = 1)]
+        runs: usize,
+        /// Volume side in voxels (1024: 4.3 GB).
+        #[arg(long, default_value_t = 1024)]
+        n: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 1024)]
+        size: u32,
+        /// GPU memory budget in MiB.
+        #[arg(long = "gpu-memory", default_value_t = 1024.0)]
+        gpu_memory: f64,
+        /// Brick edge in voxels.
+        #[arg(long, default_value_t = 32)]
+        brick: usize,
+    },
     /// Dataset generators: okada 1001^2, mantle 513^3, tsunami 1000^2 for 2 simulated hours.
     Datasets {
         #[arg(long, default_value_t = 3)]

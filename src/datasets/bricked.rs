@@ -505,6 +505,29 @@ mod tests {
     }
 
     #[test]
+    fn truncated_or_wrong_npy_files_are_one_line_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let v = field();
+        let p = dir.path().join("t.npy");
+        crate::datasets::npy::write_npy(&p, &[v.dims[2], v.dims[1], v.dims[0]], &v.data).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &bytes[..bytes.len() - 100]).unwrap();
+        let err = open_bricked(&p, None, 8).unwrap_err().to_string();
+        assert!(err.contains("holds only") && !err.contains('\n'), "{err}");
+        let flat = dir.path().join("flat.npy");
+        crate::datasets::npy::write_npy(&flat, &[6], &[1.0f32; 6]).unwrap();
+        let err = open_bricked(&flat, None, 8).unwrap_err().to_string();
+        assert!(err.contains("3-D array"), "{err}");
+        std::fs::write(&p, b"not numpy at all").unwrap();
+        assert!(open_bricked(&p, None, 8)
+            .unwrap_err()
+            .to_string()
+            .contains("magic"));
+        let err = open_bricked(&flat, None, 12).unwrap_err().to_string();
+        assert!(err.contains("3-D array") || err.contains("brick"), "{err}");
+    }
+
+    #[test]
     fn streamed_npy_writer_round_trips_through_the_npy_reader() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("s.npy");

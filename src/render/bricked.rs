@@ -27,6 +27,7 @@ struct BrickParams {
     dims: [u32; 4],
     grid: [u32; 4],
     slots: [u32; 4],
+    inv_atlas: [f32; 4],
 }
 
 const EMPTY: u32 = 0xffff_fffe;
@@ -107,10 +108,8 @@ impl BrickCache {
             }
             capacity = capacity.min(fit);
         }
-        let sx = capacity.min(per_axis);
-        let sy = capacity.div_ceil(sx).min(per_axis);
-        let sz = capacity.div_ceil(sx * sy);
-        let capacity = capacity.min(sx * sy * sz);
+        let [sx, sy, sz] = atlas_shape(capacity, per_axis);
+        let capacity = sx * sy * sz;
         let e = layout.stored_edge() as u32;
         let atlas = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("brick atlas"),
@@ -229,11 +228,8 @@ impl BrickCache {
                     },
                 );
                 let layer = layout.coords(b as usize)[2];
-                if let Some(prev) = layer_of_last.filter(|&p| p != layer) {
-                    let bz: usize = prev;
-                    self.volume
-                        .source()
-                        .release(bz * layout.brick, (bz + 1) * layout.brick);
+                if let Some(bz) = layer_of_last.filter(|&p| p != layer) {
+                    release_layer(&self.volume, bz);
                 }
                 layer_of_last = Some(layer);
             }
@@ -241,14 +237,35 @@ impl BrickCache {
             ctx.queue.submit([]);
         }
         if let Some(bz) = layer_of_last {
-            let n = layout.dims[2];
-            self.volume.source().release(
-                (bz * layout.brick).saturating_sub(1),
-                ((bz + 1) * layout.brick + 1).min(n),
-            );
+            release_layer(&self.volume, bz);
         }
         Ok(missing.len())
     }
+}
+
+/// Hands back the source pages of brick layer `bz` (its slices and aprons): a memory-mapped file
+/// then keeps at most one brick layer resident while bricks are read.
+fn release_layer(volume: &BrickedVolume, bz: usize) {
+    let b = volume.layout.brick;
+    volume.source().release(
+        (bz * b).saturating_sub(1),
+        ((bz + 1) * b + 1).min(volume.dims[2]),
+    );
+}
+
+/// Slots per axis of an atlas holding as many of `capacity` slots as fit a box of at most
+/// `per_axis` slots a side (the texture holds exactly that many, so none of the budget idles).
+fn atlas_shape(capacity: usize, per_axis: usize) -> [usize; 3] {
+    let mut best = [1, 1, 1];
+    for sx in 1..=per_axis.min(capacity) {
+        for sy in 1..=per_axis.min(capacity / sx) {
+            let sz = per_axis.min(capacity / (sx * sy));
+            if sx * sy * sz > best.iter().product() {
+                best = [sx, sy, sz];
+            }
+        }
+    }
+    best
 }
 
 /// GPU bytes a render needs besides the atlas: page table and requests, output image and its
@@ -283,10 +300,10 @@ impl VolumeRenderer {
             origin: volume.origin,
             stats: &volume.stats,
         };
-        // `auto` takes the exact filter here: the texture unit would see atlas coordinates that
-        // depend on where a brick landed in the cache, so its rounding of the weights would make
-        // the image depend on the cache; the exact path reads the same texels with the same
-        // weights as the plain render, whatever the layout.
+        // `auto` filters exactly here. The texture unit would see atlas coordinates, whose f32
+        // rounding depends on where a brick landed in the cache (differences up to 1e-3 of the
+        // peak after a steep transfer function, on lavapipe), and on CPU rasterizers it buys no
+        // speed in the atlas; the exact path reads the plain render's texels with its weights.
         let mut exact = opts.clone();
         if exact.filter == super::FilterMode::Auto {
             exact.filter = super::FilterMode::Exact;
@@ -328,6 +345,7 @@ impl VolumeRenderer {
                 layout.stored_edge() as u32,
             ],
             slots: [slots[0], slots[1], slots[2], flags],
+            inv_atlas: [0, 1, 2, 0].map(|a| 1.0 / (slots[a] * layout.stored_edge() as u32) as f32),
         };
         let bricks_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("brick params"),
@@ -351,6 +369,19 @@ impl VolumeRenderer {
             mapped_at_creation: false,
         });
         let pixels = opts.width as u64 * opts.height as u64;
+        let limit = ctx.caps.max_storage_buffer_binding_size;
+        if !single && pixels * 48 > limit {
+            return Err(Error::invalid(
+                "width",
+                format!(
+                    "an out-of-core render keeps 48 bytes of ray state a pixel; {}x{} needs {} MiB but this adapter binds at most {} MiB",
+                    opts.width,
+                    opts.height,
+                    (pixels * 48) >> 20,
+                    limit >> 20
+                ),
+            ));
+        }
         let (state_size, progress_size) = if single {
             (16, 16)
         } else {
@@ -466,10 +497,11 @@ impl VolumeRenderer {
                 .filter(|&b| needed_set[b as usize])
                 .collect();
             let batches: Vec<&[u32]> = needed.chunks(cache.capacity).collect();
-            ctx.queue
-                .write_buffer(&requests_buf, 0, &vec![0u8; 4 * count as usize]);
+            let zeros = vec![0u8; 4 * count as usize];
             for (i, batch) in batches.iter().enumerate() {
                 stats.uploaded += cache.load(&ctx, batch)?;
+                // Only the last pass's requests matter: earlier ones name later batches.
+                ctx.queue.write_buffer(&requests_buf, 0, &zeros);
                 let mut flags = KEEP_STATE;
                 if i == 0 {
                     flags |= FIRST_PASS;
@@ -497,8 +529,7 @@ impl VolumeRenderer {
                         wanted.len()
                     )));
                 }
-                ctx.queue
-                    .write_buffer(&requests_buf, 0, &vec![0u8; 4 * count as usize]);
+                ctx.queue.write_buffer(&requests_buf, 0, &zeros);
                 let batch = &wanted[..wanted.len().min(cache.capacity)];
                 stats.uploaded += cache.load(&ctx, batch)?;
                 run_pass(cache, KEEP_STATE | LAST_PASS)?;
@@ -549,4 +580,22 @@ fn read_requests(ctx: &GpuContext, requests: &wgpu::Buffer, count: u64) -> Resul
     enc.copy_buffer_to_buffer(requests, 0, &staging, 0, 4 * count);
     ctx.queue.submit([enc.finish()]);
     readback::read_mapped(ctx, &staging, 4 * count)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::atlas_shape;
+
+    #[test]
+    fn atlas_uses_nearly_all_of_its_budget() {
+        for (cap, per_axis) in [(7, 60), (4913, 60), (5960, 60), (100_000, 30), (1, 5)] {
+            let s = atlas_shape(cap, per_axis);
+            let n: usize = s.iter().product();
+            assert!(n <= cap && s.iter().all(|&a| a <= per_axis), "{cap}: {s:?}");
+            assert!(
+                n as f64 >= 0.98 * cap.min(per_axis.pow(3)) as f64,
+                "{cap}: {s:?}"
+            );
+        }
+    }
 }

@@ -2,6 +2,7 @@
 //! they trace the same rays through the same optical model.
 
 pub mod bricked;
+pub mod bricked_bench;
 pub mod cpu_reference;
 pub mod surface;
 pub mod surface_bench;

@@ -65,13 +65,20 @@ impl BrickOptions {
     }
 }
 
+/// Any script volume, kept alive so its address identifies it.
+type Keepalive = Arc<dyn std::any::Any + Send + Sync>;
+/// A coarser level: (source, level, volume).
+type Level = (Keepalive, u32, Arc<Volume>);
+/// An in-memory volume cut into bricks: (volume, brick edge, bricked).
+type Cut = (Arc<Volume>, usize, Arc<BrickedVolume>);
+
 /// What the bricked path keeps between renders of one script run.
 #[derive(Default)]
 pub(crate) struct BrickState {
     /// Coarser levels by (source address, level); the source is kept so its address stays unique.
-    levels: Mutex<Vec<(Arc<dyn std::any::Any + Send + Sync>, u32, Arc<Volume>)>>,
+    levels: Mutex<Vec<Level>>,
     /// In-memory volumes cut into bricks, by (volume, brick edge).
-    bricked: Mutex<Vec<(Arc<Volume>, usize, Arc<BrickedVolume>)>>,
+    bricked: Mutex<Vec<Cut>>,
     /// GPU brick caches, at most one per bricked volume.
     caches: Mutex<Vec<BrickCache>>,
 }
@@ -83,7 +90,7 @@ pub(crate) enum Source {
 }
 
 impl Source {
-    fn any(&self) -> Arc<dyn std::any::Any + Send + Sync> {
+    fn any(&self) -> Keepalive {
         match self {
             Source::Memory(v) => v.clone(),
             Source::Bricked(b) => b.clone(),
@@ -116,7 +123,7 @@ fn level_of(host: &ScriptHost, source: &Source, level: u32) -> Result<Arc<Volume
 
 fn cache_level(
     host: &ScriptHost,
-    key: Arc<dyn std::any::Any + Send + Sync>,
+    key: Keepalive,
     level: u32,
     v: Arc<Volume>,
 ) -> Result<Arc<Volume>> {

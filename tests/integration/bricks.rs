@@ -211,3 +211,18 @@ fn memory_mapped_npy_renders_like_the_loaded_volume() {
     assert!(st.passes > 1, "{st:?}");
     assert!(diff(&img, &plain(&vol, &o)) < 1e-5);
 }
+
+#[test]
+fn a_budget_too_small_for_one_brick_is_a_one_line_error() {
+    let vol = scene_volume();
+    let bv = Arc::new(BrickedVolume::from_volume(Arc::new(vol), 16).unwrap());
+    let r = renderer(BackendChoice::Vulkan);
+    let err = BrickCache::new(r.context(), bv, Some(1 << 20), 512, 512)
+        .err()
+        .expect("1 MiB cannot hold a 512x512 image and a brick")
+        .to_string();
+    assert!(
+        err.starts_with("memory_budget: 1 MiB is too small") && !err.contains('\n'),
+        "{err}"
+    );
+}
