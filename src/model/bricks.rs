@@ -277,19 +277,20 @@ impl BrickedVolume {
         self.source.read_box(lo, size, &mut boxed)?;
         out.clear();
         out.resize(e * e * e, 0.0);
-        let start = [0, 1, 2].map(|a| (c[a] * l.brick) as i64 - 1);
-        let local = |a: usize, i: usize| -> usize {
-            let g = (start[a] + i as i64).clamp(0, self.dims[a] as i64 - 1) as usize;
-            g - lo[a]
+        // Per axis, the index into the read box of each stored voxel (clamped to the volume).
+        let map = |a: usize| -> Vec<usize> {
+            let start = (c[a] * l.brick) as i64 - 1;
+            (0..e)
+                .map(|i| (start + i as i64).clamp(0, self.dims[a] as i64 - 1) as usize - lo[a])
+                .collect()
         };
-        for k in 0..e {
-            let bk = local(2, k);
-            for j in 0..e {
-                let bj = local(1, j);
-                let row = (bk * size[1] + bj) * size[0];
-                let dst = (k * e + j) * e;
-                for i in 0..e {
-                    out[dst + i] = boxed[row + local(0, i)];
+        let (mx, my, mz) = (map(0), map(1), map(2));
+        for (k, &bk) in mz.iter().enumerate() {
+            for (j, &bj) in my.iter().enumerate() {
+                let row = &boxed[(bk * size[1] + bj) * size[0]..][..size[0]];
+                let dst = &mut out[(k * e + j) * e..][..e];
+                for (d, &bi) in dst.iter_mut().zip(&mx) {
+                    *d = row[bi];
                 }
             }
         }
