@@ -5,6 +5,7 @@
 // src/render/volume.rs (VolumeParams).
 #include "shared/optics.wgsl"
 #include "shared/camera.wgsl"
+#include "shared/march.wgsl"
 
 struct Params {
     eye: vec4<f32>,
@@ -76,63 +77,6 @@ fn sample_volume(uvw: vec3<f32>) -> f32 {
 #endif
 }
 
-const LOG10_2: f32 = 0.30102999566;
-
-// Rounds to the nearest 8-bit framebuffer level in [0, 1].
-fn quantize8(v: f32) -> f32 {
-    return round(clamp(v, 0.0, 1.0) * 255.0) / 255.0;
-}
-
-// Rounds to binary16 (through the packing builtins, so the same on every adapter).
-fn round16(v: f32) -> f32 {
-    return unpack2x16float(pack2x16float(vec2<f32>(v, 0.0))).x;
-}
-
-// Data value -> table coordinate in [0, 1] (see ScaleMapping::map).
-fn scaled(v: f32) -> f32 {
-    var s = v;
-    if (SCALE_KIND == 1u) {
-        s = log2(max(v, 1.1754944e-38)) * LOG10_2;
-    } else if (SCALE_KIND == 2u) {
-        s = sign(v) * log2(1.0 + abs(v) / P.scale.z) * LOG10_2;
-    }
-    var t = clamp((s - P.scale.x) * P.scale.y, 0.0, 1.0);
-    if (USE_LENS) {
-        let l = P.lens;
-        if (t < l.x) {
-            t = select(l.z, t * l.z / l.x, l.x > 0.0);
-        } else if (t <= l.y) {
-            t = l.z + (t - l.x) * (l.w - l.z) / (l.y - l.x);
-        } else {
-            t = select(l.w, l.w + (t - l.y) * (1.0 - l.w) / (1.0 - l.y), l.y < 1.0);
-        }
-    }
-    return t;
-}
-
-// Emission (rgb, per voxel length) and extinction (a, per voxel length) of a data value.
-fn transfer(v: f32) -> vec4<f32> {
-    if (TF_KIND == 1u) {
-        let c = max(v, 0.0);
-        return vec4<f32>(vec3<f32>(P.tf.x * c), P.tf.y * c);
-    }
-    let x = scaled(v) * P.scale.w;
-    let i = min(i32(x), i32(P.scale.w) - 1);
-    return mix(textureLoad(lut, vec2<i32>(i, 0), 0), textureLoad(lut, vec2<i32>(i + 1, 0), 0), x - f32(i));
-}
-
-// What a ray carries from step to step.
-struct RayState {
-    color: vec3<f32>,
-    color_carry: vec3<f32>,
-    tau: f32,
-    tau_carry: f32,
-    transmittance: f32,
-    // End of the previous segment.
-    ta: f32,
-    stopped: bool,
-}
-
 // The fixed quantities of one ray's march.
 struct March {
     t_enter: f32,
@@ -189,44 +133,7 @@ fn march_step(s: ptr<function, RayState>, m: March, k: u32) {
         ea = vec4<f32>(ea.rgb * shading_factor(m.uvw0 + m.duvw * mid, m.dir), ea.a);
     }
 #endif
-    let x = ea.a * len;
-    // One exponential per step: the segment's absorbed fraction gives both its escape fraction
-    // and the transmittance update. The optical depth is still accumulated separately, for
-    // alpha and for the stopping test.
-    let absorbed = one_minus_exp_neg(x);
-    let escape = select(1.0 - x * (0.5 - x * (0.16666667 - x * 0.041666668)), absorbed / x, x >= 0.03);
-    let contribution = (*s).transmittance * ea.rgb * (len * escape);
-    if (PRECISION == 3u) {
-        // Kahan: carry the low-order bits each sum drops.
-        let yc = contribution - (*s).color_carry;
-        let tc = (*s).color + yc;
-        (*s).color_carry = (tc - (*s).color) - yc;
-        (*s).color = tc;
-        let yt = x - (*s).tau_carry;
-        let tt = (*s).tau + yt;
-        (*s).tau_carry = (tt - (*s).tau) - yt;
-        (*s).tau = tt;
-        (*s).transmittance = exp(-tt);
-    } else if (PRECISION == 1u) {
-        // An 8-bit RGBA framebuffer: alpha = 1 - T and colour stored as 8-bit levels.
-        let c = (*s).color + contribution;
-        (*s).color = vec3<f32>(quantize8(c.x), quantize8(c.y), quantize8(c.z));
-        let alpha8 = quantize8(1.0 - (*s).transmittance * (1.0 - absorbed));
-        (*s).transmittance = 1.0 - alpha8;
-        (*s).tau = select(-log((*s).transmittance), 1e30, (*s).transmittance <= 0.0);
-    } else if (PRECISION == 2u) {
-        let c = (*s).color + contribution;
-        (*s).color = vec3<f32>(round16(c.x), round16(c.y), round16(c.z));
-        (*s).transmittance = round16((*s).transmittance * (1.0 - absorbed));
-        (*s).tau = round16((*s).tau + x);
-    } else {
-        (*s).color += contribution;
-        (*s).transmittance *= 1.0 - absorbed;
-        (*s).tau += x;
-    }
-    if ((*s).tau > m.stop_tau) {
-        (*s).stopped = true;
-    }
+    composite(s, ea, len, m.stop_tau);
 }
 
 // Steps per loop iteration. llvmpipe ends any loop after 65535 iterations, so a ray can take at

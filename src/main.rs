@@ -32,6 +32,13 @@ fn run(cli: Cli) -> Result<()> {
             opts.allowed_paths = args.allow_paths.clone();
             opts.sets = parse_sets(&args.sets)?;
             opts.resume = args.resume;
+            if let Some(m) = args.gpu_memory.filter(|m| !(m.is_finite() && *m > 0.0)) {
+                return Err(Error::invalid(
+                    "--gpu-memory",
+                    format!("expected MiB > 0, got {m}"),
+                ));
+            }
+            opts.gpu_memory_mib = args.gpu_memory;
             opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
             opts.cache_mib = hdrvis::render::cache::budget_mib(args.cache_mib)?;
             opts.capture_previews = args.preview;
@@ -139,6 +146,35 @@ fn run(cli: Cli) -> Result<()> {
                     let _ = viuer::print(&img, &config);
                 }
             }
+            Ok(())
+        }
+        Some(Command::Bench(BenchCommand::Bricks {
+            runs,
+            n,
+            size,
+            brick,
+        })) => {
+            use hdrvis::render::bricked_bench::{bench_skipping, format_skipping_table};
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let rows = bench_skipping(ctx, n, size, brick, runs, &mut |m| eprintln!("{m}"))?;
+            print!("{}", format_skipping_table(&adapter, n, size, &rows));
+            Ok(())
+        }
+        Some(Command::Bench(BenchCommand::Large {
+            runs,
+            n,
+            size,
+            gpu_memory,
+            brick,
+        })) => {
+            use hdrvis::render::bricked_bench::{bench_large, format_large_report};
+            let ctx = GpuContext::new(backend)?;
+            let adapter = ctx.describe();
+            let report = bench_large(ctx, n, size, gpu_memory, brick, runs, &mut |m| {
+                eprintln!("{m}")
+            })?;
+            print!("{}", format_large_report(&adapter, &report));
             Ok(())
         }
         Some(Command::Bench(BenchCommand::Datasets { runs, quick })) => {

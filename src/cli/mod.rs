@@ -60,6 +60,10 @@ pub struct RunArgs {
     /// Skip outputs that already exist (resume an interrupted sweep).
     #[arg(long)]
     pub resume: bool,
+    /// GPU memory budget of every render in MiB (the scripts' `memory_budget` default): larger
+    /// volumes stream through a brick cache of this size.
+    #[arg(long = "gpu-memory", value_name = "MIB")]
+    pub gpu_memory: Option<f64>,
     /// Print one line per pass: `pass NAME ran MS` or `pass NAME cached`.
     #[arg(long)]
     pub stats: bool,
@@ -131,6 +135,39 @@ pub enum BenchCommand {
         /// Only this scene (mantle, blobs, tsunami, fault); all by default.
         #[arg(long)]
         scene: Option<String>,
+    },
+    /// Empty-space skipping: the mantle's temperature fluctuation N^3 -> SIZE^2 with the plain
+    /// ray caster, bricked, and bricked with skipping (Fig. 5 TF and hot plumes only).
+    Bricks {
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Volume side in voxels.
+        #[arg(long, default_value_t = 513)]
+        n: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 1024)]
+        size: u32,
+        /// Brick edge in voxels (8, 16, 32, 64, 128).
+        #[arg(long, default_value_t = 32)]
+        brick: usize,
+    },
+    /// Out-of-core rendering: an N^3 f32 volume written to the dataset cache as .npy (once),
+    /// memory-mapped, rendered with a GPU memory budget; reports time and peak memory.
+    Large {
+        #[arg(long, default_value_t = 1)]
+        runs: usize,
+        /// Volume side in voxels (1024: 4.3 GB).
+        #[arg(long, default_value_t = 1024)]
+        n: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 1024)]
+        size: u32,
+        /// GPU memory budget in MiB.
+        #[arg(long = "gpu-memory", default_value_t = 1024.0)]
+        gpu_memory: f64,
+        /// Brick edge in voxels.
+        #[arg(long, default_value_t = 32)]
+        brick: usize,
     },
     /// Dataset generators: okada 1001^2, mantle 513^3, tsunami 1000^2 for 2 simulated hours.
     Datasets {

@@ -25,6 +25,14 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/shared/camera.wgsl"),
     ),
     (
+        "volume_bricked.wgsl",
+        include_str!("../../shaders/volume_bricked.wgsl"),
+    ),
+    (
+        "shared/march.wgsl",
+        include_str!("../../shaders/shared/march.wgsl"),
+    ),
+    (
         "shared/optics.wgsl",
         include_str!("../../shaders/shared/optics.wgsl"),
     ),
@@ -66,6 +74,7 @@ pub const PIPELINES: &[(&str, &[&[&str]])] = &[
         &[&[], &["HW_FILTER"], &["SHADING"], &["HW_FILTER", "SHADING"]],
     ),
     ("volume_f64.wgsl", &[&[]]),
+    ("volume_bricked.wgsl", &[&[], &["HW_FILTER"]]),
     ("tonemap/luminance_stats.wgsl", &[&[]]),
     ("tonemap/global.wgsl", &[&[]]),
     ("tonemap/ward_histogram.wgsl", &[&[]]),

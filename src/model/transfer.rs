@@ -402,6 +402,36 @@ impl ResolvedTransfer {
         }
     }
 
+    /// Whether every value in [lo, hi] — and anything trilinear interpolation of such values can
+    /// round to — has zero emission and zero extinction, on the GPU as on the CPU. Conservative:
+    /// the range is widened by f32 rounding, the scaled coordinate by 1e-5 scaled units (f32
+    /// logarithms are far closer), and the table by one entry on each side.
+    pub fn is_transparent(&self, lo: f64, hi: f64) -> bool {
+        match self.kind {
+            TfKind::EmissionAbsorption {
+                emission,
+                absorption,
+            } => (emission == 0.0 && absorption == 0.0) || hi <= 0.0,
+            TfKind::Lut => {
+                let widen = 1e-6 * lo.abs().max(hi.abs());
+                let m = &self.mapping;
+                let margin = 1e-5 * m.inv_range;
+                let base = |v: f64, d: f64| {
+                    ((m.scale.apply(v) - m.s_lo) * m.inv_range + d).clamp(0.0, 1.0)
+                };
+                let lens = |t: f64| m.lens.map_or(t, |l| lens_map(t, l));
+                let n = (LUT_SIZE - 1) as f64;
+                let first = (lens(base(lo - widen, -margin)) * n).floor() - 1.0;
+                let last = (lens(base(hi + widen, margin)) * n).ceil() + 1.0;
+                let first = first.clamp(0.0, n) as usize;
+                let last = last.clamp(0.0, n) as usize;
+                self.lut[first..=last]
+                    .iter()
+                    .all(|e| e.iter().all(|&c| c as f32 == 0.0))
+            }
+        }
+    }
+
     /// The table rounded to f32, as the GPU holds it; the CPU reference evaluates the same numbers.
     pub fn lut_f32(&self) -> Vec<[f32; 4]> {
         self.lut.iter().map(|e| e.map(|v| v as f32)).collect()
@@ -481,6 +511,30 @@ mod tests {
         let s = Scale::Symlog { linthresh: 1e-3 };
         assert!((s.apply(-2.0) + s.apply(2.0)).abs() < 1e-15);
         assert!((s.apply(1e-9) - 1e-6 / std::f64::consts::LN_10).abs() < 1e-12);
+    }
+
+    #[test]
+    fn transparency_of_a_range_follows_the_table() {
+        let tf = TransferFunction::Lut(LutTransfer {
+            domain: Some([0.0, 1.0]),
+            transparent_below: 0.5,
+            ..Default::default()
+        });
+        let r = tf.resolve(&stats(0.0, 1.0)).unwrap();
+        assert!(r.is_transparent(0.0, 0.49));
+        assert!(r.is_transparent(-5.0, 0.1));
+        // The first opaque entry is at t = 0.5; the margin keeps ranges just below it out.
+        assert!(!r.is_transparent(0.2, 0.4999));
+        assert!(!r.is_transparent(0.45, 0.6));
+        // Every value the table calls transparent evaluates to exactly zero.
+        for i in 0..=1000 {
+            let v = 0.4998 * i as f64 / 1000.0;
+            let (e, a) = r.eval(v);
+            assert_eq!((e, a), ([0.0; 3], 0.0), "{v}");
+        }
+        let ea = TransferFunction::emission_absorption(1.0, 0.5).unwrap();
+        let r = ea.resolve(&stats(0.0, 1.0)).unwrap();
+        assert!(r.is_transparent(-3.0, 0.0) && !r.is_transparent(-3.0, 1e-30));
     }
 
     #[test]

@@ -280,6 +280,14 @@ impl Volume {
 /// Rejects zero or absurd dimensions, and volumes larger than the memory this machine has,
 /// before anything is allocated.
 pub fn check_dims(dims: &[usize], field: &str) -> Result<()> {
+    check_shape(dims, field)?;
+    let bytes = dims.iter().product::<usize>() as u64 * 4;
+    check_allocation(bytes, field)
+}
+
+/// Rejects zero or absurd dimensions without asking whether the voxels fit in memory (bricked
+/// volumes stream them).
+pub fn check_shape(dims: &[usize], field: &str) -> Result<()> {
     for (a, &n) in dims.iter().enumerate() {
         if n == 0 || n > MAX_DIM {
             return Err(Error::invalid(
@@ -288,8 +296,7 @@ pub fn check_dims(dims: &[usize], field: &str) -> Result<()> {
             ));
         }
     }
-    let bytes = dims.iter().product::<usize>() as u64 * 4;
-    check_allocation(bytes, field)
+    Ok(())
 }
 
 /// Refuses an allocation that would exceed the memory currently available (Linux

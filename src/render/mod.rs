@@ -1,6 +1,8 @@
 //! Renderers: the GPU volume ray caster and its f64 CPU reference, sharing one set of options so
 //! they trace the same rays through the same optical model.
 
+pub mod bricked;
+pub mod bricked_bench;
 pub mod cache;
 pub mod cpu_reference;
 pub mod effects_bench;

@@ -6,7 +6,7 @@
 use super::{FilterMode, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::gpu::{readback, shader, GpuContext};
-use crate::model::transfer::{TfKind, LUT_SIZE};
+use crate::model::transfer::{ResolvedTransfer, TfKind, LUT_SIZE};
 use crate::model::{HdrImage, Projection, Volume, VolumeStats};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -14,7 +14,7 @@ use std::sync::{Arc, Mutex};
 /// Host mirror of `Params` in shaders/volume.wgsl — keep in sync.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct VolumeParams {
+pub(crate) struct VolumeParams {
     eye: [f32; 4],
     forward: [f32; 4],
     right: [f32; 4],
@@ -126,15 +126,13 @@ impl GpuVolume {
             * (self.texture.depth_or_array_layers() as u64)
             * 4
     }
-
-    fn size(&self) -> [f64; 3] {
-        [0, 1, 2].map(|a| self.dims[a] as f64 * self.spacing[a])
-    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-struct PipelineKey {
-    hw_filter: bool,
+pub(crate) struct PipelineKey {
+    /// The bricked ray caster (volume_bricked.wgsl) rather than the single-texture one.
+    pub bricked: bool,
+    pub hw_filter: bool,
     tf_kind: u32,
     scale: u32,
     lens: bool,
@@ -182,7 +180,7 @@ impl VolumeRenderer {
         &self.ctx
     }
 
-    fn pipeline(
+    pub(crate) fn pipeline(
         &self,
         key: PipelineKey,
     ) -> Result<(Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>, bool)> {
@@ -198,8 +196,12 @@ impl VolumeRenderer {
         if key.shading {
             defines.push("SHADING");
         }
-        let defines = &defines[..];
-        let src = shader::load("volume.wgsl", defines)?;
+        let name = if key.bricked {
+            "volume_bricked.wgsl"
+        } else {
+            "volume.wgsl"
+        };
+        let src = shader::load(name, &defines)?;
         let device = &self.ctx.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         // SAFETY: wgpu's injected runtime checks (buffer index clamps, loop counters) cost about
@@ -210,7 +212,7 @@ impl VolumeRenderer {
         let module = unsafe {
             device.create_shader_module_trusted(
                 wgpu::ShaderModuleDescriptor {
-                    label: Some("volume.wgsl"),
+                    label: Some(name),
                     source: wgpu::ShaderSource::Wgsl(src.into()),
                 },
                 wgpu::ShaderRuntimeChecks::unchecked(),
@@ -225,6 +227,15 @@ impl VolumeRenderer {
         ];
         if key.hw_filter {
             entries.push(layout::filtering_sampler(4));
+        }
+        if key.bricked {
+            entries.extend([
+                layout::uniform_buffer(5),
+                layout::storage_buffer(6, true),
+                layout::storage_buffer(7, false),
+                layout::storage_buffer(8, false),
+                layout::storage_buffer(9, false),
+            ]);
         }
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("volume"),
@@ -267,6 +278,84 @@ impl VolumeRenderer {
         volume: &GpuVolume,
         opts: &VolumeRenderOptions,
     ) -> Result<(HdrImage, RenderTiming)> {
+        let geometry = Geometry {
+            name: &volume.name,
+            dims: volume.dims,
+            spacing: volume.spacing,
+            origin: volume.origin,
+            stats: &volume.stats,
+        };
+        let frame = self.frame(&geometry, opts, false)?;
+        let (pipeline, compiled) = self.pipeline(frame.key)?;
+        let (pipeline, layout) = (&pipeline.0, &pipeline.1);
+        let device = &self.ctx.device;
+        use wgpu::util::DeviceExt;
+        let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("volume params"),
+            contents: bytemuck::bytes_of(&frame.params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let lut_view = self.lut_view(&frame.tf);
+        let out = self.output_texture(opts);
+        let out_view = out.create_view(&Default::default());
+        let mut entries = vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: params_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(&volume.view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::TextureView(&lut_view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::TextureView(&out_view),
+            },
+        ];
+        if frame.key.hw_filter {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 4,
+                resource: wgpu::BindingResource::Sampler(&self.sampler),
+            });
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("volume"),
+            layout,
+            entries: &entries,
+        });
+        let start = std::time::Instant::now();
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups(opts.width.div_ceil(8), opts.height.div_ceil(8), 1);
+        }
+        self.ctx.queue.submit([enc.finish()]);
+        let pixels = readback::read_rgba32f_texture(&self.ctx, &out)?;
+        let seconds = start.elapsed().as_secs_f64();
+        let image = self.finish_image(&geometry, opts, frame.key.hw_filter, pixels);
+        Ok((
+            image,
+            RenderTiming {
+                seconds,
+                compiled_pipeline: compiled,
+            },
+        ))
+    }
+
+    /// Everything one render fixes before dispatch: checked options, the resolved transfer
+    /// function, the pipeline variant and the shader parameters.
+    pub(crate) fn frame(
+        &self,
+        volume: &Geometry,
+        opts: &VolumeRenderOptions,
+        bricked: bool,
+    ) -> Result<Frame> {
         opts.validate()?;
         if opts.precision == super::Precision::F64 {
             return Err(Error::invalid(
@@ -282,7 +371,8 @@ impl VolumeRenderer {
             ));
         }
         let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
-        let diagonal = volume.size().iter().map(|s| s * s).sum::<f64>().sqrt();
+        let size = volume.size();
+        let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
         let steps = diagonal / (opts.step * voxel) + 2.0;
         if steps > MAX_STEPS_PER_RAY as f64 {
             return Err(Error::invalid(
@@ -294,7 +384,7 @@ impl VolumeRenderer {
                 ),
             ));
         }
-        let tf = opts.tf.resolve(&volume.stats)?;
+        let tf = opts.tf.resolve(volume.stats)?;
         let hw_filter = match opts.filter {
             FilterMode::Exact => false,
             FilterMode::Auto => self.ctx.caps.float32_filterable,
@@ -316,6 +406,7 @@ impl VolumeRenderer {
             } => (1, [emission as f32, absorption as f32, 0.0, 0.0]),
         };
         let key = PipelineKey {
+            bricked,
             hw_filter,
             tf_kind,
             scale: tf.mapping.scale_code(),
@@ -324,9 +415,6 @@ impl VolumeRenderer {
             precision: opts.precision.shader_code(),
             shading: opts.shading.is_some(),
         };
-        let (pipeline, compiled) = self.pipeline(key)?;
-        let (pipeline, layout) = (&pipeline.0, &pipeline.1);
-
         let cam = &opts.camera;
         let lo = volume.origin;
         let eye = [cam.eye[0] - lo[0], cam.eye[1] - lo[1], cam.eye[2] - lo[2]];
@@ -353,7 +441,7 @@ impl VolumeRenderer {
             right: v4(cam.right, 0.0),
             up: v4(cam.up, 0.0),
             proj,
-            box_size: v4(volume.size(), 0.0),
+            box_size: v4(size, 0.0),
             background: v4(opts.background, 0.0),
             scale: [
                 tf.mapping.s_lo as f32,
@@ -379,19 +467,18 @@ impl VolumeRenderer {
                 ]
             }),
         };
-        let device = &self.ctx.device;
+        Ok(Frame { key, tf, params })
+    }
+
+    /// The transfer table as an N x 1 texture.
+    pub(crate) fn lut_view(&self, tf: &ResolvedTransfer) -> wgpu::TextureView {
         use wgpu::util::DeviceExt;
-        let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("volume params"),
-            contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
         let lut: Vec<[f32; 4]> = if tf.lut.is_empty() {
             vec![[0.0; 4]; 2]
         } else {
             tf.lut_f32()
         };
-        let lut_tex = device.create_texture_with_data(
+        let lut_tex = self.ctx.device.create_texture_with_data(
             &self.ctx.queue,
             &wgpu::TextureDescriptor {
                 label: Some("transfer lut texture"),
@@ -410,8 +497,12 @@ impl VolumeRenderer {
             wgpu::util::TextureDataOrder::LayerMajor,
             bytemuck::cast_slice(&lut),
         );
-        let lut_view = lut_tex.create_view(&Default::default());
-        let out = device.create_texture(&wgpu::TextureDescriptor {
+        lut_tex.create_view(&Default::default())
+    }
+
+    /// The HDR output image the ray caster writes.
+    pub(crate) fn output_texture(&self, opts: &VolumeRenderOptions) -> wgpu::Texture {
+        self.ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("hdr image"),
             size: wgpu::Extent3d {
                 width: opts.width,
@@ -424,48 +515,22 @@ impl VolumeRenderer {
             format: wgpu::TextureFormat::Rgba32Float,
             usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
-        });
-        let out_view = out.create_view(&Default::default());
-        let mut entries = vec![
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: params_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: wgpu::BindingResource::TextureView(&volume.view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: wgpu::BindingResource::TextureView(&lut_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: wgpu::BindingResource::TextureView(&out_view),
-            },
-        ];
-        if hw_filter {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 4,
-                resource: wgpu::BindingResource::Sampler(&self.sampler),
-            });
-        }
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("volume"),
-            layout,
-            entries: &entries,
-        });
-        let start = std::time::Instant::now();
-        let mut enc = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind_group, &[]);
-            pass.dispatch_workgroups(opts.width.div_ceil(8), opts.height.div_ceil(8), 1);
-        }
-        self.ctx.queue.submit([enc.finish()]);
-        let pixels = readback::read_rgba32f_texture(&self.ctx, &out)?;
-        let seconds = start.elapsed().as_secs_f64();
+        })
+    }
+
+    pub(crate) fn sampler(&self) -> &wgpu::Sampler {
+        &self.sampler
+    }
+
+    /// The image with the metadata every render records.
+    pub(crate) fn finish_image(
+        &self,
+        volume: &Geometry,
+        opts: &VolumeRenderOptions,
+        hw_filter: bool,
+        pixels: Vec<[f32; 4]>,
+    ) -> HdrImage {
+        let cam = &opts.camera;
         let mut image = HdrImage::from_pixels(opts.width, opts.height, pixels);
         image.set_meta(
             "dataset",
@@ -503,12 +568,28 @@ impl VolumeRenderer {
             );
         }
         image.set_meta("adapter", self.ctx.describe());
-        Ok((
-            image,
-            RenderTiming {
-                seconds,
-                compiled_pipeline: compiled,
-            },
-        ))
+        image
     }
+}
+
+/// What a render needs to know of a volume's geometry, resident or bricked.
+pub(crate) struct Geometry<'a> {
+    pub name: &'a str,
+    pub dims: [usize; 3],
+    pub spacing: [f64; 3],
+    pub origin: [f64; 3],
+    pub stats: &'a VolumeStats,
+}
+
+impl Geometry<'_> {
+    fn size(&self) -> [f64; 3] {
+        [0, 1, 2].map(|a| self.dims[a] as f64 * self.spacing[a])
+    }
+}
+
+/// One render's fixed quantities (see [`VolumeRenderer::frame`]).
+pub(crate) struct Frame {
+    pub key: PipelineKey,
+    pub tf: ResolvedTransfer,
+    pub params: VolumeParams,
 }

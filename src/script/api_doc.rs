@@ -43,6 +43,8 @@ pub const AREAS: &[&str] = &[
 
 pub const API: &[ApiEntry] = &[
     e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x) or .vti, relative to the script's folder."),
+    e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy memory-mapped, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
+    e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with #{var, brick: 8|16|32|64|128}."),
     e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3: #{n, seed, field: \"temperature\"|\"fluctuation\"|\"viscosity\", plumes, slabs}; outside the shell is missing (NaN)."),
     e("datasets", "generate", &["kind: string", "options: map"], "string", "Path of a cached NetCDF dataset, generated on a miss: \"okada\" #{strike, dip, rake, slip, length, width, depth, depth_ref, extent, n} (ux, uy, uz), \"tsunami\" #{n, extent, duration, boundary} (max_abs_eta, arrival_time, depth), \"mantle\" #{n, seed, field, plumes, slabs}."),
     e("datasets", "volume_log10", &["volume: Volume"], "Volume", "log10 of every voxel; zeros and negatives become missing (NaN)."),
@@ -59,7 +61,8 @@ pub const API: &[ApiEntry] = &[
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number"], "Camera", "Perspective camera orbiting the volume's centre (degrees; fov 35)."),
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
     e("cameras", "camera_look_at", &["eye: array", "target: array", "up: array", "fov: number"], "Camera", "Free perspective camera."),
-    e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast: #{tf, camera, width, height, step (voxels), jitter, seed, early_exit, background: [r, g, b], filter: \"auto\"|\"hardware\"|\"exact\", precision: \"u8\"|\"f16\"|\"f32\"|\"f32c\"|\"f64\" (f64 on the CPU), shading: true|false|#{ambient, diffuse, specular, shininess} (Blinn–Phong headlight on the data gradient; absent = no shading code)}. Results are cached: an identical call returns the earlier image without a ray cast."),
+    e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast: #{tf, camera, width, height, step (voxels), jitter, seed, early_exit, background: [r, g, b], filter: \"auto\"|\"hardware\"|\"exact\", precision: \"u8\"|\"f16\"|\"f32\"|\"f32c\"|\"f64\" (f64 on the GPU where the adapter has shader f64, else the CPU), shading: true|false|#{ambient, diffuse, specular, shininess} (Blinn–Phong headlight on the data gradient; absent = no shading code; not on the bricked path), memory_budget (MiB of GPU memory; larger volumes stream through a brick cache), skip (empty-space skipping, bricked), brick (edge in voxels), level (0 full, 1 half, ... 4: quick look)}. Results of the plain path are cached: an identical call returns the earlier image without a ray cast."),
+    e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping on unless skip: false, out of core beyond memory_budget."),
     e("rendering", "get$width", &["image: Image"], "int", "image.width"),
     e("rendering", "get$height", &["image: Image"], "int", "image.height"),
     e("surfaces", "load_grid", &["path: string"], "Grid", "A 2-D field from .npy, .npz or .nc; every same-shape array becomes a property (elevation-like names become the relief)."),

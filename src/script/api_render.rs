@@ -3,13 +3,15 @@
 //! `save_exr`, `save_png`, `param`. `save_png` writes an HDR image exposed by 2^EV then sRGB,
 //! and a display-referred image (`display_referred = 1`: tone-mapped, false colour) as it is.
 
+use super::api_bricks::{BrickOptions, BRICK_RENDER_KEYS};
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
 use super::{ParamKind, ParamRecord, ScriptHost};
-use crate::model::{Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume};
+use crate::model::{
+    Aabb, Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume, VolumeStats,
+};
 use crate::render::{FilterMode, Precision, Shading, VolumeRenderOptions};
-use std::collections::HashMap;
-
 use rhai::{Dynamic, Engine, Map};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// A camera as scripts describe it; views that frame "the volume" are fixed at render time.
@@ -25,14 +27,15 @@ pub enum ScriptCamera {
 }
 
 impl ScriptCamera {
-    fn resolve(&self, volume: &Volume) -> crate::Result<Camera> {
+    /// The camera for a volume with these bounds.
+    pub(crate) fn resolve(&self, bounds: &Aabb) -> crate::Result<Camera> {
         match self {
-            ScriptCamera::Axis(a) => Ok(Camera::axis(*a, &volume.bounds())),
+            ScriptCamera::Axis(a) => Ok(Camera::axis(*a, bounds)),
             ScriptCamera::Orbit {
                 azimuth,
                 elevation,
                 fov,
-            } => Camera::orbit(&volume.bounds(), *azimuth, *elevation, *fov),
+            } => Camera::orbit(bounds, *azimuth, *elevation, *fov),
             ScriptCamera::Fixed(c) => Ok(*c),
         }
     }
@@ -128,17 +131,7 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     );
 
     engine.register_fn("volume_stats", |v: &mut ScriptVolume| -> Map {
-        let s = v.stats();
-        let mut m = Map::new();
-        m.insert("min".into(), Dynamic::from(s.min));
-        m.insert("max".into(), Dynamic::from(s.max));
-        m.insert(
-            "min_positive".into(),
-            s.min_positive.map(Dynamic::from).unwrap_or(Dynamic::UNIT),
-        );
-        m.insert("finite".into(), Dynamic::from(s.finite as i64));
-        m.insert("missing".into(), Dynamic::from(s.non_finite as i64));
-        m
+        stats_map(&v.stats())
     });
 
     engine.register_fn(
@@ -234,37 +227,17 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     );
 
     let h = host.clone();
-    engine.register_fn("render_volume", move |volume: &mut ScriptVolume, opts: Map| -> RResult<ScriptImage> {
-        check_keys(&opts, RENDER_KEYS, "render_volume")?;
-        let tf = match opts.get("tf") {
-            Some(v) => v.clone().try_cast::<TransferFunction>().ok_or_else(|| to_rhai(crate::Error::invalid("tf", "expected a TransferFunction (from tf_lut or tf_emission_absorption)")))?,
-            None => return err("tf", "render_volume needs a transfer function: tf: tf_lut(#{...}) or tf_emission_absorption(e, a)"),
-        };
-        let camera = match opts.get("camera") {
-            Some(v) => v.clone().try_cast::<ScriptCamera>().ok_or_else(|| to_rhai(crate::Error::invalid("camera", "expected a Camera (from camera_axis, camera_orbit or camera_look_at)")))?,
-            None => ScriptCamera::Orbit { azimuth: 30.0, elevation: 25.0, fov: 35.0 },
-        };
-        let mut o = VolumeRenderOptions::new(camera.resolve(volume).map_err(to_rhai)?, tf);
-        for (k, v) in &opts {
-            match k.as_str() {
-                "tf" | "camera" => {}
-                "width" => o.width = int(v, "width")?.clamp(0, u32::MAX as i64) as u32,
-                "height" => o.height = int(v, "height")?.clamp(0, u32::MAX as i64) as u32,
-                "step" => o.step = num(v, "step")?,
-                "jitter" => o.jitter = boolean(v, "jitter")?,
-                "seed" => o.seed = int(v, "seed")? as u32,
-                "early_exit" => o.early_exit = num(v, "early_exit")?,
-                "background" => o.background = vec3(v, "background")?,
-                "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
-                "precision" => o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?,
-                "shading" => o.shading = shading(v)?,
-                _ => unreachable!("checked keys"),
-            }
-        }
-        let img = h.session.raycast(volume, &o).map_err(to_rhai)?;
-        h.note_image(&img);
-        Ok(img)
-    });
+    engine.register_fn(
+        "render_volume",
+        move |volume: &mut ScriptVolume, opts: Map| -> RResult<ScriptImage> {
+            let (o, bricks) =
+                render_options(&opts, |cam: &ScriptCamera| cam.resolve(&volume.bounds()))?;
+            let source = super::api_bricks::Source::Memory(volume.clone());
+            let img = super::api_bricks::render(&h, source, &o, &bricks).map_err(to_rhai)?;
+            h.note_image(&img);
+            Ok(img)
+        },
+    );
 
     let h = host.clone();
     engine.register_fn(
@@ -435,6 +408,74 @@ fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
     }
     s.validate().map_err(to_rhai)?;
     Ok(Some(s))
+}
+
+/// `volume_stats` as a script map.
+pub(crate) fn stats_map(s: &VolumeStats) -> Map {
+    let mut m = Map::new();
+    m.insert("min".into(), Dynamic::from(s.min));
+    m.insert("max".into(), Dynamic::from(s.max));
+    m.insert(
+        "min_positive".into(),
+        s.min_positive.map(Dynamic::from).unwrap_or(Dynamic::UNIT),
+    );
+    m.insert("finite".into(), Dynamic::from(s.finite as i64));
+    m.insert("missing".into(), Dynamic::from(s.non_finite as i64));
+    m
+}
+
+/// The options map of `render_volume`, with the camera resolved for the volume's bounds.
+pub(crate) fn render_options(
+    opts: &Map,
+    resolve: impl Fn(&ScriptCamera) -> crate::Result<Camera>,
+) -> RResult<(VolumeRenderOptions, BrickOptions)> {
+    let keys: Vec<&str> = RENDER_KEYS
+        .iter()
+        .chain(BRICK_RENDER_KEYS)
+        .copied()
+        .collect();
+    check_keys(opts, &keys, "render_volume")?;
+    let tf = match opts.get("tf") {
+        Some(v) => v.clone().try_cast::<TransferFunction>().ok_or_else(|| to_rhai(crate::Error::invalid("tf", "expected a TransferFunction (from tf_lut or tf_emission_absorption)")))?,
+        None => return err("tf", "render_volume needs a transfer function: tf: tf_lut(#{...}) or tf_emission_absorption(e, a)"),
+    };
+    let camera = match opts.get("camera") {
+        Some(v) => v.clone().try_cast::<ScriptCamera>().ok_or_else(|| {
+            to_rhai(crate::Error::invalid(
+                "camera",
+                "expected a Camera (from camera_axis, camera_orbit or camera_look_at)",
+            ))
+        })?,
+        None => ScriptCamera::Orbit {
+            azimuth: 30.0,
+            elevation: 25.0,
+            fov: 35.0,
+        },
+    };
+    let mut o = VolumeRenderOptions::new(resolve(&camera).map_err(to_rhai)?, tf);
+    let mut bricks = BrickOptions::default();
+    for (k, v) in opts {
+        if bricks.take(k.as_str(), v)? {
+            continue;
+        }
+        match k.as_str() {
+            "tf" | "camera" => {}
+            "width" => o.width = int(v, "width")?.clamp(0, u32::MAX as i64) as u32,
+            "height" => o.height = int(v, "height")?.clamp(0, u32::MAX as i64) as u32,
+            "step" => o.step = num(v, "step")?,
+            "jitter" => o.jitter = boolean(v, "jitter")?,
+            "seed" => o.seed = int(v, "seed")? as u32,
+            "early_exit" => o.early_exit = num(v, "early_exit")?,
+            "background" => o.background = vec3(v, "background")?,
+            "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
+            "precision" => {
+                o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?
+            }
+            "shading" => o.shading = shading(v)?,
+            _ => unreachable!("checked keys"),
+        }
+    }
+    Ok((o, bricks))
 }
 
 /// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal

@@ -3,6 +3,7 @@
 //! Paths a script reads resolve against its own folder and must stay inside the script folder,
 //! the output folder or folders the user allowed; outputs go only under the output folder.
 
+mod api_bricks;
 mod api_datasets;
 pub mod api_doc;
 mod api_fields;
@@ -48,6 +49,8 @@ pub struct ScriptOptions {
     /// Keep the images passed to `preview(image)` in [`ScriptReport::previews`] instead of
     /// printing them to the terminal (`hdrvis tui` shows them itself, `run --preview` at the end).
     pub capture_previews: bool,
+    /// Default `memory_budget` of every render, in MiB of GPU memory (`--gpu-memory`).
+    pub gpu_memory_mib: Option<f64>,
 }
 
 impl ScriptOptions {
@@ -63,6 +66,7 @@ impl ScriptOptions {
             session: None,
             cache_mib: crate::render::cache::DEFAULT_BUDGET_MIB,
             capture_previews: false,
+            gpu_memory_mib: None,
         }
     }
 }
@@ -115,6 +119,9 @@ pub(crate) struct ScriptHost {
     pub resume: bool,
     progress_enabled: bool,
     progress: Mutex<Option<indicatif::ProgressBar>>,
+    /// Default memory budget of renders (MiB), and the bricked path's caches.
+    pub gpu_memory_mib: Option<f64>,
+    pub(crate) bricks: api_bricks::BrickState,
 }
 
 impl ScriptHost {
@@ -180,6 +187,7 @@ pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
     // `eval` would let a script build code from strings and dodge the checks on its source.
     engine.disable_symbol("eval");
     api_render::register(&mut engine, host.clone());
+    api_bricks::register(&mut engine, host.clone());
     api_post::register(&mut engine, host.clone());
     api_datasets::register(&mut engine);
     api_fields::register(&mut engine);
@@ -208,6 +216,8 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         resume: false,
         progress_enabled: false,
         progress: Mutex::new(None),
+        gpu_memory_mib: None,
+        bricks: Default::default(),
     })
 }
 
@@ -259,6 +269,8 @@ pub fn run_script_source(
         resume: opts.resume,
         progress_enabled: opts.progress,
         progress: Mutex::new(None),
+        gpu_memory_mib: opts.gpu_memory_mib,
+        bricks: Default::default(),
     });
     let engine = new_engine(host.clone(), opts.max_operations);
     let ast = engine

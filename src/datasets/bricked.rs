@@ -1,0 +1,578 @@
+//! Voxel sources for bricked, out-of-core volumes: `.npy` files read through a memory map
+//! (`memmap2`; any plain numeric dtype, either byte order, converted to f32 row by row) and NetCDF
+//! variables read by hyperslabs (with the same decoding, coordinates and axis flips as
+//! [`super::load_volume`]). Neither holds the whole volume: a read touches only the rows it
+//! needs, and the map's pages are handed back after each slab. [`open_bricked`] builds the brick
+//! index of a file this way; other formats are loaded whole and bricked in memory.
+
+use super::netcdf;
+use crate::error::{Error, Result};
+use crate::model::bricks::{BrickedVolume, MemorySource, VoxelSource};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Opens `path` as a bricked volume with bricks of `brick` voxels, reading it in slabs.
+pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<BrickedVolume> {
+    if !path.exists() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        ));
+    }
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("volume")
+        .to_string();
+    let at = |e: Error| match e {
+        Error::Invalid { field, msg } => Error::format(path, format!("{field}: {msg}")),
+        other => other,
+    };
+    match crate::io::extension(path).as_str() {
+        "npy" => {
+            let src = MappedNpy::open(path)?;
+            BrickedVolume::build(stem, Arc::new(src), [1.0; 3], [0.0; 3], brick).map_err(at)
+        }
+        "nc" | "nc4" | "cdf" | "netcdf" => {
+            let src = NetcdfSource::open(path, var)?;
+            let (spacing, origin, units, name) =
+                (src.spacing, src.origin, src.units.clone(), src.var.clone());
+            let mut b =
+                BrickedVolume::build(name, Arc::new(src), spacing, origin, brick).map_err(at)?;
+            b.units = units;
+            Ok(b)
+        }
+        _ => {
+            let v = Arc::new(super::load_volume_var(path, var)?);
+            BrickedVolume::from_volume(v, brick).map_err(at)
+        }
+    }
+}
+
+/// The on-disk element types a memory-mapped array may have.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Element {
+    F16,
+    F32,
+    F64,
+    I8,
+    I16,
+    I32,
+    I64,
+    U8,
+    U16,
+    U32,
+    U64,
+}
+
+impl Element {
+    fn from_descr(d: &str) -> Option<(Element, bool)> {
+        let (order, rest) = d.split_at(1.min(d.len()));
+        let big = match order {
+            ">" => true,
+            "<" | "|" | "=" => false,
+            _ => return None,
+        };
+        let e = match rest {
+            "f2" => Element::F16,
+            "f4" => Element::F32,
+            "f8" => Element::F64,
+            "i1" => Element::I8,
+            "i2" => Element::I16,
+            "i4" => Element::I32,
+            "i8" => Element::I64,
+            "u1" | "b1" => Element::U8,
+            "u2" => Element::U16,
+            "u4" => Element::U32,
+            "u8" => Element::U64,
+            _ => return None,
+        };
+        Some((e, big))
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Element::I8 | Element::U8 => 1,
+            Element::F16 | Element::I16 | Element::U16 => 2,
+            Element::F32 | Element::I32 | Element::U32 => 4,
+            Element::F64 | Element::I64 | Element::U64 => 8,
+        }
+    }
+
+    /// Converts `bytes` (a whole number of elements) into `out`.
+    fn decode(self, big: bool, bytes: &[u8], out: &mut [f32]) {
+        macro_rules! conv {
+            ($t:ty, $n:literal, $f:expr) => {{
+                for (o, c) in out.iter_mut().zip(bytes.chunks_exact($n)) {
+                    let a: [u8; $n] = c.try_into().expect("chunk of element size");
+                    let v = if big {
+                        <$t>::from_be_bytes(a)
+                    } else {
+                        <$t>::from_le_bytes(a)
+                    };
+                    *o = $f(v);
+                }
+            }};
+        }
+        match self {
+            Element::F32 if !big => {
+                for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+                    *o = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+                }
+            }
+            Element::F32 => conv!(f32, 4, |v| v),
+            Element::F64 => conv!(f64, 8, |v: f64| v as f32),
+            Element::F16 => conv!(u16, 2, |v| half::f16::from_bits(v).to_f32()),
+            Element::I8 => conv!(i8, 1, |v| v as f32),
+            Element::U8 => conv!(u8, 1, |v| v as f32),
+            Element::I16 => conv!(i16, 2, |v| v as f32),
+            Element::U16 => conv!(u16, 2, |v| v as f32),
+            Element::I32 => conv!(i32, 4, |v: i32| v as f64 as f32),
+            Element::U32 => conv!(u32, 4, |v: u32| v as f64 as f32),
+            Element::I64 => conv!(i64, 8, |v: i64| v as f64 as f32),
+            Element::U64 => conv!(u64, 8, |v: u64| v as f64 as f32),
+        }
+    }
+}
+
+/// A C-ordered 3-D `.npy` array read through a memory map.
+pub struct MappedNpy {
+    path: PathBuf,
+    map: memmap2::Mmap,
+    offset: usize,
+    dims: [usize; 3],
+    element: Element,
+    big_endian: bool,
+}
+
+impl MappedNpy {
+    pub fn open(path: &Path) -> Result<MappedNpy> {
+        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        // SAFETY: the map is read-only; a file truncated by another process while mapped would
+        // fault on access, the usual caveat of memory-mapped reading, which is what the issue
+        // asks for (volumes larger than memory).
+        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| Error::io(path, e))?;
+        let bad = |m: String| Error::format(path, m);
+        if map.len() < 10 || &map[..6] != b"\x93NUMPY" {
+            return Err(bad("not a .npy file: missing the \\x93NUMPY magic".into()));
+        }
+        let (header_len, start) = match map[6] {
+            1 => (u16::from_le_bytes([map[8], map[9]]) as usize, 10),
+            2 | 3 if map.len() >= 12 => (
+                u32::from_le_bytes([map[8], map[9], map[10], map[11]]) as usize,
+                12,
+            ),
+            v => return Err(bad(format!("unsupported .npy version {v}"))),
+        };
+        let offset = start + header_len;
+        if offset > map.len() {
+            return Err(bad("header runs past the end of the file".into()));
+        }
+        let npy =
+            npyz::NpyFile::new(&map[..]).map_err(|e| bad(format!("not a valid .npy file: {e}")))?;
+        if npy.order() == npyz::Order::Fortran {
+            return Err(bad(
+                "array is in Fortran order; expected C order (save with np.ascontiguousarray)"
+                    .into(),
+            ));
+        }
+        let descr = match npy.dtype() {
+            npyz::DType::Plain(ts) => ts.to_string(),
+            other => other.descr(),
+        };
+        let (element, big_endian) = Element::from_descr(&descr).ok_or_else(|| {
+            bad(format!(
+                "unsupported dtype {descr}; expected a plain numeric type such as <f4"
+            ))
+        })?;
+        let shape: Vec<usize> = npy.shape().iter().map(|&s| s as usize).collect();
+        if shape.len() != 3 {
+            return Err(bad(format!(
+                "expected a 3-D array of shape (nz, ny, nx), got shape {shape:?}"
+            )));
+        }
+        let dims = [shape[2], shape[1], shape[0]];
+        crate::model::volume::check_shape(&dims, "shape").map_err(|e| bad(e.to_string()))?;
+        let need = dims.iter().map(|&d| d as u64).product::<u64>() * element.size() as u64;
+        if offset as u64 + need > map.len() as u64 {
+            return Err(bad(format!(
+                "header declares shape {shape:?} of {descr} ({need} bytes) but the file holds only {} bytes after the header",
+                map.len() - offset
+            )));
+        }
+        Ok(MappedNpy {
+            path: path.to_path_buf(),
+            map,
+            offset,
+            dims,
+            element,
+            big_endian,
+        })
+    }
+
+    fn byte_of(&self, i: usize, j: usize, k: usize) -> usize {
+        self.offset + ((k * self.dims[1] + j) * self.dims[0] + i) * self.element.size()
+    }
+}
+
+impl VoxelSource for MappedNpy {
+    fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    fn read_box(&self, lo: [usize; 3], size: [usize; 3], out: &mut [f32]) -> Result<()> {
+        let es = self.element.size();
+        let mut o = 0;
+        for k in lo[2]..lo[2] + size[2] {
+            for j in lo[1]..lo[1] + size[1] {
+                let b = self.byte_of(lo[0], j, k);
+                self.element.decode(
+                    self.big_endian,
+                    &self.map[b..b + size[0] * es],
+                    &mut out[o..o + size[0]],
+                );
+                o += size[0];
+            }
+        }
+        Ok(())
+    }
+
+    fn release(&self, z0: usize, z1: usize) {
+        if z1 <= z0 {
+            return;
+        }
+        // Whole pages only: the range is rounded inwards to the page size.
+        let page = 4096;
+        let a = self.byte_of(0, 0, z0).div_ceil(page) * page;
+        let b = (self.byte_of(0, 0, z1.min(self.dims[2])) / page) * page;
+        if b > a {
+            // SAFETY: the map is a read-only file mapping; dropped pages are read again from the
+            // file on the next access, so no data the map exposes can change.
+            let _ = unsafe {
+                self.map
+                    .unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, a, b - a)
+            };
+        }
+    }
+
+    fn describe(&self) -> String {
+        format!("{} (memory-mapped)", self.path.display())
+    }
+}
+
+/// A 3-D NetCDF variable read by hyperslabs, decoded (fill values to NaN, scale and offset) like
+/// [`super::load_volume`], with evenly spaced coordinates giving spacing and origin and
+/// decreasing ones flipped.
+pub struct NetcdfSource {
+    path: PathBuf,
+    file: netcdf_reader::NcFile,
+    pub var: String,
+    /// Leading length-1 dimensions (a single time step) before (z, y, x).
+    lead: usize,
+    dims: [usize; 3],
+    flip: [bool; 3],
+    pub spacing: [f64; 3],
+    pub origin: [f64; 3],
+    pub units: String,
+}
+
+impl NetcdfSource {
+    pub fn open(path: &Path, var: Option<&str>) -> Result<NetcdfSource> {
+        let listed = super::list_arrays(path)?;
+        let fits =
+            |shape: &[usize]| shape.len() >= 3 && shape[..shape.len() - 3].iter().all(|&s| s == 1);
+        let name = match var {
+            Some(v) => v.to_string(),
+            None => listed
+                .iter()
+                .filter(|a| a.dtype != "char" && a.dtype != "string")
+                .find(|a| !a.is_coordinate && fits(&a.shape))
+                .map(|a| a.name.clone())
+                .ok_or_else(|| {
+                    Error::format(path, "no 3-D data variable to pick; name one with var")
+                })?,
+        };
+        let listing = listed.iter().find(|a| a.name == name).ok_or_else(|| {
+            Error::format(
+                path,
+                format!(
+                    "no variable '{name}'; the file has: {}",
+                    listed
+                        .iter()
+                        .map(|a| a.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        })?;
+        if !fits(&listing.shape) {
+            return Err(Error::format(
+                path,
+                format!(
+                    "'{name}' has shape {:?}; expected a 3-D array",
+                    listing.shape
+                ),
+            ));
+        }
+        let file = netcdf_reader::NcFile::open(path)
+            .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+        let v = file
+            .variable(&name)
+            .map_err(|e| Error::format(path, e.to_string()))?;
+        let lead = v.dimensions.len() - 3;
+        let dim_names: Vec<String> = v.dimensions.iter().map(|d| d.name.clone()).collect();
+        let units = v
+            .attribute("units")
+            .and_then(|a| a.value.as_string())
+            .unwrap_or_default();
+        let s = &listing.shape[lead..];
+        let dims = [s[2], s[1], s[0]];
+        crate::model::volume::check_shape(&dims, "shape")
+            .map_err(|e| Error::format(path, e.to_string()))?;
+        let mut spacing = [1.0; 3];
+        let mut origin = [0.0; 3];
+        let mut flip = [false; 3];
+        for a in 0..3 {
+            let dim = &dim_names[lead + 2 - a];
+            let Some(values) = netcdf::read_coordinate(path, dim)? else {
+                continue;
+            };
+            match values.as_slice() {
+                [single] => origin[a] = single - 0.5,
+                [first, .., last] => {
+                    let step = (last - first) / (values.len() - 1) as f64;
+                    let even = values
+                        .windows(2)
+                        .all(|w| ((w[1] - w[0]) - step).abs() <= 1e-5 * step.abs());
+                    if even {
+                        spacing[a] = step.abs();
+                        origin[a] = first.min(*last) - 0.5 * step.abs();
+                        flip[a] = step < 0.0;
+                    }
+                }
+                [] => {}
+            }
+        }
+        Ok(NetcdfSource {
+            path: path.to_path_buf(),
+            file,
+            var: name,
+            lead,
+            dims,
+            flip,
+            spacing,
+            origin,
+            units,
+        })
+    }
+}
+
+impl VoxelSource for NetcdfSource {
+    fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    fn read_box(&self, lo: [usize; 3], size: [usize; 3], out: &mut [f32]) -> Result<()> {
+        use netcdf_reader::{NcSliceInfo, NcSliceInfoElem};
+        // The file's index range of a volume axis (flipped axes run backwards on disk).
+        let file_lo = |a: usize| {
+            if self.flip[a] {
+                self.dims[a] - lo[a] - size[a]
+            } else {
+                lo[a]
+            }
+        };
+        let mut selections = vec![NcSliceInfoElem::Index(0); self.lead];
+        for a in [2, 1, 0] {
+            let start = file_lo(a) as u64;
+            selections.push(NcSliceInfoElem::Slice {
+                start,
+                end: start + size[a] as u64,
+                step: 1,
+            });
+        }
+        let data = self
+            .file
+            .read_variable_slice_unpacked_masked(&self.var, &NcSliceInfo { selections })
+            .map_err(|e| Error::format(&self.path, format!("{}: {e}", self.var)))?;
+        let flat: Vec<f64> = data.iter().copied().collect();
+        if flat.len() != out.len() {
+            return Err(Error::format(
+                &self.path,
+                format!(
+                    "{}: hyperslab returned {} values, expected {}",
+                    self.var,
+                    flat.len(),
+                    out.len()
+                ),
+            ));
+        }
+        let [sx, sy, sz] = size;
+        for k in 0..sz {
+            let fk = if self.flip[2] { sz - 1 - k } else { k };
+            for j in 0..sy {
+                let fj = if self.flip[1] { sy - 1 - j } else { j };
+                for i in 0..sx {
+                    let fi = if self.flip[0] { sx - 1 - i } else { i };
+                    out[(k * sy + j) * sx + i] = flat[(fk * sy + fj) * sx + fi] as f32;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn describe(&self) -> String {
+        format!("{}:{} (NetCDF hyperslabs)", self.path.display(), self.var)
+    }
+}
+
+/// A volume in memory as a voxel source (re-exported for callers that brick loaded data).
+pub fn memory_source(v: Arc<crate::model::Volume>) -> Arc<dyn VoxelSource> {
+    Arc::new(MemorySource(v))
+}
+
+/// Writes a C-ordered f32 `.npy` of shape (nz, ny, nx) slice by slice, `slice(k, out)` filling
+/// z-slice k: how large benchmark volumes are made without holding them. Atomic (temp + rename).
+pub fn write_npy_f32_streaming(
+    path: &Path,
+    dims: [usize; 3],
+    slice: &(dyn Fn(usize, &mut [f32]) + Sync),
+) -> Result<()> {
+    use std::io::Write;
+    let [nx, ny, nz] = dims;
+    crate::io::write_atomic(path, |w| {
+        let header =
+            format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({nz}, {ny}, {nx}), }}");
+        // Magic, version 1.0, header padded with spaces to a multiple of 64 bytes, newline.
+        let total = (10 + header.len() + 1).div_ceil(64) * 64;
+        let mut h = header.into_bytes();
+        h.resize(total - 10 - 1, b' ');
+        h.push(b'\n');
+        let io = |e| Error::io(path, e);
+        w.write_all(b"\x93NUMPY\x01\x00").map_err(io)?;
+        w.write_all(&(h.len() as u16).to_le_bytes()).map_err(io)?;
+        w.write_all(&h).map_err(io)?;
+        let mut buf = vec![0f32; nx * ny];
+        for k in 0..nz {
+            slice(k, &mut buf);
+            w.write_all(bytemuck::cast_slice(&buf)).map_err(io)?;
+        }
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Volume;
+
+    fn field() -> Volume {
+        Volume::from_fn("f", [13, 9, 11], |x, y, z| {
+            (x * 0.7).sin() * 10.0 + y * y - 3.0 * z
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn mapped_npy_matches_the_loaded_volume_for_several_dtypes() {
+        let dir = tempfile::tempdir().unwrap();
+        let v = field();
+        let shape = [v.dims[2], v.dims[1], v.dims[0]];
+        let p32 = dir.path().join("a.npy");
+        crate::datasets::npy::write_npy(&p32, &shape, &v.data).unwrap();
+        let p64 = dir.path().join("b.npy");
+        let d64: Vec<f64> = v.data.iter().map(|&x| x as f64).collect();
+        crate::datasets::npy::write_npy(&p64, &shape, &d64).unwrap();
+        for p in [&p32, &p64] {
+            let src = MappedNpy::open(p).unwrap();
+            assert_eq!(src.dims(), v.dims);
+            let mut out = vec![0f32; 4 * 3 * 2];
+            src.read_box([5, 2, 7], [4, 3, 2], &mut out).unwrap();
+            let mut o = 0;
+            for k in 7..9 {
+                for j in 2..5 {
+                    for i in 5..9 {
+                        assert_eq!(out[o], v.data[v.index(i, j, k)]);
+                        o += 1;
+                    }
+                }
+            }
+            let b = open_bricked(p, None, 8).unwrap();
+            let mem = BrickedVolume::from_volume(Arc::new(v.clone()), 8).unwrap();
+            assert_eq!(b.ranges, mem.ranges);
+            assert_eq!(b.stats, mem.stats);
+        }
+    }
+
+    #[test]
+    fn truncated_or_wrong_npy_files_are_one_line_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let v = field();
+        let p = dir.path().join("t.npy");
+        crate::datasets::npy::write_npy(&p, &[v.dims[2], v.dims[1], v.dims[0]], &v.data).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &bytes[..bytes.len() - 100]).unwrap();
+        let err = open_bricked(&p, None, 8).unwrap_err().to_string();
+        assert!(err.contains("holds only") && !err.contains('\n'), "{err}");
+        let flat = dir.path().join("flat.npy");
+        crate::datasets::npy::write_npy(&flat, &[6], &[1.0f32; 6]).unwrap();
+        let err = open_bricked(&flat, None, 8).unwrap_err().to_string();
+        assert!(err.contains("3-D array"), "{err}");
+        std::fs::write(&p, b"not numpy at all").unwrap();
+        assert!(open_bricked(&p, None, 8)
+            .unwrap_err()
+            .to_string()
+            .contains("magic"));
+        let err = open_bricked(&flat, None, 12).unwrap_err().to_string();
+        assert!(err.contains("3-D array") || err.contains("brick"), "{err}");
+    }
+
+    #[test]
+    fn streamed_npy_writer_round_trips_through_the_npy_reader() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.npy");
+        let v = field();
+        let f = |k: usize, out: &mut [f32]| {
+            let n = v.dims[0] * v.dims[1];
+            out.copy_from_slice(&v.data[k * n..(k + 1) * n]);
+        };
+        write_npy_f32_streaming(&p, v.dims, &f).unwrap();
+        let back = crate::datasets::load_volume(&p).unwrap();
+        assert_eq!((back.dims, &back.data), (v.dims, &v.data));
+    }
+
+    #[test]
+    fn netcdf_hyperslabs_match_the_loaded_volume_with_flipped_axes() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v.nc");
+        let v = field();
+        // y decreasing on disk: the reader must flip it back.
+        let z: Vec<f64> = (0..11).map(|k| k as f64 * 2.0).collect();
+        let y: Vec<f64> = (0..9).map(|j| 50.0 - j as f64).collect();
+        let x: Vec<f64> = (0..13).map(|i| i as f64 * 0.5).collect();
+        let data: Vec<f64> = v.data.iter().map(|&d| d as f64).collect();
+        netcdf::write_grid::<f64>(
+            &path,
+            &[("z", &z, "m"), ("y", &y, "m"), ("x", &x, "m")],
+            &[("t", &data, "K", "temperature")],
+            &[],
+        )
+        .unwrap();
+        let loaded = crate::datasets::load_volume(&path).unwrap();
+        let b = open_bricked(&path, None, 8).unwrap();
+        assert_eq!(
+            (b.dims, b.spacing, b.origin),
+            (loaded.dims, loaded.spacing, loaded.origin)
+        );
+        assert_eq!(b.units, "K");
+        let mem = BrickedVolume::from_volume(Arc::new(loaded.clone()), 8).unwrap();
+        assert_eq!(b.ranges, mem.ranges);
+        let mut a = Vec::new();
+        let mut c = Vec::new();
+        for id in 0..b.layout.count() {
+            b.read_brick(id, &mut a).unwrap();
+            mem.read_brick(id, &mut c).unwrap();
+            assert_eq!(a, c, "brick {id}");
+        }
+    }
+}

@@ -1,0 +1,350 @@
+//! Benchmarks of bricked rendering (`hdrvis bench bricks`, `hdrvis bench large`): the speed-up
+//! from empty-space skipping on the paper's mantle, and an f32 volume larger than the memory
+//! budget rendered out of core with its peak memory. Timings live here, never in tests.
+
+use super::bricked::{BrickCache, BrickedStats};
+use super::volume::{GpuVolume, VolumeRenderer};
+use super::{FilterMode, VolumeRenderOptions};
+use crate::bench::{median, peak_memory_mib};
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::model::bricks::BrickedVolume;
+use crate::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
+use std::sync::Arc;
+
+/// CPU seconds this process has used (user + system, Linux `/proc/self/stat`): on CPU
+/// rasterizers the render's work, and unlike wall-clock time barely disturbed by other jobs.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses and may hold spaces).
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// One timed configuration.
+#[derive(Clone, Debug)]
+pub struct BrickBenchRow {
+    pub scene: String,
+    pub path: String,
+    pub runs_ms: Vec<f64>,
+    /// CPU milliseconds of each run (see [`process_cpu_seconds`]).
+    pub cpu_ms: Vec<f64>,
+    pub stats: Option<BrickedStats>,
+    /// Largest difference from the plain exact render, relative to its peak colour.
+    pub diff: f64,
+}
+
+/// The mantle's Fig. 5 transfer function (symlog of the temperature fluctuation), and the same
+/// with everything below the hot anomalies transparent.
+fn mantle_tfs() -> Vec<(&'static str, TransferFunction)> {
+    let fig5 = LutTransfer {
+        scale: Scale::Symlog { linthresh: 1e-3 },
+        domain: Some([-0.3, 0.45]),
+        colormap: "spectral".into(),
+        emission: vec![[0.0, -1.0], [0.45, -3.0], [0.55, -3.0], [1.0, -0.5]],
+        opacity: vec![[0.0, -1.5], [0.4, -3.5], [0.6, -3.5], [1.0, -1.0]],
+        ..Default::default()
+    };
+    let plumes = LutTransfer {
+        transparent_below: 0.62,
+        ..fig5.clone()
+    };
+    vec![
+        ("mantle Fig. 5 TF", TransferFunction::Lut(fig5)),
+        ("mantle hot plumes only", TransferFunction::Lut(plumes)),
+    ]
+}
+
+fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    let peak = b
+        .iter()
+        .flat_map(|p| p[..3].iter().map(|&v| v as f64))
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..4).map(move |c| (p[c] as f64 - q[c] as f64).abs()))
+        .fold(0.0, f64::max)
+        / peak
+}
+
+/// The mantle's temperature fluctuation at n³ rendered at size² (orbit view, one sample per
+/// voxel): the plain ray caster (auto and exact filter), bricked without and with skipping.
+pub fn bench_skipping(
+    ctx: Arc<GpuContext>,
+    n: usize,
+    size: u32,
+    brick: usize,
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<BrickBenchRow>> {
+    use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
+    log(&format!("generating the {n}^3 mantle ..."));
+    let m = generate(
+        &MantleOptions {
+            n,
+            seed: 7,
+            fields: MantleFields::only(MantleField::Fluctuation),
+            ..Default::default()
+        },
+        &mut |_| {},
+    )?;
+    let vol = Arc::new(Volume::new(
+        format!("mantle fluctuation {n}^3"),
+        [n; 3],
+        [2.0 / n as f64; 3],
+        [-1.0; 3],
+        m.fluctuation,
+    )?);
+    let renderer = VolumeRenderer::new(ctx);
+    let gv = GpuVolume::upload(renderer.context(), &vol)?;
+    let bv = Arc::new(BrickedVolume::from_volume(vol.clone(), brick)?);
+    let mut cache = BrickCache::new(renderer.context(), bv.clone(), None, size, size)?;
+    let mut rows = Vec::new();
+    for (scene, tf) in mantle_tfs() {
+        let mut o = VolumeRenderOptions::new(Camera::orbit(&vol.bounds(), 35.0, 20.0, 25.0)?, tf);
+        o.width = size;
+        o.height = size;
+        o.step = 1.0;
+        let mut exact = o.clone();
+        exact.filter = FilterMode::Exact;
+        let reference = renderer.render(&gv, &exact)?.0.pixels;
+        for (path, opts) in [("plain (auto filter)", &o), ("plain (exact)", &exact)] {
+            renderer.render(&gv, opts)?;
+            let mut ms = Vec::new();
+            let mut cpu_ms = Vec::new();
+            let mut img = Vec::new();
+            for _ in 0..runs.max(1) {
+                let c0 = process_cpu_seconds().unwrap_or(f64::NAN);
+                let (i, t) = renderer.render(&gv, opts)?;
+                cpu_ms.push((process_cpu_seconds().unwrap_or(f64::NAN) - c0) * 1e3);
+                ms.push(t.seconds * 1e3);
+                img = i.pixels;
+            }
+            log(&format!("{scene}, {path}: {:.1} ms", median(&ms)));
+            rows.push(BrickBenchRow {
+                scene: scene.into(),
+                path: path.into(),
+                runs_ms: ms,
+                cpu_ms,
+                stats: None,
+                diff: max_diff(&img, &reference),
+            });
+        }
+        for (path, skip) in [("bricked", false), ("bricked + skipping", true)] {
+            renderer.render_bricked(&mut cache, &o, skip)?;
+            let mut ms = Vec::new();
+            let mut cpu_ms = Vec::new();
+            let mut last = None;
+            for _ in 0..runs.max(1) {
+                let c0 = process_cpu_seconds().unwrap_or(f64::NAN);
+                let (i, st) = renderer.render_bricked(&mut cache, &o, skip)?;
+                cpu_ms.push((process_cpu_seconds().unwrap_or(f64::NAN) - c0) * 1e3);
+                ms.push(st.seconds * 1e3);
+                last = Some((i.pixels, st));
+            }
+            let (img, st) = last.expect("one run");
+            log(&format!("{scene}, {path}: {:.1} ms", median(&ms)));
+            rows.push(BrickBenchRow {
+                scene: scene.into(),
+                path: path.into(),
+                runs_ms: ms,
+                cpu_ms,
+                diff: max_diff(&img, &reference),
+                stats: Some(st),
+            });
+        }
+    }
+    Ok(rows)
+}
+
+pub fn format_skipping_table(adapter: &str, n: usize, size: u32, rows: &[BrickBenchRow]) -> String {
+    let mut s = format!(
+        "adapter: {adapter}\nempty-space skipping: mantle fluctuation {n}^3 -> {size}^2, orbit view, 1 sample/voxel, f32, median of runs\n"
+    );
+    s.push_str(&format!(
+        "{:<24} {:<20} {:>10} {:>9} {:>11} {:>9} {:>16} {:>11}\n",
+        "scene",
+        "path",
+        "median ms",
+        "speed-up",
+        "CPU ms",
+        "speed-up",
+        "bricks skipped",
+        "max diff"
+    ));
+    let (mut base, mut cpu_base) = (f64::NAN, f64::NAN);
+    for r in rows {
+        if r.path.starts_with("plain (auto") {
+            base = median(&r.runs_ms);
+            cpu_base = median(&r.cpu_ms);
+        }
+        let skipped = r
+            .stats
+            .as_ref()
+            .map(|st| format!("{} / {}", st.skipped, st.skipped + st.needed))
+            .unwrap_or_else(|| "-".into());
+        s.push_str(&format!(
+            "{:<24} {:<20} {:>10.1} {:>8.2}x {:>11.0} {:>8.2}x {:>16} {:>11.1e}\n",
+            r.scene,
+            r.path,
+            median(&r.runs_ms),
+            base / median(&r.runs_ms),
+            median(&r.cpu_ms),
+            cpu_base / median(&r.cpu_ms),
+            skipped,
+            r.diff
+        ));
+    }
+    s.push_str("speed-up: against the plain ray caster with the auto filter (wall clock, and CPU time of this process, which other jobs on the machine disturb less); max diff: against the plain exact render, relative to its peak\n");
+    s
+}
+
+/// What `hdrvis bench large` measured.
+#[derive(Clone, Debug)]
+pub struct LargeReport {
+    pub path: std::path::PathBuf,
+    pub file_bytes: u64,
+    pub generated_s: Option<f64>,
+    pub index_s: f64,
+    pub render_s: Vec<f64>,
+    pub stats: BrickedStats,
+    pub budget_mib: f64,
+    pub peak_rss_mib: Option<f64>,
+    pub n: usize,
+    pub size: u32,
+    pub brick: usize,
+}
+
+/// The HDR blobs of `hdrvis bench volume` at n³ (five decades over a 1e-4 floor), one z-slice.
+fn blob_slice(n: usize, k: usize, out: &mut [f32]) {
+    use rayon::prelude::*;
+    let f = n as f64;
+    let z = k as f64 + 0.5;
+    out.par_chunks_mut(n).enumerate().for_each(|(j, row)| {
+        let y = j as f64 + 0.5;
+        for (i, o) in row.iter_mut().enumerate() {
+            let x = i as f64 + 0.5;
+            let g = |cx: f64, cy: f64, cz: f64, s: f64, amp: f64| {
+                let d2 = (x - cx * f).powi(2) + (y - cy * f).powi(2) + (z - cz * f).powi(2);
+                amp * (-d2 / (2.0 * (s * f).powi(2))).exp()
+            };
+            *o = (1e-4
+                + g(0.35, 0.4, 0.5, 0.10, 10.0)
+                + g(0.65, 0.6, 0.45, 0.14, 0.05)
+                + g(0.5, 0.3, 0.65, 0.06, 1e-3)) as f32;
+        }
+    });
+}
+
+/// An n³ f32 volume written to the dataset cache as `.npy` (streamed, once), opened as bricks
+/// through a memory map and rendered at size² along z with `budget_mib` of GPU memory. The
+/// transfer function is the volume benchmark's with the 1e-4 floor made transparent.
+pub fn bench_large(
+    ctx: Arc<GpuContext>,
+    n: usize,
+    size: u32,
+    budget_mib: f64,
+    brick: usize,
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<LargeReport> {
+    let dir = crate::datasets::cache::cache_dir();
+    let path = dir.join(format!("bench-large-blobs-{n}.npy"));
+    let mut generated_s = None;
+    if !path.exists() {
+        let bytes = (n as u64).pow(3) * 4;
+        log(&format!(
+            "writing {} ({:.1} GB) ...",
+            path.display(),
+            bytes as f64 / 1e9
+        ));
+        let t = std::time::Instant::now();
+        crate::datasets::bricked::write_npy_f32_streaming(&path, [n; 3], &|k, out| {
+            blob_slice(n, k, out)
+        })?;
+        generated_s = Some(t.elapsed().as_secs_f64());
+    }
+    let file_bytes = std::fs::metadata(&path)
+        .map_err(|e| Error::io(&path, e))?
+        .len();
+    log("building the brick index (one streamed pass over the file) ...");
+    let t = std::time::Instant::now();
+    let bv = Arc::new(crate::datasets::bricked::open_bricked(&path, None, brick)?);
+    let index_s = t.elapsed().as_secs_f64();
+    let tf = match crate::bench::bench_tf() {
+        TransferFunction::Lut(l) => TransferFunction::Lut(LutTransfer {
+            transparent_below: 0.15,
+            ..l
+        }),
+        other => other,
+    };
+    let mut o = VolumeRenderOptions::new(Camera::axis(Axis::Z, &bv.bounds()), tf);
+    o.width = size;
+    o.height = size;
+    o.step = 1.0;
+    let renderer = VolumeRenderer::new(ctx);
+    let budget = (budget_mib * (1u64 << 20) as f64) as u64;
+    let mut cache = BrickCache::new(renderer.context(), bv.clone(), Some(budget), size, size)?;
+    let mut render_s = Vec::new();
+    let mut stats = BrickedStats::default();
+    for r in 0..runs.max(1) {
+        log(&format!("rendering, run {} ...", r + 1));
+        let (_, st) = renderer.render_bricked(&mut cache, &o, true)?;
+        log(&format!(
+            "{:.1} s, {} passes, {} bricks uploaded",
+            st.seconds, st.passes, st.uploaded
+        ));
+        render_s.push(st.seconds);
+        stats = st;
+    }
+    Ok(LargeReport {
+        path,
+        file_bytes,
+        generated_s,
+        index_s,
+        render_s,
+        stats,
+        budget_mib,
+        peak_rss_mib: peak_memory_mib(),
+        n,
+        size,
+        brick,
+    })
+}
+
+pub fn format_large_report(adapter: &str, r: &LargeReport) -> String {
+    let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    let mut s = format!("adapter: {adapter}\nout-of-core: {0}^3 f32 HDR blobs ({1:.2} GiB, {2}) -> {3}^2, axis view, 1 sample/voxel, skipping on\n",
+        r.n, gib(r.file_bytes), r.path.display(), r.size);
+    if let Some(g) = r.generated_s {
+        s.push_str(&format!("written (streamed .npy):    {g:.1} s\n"));
+    }
+    s.push_str(&format!("brick index (mmap, 1 pass): {:.1} s\n", r.index_s));
+    s.push_str(&format!(
+        "render (median of {}):      {:.1} s\n",
+        r.render_s.len(),
+        median(&r.render_s)
+    ));
+    s.push_str(&format!(
+        "GPU memory budget:          {:.0} MiB (used {:.0} MiB: cache of {} bricks of {}^3 + apron, image, ray state)\n",
+        r.budget_mib,
+        r.stats.gpu_bytes as f64 / (1u64 << 20) as f64,
+        r.stats.capacity,
+        r.brick,
+    ));
+    s.push_str(&format!(
+        "bricks:                     {} needed, {} skipped, {} passes ({} repair), {} uploaded\n",
+        r.stats.needed, r.stats.skipped, r.stats.passes, r.stats.repair_passes, r.stats.uploaded
+    ));
+    s.push_str(&format!(
+        "peak resident memory:       {} (VmHWM of this process; the volume is {:.0} MiB)\n",
+        r.peak_rss_mib
+            .map(|m| format!("{m:.0} MiB"))
+            .unwrap_or_else(|| "unknown".into()),
+        r.file_bytes as f64 / (1u64 << 20) as f64
+    ));
+    s
+}

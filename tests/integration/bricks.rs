@@ -1,0 +1,249 @@
+//! Bricked rendering against the plain ray caster: the same image (within f32 rounding) when
+//! bricked in core, with empty-space skipping, and out of core through a small brick cache in
+//! several passes; a transfer-function change re-reads no brick; a memory-mapped `.npy` renders
+//! like the loaded volume.
+
+use crate::common::renderer;
+use hdrvis::gpu::BackendChoice;
+use hdrvis::model::bricks::BrickedVolume;
+use hdrvis::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
+use hdrvis::render::bricked::{BrickCache, BrickedStats};
+use hdrvis::render::volume::GpuVolume;
+use hdrvis::render::{FilterMode, Precision, VolumeRenderOptions};
+use std::sync::Arc;
+
+/// Blobs over a zero floor, a NaN hole and a region of negative values: much of the volume is
+/// transparent under a log10 transfer function with a transparent low end.
+fn scene_volume() -> Volume {
+    Volume::from_fn("bricks test", [70, 60, 50], |x, y, z| {
+        let g = |cx: f64, cy: f64, cz: f64, s: f64, a: f64| {
+            a * (-((x - cx).powi(2) + (y - cy).powi(2) + (z - cz).powi(2)) / (2.0 * s * s)).exp()
+        };
+        if (x - 60.0).abs() < 3.0 && (y - 10.0).abs() < 3.0 {
+            return f64::NAN;
+        }
+        if z > 44.0 {
+            return -1.0;
+        }
+        g(25.0, 30.0, 20.0, 6.0, 10.0)
+            + g(50.0, 35.0, 30.0, 4.0, 0.5)
+            + g(40.0, 15.0, 12.0, 3.0, 0.02)
+    })
+    .unwrap()
+}
+
+fn scene_tf(transparent_below: f64) -> TransferFunction {
+    TransferFunction::Lut(LutTransfer {
+        scale: Scale::Log10,
+        domain: Some([1e-4, 10.0]),
+        colormap: "inferno".into(),
+        emission: vec![[0.0, -1.0], [1.0, 1.0]],
+        opacity: vec![[0.0, -3.0], [1.0, -0.5]],
+        transparent_below,
+        ..Default::default()
+    })
+}
+
+fn options(
+    vol: &Volume,
+    camera: Camera,
+    tf: TransferFunction,
+    filter: FilterMode,
+) -> VolumeRenderOptions {
+    let mut o = VolumeRenderOptions::new(camera, tf);
+    o.width = 96;
+    o.height = 80;
+    o.step = 0.7;
+    o.filter = filter;
+    let _ = vol;
+    o
+}
+
+fn plain(vol: &Volume, o: &VolumeRenderOptions) -> Vec<[f32; 4]> {
+    let r = renderer(BackendChoice::Vulkan);
+    let gv = GpuVolume::upload(r.context(), vol).unwrap();
+    r.render(&gv, o).unwrap().0.pixels
+}
+
+fn bricked(
+    bv: &Arc<BrickedVolume>,
+    o: &VolumeRenderOptions,
+    budget: Option<u64>,
+    skip: bool,
+) -> (Vec<[f32; 4]>, BrickedStats) {
+    let r = renderer(BackendChoice::Vulkan);
+    let mut cache = BrickCache::new(r.context(), bv.clone(), budget, o.width, o.height).unwrap();
+    let (img, stats) = r.render_bricked(&mut cache, o, skip).unwrap();
+    (img.pixels, stats)
+}
+
+/// Largest difference over all channels relative to the image's peak colour.
+fn diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    let peak = b
+        .iter()
+        .flat_map(|p| p[..3].iter().map(|&v| v as f64))
+        .fold(0.0, f64::max);
+    assert!(peak > 0.0, "empty image");
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..4).map(move |c| (p[c] as f64 - q[c] as f64).abs()))
+        .fold(0.0, f64::max)
+        / peak
+}
+
+fn cameras(vol: &Volume) -> Vec<(&'static str, Camera)> {
+    let b = vol.bounds();
+    vec![
+        ("axis z", Camera::axis(Axis::Z, &b)),
+        ("axis x", Camera::axis(Axis::X, &b)),
+        ("orbit", Camera::orbit(&b, 35.0, 25.0, 30.0).unwrap()),
+        (
+            "inside",
+            Camera::look_at(
+                [30.0, 28.0, 22.0],
+                [60.0, 40.0, 10.0],
+                [0.0, 0.0, 1.0],
+                70.0,
+            )
+            .unwrap(),
+        ),
+    ]
+}
+
+#[test]
+fn bricked_and_skipped_renders_equal_the_plain_render() {
+    let vol = scene_volume();
+    let bv = Arc::new(BrickedVolume::from_volume(Arc::new(vol.clone()), 16).unwrap());
+    let mut filters = vec![FilterMode::Exact, FilterMode::Auto];
+    if renderer(BackendChoice::Vulkan)
+        .context()
+        .caps
+        .float32_filterable
+    {
+        filters.push(FilterMode::Hardware);
+    }
+    for (name, cam) in cameras(&vol) {
+        for &filter in &filters {
+            let o = options(&vol, cam, scene_tf(0.35), filter);
+            let reference = plain(&vol, &o);
+            let (img, st) = bricked(&bv, &o, None, false);
+            assert_eq!((st.passes, st.skipped), (1, 0));
+            // The exact path takes the same texels and weights; the texture unit's filter sees
+            // atlas coordinates instead of volume ones and may round its weights differently.
+            let tol = if filter == FilterMode::Exact {
+                1e-5
+            } else {
+                1e-3
+            };
+            let d = diff(&img, &reference);
+            eprintln!("{name} {filter:?} bricked: {d}");
+            assert!(d < tol, "{name} {filter:?} bricked: {d}");
+            let (img, st) = bricked(&bv, &o, None, true);
+            assert!(st.skipped > st.needed / 2, "{name}: {st:?}");
+            let d = diff(&img, &reference);
+            assert!(d < tol, "{name} {filter:?} skipped: {d}");
+        }
+    }
+}
+
+#[test]
+fn out_of_core_renders_equal_the_plain_render() {
+    let vol = scene_volume();
+    let bv = Arc::new(BrickedVolume::from_volume(Arc::new(vol.clone()), 16).unwrap());
+    let slot = bv.layout.stored_bytes();
+    for (name, cam) in cameras(&vol) {
+        let mut o = options(&vol, cam, scene_tf(0.0), FilterMode::Exact);
+        let reference = plain(&vol, &o);
+        // Room for the image buffers and 7 bricks of the 80: many passes.
+        let fixed = 8 * 80 + 2 * 96 * 80 * 16 + 96 * 80 * 52 + (1 << 17);
+        let (img, st) = bricked(&bv, &o, Some(fixed + 7 * slot + slot / 2), false);
+        assert_eq!(st.capacity, 7);
+        assert!(st.passes >= 80 / 7, "{name}: {st:?}");
+        let d = diff(&img, &reference);
+        assert!(d < 1e-5, "{name} out of core: {d} ({st:?})");
+        // With skipping and early termination on an opaque transfer function, and f16.
+        o.tf = scene_tf(0.35);
+        o.early_exit = 1e-2;
+        o.precision = Precision::F16;
+        let reference = plain(&vol, &o);
+        let (img, st) = bricked(&bv, &o, Some(fixed + 7 * slot + slot / 2), true);
+        assert!(st.skipped > 0 && st.passes > 1, "{name}: {st:?}");
+        let d = diff(&img, &reference);
+        assert!(d < 1e-3, "{name} out of core, skipped, f16: {d}");
+    }
+}
+
+#[test]
+fn a_transfer_function_change_rereads_no_brick() {
+    let vol = scene_volume();
+    let bv = Arc::new(BrickedVolume::from_volume(Arc::new(vol.clone()), 16).unwrap());
+    let r = renderer(BackendChoice::Vulkan);
+    let cam = Camera::orbit(&vol.bounds(), 120.0, -20.0, 30.0).unwrap();
+    let o1 = options(&vol, cam, scene_tf(0.6), FilterMode::Exact);
+    let mut cache = BrickCache::new(r.context(), bv.clone(), None, 96, 80).unwrap();
+    let (_, s1) = r.render_bricked(&mut cache, &o1, true).unwrap();
+    let read = bv.bricks_read();
+    assert_eq!(read, 80);
+    let o2 = options(&vol, cam, scene_tf(0.1), FilterMode::Exact);
+    let (img, s2) = r.render_bricked(&mut cache, &o2, true).unwrap();
+    assert_eq!(bv.bricks_read(), read, "bricks were read again");
+    assert!(s2.skipped < s1.skipped, "{s1:?} {s2:?}");
+    assert!(diff(&img.pixels, &plain(&vol, &o2)) < 1e-5);
+}
+
+#[test]
+fn memory_mapped_npy_renders_like_the_loaded_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("v.npy");
+    let vol = scene_volume();
+    hdrvis::datasets::npy::write_npy(&path, &[50, 60, 70], &vol.data).unwrap();
+    let bv = Arc::new(hdrvis::datasets::bricked::open_bricked(&path, None, 32).unwrap());
+    assert_eq!(bv.stats, vol.stats());
+    let o = options(
+        &vol,
+        Camera::orbit(&vol.bounds(), 200.0, 40.0, 30.0).unwrap(),
+        scene_tf(0.3),
+        FilterMode::Exact,
+    );
+    let slot = bv.layout.stored_bytes();
+    let fixed = 8 * 12 + 2 * 96 * 80 * 16 + 96 * 80 * 52 + (1 << 17);
+    let (img, st) = bricked(&bv, &o, Some(fixed + 3 * slot), true);
+    assert!(st.passes > 1, "{st:?}");
+    assert!(diff(&img, &plain(&vol, &o)) < 1e-5);
+}
+
+#[test]
+fn a_budget_too_small_for_one_brick_is_a_one_line_error() {
+    let vol = scene_volume();
+    let bv = Arc::new(BrickedVolume::from_volume(Arc::new(vol), 16).unwrap());
+    let r = renderer(BackendChoice::Vulkan);
+    let err = BrickCache::new(r.context(), bv, Some(1 << 20), 512, 512)
+        .err()
+        .expect("1 MiB cannot hold a 512x512 image and a brick")
+        .to_string();
+    assert!(
+        err.starts_with("memory_budget: 1 MiB is too small") && !err.contains('\n'),
+        "{err}"
+    );
+}
+
+#[test]
+fn scripts_refuse_shading_on_the_bricked_path_and_shade_the_plain_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = hdrvis::script::ScriptOptions::new(dir.path().join("out"));
+    let run = |extra: &str| {
+        let src = format!(
+            "let v = generate_mantle(#{{n: 24}});\n\
+             let tf = tf_lut(#{{scale: \"log10\", colormap: \"viridis\"}});\n\
+             render_volume(v, #{{tf: tf, width: 16, height: 16, shading: true{extra}}});"
+        );
+        hdrvis::script::run_script_source(&src, "t.rhai", dir.path(), &opts)
+    };
+    run("").expect("shading on the plain path");
+    let err = run(", skip: true").unwrap_err().to_string();
+    let first = err.lines().next().unwrap();
+    assert!(
+        first.contains("Runtime error: shading:") && first.contains("bricked"),
+        "{err}"
+    );
+}
