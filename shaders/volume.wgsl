@@ -136,6 +136,83 @@ fn march_step(s: ptr<function, RayState>, m: March, k: u32) {
     composite(s, ea, len, m.stop_tau);
 }
 
+#if PREINTEGRATED
+// What a pre-integrated march carries from one segment's back end to the next one's front: the
+// value, and for tables its coordinate and the table's running integral there, as hi + lo.
+struct Front {
+    v: f32,
+    x: f32,
+    c_hi: vec4<f32>,
+    c_lo: vec4<f32>,
+}
+
+// The table, linearly interpolated, at table coordinate x.
+fn table_at(x: f32) -> vec4<f32> {
+    let i = min(i32(x), i32(P.scale.w) - 1);
+    return mix(textureLoad(lut, vec2<i32>(i, 0), 0), textureLoad(lut, vec2<i32>(i + 1, 0), 0), x - f32(i));
+}
+
+fn front_at(v: f32) -> Front {
+    var f = Front(v, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
+    if (TF_KIND == 0u && is_finite_f32(v)) {
+        let x = scaled(v) * P.scale.w;
+        let i = min(i32(x), i32(P.scale.w) - 1);
+        let t = x - f32(i);
+        let e0 = textureLoad(lut, vec2<i32>(i, 0), 0);
+        let e1 = textureLoad(lut, vec2<i32>(i + 1, 0), 0);
+        f.x = x;
+        f.c_hi = textureLoad(lut, vec2<i32>(i, 1), 0);
+        f.c_lo = textureLoad(lut, vec2<i32>(i, 2), 0) + t * e0 + (0.5 * t * t) * (e1 - e0);
+    }
+    return f;
+}
+
+// Mean emission–absorption over a segment whose value (table coordinate for tables) runs
+// linearly from a to b; matches ResolvedTransfer::segment_mean in src/model/transfer.rs.
+fn segment_mean(a: Front, b: Front) -> vec4<f32> {
+    if (TF_KIND == 1u) {
+        var m = 0.5 * (a.v + b.v);
+        if (a.v <= 0.0 && b.v <= 0.0) {
+            m = 0.0;
+        } else if (a.v < 0.0 || b.v < 0.0) {
+            let p = max(a.v, b.v);
+            m = p * p / (2.0 * abs(a.v - b.v));
+        }
+        return vec4<f32>(vec3<f32>(P.tf.x * m), P.tf.y * m);
+    }
+    let top = i32(P.scale.w) - 1;
+    let dx = b.x - a.x;
+    // Within one linear piece the mean is the value at the middle (and tiny spans would lose
+    // the difference quotient to rounding).
+    if (min(i32(a.x), top) == min(i32(b.x), top) || abs(dx) < 1e-3) {
+        return table_at(0.5 * (a.x + b.x));
+    }
+    return ((b.c_hi - a.c_hi) + (b.c_lo - a.c_lo)) / dx;
+}
+
+// Segment k of a pre-integrated ray: sample at its back end, composite the transfer function's
+// mean between the front and back values.
+fn march_step_pre(s: ptr<function, RayState>, front: ptr<function, Front>, m: March, k: u32) {
+    if ((*s).stopped || k >= m.steps) {
+        return;
+    }
+    let tb = min(m.t_enter + m.first + f32(k) * m.ds, m.t_exit);
+    let mid = 0.5 * ((*s).ta + tb);
+    let len = (tb - (*s).ta) * m.voxels_per_unit;
+    (*s).ta = tb;
+    let back = front_at(sample_volume(m.uvw0 + m.duvw * tb));
+    let finite = is_finite_f32((*front).v) && is_finite_f32(back.v);
+    var ea = select(vec4<f32>(0.0), segment_mean(*front, back), finite);
+#if SHADING
+    if (any(ea.rgb > vec3<f32>(0.0))) {
+        ea = vec4<f32>(ea.rgb * shading_factor(m.uvw0 + m.duvw * mid, m.dir), ea.a);
+    }
+#endif
+    *front = back;
+    composite(s, ea, len, m.stop_tau);
+}
+#endif
+
 // Steps per loop iteration. llvmpipe ends any loop after 65535 iterations, so a ray can take at
 // most 4 * 65535 steps (src/render/volume.rs refuses renders that would need more).
 const UNROLL: u32 = 4u;
@@ -167,6 +244,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let inv_size = 1.0 / size;
         let m = March(t_enter, t_exit, first, ds, P.march.y, P.march.z, n, ray.origin * inv_size, ray.dir * inv_size, ray.dir);
+#if PREINTEGRATED
+        var front = front_at(sample_volume(m.uvw0 + m.duvw * t_enter));
+        for (var k = 0u; k < n; k += UNROLL) {
+            march_step_pre(&s, &front, m, k);
+            march_step_pre(&s, &front, m, k + 1u);
+            march_step_pre(&s, &front, m, k + 2u);
+            march_step_pre(&s, &front, m, k + 3u);
+            if (s.stopped) {
+                break;
+            }
+        }
+#else
         for (var k = 0u; k < n; k += UNROLL) {
             march_step(&s, m, k);
             march_step(&s, m, k + 1u);
@@ -176,6 +265,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 break;
             }
         }
+#endif
     }
     var alpha = one_minus_exp_neg(s.tau);
     if (PRECISION == 1u) {

@@ -404,7 +404,7 @@ fn bench_volume_scene(
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<AccuracyRow>> {
     use crate::render::cpu_reference::render_volume_f64;
-    use crate::render::Precision;
+    use crate::render::{Precision, TfSampling};
     let renderer = VolumeRenderer::new(ctx);
     let mut rows = Vec::new();
     log(&format!("{name}: f64 reference on the CPU ..."));
@@ -418,6 +418,31 @@ fn bench_volume_scene(
         f64_ms.push(t.elapsed().as_secs_f64() * 1e3);
     }
     let gv = GpuVolume::upload(renderer.context(), volume)?;
+    let row = |variant: String, ms: &[f64], got: &[[f64; 4]]| -> Result<AccuracyRow> {
+        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+            accuracy_metrics(got, &reference, options.width, options.height)?;
+        Ok(AccuracyRow {
+            scene: name.to_string(),
+            variant,
+            median_ms: median(ms),
+            rel_rms,
+            max_rel,
+            psnr_8bit,
+            lost_detail,
+        })
+    };
+    // One warm-up render (pipeline build), then `runs` timed ones; the last image is scored.
+    let timed = |o: &VolumeRenderOptions| -> Result<(Vec<f64>, Vec<[f64; 4]>)> {
+        renderer.render(&gv, o)?;
+        let mut ms = Vec::new();
+        let mut got = Vec::new();
+        for _ in 0..runs.max(1) {
+            let (img, t) = renderer.render(&gv, o)?;
+            ms.push(t.seconds * 1e3);
+            got = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
+        }
+        Ok((ms, got))
+    };
     for precision in [
         Precision::U8,
         Precision::F16,
@@ -425,33 +450,13 @@ fn bench_volume_scene(
         Precision::F32c,
     ] {
         o.precision = precision;
-        renderer.render(&gv, &o)?;
-        let mut ms = Vec::new();
-        let mut last = None;
-        for _ in 0..runs.max(1) {
-            let (img, t) = renderer.render(&gv, &o)?;
-            ms.push(t.seconds * 1e3);
-            last = Some(img);
-        }
-        let img = last.expect("at least one run");
-        let got: Vec<[f64; 4]> = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
-        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
-            accuracy_metrics(&got, &reference, o.width, o.height)?;
+        let (ms, got) = timed(&o)?;
+        let r = row(precision.name().into(), &ms, &got)?;
         log(&format!(
-            "{} {}: {:.1} ms, rel RMS {rel_rms:.2e}",
-            name,
-            precision.name(),
-            median(&ms)
+            "{name} {}: {:.1} ms, rel RMS {:.2e}",
+            r.variant, r.median_ms, r.rel_rms
         ));
-        rows.push(AccuracyRow {
-            scene: name.to_string(),
-            variant: precision.name().into(),
-            median_ms: median(&ms),
-            rel_rms,
-            max_rel,
-            psnr_8bit,
-            lost_detail,
-        });
+        rows.push(r);
     }
     // f64 on the GPU where the adapter has shader f64 (lavapipe does).
     let f64_gpu = crate::render::volume_f64::F64RayCaster::new(renderer.context().clone());
@@ -465,46 +470,27 @@ fn bench_volume_scene(
             got = f64_gpu.render(&gv, &o)?;
             ms.push(t.elapsed().as_secs_f64() * 1e3);
         }
-        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
-            accuracy_metrics(&got, &reference, o.width, o.height)?;
-        rows.push(AccuracyRow {
-            scene: name.to_string(),
-            variant: "f64 (GPU)".into(),
-            median_ms: median(&ms),
-            rel_rms,
-            max_rel,
-            psnr_8bit,
-            lost_detail,
-        });
+        rows.push(row("f64 (GPU)".into(), &ms, &got)?);
     }
-    // The other knob: coarser steps in f32, against the same reference (step 0.5).
+    // The other knobs, in f32 against the same reference: coarser steps, and the transfer
+    // function pre-integrated over each segment rather than sampled at its middle.
     o.precision = Precision::F32;
     let base_step = options.step;
-    for factor in [2.0, 4.0] {
+    for factor in [1.0, 2.0, 4.0] {
         o.step = base_step * factor;
-        renderer.render(&gv, &o)?;
-        let mut ms = Vec::new();
-        let mut last = None;
-        for _ in 0..runs.max(1) {
-            let (img, t) = renderer.render(&gv, &o)?;
-            ms.push(t.seconds * 1e3);
-            last = Some(img);
+        for sampling in [TfSampling::Point, TfSampling::PreIntegrated] {
+            if factor == 1.0 && sampling == TfSampling::Point {
+                continue; // the f32 row above
+            }
+            o.tf_sampling = sampling;
+            let (ms, got) = timed(&o)?;
+            let variant = match sampling {
+                TfSampling::Point => format!("f32 step {}", o.step),
+                TfSampling::PreIntegrated => format!("f32 pre step {}", o.step),
+            };
+            rows.push(row(variant, &ms, &got)?);
         }
-        let img = last.expect("at least one run");
-        let got: Vec<[f64; 4]> = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
-        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
-            accuracy_metrics(&got, &reference, o.width, o.height)?;
-        rows.push(AccuracyRow {
-            scene: name.to_string(),
-            variant: format!("f32 step {}", o.step),
-            median_ms: median(&ms),
-            rel_rms,
-            max_rel,
-            psnr_8bit,
-            lost_detail,
-        });
     }
-    o.step = base_step;
     rows.push(AccuracyRow {
         scene: name.to_string(),
         variant: "f64 (CPU)".into(),

@@ -71,7 +71,15 @@ pub const SOURCES: &[(&str, &str)] = &[
 pub const PIPELINES: &[(&str, &[&[&str]])] = &[
     (
         "volume.wgsl",
-        &[&[], &["HW_FILTER"], &["SHADING"], &["HW_FILTER", "SHADING"]],
+        &[
+            &[],
+            &["HW_FILTER"],
+            &["SHADING"],
+            &["HW_FILTER", "SHADING"],
+            &["PREINTEGRATED"],
+            &["HW_FILTER", "PREINTEGRATED"],
+            &["SHADING", "PREINTEGRATED"],
+        ],
     ),
     ("volume_f64.wgsl", &[&[]]),
     ("volume_bricked.wgsl", &[&[], &["HW_FILTER"]]),

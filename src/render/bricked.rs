@@ -290,6 +290,17 @@ impl VolumeRenderer {
         opts: &VolumeRenderOptions,
         skip: bool,
     ) -> Result<(HdrImage, BrickedStats)> {
+        if opts.tf_sampling != super::TfSampling::Point {
+            return Err(Error::invalid(
+                "tf_sampling",
+                format!(
+                    "{} renders bricked, and the bricked ray caster samples the transfer function \
+                     at segment midpoints only; load_volume it and render without skip, brick or \
+                     memory_budget to pre-integrate",
+                    cache.volume.name
+                ),
+            ));
+        }
         let ctx = self.context().clone();
         let volume = cache.volume.clone();
         let layout = volume.layout;
@@ -399,7 +410,7 @@ impl VolumeRenderer {
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
-        let lut_view = self.lut_view(&frame.tf);
+        let lut_view = self.lut_view(&frame.tf, false);
         let out = self.output_texture(opts);
         let out_view = out.create_view(&Default::default());
         let mut entries = vec![

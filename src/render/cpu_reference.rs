@@ -1,9 +1,9 @@
 //! The f64 CPU reference of the volume ray caster: the same rays, segments, trilinear sampling,
 //! transfer function and emission–absorption integral as `shaders/volume.wgsl`, in double
-//! precision. Tests compare the GPU with it and with closed forms; the accuracy report will use it
-//! as ground truth. It is not a user path.
+//! precision, point-sampled or pre-integrated. Tests compare the GPU with it and with closed
+//! forms; the accuracy report uses it as ground truth. It is not a user path.
 
-use super::{jitter_fraction, VolumeRenderOptions};
+use super::{jitter_fraction, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
 use crate::model::camera::sub;
 use crate::model::{Aabb, HdrImage, Volume};
@@ -37,11 +37,17 @@ pub fn render_volume_f64(volume: &Volume, opts: &VolumeRenderOptions) -> Result<
     let voxel = volume.voxel_length();
     let ds = opts.step * voxel;
     let stop_tau = opts.stop_optical_depth();
+    let preintegrated = opts.tf_sampling == TfSampling::PreIntegrated;
+    let integral = if preintegrated {
+        tf.table_integral()
+    } else {
+        Vec::new()
+    };
     let (w, h) = (opts.width, opts.height);
     let pixels = (0..h)
         .into_par_iter()
         .flat_map_iter(|py| {
-            let tf = &tf;
+            let (tf, integral) = (&tf, &integral);
             (0..w).map(move |px| {
                 let (o, d) = opts.camera.ray(px, py, w, h);
                 let o = sub(o, bounds.lo);
@@ -61,22 +67,41 @@ pub fn render_volume_f64(volume: &Volume, opts: &VolumeRenderOptions) -> Result<
                         } else {
                             1
                         };
+                        let at = |t: f64| {
+                            [
+                                bounds.lo[0] + o[0] + d[0] * t,
+                                bounds.lo[1] + o[1] + d[1] * t,
+                                bounds.lo[2] + o[2] + d[2] * t,
+                            ]
+                        };
                         let mut ta = t_enter;
+                        // Pre-integration reads the value at segment ends, the front one carried.
+                        let mut front = if preintegrated {
+                            volume.sample_trilinear(at(t_enter))
+                        } else {
+                            f64::NAN
+                        };
                         for k in 0..n {
                             let tb = (t_enter + first + k as f64 * ds).min(t1);
                             let mid = 0.5 * (ta + tb);
                             let len = (tb - ta) / voxel;
                             ta = tb;
-                            let p = [
-                                bounds.lo[0] + o[0] + d[0] * mid,
-                                bounds.lo[1] + o[1] + d[1] * mid,
-                                bounds.lo[2] + o[2] + d[2] * mid,
-                            ];
-                            let v = volume.sample_trilinear(p);
-                            if !v.is_finite() {
-                                continue;
-                            }
-                            let (mut e, a) = tf.eval(v);
+                            let p = at(mid);
+                            let (mut e, a) = if preintegrated {
+                                let back = volume.sample_trilinear(at(tb));
+                                let pair = (front, back);
+                                front = back;
+                                if !(pair.0.is_finite() && pair.1.is_finite()) {
+                                    continue;
+                                }
+                                tf.segment_mean(integral, pair.0, pair.1)
+                            } else {
+                                let v = volume.sample_trilinear(p);
+                                if !v.is_finite() {
+                                    continue;
+                                }
+                                tf.eval(v)
+                            };
                             if let Some(sh) = &opts.shading {
                                 if e.iter().any(|&c| c > 0.0) {
                                     let f = sh.factor(volume.gradient(p), d);

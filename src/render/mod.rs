@@ -63,6 +63,39 @@ pub struct VolumeRenderOptions {
     pub precision: Precision,
     /// Gradient-based Blinn–Phong shading of the emission; `None` compiles no shading code.
     pub shading: Option<Shading>,
+    /// Point-sampled or pre-integrated transfer function.
+    pub tf_sampling: TfSampling,
+}
+
+/// How each ray segment reads the transfer function.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TfSampling {
+    /// The transfer function of the value at the segment's middle.
+    #[default]
+    Point,
+    /// The mean of the transfer function over the segment, the value running linearly between
+    /// samples at its ends (pre-integration): transfer-function features narrower than a step
+    /// survive.
+    PreIntegrated,
+}
+
+impl TfSampling {
+    pub const NAMES: &'static [&'static str] = &["point", "preintegrated"];
+
+    pub fn parse(s: &str) -> Result<TfSampling> {
+        match s {
+            "point" => Ok(TfSampling::Point),
+            "preintegrated" => Ok(TfSampling::PreIntegrated),
+            _ => Err(Error::invalid(
+                "tf_sampling",
+                format!("expected point or preintegrated, got {s:?}"),
+            )),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
 }
 
 /// Blinn–Phong shading of each sample's emission under a headlight: the emission is multiplied
@@ -201,6 +234,7 @@ impl VolumeRenderOptions {
             filter: FilterMode::Auto,
             precision: Precision::F32,
             shading: None,
+            tf_sampling: TfSampling::Point,
         }
     }
 

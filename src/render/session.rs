@@ -11,7 +11,7 @@ use super::cache::{KeyBuilder, ResultCache};
 use super::passes::{describe, PassLog, PassRecord};
 use super::surface::{SurfaceOptions, SurfaceRenderer};
 use super::volume::{GpuVolume, VolumeRenderer};
-use super::{Precision, VolumeRenderOptions};
+use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
 use crate::gpu::{BackendChoice, GpuContext};
 use crate::model::{Grid, HdrImage, Volume};
@@ -277,6 +277,7 @@ impl RenderSession {
             let mut detail = raycast_effects(opts);
             let f64_gpu = opts.precision == Precision::F64
                 && opts.shading.is_none()
+                && opts.tf_sampling == TfSampling::Point
                 && self.gpu()?.volume_f64.available();
             let img = if f64_gpu {
                 let gv = self.upload(volume)?;
@@ -415,6 +416,9 @@ fn raycast_effects(opts: &VolumeRenderOptions) -> Vec<String> {
     }
     if opts.shading.is_some() {
         effects.push("shading".into());
+    }
+    if opts.tf_sampling == TfSampling::PreIntegrated {
+        effects.push("pre-integrated".into());
     }
     if opts.jitter {
         effects.push("jitter".into());

@@ -3,7 +3,7 @@
 //! needed specialisation — hardware or exact filtering, transfer-function kind, data scale,
 //! lens, jitter — and renders HDR images of any camera.
 
-use super::{FilterMode, VolumeRenderOptions};
+use super::{FilterMode, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::gpu::{readback, shader, GpuContext};
 use crate::model::transfer::{ResolvedTransfer, TfKind, LUT_SIZE};
@@ -139,6 +139,7 @@ pub(crate) struct PipelineKey {
     jitter: bool,
     precision: u32,
     shading: bool,
+    preintegrated: bool,
 }
 
 /// Builds pipelines on demand and renders volumes; one per GPU context.
@@ -195,6 +196,9 @@ impl VolumeRenderer {
         }
         if key.shading {
             defines.push("SHADING");
+        }
+        if key.preintegrated {
+            defines.push("PREINTEGRATED");
         }
         let name = if key.bricked {
             "volume_bricked.wgsl"
@@ -295,7 +299,7 @@ impl VolumeRenderer {
             contents: bytemuck::bytes_of(&frame.params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let lut_view = self.lut_view(&frame.tf);
+        let lut_view = self.lut_view(&frame.tf, frame.key.preintegrated);
         let out = self.output_texture(opts);
         let out_view = out.create_view(&Default::default());
         let mut entries = vec![
@@ -414,6 +418,7 @@ impl VolumeRenderer {
             jitter: opts.jitter,
             precision: opts.precision.shader_code(),
             shading: opts.shading.is_some(),
+            preintegrated: opts.tf_sampling == TfSampling::PreIntegrated,
         };
         let cam = &opts.camera;
         let lo = volume.origin;
@@ -471,20 +476,30 @@ impl VolumeRenderer {
     }
 
     /// The transfer table as an N x 1 texture.
-    pub(crate) fn lut_view(&self, tf: &ResolvedTransfer) -> wgpu::TextureView {
+    /// The transfer table as an N x 1 texture; N x 3 with the pre-integration rows (the table's
+    /// running integral, hi and lo) when `integral` is set.
+    pub(crate) fn lut_view(&self, tf: &ResolvedTransfer, integral: bool) -> wgpu::TextureView {
         use wgpu::util::DeviceExt;
-        let lut: Vec<[f32; 4]> = if tf.lut.is_empty() {
+        let mut lut: Vec<[f32; 4]> = if tf.lut.is_empty() {
             vec![[0.0; 4]; 2]
         } else {
             tf.lut_f32()
         };
+        let width = lut.len() as u32;
+        let mut height = 1;
+        if integral && !tf.lut.is_empty() {
+            let (hi, lo) = tf.table_integral_f32();
+            lut.extend(hi);
+            lut.extend(lo);
+            height = 3;
+        }
         let lut_tex = self.ctx.device.create_texture_with_data(
             &self.ctx.queue,
             &wgpu::TextureDescriptor {
                 label: Some("transfer lut texture"),
                 size: wgpu::Extent3d {
-                    width: lut.len() as u32,
-                    height: 1,
+                    width,
+                    height,
                     depth_or_array_layers: 1,
                 },
                 mip_level_count: 1,

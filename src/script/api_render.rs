@@ -9,7 +9,7 @@ use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::model::{
     Aabb, Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume, VolumeStats,
 };
-use crate::render::{FilterMode, Precision, Shading, VolumeRenderOptions};
+use crate::render::{FilterMode, Precision, Shading, TfSampling, VolumeRenderOptions};
 use rhai::{Dynamic, Engine, Map};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -57,6 +57,7 @@ const RENDER_KEYS: &[&str] = &[
     "filter",
     "precision",
     "shading",
+    "tf_sampling",
 ];
 const SHADING_KEYS: &[&str] = &["ambient", "diffuse", "specular", "shininess"];
 const LUT_KEYS: &[&str] = &[
@@ -472,6 +473,9 @@ pub(crate) fn render_options(
                 o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?
             }
             "shading" => o.shading = shading(v)?,
+            "tf_sampling" => {
+                o.tf_sampling = TfSampling::parse(&string(v, "tf_sampling")?).map_err(to_rhai)?
+            }
             _ => unreachable!("checked keys"),
         }
     }

@@ -472,6 +472,9 @@ fn accuracy_report_writes_table_files_and_chart() {
         "f32c",
         "f32 step 1",
         "f32 step 2",
+        "f32 pre step 0.5",
+        "f32 pre step 1",
+        "f32 pre step 2",
         "f64 (CPU)",
     ] {
         assert!(
@@ -489,7 +492,7 @@ fn accuracy_report_writes_table_files_and_chart() {
         .collect();
     // f64 (GPU) joins where the adapter has shader f64 (lavapipe does), within 1e-12 of the CPU.
     let has_gpu_f64 = rows.iter().any(|r| r[1] == "f64 (GPU)");
-    assert_eq!(rows.len(), 7 + has_gpu_f64 as usize, "{csv}");
+    assert_eq!(rows.len(), 10 + has_gpu_f64 as usize, "{csv}");
     let rel = |v: &str| -> f64 { rows.iter().find(|r| r[1] == v).unwrap()[3].parse().unwrap() };
     // The paper's claim on the mantle: 8-bit compositing loses what f32 keeps.
     assert!(rel("u8") > 1e-2 && rel("f32") < 1e-4, "{csv}");
