@@ -197,8 +197,6 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 256)]
         n: usize,
     },
-    /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
-    /// two-step render, medians.
     /// What each effect costs: a ray cast plain, with shading, with jitter; and a ten-image
     /// exposure sweep from one render against ten full renders.
     Effects {
@@ -212,6 +210,8 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 512)]
         size: u32,
     },
+    /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
+    /// two-step render, medians.
     Surface {
         /// Timed runs per case (after one warm-up).
         #[arg(long, default_value_t = 9)]

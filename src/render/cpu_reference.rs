@@ -84,17 +84,23 @@ pub fn render_volume_f64(volume: &Volume, opts: &VolumeRenderOptions) -> Result<
                         for k in 0..n {
                             let tb = (t_enter + first + k as f64 * ds).min(t1);
                             let mid = 0.5 * (ta + tb);
-                            let len = (tb - ta) / voxel;
+                            let mut len = (tb - ta) / voxel;
                             ta = tb;
                             let p = at(mid);
                             let (mut e, a) = if preintegrated {
                                 let back = volume.sample_trilinear(at(tb));
                                 let pair = (front, back);
                                 front = back;
-                                if !(pair.0.is_finite() && pair.1.is_finite()) {
-                                    continue;
+                                match (pair.0.is_finite(), pair.1.is_finite()) {
+                                    (true, true) => tf.segment_mean(integral, pair.0, pair.1),
+                                    (false, false) => continue,
+                                    // The edge of missing data taken at the middle: the half
+                                    // next to the finite end carries its value.
+                                    (true, false) | (false, true) => {
+                                        len *= 0.5;
+                                        tf.eval(if pair.0.is_finite() { pair.0 } else { pair.1 })
+                                    }
                                 }
-                                tf.segment_mean(integral, pair.0, pair.1)
                             } else {
                                 let v = volume.sample_trilinear(p);
                                 if !v.is_finite() {
