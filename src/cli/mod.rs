@@ -132,7 +132,7 @@ pub enum BenchCommand {
         /// Nodes per side of the tsunami and fault grids.
         #[arg(long, default_value_t = 256)]
         grid: usize,
-        /// Only this scene (mantle, blobs, tsunami, fault); all by default.
+        /// Only this scene (mantle, blobs, band, tsunami, fault); all by default.
         #[arg(long)]
         scene: Option<String>,
     },

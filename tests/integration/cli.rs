@@ -493,7 +493,7 @@ fn accuracy_report_writes_table_files_and_chart() {
         .collect();
     // f64 (GPU) joins where the adapter has shader f64 (lavapipe does), within 1e-12 of the CPU.
     let has_gpu_f64 = rows.iter().any(|r| r[1] == "f64 (GPU)");
-    assert_eq!(rows.len(), 11 + has_gpu_f64 as usize, "{csv}");
+    assert_eq!(rows.len(), 12 + has_gpu_f64 as usize, "{csv}");
     let rel = |v: &str| -> f64 { rows.iter().find(|r| r[1] == v).unwrap()[4].parse().unwrap() };
     // The paper's claim on the mantle: 8-bit compositing loses what f32 keeps.
     assert!(rel("u8") > 1e-2 && rel("f32") < 1e-4, "{csv}");
@@ -506,7 +506,7 @@ fn accuracy_report_writes_table_files_and_chart() {
     let (code, _, stderr) = hdrvis(&["bench", "accuracy", "--scene", "nope"], dir.path());
     assert_ne!(code, 0);
     assert!(
-        stderr.contains("unknown scene \"nope\"; known: mantle, blobs, tsunami, fault"),
+        stderr.contains("unknown scene \"nope\"; known: mantle, blobs, band, tsunami, fault"),
         "{stderr}"
     );
 }
