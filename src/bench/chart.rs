@@ -75,7 +75,8 @@ pub fn log_log_chart(
             .x_label_area_size(48)
             .y_label_area_size(72)
             .build_cartesian_2d(
-                ((x0 / 2.0)..(x1 * 2.0)).log_scale(),
+                // Room on the right for the labels of the slowest points.
+                ((x0 / 2.0)..(x1 * 6.0)).log_scale(),
                 ((y0 / 10.0)..(y1 * 10.0)).log_scale(),
             )
             .map_err(plot_err)?;
