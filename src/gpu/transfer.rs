@@ -36,10 +36,22 @@ impl UploadBuffer {
     /// caller waits for its submission before the next upload). Without direct mapping the
     /// bytes land in wgpu's staging memory and are copied at the next submit.
     pub fn write(&self, ctx: &GpuContext, data: &[u8]) -> Result<()> {
-        if data.is_empty() {
+        self.write_with(ctx, data.len() as u64, |mut dst| dst.copy_from_slice(data))
+    }
+
+    /// Hands the first `size` bytes of the buffer's host-visible memory (the mapped buffer, or
+    /// wgpu's staging memory; write-only, as it may be write-combining) to `fill`, so a caller
+    /// can produce its data in place — in parallel, and scanning it on the way — rather than
+    /// copy a finished array.
+    pub fn write_with(
+        &self,
+        ctx: &GpuContext,
+        size: u64,
+        fill: impl FnOnce(wgpu::WriteOnly<'_, [u8]>),
+    ) -> Result<()> {
+        if size == 0 {
             return Ok(());
         }
-        let size = data.len() as u64;
         if size > self.buffer.size() {
             return Err(Error::Gpu(format!(
                 "upload of {size} bytes into a {}-byte buffer",
@@ -60,7 +72,7 @@ impl UploadBuffer {
                 let mut view = slice
                     .get_mapped_range_mut()
                     .map_err(|e| Error::Gpu(format!("upload mapping failed: {e}")))?;
-                view.copy_from_slice(data);
+                fill(view.slice(..));
             }
             self.buffer.unmap();
         } else {
@@ -69,7 +81,7 @@ impl UploadBuffer {
                 .queue
                 .write_buffer_with(&self.buffer, 0, len)
                 .ok_or_else(|| Error::Gpu("upload staging allocation failed".into()))?;
-            view.copy_from_slice(data);
+            fill(view.slice(..));
         }
         Ok(())
     }

@@ -362,7 +362,7 @@ impl GpuToneMapper {
     /// Tone-maps `img` with `settings`: display-referred linear RGBA in [0, 1] (before the sRGB
     /// curve), missing pixels (any NaN/Inf component) as (0, 0, 0, 0). Images holding values
     /// below ~2^-110 (denormals) are uploaded lifted by 2^k with k stops taken off the exposure,
-    /// so GPUs that flush denormals still see them (`lift_tiny_values`). The result carries the
+    /// so GPUs that flush denormals still see them (`PixelScan::lift`). The result carries the
     /// input's metadata plus `tonemap` (operator name), `transfer = display-linear` and
     /// `display_referred = 1`.
     pub fn tonemap(&self, img: &HdrImage, settings: &ToneMapSettings) -> Result<HdrImage> {
@@ -1191,95 +1191,167 @@ impl Profile {
 /// zero (lavapipe does).
 const TINY: f32 = 7.7e-34; // about 2^-110
 
-/// When `pixels` hold finite non-zero values below [`TINY`], a copy multiplied by 2^k and the
-/// k (stops) to take off the exposure: exact (a power of two, no overflow by construction) and
-/// invisible in the result, since the shaders apply exposure to ln L, after the weighted sum.
-fn lift_tiny_values(pixels: &[[f32; 4]]) -> Option<(Vec<[f32; 4]>, i32)> {
-    let (has_tiny, largest) = pixels
-        .par_chunks(1 << 14)
-        .map(|chunk| {
-            let (mut tiny, mut largest) = (false, 0.0f32);
-            for p in chunk {
-                for &v in &p[..3] {
-                    let a = v.abs();
-                    if a.is_finite() {
-                        tiny |= a != 0.0 && a < TINY;
-                        largest = largest.max(a);
-                    }
+/// What one pass over the pixels learns: whether finite non-zero components below [`TINY`]
+/// occur, the largest finite component magnitude, and (when asked) the smallest and largest
+/// positive finite Rec. 709 luminance, in f64 as the CPU reference computes it.
+#[derive(Clone, Copy, Debug)]
+struct PixelScan {
+    tiny: bool,
+    largest: f32,
+    luminance: (f64, f64),
+}
+
+impl PixelScan {
+    const EMPTY: PixelScan = PixelScan {
+        tiny: false,
+        largest: 0.0,
+        luminance: (f64::INFINITY, 0.0),
+    };
+
+    fn of(chunk: &[[f32; 4]], with_luminance: bool) -> PixelScan {
+        let mut scan = PixelScan::EMPTY;
+        for p in chunk {
+            for &v in &p[..3] {
+                let a = v.abs();
+                if a.is_finite() {
+                    scan.tiny |= a != 0.0 && a < TINY;
+                    scan.largest = scan.largest.max(a);
                 }
             }
-            (tiny, largest)
-        })
-        .reduce(|| (false, 0.0), |a, b| (a.0 | b.0, a.1.max(b.1)));
-    if !has_tiny {
-        return None;
+            if with_luminance && p.iter().all(|v| v.is_finite()) {
+                let y = 0.2126 * (p[0] as f64).max(0.0)
+                    + 0.7152 * (p[1] as f64).max(0.0)
+                    + 0.0722 * (p[2] as f64).max(0.0);
+                if y > 0.0 {
+                    scan.luminance = (scan.luminance.0.min(y), scan.luminance.1.max(y));
+                }
+            }
+        }
+        scan
     }
-    let headroom = (f32::MAX / largest.max(f32::MIN_POSITIVE)).log2().floor() as i32 - 2;
-    let k = headroom.clamp(0, 96);
-    if k == 0 {
-        return None;
+
+    fn merge(self, o: PixelScan) -> PixelScan {
+        PixelScan {
+            tiny: self.tiny | o.tiny,
+            largest: self.largest.max(o.largest),
+            luminance: (
+                self.luminance.0.min(o.luminance.0),
+                self.luminance.1.max(o.luminance.1),
+            ),
+        }
     }
-    let gain = 2f32.powi(k);
-    let lifted = pixels
-        .iter()
-        .map(|p| [p[0] * gain, p[1] * gain, p[2] * gain, p[3]])
-        .collect();
-    Some((lifted, k))
+
+    fn of_all(pixels: &[[f32; 4]], with_luminance: bool) -> PixelScan {
+        pixels
+            .par_chunks(SCAN_CHUNK)
+            .map(|c| PixelScan::of(c, with_luminance))
+            .reduce(|| PixelScan::EMPTY, PixelScan::merge)
+    }
+
+    /// log10 of the luminance range, when any pixel is lit.
+    fn log10_luminance(&self) -> Option<(f64, f64)> {
+        let (lo, hi) = self.luminance;
+        (hi > 0.0).then(|| (lo.log10(), hi.log10()))
+    }
+
+    /// Stops k to lift the image by (×2^k, taken off the exposure: exact, as a power of two, no
+    /// overflow by construction, and invisible in the result since the shaders apply exposure
+    /// to ln L after the weighted sum) when it holds tiny values and has headroom below
+    /// f32::MAX.
+    fn lift(&self) -> Option<i32> {
+        if !self.tiny {
+            return None;
+        }
+        let headroom = (f32::MAX / self.largest.max(f32::MIN_POSITIVE))
+            .log2()
+            .floor() as i32
+            - 2;
+        Some(headroom.clamp(0, 96)).filter(|&k| k > 0)
+    }
 }
+
+/// Pixels per chunk of the parallel scans and copies (256 KiB: stays in cache between the
+/// copy and the scan of the same chunk).
+const SCAN_CHUNK: usize = 1 << 14;
+
+/// When `pixels` hold finite non-zero values below [`TINY`], a copy multiplied by 2^k and the
+/// k (stops) to take off the exposure: what [`upload_image`] does, as one function for tests.
+#[cfg(test)]
+fn lift_tiny_values(pixels: &[[f32; 4]]) -> Option<(Vec<[f32; 4]>, i32)> {
+    let k = PixelScan::of_all(pixels, false).lift()?;
+    Some((lift_by(pixels, k), k))
+}
+
+fn lift_by(pixels: &[[f32; 4]], k: i32) -> Vec<[f32; 4]> {
+    let gain = 2f32.powi(k);
+    pixels
+        .par_iter()
+        .map(|p| [p[0] * gain, p[1] * gain, p[2] * gain, p[3]])
+        .collect()
+}
+
+/// A disjoint piece of a write-only mapping, handed to a worker thread.
+struct Piece<'a>(wgpu::WriteOnly<'a, [u8]>);
+
+// SAFETY: a `WriteOnly<[u8]>` is exclusive, write-only access to its bytes, like `&mut [u8]`,
+// which is Send; wgpu implements Send for `WriteOnly<T>` with sized `T` only. The pieces come
+// from `split_at`, so no two threads reach the same byte.
+unsafe impl Send for Piece<'_> {}
 
 /// What [`upload_image`] learnt about the image on its way to the GPU.
 struct UploadScan {
-    /// Stops the upload was lifted by ([`lift_tiny_values`]); taken off the exposure.
+    /// Stops the upload was lifted by ([`PixelScan::lift`]); taken off the exposure.
     lift_ev: i32,
     /// log10 of the smallest and largest positive Rec. 709 luminance of the uploaded values
-    /// (none when no pixel has one): where Durand's intensity levels go.
+    /// (when asked for).
     log10_luminance: Option<(f64, f64)>,
 }
 
-/// Writes `pixels` into `target` (lifted by 2^k first when they hold values the GPU would
-/// flush) and reports the luminance range when `wants_range`, scanning the image in parallel.
+/// Writes `pixels` into `target` (lifted by 2^k when they hold values the GPU would flush) and
+/// reports the luminance range when `wants_range`. One parallel pass copies each chunk and
+/// scans it while it is in cache; only an image with tiny values is written a second time.
 fn upload_image(
     ctx: &GpuContext,
     target: &UploadBuffer,
     pixels: &[[f32; 4]],
     wants_range: bool,
 ) -> Result<UploadScan> {
-    let lifted = lift_tiny_values(pixels);
-    let (upload, lift_ev): (&[[f32; 4]], i32) = match &lifted {
-        Some((p, k)) => (p, *k),
-        None => (pixels, 0),
+    let mut scan = PixelScan::EMPTY;
+    target.write_with(ctx, std::mem::size_of_val(pixels) as u64, |mut dst| {
+        let mut pieces = Vec::with_capacity(pixels.len().div_ceil(SCAN_CHUNK));
+        for src in pixels.chunks(SCAN_CHUNK) {
+            let (head, rest) = dst.split_at(std::mem::size_of_val(src));
+            pieces.push((Piece(head), src));
+            dst = rest;
+        }
+        scan = pieces
+            .into_par_iter()
+            .map(|(Piece(mut d), s)| {
+                d.copy_from_slice(bytemuck::cast_slice(s));
+                PixelScan::of(s, wants_range)
+            })
+            .reduce(|| PixelScan::EMPTY, PixelScan::merge);
+    })?;
+    let Some(k) = scan.lift() else {
+        return Ok(UploadScan {
+            lift_ev: 0,
+            log10_luminance: if wants_range {
+                scan.log10_luminance()
+            } else {
+                None
+            },
+        });
     };
-    target.write(ctx, bytemuck::cast_slice(upload))?;
+    let lifted = lift_by(pixels, k);
+    target.write(ctx, bytemuck::cast_slice(&lifted))?;
     Ok(UploadScan {
-        lift_ev,
+        lift_ev: k,
         log10_luminance: if wants_range {
-            luminance_range(upload).map(|(lo, hi)| (lo.log10(), hi.log10()))
+            PixelScan::of_all(&lifted, true).log10_luminance()
         } else {
             None
         },
     })
-}
-
-/// Smallest and largest positive finite Rec. 709 luminance (in f64, as the CPU reference).
-fn luminance_range(pixels: &[[f32; 4]]) -> Option<(f64, f64)> {
-    let (lo, hi) = pixels
-        .par_chunks(1 << 14)
-        .map(|chunk| {
-            let mut range = (f64::INFINITY, 0.0f64);
-            for p in chunk {
-                if p.iter().all(|v| v.is_finite()) {
-                    let y = 0.2126 * (p[0] as f64).max(0.0)
-                        + 0.7152 * (p[1] as f64).max(0.0)
-                        + 0.0722 * (p[2] as f64).max(0.0);
-                    if y > 0.0 {
-                        range = (range.0.min(y), range.1.max(y));
-                    }
-                }
-            }
-            range
-        })
-        .reduce(|| (f64::INFINITY, 0.0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
-    (hi > 0.0).then_some((lo, hi))
 }
 
 /// Per-pixel dispatch size (X, Y) with X * Y * 256 >= n and X within the 65535 limit; the
