@@ -166,7 +166,7 @@ impl BrickedVolume {
         check_allocation((slice * slab_slices * 4) as u64, "brick index slab")?;
         let mut slab = vec![0f32; slice * slab_slices];
         let mut ranges = vec![None; layout.count()];
-        let mut stats = StatsAcc::default();
+        let mut stats = VolumeStats::EMPTY;
         for bz in 0..layout.grid[2] {
             let z_lo = (bz * brick).saturating_sub(1);
             let z_hi = ((bz + 1) * brick + 1).min(nz);
@@ -175,12 +175,7 @@ impl BrickedVolume {
             let buf = &*buf;
             // Statistics over this layer's own slices only, so each voxel counts once.
             let own = (bz * brick - z_lo) * slice..(((bz + 1) * brick).min(nz) - z_lo) * slice;
-            stats = stats.merge(
-                buf[own]
-                    .par_chunks(1 << 16)
-                    .map(StatsAcc::of)
-                    .reduce(StatsAcc::default, StatsAcc::merge),
-            );
+            stats = stats.merge(VolumeStats::of_values_par(&buf[own]));
             let layer: Vec<(usize, BrickRange)> = (0..layout.grid[0] * layout.grid[1])
                 .into_par_iter()
                 .map(|i| {
@@ -216,7 +211,7 @@ impl BrickedVolume {
             dims,
             spacing,
             origin,
-            stats: stats.finish(),
+            stats,
             layout,
             ranges,
             source,
@@ -359,70 +354,6 @@ impl BrickedVolume {
         )?;
         v.units = self.units.clone();
         Ok(v)
-    }
-}
-
-/// Statistics accumulated exactly as [`Volume::stats`] computes them.
-#[derive(Clone, Copy, Debug)]
-struct StatsAcc(VolumeStats);
-
-impl Default for StatsAcc {
-    fn default() -> Self {
-        StatsAcc(VolumeStats {
-            min: f64::INFINITY,
-            max: f64::NEG_INFINITY,
-            min_positive: None,
-            min_abs_nonzero: None,
-            finite: 0,
-            non_finite: 0,
-        })
-    }
-}
-
-fn min_opt(a: Option<f64>, b: Option<f64>) -> Option<f64> {
-    match (a, b) {
-        (Some(x), Some(y)) => Some(x.min(y)),
-        (x, None) => x,
-        (None, y) => y,
-    }
-}
-
-impl StatsAcc {
-    fn of(values: &[f32]) -> StatsAcc {
-        let mut s = StatsAcc::default().0;
-        for &v in values {
-            if !v.is_finite() {
-                s.non_finite += 1;
-                continue;
-            }
-            let v = v as f64;
-            s.finite += 1;
-            s.min = s.min.min(v);
-            s.max = s.max.max(v);
-            if v > 0.0 {
-                s.min_positive = min_opt(s.min_positive, Some(v));
-            }
-            if v != 0.0 {
-                s.min_abs_nonzero = min_opt(s.min_abs_nonzero, Some(v.abs()));
-            }
-        }
-        StatsAcc(s)
-    }
-
-    fn merge(self, b: StatsAcc) -> StatsAcc {
-        let (a, b) = (self.0, b.0);
-        StatsAcc(VolumeStats {
-            min: a.min.min(b.min),
-            max: a.max.max(b.max),
-            min_positive: min_opt(a.min_positive, b.min_positive),
-            min_abs_nonzero: min_opt(a.min_abs_nonzero, b.min_abs_nonzero),
-            finite: a.finite + b.finite,
-            non_finite: a.non_finite + b.non_finite,
-        })
-    }
-
-    fn finish(self) -> VolumeStats {
-        self.0
     }
 }
 

@@ -70,6 +70,69 @@ pub struct VolumeStats {
     pub non_finite: usize,
 }
 
+impl VolumeStats {
+    /// The statistics of no values: the identity of [`VolumeStats::merge`].
+    pub const EMPTY: VolumeStats = VolumeStats {
+        min: f64::INFINITY,
+        max: f64::NEG_INFINITY,
+        min_positive: None,
+        min_abs_nonzero: None,
+        finite: 0,
+        non_finite: 0,
+    };
+
+    /// The statistics of `values`, serially (callers split large arrays and merge).
+    pub fn of_values(values: &[f32]) -> VolumeStats {
+        let mut s = VolumeStats::EMPTY;
+        for &v in values {
+            if !v.is_finite() {
+                s.non_finite += 1;
+                continue;
+            }
+            let v = v as f64;
+            s.finite += 1;
+            s.min = s.min.min(v);
+            s.max = s.max.max(v);
+            if v > 0.0 {
+                s.min_positive = min_opt(s.min_positive, Some(v));
+            }
+            if v != 0.0 {
+                s.min_abs_nonzero = min_opt(s.min_abs_nonzero, Some(v.abs()));
+            }
+        }
+        s
+    }
+
+    /// The statistics of `values` in parallel chunks.
+    pub fn of_values_par(values: &[f32]) -> VolumeStats {
+        use rayon::prelude::*;
+        values
+            .par_chunks(1 << 16)
+            .map(VolumeStats::of_values)
+            .reduce(|| VolumeStats::EMPTY, VolumeStats::merge)
+    }
+
+    /// The statistics of two sets of values together.
+    pub fn merge(self, b: VolumeStats) -> VolumeStats {
+        VolumeStats {
+            min: self.min.min(b.min),
+            max: self.max.max(b.max),
+            min_positive: min_opt(self.min_positive, b.min_positive),
+            min_abs_nonzero: min_opt(self.min_abs_nonzero, b.min_abs_nonzero),
+            finite: self.finite + b.finite,
+            non_finite: self.non_finite + b.non_finite,
+        }
+    }
+}
+
+fn min_opt(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(x.min(y)),
+        (x, None) => x,
+        (None, y) => y,
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Volume {
     pub name: String,
@@ -178,50 +241,7 @@ impl Volume {
     }
 
     pub fn stats(&self) -> VolumeStats {
-        use rayon::prelude::*;
-        let identity = || VolumeStats {
-            min: f64::INFINITY,
-            max: f64::NEG_INFINITY,
-            min_positive: None,
-            min_abs_nonzero: None,
-            finite: 0,
-            non_finite: 0,
-        };
-        let min_opt = |a: Option<f64>, b: Option<f64>| match (a, b) {
-            (Some(x), Some(y)) => Some(x.min(y)),
-            (x, None) => x,
-            (None, y) => y,
-        };
-        self.data
-            .par_chunks(1 << 16)
-            .map(|chunk| {
-                let mut s = identity();
-                for &v in chunk {
-                    if !v.is_finite() {
-                        s.non_finite += 1;
-                        continue;
-                    }
-                    let v = v as f64;
-                    s.finite += 1;
-                    s.min = s.min.min(v);
-                    s.max = s.max.max(v);
-                    if v > 0.0 {
-                        s.min_positive = min_opt(s.min_positive, Some(v));
-                    }
-                    if v != 0.0 {
-                        s.min_abs_nonzero = min_opt(s.min_abs_nonzero, Some(v.abs()));
-                    }
-                }
-                s
-            })
-            .reduce(identity, |a, b| VolumeStats {
-                min: a.min.min(b.min),
-                max: a.max.max(b.max),
-                min_positive: min_opt(a.min_positive, b.min_positive),
-                min_abs_nonzero: min_opt(a.min_abs_nonzero, b.min_abs_nonzero),
-                finite: a.finite + b.finite,
-                non_finite: a.non_finite + b.non_finite,
-            })
+        VolumeStats::of_values_par(&self.data)
     }
 
     /// Value at voxel (i, j, k) with indices clamped to the grid, as clamp-to-edge texturing does.

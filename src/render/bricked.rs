@@ -413,30 +413,13 @@ impl VolumeRenderer {
         let lut_view = self.lut_view(&frame.tf, false);
         let out = self.output_texture(opts);
         let out_view = out.create_view(&Default::default());
-        let mut entries = vec![
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: params_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: wgpu::BindingResource::TextureView(&cache.atlas_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: wgpu::BindingResource::TextureView(&lut_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: wgpu::BindingResource::TextureView(&out_view),
-            },
-        ];
-        if frame.key.hw_filter {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 4,
-                resource: wgpu::BindingResource::Sampler(self.sampler()),
-            });
-        }
+        let mut entries = self.common_entries(
+            &frame.key,
+            &params_buf,
+            &cache.atlas_view,
+            &lut_view,
+            &out_view,
+        );
         for (binding, buf) in [
             (5, &bricks_buf),
             (6, &pages_buf),

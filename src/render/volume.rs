@@ -302,30 +302,8 @@ impl VolumeRenderer {
         let lut_view = self.lut_view(&frame.tf, frame.key.preintegrated);
         let out = self.output_texture(opts);
         let out_view = out.create_view(&Default::default());
-        let mut entries = vec![
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: params_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: wgpu::BindingResource::TextureView(&volume.view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: wgpu::BindingResource::TextureView(&lut_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: wgpu::BindingResource::TextureView(&out_view),
-            },
-        ];
-        if frame.key.hw_filter {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 4,
-                resource: wgpu::BindingResource::Sampler(&self.sampler),
-            });
-        }
+        let entries =
+            self.common_entries(&frame.key, &params_buf, &volume.view, &lut_view, &out_view);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("volume"),
             layout,
@@ -476,6 +454,43 @@ impl VolumeRenderer {
     }
 
     /// The transfer table as an N x 1 texture.
+    /// The bind-group entries both ray casters share: parameters, the volume (or brick atlas),
+    /// the transfer table, the output image and, with hardware filtering, the sampler.
+    pub(crate) fn common_entries<'a>(
+        &'a self,
+        key: &PipelineKey,
+        params: &'a wgpu::Buffer,
+        volume: &'a wgpu::TextureView,
+        lut: &'a wgpu::TextureView,
+        out: &'a wgpu::TextureView,
+    ) -> Vec<wgpu::BindGroupEntry<'a>> {
+        let mut entries = vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: params.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(volume),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::TextureView(lut),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::TextureView(out),
+            },
+        ];
+        if key.hw_filter {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 4,
+                resource: wgpu::BindingResource::Sampler(&self.sampler),
+            });
+        }
+        entries
+    }
+
     /// The transfer table as an N x 1 texture; N x 3 with the pre-integration rows (the table's
     /// running integral, hi and lo) when `integral` is set.
     pub(crate) fn lut_view(&self, tf: &ResolvedTransfer, integral: bool) -> wgpu::TextureView {
@@ -531,10 +546,6 @@ impl VolumeRenderer {
             usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         })
-    }
-
-    pub(crate) fn sampler(&self) -> &wgpu::Sampler {
-        &self.sampler
     }
 
     /// The image with the metadata every render records.
