@@ -5,26 +5,11 @@
 // state, asks for the brick and waits for a later pass). Out-of-core renders run one pass per
 // batch of bricks in front-to-back order, carrying each ray's state in a storage buffer, so every
 // sample is taken exactly once and composited in ray order: the image equals the in-core render.
-// Keep Params in sync with src/render/volume.rs (VolumeParams) and Bricks with
-// src/render/bricked.rs (BrickParams).
+// Keep Bricks in sync with src/render/bricked.rs (BrickParams).
 #include "shared/optics.wgsl"
 #include "shared/camera.wgsl"
 #include "shared/march.wgsl"
-
-struct Params {
-    eye: vec4<f32>,
-    forward: vec4<f32>,
-    right: vec4<f32>,
-    up: vec4<f32>,
-    proj: vec4<f32>,
-    box_size: vec4<f32>,
-    background: vec4<f32>,
-    scale: vec4<f32>,
-    lens: vec4<f32>,
-    tf: vec4<f32>,
-    march: vec4<f32>,
-    image: vec4<u32>,
-}
+#include "shared/volume_params.wgsl"
 
 struct Bricks {
     // Voxels per axis, and the brick edge B in w.
@@ -36,12 +21,6 @@ struct Bricks {
     // 1 / atlas size in texels (xyz).
     inv_atlas: vec4<f32>,
 }
-
-override TF_KIND: u32 = 0u;
-override SCALE_KIND: u32 = 0u;
-override USE_LENS: bool = false;
-override JITTER: bool = false;
-override PRECISION: u32 = 0u;
 
 const EMPTY: u32 = 0xfffffffeu;
 const ABSENT: u32 = 0xffffffffu;

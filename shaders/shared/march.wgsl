@@ -1,6 +1,6 @@
 // The transfer function and the compositing step shared by the ray casters (volume.wgsl and
-// volume_bricked.wgsl). The including shader declares `P` (with scale, lens and tf), the `lut`
-// texture and the override constants TF_KIND, SCALE_KIND, USE_LENS and PRECISION first.
+// volume_bricked.wgsl). The including shader declares `P` (Params of volume_params.wgsl) and the
+// `lut` texture.
 
 const LOG10_2: f32 = 0.30102999566;
 

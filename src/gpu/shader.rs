@@ -33,6 +33,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/shared/march.wgsl"),
     ),
     (
+        "shared/volume_params.wgsl",
+        include_str!("../../shaders/shared/volume_params.wgsl"),
+    ),
+    (
         "shared/optics.wgsl",
         include_str!("../../shaders/shared/optics.wgsl"),
     ),

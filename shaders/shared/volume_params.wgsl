@@ -1,0 +1,33 @@
+// The uniform parameters and pipeline constants of the f32 ray casters (volume.wgsl and
+// volume_bricked.wgsl). Keep Params in sync with src/render/volume.rs (VolumeParams).
+
+struct Params {
+    eye: vec4<f32>,
+    forward: vec4<f32>,
+    right: vec4<f32>,
+    up: vec4<f32>,
+    proj: vec4<f32>,
+    box_size: vec4<f32>,
+    background: vec4<f32>,
+    // x: scaled lower bound, y: 1 / scaled range, z: symlog threshold, w: LUT size - 1
+    scale: vec4<f32>,
+    // lens: base [x, y] maps onto [z, w]
+    lens: vec4<f32>,
+    // emission–absorption: x = e, y = a
+    tf: vec4<f32>,
+    // x: step in world units, y: voxels per world unit, z: optical depth at which rays stop
+    march: vec4<f32>,
+    // x: width, y: height, z: jitter seed
+    image: vec4<u32>,
+    // Blinn–Phong under a headlight: x ambient, y diffuse, z specular, w shininess (SHADING only)
+    shading: vec4<f32>,
+}
+
+// 0: lookup table, 1: emission–absorption e·v, a·v.
+override TF_KIND: u32 = 0u;
+// 0: linear, 1: log10, 2: symlog.
+override SCALE_KIND: u32 = 0u;
+override USE_LENS: bool = false;
+override JITTER: bool = false;
+// 0: f32, 1: 8-bit framebuffer emulation, 2: binary16 emulation, 3: f32 with compensated sums.
+override PRECISION: u32 = 0u;
