@@ -296,6 +296,7 @@ impl RenderSession {
                 let mut img = super::cpu_reference::render_volume_cpu(volume, opts)?;
                 img.set_meta("precision", "f64 (CPU)");
                 img.set_meta("tf", opts.tf.describe());
+                img.set_meta("tf_sampling", opts.tf_sampling.name());
                 img
             } else {
                 let gv = self.upload(volume)?;

@@ -567,6 +567,7 @@ impl VolumeRenderer {
         );
         image.set_meta("camera", cam.describe());
         image.set_meta("tf", opts.tf.describe());
+        image.set_meta("tf_sampling", opts.tf_sampling.name());
         image.set_meta("precision", opts.precision.name());
         image.set_meta(
             "step",

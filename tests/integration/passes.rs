@@ -14,7 +14,7 @@ let v = generate_mantle(#{n: 24, seed: 5});
 let tf = tf_lut(#{scale: "symlog", linthresh: 0.01, colormap: param("cmap", "turbo"),
                   opacity: [[0.0, -3.0], [1.0, param("opacity", 0.0)]]});
 let img = render_volume(v, #{tf: tf, camera: camera_orbit(param("azimuth", 30.0), 20.0),
-                             width: 32, height: 32});
+                             width: 32, height: 32, tf_sampling: param("sampling", "point")});
 let shown = tonemap(img, #{op: param("op", "reinhard"), exposure: param("ev", 0.0)});
 save_exr(shown, "shown.exr");
 "#;
@@ -64,6 +64,17 @@ fn each_kind_of_change_reruns_only_its_dependants() {
     assert_eq!(counts(&tf, &names), [0, 0, 1, 1, 1], "{tf:?}");
     let cmap = run(VOLUME_SCENE, &session, dir.path(), &[("cmap", "viridis")]);
     assert_eq!(counts(&cmap, &names), [0, 0, 1, 1, 1], "{cmap:?}");
+
+    // Transfer-function sampling: a ray cast of its own, recorded in the file.
+    let pre = run(
+        VOLUME_SCENE,
+        &session,
+        dir.path(),
+        &[("opacity", "-1.0"), ("sampling", "preintegrated")],
+    );
+    assert_eq!(counts(&pre, &names), [0, 0, 1, 1, 1], "{pre:?}");
+    let img = hdrvis::io::exr::read_exr(&dir.path().join("shown.exr")).unwrap();
+    assert_eq!(img.meta("tf_sampling").as_deref(), Some("preintegrated"));
 
     // Nothing changed: nothing but the sink runs.
     let same = run(VOLUME_SCENE, &session, dir.path(), &[("opacity", "-1.0")]);
