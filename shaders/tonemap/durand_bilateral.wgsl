@@ -18,7 +18,7 @@
 //   grid_blur_x    one item per (level, cell)   cells -> tmp
 //   grid_blur_y    one item per (level, cell)   tmp -> levels
 //   base           one item per pixel           image, levels -> layers
-//   range_partial  (G, 1, 1), G = min(ceil(n / 256), 1024): layers -> partials (G elements)
+//   range_partial  (G, 1, 1), G = min(ceil(n / 256), 64): layers -> partials (G elements)
 //   range_finish   (1, 1, 1):     partials -> base_range
 //   apply          one item per pixel           image, layers, base_range -> output
 //

@@ -5,8 +5,9 @@
 // clamped, ^(1 / gamma). Missing pixels (any NaN/Inf component) come out (0, 0, 0, 0); black
 // pixels come out black with their alpha. CPU reference: src/tonemap/cpu.rs `tonemap_cpu`.
 //
-// Needs `stats` from luminance_stats.wgsl (all operators; count == 0 gives a black image) and,
-// for Ward, the `cdf` from ward_histogram.wgsl (bind any buffer of >= 1 f32 for other ops).
+// Needs `stats` from luminance_stats.wgsl (all operators but linear and ACES; count == 0 gives
+// a black image) and, for Ward, the `cdf` from ward_histogram.wgsl (bind any buffer of >= 1
+// f32 for other ops).
 //
 // Entry point apply_global: workgroups of 256; dispatch (X, Y, 1) with X * Y * 256 >= n,
 // pixel index = global_id.x + global_id.y * X * 256 (so images over 16.7 Mpx fit the 65535
@@ -119,7 +120,8 @@ fn apply_global(
     let colour = max(p.rgb, vec3<f32>(0.0));
     let y = dot(colour, REC709);
     var rgb = vec3<f32>(0.0);
-    if y > 0.0 && stats.count > 0u {
+    // Linear (0) and ACES (4) run without the statistics pass: a pixel that is lit is enough.
+    if y > 0.0 && (OP == 0u || OP == 4u || stats.count > 0u) {
         let ld = display_luminance(log(y) + params.exposure_ev * LN2);
         rgb = compose(colour, y, ld);
     } else {

@@ -5,7 +5,7 @@
 // CPU reference: src/tonemap/cpu.rs `luminance_log_stats`.
 //
 // Two passes, both in this file:
-//   partial_stats  dispatch (G, 1, 1) workgroups of 256 per band of rows (G >= 1 and <= 1024);
+//   partial_stats  dispatch (G, 1, 1) workgroups of 256 per band of rows (G >= 1 and <= 64);
 //                  each thread strides over the band by G * 256 pixels. Writes
 //                  partials[workgroup] of the band's window of `partials`.
 //   finish_stats   dispatch (1, 1, 1); combines arrayLength(&partials) partials into `stats`.

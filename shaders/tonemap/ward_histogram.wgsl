@@ -8,7 +8,7 @@
 // CPU reference: src/tonemap/cpu.rs `WardMapping`.
 //
 // Entry points:
-//   histogram    dispatch (G, 1, 1) workgroups of 256, G = min(ceil(n / 256), 1024); threads
+//   histogram    dispatch (G, 1, 1) workgroups of 256, G = min(ceil(n / 256), 64); threads
 //                stride over the image. `counts` must be zeroed before (clear_buffer).
 //   ceiling_cdf  dispatch (1, 1, 1); one invocation (the loop is at most 100 x 256 steps).
 //
