@@ -113,6 +113,9 @@ struct Front {
     x: f32,
     c_hi: vec4<f32>,
     c_lo: vec4<f32>,
+    // The table entries around x (its linear piece), reused when both ends share it.
+    e0: vec4<f32>,
+    e1: vec4<f32>,
 }
 
 // The table, linearly interpolated, at table coordinate x.
@@ -122,7 +125,7 @@ fn table_at(x: f32) -> vec4<f32> {
 }
 
 fn front_at(v: f32) -> Front {
-    var f = Front(v, 0.0, vec4<f32>(0.0), vec4<f32>(0.0));
+    var f = Front(v, 0.0, vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     if (TF_KIND == 0u && is_finite_f32(v)) {
         let x = scaled(v) * P.scale.w;
         let i = min(i32(x), i32(P.scale.w) - 1);
@@ -130,6 +133,8 @@ fn front_at(v: f32) -> Front {
         let e0 = textureLoad(lut, vec2<i32>(i, 0), 0);
         let e1 = textureLoad(lut, vec2<i32>(i + 1, 0), 0);
         f.x = x;
+        f.e0 = e0;
+        f.e1 = e1;
         f.c_hi = textureLoad(lut, vec2<i32>(i, 1), 0);
         f.c_lo = textureLoad(lut, vec2<i32>(i, 2), 0) + t * e0 + (0.5 * t * t) * (e1 - e0);
     }
@@ -151,9 +156,14 @@ fn segment_mean(a: Front, b: Front) -> vec4<f32> {
     }
     let top = i32(P.scale.w) - 1;
     let dx = b.x - a.x;
-    // Within one linear piece the mean is the value at the middle (and tiny spans would lose
-    // the difference quotient to rounding).
-    if (min(i32(a.x), top) == min(i32(b.x), top) || abs(dx) < 1e-3) {
+    let ib = min(i32(b.x), top);
+    // Within one linear piece the mean is the value at the middle, from the entries already
+    // loaded for b.
+    if (min(i32(a.x), top) == ib) {
+        return mix(b.e0, b.e1, 0.5 * (a.x + b.x) - f32(ib));
+    }
+    // Tiny spans would lose the difference quotient to rounding.
+    if (abs(dx) < 1e-3) {
         return table_at(0.5 * (a.x + b.x));
     }
     return ((b.c_hi - a.c_hi) + (b.c_lo - a.c_lo)) / dx;
