@@ -64,11 +64,13 @@ struct RayState {
 fn composite(s: ptr<function, RayState>, ea_in: vec4<f32>, len: f32, stop_tau: f32) {
     let ea = ea_in;
     let x = ea.a * len;
-    // One exponential per step: the segment's absorbed fraction gives both its escape fraction
-    // and the transmittance update. The optical depth is still accumulated separately, for
-    // alpha and for the stopping test.
-    let absorbed = one_minus_exp_neg(x);
-    let escape = select(1.0 - x * (0.5 - x * (0.16666667 - x * 0.041666668)), absorbed / x, x >= 0.03);
+    // One exponential per step and no branch: the escape fraction (1 - e^-x) / x, from its
+    // series where the quotient would cancel, gives both the emission weight and the absorbed
+    // fraction for the transmittance update. The optical depth is still accumulated
+    // separately, for alpha and for the stopping test.
+    let series = 1.0 - x * (0.5 - x * (0.16666667 - x * 0.041666668));
+    let escape = select((1.0 - exp(-x)) / x, series, x < 0.03);
+    let absorbed = escape * x;
     let contribution = (*s).transmittance * ea.rgb * (len * escape);
     if (PRECISION == 3u) {
         // Kahan: carry the low-order bits each sum drops.
