@@ -204,6 +204,17 @@ impl GpuToneMapper {
     /// every image-sized buffer fits one binding (4096² RGBA f32 takes 2 on lavapipe's
     /// 128 MiB bindings, more for Reinhard's blurred scales).
     pub fn bands_for(&self, width: u32, height: u32, op: &Operator) -> Result<usize> {
+        Ok(self.plan_for(width, height, op)?.1.bands.len())
+    }
+
+    /// The bands of a call with `op`, and Reinhard's pyramid where `op` is Reinhard local (its
+    /// blurred scales decide how many rows a band may hold).
+    fn plan_for(
+        &self,
+        width: u32,
+        height: u32,
+        op: &Operator,
+    ) -> Result<(Option<ReinhardPlan>, PixelPlan)> {
         let reinhard = match *op {
             Operator::ReinhardLocal {
                 alpha1,
@@ -218,7 +229,7 @@ impl GpuToneMapper {
                 .as_ref()
                 .is_none_or(|r| r.band_fits(rows, self.window_limit, self.align()))
         })?;
-        Ok(plan.bands.len())
+        Ok((reinhard, plan))
     }
 
     /// `base` for one band of items.
@@ -387,20 +398,7 @@ impl GpuToneMapper {
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
 
         let output = cache.output(ctx, px_bytes).buffer.clone();
-        let reinhard = match settings.op {
-            Operator::ReinhardLocal {
-                alpha1,
-                ratio,
-                scales,
-                ..
-            } => Some(ReinhardPlan::new(w, h, alpha1, ratio, scales)),
-            _ => None,
-        };
-        let plan = self.plan(w, h, |rows| {
-            reinhard
-                .as_ref()
-                .is_none_or(|r| r.band_fits(rows, self.window_limit, self.align()))
-        })?;
+        let (reinhard, plan) = self.plan_for(w, h, &settings.op)?;
         let stats = cache.scratch(ctx, "luminance stats", 16);
         let partials = cache.scratch(ctx, "partials", plan.partials_bytes());
         let mut rec = self.record(w, h, Specialisation::of(&base));
