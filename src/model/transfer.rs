@@ -649,4 +649,47 @@ mod tests {
             .to_string()
             .contains("viridis"));
     }
+
+    #[test]
+    fn segment_means_match_closed_forms() {
+        // The mean of max(v, 0) along a linear v.
+        assert_eq!(mean_positive_part(2.0, 4.0), 3.0);
+        assert_eq!(mean_positive_part(-2.0, -1.0), 0.0);
+        assert_eq!(mean_positive_part(-1.0, 1.0), 0.25);
+        assert_eq!(mean_positive_part(3.0, -1.0), 9.0 / 8.0);
+        let ea = TransferFunction::emission_absorption(2.0, 0.5)
+            .unwrap()
+            .resolve(&stats(0.0, 1.0))
+            .unwrap();
+        assert_eq!(ea.segment_mean(&[], -1.0, 1.0), ([0.5; 3], 0.125));
+        // A table: the mean over [xf, xb] is the integral of the piecewise-linear table over the
+        // span divided by its length, and the middle value within one linear piece.
+        let tf = TransferFunction::Lut(LutTransfer {
+            domain: Some([0.0, 1.0]),
+            opacity: vec![[0.0, -3.0], [0.5, 0.0], [1.0, -3.0]],
+            ..Default::default()
+        })
+        .resolve(&stats(0.0, 1.0))
+        .unwrap();
+        let integral = tf.table_integral();
+        let n = (LUT_SIZE - 1) as f64;
+        let (vf, vb) = (0.2, 0.7);
+        let (xf, xb) = (tf.table_coord(vf), tf.table_coord(vb));
+        let steps = 200_000;
+        let quadrature = (0..steps)
+            .map(|k| {
+                tf.table_at(xf + (xb - xf) * (k as f64 + 0.5) / steps as f64)
+                    .1
+            })
+            .sum::<f64>()
+            / steps as f64;
+        let mean = tf.segment_mean(&integral, vf, vb).1;
+        assert!(
+            (mean - quadrature).abs() < 1e-9 * quadrature,
+            "{mean} {quadrature}"
+        );
+        let (a, b) = (100.25 / n, 100.75 / n);
+        let mid = tf.table_at(tf.table_coord(0.5 * (a + b))).1;
+        assert!((tf.segment_mean(&integral, a, b).1 - mid).abs() < 1e-15);
+    }
 }

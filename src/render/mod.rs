@@ -295,3 +295,20 @@ pub fn jitter_fraction(px: u32, py: u32, width: u32, height: u32, seed: u32) -> 
     let r = (word >> 22) ^ word;
     (r >> 8) as f64 / 16777216.0
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn transfer_function_sampling_names_round_trip_and_unknown_ones_are_refused() {
+        for name in TfSampling::NAMES {
+            assert_eq!(TfSampling::parse(name).unwrap().name(), *name);
+        }
+        let err = TfSampling::parse("linear").unwrap_err().to_string();
+        assert_eq!(
+            err,
+            "tf_sampling: expected point or preintegrated, got \"linear\""
+        );
+    }
+}
