@@ -30,19 +30,7 @@ fn sample_volume(uvw: vec3<f32>) -> f32 {
     let top = dims - vec3<i32>(1);
     let a = clamp(vec3<i32>(g0), vec3<i32>(0), top);
     let b = clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top);
-    let c000 = textureLoad(volume_tex, vec3<i32>(a.x, a.y, a.z), 0).r;
-    let c100 = textureLoad(volume_tex, vec3<i32>(b.x, a.y, a.z), 0).r;
-    let c010 = textureLoad(volume_tex, vec3<i32>(a.x, b.y, a.z), 0).r;
-    let c110 = textureLoad(volume_tex, vec3<i32>(b.x, b.y, a.z), 0).r;
-    let c001 = textureLoad(volume_tex, vec3<i32>(a.x, a.y, b.z), 0).r;
-    let c101 = textureLoad(volume_tex, vec3<i32>(b.x, a.y, b.z), 0).r;
-    let c011 = textureLoad(volume_tex, vec3<i32>(a.x, b.y, b.z), 0).r;
-    let c111 = textureLoad(volume_tex, vec3<i32>(b.x, b.y, b.z), 0).r;
-    let x00 = mix(c000, c100, f.x);
-    let x10 = mix(c010, c110, f.x);
-    let x01 = mix(c001, c101, f.x);
-    let x11 = mix(c011, c111, f.x);
-    return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+    return trilinear_texels(volume_tex, a, b, f);
 #endif
 }
 

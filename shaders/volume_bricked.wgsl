@@ -85,19 +85,7 @@ fn sample_brick(pv: vec3<f32>, offset: vec3<i32>) -> f32 {
     let top = vec3<i32>(BR.dims.xyz) - vec3<i32>(1);
     let a = clamp(vec3<i32>(g0), vec3<i32>(0), top) + offset;
     let b = clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top) + offset;
-    let c000 = textureLoad(atlas, vec3<i32>(a.x, a.y, a.z), 0).r;
-    let c100 = textureLoad(atlas, vec3<i32>(b.x, a.y, a.z), 0).r;
-    let c010 = textureLoad(atlas, vec3<i32>(a.x, b.y, a.z), 0).r;
-    let c110 = textureLoad(atlas, vec3<i32>(b.x, b.y, a.z), 0).r;
-    let c001 = textureLoad(atlas, vec3<i32>(a.x, a.y, b.z), 0).r;
-    let c101 = textureLoad(atlas, vec3<i32>(b.x, a.y, b.z), 0).r;
-    let c011 = textureLoad(atlas, vec3<i32>(a.x, b.y, b.z), 0).r;
-    let c111 = textureLoad(atlas, vec3<i32>(b.x, b.y, b.z), 0).r;
-    let x00 = mix(c000, c100, f.x);
-    let x10 = mix(c010, c110, f.x);
-    let x01 = mix(c001, c101, f.x);
-    let x11 = mix(c011, c111, f.x);
-    return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+    return trilinear_texels(atlas, a, b, f);
 #endif
 }
 

@@ -14,6 +14,24 @@ fn round16(v: f32) -> f32 {
     return unpack2x16float(pack2x16float(vec2<f32>(v, 0.0))).x;
 }
 
+// Trilinear interpolation in f32 of the eight texels spanned by corners a and b (b = a + 1
+// where inside, clamped at edges) with weights f: the exact filter of both ray casters.
+fn trilinear_texels(tex: texture_3d<f32>, a: vec3<i32>, b: vec3<i32>, f: vec3<f32>) -> f32 {
+    let c000 = textureLoad(tex, vec3<i32>(a.x, a.y, a.z), 0).r;
+    let c100 = textureLoad(tex, vec3<i32>(b.x, a.y, a.z), 0).r;
+    let c010 = textureLoad(tex, vec3<i32>(a.x, b.y, a.z), 0).r;
+    let c110 = textureLoad(tex, vec3<i32>(b.x, b.y, a.z), 0).r;
+    let c001 = textureLoad(tex, vec3<i32>(a.x, a.y, b.z), 0).r;
+    let c101 = textureLoad(tex, vec3<i32>(b.x, a.y, b.z), 0).r;
+    let c011 = textureLoad(tex, vec3<i32>(a.x, b.y, b.z), 0).r;
+    let c111 = textureLoad(tex, vec3<i32>(b.x, b.y, b.z), 0).r;
+    let x00 = mix(c000, c100, f.x);
+    let x10 = mix(c010, c110, f.x);
+    let x01 = mix(c001, c101, f.x);
+    let x11 = mix(c011, c111, f.x);
+    return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
+}
+
 // Data value -> table coordinate in [0, 1] (see ScaleMapping::map).
 fn scaled(v: f32) -> f32 {
     var s = v;
