@@ -56,6 +56,28 @@ impl BenchRow {
     }
 }
 
+/// The mantle's temperature fluctuation on n³ voxels over [-1, 1]³ (missing outside the shell):
+/// the volume of the effects, skipping and accuracy benchmarks.
+pub fn mantle_fluctuation(n: usize, seed: u64) -> Result<Volume> {
+    use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
+    let m = generate(
+        &MantleOptions {
+            n,
+            seed,
+            fields: MantleFields::only(MantleField::Fluctuation),
+            ..Default::default()
+        },
+        &mut |_| {},
+    )?;
+    Volume::new(
+        format!("mantle fluctuation {n}^3"),
+        [n; 3],
+        [2.0 / n as f64; 3],
+        [-1.0; 3],
+        m.fluctuation,
+    )
+}
+
 /// The benchmark volume: Gaussian blobs spanning five decades over a faint floor, like the
 /// HDR fields of the paper, generated in memory (not timed).
 pub fn bench_volume(n: usize) -> Result<Volume> {

@@ -163,24 +163,8 @@ fn surface_options(nu: f64) -> SurfaceOptions {
 }
 
 fn volume_scenes(size: u32, n: usize, only: Option<&str>) -> Result<Vec<AccuracyScene>> {
-    use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
     use crate::model::transfer::LutTransfer;
-    let m = generate(
-        &MantleOptions {
-            n,
-            seed: 7,
-            fields: MantleFields::only(MantleField::Fluctuation),
-            ..Default::default()
-        },
-        &mut |_| {},
-    )?;
-    let mantle = Volume::new(
-        format!("mantle fluctuation {n}^3"),
-        [n; 3],
-        [2.0 / n as f64; 3],
-        [-1.0; 3],
-        m.fluctuation,
-    )?;
+    let mantle = crate::bench::mantle_fluctuation(n, 7)?;
     let mantle_tf = TransferFunction::Lut(LutTransfer {
         scale: Scale::Symlog { linthresh: 1e-3 },
         domain: Some([-0.3, 0.45]),

@@ -9,7 +9,7 @@ use crate::bench::{median, peak_memory_mib};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::bricks::BrickedVolume;
-use crate::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
+use crate::model::{Axis, Camera, LutTransfer, Scale, TransferFunction};
 use std::sync::Arc;
 
 /// CPU seconds this process has used (user + system, Linux `/proc/self/stat`): on CPU
@@ -80,24 +80,8 @@ pub fn bench_skipping(
     runs: usize,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<BrickBenchRow>> {
-    use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
     log(&format!("generating the {n}^3 mantle ..."));
-    let m = generate(
-        &MantleOptions {
-            n,
-            seed: 7,
-            fields: MantleFields::only(MantleField::Fluctuation),
-            ..Default::default()
-        },
-        &mut |_| {},
-    )?;
-    let vol = Arc::new(Volume::new(
-        format!("mantle fluctuation {n}^3"),
-        [n; 3],
-        [2.0 / n as f64; 3],
-        [-1.0; 3],
-        m.fluctuation,
-    )?);
+    let vol = Arc::new(crate::bench::mantle_fluctuation(n, 7)?);
     let renderer = VolumeRenderer::new(ctx);
     let gv = GpuVolume::upload(renderer.context(), &vol)?;
     let bv = Arc::new(BrickedVolume::from_volume(vol.clone(), brick)?);

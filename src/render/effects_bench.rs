@@ -30,18 +30,8 @@ impl EffectRow {
 }
 
 fn scene(n: usize) -> Result<Volume> {
-    use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
-    let o = MantleOptions {
-        n,
-        fields: MantleFields::only(MantleField::Fluctuation),
-        ..Default::default()
-    };
-    let m = generate(&o, &mut |_| {})?;
-    let data = m
-        .field(MantleField::Fluctuation)
-        .map(|d| d.to_vec())
-        .unwrap_or_default();
-    Volume::new("mantle", [n; 3], [2.0 / n as f64; 3], [-1.0; 3], data)
+    let seed = crate::datasets::mantle::MantleOptions::default().seed;
+    crate::bench::mantle_fluctuation(n, seed)
 }
 
 fn tf() -> Result<TransferFunction> {
