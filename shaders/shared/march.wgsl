@@ -91,14 +91,17 @@ fn composite(s: ptr<function, RayState>, ea_in: vec4<f32>, len: f32, stop_tau: f
     let absorbed = escape * x;
     let contribution = (*s).transmittance * ea.rgb * (len * escape);
     if (PRECISION == 3u) {
-        // Kahan: carry the low-order bits each sum drops.
+        // Kahan: carry the low-order bits each sum drops. Shader compilers may rewrite
+        // (a + b) - a as b (NIR does), which would leave the carry at zero; multiplying the sum
+        // by a 1.0 they cannot see through (P.march.w) keeps the difference.
+        let one = P.march.w;
         let yc = contribution - (*s).color_carry;
         let tc = (*s).color + yc;
-        (*s).color_carry = (tc - (*s).color) - yc;
+        (*s).color_carry = (tc * one - (*s).color) - yc;
         (*s).color = tc;
         let yt = x - (*s).tau_carry;
         let tt = (*s).tau + yt;
-        (*s).tau_carry = (tt - (*s).tau) - yt;
+        (*s).tau_carry = (tt * one - (*s).tau) - yt;
         (*s).tau = tt;
         (*s).transmittance = exp(-tt);
     } else if (PRECISION == 1u) {

@@ -15,7 +15,8 @@ struct Params {
     lens: vec4<f32>,
     // emission–absorption: x = e, y = a
     tf: vec4<f32>,
-    // x: step in world units, y: voxels per world unit, z: optical depth at which rays stop
+    // x: step in world units, y: voxels per world unit, z: optical depth at which rays stop,
+    // w: 1.0, which the shader compiler cannot see
     march: vec4<f32>,
     // x: width, y: height, z: jitter seed
     image: vec4<u32>,

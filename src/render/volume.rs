@@ -438,7 +438,8 @@ impl VolumeRenderer {
                 (opts.step * voxel) as f32,
                 (1.0 / voxel) as f32,
                 opts.stop_optical_depth().min(f32::MAX as f64) as f32,
-                0.0,
+                // The shader's opaque 1.0 (see composite in shaders/shared/march.wgsl).
+                1.0,
             ],
             image: [opts.width, opts.height, opts.seed, 0],
             shading: opts.shading.map_or([0.0; 4], |s| {
