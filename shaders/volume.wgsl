@@ -196,6 +196,33 @@ fn march_step_pre(s: ptr<function, RayState>, front: ptr<function, Front>, m: Ma
 }
 #endif
 
+// The fixed quantities of the interior segments (all but the first and the last): texture
+// coordinate of the midpoint of segment 0 (as if it had length ds), the step between
+// midpoints, the length in voxels, the stopping depth, the unit ray direction.
+struct Inner {
+    uvw: vec3<f32>,
+    step: vec3<f32>,
+    len: f32,
+    stop_tau: f32,
+    dir: vec3<f32>,
+}
+
+// Interior segment k: march_step without the clamp at the exit and the carried end point.
+fn inner_step(s: ptr<function, RayState>, c: Inner, k: u32) {
+    if ((*s).stopped) {
+        return;
+    }
+    let uvw = c.uvw + c.step * f32(k);
+    let v = sample_volume(uvw);
+    var ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
+#if SHADING
+    if (any(ea.rgb > vec3<f32>(0.0))) {
+        ea = vec4<f32>(ea.rgb * shading_factor(uvw, c.dir), ea.a);
+    }
+#endif
+    composite(s, ea, c.len, c.stop_tau);
+}
+
 // Steps per loop iteration. llvmpipe ends any loop after 65535 iterations, so a ray can take at
 // most 4 * 65535 steps (src/render/volume.rs refuses renders that would need more).
 const UNROLL: u32 = 4u;
@@ -239,15 +266,26 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
 #else
-        for (var k = 0u; k < n; k += UNROLL) {
-            march_step(&s, m, k);
-            march_step(&s, m, k + 1u);
-            march_step(&s, m, k + 2u);
-            march_step(&s, m, k + 3u);
-            if (s.stopped) {
-                break;
-            }
+        // The first segment (its length may be jittered) and the last ones (cut at the exit)
+        // go through march_step; the segments between all have length ds, so their midpoints
+        // form an arithmetic sequence and need no clamping or carried end point.
+        march_step(&s, m, 0u);
+        let inner = Inner(m.uvw0 + m.duvw * (m.t_enter + m.first - 0.5 * m.ds), m.duvw * m.ds,
+                          m.ds * m.voxels_per_unit, m.stop_tau, m.dir);
+        var k = 1u;
+        while (k + UNROLL < n && !s.stopped) {
+            inner_step(&s, inner, k);
+            inner_step(&s, inner, k + 1u);
+            inner_step(&s, inner, k + 2u);
+            inner_step(&s, inner, k + 3u);
+            k += UNROLL;
         }
+        // At most three interior segments and the last one remain.
+        s.ta = min(m.t_enter + m.first + f32(k - 1u) * m.ds, m.t_exit);
+        march_step(&s, m, k);
+        march_step(&s, m, k + 1u);
+        march_step(&s, m, k + 2u);
+        march_step(&s, m, k + 3u);
 #endif
     }
     var alpha = one_minus_exp_neg(s.tau);
