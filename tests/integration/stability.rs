@@ -53,6 +53,7 @@ fn tiny_extinction_over_a_hundred_thousand_steps() {
             o.precision = precision;
             let g = gpu(backend, &vol, &o);
             let err = rel_rms(&g, &reference);
+            eprintln!("tiny extinction, {backend:?} {precision:?}: rel RMS {err:.2e}");
             let limit = if precision == Precision::F32c {
                 1e-6
             } else {
