@@ -606,11 +606,7 @@ impl Model {
                 self.flux_x[j * w + ii].powi(2) / faces.total_x[j * w + ii]
             }
         };
-        let advect_x = if m >= 0.0 {
-            m_sq_over_d(i) - m_sq_over_d(i - 1)
-        } else {
-            m_sq_over_d(i + 1) - m_sq_over_d(i)
-        } / self.dx;
+        let advect_x = upwind(m >= 0.0, m_sq_over_d, i) / self.dx;
         let mn_over_d = |jj: usize| {
             if self.face_depth_x[jj * w + i] <= 0.0 {
                 0.0
@@ -618,17 +614,7 @@ impl Model {
                 self.flux_x[jj * w + i] * faces.n_at_x[jj * w + i] / faces.total_x[jj * w + i]
             }
         };
-        let advect_y = if n_here >= 0.0 {
-            if j > 0 {
-                mn_over_d(j) - mn_over_d(j - 1)
-            } else {
-                0.0
-            }
-        } else if j + 1 < ny {
-            mn_over_d(j + 1) - mn_over_d(j)
-        } else {
-            0.0
-        } / self.dy;
+        let advect_y = upwind_within(n_here >= 0.0, mn_over_d, j, ny) / self.dy;
         let pressure = self.g * depth * (e[i] - e[i - 1]) / self.dx;
         let friction = manning_friction(dt * self.g * manning_n * manning_n, m, n_here, depth);
         ((1.0 - friction) * m - dt * (advect_x + advect_y + pressure)) / (1.0 + friction)
@@ -664,11 +650,7 @@ impl Model {
                 self.flux_y[jj * nx + i].powi(2) / faces.total_y[jj * nx + i]
             }
         };
-        let advect_y = if n >= 0.0 {
-            n_sq_over_d(j) - n_sq_over_d(j - 1)
-        } else {
-            n_sq_over_d(j + 1) - n_sq_over_d(j)
-        } / self.dy;
+        let advect_y = upwind(n >= 0.0, n_sq_over_d, j) / self.dy;
         let nm_over_d = |ii: usize| {
             if self.face_depth_y[j * nx + ii] <= 0.0 {
                 0.0
@@ -676,17 +658,7 @@ impl Model {
                 self.flux_y[j * nx + ii] * faces.m_at_y[j * nx + ii] / faces.total_y[j * nx + ii]
             }
         };
-        let advect_x = if m_here >= 0.0 {
-            if i > 0 {
-                nm_over_d(i) - nm_over_d(i - 1)
-            } else {
-                0.0
-            }
-        } else if i + 1 < nx {
-            nm_over_d(i + 1) - nm_over_d(i)
-        } else {
-            0.0
-        } / self.dx;
+        let advect_x = upwind_within(m_here >= 0.0, nm_over_d, i, nx) / self.dx;
         let pressure =
             self.g * depth * (self.eta[j * nx + i] - self.eta[(j - 1) * nx + i]) / self.dy;
         let friction = manning_friction(dt * self.g * manning_n * manning_n, n, m_here, depth);
@@ -725,6 +697,24 @@ impl Model {
                     }
                 }
             });
+    }
+}
+
+/// First-order upwind difference of `q` at face `k`: backward where the flow runs forward.
+fn upwind(forward: bool, q: impl Fn(usize) -> f64, k: usize) -> f64 {
+    if forward {
+        q(k) - q(k - 1)
+    } else {
+        q(k + 1) - q(k)
+    }
+}
+
+/// `upwind` across the rows (or columns) of faces, zero where the upwind neighbour would lie
+/// outside the `n` of them.
+fn upwind_within(forward: bool, q: impl Fn(usize) -> f64, k: usize, n: usize) -> f64 {
+    match (forward, k > 0, k + 1 < n) {
+        (true, true, _) | (false, _, true) => upwind(forward, q, k),
+        _ => 0.0,
     }
 }
 
