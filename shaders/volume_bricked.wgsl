@@ -182,16 +182,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if (!done) {
         let ds = P.march.x;
-        var first = ds;
-        if (JITTER) {
-            let r = hash_u32(gid.x + w * (gid.y + h * P.image.z));
-            first = ds * (1.0 - f32(r >> 8u) * (1.0 / 16777216.0));
-        }
-        let span = t_exit - t_enter;
-        var n = 1u;
-        if (span > first) {
-            n = u32(ceil((span - first) / ds)) + 1u;
-        }
+        let first = first_segment(gid.xy, w, h, ds);
+        let n = segment_count(t_exit - t_enter, first, ds);
         let inv_size = 1.0 / size;
         let m = March(t_enter, t_exit, first, ds, P.march.y, P.march.z, n, ray.origin * inv_size, ray.dir * inv_size);
         // Four steps per iteration: llvmpipe ends loops after 65535 iterations, and a ray takes at
@@ -216,12 +208,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if ((flags & LAST_PASS) == 0u) {
         return;
     }
-    var alpha = one_minus_exp_neg(s.tau);
-    if (PRECISION == 1u) {
-        alpha = 1.0 - s.transmittance;
-        let col = s.color + s.transmittance * P.background.rgb;
-        textureStore(out_image, vec2<i32>(gid.xy), vec4<f32>(quantize8(col.x), quantize8(col.y), quantize8(col.z), alpha));
-        return;
-    }
-    textureStore(out_image, vec2<i32>(gid.xy), vec4<f32>(s.color + exp(-s.tau) * P.background.rgb, alpha));
+    textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));
 }

@@ -1,6 +1,6 @@
-// The transfer function and the compositing step shared by the ray casters (volume.wgsl and
-// volume_bricked.wgsl). The including shader declares `P` (Params of volume_params.wgsl) and the
-// `lut` texture.
+// The transfer function, the segments of a ray, the compositing step and the finished pixel,
+// shared by the ray casters (volume.wgsl and volume_bricked.wgsl). The including shader declares
+// `P` (Params of volume_params.wgsl) and the `lut` texture.
 
 const LOG10_2: f32 = 0.30102999566;
 
@@ -65,6 +65,23 @@ fn transfer(v: f32) -> vec4<f32> {
     return mix(textureLoad(lut, vec2<i32>(i, 0), 0), textureLoad(lut, vec2<i32>(i + 1, 0), 0), x - f32(i));
 }
 
+// Length of a ray's first segment: the step, or with JITTER a fraction of it drawn per pixel
+// (the same on every run and backend).
+fn first_segment(px: vec2<u32>, w: u32, h: u32, ds: f32) -> f32 {
+    if (JITTER) {
+        let r = hash_u32(px.x + w * (px.y + h * P.image.z));
+        return ds * (1.0 - f32(r >> 8u) * (1.0 / 16777216.0));
+    }
+    return ds;
+}
+
+// Segments of a ray through `span`: the first one, then steps of ds, the last cut at the exit.
+fn segment_count(span: f32, first: f32, ds: f32) -> u32 {
+    if (span > first) {
+        return u32(ceil((span - first) / ds)) + 1u;
+    }
+    return 1u;
+}
 // What a ray carries from step to step.
 struct RayState {
     color: vec3<f32>,
@@ -124,4 +141,14 @@ fn composite(s: ptr<function, RayState>, ea_in: vec4<f32>, len: f32, stop_tau: f
     if ((*s).tau > stop_tau) {
         (*s).stopped = true;
     }
+}
+
+// The pixel a finished ray leaves: its colour over the background and alpha = 1 - e^-tau; in the
+// 8-bit emulation both as that framebuffer holds them.
+fn ray_pixel(s: RayState) -> vec4<f32> {
+    if (PRECISION == 1u) {
+        let c = s.color + s.transmittance * P.background.rgb;
+        return vec4<f32>(quantize8(c.x), quantize8(c.y), quantize8(c.z), 1.0 - s.transmittance);
+    }
+    return vec4<f32>(s.color + exp(-s.tau) * P.background.rgb, one_minus_exp_neg(s.tau));
 }
