@@ -13,6 +13,15 @@ pub fn storage_buffer(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEnt
     )
 }
 
+/// A uniform buffer at binding 0, then `inputs` read-only and `outputs` read-write storage
+/// buffers at the bindings after it, in that order.
+pub fn uniform_then_storage(inputs: u32, outputs: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
+    std::iter::once(uniform_buffer(0))
+        .chain((1..=inputs).map(|b| storage_buffer(b, true)))
+        .chain((inputs + 1..=inputs + outputs).map(|b| storage_buffer(b, false)))
+        .collect()
+}
+
 /// A uniform buffer at `binding`.
 pub fn uniform_buffer(binding: u32) -> wgpu::BindGroupLayoutEntry {
     entry(

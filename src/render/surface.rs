@@ -633,16 +633,7 @@ impl SurfaceRenderer {
         if let Some(p) = cache.get(&map) {
             return Ok(p.clone());
         }
-        let entries = [
-            crate::gpu::layout::uniform_buffer(0),
-            crate::gpu::layout::storage_buffer(1, true),
-            crate::gpu::layout::storage_buffer(2, true),
-            crate::gpu::layout::storage_buffer(3, true),
-            crate::gpu::layout::storage_buffer(4, true),
-            crate::gpu::layout::storage_buffer(5, false),
-            crate::gpu::layout::storage_buffer(6, false),
-            crate::gpu::layout::storage_buffer(7, false),
-        ];
+        let entries = crate::gpu::layout::uniform_then_storage(4, 3);
         let p = self.build(
             "surface_data.wgsl",
             "surface data pass",
@@ -664,15 +655,7 @@ impl SurfaceRenderer {
         if let Some(p) = cache.get(&variant) {
             return Ok(p.clone());
         }
-        let entries = [
-            crate::gpu::layout::uniform_buffer(0),
-            crate::gpu::layout::storage_buffer(1, true),
-            crate::gpu::layout::storage_buffer(2, true),
-            crate::gpu::layout::storage_buffer(3, true),
-            crate::gpu::layout::storage_buffer(4, true),
-            crate::gpu::layout::storage_buffer(5, false),
-            crate::gpu::layout::storage_buffer(6, false),
-        ];
+        let entries = crate::gpu::layout::uniform_then_storage(4, 2);
         let p = self.build(
             "surface_fringe.wgsl",
             "surface fringe pass",
