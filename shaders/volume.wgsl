@@ -81,10 +81,7 @@ fn march_step(s: ptr<function, RayState>, m: March, k: u32) {
     let mid = 0.5 * ((*s).ta + tb);
     let len = (tb - (*s).ta) * m.voxels_per_unit;
     (*s).ta = tb;
-    let v = sample_volume(m.uvw0 + m.duvw * mid);
-    // Missing values (NaN/Inf nearby) emit and absorb nothing; a select rather than a branch
-    // keeps the SIMD lanes of CPU rasterizers together.
-    var ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
+    var ea = sample_work(m.uvw0 + m.duvw * mid);
 #if SHADING
     if (any(ea.rgb > vec3<f32>(0.0))) {
         ea = vec4<f32>(ea.rgb * shading_factor(m.uvw0 + m.duvw * mid, m.dir), ea.a);
@@ -207,14 +204,37 @@ struct Inner {
     dir: vec3<f32>,
 }
 
+// Emission–absorption at uvw, or with WORK < 4 only the first parts of that work and a
+// meaningless result that still depends on them (so the compiler keeps them). Missing values
+// (NaN/Inf nearby) emit and absorb nothing; a select rather than a branch keeps the SIMD lanes of
+// CPU rasterizers together.
+fn sample_work(uvw: vec3<f32>) -> vec4<f32> {
+    if (WORK == 0u) {
+        return vec4<f32>(uvw.z * 1e-3);
+    }
+    let v = sample_volume(uvw);
+    if (WORK == 1u || (WORK < 4u && TF_KIND == 1u)) {
+        return vec4<f32>(abs(v) * 1e-3);
+    }
+    let finite = is_finite_f32(v);
+    if (WORK == 2u) {
+        return select(vec4<f32>(0.0), vec4<f32>(scaled(v) * 1e-3), finite);
+    }
+    if (WORK == 3u) {
+        let x = scaled(v) * P.scale.w;
+        let t = x - f32(min(i32(x), i32(P.scale.w) - 1));
+        return select(vec4<f32>(0.0), vec4<f32>(t, 0.5 * t, 0.25 * t, 1e-3 * t), finite);
+    }
+    return select(vec4<f32>(0.0), transfer(v), finite);
+}
+
 // Interior segment k: march_step without the clamp at the exit and the carried end point.
 fn inner_step(s: ptr<function, RayState>, c: Inner, k: u32) {
     if ((*s).stopped) {
         return;
     }
     let uvw = c.uvw + c.step * f32(k);
-    let v = sample_volume(uvw);
-    var ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
+    var ea = sample_work(uvw);
 #if SHADING
     if (any(ea.rgb > vec3<f32>(0.0))) {
         ea = vec4<f32>(ea.rgb * shading_factor(uvw, c.dir), ea.a);

@@ -5,7 +5,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
-use crate::render::volume::{GpuVolume, VolumeRenderer};
+use crate::render::volume::{GpuVolume, SampleWork, VolumeRenderer};
 use crate::render::VolumeRenderOptions;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -24,6 +24,8 @@ pub struct BenchRow {
     pub samples: u64,
     pub runs_ms: Vec<f64>,
     pub peer: Option<PeerResult>,
+    /// With `--breakdown`: the frame time of each stage of the per-sample work.
+    pub stages: Vec<(SampleWork, Vec<f64>)>,
 }
 
 #[derive(Clone, Debug)]
@@ -105,12 +107,15 @@ pub fn bench_tf() -> TransferFunction {
     })
 }
 
-/// Times the volume ray caster on `sizes` (volume side, image side), axis view, one sample per voxel.
+/// Times the volume ray caster on `sizes` (volume side, image side), axis view, one sample per
+/// voxel; with `breakdown`, also each stage of the per-sample work (SampleWork), alternating the
+/// stages run by run so that drift of the machine's speed spreads over all of them.
 pub fn bench_volume_render(
     ctx: Arc<GpuContext>,
     sizes: &[(usize, u32)],
     runs: usize,
     peer: Option<&Path>,
+    breakdown: bool,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<BenchRow>> {
     let renderer = VolumeRenderer::new(ctx);
@@ -132,6 +137,20 @@ pub fn bench_volume_render(
         }
         let name = format!("{n}^3 -> {px}^2");
         log(&format!("{name}: median {:.1} ms", median(&runs_ms)));
+        let mut stages: Vec<(SampleWork, Vec<f64>)> = Vec::new();
+        if breakdown {
+            log(&format!("{name}: timing the stages of a sample ..."));
+            stages = SampleWork::ALL.iter().map(|&w| (w, Vec::new())).collect();
+            for (work, _) in &stages {
+                renderer.render_work(&gv, &opts, *work)?;
+            }
+            for _ in 0..runs.max(1) {
+                for (work, times) in stages.iter_mut() {
+                    let (_, t) = renderer.render_work(&gv, &opts, *work)?;
+                    times.push(t.seconds * 1e3);
+                }
+            }
+        }
         let peer_result = peer.map(|script| run_vtk_peer(script, &vol, px, runs, log));
         rows.push(BenchRow {
             name,
@@ -139,6 +158,7 @@ pub fn bench_volume_render(
             samples: px as u64 * px as u64 * n as u64,
             runs_ms,
             peer: peer_result,
+            stages,
         });
     }
     Ok(rows)
@@ -310,6 +330,34 @@ pub fn format_volume_table(adapter: &str, rows: &[BenchRow]) -> String {
             r.runs_ms.len(),
             peer
         ));
+    }
+    s
+}
+
+/// The per-sample cost breakdown of the rows that have one: each stage's median frame time and
+/// what it adds to the stage before.
+pub fn format_breakdown_table(rows: &[BenchRow]) -> String {
+    let mut s = String::new();
+    for r in rows.iter().filter(|r| !r.stages.is_empty()) {
+        s.push_str(&format!(
+            "\n{}: what each part of a sample costs (interior samples only do the stages up to the row)\n",
+            r.name
+        ));
+        s.push_str(&format!(
+            "{:<70} {:>10} {:>10}\n",
+            "stage", "median ms", "added ms"
+        ));
+        let mut before = 0.0;
+        for (work, times) in &r.stages {
+            let m = median(times);
+            s.push_str(&format!(
+                "{:<70} {:>10.1} {:>10.1}\n",
+                work.describe(),
+                m,
+                m - before
+            ));
+            before = m;
+        }
     }
     s
 }

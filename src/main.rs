@@ -207,7 +207,12 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Some(Command::Bench(BenchCommand::Volume { runs, quick, peer })) => {
+        Some(Command::Bench(BenchCommand::Volume {
+            runs,
+            quick,
+            peer,
+            breakdown,
+        })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
             let peer_script = match peer.as_deref() {
@@ -230,9 +235,11 @@ fn run(cli: Cli) -> Result<()> {
                 sizes,
                 runs,
                 peer_script.as_deref(),
+                breakdown,
                 &mut |m| eprintln!("{m}"),
             )?;
             print!("{}", hdrvis::bench::format_volume_table(&adapter, &rows));
+            print!("{}", hdrvis::bench::format_breakdown_table(&rows));
             Ok(())
         }
     }

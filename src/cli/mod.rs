@@ -113,6 +113,10 @@ pub enum BenchCommand {
         /// Run a peer on the same data side by side: `vtk` (vtkGPUVolumeRayCastMapper via pip's vtk).
         #[arg(long)]
         peer: Option<String>,
+        /// Also time each stage of the per-sample work (march, volume sample, scale, table
+        /// index, table loads) to show where a frame's time goes.
+        #[arg(long)]
+        breakdown: bool,
     },
     /// What accuracy costs: every compositing precision (u8, f16, f32, f32c, f64) timed and
     /// compared with the f64 reference on the mantle and HDR-blob scenes, and the naive and

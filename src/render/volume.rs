@@ -140,6 +140,53 @@ pub(crate) struct PipelineKey {
     precision: u32,
     shading: bool,
     preintegrated: bool,
+    work: SampleWork,
+}
+
+/// How much of the per-sample work the interior steps of the plain ray caster do: the cost
+/// breakdown of `hdrvis bench volume --breakdown` renders with each stage in turn. Anything
+/// short of `Full` gives a meaningless image; only the benchmark asks for it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum SampleWork {
+    /// The march and compositing only: no volume read.
+    March,
+    /// Plus the trilinear sample of the volume.
+    Sample,
+    /// Plus the transfer function's scale (log10, symlog, lens) of the sample.
+    Scale,
+    /// Plus the table index and weight: everything but the table's texel loads.
+    Index,
+    /// The ray caster as it renders images.
+    #[default]
+    Full,
+}
+
+impl SampleWork {
+    /// Every stage, from the least work to the full ray caster.
+    pub const ALL: [SampleWork; 5] = [
+        SampleWork::March,
+        SampleWork::Sample,
+        SampleWork::Scale,
+        SampleWork::Index,
+        SampleWork::Full,
+    ];
+
+    /// What the stage adds to the one before it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SampleWork::March => {
+                "march + compositing, no volume read (plus dispatch and read-back)"
+            }
+            SampleWork::Sample => "+ hardware trilinear sample of the volume",
+            SampleWork::Scale => "+ transfer-function scale of the sample",
+            SampleWork::Index => "+ table index and weight (all but the table loads)",
+            SampleWork::Full => "+ the table's texel loads: the full ray caster",
+        }
+    }
+
+    fn shader_code(self) -> u32 {
+        self as u32
+    }
 }
 
 /// Builds pipelines on demand and renders volumes; one per GPU context.
@@ -256,6 +303,7 @@ impl VolumeRenderer {
             ("USE_LENS", key.lens as u32 as f64),
             ("JITTER", key.jitter as u32 as f64),
             ("PRECISION", key.precision as f64),
+            ("WORK", key.work.shader_code() as f64),
         ];
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("volume ray cast"),
@@ -282,6 +330,17 @@ impl VolumeRenderer {
         volume: &GpuVolume,
         opts: &VolumeRenderOptions,
     ) -> Result<(HdrImage, RenderTiming)> {
+        self.render_work(volume, opts, SampleWork::Full)
+    }
+
+    /// `render` with the interior samples doing only `work` (see SampleWork): for timing what
+    /// each part of a sample costs, not for images.
+    pub fn render_work(
+        &self,
+        volume: &GpuVolume,
+        opts: &VolumeRenderOptions,
+        work: SampleWork,
+    ) -> Result<(HdrImage, RenderTiming)> {
         let geometry = Geometry {
             name: &volume.name,
             dims: volume.dims,
@@ -289,7 +348,8 @@ impl VolumeRenderer {
             origin: volume.origin,
             stats: &volume.stats,
         };
-        let frame = self.frame(&geometry, opts, false)?;
+        let mut frame = self.frame(&geometry, opts, false)?;
+        frame.key.work = work;
         let (pipeline, compiled) = self.pipeline(frame.key)?;
         let (pipeline, layout) = (&pipeline.0, &pipeline.1);
         let device = &self.ctx.device;
@@ -397,6 +457,7 @@ impl VolumeRenderer {
             precision: opts.precision.shader_code(),
             shading: opts.shading.is_some(),
             preintegrated: opts.tf_sampling == TfSampling::PreIntegrated,
+            work: SampleWork::Full,
         };
         let cam = &opts.camera;
         let lo = volume.origin;

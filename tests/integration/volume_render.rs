@@ -557,3 +557,35 @@ fn preintegrated_gpu_matches_the_cpu_reference() {
         assert!(worst < 1e-3, "{backend:?} with missing voxels: {worst}");
     }
 }
+
+/// The stages of `hdrvis bench volume --breakdown` reach the shader: the full stage is the
+/// ray caster itself (bit for bit), each stage gives a different image from the one before, and
+/// the first stage reads no volume (two different volumes give the same image) while the
+/// second does.
+#[test]
+fn cost_breakdown_stages_do_what_they_say() {
+    use hdrvis::bench::{bench_tf, bench_volume};
+    use hdrvis::render::volume::SampleWork;
+    let r = renderer(BackendChoice::Vulkan);
+    let vol = bench_volume(32).unwrap();
+    let other = Volume::from_fn("other", [32; 3], |x, y, z| {
+        1e-3 * (1.0 + x + 2.0 * y + 3.0 * z)
+    })
+    .unwrap();
+    let opts = axis_opts(&vol, Axis::Z, bench_tf(), 1.0);
+    let gv = GpuVolume::upload(r.context(), &vol).unwrap();
+    let gother = GpuVolume::upload(r.context(), &other).unwrap();
+    let image = |g: &GpuVolume, w: SampleWork| r.render_work(g, &opts, w).unwrap().0.pixels;
+    let stages: Vec<_> = SampleWork::ALL.iter().map(|&w| image(&gv, w)).collect();
+    assert_eq!(stages[4], r.render(&gv, &opts).unwrap().0.pixels);
+    for (i, pair) in stages.windows(2).enumerate() {
+        assert_ne!(
+            pair[0],
+            pair[1],
+            "stages {i} and {} gave the same image",
+            i + 1
+        );
+    }
+    assert_eq!(image(&gother, SampleWork::March), stages[0]);
+    assert_ne!(image(&gother, SampleWork::Sample), stages[1]);
+}
