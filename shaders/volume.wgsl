@@ -34,21 +34,6 @@ fn sample_volume(uvw: vec3<f32>) -> f32 {
 #endif
 }
 
-// The fixed quantities of one ray's march.
-struct March {
-    t_enter: f32,
-    t_exit: f32,
-    first: f32,
-    ds: f32,
-    voxels_per_unit: f32,
-    stop_tau: f32,
-    steps: u32,
-    uvw0: vec3<f32>,
-    duvw: vec3<f32>,
-    // Unit ray direction in world space (the headlight shines along it).
-    dir: vec3<f32>,
-}
-
 #if SHADING
 // Blinn–Phong factor at texture coordinate uvw under a headlight (light and eye along -dir, so
 // the half vector is the light vector), two-sided; the normal is the gradient of the data value
@@ -77,7 +62,7 @@ fn march_step(s: ptr<function, RayState>, m: March, k: u32) {
     if ((*s).stopped || k >= m.steps) {
         return;
     }
-    let tb = min(m.t_enter + m.first + f32(k) * m.ds, m.t_exit);
+    let tb = segment_end(m, k);
     let mid = 0.5 * ((*s).ta + tb);
     let len = (tb - (*s).ta) * m.voxels_per_unit;
     (*s).ta = tb;
@@ -160,7 +145,7 @@ fn march_step_pre(s: ptr<function, RayState>, front: ptr<function, Front>, m: Ma
     if ((*s).stopped || k >= m.steps) {
         return;
     }
-    let tb = min(m.t_enter + m.first + f32(k) * m.ds, m.t_exit);
+    let tb = segment_end(m, k);
     let mid = 0.5 * ((*s).ta + tb);
     let len = (tb - (*s).ta) * m.voxels_per_unit;
     (*s).ta = tb;
@@ -293,7 +278,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             k += UNROLL;
         }
         // At most three interior segments and the last one remain.
-        s.ta = min(m.t_enter + m.first + f32(k - 1u) * m.ds, m.t_exit);
+        s.ta = segment_end(m, k - 1u);
         march_step(&s, m, k);
         march_step(&s, m, k + 1u);
         march_step(&s, m, k + 2u);

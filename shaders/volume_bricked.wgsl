@@ -45,19 +45,6 @@ const K_MASK: u32 = 0x3fffffffu;
 @group(0) @binding(8) var<storage, read_write> ray_progress: array<u32>;
 @group(0) @binding(9) var<storage, read_write> requests: array<atomic<u32>>;
 
-// The fixed quantities of one ray's march (as in volume.wgsl), plus the ray in voxel units.
-struct March {
-    t_enter: f32,
-    t_exit: f32,
-    first: f32,
-    ds: f32,
-    voxels_per_unit: f32,
-    stop_tau: f32,
-    steps: u32,
-    uvw0: vec3<f32>,
-    duvw: vec3<f32>,
-}
-
 // Where the ray is: next sample, the current brick's page entry and the atlas offset of its
 // stored copy relative to global voxel indices, and whether it waits for a brick.
 struct Cursor {
@@ -87,10 +74,6 @@ fn sample_brick(pv: vec3<f32>, offset: vec3<i32>) -> f32 {
     let b = clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top) + offset;
     return trilinear_texels(atlas, a, b, f);
 #endif
-}
-
-fn segment_end(m: March, k: u32) -> f32 {
-    return min(m.t_enter + m.first + f32(k) * m.ds, m.t_exit);
 }
 
 // Sample k of the ray (or a jump over an empty brick). When a sample leaves the samples known to
@@ -185,7 +168,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let first = first_segment(gid.xy, w, h, ds);
         let n = segment_count(t_exit - t_enter, first, ds);
         let inv_size = 1.0 / size;
-        let m = March(t_enter, t_exit, first, ds, P.march.y, P.march.z, n, ray.origin * inv_size, ray.dir * inv_size);
+        let m = March(t_enter, t_exit, first, ds, P.march.y, P.march.z, n, ray.origin * inv_size, ray.dir * inv_size, ray.dir);
         // Four steps per iteration: llvmpipe ends loops after 65535 iterations, and a ray takes at
         // most 4 * 65535 samples (jumps only shorten that).
         for (var it = 0u; it < 65535u; it++) {

@@ -65,6 +65,28 @@ fn transfer(v: f32) -> vec4<f32> {
     return mix(textureLoad(lut, vec2<i32>(i, 0), 0), textureLoad(lut, vec2<i32>(i + 1, 0), 0), x - f32(i));
 }
 
+// The fixed quantities of one ray's march: where it enters and leaves the box, its first
+// segment and step (world units), voxels per world unit, the optical depth at which it stops,
+// its number of segments, its start and direction in texture coordinates and its unit direction
+// in world space (the headlight shines along it).
+struct March {
+    t_enter: f32,
+    t_exit: f32,
+    first: f32,
+    ds: f32,
+    voxels_per_unit: f32,
+    stop_tau: f32,
+    steps: u32,
+    uvw0: vec3<f32>,
+    duvw: vec3<f32>,
+    dir: vec3<f32>,
+}
+
+// Where segment k of the ray ends: the first segment, then steps of ds, the last cut at the exit.
+fn segment_end(m: March, k: u32) -> f32 {
+    return min(m.t_enter + m.first + f32(k) * m.ds, m.t_exit);
+}
+
 // Length of a ray's first segment: the step, or with JITTER a fraction of it drawn per pixel
 // (the same on every run and backend).
 fn first_segment(px: vec2<u32>, w: u32, h: u32, ds: f32) -> f32 {
