@@ -54,10 +54,12 @@ fn tiny_extinction_over_a_hundred_thousand_steps() {
             let g = gpu(backend, &vol, &o);
             let err = rel_rms(&g, &reference);
             eprintln!("tiny extinction, {backend:?} {precision:?}: rel RMS {err:.2e}");
+            // f32 sums blocks of 64 segments before they join the totals (2e-5 here; adding
+            // each segment to a sum near 1000 drifts to 7e-4), f32c compensates every sum.
             let limit = if precision == Precision::F32c {
                 1e-6
             } else {
-                1e-3
+                1e-4
             };
             assert!(err < limit, "{backend:?} {precision:?}: rel RMS {err}");
             let alpha_err = (g[0][3] - reference[0][3]).abs() / reference[0][3];
