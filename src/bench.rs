@@ -340,7 +340,7 @@ pub fn format_breakdown_table(rows: &[BenchRow]) -> String {
     let mut s = String::new();
     for r in rows.iter().filter(|r| !r.stages.is_empty()) {
         s.push_str(&format!(
-            "\n{}: what each part of a sample costs (interior samples only do the stages up to the row)\n",
+            "\n{}: what each part of a sample costs (samples do the stages up to the row)\n",
             r.name
         ));
         s.push_str(&format!(

@@ -104,6 +104,7 @@ fn segment_count(span: f32, first: f32, ds: f32) -> u32 {
     }
     return 1u;
 }
+
 // What a ray carries from step to step.
 struct RayState {
     color: vec3<f32>,

@@ -143,7 +143,7 @@ pub(crate) struct PipelineKey {
     work: SampleWork,
 }
 
-/// How much of the per-sample work the interior steps of the plain ray caster do: the cost
+/// How much of the per-sample work the point samples of the plain ray caster do: the cost
 /// breakdown of `hdrvis bench volume --breakdown` renders with each stage in turn. Anything
 /// short of `Full` gives a meaningless image; only the benchmark asks for it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -177,7 +177,7 @@ impl SampleWork {
             SampleWork::March => {
                 "march + compositing, no volume read (plus dispatch and read-back)"
             }
-            SampleWork::Sample => "+ hardware trilinear sample of the volume",
+            SampleWork::Sample => "+ trilinear sample of the volume",
             SampleWork::Scale => "+ transfer-function scale of the sample",
             SampleWork::Index => "+ table index and weight (all but the table loads)",
             SampleWork::Full => "+ the table's texel loads: the full ray caster",
@@ -333,7 +333,7 @@ impl VolumeRenderer {
         self.render_work(volume, opts, SampleWork::Full)
     }
 
-    /// `render` with the interior samples doing only `work` (see SampleWork): for timing what
+    /// `render` with the samples doing only `work` (see SampleWork): for timing what
     /// each part of a sample costs, not for images.
     pub fn render_work(
         &self,
