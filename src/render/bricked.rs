@@ -152,7 +152,7 @@ impl BrickCache {
             })
     }
 
-    fn atlas_bytes(&self) -> u64 {
+    pub(crate) fn atlas_bytes(&self) -> u64 {
         self.slots.iter().map(|&s| s as u64).product::<u64>() * self.volume.layout.stored_bytes()
     }
 
@@ -284,23 +284,13 @@ impl VolumeRenderer {
     /// Renders a bricked volume through `cache`: in one pass when the bricks the transfer
     /// function needs fit, else streamed front to back through the cache. `skip` enables
     /// empty-space skipping (ignored for the u8 and f32c variants, which composite every sample).
+    /// Point-sampled transfer functions only (checked by `route::choose_path`).
     pub fn render_bricked(
         &self,
         cache: &mut BrickCache,
         opts: &VolumeRenderOptions,
         skip: bool,
     ) -> Result<(HdrImage, BrickedStats)> {
-        if opts.tf_sampling != super::TfSampling::Point {
-            return Err(Error::invalid(
-                "tf_sampling",
-                format!(
-                    "{} renders bricked, and the bricked ray caster samples the transfer function \
-                     at segment midpoints only; load_volume it and render without skip, brick or \
-                     memory_budget to pre-integrate",
-                    cache.volume.name
-                ),
-            ));
-        }
         let ctx = self.context().clone();
         let volume = cache.volume.clone();
         let layout = volume.layout;

@@ -161,6 +161,21 @@ impl ResultCache {
         );
     }
 
+    /// Drops the entries of type `T` for which `drop(key, value)` holds.
+    pub fn remove_where<T: Any + Send + Sync>(&self, drop: impl Fn(u64, &T) -> bool) {
+        let mut inner = self.inner.lock().expect("result cache poisoned");
+        let victims: Vec<u64> = inner
+            .entries
+            .iter()
+            .filter(|(k, e)| e.value.downcast_ref::<T>().is_some_and(|v| drop(**k, v)))
+            .map(|(k, _)| *k)
+            .collect();
+        for k in victims {
+            let e = inner.entries.remove(&k).expect("victim exists");
+            inner.bytes -= e.bytes;
+        }
+    }
+
     pub fn clear(&self) {
         let mut inner = self.inner.lock().expect("result cache poisoned");
         inner.entries.clear();

@@ -91,6 +91,7 @@ pub fn bench_effects(
         });
     }
 
+    let source = crate::render::VolumeSource::Memory(volume.clone());
     let evs: Vec<f64> = (0..10).map(|i| i as f64 - 5.0).collect();
     let sweep = |session: &RenderSession, salt: usize| -> Result<(f64, usize)> {
         session.log().take();
@@ -99,7 +100,7 @@ pub fn bench_effects(
         o.background = [0.0, 0.0, 1e-30 * salt as f64];
         let t = Instant::now();
         for &ev in &evs {
-            let img = session.raycast(&volume, &o)?;
+            let img = session.render_volume(&source, &o)?;
             session.exposure(&img, ev)?;
         }
         let ms = t.elapsed().as_secs_f64() * 1e3;

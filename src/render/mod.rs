@@ -7,6 +7,7 @@ pub mod cache;
 pub mod cpu_reference;
 pub mod effects_bench;
 pub mod passes;
+pub mod route;
 pub mod session;
 pub mod surface;
 pub mod surface_bench;
@@ -16,6 +17,7 @@ pub mod volume_f64;
 
 use crate::error::{Error, Result};
 use crate::model::{Camera, TransferFunction};
+pub use route::{Bricking, RenderPath, VolumeRender, VolumeSource};
 
 /// How the volume is interpolated between voxel centres.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -65,6 +67,8 @@ pub struct VolumeRenderOptions {
     pub shading: Option<Shading>,
     /// Point-sampled or pre-integrated transfer function.
     pub tf_sampling: TfSampling,
+    /// Whether and how the volume may be cut into bricks (bricked and out-of-core paths).
+    pub bricking: Bricking,
 }
 
 /// How each ray segment reads the transfer function.
@@ -235,6 +239,7 @@ impl VolumeRenderOptions {
             precision: Precision::F32,
             shading: None,
             tf_sampling: TfSampling::Point,
+            bricking: Bricking::default(),
         }
     }
 

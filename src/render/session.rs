@@ -11,6 +11,7 @@ use super::cache::{KeyBuilder, ResultCache};
 use super::passes::{describe, PassLog, PassRecord};
 use super::surface::{SurfaceOptions, SurfaceRenderer};
 use super::volume::{GpuVolume, VolumeRenderer};
+use super::volume_f64::F64RayCaster;
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
 use crate::gpu::{BackendChoice, GpuContext};
@@ -27,7 +28,7 @@ pub const PASSES_META: &str = "passes";
 
 struct Gpu {
     volume: Arc<VolumeRenderer>,
-    volume_f64: Arc<super::volume_f64::F64RayCaster>,
+    volume_f64: Arc<F64RayCaster>,
     surface: Arc<SurfaceRenderer>,
     tonemap: Arc<GpuToneMapper>,
 }
@@ -42,13 +43,16 @@ pub struct RenderSession {
     /// whether the address still holds the same value.
     volume_keys: Mutex<HashMap<usize, (Weak<Volume>, u64)>>,
     image_keys: Mutex<HashMap<usize, (Weak<HdrImage>, u64)>>,
+    /// Renders run even when the cache holds their image (benchmarks time every render; what
+    /// they read and upload is still reused).
+    rerun_renders: bool,
 }
 
 fn ms_since(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-fn image_bytes(img: &HdrImage) -> u64 {
+pub(super) fn image_bytes(img: &HdrImage) -> u64 {
     (img.pixels.len() * 16
         + img
             .extra_channels
@@ -84,7 +88,19 @@ impl RenderSession {
             log: PassLog::default(),
             volume_keys: Mutex::new(HashMap::new()),
             image_keys: Mutex::new(HashMap::new()),
+            rerun_renders: false,
         }
+    }
+
+    /// This session with every render run afresh, for timing: loads, uploads, bricks and brick
+    /// caches are still reused.
+    pub fn rerunning_renders(mut self) -> Self {
+        self.rerun_renders = true;
+        self
+    }
+
+    pub(super) fn renders_rerun(&self) -> bool {
+        self.rerun_renders
     }
 
     /// A session sharing an existing GPU context (tests, benchmarks).
@@ -108,6 +124,15 @@ impl RenderSession {
 
     pub fn volume_renderer(&self) -> Result<Arc<VolumeRenderer>> {
         Ok(self.gpu()?.volume.clone())
+    }
+
+    /// Whether the adapter runs the f64 ray-casting shader.
+    pub(super) fn f64_gpu_available(&self) -> Result<bool> {
+        Ok(self.gpu()?.volume_f64.available())
+    }
+
+    pub(super) fn f64_renderer(&self) -> Result<Arc<F64RayCaster>> {
+        Ok(self.gpu()?.volume_f64.clone())
     }
 
     pub fn surface_renderer(&self) -> Result<Arc<SurfaceRenderer>> {
@@ -137,9 +162,24 @@ impl RenderSession {
         annotate: impl FnOnce(&mut T, &PassRecord),
         compute: impl FnOnce() -> Result<(T, String)>,
     ) -> Result<Arc<T>> {
-        if let Some(v) = self.cache.get::<T>(key) {
-            self.log.push(PassRecord::cached(name));
-            return Ok(v);
+        self.stage_with(name, key, false, bytes, annotate, compute)
+    }
+
+    /// [`Self::stage`], computing afresh when `rerun` is set (the result is still cached).
+    pub(super) fn stage_with<T: Any + Send + Sync>(
+        &self,
+        name: &str,
+        key: u64,
+        rerun: bool,
+        bytes: impl FnOnce(&T) -> u64,
+        annotate: impl FnOnce(&mut T, &PassRecord),
+        compute: impl FnOnce() -> Result<(T, String)>,
+    ) -> Result<Arc<T>> {
+        if !rerun {
+            if let Some(v) = self.cache.get::<T>(key) {
+                self.log.push(PassRecord::cached(name));
+                return Ok(v);
+            }
         }
         let t = Instant::now();
         let (mut value, detail) = compute()?;
@@ -261,55 +301,6 @@ impl RenderSession {
         )
     }
 
-    /// A volume render: the ray cast runs only when the volume or an option changed; the upload
-    /// only when the volume changed.
-    pub fn raycast(
-        &self,
-        volume: &Arc<Volume>,
-        opts: &VolumeRenderOptions,
-    ) -> Result<Arc<HdrImage>> {
-        opts.validate()?;
-        let key = KeyBuilder::new("raycast")
-            .u64(self.volume_key(volume))
-            .debug(opts)
-            .finish();
-        self.stage("raycast", key, image_bytes, append_pass, || {
-            let mut detail = raycast_effects(opts);
-            let f64_gpu = opts.precision == Precision::F64
-                && opts.shading.is_none()
-                && opts.tf_sampling == TfSampling::Point
-                && self.gpu()?.volume_f64.available();
-            let img = if f64_gpu {
-                let gv = self.upload(volume)?;
-                let pixels = self.gpu()?.volume_f64.render(&gv, opts)?;
-                let mut img = HdrImage::from_pixels(
-                    opts.width,
-                    opts.height,
-                    pixels.iter().map(|p| p.map(|v| v as f32)).collect(),
-                );
-                img.set_meta("precision", "f64 (GPU)");
-                img.set_meta("tf", opts.tf.describe());
-                img.set_meta("camera", opts.camera.describe());
-                img.set_meta("adapter", self.context()?.describe());
-                img
-            } else if opts.precision == Precision::F64 {
-                let mut img = super::cpu_reference::render_volume_cpu(volume, opts)?;
-                img.set_meta("precision", "f64 (CPU)");
-                img.set_meta("tf", opts.tf.describe());
-                img.set_meta("tf_sampling", opts.tf_sampling.name());
-                img
-            } else {
-                let gv = self.upload(volume)?;
-                let (img, timing) = self.volume_renderer()?.render(&gv, opts)?;
-                if timing.compiled_pipeline {
-                    detail.push("pipeline built".into());
-                }
-                img
-            };
-            Ok((img, detail.join(", ")))
-        })
-    }
-
     /// Tone mapping of an HDR image; the result keeps the input's metadata.
     pub fn tonemap(&self, img: &Arc<HdrImage>, s: &ToneMapSettings) -> Result<Arc<HdrImage>> {
         let key = KeyBuilder::new("tonemap")
@@ -400,7 +391,7 @@ impl Gpu {
     fn new(ctx: Arc<GpuContext>) -> Self {
         Gpu {
             volume: Arc::new(VolumeRenderer::new(ctx.clone())),
-            volume_f64: Arc::new(super::volume_f64::F64RayCaster::new(ctx.clone())),
+            volume_f64: Arc::new(F64RayCaster::new(ctx.clone())),
             surface: Arc::new(SurfaceRenderer::new(ctx.clone())),
             tonemap: Arc::new(GpuToneMapper::new(ctx)),
         }
@@ -408,7 +399,7 @@ impl Gpu {
 }
 
 /// The effects compiled into a ray cast, for the pass record's detail.
-fn raycast_effects(opts: &VolumeRenderOptions) -> Vec<String> {
+pub(super) fn raycast_effects(opts: &VolumeRenderOptions) -> Vec<String> {
     let mut effects = Vec::new();
     if opts.precision == Precision::F64 {
         effects.push("f64".to_string());
@@ -428,7 +419,7 @@ fn raycast_effects(opts: &VolumeRenderOptions) -> Vec<String> {
 }
 
 /// Appends a pass to the image's `passes` metadata, so the image says how it was made.
-fn append_pass(img: &mut HdrImage, r: &PassRecord) {
+pub(super) fn append_pass(img: &mut HdrImage, r: &PassRecord) {
     let this = describe(std::slice::from_ref(r));
     let chain = match img.meta(PASSES_META) {
         Some(prev) if !prev.is_empty() => format!("{prev}; {this}"),

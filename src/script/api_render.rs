@@ -3,13 +3,14 @@
 //! `save_exr`, `save_png`, `param`. `save_png` writes an HDR image exposed by 2^EV then sRGB,
 //! and a display-referred image (`display_referred = 1`: tone-mapped, false colour) as it is.
 
-use super::api_bricks::{BrickOptions, BRICK_RENDER_KEYS};
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
 use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::model::{
     Aabb, Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume, VolumeStats,
 };
-use crate::render::{FilterMode, Precision, Shading, TfSampling, VolumeRenderOptions};
+use crate::render::{
+    Bricking, FilterMode, Precision, Shading, TfSampling, VolumeRenderOptions, VolumeSource,
+};
 use rhai::{Dynamic, Engine, Map};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -231,12 +232,9 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "render_volume",
         move |volume: &mut ScriptVolume, opts: Map| -> RResult<ScriptImage> {
-            let (o, bricks) =
-                render_options(&opts, |cam: &ScriptCamera| cam.resolve(&volume.bounds()))?;
-            let source = super::api_bricks::Source::Memory(volume.clone());
-            let img = super::api_bricks::render(&h, source, &o, &bricks).map_err(to_rhai)?;
-            h.note_image(&img);
-            Ok(img)
+            let source = VolumeSource::Memory(volume.clone());
+            let o = render_options(&h, &opts, &source)?;
+            render_and_note(&h, &source, &o)
         },
     );
 
@@ -425,16 +423,25 @@ pub(crate) fn stats_map(s: &VolumeStats) -> Map {
     m
 }
 
-/// The options map of `render_volume`, with the camera resolved for the volume's bounds.
+/// Renders through the session's one entry point and notes the image as the run's latest.
+pub(crate) fn render_and_note(
+    host: &ScriptHost,
+    source: &VolumeSource,
+    o: &VolumeRenderOptions,
+) -> RResult<ScriptImage> {
+    let img = host.session.render_volume(source, o).map_err(to_rhai)?;
+    host.note_image(&img);
+    Ok(img)
+}
+
+/// The options map of `render_volume`, with the camera resolved for the source's bounds and the
+/// run's default GPU memory budget (`hdrvis run --gpu-memory`) where the map gives none.
 pub(crate) fn render_options(
+    host: &ScriptHost,
     opts: &Map,
-    resolve: impl Fn(&ScriptCamera) -> crate::Result<Camera>,
-) -> RResult<(VolumeRenderOptions, BrickOptions)> {
-    let keys: Vec<&str> = RENDER_KEYS
-        .iter()
-        .chain(BRICK_RENDER_KEYS)
-        .copied()
-        .collect();
+    source: &VolumeSource,
+) -> RResult<VolumeRenderOptions> {
+    let keys: Vec<&str> = RENDER_KEYS.iter().chain(BRICKING_KEYS).copied().collect();
     check_keys(opts, &keys, "render_volume")?;
     let tf = match opts.get("tf") {
         Some(v) => v.clone().try_cast::<TransferFunction>().ok_or_else(|| to_rhai(crate::Error::invalid("tf", "expected a TransferFunction (from tf_lut or tf_emission_absorption)")))?,
@@ -453,33 +460,74 @@ pub(crate) fn render_options(
             fov: 35.0,
         },
     };
-    let mut o = VolumeRenderOptions::new(resolve(&camera).map_err(to_rhai)?, tf);
-    let mut bricks = BrickOptions::default();
+    let camera = camera.resolve(&source.bounds()).map_err(to_rhai)?;
+    let mut o = VolumeRenderOptions::new(camera, tf);
     for (k, v) in opts {
-        if bricks.take(k.as_str(), v)? {
-            continue;
-        }
-        match k.as_str() {
-            "tf" | "camera" => {}
-            "width" => o.width = int(v, "width")?.clamp(0, u32::MAX as i64) as u32,
-            "height" => o.height = int(v, "height")?.clamp(0, u32::MAX as i64) as u32,
-            "step" => o.step = num(v, "step")?,
-            "jitter" => o.jitter = boolean(v, "jitter")?,
-            "seed" => o.seed = int(v, "seed")? as u32,
-            "early_exit" => o.early_exit = num(v, "early_exit")?,
-            "background" => o.background = vec3(v, "background")?,
-            "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
-            "precision" => {
-                o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?
-            }
-            "shading" => o.shading = shading(v)?,
-            "tf_sampling" => {
-                o.tf_sampling = TfSampling::parse(&string(v, "tf_sampling")?).map_err(to_rhai)?
-            }
-            _ => unreachable!("checked keys"),
+        if !take_bricking(&mut o.bricking, k.as_str(), v)? {
+            take_render_option(&mut o, k.as_str(), v)?;
         }
     }
-    Ok((o, bricks))
+    if o.bricking.memory_budget.is_none() {
+        o.bricking.memory_budget = host.gpu_memory_mib.map(mib_to_bytes);
+    }
+    Ok(o)
+}
+
+/// Sets one of [`RENDER_KEYS`] (checked before).
+fn take_render_option(o: &mut VolumeRenderOptions, key: &str, v: &Dynamic) -> RResult<()> {
+    match key {
+        "tf" | "camera" => {}
+        "width" => o.width = int(v, "width")?.clamp(0, u32::MAX as i64) as u32,
+        "height" => o.height = int(v, "height")?.clamp(0, u32::MAX as i64) as u32,
+        "step" => o.step = num(v, "step")?,
+        "jitter" => o.jitter = boolean(v, "jitter")?,
+        "seed" => o.seed = int(v, "seed")? as u32,
+        "early_exit" => o.early_exit = num(v, "early_exit")?,
+        "background" => o.background = vec3(v, "background")?,
+        "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
+        "precision" => o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?,
+        "shading" => o.shading = shading(v)?,
+        "tf_sampling" => {
+            o.tf_sampling = TfSampling::parse(&string(v, "tf_sampling")?).map_err(to_rhai)?
+        }
+        _ => unreachable!("checked keys"),
+    }
+    Ok(())
+}
+
+/// The keys of `render_volume` for the bricked and out-of-core paths.
+const BRICKING_KEYS: &[&str] = &["memory_budget", "skip", "brick", "level"];
+
+fn mib_to_bytes(mib: f64) -> u64 {
+    (mib * (1u64 << 20) as f64) as u64
+}
+
+/// Takes `key` if it is one of [`BRICKING_KEYS`]; false otherwise.
+fn take_bricking(b: &mut Bricking, key: &str, v: &Dynamic) -> RResult<bool> {
+    match key {
+        "memory_budget" => {
+            let m = num(v, "memory_budget")?;
+            if !(m.is_finite() && m > 0.0) {
+                return err("memory_budget", format!("expected MiB > 0, got {m}"));
+            }
+            b.memory_budget = Some(mib_to_bytes(m));
+        }
+        "skip" => b.skip = Some(boolean(v, "skip")?),
+        "brick" => b.brick = Some(int(v, "brick")?.clamp(0, 1 << 20) as usize),
+        "level" => {
+            let l = int(v, "level")?;
+            let max = crate::render::route::MAX_LEVEL as i64;
+            if !(0..=max).contains(&l) {
+                return err(
+                    "level",
+                    format!("expected 0 (full resolution) to {max}, got {l}"),
+                );
+            }
+            b.level = l as u32;
+        }
+        _ => return Ok(false),
+    }
+    Ok(true)
 }
 
 /// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal

@@ -121,7 +121,6 @@ pub(crate) struct ScriptHost {
     progress: Mutex<Option<indicatif::ProgressBar>>,
     /// Default memory budget of renders (MiB), and the bricked path's caches.
     pub gpu_memory_mib: Option<f64>,
-    pub(crate) bricks: api_bricks::BrickState,
 }
 
 impl ScriptHost {
@@ -217,7 +216,6 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         progress_enabled: false,
         progress: Mutex::new(None),
         gpu_memory_mib: None,
-        bricks: Default::default(),
     })
 }
 
@@ -270,7 +268,6 @@ pub fn run_script_source(
         progress_enabled: opts.progress,
         progress: Mutex::new(None),
         gpu_memory_mib: opts.gpu_memory_mib,
-        bricks: Default::default(),
     });
     let engine = new_engine(host.clone(), opts.max_operations);
     let ast = engine

@@ -7,9 +7,9 @@ use crate::common::renderer;
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::bricks::BrickedVolume;
 use hdrvis::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
-use hdrvis::render::bricked::{BrickCache, BrickedStats};
-use hdrvis::render::volume::GpuVolume;
-use hdrvis::render::{FilterMode, Precision, VolumeRenderOptions};
+use hdrvis::render::bricked::BrickedStats;
+use hdrvis::render::session::RenderSession;
+use hdrvis::render::{Bricking, FilterMode, Precision, VolumeRenderOptions, VolumeSource};
 use std::sync::Arc;
 
 /// Blobs over a zero floor, a NaN hole and a region of negative values: much of the volume is
@@ -59,10 +59,36 @@ fn options(
     o
 }
 
+/// A session of its own on the shared Vulkan context, so tests do not share cached results.
+fn session() -> RenderSession {
+    RenderSession::with_context(renderer(BackendChoice::Vulkan).context().clone(), 1 << 30)
+}
+
 fn plain(vol: &Volume, o: &VolumeRenderOptions) -> Vec<[f32; 4]> {
-    let r = renderer(BackendChoice::Vulkan);
-    let gv = GpuVolume::upload(r.context(), vol).unwrap();
-    r.render(&gv, o).unwrap().0.pixels
+    let source = VolumeSource::Memory(Arc::new(vol.clone()));
+    let r = session().render_volume_detailed(&source, o).unwrap();
+    assert_eq!(r.path, hdrvis::render::RenderPath::InCore);
+    r.image.pixels.clone()
+}
+
+fn bricked_in(
+    session: &RenderSession,
+    bv: &Arc<BrickedVolume>,
+    o: &VolumeRenderOptions,
+    budget: Option<u64>,
+    skip: bool,
+) -> hdrvis::Result<(Vec<[f32; 4]>, BrickedStats)> {
+    let mut o = o.clone();
+    o.bricking = Bricking {
+        memory_budget: budget,
+        skip: Some(skip),
+        ..Default::default()
+    };
+    let r = session.render_volume_detailed(&VolumeSource::Bricked(bv.clone()), &o)?;
+    Ok((
+        r.image.pixels.clone(),
+        r.bricks.clone().expect("bricked stats"),
+    ))
 }
 
 fn bricked(
@@ -71,10 +97,7 @@ fn bricked(
     budget: Option<u64>,
     skip: bool,
 ) -> (Vec<[f32; 4]>, BrickedStats) {
-    let r = renderer(BackendChoice::Vulkan);
-    let mut cache = BrickCache::new(r.context(), bv.clone(), budget, o.width, o.height).unwrap();
-    let (img, stats) = r.render_bricked(&mut cache, o, skip).unwrap();
-    (img.pixels, stats)
+    bricked_in(&session(), bv, o, budget, skip).unwrap()
 }
 
 /// Largest difference over all channels relative to the image's peak colour.
@@ -177,18 +200,17 @@ fn out_of_core_renders_equal_the_plain_render() {
 fn a_transfer_function_change_rereads_no_brick() {
     let vol = scene_volume();
     let bv = Arc::new(BrickedVolume::from_volume(Arc::new(vol.clone()), 16).unwrap());
-    let r = renderer(BackendChoice::Vulkan);
+    let session = session();
     let cam = Camera::orbit(&vol.bounds(), 120.0, -20.0, 30.0).unwrap();
     let o1 = options(&vol, cam, scene_tf(0.6), FilterMode::Exact);
-    let mut cache = BrickCache::new(r.context(), bv.clone(), None, 96, 80).unwrap();
-    let (_, s1) = r.render_bricked(&mut cache, &o1, true).unwrap();
+    let (_, s1) = bricked_in(&session, &bv, &o1, None, true).unwrap();
     let read = bv.bricks_read();
     assert_eq!(read, 80);
     let o2 = options(&vol, cam, scene_tf(0.1), FilterMode::Exact);
-    let (img, s2) = r.render_bricked(&mut cache, &o2, true).unwrap();
+    let (img, s2) = bricked_in(&session, &bv, &o2, None, true).unwrap();
     assert_eq!(bv.bricks_read(), read, "bricks were read again");
     assert!(s2.skipped < s1.skipped, "{s1:?} {s2:?}");
-    assert!(diff(&img.pixels, &plain(&vol, &o2)) < 1e-5);
+    assert!(diff(&img, &plain(&vol, &o2)) < 1e-5);
 }
 
 #[test]
@@ -216,10 +238,11 @@ fn memory_mapped_npy_renders_like_the_loaded_volume() {
 fn a_budget_too_small_for_one_brick_is_a_one_line_error() {
     let vol = scene_volume();
     let bv = Arc::new(BrickedVolume::from_volume(Arc::new(vol), 16).unwrap());
-    let r = renderer(BackendChoice::Vulkan);
-    let err = BrickCache::new(r.context(), bv, Some(1 << 20), 512, 512)
-        .err()
-        .expect("1 MiB cannot hold a 512x512 image and a brick")
+    let cam = Camera::axis(Axis::Z, &bv.bounds());
+    let mut o = options(&scene_volume(), cam, scene_tf(0.0), FilterMode::Exact);
+    (o.width, o.height) = (512, 512);
+    let err = bricked_in(&session(), &bv, &o, Some(1 << 20), true)
+        .expect_err("1 MiB cannot hold a 512x512 image and a brick")
         .to_string();
     assert!(
         err.starts_with("memory_budget: 1 MiB is too small") && !err.contains('\n'),
@@ -246,4 +269,73 @@ fn scripts_refuse_shading_on_the_bricked_path_and_shade_the_plain_one() {
         first.contains("Runtime error: shading:") && first.contains("bricked"),
         "{err}"
     );
+}
+
+/// A bricked and an out-of-core render go through the session like every render: their passes
+/// show in `--stats` (the bricking, the GPU brick cache, the ray cast with what it did), and a
+/// repeated bricked render is answered from the cache.
+#[test]
+fn bricked_and_out_of_core_renders_report_their_passes_and_repeat_from_the_cache() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("s.rhai");
+    std::fs::write(
+        &script,
+        r#"
+let v = generate_mantle(#{n: 40, seed: 2});
+let tf = tf_lut(#{scale: "symlog", linthresh: 0.01, colormap: "turbo", transparent_below: 0.3});
+let o = #{tf: tf, camera: camera_orbit(30.0, 20.0), width: 32, height: 32, brick: 8};
+let a = render_volume(v, o);
+let b = render_volume(v, o);
+o.memory_budget = 0.25;
+save_exr(render_volume(v, o), "c.exr");
+"#,
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(["run", "--stats", "--out"])
+        .arg(dir.path().join("out"))
+        .arg(&script)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<&str> = stdout.lines().filter(|l| l.starts_with("pass ")).collect();
+    let passes: Vec<String> = lines
+        .iter()
+        .map(|l| l.split(' ').take(3).collect::<Vec<_>>().join(" "))
+        .collect();
+    assert_eq!(
+        passes,
+        [
+            "pass generate ran",
+            "pass bricks ran",
+            "pass brick-cache ran",
+            "pass raycast ran",
+            "pass raycast cached",
+            "pass bricks cached",
+            "pass brick-cache ran",
+            "pass raycast ran",
+            "pass save-exr ran",
+        ],
+        "{stdout}"
+    );
+    assert!(lines[1].contains("[125 bricks of 8³]"), "{}", lines[1]);
+    assert!(lines[3].contains("[bricked 8³ skipping: "), "{}", lines[3]);
+    assert!(lines[3].contains(" 1 pass]"), "{}", lines[3]);
+    assert!(
+        lines[7].contains("[out-of-core 8³ skipping: "),
+        "{}",
+        lines[7]
+    );
+    let passes: usize = lines[7]
+        .rsplit(", ")
+        .next()
+        .and_then(|p| p.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{}", lines[7]));
+    assert!(passes > 1, "{}", lines[7]);
 }

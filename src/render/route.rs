@@ -1,0 +1,451 @@
+//! The one entry point for every volume render: [`RenderSession::render_volume`]. Scripts, the
+//! CLI, the TUI, the benchmarks and the tests hand it a [`VolumeSource`] and the options; it
+//! decides, here and nowhere else, how the render runs ([`RenderSession::choose_path`]):
+//!
+//! * a coarser quick-look level first, when the options ask for one (`bricking.level`);
+//! * f64 compositing on the GPU where the adapter has shader f64, else on the CPU reference;
+//! * the in-core ray caster when the volume is in memory and fits the GPU memory budget;
+//! * the bricked ray caster (empty-space skipping, streamed out of core through a brick cache
+//!   when the needed bricks exceed the budget) otherwise.
+//!
+//! Every intermediate — the level, the in-memory volume cut into bricks, the GPU brick cache,
+//! the upload, the image — is an entry of the session's result cache, so every path shows in
+//! the pass log (`--stats`) and a repeated render is answered from the cache. A new geometry or
+//! a distributed render plugs in as another [`RenderPath`], chosen in `choose_path` and run in
+//! `run_path`.
+
+use super::bricked::{BrickCache, BrickedStats};
+use super::cache::KeyBuilder;
+use super::session::{append_pass, image_bytes, raycast_effects, RenderSession};
+use super::{Precision, TfSampling, VolumeRenderOptions};
+use crate::error::{Error, Result};
+use crate::model::bricks::{BrickedVolume, DEFAULT_BRICK};
+use crate::model::{Aabb, HdrImage, Volume};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// Coarsest quick-look level: 16 times fewer voxels per axis.
+pub const MAX_LEVEL: u32 = 4;
+
+/// The volume a render reads: loaded whole, or opened as bricks and never loaded whole.
+#[derive(Clone, Debug)]
+pub enum VolumeSource {
+    Memory(Arc<Volume>),
+    Bricked(Arc<BrickedVolume>),
+}
+
+impl VolumeSource {
+    pub fn name(&self) -> &str {
+        match self {
+            VolumeSource::Memory(v) => &v.name,
+            VolumeSource::Bricked(b) => &b.name,
+        }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        match self {
+            VolumeSource::Memory(v) => v.bounds(),
+            VolumeSource::Bricked(b) => b.bounds(),
+        }
+    }
+}
+
+/// How a render may cut its volume into bricks: the options of the bricked and out-of-core paths.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bricking {
+    /// GPU memory the render may use, in bytes; `None` is unlimited. An in-memory volume that
+    /// does not fit renders bricked, streamed through a cache of this size.
+    pub memory_budget: Option<u64>,
+    /// Empty-space skipping; `Some(true)` sends an in-memory volume to the bricked path.
+    pub skip: Option<bool>,
+    /// Brick edge in voxels; `Some` sends an in-memory volume to the bricked path.
+    pub brick: Option<usize>,
+    /// Render a 2^level-times coarser copy (0 is full resolution).
+    pub level: u32,
+}
+
+impl Bricking {
+    pub fn validate(&self) -> Result<()> {
+        if self.level > MAX_LEVEL {
+            return Err(Error::invalid(
+                "level",
+                format!(
+                    "expected 0 (full resolution) to {MAX_LEVEL}, got {}",
+                    self.level
+                ),
+            ));
+        }
+        if self.memory_budget == Some(0) {
+            return Err(Error::invalid("memory_budget", "expected MiB > 0, got 0"));
+        }
+        Ok(())
+    }
+}
+
+/// How one render runs; chosen by [`RenderSession::choose_path`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderPath {
+    /// The whole volume in one 3-D texture, ray cast in one pass (u8, f16, f32, f32c).
+    InCore,
+    /// f64 compositing in a GPU compute shader (adapters with shader f64).
+    F64Gpu,
+    /// f64 compositing on the CPU reference.
+    F64Cpu,
+    /// Bricks in a GPU atlas with a page table; streamed front to back through the atlas when
+    /// the bricks the transfer function needs exceed it (out of core).
+    Bricked { brick: usize, skip: bool },
+}
+
+impl RenderPath {
+    pub fn name(self) -> &'static str {
+        match self {
+            RenderPath::InCore => "in-core",
+            RenderPath::F64Gpu => "f64 GPU",
+            RenderPath::F64Cpu => "f64 CPU",
+            RenderPath::Bricked { .. } => "bricked",
+        }
+    }
+}
+
+/// A finished volume render: the image and how it was made.
+#[derive(Debug)]
+pub struct VolumeRender {
+    pub image: Arc<HdrImage>,
+    pub path: RenderPath,
+    /// Seconds the render itself took (not counting levels, bricking or uploads).
+    pub seconds: f64,
+    /// What the bricked path did (passes, bricks read, GPU memory).
+    pub bricks: Option<BrickedStats>,
+}
+
+/// A GPU brick cache as a result-cache entry: renders through it take turns.
+pub(crate) struct SharedBrickCache(Mutex<BrickCache>);
+
+impl RenderSession {
+    /// Renders `source` with `opts`: the one call behind every volume render.
+    pub fn render_volume(
+        &self,
+        source: &VolumeSource,
+        opts: &VolumeRenderOptions,
+    ) -> Result<Arc<HdrImage>> {
+        Ok(self.render_volume_detailed(source, opts)?.image.clone())
+    }
+
+    /// [`Self::render_volume`] with the path it took and its statistics (benchmarks, tests).
+    pub fn render_volume_detailed(
+        &self,
+        source: &VolumeSource,
+        opts: &VolumeRenderOptions,
+    ) -> Result<Arc<VolumeRender>> {
+        opts.validate()?;
+        opts.bricking.validate()?;
+        let source = match opts.bricking.level {
+            0 => source.clone(),
+            level => VolumeSource::Memory(self.level(source, level)?),
+        };
+        let path = self.choose_path(&source, opts)?;
+        let key = KeyBuilder::new("raycast")
+            .u64(self.source_key(&source))
+            .debug(&path)
+            .debug(opts)
+            .finish();
+        self.stage_with(
+            "raycast",
+            key,
+            self.renders_rerun(),
+            |r: &VolumeRender| image_bytes(&r.image),
+            |r, rec| {
+                if let Some(img) = Arc::get_mut(&mut r.image) {
+                    append_pass(img, rec);
+                }
+            },
+            || {
+                let r = self.run_path(&source, path, opts)?;
+                let mut detail = raycast_effects(opts);
+                if let Some(b) = &r.bricks {
+                    detail.push(bricked_detail(path, b));
+                }
+                Ok((r, detail.join(", ")))
+            },
+        )
+    }
+
+    /// The decision of how a render runs, in one place (see the module documentation).
+    pub fn choose_path(
+        &self,
+        source: &VolumeSource,
+        opts: &VolumeRenderOptions,
+    ) -> Result<RenderPath> {
+        let b = &opts.bricking;
+        let path = match source {
+            VolumeSource::Memory(v) => {
+                if opts.precision == Precision::F64 {
+                    // f64 has no bricked variant and no budget: the GPU shader where it runs.
+                    let gpu = opts.shading.is_none()
+                        && opts.tf_sampling == TfSampling::Point
+                        && self.f64_gpu_available()?;
+                    return Ok(if gpu {
+                        RenderPath::F64Gpu
+                    } else {
+                        RenderPath::F64Cpu
+                    });
+                }
+                let pixels = opts.width as u64 * opts.height as u64;
+                let fits = b
+                    .memory_budget
+                    .is_none_or(|m| v.voxel_count() as u64 * 4 + pixels * 32 <= m);
+                if fits && b.skip != Some(true) && b.brick.is_none() {
+                    return Ok(RenderPath::InCore);
+                }
+                RenderPath::Bricked {
+                    brick: b.brick.unwrap_or(DEFAULT_BRICK),
+                    skip: b.skip.unwrap_or(true),
+                }
+            }
+            VolumeSource::Bricked(bv) => {
+                if opts.precision == Precision::F64 {
+                    return Err(Error::invalid(
+                        "precision",
+                        "f64 runs on the CPU reference, which needs the volume in memory: use load_volume",
+                    ));
+                }
+                if let Some(e) = b.brick.filter(|&e| e != bv.layout.brick) {
+                    return Err(Error::invalid(
+                        "brick",
+                        format!(
+                            "{} was opened with bricks of {}; give brick: {e} to open_volume instead",
+                            bv.name, bv.layout.brick
+                        ),
+                    ));
+                }
+                RenderPath::Bricked {
+                    brick: bv.layout.brick,
+                    skip: b.skip.unwrap_or(true),
+                }
+            }
+        };
+        check_bricked_options(source.name(), opts)?;
+        Ok(path)
+    }
+
+    fn run_path(
+        &self,
+        source: &VolumeSource,
+        path: RenderPath,
+        opts: &VolumeRenderOptions,
+    ) -> Result<VolumeRender> {
+        let t = Instant::now();
+        let finished = |image: HdrImage, bricks| VolumeRender {
+            image: Arc::new(image),
+            path,
+            seconds: t.elapsed().as_secs_f64(),
+            bricks,
+        };
+        let volume = match source {
+            VolumeSource::Memory(v) => Some(v),
+            VolumeSource::Bricked(_) => None,
+        };
+        match (path, volume) {
+            (RenderPath::InCore, Some(v)) => {
+                let gv = self.upload(v)?;
+                let t = Instant::now();
+                let (img, _) = self.volume_renderer()?.render(&gv, opts)?;
+                let mut r = finished(img, None);
+                r.seconds = t.elapsed().as_secs_f64();
+                Ok(r)
+            }
+            (RenderPath::F64Gpu, Some(v)) => {
+                let gv = self.upload(v)?;
+                let pixels = self.f64_renderer()?.render(&gv, opts)?;
+                let mut img = HdrImage::from_pixels(
+                    opts.width,
+                    opts.height,
+                    pixels.iter().map(|p| p.map(|v| v as f32)).collect(),
+                );
+                img.set_meta("precision", "f64 (GPU)");
+                img.set_meta("tf", opts.tf.describe());
+                img.set_meta("camera", opts.camera.describe());
+                img.set_meta("adapter", self.context()?.describe());
+                Ok(finished(img, None))
+            }
+            (RenderPath::F64Cpu, Some(v)) => {
+                let mut img = super::cpu_reference::render_volume_cpu(v, opts)?;
+                img.set_meta("precision", "f64 (CPU)");
+                img.set_meta("tf", opts.tf.describe());
+                img.set_meta("tf_sampling", opts.tf_sampling.name());
+                Ok(finished(img, None))
+            }
+            (RenderPath::Bricked { brick, skip }, _) => {
+                let bricked = match source {
+                    VolumeSource::Memory(v) => self.bricks_of(v, brick)?,
+                    VolumeSource::Bricked(b) => b.clone(),
+                };
+                let cache = self.brick_cache(&bricked, opts)?;
+                let mut cache = cache.0.lock().expect("brick cache poisoned");
+                let renderer = self.volume_renderer()?;
+                let (img, stats) = renderer.render_bricked(&mut cache, opts, skip)?;
+                let mut r = finished(img, Some(stats.clone()));
+                r.seconds = stats.seconds;
+                Ok(r)
+            }
+            (_, None) => unreachable!("choose_path sends bricked sources to the bricked path"),
+        }
+    }
+
+    /// The content key of a source: a memory volume's data hash, a bricked volume's identity
+    /// (its source, layout and per-brick ranges, which change when the file's data change).
+    fn source_key(&self, source: &VolumeSource) -> u64 {
+        match source {
+            VolumeSource::Memory(v) => self.volume_key(v),
+            VolumeSource::Bricked(b) => {
+                let mut k = KeyBuilder::new("bricked volume");
+                k.str(&b.name)
+                    .str(&b.units)
+                    .str(&b.source().describe())
+                    .debug(&(b.dims, b.spacing, b.origin, b.layout, &b.stats));
+                for r in &b.ranges {
+                    let [lo, hi] = r.unwrap_or([f32::NAN; 2]);
+                    k.u64(u64::from(lo.to_bits()) << 32 | u64::from(hi.to_bits()));
+                }
+                k.finish()
+            }
+        }
+    }
+
+    /// The 2^level-times coarser copy of a source, built from the next finer level.
+    fn level(&self, source: &VolumeSource, level: u32) -> Result<Arc<Volume>> {
+        let key = KeyBuilder::new("level")
+            .u64(self.source_key(source))
+            .u64(level as u64)
+            .finish();
+        self.stage_with(
+            "level",
+            key,
+            false,
+            |v: &Volume| v.data.len() as u64 * 4,
+            |_, _| {},
+            || {
+                let mut coarse = match (level, source) {
+                    (1, VolumeSource::Bricked(b)) => b.downsampled()?,
+                    (1, VolumeSource::Memory(v)) => {
+                        BrickedVolume::from_volume(v.clone(), DEFAULT_BRICK)?.downsampled()?
+                    }
+                    _ => BrickedVolume::from_volume(self.level(source, level - 1)?, DEFAULT_BRICK)?
+                        .downsampled()?,
+                };
+                coarse.name = format!("{} (level {level})", source.name());
+                let detail = format!("{:?}", coarse.dims);
+                Ok((coarse, detail))
+            },
+        )
+    }
+
+    /// An in-memory volume cut into bricks of `brick` voxels.
+    fn bricks_of(&self, volume: &Arc<Volume>, brick: usize) -> Result<Arc<BrickedVolume>> {
+        let key = KeyBuilder::new("bricks")
+            .u64(self.volume_key(volume))
+            .u64(brick as u64)
+            .finish();
+        self.stage_with(
+            "bricks",
+            key,
+            false,
+            |b: &BrickedVolume| b.bytes(),
+            |_, _| {},
+            || {
+                let b = BrickedVolume::from_volume(volume.clone(), brick)?;
+                let detail = format!("{} bricks of {brick}³", b.layout.count());
+                Ok((b, detail))
+            },
+        )
+    }
+
+    /// The GPU brick cache of a bricked volume under the render's budget. Under a budget only
+    /// this cache may hold GPU memory, so the other volumes' caches are dropped first.
+    fn brick_cache(
+        &self,
+        volume: &Arc<BrickedVolume>,
+        opts: &VolumeRenderOptions,
+    ) -> Result<Arc<SharedBrickCache>> {
+        let budget = opts.bricking.memory_budget;
+        let key = KeyBuilder::new("brick cache")
+            .u64(self.source_key(&VolumeSource::Bricked(volume.clone())))
+            .debug(&budget)
+            .finish();
+        if budget.is_some() {
+            self.cache()
+                .remove_where(|k, _: &SharedBrickCache| k != key);
+        }
+        let (w, h) = (opts.width, opts.height);
+        let serves = |c: &SharedBrickCache| c.0.lock().is_ok_and(|c| c.serves(budget, w, h));
+        if self
+            .cache()
+            .get::<SharedBrickCache>(key)
+            .is_some_and(|c| !serves(&c))
+        {
+            self.cache()
+                .remove_where(|k, _: &SharedBrickCache| k == key);
+        }
+        let ctx = self.context()?;
+        self.stage_with(
+            "brick-cache",
+            key,
+            false,
+            |c: &SharedBrickCache| c.0.lock().map_or(0, |c| c.atlas_bytes()),
+            |_, _| {},
+            || {
+                let c = BrickCache::new(&ctx, volume.clone(), budget, w, h)?;
+                let detail = format!("{} slots", c.capacity());
+                Ok((SharedBrickCache(Mutex::new(c)), detail))
+            },
+        )
+    }
+}
+
+/// The options the bricked ray caster lacks, refused with what to do instead.
+fn check_bricked_options(name: &str, opts: &VolumeRenderOptions) -> Result<()> {
+    if opts.shading.is_some() {
+        return Err(Error::invalid(
+            "shading",
+            format!(
+                "{name} renders bricked here (open_volume, skip, brick or a memory_budget it exceeds), \
+                 and the bricked ray caster has no shading: its one-voxel brick apron is too \
+                 narrow for the gradient; to shade, load_volume it and render without skip, brick or \
+                 memory_budget"
+            ),
+        ));
+    }
+    if opts.tf_sampling != TfSampling::Point {
+        return Err(Error::invalid(
+            "tf_sampling",
+            format!(
+                "{name} renders bricked, and the bricked ray caster samples the transfer function \
+                 at segment midpoints only; load_volume it and render without skip, brick or \
+                 memory_budget to pre-integrate"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The pass record's detail for a bricked render.
+fn bricked_detail(path: RenderPath, s: &BrickedStats) -> String {
+    let (brick, skip) = match path {
+        RenderPath::Bricked { brick, skip } => (brick, skip),
+        _ => (0, false),
+    };
+    let kind = if s.passes > 1 {
+        "out-of-core"
+    } else {
+        "bricked"
+    };
+    format!(
+        "{kind} {brick}³{}: {} needed, {} skipped, {} uploaded, {} pass{}",
+        if skip { " skipping" } else { "" },
+        s.needed,
+        s.skipped,
+        s.uploaded,
+        s.passes,
+        if s.passes == 1 { "" } else { "es" }
+    )
+}
