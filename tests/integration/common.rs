@@ -1,7 +1,10 @@
 //! Shared helpers: one GPU context per backend for the whole test binary.
 
 use hdrvis::gpu::{BackendChoice, GpuContext};
+use hdrvis::model::{HdrImage, Volume};
+use hdrvis::render::session::RenderSession;
 use hdrvis::render::volume::VolumeRenderer;
+use hdrvis::render::{RenderPath, VolumeRenderOptions, VolumeSource};
 use std::sync::{Arc, OnceLock};
 
 pub fn renderer(backend: BackendChoice) -> Arc<VolumeRenderer> {
@@ -16,6 +19,45 @@ pub fn renderer(backend: BackendChoice) -> Arc<VolumeRenderer> {
         Arc::new(VolumeRenderer::new(ctx))
     })
     .clone()
+}
+
+/// A session per backend on the shared context that keeps nothing (every call renders), so GPU
+/// renders in the tests go through the library's one entry point, `render_volume`.
+pub fn session(backend: BackendChoice) -> Arc<RenderSession> {
+    static VK: OnceLock<Arc<RenderSession>> = OnceLock::new();
+    static GL: OnceLock<Arc<RenderSession>> = OnceLock::new();
+    let cell = match backend {
+        BackendChoice::Gl => &GL,
+        _ => &VK,
+    };
+    cell.get_or_init(|| {
+        Arc::new(RenderSession::with_context(
+            renderer(backend).context().clone(),
+            0,
+        ))
+    })
+    .clone()
+}
+
+/// An in-memory volume rendered on the GPU through `render_volume`, checked to take the path
+/// `expected`.
+pub fn render_on(
+    backend: BackendChoice,
+    vol: &Volume,
+    opts: &VolumeRenderOptions,
+    expected: RenderPath,
+) -> HdrImage {
+    let source = VolumeSource::Memory(Arc::new(vol.clone()));
+    let r = session(backend)
+        .render_volume_detailed(&source, opts)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(r.path, expected);
+    (*r.image).clone()
+}
+
+/// [`render_on`] the in-core ray caster.
+pub fn render(backend: BackendChoice, vol: &Volume, opts: &VolumeRenderOptions) -> HdrImage {
+    render_on(backend, vol, opts, RenderPath::InCore)
 }
 
 /// Largest relative difference, measured against `floor` where values are tiny.

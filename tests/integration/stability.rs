@@ -2,22 +2,17 @@
 //! reference on Vulkan (lavapipe) and the GL fallback, and the paper's claim that 8-bit
 //! compositing loses faint structure that float compositing keeps.
 
-use crate::common::renderer;
+use crate::common::render;
 use hdrvis::bench::{lost_detail, relative_rms as rel_rms};
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
 use hdrvis::render::cpu_reference::render_volume_f64;
-use hdrvis::render::volume::GpuVolume;
 use hdrvis::render::{FilterMode, Precision, VolumeRenderOptions};
 
 const BACKENDS: [BackendChoice; 2] = [BackendChoice::Vulkan, BackendChoice::Gl];
 
 fn gpu(backend: BackendChoice, vol: &Volume, o: &VolumeRenderOptions) -> Vec<[f64; 4]> {
-    let r = renderer(backend);
-    let gv = GpuVolume::upload(r.context(), vol).unwrap();
-    r.render(&gv, o)
-        .unwrap()
-        .0
+    render(backend, vol, o)
         .pixels
         .iter()
         .map(|p| p.map(|v| v as f64))

@@ -9,7 +9,6 @@ use crate::cli::hdrvis;
 use crate::common::renderer;
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::{Axis, Camera, HdrImage};
-use hdrvis::render::volume::GpuVolume;
 use hdrvis::render::VolumeRenderOptions;
 use hdrvis::tonemap::cpu::{false_colour_log10, tonemap_cpu};
 use hdrvis::tonemap::{GpuToneMapper, Operator, ToneMapSettings};
@@ -190,15 +189,13 @@ fn tonemap_gpu_matches_cpu_on_synthetic_and_hard_images_gl() {
 
 fn volume_render(backend: BackendChoice) -> HdrImage {
     let vol = hdrvis::bench::bench_volume(64).unwrap();
-    let r = renderer(backend);
-    let gv = GpuVolume::upload(r.context(), &vol).unwrap();
     let mut opts = VolumeRenderOptions::new(
         Camera::axis(Axis::Z, &vol.bounds()),
         hdrvis::bench::bench_tf(),
     );
     opts.width = 96;
     opts.height = 80;
-    r.render(&gv, &opts).unwrap().0
+    crate::common::render(backend, &vol, &opts)
 }
 
 #[test]

@@ -1,17 +1,15 @@
 //! The volume ray caster against closed forms (GPU f32 and CPU f64), GPU against the CPU
 //! reference, hard optical cases and missing values.
 
-use crate::common::{max_rel, renderer};
+use crate::common::{max_rel, render, render_on, renderer};
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
 use hdrvis::render::cpu_reference::render_volume_f64;
 use hdrvis::render::volume::GpuVolume;
-use hdrvis::render::{FilterMode, VolumeRenderOptions};
+use hdrvis::render::{FilterMode, RenderPath, VolumeRenderOptions};
 
 fn gpu_render(backend: BackendChoice, vol: &Volume, opts: &VolumeRenderOptions) -> Vec<[f64; 4]> {
-    let r = renderer(backend);
-    let gv = GpuVolume::upload(r.context(), vol).unwrap();
-    let (img, _) = r.render(&gv, opts).unwrap();
+    let img = render(backend, vol, opts);
     img.pixels.iter().map(|p| p.map(|v| v as f64)).collect()
 }
 
@@ -385,6 +383,8 @@ fn gradient_shading_matches_the_cpu_reference_and_is_absent_when_off() {
 
 #[test]
 fn gpu_f64_matches_the_cpu_reference_to_1e_9() {
+    // The kernel's own f64 output is compared (an image stores f32); `render_volume` must
+    // route precision f64 to it and round its result once.
     use hdrvis::render::volume_f64::F64RayCaster;
     let r = renderer(BackendChoice::Vulkan);
     let f64_caster = F64RayCaster::new(r.context().clone());
@@ -410,6 +410,11 @@ fn gpu_f64_matches_the_cpu_reference_to_1e_9() {
         (o.width, o.height, o.step, o.jitter, o.seed) = (40, 36, 0.5, jitter, 9);
         let cpu = render_volume_f64(&vol, &o).unwrap();
         let gpu = f64_caster.render(&gv, &o).unwrap();
+        o.precision = hdrvis::render::Precision::F64;
+        let routed = render_on(BackendChoice::Vulkan, &vol, &o, RenderPath::F64Gpu);
+        assert_eq!(routed.meta("precision"), Some("f64 (GPU)"));
+        let rounded: Vec<[f32; 4]> = gpu.iter().map(|p| p.map(|v| v as f32)).collect();
+        assert_eq!(routed.pixels, rounded);
         let peak = cpu
             .iter()
             .map(|p| p[0].max(p[1]).max(p[2]))
