@@ -280,6 +280,198 @@ fn fixed_bytes(bricks: usize, width: u32, height: u32, multi_pass: bool) -> u64 
     8 * bricks as u64 + 2 * pixels * 16 + state + (1 << 16) * 2
 }
 
+/// The per-render GPU buffers of the bricked ray caster (bindings 5–9 of volume_bricked.wgsl).
+struct BrickedBuffers {
+    bricks: wgpu::Buffer,
+    pages: wgpu::Buffer,
+    requests: wgpu::Buffer,
+    state: wgpu::Buffer,
+    progress: wgpu::Buffer,
+}
+
+impl BrickedBuffers {
+    /// Buffers for `count` bricks and a `width` x `height` image; ray state only when the
+    /// render takes several passes (`single` is false).
+    fn new(ctx: &GpuContext, count: u64, opts: &VolumeRenderOptions, single: bool) -> Result<Self> {
+        let device = &ctx.device;
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        use wgpu::BufferUsages as U;
+        let pixels = opts.width as u64 * opts.height as u64;
+        let limit = ctx.caps.max_storage_buffer_binding_size;
+        if !single && pixels * 48 > limit {
+            return Err(Error::invalid(
+                "width",
+                format!(
+                    "an out-of-core render keeps 48 bytes of ray state a pixel; {}x{} needs {} MiB but this adapter binds at most {} MiB",
+                    opts.width,
+                    opts.height,
+                    (pixels * 48) >> 20,
+                    limit >> 20
+                ),
+            ));
+        }
+        let (state_size, progress_size) = if single {
+            (16, 16)
+        } else {
+            (pixels * 48, pixels * 4)
+        };
+        Ok(BrickedBuffers {
+            bricks: buffer(
+                "brick params",
+                std::mem::size_of::<BrickParams>() as u64,
+                U::UNIFORM | U::COPY_DST,
+            ),
+            pages: buffer("brick pages", 4 * count, U::STORAGE | U::COPY_DST),
+            requests: buffer(
+                "brick requests",
+                4 * count,
+                U::STORAGE | U::COPY_DST | U::COPY_SRC,
+            ),
+            state: buffer("ray state", state_size, U::STORAGE),
+            progress: buffer("ray progress", progress_size, U::STORAGE),
+        })
+    }
+
+    fn entries(&self) -> [wgpu::BindGroupEntry<'_>; 5] {
+        [
+            (5, &self.bricks),
+            (6, &self.pages),
+            (7, &self.state),
+            (8, &self.progress),
+            (9, &self.requests),
+        ]
+        .map(|(binding, buf)| wgpu::BindGroupEntry {
+            binding,
+            resource: buf.as_entire_binding(),
+        })
+    }
+}
+
+/// One bricked render in flight: what every compute pass of it needs.
+struct BrickedPass<'a> {
+    ctx: &'a GpuContext,
+    pipeline: &'a wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    buffers: BrickedBuffers,
+    volume: &'a BrickedVolume,
+    empty: Vec<bool>,
+    width: u32,
+    height: u32,
+}
+
+impl BrickedPass<'_> {
+    /// Runs one compute pass over the image with the cache's current page table.
+    fn run(&self, cache: &BrickCache, flags: u32) -> Result<()> {
+        let layout = self.volume.layout;
+        let pages: Vec<u32> = (0..layout.count())
+            .map(|b| {
+                if self.empty[b] {
+                    EMPTY
+                } else {
+                    match cache.slot_of[b] {
+                        NO_SLOT => ABSENT,
+                        s => s,
+                    }
+                }
+            })
+            .collect();
+        let slots = cache.slots;
+        let params = BrickParams {
+            dims: [
+                self.volume.dims[0] as u32,
+                self.volume.dims[1] as u32,
+                self.volume.dims[2] as u32,
+                layout.brick as u32,
+            ],
+            grid: [
+                layout.grid[0] as u32,
+                layout.grid[1] as u32,
+                layout.grid[2] as u32,
+                layout.stored_edge() as u32,
+            ],
+            slots: [slots[0], slots[1], slots[2], flags],
+            inv_atlas: [0, 1, 2, 0].map(|a| 1.0 / (slots[a] * layout.stored_edge() as u32) as f32),
+        };
+        let queue = &self.ctx.queue;
+        queue.write_buffer(&self.buffers.pages, 0, bytemuck::cast_slice(&pages));
+        queue.write_buffer(&self.buffers.bricks, 0, bytemuck::bytes_of(&params));
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(self.pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(self.width.div_ceil(8), self.height.div_ceil(8), 1);
+        }
+        queue.submit([enc.finish()]);
+        self.ctx.wait()
+    }
+
+    /// Streams the needed bricks, in visibility order, through the cache one cache-full a pass,
+    /// then serves the rays still waiting for a brick until none asks.
+    fn run_out_of_core(
+        &self,
+        cache: &mut BrickCache,
+        order: Vec<u32>,
+        stats: &mut BrickedStats,
+    ) -> Result<()> {
+        let count = self.volume.layout.count() as u64;
+        let needed: Vec<u32> = order
+            .into_iter()
+            .filter(|&b| !self.empty[b as usize])
+            .collect();
+        let batches: Vec<&[u32]> = needed.chunks(cache.capacity).collect();
+        let zeros = vec![0u8; 4 * count as usize];
+        for (i, batch) in batches.iter().enumerate() {
+            stats.uploaded += cache.load(self.ctx, batch)?;
+            // Only the last pass's requests matter: earlier ones name later batches.
+            self.ctx
+                .queue
+                .write_buffer(&self.buffers.requests, 0, &zeros);
+            let mut flags = KEEP_STATE;
+            if i == 0 {
+                flags |= FIRST_PASS;
+            }
+            if i + 1 == batches.len() {
+                flags |= LAST_PASS;
+            }
+            self.run(cache, flags)?;
+            stats.passes += 1;
+        }
+        loop {
+            let requested = read_requests(self.ctx, &self.buffers.requests, count)?;
+            let wanted: Vec<u32> = needed
+                .iter()
+                .copied()
+                .filter(|&b| requested[b as usize] != 0)
+                .collect();
+            if wanted.is_empty() {
+                return Ok(());
+            }
+            if stats.repair_passes >= MAX_REPAIR_PASSES {
+                return Err(Error::Gpu(format!(
+                    "bricked render: rays still wait for {} bricks after {MAX_REPAIR_PASSES} extra passes",
+                    wanted.len()
+                )));
+            }
+            self.ctx
+                .queue
+                .write_buffer(&self.buffers.requests, 0, &zeros);
+            let batch = &wanted[..wanted.len().min(cache.capacity)];
+            stats.uploaded += cache.load(self.ctx, batch)?;
+            self.run(cache, KEEP_STATE | LAST_PASS)?;
+            stats.passes += 1;
+            stats.repair_passes += 1;
+        }
+    }
+}
+
 impl VolumeRenderer {
     /// Renders a bricked volume through `cache`: in one pass when the bricks the transfer
     /// function needs fit, else streamed front to back through the cache. `skip` enables
@@ -317,89 +509,19 @@ impl VolumeRenderer {
         } else {
             vec![false; layout.count()]
         };
-        let needed_set: Vec<bool> = empty.iter().map(|e| !e).collect();
-        let needed_count = needed_set.iter().filter(|&&n| n).count();
+        let needed_count = empty.iter().filter(|&&e| !e).count();
         let single = needed_count <= cache.capacity;
         let (pipeline, _) = self.pipeline(frame.key)?;
-        let (pipeline, bind_layout) = (&pipeline.0, &pipeline.1);
-        let device = &ctx.device;
-        use wgpu::util::DeviceExt;
         let start = std::time::Instant::now();
-
-        let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("volume params"),
-            contents: bytemuck::bytes_of(&frame.params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let slots = cache.slots;
-        let brick_params = |flags: u32| BrickParams {
-            dims: [
-                volume.dims[0] as u32,
-                volume.dims[1] as u32,
-                volume.dims[2] as u32,
-                layout.brick as u32,
-            ],
-            grid: [
-                layout.grid[0] as u32,
-                layout.grid[1] as u32,
-                layout.grid[2] as u32,
-                layout.stored_edge() as u32,
-            ],
-            slots: [slots[0], slots[1], slots[2], flags],
-            inv_atlas: [0, 1, 2, 0].map(|a| 1.0 / (slots[a] * layout.stored_edge() as u32) as f32),
-        };
-        let bricks_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("brick params"),
-            size: std::mem::size_of::<BrickParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let count = layout.count() as u64;
-        let pages_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("brick pages"),
-            size: 4 * count,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let requests_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("brick requests"),
-            size: 4 * count,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let pixels = opts.width as u64 * opts.height as u64;
-        let limit = ctx.caps.max_storage_buffer_binding_size;
-        if !single && pixels * 48 > limit {
-            return Err(Error::invalid(
-                "width",
-                format!(
-                    "an out-of-core render keeps 48 bytes of ray state a pixel; {}x{} needs {} MiB but this adapter binds at most {} MiB",
-                    opts.width,
-                    opts.height,
-                    (pixels * 48) >> 20,
-                    limit >> 20
-                ),
-            ));
-        }
-        let (state_size, progress_size) = if single {
-            (16, 16)
-        } else {
-            (pixels * 48, pixels * 4)
-        };
-        let state_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("ray state"),
-            size: state_size,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let progress_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("ray progress"),
-            size: progress_size,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
+        use wgpu::util::DeviceExt;
+        let params_buf = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("volume params"),
+                contents: bytemuck::bytes_of(&frame.params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+        let buffers = BrickedBuffers::new(&ctx, layout.count() as u64, opts, single)?;
         let lut_view = self.lut_view(&frame.tf, false);
         let out = self.output_texture(opts);
         let out_view = out.create_view(&Default::default());
@@ -410,24 +532,13 @@ impl VolumeRenderer {
             &lut_view,
             &out_view,
         );
-        for (binding, buf) in [
-            (5, &bricks_buf),
-            (6, &pages_buf),
-            (7, &state_buf),
-            (8, &progress_buf),
-            (9, &requests_buf),
-        ] {
-            entries.push(wgpu::BindGroupEntry {
-                binding,
-                resource: buf.as_entire_binding(),
-            });
-        }
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        entries.extend(buffers.entries());
+        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("volume bricked"),
-            layout: bind_layout,
+            layout: &pipeline.1,
             entries: &entries,
         });
-
+        drop(entries);
         let mut stats = BrickedStats {
             needed: needed_count,
             skipped: layout.count() - needed_count,
@@ -436,90 +547,28 @@ impl VolumeRenderer {
                 + fixed_bytes(layout.count(), opts.width, opts.height, !single),
             ..Default::default()
         };
-        let run_pass = |cache: &BrickCache, flags: u32| {
-            let pages: Vec<u32> = (0..layout.count())
-                .map(|b| {
-                    if empty[b] {
-                        EMPTY
-                    } else {
-                        match cache.slot_of[b] {
-                            NO_SLOT => ABSENT,
-                            s => s,
-                        }
-                    }
-                })
-                .collect();
-            ctx.queue
-                .write_buffer(&pages_buf, 0, bytemuck::cast_slice(&pages));
-            ctx.queue
-                .write_buffer(&bricks_buf, 0, bytemuck::bytes_of(&brick_params(flags)));
-            let mut enc = device.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(opts.width.div_ceil(8), opts.height.div_ceil(8), 1);
-            }
-            ctx.queue.submit([enc.finish()]);
-            ctx.wait()
+        let pass = BrickedPass {
+            ctx: &ctx,
+            pipeline: &pipeline.0,
+            bind_group,
+            buffers,
+            volume: &volume,
+            empty,
+            width: opts.width,
+            height: opts.height,
         };
-
         if single {
             // When the cache holds every brick, load them all: a later transfer function that
             // needs other bricks then re-reads nothing.
             let all = cache.capacity >= layout.count();
             let needed: Vec<u32> = (0..layout.count() as u32)
-                .filter(|&b| all || needed_set[b as usize])
+                .filter(|&b| all || !pass.empty[b as usize])
                 .collect();
             stats.uploaded += cache.load(&ctx, &needed)?;
-            run_pass(cache, FIRST_PASS | LAST_PASS)?;
+            pass.run(cache, FIRST_PASS | LAST_PASS)?;
             stats.passes = 1;
         } else {
-            let order = self.visibility(&volume, opts);
-            let needed: Vec<u32> = order
-                .into_iter()
-                .filter(|&b| needed_set[b as usize])
-                .collect();
-            let batches: Vec<&[u32]> = needed.chunks(cache.capacity).collect();
-            let zeros = vec![0u8; 4 * count as usize];
-            for (i, batch) in batches.iter().enumerate() {
-                stats.uploaded += cache.load(&ctx, batch)?;
-                // Only the last pass's requests matter: earlier ones name later batches.
-                ctx.queue.write_buffer(&requests_buf, 0, &zeros);
-                let mut flags = KEEP_STATE;
-                if i == 0 {
-                    flags |= FIRST_PASS;
-                }
-                if i + 1 == batches.len() {
-                    flags |= LAST_PASS;
-                }
-                run_pass(cache, flags)?;
-                stats.passes += 1;
-            }
-            // Rays still waiting for a brick: serve them until none asks.
-            loop {
-                let requested = read_requests(&ctx, &requests_buf, count)?;
-                let wanted: Vec<u32> = needed
-                    .iter()
-                    .copied()
-                    .filter(|&b| requested[b as usize] != 0)
-                    .collect();
-                if wanted.is_empty() {
-                    break;
-                }
-                if stats.repair_passes >= MAX_REPAIR_PASSES {
-                    return Err(Error::Gpu(format!(
-                        "bricked render: rays still wait for {} bricks after {MAX_REPAIR_PASSES} extra passes",
-                        wanted.len()
-                    )));
-                }
-                ctx.queue.write_buffer(&requests_buf, 0, &zeros);
-                let batch = &wanted[..wanted.len().min(cache.capacity)];
-                stats.uploaded += cache.load(&ctx, batch)?;
-                run_pass(cache, KEEP_STATE | LAST_PASS)?;
-                stats.passes += 1;
-                stats.repair_passes += 1;
-            }
+            pass.run_out_of_core(cache, self.visibility(&volume, opts), &mut stats)?;
         }
         let pixels = readback::read_rgba32f_texture(&ctx, &out)?;
         stats.seconds = start.elapsed().as_secs_f64();
