@@ -6,6 +6,7 @@
 use super::{jitter_fraction, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
 use crate::model::camera::sub;
+use crate::model::transfer::ResolvedTransfer;
 use crate::model::{Aabb, HdrImage, Volume};
 use rayon::prelude::*;
 
@@ -30,111 +31,156 @@ pub fn render_volume_f64(volume: &Volume, opts: &VolumeRenderOptions) -> Result<
     opts.validate()?;
     let tf = opts.tf.resolve(&volume.stats())?;
     let bounds = volume.bounds();
-    let local = Aabb {
-        lo: [0.0; 3],
-        hi: bounds.size(),
-    };
-    let voxel = volume.voxel_length();
-    let ds = opts.step * voxel;
-    let stop_tau = opts.stop_optical_depth();
     let preintegrated = opts.tf_sampling == TfSampling::PreIntegrated;
-    let integral = if preintegrated {
-        tf.table_integral()
-    } else {
-        Vec::new()
+    let tracer = Tracer {
+        volume,
+        opts,
+        integral: if preintegrated {
+            tf.table_integral()
+        } else {
+            Vec::new()
+        },
+        tf,
+        local: Aabb {
+            lo: [0.0; 3],
+            hi: bounds.size(),
+        },
+        bounds,
+        voxel: volume.voxel_length(),
+        ds: opts.step * volume.voxel_length(),
+        stop_tau: opts.stop_optical_depth(),
+        preintegrated,
     };
     let (w, h) = (opts.width, opts.height);
-    let pixels = (0..h)
+    Ok((0..h)
         .into_par_iter()
         .flat_map_iter(|py| {
-            let (tf, integral) = (&tf, &integral);
-            (0..w).map(move |px| {
-                let (o, d) = opts.camera.ray(px, py, w, h);
-                let o = sub(o, bounds.lo);
-                let mut tau = 0.0f64;
-                let mut color = [0.0f64; 3];
-                if let Some((t0, t1)) = local.intersect(o, d) {
-                    let t_enter = t0.max(0.0);
-                    if t1 > t_enter {
-                        let first = if opts.jitter {
-                            ds * (1.0 - jitter_fraction(px, py, w, h, opts.seed))
-                        } else {
-                            ds
-                        };
-                        let span = t1 - t_enter;
-                        let n = if span > first {
-                            ((span - first) / ds).ceil() as u64 + 1
-                        } else {
-                            1
-                        };
-                        let at = |t: f64| {
-                            [
-                                bounds.lo[0] + o[0] + d[0] * t,
-                                bounds.lo[1] + o[1] + d[1] * t,
-                                bounds.lo[2] + o[2] + d[2] * t,
-                            ]
-                        };
-                        let mut ta = t_enter;
-                        // Pre-integration reads the value at segment ends, the front one carried.
-                        let mut front = if preintegrated {
-                            volume.sample_trilinear(at(t_enter))
-                        } else {
-                            f64::NAN
-                        };
-                        for k in 0..n {
-                            let tb = (t_enter + first + k as f64 * ds).min(t1);
-                            let mid = 0.5 * (ta + tb);
-                            let mut len = (tb - ta) / voxel;
-                            ta = tb;
-                            let p = at(mid);
-                            let (mut e, a) = if preintegrated {
-                                let back = volume.sample_trilinear(at(tb));
-                                let pair = (front, back);
-                                front = back;
-                                match (pair.0.is_finite(), pair.1.is_finite()) {
-                                    (true, true) => tf.segment_mean(integral, pair.0, pair.1),
-                                    (false, false) => continue,
-                                    // The edge of missing data taken at the middle: the half
-                                    // next to the finite end carries its value.
-                                    (true, false) | (false, true) => {
-                                        len *= 0.5;
-                                        tf.eval(if pair.0.is_finite() { pair.0 } else { pair.1 })
-                                    }
-                                }
-                            } else {
-                                let v = volume.sample_trilinear(p);
-                                if !v.is_finite() {
-                                    continue;
-                                }
-                                tf.eval(v)
-                            };
-                            if let Some(sh) = &opts.shading {
-                                if e.iter().any(|&c| c > 0.0) {
-                                    let f = sh.factor(volume.gradient(p), d);
-                                    e = e.map(|c| c * f);
-                                }
-                            }
-                            let x = a * len;
-                            let weight = (-tau).exp() * len * escape_fraction(x);
-                            for c in 0..3 {
-                                color[c] += weight * e[c];
-                            }
-                            tau += x;
-                            if tau > stop_tau {
-                                break;
-                            }
-                        }
-                    }
-                }
-                let t = (-tau).exp();
-                [
-                    color[0] + t * opts.background[0],
-                    color[1] + t * opts.background[1],
-                    color[2] + t * opts.background[2],
-                    -(-tau).exp_m1(),
-                ]
-            })
+            let tracer = &tracer;
+            (0..w).map(move |px| tracer.pixel(px, py))
         })
-        .collect();
-    Ok(pixels)
+        .collect())
+}
+
+/// What every ray of one reference render shares.
+struct Tracer<'a> {
+    volume: &'a Volume,
+    opts: &'a VolumeRenderOptions,
+    tf: ResolvedTransfer,
+    /// The table's running integral (pre-integration only).
+    integral: Vec<[f64; 4]>,
+    bounds: Aabb,
+    /// The volume's box with its corner at the origin.
+    local: Aabb,
+    voxel: f64,
+    ds: f64,
+    stop_tau: f64,
+    preintegrated: bool,
+}
+
+impl Tracer<'_> {
+    /// The composited pixel: premultiplied colour over the background, and alpha.
+    fn pixel(&self, px: u32, py: u32) -> [f64; 4] {
+        let (w, h) = (self.opts.width, self.opts.height);
+        let (o, d) = self.opts.camera.ray(px, py, w, h);
+        let o = sub(o, self.bounds.lo);
+        let (color, tau) = match self.local.intersect(o, d) {
+            Some((t0, t1)) if t1 > t0.max(0.0) => self.march(px, py, o, d, t0.max(0.0), t1),
+            _ => ([0.0; 3], 0.0),
+        };
+        let t = (-tau).exp();
+        let bg = self.opts.background;
+        [
+            color[0] + t * bg[0],
+            color[1] + t * bg[1],
+            color[2] + t * bg[2],
+            -(-tau).exp_m1(),
+        ]
+    }
+
+    /// Colour and optical depth along the ray from `t_enter` to `t1`.
+    fn march(
+        &self,
+        px: u32,
+        py: u32,
+        o: [f64; 3],
+        d: [f64; 3],
+        t_enter: f64,
+        t1: f64,
+    ) -> ([f64; 3], f64) {
+        let (opts, ds, voxel) = (self.opts, self.ds, self.voxel);
+        let first = if opts.jitter {
+            ds * (1.0 - jitter_fraction(px, py, opts.width, opts.height, opts.seed))
+        } else {
+            ds
+        };
+        let span = t1 - t_enter;
+        let n = if span > first {
+            ((span - first) / ds).ceil() as u64 + 1
+        } else {
+            1
+        };
+        let lo = self.bounds.lo;
+        let at = |t: f64| [0, 1, 2].map(|a| lo[a] + o[a] + d[a] * t);
+        let mut tau = 0.0f64;
+        let mut color = [0.0f64; 3];
+        let mut ta = t_enter;
+        // Pre-integration reads the value at segment ends, the front one carried.
+        let mut front = if self.preintegrated {
+            self.volume.sample_trilinear(at(t_enter))
+        } else {
+            f64::NAN
+        };
+        for k in 0..n {
+            let tb = (t_enter + first + k as f64 * ds).min(t1);
+            let mid = 0.5 * (ta + tb);
+            let mut len = (tb - ta) / voxel;
+            ta = tb;
+            let p = at(mid);
+            let sample = if self.preintegrated {
+                let back = self.volume.sample_trilinear(at(tb));
+                let pair = (front, back);
+                front = back;
+                self.segment(pair, &mut len)
+            } else {
+                let v = self.volume.sample_trilinear(p);
+                v.is_finite().then(|| self.tf.eval(v))
+            };
+            let Some((mut e, a)) = sample else {
+                continue;
+            };
+            if let Some(sh) = &opts.shading {
+                if e.iter().any(|&c| c > 0.0) {
+                    let f = sh.factor(self.volume.gradient(p), d);
+                    e = e.map(|c| c * f);
+                }
+            }
+            let x = a * len;
+            let weight = (-tau).exp() * len * escape_fraction(x);
+            for c in 0..3 {
+                color[c] += weight * e[c];
+            }
+            tau += x;
+            if tau > self.stop_tau {
+                break;
+            }
+        }
+        (color, tau)
+    }
+
+    /// The pre-integrated emission and extinction of a segment with end values `pair`; `None`
+    /// where both are missing. The edge of missing data is taken at the middle: the half next
+    /// to the finite end carries its value (`len` halves).
+    fn segment(&self, pair: (f64, f64), len: &mut f64) -> Option<([f64; 3], f64)> {
+        match (pair.0.is_finite(), pair.1.is_finite()) {
+            (true, true) => Some(self.tf.segment_mean(&self.integral, pair.0, pair.1)),
+            (false, false) => None,
+            (true, false) | (false, true) => {
+                *len *= 0.5;
+                Some(
+                    self.tf
+                        .eval(if pair.0.is_finite() { pair.0 } else { pair.1 }),
+                )
+            }
+        }
+    }
 }
