@@ -83,8 +83,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(BenchCommand::Tui { runs, n })) => {
             let (adapter, rows) =
-                hdrvis::tui::bench::bench_tui(backend, n, runs, &mut |m| eprintln!("{m}"))?;
-            print!("{}", hdrvis::tui::bench::format_tui_table(&adapter, &rows));
+                hdrvis::bench::tui::bench_tui(backend, n, runs, &mut |m| eprintln!("{m}"))?;
+            print!("{}", hdrvis::bench::tui::format_tui_table(&adapter, &rows));
             Ok(())
         }
         Some(Command::Gen(cmd)) => {
@@ -101,10 +101,10 @@ fn run(cli: Cli) -> Result<()> {
             let adapter = ctx.describe();
             let sizes: &[u32] = if quick { &[1024] } else { &[1024, 2048, 4096] };
             let rows =
-                hdrvis::tonemap::bench::bench_tonemap(ctx, sizes, runs, &mut |m| eprintln!("{m}"))?;
+                hdrvis::bench::tonemap::bench_tonemap(ctx, sizes, runs, &mut |m| eprintln!("{m}"))?;
             print!(
                 "{}",
-                hdrvis::tonemap::bench::format_tonemap_table(&adapter, &rows)
+                hdrvis::bench::tonemap::format_tonemap_table(&adapter, &rows)
             );
             Ok(())
         }
@@ -154,7 +154,7 @@ fn run(cli: Cli) -> Result<()> {
             size,
             brick,
         })) => {
-            use hdrvis::render::bricked_bench::{bench_skipping, format_skipping_table};
+            use hdrvis::bench::bricks::{bench_skipping, format_skipping_table};
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
             let rows = bench_skipping(ctx, n, size, brick, runs, &mut |m| eprintln!("{m}"))?;
@@ -168,7 +168,7 @@ fn run(cli: Cli) -> Result<()> {
             gpu_memory,
             brick,
         })) => {
-            use hdrvis::render::bricked_bench::{bench_large, format_large_report};
+            use hdrvis::bench::bricks::{bench_large, format_large_report};
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
             let report = bench_large(ctx, n, size, gpu_memory, brick, runs, &mut |m| {
@@ -185,25 +185,23 @@ fn run(cli: Cli) -> Result<()> {
         Some(Command::Bench(BenchCommand::Effects { runs, n, size })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
-            let rows =
-                hdrvis::render::effects_bench::bench_effects(ctx, n, size, runs, &mut |m| {
-                    eprintln!("{m}")
-                })?;
+            let rows = hdrvis::bench::effects::bench_effects(ctx, n, size, runs, &mut |m| {
+                eprintln!("{m}")
+            })?;
             print!(
                 "{}",
-                hdrvis::render::effects_bench::format_effects_table(&adapter, n, size, &rows)
+                hdrvis::bench::effects::format_effects_table(&adapter, n, size, &rows)
             );
             Ok(())
         }
         Some(Command::Bench(BenchCommand::Surface { runs, n })) => {
             let ctx = GpuContext::new(backend)?;
             let adapter = ctx.describe();
-            let rows = hdrvis::render::surface_bench::bench_surface(ctx, n, runs, &mut |m| {
-                eprintln!("{m}")
-            })?;
+            let rows =
+                hdrvis::bench::surface::bench_surface(ctx, n, runs, &mut |m| eprintln!("{m}"))?;
             print!(
                 "{}",
-                hdrvis::render::surface_bench::format_surface_table(&adapter, &rows)
+                hdrvis::bench::surface::format_surface_table(&adapter, &rows)
             );
             Ok(())
         }

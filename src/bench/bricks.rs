@@ -2,14 +2,14 @@
 //! from empty-space skipping on the paper's mantle, and an f32 volume larger than the memory
 //! budget rendered out of core with its peak memory. Timings live here, never in tests.
 
-use super::bricked::{BrickCache, BrickedStats};
-use super::volume::{GpuVolume, VolumeRenderer};
-use super::{FilterMode, VolumeRenderOptions};
 use crate::bench::{median, peak_memory_mib};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::bricks::BrickedVolume;
 use crate::model::{Axis, Camera, LutTransfer, Scale, TransferFunction};
+use crate::render::bricked::{BrickCache, BrickedStats};
+use crate::render::volume::{GpuVolume, VolumeRenderer};
+use crate::render::{FilterMode, VolumeRenderOptions};
 use std::sync::Arc;
 
 /// CPU seconds this process has used (user + system, Linux `/proc/self/stat`): on CPU

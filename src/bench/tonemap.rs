@@ -5,12 +5,12 @@
 //! one warm-up call that builds the pipelines. Reports the adapter and the median of the runs,
 //! against the targets on 1024² (global operators 30 ms, local ones 300 ms).
 
-use super::gpu::GpuToneMapper;
-use super::params::{Operator, ToneMapSettings};
 use crate::bench::median;
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::model::HdrImage;
+use crate::tonemap::gpu::GpuToneMapper;
+use crate::tonemap::params::{Operator, ToneMapSettings};
 use std::sync::Arc;
 use std::time::Instant;
 

@@ -11,7 +11,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 pub mod accuracy;
+pub mod bricks;
 pub mod chart;
+pub mod effects;
+pub mod surface;
+pub mod tonemap;
+pub mod tui;
 
 pub use accuracy::{lost_detail, relative_rms};
 
