@@ -3,7 +3,7 @@
 //! full two-step render of a new grid (upload, data pass, fringe pass, readback). Each timing ends
 //! with the image in host memory. The grid is an Okada-like field with ν·d spanning ~10⁴ fringes.
 
-use crate::bench::median;
+use super::median;
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::model::Grid;
