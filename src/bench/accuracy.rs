@@ -6,7 +6,7 @@
 //! image — relative RMS and maximum error, PSNR of the 8-bit tone-mapped view, and the fraction
 //! of pixels that lost detail — as a table, CSV, JSON and a log–log chart of error against time.
 
-use super::{bench_tf, bench_volume, median};
+use super::{bench_tf, bench_volume, mantle_fig5_tf, median};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::{Camera, Grid, Scale, TransferFunction, Volume};
@@ -164,15 +164,8 @@ fn surface_options(nu: f64) -> SurfaceOptions {
 
 fn volume_scenes(size: u32, n: usize, only: Option<&str>) -> Result<Vec<AccuracyScene>> {
     use crate::model::transfer::LutTransfer;
-    let mantle = crate::bench::mantle_fluctuation(n, 7)?;
-    let mantle_tf = TransferFunction::Lut(LutTransfer {
-        scale: Scale::Symlog { linthresh: 1e-3 },
-        domain: Some([-0.3, 0.45]),
-        colormap: "spectral".into(),
-        emission: vec![[0.0, -1.0], [0.45, -3.0], [0.55, -3.0], [1.0, -0.5]],
-        opacity: vec![[0.0, -1.5], [0.4, -3.5], [0.6, -3.5], [1.0, -1.0]],
-        ..Default::default()
-    });
+    let mantle = super::mantle_fluctuation(n, 7)?;
+    let mantle_tf = TransferFunction::Lut(mantle_fig5_tf());
     let blobs = bench_volume(n)?;
     // t = 0.4 is 10^-2 on the blobs' log10 scale over [1e-4, 10].
     let band_tf = TransferFunction::Lut(LutTransfer {
@@ -332,6 +325,44 @@ fn grey(fringe: impl Iterator<Item = f64>) -> Vec<[f64; 4]> {
         .collect()
 }
 
+/// A row scored against `reference`: the median of `ms` and the error metrics of `got`.
+fn scored_row(
+    scene: &str,
+    variant: String,
+    ms: &[f64],
+    got: &[[f64; 4]],
+    reference: &[[f64; 4]],
+    (width, height): (u32, u32),
+    against: &'static str,
+) -> Result<AccuracyRow> {
+    let (rel_rms, max_rel, psnr_8bit, lost_detail) =
+        accuracy_metrics(got, reference, width, height)?;
+    Ok(AccuracyRow {
+        scene: scene.to_string(),
+        variant,
+        median_ms: median(ms),
+        rel_rms,
+        max_rel,
+        psnr_8bit,
+        lost_detail,
+        reference: against,
+    })
+}
+
+/// The row of the f64 CPU reference itself: its time, and no error.
+fn reference_row(scene: &str, f64_ms: &[f64], against: &'static str) -> AccuracyRow {
+    AccuracyRow {
+        scene: scene.to_string(),
+        variant: "f64 (CPU)".into(),
+        median_ms: median(f64_ms),
+        rel_rms: 0.0,
+        max_rel: 0.0,
+        psnr_8bit: f64::INFINITY,
+        lost_detail: 0.0,
+        reference: against,
+    }
+}
+
 /// The phase methods on one surface scene: each fringe pass timed (the data pass is cached)
 /// and its fringe intensity compared with (1 + cos 2πν·d)/2 evaluated in f64 at the node each
 /// pixel shows (map view, one pixel per node); the f64 evaluation on the CPU is timed too.
@@ -343,14 +374,47 @@ fn bench_surface_scene(
     runs: usize,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<AccuracyRow>> {
-    use rayon::prelude::*;
     let renderer = SurfaceRenderer::new(ctx);
-    let nu = options.nu[0];
+    let (nx, ny) = (grid.nx(), grid.ny());
+    log(&format!("{name}: f64 fringes on the CPU ..."));
+    let (reference, f64_ms) = surface_reference(grid, options.nu[0], runs);
+    let mut rows = Vec::new();
+    for (phase, variant) in [
+        (PhaseMethod::Naive, "naive f32"),
+        (PhaseMethod::Reduced, "reduced"),
+    ] {
+        let o = SurfaceOptions {
+            phase,
+            ..options.clone()
+        };
+        let (ms, got) = time_fringe_pass(&renderer, grid, &o, runs)?;
+        let r = scored_row(
+            name,
+            variant.into(),
+            &ms,
+            &got,
+            &reference,
+            (nx as u32, ny as u32),
+            PER_NODE,
+        )?;
+        log(&format!(
+            "{name} {variant}: {:.1} ms, rel RMS {:.2e}",
+            r.median_ms, r.rel_rms
+        ));
+        rows.push(r);
+    }
+    rows.push(reference_row(name, &f64_ms, PER_NODE));
+    Ok(rows)
+}
+
+/// The fringe intensity evaluated in f64 at the node each pixel of the map view shows, and the
+/// milliseconds of each of `runs` evaluations.
+fn surface_reference(grid: &Grid, nu: f64, runs: usize) -> (Vec<[f64; 4]>, Vec<f64>) {
+    use rayon::prelude::*;
     let (nx, ny) = (grid.nx(), grid.ny());
     let d = grid.property_at(0).1;
     let mut f64_ms = Vec::new();
     let mut reference = Vec::new();
-    log(&format!("{name}: f64 fringes on the CPU ..."));
     for _ in 0..runs.max(1) {
         let t = std::time::Instant::now();
         // Pixel (i, r) shows node (i, ny − 1 − r) in map view.
@@ -363,59 +427,132 @@ fn bench_surface_scene(
         );
         f64_ms.push(t.elapsed().as_secs_f64() * 1e3);
     }
-    let mut rows = Vec::new();
-    for (phase, variant) in [
-        (PhaseMethod::Naive, "naive f32"),
-        (PhaseMethod::Reduced, "reduced"),
-    ] {
-        let o = SurfaceOptions {
-            phase,
-            ..options.clone()
-        };
-        renderer.render(grid, &o)?;
-        let mut ms = Vec::new();
-        let mut last = None;
-        for _ in 0..runs.max(1) {
-            let (mut images, timing) = renderer.render_timed(grid, &o)?;
-            ms.push(timing.fringe_ms);
-            last = Some(images.remove(0));
-        }
-        let img = last.expect("at least one run");
-        let fringe = img
-            .extra_channels
-            .iter()
-            .find(|(n, _)| n == "fringe")
-            .map(|(_, v)| v)
-            .ok_or_else(|| Error::Gpu("surface image without a fringe channel".into()))?;
-        let got = grey(fringe.iter().map(|&v| v as f64));
-        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
-            accuracy_metrics(&got, &reference, nx as u32, ny as u32)?;
-        log(&format!(
-            "{name} {variant}: {:.1} ms, rel RMS {rel_rms:.2e}",
-            median(&ms)
-        ));
-        rows.push(AccuracyRow {
-            scene: name.to_string(),
-            variant: variant.into(),
-            median_ms: median(&ms),
-            rel_rms,
-            max_rel,
-            psnr_8bit,
-            lost_detail,
-            reference: PER_NODE,
-        });
+    (reference, f64_ms)
+}
+
+/// The milliseconds of each timed run, and the last run's image.
+type TimedImage = (Vec<f64>, Vec<[f64; 4]>);
+
+/// One warm-up render, then `runs` timed ones: the fringe pass's milliseconds of each, and the
+/// last one's fringe intensity as a grey image.
+fn time_fringe_pass(
+    renderer: &SurfaceRenderer,
+    grid: &Grid,
+    o: &SurfaceOptions,
+    runs: usize,
+) -> Result<TimedImage> {
+    renderer.render(grid, o)?;
+    let mut ms = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let (mut images, timing) = renderer.render_timed(grid, o)?;
+        ms.push(timing.fringe_ms);
+        last = Some(images.remove(0));
     }
-    rows.push(AccuracyRow {
-        scene: name.to_string(),
-        variant: "f64 (CPU)".into(),
-        median_ms: median(&f64_ms),
-        rel_rms: 0.0,
-        max_rel: 0.0,
-        psnr_8bit: f64::INFINITY,
-        lost_detail: 0.0,
-        reference: PER_NODE,
-    });
-    Ok(rows)
+    let img = last.expect("at least one run");
+    let fringe = img
+        .extra_channels
+        .iter()
+        .find(|(n, _)| n == "fringe")
+        .map(|(_, v)| v)
+        .ok_or_else(|| Error::Gpu("surface image without a fringe channel".into()))?;
+    Ok((ms, grey(fringe.iter().map(|&v| v as f64))))
+}
+
+/// The f64 CPU references of one volume scene.
+struct VolumeReferences {
+    /// Point-sampled at the scene's step and its settings ([`SAME_STEP`]), the last of several
+    /// timed renders.
+    same_step: Vec<[f64; 4]>,
+    /// Milliseconds of each same-step render.
+    same_step_ms: Vec<f64>,
+    /// The integral itself ([`CONVERGED`]).
+    converged: Vec<[f64; 4]>,
+    /// Point-sampled at 1/8 of the step, to be scored against `converged`, and its time.
+    fine_point: Vec<[f64; 4]>,
+    fine_point_ms: f64,
+}
+
+/// Renders the f64 CPU references of a volume scene.
+fn volume_references(
+    name: &str,
+    volume: &Volume,
+    options: &VolumeRenderOptions,
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<VolumeReferences> {
+    use crate::render::cpu_reference::render_volume_f64;
+    use crate::render::{Precision, TfSampling};
+    log(&format!("{name}: f64 reference on the CPU ..."));
+    let mut o = options.clone();
+    o.precision = Precision::F64;
+    let mut same_step_ms = Vec::new();
+    let mut same_step = Vec::new();
+    for _ in 0..runs.clamp(1, 3) {
+        let t = std::time::Instant::now();
+        same_step = render_volume_f64(volume, &o)?;
+        same_step_ms.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    // The integral itself, for the step and sampling knobs: pre-integrated at 1/8 of the step,
+    // whose error depends on how far the data bend between samples, not on how sharp the
+    // transfer function is. The point-sampled f64 render at the same step is scored against
+    // it, to show how far the reference itself can be trusted.
+    log(&format!("{name}: f64 references at 1/8 of the step ..."));
+    o.step = options.step / 8.0;
+    o.tf_sampling = TfSampling::PreIntegrated;
+    let converged = render_volume_f64(volume, &o)?;
+    o.tf_sampling = TfSampling::Point;
+    let t = std::time::Instant::now();
+    let fine_point = render_volume_f64(volume, &o)?;
+    let fine_point_ms = t.elapsed().as_secs_f64() * 1e3;
+    Ok(VolumeReferences {
+        same_step,
+        same_step_ms,
+        converged,
+        fine_point,
+        fine_point_ms,
+    })
+}
+
+/// One warm-up render (pipeline build), then `runs` timed ones; the last image is returned.
+fn time_volume(
+    renderer: &VolumeRenderer,
+    gv: &GpuVolume,
+    o: &VolumeRenderOptions,
+    runs: usize,
+) -> Result<TimedImage> {
+    renderer.render(gv, o)?;
+    let mut ms = Vec::new();
+    let mut got = Vec::new();
+    for _ in 0..runs.max(1) {
+        let (img, t) = renderer.render(gv, o)?;
+        ms.push(t.seconds * 1e3);
+        got = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
+    }
+    Ok((ms, got))
+}
+
+/// f64 on the GPU where the adapter has shader f64 (lavapipe does): one warm-up render, then
+/// `runs` timed ones and the last image; `None` where the adapter has no shader f64.
+fn time_volume_f64_gpu(
+    renderer: &VolumeRenderer,
+    gv: &GpuVolume,
+    o: &VolumeRenderOptions,
+    runs: usize,
+) -> Result<Option<TimedImage>> {
+    let f64_gpu = crate::render::volume_f64::F64RayCaster::new(renderer.context().clone());
+    if !f64_gpu.available() {
+        return Ok(None);
+    }
+    f64_gpu.render(gv, o)?;
+    let mut ms = Vec::new();
+    let mut got = Vec::new();
+    for _ in 0..runs.max(1) {
+        let t = std::time::Instant::now();
+        got = f64_gpu.render(gv, o)?;
+        ms.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok(Some((ms, got)))
 }
 
 /// The compositing precisions and coarser steps on one volume scene.
@@ -427,69 +564,24 @@ fn bench_volume_scene(
     runs: usize,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<AccuracyRow>> {
-    use crate::render::cpu_reference::render_volume_f64;
     use crate::render::{Precision, TfSampling};
     let renderer = VolumeRenderer::new(ctx);
-    let mut rows = Vec::new();
-    log(&format!("{name}: f64 reference on the CPU ..."));
+    let refs = volume_references(name, volume, options, runs, log)?;
+    let gv = GpuVolume::upload(renderer.context(), volume)?;
+    let row = |variant: String, ms: &[f64], got: &[[f64; 4]], against: &'static str| {
+        let reference = if against == CONVERGED {
+            &refs.converged
+        } else {
+            &refs.same_step
+        };
+        let size = (options.width, options.height);
+        scored_row(name, variant, ms, got, reference, size, against)
+    };
+    // The references' settings at the scene's step, point-sampled.
     let mut o = options.clone();
     o.precision = Precision::F64;
-    let mut f64_ms = Vec::new();
-    let mut reference = Vec::new();
-    for _ in 0..runs.clamp(1, 3) {
-        let t = std::time::Instant::now();
-        reference = render_volume_f64(volume, &o)?;
-        f64_ms.push(t.elapsed().as_secs_f64() * 1e3);
-    }
-    // The integral itself, for the step and sampling knobs: pre-integrated at 1/8 of the step,
-    // whose error depends on how far the data bend between samples, not on how sharp the
-    // transfer function is. The point-sampled f64 render at the same step is scored against
-    // it below, to show how far the reference itself can be trusted.
-    log(&format!("{name}: f64 references at 1/8 of the step ..."));
-    o.step = options.step / 8.0;
-    o.tf_sampling = TfSampling::PreIntegrated;
-    let converged = render_volume_f64(volume, &o)?;
     o.tf_sampling = TfSampling::Point;
-    let t = std::time::Instant::now();
-    let fine_point = render_volume_f64(volume, &o)?;
-    let fine_point_ms = [t.elapsed().as_secs_f64() * 1e3];
-    o.step = options.step;
-    let gv = GpuVolume::upload(renderer.context(), volume)?;
-    let row = |variant: String,
-               ms: &[f64],
-               got: &[[f64; 4]],
-               against: &'static str|
-     -> Result<AccuracyRow> {
-        let reference = if against == CONVERGED {
-            &converged
-        } else {
-            &reference
-        };
-        let (rel_rms, max_rel, psnr_8bit, lost_detail) =
-            accuracy_metrics(got, reference, options.width, options.height)?;
-        Ok(AccuracyRow {
-            scene: name.to_string(),
-            variant,
-            median_ms: median(ms),
-            rel_rms,
-            max_rel,
-            psnr_8bit,
-            lost_detail,
-            reference: against,
-        })
-    };
-    // One warm-up render (pipeline build), then `runs` timed ones; the last image is scored.
-    let timed = |o: &VolumeRenderOptions| -> Result<(Vec<f64>, Vec<[f64; 4]>)> {
-        renderer.render(&gv, o)?;
-        let mut ms = Vec::new();
-        let mut got = Vec::new();
-        for _ in 0..runs.max(1) {
-            let (img, t) = renderer.render(&gv, o)?;
-            ms.push(t.seconds * 1e3);
-            got = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
-        }
-        Ok((ms, got))
-    };
+    let mut rows = Vec::new();
     for precision in [
         Precision::U8,
         Precision::F16,
@@ -497,7 +589,7 @@ fn bench_volume_scene(
         Precision::F32c,
     ] {
         o.precision = precision;
-        let (ms, got) = timed(&o)?;
+        let (ms, got) = time_volume(&renderer, &gv, &o, runs)?;
         let r = row(precision.name().into(), &ms, &got, SAME_STEP)?;
         log(&format!(
             "{name} {}: {:.1} ms, rel RMS {:.2e}",
@@ -505,35 +597,24 @@ fn bench_volume_scene(
         ));
         rows.push(r);
     }
-    // f64 on the GPU where the adapter has shader f64 (lavapipe does).
-    let f64_gpu = crate::render::volume_f64::F64RayCaster::new(renderer.context().clone());
-    if f64_gpu.available() {
-        o.precision = Precision::F64;
-        f64_gpu.render(&gv, &o)?;
-        let mut ms = Vec::new();
-        let mut got = Vec::new();
-        for _ in 0..runs.max(1) {
-            let t = std::time::Instant::now();
-            got = f64_gpu.render(&gv, &o)?;
-            ms.push(t.elapsed().as_secs_f64() * 1e3);
-        }
+    o.precision = Precision::F64;
+    if let Some((ms, got)) = time_volume_f64_gpu(&renderer, &gv, &o, runs)? {
         rows.push(row("f64 (GPU)".into(), &ms, &got, SAME_STEP)?);
     }
     rows.push(row(
         format!("f64 step {}", options.step / 8.0),
-        &fine_point_ms,
-        &fine_point,
+        &[refs.fine_point_ms],
+        &refs.fine_point,
         CONVERGED,
     )?);
     // The other knobs, in f32 against the integral itself: coarser steps, and the transfer
     // function pre-integrated over each segment rather than sampled at its middle.
     o.precision = Precision::F32;
-    let base_step = options.step;
     for factor in [1.0, 2.0, 4.0] {
-        o.step = base_step * factor;
+        o.step = options.step * factor;
         for sampling in [TfSampling::Point, TfSampling::PreIntegrated] {
             o.tf_sampling = sampling;
-            let (ms, got) = timed(&o)?;
+            let (ms, got) = time_volume(&renderer, &gv, &o, runs)?;
             let variant = match sampling {
                 TfSampling::Point => format!("f32 step {}", o.step),
                 TfSampling::PreIntegrated => format!("f32 pre step {}", o.step),
@@ -541,16 +622,7 @@ fn bench_volume_scene(
             rows.push(row(variant, &ms, &got, CONVERGED)?);
         }
     }
-    rows.push(AccuracyRow {
-        scene: name.to_string(),
-        variant: "f64 (CPU)".into(),
-        median_ms: median(&f64_ms),
-        rel_rms: 0.0,
-        max_rel: 0.0,
-        psnr_8bit: f64::INFINITY,
-        lost_detail: 0.0,
-        reference: SAME_STEP,
-    });
+    rows.push(reference_row(name, &refs.same_step_ms, SAME_STEP));
     Ok(rows)
 }
 

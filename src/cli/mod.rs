@@ -1,6 +1,9 @@
-//! Command-line definitions (clap). Parsing only: every command calls into the library.
+//! Command-line definitions (clap). Parsing only: every command calls into the library, through
+//! its handler in [`run`], [`bench`], [`datasets`] or [`tonemap`].
 
+pub mod bench;
 pub mod datasets;
+pub mod run;
 pub mod tonemap;
 
 use clap::{Parser, Subcommand};

@@ -68,25 +68,7 @@ enum Format {
 /// Checks the options, reads the input, tone-maps it on `backend` and writes the output.
 pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     let input = args.input.display().to_string();
-    let format = match args
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .as_deref()
-    {
-        Some("png") => Format::Png,
-        Some("exr") => Format::Exr,
-        _ => {
-            return Err(Error::invalid(
-                "--output",
-                format!(
-                    "{}: expected a .png or .exr file name",
-                    args.output.display()
-                ),
-            ))
-        }
-    };
+    let format = output_format(args)?;
     if args.sixteen_bit && matches!(format, Format::Exr) {
         return Err(Error::invalid(
             "--sixteen-bit",
@@ -94,30 +76,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         ));
     }
     check_ev("--exposure", args.exposure)?;
-    let mut pairs: Vec<(String, f64)> = Vec::new();
-    for (name, value) in [
-        ("key", args.key),
-        ("white", args.white),
-        ("bias", args.bias),
-    ] {
-        if let Some(v) = value {
-            pairs.push((name.to_string(), v));
-        }
-    }
-    for p in &args.params {
-        let parsed = p
-            .split_once('=')
-            .and_then(|(k, v)| Some((k.trim().to_string(), v.trim().parse::<f64>().ok()?)));
-        match parsed {
-            Some(kv) if !kv.0.is_empty() => pairs.push(kv),
-            _ => {
-                return Err(Error::invalid(
-                    "--param",
-                    format!("expected NAME=NUMBER, got {p:?}"),
-                ))
-            }
-        }
-    }
+    let pairs = operator_params(args)?;
     let borrowed: Vec<(&str, f64)> = pairs.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let op = Operator::parse(&args.op, &borrowed).map_err(|e| with_flag(e, "--op"))?;
     let mut settings = ToneMapSettings {
@@ -128,16 +87,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         op,
     };
     settings.validate()?;
-    let auto = match args.auto_exposure.as_deref() {
-        None => None,
-        Some(m @ ("key" | "percentile")) => Some(m),
-        Some(other) => {
-            return Err(Error::invalid(
-                "--auto-exposure",
-                format!("unknown mode {other:?}; known: key, percentile"),
-            ))
-        }
-    };
+    let auto = auto_exposure_mode(args)?;
 
     let img = hdrvis::io::exr::read_exr(&args.input).map_err(one_line)?;
     if let Some(mode) = auto {
@@ -173,6 +123,69 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         out.height
     );
     Ok(())
+}
+
+/// The output's format, from its file name's extension.
+fn output_format(args: &ToneMapArgs) -> Result<Format> {
+    match args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
+        Some("png") => Ok(Format::Png),
+        Some("exr") => Ok(Format::Exr),
+        _ => Err(Error::invalid(
+            "--output",
+            format!(
+                "{}: expected a .png or .exr file name",
+                args.output.display()
+            ),
+        )),
+    }
+}
+
+/// The operator's parameters: `--key`, `--white` and `--bias` where given, then every
+/// `--param NAME=NUMBER`.
+fn operator_params(args: &ToneMapArgs) -> Result<Vec<(String, f64)>> {
+    let mut pairs: Vec<(String, f64)> = Vec::new();
+    for (name, value) in [
+        ("key", args.key),
+        ("white", args.white),
+        ("bias", args.bias),
+    ] {
+        if let Some(v) = value {
+            pairs.push((name.to_string(), v));
+        }
+    }
+    for p in &args.params {
+        let parsed = p
+            .split_once('=')
+            .and_then(|(k, v)| Some((k.trim().to_string(), v.trim().parse::<f64>().ok()?)));
+        match parsed {
+            Some(kv) if !kv.0.is_empty() => pairs.push(kv),
+            _ => {
+                return Err(Error::invalid(
+                    "--param",
+                    format!("expected NAME=NUMBER, got {p:?}"),
+                ))
+            }
+        }
+    }
+    Ok(pairs)
+}
+
+/// The `--auto-exposure` mode, checked: none, `key` or `percentile`.
+fn auto_exposure_mode(args: &ToneMapArgs) -> Result<Option<&str>> {
+    match args.auto_exposure.as_deref() {
+        None => Ok(None),
+        Some(m @ ("key" | "percentile")) => Ok(Some(m)),
+        Some(other) => Err(Error::invalid(
+            "--auto-exposure",
+            format!("unknown mode {other:?}; known: key, percentile"),
+        )),
+    }
 }
 
 /// Prefixes an operator error with the flag that carried it, so the line names the input.

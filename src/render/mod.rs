@@ -2,15 +2,12 @@
 //! they trace the same rays through the same optical model.
 
 pub mod bricked;
-pub mod bricked_bench;
 pub mod cache;
 pub mod cpu_reference;
-pub mod effects_bench;
 pub mod passes;
 pub mod route;
 pub mod session;
 pub mod surface;
-pub mod surface_bench;
 pub mod surface_reference;
 pub mod volume;
 pub mod volume_f64;

@@ -1,10 +1,9 @@
 //! Exposure and tone mapping of HDR images: operator parameters (names and defaults from the
 //! papers), their f64 CPU references, the GPU passes (`shaders/tonemap/`, host code in [`gpu`]),
-//! exposure in stops and exposure brackets (several views of one HDR image, no re-render), and
-//! the `hdrvis bench tonemap` benchmark.
+//! and exposure in stops and exposure brackets (several views of one HDR image, no re-render);
+//! the `hdrvis bench tonemap` benchmark is [`crate::bench::tonemap`].
 
 pub mod bands;
-pub mod bench;
 pub mod cpu;
 pub mod gpu;
 pub mod params;

@@ -3,11 +3,10 @@
 //! [`view`] turns the HDR image into the display image, [`worker`] runs scripts and encodes
 //! pictures off the UI thread, [`protocol`] finds how the terminal shows pictures, [`terminal`]
 //! guarantees the terminal is restored, [`decode`] reads sixel/kitty payloads back (for tests),
-//! [`preview`] prints images inline for `hdrvis run --preview`, and [`bench`] times key press to
+//! [`preview`] prints images inline for `hdrvis run --preview`, and [`crate::bench::tui`] times key press to
 //! updated preview. The event loop here polls input every 15 ms and never waits on a render.
 
 pub mod app;
-pub mod bench;
 pub mod decode;
 pub mod histogram;
 pub mod preview;

@@ -2,26 +2,15 @@
 //! from empty-space skipping on the paper's mantle, and an f32 volume larger than the memory
 //! budget rendered out of core with its peak memory. Timings live here, never in tests.
 
-use super::bricked::{BrickCache, BrickedStats};
-use super::volume::{GpuVolume, VolumeRenderer};
-use super::{FilterMode, VolumeRenderOptions};
-use crate::bench::{median, peak_memory_mib};
+use super::{mantle_fig5_tf, median, peak_memory_mib, process_cpu_ms};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::bricks::BrickedVolume;
-use crate::model::{Axis, Camera, LutTransfer, Scale, TransferFunction};
+use crate::model::{Axis, Camera, LutTransfer, TransferFunction};
+use crate::render::bricked::{BrickCache, BrickedStats};
+use crate::render::volume::{GpuVolume, VolumeRenderer};
+use crate::render::{FilterMode, VolumeRenderOptions};
 use std::sync::Arc;
-
-/// CPU seconds this process has used (user + system, Linux `/proc/self/stat`): on CPU
-/// rasterizers the render's work, and unlike wall-clock time barely disturbed by other jobs.
-pub fn process_cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the command name (which is in parentheses and may hold spaces).
-    let rest = &stat[stat.rfind(')')? + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
-}
 
 /// One timed configuration.
 #[derive(Clone, Debug)]
@@ -29,7 +18,7 @@ pub struct BrickBenchRow {
     pub scene: String,
     pub path: String,
     pub runs_ms: Vec<f64>,
-    /// CPU milliseconds of each run (see [`process_cpu_seconds`]).
+    /// CPU milliseconds of each run (see [`process_cpu_ms`]).
     pub cpu_ms: Vec<f64>,
     pub stats: Option<BrickedStats>,
     /// Largest difference from the plain exact render, relative to its peak colour.
@@ -39,14 +28,7 @@ pub struct BrickBenchRow {
 /// The mantle's Fig. 5 transfer function (symlog of the temperature fluctuation), and the same
 /// with everything below the hot anomalies transparent.
 fn mantle_tfs() -> Vec<(&'static str, TransferFunction)> {
-    let fig5 = LutTransfer {
-        scale: Scale::Symlog { linthresh: 1e-3 },
-        domain: Some([-0.3, 0.45]),
-        colormap: "spectral".into(),
-        emission: vec![[0.0, -1.0], [0.45, -3.0], [0.55, -3.0], [1.0, -0.5]],
-        opacity: vec![[0.0, -1.5], [0.4, -3.5], [0.6, -3.5], [1.0, -1.0]],
-        ..Default::default()
-    };
+    let fig5 = mantle_fig5_tf();
     let plumes = LutTransfer {
         transparent_below: 0.62,
         ..fig5.clone()
@@ -70,6 +52,26 @@ fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
         / peak
 }
 
+/// Wall-clock and process CPU milliseconds of each timed run.
+type Timings = (Vec<f64>, Vec<f64>);
+
+/// One warm-up call of `render`, then `runs` (at least one) timed ones: the wall-clock ms each
+/// reported and the process's CPU ms each took, and the last output.
+fn time_runs<T>(runs: usize, mut render: impl FnMut() -> Result<(T, f64)>) -> Result<(Timings, T)> {
+    render()?;
+    let mut ms = Vec::new();
+    let mut cpu_ms = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let c0 = process_cpu_ms().unwrap_or(f64::NAN);
+        let (out, seconds) = render()?;
+        cpu_ms.push(process_cpu_ms().unwrap_or(f64::NAN) - c0);
+        ms.push(seconds * 1e3);
+        last = Some(out);
+    }
+    Ok(((ms, cpu_ms), last.expect("one run")))
+}
+
 /// The mantle's temperature fluctuation at n³ rendered at size² (orbit view, one sample per
 /// voxel): the plain ray caster (auto and exact filter), bricked without and with skipping.
 pub fn bench_skipping(
@@ -81,7 +83,7 @@ pub fn bench_skipping(
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<BrickBenchRow>> {
     log(&format!("generating the {n}^3 mantle ..."));
-    let vol = Arc::new(crate::bench::mantle_fluctuation(n, 7)?);
+    let vol = Arc::new(super::mantle_fluctuation(n, 7)?);
     let renderer = VolumeRenderer::new(ctx);
     let gv = GpuVolume::upload(renderer.context(), &vol)?;
     let bv = Arc::new(BrickedVolume::from_volume(vol.clone(), brick)?);
@@ -95,50 +97,31 @@ pub fn bench_skipping(
         let mut exact = o.clone();
         exact.filter = FilterMode::Exact;
         let reference = renderer.render(&gv, &exact)?.0.pixels;
-        for (path, opts) in [("plain (auto filter)", &o), ("plain (exact)", &exact)] {
-            renderer.render(&gv, opts)?;
-            let mut ms = Vec::new();
-            let mut cpu_ms = Vec::new();
-            let mut img = Vec::new();
-            for _ in 0..runs.max(1) {
-                let c0 = process_cpu_seconds().unwrap_or(f64::NAN);
-                let (i, t) = renderer.render(&gv, opts)?;
-                cpu_ms.push((process_cpu_seconds().unwrap_or(f64::NAN) - c0) * 1e3);
-                ms.push(t.seconds * 1e3);
-                img = i.pixels;
-            }
-            log(&format!("{scene}, {path}: {:.1} ms", median(&ms)));
+        let mut record = |path: &str, (runs_ms, cpu_ms): Timings, img: &[[f32; 4]], stats| {
+            log(&format!("{scene}, {path}: {:.1} ms", median(&runs_ms)));
             rows.push(BrickBenchRow {
                 scene: scene.into(),
                 path: path.into(),
-                runs_ms: ms,
+                runs_ms,
                 cpu_ms,
-                stats: None,
-                diff: max_diff(&img, &reference),
+                stats,
+                diff: max_diff(img, &reference),
             });
+        };
+        for (path, opts) in [("plain (auto filter)", &o), ("plain (exact)", &exact)] {
+            let (timings, img) = time_runs(runs, || {
+                let (i, t) = renderer.render(&gv, opts)?;
+                Ok((i.pixels, t.seconds))
+            })?;
+            record(path, timings, &img, None);
         }
         for (path, skip) in [("bricked", false), ("bricked + skipping", true)] {
-            renderer.render_bricked(&mut cache, &o, skip)?;
-            let mut ms = Vec::new();
-            let mut cpu_ms = Vec::new();
-            let mut last = None;
-            for _ in 0..runs.max(1) {
-                let c0 = process_cpu_seconds().unwrap_or(f64::NAN);
+            let (timings, (img, st)) = time_runs(runs, || {
                 let (i, st) = renderer.render_bricked(&mut cache, &o, skip)?;
-                cpu_ms.push((process_cpu_seconds().unwrap_or(f64::NAN) - c0) * 1e3);
-                ms.push(st.seconds * 1e3);
-                last = Some((i.pixels, st));
-            }
-            let (img, st) = last.expect("one run");
-            log(&format!("{scene}, {path}: {:.1} ms", median(&ms)));
-            rows.push(BrickBenchRow {
-                scene: scene.into(),
-                path: path.into(),
-                runs_ms: ms,
-                cpu_ms,
-                diff: max_diff(&img, &reference),
-                stats: Some(st),
-            });
+                let seconds = st.seconds;
+                Ok(((i.pixels, st), seconds))
+            })?;
+            record(path, timings, &img, Some(st));
         }
     }
     Ok(rows)
@@ -212,20 +195,11 @@ pub struct LargeReport {
 /// The HDR blobs of `hdrvis bench volume` at n³ (five decades over a 1e-4 floor), one z-slice.
 fn blob_slice(n: usize, k: usize, out: &mut [f32]) {
     use rayon::prelude::*;
-    let f = n as f64;
     let z = k as f64 + 0.5;
     out.par_chunks_mut(n).enumerate().for_each(|(j, row)| {
         let y = j as f64 + 0.5;
         for (i, o) in row.iter_mut().enumerate() {
-            let x = i as f64 + 0.5;
-            let g = |cx: f64, cy: f64, cz: f64, s: f64, amp: f64| {
-                let d2 = (x - cx * f).powi(2) + (y - cy * f).powi(2) + (z - cz * f).powi(2);
-                amp * (-d2 / (2.0 * (s * f).powi(2))).exp()
-            };
-            *o = (1e-4
-                + g(0.35, 0.4, 0.5, 0.10, 10.0)
-                + g(0.65, 0.6, 0.45, 0.14, 0.05)
-                + g(0.5, 0.3, 0.65, 0.06, 1e-3)) as f32;
+            *o = super::hdr_blobs_at(n, i as f64 + 0.5, y, z) as f32;
         }
     });
 }
@@ -265,7 +239,7 @@ pub fn bench_large(
     let t = std::time::Instant::now();
     let bv = Arc::new(crate::datasets::bricked::open_bricked(&path, None, brick)?);
     let index_s = t.elapsed().as_secs_f64();
-    let tf = match crate::bench::bench_tf() {
+    let tf = match super::bench_tf() {
         TransferFunction::Lut(l) => TransferFunction::Lut(LutTransfer {
             transparent_below: 0.15,
             ..l

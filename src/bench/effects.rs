@@ -4,13 +4,13 @@
 //! (a session whose cache holds nothing, so every image runs the upload and ray cast again). Each timing ends
 //! with the images in host memory; medians of several runs after one warm-up.
 
-use super::passes::count_ran;
-use super::session::RenderSession;
-use super::{Shading, VolumeRenderOptions};
-use crate::bench::median;
+use super::median;
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::model::{Camera, LutTransfer, Scale, TransferFunction, Volume};
+use crate::render::passes::count_ran;
+use crate::render::session::RenderSession;
+use crate::render::{Shading, VolumeRenderOptions};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -31,7 +31,7 @@ impl EffectRow {
 
 fn scene(n: usize) -> Result<Volume> {
     let seed = crate::datasets::mantle::MantleOptions::default().seed;
-    crate::bench::mantle_fluctuation(n, seed)
+    super::mantle_fluctuation(n, seed)
 }
 
 fn tf() -> Result<TransferFunction> {

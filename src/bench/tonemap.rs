@@ -5,12 +5,12 @@
 //! one warm-up call that builds the pipelines. Reports the adapter and the median of the runs,
 //! against the targets on 1024² (global operators 30 ms, local ones 300 ms).
 
-use super::gpu::GpuToneMapper;
-use super::params::{Operator, ToneMapSettings};
-use crate::bench::median;
+use super::{median, process_cpu_ms};
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::model::HdrImage;
+use crate::tonemap::gpu::GpuToneMapper;
+use crate::tonemap::params::{Operator, ToneMapSettings};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -67,6 +67,15 @@ pub fn synthetic_hdr(width: u32, height: u32) -> HdrImage {
         })
         .collect();
     HdrImage::from_pixels(width, height, pixels)
+}
+
+/// The image sides of the benchmark: 1024, 2048 and 4096, or with `quick` only 1024.
+pub fn sizes(quick: bool) -> &'static [u32] {
+    if quick {
+        &[1024]
+    } else {
+        &[1024, 2048, 4096]
+    }
 }
 
 /// Times every operator on square synthetic images of each size: one warm-up, then `runs`.
@@ -141,17 +150,6 @@ pub fn bench_tonemap(
         }
     }
     Ok(rows)
-}
-
-/// User plus system time of this process so far in ms, from `/proc/self/stat` (Linux; clock
-/// ticks of 10 ms, so meaningful summed over several runs), or `None` elsewhere.
-pub fn process_cpu_ms() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
-    let rest = &stat[stat.rfind(')')? + 2..];
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
-    Some(ticks * 10.0)
 }
 
 /// The benchmark's table: adapter, then one line per operator and size.

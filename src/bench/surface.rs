@@ -3,11 +3,11 @@
 //! full two-step render of a new grid (upload, data pass, fringe pass, readback). Each timing ends
 //! with the image in host memory. The grid is an Okada-like field with ν·d spanning ~10⁴ fringes.
 
-use super::surface::{FringeMode, SurfaceOptions, SurfaceRenderer};
-use crate::bench::median;
+use super::median;
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::model::Grid;
+use crate::render::surface::{FringeMode, SurfaceOptions, SurfaceRenderer};
 use std::sync::Arc;
 use std::time::Instant;
 

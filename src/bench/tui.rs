@@ -37,7 +37,7 @@ pub struct TuiBenchRow {
 
 impl TuiBenchRow {
     pub fn median(&self) -> f64 {
-        crate::bench::median(&self.runs_ms)
+        super::median(&self.runs_ms)
     }
 }
 

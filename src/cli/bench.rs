@@ -1,0 +1,155 @@
+//! `hdrvis bench …`: each subcommand is one benchmark of `hdrvis::bench`, its progress on stderr
+//! and its table on stdout (the accuracy benchmark also writes its files and, on a terminal,
+//! shows its chart inline).
+
+use super::BenchCommand;
+use hdrvis::bench::{accuracy, bricks, datasets, effects, surface, tonemap, tui, volume};
+use hdrvis::gpu::{BackendChoice, GpuContext};
+use hdrvis::Result;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Runs the benchmark `cmd` names and prints its report.
+pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
+    match cmd {
+        BenchCommand::Volume {
+            runs,
+            quick,
+            peer,
+            breakdown,
+        } => bench_volume(backend, runs, quick, peer.as_deref(), breakdown),
+        BenchCommand::Accuracy {
+            runs,
+            size,
+            n,
+            grid,
+            out,
+            scene,
+        } => bench_accuracy(backend, runs, (size, n, grid), &out, scene.as_deref()),
+        BenchCommand::Bricks {
+            runs,
+            n,
+            size,
+            brick,
+        } => {
+            let (ctx, adapter) = gpu(backend)?;
+            let rows = bricks::bench_skipping(ctx, n, size, brick, runs, &mut progress)?;
+            print!(
+                "{}",
+                bricks::format_skipping_table(&adapter, n, size, &rows)
+            );
+            Ok(())
+        }
+        BenchCommand::Large {
+            runs,
+            n,
+            size,
+            gpu_memory,
+            brick,
+        } => {
+            let (ctx, adapter) = gpu(backend)?;
+            let report = bricks::bench_large(ctx, n, size, gpu_memory, brick, runs, &mut progress)?;
+            print!("{}", bricks::format_large_report(&adapter, &report));
+            Ok(())
+        }
+        BenchCommand::Datasets { runs, quick } => {
+            let rows = datasets::bench_generators(runs, quick, &mut progress)?;
+            print!("{}", datasets::format_generator_table(&rows));
+            Ok(())
+        }
+        BenchCommand::Tonemap { runs, quick } => {
+            let (ctx, adapter) = gpu(backend)?;
+            let rows = tonemap::bench_tonemap(ctx, tonemap::sizes(quick), runs, &mut progress)?;
+            print!("{}", tonemap::format_tonemap_table(&adapter, &rows));
+            Ok(())
+        }
+        BenchCommand::Tui { runs, n } => {
+            let (adapter, rows) = tui::bench_tui(backend, n, runs, &mut progress)?;
+            print!("{}", tui::format_tui_table(&adapter, &rows));
+            Ok(())
+        }
+        BenchCommand::Effects { runs, n, size } => {
+            let (ctx, adapter) = gpu(backend)?;
+            let rows = effects::bench_effects(ctx, n, size, runs, &mut progress)?;
+            print!(
+                "{}",
+                effects::format_effects_table(&adapter, n, size, &rows)
+            );
+            Ok(())
+        }
+        BenchCommand::Surface { runs, n } => {
+            let (ctx, adapter) = gpu(backend)?;
+            let rows = surface::bench_surface(ctx, n, runs, &mut progress)?;
+            print!("{}", surface::format_surface_table(&adapter, &rows));
+            Ok(())
+        }
+    }
+}
+
+/// A benchmark's progress line, on stderr.
+fn progress(message: &str) {
+    eprintln!("{message}");
+}
+
+/// The GPU context of `backend` and the description of its adapter that heads every table.
+fn gpu(backend: BackendChoice) -> Result<(Arc<GpuContext>, String)> {
+    let ctx = GpuContext::new(backend)?;
+    let adapter = ctx.describe();
+    Ok((ctx, adapter))
+}
+
+fn bench_volume(
+    backend: BackendChoice,
+    runs: usize,
+    quick: bool,
+    peer: Option<&str>,
+    breakdown: bool,
+) -> Result<()> {
+    let (ctx, adapter) = gpu(backend)?;
+    let peer_script = volume::peer_script(peer)?;
+    let rows = volume::bench_volume_render(
+        ctx,
+        volume::volume_sizes(quick),
+        runs,
+        peer_script.as_deref(),
+        breakdown,
+        &mut progress,
+    )?;
+    print!("{}", volume::format_volume_table(&adapter, &rows));
+    print!("{}", volume::format_breakdown_table(&rows));
+    Ok(())
+}
+
+/// `(size, n, grid)`: image side, volume side and surface grid side of the scenes.
+fn bench_accuracy(
+    backend: BackendChoice,
+    runs: usize,
+    (size, n, grid): (u32, usize, usize),
+    out: &Path,
+    scene: Option<&str>,
+) -> Result<()> {
+    let (ctx, adapter) = gpu(backend)?;
+    let scenes = accuracy::accuracy_scenes(size, n, grid, scene)?;
+    let rows = accuracy::bench_accuracy(ctx, &scenes, runs, &mut progress)?;
+    print!("{}", accuracy::format_accuracy_table(&adapter, &rows));
+    let (csv, json) = accuracy::write_accuracy_files(out, &rows)?;
+    let chart = accuracy::write_accuracy_chart(out, &adapter, &rows)?;
+    println!(
+        "wrote {}, {} and {}",
+        csv.display(),
+        json.display(),
+        chart.display()
+    );
+    if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
+        let config = viuer::Config {
+            absolute_offset: false,
+            width: Some(80),
+            ..Default::default()
+        };
+        // A terminal that cannot show images still has the file.
+        if let Ok(img) = image::open(&chart) {
+            let _ = viuer::print(&img, &config);
+        }
+    }
+    Ok(())
+}
