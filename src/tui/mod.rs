@@ -3,19 +3,22 @@
 //! [`view`] turns the HDR image into the display image, [`worker`] runs scripts and encodes
 //! pictures off the UI thread, [`protocol`] finds how the terminal shows pictures, [`terminal`]
 //! guarantees the terminal is restored, [`decode`] reads sixel/kitty payloads back (for tests),
-//! [`preview`] prints images inline for `hdrvis run --preview`, and [`bench`] times key press to
-//! updated preview. The event loop here polls input every 15 ms and never waits on a render.
+//! and [`bench`] times key press to updated preview. One-shot inline pictures
+//! (`hdrvis run --preview`) are the io layer's ([`crate::io::terminal`]). The event loop here polls input every 15 ms and never waits on a render.
 
 pub mod app;
 pub mod bench;
 pub mod decode;
 pub mod histogram;
-pub mod preview;
 pub mod protocol;
 pub mod terminal;
 pub mod ui;
 pub mod view;
 pub mod worker;
+
+/// `hdrvis run --preview` prints through the one inline printer of the io layer (the script's
+/// `preview(image)` uses it too); this name keeps `tui::preview::print_inline` working.
+pub use crate::io::terminal as preview;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;

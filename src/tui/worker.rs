@@ -7,6 +7,7 @@
 //! newest request: keys pressed while a job runs coalesce into one job.
 
 use crate::error::{Error, Result};
+use crate::io::terminal::srgb8_picture;
 use crate::model::HdrImage;
 use crate::render::passes::{PassOutcome, PassRecord};
 use crate::render::session::RenderSession;
@@ -14,7 +15,7 @@ use crate::script::{run_script_file, ParamRecord, ScriptOptions};
 use crate::tui::app::{LOW_RES_SCALE, PREVIEW_SCALE};
 use crate::tui::histogram::LogHistogram;
 use crate::tui::protocol::Display;
-use crate::tui::view::{display_image, resample, to_rgb8, ViewSettings};
+use crate::tui::view::{display_image, resample, ViewSettings};
 use ratatui::layout::Rect;
 use ratatui_image::protocol::Protocol;
 use std::path::PathBuf;
@@ -211,7 +212,7 @@ pub fn prepare(
         64,
     );
     let size = (shown.width, shown.height);
-    let protocol = display.encode(to_rgb8(&shown), area)?;
+    let protocol = display.encode(srgb8_picture(&shown), area)?;
     Ok(Prepared {
         protocol,
         histogram,
