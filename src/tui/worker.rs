@@ -109,7 +109,6 @@ pub fn spawn_render_worker(
     script: PathBuf,
     base: ScriptOptions,
     session: Arc<RenderSession>,
-    wake: Sender<()>,
 ) -> (Sender<RenderJob>, Receiver<RenderDone>) {
     let (job_tx, job_rx) = channel::<RenderJob>();
     let (done_tx, done_rx) = channel();
@@ -151,7 +150,6 @@ pub fn spawn_render_worker(
                     if sent.is_err() {
                         return;
                     }
-                    let _ = wake.send(());
                     if failed {
                         continue;
                     }
@@ -172,7 +170,6 @@ pub fn spawn_render_worker(
                 if sent.is_err() {
                     return;
                 }
-                let _ = wake.send(());
             }
         })
         .expect("spawning the render thread");
@@ -235,10 +232,7 @@ pub struct ViewDone {
 }
 
 /// Starts the view worker; results arrive on the returned receiver.
-pub fn spawn_view_worker(
-    display: Display,
-    wake: Sender<()>,
-) -> (Sender<ViewJob>, Receiver<ViewDone>) {
+pub fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<ViewDone>) {
     let (job_tx, job_rx) = channel::<ViewJob>();
     let (done_tx, done_rx) = channel();
     std::thread::Builder::new()
@@ -257,7 +251,6 @@ pub fn spawn_view_worker(
                 if done_tx.send(done).is_err() {
                     return;
                 }
-                let _ = wake.send(());
             }
         })
         .expect("spawning the view thread");
