@@ -258,14 +258,8 @@ fn accuracy_metrics(
         crate::model::HdrImage::from_pixels(w, h, p.iter().map(|q| q.map(|v| v as f32)).collect())
     };
     let settings = crate::tonemap::params::ToneMapSettings::default();
-    let a = crate::tonemap::cpu::to_srgb8(&crate::tonemap::cpu::tonemap_cpu(
-        &to_image(got),
-        &settings,
-    )?);
-    let b = crate::tonemap::cpu::to_srgb8(&crate::tonemap::cpu::tonemap_cpu(
-        &to_image(reference),
-        &settings,
-    )?);
+    let a = crate::tonemap::cpu::tonemap_cpu(&to_image(got), &settings)?.to_srgb8();
+    let b = crate::tonemap::cpu::tonemap_cpu(&to_image(reference), &settings)?.to_srgb8();
     let mse = a
         .iter()
         .zip(&b)

@@ -140,16 +140,12 @@ fn bench_accuracy(
         json.display(),
         chart.display()
     );
-    if std::io::IsTerminal::is_terminal(&std::io::stdout()) {
-        let config = viuer::Config {
-            absolute_offset: false,
-            width: Some(80),
-            ..Default::default()
-        };
-        // A terminal that cannot show images still has the file.
-        if let Ok(img) = image::open(&chart) {
-            let _ = viuer::print(&img, &config);
-        }
-    }
+    // A terminal that cannot show images still has the file.
+    let _ = hdrvis::io::terminal::print_file_inline(
+        &chart,
+        hdrvis::io::terminal::ProtocolChoice::Auto,
+        80,
+        "accuracy chart",
+    );
     Ok(())
 }

@@ -7,7 +7,7 @@ use hdrvis::gpu::BackendChoice;
 use hdrvis::model::HdrImage;
 use hdrvis::render::cache::budget_mib;
 use hdrvis::script::{run_script_file, run_script_source, ScriptOptions};
-use hdrvis::tui::protocol::ProtocolChoice;
+use hdrvis::io::terminal::ProtocolChoice;
 use hdrvis::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -64,7 +64,7 @@ fn script_options(args: &RunArgs, backend: BackendChoice) -> Result<ScriptOption
 fn print_previews(script: &Path, images: &[Arc<HdrImage>], protocol: ProtocolChoice) -> Result<()> {
     for (i, img) in images.iter().enumerate() {
         let title = format!("{} image {}", script.display(), i + 1);
-        if !hdrvis::tui::preview::print_inline(img, &title, protocol, 60)? {
+        if !hdrvis::io::terminal::print_inline(img, &title, protocol, 60)? {
             eprintln!("--preview: stdout is not a terminal; no inline images");
             break;
         }

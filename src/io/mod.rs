@@ -1,8 +1,10 @@
 //! Image files — OpenEXR (the linear HDR master) and PNG (display views) — and the one way every output is written: to a temporary file in the destination folder
-//! that is renamed into place, so no reader ever sees a half-written file.
+//! that is renamed into place, so no reader ever sees a half-written file. The terminal is a sink
+//! too: [`terminal`] prints pictures inline, once.
 
 pub mod exr;
 pub mod png;
+pub mod terminal;
 
 use crate::error::{Error, Result};
 use std::io::Write;

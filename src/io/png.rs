@@ -1,26 +1,11 @@
-//! PNG display views of HDR images: a plain exposure (× 2^EV) followed by the sRGB curve, 8-bit or
-//! 16-bit, composited over the image's own background (colour is premultiplied, so RGB is final).
-//! Real tone-mapping operators feed the same writer with display-referred values.
+//! PNG display views of HDR images: a plain exposure (× 2^EV) followed by the sRGB curve, 8-bit
+//! or 16-bit ([`HdrImage::to_srgb8`], [`HdrImage::to_srgb16`]), composited over the image's own
+//! background (colour is premultiplied, so RGB is final). Real tone-mapping operators feed the
+//! same writer with display-referred values.
 
 use crate::error::{Error, Result};
-use crate::model::colormap::linear_to_srgb;
 use crate::model::HdrImage;
 use std::path::Path;
-
-/// Display-referred linear RGB in [0, 1] → sRGB-encoded 8-bit. Non-finite values (missing) show as 0.
-pub fn encode_srgb8(v: f64) -> u8 {
-    if !v.is_finite() {
-        return 0;
-    }
-    (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5).floor() as u8
-}
-
-pub fn encode_srgb16(v: f64) -> u16 {
-    if !v.is_finite() {
-        return 0;
-    }
-    (linear_to_srgb(v.clamp(0.0, 1.0)) * 65535.0 + 0.5).floor() as u16
-}
 
 /// Writes display-referred linear values (clamped to [0, 1]) as an sRGB PNG.
 pub fn write_display_png(image: &HdrImage, path: &Path, sixteen_bit: bool) -> Result<()> {
@@ -33,19 +18,14 @@ pub fn write_display_png(image: &HdrImage, path: &Path, sixteen_bit: bool) -> Re
         use image::ImageEncoder;
         let result = if sixteen_bit {
             let bytes: Vec<u8> = image
-                .pixels
-                .iter()
-                .flat_map(|p| [p[0], p[1], p[2]])
-                .flat_map(|v| encode_srgb16(v as f64).to_be_bytes())
+                .to_srgb16()
+                .into_iter()
+                .flatten()
+                .flat_map(u16::to_be_bytes)
                 .collect();
             encoder.write_image(&bytes, w, h, image::ExtendedColorType::Rgb16)
         } else {
-            let bytes: Vec<u8> = image
-                .pixels
-                .iter()
-                .flat_map(|p| [p[0], p[1], p[2]])
-                .map(|v| encode_srgb8(v as f64))
-                .collect();
+            let bytes = image.to_srgb8().into_flattened();
             encoder.write_image(&bytes, w, h, image::ExtendedColorType::Rgb8)
         };
         result.map_err(|e| Error::format(path, format!("cannot encode PNG: {e}")))
@@ -73,16 +53,6 @@ pub fn write_exposed_png(image: &HdrImage, path: &Path, exposure_ev: f64) -> Res
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn srgb_encoding_endpoints_and_midtone() {
-        assert_eq!(encode_srgb8(0.0), 0);
-        assert_eq!(encode_srgb8(1.0), 255);
-        assert_eq!(encode_srgb8(5.0), 255);
-        assert_eq!(encode_srgb8(f64::NAN), 0);
-        // 18 % grey encodes to 118 in sRGB.
-        assert_eq!(encode_srgb8(0.18), 118);
-    }
 
     #[test]
     fn png_written_and_decodable() {

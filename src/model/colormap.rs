@@ -1,6 +1,8 @@
 //! Named colour maps, taken from the `colorgrad` crate rather than hand-typed tables. Maps are
 //! defined in display (sRGB-encoded) colour; [`Colormap::linear_rgb`] converts to linear light,
 //! which is what an HDR image holds, so a map shows its intended colours after the sRGB curve.
+//! That curve lives here, once for the whole crate: [`linear_to_srgb`] / [`srgb_to_linear`],
+//! and the 8- and 16-bit quantisers every display image (PNG, terminal) goes through.
 
 use crate::error::{Error, Result};
 use colorgrad::Gradient;
@@ -112,8 +114,10 @@ impl Colormap {
     }
 }
 
-/// The IEC 61966-2-1 sRGB decoding curve.
-pub fn srgb_to_linear(v: f64) -> f64 {
+/// The IEC 61966-2-1 sRGB decoding curve (exact piecewise form): an encoded value, clamped to
+/// [0, 1], to linear light.
+pub fn srgb_to_linear(encoded: f64) -> f64 {
+    let v = encoded.clamp(0.0, 1.0);
     if v <= 0.04045 {
         v / 12.92
     } else {
@@ -121,13 +125,36 @@ pub fn srgb_to_linear(v: f64) -> f64 {
     }
 }
 
-/// The IEC 61966-2-1 sRGB encoding curve.
-pub fn linear_to_srgb(v: f64) -> f64 {
+/// The IEC 61966-2-1 sRGB encoding curve (exact piecewise form): linear light, clamped to
+/// [0, 1] (NaN as 0), to the encoded value.
+pub fn linear_to_srgb(linear: f64) -> f64 {
+    let v = if linear.is_nan() {
+        0.0
+    } else {
+        linear.clamp(0.0, 1.0)
+    };
     if v <= 0.0031308 {
         12.92 * v
     } else {
         1.055 * v.powf(1.0 / 2.4) - 0.055
     }
+}
+
+/// Display-referred linear light (clamped to [0, 1]) as 8-bit sRGB, rounded to nearest.
+/// Non-finite values (missing data) show as 0, so +inf is black too.
+pub fn encode_srgb8(linear: f64) -> u8 {
+    if !linear.is_finite() {
+        return 0;
+    }
+    (linear_to_srgb(linear) * 255.0 + 0.5).floor() as u8
+}
+
+/// As [`encode_srgb8`], 16 bits deep (16-bit PNG).
+pub fn encode_srgb16(linear: f64) -> u16 {
+    if !linear.is_finite() {
+        return 0;
+    }
+    (linear_to_srgb(linear) * 65535.0 + 0.5).floor() as u16
 }
 
 #[cfg(test)]
@@ -170,10 +197,39 @@ mod tests {
     }
 
     #[test]
-    fn srgb_curve_round_trips() {
+    fn srgb_curve_matches_iec_61966_2_1() {
+        assert_eq!(linear_to_srgb(0.0), 0.0);
+        assert!((linear_to_srgb(1.0) - 1.0).abs() < 1e-12);
+        // The two pieces meet at 0.0031308 -> 0.04045 (to 4 decimals).
+        assert!((linear_to_srgb(0.0031308) - 0.040449936).abs() < 1e-8);
+        assert!((linear_to_srgb(0.18) - 0.461356).abs() < 1e-6);
+        // Out of range clamps; NaN encodes as 0 (decoding keeps NaN: missing stays missing).
+        assert_eq!(linear_to_srgb(-1.0), 0.0);
+        assert_eq!(linear_to_srgb(5.0), linear_to_srgb(1.0));
+        assert_eq!(linear_to_srgb(f64::NAN), 0.0);
+        assert_eq!(srgb_to_linear(2.0), 1.0);
+        assert!(srgb_to_linear(f64::NAN).is_nan());
         for i in 0..=100 {
             let v = i as f64 / 100.0;
             assert!((linear_to_srgb(srgb_to_linear(v)) - v).abs() < 1e-12);
+            assert!((srgb_to_linear(linear_to_srgb(v)) - v).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn srgb_quantisation_endpoints_and_midtones() {
+        assert_eq!(encode_srgb8(0.0), 0);
+        assert_eq!(encode_srgb8(1.0), 255);
+        assert_eq!(encode_srgb8(5.0), 255);
+        assert_eq!(encode_srgb8(-5.0), 0);
+        // Missing values are black, whatever their sign.
+        assert_eq!(encode_srgb8(f64::NAN), 0);
+        assert_eq!(encode_srgb8(f64::INFINITY), 0);
+        // 18 % grey encodes to 118 in sRGB, 50 % to 188.
+        assert_eq!(encode_srgb8(0.18), 118);
+        assert_eq!(encode_srgb8(0.5), 188);
+        assert_eq!(encode_srgb16(1.0), 65535);
+        assert_eq!(encode_srgb16(0.5), 48192); // 0.735357 * 65535
+        assert_eq!(encode_srgb16(f64::NAN), 0);
     }
 }

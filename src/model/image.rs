@@ -2,6 +2,8 @@
 //! renderers and consumed by exposure, tone mapping and the writers. Extra named channels (a
 //! surface's data value, its fringe intensity) ride along so EXR output can keep them.
 
+use crate::model::colormap::{encode_srgb16, encode_srgb8};
+
 /// A linear high-dynamic-range RGBA image, rows top to bottom.
 #[derive(Clone, Debug, Default)]
 pub struct HdrImage {
@@ -61,9 +63,45 @@ impl HdrImage {
     pub fn luminance(&self) -> Vec<f32> {
         self.pixels.iter().map(|p| rec709_luminance(*p)).collect()
     }
+
+    /// 8-bit sRGB of a display-referred image, row-major: R, G, B of each pixel through
+    /// [`encode_srgb8`] (clamped to [0, 1], missing values black), alpha dropped. The one
+    /// conversion behind display PNGs and terminal pictures.
+    pub fn to_srgb8(&self) -> Vec<[u8; 3]> {
+        self.pixels
+            .iter()
+            .map(|p| [p[0], p[1], p[2]].map(|v| encode_srgb8(v as f64)))
+            .collect()
+    }
+
+    /// As [`HdrImage::to_srgb8`], 16 bits deep (16-bit PNG).
+    pub fn to_srgb16(&self) -> Vec<[u16; 3]> {
+        self.pixels
+            .iter()
+            .map(|p| [p[0], p[1], p[2]].map(|v| encode_srgb16(v as f64)))
+            .collect()
+    }
 }
 
 /// Rec. 709 / sRGB-primaries relative luminance Y of a linear RGB triple.
 pub fn rec709_luminance(p: [f32; 4]) -> f32 {
     0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_views_drop_alpha_and_blacken_missing_pixels() {
+        let values = [0.0, 0.18, 0.5, 1.0, f32::NAN, f32::INFINITY, -1.0];
+        let pixels = values.iter().map(|&v| [v, v, v, 0.5]).collect();
+        let img = HdrImage::from_pixels(values.len() as u32, 1, pixels);
+        assert_eq!(
+            img.to_srgb8().iter().map(|p| p[0]).collect::<Vec<_>>(),
+            [0, 118, 188, 255, 0, 0, 0]
+        );
+        assert_eq!(img.to_srgb16()[3], [65535; 3]);
+        assert_eq!(img.to_srgb16()[2], [48192; 3]); // 0.735357 * 65535
+    }
 }

@@ -532,26 +532,11 @@ fn take_bricking(b: &mut Bricking, key: &str, v: &Dynamic) -> RResult<bool> {
 
 /// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal
 /// speaks them, else half blocks); a no-op otherwise, so scripts can call it in batch runs.
+/// An empty image shows nothing.
 pub fn preview(img: &HdrImage) -> crate::Result<()> {
-    use std::io::IsTerminal;
-    if !std::io::stdout().is_terminal() || img.width == 0 || img.height == 0 {
+    use crate::io::terminal::{print_hdr_inline, ProtocolChoice};
+    if img.width == 0 || img.height == 0 {
         return Ok(());
     }
-    // Display-referred images show as they are; HDR images as the plain 0 EV view.
-    let bytes: Vec<u8> = img
-        .pixels
-        .iter()
-        .flat_map(|p| [p[0], p[1], p[2]])
-        .map(|v| crate::io::png::encode_srgb8(v as f64))
-        .collect();
-    let rgb = image::RgbImage::from_raw(img.width, img.height, bytes)
-        .ok_or_else(|| crate::Error::invalid("preview", "image buffer has the wrong size"))?;
-    let config = viuer::Config {
-        absolute_offset: false,
-        width: Some(60),
-        ..Default::default()
-    };
-    viuer::print(&image::DynamicImage::ImageRgb8(rgb), &config)
-        .map(|_| ())
-        .map_err(|e| crate::Error::invalid("preview", format!("terminal preview failed: {e}")))
+    print_hdr_inline(img, ProtocolChoice::Auto, 60, "preview").map(|_| ())
 }

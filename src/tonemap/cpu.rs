@@ -15,6 +15,7 @@ use super::params::{
     DURAND_MIN_LOG_WEIGHT,
 };
 use crate::error::{Error, Result};
+use crate::model::colormap::srgb_to_linear;
 use crate::model::image::HdrImage;
 
 const REC709: [f64; 3] = [0.2126, 0.7152, 0.0722];
@@ -120,7 +121,7 @@ pub fn luminance_log_stats(img: &HdrImage, exposure_ev: f64) -> Option<LogLumina
 }
 
 /// Tone-maps `img` on the CPU in f64. The result holds display-referred linear values in
-/// [0, 1] (apply [`to_srgb8`] or [`to_srgb16`] for a display image); missing pixels are
+/// [0, 1] (apply [`HdrImage::to_srgb8`] or [`HdrImage::to_srgb16`] for a display image); missing pixels are
 /// [0, 0, 0, 0]. Extra channels and metadata are carried over.
 pub fn tonemap_cpu(img: &HdrImage, s: &ToneMapSettings) -> Result<HdrImage> {
     s.validate()?;
@@ -652,46 +653,6 @@ fn bilinear_on(plane: &[[f64; 2]], cell: u32, gw: u32, gh: u32, x: usize, y: usi
     })
 }
 
-/// The sRGB transfer curve, IEC 61966-2-1 (exact piecewise form), for a value in [0, 1].
-pub fn srgb_encode(linear: f64) -> f64 {
-    let v = if linear.is_nan() {
-        0.0
-    } else {
-        linear.clamp(0.0, 1.0)
-    };
-    if v <= 0.0031308 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// Inverse of [`srgb_encode`].
-pub fn srgb_decode(encoded: f64) -> f64 {
-    let v = encoded.clamp(0.0, 1.0);
-    if v <= 0.04045 {
-        v / 12.92
-    } else {
-        ((v + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-/// sRGB-encoded 8-bit RGB of a display-referred image (alpha dropped, NaN as 0).
-pub fn to_srgb8(img: &HdrImage) -> Vec<[u8; 3]> {
-    img.pixels
-        .iter()
-        .map(|p| [0, 1, 2].map(|k| (srgb_encode(p[k] as f64) * 255.0).round() as u8))
-        .collect()
-}
-
-/// sRGB-encoded 16-bit RGB of a display-referred image (alpha dropped, NaN as 0).
-pub fn to_srgb16(img: &HdrImage) -> Vec<[u16; 3]> {
-    img.pixels
-        .iter()
-        .map(|p| [0, 1, 2].map(|k| (srgb_encode(p[k] as f64) * 65535.0).round() as u16))
-        .collect()
-}
-
 /// Largest exposure magnitude the helpers return, inside what [`ToneMapSettings`] accepts.
 const MAX_AUTO_EV: f64 = 200.0;
 
@@ -747,7 +708,7 @@ pub fn auto_exposure_percentile(img: &HdrImage, percentile: f64, target: f64) ->
 pub fn turbo_linear(t: f64) -> [f32; 3] {
     use colorgrad::Gradient;
     let c = colorgrad::preset::turbo().at(t.clamp(0.0, 1.0) as f32);
-    [c.r, c.g, c.b].map(|v| srgb_decode(v as f64) as f32)
+    [c.r, c.g, c.b].map(|v| srgb_to_linear(v as f64) as f32)
 }
 
 /// Colour of missing pixels in the false-colour view: mid grey, outside the turbo map's hues.
@@ -1214,23 +1175,6 @@ mod tests {
         let out = tonemap_cpu(&img, &s).unwrap();
         assert!((out.pixels[0][0] - 0.447_213_6).abs() < 1e-6);
         assert_eq!(out.pixels[0][2], 0.0); // 0.05 - 0.1 clamps to 0
-    }
-
-    #[test]
-    fn srgb_curve_matches_iec_61966_2_1() {
-        assert_eq!(srgb_encode(0.0), 0.0);
-        assert!((srgb_encode(1.0) - 1.0).abs() < 1e-12);
-        // The two pieces meet at 0.0031308 -> 0.04045 (to 4 decimals).
-        assert!((srgb_encode(0.0031308) - 0.040449936).abs() < 1e-8);
-        assert!((srgb_encode(0.18) - 0.461356).abs() < 1e-6);
-        assert!((srgb_decode(srgb_encode(0.5)) - 0.5).abs() < 1e-12);
-        let img = grey(&[0.0, 0.18, 0.5, 1.0, f32::NAN], 5);
-        assert_eq!(
-            to_srgb8(&img).iter().map(|p| p[0]).collect::<Vec<_>>(),
-            [0, 118, 188, 255, 0]
-        );
-        assert_eq!(to_srgb16(&img)[3], [65535; 3]);
-        assert_eq!(to_srgb16(&img)[2][0], 48192); // 0.735357 * 65535
     }
 
     #[test]

@@ -2,7 +2,10 @@
 //! per key ([`KEYS`] is the one table the help overlay, the README and the key handler share),
 //! and [`App::apply`], which changes the state and says what has to happen next ([`Effect`]):
 //! redisplay the HDR image already held (exposure, operator, channel), re-run the script with new
-//! parameter values (camera, ν, transfer function), save, reload or quit.
+//! parameter values (camera, ν, transfer function), save, reload or quit. The workers' replies
+//! are state transitions too: [`App::on_render_done`], [`App::on_view_done`] and
+//! [`App::on_saved`] drop stale replies (to a request a newer one replaced), keep the last good
+//! image on errors and say what the event loop has to do next ([`FollowUp`]).
 //!
 //! Script contract: every `param(name, default)` the script calls is listed in the parameter
 //! panel and can be stepped; these names have keys of their own: `azimuth`, `elevation` (degrees),
@@ -12,12 +15,17 @@
 
 use crate::model::HdrImage;
 use crate::script::{ParamKind, ParamRecord};
+use crate::tonemap::MAX_EV;
 use crate::tui::histogram::LogHistogram;
 use crate::tui::view::{main_parameter, Channel, ViewSettings, VIEW_OPERATORS};
+use crate::tui::worker::{pass_summary, RenderDone, RenderJob, ViewDone, ViewJob};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use ratatui::layout::Rect;
+use ratatui_image::protocol::Protocol;
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::time::Instant;
 
 /// The parameter the TUI sets for the quick low-resolution render (then 1 for the full one).
 pub const PREVIEW_SCALE: &str = "preview_scale";
@@ -61,6 +69,33 @@ pub enum Action {
     Save,
     Reload,
     ToggleHelp,
+}
+
+impl Action {
+    /// Whether the action changes a script parameter (an image file has none).
+    pub fn changes_scene(self) -> bool {
+        use Action::*;
+        matches!(
+            self,
+            OrbitLeft
+                | OrbitRight
+                | OrbitUp
+                | OrbitDown
+                | ZoomIn
+                | ZoomOut
+                | NuUp
+                | NuDown
+                | NextMode
+                | OpacityUp
+                | OpacityDown
+                | LensLeft
+                | LensRight
+                | LensWider
+                | LensNarrower
+                | StepUp
+                | StepDown
+        )
+    }
 }
 
 /// Every key binding: (keys as shown, action, what it does). The help overlay lists exactly this.
@@ -174,6 +209,48 @@ pub enum Effect {
     Redraw,
 }
 
+/// What the event loop has to do after a worker's reply or a reload.
+pub enum FollowUp {
+    /// A stale reply: nothing changed, not even the screen.
+    Ignore,
+    /// The state changed: draw the screen again.
+    Redraw,
+    /// A new HDR image (or the same one re-read): request its view for the terminal.
+    RequestView,
+    /// The script has to run again.
+    RequestRender,
+    /// A new picture for the terminal: show it.
+    ShowPicture(Protocol),
+}
+
+impl std::fmt::Debug for FollowUp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FollowUp::Ignore => write!(f, "Ignore"),
+            FollowUp::Redraw => write!(f, "Redraw"),
+            FollowUp::RequestView => write!(f, "RequestView"),
+            FollowUp::RequestRender => write!(f, "RequestRender"),
+            FollowUp::ShowPicture(_) => write!(f, "ShowPicture(..)"),
+        }
+    }
+}
+
+/// Sequence numbers of the requests sent to the workers: a reply whose id is not the last one
+/// sent answers a request a newer one replaced.
+#[derive(Clone, Debug, Default)]
+struct Requests {
+    last: u64,
+    render: u64,
+    view: u64,
+}
+
+impl Requests {
+    fn next(&mut self) -> u64 {
+        self.last += 1;
+        self.last
+    }
+}
+
 /// What the TUI shows: a script's scene or an HDR image file.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Source {
@@ -218,6 +295,9 @@ pub struct App {
     /// How images reach the terminal, e.g. `sixel` or `halfblocks (no graphics answer)`.
     pub protocol_note: String,
     pub show_help: bool,
+    requests: Requests,
+    /// When the last view was requested: the status line reports key → picture time.
+    view_requested: Instant,
 }
 
 impl App {
@@ -237,6 +317,8 @@ impl App {
             message: String::new(),
             protocol_note: String::new(),
             show_help: false,
+            requests: Requests::default(),
+            view_requested: Instant::now(),
         }
     }
 
@@ -388,80 +470,42 @@ impl App {
         Effect::Rerender
     }
 
+    /// The effect of a key press: Esc closes the help overlay, other keys go through
+    /// [`action_for_key`] and [`App::apply`]; `None` for a key bound to nothing. Every action
+    /// but saving clears the last notice.
+    pub fn on_key(&mut self, key: KeyEvent) -> Option<Effect> {
+        if self.show_help && key.code == KeyCode::Esc {
+            self.show_help = false;
+            return Some(Effect::Redraw);
+        }
+        let action = action_for_key(key)?;
+        if action != Action::Save {
+            self.message.clear();
+        }
+        Some(self.apply(action))
+    }
+
     /// Applies an action and says what has to follow.
     pub fn apply(&mut self, action: Action) -> Effect {
         use Action::*;
-        let is_script = matches!(self.source, Source::Script(_));
-        let scene_action = matches!(
-            action,
-            OrbitLeft
-                | OrbitRight
-                | OrbitUp
-                | OrbitDown
-                | ZoomIn
-                | ZoomOut
-                | NuUp
-                | NuDown
-                | NextMode
-                | OpacityUp
-                | OpacityDown
-                | LensLeft
-                | LensRight
-                | LensWider
-                | LensNarrower
-                | StepUp
-                | StepDown
-        );
-        if scene_action && !is_script {
+        if action.changes_scene() && !matches!(self.source, Source::Script(_)) {
             self.message = "an image file has no scene parameters".into();
             return Effect::Redraw;
         }
         match action {
             Quit => Effect::Quit,
-            ExposureUp | ExposureDown | ExposureReset => {
-                self.view.exposure_ev = match action {
-                    ExposureUp => (self.view.exposure_ev + EV_STEP).min(crate::tonemap::MAX_EV),
-                    ExposureDown => (self.view.exposure_ev - EV_STEP).max(-crate::tonemap::MAX_EV),
-                    _ => 0.0,
-                };
-                Effect::Redisplay
-            }
-            NextOperator | PrevOperator => {
-                let n = VIEW_OPERATORS.len();
-                let d = if action == NextOperator { 1 } else { n - 1 };
-                self.view.operator = (self.view.operator + d) % n;
-                self.view.op_param = None;
-                Effect::Redisplay
-            }
-            OperatorParamUp | OperatorParamDown => {
-                let Some((name, default, step, lo, hi)) = main_parameter(self.view.operator_name())
-                else {
-                    self.message = format!("{} has no parameter", self.view.operator_name());
-                    return Effect::Redraw;
-                };
-                let d = if action == OperatorParamUp {
-                    step
-                } else {
-                    -step
-                };
-                let v = (self.view.op_param.unwrap_or(default) + d).clamp(lo, hi);
-                self.view.op_param = Some((v * 1e6).round() / 1e6);
-                self.message = format!("{name} = {}", self.view.op_param.unwrap_or(default));
-                Effect::Redisplay
-            }
+            ExposureUp => self.set_exposure((self.view.exposure_ev + EV_STEP).min(MAX_EV)),
+            ExposureDown => self.set_exposure((self.view.exposure_ev - EV_STEP).max(-MAX_EV)),
+            ExposureReset => self.set_exposure(0.0),
+            NextOperator => self.cycle_operator(1),
+            PrevOperator => self.cycle_operator(VIEW_OPERATORS.len() - 1),
+            OperatorParamUp => self.step_operator_param(1.0),
+            OperatorParamDown => self.step_operator_param(-1.0),
             ToggleFalseColour => {
                 self.view.false_colour = !self.view.false_colour;
                 Effect::Redisplay
             }
-            NextChannel => {
-                let all = Channel::all(self.hdr.as_deref());
-                let i = all
-                    .iter()
-                    .position(|c| *c == self.view.channel)
-                    .unwrap_or(0);
-                self.view.channel = all[(i + 1) % all.len()].clone();
-                Effect::Redisplay
-            }
+            NextChannel => self.cycle_channel(),
             OrbitLeft => self.step_number("azimuth", |v| v - 15.0),
             OrbitRight => self.step_number("azimuth", |v| v + 15.0),
             OrbitUp => self.step_number("elevation", |v| (v + 10.0).min(89.0)),
@@ -477,15 +521,8 @@ impl App {
             LensRight => self.lens(0.25, 0.0),
             LensWider => self.lens(0.0, 0.125),
             LensNarrower => self.lens(0.0, -0.1),
-            SelectNext | SelectPrev => {
-                let n = self.panel_params().len().max(1);
-                self.selected = if action == SelectNext {
-                    (self.selected + 1) % n
-                } else {
-                    (self.selected + n - 1) % n
-                };
-                Effect::Redraw
-            }
+            SelectNext => self.select(1),
+            SelectPrev => self.select(-1),
             StepUp => self.step_selected(1.0),
             StepDown => self.step_selected(-1.0),
             Save => Effect::Save,
@@ -494,6 +531,177 @@ impl App {
                 self.show_help = !self.show_help;
                 Effect::Redraw
             }
+        }
+    }
+
+    fn set_exposure(&mut self, ev: f64) -> Effect {
+        self.view.exposure_ev = ev;
+        Effect::Redisplay
+    }
+
+    /// Moves `by` places along [`VIEW_OPERATORS`] (cyclically), back to the operator's default
+    /// parameter.
+    fn cycle_operator(&mut self, by: usize) -> Effect {
+        self.view.operator = (self.view.operator + by) % VIEW_OPERATORS.len();
+        self.view.op_param = None;
+        Effect::Redisplay
+    }
+
+    /// Steps the operator's main parameter one step up (`dir` = 1) or down (-1), within its
+    /// range.
+    fn step_operator_param(&mut self, dir: f64) -> Effect {
+        let Some((name, default, step, lo, hi)) = main_parameter(self.view.operator_name()) else {
+            self.message = format!("{} has no parameter", self.view.operator_name());
+            return Effect::Redraw;
+        };
+        let v = (self.view.op_param.unwrap_or(default) + dir * step).clamp(lo, hi);
+        self.view.op_param = Some((v * 1e6).round() / 1e6);
+        self.message = format!("{name} = {}", self.view.op_param.unwrap_or(default));
+        Effect::Redisplay
+    }
+
+    fn cycle_channel(&mut self) -> Effect {
+        let all = Channel::all(self.hdr.as_deref());
+        let i = all
+            .iter()
+            .position(|c| *c == self.view.channel)
+            .unwrap_or(0);
+        self.view.channel = all[(i + 1) % all.len()].clone();
+        Effect::Redisplay
+    }
+
+    /// Moves the panel's selection one parameter down (`dir` = 1) or up (-1), cyclically.
+    fn select(&mut self, dir: isize) -> Effect {
+        let n = self.panel_params().len().max(1);
+        self.selected = if dir > 0 {
+            (self.selected + 1) % n
+        } else {
+            (self.selected + n - 1) % n
+        };
+        Effect::Redraw
+    }
+
+    /// The next script run to send to the render worker: a new id (replies to older runs
+    /// become stale) and the busy mark in the status line.
+    pub fn render_job(&mut self) -> RenderJob {
+        let id = self.requests.next();
+        self.requests.render = id;
+        self.status.busy = true;
+        RenderJob {
+            id,
+            // Before the first run nothing is known: try the quick pass (a script that does
+            // not read preview_scale just renders at full size once).
+            low_res_first: self.params.is_empty() || self.has_preview_scale(),
+            sets: self.script_sets(),
+        }
+    }
+
+    /// The next view to send to the view worker for the picture's `area`, timed from now;
+    /// `None` without an image or with an empty area.
+    pub fn view_job(&mut self, area: Rect) -> Option<ViewJob> {
+        self.view_requested = Instant::now();
+        let hdr = self.hdr.clone()?;
+        if area.width == 0 || area.height == 0 {
+            return None;
+        }
+        let id = self.requests.next();
+        self.requests.view = id;
+        Some(ViewJob {
+            id,
+            hdr,
+            view: self.view.clone(),
+            area,
+        })
+    }
+
+    /// A script run finished. A stale one is ignored; a good one replaces the image and the
+    /// parameters (the view has to follow); a failed one shows its error over the last good
+    /// image.
+    pub fn on_render_done(&mut self, done: RenderDone) -> FollowUp {
+        if done.id != self.requests.render {
+            return FollowUp::Ignore;
+        }
+        self.status.adapter = done.adapter.unwrap_or_default();
+        self.status.render_ms = Some(done.ms);
+        self.status.stage = if done.low_res { "preview" } else { "full" }.into();
+        match done.outcome {
+            Ok(scene) => {
+                self.error = None;
+                // A script that ignores preview_scale rendered at full size in its quick pass:
+                // no full pass follows.
+                let quick_only =
+                    done.low_res && !scene.params.iter().any(|p| p.name == PREVIEW_SCALE);
+                self.status.busy = done.low_res && !quick_only;
+                if quick_only {
+                    self.status.stage = "full".into();
+                }
+                self.hdr = Some(scene.image);
+                self.set_params(scene.params);
+                self.status.passes = pass_summary(&scene.passes);
+                FollowUp::RequestView
+            }
+            Err(msg) => {
+                self.status.busy = false;
+                self.error = Some(msg);
+                FollowUp::Redraw
+            }
+        }
+    }
+
+    /// The view worker finished. A stale picture is ignored; a current one is shown with its
+    /// histogram and timing; an error is a notice (the last picture stays).
+    pub fn on_view_done(&mut self, done: ViewDone) -> FollowUp {
+        if done.id != self.requests.view {
+            return FollowUp::Ignore;
+        }
+        match done.outcome {
+            Ok(prepared) => {
+                self.histogram = prepared.histogram;
+                let total = self.view_requested.elapsed().as_secs_f64() * 1e3;
+                self.status.passes.retain(|p| !p.starts_with("view "));
+                self.status.passes.push(format!(
+                    "view {:.0} ms (key→picture {total:.0} ms)",
+                    done.ms
+                ));
+                FollowUp::ShowPicture(prepared.protocol)
+            }
+            Err(msg) => {
+                self.message = format!("view: {msg}");
+                FollowUp::Redraw
+            }
+        }
+    }
+
+    /// A save finished: the notice names the two files written, or the error.
+    pub fn on_saved(&mut self, saved: std::result::Result<(PathBuf, PathBuf), String>) {
+        let name = |p: &Path| {
+            p.file_name()
+                .map(|n| n.to_string_lossy().to_string())
+                .unwrap_or_default()
+        };
+        self.message = match saved {
+            Ok((exr, png)) => format!("saved {} + {}", name(&exr), name(&png)),
+            Err(e) => format!("save failed: {e}"),
+        };
+    }
+
+    /// Reload (a key or a change of the file on disk), with `notice` in the status line. An
+    /// image file is re-read here (one that fails to read keeps the last good image and shows
+    /// the error); a script is re-read by the render worker on its next run.
+    pub fn reload(&mut self, notice: &str) -> FollowUp {
+        self.message = notice.into();
+        match &self.source {
+            Source::Image(path) => {
+                match crate::io::exr::read_exr(path) {
+                    Ok(img) => {
+                        self.hdr = Some(Arc::new(img));
+                        self.error = None;
+                    }
+                    Err(e) => self.error = Some(e.to_string()),
+                }
+                FollowUp::RequestView
+            }
+            Source::Script(_) => FollowUp::RequestRender,
         }
     }
 }
@@ -529,6 +737,9 @@ fn format_float(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tui::protocol::Display;
+    use crate::tui::worker::{Prepared, Scene};
+    use ratatui_image::picker::ProtocolType;
 
     fn record(name: &str, kind: ParamKind, value: &str) -> ParamRecord {
         ParamRecord {
@@ -643,5 +854,196 @@ mod tests {
         assert_eq!(app.apply(Action::ExposureDown), Effect::Redisplay);
         assert_eq!(format_float(2.0), "2.0");
         assert_eq!(format_float(0.1 + 0.2), "0.3");
+    }
+
+    fn scene(value: f32, params: Vec<ParamRecord>) -> Scene {
+        Scene {
+            image: Arc::new(HdrImage::from_pixels(1, 1, vec![[value; 4]])),
+            params,
+            passes: Vec::new(),
+        }
+    }
+
+    fn render_done(id: u64, low_res: bool, outcome: Result<Scene, String>) -> RenderDone {
+        RenderDone {
+            id,
+            low_res,
+            outcome,
+            ms: 12.0,
+            adapter: Some("llvmpipe (Vulkan)".into()),
+        }
+    }
+
+    fn view_done(id: u64, outcome: Result<(), String>) -> ViewDone {
+        let outcome = outcome.map(|()| {
+            let display = Display::fixed(ProtocolType::Halfblocks, (8, 16));
+            let area = Rect::new(0, 0, 2, 1);
+            Prepared {
+                protocol: display.encode(image::RgbImage::new(16, 16), area).unwrap(),
+                histogram: None,
+                size: (16, 16),
+            }
+        });
+        ViewDone {
+            id,
+            outcome,
+            ms: 3.0,
+        }
+    }
+
+    fn image_value(app: &App) -> Option<f32> {
+        app.hdr.as_ref().map(|h| h.pixels[0][0])
+    }
+
+    #[test]
+    fn a_finished_quick_render_shows_its_image_and_waits_for_the_full_one() {
+        let mut app = script_app();
+        let job = app.render_job();
+        assert!(job.low_res_first && app.status.busy);
+        assert!(job.sets.is_empty());
+        let params = app.params.clone();
+        let next = app.on_render_done(render_done(job.id, true, Ok(scene(0.5, params.clone()))));
+        assert!(matches!(next, FollowUp::RequestView), "{next:?}");
+        assert_eq!(image_value(&app), Some(0.5));
+        assert_eq!(app.status.stage, "preview");
+        assert!(app.status.busy, "the full-resolution run follows");
+        assert_eq!(app.status.adapter, "llvmpipe (Vulkan)");
+        let next = app.on_render_done(render_done(job.id, false, Ok(scene(0.7, params))));
+        assert!(matches!(next, FollowUp::RequestView));
+        assert_eq!(
+            (app.status.stage.as_str(), app.status.busy),
+            ("full", false)
+        );
+        assert_eq!(image_value(&app), Some(0.7));
+        // The view follows the new image.
+        let view = app
+            .view_job(Rect::new(0, 0, 10, 5))
+            .expect("an image to show");
+        assert_eq!(view.hdr.pixels[0][0], 0.7);
+    }
+
+    #[test]
+    fn a_quick_render_of_a_script_without_preview_scale_is_the_full_one() {
+        let mut app = App::new(Source::Script("s.rhai".into()), "out".into(), Vec::new());
+        let job = app.render_job();
+        let params = vec![record("zoom", ParamKind::Float, "1.0")];
+        app.on_render_done(render_done(job.id, true, Ok(scene(0.5, params))));
+        assert_eq!(
+            (app.status.stage.as_str(), app.status.busy),
+            ("full", false)
+        );
+        assert!(!app.render_job().low_res_first, "no quick pass is worth it");
+    }
+
+    #[test]
+    fn a_stale_render_reply_is_ignored() {
+        let mut app = script_app();
+        let old = app.render_job();
+        let new = app.render_job();
+        let next = app.on_render_done(render_done(old.id, false, Ok(scene(0.5, Vec::new()))));
+        assert!(matches!(next, FollowUp::Ignore));
+        assert!(app.hdr.is_none() && app.status.busy && app.status.render_ms.is_none());
+        let next = app.on_render_done(render_done(new.id, false, Err("late".into())));
+        assert!(matches!(next, FollowUp::Redraw));
+    }
+
+    #[test]
+    fn a_failed_render_shows_its_error_over_the_last_image() {
+        let mut app = script_app();
+        let job = app.render_job();
+        app.on_render_done(render_done(
+            job.id,
+            false,
+            Ok(scene(0.5, app.params.clone())),
+        ));
+        let job = app.render_job();
+        let error = "s.rhai:3:7: unknown function\n  bad(1)\n      ^".to_string();
+        let next = app.on_render_done(render_done(job.id, false, Err(error.clone())));
+        assert!(
+            matches!(next, FollowUp::Redraw),
+            "no new view: the old one stays"
+        );
+        assert_eq!(app.error.as_deref(), Some(error.as_str()));
+        assert_eq!(image_value(&app), Some(0.5), "the last good image is kept");
+        assert!(!app.status.busy);
+        // The next good run clears the error.
+        let job = app.render_job();
+        app.on_render_done(render_done(
+            job.id,
+            false,
+            Ok(scene(0.6, app.params.clone())),
+        ));
+        assert!(app.error.is_none());
+    }
+
+    #[test]
+    fn only_the_newest_view_reaches_the_screen() {
+        let mut app = script_app();
+        let area = Rect::new(0, 0, 10, 5);
+        assert!(app.view_job(area).is_none(), "no image yet");
+        app.hdr = Some(scene(0.5, Vec::new()).image);
+        assert!(app.view_job(Rect::new(0, 0, 0, 5)).is_none(), "no room");
+        let old = app.view_job(area).unwrap();
+        let new = app.view_job(area).unwrap();
+        assert!(matches!(
+            app.on_view_done(view_done(old.id, Ok(()))),
+            FollowUp::Ignore
+        ));
+        assert!(app.status.passes.is_empty());
+        let next = app.on_view_done(view_done(new.id, Ok(())));
+        assert!(matches!(next, FollowUp::ShowPicture(_)), "{next:?}");
+        assert!(app.status.passes[0].starts_with("view 3 ms (key→picture "));
+        let again = app.view_job(area).unwrap();
+        app.on_view_done(view_done(again.id, Ok(())));
+        assert_eq!(app.status.passes.len(), 1, "one view timing, the newest");
+        let failed = app.view_job(area).unwrap();
+        let next = app.on_view_done(view_done(failed.id, Err("no memory".into())));
+        assert!(matches!(next, FollowUp::Redraw), "the last picture stays");
+        assert_eq!(app.message, "view: no memory");
+    }
+
+    #[test]
+    fn keys_clear_the_notice_and_esc_closes_the_help() {
+        use ratatui::crossterm::event::KeyEvent;
+        let key = |c: KeyCode| KeyEvent::new(c, KeyModifiers::NONE);
+        let mut app = script_app();
+        app.message = "saved a + b".into();
+        assert_eq!(app.on_key(key(KeyCode::Char('s'))), Some(Effect::Save));
+        assert_eq!(app.message, "saved a + b", "saving keeps the notice");
+        assert_eq!(app.on_key(key(KeyCode::F(1))), Some(Effect::Redraw));
+        assert!(app.show_help && app.message.is_empty());
+        assert_eq!(app.on_key(key(KeyCode::Esc)), Some(Effect::Redraw));
+        assert!(!app.show_help);
+        assert_eq!(
+            app.on_key(key(KeyCode::Esc)),
+            None,
+            "Esc is bound to nothing"
+        );
+        assert_eq!(app.on_key(key(KeyCode::Char('x'))), None);
+    }
+
+    #[test]
+    fn saves_and_reloads_report_in_the_status_line() {
+        let mut app = script_app();
+        app.on_saved(Ok(("out/a_view000.exr".into(), "out/a_view000.png".into())));
+        assert_eq!(app.message, "saved a_view000.exr + a_view000.png");
+        app.on_saved(Err("disk full".into()));
+        assert_eq!(app.message, "save failed: disk full");
+        assert!(matches!(app.reload("reloading"), FollowUp::RequestRender));
+        assert_eq!(app.message, "reloading");
+        // An image file that no longer reads keeps the last good image.
+        let mut app = App::new(
+            Source::Image("missing.exr".into()),
+            "out".into(),
+            Vec::new(),
+        );
+        app.hdr = Some(scene(0.5, Vec::new()).image);
+        let next = app.reload("file changed: reloading");
+        assert!(matches!(next, FollowUp::RequestView));
+        assert!(app
+            .error
+            .as_deref()
+            .is_some_and(|e| e.contains("missing.exr")));
+        assert_eq!(image_value(&app), Some(0.5));
     }
 }

@@ -82,150 +82,172 @@ fn hls_to_rgb(h: u32, l: u32, s: u32) -> [u8; 3] {
     [channel(h + 1.0 / 3.0), channel(h), channel(h - 1.0 / 3.0)]
 }
 
-/// Decodes the first sixel image (`ESC P … q … ESC \`) in `data`.
-pub fn decode_sixel(data: &str) -> Result<DecodedImage> {
+fn sixel_error(msg: &str) -> Error {
+    Error::invalid("sixel", msg.to_string())
+}
+
+/// The body of the first sixel image in `data`: what follows `ESC P … q`, up to `ESC \`.
+fn sixel_body(data: &str) -> Result<String> {
     let data = unwrap_tmux(data);
-    let bad = |msg: &str| Error::invalid("sixel", msg.to_string());
     let start = data
         .find("\x1bP")
-        .ok_or_else(|| bad("no DCS introducer (ESC P)"))?;
+        .ok_or_else(|| sixel_error("no DCS introducer (ESC P)"))?;
     let after = &data[start + 2..];
     let q = after
         .find('q')
-        .ok_or_else(|| bad("DCS without the sixel final character q"))?;
+        .ok_or_else(|| sixel_error("DCS without the sixel final character q"))?;
     let body = &after[q + 1..];
-    let body = &body[..body.find("\x1b\\").unwrap_or(body.len())];
-    let bytes = body.as_bytes();
-
-    let mut palette = vec![[0u8; 3]; 1024];
-    let mut colour = 0usize;
-    let (mut x, mut y) = (0u32, 0u32);
-    let mut declared: Option<(u32, u32)> = None;
-    let mut pixels: std::collections::HashMap<(u32, u32), [u8; 3]> = Default::default();
-    let (mut max_x, mut max_y) = (0u32, 0u32);
-    let mut i = 0;
-    let number = |i: &mut usize| -> u32 {
-        let mut v: u32 = 0;
-        while *i < bytes.len() && bytes[*i].is_ascii_digit() {
-            v = v
-                .saturating_mul(10)
-                .saturating_add((bytes[*i] - b'0') as u32);
-            *i += 1;
-        }
-        v
-    };
-    let numbers = |i: &mut usize| -> Vec<u32> {
-        let mut v = vec![number(i)];
-        while *i < bytes.len() && bytes[*i] == b';' {
-            *i += 1;
-            v.push(number(i));
-        }
-        v
-    };
-    while i < bytes.len() {
-        let c = bytes[i];
-        match c {
-            b'"' => {
-                i += 1;
-                let v = numbers(&mut i);
-                if v.len() >= 4 {
-                    declared = Some((v[2], v[3]));
-                }
-            }
-            b'#' => {
-                i += 1;
-                let v = numbers(&mut i);
-                let idx = v[0] as usize % palette.len();
-                if v.len() >= 5 {
-                    palette[idx] = match v[1] {
-                        1 => hls_to_rgb(v[2], v[3], v[4]),
-                        _ => [v[2], v[3], v[4]].map(|p| ((p.min(100) * 255 + 50) / 100) as u8),
-                    };
-                }
-                colour = idx;
-            }
-            b'!' => {
-                i += 1;
-                let n = number(&mut i);
-                if let Some(&ch) = bytes.get(i) {
-                    if (0x3f..=0x7e).contains(&ch) {
-                        for _ in 0..n {
-                            paint(
-                                &mut pixels,
-                                x,
-                                y,
-                                ch,
-                                palette[colour],
-                                &mut max_x,
-                                &mut max_y,
-                            );
-                            x += 1;
-                        }
-                    }
-                    i += 1;
-                }
-            }
-            b'$' => {
-                x = 0;
-                i += 1;
-            }
-            b'-' => {
-                x = 0;
-                y += 6;
-                i += 1;
-            }
-            0x3f..=0x7e => {
-                paint(
-                    &mut pixels,
-                    x,
-                    y,
-                    c,
-                    palette[colour],
-                    &mut max_x,
-                    &mut max_y,
-                );
-                x += 1;
-                i += 1;
-            }
-            _ => i += 1,
-        }
-    }
-    let (width, height) = declared
-        .filter(|(w, h)| *w > 0 && *h > 0)
-        .unwrap_or((max_x, max_y));
-    if width == 0 || height == 0 {
-        return Err(bad("the image paints no pixel"));
-    }
-    let mut rgba = vec![[0u8; 4]; width as usize * height as usize];
-    for ((px, py), [r, g, b]) in pixels {
-        if px < width && py < height {
-            rgba[(py * width + px) as usize] = [r, g, b, 255];
-        }
-    }
-    Ok(DecodedImage {
-        width,
-        height,
-        rgba,
-    })
+    Ok(body[..body.find("\x1b\\").unwrap_or(body.len())].to_string())
 }
 
-fn paint(
-    pixels: &mut std::collections::HashMap<(u32, u32), [u8; 3]>,
+/// Reads a sixel body byte by byte, with its decimal parameters.
+struct SixelReader<'a> {
+    bytes: &'a [u8],
+    i: usize,
+}
+
+impl SixelReader<'_> {
+    fn next(&mut self) -> Option<u8> {
+        let c = *self.bytes.get(self.i)?;
+        self.i += 1;
+        Some(c)
+    }
+
+    /// A decimal number (0 when there is none), saturating.
+    fn number(&mut self) -> u32 {
+        let mut v: u32 = 0;
+        while let Some(d) = self.bytes.get(self.i).filter(|d| d.is_ascii_digit()) {
+            v = v.saturating_mul(10).saturating_add((d - b'0') as u32);
+            self.i += 1;
+        }
+        v
+    }
+
+    /// Numbers separated by `;` (at least one).
+    fn numbers(&mut self) -> Vec<u32> {
+        let mut v = vec![self.number()];
+        while self.bytes.get(self.i) == Some(&b';') {
+            self.i += 1;
+            v.push(self.number());
+        }
+        v
+    }
+}
+
+/// What a sixel body has painted so far: the palette, the cursor and the pixels set.
+struct SixelCanvas {
+    palette: Vec<[u8; 3]>,
+    colour: usize,
     x: u32,
     y: u32,
-    ch: u8,
-    rgb: [u8; 3],
-    max_x: &mut u32,
-    max_y: &mut u32,
-) {
-    let bits = ch - 0x3f;
-    for b in 0..6 {
-        if bits & (1 << b) != 0 {
-            pixels.insert((x, y + b), rgb);
-            *max_x = (*max_x).max(x + 1);
-            *max_y = (*max_y).max(y + b + 1);
+    /// The raster attributes' size, if the image declares one.
+    declared: Option<(u32, u32)>,
+    pixels: std::collections::HashMap<(u32, u32), [u8; 3]>,
+    max_x: u32,
+    max_y: u32,
+}
+
+impl SixelCanvas {
+    fn new() -> SixelCanvas {
+        SixelCanvas {
+            palette: vec![[0u8; 3]; 1024],
+            colour: 0,
+            x: 0,
+            y: 0,
+            declared: None,
+            pixels: Default::default(),
+            max_x: 0,
+            max_y: 0,
         }
     }
+
+    /// `# index` selects a colour; `# index ; 1|2 ; a ; b ; c` defines it (HLS or RGB percent)
+    /// and selects it.
+    fn colour_command(&mut self, v: &[u32]) {
+        let idx = v[0] as usize % self.palette.len();
+        if v.len() >= 5 {
+            self.palette[idx] = match v[1] {
+                1 => hls_to_rgb(v[2], v[3], v[4]),
+                _ => [v[2], v[3], v[4]].map(|p| ((p.min(100) * 255 + 50) / 100) as u8),
+            };
+        }
+        self.colour = idx;
+    }
+
+    /// Paints the six-pixel column `ch` at the cursor in the current colour and moves right.
+    fn paint(&mut self, ch: u8) {
+        let bits = ch - 0x3f;
+        let rgb = self.palette[self.colour];
+        for b in 0..6 {
+            if bits & (1 << b) != 0 {
+                self.pixels.insert((self.x, self.y + b), rgb);
+                self.max_x = self.max_x.max(self.x + 1);
+                self.max_y = self.max_y.max(self.y + b + 1);
+            }
+        }
+        self.x += 1;
+    }
+
+    /// The picture: the declared size, else the painted extent.
+    fn into_image(self) -> Result<DecodedImage> {
+        let (width, height) = self
+            .declared
+            .filter(|(w, h)| *w > 0 && *h > 0)
+            .unwrap_or((self.max_x, self.max_y));
+        if width == 0 || height == 0 {
+            return Err(sixel_error("the image paints no pixel"));
+        }
+        let mut rgba = vec![[0u8; 4]; width as usize * height as usize];
+        for ((px, py), [r, g, b]) in self.pixels {
+            if px < width && py < height {
+                rgba[(py * width + px) as usize] = [r, g, b, 255];
+            }
+        }
+        Ok(DecodedImage {
+            width,
+            height,
+            rgba,
+        })
+    }
+}
+
+/// Decodes the first sixel image (`ESC P … q … ESC \`) in `data`.
+pub fn decode_sixel(data: &str) -> Result<DecodedImage> {
+    let body = sixel_body(data)?;
+    let mut reader = SixelReader {
+        bytes: body.as_bytes(),
+        i: 0,
+    };
+    let mut canvas = SixelCanvas::new();
+    while let Some(c) = reader.next() {
+        match c {
+            b'"' => {
+                let v = reader.numbers();
+                if v.len() >= 4 {
+                    canvas.declared = Some((v[2], v[3]));
+                }
+            }
+            b'#' => canvas.colour_command(&reader.numbers()),
+            b'!' => {
+                let n = reader.number();
+                if let Some(ch) = reader.next() {
+                    if (0x3f..=0x7e).contains(&ch) {
+                        for _ in 0..n {
+                            canvas.paint(ch);
+                        }
+                    }
+                }
+            }
+            b'$' => canvas.x = 0,
+            b'-' => {
+                canvas.x = 0;
+                canvas.y += 6;
+            }
+            0x3f..=0x7e => canvas.paint(c),
+            _ => {}
+        }
+    }
+    canvas.into_image()
 }
 
 /// Decodes the first kitty graphics transmission (`ESC _ G keys ; base64 ESC \`, possibly

@@ -3,13 +3,14 @@
 //! [`view`] turns the HDR image into the display image, [`worker`] runs scripts and encodes
 //! pictures off the UI thread, [`protocol`] finds how the terminal shows pictures, [`terminal`]
 //! guarantees the terminal is restored, [`decode`] reads sixel/kitty payloads back (for tests),
-//! [`preview`] prints images inline for `hdrvis run --preview`, and [`crate::bench::tui`] times key press to
-//! updated preview. The event loop here polls input every 15 ms and never waits on a render.
+//! and [`crate::bench::tui`] times key press to updated preview. One-shot inline pictures
+//! (`hdrvis run --preview`) are the io layer's ([`crate::io::terminal`]). The event loop here
+//! polls input every 15 ms and never waits on a render; what keys and worker replies do to the
+//! state is [`App`]'s.
 
 pub mod app;
 pub mod decode;
 pub mod histogram;
-pub mod preview;
 pub mod protocol;
 pub mod terminal;
 pub mod ui;
@@ -20,15 +21,15 @@ use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
 use crate::render::session::RenderSession;
 use crate::script::ScriptOptions;
-use app::{Action, App, Effect, Source};
+use app::{App, Effect, FollowUp, Source};
 use protocol::ProtocolChoice;
-use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind};
+use ratatui::crossterm::event::{self, Event, KeyEventKind};
 use ratatui::layout::Rect;
 use ratatui_image::picker::ProtocolType;
 use ratatui_image::protocol::Protocol;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, Receiver};
+use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime};
 
@@ -54,10 +55,6 @@ pub fn source_of(path: &Path) -> Source {
     } else {
         Source::Script(path.to_path_buf())
     }
-}
-
-fn modified(path: &Path) -> Option<SystemTime> {
-    std::fs::metadata(path).and_then(|m| m.modified()).ok()
 }
 
 /// Runs the TUI until `q`, Ctrl-C or a signal. Errors before the screen is taken (missing file,
@@ -89,19 +86,67 @@ pub fn run_tui(opts: &TuiOptions) -> Result<()> {
     result
 }
 
-/// Sequence numbers of requests, so stale answers are recognised.
-#[derive(Default)]
-struct Requests {
-    next: u64,
-    render_sent: u64,
-    view_sent: u64,
+/// A finished save: the EXR and PNG written, or the error.
+type SaveResult = std::result::Result<(PathBuf, PathBuf), String>;
+
+/// The event loop: the [`App`] state, the screen, the picture on it and the channels to the
+/// workers. Keys and worker replies change the state ([`App::on_key`], [`App::on_render_done`],
+/// …); this only carries out what they ask for.
+struct EventLoop<'a> {
+    guard: &'a mut terminal::TerminalGuard,
+    app: App,
+    /// `None` for an image file: nothing to render.
+    render: Option<(Sender<worker::RenderJob>, Receiver<worker::RenderDone>)>,
+    view: (Sender<worker::ViewJob>, Receiver<worker::ViewDone>),
+    saves: (Sender<SaveResult>, Receiver<SaveResult>),
+    picture: Option<Protocol>,
+    image_area: Rect,
+    /// The screen needs drawing.
+    dirty: bool,
+    /// Clear the screen when the picture changes ([`protocol::Display::redraw_on_change`]).
+    redraw_on_change: bool,
+    /// Saved views are named after the input: `<stem>_view<NNN>`.
+    stem: String,
+    watch: FileWatch,
 }
 
-impl Requests {
-    fn next(&mut self) -> u64 {
-        self.next += 1;
-        self.next
+/// Polls the input file's modification time every half second.
+struct FileWatch {
+    path: PathBuf,
+    mtime: Option<SystemTime>,
+    checked: Instant,
+}
+
+impl FileWatch {
+    fn new(path: &Path) -> FileWatch {
+        FileWatch {
+            path: path.to_path_buf(),
+            mtime: modified(path),
+            checked: Instant::now(),
+        }
     }
+
+    /// Whether the file changed since the last look (at most every 500 ms).
+    fn changed(&mut self) -> bool {
+        if self.checked.elapsed() <= Duration::from_millis(500) {
+            return false;
+        }
+        self.checked = Instant::now();
+        let now = modified(&self.path);
+        if now == self.mtime {
+            return false;
+        }
+        self.mtime = now;
+        true
+    }
+}
+
+fn modified(path: &Path) -> Option<SystemTime> {
+    std::fs::metadata(path).and_then(|m| m.modified()).ok()
+}
+
+fn terminal_error(e: std::io::Error) -> Error {
+    Error::invalid("terminal", e.to_string())
 }
 
 fn event_loop(
@@ -114,9 +159,42 @@ fn event_loop(
 ) -> Result<()> {
     let mut app = App::new(source.clone(), opts.out_dir.clone(), opts.sets.clone());
     app.protocol_note = display.note.clone();
+    if let Some(img) = first_image {
+        app.hdr = Some(img);
+        app.status.stage = "file".into();
+    }
     let redraw_on_change = display.redraw_on_change;
-    let (wake_tx, _wake_rx) = channel();
-    let (view_tx, view_rx) = worker::spawn_view_worker(display, wake_tx.clone());
+    let view = worker::spawn_view_worker(display);
+    let render = match &source {
+        Source::Script(path) => Some(spawn_render(path, opts)),
+        Source::Image(_) => None,
+    };
+    let stem = opts
+        .input
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "view".into());
+    let mut tui = EventLoop {
+        guard,
+        app,
+        render,
+        view,
+        saves: channel(),
+        picture: None,
+        image_area: Rect::default(),
+        dirty: true,
+        redraw_on_change,
+        stem,
+        watch: FileWatch::new(&opts.input),
+    };
+    tui.run(&signals)
+}
+
+/// The render worker for `script`, with one [`RenderSession`] for the whole TUI session.
+fn spawn_render(
+    script: &Path,
+    opts: &TuiOptions,
+) -> (Sender<worker::RenderJob>, Receiver<worker::RenderDone>) {
     let session = Arc::new(RenderSession::new(
         opts.backend,
         opts.cache_mib.saturating_mul(1 << 20),
@@ -124,237 +202,150 @@ fn event_loop(
     let mut base = ScriptOptions::new(&opts.out_dir);
     base.backend = opts.backend;
     base.allowed_paths = opts.allowed_paths.clone();
-    let watched = opts.input.clone();
-    let mut watched_mtime = modified(&watched);
-    let mut last_watch = Instant::now();
-    let mut requests = Requests::default();
-    let mut picture: Option<Protocol> = None;
-    let mut image_area = Rect::default();
-    let (save_tx, save_rx) = channel::<std::result::Result<(PathBuf, PathBuf), String>>();
-    let render = match &source {
-        Source::Script(path) => {
-            let (tx, rx) = worker::spawn_render_worker(
-                path.clone(),
-                base.clone(),
-                session.clone(),
-                wake_tx.clone(),
-            );
-            Some((tx, rx))
-        }
-        Source::Image(_) => None,
-    };
-    let send_render = |app: &mut App, requests: &mut Requests| {
-        if let Some((tx, _)) = &render {
-            let id = requests.next();
-            requests.render_sent = id;
-            app.status.busy = true;
-            let _ = tx.send(worker::RenderJob {
-                id,
-                // Before the first run nothing is known: try the quick pass (a script that does
-                // not read preview_scale just renders at full size once).
-                low_res_first: app.params.is_empty() || app.has_preview_scale(),
-                sets: app.script_sets(),
-            });
-        }
-    };
-    let send_view = |app: &App, requests: &mut Requests, area: Rect| {
-        if let (Some(hdr), true) = (&app.hdr, area.width > 0 && area.height > 0) {
-            let id = requests.next();
-            requests.view_sent = id;
-            let _ = view_tx.send(worker::ViewJob {
-                id,
-                hdr: hdr.clone(),
-                view: app.view.clone(),
-                area,
-            });
-        }
-    };
-    if let Some(img) = first_image {
-        app.hdr = Some(img.clone());
-        app.status.stage = "file".into();
-    }
-    send_render(&mut app, &mut requests);
-    let mut dirty = true;
-    let mut view_started = Instant::now();
-    loop {
-        let size = guard
-            .terminal
-            .size()
-            .map_err(|e| Error::invalid("terminal", e.to_string()))?;
-        let areas = ui::layout(Rect::new(0, 0, size.width, size.height));
-        if areas.image != image_area {
-            image_area = areas.image;
-            view_started = Instant::now();
-            send_view(&app, &mut requests, image_area);
-            dirty = true;
-        }
-        if dirty {
-            guard
-                .terminal
-                .draw(|f| ui::draw(f, &app, picture.as_ref()))
-                .map_err(|e| Error::invalid("terminal", e.to_string()))?;
-            dirty = false;
-        }
-        if let Ok(sig) = signals.try_recv() {
-            app.message = format!("signal {sig}: quitting");
-            return Ok(());
-        }
-        if event::poll(Duration::from_millis(15))
-            .map_err(|e| Error::invalid("terminal", e.to_string()))?
-        {
-            match event::read().map_err(|e| Error::invalid("terminal", e.to_string()))? {
-                Event::Key(key) if key.kind != KeyEventKind::Release => {
-                    if app.show_help && matches!(key.code, KeyCode::Esc) {
-                        app.show_help = false;
-                        dirty = true;
-                        continue;
-                    }
-                    let Some(action) = app::action_for_key(key) else {
-                        continue;
-                    };
-                    if action != Action::Save {
-                        app.message.clear();
-                    }
-                    match app.apply(action) {
-                        Effect::Quit => return Ok(()),
-                        Effect::None | Effect::Redraw => {}
-                        Effect::Redisplay => {
-                            view_started = Instant::now();
-                            send_view(&app, &mut requests, image_area);
-                        }
-                        Effect::Rerender => send_render(&mut app, &mut requests),
-                        Effect::Reload => {
-                            app.message = "reloading".into();
-                            reload(&mut app, &source);
-                            if matches!(source, Source::Image(_)) {
-                                send_view(&app, &mut requests, image_area);
-                            }
-                            send_render(&mut app, &mut requests);
-                        }
-                        Effect::Save => match &app.hdr {
-                            Some(hdr) => {
-                                let (hdr, view, out) =
-                                    (hdr.clone(), app.view.clone(), app.out_dir.clone());
-                                let stem = opts
-                                    .input
-                                    .file_stem()
-                                    .map(|s| s.to_string_lossy().to_string())
-                                    .unwrap_or_else(|| "view".into());
-                                let tx = save_tx.clone();
-                                app.message = "saving…".into();
-                                std::thread::spawn(move || {
-                                    let r = view::save_view(&hdr, &view, &out, &stem)
-                                        .map_err(|e| e.to_string());
-                                    let _ = tx.send(r);
-                                });
-                            }
-                            None => app.message = "nothing to save yet".into(),
-                        },
-                    }
-                    dirty = true;
-                }
-                Event::Resize(..) => {
-                    // Pictures drawn by the terminal (sixel) are not cleared by a diff.
-                    let _ = guard.terminal.clear();
-                    dirty = true;
-                }
-                _ => {}
-            }
-        }
-        if let Some((_, rx)) = &render {
-            while let Ok(done) = rx.try_recv() {
-                if done.id != requests.render_sent {
-                    continue;
-                }
-                app.status.adapter = done.adapter.unwrap_or_default();
-                app.status.render_ms = Some(done.ms);
-                app.status.stage = if done.low_res { "preview" } else { "full" }.into();
-                match done.outcome {
-                    Ok(scene) => {
-                        app.error = None;
-                        let quick_only = done.low_res
-                            && !scene.params.iter().any(|p| p.name == app::PREVIEW_SCALE);
-                        app.status.busy = done.low_res && !quick_only;
-                        if quick_only {
-                            app.status.stage = "full".into();
-                        }
-                        app.hdr = Some(scene.image);
-                        app.set_params(scene.params);
-                        app.status.passes = worker::pass_summary(&scene.passes);
-                        view_started = Instant::now();
-                        send_view(&app, &mut requests, image_area);
-                    }
-                    Err(msg) => {
-                        app.status.busy = false;
-                        app.error = Some(msg);
-                    }
-                }
-                dirty = true;
-            }
-        }
-        while let Ok(done) = view_rx.try_recv() {
-            if done.id != requests.view_sent {
-                continue;
-            }
-            match done.outcome {
-                Ok(prepared) => {
-                    picture = Some(prepared.protocol);
-                    app.histogram = prepared.histogram;
-                    let total = view_started.elapsed().as_secs_f64() * 1e3;
-                    app.status.passes.retain(|p| !p.starts_with("view "));
-                    app.status.passes.push(format!(
-                        "view {:.0} ms (key→picture {total:.0} ms)",
-                        done.ms
-                    ));
-                    if redraw_on_change {
-                        let _ = guard.terminal.clear();
-                    }
-                }
-                Err(msg) => app.message = format!("view: {msg}"),
-            }
-            dirty = true;
-        }
-        while let Ok(saved) = save_rx.try_recv() {
-            app.message = match saved {
-                Ok((exr, png)) => {
-                    let name = |p: &Path| {
-                        p.file_name()
-                            .map(|n| n.to_string_lossy().to_string())
-                            .unwrap_or_default()
-                    };
-                    format!("saved {} + {}", name(&exr), name(&png))
-                }
-                Err(e) => format!("save failed: {e}"),
-            };
-            dirty = true;
-        }
-        if last_watch.elapsed() > Duration::from_millis(500) {
-            last_watch = Instant::now();
-            let now = modified(&watched);
-            if now != watched_mtime {
-                watched_mtime = now;
-                app.message = "file changed: reloading".into();
-                reload(&mut app, &source);
-                if matches!(source, Source::Image(_)) {
-                    send_view(&app, &mut requests, image_area);
-                }
-                send_render(&mut app, &mut requests);
-                dirty = true;
-            }
-        }
-    }
+    worker::spawn_render_worker(script.to_path_buf(), base, session)
 }
 
-/// Re-reads an image file (a script is re-read by the render worker on its next run). A file
-/// that fails to read keeps the last good image and shows the error.
-fn reload(app: &mut App, source: &Source) {
-    if let Source::Image(path) = source {
-        match crate::io::exr::read_exr(path) {
-            Ok(img) => {
-                app.hdr = Some(Arc::new(img));
-                app.error = None;
+impl EventLoop<'_> {
+    /// Polls input every 15 ms and never waits on a worker, until `q`, Ctrl-C or a signal.
+    fn run(&mut self, signals: &Receiver<i32>) -> Result<()> {
+        self.send_render();
+        loop {
+            self.follow_layout()?;
+            if self.dirty {
+                let (app, picture) = (&self.app, self.picture.as_ref());
+                self.guard
+                    .terminal
+                    .draw(|f| ui::draw(f, app, picture))
+                    .map_err(terminal_error)?;
+                self.dirty = false;
             }
-            Err(e) => app.error = Some(e.to_string()),
+            if let Ok(sig) = signals.try_recv() {
+                self.app.message = format!("signal {sig}: quitting");
+                return Ok(());
+            }
+            if event::poll(Duration::from_millis(15)).map_err(terminal_error)?
+                && self.on_event(event::read().map_err(terminal_error)?) == Effect::Quit
+            {
+                return Ok(());
+            }
+            self.take_replies();
+            if self.watch.changed() {
+                let next = self.app.reload("file changed: reloading");
+                self.follow_up(next);
+            }
         }
+    }
+
+    /// A new picture area (first frame, resized terminal) needs a view of its own size.
+    fn follow_layout(&mut self) -> Result<()> {
+        let size = self.guard.terminal.size().map_err(terminal_error)?;
+        let areas = ui::layout(Rect::new(0, 0, size.width, size.height));
+        if areas.image != self.image_area {
+            self.image_area = areas.image;
+            self.send_view();
+            self.dirty = true;
+        }
+        Ok(())
+    }
+
+    /// A key or a resize; returns the key's effect ([`Effect::Quit`] ends the loop).
+    fn on_event(&mut self, event: Event) -> Effect {
+        match event {
+            Event::Key(key) if key.kind != KeyEventKind::Release => {
+                let Some(effect) = self.app.on_key(key) else {
+                    return Effect::None;
+                };
+                self.follow_effect(effect);
+                self.dirty = true;
+                effect
+            }
+            Event::Resize(..) => {
+                // Pictures drawn by the terminal (sixel) are not cleared by a diff.
+                let _ = self.guard.terminal.clear();
+                self.dirty = true;
+                Effect::Redraw
+            }
+            _ => Effect::None,
+        }
+    }
+
+    /// Carries out what a key asked for.
+    fn follow_effect(&mut self, effect: Effect) {
+        match effect {
+            Effect::Quit | Effect::None | Effect::Redraw => {}
+            Effect::Redisplay => self.send_view(),
+            Effect::Rerender => self.send_render(),
+            Effect::Reload => {
+                let next = self.app.reload("reloading");
+                self.follow_up(next);
+            }
+            Effect::Save => self.start_save(),
+        }
+    }
+
+    /// Carries out what a worker's reply or a reload asked for.
+    fn follow_up(&mut self, next: FollowUp) {
+        match next {
+            FollowUp::Ignore => return,
+            FollowUp::Redraw => {}
+            FollowUp::RequestView => self.send_view(),
+            FollowUp::RequestRender => self.send_render(),
+            FollowUp::ShowPicture(picture) => {
+                self.picture = Some(picture);
+                if self.redraw_on_change {
+                    let _ = self.guard.terminal.clear();
+                }
+            }
+        }
+        self.dirty = true;
+    }
+
+    /// Everything the workers sent since the last look.
+    fn take_replies(&mut self) {
+        while let Some(done) = self.render.as_ref().and_then(|(_, rx)| rx.try_recv().ok()) {
+            let next = self.app.on_render_done(done);
+            self.follow_up(next);
+        }
+        while let Ok(done) = self.view.1.try_recv() {
+            let next = self.app.on_view_done(done);
+            self.follow_up(next);
+        }
+        while let Ok(saved) = self.saves.1.try_recv() {
+            self.app.on_saved(saved);
+            self.dirty = true;
+        }
+    }
+
+    /// Re-runs the script (nothing to do for an image file).
+    fn send_render(&mut self) {
+        if let Some((tx, _)) = &self.render {
+            let _ = tx.send(self.app.render_job());
+        }
+    }
+
+    fn send_view(&mut self) {
+        if let Some(job) = self.app.view_job(self.image_area) {
+            let _ = self.view.0.send(job);
+        }
+    }
+
+    /// Saves the current view at full resolution on a thread of its own; the result comes
+    /// back through `saves`.
+    fn start_save(&mut self) {
+        let Some(hdr) = self.app.hdr.clone() else {
+            self.app.message = "nothing to save yet".into();
+            return;
+        };
+        let (view, out, stem) = (
+            self.app.view.clone(),
+            self.app.out_dir.clone(),
+            self.stem.clone(),
+        );
+        let tx = self.saves.0.clone();
+        self.app.message = "saving…".into();
+        std::thread::spawn(move || {
+            let r = view::save_view(&hdr, &view, &out, &stem).map_err(|e| e.to_string());
+            let _ = tx.send(r);
+        });
     }
 }

@@ -26,59 +26,16 @@ use ratatui_image::picker::{cap_parser::QueryStdioOptions, Picker, ProtocolType}
 use ratatui_image::protocol::Protocol;
 use std::time::Duration;
 
-/// Environment variable that overrides `--protocol auto`.
-pub const PROTOCOL_ENV: &str = "HDRVIS_TUI_PROTOCOL";
+pub use crate::io::terminal::{ProtocolChoice, PROTOCOL_ENV};
 
-/// The protocol asked for on the command line or in the environment.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ProtocolChoice {
-    Auto,
-    Kitty,
-    Sixel,
-    Iterm2,
-    Halfblocks,
-}
-
-impl ProtocolChoice {
-    pub fn parse(s: &str) -> Result<ProtocolChoice> {
-        Ok(match s.trim().to_ascii_lowercase().as_str() {
-            "auto" => ProtocolChoice::Auto,
-            "kitty" => ProtocolChoice::Kitty,
-            "sixel" => ProtocolChoice::Sixel,
-            "iterm2" => ProtocolChoice::Iterm2,
-            "halfblocks" => ProtocolChoice::Halfblocks,
-            other => {
-                return Err(Error::invalid(
-                    "--protocol",
-                    format!(
-                    "unknown protocol {other:?}; expected auto, kitty, sixel, iterm2 or halfblocks"
-                ),
-                ))
-            }
-        })
-    }
-
-    /// `--protocol` if given, else `HDRVIS_TUI_PROTOCOL`, else auto.
-    pub fn resolve(explicit: Option<&str>) -> Result<ProtocolChoice> {
-        match explicit {
-            Some(s) => Self::parse(s),
-            None => match std::env::var(PROTOCOL_ENV) {
-                Ok(s) if !s.trim().is_empty() => {
-                    Self::parse(&s).map_err(|e| Error::invalid(PROTOCOL_ENV, e.to_string()))
-                }
-                _ => Ok(ProtocolChoice::Auto),
-            },
-        }
-    }
-
-    fn forced(self) -> Option<ProtocolType> {
-        match self {
-            ProtocolChoice::Auto => None,
-            ProtocolChoice::Kitty => Some(ProtocolType::Kitty),
-            ProtocolChoice::Sixel => Some(ProtocolType::Sixel),
-            ProtocolChoice::Iterm2 => Some(ProtocolType::Iterm2),
-            ProtocolChoice::Halfblocks => Some(ProtocolType::Halfblocks),
-        }
+/// The ratatui-image protocol `--protocol` forces, `None` for auto.
+fn forced(choice: ProtocolChoice) -> Option<ProtocolType> {
+    match choice {
+        ProtocolChoice::Auto => None,
+        ProtocolChoice::Kitty => Some(ProtocolType::Kitty),
+        ProtocolChoice::Sixel => Some(ProtocolType::Sixel),
+        ProtocolChoice::Iterm2 => Some(ProtocolType::Iterm2),
+        ProtocolChoice::Halfblocks => Some(ProtocolType::Halfblocks),
     }
 }
 
@@ -327,7 +284,7 @@ pub fn detect(choice: ProtocolChoice) -> Display {
         p
     });
     let mut note;
-    if let Some(forced) = choice.forced() {
+    if let Some(forced) = forced(choice) {
         picker.set_protocol_type(forced);
         note = format!("{} (forced)", name(forced));
     } else {
@@ -385,20 +342,6 @@ pub fn parse_xtversion(answer: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn choices_parse_and_bad_ones_name_the_option() {
-        assert_eq!(
-            ProtocolChoice::parse("Sixel").unwrap(),
-            ProtocolChoice::Sixel
-        );
-        assert_eq!(ProtocolChoice::parse("auto").unwrap(), ProtocolChoice::Auto);
-        let e = ProtocolChoice::parse("png").unwrap_err().to_string();
-        assert!(
-            e.starts_with("--protocol:") && e.contains("halfblocks"),
-            "{e}"
-        );
-    }
 
     #[test]
     fn versions_and_xtversion_answers_parse() {

@@ -281,18 +281,6 @@ pub fn describe(view: &ViewSettings) -> String {
     )
 }
 
-/// 8-bit sRGB of a display-referred image (what the terminal shows).
-pub fn to_rgb8(display: &HdrImage) -> image::RgbImage {
-    let bytes: Vec<u8> = display
-        .pixels
-        .iter()
-        .flat_map(|p| [p[0], p[1], p[2]])
-        .map(|v| crate::io::png::encode_srgb8(v as f64))
-        .collect();
-    image::RgbImage::from_raw(display.width, display.height, bytes)
-        .expect("a display image holds width * height pixels")
-}
-
 /// Saves the current view at full resolution into `out_dir`: `<stem>_view<NNN>.exr`, the
 /// chosen channel exposed by 2^EV (scene-referred, linear), and `<stem>_view<NNN>.png`, the
 /// display image. The number is the first one free. Both are written atomically.
@@ -332,6 +320,17 @@ mod tests {
             })
             .collect();
         HdrImage::from_pixels(w, h, pixels)
+    }
+
+    #[test]
+    fn the_default_view_is_the_picture_inline_previews_print() {
+        // `hdrvis run --preview` prints scene-referred images without this module (the io
+        // layer cannot tone-map): the 0 EV view must be the same 8-bit picture.
+        let values = [0.0, 0.18, 0.7, 1.0, 3.0, -0.5, f32::NAN, f32::INFINITY];
+        let pixels = values.iter().map(|&v| [v, v * 0.5, 1.0 - v, 0.3]).collect();
+        let img = HdrImage::from_pixels(4, 2, pixels);
+        let shown = display_image(&img, &ViewSettings::default()).unwrap();
+        assert_eq!(shown.to_srgb8(), img.to_srgb8());
     }
 
     #[test]
@@ -424,7 +423,7 @@ mod tests {
         // Pixel 0: R = 2 * 1/8 = 0.25 linear -> sRGB 137.
         assert_eq!(
             decoded.get_pixel(0, 0)[0],
-            crate::io::png::encode_srgb8(0.25)
+            crate::model::colormap::encode_srgb8(0.25)
         );
     }
 }

@@ -7,6 +7,7 @@
 //! newest request: keys pressed while a job runs coalesce into one job.
 
 use crate::error::{Error, Result};
+use crate::io::terminal::srgb8_picture;
 use crate::model::HdrImage;
 use crate::render::passes::{PassOutcome, PassRecord};
 use crate::render::session::RenderSession;
@@ -14,7 +15,7 @@ use crate::script::{run_script_file, ParamRecord, ScriptOptions};
 use crate::tui::app::{LOW_RES_SCALE, PREVIEW_SCALE};
 use crate::tui::histogram::LogHistogram;
 use crate::tui::protocol::Display;
-use crate::tui::view::{display_image, resample, to_rgb8, ViewSettings};
+use crate::tui::view::{display_image, resample, ViewSettings};
 use ratatui::layout::Rect;
 use ratatui_image::protocol::Protocol;
 use std::path::PathBuf;
@@ -108,7 +109,6 @@ pub fn spawn_render_worker(
     script: PathBuf,
     base: ScriptOptions,
     session: Arc<RenderSession>,
-    wake: Sender<()>,
 ) -> (Sender<RenderJob>, Receiver<RenderDone>) {
     let (job_tx, job_rx) = channel::<RenderJob>();
     let (done_tx, done_rx) = channel();
@@ -150,7 +150,6 @@ pub fn spawn_render_worker(
                     if sent.is_err() {
                         return;
                     }
-                    let _ = wake.send(());
                     if failed {
                         continue;
                     }
@@ -171,7 +170,6 @@ pub fn spawn_render_worker(
                 if sent.is_err() {
                     return;
                 }
-                let _ = wake.send(());
             }
         })
         .expect("spawning the render thread");
@@ -211,7 +209,7 @@ pub fn prepare(
         64,
     );
     let size = (shown.width, shown.height);
-    let protocol = display.encode(to_rgb8(&shown), area)?;
+    let protocol = display.encode(srgb8_picture(&shown), area)?;
     Ok(Prepared {
         protocol,
         histogram,
@@ -234,10 +232,7 @@ pub struct ViewDone {
 }
 
 /// Starts the view worker; results arrive on the returned receiver.
-pub fn spawn_view_worker(
-    display: Display,
-    wake: Sender<()>,
-) -> (Sender<ViewJob>, Receiver<ViewDone>) {
+pub fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<ViewDone>) {
     let (job_tx, job_rx) = channel::<ViewJob>();
     let (done_tx, done_rx) = channel();
     std::thread::Builder::new()
@@ -256,7 +251,6 @@ pub fn spawn_view_worker(
                 if done_tx.send(done).is_err() {
                     return;
                 }
-                let _ = wake.send(());
             }
         })
         .expect("spawning the view thread");

@@ -592,7 +592,7 @@ save_png(false_colour(hdr), "fc.png");
     let display = hdrvis::io::exr::read_exr(&d.join("out/reinhard.exr")).unwrap();
     let png = image::open(d.join("out/reinhard.png")).unwrap().to_rgb8();
     for (p, q) in display.pixels.iter().zip(png.pixels()) {
-        assert_eq!(q[0], hdrvis::io::png::encode_srgb8(p[0] as f64));
+        assert_eq!(q[0], hdrvis::model::colormap::encode_srgb8(p[0] as f64));
     }
     for f in ["ev0.png", "ev1.png", "ev2.png", "durand.png", "fc.png"] {
         assert!(d.join("out").join(f).exists(), "{f}");

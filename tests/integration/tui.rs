@@ -151,12 +151,7 @@ fn assert_restored(t: &Tmux, exit: &str) {
 }
 
 fn srgb_decode(v: u8) -> f64 {
-    let c = v as f64 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    hdrvis::model::colormap::srgb_to_linear(v as f64 / 255.0)
 }
 
 #[test]
