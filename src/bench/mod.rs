@@ -6,7 +6,11 @@
 //! transfer function of the paper's Fig. 5).
 
 use crate::error::Result;
+use crate::gpu::GpuContext;
 use crate::model::{LutTransfer, Scale, TransferFunction, Volume};
+use crate::render::session::RenderSession;
+use crate::render::{VolumeRender, VolumeRenderOptions, VolumeSource};
+use std::sync::Arc;
 
 pub mod accuracy;
 pub mod bricks;
@@ -19,6 +23,30 @@ pub mod tui;
 pub mod volume;
 
 pub use accuracy::{lost_detail, relative_rms};
+
+/// A render session for timing: every render runs (none is answered from the result cache),
+/// while uploads, bricks and brick caches are reused as in a script run.
+pub(crate) fn timing_session(ctx: Arc<GpuContext>) -> RenderSession {
+    RenderSession::with_context(ctx, 16 << 30).rerunning_renders()
+}
+
+/// One warm-up render (pipeline build, upload, bricking), then `runs` timed ones through the
+/// session's one entry point: their times in ms (the render's own, submission to image in host
+/// memory) and the last render.
+pub(crate) fn time_renders(
+    session: &RenderSession,
+    source: &VolumeSource,
+    opts: &VolumeRenderOptions,
+    runs: usize,
+) -> Result<(Vec<f64>, Arc<VolumeRender>)> {
+    let mut last = session.render_volume_detailed(source, opts)?;
+    let mut ms = Vec::new();
+    for _ in 0..runs.max(1) {
+        last = session.render_volume_detailed(source, opts)?;
+        ms.push(last.seconds * 1e3);
+    }
+    Ok((ms, last))
+}
 
 pub fn median(v: &[f64]) -> f64 {
     let mut s = v.to_vec();

@@ -2,12 +2,12 @@
 //! sample per voxel, optionally with VTK's GPU ray caster run side by side on the same data
 //! (`--peer vtk`) and the cost of each stage of a sample (`--breakdown`).
 
-use super::{bench_tf, bench_volume, median};
+use super::{bench_tf, bench_volume, median, time_renders, timing_session};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::{Axis, Camera, Volume};
 use crate::render::volume::{GpuVolume, SampleWork, VolumeRenderer};
-use crate::render::VolumeRenderOptions;
+use crate::render::{VolumeRenderOptions, VolumeSource};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -61,28 +61,27 @@ pub fn bench_volume_render(
     breakdown: bool,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<BenchRow>> {
+    let session = timing_session(ctx.clone());
+    // The breakdown times the shader with its samples cut short (SampleWork): an instrument on
+    // the renderer itself, not a render users get.
     let renderer = VolumeRenderer::new(ctx);
     let mut rows = Vec::new();
     for &(n, px) in sizes {
         log(&format!("generating {n}^3 volume ..."));
-        let vol = bench_volume(n)?;
-        let gv = GpuVolume::upload(renderer.context(), &vol)?;
+        let vol = Arc::new(bench_volume(n)?);
         let mut opts = VolumeRenderOptions::new(Camera::axis(Axis::Z, &vol.bounds()), bench_tf());
         opts.width = px;
         opts.height = px;
         opts.step = 1.0;
         // Warm-up: pipeline compilation and first-touch costs are not part of a frame.
-        renderer.render(&gv, &opts)?;
-        let mut runs_ms = Vec::new();
-        for _ in 0..runs.max(1) {
-            let (_, t) = renderer.render(&gv, &opts)?;
-            runs_ms.push(t.seconds * 1e3);
-        }
+        let source = VolumeSource::Memory(vol.clone());
+        let (runs_ms, _) = time_renders(&session, &source, &opts, runs)?;
         let name = format!("{n}^3 -> {px}^2");
         log(&format!("{name}: median {:.1} ms", median(&runs_ms)));
         let mut stages: Vec<(SampleWork, Vec<f64>)> = Vec::new();
         if breakdown {
             log(&format!("{name}: timing the stages of a sample ..."));
+            let gv = GpuVolume::upload(renderer.context(), &vol)?;
             stages = time_sample_stages(&renderer, &gv, &opts, runs)?;
         }
         let peer_result = peer.map(|script| run_vtk_peer(script, &vol, px, runs, log));

@@ -112,7 +112,8 @@ impl RenderPath {
 pub struct VolumeRender {
     pub image: Arc<HdrImage>,
     pub path: RenderPath,
-    /// Seconds the render itself took (not counting levels, bricking or uploads).
+    /// Seconds the render itself took, from submission to the image in host memory (not
+    /// counting levels, bricking or uploads).
     pub seconds: f64,
     /// What the bricked path did (passes, bricks read, GPU memory).
     pub bricks: Option<BrickedStats>,
@@ -248,10 +249,9 @@ impl RenderSession {
         match (path, volume) {
             (RenderPath::InCore, Some(v)) => {
                 let gv = self.upload(v)?;
-                let t = Instant::now();
-                let (img, _) = self.volume_renderer()?.render(&gv, opts)?;
+                let (img, timing) = self.volume_renderer()?.render(&gv, opts)?;
                 let mut r = finished(img, None);
-                r.seconds = t.elapsed().as_secs_f64();
+                r.seconds = timing.seconds;
                 Ok(r)
             }
             (RenderPath::F64Gpu, Some(v)) => {
