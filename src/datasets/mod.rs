@@ -15,7 +15,7 @@ pub mod tsunami;
 pub mod vti;
 
 use crate::error::{Error, Result};
-use crate::model::Volume;
+use crate::model::{Grid, GridCoords, Volume};
 use std::path::Path;
 
 /// Loads a scalar volume, choosing the reader by extension; see [`load_volume_var`].
@@ -172,6 +172,106 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
         x,
         y,
     })
+}
+
+/// Names an array may have that make it the elevation of a grid rather than a property.
+const ELEVATION_NAMES: [&str; 5] = ["elevation", "topo", "topography", "height", "z"];
+
+/// Loads a 2-D field as a [`Grid`]: `.npy` (one property named after the file), `.npz` and
+/// NetCDF (every non-coordinate array of the chosen or default array's 2-D shape becomes a
+/// property, sorted by name; `x`/`lon` and `y`/`lat` arrays are coordinates; an array named
+/// `elevation`, `topo`, `topography`, `height` or `z` of that shape is the elevation). `var` picks
+/// one array; with it only that array is a property (plus the elevation).
+pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
+    let file = read_grid(path, var)?;
+    let [ny, nx] = file.shape;
+    let x = grid_coords(file.x, "x", nx);
+    let y = grid_coords(file.y, "y", ny);
+    let mut props = vec![(file.name.clone(), file.data, file.units.unwrap_or_default())];
+    let mut elevation = None;
+    if matches!(
+        crate::io::extension(path).as_str(),
+        "npz" | "nc" | "nc4" | "cdf" | "netcdf"
+    ) {
+        let coord_names = [x.name.as_str(), y.name.as_str()];
+        let found = same_shape_arrays(path, &file.name, &coord_names, [ny, nx], var.is_some())?;
+        props.extend(found.properties);
+        elevation = found.elevation;
+        props.sort_by(|a, b| a.0.cmp(&b.0));
+    }
+    let name = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("grid")
+        .to_string();
+    let units: Vec<(String, String)> = props.iter().map(|p| (p.0.clone(), p.2.clone())).collect();
+    let props = props.into_iter().map(|(n, v, _)| (n, v)).collect();
+    let mut grid = Grid::with_coords(&name, x, y, props, elevation)?;
+    for (property, units) in &units {
+        grid.set_units(property, units)?;
+    }
+    Ok(grid)
+}
+
+/// A grid axis from a file's coordinate array, or node indices when the file has none.
+fn grid_coords(axis: Option<GridAxis>, name: &str, n: usize) -> GridCoords {
+    match axis {
+        Some(a) => GridCoords {
+            name: a.name,
+            units: a.units.unwrap_or_default(),
+            values: a.values,
+        },
+        None => GridCoords::index(name, n),
+    }
+}
+
+/// The arrays of a grid file besides its main one, as [`same_shape_arrays`] sorts them.
+struct GridExtras {
+    /// `(name, values, units)` of each further property.
+    properties: Vec<(String, Vec<f64>, String)>,
+    elevation: Option<Vec<f64>>,
+}
+
+/// The other arrays of `path` with the 2-D shape `[ny, nx]` (after dropping length-1
+/// dimensions): elevation-named ones become the elevation, the rest further properties unless
+/// `only_elevation`. The array `main`, coordinate variables and arrays named like coordinates
+/// (`coord_names`, `x`, `y`, `lon`, `lat`, `longitude`, `latitude`) are skipped.
+fn same_shape_arrays(
+    path: &Path,
+    main: &str,
+    coord_names: &[&str],
+    [ny, nx]: [usize; 2],
+    only_elevation: bool,
+) -> Result<GridExtras> {
+    const COORDINATE_NAMES: [&str; 6] = ["x", "y", "lon", "lat", "longitude", "latitude"];
+    let mut extras = GridExtras {
+        properties: Vec::new(),
+        elevation: None,
+    };
+    for a in list_arrays(path)? {
+        let name = a.name.as_str();
+        if name == main
+            || a.is_coordinate
+            || coord_names.contains(&name)
+            || COORDINATE_NAMES.contains(&name)
+        {
+            continue;
+        }
+        let is_elevation = ELEVATION_NAMES.contains(&name);
+        let squeezed: Vec<usize> = a.shape.iter().cloned().filter(|&s| s != 1).collect();
+        if squeezed != [ny, nx] || (only_elevation && !is_elevation) {
+            continue;
+        }
+        let arr = read_array(path, Some(name), Some(2))?;
+        if is_elevation {
+            extras.elevation = Some(arr.data);
+        } else {
+            extras
+                .properties
+                .push((a.name, arr.data, arr.units.unwrap_or_default()));
+        }
+    }
+    Ok(extras)
 }
 
 /// Name, shape and on-disk type of one array or variable in a file.

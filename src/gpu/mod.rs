@@ -130,7 +130,7 @@ impl PersistentPipelineCache {
             .chars()
             .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
             .collect();
-        let path = crate::datasets::cache::cache_dir()
+        let path = crate::io::cache_dir()
             .join("pipelines")
             .join(format!("{key}_{driver}.bin"));
         let data = std::fs::read(&path).ok();
