@@ -4,6 +4,7 @@
 //! shaders, texture limits — are detected here, and every missing one has a working path.
 
 pub mod layout;
+pub(crate) mod pipeline;
 pub mod readback;
 pub mod shader;
 pub mod transfer;
