@@ -360,8 +360,6 @@ pub fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         ));
     }
-    let fits = |shape: &[usize]| rank.is_none_or(|r| squeezed(shape, r).len() == r);
-    let rank_name = rank.map(|r| format!("{r}-D ")).unwrap_or_default();
     let ext = crate::io::extension(path);
     let mut array = match ext.as_str() {
         "npy" => {
@@ -369,92 +367,9 @@ pub fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
             let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("array");
             plain_array(name, npy.shape, npy.dtype, npy.data)
         }
-        "npz" => {
-            let listed = list_arrays(path)?;
-            let name = match var {
-                Some(v) => v.to_string(),
-                None => listed
-                    .iter()
-                    .filter(|a| fits(&a.shape))
-                    .max_by_key(|a| a.shape.iter().product::<usize>())
-                    .map(|a| a.name.clone())
-                    .ok_or_else(|| no_array(path, &rank_name, &listed))?,
-            };
-            if !listed.iter().any(|a| a.name == name) {
-                return Err(missing_array(path, &name, &listed));
-            }
-            let mut archive = open_npz(path)?;
-            let member = npyz::npz::file_name_from_array_name(&name);
-            let entry = archive
-                .zip_archive()
-                .by_name(&member)
-                .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
-            let size = entry.size();
-            let npy = npy::read_npy_from::<f64, _>(entry, size, path)?;
-            plain_array(&name, npy.shape, npy.dtype, npy.data)
-        }
-        "nc" | "nc4" | "cdf" | "netcdf" => {
-            let listed = list_arrays(path)?;
-            let numeric = |a: &&ArrayListing| a.dtype != "char" && a.dtype != "string";
-            let name = match var {
-                Some(v) => v.to_string(),
-                None => listed
-                    .iter()
-                    .filter(numeric)
-                    .find(|a| !a.is_coordinate && fits(&a.shape))
-                    .map(|a| a.name.clone())
-                    .ok_or_else(|| no_array(path, &rank_name, &listed))?,
-            };
-            let listing = listed
-                .iter()
-                .find(|a| a.name == name)
-                .ok_or_else(|| missing_array(path, &name, &listed))?;
-            let variable = netcdf::read_variable(path, &name)?;
-            let file = netcdf_reader::NcFile::open(path)
-                .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
-            // Missing values become NaN when decoded; NaN already stored raw is not a fill.
-            let raw_nan = file
-                .read_variable_as_f64(&name)
-                .map_err(|e| Error::format(path, e.to_string()))?
-                .iter()
-                .filter(|v| v.is_nan())
-                .count();
-            let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
-            ArrayData {
-                name,
-                dims: variable.dims.iter().map(|(d, _)| d.clone()).collect(),
-                shape: variable.dims.iter().map(|(_, n)| *n).collect(),
-                dtype: listing.dtype.clone(),
-                units: variable.units,
-                fill_count: decoded_nan.saturating_sub(raw_nan),
-                data: variable.data,
-            }
-        }
-        "vti" | "nhdr" | "nrrd" => {
-            let volume = if ext == "vti" {
-                let v = vti::read_vti(path)?;
-                Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
-                    .map_err(|e| Error::format(path, e.to_string()))?
-            } else {
-                nhdr::read_nrrd(path)?
-            };
-            if let Some(wanted) = var.filter(|w| *w != volume.name) {
-                return Err(Error::format(
-                    path,
-                    format!("no array '{wanted}'; the file has: {}", volume.name),
-                ));
-            }
-            let [nx, ny, nz] = volume.dims;
-            let mut array = plain_array(
-                &volume.name,
-                vec![nz, ny, nx],
-                "float32 (as loaded)".to_string(),
-                volume.data.iter().map(|&v| v as f64).collect(),
-            );
-            array.dims = vec!["z".into(), "y".into(), "x".into()];
-            array.units = (!volume.units.is_empty()).then_some(volume.units);
-            array
-        }
+        "npz" => read_npz_array(path, var, rank)?,
+        "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank)?,
+        "vti" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
         other => {
             return Err(Error::format(
                 path,
@@ -479,6 +394,110 @@ pub fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
         array.shape.drain(..dropped);
         array.dims.drain(..dropped);
     }
+    Ok(array)
+}
+
+/// Whether an array of `shape` has `rank` dimensions once leading length-1 ones are dropped
+/// (any shape fits no rank).
+fn fits_rank(shape: &[usize], rank: Option<usize>) -> bool {
+    rank.is_none_or(|r| squeezed(shape, r).len() == r)
+}
+
+/// "2-D " for rank 2, "" for none: how "no array" errors name what was looked for.
+fn rank_name(rank: Option<usize>) -> String {
+    rank.map(|r| format!("{r}-D ")).unwrap_or_default()
+}
+
+/// [`read_array`] of an `.npz` member: `var`, else the largest array of the rank.
+fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+    let listed = list_arrays(path)?;
+    let name = match var {
+        Some(v) => v.to_string(),
+        None => listed
+            .iter()
+            .filter(|a| fits_rank(&a.shape, rank))
+            .max_by_key(|a| a.shape.iter().product::<usize>())
+            .map(|a| a.name.clone())
+            .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
+    };
+    if !listed.iter().any(|a| a.name == name) {
+        return Err(missing_array(path, &name, &listed));
+    }
+    let mut archive = open_npz(path)?;
+    let member = npyz::npz::file_name_from_array_name(&name);
+    let entry = archive
+        .zip_archive()
+        .by_name(&member)
+        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
+    let size = entry.size();
+    let npy = npy::read_npy_from::<f64, _>(entry, size, path)?;
+    Ok(plain_array(&name, npy.shape, npy.dtype, npy.data))
+}
+
+/// [`read_array`] of a NetCDF variable: `var`, else the first numeric non-coordinate variable
+/// of the rank; values the file marks as missing are counted.
+fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+    let listed = list_arrays(path)?;
+    let numeric = |a: &&ArrayListing| a.dtype != "char" && a.dtype != "string";
+    let name = match var {
+        Some(v) => v.to_string(),
+        None => listed
+            .iter()
+            .filter(numeric)
+            .find(|a| !a.is_coordinate && fits_rank(&a.shape, rank))
+            .map(|a| a.name.clone())
+            .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
+    };
+    let listing = listed
+        .iter()
+        .find(|a| a.name == name)
+        .ok_or_else(|| missing_array(path, &name, &listed))?;
+    let variable = netcdf::read_variable(path, &name)?;
+    let file = netcdf_reader::NcFile::open(path)
+        .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+    // Missing values become NaN when decoded; NaN already stored raw is not a fill.
+    let raw_nan = file
+        .read_variable_as_f64(&name)
+        .map_err(|e| Error::format(path, e.to_string()))?
+        .iter()
+        .filter(|v| v.is_nan())
+        .count();
+    let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
+    Ok(ArrayData {
+        name,
+        dims: variable.dims.iter().map(|(d, _)| d.clone()).collect(),
+        shape: variable.dims.iter().map(|(_, n)| *n).collect(),
+        dtype: listing.dtype.clone(),
+        units: variable.units,
+        fill_count: decoded_nan.saturating_sub(raw_nan),
+        data: variable.data,
+    })
+}
+
+/// [`read_array`] of the one volume of a `.vti` or `.nhdr`/`.nrrd` file (`ext`), as (z, y, x).
+fn read_volume_array(path: &Path, ext: &str, var: Option<&str>) -> Result<ArrayData> {
+    let volume = if ext == "vti" {
+        let v = vti::read_vti(path)?;
+        Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
+            .map_err(|e| Error::format(path, e.to_string()))?
+    } else {
+        nhdr::read_nrrd(path)?
+    };
+    if let Some(wanted) = var.filter(|w| *w != volume.name) {
+        return Err(Error::format(
+            path,
+            format!("no array '{wanted}'; the file has: {}", volume.name),
+        ));
+    }
+    let [nx, ny, nz] = volume.dims;
+    let mut array = plain_array(
+        &volume.name,
+        vec![nz, ny, nx],
+        "float32 (as loaded)".to_string(),
+        volume.data.iter().map(|&v| v as f64).collect(),
+    );
+    array.dims = vec!["z".into(), "y".into(), "x".into()];
+    array.units = (!volume.units.is_empty()).then_some(volume.units);
     Ok(array)
 }
 
