@@ -60,20 +60,7 @@ impl GpuVolume {
             )));
         }
         let [nx, ny, nz] = volume.dims;
-        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("volume"),
-            size: wgpu::Extent3d {
-                width: nx as u32,
-                height: ny as u32,
-                depth_or_array_layers: nz as u32,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::R32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let texture = ctx.r32f_texture_3d("volume", [nx as u32, ny as u32, nz as u32]);
         // Slabs of whole z-slices, at most 64 MiB each, keep staging copies small.
         let slice_bytes = nx * ny * 4;
         let slab = ((64usize << 20) / slice_bytes).clamp(1, nz);
