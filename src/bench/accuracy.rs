@@ -114,7 +114,7 @@ pub fn tsunami_scene(n: usize) -> Result<AccuracyScene> {
         ..Default::default()
     };
     let path = Job::Tsunami(job).run_cached(OutputFormat::NetCdf, &mut |_| {})?;
-    let g = Grid::load(&path, None)?;
+    let g = crate::datasets::load_grid(&path, None)?;
     let (eta, depth) = (g.property("max_abs_eta")?, g.property("depth")?);
     let column: Vec<f64> = eta
         .iter()
@@ -142,7 +142,7 @@ pub fn fault_scene(n: usize) -> Result<AccuracyScene> {
         ..Default::default()
     };
     let path = Job::Okada(job).run_cached(OutputFormat::NetCdf, &mut |_| {})?;
-    let g = Grid::load(&path, None)?;
+    let g = crate::datasets::load_grid(&path, None)?;
     let uz: Vec<f64> = g.property("uz")?.iter().map(|&v| 1.0e5 + v).collect();
     let grid = Grid::from_arrays("fault", g.nx(), g.ny(), vec![("uz".into(), uz)])?;
     Ok(AccuracyScene {

@@ -1,41 +1,19 @@
 //! The dataset cache: generated fields are stored once under a name made of the generator and a
 //! hash of every parameter, so the demo, the case-study scripts and repeated CLI calls generate
-//! each dataset once. The folder is `$HDRVIS_CACHE` when that is set, else `datasets/cache` in
-//! the hdrvis checkout that contains the working directory (found by walking up to a
-//! `Cargo.toml` naming the package `hdrvis`), else `datasets/cache` under the working directory.
-//! `datasets/cache` is git-ignored. Files appear atomically: a generator writes a temporary file
-//! in the cache folder, which is renamed into place only when it succeeded.
+//! each dataset once. The folder is [`cache_dir`]: `$HDRVIS_CACHE` when that is set, else
+//! `datasets/cache` in the hdrvis checkout that contains the working directory, else
+//! `datasets/cache` under the working directory. `datasets/cache` is git-ignored. Files appear
+//! atomically: a generator writes a temporary file in the cache folder, which is renamed into
+//! place only when it succeeded.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
 
-/// Environment variable that overrides the cache folder.
-pub const CACHE_ENV: &str = "HDRVIS_CACHE";
-
-/// The folder generated datasets are cached in (see the module documentation).
-pub fn cache_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os(CACHE_ENV).filter(|d| !d.is_empty()) {
-        return PathBuf::from(dir);
-    }
-    let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
-    let root = cwd
-        .ancestors()
-        .find(|dir| is_hdrvis_checkout(dir))
-        .map(Path::to_path_buf)
-        .unwrap_or(cwd);
-    root.join("datasets").join("cache")
-}
-
-fn is_hdrvis_checkout(dir: &Path) -> bool {
-    std::fs::read_to_string(dir.join("Cargo.toml"))
-        .map(|text| {
-            text.lines()
-                .any(|line| line.replace(' ', "") == "name=\"hdrvis\"")
-        })
-        .unwrap_or(false)
-}
+/// The cache folder and its override live in `io`, so that the GPU pipeline cache uses the same
+/// folder without `gpu` depending on `datasets`.
+pub use crate::io::{cache_dir, CACHE_ENV};
 
 /// The cached file for (`job_kind`, `key`, `ext`) in [`cache_dir`]; `make` writes it when it is
 /// missing. Returns the file's path either way.

@@ -15,7 +15,7 @@ pub mod tsunami;
 pub mod vti;
 
 use crate::error::{Error, Result};
-use crate::model::Volume;
+use crate::model::{Grid, GridCoords, Volume};
 use std::path::Path;
 
 /// Loads a scalar volume, choosing the reader by extension; see [`load_volume_var`].
@@ -174,6 +174,106 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
     })
 }
 
+/// Names an array may have that make it the elevation of a grid rather than a property.
+const ELEVATION_NAMES: [&str; 5] = ["elevation", "topo", "topography", "height", "z"];
+
+/// Loads a 2-D field as a [`Grid`]: `.npy` (one property named after the file), `.npz` and
+/// NetCDF (every non-coordinate array of the chosen or default array's 2-D shape becomes a
+/// property, sorted by name; `x`/`lon` and `y`/`lat` arrays are coordinates; an array named
+/// `elevation`, `topo`, `topography`, `height` or `z` of that shape is the elevation). `var` picks
+/// one array; with it only that array is a property (plus the elevation).
+pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
+    let file = read_grid(path, var)?;
+    let [ny, nx] = file.shape;
+    let x = grid_coords(file.x, "x", nx);
+    let y = grid_coords(file.y, "y", ny);
+    let mut props = vec![(file.name.clone(), file.data, file.units.unwrap_or_default())];
+    let mut elevation = None;
+    if matches!(
+        crate::io::extension(path).as_str(),
+        "npz" | "nc" | "nc4" | "cdf" | "netcdf"
+    ) {
+        let coord_names = [x.name.as_str(), y.name.as_str()];
+        let found = same_shape_arrays(path, &file.name, &coord_names, [ny, nx], var.is_some())?;
+        props.extend(found.properties);
+        elevation = found.elevation;
+        props.sort_by(|a, b| a.0.cmp(&b.0));
+    }
+    let name = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("grid")
+        .to_string();
+    let units: Vec<(String, String)> = props.iter().map(|p| (p.0.clone(), p.2.clone())).collect();
+    let props = props.into_iter().map(|(n, v, _)| (n, v)).collect();
+    let mut grid = Grid::with_coords(&name, x, y, props, elevation)?;
+    for (property, units) in &units {
+        grid.set_units(property, units)?;
+    }
+    Ok(grid)
+}
+
+/// A grid axis from a file's coordinate array, or node indices when the file has none.
+fn grid_coords(axis: Option<GridAxis>, name: &str, n: usize) -> GridCoords {
+    match axis {
+        Some(a) => GridCoords {
+            name: a.name,
+            units: a.units.unwrap_or_default(),
+            values: a.values,
+        },
+        None => GridCoords::index(name, n),
+    }
+}
+
+/// The arrays of a grid file besides its main one, as [`same_shape_arrays`] sorts them.
+struct GridExtras {
+    /// `(name, values, units)` of each further property.
+    properties: Vec<(String, Vec<f64>, String)>,
+    elevation: Option<Vec<f64>>,
+}
+
+/// The other arrays of `path` with the 2-D shape `[ny, nx]` (after dropping length-1
+/// dimensions): elevation-named ones become the elevation, the rest further properties unless
+/// `only_elevation`. The array `main`, coordinate variables and arrays named like coordinates
+/// (`coord_names`, `x`, `y`, `lon`, `lat`, `longitude`, `latitude`) are skipped.
+fn same_shape_arrays(
+    path: &Path,
+    main: &str,
+    coord_names: &[&str],
+    [ny, nx]: [usize; 2],
+    only_elevation: bool,
+) -> Result<GridExtras> {
+    const COORDINATE_NAMES: [&str; 6] = ["x", "y", "lon", "lat", "longitude", "latitude"];
+    let mut extras = GridExtras {
+        properties: Vec::new(),
+        elevation: None,
+    };
+    for a in list_arrays(path)? {
+        let name = a.name.as_str();
+        if name == main
+            || a.is_coordinate
+            || coord_names.contains(&name)
+            || COORDINATE_NAMES.contains(&name)
+        {
+            continue;
+        }
+        let is_elevation = ELEVATION_NAMES.contains(&name);
+        let squeezed: Vec<usize> = a.shape.iter().cloned().filter(|&s| s != 1).collect();
+        if squeezed != [ny, nx] || (only_elevation && !is_elevation) {
+            continue;
+        }
+        let arr = read_array(path, Some(name), Some(2))?;
+        if is_elevation {
+            extras.elevation = Some(arr.data);
+        } else {
+            extras
+                .properties
+                .push((a.name, arr.data, arr.units.unwrap_or_default()));
+        }
+    }
+    Ok(extras)
+}
+
 /// Name, shape and on-disk type of one array or variable in a file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ArrayListing {
@@ -260,8 +360,6 @@ pub fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         ));
     }
-    let fits = |shape: &[usize]| rank.is_none_or(|r| squeezed(shape, r).len() == r);
-    let rank_name = rank.map(|r| format!("{r}-D ")).unwrap_or_default();
     let ext = crate::io::extension(path);
     let mut array = match ext.as_str() {
         "npy" => {
@@ -269,92 +367,9 @@ pub fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
             let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("array");
             plain_array(name, npy.shape, npy.dtype, npy.data)
         }
-        "npz" => {
-            let listed = list_arrays(path)?;
-            let name = match var {
-                Some(v) => v.to_string(),
-                None => listed
-                    .iter()
-                    .filter(|a| fits(&a.shape))
-                    .max_by_key(|a| a.shape.iter().product::<usize>())
-                    .map(|a| a.name.clone())
-                    .ok_or_else(|| no_array(path, &rank_name, &listed))?,
-            };
-            if !listed.iter().any(|a| a.name == name) {
-                return Err(missing_array(path, &name, &listed));
-            }
-            let mut archive = open_npz(path)?;
-            let member = npyz::npz::file_name_from_array_name(&name);
-            let entry = archive
-                .zip_archive()
-                .by_name(&member)
-                .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
-            let size = entry.size();
-            let npy = npy::read_npy_from::<f64, _>(entry, size, path)?;
-            plain_array(&name, npy.shape, npy.dtype, npy.data)
-        }
-        "nc" | "nc4" | "cdf" | "netcdf" => {
-            let listed = list_arrays(path)?;
-            let numeric = |a: &&ArrayListing| a.dtype != "char" && a.dtype != "string";
-            let name = match var {
-                Some(v) => v.to_string(),
-                None => listed
-                    .iter()
-                    .filter(numeric)
-                    .find(|a| !a.is_coordinate && fits(&a.shape))
-                    .map(|a| a.name.clone())
-                    .ok_or_else(|| no_array(path, &rank_name, &listed))?,
-            };
-            let listing = listed
-                .iter()
-                .find(|a| a.name == name)
-                .ok_or_else(|| missing_array(path, &name, &listed))?;
-            let variable = netcdf::read_variable(path, &name)?;
-            let file = netcdf_reader::NcFile::open(path)
-                .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
-            // Missing values become NaN when decoded; NaN already stored raw is not a fill.
-            let raw_nan = file
-                .read_variable_as_f64(&name)
-                .map_err(|e| Error::format(path, e.to_string()))?
-                .iter()
-                .filter(|v| v.is_nan())
-                .count();
-            let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
-            ArrayData {
-                name,
-                dims: variable.dims.iter().map(|(d, _)| d.clone()).collect(),
-                shape: variable.dims.iter().map(|(_, n)| *n).collect(),
-                dtype: listing.dtype.clone(),
-                units: variable.units,
-                fill_count: decoded_nan.saturating_sub(raw_nan),
-                data: variable.data,
-            }
-        }
-        "vti" | "nhdr" | "nrrd" => {
-            let volume = if ext == "vti" {
-                let v = vti::read_vti(path)?;
-                Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
-                    .map_err(|e| Error::format(path, e.to_string()))?
-            } else {
-                nhdr::read_nrrd(path)?
-            };
-            if let Some(wanted) = var.filter(|w| *w != volume.name) {
-                return Err(Error::format(
-                    path,
-                    format!("no array '{wanted}'; the file has: {}", volume.name),
-                ));
-            }
-            let [nx, ny, nz] = volume.dims;
-            let mut array = plain_array(
-                &volume.name,
-                vec![nz, ny, nx],
-                "float32 (as loaded)".to_string(),
-                volume.data.iter().map(|&v| v as f64).collect(),
-            );
-            array.dims = vec!["z".into(), "y".into(), "x".into()];
-            array.units = (!volume.units.is_empty()).then_some(volume.units);
-            array
-        }
+        "npz" => read_npz_array(path, var, rank)?,
+        "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank)?,
+        "vti" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
         other => {
             return Err(Error::format(
                 path,
@@ -379,6 +394,110 @@ pub fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
         array.shape.drain(..dropped);
         array.dims.drain(..dropped);
     }
+    Ok(array)
+}
+
+/// Whether an array of `shape` has `rank` dimensions once leading length-1 ones are dropped
+/// (any shape fits no rank).
+fn fits_rank(shape: &[usize], rank: Option<usize>) -> bool {
+    rank.is_none_or(|r| squeezed(shape, r).len() == r)
+}
+
+/// "2-D " for rank 2, "" for none: how "no array" errors name what was looked for.
+fn rank_name(rank: Option<usize>) -> String {
+    rank.map(|r| format!("{r}-D ")).unwrap_or_default()
+}
+
+/// [`read_array`] of an `.npz` member: `var`, else the largest array of the rank.
+fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+    let listed = list_arrays(path)?;
+    let name = match var {
+        Some(v) => v.to_string(),
+        None => listed
+            .iter()
+            .filter(|a| fits_rank(&a.shape, rank))
+            .max_by_key(|a| a.shape.iter().product::<usize>())
+            .map(|a| a.name.clone())
+            .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
+    };
+    if !listed.iter().any(|a| a.name == name) {
+        return Err(missing_array(path, &name, &listed));
+    }
+    let mut archive = open_npz(path)?;
+    let member = npyz::npz::file_name_from_array_name(&name);
+    let entry = archive
+        .zip_archive()
+        .by_name(&member)
+        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
+    let size = entry.size();
+    let npy = npy::read_npy_from::<f64, _>(entry, size, path)?;
+    Ok(plain_array(&name, npy.shape, npy.dtype, npy.data))
+}
+
+/// [`read_array`] of a NetCDF variable: `var`, else the first numeric non-coordinate variable
+/// of the rank; values the file marks as missing are counted.
+fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+    let listed = list_arrays(path)?;
+    let numeric = |a: &&ArrayListing| a.dtype != "char" && a.dtype != "string";
+    let name = match var {
+        Some(v) => v.to_string(),
+        None => listed
+            .iter()
+            .filter(numeric)
+            .find(|a| !a.is_coordinate && fits_rank(&a.shape, rank))
+            .map(|a| a.name.clone())
+            .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
+    };
+    let listing = listed
+        .iter()
+        .find(|a| a.name == name)
+        .ok_or_else(|| missing_array(path, &name, &listed))?;
+    let variable = netcdf::read_variable(path, &name)?;
+    let file = netcdf_reader::NcFile::open(path)
+        .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+    // Missing values become NaN when decoded; NaN already stored raw is not a fill.
+    let raw_nan = file
+        .read_variable_as_f64(&name)
+        .map_err(|e| Error::format(path, e.to_string()))?
+        .iter()
+        .filter(|v| v.is_nan())
+        .count();
+    let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
+    Ok(ArrayData {
+        name,
+        dims: variable.dims.iter().map(|(d, _)| d.clone()).collect(),
+        shape: variable.dims.iter().map(|(_, n)| *n).collect(),
+        dtype: listing.dtype.clone(),
+        units: variable.units,
+        fill_count: decoded_nan.saturating_sub(raw_nan),
+        data: variable.data,
+    })
+}
+
+/// [`read_array`] of the one volume of a `.vti` or `.nhdr`/`.nrrd` file (`ext`), as (z, y, x).
+fn read_volume_array(path: &Path, ext: &str, var: Option<&str>) -> Result<ArrayData> {
+    let volume = if ext == "vti" {
+        let v = vti::read_vti(path)?;
+        Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
+            .map_err(|e| Error::format(path, e.to_string()))?
+    } else {
+        nhdr::read_nrrd(path)?
+    };
+    if let Some(wanted) = var.filter(|w| *w != volume.name) {
+        return Err(Error::format(
+            path,
+            format!("no array '{wanted}'; the file has: {}", volume.name),
+        ));
+    }
+    let [nx, ny, nz] = volume.dims;
+    let mut array = plain_array(
+        &volume.name,
+        vec![nz, ny, nx],
+        "float32 (as loaded)".to_string(),
+        volume.data.iter().map(|&v| v as f64).collect(),
+    );
+    array.dims = vec!["z".into(), "y".into(), "x".into()];
+    array.units = (!volume.units.is_empty()).then_some(volume.units);
     Ok(array)
 }
 

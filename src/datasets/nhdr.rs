@@ -76,6 +76,24 @@ fn parse_vector(s: &str) -> Option<Vec<f64>> {
     inner.split(',').map(|x| x.trim().parse().ok()).collect()
 }
 
+/// The header's fields (`key: value`, keys lower-case), with the file for error messages.
+struct Fields<'a> {
+    path: &'a Path,
+    map: std::collections::HashMap<String, String>,
+}
+
+impl Fields<'_> {
+    fn get(&self, key: &str) -> Option<&str> {
+        self.map.get(key).map(String::as_str)
+    }
+
+    fn need(&self, key: &str) -> Result<&str> {
+        self.get(key)
+            .ok_or_else(|| Error::format(self.path, format!("missing required field \"{key}\"")))
+    }
+}
+
+/// Reads a `.nhdr` or `.nrrd` volume (see the module documentation).
 pub fn read_nrrd(path: &Path) -> Result<Volume> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if !bytes.starts_with(b"NRRD000") {
@@ -84,9 +102,70 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             "not an NRRD header: expected the magic line NRRD0001..NRRD0005",
         ));
     }
-    // The header ends at the first empty line (attached data follow it) or at the end of file.
-    let mut header_end = bytes.len();
-    let mut data_start = bytes.len();
+    let (header_end, data_start) = header_extent(&bytes);
+    let header = std::str::from_utf8(&bytes[..header_end])
+        .map_err(|_| Error::format(path, "header is not text"))?;
+    let fields = parse_fields(path, header)?;
+    let sample = Sample::parse(fields.need("type")?).ok_or_else(|| {
+        Error::format(
+            path,
+            format!(
+                "unsupported type {:?}; expected float, double, (u)char, (u)short or (u)int",
+                fields.get("type").unwrap_or("")
+            ),
+        )
+    })?;
+    let dims = parse_dims(&fields)?;
+    let encoding = fields.get("encoding").unwrap_or("raw");
+    if encoding != "raw" {
+        return Err(Error::format(
+            path,
+            format!("encoding {encoding:?} is not supported; expected raw"),
+        ));
+    }
+    let big = match fields.get("endian") {
+        None | Some("little") => false,
+        Some("big") => true,
+        Some(e) => {
+            return Err(Error::format(
+                path,
+                format!("endian: expected little or big, got {e:?}"),
+            ))
+        }
+    };
+    if sample.size() > 1 && fields.get("endian").is_none() {
+        return Err(Error::format(
+            path,
+            "missing required field \"endian\" for a multi-byte type",
+        ));
+    }
+    let spacing = parse_spacing(&fields)?;
+    let mut origin = [0.0; 3];
+    if let Some(s) = fields.get("space origin") {
+        let v = parse_vector(s)
+            .filter(|v| v.len() == 3)
+            .ok_or_else(|| Error::format(path, "space origin: expected a vector like (0,0,0)"))?;
+        // NRRD's origin is the first sample's position; our origin is the volume's corner.
+        for a in 0..3 {
+            origin[a] = v[a] - 0.5 * spacing[a];
+        }
+    }
+    let data = read_samples(&fields, &bytes, data_start, dims, sample, big)?;
+    let name = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("volume");
+    let mut v = Volume::new(name, dims, spacing, origin, data)
+        .map_err(|e| Error::format(path, e.to_string()))?;
+    if let Some(u) = fields.get("space units") {
+        v.units = u.trim_matches('"').to_string();
+    }
+    Ok(v)
+}
+
+/// Where the header ends and attached data start: at the first empty line (attached data follow
+/// it), else both at the end of the file.
+fn header_extent(bytes: &[u8]) -> (usize, usize) {
     let mut pos = 0;
     while pos < bytes.len() {
         let nl = bytes[pos..]
@@ -96,16 +175,16 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
         let end = nl.unwrap_or(bytes.len());
         let line = &bytes[pos..end];
         if line.is_empty() || line == b"\r" {
-            header_end = pos;
-            data_start = end + 1;
-            break;
+            return (pos, end + 1);
         }
         pos = end + 1;
     }
-    let header = std::str::from_utf8(&bytes[..header_end])
-        .map_err(|_| Error::format(path, "header is not text"))?;
+    (bytes.len(), bytes.len())
+}
 
-    let mut fields = std::collections::HashMap::new();
+/// The header's fields after the magic line; comments and `key:=value` pairs are skipped.
+fn parse_fields<'a>(path: &'a Path, header: &str) -> Result<Fields<'a>> {
+    let mut map = std::collections::HashMap::new();
     for (n, line) in header.lines().enumerate().skip(1) {
         let line = line.trim_end_matches('\r');
         if line.starts_with('#') || line.trim().is_empty() {
@@ -121,23 +200,16 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
                 format!("line {}: expected \"field: value\", got {line:?}", n + 1),
             ));
         };
-        fields.insert(k.trim().to_ascii_lowercase(), v.trim().to_string());
+        map.insert(k.trim().to_ascii_lowercase(), v.trim().to_string());
     }
-    let get = |k: &str| fields.get(k).map(String::as_str);
-    let need = |k: &str| {
-        get(k).ok_or_else(|| Error::format(path, format!("missing required field \"{k}\"")))
-    };
+    Ok(Fields { path, map })
+}
 
-    let sample = Sample::parse(need("type")?).ok_or_else(|| {
-        Error::format(
-            path,
-            format!(
-                "unsupported type {:?}; expected float, double, (u)char, (u)short or (u)int",
-                get("type").unwrap_or("")
-            ),
-        )
-    })?;
-    let dimension: usize = need("dimension")?
+/// `dimension` (which must be 3) and `sizes`, checked as volume dimensions.
+fn parse_dims(fields: &Fields) -> Result<[usize; 3]> {
+    let path = fields.path;
+    let dimension: usize = fields
+        .need("dimension")?
         .parse()
         .map_err(|_| Error::format(path, "dimension: expected an integer"))?;
     if dimension != 3 {
@@ -146,7 +218,8 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             format!("dimension: expected 3, got {dimension}"),
         ));
     }
-    let sizes: Vec<usize> = need("sizes")?
+    let sizes: Vec<usize> = fields
+        .need("sizes")?
         .split_whitespace()
         .map(|s| s.parse::<usize>())
         .collect::<std::result::Result<_, _>>()
@@ -159,31 +232,14 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
     }
     let dims = [sizes[0], sizes[1], sizes[2]];
     crate::model::volume::check_dims(&dims, &format!("{}: sizes", path.display()))?;
-    let encoding = get("encoding").unwrap_or("raw");
-    if encoding != "raw" {
-        return Err(Error::format(
-            path,
-            format!("encoding {encoding:?} is not supported; expected raw"),
-        ));
-    }
-    let big = match get("endian") {
-        None | Some("little") => false,
-        Some("big") => true,
-        Some(e) => {
-            return Err(Error::format(
-                path,
-                format!("endian: expected little or big, got {e:?}"),
-            ))
-        }
-    };
-    if sample.size() > 1 && get("endian").is_none() {
-        return Err(Error::format(
-            path,
-            "missing required field \"endian\" for a multi-byte type",
-        ));
-    }
+    Ok(dims)
+}
+
+/// Voxel spacing from `spacings`, else from a diagonal `space directions`, else 1.
+fn parse_spacing(fields: &Fields) -> Result<[f64; 3]> {
+    let path = fields.path;
     let mut spacing = [1.0; 3];
-    if let Some(s) = get("spacings") {
+    if let Some(s) = fields.get("spacings") {
         let v: Vec<f64> = s
             .split_whitespace()
             .filter_map(|x| x.parse().ok())
@@ -192,7 +248,7 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             return Err(Error::format(path, "spacings: expected three numbers"));
         }
         spacing = [v[0], v[1], v[2]];
-    } else if let Some(s) = get("space directions") {
+    } else if let Some(s) = fields.get("space directions") {
         let dirs: Vec<Vec<f64>> = s
             .split(')')
             .filter(|p| p.contains('('))
@@ -221,17 +277,21 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             spacing[a] = dirs[a][a].abs();
         }
     }
-    let mut origin = [0.0; 3];
-    if let Some(s) = get("space origin") {
-        let v = parse_vector(s)
-            .filter(|v| v.len() == 3)
-            .ok_or_else(|| Error::format(path, "space origin: expected a vector like (0,0,0)"))?;
-        // NRRD's origin is the first sample's position; our origin is the volume's corner.
-        for a in 0..3 {
-            origin[a] = v[a] - 0.5 * spacing[a];
-        }
-    }
-    let skip: usize = match get("byte skip") {
+    Ok(spacing)
+}
+
+/// The voxels, from the `data file` the header names or from the data attached after the
+/// header (`bytes` from `data_start`), after `byte skip` bytes.
+fn read_samples(
+    fields: &Fields,
+    bytes: &[u8],
+    data_start: usize,
+    dims: [usize; 3],
+    sample: Sample,
+    big: bool,
+) -> Result<Vec<f32>> {
+    let path = fields.path;
+    let skip: usize = match fields.get("byte skip") {
         None => 0,
         Some(s) => s.parse().map_err(|_| {
             Error::format(
@@ -240,12 +300,12 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             )
         })?,
     };
-
     let count = dims[0] * dims[1] * dims[2];
     let need_bytes = count * sample.size();
     let owned;
-    let (data_path, raw): (std::path::PathBuf, &[u8]) = match get("data file")
-        .or_else(|| get("datafile"))
+    let (data_path, raw): (std::path::PathBuf, &[u8]) = match fields
+        .get("data file")
+        .or_else(|| fields.get("datafile"))
     {
         Some(name) => {
             let p = path.parent().unwrap_or(Path::new(".")).join(name);
@@ -272,20 +332,10 @@ pub fn read_nrrd(path: &Path) -> Result<Volume> {
             format!("holds {} data bytes but {need_bytes} are needed", raw.len()),
         ));
     }
-    let data: Vec<f32> = raw[..need_bytes]
+    Ok(raw[..need_bytes]
         .chunks_exact(sample.size())
         .map(|b| sample.decode(b, big))
-        .collect();
-    let name = path
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("volume");
-    let mut v = Volume::new(name, dims, spacing, origin, data)
-        .map_err(|e| Error::format(path, e.to_string()))?;
-    if let Some(u) = get("space units") {
-        v.units = u.trim_matches('"').to_string();
-    }
-    Ok(v)
+        .collect())
 }
 
 #[cfg(test)]

@@ -84,75 +84,20 @@ pub fn read_npy_from<T: ReadAs, R: std::io::Read>(
             ),
         ));
     }
-    let trunc =
-        |e: std::io::Error| Error::format(path, format!("data truncated or unreadable: {e}"));
     let data: Vec<T> = match (ts.type_char(), item) {
-        (TypeChar::Float, 4) => npy
-            .into_vec::<f32>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(T::from_f32)
-            .collect(),
-        (TypeChar::Float, 8) => npy
-            .into_vec::<f64>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(T::from_f64)
-            .collect(),
-        (TypeChar::Float, 2) => npy
-            .into_vec::<half::f16>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f32(v.to_f32()))
-            .collect(),
-        (TypeChar::Int, 1) => npy
-            .into_vec::<i8>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f32(v as f32))
-            .collect(),
-        (TypeChar::Int, 2) => npy
-            .into_vec::<i16>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f32(v as f32))
-            .collect(),
-        (TypeChar::Int, 4) => npy
-            .into_vec::<i32>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f64(v as f64))
-            .collect(),
-        (TypeChar::Int, 8) => npy
-            .into_vec::<i64>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f64(v as f64))
-            .collect(),
-        (TypeChar::Uint, 1) | (TypeChar::Bool, 1) => npy
-            .into_vec::<u8>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f32(v as f32))
-            .collect(),
-        (TypeChar::Uint, 2) => npy
-            .into_vec::<u16>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f32(v as f32))
-            .collect(),
-        (TypeChar::Uint, 4) => npy
-            .into_vec::<u32>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f64(v as f64))
-            .collect(),
-        (TypeChar::Uint, 8) => npy
-            .into_vec::<u64>()
-            .map_err(trunc)?
-            .into_iter()
-            .map(|v| T::from_f64(v as f64))
-            .collect(),
+        (TypeChar::Float, 4) => values(npy, path, T::from_f32)?,
+        (TypeChar::Float, 8) => values(npy, path, T::from_f64)?,
+        (TypeChar::Float, 2) => values(npy, path, |v: half::f16| T::from_f32(v.to_f32()))?,
+        (TypeChar::Int, 1) => values(npy, path, |v: i8| T::from_f32(v as f32))?,
+        (TypeChar::Int, 2) => values(npy, path, |v: i16| T::from_f32(v as f32))?,
+        (TypeChar::Int, 4) => values(npy, path, |v: i32| T::from_f64(v as f64))?,
+        (TypeChar::Int, 8) => values(npy, path, |v: i64| T::from_f64(v as f64))?,
+        (TypeChar::Uint, 1) | (TypeChar::Bool, 1) => {
+            values(npy, path, |v: u8| T::from_f32(v as f32))?
+        }
+        (TypeChar::Uint, 2) => values(npy, path, |v: u16| T::from_f32(v as f32))?,
+        (TypeChar::Uint, 4) => values(npy, path, |v: u32| T::from_f64(v as f64))?,
+        (TypeChar::Uint, 8) => values(npy, path, |v: u64| T::from_f64(v as f64))?,
         _ => {
             return Err(Error::format(
                 path,
@@ -167,6 +112,18 @@ pub fn read_npy_from<T: ReadAs, R: std::io::Read>(
         ));
     }
     Ok(NpyArray { shape, data, dtype })
+}
+
+/// Every value of the array read as its stored type `S` and converted by `convert`.
+fn values<S: npyz::Deserialize, T, R: std::io::Read>(
+    npy: npyz::NpyFile<R>,
+    path: &Path,
+    convert: impl Fn(S) -> T,
+) -> Result<Vec<T>> {
+    let stored = npy
+        .into_vec::<S>()
+        .map_err(|e| Error::format(path, format!("data truncated or unreadable: {e}")))?;
+    Ok(stored.into_iter().map(convert).collect())
 }
 
 /// Writes a C-ordered array (f32 or f64) atomically.

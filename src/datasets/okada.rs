@@ -989,6 +989,22 @@ pub fn parse_segment_table(text: &str, path: &Path) -> Result<Vec<FaultSegment>>
         )
     })?;
     let columns: Vec<&str> = header.split_whitespace().collect();
+    check_segment_columns(&columns, header_line, path)?;
+    let mut segments = Vec::new();
+    for (line_number, line) in lines {
+        segments.push(parse_segment_row(line, line_number, &columns, path)?);
+    }
+    if segments.is_empty() {
+        return Err(Error::format(
+            path,
+            "the table has a header but no fault segments",
+        ));
+    }
+    Ok(segments)
+}
+
+/// Refuses a segment-table header with an unknown or repeated column or without a required one.
+fn check_segment_columns(columns: &[&str], header_line: usize, path: &Path) -> Result<()> {
     for (index, name) in columns.iter().enumerate() {
         if !REQUIRED_COLUMNS.contains(name) && !OPTIONAL_COLUMNS.contains(name) {
             return Err(Error::format(
@@ -1017,76 +1033,74 @@ pub fn parse_segment_table(text: &str, path: &Path) -> Result<Vec<FaultSegment>>
             format!("line {header_line}: the header lacks the required column '{missing}'"),
         ));
     }
-    let column_of = |field: &str| columns.iter().position(|name| *name == field);
+    Ok(())
+}
 
-    let mut segments = Vec::new();
-    for (line_number, line) in lines {
-        let values: Vec<&str> = line.split_whitespace().collect();
-        if values.len() != columns.len() {
-            return Err(Error::format(
-                path,
-                format!(
-                    "line {line_number}: expected {} values (one per header column), found {}",
-                    columns.len(),
-                    values.len()
-                ),
-            ));
-        }
-        let mut segment = FaultSegment {
-            opening_m: 0.0,
-            depth_ref: DepthRef::Centroid,
-            ..FaultSegment::paper_case_ii()
-        };
-        for (index, (&name, &token)) in columns.iter().zip(&values).enumerate() {
-            let located = |msg: String| {
-                Error::format(
-                    path,
-                    format!("line {line_number}, column {} ({name}): {msg}", index + 1),
-                )
-            };
-            if name == "depth_ref" {
-                segment.depth_ref = DepthRef::parse(token).map_err(|error| match error {
-                    Error::Invalid { msg, .. } => located(msg),
-                    other => other,
-                })?;
-                continue;
-            }
-            let value: f64 = token
-                .parse()
-                .map_err(|_| located(format!("expected a number, found '{token}'")))?;
-            let slot = match name {
-                "x_m" => &mut segment.x_m,
-                "y_m" => &mut segment.y_m,
-                "depth_m" => &mut segment.depth_m,
-                "strike_deg" => &mut segment.strike_deg,
-                "dip_deg" => &mut segment.dip_deg,
-                "rake_deg" => &mut segment.rake_deg,
-                "length_m" => &mut segment.length_m,
-                "width_m" => &mut segment.width_m,
-                "slip_m" => &mut segment.slip_m,
-                _ => &mut segment.opening_m,
-            };
-            *slot = value;
-        }
-        segment.validate().map_err(|error| match error {
-            Error::Invalid { field, msg } => {
-                let place = match column_of(&field) {
-                    Some(index) => format!("line {line_number}, column {} ({field})", index + 1),
-                    None => format!("line {line_number} ({field})"),
-                };
-                Error::format(path, format!("{place}: {msg}"))
-            }
-            other => other,
-        })?;
-        segments.push(segment);
-    }
-    if segments.is_empty() {
+/// One validated fault segment from a table row under the header `columns`.
+fn parse_segment_row(
+    line: &str,
+    line_number: usize,
+    columns: &[&str],
+    path: &Path,
+) -> Result<FaultSegment> {
+    let values: Vec<&str> = line.split_whitespace().collect();
+    if values.len() != columns.len() {
         return Err(Error::format(
             path,
-            "the table has a header but no fault segments",
+            format!(
+                "line {line_number}: expected {} values (one per header column), found {}",
+                columns.len(),
+                values.len()
+            ),
         ));
     }
-    Ok(segments)
+    let mut segment = FaultSegment {
+        opening_m: 0.0,
+        depth_ref: DepthRef::Centroid,
+        ..FaultSegment::paper_case_ii()
+    };
+    for (index, (&name, &token)) in columns.iter().zip(&values).enumerate() {
+        let located = |msg: String| {
+            Error::format(
+                path,
+                format!("line {line_number}, column {} ({name}): {msg}", index + 1),
+            )
+        };
+        if name == "depth_ref" {
+            segment.depth_ref = DepthRef::parse(token).map_err(|error| match error {
+                Error::Invalid { msg, .. } => located(msg),
+                other => other,
+            })?;
+            continue;
+        }
+        let value: f64 = token
+            .parse()
+            .map_err(|_| located(format!("expected a number, found '{token}'")))?;
+        let slot = match name {
+            "x_m" => &mut segment.x_m,
+            "y_m" => &mut segment.y_m,
+            "depth_m" => &mut segment.depth_m,
+            "strike_deg" => &mut segment.strike_deg,
+            "dip_deg" => &mut segment.dip_deg,
+            "rake_deg" => &mut segment.rake_deg,
+            "length_m" => &mut segment.length_m,
+            "width_m" => &mut segment.width_m,
+            "slip_m" => &mut segment.slip_m,
+            _ => &mut segment.opening_m,
+        };
+        *slot = value;
+    }
+    segment.validate().map_err(|error| match error {
+        Error::Invalid { field, msg } => {
+            let place = match columns.iter().position(|name| *name == field) {
+                Some(index) => format!("line {line_number}, column {} ({field})", index + 1),
+                None => format!("line {line_number} ({field})"),
+            };
+            Error::format(path, format!("{place}: {msg}"))
+        }
+        other => other,
+    })?;
+    Ok(segment)
 }
 
 #[cfg(test)]

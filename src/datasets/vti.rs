@@ -173,71 +173,7 @@ fn read_vti_bytes(path: &Path, bytes: &[u8]) -> Result<VtiVolume> {
         .element_type
         .ok_or_else(|| fail(format!("array '{}' has an unknown type", array.name)))?;
 
-    let raw: Vec<u8> = match array.format.as_str() {
-        "ascii" => Vec::new(),
-        "binary" => {
-            let text: Vec<u8> = array
-                .text
-                .iter()
-                .copied()
-                .filter(|b| !b.is_ascii_whitespace())
-                .collect();
-            decode_base64_block(&text, doc.header_size, doc.little_endian).map_err(fail)?
-        }
-        "appended" => {
-            let start = doc
-                .appended_start
-                .ok_or_else(|| fail("array is appended but the file has no AppendedData".into()))?;
-            let offset = usize::try_from(array.offset.unwrap_or(0))
-                .map_err(|_| fail("offset too large".into()))?;
-            let from = start
-                .checked_add(offset)
-                .filter(|&f| f <= bytes.len())
-                .ok_or_else(|| {
-                    fail(format!(
-                        "appended offset {offset} is past the end of the file"
-                    ))
-                })?;
-            if doc.appended_raw {
-                read_raw_block(&bytes[from..], doc.header_size, doc.little_endian).map_err(fail)?
-            } else {
-                let text: Vec<u8> = bytes[from..]
-                    .iter()
-                    .copied()
-                    .take_while(|&b| b != b'<')
-                    .filter(|b| !b.is_ascii_whitespace())
-                    .collect();
-                decode_base64_block(&text, doc.header_size, doc.little_endian).map_err(fail)?
-            }
-        }
-        other => {
-            return Err(fail(format!(
-                "DataArray format '{other}' is not one of ascii, binary, appended"
-            )))
-        }
-    };
-    let data = if array.format == "ascii" {
-        let text = std::str::from_utf8(&array.text)
-            .map_err(|_| fail("ascii DataArray is not UTF-8".into()))?;
-        text.split_ascii_whitespace()
-            .map(|t| {
-                t.parse::<f64>()
-                    .map(|v| v as f32)
-                    .map_err(|_| fail(format!("'{t}' in ascii DataArray is not a number")))
-            })
-            .collect::<Result<Vec<f32>>>()?
-    } else {
-        if !raw.len().is_multiple_of(element.size()) {
-            return Err(fail(format!(
-                "{} data bytes is not a whole number of {}-byte values",
-                raw.len(),
-                element.size()
-            )));
-        }
-        raw.chunks_exact(element.size())
-            .map(|b| element.to_f32(b, doc.little_endian))
-            .collect()
-    };
+    let data = array_values(&doc, array, element, bytes).map_err(fail)?;
     if data.len() != count {
         return Err(fail(format!(
             "array '{}' has {} values; the extent needs {count} ({})",
@@ -253,6 +189,77 @@ fn read_vti_bytes(path: &Path, bytes: &[u8]) -> Result<VtiVolume> {
         name: array.name.clone(),
         data,
     })
+}
+
+/// The values of `array` as f32, decoded from its ascii or base64 text or from the file's
+/// appended block (`bytes` is the whole file).
+fn array_values(
+    doc: &Document,
+    array: &ArrayInfo,
+    element: Element,
+    bytes: &[u8],
+) -> std::result::Result<Vec<f32>, String> {
+    let raw: Vec<u8> = match array.format.as_str() {
+        "ascii" => {
+            let text = std::str::from_utf8(&array.text)
+                .map_err(|_| "ascii DataArray is not UTF-8".to_string())?;
+            return text
+                .split_ascii_whitespace()
+                .map(|t| {
+                    t.parse::<f64>()
+                        .map(|v| v as f32)
+                        .map_err(|_| format!("'{t}' in ascii DataArray is not a number"))
+                })
+                .collect();
+        }
+        "binary" => {
+            let text: Vec<u8> = array
+                .text
+                .iter()
+                .copied()
+                .filter(|b| !b.is_ascii_whitespace())
+                .collect();
+            decode_base64_block(&text, doc.header_size, doc.little_endian)?
+        }
+        "appended" => {
+            let start = doc
+                .appended_start
+                .ok_or("array is appended but the file has no AppendedData")?;
+            let offset = usize::try_from(array.offset.unwrap_or(0))
+                .map_err(|_| "offset too large".to_string())?;
+            let from = start
+                .checked_add(offset)
+                .filter(|&f| f <= bytes.len())
+                .ok_or_else(|| format!("appended offset {offset} is past the end of the file"))?;
+            if doc.appended_raw {
+                read_raw_block(&bytes[from..], doc.header_size, doc.little_endian)?
+            } else {
+                let text: Vec<u8> = bytes[from..]
+                    .iter()
+                    .copied()
+                    .take_while(|&b| b != b'<')
+                    .filter(|b| !b.is_ascii_whitespace())
+                    .collect();
+                decode_base64_block(&text, doc.header_size, doc.little_endian)?
+            }
+        }
+        other => {
+            return Err(format!(
+                "DataArray format '{other}' is not one of ascii, binary, appended"
+            ))
+        }
+    };
+    if !raw.len().is_multiple_of(element.size()) {
+        return Err(format!(
+            "{} data bytes is not a whole number of {}-byte values",
+            raw.len(),
+            element.size()
+        ));
+    }
+    Ok(raw
+        .chunks_exact(element.size())
+        .map(|b| element.to_f32(b, doc.little_endian))
+        .collect())
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -396,48 +403,10 @@ fn parse_document(bytes: &[u8]) -> std::result::Result<Document, String> {
                 match tag.local_name().as_ref() {
                     "VTKFile" => {
                         saw_root = true;
-                        let kind = attr(tag, "type")?.unwrap_or_default();
-                        if kind != "ImageData" {
-                            return Err(format!("VTKFile type is '{kind}', expected ImageData"));
-                        }
-                        if let Some(c) = attr(tag, "compressor")? {
-                            return Err(format!(
-                                "compressed .vti ({c}) is not supported; save it uncompressed"
-                            ));
-                        }
-                        doc.little_endian =
-                            attr(tag, "byte_order")?.as_deref() != Some("BigEndian");
-                        doc.header_size = match attr(tag, "header_type")?.as_deref() {
-                            None | Some("UInt32") => 4,
-                            Some("UInt64") => 8,
-                            Some(other) => {
-                                return Err(format!(
-                                    "header_type '{other}' is not UInt32 or UInt64"
-                                ))
-                            }
-                        };
+                        read_root(&mut doc, tag)?;
                     }
                     _ if !saw_root => return Err("the root element is not VTKFile".into()),
-                    "ImageData" => {
-                        doc.whole_extent = attr(tag, "WholeExtent")?
-                            .map(|s| numbers(&s, "WholeExtent"))
-                            .transpose()?;
-                        doc.origin = attr(tag, "Origin")?
-                            .map(|s| numbers(&s, "Origin"))
-                            .transpose()?;
-                        doc.spacing = attr(tag, "Spacing")?
-                            .map(|s| numbers(&s, "Spacing"))
-                            .transpose()?;
-                        if let Some(d) = attr(tag, "Direction")? {
-                            let d: [f64; 9] = numbers(&d, "Direction")?;
-                            if d != [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] {
-                                return Err(
-                                    "rotated ImageData (non-identity Direction) is not supported"
-                                        .into(),
-                                );
-                            }
-                        }
-                    }
+                    "ImageData" => read_image_data(&mut doc, tag)?,
                     "Piece" => {
                         if doc.piece_extent.is_some() {
                             return Err(
@@ -461,29 +430,7 @@ fn parse_document(bytes: &[u8]) -> std::result::Result<Document, String> {
                     }
                     "DataArray" => {
                         if let Some(on_points) = section {
-                            let type_name = attr(tag, "type")?.unwrap_or_default();
-                            let array = ArrayInfo {
-                                name: attr(tag, "Name")?.unwrap_or_default(),
-                                element_type: Element::parse(&type_name),
-                                format: attr(tag, "format")?.unwrap_or_else(|| "ascii".into()),
-                                offset: attr(tag, "offset")?
-                                    .map(|s| {
-                                        s.trim().parse().map_err(|_| {
-                                            format!("DataArray offset '{s}' is not a number")
-                                        })
-                                    })
-                                    .transpose()?,
-                                components: attr(tag, "NumberOfComponents")?
-                                    .map(|s| {
-                                        s.trim().parse().map_err(|_| {
-                                            format!("NumberOfComponents '{s}' is not a number")
-                                        })
-                                    })
-                                    .transpose()?
-                                    .unwrap_or(1),
-                                on_points,
-                                text: Vec::new(),
-                            };
+                            let array = data_array(tag, on_points)?;
                             if is_empty {
                                 doc.arrays.push(array)
                             } else {
@@ -492,24 +439,7 @@ fn parse_document(bytes: &[u8]) -> std::result::Result<Document, String> {
                         }
                     }
                     "AppendedData" => {
-                        let encoding = attr(tag, "encoding")?.unwrap_or_else(|| "raw".into());
-                        doc.appended_raw = match encoding.as_str() {
-                            "raw" => true,
-                            "base64" => false,
-                            other => {
-                                return Err(format!(
-                                    "AppendedData encoding '{other}' is not raw or base64"
-                                ))
-                            }
-                        };
-                        // The block starts after the first '_' following the tag.
-                        let after_tag = usize::try_from(reader.buffer_position())
-                            .map_err(|_| "file too large".to_string())?;
-                        let underscore = bytes[after_tag..]
-                            .iter()
-                            .position(|&b| b == b'_')
-                            .ok_or("AppendedData has no '_' marker")?;
-                        doc.appended_start = Some(after_tag + underscore + 1);
+                        read_appended_data(&mut doc, tag, reader.buffer_position(), bytes)?;
                         break;
                     }
                     _ => {}
@@ -534,6 +464,100 @@ fn parse_document(bytes: &[u8]) -> std::result::Result<Document, String> {
         return Err("no VTKFile element: not a VTK XML file".into());
     }
     Ok(doc)
+}
+
+/// The `VTKFile` root's attributes: type ImageData, uncompressed, byte order, header size.
+fn read_root(doc: &mut Document, tag: &BytesStart<'_>) -> std::result::Result<(), String> {
+    let kind = attr(tag, "type")?.unwrap_or_default();
+    if kind != "ImageData" {
+        return Err(format!("VTKFile type is '{kind}', expected ImageData"));
+    }
+    if let Some(c) = attr(tag, "compressor")? {
+        return Err(format!(
+            "compressed .vti ({c}) is not supported; save it uncompressed"
+        ));
+    }
+    doc.little_endian = attr(tag, "byte_order")?.as_deref() != Some("BigEndian");
+    doc.header_size = match attr(tag, "header_type")?.as_deref() {
+        None | Some("UInt32") => 4,
+        Some("UInt64") => 8,
+        Some(other) => return Err(format!("header_type '{other}' is not UInt32 or UInt64")),
+    };
+    Ok(())
+}
+
+/// The `ImageData` element's extent, origin and spacing; a rotated grid is refused.
+fn read_image_data(doc: &mut Document, tag: &BytesStart<'_>) -> std::result::Result<(), String> {
+    doc.whole_extent = attr(tag, "WholeExtent")?
+        .map(|s| numbers(&s, "WholeExtent"))
+        .transpose()?;
+    doc.origin = attr(tag, "Origin")?
+        .map(|s| numbers(&s, "Origin"))
+        .transpose()?;
+    doc.spacing = attr(tag, "Spacing")?
+        .map(|s| numbers(&s, "Spacing"))
+        .transpose()?;
+    if let Some(d) = attr(tag, "Direction")? {
+        let d: [f64; 9] = numbers(&d, "Direction")?;
+        if d != [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] {
+            return Err("rotated ImageData (non-identity Direction) is not supported".into());
+        }
+    }
+    Ok(())
+}
+
+/// A `DataArray` element's attributes (its text follows as events).
+fn data_array(tag: &BytesStart<'_>, on_points: bool) -> std::result::Result<ArrayInfo, String> {
+    let type_name = attr(tag, "type")?.unwrap_or_default();
+    Ok(ArrayInfo {
+        name: attr(tag, "Name")?.unwrap_or_default(),
+        element_type: Element::parse(&type_name),
+        format: attr(tag, "format")?.unwrap_or_else(|| "ascii".into()),
+        offset: attr(tag, "offset")?
+            .map(|s| {
+                s.trim()
+                    .parse()
+                    .map_err(|_| format!("DataArray offset '{s}' is not a number"))
+            })
+            .transpose()?,
+        components: attr(tag, "NumberOfComponents")?
+            .map(|s| {
+                s.trim()
+                    .parse()
+                    .map_err(|_| format!("NumberOfComponents '{s}' is not a number"))
+            })
+            .transpose()?
+            .unwrap_or(1),
+        on_points,
+        text: Vec::new(),
+    })
+}
+
+/// The `AppendedData` element's encoding and where its block starts: after the first '_'
+/// following the tag, which ends at `after_tag` in `bytes`.
+fn read_appended_data(
+    doc: &mut Document,
+    tag: &BytesStart<'_>,
+    after_tag: u64,
+    bytes: &[u8],
+) -> std::result::Result<(), String> {
+    let encoding = attr(tag, "encoding")?.unwrap_or_else(|| "raw".into());
+    doc.appended_raw = match encoding.as_str() {
+        "raw" => true,
+        "base64" => false,
+        other => {
+            return Err(format!(
+                "AppendedData encoding '{other}' is not raw or base64"
+            ))
+        }
+    };
+    let after_tag = usize::try_from(after_tag).map_err(|_| "file too large".to_string())?;
+    let underscore = bytes[after_tag..]
+        .iter()
+        .position(|&b| b == b'_')
+        .ok_or("AppendedData has no '_' marker")?;
+    doc.appended_start = Some(after_tag + underscore + 1);
+    Ok(())
 }
 
 fn attr(tag: &BytesStart<'_>, key: &str) -> std::result::Result<Option<String>, String> {

@@ -4,6 +4,7 @@
 //! shaders, texture limits — are detected here, and every missing one has a working path.
 
 pub mod layout;
+pub(crate) mod pipeline;
 pub mod readback;
 pub mod shader;
 pub mod transfer;
@@ -130,7 +131,7 @@ impl PersistentPipelineCache {
             .chars()
             .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
             .collect();
-        let path = crate::datasets::cache::cache_dir()
+        let path = crate::io::cache_dir()
             .join("pipelines")
             .join(format!("{key}_{driver}.bin"));
         let data = std::fs::read(&path).ok();
@@ -346,6 +347,25 @@ impl GpuContext {
         if let Some(p) = &self.pipeline_cache {
             p.save();
         }
+    }
+
+    /// A 3-D single-channel f32 texture of `size` texels (x, y, z) that shaders sample and the
+    /// host writes: a volume or a brick atlas.
+    pub fn r32f_texture_3d(&self, label: &str, size: [u32; 3]) -> wgpu::Texture {
+        self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: size[2],
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        })
     }
 
     /// Blocks until all submitted work is done.

@@ -1,6 +1,7 @@
 //! Image files — OpenEXR (the linear HDR master) and PNG (display views) — and the one way every output is written: to a temporary file in the destination folder
 //! that is renamed into place, so no reader ever sees a half-written file. The terminal is a sink
-//! too: [`terminal`] prints pictures inline, once.
+//! too: [`terminal`] prints pictures inline, once. Also the one folder hdrvis caches things in
+//! (generated datasets, compiled GPU pipelines).
 
 pub mod exr;
 pub mod png;
@@ -8,7 +9,7 @@ pub mod terminal;
 
 use crate::error::{Error, Result};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Writes a file atomically: `fill` writes into a temporary file beside `path`, which is renamed
 /// over `path` only when `fill` succeeded.
@@ -42,4 +43,33 @@ pub fn extension(path: &Path) -> String {
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default()
+}
+
+/// Environment variable that overrides the cache folder.
+pub const CACHE_ENV: &str = "HDRVIS_CACHE";
+
+/// The folder hdrvis caches generated datasets and compiled pipelines in: `$HDRVIS_CACHE` when
+/// that is set, else `datasets/cache` in the hdrvis checkout that contains the working directory
+/// (found by walking up to a `Cargo.toml` naming the package `hdrvis`), else `datasets/cache`
+/// under the working directory.
+pub fn cache_dir() -> PathBuf {
+    if let Some(dir) = std::env::var_os(CACHE_ENV).filter(|d| !d.is_empty()) {
+        return PathBuf::from(dir);
+    }
+    let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
+    let root = cwd
+        .ancestors()
+        .find(|dir| is_hdrvis_checkout(dir))
+        .map(Path::to_path_buf)
+        .unwrap_or(cwd);
+    root.join("datasets").join("cache")
+}
+
+fn is_hdrvis_checkout(dir: &Path) -> bool {
+    std::fs::read_to_string(dir.join("Cargo.toml"))
+        .map(|text| {
+            text.lines()
+                .any(|line| line.replace(' ', "") == "name=\"hdrvis\"")
+        })
+        .unwrap_or(false)
 }

@@ -7,7 +7,6 @@
 //! cannot go stale.
 
 use crate::error::{Error, Result};
-use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
@@ -228,70 +227,6 @@ impl Grid {
             }
         }
         Grid::from_arrays(name, nx, ny, vec![(name.to_string(), v)])
-    }
-
-    /// Loads a 2-D field: `.npy` (one property named after the file), `.npz` and NetCDF (every
-    /// non-coordinate array of the chosen or default array's 2-D shape becomes a property, sorted
-    /// by name; `x`/`lon` and `y`/`lat` arrays are coordinates; an array named `elevation`,
-    /// `topo`, `topography`, `height` or `z` of that shape is the elevation). `var` picks one
-    /// array; with it only that array is a property (plus the elevation).
-    pub fn load(path: &Path, var: Option<&str>) -> Result<Grid> {
-        let file = crate::datasets::read_grid(path, var)?;
-        let [ny, nx] = file.shape;
-        let axis = |a: Option<crate::datasets::GridAxis>, name: &str, n: usize| match a {
-            Some(a) => GridCoords {
-                name: a.name,
-                units: a.units.unwrap_or_default(),
-                values: a.values,
-            },
-            None => GridCoords::index(name, n),
-        };
-        let x = axis(file.x, "x", nx);
-        let y = axis(file.y, "y", ny);
-        let mut props = vec![(file.name.clone(), file.data, file.units.unwrap_or_default())];
-        let mut elevation = None;
-        let ext = crate::io::extension(path);
-        if matches!(ext.as_str(), "npz" | "nc" | "nc4" | "cdf" | "netcdf") {
-            let coord_names = [
-                x.name.as_str(),
-                y.name.as_str(),
-                "x",
-                "y",
-                "lon",
-                "lat",
-                "longitude",
-                "latitude",
-            ];
-            for a in crate::datasets::list_arrays(path)? {
-                if a.name == file.name || a.is_coordinate || coord_names.contains(&a.name.as_str())
-                {
-                    continue;
-                }
-                let is_elev =
-                    ["elevation", "topo", "topography", "height", "z"].contains(&a.name.as_str());
-                let squeezed: Vec<usize> = a.shape.iter().cloned().filter(|&s| s != 1).collect();
-                if squeezed != [ny, nx] || (var.is_some() && !is_elev) {
-                    continue;
-                }
-                let arr = crate::datasets::read_array(path, Some(&a.name), Some(2))?;
-                if is_elev {
-                    elevation = Some(arr.data);
-                } else {
-                    props.push((a.name, arr.data, arr.units.unwrap_or_default()));
-                }
-            }
-            props.sort_by(|a, b| a.0.cmp(&b.0));
-        }
-        let name = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("grid")
-            .to_string();
-        let units: Vec<String> = props.iter().map(|p| p.2.clone()).collect();
-        let props = props.into_iter().map(|(n, v, _)| (n, v)).collect();
-        let mut g = Grid::with_coords(&name, x, y, props, elevation)?;
-        g.units = units;
-        Ok(g)
     }
 
     pub fn id(&self) -> u64 {

@@ -111,20 +111,8 @@ impl BrickCache {
         let [sx, sy, sz] = atlas_shape(capacity, per_axis);
         let capacity = sx * sy * sz;
         let e = layout.stored_edge() as u32;
-        let atlas = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("brick atlas"),
-            size: wgpu::Extent3d {
-                width: sx as u32 * e,
-                height: sy as u32 * e,
-                depth_or_array_layers: sz as u32 * e,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::R32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let atlas =
+            ctx.r32f_texture_3d("brick atlas", [sx as u32 * e, sy as u32 * e, sz as u32 * e]);
         let atlas_view = atlas.create_view(&Default::default());
         Ok(BrickCache {
             slot_of: vec![NO_SLOT; layout.count()],

@@ -211,7 +211,7 @@ impl RenderSession {
             key,
             |g: &Grid| g.bytes(),
             |_, _| {},
-            || Ok((Grid::load(path, name)?, String::new())),
+            || Ok((crate::datasets::load_grid(path, name)?, String::new())),
         )
     }
 

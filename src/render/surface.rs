@@ -22,7 +22,7 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::transfer::ReadbackBuffer;
-use crate::gpu::{shader, GpuContext};
+use crate::gpu::{pipeline, shader, GpuContext};
 use crate::model::colormap::Colormap;
 use crate::model::{Aabb, Camera, Grid, HdrImage, Projection};
 use std::collections::HashMap;
@@ -583,46 +583,25 @@ impl SurfaceRenderer {
         entries: &[wgpu::BindGroupLayoutEntry],
         constants: &[(&str, f64)],
     ) -> Result<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>> {
-        let device = &self.ctx.device;
-        let src = shader::load(name, &[])?;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         // SAFETY: wgpu's injected bounds checks cost a large share of these small kernels on
         // lavapipe, and neither shader needs them: every invocation returns early outside the
         // image, pixel buffers hold exactly width × height entries, node indices are clamped to
         // the grid, and the lookup-table index is clamped to [0, LUT_SIZE − 2].
-        let module = unsafe {
-            device.create_shader_module_trusted(
-                wgpu::ShaderModuleDescriptor {
-                    label: Some(name),
-                    source: wgpu::ShaderSource::Wgsl(src.into()),
-                },
-                wgpu::ShaderRuntimeChecks::unchecked(),
-            )
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(label),
-            entries,
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(label),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(label),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants,
-                zero_initialize_workgroup_memory: false,
+        let checks = unsafe { pipeline::RuntimeChecks::unchecked() };
+        let spec = pipeline::ComputeSpec {
+            label,
+            what: &format!("{label} pipeline"),
+            shader: pipeline::Shader::Wgsl {
+                label: name,
+                source: shader::load(name, &[])?,
+                checks,
             },
-            cache: self.ctx.pipeline_cache(),
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Gpu(format!("{label} pipeline failed to build: {e}")));
-        }
-        Ok(Arc::new((pipeline, layout)))
+            entry: "main",
+            constants,
+        };
+        Ok(Arc::new(pipeline::compute_with_layout(
+            &self.ctx, spec, entries,
+        )?))
     }
 
     fn data_pipeline(

@@ -5,7 +5,7 @@
 
 use super::{FilterMode, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
-use crate::gpu::{readback, shader, GpuContext};
+use crate::gpu::{pipeline, readback, shader, GpuContext};
 use crate::model::transfer::{ResolvedTransfer, TfKind, LUT_SIZE};
 use crate::model::{HdrImage, Projection, Volume, VolumeStats};
 use std::collections::HashMap;
@@ -60,20 +60,7 @@ impl GpuVolume {
             )));
         }
         let [nx, ny, nz] = volume.dims;
-        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("volume"),
-            size: wgpu::Extent3d {
-                width: nx as u32,
-                height: ny as u32,
-                depth_or_array_layers: nz as u32,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::R32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let texture = ctx.r32f_texture_3d("volume", [nx as u32, ny as u32, nz as u32]);
         // Slabs of whole z-slices, at most 64 MiB each, keep staging copies small.
         let slice_bytes = nx * ny * 4;
         let slab = ((64usize << 20) / slice_bytes).clamp(1, nz);
@@ -252,23 +239,6 @@ impl VolumeRenderer {
         } else {
             "volume.wgsl"
         };
-        let src = shader::load(name, &defines)?;
-        let device = &self.ctx.device;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        // SAFETY: wgpu's injected runtime checks (buffer index clamps, loop counters) cost about
-        // a third of the ray caster's time on lavapipe. The shader needs neither: every table
-        // index is clamped to [0, LUT_SIZE - 2] by construction, texel loads clamp their
-        // coordinates to the texture, stores are guarded by the image size, and the one loop
-        // runs a finite, precomputed number of steps.
-        let module = unsafe {
-            device.create_shader_module_trusted(
-                wgpu::ShaderModuleDescriptor {
-                    label: Some(name),
-                    source: wgpu::ShaderSource::Wgsl(src.into()),
-                },
-                wgpu::ShaderRuntimeChecks::unchecked(),
-            )
-        };
         use crate::gpu::layout;
         let mut entries = vec![
             layout::uniform_buffer(0),
@@ -288,15 +258,6 @@ impl VolumeRenderer {
                 layout::storage_buffer(9, false),
             ]);
         }
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("volume"),
-            entries: &entries,
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("volume"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
         let constants = [
             ("TF_KIND", key.tf_kind as f64),
             ("SCALE_KIND", key.scale as f64),
@@ -305,20 +266,24 @@ impl VolumeRenderer {
             ("PRECISION", key.precision as f64),
             ("WORK", key.work.shader_code() as f64),
         ];
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("volume ray cast"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &constants,
-                zero_initialize_workgroup_memory: false,
+        // SAFETY: wgpu's injected runtime checks (buffer index clamps, loop counters) cost about
+        // a third of the ray caster's time on lavapipe. The shader needs neither: every table
+        // index is clamped to [0, LUT_SIZE - 2] by construction, texel loads clamp their
+        // coordinates to the texture, stores are guarded by the image size, and the one loop
+        // runs a finite, precomputed number of steps.
+        let checks = unsafe { pipeline::RuntimeChecks::unchecked() };
+        let spec = pipeline::ComputeSpec {
+            label: "volume ray cast",
+            what: "volume pipeline",
+            shader: pipeline::Shader::Wgsl {
+                label: name,
+                source: shader::load(name, &defines)?,
+                checks,
             },
-            cache: self.ctx.pipeline_cache(),
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Gpu(format!("volume pipeline failed to build: {e}")));
-        }
+            entry: "main",
+            constants: &constants,
+        };
+        let (pipeline, layout) = pipeline::compute_with_layout(&self.ctx, spec, &entries)?;
         let entry = Arc::new((pipeline, layout));
         cache.insert(key, entry.clone());
         Ok((entry, true))

@@ -7,7 +7,7 @@
 use super::volume::{GpuVolume, MAX_STEPS_PER_RAY};
 use super::VolumeRenderOptions;
 use crate::error::{Error, Result};
-use crate::gpu::{readback, shader, GpuContext};
+use crate::gpu::{pipeline, readback, shader, GpuContext};
 use crate::model::camera::Projection;
 use crate::model::transfer::TfKind;
 use std::sync::{Arc, OnceLock};
@@ -54,41 +54,25 @@ impl F64RayCaster {
         if let Some(p) = self.pipeline.get() {
             return Ok(p);
         }
-        let device = &self.ctx.device;
-        let src = shader::load("volume_f64.wgsl", &[])?;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("volume_f64.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(src.into()),
-        });
         use crate::gpu::layout;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("volume f64"),
-            entries: &[
-                layout::uniform_buffer(0),
-                layout::texture(1, wgpu::TextureViewDimension::D3, false),
-                layout::storage_buffer(2, true),
-                layout::storage_buffer(3, false),
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("volume f64"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("volume f64 ray cast"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: self.ctx.pipeline_cache(),
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Gpu(format!(
-                "f64 volume pipeline failed to build: {e}"
-            )));
-        }
+        let entries = [
+            layout::uniform_buffer(0),
+            layout::texture(1, wgpu::TextureViewDimension::D3, false),
+            layout::storage_buffer(2, true),
+            layout::storage_buffer(3, false),
+        ];
+        let spec = pipeline::ComputeSpec {
+            label: "volume f64 ray cast",
+            what: "f64 volume pipeline",
+            shader: pipeline::Shader::Wgsl {
+                label: "volume_f64.wgsl",
+                source: shader::load("volume_f64.wgsl", &[])?,
+                checks: pipeline::RuntimeChecks::checked(),
+            },
+            entry: "main",
+            constants: &[],
+        };
+        let (pipeline, layout) = pipeline::compute_with_layout(&self.ctx, spec, &entries)?;
         Ok(self.pipeline.get_or_init(|| (pipeline, layout)))
     }
 

@@ -26,6 +26,27 @@ const OKADA_KEYS: &[&str] = &[
 const TSUNAMI_KEYS: &[&str] = &["n", "extent", "duration", "boundary"];
 const MANTLE_KEYS: &[&str] = &["n", "seed", "field", "plumes", "slabs"];
 
+/// The mantle options of `generate("mantle", #{…})` and `generate_mantle(#{…})`: `n`, `seed`,
+/// `plumes`, `slabs` and the one `field` to generate (fluctuation by default), which is returned
+/// beside the options. `what` names the function in the error for an unknown key.
+pub(super) fn mantle_options(opts: &Map, what: &str) -> RResult<(MantleOptions, MantleField)> {
+    check_keys(opts, MANTLE_KEYS, what)?;
+    let mut o = MantleOptions::default();
+    let mut field = MantleField::Fluctuation;
+    for (k, v) in opts {
+        match k.as_str() {
+            "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
+            "seed" => o.seed = int(v, "seed")? as u64,
+            "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
+            "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
+            "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
+            _ => unreachable!("checked keys"),
+        }
+    }
+    o.fields = MantleFields::only(field);
+    Ok((o, field))
+}
+
 fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
     match kind {
         "okada" => {
@@ -86,21 +107,8 @@ fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
             Ok(Job::Tsunami(job))
         }
         "mantle" => {
-            check_keys(opts, MANTLE_KEYS, "generate mantle")?;
-            let mut o = MantleOptions::default();
-            let mut field = MantleField::Fluctuation;
-            for (k, v) in opts {
-                match k.as_str() {
-                    "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
-                    "seed" => o.seed = int(v, "seed")? as u64,
-                    "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
-                    "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
-                    "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
-                    _ => unreachable!("checked keys"),
-                }
-            }
-            o.fields = MantleFields::only(field);
-            Ok(Job::Mantle(MantleJob { options: o }))
+            let (options, _) = mantle_options(opts, "generate mantle")?;
+            Ok(Job::Mantle(MantleJob { options }))
         }
         other => super::convert::err(
             "generate",

@@ -71,7 +71,6 @@ const LUT_KEYS: &[&str] = &[
     "opacity",
     "transparent_below",
 ];
-const MANTLE_KEYS: &[&str] = &["n", "seed", "field", "plumes", "slabs"];
 
 pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine
@@ -97,25 +96,11 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "generate_mantle",
         move |opts: Map| -> RResult<ScriptVolume> {
-            use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
-            check_keys(&opts, MANTLE_KEYS, "generate_mantle")?;
-            let mut o = MantleOptions::default();
-            let mut field = MantleField::Fluctuation;
-            for (k, v) in &opts {
-                match k.as_str() {
-                    "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
-                    "seed" => o.seed = int(v, "seed")? as u64,
-                    "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
-                    "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
-                    "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
-                    _ => unreachable!("checked keys"),
-                }
-            }
-            o.fields = MantleFields::only(field);
+            let (o, field) = super::api_datasets::mantle_options(&opts, "generate_mantle")?;
             // Generation takes seconds at 256³; a re-run of the script (TUI, sweep) reuses it.
             h.session
                 .generated_volume(&("mantle", &o, field.name()), || {
-                    let m = generate(&o, &mut |_| {})?;
+                    let m = crate::datasets::mantle::generate(&o, &mut |_| {})?;
                     let n = m.n;
                     let data = m.field(field).map(|d| d.to_vec()).unwrap_or_default();
                     let mut v = Volume::new(

@@ -16,7 +16,7 @@ use super::params::{
 };
 use crate::error::{Error, Result};
 use crate::gpu::transfer::{ReadbackBuffer, UploadBuffer};
-use crate::gpu::{shader, GpuContext};
+use crate::gpu::{pipeline, shader, GpuContext};
 use crate::model::HdrImage;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -251,15 +251,7 @@ impl GpuToneMapper {
             return Ok(m.clone());
         }
         let src = shader::load(file, &[])?;
-        let device = &self.ctx.device;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(file),
-            source: wgpu::ShaderSource::Wgsl(src.into()),
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Gpu(format!("{file} failed to compile: {e}")));
-        }
+        let module = pipeline::compile(&self.ctx, file, src, pipeline::RuntimeChecks::checked())?;
         let module = Arc::new(module);
         cache.insert(file, module.clone());
         Ok(module)
@@ -282,25 +274,14 @@ impl GpuToneMapper {
             return Ok(p.clone());
         }
         let module = self.module(file)?;
-        let device = &self.ctx.device;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry),
-            layout: None,
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &spec.constants(),
-                // Every shader writes its workgroup memory before reading it.
-                zero_initialize_workgroup_memory: false,
-            },
-            cache: self.ctx.pipeline_cache(),
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Gpu(format!(
-                "{file} entry point {entry} failed to build: {e}"
-            )));
-        }
+        let build = pipeline::ComputeSpec {
+            label: entry,
+            what: &format!("{file} entry point {entry}"),
+            shader: pipeline::Shader::Module(&module),
+            entry,
+            constants: &spec.constants(),
+        };
+        let pipeline = pipeline::compute(&self.ctx, build)?;
         let pipeline = Arc::new(pipeline);
         self.pipelines
             .lock()

@@ -605,7 +605,7 @@ fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
         ..Default::default()
     };
     job.run(&nc, &mut |_| {}).unwrap();
-    let grid = Grid::load(&nc, None).unwrap();
+    let grid = hdrvis::datasets::load_grid(&nc, None).unwrap();
     assert_eq!(grid.property_names(), vec!["ux", "uy", "uz"]);
     assert_eq!(grid.units(2), "m");
     let script = r#"
