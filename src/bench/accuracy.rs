@@ -10,11 +10,13 @@ use super::{bench_tf, bench_volume, mantle_fig5_tf, median};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::{Camera, Grid, Scale, TransferFunction, Volume};
+use crate::render::session::RenderSession;
 use crate::render::surface::{
     fringe_f64, FringeMode, PhaseMethod, SurfaceOptions, SurfaceRenderer,
 };
 use crate::render::volume::{GpuVolume, VolumeRenderer};
 use crate::render::VolumeRenderOptions;
+use crate::render::VolumeSource;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -508,26 +510,28 @@ fn volume_references(
     })
 }
 
-/// One warm-up render (pipeline build), then `runs` timed ones; the last image is returned.
+/// One warm-up render (pipeline build), then `runs` timed ones through the session's entry
+/// point; the last image is returned.
 fn time_volume(
-    renderer: &VolumeRenderer,
-    gv: &GpuVolume,
+    session: &RenderSession,
+    source: &VolumeSource,
     o: &VolumeRenderOptions,
     runs: usize,
 ) -> Result<TimedImage> {
-    renderer.render(gv, o)?;
-    let mut ms = Vec::new();
-    let mut got = Vec::new();
-    for _ in 0..runs.max(1) {
-        let (img, t) = renderer.render(gv, o)?;
-        ms.push(t.seconds * 1e3);
-        got = img.pixels.iter().map(|p| p.map(|v| v as f64)).collect();
-    }
+    let (ms, last) = super::time_renders(session, source, o, runs)?;
+    let got = last
+        .image
+        .pixels
+        .iter()
+        .map(|p| p.map(|v| v as f64))
+        .collect();
     Ok((ms, got))
 }
 
 /// f64 on the GPU where the adapter has shader f64 (lavapipe does): one warm-up render, then
-/// `runs` timed ones and the last image; `None` where the adapter has no shader f64.
+/// `runs` timed ones and the last image; `None` where the adapter has no shader f64. The kernel
+/// is called directly, not through `render_volume`: its f64 pixels are scored before an image
+/// would round them to f32.
 fn time_volume_f64_gpu(
     renderer: &VolumeRenderer,
     gv: &GpuVolume,
@@ -559,6 +563,8 @@ fn bench_volume_scene(
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<AccuracyRow>> {
     use crate::render::{Precision, TfSampling};
+    let session = super::timing_session(ctx.clone());
+    let source = VolumeSource::Memory(Arc::new(volume.clone()));
     let renderer = VolumeRenderer::new(ctx);
     let refs = volume_references(name, volume, options, runs, log)?;
     let gv = GpuVolume::upload(renderer.context(), volume)?;
@@ -583,7 +589,7 @@ fn bench_volume_scene(
         Precision::F32c,
     ] {
         o.precision = precision;
-        let (ms, got) = time_volume(&renderer, &gv, &o, runs)?;
+        let (ms, got) = time_volume(&session, &source, &o, runs)?;
         let r = row(precision.name().into(), &ms, &got, SAME_STEP)?;
         log(&format!(
             "{name} {}: {:.1} ms, rel RMS {:.2e}",
@@ -608,7 +614,7 @@ fn bench_volume_scene(
         o.step = options.step * factor;
         for sampling in [TfSampling::Point, TfSampling::PreIntegrated] {
             o.tf_sampling = sampling;
-            let (ms, got) = time_volume(&renderer, &gv, &o, runs)?;
+            let (ms, got) = time_volume(&session, &source, &o, runs)?;
             let variant = match sampling {
                 TfSampling::Point => format!("f32 step {}", o.step),
                 TfSampling::PreIntegrated => format!("f32 pre step {}", o.step),

@@ -5,11 +5,9 @@
 use super::{mantle_fig5_tf, median, peak_memory_mib, process_cpu_ms};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
-use crate::model::bricks::BrickedVolume;
 use crate::model::{Axis, Camera, LutTransfer, TransferFunction};
-use crate::render::bricked::{BrickCache, BrickedStats};
-use crate::render::volume::{GpuVolume, VolumeRenderer};
-use crate::render::{FilterMode, VolumeRenderOptions};
+use crate::render::bricked::BrickedStats;
+use crate::render::{Bricking, FilterMode, VolumeRenderOptions, VolumeSource};
 use std::sync::Arc;
 
 /// One timed configuration.
@@ -52,6 +50,9 @@ fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
         / peak
 }
 
+/// A render's pixels and, for the bricked path, what it did.
+type Rendered = (Vec<[f32; 4]>, Option<BrickedStats>);
+
 /// Wall-clock and process CPU milliseconds of each timed run.
 type Timings = (Vec<f64>, Vec<f64>);
 
@@ -84,10 +85,13 @@ pub fn bench_skipping(
 ) -> Result<Vec<BrickBenchRow>> {
     log(&format!("generating the {n}^3 mantle ..."));
     let vol = Arc::new(super::mantle_fluctuation(n, 7)?);
-    let renderer = VolumeRenderer::new(ctx);
-    let gv = GpuVolume::upload(renderer.context(), &vol)?;
-    let bv = Arc::new(BrickedVolume::from_volume(vol.clone(), brick)?);
-    let mut cache = BrickCache::new(renderer.context(), bv.clone(), None, size, size)?;
+    let session = super::timing_session(ctx);
+    let source = VolumeSource::Memory(vol.clone());
+    // One run through the session's entry point: the render's own seconds, image and stats.
+    let render = |o: &VolumeRenderOptions| -> Result<(Rendered, f64)> {
+        let r = session.render_volume_detailed(&source, o)?;
+        Ok(((r.image.pixels.clone(), r.bricks.clone()), r.seconds))
+    };
     let mut rows = Vec::new();
     for (scene, tf) in mantle_tfs() {
         let mut o = VolumeRenderOptions::new(Camera::orbit(&vol.bounds(), 35.0, 20.0, 25.0)?, tf);
@@ -96,7 +100,7 @@ pub fn bench_skipping(
         o.step = 1.0;
         let mut exact = o.clone();
         exact.filter = FilterMode::Exact;
-        let reference = renderer.render(&gv, &exact)?.0.pixels;
+        let reference = render(&exact)?.0 .0;
         let mut record = |path: &str, (runs_ms, cpu_ms): Timings, img: &[[f32; 4]], stats| {
             log(&format!("{scene}, {path}: {:.1} ms", median(&runs_ms)));
             rows.push(BrickBenchRow {
@@ -109,19 +113,18 @@ pub fn bench_skipping(
             });
         };
         for (path, opts) in [("plain (auto filter)", &o), ("plain (exact)", &exact)] {
-            let (timings, img) = time_runs(runs, || {
-                let (i, t) = renderer.render(&gv, opts)?;
-                Ok((i.pixels, t.seconds))
-            })?;
+            let (timings, (img, _)) = time_runs(runs, || render(opts))?;
             record(path, timings, &img, None);
         }
         for (path, skip) in [("bricked", false), ("bricked + skipping", true)] {
-            let (timings, (img, st)) = time_runs(runs, || {
-                let (i, st) = renderer.render_bricked(&mut cache, &o, skip)?;
-                let seconds = st.seconds;
-                Ok(((i.pixels, st), seconds))
-            })?;
-            record(path, timings, &img, Some(st));
+            let mut b = o.clone();
+            b.bricking = Bricking {
+                brick: Some(brick),
+                skip: Some(skip),
+                ..Default::default()
+            };
+            let (timings, (img, st)) = time_runs(runs, || render(&b))?;
+            record(path, timings, &img, st);
         }
     }
     Ok(rows)
@@ -250,14 +253,22 @@ pub fn bench_large(
     o.width = size;
     o.height = size;
     o.step = 1.0;
-    let renderer = VolumeRenderer::new(ctx);
-    let budget = (budget_mib * (1u64 << 20) as f64) as u64;
-    let mut cache = BrickCache::new(renderer.context(), bv.clone(), Some(budget), size, size)?;
+    o.bricking = Bricking {
+        memory_budget: Some((budget_mib * (1u64 << 20) as f64) as u64),
+        skip: Some(true),
+        ..Default::default()
+    };
+    let session = super::timing_session(ctx);
+    let source = VolumeSource::Bricked(bv);
     let mut render_s = Vec::new();
     let mut stats = BrickedStats::default();
     for r in 0..runs.max(1) {
         log(&format!("rendering, run {} ...", r + 1));
-        let (_, st) = renderer.render_bricked(&mut cache, &o, true)?;
+        let st = session
+            .render_volume_detailed(&source, &o)?
+            .bricks
+            .clone()
+            .expect("a bricked source renders bricked");
         log(&format!(
             "{:.1} s, {} passes, {} bricks uploaded",
             st.seconds, st.passes, st.uploaded

@@ -57,9 +57,8 @@ pub fn bench_effects(
     let cam = Camera::orbit(&volume.bounds(), 30.0, 25.0, 35.0)?;
     let mut base = VolumeRenderOptions::new(cam, tf()?);
     (base.width, base.height) = (size, size);
-    // A budget of zero caches nothing: every request runs all its passes, upload included.
-    let uncached = RenderSession::with_context(ctx.clone(), 0);
-    let resident = uncached.upload(&volume)?;
+    let source = crate::render::VolumeSource::Memory(volume.clone());
+    let timing = super::timing_session(ctx.clone());
     let mut rows = Vec::new();
     let cases: [(&str, Option<Shading>, bool); 4] = [
         ("ray cast, no effects", None, false),
@@ -71,27 +70,20 @@ pub fn bench_effects(
             true,
         ),
     ];
-    let renderer = uncached.volume_renderer()?;
     for (name, shading, jitter) in cases {
         let mut o = base.clone();
         o.shading = shading;
         o.jitter = jitter;
         progress(&format!("effects: {name}"));
-        renderer.render(&resident, &o)?;
-        let mut ms = Vec::with_capacity(runs);
-        for _ in 0..runs {
-            let t = Instant::now();
-            renderer.render(&resident, &o)?;
-            ms.push(t.elapsed().as_secs_f64() * 1e3);
-        }
+        let (ms, _) = super::time_renders(&timing, &source, &o, runs)?;
         rows.push(EffectRow {
             name: name.into(),
             runs_ms: ms,
             raycasts: 1,
         });
     }
-
-    let source = crate::render::VolumeSource::Memory(volume.clone());
+    // A budget of zero caches nothing: every request runs all its passes, upload included.
+    let uncached = RenderSession::with_context(ctx.clone(), 0);
     let evs: Vec<f64> = (0..10).map(|i| i as f64 - 5.0).collect();
     let sweep = |session: &RenderSession, salt: usize| -> Result<(f64, usize)> {
         session.log().take();
