@@ -117,6 +117,8 @@ pub struct VolumeRender {
     pub seconds: f64,
     /// What the bricked path did (passes, bricks read, GPU memory).
     pub bricks: Option<BrickedStats>,
+    /// Whether the render had to compile its pipeline first (in-core path).
+    pub compiled_pipeline: bool,
 }
 
 /// A GPU brick cache as a result-cache entry: renders through it take turns.
@@ -165,6 +167,9 @@ impl RenderSession {
                 let mut detail = raycast_effects(opts);
                 if let Some(b) = &r.bricks {
                     detail.push(bricked_detail(path, b));
+                }
+                if r.compiled_pipeline {
+                    detail.push("pipeline built".into());
                 }
                 Ok((r, detail.join(", ")))
             },
@@ -241,6 +246,7 @@ impl RenderSession {
             path,
             seconds: t.elapsed().as_secs_f64(),
             bricks,
+            compiled_pipeline: false,
         };
         let volume = match source {
             VolumeSource::Memory(v) => Some(v),
@@ -252,6 +258,7 @@ impl RenderSession {
                 let (img, timing) = self.volume_renderer()?.render(&gv, opts)?;
                 let mut r = finished(img, None);
                 r.seconds = timing.seconds;
+                r.compiled_pipeline = timing.compiled_pipeline;
                 Ok(r)
             }
             (RenderPath::F64Gpu, Some(v)) => {
