@@ -176,6 +176,23 @@ impl TransferFunction {
 
 impl LutTransfer {
     fn resolve(&self, stats: &VolumeStats) -> Result<ResolvedTransfer> {
+        let [lo, hi] = self.domain_bounds(stats)?;
+        let mut mapping = self.scale_mapping(lo, hi);
+        if let Some(lens) = self.lens {
+            mapping.lens = lens_placement(&mapping, lens)?;
+        }
+        self.check_control_points()?;
+        let cmap = Colormap::by_name(&self.colormap)?;
+        Ok(ResolvedTransfer {
+            kind: TfKind::Lut,
+            mapping,
+            lut: self.bake_table(&cmap),
+        })
+    }
+
+    /// The data range [lo, hi] the table spans: the given domain, or the volume's (finite) range,
+    /// starting at the smallest positive value for log10.
+    fn domain_bounds(&self, stats: &VolumeStats) -> Result<[f64; 2]> {
         let [lo, hi] = match (self.domain, self.scale) {
             (Some(d), _) => d,
             (None, Scale::Log10) => [
@@ -200,6 +217,12 @@ impl LutTransfer {
                 ));
             }
         }
+        Ok([lo, hi])
+    }
+
+    /// The lens-free map of [lo, hi] onto [0, 1] in the scaled space (a symlog threshold left
+    /// unset or invalid becomes a thousandth of the largest magnitude).
+    fn scale_mapping(&self, lo: f64, hi: f64) -> ScaleMapping {
         let scale = match self.scale {
             Scale::Symlog { linthresh } if linthresh <= 0.0 || !linthresh.is_finite() => {
                 Scale::Symlog {
@@ -215,37 +238,16 @@ impl LutTransfer {
         } else {
             0.0
         };
-        let mut mapping = ScaleMapping {
+        ScaleMapping {
             scale,
             s_lo,
             inv_range,
             lens: None,
-        };
-        if let Some(lens) = self.lens {
-            if !(lens.factor.is_finite() && lens.factor >= 1.0) {
-                return Err(Error::invalid(
-                    "tf.lens.factor",
-                    format!("expected a finite value >= 1, got {}", lens.factor),
-                ));
-            }
-            if lens.lo.partial_cmp(&lens.hi) != Some(std::cmp::Ordering::Less) {
-                return Err(Error::invalid(
-                    "tf.lens",
-                    format!("expected lo < hi, got [{}, {}]", lens.lo, lens.hi),
-                ));
-            }
-            let ta = mapping.base(lens.lo);
-            let tb = mapping.base(lens.hi);
-            if tb > ta {
-                let width = (lens.factor * (tb - ta)).min(0.98_f64.max(tb - ta));
-                let k = if tb - ta < 1.0 {
-                    (1.0 - width) / (1.0 - (tb - ta))
-                } else {
-                    1.0
-                };
-                mapping.lens = Some([ta, tb, ta * k, ta * k + width]);
-            }
         }
+    }
+
+    /// Rejects empty, non-finite, unsorted or out-of-range emission and opacity control points.
+    fn check_control_points(&self) -> Result<()> {
         for (field, pts) in [
             ("tf.emission", &self.emission),
             ("tf.opacity", &self.opacity),
@@ -263,8 +265,12 @@ impl LutTransfer {
                 return Err(Error::invalid(field, "log10 values must lie in [-30, 30]"));
             }
         }
-        let cmap = Colormap::by_name(&self.colormap)?;
-        let lut = (0..LUT_SIZE)
+        Ok(())
+    }
+
+    /// The LUT_SIZE table entries (r·e, g·e, b·e, extinction) over t in [0, 1].
+    fn bake_table(&self, cmap: &Colormap) -> Vec<[f64; 4]> {
+        (0..LUT_SIZE)
             .map(|i| {
                 let t = i as f64 / (LUT_SIZE - 1) as f64;
                 if t < self.transparent_below {
@@ -275,12 +281,37 @@ impl LutTransfer {
                 let c = cmap.linear_rgb(t);
                 [c[0] * e, c[1] * e, c[2] * e, s]
             })
-            .collect();
-        Ok(ResolvedTransfer {
-            kind: TfKind::Lut,
-            mapping,
-            lut,
-        })
+            .collect()
+    }
+}
+
+/// Where a lens puts its range on the table, as (ta, tb, out_a, out_b) for `ScaleMapping::lens`;
+/// `None` when the range is empty in the base coordinate.
+fn lens_placement(mapping: &ScaleMapping, lens: Lens) -> Result<Option<[f64; 4]>> {
+    if !(lens.factor.is_finite() && lens.factor >= 1.0) {
+        return Err(Error::invalid(
+            "tf.lens.factor",
+            format!("expected a finite value >= 1, got {}", lens.factor),
+        ));
+    }
+    if lens.lo.partial_cmp(&lens.hi) != Some(std::cmp::Ordering::Less) {
+        return Err(Error::invalid(
+            "tf.lens",
+            format!("expected lo < hi, got [{}, {}]", lens.lo, lens.hi),
+        ));
+    }
+    let ta = mapping.base(lens.lo);
+    let tb = mapping.base(lens.hi);
+    if tb > ta {
+        let width = (lens.factor * (tb - ta)).min(0.98_f64.max(tb - ta));
+        let k = if tb - ta < 1.0 {
+            (1.0 - width) / (1.0 - (tb - ta))
+        } else {
+            1.0
+        };
+        Ok(Some([ta, tb, ta * k, ta * k + width]))
+    } else {
+        Ok(None)
     }
 }
 

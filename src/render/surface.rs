@@ -725,100 +725,19 @@ impl SurfaceRenderer {
         props: &[usize],
     ) -> Result<Arc<DataTargets>> {
         let (width, height) = self.resolve_size(grid, opts)?;
-        let key = DataKey {
-            grid: grid.id(),
-            view: opts.view.key(),
-            width,
-            height,
-            properties: props
-                .iter()
-                .map(|&i| grid.property_at(i).0.to_string())
-                .collect(),
-            relief: if opts.view == SurfaceView::Map {
-                None
-            } else {
-                opts.relief.clone()
-            },
-            exaggeration: if opts.view == SurfaceView::Map {
-                0
-            } else {
-                opts.exaggeration.to_bits()
-            },
-        };
-        {
-            let cache = self.cache.lock().expect("surface cache poisoned");
-            if let Some((_, t)) = cache.iter().find(|(k, _)| *k == key) {
-                return Ok(t.clone());
-            }
+        let key = DataKey::new(grid, opts, props, width, height);
+        if let Some(t) = self.cached_targets(&key) {
+            return Ok(t);
         }
-        let (nx, ny) = (grid.nx(), grid.ny());
-        let n = nx * ny;
-        let mut hi = vec![[0f32; 4]; n];
-        let mut rest = vec![[0f32; 4]; n];
-        let mut valid = vec![[0f32; 4]; n];
-        let mut meta = Vec::new();
-        for (slot, &p) in props.iter().enumerate() {
-            let (name, values) = grid.property_at(p);
-            let range = grid.range(p);
-            let d_ref = range.map(|(a, b)| 0.5 * (a + b)).unwrap_or(0.0);
-            for k in 0..n {
-                let d = values[k];
-                if d.is_finite() {
-                    let off = d - d_ref;
-                    let h = off as f32;
-                    hi[k][slot] = h;
-                    rest[k][slot] = (off - h as f64) as f32;
-                    valid[k][slot] = 1.0;
-                }
-            }
-            meta.push((name.to_string(), grid.units(p).to_string(), d_ref, range));
-        }
+        let nodes = NodeValues::of(grid, props);
         let geo = SurfaceGeometry::new(grid, opts)?;
         let heights: Vec<f32> = geo.heights.iter().map(|&h| h as f32).collect();
-        let t_hi = self.input_buffer("surface nodes hi", bytemuck::cast_slice(&hi));
-        let t_rest = self.input_buffer("surface nodes rest", bytemuck::cast_slice(&rest));
-        let t_valid = self.input_buffer("surface nodes valid", bytemuck::cast_slice(&valid));
+        let t_hi = self.input_buffer("surface nodes hi", bytemuck::cast_slice(&nodes.hi));
+        let t_rest = self.input_buffer("surface nodes rest", bytemuck::cast_slice(&nodes.rest));
+        let t_valid = self.input_buffer("surface nodes valid", bytemuck::cast_slice(&nodes.valid));
         let t_height = self.input_buffer("surface nodes height", bytemuck::cast_slice(&heights));
         let map = opts.view == SurfaceView::Map;
-        let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
-        let mut params = DataParams {
-            eye: [0.0; 4],
-            forward: [0.0; 4],
-            right: [0.0; 4],
-            up: [0.0; 4],
-            proj: [0.0; 4],
-            cell: [
-                geo.spacing[0] as f32,
-                geo.spacing[1] as f32,
-                geo.exaggeration as f32,
-                geo.height_at_floor() as f32,
-            ],
-            light: v4(LIGHT_DIRECTION, LIGHT_AMBIENT),
-            box_size: v4(geo.box_size, 0.0),
-            dims: [nx as u32, ny as u32, width, height],
-            counts: [props.len() as u32, 0, 0, 0],
-        };
-        if let Some(cam) = &geo.camera {
-            params.eye = v4(cam.eye, 0.0);
-            params.forward = v4(cam.forward, 0.0);
-            params.right = v4(cam.right, 0.0);
-            params.up = v4(cam.up, 0.0);
-            params.proj = match cam.projection {
-                Projection::Perspective { fov_y_deg } => {
-                    let ty = (0.5 * fov_y_deg.to_radians()).tan();
-                    [
-                        1.0,
-                        (ty * width as f64 / height as f64) as f32,
-                        ty as f32,
-                        0.0,
-                    ]
-                }
-                Projection::Orthographic {
-                    half_width,
-                    half_height,
-                } => [0.0, half_width as f32, half_height as f32, 0.0],
-            };
-        }
+        let params = data_params(&geo, grid, props.len(), width, height);
         let pipeline = self.data_pipeline(map)?;
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
@@ -853,18 +772,29 @@ impl SurfaceRenderer {
             mask: o_mask,
             width,
             height,
-            props: meta,
+            props: nodes.meta,
             view: opts.view.describe(),
             outputs: Mutex::new(None),
             values: Mutex::new(HashMap::new()),
         });
+        self.remember(key, targets.clone());
+        Ok(targets)
+    }
+
+    /// The cached step-1 targets for `key`, if any.
+    fn cached_targets(&self, key: &DataKey) -> Option<Arc<DataTargets>> {
+        let cache = self.cache.lock().expect("surface cache poisoned");
+        cache.iter().find(|(k, _)| k == key).map(|(_, t)| t.clone())
+    }
+
+    /// Caches `targets` under `key`, dropping the oldest entry when the cache is full.
+    fn remember(&self, key: DataKey, targets: Arc<DataTargets>) {
         let mut cache = self.cache.lock().expect("surface cache poisoned");
         cache.retain(|(k, _)| *k != key);
         if cache.len() >= CACHE_ENTRIES {
             cache.remove(0);
         }
-        cache.push((key, targets.clone()));
-        Ok(targets)
+        cache.push((key, targets));
     }
 
     /// Resolves the property list to grid indices (unknown names list the known ones).
@@ -918,163 +848,15 @@ impl SurfaceRenderer {
         colormap: &Colormap,
     ) -> Result<HdrImage> {
         check_nu(nu)?;
-        let (name, units, d_ref, range) = data.props[slot].clone();
-        let (lo, hi) = range.unwrap_or((d_ref, d_ref));
-        let (c_lo, c_inv, floor) = if opts.log_color && opts.mode != FringeMode::Cyclic {
-            let amax = lo.abs().max(hi.abs());
-            let amin_pos = if lo > 0.0 {
-                lo
-            } else if hi < 0.0 {
-                -hi
-            } else {
-                0.0
-            };
-            let floor = if amin_pos > 0.0 {
-                amin_pos
-            } else {
-                amax * 1e-6
-            };
-            let floor = if floor > 0.0 { floor } else { 1.0 };
-            let (a, b) = (floor.log10(), amax.max(floor).log10());
-            (a, if b > a { 1.0 / (b - a) } else { 0.0 }, floor)
-        } else if opts.absolute {
-            let (a, b) = if lo >= 0.0 {
-                (lo, hi)
-            } else if hi <= 0.0 {
-                (-hi, -lo)
-            } else {
-                (0.0, lo.abs().max(hi.abs()))
-            };
-            (a, if b > a { 1.0 / (b - a) } else { 0.0 }, 0.0)
-        } else {
-            (lo - d_ref, if hi > lo { 1.0 / (hi - lo) } else { 0.0 }, 0.0)
-        };
-        let [na, nb, nc] = split_nu(nu);
-        let params = FringeParams {
-            nu: [na, nb, nc, nu as f32],
-            refs: [
-                (nu * d_ref).rem_euclid(1.0) as f32,
-                d_ref as f32,
-                c_lo as f32,
-                c_inv as f32,
-            ],
-            shade: [opts.modulation as f32, floor as f32, 0.0, 0.0],
-            mode: [
-                slot as u32,
-                opts.mode.code(),
-                opts.absolute as u32,
-                opts.log_color as u32,
-            ],
-            dims: [data.width, data.height, LUT_SIZE as u32, 0],
-        };
-        let lut: Vec<[f32; 4]> = (0..LUT_SIZE)
-            .map(|i| {
-                let c = colormap.linear_rgb(i as f64 / (LUT_SIZE - 1) as f64);
-                [c[0] as f32, c[1] as f32, c[2] as f32, 1.0]
-            })
-            .collect();
-        let cached_values = data
-            .values
-            .lock()
-            .expect("surface values poisoned")
-            .get(&slot)
-            .cloned();
-        let pipeline = self.fringe_pipeline(FringeVariant {
-            slot,
-            mode: opts.mode.code(),
-            absolute: opts.absolute,
-            log_color: opts.log_color,
-            write_value: cached_values.is_none(),
-            naive_phase: opts.phase == PhaseMethod::Naive,
-        })?;
-        let device = &self.ctx.device;
-        use wgpu::util::DeviceExt;
-        let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("surface fringe params"),
-            contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let lut_buf = self.input_buffer("surface lut", bytemuck::cast_slice(&lut));
-        let (w, h) = (data.width, data.height);
-        let n = w as u64 * h as u64;
-        let mut outputs = data.outputs.lock().expect("surface outputs poisoned");
-        let none = wgpu::BufferUsages::empty();
-        let outs = outputs.get_or_insert_with(|| FringeOutputs {
-            color: ReadbackBuffer::new(&self.ctx, "surface image", n * 16, none),
-            value: ReadbackBuffer::new(&self.ctx, "surface value", n * 4, none),
-        });
-        let (out, out_value) = (&outs.color.buffer, &outs.value.buffer);
-        let bind = self.bind(
-            "surface fringe",
-            &pipeline.1,
-            &ubuf,
-            &[&data.hi, &data.rest, &data.mask, &lut_buf, out, out_value],
-        );
-        let mut enc = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline.0);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-        }
-        outs.color.record_copy(&mut enc, n * 16);
-        if cached_values.is_none() {
-            outs.value.record_copy(&mut enc, n * 4);
-        }
-        let prof = std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some();
-        let t0 = std::time::Instant::now();
-        self.ctx.queue.submit([enc.finish()]);
-        if prof {
-            self.ctx.wait()?;
-            eprintln!("fringe compute {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
-        }
-        self.fringe_passes.fetch_add(1, Ordering::Relaxed);
-        let mut pixels: Vec<[f32; 4]> = outs.color.read(&self.ctx, n * 16)?;
-        if prof {
-            eprintln!("+ rgba readback {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
-        }
-        let values: Vec<f32> = match cached_values {
-            Some(v) => v,
-            None => {
-                let mut v: Vec<f32> = outs.value.read(&self.ctx, n * 4)?;
-                for (value, p) in v.iter_mut().zip(&pixels) {
-                    if p[3] < 0.0 {
-                        *value = f32::NAN;
-                    }
-                }
-                data.values
-                    .lock()
-                    .expect("surface values poisoned")
-                    .insert(slot, v.clone());
-                v
-            }
-        };
-        drop(outputs);
-        if prof {
-            eprintln!(
-                "+ value readback {:.2} ms",
-                t0.elapsed().as_secs_f64() * 1e3
-            );
-        }
-        // The fringe rides in alpha; a negative alpha marks a missing pixel.
-        use rayon::prelude::*;
-        let fringe: Vec<f32> = pixels
-            .par_iter_mut()
-            .map(|p| {
-                if p[3] < 0.0 {
-                    *p = [0.0; 4];
-                    f32::NAN
-                } else {
-                    let f = p[3];
-                    p[3] = 1.0;
-                    f
-                }
-            })
-            .collect();
-        if prof {
-            eprintln!("+ host {:.2} ms", t0.elapsed().as_secs_f64() * 1e3);
-        }
-        let mut image = HdrImage::from_pixels(w, h, pixels);
+        let (name, units, _, range) = data.props[slot].clone();
+        let params = fringe_params(data, slot, nu, opts);
+        let lut = colormap_table(colormap);
+        let FringeReadback {
+            pixels,
+            values,
+            fringe,
+        } = self.run_fringe(data, slot, opts, &params, &lut)?;
+        let mut image = HdrImage::from_pixels(data.width, data.height, pixels);
         let channel = if name.is_empty() {
             "value".to_string()
         } else {
@@ -1109,6 +891,355 @@ impl SurfaceRenderer {
         image.set_meta("phase", opts.phase.describe());
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
+    }
+
+    /// Runs the fringe pass for `slot` and reads back its colours (alpha 1), the value channel
+    /// (missing pixels NaN; read once per slot, then reused) and the fringe taken from alpha.
+    fn run_fringe(
+        &self,
+        data: &DataTargets,
+        slot: usize,
+        opts: &SurfaceOptions,
+        params: &FringeParams,
+        lut: &[[f32; 4]],
+    ) -> Result<FringeReadback> {
+        let cached_values = data
+            .values
+            .lock()
+            .expect("surface values poisoned")
+            .get(&slot)
+            .cloned();
+        let pipeline = self.fringe_pipeline(FringeVariant {
+            slot,
+            mode: opts.mode.code(),
+            absolute: opts.absolute,
+            log_color: opts.log_color,
+            write_value: cached_values.is_none(),
+            naive_phase: opts.phase == PhaseMethod::Naive,
+        })?;
+        let n = data.width as u64 * data.height as u64;
+        let mut outputs = data.outputs.lock().expect("surface outputs poisoned");
+        let none = wgpu::BufferUsages::empty();
+        let outs = outputs.get_or_insert_with(|| FringeOutputs {
+            color: ReadbackBuffer::new(&self.ctx, "surface image", n * 16, none),
+            value: ReadbackBuffer::new(&self.ctx, "surface value", n * 4, none),
+        });
+        let enc = self.encode_fringe(&pipeline, params, lut, data, outs, cached_values.is_none());
+        let profile = FringeProfile::start();
+        self.ctx.queue.submit([enc.finish()]);
+        if profile.on {
+            self.ctx.wait()?;
+        }
+        profile.mark("fringe compute");
+        self.fringe_passes.fetch_add(1, Ordering::Relaxed);
+        let mut pixels: Vec<[f32; 4]> = outs.color.read(&self.ctx, n * 16)?;
+        profile.mark("+ rgba readback");
+        let values: Vec<f32> = match cached_values {
+            Some(v) => v,
+            None => {
+                let mut v: Vec<f32> = outs.value.read(&self.ctx, n * 4)?;
+                for (value, p) in v.iter_mut().zip(&pixels) {
+                    if p[3] < 0.0 {
+                        *value = f32::NAN;
+                    }
+                }
+                data.values
+                    .lock()
+                    .expect("surface values poisoned")
+                    .insert(slot, v.clone());
+                v
+            }
+        };
+        drop(outputs);
+        profile.mark("+ value readback");
+        let fringe = take_fringe(&mut pixels);
+        profile.mark("+ host");
+        Ok(FringeReadback {
+            pixels,
+            values,
+            fringe,
+        })
+    }
+
+    /// Records the fringe pass and the copies of its outputs (the value channel only when it
+    /// is written, `write_value`).
+    fn encode_fringe(
+        &self,
+        pipeline: &(wgpu::ComputePipeline, wgpu::BindGroupLayout),
+        params: &FringeParams,
+        lut: &[[f32; 4]],
+        data: &DataTargets,
+        outs: &FringeOutputs,
+        write_value: bool,
+    ) -> wgpu::CommandEncoder {
+        let device = &self.ctx.device;
+        use wgpu::util::DeviceExt;
+        let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("surface fringe params"),
+            contents: bytemuck::bytes_of(params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let lut_buf = self.input_buffer("surface lut", bytemuck::cast_slice(lut));
+        let (w, h) = (data.width, data.height);
+        let n = w as u64 * h as u64;
+        let (out, out_value) = (&outs.color.buffer, &outs.value.buffer);
+        let bind = self.bind(
+            "surface fringe",
+            &pipeline.1,
+            &ubuf,
+            &[&data.hi, &data.rest, &data.mask, &lut_buf, out, out_value],
+        );
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline.0);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        }
+        outs.color.record_copy(&mut enc, n * 16);
+        if write_value {
+            outs.value.record_copy(&mut enc, n * 4);
+        }
+        enc
+    }
+}
+
+impl DataKey {
+    /// What step 1's result depends on (the relief and its exaggeration only off the map view).
+    fn new(grid: &Grid, opts: &SurfaceOptions, props: &[usize], width: u32, height: u32) -> Self {
+        DataKey {
+            grid: grid.id(),
+            view: opts.view.key(),
+            width,
+            height,
+            properties: props
+                .iter()
+                .map(|&i| grid.property_at(i).0.to_string())
+                .collect(),
+            relief: if opts.view == SurfaceView::Map {
+                None
+            } else {
+                opts.relief.clone()
+            },
+            exaggeration: if opts.view == SurfaceView::Map {
+                0
+            } else {
+                opts.exaggeration.to_bits()
+            },
+        }
+    }
+}
+
+/// The node inputs of step 1: per node and property slot, the value less the property's
+/// reference d_ref split into an f32 head and the f32 rest (together ~f64 precision), and 1
+/// where the value is finite; with what step 2 needs to know of each property.
+struct NodeValues {
+    hi: Vec<[f32; 4]>,
+    rest: Vec<[f32; 4]>,
+    valid: Vec<[f32; 4]>,
+    meta: Vec<PropMeta>,
+}
+
+impl NodeValues {
+    fn of(grid: &Grid, props: &[usize]) -> NodeValues {
+        let n = grid.nx() * grid.ny();
+        let mut hi = vec![[0f32; 4]; n];
+        let mut rest = vec![[0f32; 4]; n];
+        let mut valid = vec![[0f32; 4]; n];
+        let mut meta = Vec::new();
+        for (slot, &p) in props.iter().enumerate() {
+            let (name, values) = grid.property_at(p);
+            let range = grid.range(p);
+            let d_ref = range.map(|(a, b)| 0.5 * (a + b)).unwrap_or(0.0);
+            for k in 0..n {
+                let d = values[k];
+                if d.is_finite() {
+                    let off = d - d_ref;
+                    let h = off as f32;
+                    hi[k][slot] = h;
+                    rest[k][slot] = (off - h as f64) as f32;
+                    valid[k][slot] = 1.0;
+                }
+            }
+            meta.push((name.to_string(), grid.units(p).to_string(), d_ref, range));
+        }
+        NodeValues {
+            hi,
+            rest,
+            valid,
+            meta,
+        }
+    }
+}
+
+/// The data pass's parameters: the camera (left zero for the map view), cell size,
+/// exaggeration, light and sizes.
+fn data_params(
+    geo: &SurfaceGeometry,
+    grid: &Grid,
+    properties: usize,
+    width: u32,
+    height: u32,
+) -> DataParams {
+    let (nx, ny) = (grid.nx(), grid.ny());
+    let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
+    let mut params = DataParams {
+        eye: [0.0; 4],
+        forward: [0.0; 4],
+        right: [0.0; 4],
+        up: [0.0; 4],
+        proj: [0.0; 4],
+        cell: [
+            geo.spacing[0] as f32,
+            geo.spacing[1] as f32,
+            geo.exaggeration as f32,
+            geo.height_at_floor() as f32,
+        ],
+        light: v4(LIGHT_DIRECTION, LIGHT_AMBIENT),
+        box_size: v4(geo.box_size, 0.0),
+        dims: [nx as u32, ny as u32, width, height],
+        counts: [properties as u32, 0, 0, 0],
+    };
+    if let Some(cam) = &geo.camera {
+        params.eye = v4(cam.eye, 0.0);
+        params.forward = v4(cam.forward, 0.0);
+        params.right = v4(cam.right, 0.0);
+        params.up = v4(cam.up, 0.0);
+        params.proj = match cam.projection {
+            Projection::Perspective { fov_y_deg } => {
+                let ty = (0.5 * fov_y_deg.to_radians()).tan();
+                [
+                    1.0,
+                    (ty * width as f64 / height as f64) as f32,
+                    ty as f32,
+                    0.0,
+                ]
+            }
+            Projection::Orthographic {
+                half_width,
+                half_height,
+            } => [0.0, half_width as f32, half_height as f32, 0.0],
+        };
+    }
+    params
+}
+
+/// The fringe pass's parameters for `slot` at `nu`: ν split for exact phases, the reference
+/// phase, the colour domain, shading and mode.
+fn fringe_params(data: &DataTargets, slot: usize, nu: f64, opts: &SurfaceOptions) -> FringeParams {
+    let (_, _, d_ref, range) = &data.props[slot];
+    let d_ref = *d_ref;
+    let (c_lo, c_inv, floor) = colour_domain(opts, range.unwrap_or((d_ref, d_ref)), d_ref);
+    let [na, nb, nc] = split_nu(nu);
+    FringeParams {
+        nu: [na, nb, nc, nu as f32],
+        refs: [
+            (nu * d_ref).rem_euclid(1.0) as f32,
+            d_ref as f32,
+            c_lo as f32,
+            c_inv as f32,
+        ],
+        shade: [opts.modulation as f32, floor as f32, 0.0, 0.0],
+        mode: [
+            slot as u32,
+            opts.mode.code(),
+            opts.absolute as u32,
+            opts.log_color as u32,
+        ],
+        dims: [data.width, data.height, LUT_SIZE as u32, 0],
+    }
+}
+
+/// Where colour starts, 1 / its span, and the floor of log colour, for data in [lo, hi]:
+/// log10 of magnitudes (above a floor) for log colour outside cyclic mode, magnitudes for
+/// absolute, else the offset from d_ref over the data range.
+fn colour_domain(opts: &SurfaceOptions, (lo, hi): (f64, f64), d_ref: f64) -> (f64, f64, f64) {
+    if opts.log_color && opts.mode != FringeMode::Cyclic {
+        let amax = lo.abs().max(hi.abs());
+        let amin_pos = if lo > 0.0 {
+            lo
+        } else if hi < 0.0 {
+            -hi
+        } else {
+            0.0
+        };
+        let floor = if amin_pos > 0.0 {
+            amin_pos
+        } else {
+            amax * 1e-6
+        };
+        let floor = if floor > 0.0 { floor } else { 1.0 };
+        let (a, b) = (floor.log10(), amax.max(floor).log10());
+        (a, if b > a { 1.0 / (b - a) } else { 0.0 }, floor)
+    } else if opts.absolute {
+        let (a, b) = if lo >= 0.0 {
+            (lo, hi)
+        } else if hi <= 0.0 {
+            (-hi, -lo)
+        } else {
+            (0.0, lo.abs().max(hi.abs()))
+        };
+        (a, if b > a { 1.0 / (b - a) } else { 0.0 }, 0.0)
+    } else {
+        (lo - d_ref, if hi > lo { 1.0 / (hi - lo) } else { 0.0 }, 0.0)
+    }
+}
+
+/// The colour map sampled at LUT_SIZE points, as the fringe shader's table.
+fn colormap_table(colormap: &Colormap) -> Vec<[f32; 4]> {
+    (0..LUT_SIZE)
+        .map(|i| {
+            let c = colormap.linear_rgb(i as f64 / (LUT_SIZE - 1) as f64);
+            [c[0] as f32, c[1] as f32, c[2] as f32, 1.0]
+        })
+        .collect()
+}
+
+/// Takes the fringe out of alpha, where the pass leaves it: a negative alpha marks a missing
+/// pixel, which becomes (0, 0, 0, 0) with fringe NaN; every other alpha becomes 1.
+fn take_fringe(pixels: &mut [[f32; 4]]) -> Vec<f32> {
+    use rayon::prelude::*;
+    pixels
+        .par_iter_mut()
+        .map(|p| {
+            if p[3] < 0.0 {
+                *p = [0.0; 4];
+                f32::NAN
+            } else {
+                let f = p[3];
+                p[3] = 1.0;
+                f
+            }
+        })
+        .collect()
+}
+
+/// What the fringe pass of one slot hands back: colours with alpha 1 (missing pixels all 0),
+/// the value channel and the fringe (NaN where missing).
+struct FringeReadback {
+    pixels: Vec<[f32; 4]>,
+    values: Vec<f32>,
+    fringe: Vec<f32>,
+}
+
+/// Step-2 stage times on stderr when `HDRVIS_SURFACE_PROFILE` is set, counted from the submit.
+struct FringeProfile {
+    on: bool,
+    start: std::time::Instant,
+}
+
+impl FringeProfile {
+    fn start() -> FringeProfile {
+        FringeProfile {
+            on: std::env::var_os("HDRVIS_SURFACE_PROFILE").is_some(),
+            start: std::time::Instant::now(),
+        }
+    }
+
+    fn mark(&self, stage: &str) {
+        if self.on {
+            eprintln!("{stage} {:.2} ms", self.start.elapsed().as_secs_f64() * 1e3);
+        }
     }
 }
 

@@ -363,48 +363,12 @@ impl VolumeRenderer {
         opts: &VolumeRenderOptions,
         bricked: bool,
     ) -> Result<Frame> {
-        opts.validate()?;
-        if opts.precision == super::Precision::F64 {
-            return Err(Error::invalid(
-                "precision",
-                "f64 compositing runs on the CPU reference path, not in the GPU ray caster",
-            ));
-        }
-        let max2d = self.ctx.caps.max_texture_2d;
-        if opts.width > max2d || opts.height > max2d {
-            return Err(Error::invalid(
-                "width",
-                format!("this adapter's images hold at most {max2d} pixels per side"),
-            ));
-        }
+        self.check_image_options(opts)?;
         let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
         let size = volume.size();
-        let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
-        let steps = diagonal / (opts.step * voxel) + 2.0;
-        if steps > MAX_STEPS_PER_RAY as f64 {
-            return Err(Error::invalid(
-                "step",
-                format!(
-                    "a ray through this volume would take up to {steps:.0} steps at step {}; at most {MAX_STEPS_PER_RAY} are supported, so use a step of at least {:.2e} voxels",
-                    opts.step,
-                    diagonal / voxel / (MAX_STEPS_PER_RAY as f64 - 2.0)
-                ),
-            ));
-        }
+        check_steps_per_ray(opts, voxel, size)?;
         let tf = opts.tf.resolve(volume.stats)?;
-        let hw_filter = match opts.filter {
-            FilterMode::Exact => false,
-            FilterMode::Auto => self.ctx.caps.float32_filterable,
-            FilterMode::Hardware => {
-                if !self.ctx.caps.float32_filterable {
-                    return Err(Error::invalid(
-                        "filter",
-                        "this adapter cannot filter float32 textures; use \"exact\" or \"auto\"",
-                    ));
-                }
-                true
-            }
-        };
+        let hw_filter = self.hardware_filtering(opts.filter)?;
         let (tf_kind, tf_consts) = match tf.kind {
             TfKind::Lut => (0u32, [0.0f32; 4]),
             TfKind::EmissionAbsorption {
@@ -424,65 +388,48 @@ impl VolumeRenderer {
             preintegrated: opts.tf_sampling == TfSampling::PreIntegrated,
             work: SampleWork::Full,
         };
-        let cam = &opts.camera;
-        let lo = volume.origin;
-        let eye = [cam.eye[0] - lo[0], cam.eye[1] - lo[1], cam.eye[2] - lo[2]];
-        let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
-        let proj = match cam.projection {
-            Projection::Perspective { fov_y_deg } => {
-                let ty = (0.5 * fov_y_deg.to_radians()).tan();
-                [
-                    1.0,
-                    (ty * opts.width as f64 / opts.height as f64) as f32,
-                    ty as f32,
-                    0.0,
-                ]
-            }
-            Projection::Orthographic {
-                half_width,
-                half_height,
-            } => [0.0, half_width as f32, half_height as f32, 0.0],
-        };
-        let lens = tf.mapping.lens.unwrap_or([0.0, 1.0, 0.0, 1.0]);
-        let params = VolumeParams {
-            eye: v4(eye, 0.0),
-            forward: v4(cam.forward, 0.0),
-            right: v4(cam.right, 0.0),
-            up: v4(cam.up, 0.0),
-            proj,
-            box_size: v4(size, 0.0),
-            background: v4(opts.background, 0.0),
-            scale: [
-                tf.mapping.s_lo as f32,
-                tf.mapping.inv_range as f32,
-                tf.mapping.linthresh() as f32,
-                (LUT_SIZE - 1) as f32,
-            ],
-            lens: lens.map(|v| v as f32),
-            tf: tf_consts,
-            march: [
-                (opts.step * voxel) as f32,
-                (1.0 / voxel) as f32,
-                opts.stop_optical_depth().min(f32::MAX as f64) as f32,
-                // The shader's opaque 1.0 (see composite in shaders/shared/march.wgsl).
-                1.0,
-            ],
-            image: [opts.width, opts.height, opts.seed, 0],
-            shading: opts.shading.map_or([0.0; 4], |s| {
-                [
-                    s.ambient as f32,
-                    s.diffuse as f32,
-                    s.specular as f32,
-                    s.shininess as f32,
-                ]
-            }),
-        };
+        let params = volume_params(volume, opts, &tf, tf_consts, voxel, size);
         Ok(Frame { key, tf, params })
     }
 
-    /// The transfer table as an N x 1 texture.
-    /// The bind-group entries both ray casters share: parameters, the volume (or brick atlas),
-    /// the transfer table, the output image and, with hardware filtering, the sampler.
+    /// Checks the options, that the precision is one the GPU composites in, and that the image
+    /// fits this adapter's textures.
+    fn check_image_options(&self, opts: &VolumeRenderOptions) -> Result<()> {
+        opts.validate()?;
+        if opts.precision == super::Precision::F64 {
+            return Err(Error::invalid(
+                "precision",
+                "f64 compositing runs on the CPU reference path, not in the GPU ray caster",
+            ));
+        }
+        let max2d = self.ctx.caps.max_texture_2d;
+        if opts.width > max2d || opts.height > max2d {
+            return Err(Error::invalid(
+                "width",
+                format!("this adapter's images hold at most {max2d} pixels per side"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Whether the volume is sampled with the texture unit's filter, as `filter` asks and the
+    /// adapter allows.
+    fn hardware_filtering(&self, filter: FilterMode) -> Result<bool> {
+        Ok(match filter {
+            FilterMode::Exact => false,
+            FilterMode::Auto => self.ctx.caps.float32_filterable,
+            FilterMode::Hardware => {
+                if !self.ctx.caps.float32_filterable {
+                    return Err(Error::invalid(
+                        "filter",
+                        "this adapter cannot filter float32 textures; use \"exact\" or \"auto\"",
+                    ));
+                }
+                true
+            }
+        })
+    }
+
     pub(crate) fn common_entries<'a>(
         &'a self,
         key: &PipelineKey,
@@ -623,6 +570,89 @@ impl VolumeRenderer {
         }
         image.set_meta("adapter", self.ctx.describe());
         image
+    }
+}
+
+/// Rejects a step so small that a ray across the volume's diagonal would take more than
+/// [`MAX_STEPS_PER_RAY`] steps.
+fn check_steps_per_ray(opts: &VolumeRenderOptions, voxel: f64, size: [f64; 3]) -> Result<()> {
+    let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
+    let steps = diagonal / (opts.step * voxel) + 2.0;
+    if steps > MAX_STEPS_PER_RAY as f64 {
+        return Err(Error::invalid(
+            "step",
+            format!(
+                "a ray through this volume would take up to {steps:.0} steps at step {}; at most {MAX_STEPS_PER_RAY} are supported, so use a step of at least {:.2e} voxels",
+                opts.step,
+                diagonal / voxel / (MAX_STEPS_PER_RAY as f64 - 2.0)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The shader parameters of one render: camera relative to the volume's corner, projection,
+/// scale mapping, lens, transfer-function constants, marching and shading.
+fn volume_params(
+    volume: &Geometry,
+    opts: &VolumeRenderOptions,
+    tf: &ResolvedTransfer,
+    tf_consts: [f32; 4],
+    voxel: f64,
+    size: [f64; 3],
+) -> VolumeParams {
+    let cam = &opts.camera;
+    let lo = volume.origin;
+    let eye = [cam.eye[0] - lo[0], cam.eye[1] - lo[1], cam.eye[2] - lo[2]];
+    let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
+    let proj = match cam.projection {
+        Projection::Perspective { fov_y_deg } => {
+            let ty = (0.5 * fov_y_deg.to_radians()).tan();
+            [
+                1.0,
+                (ty * opts.width as f64 / opts.height as f64) as f32,
+                ty as f32,
+                0.0,
+            ]
+        }
+        Projection::Orthographic {
+            half_width,
+            half_height,
+        } => [0.0, half_width as f32, half_height as f32, 0.0],
+    };
+    let lens = tf.mapping.lens.unwrap_or([0.0, 1.0, 0.0, 1.0]);
+    VolumeParams {
+        eye: v4(eye, 0.0),
+        forward: v4(cam.forward, 0.0),
+        right: v4(cam.right, 0.0),
+        up: v4(cam.up, 0.0),
+        proj,
+        box_size: v4(size, 0.0),
+        background: v4(opts.background, 0.0),
+        scale: [
+            tf.mapping.s_lo as f32,
+            tf.mapping.inv_range as f32,
+            tf.mapping.linthresh() as f32,
+            (LUT_SIZE - 1) as f32,
+        ],
+        lens: lens.map(|v| v as f32),
+        tf: tf_consts,
+        march: [
+            (opts.step * voxel) as f32,
+            (1.0 / voxel) as f32,
+            opts.stop_optical_depth().min(f32::MAX as f64) as f32,
+            // The shader's opaque 1.0 (see composite in shaders/shared/march.wgsl).
+            1.0,
+        ],
+        image: [opts.width, opts.height, opts.seed, 0],
+        shading: opts.shading.map_or([0.0; 4], |s| {
+            [
+                s.ambient as f32,
+                s.diffuse as f32,
+                s.specular as f32,
+                s.shininess as f32,
+            ]
+        }),
     }
 }
 

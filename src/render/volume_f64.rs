@@ -9,7 +9,7 @@ use super::VolumeRenderOptions;
 use crate::error::{Error, Result};
 use crate::gpu::{pipeline, readback, shader, GpuContext};
 use crate::model::camera::Projection;
-use crate::model::transfer::TfKind;
+use crate::model::transfer::{ResolvedTransfer, TfKind};
 use std::sync::{Arc, OnceLock};
 
 /// Keep in sync with Params64 in shaders/volume_f64.wgsl.
@@ -78,6 +78,33 @@ impl F64RayCaster {
 
     /// Renders `volume` in f64: row-major RGBA, premultiplied, as `render_volume_f64`.
     pub fn render(&self, volume: &GpuVolume, opts: &VolumeRenderOptions) -> Result<Vec<[f64; 4]>> {
+        let out_bytes = self.check_options(opts)?;
+        let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+        let size: Vec<f64> = (0..3)
+            .map(|a| volume.dims[a] as f64 * volume.spacing[a])
+            .collect();
+        let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
+        if diagonal / (opts.step * voxel) + 2.0 > MAX_STEPS_PER_RAY as f64 {
+            return Err(Error::invalid(
+                "step",
+                format!(
+                    "too many steps per ray at step {}; at most {MAX_STEPS_PER_RAY}",
+                    opts.step
+                ),
+            ));
+        }
+        let tf = opts.tf.resolve(&volume.stats)?;
+        let lut: Vec<[f64; 4]> = if tf.lut.is_empty() {
+            vec![[0.0; 4]; 2]
+        } else {
+            tf.lut.clone()
+        };
+        let params = params64(volume, opts, &tf, lut.len(), voxel, &size);
+        self.dispatch(volume, opts, &params, &lut, out_bytes)
+    }
+
+    /// Checks that this adapter can render these options in f64; the image's size in bytes.
+    fn check_options(&self, opts: &VolumeRenderOptions) -> Result<u64> {
         opts.validate()?;
         if !self.available() {
             return Err(Error::invalid(
@@ -106,87 +133,29 @@ impl F64RayCaster {
                 ),
             ));
         }
-        let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
-        let size: Vec<f64> = (0..3)
-            .map(|a| volume.dims[a] as f64 * volume.spacing[a])
-            .collect();
-        let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
-        if diagonal / (opts.step * voxel) + 2.0 > MAX_STEPS_PER_RAY as f64 {
-            return Err(Error::invalid(
-                "step",
-                format!(
-                    "too many steps per ray at step {}; at most {MAX_STEPS_PER_RAY}",
-                    opts.step
-                ),
-            ));
-        }
-        let tf = opts.tf.resolve(&volume.stats)?;
-        let cam = &opts.camera;
-        let lo = volume.origin;
-        let v4 = |v: [f64; 3]| [v[0], v[1], v[2], 0.0];
-        let proj = match cam.projection {
-            Projection::Perspective { fov_y_deg } => {
-                let ty = (0.5 * fov_y_deg.to_radians()).tan();
-                [1.0, ty * opts.width as f64 / opts.height as f64, ty, 0.0]
-            }
-            Projection::Orthographic {
-                half_width,
-                half_height,
-            } => [0.0, half_width, half_height, 0.0],
-        };
-        let (tf_kind, tf_consts) = match tf.kind {
-            TfKind::Lut => (0u32, [0.0; 4]),
-            TfKind::EmissionAbsorption {
-                emission,
-                absorption,
-            } => (1, [emission, absorption, 0.0, 0.0]),
-        };
-        let lut: Vec<[f64; 4]> = if tf.lut.is_empty() {
-            vec![[0.0; 4]; 2]
-        } else {
-            tf.lut.clone()
-        };
-        let params = Params64 {
-            eye: v4([cam.eye[0] - lo[0], cam.eye[1] - lo[1], cam.eye[2] - lo[2]]),
-            forward: v4(cam.forward),
-            right: v4(cam.right),
-            up: v4(cam.up),
-            proj,
-            box_size: [size[0], size[1], size[2], 0.0],
-            background: v4(opts.background),
-            scale: [
-                tf.mapping.s_lo,
-                tf.mapping.inv_range,
-                tf.mapping.linthresh(),
-                (lut.len() - 1) as f64,
-            ],
-            lens: tf.mapping.lens.unwrap_or([0.0, 1.0, 0.0, 1.0]),
-            tf: tf_consts,
-            march: [
-                opts.step * voxel,
-                voxel,
-                opts.stop_optical_depth().min(f64::MAX),
-                0.0,
-            ],
-            image: [opts.width, opts.height, opts.seed, opts.jitter as u32],
-            flags: [
-                tf_kind,
-                tf.mapping.scale_code(),
-                tf.mapping.lens.is_some() as u32,
-                0,
-            ],
-        };
+        Ok(out_bytes)
+    }
+
+    /// Uploads the parameters and the table, runs the shader and reads the image back.
+    fn dispatch(
+        &self,
+        volume: &GpuVolume,
+        opts: &VolumeRenderOptions,
+        params: &Params64,
+        lut: &[[f64; 4]],
+        out_bytes: u64,
+    ) -> Result<Vec<[f64; 4]>> {
         let (pipeline, layout) = self.pipeline()?;
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
         let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("volume f64 params"),
-            contents: bytemuck::bytes_of(&params),
+            contents: bytemuck::bytes_of(params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let lut_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("volume f64 table"),
-            contents: bytemuck::cast_slice(&lut),
+            contents: bytemuck::cast_slice(lut),
             usage: wgpu::BufferUsages::STORAGE,
         });
         let out = device.create_buffer(&wgpu::BufferDescriptor {
@@ -233,5 +202,66 @@ impl F64RayCaster {
         enc.copy_buffer_to_buffer(&out, 0, &staging, 0, out_bytes);
         self.ctx.queue.submit([enc.finish()]);
         readback::read_mapped::<[f64; 4]>(&self.ctx, &staging, out_bytes)
+    }
+}
+
+/// The shader parameters of one f64 render (a table of `lut_len` entries).
+fn params64(
+    volume: &GpuVolume,
+    opts: &VolumeRenderOptions,
+    tf: &ResolvedTransfer,
+    lut_len: usize,
+    voxel: f64,
+    size: &[f64],
+) -> Params64 {
+    let cam = &opts.camera;
+    let lo = volume.origin;
+    let v4 = |v: [f64; 3]| [v[0], v[1], v[2], 0.0];
+    let proj = match cam.projection {
+        Projection::Perspective { fov_y_deg } => {
+            let ty = (0.5 * fov_y_deg.to_radians()).tan();
+            [1.0, ty * opts.width as f64 / opts.height as f64, ty, 0.0]
+        }
+        Projection::Orthographic {
+            half_width,
+            half_height,
+        } => [0.0, half_width, half_height, 0.0],
+    };
+    let (tf_kind, tf_consts) = match tf.kind {
+        TfKind::Lut => (0u32, [0.0; 4]),
+        TfKind::EmissionAbsorption {
+            emission,
+            absorption,
+        } => (1, [emission, absorption, 0.0, 0.0]),
+    };
+    Params64 {
+        eye: v4([cam.eye[0] - lo[0], cam.eye[1] - lo[1], cam.eye[2] - lo[2]]),
+        forward: v4(cam.forward),
+        right: v4(cam.right),
+        up: v4(cam.up),
+        proj,
+        box_size: [size[0], size[1], size[2], 0.0],
+        background: v4(opts.background),
+        scale: [
+            tf.mapping.s_lo,
+            tf.mapping.inv_range,
+            tf.mapping.linthresh(),
+            (lut_len - 1) as f64,
+        ],
+        lens: tf.mapping.lens.unwrap_or([0.0, 1.0, 0.0, 1.0]),
+        tf: tf_consts,
+        march: [
+            opts.step * voxel,
+            voxel,
+            opts.stop_optical_depth().min(f64::MAX),
+            0.0,
+        ],
+        image: [opts.width, opts.height, opts.seed, opts.jitter as u32],
+        flags: [
+            tf_kind,
+            tf.mapping.scale_code(),
+            tf.mapping.lens.is_some() as u32,
+            0,
+        ],
     }
 }

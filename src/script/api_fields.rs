@@ -82,99 +82,99 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("volume_abs", |v: &mut ScriptVolume| {
         derived(v, "abs", f32::abs)
     });
-    engine.register_fn(
-        "volume_magnitude",
-        |parts: Array| -> RResult<ScriptVolume> {
-            let vols: Vec<ScriptVolume> = parts
-                .into_iter()
-                .map(|p| {
-                    p.try_cast::<ScriptVolume>().ok_or_else(|| {
-                        to_rhai(crate::Error::invalid(
-                            "volume_magnitude",
-                            "expected an array of Volumes",
-                        ))
-                    })
-                })
-                .collect::<RResult<_>>()?;
-            let Some(first) = vols.first() else {
-                return err("volume_magnitude", "expected at least one Volume");
-            };
-            if let Some(bad) = vols.iter().find(|v| v.dims != first.dims) {
-                return err(
-                    "volume_magnitude",
-                    format!(
-                        "components differ in shape: {:?} and {:?}",
-                        first.dims, bad.dims
-                    ),
-                );
-            }
-            let data: Vec<f32> = (0..first.data.len())
-                .map(|i| {
-                    vols.iter()
-                        .map(|v| (v.data[i] as f64).powi(2))
-                        .sum::<f64>()
-                        .sqrt() as f32
-                })
-                .collect();
-            let name = format!(
-                "|{}|",
-                vols.iter()
-                    .map(|v| v.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-            Ok(Arc::new(
-                Volume::new(name, first.dims, first.spacing, first.origin, data)
-                    .map_err(to_rhai)?,
-            ))
-        },
-    );
-    engine.register_fn(
-        "volume_subset",
-        |v: &mut ScriptVolume, lo: Array, hi: Array| -> RResult<ScriptVolume> {
-            let corner = |a: &Array, what: &str| -> RResult<[usize; 3]> {
-                if a.len() != 3 {
-                    return err(what, "expected [i, j, k]");
-                }
-                let mut out = [0usize; 3];
-                for (axis, x) in a.iter().enumerate() {
-                    out[axis] = int(x, what)?.clamp(0, v.dims[axis] as i64) as usize;
-                }
-                Ok(out)
-            };
-            let (lo, hi) = (
-                corner(&lo, "volume_subset lo")?,
-                corner(&hi, "volume_subset hi")?,
-            );
-            if (0..3).any(|a| hi[a] <= lo[a]) {
-                return err(
-                    "volume_subset",
-                    format!(
-                        "expected lo < hi on every axis within {:?}, got {lo:?} .. {hi:?}",
-                        v.dims
-                    ),
-                );
-            }
-            let dims = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-            let mut data = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
-            for k in lo[2]..hi[2] {
-                for j in lo[1]..hi[1] {
-                    let start = v.index(lo[0], j, k);
-                    data.extend_from_slice(&v.data[start..start + dims[0]]);
-                }
-            }
-            let origin = [0, 1, 2].map(|a| v.origin[a] + lo[a] as f64 * v.spacing[a]);
-            let mut out = Volume::new(
-                format!("{}[{lo:?}..{hi:?}]", v.name),
-                dims,
-                v.spacing,
-                origin,
-                data,
-            )
-            .map_err(to_rhai)?;
-            out.units = v.units.clone();
-            Ok(Arc::new(out))
-        },
-    );
+    engine.register_fn("volume_magnitude", volume_magnitude);
+    engine.register_fn("volume_subset", volume_subset);
     engine.register_fn("tf_preset", |name: &str| tf_preset(name).map_err(to_rhai));
+}
+
+/// `volume_magnitude([a, b, ...])`: the voxelwise Euclidean norm of same-shaped components.
+fn volume_magnitude(parts: Array) -> RResult<ScriptVolume> {
+    let vols: Vec<ScriptVolume> = parts
+        .into_iter()
+        .map(|p| {
+            p.try_cast::<ScriptVolume>().ok_or_else(|| {
+                to_rhai(crate::Error::invalid(
+                    "volume_magnitude",
+                    "expected an array of Volumes",
+                ))
+            })
+        })
+        .collect::<RResult<_>>()?;
+    let Some(first) = vols.first() else {
+        return err("volume_magnitude", "expected at least one Volume");
+    };
+    if let Some(bad) = vols.iter().find(|v| v.dims != first.dims) {
+        return err(
+            "volume_magnitude",
+            format!(
+                "components differ in shape: {:?} and {:?}",
+                first.dims, bad.dims
+            ),
+        );
+    }
+    let data: Vec<f32> = (0..first.data.len())
+        .map(|i| {
+            vols.iter()
+                .map(|v| (v.data[i] as f64).powi(2))
+                .sum::<f64>()
+                .sqrt() as f32
+        })
+        .collect();
+    let name = format!(
+        "|{}|",
+        vols.iter()
+            .map(|v| v.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(Arc::new(
+        Volume::new(name, first.dims, first.spacing, first.origin, data).map_err(to_rhai)?,
+    ))
+}
+
+/// `volume_subset(v, [i, j, k], [i, j, k])`: the box of voxels from lo (inclusive) to hi
+/// (exclusive), corners clamped to the volume.
+fn volume_subset(v: &mut ScriptVolume, lo: Array, hi: Array) -> RResult<ScriptVolume> {
+    let corner = |a: &Array, what: &str| -> RResult<[usize; 3]> {
+        if a.len() != 3 {
+            return err(what, "expected [i, j, k]");
+        }
+        let mut out = [0usize; 3];
+        for (axis, x) in a.iter().enumerate() {
+            out[axis] = int(x, what)?.clamp(0, v.dims[axis] as i64) as usize;
+        }
+        Ok(out)
+    };
+    let (lo, hi) = (
+        corner(&lo, "volume_subset lo")?,
+        corner(&hi, "volume_subset hi")?,
+    );
+    if (0..3).any(|a| hi[a] <= lo[a]) {
+        return err(
+            "volume_subset",
+            format!(
+                "expected lo < hi on every axis within {:?}, got {lo:?} .. {hi:?}",
+                v.dims
+            ),
+        );
+    }
+    let dims = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+    let mut data = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
+    for k in lo[2]..hi[2] {
+        for j in lo[1]..hi[1] {
+            let start = v.index(lo[0], j, k);
+            data.extend_from_slice(&v.data[start..start + dims[0]]);
+        }
+    }
+    let origin = [0, 1, 2].map(|a| v.origin[a] + lo[a] as f64 * v.spacing[a]);
+    let mut out = Volume::new(
+        format!("{}[{lo:?}..{hi:?}]", v.name),
+        dims,
+        v.spacing,
+        origin,
+        data,
+    )
+    .map_err(to_rhai)?;
+    out.units = v.units.clone();
+    Ok(Arc::new(out))
 }

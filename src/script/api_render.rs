@@ -1,10 +1,9 @@
-//! Script API: datasets, transfer functions, cameras, volume rendering and output. Names fixed by
-//! the issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`,
-//! `save_exr`, `save_png`, `param`. `save_png` writes an HDR image exposed by 2^EV then sRGB,
-//! and a display-referred image (`display_referred = 1`: tone-mapped, false colour) as it is.
+//! Script API: datasets, transfer functions, cameras and volume rendering. Names fixed by the
+//! issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`. Saving,
+//! previews, progress and `param` are registered from here too but live in `api_output`.
 
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
-use super::{ParamKind, ParamRecord, ScriptHost};
+use super::ScriptHost;
 use crate::model::{
     Aabb, Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume, VolumeStats,
 };
@@ -12,7 +11,6 @@ use crate::render::{
     Bricking, FilterMode, Precision, Shading, TfSampling, VolumeRenderOptions, VolumeSource,
 };
 use rhai::{Dynamic, Engine, Map};
-use std::collections::HashMap;
 use std::sync::Arc;
 
 /// A camera as scripts describe it; views that frame "the volume" are fixed at render time.
@@ -73,6 +71,17 @@ const LUT_KEYS: &[&str] = &[
 ];
 
 pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+    register_types(engine);
+    register_volumes(engine, &host);
+    register_transfer_functions(engine);
+    register_cameras(engine);
+    register_render(engine, &host);
+    super::api_output::register_output(engine, &host);
+    super::api_output::register_params(engine, host);
+}
+
+/// The script-visible types and their read-only properties.
+fn register_types(engine: &mut Engine) {
     engine
         .register_type_with_name::<ScriptVolume>("Volume")
         .register_type_with_name::<TransferFunction>("TransferFunction")
@@ -85,7 +94,10 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     });
     engine.register_get("width", |i: &mut ScriptImage| i.width as i64);
     engine.register_get("height", |i: &mut ScriptImage| i.height as i64);
+}
 
+/// `load_volume`, `generate_mantle` and `volume_stats`.
+fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_volume", move |path: &str| -> RResult<ScriptVolume> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;
@@ -120,7 +132,10 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn("volume_stats", |v: &mut ScriptVolume| -> Map {
         stats_map(&v.stats())
     });
+}
 
+/// `tf_emission_absorption` and `tf_lut`.
+fn register_transfer_functions(engine: &mut Engine) {
     engine.register_fn(
         "tf_emission_absorption",
         |e: Dynamic, a: Dynamic| -> RResult<TransferFunction> {
@@ -128,53 +143,59 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
                 .map_err(to_rhai)
         },
     );
+    engine.register_fn("tf_lut", tf_lut);
+}
 
-    engine.register_fn("tf_lut", |opts: Map| -> RResult<TransferFunction> {
-        check_keys(&opts, LUT_KEYS, "tf_lut")?;
-        let mut l = LutTransfer::default();
-        let mut scale = "linear".to_string();
-        let mut linthresh = None;
-        for (k, v) in &opts {
-            match k.as_str() {
-                "scale" => scale = string(v, "scale")?,
-                "linthresh" => linthresh = Some(num(v, "linthresh")?),
-                "domain" => {
-                    let d = points(&Dynamic::from(vec![v.clone()]), "domain")?;
-                    l.domain = Some(d[0]);
-                }
-                "lens" => {
-                    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
-                        to_rhai(crate::Error::invalid(
-                            "lens",
-                            "expected a map #{lo, hi, factor}",
-                        ))
-                    })?;
-                    check_keys(&m, &["lo", "hi", "factor"], "lens")?;
-                    let get = |key: &str| {
-                        m.get(key)
-                            .ok_or_else(|| {
-                                to_rhai(crate::Error::invalid("lens", format!("missing {key}")))
-                            })
-                            .and_then(|x| num(x, key))
-                    };
-                    l.lens = Some(Lens {
-                        lo: get("lo")?,
-                        hi: get("hi")?,
-                        factor: get("factor")?,
-                    });
-                }
-                "colormap" => l.colormap = string(v, "colormap")?,
-                "emission" => l.emission = points(v, "emission")?,
-                "opacity" => l.opacity = points(v, "opacity")?,
-                "transparent_below" => l.transparent_below = num(v, "transparent_below")?,
-                _ => unreachable!("checked keys"),
+/// `tf_lut(#{...})`: a colour-map transfer function from the keys in [`LUT_KEYS`].
+fn tf_lut(opts: Map) -> RResult<TransferFunction> {
+    check_keys(&opts, LUT_KEYS, "tf_lut")?;
+    let mut l = LutTransfer::default();
+    let mut scale = "linear".to_string();
+    let mut linthresh = None;
+    for (k, v) in &opts {
+        match k.as_str() {
+            "scale" => scale = string(v, "scale")?,
+            "linthresh" => linthresh = Some(num(v, "linthresh")?),
+            "domain" => {
+                let d = points(&Dynamic::from(vec![v.clone()]), "domain")?;
+                l.domain = Some(d[0]);
             }
+            "lens" => l.lens = Some(lens(v)?),
+            "colormap" => l.colormap = string(v, "colormap")?,
+            "emission" => l.emission = points(v, "emission")?,
+            "opacity" => l.opacity = points(v, "opacity")?,
+            "transparent_below" => l.transparent_below = num(v, "transparent_below")?,
+            _ => unreachable!("checked keys"),
         }
-        l.scale = Scale::parse(&scale, linthresh).map_err(to_rhai)?;
-        crate::model::colormap::Colormap::by_name(&l.colormap).map_err(to_rhai)?;
-        Ok(TransferFunction::Lut(l))
-    });
+    }
+    l.scale = Scale::parse(&scale, linthresh).map_err(to_rhai)?;
+    crate::model::colormap::Colormap::by_name(&l.colormap).map_err(to_rhai)?;
+    Ok(TransferFunction::Lut(l))
+}
 
+/// The `lens` key of `tf_lut`: a map #{lo, hi, factor}, all required.
+fn lens(v: &Dynamic) -> RResult<Lens> {
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+        to_rhai(crate::Error::invalid(
+            "lens",
+            "expected a map #{lo, hi, factor}",
+        ))
+    })?;
+    check_keys(&m, &["lo", "hi", "factor"], "lens")?;
+    let get = |key: &str| {
+        m.get(key)
+            .ok_or_else(|| to_rhai(crate::Error::invalid("lens", format!("missing {key}"))))
+            .and_then(|x| num(x, key))
+    };
+    Ok(Lens {
+        lo: get("lo")?,
+        hi: get("hi")?,
+        factor: get("factor")?,
+    })
+}
+
+/// `camera_axis`, `camera_orbit` (with and without a field of view) and `camera_look_at`.
+fn register_cameras(engine: &mut Engine) {
     engine.register_fn("camera_axis", |axis: &str| -> RResult<ScriptCamera> {
         Ok(ScriptCamera::Axis(Axis::parse(axis).map_err(to_rhai)?))
     });
@@ -212,7 +233,10 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             ))
         },
     );
+}
 
+/// `render_volume(volume, #{...})`.
+fn register_render(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn(
         "render_volume",
@@ -222,149 +246,6 @@ pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             render_and_note(&h, &source, &o)
         },
     );
-
-    let h = host.clone();
-    engine.register_fn(
-        "save_exr",
-        move |img: &mut ScriptImage, path: &str| -> RResult<()> {
-            let p = h.sandbox.write_path(path).map_err(to_rhai)?;
-            h.note_image(img);
-            if h.already_done(&p) {
-                return Ok(());
-            }
-            let t = std::time::Instant::now();
-            crate::io::exr::write_exr(img, &p).map_err(to_rhai)?;
-            h.session
-                .record_sink("save-exr", t.elapsed().as_secs_f64() * 1e3);
-            h.written.lock().expect("poisoned").push(p);
-            Ok(())
-        },
-    );
-    let h = host.clone();
-    // A display-referred image (tone-mapped or false colour, metadata `display_referred = 1`)
-    // already holds display values: it is written with the sRGB curve only, and asking for an
-    // exposure on it is an error (expose the HDR image before tone mapping instead).
-    let save_png = move |img: &mut ScriptImage, path: &str, ev: f64| -> RResult<()> {
-        let display = crate::tonemap::is_display_referred(img);
-        if display && ev != 0.0 {
-            return err(
-                "save_png",
-                format!("exposure {ev} given for a tone-mapped (display-referred) image; apply exposure to the HDR image, or in tonemap(image, #{{exposure: {ev}}})"),
-            );
-        }
-        let p = h.sandbox.write_path(path).map_err(to_rhai)?;
-        if h.already_done(&p) {
-            return Ok(());
-        }
-        let t = std::time::Instant::now();
-        if display {
-            crate::io::png::write_display_png(img, &p, false).map_err(to_rhai)?;
-        } else {
-            crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
-        }
-        h.session
-            .record_sink("save-png", t.elapsed().as_secs_f64() * 1e3);
-        h.written.lock().expect("poisoned").push(p);
-        Ok(())
-    };
-    let save_png2 = save_png.clone();
-    engine.register_fn("save_png", move |img: &mut ScriptImage, path: &str| {
-        save_png2(img, path, 0.0)
-    });
-    engine.register_fn(
-        "save_png",
-        move |img: &mut ScriptImage, path: &str, ev: Dynamic| -> RResult<()> {
-            save_png(img, path, num(&ev, "exposure")?)
-        },
-    );
-
-    let h = host.clone();
-    engine.register_fn("preview", move |img: &mut ScriptImage| -> RResult<()> {
-        if h.capture_previews {
-            h.previews
-                .lock()
-                .expect("previews poisoned")
-                .push(img.clone());
-            return Ok(());
-        }
-        preview(img).map_err(to_rhai)
-    });
-
-    let h = host.clone();
-    engine.register_fn("already_done", move |path: &str| -> RResult<bool> {
-        Ok(h.already_done(&h.sandbox.write_path(path).map_err(to_rhai)?))
-    });
-    let h = host.clone();
-    engine.register_fn("progress", move |done: i64, total: i64| {
-        h.progress(done.max(0) as u64, total.max(0) as u64, "")
-    });
-    let h = host.clone();
-    engine.register_fn("progress", move |done: i64, total: i64, label: &str| {
-        h.progress(done.max(0) as u64, total.max(0) as u64, label)
-    });
-
-    let h = host;
-    engine.register_fn(
-        "param",
-        move |name: &str, default: Dynamic| -> RResult<Dynamic> {
-            let value = param_value(&h.sets, name, &default)?;
-            let kind = if default.is_int() {
-                ParamKind::Int
-            } else if default.is_float() {
-                ParamKind::Float
-            } else if default.is_bool() {
-                ParamKind::Bool
-            } else {
-                ParamKind::Text
-            };
-            h.note_param(ParamRecord {
-                name: name.to_string(),
-                kind,
-                default: default.to_string(),
-                value: value.to_string(),
-            });
-            Ok(value)
-        },
-    );
-}
-
-/// The value `param(name, default)` returns: the `--set` override parsed as the default's type,
-/// or the default.
-fn param_value(sets: &HashMap<String, String>, name: &str, default: &Dynamic) -> RResult<Dynamic> {
-    let default = default.clone();
-    {
-        {
-            let Some(text) = sets.get(name) else {
-                return Ok(default);
-            };
-            let bad = |what: &str| {
-                err::<Dynamic>(
-                    &format!("--set {name}"),
-                    format!("expected {what} (the type of the default), got {text:?}"),
-                )
-            };
-            if default.is_int() {
-                text.trim()
-                    .parse::<i64>()
-                    .map(Dynamic::from)
-                    .or_else(|_| bad("an integer"))
-            } else if default.is_float() {
-                text.trim()
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .map(Dynamic::from)
-                    .map_or_else(|| bad("a finite number"), Ok)
-            } else if default.is_bool() {
-                text.trim()
-                    .parse::<bool>()
-                    .map(Dynamic::from)
-                    .or_else(|_| bad("true or false"))
-            } else {
-                Ok(Dynamic::from(text.clone()))
-            }
-        }
-    }
 }
 
 /// `shading: true` (the default coefficients), `false`, or a map of coefficients.
@@ -513,15 +394,4 @@ fn take_bricking(b: &mut Bricking, key: &str, v: &Dynamic) -> RResult<bool> {
         _ => return Ok(false),
     }
     Ok(true)
-}
-
-/// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal
-/// speaks them, else half blocks); a no-op otherwise, so scripts can call it in batch runs.
-/// An empty image shows nothing.
-pub fn preview(img: &HdrImage) -> crate::Result<()> {
-    use crate::io::terminal::{print_hdr_inline, ProtocolChoice};
-    if img.width == 0 || img.height == 0 {
-        return Ok(());
-    }
-    print_hdr_inline(img, ProtocolChoice::Auto, 60, "preview").map(|_| ())
 }

@@ -8,6 +8,7 @@ mod api_datasets;
 pub mod api_doc;
 mod api_fields;
 mod api_grids;
+mod api_output;
 mod api_post;
 mod api_render;
 mod api_surface;

@@ -383,33 +383,23 @@ impl GpuToneMapper {
         let stats = cache.scratch(ctx, "luminance stats", 16);
         let partials = cache.scratch(ctx, "partials", plan.partials_bytes());
         let mut rec = self.record(w, h, Specialisation::of(&base));
+        let call = ToneMapCall {
+            plan: &plan,
+            base,
+            image,
+            output,
+            stats,
+            partials,
+        };
         // Linear and ACES map each pixel on its own: no statistics pass, one read of the image
         // less (global.wgsl never reads `stats` for them).
-        let needs_stats = !matches!(settings.op, Operator::Linear | Operator::Aces);
-        for (b, &band) in plan.bands.iter().enumerate().filter(|_| needs_stats) {
-            let u = self.band_uniform(&base, band);
-            rec.window(1, plan.pixel_window(band, 16))
-                .window(6, plan.partials_window(b));
-            rec.dispatch(
-                "tonemap/luminance_stats.wgsl",
-                "partial_stats",
-                &[(0, &u), (1, &image), (6, &partials)],
-                (plan.groups, 1),
-            )?;
-        }
-        if needs_stats {
-            rec.single(
-                "tonemap/luminance_stats.wgsl",
-                "finish_stats",
-                &[(3, &stats), (6, &partials)],
-            )?;
+        if !matches!(settings.op, Operator::Linear | Operator::Aces) {
+            self.record_statistics(&mut rec, &call)?;
         }
         match settings.op {
             Operator::ReinhardLocal { .. } => {
                 let r = reinhard.as_ref().expect("planned above");
-                self.record_reinhard(
-                    &mut rec, &mut cache, r, &plan, &base, &image, &output, &stats,
-                )?;
+                self.record_reinhard(&mut rec, &mut cache, r, &call)?;
             }
             Operator::DurandBilateral {
                 sigma_spatial,
@@ -418,157 +408,238 @@ impl GpuToneMapper {
             } => {
                 let (lo, hi) = scan.log10_luminance.unwrap_or((0.0, 0.0));
                 let grid = DurandGrid::new(w, h, sigma_spatial, sigma_range, lo, hi);
-                let durand = ToneMapParams {
-                    cell: grid.cell,
-                    grid_width: grid.grid_width,
-                    grid_height: grid.grid_height,
-                    levels: grid.levels,
-                    first_level: grid.first_level as f32,
-                    level_step: grid.level_step as f32,
-                    sigma: grid.sigma_cells as f32,
-                    radius: grid.radius,
-                    ..base
-                };
-                let u = self.uniform(&durand);
-                let cells = grid.cells();
-                let planes = cells as u64 * grid.levels as u64 * 8;
-                let layers = cache.scratch(ctx, "durand layers", px_bytes);
-                let grid_cells = cache.scratch(ctx, "durand cells", cells as u64 * 8);
-                let tmp = cache.scratch(ctx, "durand tmp", planes);
-                let grid_levels = cache.scratch(ctx, "durand levels", planes);
-                let range = cache.scratch(ctx, "durand base range", 16);
-                let file = "tonemap/durand_bilateral.wgsl";
-                // The splat reads `cell` pixel rows per grid row: bands of grid rows whose
-                // pixel rows fit one window.
-                let row_bytes = w as u64 * 16;
-                let align = self.align();
-                let limit = self.window_limit;
-                let grid_rows = bands::band_rows(grid.grid_height, 1, "durand splat", |r| {
-                    (r as u64 * grid.cell as u64 + bands::row_step(row_bytes, align) as u64)
-                        * row_bytes
-                        <= limit
-                })?;
-                for band in bands::split(grid.grid_height, grid_rows) {
-                    let rows = bands::window(
-                        0,
-                        row_bytes,
-                        band.first * grid.cell,
-                        (band.end() * grid.cell).min(h),
-                        align,
-                    );
-                    let u = self.uniform(&ToneMapParams {
-                        band_first: band.first,
-                        band_rows: band.rows,
-                        window_first: rows.first_row,
-                        ..durand
-                    });
-                    rec.window(1, rows);
-                    rec.items(
-                        grid.grid_width * band.rows,
-                        file,
-                        "grid_splat",
-                        &[(0, &u), (1, &image), (15, &grid_cells)],
-                    )?;
-                }
-                let items = cells * grid.levels;
-                rec.items(
-                    items,
-                    file,
-                    "grid_blur_x",
-                    &[(0, &u), (15, &grid_cells), (16, &tmp)],
-                )?;
-                rec.items(
-                    items,
-                    file,
-                    "grid_blur_y",
-                    &[(0, &u), (16, &tmp), (17, &grid_levels)],
-                )?;
-                for (b, &band) in plan.bands.iter().enumerate() {
-                    let u = self.band_uniform(&durand, band);
-                    rec.window(1, plan.pixel_window(band, 16))
-                        .window(12, plan.pixel_window(band, 16));
-                    rec.pixels(
-                        band,
-                        file,
-                        "base",
-                        &[(0, &u), (1, &image), (12, &layers), (17, &grid_levels)],
-                    )?;
-                    rec.window(12, plan.pixel_window(band, 16))
-                        .window(6, plan.partials_window(b));
-                    rec.dispatch(
-                        file,
-                        "range_partial",
-                        &[(0, &u), (6, &partials), (12, &layers)],
-                        (plan.groups, 1),
-                    )?;
-                }
-                rec.single(file, "range_finish", &[(6, &partials), (13, &range)])?;
-                for &band in &plan.bands {
-                    let u = self.band_uniform(&durand, band);
-                    rec.window(1, plan.pixel_window(band, 16))
-                        .window(2, plan.pixel_window(band, 16))
-                        .window(12, plan.pixel_window(band, 16));
-                    rec.pixels(
-                        band,
-                        file,
-                        "apply",
-                        &[
-                            (0, &u),
-                            (1, &image),
-                            (2, &output),
-                            (12, &layers),
-                            (13, &range),
-                        ],
-                    )?;
-                }
+                self.record_durand(&mut rec, &mut cache, &grid, &call)?;
             }
-            _ => {
-                let cdf = cache.scratch(ctx, "ward cdf", 257 * 4);
-                if let Operator::WardHistogram { .. } = settings.op {
-                    let counts = cache.scratch(ctx, "ward counts", 256 * 4);
-                    rec.encoder.clear_buffer(&counts, 0, None);
-                    let file = "tonemap/ward_histogram.wgsl";
-                    for &band in &plan.bands {
-                        let u = self.band_uniform(&base, band);
-                        rec.window(1, plan.pixel_window(band, 16));
-                        rec.dispatch(
-                            file,
-                            "histogram",
-                            &[(0, &u), (1, &image), (3, &stats), (5, &counts)],
-                            (plan.groups, 1),
-                        )?;
-                    }
-                    let params = self.uniform(&base);
-                    rec.single(
-                        file,
-                        "ceiling_cdf",
-                        &[(0, &params), (3, &stats), (4, &cdf), (5, &counts)],
-                    )?;
-                }
-                for &band in &plan.bands {
-                    let u = self.band_uniform(&base, band);
-                    rec.window(1, plan.pixel_window(band, 16))
-                        .window(2, plan.pixel_window(band, 16));
-                    rec.pixels(
-                        band,
-                        "tonemap/global.wgsl",
-                        "apply_global",
-                        &[(0, &u), (1, &image), (2, &output), (3, &stats), (4, &cdf)],
-                    )?;
-                }
-            }
+            _ => self.record_global(&mut rec, &mut cache, &settings.op, &call)?,
         }
         profile.mark("record");
         let pixels = rec.finish(cache.output(ctx, px_bytes), validation, oom, &profile)?;
         drop(cache);
-        let mut out = HdrImage::from_pixels(w, h, pixels);
-        out.extra_channels = img.extra_channels.clone();
-        out.metadata = img.metadata.clone();
-        out.set_meta("tonemap", settings.op.name());
-        out.set_meta("tonemap.exposure_ev", format!("{}", settings.exposure_ev));
-        out.set_meta("transfer", "display-linear");
-        out.set_meta(DISPLAY_REFERRED, "1");
-        Ok(out)
+        Ok(tonemapped_image(img, settings, pixels))
+    }
+
+    /// The log-luminance statistics: partial sums per band, then one workgroup combining them.
+    fn record_statistics(&self, rec: &mut Recording<'_>, call: &ToneMapCall<'_>) -> Result<()> {
+        let plan = call.plan;
+        for (b, &band) in plan.bands.iter().enumerate() {
+            let u = self.band_uniform(&call.base, band);
+            rec.window(1, plan.pixel_window(band, 16))
+                .window(6, plan.partials_window(b));
+            rec.dispatch(
+                "tonemap/luminance_stats.wgsl",
+                "partial_stats",
+                &[(0, &u), (1, &call.image), (6, &call.partials)],
+                (plan.groups, 1),
+            )?;
+        }
+        rec.single(
+            "tonemap/luminance_stats.wgsl",
+            "finish_stats",
+            &[(3, &call.stats), (6, &call.partials)],
+        )
+    }
+
+    /// The global operators after the statistics (Ward's histogram and its capped CDF first):
+    /// one pass per band.
+    fn record_global(
+        &self,
+        rec: &mut Recording<'_>,
+        cache: &mut BufferCache,
+        op: &Operator,
+        call: &ToneMapCall<'_>,
+    ) -> Result<()> {
+        let ctx = &*self.ctx;
+        let (plan, base) = (call.plan, &call.base);
+        let (image, stats) = (&call.image, &call.stats);
+        let cdf = cache.scratch(ctx, "ward cdf", 257 * 4);
+        if let Operator::WardHistogram { .. } = op {
+            let counts = cache.scratch(ctx, "ward counts", 256 * 4);
+            rec.encoder.clear_buffer(&counts, 0, None);
+            let file = "tonemap/ward_histogram.wgsl";
+            for &band in &plan.bands {
+                let u = self.band_uniform(base, band);
+                rec.window(1, plan.pixel_window(band, 16));
+                rec.dispatch(
+                    file,
+                    "histogram",
+                    &[(0, &u), (1, image), (3, stats), (5, &counts)],
+                    (plan.groups, 1),
+                )?;
+            }
+            let params = self.uniform(base);
+            rec.single(
+                file,
+                "ceiling_cdf",
+                &[(0, &params), (3, stats), (4, &cdf), (5, &counts)],
+            )?;
+        }
+        for &band in &plan.bands {
+            let u = self.band_uniform(base, band);
+            rec.window(1, plan.pixel_window(band, 16))
+                .window(2, plan.pixel_window(band, 16));
+            rec.pixels(
+                band,
+                "tonemap/global.wgsl",
+                "apply_global",
+                &[
+                    (0, &u),
+                    (1, image),
+                    (2, &call.output),
+                    (3, stats),
+                    (4, &cdf),
+                ],
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Durand and Dorsey's bilateral filter on a bilateral grid: the grid (splat and blurs),
+    /// then per band the base layer, its range, and the recombination.
+    fn record_durand(
+        &self,
+        rec: &mut Recording<'_>,
+        cache: &mut BufferCache,
+        grid: &DurandGrid,
+        call: &ToneMapCall<'_>,
+    ) -> Result<()> {
+        let ctx = &*self.ctx;
+        let durand = ToneMapParams {
+            cell: grid.cell,
+            grid_width: grid.grid_width,
+            grid_height: grid.grid_height,
+            levels: grid.levels,
+            first_level: grid.first_level as f32,
+            level_step: grid.level_step as f32,
+            sigma: grid.sigma_cells as f32,
+            radius: grid.radius,
+            ..call.base
+        };
+        let px_bytes = (rec.width * rec.height) as u64 * 16;
+        let cells = grid.cells();
+        let planes = cells as u64 * grid.levels as u64 * 8;
+        let buffers = DurandBuffers {
+            layers: cache.scratch(ctx, "durand layers", px_bytes),
+            cells: cache.scratch(ctx, "durand cells", cells as u64 * 8),
+            tmp: cache.scratch(ctx, "durand tmp", planes),
+            levels: cache.scratch(ctx, "durand levels", planes),
+            range: cache.scratch(ctx, "durand base range", 16),
+        };
+        self.record_durand_grid(rec, grid, &durand, &call.image, &buffers)?;
+        self.record_durand_layers(rec, &durand, call, &buffers)
+    }
+
+    /// The bilateral grid: the splat of the image's log luminance in bands of grid rows, then
+    /// the blur along x and along y.
+    fn record_durand_grid(
+        &self,
+        rec: &mut Recording<'_>,
+        grid: &DurandGrid,
+        durand: &ToneMapParams,
+        image: &wgpu::Buffer,
+        buffers: &DurandBuffers,
+    ) -> Result<()> {
+        let (w, h) = (rec.width, rec.height);
+        let u = self.uniform(durand);
+        // The splat reads `cell` pixel rows per grid row: bands of grid rows whose
+        // pixel rows fit one window.
+        let row_bytes = w as u64 * 16;
+        let align = self.align();
+        let limit = self.window_limit;
+        let grid_rows = bands::band_rows(grid.grid_height, 1, "durand splat", |r| {
+            (r as u64 * grid.cell as u64 + bands::row_step(row_bytes, align) as u64) * row_bytes
+                <= limit
+        })?;
+        for band in bands::split(grid.grid_height, grid_rows) {
+            let rows = bands::window(
+                0,
+                row_bytes,
+                band.first * grid.cell,
+                (band.end() * grid.cell).min(h),
+                align,
+            );
+            let u = self.uniform(&ToneMapParams {
+                band_first: band.first,
+                band_rows: band.rows,
+                window_first: rows.first_row,
+                ..*durand
+            });
+            rec.window(1, rows);
+            rec.items(
+                grid.grid_width * band.rows,
+                DURAND_SHADER,
+                "grid_splat",
+                &[(0, &u), (1, image), (15, &buffers.cells)],
+            )?;
+        }
+        let items = grid.cells() * grid.levels;
+        rec.items(
+            items,
+            DURAND_SHADER,
+            "grid_blur_x",
+            &[(0, &u), (15, &buffers.cells), (16, &buffers.tmp)],
+        )?;
+        rec.items(
+            items,
+            DURAND_SHADER,
+            "grid_blur_y",
+            &[(0, &u), (16, &buffers.tmp), (17, &buffers.levels)],
+        )
+    }
+
+    /// Per band the base layer sliced from the grid and its partial range, the range combined,
+    /// then per band the recombination of base and detail.
+    fn record_durand_layers(
+        &self,
+        rec: &mut Recording<'_>,
+        durand: &ToneMapParams,
+        call: &ToneMapCall<'_>,
+        buffers: &DurandBuffers,
+    ) -> Result<()> {
+        let plan = call.plan;
+        let (image, layers, range) = (&call.image, &buffers.layers, &buffers.range);
+        for (b, &band) in plan.bands.iter().enumerate() {
+            let u = self.band_uniform(durand, band);
+            rec.window(1, plan.pixel_window(band, 16))
+                .window(12, plan.pixel_window(band, 16));
+            rec.pixels(
+                band,
+                DURAND_SHADER,
+                "base",
+                &[(0, &u), (1, image), (12, layers), (17, &buffers.levels)],
+            )?;
+            rec.window(12, plan.pixel_window(band, 16))
+                .window(6, plan.partials_window(b));
+            rec.dispatch(
+                DURAND_SHADER,
+                "range_partial",
+                &[(0, &u), (6, &call.partials), (12, layers)],
+                (plan.groups, 1),
+            )?;
+        }
+        rec.single(
+            DURAND_SHADER,
+            "range_finish",
+            &[(6, &call.partials), (13, range)],
+        )?;
+        for &band in &plan.bands {
+            let u = self.band_uniform(durand, band);
+            rec.window(1, plan.pixel_window(band, 16))
+                .window(2, plan.pixel_window(band, 16))
+                .window(12, plan.pixel_window(band, 16));
+            rec.pixels(
+                band,
+                DURAND_SHADER,
+                "apply",
+                &[
+                    (0, &u),
+                    (1, image),
+                    (2, &call.output),
+                    (12, layers),
+                    (13, range),
+                ],
+            )?;
+        }
+        Ok(())
     }
 
     /// Scene-referred exposure, `img` × 2^EV on colour (alpha kept). This is one multiply per
@@ -664,24 +735,15 @@ impl GpuToneMapper {
     /// Pyramid levels alternate between two buffers (a downsample reads one and writes the
     /// other), each scale's horizontal blur is kept whole, and the vertical blur writes only
     /// the rows a band needs into a band-sized buffer (one band: the whole image, as before).
-    #[allow(clippy::too_many_arguments)]
     fn record_reinhard(
         &self,
         rec: &mut Recording<'_>,
         cache: &mut BufferCache,
         r: &ReinhardPlan,
-        plan: &PixelPlan,
-        base: &ToneMapParams,
-        image: &wgpu::Buffer,
-        output: &wgpu::Buffer,
-        stats: &wgpu::Buffer,
+        call: &ToneMapCall<'_>,
     ) -> Result<()> {
         let ctx = &*self.ctx;
-        let file = "tonemap/reinhard_local.wgsl";
-        let (w, h) = (r.width, r.height);
-        let align = self.align();
-        let limit = self.window_limit;
-        let offsets = r.pyramid_offsets(align);
+        let offsets = r.pyramid_offsets(self.align());
         let parity_bytes = |p: u32| {
             (0..=r.deepest)
                 .filter(|k| k % 2 == p)
@@ -693,34 +755,57 @@ impl GpuToneMapper {
             cache.scratch(ctx, "reinhard pyramid even", parity_bytes(0)),
             cache.scratch(ctx, "reinhard pyramid odd", parity_bytes(1)),
         ];
-        let level_buffer = |k: u32| &pyramid[(k % 2) as usize];
         let tmp: Vec<wgpu::Buffer> = r
             .levels
             .iter()
             .enumerate()
             .map(|(i, &k)| cache.scratch(ctx, TMP_LABELS[i], r.level_bytes(k)))
             .collect();
-        let level_params = |k: u32| {
-            let cell = 1u32 << k;
-            ToneMapParams {
-                cell,
-                grid_width: w.div_ceil(cell),
-                grid_height: h.div_ceil(cell),
-                ..*base
-            }
+        let buffers = ReinhardBuffers {
+            offsets,
+            pyramid,
+            tmp,
         };
+        self.record_reinhard_pyramid(rec, r, call, &buffers)?;
+        self.record_reinhard_blur_x(rec, r, &call.base, &buffers)?;
+        self.record_reinhard_scales(rec, cache, r, call, &buffers)
+    }
+
+    /// Level 0 of the pyramid (the pixels' (L m, m)) per pixel band, then each deeper level
+    /// downsampled from the one above in bands that keep both windows within the limit.
+    fn record_reinhard_pyramid(
+        &self,
+        rec: &mut Recording<'_>,
+        r: &ReinhardPlan,
+        call: &ToneMapCall<'_>,
+        buffers: &ReinhardBuffers,
+    ) -> Result<()> {
+        let (plan, base, offsets) = (call.plan, &call.base, &buffers.offsets);
+        let align = self.align();
+        let limit = self.window_limit;
         // Level 0: the pixels' (L m, m).
         for &band in &plan.bands {
             let u = self.band_uniform(base, band);
             rec.window(1, plan.pixel_window(band, 16)).window(
                 10,
-                bands::window(offsets[0], w as u64 * 8, band.first, band.end(), align),
+                bands::window(
+                    offsets[0],
+                    r.width as u64 * 8,
+                    band.first,
+                    band.end(),
+                    align,
+                ),
             );
             rec.pixels(
                 band,
-                file,
+                REINHARD_SHADER,
                 "prepare",
-                &[(0, &u), (1, image), (3, stats), (10, level_buffer(0))],
+                &[
+                    (0, &u),
+                    (1, &call.image),
+                    (3, &call.stats),
+                    (10, buffers.level(0)),
+                ],
             )?;
         }
         for k in 1..=r.deepest {
@@ -745,7 +830,7 @@ impl GpuToneMapper {
                     band_first: band.first,
                     band_rows: band.rows,
                     window_first: src.first_row,
-                    ..level_params(k)
+                    ..r.level_params(base, k)
                 });
                 rec.window(8, src).window(
                     9,
@@ -753,13 +838,25 @@ impl GpuToneMapper {
                 );
                 rec.items(
                     gw * band.rows,
-                    file,
+                    REINHARD_SHADER,
                     "downsample",
-                    &[(0, &u), (8, level_buffer(k - 1)), (9, level_buffer(k))],
+                    &[(0, &u), (8, buffers.level(k - 1)), (9, buffers.level(k))],
                 )?;
             }
         }
-        // Each scale's horizontal blur, whole, on its level.
+        Ok(())
+    }
+
+    /// Each scale's horizontal blur, whole, on its level.
+    fn record_reinhard_blur_x(
+        &self,
+        rec: &mut Recording<'_>,
+        r: &ReinhardPlan,
+        base: &ToneMapParams,
+        buffers: &ReinhardBuffers,
+    ) -> Result<()> {
+        let align = self.align();
+        let limit = self.window_limit;
         for (i, &k) in r.levels.iter().enumerate() {
             let (gw, gh) = r.level_size(k);
             let row = gw as u64 * 8;
@@ -769,30 +866,51 @@ impl GpuToneMapper {
             let blur = ToneMapParams {
                 sigma: r.sigma_cells[i] as f32,
                 radius: r.radius[i],
-                ..level_params(k)
+                ..r.level_params(base, k)
             };
             for band in bands::split(gh, rows) {
                 let u = self.band_uniform(&blur, band);
                 rec.window(
                     8,
-                    bands::window(offsets[k as usize], row, band.first, band.end(), align),
+                    bands::window(
+                        buffers.offsets[k as usize],
+                        row,
+                        band.first,
+                        band.end(),
+                        align,
+                    ),
                 )
                 .window(9, bands::window(0, row, band.first, band.end(), align));
                 rec.items(
                     gw * band.rows,
-                    file,
+                    REINHARD_SHADER,
                     "blur_x",
-                    &[(0, &u), (8, level_buffer(k)), (9, &tmp[i])],
+                    &[(0, &u), (8, buffers.level(k)), (9, &buffers.tmp[i])],
                 )?;
             }
         }
+        Ok(())
+    }
+
+    /// Per pixel band: the vertical blur of the rows of every scale the band reads, into one
+    /// band-sized buffer, then the scale selection over them.
+    fn record_reinhard_scales(
+        &self,
+        rec: &mut Recording<'_>,
+        cache: &mut BufferCache,
+        r: &ReinhardPlan,
+        call: &ToneMapCall<'_>,
+        buffers: &ReinhardBuffers,
+    ) -> Result<()> {
+        let (plan, base) = (call.plan, &call.base);
+        let align = self.align();
         let band_planes: Vec<Vec<Band>> = plan.bands.iter().map(|&b| r.planes_for(b)).collect();
         let largest = band_planes
             .iter()
             .map(|planes| r.planes_bytes(planes))
             .max()
             .unwrap_or(16);
-        let blurred = cache.scratch(ctx, "reinhard blurred", largest);
+        let blurred = cache.scratch(&self.ctx, "reinhard blurred", largest);
         for (&band, planes) in plan.bands.iter().zip(&band_planes) {
             let mut table = [[0u32; 4]; 17];
             let mut at = 0u32;
@@ -812,14 +930,14 @@ impl GpuToneMapper {
                     band_rows: rows.rows,
                     window_first: halo.first_row,
                     dst_offset: at,
-                    ..level_params(k)
+                    ..r.level_params(base, k)
                 });
                 rec.window(8, halo);
                 rec.items(
                     gw * rows.rows,
-                    file,
+                    REINHARD_SHADER,
                     "blur_y",
-                    &[(0, &u), (8, &tmp[i]), (9, &blurred)],
+                    &[(0, &u), (8, &buffers.tmp[i]), (9, &blurred)],
                 )?;
                 let scale = r.ratio.powi(i as i32) as f32;
                 table[i] = [at, k, scale.to_bits(), rows.first];
@@ -844,13 +962,13 @@ impl GpuToneMapper {
                 .window(2, plan.pixel_window(band, 16));
             rec.pixels(
                 band,
-                file,
+                REINHARD_SHADER,
                 "apply",
                 &[
                     (0, &u),
-                    (1, image),
-                    (2, output),
-                    (3, stats),
+                    (1, &call.image),
+                    (2, &call.output),
+                    (3, &call.stats),
                     (11, &blurred),
                     (18, &table_buffer),
                 ],
@@ -858,6 +976,60 @@ impl GpuToneMapper {
         }
         Ok(())
     }
+}
+
+/// The shader file of Reinhard's dodging and burning.
+const REINHARD_SHADER: &str = "tonemap/reinhard_local.wgsl";
+/// The shader file of Durand and Dorsey's bilateral operator.
+const DURAND_SHADER: &str = "tonemap/durand_bilateral.wgsl";
+
+/// What every pass of one tone-mapping call shares: the pixel bands, the parameters before
+/// any operator's own, and the buffers all operators bind.
+struct ToneMapCall<'a> {
+    plan: &'a PixelPlan,
+    base: ToneMapParams,
+    image: wgpu::Buffer,
+    output: wgpu::Buffer,
+    stats: wgpu::Buffer,
+    partials: wgpu::Buffer,
+}
+
+/// The scratch buffers of Durand's operator: base and detail layers, the grid as splatted,
+/// blurred along x, and blurred (its levels), and the base layer's range.
+struct DurandBuffers {
+    layers: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    tmp: wgpu::Buffer,
+    levels: wgpu::Buffer,
+    range: wgpu::Buffer,
+}
+
+/// Reinhard's pyramid, its levels alternating between two buffers at `offsets`, and each
+/// scale's horizontal blur.
+struct ReinhardBuffers {
+    offsets: Vec<u64>,
+    pyramid: [wgpu::Buffer; 2],
+    tmp: Vec<wgpu::Buffer>,
+}
+
+impl ReinhardBuffers {
+    /// The buffer holding pyramid level k.
+    fn level(&self, k: u32) -> &wgpu::Buffer {
+        &self.pyramid[(k % 2) as usize]
+    }
+}
+
+/// The display-referred result of [`GpuToneMapper::tonemap`]: `img`'s extra channels and
+/// metadata plus what tone mapping records.
+fn tonemapped_image(img: &HdrImage, settings: &ToneMapSettings, pixels: Vec<[f32; 4]>) -> HdrImage {
+    let mut out = HdrImage::from_pixels(img.width, img.height, pixels);
+    out.extra_channels = img.extra_channels.clone();
+    out.metadata = img.metadata.clone();
+    out.set_meta("tonemap", settings.op.name());
+    out.set_meta("tonemap.exposure_ev", format!("{}", settings.exposure_ev));
+    out.set_meta("transfer", "display-linear");
+    out.set_meta(DISPLAY_REFERRED, "1");
+    out
 }
 
 /// Labels of the per-scale horizontal-blur buffers of Reinhard's operator (at most 17 scales).
@@ -950,6 +1122,17 @@ impl ReinhardPlan {
             deepest: levels.iter().copied().max().unwrap_or(0),
             levels,
             sigma_cells,
+        }
+    }
+
+    /// `base` on the cells of pyramid level k (2^k pixels a side).
+    fn level_params(&self, base: &ToneMapParams, k: u32) -> ToneMapParams {
+        let cell = 1u32 << k;
+        ToneMapParams {
+            cell,
+            grid_width: self.width.div_ceil(cell),
+            grid_height: self.height.div_ceil(cell),
+            ..*base
         }
     }
 

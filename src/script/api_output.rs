@@ -1,0 +1,177 @@
+//! Script API: what a run hands back — `save_exr`, `save_png`, `preview`, `already_done`,
+//! `progress` — and `param`, the values a run takes in (`--set name=value`). Outputs go only
+//! under the output folder, and with `--resume` ones that exist are not written again.
+//! `save_png` writes an HDR image exposed by 2^EV then sRGB, and a display-referred image
+//! (`display_referred = 1`: tone-mapped, false colour) as it is.
+
+use super::api_render::ScriptImage;
+use super::convert::{err, num, to_rhai, RResult};
+use super::{ParamKind, ParamRecord, ScriptHost};
+use crate::model::HdrImage;
+use rhai::{Dynamic, Engine};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// The output functions: saving images and telling the user how the run goes.
+pub(crate) fn register_output(engine: &mut Engine, host: &Arc<ScriptHost>) {
+    register_saves(engine, host);
+    register_feedback(engine, host);
+}
+
+/// `save_exr` and `save_png` (with and without an exposure).
+fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
+    let h = host.clone();
+    engine.register_fn(
+        "save_exr",
+        move |img: &mut ScriptImage, path: &str| -> RResult<()> {
+            let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+            h.note_image(img);
+            if h.already_done(&p) {
+                return Ok(());
+            }
+            let t = std::time::Instant::now();
+            crate::io::exr::write_exr(img, &p).map_err(to_rhai)?;
+            h.session
+                .record_sink("save-exr", t.elapsed().as_secs_f64() * 1e3);
+            h.written.lock().expect("poisoned").push(p);
+            Ok(())
+        },
+    );
+    let h = host.clone();
+    // A display-referred image (tone-mapped or false colour, metadata `display_referred = 1`)
+    // already holds display values: it is written with the sRGB curve only, and asking for an
+    // exposure on it is an error (expose the HDR image before tone mapping instead).
+    let save_png = move |img: &mut ScriptImage, path: &str, ev: f64| -> RResult<()> {
+        let display = crate::tonemap::is_display_referred(img);
+        if display && ev != 0.0 {
+            return err(
+                "save_png",
+                format!("exposure {ev} given for a tone-mapped (display-referred) image; apply exposure to the HDR image, or in tonemap(image, #{{exposure: {ev}}})"),
+            );
+        }
+        let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+        if h.already_done(&p) {
+            return Ok(());
+        }
+        let t = std::time::Instant::now();
+        if display {
+            crate::io::png::write_display_png(img, &p, false).map_err(to_rhai)?;
+        } else {
+            crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
+        }
+        h.session
+            .record_sink("save-png", t.elapsed().as_secs_f64() * 1e3);
+        h.written.lock().expect("poisoned").push(p);
+        Ok(())
+    };
+    let save_png2 = save_png.clone();
+    engine.register_fn("save_png", move |img: &mut ScriptImage, path: &str| {
+        save_png2(img, path, 0.0)
+    });
+    engine.register_fn(
+        "save_png",
+        move |img: &mut ScriptImage, path: &str, ev: Dynamic| -> RResult<()> {
+            save_png(img, path, num(&ev, "exposure")?)
+        },
+    );
+}
+
+/// `preview`, `already_done` and `progress` (with and without a label).
+fn register_feedback(engine: &mut Engine, host: &Arc<ScriptHost>) {
+    let h = host.clone();
+    engine.register_fn("preview", move |img: &mut ScriptImage| -> RResult<()> {
+        if h.capture_previews {
+            h.previews
+                .lock()
+                .expect("previews poisoned")
+                .push(img.clone());
+            return Ok(());
+        }
+        preview(img).map_err(to_rhai)
+    });
+
+    let h = host.clone();
+    engine.register_fn("already_done", move |path: &str| -> RResult<bool> {
+        Ok(h.already_done(&h.sandbox.write_path(path).map_err(to_rhai)?))
+    });
+    let h = host.clone();
+    engine.register_fn("progress", move |done: i64, total: i64| {
+        h.progress(done.max(0) as u64, total.max(0) as u64, "")
+    });
+    let h = host.clone();
+    engine.register_fn("progress", move |done: i64, total: i64, label: &str| {
+        h.progress(done.max(0) as u64, total.max(0) as u64, label)
+    });
+}
+
+/// `param(name, default)`: the `--set` value of `name`, or the default; every call is noted.
+pub(crate) fn register_params(engine: &mut Engine, h: Arc<ScriptHost>) {
+    engine.register_fn(
+        "param",
+        move |name: &str, default: Dynamic| -> RResult<Dynamic> {
+            let value = param_value(&h.sets, name, &default)?;
+            let kind = if default.is_int() {
+                ParamKind::Int
+            } else if default.is_float() {
+                ParamKind::Float
+            } else if default.is_bool() {
+                ParamKind::Bool
+            } else {
+                ParamKind::Text
+            };
+            h.note_param(ParamRecord {
+                name: name.to_string(),
+                kind,
+                default: default.to_string(),
+                value: value.to_string(),
+            });
+            Ok(value)
+        },
+    );
+}
+
+/// The value `param(name, default)` returns: the `--set` override parsed as the default's type,
+/// or the default.
+fn param_value(sets: &HashMap<String, String>, name: &str, default: &Dynamic) -> RResult<Dynamic> {
+    let default = default.clone();
+    let Some(text) = sets.get(name) else {
+        return Ok(default);
+    };
+    let bad = |what: &str| {
+        err::<Dynamic>(
+            &format!("--set {name}"),
+            format!("expected {what} (the type of the default), got {text:?}"),
+        )
+    };
+    if default.is_int() {
+        text.trim()
+            .parse::<i64>()
+            .map(Dynamic::from)
+            .or_else(|_| bad("an integer"))
+    } else if default.is_float() {
+        text.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .map(Dynamic::from)
+            .map_or_else(|| bad("a finite number"), Ok)
+    } else if default.is_bool() {
+        text.trim()
+            .parse::<bool>()
+            .map(Dynamic::from)
+            .or_else(|_| bad("true or false"))
+    } else {
+        Ok(Dynamic::from(text.clone()))
+    }
+}
+
+/// Shows an image inline when stdout is a terminal (kitty, iTerm2 or sixel where the terminal
+/// speaks them, else half blocks); a no-op otherwise, so scripts can call it in batch runs.
+/// An empty image shows nothing.
+pub(crate) fn preview(img: &HdrImage) -> crate::Result<()> {
+    use crate::io::terminal::{print_hdr_inline, ProtocolChoice};
+    if img.width == 0 || img.height == 0 {
+        return Ok(());
+    }
+    print_hdr_inline(img, ProtocolChoice::Auto, 60, "preview").map(|_| ())
+}
