@@ -7,7 +7,7 @@
 
 use super::netcdf;
 use crate::error::{Error, Result};
-use crate::model::bricks::{BrickedVolume, MemorySource, VoxelSource};
+use crate::model::bricks::{BrickedVolume, VoxelSource};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -424,11 +424,6 @@ impl VoxelSource for NetcdfSource {
     fn describe(&self) -> String {
         format!("{}:{} (NetCDF hyperslabs)", self.path.display(), self.var)
     }
-}
-
-/// A volume in memory as a voxel source (re-exported for callers that brick loaded data).
-pub fn memory_source(v: Arc<crate::model::Volume>) -> Arc<dyn VoxelSource> {
-    Arc::new(MemorySource(v))
 }
 
 /// Writes a C-ordered f32 `.npy` of shape (nz, ny, nx) slice by slice, `slice(k, out)` filling

@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 
 /// The cache folder and its override live in `io`, so that the GPU pipeline cache uses the same
 /// folder without `gpu` depending on `datasets`.
-pub use crate::io::{cache_dir, CACHE_ENV};
+pub use crate::io::cache_dir;
 
 /// The cached file for (`job_kind`, `key`, `ext`) in [`cache_dir`]; `make` writes it when it is
 /// missing. Returns the file's path either way.

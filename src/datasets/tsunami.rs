@@ -925,11 +925,6 @@ impl FaultSource {
         self.depth_m - 0.5 * self.width_m * self.dip_deg.to_radians().sin()
     }
 
-    /// Depth of the down-dip (bottom) edge, the reference depth of Okada (1985).
-    pub fn bottom_edge_depth_m(&self) -> f64 {
-        self.depth_m + 0.5 * self.width_m * self.dip_deg.to_radians().sin()
-    }
-
     /// The same fault placed in a synthetic basin of side `extent_m` instead of
     /// `SOUTH_CHINA_SEA_EXTENT_M`: the position scales, the fault's size does not.
     pub fn scaled_to_extent(self, extent_m: f64) -> FaultSource {

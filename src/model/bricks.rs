@@ -250,10 +250,6 @@ impl BrickedVolume {
         }
     }
 
-    pub fn voxel_length(&self) -> f64 {
-        self.spacing.iter().cloned().fold(f64::INFINITY, f64::min)
-    }
-
     /// How many bricks have been read from the source so far (tests check that a transfer
     /// function change re-reads nothing).
     pub fn bricks_read(&self) -> u64 {

@@ -33,9 +33,6 @@ pub const COLORMAP_NAMES: &[&str] = &[
     "white",
 ];
 
-/// Colour maps that wrap around (the colour at 0 equals the colour at 1).
-pub const CYCLIC_COLORMAPS: &[&str] = &["sinebow", "rainbow"];
-
 pub struct Colormap {
     name: String,
     gradient: Option<Box<dyn Gradient + Send + Sync>>,
@@ -91,10 +88,6 @@ impl Colormap {
 
     pub fn name(&self) -> &str {
         &self.name
-    }
-
-    pub fn is_cyclic(&self) -> bool {
-        CYCLIC_COLORMAPS.contains(&self.name.as_str())
     }
 
     /// Display-encoded colour at t in [0, 1] (clamped).
@@ -160,6 +153,9 @@ pub fn encode_srgb16(linear: f64) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Colour maps that wrap around (the colour at 0 equals the colour at 1).
+    const CYCLIC_COLORMAPS: &[&str] = &["sinebow", "rainbow"];
 
     #[test]
     fn every_listed_name_resolves_and_unknown_lists_names() {

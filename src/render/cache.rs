@@ -176,12 +176,6 @@ impl ResultCache {
         }
     }
 
-    pub fn clear(&self) {
-        let mut inner = self.inner.lock().expect("result cache poisoned");
-        inner.entries.clear();
-        inner.bytes = 0;
-    }
-
     pub fn counters(&self) -> CacheCounters {
         let inner = self.inner.lock().expect("result cache poisoned");
         CacheCounters {

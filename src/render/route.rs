@@ -96,17 +96,6 @@ pub enum RenderPath {
     Bricked { brick: usize, skip: bool },
 }
 
-impl RenderPath {
-    pub fn name(self) -> &'static str {
-        match self {
-            RenderPath::InCore => "in-core",
-            RenderPath::F64Gpu => "f64 GPU",
-            RenderPath::F64Cpu => "f64 CPU",
-            RenderPath::Bricked { .. } => "bricked",
-        }
-    }
-}
-
 /// A finished volume render: the image and how it was made.
 #[derive(Debug)]
 pub struct VolumeRender {

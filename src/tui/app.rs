@@ -881,7 +881,6 @@ mod tests {
             Prepared {
                 protocol: display.encode(image::RgbImage::new(16, 16), area).unwrap(),
                 histogram: None,
-                size: (16, 16),
             }
         });
         ViewDone {

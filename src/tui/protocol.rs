@@ -26,7 +26,7 @@ use ratatui_image::picker::{cap_parser::QueryStdioOptions, Picker, ProtocolType}
 use ratatui_image::protocol::Protocol;
 use std::time::Duration;
 
-pub use crate::io::terminal::{ProtocolChoice, PROTOCOL_ENV};
+pub use crate::io::terminal::ProtocolChoice;
 
 /// The ratatui-image protocol `--protocol` forces, `None` for auto.
 fn forced(choice: ProtocolChoice) -> Option<ProtocolType> {

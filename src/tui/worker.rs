@@ -189,8 +189,6 @@ fn latest<T>(first: T, rx: &Receiver<T>) -> T {
 pub struct Prepared {
     pub protocol: Protocol,
     pub histogram: Option<LogHistogram>,
-    /// The display image's size in pixels.
-    pub size: (u32, u32),
 }
 
 /// HDR image -> resampled to the area's pixels -> tone-mapped view -> encoded for the
@@ -208,12 +206,10 @@ pub fn prepare(
         &crate::tui::view::select_channel(&small, &view.channel)?,
         64,
     );
-    let size = (shown.width, shown.height);
     let protocol = display.encode(srgb8_picture(&shown), area)?;
     Ok(Prepared {
         protocol,
         histogram,
-        size,
     })
 }
 
