@@ -21,7 +21,7 @@ pub struct SurfaceBenchRow {
 }
 
 impl SurfaceBenchRow {
-    pub fn median_ms(&self) -> f64 {
+    pub(crate) fn median_ms(&self) -> f64 {
         median(&self.runs_ms)
     }
 }

@@ -32,10 +32,10 @@ pub struct PeerResult {
 }
 
 impl BenchRow {
-    pub fn median_ms(&self) -> f64 {
+    pub(crate) fn median_ms(&self) -> f64 {
         median(&self.runs_ms)
     }
-    pub fn msamples_per_s(&self) -> f64 {
+    pub(crate) fn msamples_per_s(&self) -> f64 {
         self.samples as f64 / 1e6 / (self.median_ms() / 1e3)
     }
 }

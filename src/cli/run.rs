@@ -4,10 +4,10 @@
 
 use super::{RunArgs, TuiArgs};
 use hdrvis::gpu::BackendChoice;
+use hdrvis::io::terminal::ProtocolChoice;
 use hdrvis::model::HdrImage;
 use hdrvis::render::cache::budget_mib;
 use hdrvis::script::{run_script_file, run_script_source, ScriptOptions};
-use hdrvis::io::terminal::ProtocolChoice;
 use hdrvis::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

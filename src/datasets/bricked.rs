@@ -136,7 +136,7 @@ impl Element {
 }
 
 /// A C-ordered 3-D `.npy` array read through a memory map.
-pub struct MappedNpy {
+pub(crate) struct MappedNpy {
     path: PathBuf,
     map: memmap2::Mmap,
     offset: usize,
@@ -263,7 +263,7 @@ impl VoxelSource for MappedNpy {
 /// A 3-D NetCDF variable read by hyperslabs, decoded (fill values to NaN, scale and offset) like
 /// [`super::load_volume`], with evenly spaced coordinates giving spacing and origin and
 /// decreasing ones flipped.
-pub struct NetcdfSource {
+pub(crate) struct NetcdfSource {
     path: PathBuf,
     file: netcdf_reader::NcFile,
     pub var: String,
@@ -428,7 +428,7 @@ impl VoxelSource for NetcdfSource {
 
 /// Writes a C-ordered f32 `.npy` of shape (nz, ny, nx) slice by slice, `slice(k, out)` filling
 /// z-slice k: how large benchmark volumes are made without holding them. Atomic (temp + rename).
-pub fn write_npy_f32_streaming(
+pub(crate) fn write_npy_f32_streaming(
     path: &Path,
     dims: [usize; 3],
     slice: &(dyn Fn(usize, &mut [f32]) + Sync),

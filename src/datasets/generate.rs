@@ -68,7 +68,7 @@ impl Job {
         }
     }
 
-    pub fn cache_key(&self) -> String {
+    pub(crate) fn cache_key(&self) -> String {
         match self {
             Job::Okada(job) => job.cache_key(),
             Job::Tsunami(job) => job.cache_key(),
@@ -139,7 +139,7 @@ impl OkadaJob {
         )
     }
 
-    pub fn cache_key(&self) -> String {
+    pub(crate) fn cache_key(&self) -> String {
         cache::key_of(&self.canonical())
     }
 
@@ -368,12 +368,12 @@ impl TsunamiJob {
         )
     }
 
-    pub fn cache_key(&self) -> String {
+    pub(crate) fn cache_key(&self) -> String {
         cache::key_of(&self.canonical())
     }
 
     /// The still-water depth grid the job runs on.
-    pub fn load_bathymetry(&self) -> Result<tsunami::Bathymetry> {
+    pub(crate) fn load_bathymetry(&self) -> Result<tsunami::Bathymetry> {
         match &self.bathymetry {
             BathymetrySource::Synthetic { n, extent_m } => {
                 if !(2..=16384).contains(n) {
@@ -395,7 +395,7 @@ impl TsunamiJob {
     }
 
     /// The faults that lift the sea floor, in the grid's frame.
-    pub fn source_segments(&self, bathy: &tsunami::Bathymetry) -> Vec<FaultSegment> {
+    pub(crate) fn source_segments(&self, bathy: &tsunami::Bathymetry) -> Vec<FaultSegment> {
         if let Some(segments) = &self.segments {
             return segments.clone();
         }
@@ -593,7 +593,7 @@ impl MantleJob {
         )
     }
 
-    pub fn cache_key(&self) -> String {
+    pub(crate) fn cache_key(&self) -> String {
         cache::key_of(&self.canonical())
     }
 

@@ -10,7 +10,7 @@ use super::GpuContext;
 use crate::error::{Error, Result};
 
 /// A storage buffer the host uploads into (binding it read-only or read-write).
-pub struct UploadBuffer {
+pub(crate) struct UploadBuffer {
     pub buffer: wgpu::Buffer,
     direct: bool,
 }
@@ -43,7 +43,7 @@ impl UploadBuffer {
     /// wgpu's staging memory; write-only, as it may be write-combining) to `fill`, so a caller
     /// can produce its data in place — in parallel, and scanning it on the way — rather than
     /// copy a finished array.
-    pub fn write_with(
+    pub(crate) fn write_with(
         &self,
         ctx: &GpuContext,
         size: u64,
@@ -88,7 +88,7 @@ impl UploadBuffer {
 }
 
 /// A storage buffer the GPU writes and the host reads back.
-pub struct ReadbackBuffer {
+pub(crate) struct ReadbackBuffer {
     pub buffer: wgpu::Buffer,
     /// The MAP_READ copy target when the storage buffer itself cannot be mapped.
     staging: Option<wgpu::Buffer>,
@@ -122,7 +122,7 @@ impl ReadbackBuffer {
 
     /// Records the copy of the first `bytes` into the staging buffer, when there is one; call
     /// after the passes that write the buffer, before submitting.
-    pub fn record_copy(&self, encoder: &mut wgpu::CommandEncoder, bytes: u64) {
+    pub(crate) fn record_copy(&self, encoder: &mut wgpu::CommandEncoder, bytes: u64) {
         if let Some(staging) = &self.staging {
             let size = bytes.max(16).next_multiple_of(4).min(staging.size());
             encoder.copy_buffer_to_buffer(&self.buffer, 0, staging, 0, size);

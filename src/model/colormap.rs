@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use colorgrad::Gradient;
 
 /// Every colour-map name hdrvis accepts. `sinebow` and `rainbow` are cyclic (for wrapped data).
-pub const COLORMAP_NAMES: &[&str] = &[
+pub(crate) const COLORMAP_NAMES: &[&str] = &[
     "viridis",
     "magma",
     "inferno",
@@ -33,7 +33,7 @@ pub const COLORMAP_NAMES: &[&str] = &[
     "white",
 ];
 
-pub struct Colormap {
+pub(crate) struct Colormap {
     name: String,
     gradient: Option<Box<dyn Gradient + Send + Sync>>,
 }
@@ -45,7 +45,7 @@ impl std::fmt::Debug for Colormap {
 }
 
 impl Colormap {
-    pub fn by_name(name: &str) -> Result<Colormap> {
+    pub(crate) fn by_name(name: &str) -> Result<Colormap> {
         use colorgrad::preset as p;
         let gradient: Option<Box<dyn Gradient + Send + Sync>> = match name {
             "viridis" => Some(Box::new(p::viridis())),
@@ -91,7 +91,7 @@ impl Colormap {
     }
 
     /// Display-encoded colour at t in [0, 1] (clamped).
-    pub fn srgb(&self, t: f64) -> [f64; 3] {
+    pub(crate) fn srgb(&self, t: f64) -> [f64; 3] {
         match &self.gradient {
             None => [1.0; 3],
             Some(g) => {
@@ -102,7 +102,7 @@ impl Colormap {
     }
 
     /// Linear-light colour at t in [0, 1] (clamped).
-    pub fn linear_rgb(&self, t: f64) -> [f64; 3] {
+    pub(crate) fn linear_rgb(&self, t: f64) -> [f64; 3] {
         self.srgb(t).map(srgb_to_linear)
     }
 }
@@ -120,7 +120,7 @@ pub fn srgb_to_linear(encoded: f64) -> f64 {
 
 /// The IEC 61966-2-1 sRGB encoding curve (exact piecewise form): linear light, clamped to
 /// [0, 1] (NaN as 0), to the encoded value.
-pub fn linear_to_srgb(linear: f64) -> f64 {
+pub(crate) fn linear_to_srgb(linear: f64) -> f64 {
     let v = if linear.is_nan() {
         0.0
     } else {
@@ -143,7 +143,7 @@ pub fn encode_srgb8(linear: f64) -> u8 {
 }
 
 /// As [`encode_srgb8`], 16 bits deep (16-bit PNG).
-pub fn encode_srgb16(linear: f64) -> u16 {
+pub(crate) fn encode_srgb16(linear: f64) -> u16 {
     if !linear.is_finite() {
         return 0;
     }

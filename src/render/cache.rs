@@ -9,10 +9,10 @@ use std::hash::Hasher;
 use std::sync::{Arc, Mutex};
 
 /// Default budget: enough for a 513³ f32 volume on the host and on the GPU plus a sweep's images.
-pub const DEFAULT_BUDGET_MIB: u64 = 2048;
+pub(crate) const DEFAULT_BUDGET_MIB: u64 = 2048;
 
 /// Environment variable with the result-cache budget in MiB when `--cache-mib` is not given.
-pub const BUDGET_ENV: &str = "HDRVIS_CACHE_MIB";
+pub(crate) const BUDGET_ENV: &str = "HDRVIS_CACHE_MIB";
 
 /// The budget in MiB: the explicit value, else `HDRVIS_CACHE_MIB`, else [`DEFAULT_BUDGET_MIB`].
 pub fn budget_mib(explicit: Option<u64>) -> crate::Result<u64> {
@@ -32,7 +32,7 @@ pub fn budget_mib(explicit: Option<u64>) -> crate::Result<u64> {
 
 /// A hash of stage inputs, built field by field (xxh3: fast enough to hash whole volumes).
 #[derive(Default)]
-pub struct KeyBuilder(xxhash_rust::xxh3::Xxh3);
+pub(crate) struct KeyBuilder(xxhash_rust::xxh3::Xxh3);
 
 impl KeyBuilder {
     pub fn new(stage: &str) -> Self {
@@ -60,7 +60,7 @@ impl KeyBuilder {
 
     /// Any value through its `Debug` form: Rust prints floats with the shortest digits that
     /// round-trip, so two option sets hash alike only if every field is bit-for-bit equal.
-    pub fn debug(&mut self, v: &impl std::fmt::Debug) -> &mut Self {
+    pub(crate) fn debug(&mut self, v: &impl std::fmt::Debug) -> &mut Self {
         self.str(&format!("{v:?}"))
     }
 
@@ -132,7 +132,7 @@ impl ResultCache {
 
     /// Stores `value` (of `bytes` bytes) under `key`, evicting least recently used entries until
     /// it fits; a value larger than the whole budget is not stored.
-    pub fn put<T: Any + Send + Sync>(&self, key: u64, value: Arc<T>, bytes: u64) {
+    pub(crate) fn put<T: Any + Send + Sync>(&self, key: u64, value: Arc<T>, bytes: u64) {
         if bytes > self.budget {
             return;
         }
@@ -162,7 +162,7 @@ impl ResultCache {
     }
 
     /// Drops the entries of type `T` for which `drop(key, value)` holds.
-    pub fn remove_where<T: Any + Send + Sync>(&self, drop: impl Fn(u64, &T) -> bool) {
+    pub(crate) fn remove_where<T: Any + Send + Sync>(&self, drop: impl Fn(u64, &T) -> bool) {
         let mut inner = self.inner.lock().expect("result cache poisoned");
         let victims: Vec<u64> = inner
             .entries

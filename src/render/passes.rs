@@ -37,7 +37,7 @@ impl PassRecord {
         }
     }
 
-    pub fn with_detail(mut self, detail: impl Into<String>) -> Self {
+    pub(crate) fn with_detail(mut self, detail: impl Into<String>) -> Self {
         self.detail = detail.into();
         self
     }
@@ -63,14 +63,15 @@ impl std::fmt::Display for PassRecord {
 
 /// The records of one run (or one TUI update), in the order the passes finished.
 #[derive(Default)]
-pub struct PassLog(Mutex<Vec<PassRecord>>);
+pub(crate) struct PassLog(Mutex<Vec<PassRecord>>);
 
 impl PassLog {
     pub fn push(&self, record: PassRecord) {
         self.0.lock().expect("pass log poisoned").push(record);
     }
 
-    pub fn snapshot(&self) -> Vec<PassRecord> {
+    #[cfg(test)]
+    pub(crate) fn snapshot(&self) -> Vec<PassRecord> {
         self.0.lock().expect("pass log poisoned").clone()
     }
 
@@ -80,7 +81,8 @@ impl PassLog {
     }
 
     /// How many times the pass `name` actually ran (cache hits not counted).
-    pub fn ran_count(&self, name: &str) -> usize {
+    #[cfg(test)]
+    pub(crate) fn ran_count(&self, name: &str) -> usize {
         count_ran(&self.snapshot(), name)
     }
 }

@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// Coarsest quick-look level: 16 times fewer voxels per axis.
-pub const MAX_LEVEL: u32 = 4;
+pub(crate) const MAX_LEVEL: u32 = 4;
 
 /// The volume a render reads: loaded whole, or opened as bricks and never loaded whole.
 #[derive(Clone, Debug)]
@@ -161,7 +161,7 @@ impl RenderSession {
     }
 
     /// The decision of how a render runs, in one place (see the module documentation).
-    pub fn choose_path(
+    pub(crate) fn choose_path(
         &self,
         source: &VolumeSource,
         opts: &VolumeRenderOptions,

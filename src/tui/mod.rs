@@ -8,15 +8,15 @@
 //! polls input every 15 ms and never waits on a render; what keys and worker replies do to the
 //! state is [`App`]'s.
 
-pub mod app;
+pub(crate) mod app;
 #[cfg(test)]
 mod decode;
-pub mod histogram;
-pub mod protocol;
-pub mod terminal;
-pub mod ui;
-pub mod view;
-pub mod worker;
+pub(crate) mod histogram;
+pub(crate) mod protocol;
+pub(crate) mod terminal;
+pub(crate) mod ui;
+pub(crate) mod view;
+pub(crate) mod worker;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
@@ -50,7 +50,7 @@ pub struct TuiOptions {
 }
 
 /// The input's kind by extension: `.exr` is an image, anything else a script.
-pub fn source_of(path: &Path) -> Source {
+pub(crate) fn source_of(path: &Path) -> Source {
     if crate::io::extension(path) == "exr" {
         Source::Image(path.to_path_buf())
     } else {

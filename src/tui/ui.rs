@@ -19,7 +19,7 @@ const HISTOGRAM_HEIGHT: u16 = 8;
 
 /// Where everything goes on a screen of a given size.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Areas {
+pub(crate) struct Areas {
     pub image_block: Rect,
     /// Inside the image's border: the cells the picture may cover.
     pub image: Rect,
