@@ -146,7 +146,7 @@ pub(crate) struct MappedNpy {
 }
 
 impl MappedNpy {
-    pub fn open(path: &Path) -> Result<MappedNpy> {
+    pub(crate) fn open(path: &Path) -> Result<MappedNpy> {
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         // SAFETY: the map is read-only; a file truncated by another process while mapped would
         // fault on access, the usual caveat of memory-mapped reading, which is what the issue
@@ -277,7 +277,7 @@ pub(crate) struct NetcdfSource {
 }
 
 impl NetcdfSource {
-    pub fn open(path: &Path, var: Option<&str>) -> Result<NetcdfSource> {
+    pub(crate) fn open(path: &Path, var: Option<&str>) -> Result<NetcdfSource> {
         let listed = super::list_arrays(path)?;
         let fits =
             |shape: &[usize]| shape.len() >= 3 && shape[..shape.len() - 3].iter().all(|&s| s == 1);

@@ -17,7 +17,7 @@ pub(crate) use crate::io::cache_dir;
 
 /// The cached file for (`job_kind`, `key`, `ext`) in [`cache_dir`]; `make` writes it when it is
 /// missing. Returns the file's path either way.
-pub fn cached(
+pub(crate) fn cached(
     job_kind: &str,
     key: &str,
     ext: &str,

@@ -40,7 +40,7 @@ pub(crate) struct ValueStats {
 }
 
 impl ValueStats {
-    pub fn of(values: &[f64]) -> Self {
+    pub(crate) fn of(values: &[f64]) -> Self {
         let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
         let nan = values.iter().filter(|v| v.is_nan()).count();
         let zeros = finite.iter().filter(|v| **v == 0.0).count();

@@ -611,7 +611,7 @@ impl BoundaryLayers {
 
     /// Temperature at radius r. Each layer is divided by its value across the whole shell so
     /// that T(r_b) = 1 and T(r_t) = 0 exactly even when layers are thick.
-    pub fn temperature(&self, r: f64) -> f64 {
+    pub(crate) fn temperature(&self, r: f64) -> f64 {
         let top = erf((OUTER_RADIUS - r) / self.top) / erf(SHELL_THICKNESS / self.top);
         let full = erf(SHELL_THICKNESS / self.bottom);
         let bottom = (erfc((r - INNER_RADIUS) / self.bottom) - (1.0 - full)) / full;

@@ -41,7 +41,7 @@ pub(crate) struct Bathymetry {
 
 impl Bathymetry {
     /// Checks the sizes, the spacing and that every depth is finite.
-    pub fn validate(&self) -> Result<()> {
+    pub(crate) fn validate(&self) -> Result<()> {
         if self.nx == 0 || self.ny == 0 {
             return Err(Error::invalid(
                 "bathymetry",

@@ -35,7 +35,7 @@ pub(crate) fn uniform_buffer(binding: u32) -> wgpu::BindGroupLayoutEntry {
 }
 
 /// A sampled float texture at `binding`.
-pub fn texture(
+pub(crate) fn texture(
     binding: u32,
     dimension: wgpu::TextureViewDimension,
     filterable: bool,

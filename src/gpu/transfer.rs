@@ -17,7 +17,12 @@ pub(crate) struct UploadBuffer {
 
 impl UploadBuffer {
     /// A buffer of `bytes` (rounded up to 16) with STORAGE usage plus `extra`.
-    pub fn new(ctx: &GpuContext, label: &str, bytes: u64, extra: wgpu::BufferUsages) -> Self {
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        label: &str,
+        bytes: u64,
+        extra: wgpu::BufferUsages,
+    ) -> Self {
         let direct = ctx.caps.mappable_primary_buffers;
         let mut usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra;
         if direct {
@@ -35,7 +40,7 @@ impl UploadBuffer {
     /// Writes `data` at the start of the buffer. The GPU must not be using the buffer (every
     /// caller waits for its submission before the next upload). Without direct mapping the
     /// bytes land in wgpu's staging memory and are copied at the next submit.
-    pub fn write(&self, ctx: &GpuContext, data: &[u8]) -> Result<()> {
+    pub(crate) fn write(&self, ctx: &GpuContext, data: &[u8]) -> Result<()> {
         self.write_with(ctx, data.len() as u64, |mut dst| dst.copy_from_slice(data))
     }
 
@@ -96,7 +101,12 @@ pub(crate) struct ReadbackBuffer {
 
 impl ReadbackBuffer {
     /// A buffer of `bytes` (rounded up to 16) with STORAGE usage plus `extra`.
-    pub fn new(ctx: &GpuContext, label: &str, bytes: u64, extra: wgpu::BufferUsages) -> Self {
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        label: &str,
+        bytes: u64,
+        extra: wgpu::BufferUsages,
+    ) -> Self {
         let size = bytes.max(16).next_multiple_of(16);
         let direct = ctx.caps.mappable_primary_buffers;
         let mut usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | extra;
@@ -130,7 +140,7 @@ impl ReadbackBuffer {
     }
 
     /// Waits for the submitted work and copies the first `bytes` out as `T`s.
-    pub fn read<T: bytemuck::Pod>(&self, ctx: &GpuContext, bytes: u64) -> Result<Vec<T>> {
+    pub(crate) fn read<T: bytemuck::Pod>(&self, ctx: &GpuContext, bytes: u64) -> Result<Vec<T>> {
         let mapped = self.staging.as_ref().unwrap_or(&self.buffer);
         super::readback::read_mapped(ctx, mapped, bytes)
     }

@@ -80,7 +80,7 @@ impl BrickCache {
     /// A cache for `volume` within `budget` bytes of GPU memory (atlas plus the per-render
     /// buffers of a `width` x `height` image), or holding every brick when `budget` is `None`
     /// (still limited by the adapter's 3-D texture size).
-    pub fn new(
+    pub(crate) fn new(
         ctx: &GpuContext,
         volume: Arc<BrickedVolume>,
         budget: Option<u64>,
@@ -127,7 +127,7 @@ impl BrickCache {
     }
 
     /// Slots in the atlas.
-    pub fn capacity(&self) -> usize {
+    pub(crate) fn capacity(&self) -> usize {
         self.capacity
     }
 

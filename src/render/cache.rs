@@ -35,24 +35,24 @@ pub fn budget_mib(explicit: Option<u64>) -> crate::Result<u64> {
 pub(crate) struct KeyBuilder(xxhash_rust::xxh3::Xxh3);
 
 impl KeyBuilder {
-    pub fn new(stage: &str) -> Self {
+    pub(crate) fn new(stage: &str) -> Self {
         let mut k = KeyBuilder(xxhash_rust::xxh3::Xxh3::new());
         k.str(stage);
         k
     }
 
-    pub fn str(&mut self, s: &str) -> &mut Self {
+    pub(crate) fn str(&mut self, s: &str) -> &mut Self {
         self.u64(s.len() as u64);
         self.0.write(s.as_bytes());
         self
     }
 
-    pub fn u64(&mut self, v: u64) -> &mut Self {
+    pub(crate) fn u64(&mut self, v: u64) -> &mut Self {
         self.0.write(&v.to_le_bytes());
         self
     }
 
-    pub fn bytes(&mut self, b: &[u8]) -> &mut Self {
+    pub(crate) fn bytes(&mut self, b: &[u8]) -> &mut Self {
         self.u64(b.len() as u64);
         self.0.write(b);
         self
@@ -64,7 +64,7 @@ impl KeyBuilder {
         self.str(&format!("{v:?}"))
     }
 
-    pub fn finish(&self) -> u64 {
+    pub(crate) fn finish(&self) -> u64 {
         self.0.digest()
     }
 }

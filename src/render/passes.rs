@@ -66,7 +66,7 @@ impl std::fmt::Display for PassRecord {
 pub(crate) struct PassLog(Mutex<Vec<PassRecord>>);
 
 impl PassLog {
-    pub fn push(&self, record: PassRecord) {
+    pub(crate) fn push(&self, record: PassRecord) {
         self.0.lock().expect("pass log poisoned").push(record);
     }
 
@@ -76,7 +76,7 @@ impl PassLog {
     }
 
     /// The records so far, leaving the log empty for the next run.
-    pub fn take(&self) -> Vec<PassRecord> {
+    pub(crate) fn take(&self) -> Vec<PassRecord> {
         std::mem::take(&mut *self.0.lock().expect("pass log poisoned"))
     }
 

@@ -42,7 +42,7 @@ pub(crate) const AREAS: &[&str] = &[
     "parameters and sweeps",
 ];
 
-pub const API: &[ApiEntry] = &[
+pub(crate) const API: &[ApiEntry] = &[
     e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x) or .vti, relative to the script's folder."),
     e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy memory-mapped, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
     e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with #{var, brick: 8|16|32|64|128}."),

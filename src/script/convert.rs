@@ -14,7 +14,7 @@ pub(crate) fn to_rhai(e: Error) -> Box<EvalAltResult> {
     ))
 }
 
-pub fn err<T>(field: &str, msg: impl Into<String>) -> RResult<T> {
+pub(crate) fn err<T>(field: &str, msg: impl Into<String>) -> RResult<T> {
     Err(to_rhai(Error::invalid(field, msg)))
 }
 
@@ -42,7 +42,7 @@ pub(crate) fn boolean(v: &Dynamic, field: &str) -> RResult<bool> {
     })
 }
 
-pub fn string(v: &Dynamic, field: &str) -> RResult<String> {
+pub(crate) fn string(v: &Dynamic, field: &str) -> RResult<String> {
     v.clone()
         .into_string()
         .or_else(|t| err(field, format!("expected a string, got {t}")))
@@ -64,7 +64,7 @@ pub(crate) fn vec3(v: &Dynamic, field: &str) -> RResult<[f64; 3]> {
 }
 
 /// Control points [[t, value], ...].
-pub fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
+pub(crate) fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
     let arr = v.clone().into_array().or_else(|t| {
         err(
             field,

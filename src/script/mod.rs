@@ -139,12 +139,12 @@ impl ScriptHost {
     }
 
     /// Whether an output may be skipped: `--resume` is on and the file is already there.
-    pub fn already_done(&self, path: &Path) -> bool {
+    pub(crate) fn already_done(&self, path: &Path) -> bool {
         self.resume && path.is_file()
     }
 
     /// Reports loop progress on stderr with an ETA; the bar is created on the first call.
-    pub fn progress(&self, done: u64, total: u64, label: &str) {
+    pub(crate) fn progress(&self, done: u64, total: u64, label: &str) {
         if !self.progress_enabled {
             return;
         }

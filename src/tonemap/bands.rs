@@ -17,7 +17,7 @@ pub(crate) struct Band {
 }
 
 impl Band {
-    pub fn end(&self) -> u32 {
+    pub(crate) fn end(&self) -> u32 {
         self.first + self.rows
     }
 }
@@ -47,7 +47,7 @@ pub(crate) fn row_step(row_bytes: u64, align: u64) -> u32 {
 /// The window of rows [first, end) of a plane of `row_bytes` rows that starts at byte `base`
 /// (itself a multiple of `align`): started at the last row at or before `first` whose offset
 /// is aligned.
-pub fn window(base: u64, row_bytes: u64, first: u32, end: u32, align: u64) -> Window {
+pub(crate) fn window(base: u64, row_bytes: u64, first: u32, end: u32, align: u64) -> Window {
     debug_assert_eq!(base % align, 0, "plane bases are aligned");
     let step = row_step(row_bytes, align);
     let start = first - first % step;
@@ -59,7 +59,7 @@ pub fn window(base: u64, row_bytes: u64, first: u32, end: u32, align: u64) -> Wi
 }
 
 /// Splits `total` rows into bands of `rows` (the last one shorter).
-pub fn split(total: u32, rows: u32) -> Vec<Band> {
+pub(crate) fn split(total: u32, rows: u32) -> Vec<Band> {
     let rows = rows.max(1);
     (0..total.div_ceil(rows))
         .map(|b| {

@@ -609,7 +609,7 @@ pub(crate) struct ToneMapParams {
 
 impl ToneMapParams {
     /// The operator-wide fields for an image; pass fields start at zero.
-    pub fn new(settings: &ToneMapSettings, width: u32, height: u32) -> Self {
+    pub(crate) fn new(settings: &ToneMapSettings, width: u32, height: u32) -> Self {
         let mut p = ToneMapParams {
             width,
             height,

@@ -301,7 +301,7 @@ pub(crate) struct App {
 }
 
 impl App {
-    pub fn new(source: Source, out_dir: PathBuf, base_sets: Vec<(String, String)>) -> App {
+    pub(crate) fn new(source: Source, out_dir: PathBuf, base_sets: Vec<(String, String)>) -> App {
         App {
             source,
             out_dir,

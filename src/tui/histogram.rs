@@ -28,7 +28,7 @@ pub(crate) fn exposure_window(exposure_ev: f64) -> (f64, f64) {
 impl LogHistogram {
     /// `bins` equal bins in log10 luminance between the image's extremes; `None` when no pixel
     /// has a positive finite luminance.
-    pub fn new(img: &HdrImage, bins: usize) -> Option<LogHistogram> {
+    pub(crate) fn new(img: &HdrImage, bins: usize) -> Option<LogHistogram> {
         let bins = bins.max(1);
         let logs: Vec<f64> = img
             .pixels
@@ -64,7 +64,12 @@ impl LogHistogram {
 
     /// `height` lines of `width` columns (one bin per column, resampled), columns inside the
     /// exposure window drawn in yellow, others in grey, with a last line of decade labels.
-    pub fn lines(&self, exposure_ev: f64, width: usize, height: usize) -> Vec<Line<'static>> {
+    pub(crate) fn lines(
+        &self,
+        exposure_ev: f64,
+        width: usize,
+        height: usize,
+    ) -> Vec<Line<'static>> {
         if width == 0 || height < 2 {
             return Vec::new();
         }

@@ -26,7 +26,7 @@ use ratatui_image::picker::{cap_parser::QueryStdioOptions, Picker, ProtocolType}
 use ratatui_image::protocol::Protocol;
 use std::time::Duration;
 
-pub use crate::io::terminal::ProtocolChoice;
+pub(crate) use crate::io::terminal::ProtocolChoice;
 
 /// The ratatui-image protocol `--protocol` forces, `None` for auto.
 fn forced(choice: ProtocolChoice) -> Option<ProtocolType> {
@@ -79,7 +79,7 @@ pub(crate) fn parse_version(s: &str) -> Option<(u32, u32)> {
 
 /// The chosen protocol with what the status line should say about it.
 #[derive(Clone)]
-pub struct Display {
+pub(crate) struct Display {
     pub picker: Picker,
     /// e.g. `sixel`, `kitty (compressed)`, `halfblocks: the terminal shows no graphics`.
     pub note: String,
@@ -89,7 +89,7 @@ pub struct Display {
 
 impl Display {
     /// A display for tests and benchmarks: `protocol` at a fixed cell size, no terminal query.
-    pub fn fixed(protocol: ProtocolType, cell: (u16, u16)) -> Display {
+    pub(crate) fn fixed(protocol: ProtocolType, cell: (u16, u16)) -> Display {
         #[allow(deprecated)] // the only constructor that takes a cell size without a terminal
         let mut picker = Picker::from_fontsize(cell.into());
         picker.set_protocol_type(protocol);
@@ -101,7 +101,7 @@ impl Display {
     }
 
     /// The area's size in pixels at the terminal's cell size.
-    pub fn pixels(&self, area: Rect) -> (u32, u32) {
+    pub(crate) fn pixels(&self, area: Rect) -> (u32, u32) {
         let fs = self.picker.font_size();
         (
             area.width as u32 * fs.width as u32,
@@ -147,7 +147,7 @@ pub(crate) struct Probe {
 /// image), XTVERSION, cell size, primary device attributes (sixel is attribute 4), and a status
 /// report that every terminal answers, which ends the read. Reads with `poll` and a deadline, so
 /// no thread is left behind reading stdin (it would steal key presses).
-pub fn probe(tmux: bool, timeout: Duration) -> Probe {
+pub(crate) fn probe(tmux: bool, timeout: Duration) -> Probe {
     let (start, esc, end) = if tmux {
         ("\x1bPtmux;", "\x1b\x1b", "\x1b\\")
     } else {

@@ -52,7 +52,7 @@ pub(crate) enum Channel {
 }
 
 impl Channel {
-    pub fn label(&self) -> String {
+    pub(crate) fn label(&self) -> String {
         match self {
             Channel::Rgb => "RGB".into(),
             Channel::Red => "R".into(),
@@ -65,7 +65,7 @@ impl Channel {
     }
 
     /// Every channel `img` offers, in cycling order.
-    pub fn all(img: Option<&HdrImage>) -> Vec<Channel> {
+    pub(crate) fn all(img: Option<&HdrImage>) -> Vec<Channel> {
         let mut v = vec![
             Channel::Rgb,
             Channel::Red,
@@ -267,7 +267,7 @@ pub(crate) fn display_image(hdr: &HdrImage, view: &ViewSettings) -> Result<HdrIm
 }
 
 /// One line naming every view setting, stored in saved files.
-pub fn describe(view: &ViewSettings) -> String {
+pub(crate) fn describe(view: &ViewSettings) -> String {
     format!(
         "exposure {:+} EV, {}, channel {}{}",
         view.exposure_ev,
