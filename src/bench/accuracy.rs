@@ -32,7 +32,7 @@ pub struct AccuracyRow {
     pub psnr_8bit: f64,
     /// Fraction of lit pixels whose HDR luminance is off by more than 1 %.
     pub lost_detail: f64,
-    /// What the row is compared with: [`SAME_STEP`] (arithmetic alone), [`CONVERGED`] (the
+    /// What the row is compared with: `SAME_STEP` (arithmetic alone), `CONVERGED` (the
     /// integral itself, for the step and sampling knobs) or the surfaces' per-node f64 phase.
     pub reference: &'static str,
 }
@@ -71,7 +71,7 @@ pub(crate) const SCENE_NAMES: &[&str] = &["mantle", "blobs", "band", "tsunami", 
 /// band of the TF (one tenth of a decade around 0.01, bright and opaque: the case that
 /// pre-integration is for), all in perspective, `size`²
 /// pixels from `n`³ voxels; and the paper's two surface case studies on `grid`² nodes
-/// ([`tsunami_scene`], [`fault_scene`]), generated through the dataset cache.
+/// (`tsunami_scene`, `fault_scene`), generated through the dataset cache.
 pub fn accuracy_scenes(
     size: u32,
     n: usize,

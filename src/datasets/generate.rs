@@ -1,6 +1,6 @@
 //! The generators as jobs: plain parameter structs for the Okada, tsunami and mantle fields,
 //! independent of any command-line parser, each with a stable cache key (FNV-1a over a canonical
-//! text of every parameter, see [`super::cache`]) and a `run` that writes the result. The output
+//! text of every parameter, see `super::cache`) and a `run` that writes the result. The output
 //! format follows the file's extension: NetCDF (`.nc`, CF-1.8 classic, with units, long names and
 //! the parameters as global attributes) or `.npy` (one array; which one is said on each job).
 //! Every write goes through a temporary file renamed into place.

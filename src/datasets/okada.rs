@@ -1,6 +1,6 @@
 //! Displacement of an elastic half-space by finite rectangular dislocations: Okada (1985,
 //! BSSA 75, 1135-1154) at the free surface and Okada (1992, BSSA 82, 1018-1040, "DC3D") at depth,
-//! with the papers' rules for their singular cases. Two layers: [`OkadaRectangle`] works in
+//! with the papers' rules for their singular cases. Two layers: `OkadaRectangle` works in
 //! Okada's own frame (x along strike, y perpendicular, z up, origin at the bottom-left corner of
 //! the fault) and is what the published check lists test; [`FaultSegment`] places faults in
 //! project coordinates (x east, y north, z up, metres) with strike, dip and rake, and

@@ -7,7 +7,7 @@ pub(crate) mod layout;
 pub(crate) mod pipeline;
 pub(crate) mod readback;
 pub mod shader;
-pub(crate) mod transfer;
+pub mod transfer;
 
 use crate::error::{Error, Result};
 use std::sync::Arc;

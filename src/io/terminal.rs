@@ -3,7 +3,7 @@
 //! sixel through icy_sixel, else half blocks), restricted to the protocol `--protocol` /
 //! `HDRVIS_TUI_PROTOCOL` names when one is given. Nothing here draws a live screen: the
 //! interactive TUI (`crate::tui`, the only user of ratatui) shares only [`ProtocolChoice`] and
-//! [`srgb8_picture`] with it. Every printer is a no-op returning `false` when stdout is not a
+//! `srgb8_picture` with it. Every printer is a no-op returning `false` when stdout is not a
 //! terminal, so batch runs and pipes stay clean.
 
 use crate::error::{Error, Result};
@@ -124,7 +124,7 @@ pub(crate) fn print_hdr_inline(
     print_picture_inline(&picture, protocol, width_cells, what)
 }
 
-/// [`print_picture_inline`] for a picture file (a chart PNG); an unreadable file is an error
+/// `print_picture_inline` for a picture file (a chart PNG); an unreadable file is an error
 /// named `what`.
 pub fn print_file_inline(
     path: &Path,

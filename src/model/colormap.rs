@@ -1,7 +1,7 @@
 //! Named colour maps, taken from the `colorgrad` crate rather than hand-typed tables. Maps are
-//! defined in display (sRGB-encoded) colour; [`Colormap::linear_rgb`] converts to linear light,
+//! defined in display (sRGB-encoded) colour; `Colormap::linear_rgb` converts to linear light,
 //! which is what an HDR image holds, so a map shows its intended colours after the sRGB curve.
-//! That curve lives here, once for the whole crate: [`linear_to_srgb`] / [`srgb_to_linear`],
+//! That curve lives here, once for the whole crate: `linear_to_srgb` / [`srgb_to_linear`],
 //! and the 8- and 16-bit quantisers every display image (PNG, terminal) goes through.
 
 use crate::error::{Error, Result};

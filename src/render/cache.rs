@@ -14,7 +14,7 @@ pub(crate) const DEFAULT_BUDGET_MIB: u64 = 2048;
 /// Environment variable with the result-cache budget in MiB when `--cache-mib` is not given.
 pub(crate) const BUDGET_ENV: &str = "HDRVIS_CACHE_MIB";
 
-/// The budget in MiB: the explicit value, else `HDRVIS_CACHE_MIB`, else [`DEFAULT_BUDGET_MIB`].
+/// The budget in MiB: the explicit value, else `HDRVIS_CACHE_MIB`, else `DEFAULT_BUDGET_MIB`.
 pub fn budget_mib(explicit: Option<u64>) -> crate::Result<u64> {
     match explicit {
         Some(v) => Ok(v),

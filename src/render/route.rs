@@ -82,7 +82,7 @@ impl Bricking {
     }
 }
 
-/// How one render runs; chosen by [`RenderSession::choose_path`].
+/// How one render runs; chosen by `RenderSession::choose_path`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RenderPath {
     /// The whole volume in one 3-D texture, ray cast in one pass (u8, f16, f32, f32c).

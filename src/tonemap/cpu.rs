@@ -121,7 +121,7 @@ pub(crate) fn luminance_log_stats(img: &HdrImage, exposure_ev: f64) -> Option<Lo
 }
 
 /// Tone-maps `img` on the CPU in f64. The result holds display-referred linear values in
-/// [0, 1] (apply [`HdrImage::to_srgb8`] or [`HdrImage::to_srgb16`] for a display image); missing pixels are
+/// [0, 1] (apply `HdrImage::to_srgb8` or `HdrImage::to_srgb16` for a display image); missing pixels are
 /// [0, 0, 0, 0]. Extra channels and metadata are carried over.
 pub fn tonemap_cpu(img: &HdrImage, s: &ToneMapSettings) -> Result<HdrImage> {
     s.validate()?;

@@ -17,7 +17,7 @@ pub use params::{Operator, ToneMapSettings};
 /// Largest exposure magnitude accepted, in stops (as [`ToneMapSettings::validate`]).
 pub(crate) const MAX_EV: f64 = 200.0;
 
-/// Checks an exposure in stops: finite and within ±[`MAX_EV`].
+/// Checks an exposure in stops: finite and within ±`MAX_EV`.
 pub fn check_ev(field: &str, ev: f64) -> Result<()> {
     if ev.is_finite() && ev.abs() <= MAX_EV {
         Ok(())

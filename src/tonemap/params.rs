@@ -109,7 +109,7 @@ impl Operator {
         Self::NAMES[self.code() as usize]
     }
 
-    /// The operator's number in the shaders' `op` field (the index into [`Operator::NAMES`]).
+    /// The operator's number in the shaders' `op` field (the index into `Operator::NAMES`).
     pub fn code(&self) -> u32 {
         match self {
             Operator::Linear => 0,
@@ -352,7 +352,7 @@ pub(crate) const REINHARD_MIN_LEVEL_SIGMA: f64 = 0.8;
 pub(crate) const REINHARD_MAX_LEVEL: u32 = 6;
 
 /// The pyramid level on which Reinhard's Gaussian of `sigma_px` pixels is computed: the
-/// coarsest whose cells of 2^k pixels leave sigma_px / 2^k >= [`REINHARD_MIN_LEVEL_SIGMA`].
+/// coarsest whose cells of 2^k pixels leave sigma_px / 2^k >= `REINHARD_MIN_LEVEL_SIGMA`.
 pub fn reinhard_level(sigma_px: f64) -> u32 {
     let mut k = 0;
     while k < REINHARD_MAX_LEVEL
@@ -376,7 +376,7 @@ pub(crate) const DURAND_MIN_LOG_WEIGHT: f64 = -80.0;
 /// luminance as a piecewise-linear function of intensity. Levels i_j = first + j step span the
 /// image's log10 luminance at most sigma_r apart; the image is box-averaged onto a grid of
 /// `cell`-pixel cells; per level, the range weights w = count exp(-(mean - i_j)^2 / 2 sigma_r^2)
-/// and w mean are blurred by a Gaussian of `sigma_cells` ([`grid_sigma`]) within `radius`
+/// and w mean are blurred by a Gaussian of `sigma_cells` (`grid_sigma`) within `radius`
 /// cells (2 sigma); each pixel interpolates the two levels around its own l, each read
 /// bilinearly from the grid as (sum w mean) / (sum w).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,12 +1,12 @@
 //! The terminal front end, `hdrvis tui SCRIPT.rhai | IMAGE.exr`: the only user of ratatui,
-//! crossterm and ratatui-image. [`app`] holds the state and the keys, [`ui`] draws it,
-//! [`view`] turns the HDR image into the display image, [`worker`] runs scripts and encodes
-//! pictures off the UI thread, [`protocol`] finds how the terminal shows pictures, [`terminal`]
+//! crossterm and ratatui-image. `app` holds the state and the keys, `ui` draws it,
+//! `view` turns the HDR image into the display image, `worker` runs scripts and encodes
+//! pictures off the UI thread, `protocol` finds how the terminal shows pictures, `terminal`
 //! guarantees the terminal is restored, `decode` (test code) reads sixel/kitty payloads back,
 //! and [`crate::bench::tui`] times key press to updated preview. One-shot inline pictures
 //! (`hdrvis run --preview`) are the io layer's ([`crate::io::terminal`]). The event loop here
 //! polls input every 15 ms and never waits on a render; what keys and worker replies do to the
-//! state is [`App`]'s.
+//! state is `App`'s.
 
 pub(crate) mod app;
 #[cfg(test)]
