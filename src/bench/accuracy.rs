@@ -34,18 +34,18 @@ pub struct AccuracyRow {
     pub psnr_8bit: f64,
     /// Fraction of lit pixels whose HDR luminance is off by more than 1 %.
     pub lost_detail: f64,
-    /// What the row is compared with: [`SAME_STEP`] (arithmetic alone), [`CONVERGED`] (the
+    /// What the row is compared with: `SAME_STEP` (arithmetic alone), `CONVERGED` (the
     /// integral itself, for the step and sampling knobs) or the surfaces' per-node f64 phase.
     pub reference: &'static str,
 }
 
 /// Reference of the precision rows: f64 on the same rays, steps and table.
-pub const SAME_STEP: &str = "f64 same step";
+pub(crate) const SAME_STEP: &str = "f64 same step";
 /// Reference of the step and transfer-function-sampling rows: f64 at 1/8 of the scene's step,
 /// pre-integrated, close enough to the integral itself that a knob's own error shows.
-pub const CONVERGED: &str = "f64 pre step/8";
+pub(crate) const CONVERGED: &str = "f64 pre step/8";
 /// Reference of the surface rows.
-pub const PER_NODE: &str = "f64 per node";
+pub(crate) const PER_NODE: &str = "f64 per node";
 
 /// A named accuracy scene.
 pub struct AccuracyScene {
@@ -66,14 +66,14 @@ pub enum SceneKind {
 }
 
 /// Names of the built-in scenes, in report order.
-pub const SCENE_NAMES: &[&str] = &["mantle", "blobs", "band", "tsunami", "fault"];
+pub(crate) const SCENE_NAMES: &[&str] = &["mantle", "blobs", "band", "tsunami", "fault"];
 
 /// The built-in accuracy scenes: the mantle's temperature fluctuation (symlog TF, as in the
 /// demo), the HDR blobs of the volume benchmark (log10 TF) and the same blobs through a narrow
 /// band of the TF (one tenth of a decade around 0.01, bright and opaque: the case that
 /// pre-integration is for), all in perspective, `size`²
 /// pixels from `n`³ voxels; and the paper's two surface case studies on `grid`² nodes
-/// ([`tsunami_scene`], [`fault_scene`]), generated through the dataset cache.
+/// (`tsunami_scene`, `fault_scene`), generated through the dataset cache.
 pub fn accuracy_scenes(
     size: u32,
     n: usize,
@@ -106,7 +106,7 @@ pub fn accuracy_scenes(
 /// wave's maximum, depth + max |η| (m; land missing), of the generated South-China-Sea-like
 /// tsunami on `n`² cells, at ν = 10 per metre (one fringe per 10 cm of wave height, as
 /// `scripts/tsunami.rhai`): metres of wave on kilometres of water put ν·d at 10⁴–4·10⁴.
-pub fn tsunami_scene(n: usize) -> Result<AccuracyScene> {
+pub(crate) fn tsunami_scene(n: usize) -> Result<AccuracyScene> {
     use crate::datasets::generate::{BathymetrySource, Job, OutputFormat, TsunamiJob};
     let job = TsunamiJob {
         bathymetry: BathymetrySource::Synthetic {
@@ -137,7 +137,7 @@ pub fn tsunami_scene(n: usize) -> Result<AccuracyScene> {
 /// buried normal fault (Okada 1985) on `n`² nodes at ν = 8 per metre (the paper's value), as
 /// an absolute position 100 km from the frame's origin (as projected or geocentric coordinates
 /// are): ν·d ≈ 8·10⁵, while the displacement itself varies by metres.
-pub fn fault_scene(n: usize) -> Result<AccuracyScene> {
+pub(crate) fn fault_scene(n: usize) -> Result<AccuracyScene> {
     use crate::datasets::generate::{Job, OkadaJob, OutputFormat};
     let job = OkadaJob {
         n,
@@ -664,7 +664,7 @@ pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
 }
 
 /// Per scene: the fastest variant within 1e-3 relative RMS, and f32's time against it.
-pub fn f32_cost_summary(rows: &[AccuracyRow]) -> Vec<String> {
+pub(crate) fn f32_cost_summary(rows: &[AccuracyRow]) -> Vec<String> {
     let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
     scenes

@@ -16,7 +16,7 @@ pub struct BrickBenchRow {
     pub scene: String,
     pub path: String,
     pub runs_ms: Vec<f64>,
-    /// CPU milliseconds of each run (see [`process_cpu_ms`]).
+    /// CPU milliseconds of each run (see `process_cpu_ms`).
     pub cpu_ms: Vec<f64>,
     pub stats: Option<BrickedStats>,
     /// Largest difference from the plain exact render, relative to its peak colour.

@@ -8,7 +8,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 /// One named group of points, each with a label drawn beside it.
-pub struct Series {
+pub(crate) struct Series {
     pub name: String,
     /// (x, y, label); points with a non-positive or non-finite coordinate cannot sit on log
     /// axes and are left out.
@@ -38,7 +38,7 @@ fn plot_err(e: impl std::fmt::Display) -> Error {
 }
 
 /// Draws `series` on log–log axes and returns the RGB8 pixels (row-major, `width`×`height`).
-pub fn log_log_chart(
+pub(crate) fn log_log_chart(
     title: &str,
     x_desc: &str,
     y_desc: &str,
@@ -136,7 +136,7 @@ pub fn log_log_chart(
 }
 
 /// Writes RGB8 pixels as a PNG (atomically).
-pub fn write_rgb_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result<()> {
+pub(crate) fn write_rgb_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result<()> {
     crate::io::write_atomic(path, |w| {
         use image::ImageEncoder;
         image::codecs::png::PngEncoder::new(w)

@@ -24,7 +24,7 @@ pub struct EffectRow {
 }
 
 impl EffectRow {
-    pub fn median_ms(&self) -> f64 {
+    pub(crate) fn median_ms(&self) -> f64 {
         median(&self.runs_ms)
     }
 }

@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 pub mod accuracy;
 pub mod bricks;
-pub mod chart;
+pub(crate) mod chart;
 pub mod datasets;
 pub mod effects;
 pub mod surface;
@@ -62,7 +62,7 @@ pub fn median(v: &[f64]) -> f64 {
 }
 
 /// Peak resident memory of this process so far (Linux VmHWM), in MiB.
-pub fn peak_memory_mib() -> Option<f64> {
+pub(crate) fn peak_memory_mib() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
@@ -73,7 +73,7 @@ pub fn peak_memory_mib() -> Option<f64> {
 /// included), from `/proc/self/stat` (Linux), or `None` elsewhere. It comes in clock ticks of
 /// 10 ms, so it means something summed over several runs; unlike wall-clock time it is barely
 /// disturbed by other jobs on the machine.
-pub fn process_cpu_ms() -> Option<f64> {
+pub(crate) fn process_cpu_ms() -> Option<f64> {
     let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
     // Fields after the parenthesised command name (which may hold spaces); utime and stime are
     // fields 14 and 15.
@@ -85,7 +85,7 @@ pub fn process_cpu_ms() -> Option<f64> {
 
 /// The mantle's temperature fluctuation on n³ voxels over [-1, 1]³ (missing outside the shell):
 /// the volume of the effects, skipping and accuracy benchmarks.
-pub fn mantle_fluctuation(n: usize, seed: u64) -> Result<Volume> {
+pub(crate) fn mantle_fluctuation(n: usize, seed: u64) -> Result<Volume> {
     use crate::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
     let m = generate(
         &MantleOptions {

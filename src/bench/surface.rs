@@ -15,14 +15,13 @@ use std::time::Instant;
 #[derive(Clone, Debug)]
 pub struct SurfaceBenchRow {
     pub name: String,
-    pub grid: usize,
     pub runs_ms: Vec<f64>,
     /// Data passes run during the timed runs (0 for the ν-change row).
     pub data_passes: u64,
 }
 
 impl SurfaceBenchRow {
-    pub fn median_ms(&self) -> f64 {
+    pub(crate) fn median_ms(&self) -> f64 {
         median(&self.runs_ms)
     }
 }
@@ -71,7 +70,6 @@ pub fn bench_surface(
     }
     let nu_row = SurfaceBenchRow {
         name: format!("nu change (step 2 only), {n}^2"),
-        grid: n,
         runs_ms: nu_ms,
         data_passes: renderer.counters().data_passes - before,
     };
@@ -89,7 +87,6 @@ pub fn bench_surface(
     }
     let full_row = SurfaceBenchRow {
         name: format!("full two-step render, {n}^2"),
-        grid: n,
         runs_ms: full_ms,
         data_passes: renderer.counters().data_passes - before,
     };

@@ -15,7 +15,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// Every operator with its published defaults, in [`Operator::NAMES`] order.
-pub const OPERATORS: [Operator; 7] = [
+pub(crate) const OPERATORS: [Operator; 7] = [
     Operator::Linear,
     Operator::DRAGO,
     Operator::REINHARD,
@@ -42,19 +42,19 @@ pub struct ToneMapBenchRow {
 }
 
 impl ToneMapBenchRow {
-    pub fn median_ms(&self) -> f64 {
+    pub(crate) fn median_ms(&self) -> f64 {
         median(&self.runs_ms)
     }
 
     /// The target for 1024² images (30 ms global, 300 ms local); none for other sizes.
-    pub fn target_ms(&self) -> Option<f64> {
+    pub(crate) fn target_ms(&self) -> Option<f64> {
         (self.size == 1024).then_some(if self.local { 300.0 } else { 30.0 })
     }
 }
 
 /// A smooth synthetic HDR image spanning about seven decades, with coloured structure at
 /// several scales (the same pattern at any size), alpha 1.
-pub fn synthetic_hdr(width: u32, height: u32) -> HdrImage {
+pub(crate) fn synthetic_hdr(width: u32, height: u32) -> HdrImage {
     let sx = width as f64 / 1024.0;
     let sy = height as f64 / 1024.0;
     let pixels = (0..width as u64 * height as u64)

@@ -15,7 +15,6 @@ use std::sync::Arc;
 #[derive(Clone, Debug)]
 pub struct BenchRow {
     pub name: String,
-    pub image: (u32, u32),
     /// Samples a ray-caster takes at one sample per voxel without early termination.
     pub samples: u64,
     pub runs_ms: Vec<f64>,
@@ -33,10 +32,10 @@ pub struct PeerResult {
 }
 
 impl BenchRow {
-    pub fn median_ms(&self) -> f64 {
+    pub(crate) fn median_ms(&self) -> f64 {
         median(&self.runs_ms)
     }
-    pub fn msamples_per_s(&self) -> f64 {
+    pub(crate) fn msamples_per_s(&self) -> f64 {
         self.samples as f64 / 1e6 / (self.median_ms() / 1e3)
     }
 }
@@ -87,7 +86,6 @@ pub fn bench_volume_render(
         let peer_result = peer.map(|script| run_vtk_peer(script, &vol, px, runs, log));
         rows.push(BenchRow {
             name,
-            image: (px, px),
             samples: px as u64 * px as u64 * n as u64,
             runs_ms,
             peer: peer_result,

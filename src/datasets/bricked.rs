@@ -7,7 +7,7 @@
 
 use super::netcdf;
 use crate::error::{Error, Result};
-use crate::model::bricks::{BrickedVolume, MemorySource, VoxelSource};
+use crate::model::bricks::{BrickedVolume, VoxelSource};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -136,7 +136,7 @@ impl Element {
 }
 
 /// A C-ordered 3-D `.npy` array read through a memory map.
-pub struct MappedNpy {
+pub(crate) struct MappedNpy {
     path: PathBuf,
     map: memmap2::Mmap,
     offset: usize,
@@ -146,7 +146,7 @@ pub struct MappedNpy {
 }
 
 impl MappedNpy {
-    pub fn open(path: &Path) -> Result<MappedNpy> {
+    pub(crate) fn open(path: &Path) -> Result<MappedNpy> {
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         // SAFETY: the map is read-only; a file truncated by another process while mapped would
         // fault on access, the usual caveat of memory-mapped reading, which is what the issue
@@ -263,7 +263,7 @@ impl VoxelSource for MappedNpy {
 /// A 3-D NetCDF variable read by hyperslabs, decoded (fill values to NaN, scale and offset) like
 /// [`super::load_volume`], with evenly spaced coordinates giving spacing and origin and
 /// decreasing ones flipped.
-pub struct NetcdfSource {
+pub(crate) struct NetcdfSource {
     path: PathBuf,
     file: netcdf_reader::NcFile,
     pub var: String,
@@ -277,7 +277,7 @@ pub struct NetcdfSource {
 }
 
 impl NetcdfSource {
-    pub fn open(path: &Path, var: Option<&str>) -> Result<NetcdfSource> {
+    pub(crate) fn open(path: &Path, var: Option<&str>) -> Result<NetcdfSource> {
         let listed = super::list_arrays(path)?;
         let fits =
             |shape: &[usize]| shape.len() >= 3 && shape[..shape.len() - 3].iter().all(|&s| s == 1);
@@ -426,14 +426,9 @@ impl VoxelSource for NetcdfSource {
     }
 }
 
-/// A volume in memory as a voxel source (re-exported for callers that brick loaded data).
-pub fn memory_source(v: Arc<crate::model::Volume>) -> Arc<dyn VoxelSource> {
-    Arc::new(MemorySource(v))
-}
-
 /// Writes a C-ordered f32 `.npy` of shape (nz, ny, nx) slice by slice, `slice(k, out)` filling
 /// z-slice k: how large benchmark volumes are made without holding them. Atomic (temp + rename).
-pub fn write_npy_f32_streaming(
+pub(crate) fn write_npy_f32_streaming(
     path: &Path,
     dims: [usize; 3],
     slice: &(dyn Fn(usize, &mut [f32]) + Sync),

@@ -13,11 +13,11 @@ use crate::error::{Error, Result};
 
 /// The cache folder and its override live in `io`, so that the GPU pipeline cache uses the same
 /// folder without `gpu` depending on `datasets`.
-pub use crate::io::{cache_dir, CACHE_ENV};
+pub(crate) use crate::io::cache_dir;
 
 /// The cached file for (`job_kind`, `key`, `ext`) in [`cache_dir`]; `make` writes it when it is
 /// missing. Returns the file's path either way.
-pub fn cached(
+pub(crate) fn cached(
     job_kind: &str,
     key: &str,
     ext: &str,
@@ -29,7 +29,7 @@ pub fn cached(
 /// [`cached`] in an explicit folder. `make` receives a temporary path in `dir` with the final
 /// extension (writers choose the format from it); the file is renamed to
 /// `<job_kind>-<key>.<ext>` only when `make` succeeded, and removed otherwise.
-pub fn cached_in(
+pub(crate) fn cached_in(
     dir: &Path,
     job_kind: &str,
     key: &str,
@@ -78,7 +78,7 @@ pub fn cached_in(
 
 /// 64-bit FNV-1a hash (Fowler, Noll and Vo; offset basis 0xcbf29ce484222325, prime
 /// 0x100000001b3): stable across runs, platforms and compiler versions, unlike std's hasher.
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a64(bytes: &[u8]) -> u64 {
     let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
     for &byte in bytes {
         hash ^= byte as u64;
@@ -88,7 +88,7 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
 }
 
 /// A cache key from a canonical text form of a job's parameters: 16 lower-case hex digits.
-pub fn key_of(canonical: &str) -> String {
+pub(crate) fn key_of(canonical: &str) -> String {
     format!("{:016x}", fnv1a64(canonical.as_bytes()))
 }
 

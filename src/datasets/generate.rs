@@ -1,6 +1,6 @@
 //! The generators as jobs: plain parameter structs for the Okada, tsunami and mantle fields,
 //! independent of any command-line parser, each with a stable cache key (FNV-1a over a canonical
-//! text of every parameter, see [`super::cache`]) and a `run` that writes the result. The output
+//! text of every parameter, see `super::cache`) and a `run` that writes the result. The output
 //! format follows the file's extension: NetCDF (`.nc`, CF-1.8 classic, with units, long names and
 //! the parameters as global attributes) or `.npy` (one array; which one is said on each job).
 //! Every write goes through a temporary file renamed into place.
@@ -68,7 +68,7 @@ impl Job {
         }
     }
 
-    pub fn cache_key(&self) -> String {
+    pub(crate) fn cache_key(&self) -> String {
         match self {
             Job::Okada(job) => job.cache_key(),
             Job::Tsunami(job) => job.cache_key(),
@@ -139,7 +139,7 @@ impl OkadaJob {
         )
     }
 
-    pub fn cache_key(&self) -> String {
+    pub(crate) fn cache_key(&self) -> String {
         cache::key_of(&self.canonical())
     }
 
@@ -368,12 +368,12 @@ impl TsunamiJob {
         )
     }
 
-    pub fn cache_key(&self) -> String {
+    pub(crate) fn cache_key(&self) -> String {
         cache::key_of(&self.canonical())
     }
 
     /// The still-water depth grid the job runs on.
-    pub fn load_bathymetry(&self) -> Result<tsunami::Bathymetry> {
+    pub(crate) fn load_bathymetry(&self) -> Result<tsunami::Bathymetry> {
         match &self.bathymetry {
             BathymetrySource::Synthetic { n, extent_m } => {
                 if !(2..=16384).contains(n) {
@@ -395,7 +395,7 @@ impl TsunamiJob {
     }
 
     /// The faults that lift the sea floor, in the grid's frame.
-    pub fn source_segments(&self, bathy: &tsunami::Bathymetry) -> Vec<FaultSegment> {
+    pub(crate) fn source_segments(&self, bathy: &tsunami::Bathymetry) -> Vec<FaultSegment> {
         if let Some(segments) = &self.segments {
             return segments.clone();
         }
@@ -593,7 +593,7 @@ impl MantleJob {
         )
     }
 
-    pub fn cache_key(&self) -> String {
+    pub(crate) fn cache_key(&self) -> String {
         cache::key_of(&self.canonical())
     }
 

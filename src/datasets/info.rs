@@ -25,7 +25,7 @@ const MAX_DECADE_ROWS: i32 = 40;
 
 /// Statistics of one array's values.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ValueStats {
+pub(crate) struct ValueStats {
     pub count: usize,
     pub finite: usize,
     pub nan: usize,
@@ -40,7 +40,7 @@ pub struct ValueStats {
 }
 
 impl ValueStats {
-    pub fn of(values: &[f64]) -> Self {
+    pub(crate) fn of(values: &[f64]) -> Self {
         let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
         let nan = values.iter().filter(|v| v.is_nan()).count();
         let zeros = finite.iter().filter(|v| **v == 0.0).count();
@@ -73,12 +73,12 @@ impl ValueStats {
     }
 
     /// Eq. 1 with d = the smallest non-zero |v|; `None` when every value is 0 or missing.
-    pub fn dynamic_range(&self) -> Option<f64> {
+    pub(crate) fn dynamic_range(&self) -> Option<f64> {
         Some((self.max? - self.min?) / self.min_abs_nonzero?)
     }
 
     /// Eq. 1 with d = the smallest gap between distinct values.
-    pub fn dynamic_range_by_gap(&self) -> Option<f64> {
+    pub(crate) fn dynamic_range_by_gap(&self) -> Option<f64> {
         Some((self.max? - self.min?) / self.min_gap?)
     }
 }

@@ -17,13 +17,13 @@ use std::f64::consts::{PI, TAU};
 use crate::error::{Error, Result};
 
 /// Core-mantle boundary radius of the non-dimensional shell (Zhong et al. 2008).
-pub const INNER_RADIUS: f64 = 0.55;
+pub(crate) const INNER_RADIUS: f64 = 0.55;
 /// Surface radius of the non-dimensional shell.
-pub const OUTER_RADIUS: f64 = 1.0;
+pub(crate) const OUTER_RADIUS: f64 = 1.0;
 /// Below about this Rayleigh number a shell does not convect, and the local Rayleigh number of a
 /// thermal boundary layer stays near it while the layer is stable (Howard 1966); both are of
 /// order 10^3, so one constant serves both.
-pub const CRITICAL_RAYLEIGH: f64 = 1.0e3;
+pub(crate) const CRITICAL_RAYLEIGH: f64 = 1.0e3;
 
 const SHELL_THICKNESS: f64 = OUTER_RADIUS - INNER_RADIUS;
 const MAX_N: usize = 2048;
@@ -144,7 +144,7 @@ impl SphericalResolution {
     /// mid-shell is a node; theta - 1 is a multiple of 4 and phi of 8 so that the equator, the
     /// 45-degree colatitudes and the eight compass longitudes are nodes. For n = 513 this is
     /// 117 x 809 x 1616 nodes (153 million, 612 MB of f32).
-    pub fn for_cartesian(n: usize) -> Self {
+    pub(crate) fn for_cartesian(n: usize) -> Self {
         let voxel = 2.0 / n.max(1) as f64;
         let radial_cells = round_up((SHELL_THICKNESS / voxel).ceil() as usize, 2).max(2);
         let theta_cells = round_up((PI * OUTER_RADIUS / voxel).ceil() as usize, 4).max(4);
@@ -310,7 +310,7 @@ impl MantleOptions {
     }
 
     /// The spherical grid these options compute on.
-    pub fn spherical_resolution(&self) -> SphericalResolution {
+    pub(crate) fn spherical_resolution(&self) -> SphericalResolution {
         self.resolution
             .unwrap_or_else(|| SphericalResolution::for_cartesian(self.n))
     }
@@ -341,7 +341,7 @@ impl MantleVolume {
     }
 
     /// Centre of cell `index` along any axis.
-    pub fn cell_centre(n: usize, index: usize) -> f64 {
+    pub(crate) fn cell_centre(n: usize, index: usize) -> f64 {
         -1.0 + (index as f64 + 0.5) * (2.0 / n as f64)
     }
 }
@@ -352,7 +352,7 @@ impl MantleVolume {
 /// fields are derived from temperature on demand: the fluctuation subtracts `radial_mean`, and
 /// viscosity is a pointwise function of temperature.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SphericalGrid {
+pub(crate) struct SphericalGrid {
     pub resolution: SphericalResolution,
     pub temperature: Vec<f32>,
     /// Area-weighted mean temperature of each radial shell of nodes, weights from
@@ -362,24 +362,29 @@ pub struct SphericalGrid {
 }
 
 impl SphericalGrid {
-    pub fn radius(&self, ir: usize) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn radius(&self, ir: usize) -> f64 {
         node_radius(&self.resolution, ir)
     }
 
-    pub fn colatitude(&self, it: usize) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn colatitude(&self, it: usize) -> f64 {
         it as f64 * self.resolution.theta_step()
     }
 
-    pub fn longitude(&self, ip: usize) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn longitude(&self, ip: usize) -> f64 {
         ip as f64 * self.resolution.phi_step()
     }
 
-    pub fn index(&self, ir: usize, it: usize, ip: usize) -> usize {
+    #[cfg(test)]
+    pub(crate) fn index(&self, ir: usize, it: usize, ip: usize) -> usize {
         (it * self.resolution.phi + ip) * self.resolution.radial + ir
     }
 
     /// Value of a field at a node.
-    pub fn node(&self, field: MantleField, ir: usize, it: usize, ip: usize) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn node(&self, field: MantleField, ir: usize, it: usize, ip: usize) -> f64 {
         let temperature = self.temperature[self.index(ir, it, ip)] as f64;
         self.derive(field, temperature, self.radial_mean[ir])
     }
@@ -388,13 +393,15 @@ impl SphericalGrid {
     /// the band [theta - dtheta/2, theta + dtheta/2] (clipped at the poles) shared equally by the
     /// row's `phi` nodes, normalised so that the weights of a sphere sum to 1. The band areas
     /// telescope to the whole sphere, so the poles get their cap and nothing is counted twice.
-    pub fn shell_weights(&self) -> Vec<f64> {
+    #[cfg(test)]
+    pub(crate) fn shell_weights(&self) -> Vec<f64> {
         row_weights(&self.resolution)
     }
 
     /// Trilinear interpolation in (r, theta, phi) at a Cartesian point; NaN outside the shell.
     /// This is exactly what `generate` does at every cell centre.
-    pub fn sample(&self, field: MantleField, x: f64, y: f64, z: f64) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn sample(&self, field: MantleField, x: f64, y: f64, z: f64) -> f64 {
         let rho = x.hypot(y);
         let phi = self.phi_cell(y.atan2(x));
         match self.interpolate(rho, z, &phi) {
@@ -403,6 +410,7 @@ impl SphericalGrid {
         }
     }
 
+    #[cfg(test)]
     fn derive(&self, field: MantleField, temperature: f64, radial_mean: f64) -> f64 {
         match field {
             MantleField::Temperature => temperature,
@@ -489,7 +497,7 @@ fn row_weights(res: &SphericalResolution) -> Vec<f64> {
 
 /// The conductive temperature of the shell with T(r_b) = 1 and T(r_t) = 0 (Zhong et al. 2008):
 /// T_c(r) = r_b (r - r_t) / (r (r_b - r_t)).
-pub fn conductive_temperature(r: f64) -> f64 {
+pub(crate) fn conductive_temperature(r: f64) -> f64 {
     INNER_RADIUS * (r - OUTER_RADIUS) / (r * (INNER_RADIUS - OUTER_RADIUS))
 }
 
@@ -500,7 +508,7 @@ pub fn conductive_temperature(r: f64) -> f64 {
 /// square over the unit sphere. For (3, 2) this is 15 sqrt(7 / (240 pi)) x (1 - x^2), at most
 /// 0.556 in magnitude, so the eps = 0.01 perturbation peaks at 0.0079 (with the sqrt(2) of
 /// cos + sin).
-pub fn normalized_legendre(degree: usize, order: usize, x: f64) -> f64 {
+pub(crate) fn normalized_legendre(degree: usize, order: usize, x: f64) -> f64 {
     if order > degree {
         return 0.0;
     }
@@ -531,7 +539,7 @@ pub fn normalized_legendre(degree: usize, order: usize, x: f64) -> f64 {
 
 /// Error function, to better than 1e-13 absolute: the Maclaurin series below 3, and above it one
 /// minus the continued fraction of erfc (Abramowitz & Stegun 7.1.5 and 7.1.14).
-pub fn erf(x: f64) -> f64 {
+pub(crate) fn erf(x: f64) -> f64 {
     if x < 0.0 {
         return -erf(-x);
     }
@@ -552,7 +560,7 @@ pub fn erf(x: f64) -> f64 {
 }
 
 /// Complementary error function for x >= 0, keeping its relative accuracy in the far tail.
-pub fn erfc(x: f64) -> f64 {
+pub(crate) fn erfc(x: f64) -> f64 {
     if x >= 3.0 {
         erfc_continued_fraction(x)
     } else {
@@ -573,7 +581,7 @@ fn erfc_continued_fraction(x: f64) -> f64 {
 /// Radial structure of a convecting shell heated from below: an isothermal interior between two
 /// error-function boundary layers.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BoundaryLayers {
+pub(crate) struct BoundaryLayers {
     /// Interior temperature T_i.
     pub interior: f64,
     /// Length scale of the top layer: T = T_i erf((r_t - r) / top) near the surface.
@@ -589,7 +597,7 @@ impl BoundaryLayers {
     /// that through the core-mantle boundary, r_t^2 T_i^(4/3) = r_b^2 (1 - T_i)^(4/3), which
     /// gives T_i = q / (1 + q) with q = (r_b / r_t)^(3/2) = 0.408, T_i = 0.290: the cool interior
     /// typical of spherical shells with a small core.
-    pub fn for_rayleigh(rayleigh: f64) -> Self {
+    pub(crate) fn for_rayleigh(rayleigh: f64) -> Self {
         let ratio = (INNER_RADIUS / OUTER_RADIUS).powf(1.5);
         let interior = ratio / (1.0 + ratio);
         let thickness =
@@ -603,7 +611,7 @@ impl BoundaryLayers {
 
     /// Temperature at radius r. Each layer is divided by its value across the whole shell so
     /// that T(r_b) = 1 and T(r_t) = 0 exactly even when layers are thick.
-    pub fn temperature(&self, r: f64) -> f64 {
+    pub(crate) fn temperature(&self, r: f64) -> f64 {
         let top = erf((OUTER_RADIUS - r) / self.top) / erf(SHELL_THICKNESS / self.top);
         let full = erf(SHELL_THICKNESS / self.bottom);
         let bottom = (erfc((r - INNER_RADIUS) / self.bottom) - (1.0 - full)) / full;
@@ -919,7 +927,8 @@ impl Model<'_> {
 
 /// Builds the temperature and its radial mean on the spherical grid, without the Cartesian
 /// resampling; `opts.fields` and `opts.n` (beyond choosing the default resolution) play no part.
-pub fn spherical_field(opts: &MantleOptions) -> Result<SphericalGrid> {
+#[cfg(test)]
+pub(crate) fn spherical_field(opts: &MantleOptions) -> Result<SphericalGrid> {
     opts.validate()?;
     build_spherical(opts, &mut |_| {})
 }

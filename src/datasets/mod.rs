@@ -3,16 +3,16 @@
 //! reader from the file name.
 
 pub mod bricked;
-pub mod cache;
+pub(crate) mod cache;
 pub mod generate;
 pub mod info;
 pub mod mantle;
 pub mod netcdf;
-pub mod nhdr;
+pub(crate) mod nhdr;
 pub mod npy;
 pub mod okada;
 pub mod tsunami;
-pub mod vti;
+pub(crate) mod vti;
 
 use crate::error::{Error, Result};
 use crate::model::{Grid, GridCoords, Volume};
@@ -85,14 +85,11 @@ fn volume_from_npy(path: &Path) -> Result<Volume> {
         .map_err(|e| Error::format(path, e.to_string()))
 }
 
-/// A 2-D field for the surface renderer: `(shape [ny, nx], values in C order (x fastest),
-/// coordinates (x, y) when the file has them)`. `.npy`: the array; `.npz`: the array `var`, else
-/// the largest 2-D one, with coordinates from arrays named `x`/`lon`/`longitude` and
-/// `y`/`lat`/`latitude` of matching lengths; `.nc`: the variable `var`, else the first 2-D data
-/// variable, with its dimensions' coordinate variables. Leading length-1 dimensions are dropped.
-/// Coordinates are returned as stored (they may decrease). NaN marks missing values.
+/// [`read_grid`] as bare arrays: `(shape [ny, nx], values in C order (x fastest), coordinates
+/// (x, y) when the file has them)`.
 #[allow(clippy::type_complexity)]
-pub fn load_grid_arrays(
+#[cfg(test)]
+pub(crate) fn load_grid_arrays(
     path: &Path,
     var: Option<&str>,
 ) -> Result<(Vec<usize>, Vec<f64>, Option<(Vec<f64>, Vec<f64>)>)> {
@@ -112,7 +109,7 @@ pub struct GridAxis {
     pub values: Vec<f64>,
 }
 
-/// A 2-D field with its metadata, as [`load_grid_arrays`] reads it.
+/// A 2-D field with its metadata, as [`read_grid`] reads it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridFile {
     pub name: String,
@@ -124,7 +121,12 @@ pub struct GridFile {
     pub y: Option<GridAxis>,
 }
 
-/// [`load_grid_arrays`] with the names and units of the variable and its coordinates.
+/// A 2-D field for the surface renderer, with the names and units of the variable and its
+/// coordinates. `.npy`: the array; `.npz`: the array `var`, else the largest 2-D one, with
+/// coordinates from arrays named `x`/`lon`/`longitude` and `y`/`lat`/`latitude` of matching
+/// lengths; `.nc`: the variable `var`, else the first 2-D data variable, with its dimensions'
+/// coordinate variables. Leading length-1 dimensions are dropped. Coordinates are returned as
+/// stored (they may decrease). NaN marks missing values.
 pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
     let array = read_array(path, var, Some(2))?;
     let [ny, nx] = [array.shape[0], array.shape[1]];
@@ -276,7 +278,7 @@ fn same_shape_arrays(
 
 /// Name, shape and on-disk type of one array or variable in a file.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ArrayListing {
+pub(crate) struct ArrayListing {
     pub name: String,
     pub shape: Vec<usize>,
     pub dtype: String,
@@ -286,7 +288,7 @@ pub struct ArrayListing {
 
 /// One array read in full, values converted to f64 (C order), NaN for missing values.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ArrayData {
+pub(crate) struct ArrayData {
     pub name: String,
     /// Dimension names (NetCDF); `dim0`, `dim1`, ... elsewhere.
     pub dims: Vec<String>,
@@ -301,7 +303,7 @@ pub struct ArrayData {
 
 /// The arrays a file holds: every variable of a NetCDF file, every member of an `.npz`, the one
 /// array of `.npy`, `.vti`, `.nhdr`/`.nrrd` files.
-pub fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
+pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
     match crate::io::extension(path).as_str() {
         "npz" => {
             let mut archive = open_npz(path)?;
@@ -353,7 +355,7 @@ pub fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
 /// `.npz` gives its largest array and a NetCDF file its first numeric variable that is not a
 /// coordinate. With `rank`, leading length-1 dimensions are dropped down to that rank and an
 /// array of another rank is refused (or, without `var`, skipped).
-pub fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
     if !path.exists() {
         return Err(Error::io(
             path,

@@ -21,7 +21,7 @@ pub enum NcAttribute {
 }
 
 /// Dimensions as `(name, length)`, slowest first.
-pub type Dims = Vec<(String, usize)>;
+pub(crate) type Dims = Vec<(String, usize)>;
 
 /// A variable read with CF decoding applied: `data` is in physical units, C order (last dimension
 /// fastest), with fill and missing values as NaN.
@@ -151,7 +151,7 @@ pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {
 /// The coordinate variable of a dimension (a 1-D variable named like it), CF-decoded, or `None`
 /// when the dimension has no coordinate variable. Coordinates must be finite and strictly
 /// monotonic, since cell positions are derived from them.
-pub fn read_coordinate(path: impl AsRef<Path>, dim_name: &str) -> Result<Option<Vec<f64>>> {
+pub(crate) fn read_coordinate(path: impl AsRef<Path>, dim_name: &str) -> Result<Option<Vec<f64>>> {
     let path = path.as_ref();
     let file = open(path)?;
     let dims = file.dimensions().map_err(|e| reader_error(path, e))?;

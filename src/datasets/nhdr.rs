@@ -94,7 +94,7 @@ impl Fields<'_> {
 }
 
 /// Reads a `.nhdr` or `.nrrd` volume (see the module documentation).
-pub fn read_nrrd(path: &Path) -> Result<Volume> {
+pub(crate) fn read_nrrd(path: &Path) -> Result<Volume> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if !bytes.starts_with(b"NRRD000") {
         return Err(Error::format(

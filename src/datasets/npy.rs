@@ -8,7 +8,7 @@ use std::path::Path;
 
 /// An n-dimensional array read from disk, converted to the requested float type.
 #[derive(Clone, Debug)]
-pub struct NpyArray<T> {
+pub(crate) struct NpyArray<T> {
     /// Shape as NumPy reports it (slowest axis first).
     pub shape: Vec<usize>,
     pub data: Vec<T>,
@@ -17,7 +17,7 @@ pub struct NpyArray<T> {
 }
 
 /// Floating types an array can be read into.
-pub trait ReadAs: Copy + Send + 'static {
+pub(crate) trait ReadAs: Copy + Send + 'static {
     fn from_f64(v: f64) -> Self;
     fn from_f32(v: f32) -> Self;
 }
@@ -38,7 +38,7 @@ impl ReadAs for f64 {
     }
 }
 
-pub fn read_npy<T: ReadAs>(path: &Path) -> Result<NpyArray<T>> {
+pub(crate) fn read_npy<T: ReadAs>(path: &Path) -> Result<NpyArray<T>> {
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let file_len = file.metadata().map_err(|e| Error::io(path, e))?.len();
     read_npy_from(std::io::BufReader::new(file), file_len, path)
@@ -46,7 +46,7 @@ pub fn read_npy<T: ReadAs>(path: &Path) -> Result<NpyArray<T>> {
 
 /// Reads an array from any reader (a plain file or a member of an `.npz` archive); `byte_len` is
 /// the stored size, used to refuse headers that promise more data than exists.
-pub fn read_npy_from<T: ReadAs, R: std::io::Read>(
+pub(crate) fn read_npy_from<T: ReadAs, R: std::io::Read>(
     reader: R,
     byte_len: u64,
     path: &Path,

@@ -1,6 +1,6 @@
 //! Displacement of an elastic half-space by finite rectangular dislocations: Okada (1985,
 //! BSSA 75, 1135-1154) at the free surface and Okada (1992, BSSA 82, 1018-1040, "DC3D") at depth,
-//! with the papers' rules for their singular cases. Two layers: [`OkadaRectangle`] works in
+//! with the papers' rules for their singular cases. Two layers: `OkadaRectangle` works in
 //! Okada's own frame (x along strike, y perpendicular, z up, origin at the bottom-left corner of
 //! the fault) and is what the published check lists test; [`FaultSegment`] places faults in
 //! project coordinates (x east, y north, z up, metres) with strike, dip and rake, and
@@ -27,7 +27,7 @@ const SNAP_RELATIVE: f64 = 1e-9;
 
 /// Largest grid side accepted by [`surface_field`]; 8193^2 nodes already need 1.6 GB for the
 /// three components.
-pub const MAX_GRID_SIDE: usize = 8193;
+pub(crate) const MAX_GRID_SIDE: usize = 8193;
 
 // ---------------------------------------------------------------------------------------------
 // Okada's frame
@@ -41,7 +41,7 @@ pub const MAX_GRID_SIDE: usize = 8193;
 /// `strike_slip` (U1, positive left-lateral), `dip_slip` (U2, positive reverse for a positive dip),
 /// `tensile` (U3, positive opening). Any consistent length unit.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct OkadaRectangle {
+pub(crate) struct OkadaRectangle {
     pub length: f64,
     pub width: f64,
     /// Depth of the origin corner (Okada's d in 1985, c in 1992), positive downwards.
@@ -56,6 +56,7 @@ pub struct OkadaRectangle {
 impl OkadaRectangle {
     /// Checks that the numbers describe a buried fault in a valid medium; `alpha` is
     /// (lambda + mu) / (lambda + 2 mu), which lies in (1/4, 1] for Poisson ratios in (-1, 1/2].
+    #[cfg(test)]
     fn check(&self, alpha: f64) -> Result<()> {
         let named = [
             ("length", self.length),
@@ -107,7 +108,8 @@ impl OkadaRectangle {
     }
 
     /// Surface displacement (ux, uy, uz) at (x, y, 0) by Okada's (1985) finite-source formulas.
-    pub fn surface_displacement(&self, alpha: f64, x: f64, y: f64) -> Result<[f64; 3]> {
+    #[cfg(test)]
+    pub(crate) fn surface_displacement(&self, alpha: f64, x: f64, y: f64) -> Result<[f64; 3]> {
         self.check(alpha)?;
         if !(x.is_finite() && y.is_finite()) {
             return Err(Error::invalid("x/y", "observation point must be finite"));
@@ -118,7 +120,8 @@ impl OkadaRectangle {
     /// Displacement (ux, uy, uz) at (x, y, z), z <= 0, by Okada (1992) DC3D. A point on an edge
     /// of the fault, where the displacement is singular, is an error; a point on the fault's
     /// surface gets the mean of the two sides.
-    pub fn displacement(&self, alpha: f64, x: f64, y: f64, z: f64) -> Result<[f64; 3]> {
+    #[cfg(test)]
+    pub(crate) fn displacement(&self, alpha: f64, x: f64, y: f64, z: f64) -> Result<[f64; 3]> {
         self.check(alpha)?;
         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
             return Err(Error::invalid("x/y/z", "observation point must be finite"));
@@ -623,7 +626,7 @@ impl FaultSegment {
     }
 
     /// Depth of the fault's centre, positive downwards.
-    pub fn centroid_depth_m(&self) -> f64 {
+    pub(crate) fn centroid_depth_m(&self) -> f64 {
         match self.depth_ref {
             DepthRef::Top => self.depth_m + self.half_height(),
             DepthRef::Centroid => self.depth_m,
@@ -632,12 +635,13 @@ impl FaultSegment {
     }
 
     /// Depth of the shallowest edge, positive downwards.
-    pub fn top_depth_m(&self) -> f64 {
+    pub(crate) fn top_depth_m(&self) -> f64 {
         self.centroid_depth_m() - self.half_height()
     }
 
     /// Depth of the deepest edge, positive downwards.
-    pub fn bottom_depth_m(&self) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn bottom_depth_m(&self) -> f64 {
         self.centroid_depth_m() + self.half_height()
     }
 
@@ -835,7 +839,7 @@ fn prepare_all(segments: &[FaultSegment], elastic: &Elastic) -> Result<Vec<Prepa
 
 /// Displacement (east, north, up) in metres at (x, y, z), z <= 0, summed over the segments:
 /// Okada (1985) at the surface, Okada (1992) below it.
-pub fn displacement_at(
+pub(crate) fn displacement_at(
     segments: &[FaultSegment],
     elastic: &Elastic,
     x: f64,

@@ -12,13 +12,13 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 
 /// Standard gravity used by default, m/s^2.
-pub const DEFAULT_GRAVITY: f64 = 9.81;
+pub(crate) const DEFAULT_GRAVITY: f64 = 9.81;
 
 /// Fraction of the CFL limit used when no time step is given.
-pub const DEFAULT_CFL_FRACTION: f64 = 0.8;
+pub(crate) const DEFAULT_CFL_FRACTION: f64 = 0.8;
 
 /// Mean Earth radius (IUGG), used by the degree-to-metre conversion.
-pub const EARTH_RADIUS_M: f64 = 6_371_000.0;
+pub(crate) const EARTH_RADIUS_M: f64 = 6_371_000.0;
 
 /// Side of the square domain that `manila_trench_source` positions refer to.
 pub const SOUTH_CHINA_SEA_EXTENT_M: f64 = 2_000_000.0;
@@ -29,7 +29,7 @@ const MIN_TOTAL_DEPTH_M: f64 = 0.01;
 
 /// Still-water depth on a regular grid.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Bathymetry {
+pub(crate) struct Bathymetry {
     pub nx: usize,
     pub ny: usize,
     pub dx_m: f64,
@@ -41,7 +41,7 @@ pub struct Bathymetry {
 
 impl Bathymetry {
     /// Checks the sizes, the spacing and that every depth is finite.
-    pub fn validate(&self) -> Result<()> {
+    pub(crate) fn validate(&self) -> Result<()> {
         if self.nx == 0 || self.ny == 0 {
             return Err(Error::invalid(
                 "bathymetry",
@@ -89,12 +89,13 @@ impl Bathymetry {
     }
 
     /// Largest still-water depth, 0 when every cell is land.
-    pub fn max_depth_m(&self) -> f64 {
+    pub(crate) fn max_depth_m(&self) -> f64 {
         self.depth_m.iter().fold(0.0_f64, |acc, &d| acc.max(d))
     }
 
     /// Largest stable time step of the 2-D leap-frog scheme, min(dx, dy) / sqrt(2 g h_max).
-    pub fn cfl_limit_s(&self, g: f64) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn cfl_limit_s(&self, g: f64) -> f64 {
         self.dx_m.min(self.dy_m) / (2.0 * g * self.max_depth_m()).sqrt()
     }
 }
@@ -142,7 +143,7 @@ impl Default for TsunamiOptions {
 }
 
 #[derive(Debug, Clone, PartialEq)]
-pub struct TsunamiResult {
+pub(crate) struct TsunamiResult {
     /// Largest |eta| reached in each cell over the run, the initial state included, m.
     pub max_abs_eta: Vec<f64>,
     /// First time |eta| exceeded the arrival threshold, s; NaN where it never did.
@@ -157,7 +158,7 @@ pub struct TsunamiResult {
 /// Propagates the initial sea-surface displacement `eta0` (same layout as the depth grid; the
 /// water starts at rest) for `opts.duration_s`. Displacement given on land cells is ignored.
 /// `progress` receives the fraction of steps done, at most about a hundred times, ending at 1.
-pub fn simulate(
+pub(crate) fn simulate(
     bathy: &Bathymetry,
     eta0: &[f64],
     opts: &TsunamiOptions,
@@ -729,7 +730,7 @@ fn manning_friction(scale: f64, along: f64, across: f64, depth: f64) -> f64 {
 
 /// Bathymetry from an elevation grid (positive up, as in `topobathy.npz`): depth = -elevation.
 /// Rows must run south to north (`j * nx + i`); flip a north-up raster first.
-pub fn bathymetry_from_elevation(
+pub(crate) fn bathymetry_from_elevation(
     elevation_m: &[f64],
     nx: usize,
     ny: usize,
@@ -763,7 +764,7 @@ pub fn bathymetry_from_elevation(
 /// latitude and scale with cos(latitude) elsewhere, so over a grid spanning +-1 degree of
 /// latitude around 49 N they are off by up to about 2 % at the northern and southern rows; the
 /// ellipsoid's flattening adds up to about 0.5 %. Good for tsunami travel times on regional grids.
-pub fn degree_spacing_to_metres(
+pub(crate) fn degree_spacing_to_metres(
     dlon_deg: f64,
     dlat_deg: f64,
     mean_latitude_deg: f64,
@@ -793,7 +794,10 @@ pub fn degree_spacing_to_metres(
 /// using the mean step and `degree_spacing_to_metres` at the mean latitude. The solver needs a
 /// uniform grid, so each step may differ from the mean by at most 5 %: stored grids are often
 /// only nearly uniform (the latitude steps of `topobathy.npz` vary by about +-2 %).
-pub fn grid_spacing_from_lonlat(longitude_deg: &[f64], latitude_deg: &[f64]) -> Result<(f64, f64)> {
+pub(crate) fn grid_spacing_from_lonlat(
+    longitude_deg: &[f64],
+    latitude_deg: &[f64],
+) -> Result<(f64, f64)> {
     let spacing = |field: &str, values: &[f64]| -> Result<f64> {
         if values.len() < 2 || values.iter().any(|v| !v.is_finite()) {
             return Err(Error::invalid(
@@ -826,7 +830,7 @@ pub fn grid_spacing_from_lonlat(longitude_deg: &[f64], latitude_deg: &[f64]) -> 
 /// shelf), a 4000 m abyssal plain with gentle relief, and a trench reaching 5300 m west of Luzon
 /// along strike 350 degrees, like the Manila trench. Land cells carry negative depth (elevation).
 /// All features scale with `extent_m`.
-pub fn synthetic_south_china_sea(n: usize, extent_m: f64) -> Bathymetry {
+pub(crate) fn synthetic_south_china_sea(n: usize, extent_m: f64) -> Bathymetry {
     let n = n.max(2);
     let d = extent_m / n as f64;
     let mut depth_m = Vec::with_capacity(n * n);
@@ -902,7 +906,7 @@ fn manila_trench_coordinates(u: f64, v: f64) -> (f64, f64) {
 /// right of strike, rake +90 = pure thrust). Positions are metres in the synthetic basin's frame
 /// (origin at its south-west corner, x east, y north).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FaultSource {
+pub(crate) struct FaultSource {
     /// Degrees clockwise from north.
     pub strike_deg: f64,
     pub dip_deg: f64,
@@ -921,18 +925,14 @@ pub struct FaultSource {
 
 impl FaultSource {
     /// Depth of the up-dip (top) edge.
-    pub fn top_edge_depth_m(&self) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn top_edge_depth_m(&self) -> f64 {
         self.depth_m - 0.5 * self.width_m * self.dip_deg.to_radians().sin()
-    }
-
-    /// Depth of the down-dip (bottom) edge, the reference depth of Okada (1985).
-    pub fn bottom_edge_depth_m(&self) -> f64 {
-        self.depth_m + 0.5 * self.width_m * self.dip_deg.to_radians().sin()
     }
 
     /// The same fault placed in a synthetic basin of side `extent_m` instead of
     /// `SOUTH_CHINA_SEA_EXTENT_M`: the position scales, the fault's size does not.
-    pub fn scaled_to_extent(self, extent_m: f64) -> FaultSource {
+    pub(crate) fn scaled_to_extent(self, extent_m: f64) -> FaultSource {
         let scale = extent_m / SOUTH_CHINA_SEA_EXTENT_M;
         FaultSource {
             x_m: self.x_m * scale,
@@ -946,7 +946,7 @@ impl FaultSource {
 /// strike 350, dip 20, rake 90 degrees, 8 m of slip on a 200 km x 80 km plane whose top edge
 /// lies 5 km below the sea floor under the trench axis (so the centre is at 18.68 km depth),
 /// dipping east under Luzon. Magnitude about Mw 8.4 for a rigidity of 40 GPa.
-pub fn manila_trench_source() -> FaultSource {
+pub(crate) fn manila_trench_source() -> FaultSource {
     let (strike_deg, dip_deg) = (MANILA_TRENCH_STRIKE_DEG, 20.0_f64);
     let (width_m, top_depth_m) = (80_000.0, 5_000.0);
     let dip = dip_deg.to_radians();

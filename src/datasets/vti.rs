@@ -16,7 +16,7 @@ use crate::error::{Error, Result};
 /// A cell-centred scalar volume: `dims = [nx, ny, nz]` cells of size `spacing`, the first cell's
 /// minimum corner at `origin`, values x fastest then y then z.
 #[derive(Debug, Clone, PartialEq)]
-pub struct VtiVolume {
+pub(crate) struct VtiVolume {
     pub dims: [usize; 3],
     pub spacing: [f64; 3],
     pub origin: [f64; 3],
@@ -26,7 +26,8 @@ pub struct VtiVolume {
 
 /// Writes a volume as a `.vti` file readable by ParaView, through a temporary file renamed into
 /// place.
-pub fn write_vti(
+#[cfg(test)]
+pub(crate) fn write_vti(
     path: impl AsRef<Path>,
     dims: [usize; 3],
     spacing: [f64; 3],
@@ -105,7 +106,7 @@ pub fn write_vti(
 /// Reads a `.vti` file's scalar array: the `CellData` array named by its `Scalars` attribute (or
 /// its first), else the first `PointData` array. Compressed files are refused with an error that
 /// says so.
-pub fn read_vti(path: impl AsRef<Path>) -> Result<VtiVolume> {
+pub(crate) fn read_vti(path: impl AsRef<Path>) -> Result<VtiVolume> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     read_vti_bytes(path, &bytes)

@@ -2,7 +2,7 @@
 //! line each.
 
 /// A storage buffer at `binding`.
-pub fn storage_buffer(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn storage_buffer(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     entry(
         binding,
         wgpu::BindingType::Buffer {
@@ -15,7 +15,7 @@ pub fn storage_buffer(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEnt
 
 /// A uniform buffer at binding 0, then `inputs` read-only and `outputs` read-write storage
 /// buffers at the bindings after it, in that order.
-pub fn uniform_then_storage(inputs: u32, outputs: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
+pub(crate) fn uniform_then_storage(inputs: u32, outputs: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
     std::iter::once(uniform_buffer(0))
         .chain((1..=inputs).map(|b| storage_buffer(b, true)))
         .chain((inputs + 1..=inputs + outputs).map(|b| storage_buffer(b, false)))
@@ -23,7 +23,7 @@ pub fn uniform_then_storage(inputs: u32, outputs: u32) -> Vec<wgpu::BindGroupLay
 }
 
 /// A uniform buffer at `binding`.
-pub fn uniform_buffer(binding: u32) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn uniform_buffer(binding: u32) -> wgpu::BindGroupLayoutEntry {
     entry(
         binding,
         wgpu::BindingType::Buffer {
@@ -35,7 +35,7 @@ pub fn uniform_buffer(binding: u32) -> wgpu::BindGroupLayoutEntry {
 }
 
 /// A sampled float texture at `binding`.
-pub fn texture(
+pub(crate) fn texture(
     binding: u32,
     dimension: wgpu::TextureViewDimension,
     filterable: bool,
@@ -51,7 +51,7 @@ pub fn texture(
 }
 
 /// A write-only Rgba32Float 2-D storage texture at `binding`.
-pub fn storage_texture_rgba32f(binding: u32) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn storage_texture_rgba32f(binding: u32) -> wgpu::BindGroupLayoutEntry {
     entry(
         binding,
         wgpu::BindingType::StorageTexture {
@@ -63,7 +63,7 @@ pub fn storage_texture_rgba32f(binding: u32) -> wgpu::BindGroupLayoutEntry {
 }
 
 /// A filtering sampler at `binding`.
-pub fn filtering_sampler(binding: u32) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn filtering_sampler(binding: u32) -> wgpu::BindGroupLayoutEntry {
     entry(
         binding,
         wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),

@@ -3,9 +3,9 @@
 //! fallback. Capabilities that change how hdrvis renders — float32 filtering, f64 and f16 in
 //! shaders, texture limits — are detected here, and every missing one has a working path.
 
-pub mod layout;
+pub(crate) mod layout;
 pub(crate) mod pipeline;
-pub mod readback;
+pub(crate) mod readback;
 pub mod shader;
 pub mod transfer;
 
@@ -13,11 +13,11 @@ use crate::error::{Error, Result};
 use std::sync::Arc;
 
 /// Environment variable that selects the backend when `--backend` is not given.
-pub const BACKEND_ENV: &str = "HDRVIS_BACKEND";
+pub(crate) const BACKEND_ENV: &str = "HDRVIS_BACKEND";
 /// Environment variable listing capabilities to treat as missing (comma-separated), so the
 /// fallback paths can be exercised on any machine: `float32_filterable`, `shader_f64`, `shader_f16`,
 /// `mappable_primary_buffers`.
-pub const DISABLE_ENV: &str = "HDRVIS_DISABLE_FEATURES";
+pub(crate) const DISABLE_ENV: &str = "HDRVIS_DISABLE_FEATURES";
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BackendChoice {
@@ -101,7 +101,7 @@ struct PersistentPipelineCache {
 }
 
 /// Environment variable that turns the on-disk pipeline cache off (`0`).
-pub const PIPELINE_CACHE_ENV: &str = "HDRVIS_PIPELINE_CACHE";
+pub(crate) const PIPELINE_CACHE_ENV: &str = "HDRVIS_PIPELINE_CACHE";
 
 impl std::fmt::Debug for GpuContext {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -273,7 +273,7 @@ impl GpuContext {
         }))
     }
 
-    pub fn backend_name(&self) -> &'static str {
+    pub(crate) fn backend_name(&self) -> &'static str {
         match self.info.backend {
             wgpu::Backend::Vulkan => "Vulkan",
             wgpu::Backend::Gl => "GL",
@@ -332,18 +332,18 @@ impl GpuContext {
     }
 
     /// The pipeline cache to pass to pipeline creation (`None` where the backend has none).
-    pub fn pipeline_cache(&self) -> Option<&wgpu::PipelineCache> {
+    pub(crate) fn pipeline_cache(&self) -> Option<&wgpu::PipelineCache> {
         self.pipeline_cache.as_ref().map(|p| &p.cache)
     }
 
     /// Where the pipeline cache lives on disk, if there is one.
-    pub fn pipeline_cache_path(&self) -> Option<&std::path::Path> {
+    pub(crate) fn pipeline_cache_path(&self) -> Option<&std::path::Path> {
         self.pipeline_cache.as_ref().map(|p| p.path.as_path())
     }
 
     /// Writes the pipeline cache to disk if pipelines were added since it was loaded; also done
     /// when the context is dropped. Failures only cost the next run its head start.
-    pub fn save_pipeline_cache(&self) {
+    pub(crate) fn save_pipeline_cache(&self) {
         if let Some(p) = &self.pipeline_cache {
             p.save();
         }
@@ -351,7 +351,7 @@ impl GpuContext {
 
     /// A 3-D single-channel f32 texture of `size` texels (x, y, z) that shaders sample and the
     /// host writes: a volume or a brick atlas.
-    pub fn r32f_texture_3d(&self, label: &str, size: [u32; 3]) -> wgpu::Texture {
+    pub(crate) fn r32f_texture_3d(&self, label: &str, size: [u32; 3]) -> wgpu::Texture {
         self.device.create_texture(&wgpu::TextureDescriptor {
             label: Some(label),
             size: wgpu::Extent3d {

@@ -5,7 +5,10 @@ use super::GpuContext;
 use crate::error::{Error, Result};
 
 /// Reads an Rgba32Float texture back as row-major pixels.
-pub fn read_rgba32f_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Result<Vec<[f32; 4]>> {
+pub(crate) fn read_rgba32f_texture(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+) -> Result<Vec<[f32; 4]>> {
     let (w, h) = (texture.width(), texture.height());
     let row = w as u64 * 16;
     let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64)
@@ -50,13 +53,13 @@ pub fn read_rgba32f_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Result
 }
 
 /// Maps a MAP_READ buffer and copies its contents out.
-pub fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
+pub(crate) fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
     read_mapped(ctx, buffer, buffer.size())
 }
 
 /// Maps a MAP_READ buffer the GPU has filled and copies its first `bytes` out as `T`s: the one
 /// readback path of the renderers and the tone mapper.
-pub fn read_mapped<T: bytemuck::Pod>(
+pub(crate) fn read_mapped<T: bytemuck::Pod>(
     ctx: &GpuContext,
     buffer: &wgpu::Buffer,
     bytes: u64,

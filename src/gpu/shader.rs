@@ -6,7 +6,7 @@
 use crate::error::{Error, Result};
 
 /// Every shader source, embedded at build time so the binary is self-contained.
-pub const SOURCES: &[(&str, &str)] = &[
+pub(crate) const SOURCES: &[(&str, &str)] = &[
     ("volume.wgsl", include_str!("../../shaders/volume.wgsl")),
     (
         "volume_f64.wgsl",
@@ -72,7 +72,8 @@ pub const SOURCES: &[(&str, &str)] = &[
 
 /// The pipeline shaders (not the shared pieces) with every define combination they are built
 /// with, so tests can validate each variant.
-pub const PIPELINES: &[(&str, &[&[&str]])] = &[
+#[cfg(test)]
+pub(crate) const PIPELINES: &[(&str, &[&[&str]])] = &[
     (
         "volume.wgsl",
         &[
@@ -99,7 +100,7 @@ pub const PIPELINES: &[(&str, &[&[&str]])] = &[
 
 /// Development aid: with `HDRVIS_SHADER_DIR` set, shaders are read from that folder at run time
 /// instead of the copies embedded at build time, so a shader can be tuned without rebuilding.
-pub const SHADER_DIR_ENV: &str = "HDRVIS_SHADER_DIR";
+pub(crate) const SHADER_DIR_ENV: &str = "HDRVIS_SHADER_DIR";
 
 fn source(name: &str) -> Result<std::borrow::Cow<'static, str>> {
     if let Ok(dir) = std::env::var(SHADER_DIR_ENV) {

@@ -10,14 +10,19 @@ use super::GpuContext;
 use crate::error::{Error, Result};
 
 /// A storage buffer the host uploads into (binding it read-only or read-write).
-pub struct UploadBuffer {
+pub(crate) struct UploadBuffer {
     pub buffer: wgpu::Buffer,
     direct: bool,
 }
 
 impl UploadBuffer {
     /// A buffer of `bytes` (rounded up to 16) with STORAGE usage plus `extra`.
-    pub fn new(ctx: &GpuContext, label: &str, bytes: u64, extra: wgpu::BufferUsages) -> Self {
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        label: &str,
+        bytes: u64,
+        extra: wgpu::BufferUsages,
+    ) -> Self {
         let direct = ctx.caps.mappable_primary_buffers;
         let mut usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra;
         if direct {
@@ -35,7 +40,7 @@ impl UploadBuffer {
     /// Writes `data` at the start of the buffer. The GPU must not be using the buffer (every
     /// caller waits for its submission before the next upload). Without direct mapping the
     /// bytes land in wgpu's staging memory and are copied at the next submit.
-    pub fn write(&self, ctx: &GpuContext, data: &[u8]) -> Result<()> {
+    pub(crate) fn write(&self, ctx: &GpuContext, data: &[u8]) -> Result<()> {
         self.write_with(ctx, data.len() as u64, |mut dst| dst.copy_from_slice(data))
     }
 
@@ -43,7 +48,7 @@ impl UploadBuffer {
     /// wgpu's staging memory; write-only, as it may be write-combining) to `fill`, so a caller
     /// can produce its data in place — in parallel, and scanning it on the way — rather than
     /// copy a finished array.
-    pub fn write_with(
+    pub(crate) fn write_with(
         &self,
         ctx: &GpuContext,
         size: u64,
@@ -88,7 +93,7 @@ impl UploadBuffer {
 }
 
 /// A storage buffer the GPU writes and the host reads back.
-pub struct ReadbackBuffer {
+pub(crate) struct ReadbackBuffer {
     pub buffer: wgpu::Buffer,
     /// The MAP_READ copy target when the storage buffer itself cannot be mapped.
     staging: Option<wgpu::Buffer>,
@@ -96,7 +101,12 @@ pub struct ReadbackBuffer {
 
 impl ReadbackBuffer {
     /// A buffer of `bytes` (rounded up to 16) with STORAGE usage plus `extra`.
-    pub fn new(ctx: &GpuContext, label: &str, bytes: u64, extra: wgpu::BufferUsages) -> Self {
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        label: &str,
+        bytes: u64,
+        extra: wgpu::BufferUsages,
+    ) -> Self {
         let size = bytes.max(16).next_multiple_of(16);
         let direct = ctx.caps.mappable_primary_buffers;
         let mut usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | extra;
@@ -122,7 +132,7 @@ impl ReadbackBuffer {
 
     /// Records the copy of the first `bytes` into the staging buffer, when there is one; call
     /// after the passes that write the buffer, before submitting.
-    pub fn record_copy(&self, encoder: &mut wgpu::CommandEncoder, bytes: u64) {
+    pub(crate) fn record_copy(&self, encoder: &mut wgpu::CommandEncoder, bytes: u64) {
         if let Some(staging) = &self.staging {
             let size = bytes.max(16).next_multiple_of(4).min(staging.size());
             encoder.copy_buffer_to_buffer(&self.buffer, 0, staging, 0, size);
@@ -130,7 +140,7 @@ impl ReadbackBuffer {
     }
 
     /// Waits for the submitted work and copies the first `bytes` out as `T`s.
-    pub fn read<T: bytemuck::Pod>(&self, ctx: &GpuContext, bytes: u64) -> Result<Vec<T>> {
+    pub(crate) fn read<T: bytemuck::Pod>(&self, ctx: &GpuContext, bytes: u64) -> Result<Vec<T>> {
         let mapped = self.staging.as_ref().unwrap_or(&self.buffer);
         super::readback::read_mapped(ctx, mapped, bytes)
     }

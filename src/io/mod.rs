@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 /// Writes a file atomically: `fill` writes into a temporary file beside `path`, which is renamed
 /// over `path` only when `fill` succeeded.
-pub fn write_atomic(
+pub(crate) fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> Result<()>,
 ) -> Result<()> {
@@ -46,13 +46,13 @@ pub fn extension(path: &Path) -> String {
 }
 
 /// Environment variable that overrides the cache folder.
-pub const CACHE_ENV: &str = "HDRVIS_CACHE";
+pub(crate) const CACHE_ENV: &str = "HDRVIS_CACHE";
 
 /// The folder hdrvis caches generated datasets and compiled pipelines in: `$HDRVIS_CACHE` when
 /// that is set, else `datasets/cache` in the hdrvis checkout that contains the working directory
 /// (found by walking up to a `Cargo.toml` naming the package `hdrvis`), else `datasets/cache`
 /// under the working directory.
-pub fn cache_dir() -> PathBuf {
+pub(crate) fn cache_dir() -> PathBuf {
     if let Some(dir) = std::env::var_os(CACHE_ENV).filter(|d| !d.is_empty()) {
         return PathBuf::from(dir);
     }

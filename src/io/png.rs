@@ -1,5 +1,5 @@
 //! PNG display views of HDR images: a plain exposure (× 2^EV) followed by the sRGB curve, 8-bit
-//! or 16-bit ([`HdrImage::to_srgb8`], [`HdrImage::to_srgb16`]), composited over the image's own
+//! or 16-bit (`HdrImage::to_srgb8`, `HdrImage::to_srgb16`), composited over the image's own
 //! background (colour is premultiplied, so RGB is final). Real tone-mapping operators feed the
 //! same writer with display-referred values.
 

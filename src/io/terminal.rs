@@ -3,7 +3,7 @@
 //! sixel through icy_sixel, else half blocks), restricted to the protocol `--protocol` /
 //! `HDRVIS_TUI_PROTOCOL` names when one is given. Nothing here draws a live screen: the
 //! interactive TUI (`crate::tui`, the only user of ratatui) shares only [`ProtocolChoice`] and
-//! [`srgb8_picture`] with it. Every printer is a no-op returning `false` when stdout is not a
+//! `srgb8_picture` with it. Every printer is a no-op returning `false` when stdout is not a
 //! terminal, so batch runs and pipes stay clean.
 
 use crate::error::{Error, Result};
@@ -12,7 +12,7 @@ use std::io::IsTerminal;
 use std::path::Path;
 
 /// Environment variable that overrides `--protocol auto`.
-pub const PROTOCOL_ENV: &str = "HDRVIS_TUI_PROTOCOL";
+pub(crate) const PROTOCOL_ENV: &str = "HDRVIS_TUI_PROTOCOL";
 
 /// The protocol asked for on the command line or in the environment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -79,7 +79,7 @@ impl ProtocolChoice {
 
 /// A display-referred image as the 8-bit sRGB picture a terminal shows
 /// ([`HdrImage::to_srgb8`]: values clamped to [0, 1], missing ones black, alpha dropped).
-pub fn srgb8_picture(display: &HdrImage) -> image::RgbImage {
+pub(crate) fn srgb8_picture(display: &HdrImage) -> image::RgbImage {
     image::RgbImage::from_raw(
         display.width,
         display.height,
@@ -91,7 +91,7 @@ pub fn srgb8_picture(display: &HdrImage) -> image::RgbImage {
 /// Prints `picture` inline at the cursor, `width_cells` columns wide. Returns `false`, printing
 /// nothing, when stdout is not a terminal. Errors are reported under `what` (the option or
 /// builtin that asked, e.g. `--preview`).
-pub fn print_picture_inline(
+pub(crate) fn print_picture_inline(
     picture: &image::DynamicImage,
     protocol: ProtocolChoice,
     width_cells: u32,
@@ -108,7 +108,7 @@ pub fn print_picture_inline(
 /// [`print_picture_inline`] for an HDR image: a display-referred (tone-mapped) image shows as
 /// it is, a scene-referred one as the plain 0 EV view (clipped to [0, 1]), which is the same
 /// 8-bit picture. An empty image is an error named `what`.
-pub fn print_hdr_inline(
+pub(crate) fn print_hdr_inline(
     img: &HdrImage,
     protocol: ProtocolChoice,
     width_cells: u32,
@@ -124,7 +124,7 @@ pub fn print_hdr_inline(
     print_picture_inline(&picture, protocol, width_cells, what)
 }
 
-/// [`print_picture_inline`] for a picture file (a chart PNG); an unreadable file is an error
+/// `print_picture_inline` for a picture file (a chart PNG); an unreadable file is an error
 /// named `what`.
 pub fn print_file_inline(
     path: &Path,

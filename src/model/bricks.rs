@@ -13,9 +13,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 /// Brick edges the renderer accepts: powers of two, so voxel → brick is an exact scaling.
-pub const BRICK_SIZES: &[usize] = &[8, 16, 32, 64, 128];
+pub(crate) const BRICK_SIZES: &[usize] = &[8, 16, 32, 64, 128];
 /// Default brick edge in voxels: fine enough for empty-space skipping, with a 27 % apron overhead.
-pub const DEFAULT_BRICK: usize = 32;
+pub(crate) const DEFAULT_BRICK: usize = 32;
 
 /// Where voxels come from. `read_box` fills `out` (x fastest, then y, then z) with the voxels
 /// `lo .. lo + size`, which lie inside the volume.
@@ -31,7 +31,7 @@ pub trait VoxelSource: Send + Sync {
 }
 
 /// A volume in memory as a voxel source.
-pub struct MemorySource(pub Arc<Volume>);
+pub(crate) struct MemorySource(pub Arc<Volume>);
 
 impl VoxelSource for MemorySource {
     fn dims(&self) -> [usize; 3] {
@@ -85,7 +85,7 @@ impl BrickLayout {
     }
 
     /// Voxels per side of a stored brick: the brick and its one-voxel apron.
-    pub fn stored_edge(&self) -> usize {
+    pub(crate) fn stored_edge(&self) -> usize {
         self.brick + 2
     }
 
@@ -94,7 +94,7 @@ impl BrickLayout {
         (self.stored_edge() as u64).pow(3) * 4
     }
 
-    pub fn coords(&self, id: usize) -> [usize; 3] {
+    pub(crate) fn coords(&self, id: usize) -> [usize; 3] {
         [
             id % self.grid[0],
             (id / self.grid[0]) % self.grid[1],
@@ -108,7 +108,7 @@ impl BrickLayout {
 
     /// The voxels a sample inside brick `c` can touch: its interior and a one-voxel apron,
     /// clipped to the volume, as (lo, hi exclusive).
-    pub fn footprint(&self, c: [usize; 3]) -> ([usize; 3], [usize; 3]) {
+    pub(crate) fn footprint(&self, c: [usize; 3]) -> ([usize; 3], [usize; 3]) {
         let lo = [0, 1, 2].map(|a| (c[a] * self.brick).saturating_sub(1));
         let hi = [0, 1, 2].map(|a| ((c[a] + 1) * self.brick + 1).min(self.dims[a]));
         (lo, hi)
@@ -116,7 +116,7 @@ impl BrickLayout {
 }
 
 /// The finite value range of a brick's footprint; `None` when every voxel there is missing.
-pub type BrickRange = Option<[f32; 2]>;
+pub(crate) type BrickRange = Option<[f32; 2]>;
 
 /// A volume as bricks: geometry, statistics and per-brick ranges, with voxels read on demand.
 pub struct BrickedVolume {
@@ -149,7 +149,7 @@ impl std::fmt::Debug for BrickedVolume {
 impl BrickedVolume {
     /// Builds the brick index of `source` by streaming it in slabs of one brick layer (plus the
     /// apron) at a time: per-brick ranges and the volume statistics, never the whole volume.
-    pub fn build(
+    pub(crate) fn build(
         name: impl Into<String>,
         source: Arc<dyn VoxelSource>,
         spacing: [f64; 3],
@@ -250,10 +250,6 @@ impl BrickedVolume {
         }
     }
 
-    pub fn voxel_length(&self) -> f64 {
-        self.spacing.iter().cloned().fold(f64::INFINITY, f64::min)
-    }
-
     /// How many bricks have been read from the source so far (tests check that a transfer
     /// function change re-reads nothing).
     pub fn bricks_read(&self) -> u64 {
@@ -262,7 +258,7 @@ impl BrickedVolume {
 
     /// Stored brick `id`: (B + 2)³ voxels starting one voxel before the brick's corner, with
     /// indices outside the volume clamped to its edge (as clamp-to-edge sampling sees them).
-    pub fn read_brick(&self, id: usize, out: &mut Vec<f32>) -> Result<()> {
+    pub(crate) fn read_brick(&self, id: usize, out: &mut Vec<f32>) -> Result<()> {
         let l = &self.layout;
         let e = l.stored_edge();
         let c = l.coords(id);
@@ -296,7 +292,7 @@ impl BrickedVolume {
     /// Which bricks `tf` leaves empty: every value their footprint can interpolate to has zero
     /// emission and zero extinction, or every voxel there is missing. Skipping them changes no
     /// sample's contribution.
-    pub fn empty_bricks(&self, tf: &ResolvedTransfer) -> Vec<bool> {
+    pub(crate) fn empty_bricks(&self, tf: &ResolvedTransfer) -> Vec<bool> {
         self.ranges
             .iter()
             .map(|r| match r {
@@ -363,7 +359,11 @@ impl BrickedVolume {
 /// brick distance from the start never decreases; sorting by its sum puts every brick a ray
 /// meets before every brick it meets later. (The renderer also recovers, by extra passes, from
 /// the rare ray that starts within rounding of a brick face and so disagrees with this order.)
-pub fn visibility_order(layout: &BrickLayout, eye: Option<[f64; 3]>, dir: [f64; 3]) -> Vec<u32> {
+pub(crate) fn visibility_order(
+    layout: &BrickLayout,
+    eye: Option<[f64; 3]>,
+    dir: [f64; 3],
+) -> Vec<u32> {
     let b = layout.brick as f64;
     let key = |c: [usize; 3]| -> u64 {
         (0..3)

@@ -1,14 +1,14 @@
 //! Named colour maps, taken from the `colorgrad` crate rather than hand-typed tables. Maps are
-//! defined in display (sRGB-encoded) colour; [`Colormap::linear_rgb`] converts to linear light,
+//! defined in display (sRGB-encoded) colour; `Colormap::linear_rgb` converts to linear light,
 //! which is what an HDR image holds, so a map shows its intended colours after the sRGB curve.
-//! That curve lives here, once for the whole crate: [`linear_to_srgb`] / [`srgb_to_linear`],
+//! That curve lives here, once for the whole crate: `linear_to_srgb` / [`srgb_to_linear`],
 //! and the 8- and 16-bit quantisers every display image (PNG, terminal) goes through.
 
 use crate::error::{Error, Result};
 use colorgrad::Gradient;
 
 /// Every colour-map name hdrvis accepts. `sinebow` and `rainbow` are cyclic (for wrapped data).
-pub const COLORMAP_NAMES: &[&str] = &[
+pub(crate) const COLORMAP_NAMES: &[&str] = &[
     "viridis",
     "magma",
     "inferno",
@@ -33,10 +33,7 @@ pub const COLORMAP_NAMES: &[&str] = &[
     "white",
 ];
 
-/// Colour maps that wrap around (the colour at 0 equals the colour at 1).
-pub const CYCLIC_COLORMAPS: &[&str] = &["sinebow", "rainbow"];
-
-pub struct Colormap {
+pub(crate) struct Colormap {
     name: String,
     gradient: Option<Box<dyn Gradient + Send + Sync>>,
 }
@@ -48,7 +45,7 @@ impl std::fmt::Debug for Colormap {
 }
 
 impl Colormap {
-    pub fn by_name(name: &str) -> Result<Colormap> {
+    pub(crate) fn by_name(name: &str) -> Result<Colormap> {
         use colorgrad::preset as p;
         let gradient: Option<Box<dyn Gradient + Send + Sync>> = match name {
             "viridis" => Some(Box::new(p::viridis())),
@@ -89,16 +86,12 @@ impl Colormap {
         })
     }
 
-    pub fn name(&self) -> &str {
+    pub(crate) fn name(&self) -> &str {
         &self.name
     }
 
-    pub fn is_cyclic(&self) -> bool {
-        CYCLIC_COLORMAPS.contains(&self.name.as_str())
-    }
-
     /// Display-encoded colour at t in [0, 1] (clamped).
-    pub fn srgb(&self, t: f64) -> [f64; 3] {
+    pub(crate) fn srgb(&self, t: f64) -> [f64; 3] {
         match &self.gradient {
             None => [1.0; 3],
             Some(g) => {
@@ -109,7 +102,7 @@ impl Colormap {
     }
 
     /// Linear-light colour at t in [0, 1] (clamped).
-    pub fn linear_rgb(&self, t: f64) -> [f64; 3] {
+    pub(crate) fn linear_rgb(&self, t: f64) -> [f64; 3] {
         self.srgb(t).map(srgb_to_linear)
     }
 }
@@ -127,7 +120,7 @@ pub fn srgb_to_linear(encoded: f64) -> f64 {
 
 /// The IEC 61966-2-1 sRGB encoding curve (exact piecewise form): linear light, clamped to
 /// [0, 1] (NaN as 0), to the encoded value.
-pub fn linear_to_srgb(linear: f64) -> f64 {
+pub(crate) fn linear_to_srgb(linear: f64) -> f64 {
     let v = if linear.is_nan() {
         0.0
     } else {
@@ -150,7 +143,7 @@ pub fn encode_srgb8(linear: f64) -> u8 {
 }
 
 /// As [`encode_srgb8`], 16 bits deep (16-bit PNG).
-pub fn encode_srgb16(linear: f64) -> u16 {
+pub(crate) fn encode_srgb16(linear: f64) -> u16 {
     if !linear.is_finite() {
         return 0;
     }
@@ -160,6 +153,9 @@ pub fn encode_srgb16(linear: f64) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Colour maps that wrap around (the colour at 0 equals the colour at 1).
+    const CYCLIC_COLORMAPS: &[&str] = &["sinebow", "rainbow"];
 
     #[test]
     fn every_listed_name_resolves_and_unknown_lists_names() {

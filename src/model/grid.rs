@@ -109,7 +109,7 @@ impl Grid {
 
     /// The full constructor: coordinates (increasing or decreasing; stored increasing),
     /// properties and an optional elevation, all validated.
-    pub fn with_coords(
+    pub(crate) fn with_coords(
         name: &str,
         x: GridCoords,
         y: GridCoords,
@@ -261,7 +261,7 @@ impl Grid {
     }
 
     /// Index of a property; an unknown name is an error listing the known ones.
-    pub fn property_index(&self, name: &str) -> Result<usize> {
+    pub(crate) fn property_index(&self, name: &str) -> Result<usize> {
         self.properties
             .iter()
             .position(|(n, _)| n == name)

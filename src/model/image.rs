@@ -44,7 +44,7 @@ impl HdrImage {
     }
 
     /// Sets or replaces a metadata entry.
-    pub fn set_meta(&mut self, key: &str, value: impl Into<String>) {
+    pub(crate) fn set_meta(&mut self, key: &str, value: impl Into<String>) {
         let value = value.into();
         match self.metadata.iter_mut().find(|(k, _)| k == key) {
             Some(entry) => entry.1 = value,
@@ -67,7 +67,7 @@ impl HdrImage {
     /// 8-bit sRGB of a display-referred image, row-major: R, G, B of each pixel through
     /// [`encode_srgb8`] (clamped to [0, 1], missing values black), alpha dropped. The one
     /// conversion behind display PNGs and terminal pictures.
-    pub fn to_srgb8(&self) -> Vec<[u8; 3]> {
+    pub(crate) fn to_srgb8(&self) -> Vec<[u8; 3]> {
         self.pixels
             .iter()
             .map(|p| [p[0], p[1], p[2]].map(|v| encode_srgb8(v as f64)))
@@ -75,7 +75,7 @@ impl HdrImage {
     }
 
     /// As [`HdrImage::to_srgb8`], 16 bits deep (16-bit PNG).
-    pub fn to_srgb16(&self) -> Vec<[u16; 3]> {
+    pub(crate) fn to_srgb16(&self) -> Vec<[u16; 3]> {
         self.pixels
             .iter()
             .map(|p| [p[0], p[1], p[2]].map(|v| encode_srgb16(v as f64)))
@@ -84,7 +84,7 @@ impl HdrImage {
 }
 
 /// Rec. 709 / sRGB-primaries relative luminance Y of a linear RGB triple.
-pub fn rec709_luminance(p: [f32; 4]) -> f32 {
+pub(crate) fn rec709_luminance(p: [f32; 4]) -> f32 {
     0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
 }
 

@@ -3,13 +3,13 @@
 //! these types.
 
 pub mod bricks;
-pub mod camera;
+pub(crate) mod camera;
 pub mod colormap;
-pub mod grid;
-pub mod image;
+pub(crate) mod grid;
+pub(crate) mod image;
 pub mod text;
 pub mod transfer;
-pub mod volume;
+pub(crate) mod volume;
 
 pub use camera::{Axis, Camera, Projection};
 pub use grid::{Grid, GridCoords};

@@ -6,7 +6,7 @@ use super::HdrImage;
 use font8x8::{UnicodeFonts, BASIC_FONTS, GREEK_FONTS};
 
 /// Glyph cell size in font pixels.
-pub const GLYPH: u32 = 8;
+pub(crate) const GLYPH: u32 = 8;
 
 /// The 8×8 bitmap of `c` (row 0 at the top, bit 0 the leftmost pixel); `?` for characters the
 /// font lacks.
@@ -19,13 +19,20 @@ pub fn glyph(c: char) -> [u8; 8] {
 }
 
 /// Width in image pixels of `text` drawn at `scale`.
-pub fn text_width(text: &str, scale: u32) -> u32 {
+pub(crate) fn text_width(text: &str, scale: u32) -> u32 {
     text.chars().count() as u32 * GLYPH * scale
 }
 
 /// Draws `text` with its top-left corner at (x, y), each font pixel a `scale` × `scale` block
 /// of `colour`; parts outside the image are clipped. Background pixels are left alone.
-pub fn draw_text(img: &mut HdrImage, x: i64, y: i64, text: &str, scale: u32, colour: [f32; 4]) {
+pub(crate) fn draw_text(
+    img: &mut HdrImage,
+    x: i64,
+    y: i64,
+    text: &str,
+    scale: u32,
+    colour: [f32; 4],
+) {
     let s = scale.max(1) as i64;
     for (i, c) in text.chars().enumerate() {
         let rows = glyph(c);
@@ -51,7 +58,7 @@ pub fn draw_text(img: &mut HdrImage, x: i64, y: i64, text: &str, scale: u32, col
 
 /// A number for a legend: four significant digits without trailing zeros, plain between 1e-3
 /// and 1e6, scientific outside (0.125, 12.5, 0.3333, 2.5e-7).
-pub fn format_number(v: f64) -> String {
+pub(crate) fn format_number(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
     }

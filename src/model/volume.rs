@@ -21,7 +21,7 @@ impl Aabb {
         ]
     }
 
-    pub fn center(&self) -> [f64; 3] {
+    pub(crate) fn center(&self) -> [f64; 3] {
         [
             0.5 * (self.lo[0] + self.hi[0]),
             0.5 * (self.lo[1] + self.hi[1]),
@@ -29,13 +29,13 @@ impl Aabb {
         ]
     }
 
-    pub fn diagonal(&self) -> f64 {
+    pub(crate) fn diagonal(&self) -> f64 {
         let s = self.size();
         (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
     }
 
     /// Parametric entry and exit of the ray o + t·d (slab method); `None` when it misses.
-    pub fn intersect(&self, o: [f64; 3], d: [f64; 3]) -> Option<(f64, f64)> {
+    pub(crate) fn intersect(&self, o: [f64; 3], d: [f64; 3]) -> Option<(f64, f64)> {
         let mut t0 = f64::NEG_INFINITY;
         let mut t1 = f64::INFINITY;
         for a in 0..3 {
@@ -72,7 +72,7 @@ pub struct VolumeStats {
 
 impl VolumeStats {
     /// The statistics of no values: the identity of [`VolumeStats::merge`].
-    pub const EMPTY: VolumeStats = VolumeStats {
+    pub(crate) const EMPTY: VolumeStats = VolumeStats {
         min: f64::INFINITY,
         max: f64::NEG_INFINITY,
         min_positive: None,
@@ -82,7 +82,7 @@ impl VolumeStats {
     };
 
     /// The statistics of `values`, serially (callers split large arrays and merge).
-    pub fn of_values(values: &[f32]) -> VolumeStats {
+    pub(crate) fn of_values(values: &[f32]) -> VolumeStats {
         let mut s = VolumeStats::EMPTY;
         for &v in values {
             if !v.is_finite() {
@@ -104,7 +104,7 @@ impl VolumeStats {
     }
 
     /// The statistics of `values` in parallel chunks.
-    pub fn of_values_par(values: &[f32]) -> VolumeStats {
+    pub(crate) fn of_values_par(values: &[f32]) -> VolumeStats {
         use rayon::prelude::*;
         values
             .par_chunks(1 << 16)
@@ -113,7 +113,7 @@ impl VolumeStats {
     }
 
     /// The statistics of two sets of values together.
-    pub fn merge(self, b: VolumeStats) -> VolumeStats {
+    pub(crate) fn merge(self, b: VolumeStats) -> VolumeStats {
         VolumeStats {
             min: self.min.min(b.min),
             max: self.max.max(b.max),
@@ -148,7 +148,7 @@ pub struct Volume {
 
 /// Largest voxel count per axis accepted anywhere; far beyond any file a user has, small enough
 /// that products cannot overflow.
-pub const MAX_DIM: usize = 1 << 16;
+pub(crate) const MAX_DIM: usize = 1 << 16;
 
 impl Volume {
     /// Builds a volume after checking dims, spacing and data length.
@@ -216,7 +216,7 @@ impl Volume {
         Volume::new(name, dims, [1.0; 3], [0.0; 3], data)
     }
 
-    pub fn voxel_count(&self) -> usize {
+    pub(crate) fn voxel_count(&self) -> usize {
         self.dims[0] * self.dims[1] * self.dims[2]
     }
 
@@ -236,7 +236,7 @@ impl Volume {
     }
 
     /// The length of one "voxel" for step sizes and optical depths: the smallest spacing.
-    pub fn voxel_length(&self) -> f64 {
+    pub(crate) fn voxel_length(&self) -> f64 {
         self.spacing.iter().cloned().fold(f64::INFINITY, f64::min)
     }
 
@@ -245,7 +245,7 @@ impl Volume {
     }
 
     /// Value at voxel (i, j, k) with indices clamped to the grid, as clamp-to-edge texturing does.
-    pub fn voxel_clamped(&self, i: i64, j: i64, k: i64) -> f32 {
+    pub(crate) fn voxel_clamped(&self, i: i64, j: i64, k: i64) -> f32 {
         let c = |v: i64, n: usize| v.clamp(0, n as i64 - 1) as usize;
         self.data[self.index(c(i, self.dims[0]), c(j, self.dims[1]), c(k, self.dims[2]))]
     }
@@ -266,7 +266,7 @@ impl Volume {
         g
     }
 
-    pub fn sample_trilinear(&self, p: [f64; 3]) -> f64 {
+    pub(crate) fn sample_trilinear(&self, p: [f64; 3]) -> f64 {
         let mut base = [0i64; 3];
         let mut frac = [0f64; 3];
         for a in 0..3 {
@@ -299,7 +299,7 @@ impl Volume {
 
 /// Rejects zero or absurd dimensions, and volumes larger than the memory this machine has,
 /// before anything is allocated.
-pub fn check_dims(dims: &[usize], field: &str) -> Result<()> {
+pub(crate) fn check_dims(dims: &[usize], field: &str) -> Result<()> {
     check_shape(dims, field)?;
     let bytes = dims.iter().product::<usize>() as u64 * 4;
     check_allocation(bytes, field)
@@ -307,7 +307,7 @@ pub fn check_dims(dims: &[usize], field: &str) -> Result<()> {
 
 /// Rejects zero or absurd dimensions without asking whether the voxels fit in memory (bricked
 /// volumes stream them).
-pub fn check_shape(dims: &[usize], field: &str) -> Result<()> {
+pub(crate) fn check_shape(dims: &[usize], field: &str) -> Result<()> {
     for (a, &n) in dims.iter().enumerate() {
         if n == 0 || n > MAX_DIM {
             return Err(Error::invalid(
@@ -321,7 +321,7 @@ pub fn check_shape(dims: &[usize], field: &str) -> Result<()> {
 
 /// Refuses an allocation that would exceed the memory currently available (Linux
 /// `/proc/meminfo`); elsewhere it allows everything.
-pub fn check_allocation(bytes: u64, what: &str) -> Result<()> {
+pub(crate) fn check_allocation(bytes: u64, what: &str) -> Result<()> {
     if let Some(avail) = available_memory_bytes() {
         if bytes > avail {
             return Err(Error::invalid(

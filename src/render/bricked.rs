@@ -44,7 +44,7 @@ const MAX_REPAIR_PASSES: usize = 64;
 const NO_SLOT: u32 = u32::MAX;
 
 /// The GPU brick cache of one bricked volume: a 3-D atlas of slots of (B + 2)³ voxels.
-pub struct BrickCache {
+pub(crate) struct BrickCache {
     pub volume: Arc<BrickedVolume>,
     atlas: wgpu::Texture,
     atlas_view: wgpu::TextureView,
@@ -80,7 +80,7 @@ impl BrickCache {
     /// A cache for `volume` within `budget` bytes of GPU memory (atlas plus the per-render
     /// buffers of a `width` x `height` image), or holding every brick when `budget` is `None`
     /// (still limited by the adapter's 3-D texture size).
-    pub fn new(
+    pub(crate) fn new(
         ctx: &GpuContext,
         volume: Arc<BrickedVolume>,
         budget: Option<u64>,
@@ -127,12 +127,12 @@ impl BrickCache {
     }
 
     /// Slots in the atlas.
-    pub fn capacity(&self) -> usize {
+    pub(crate) fn capacity(&self) -> usize {
         self.capacity
     }
 
     /// Whether this cache was made for this budget and can serve an image of this size.
-    pub fn serves(&self, budget: Option<u64>, width: u32, height: u32) -> bool {
+    pub(crate) fn serves(&self, budget: Option<u64>, width: u32, height: u32) -> bool {
         self.budget == budget
             && budget.is_none_or(|b| {
                 self.atlas_bytes() + fixed_bytes(self.volume.layout.count(), width, height, true)
@@ -465,7 +465,7 @@ impl VolumeRenderer {
     /// function needs fit, else streamed front to back through the cache. `skip` enables
     /// empty-space skipping (ignored for the u8 and f32c variants, which composite every sample).
     /// Point-sampled transfer functions only (checked by `route::choose_path`).
-    pub fn render_bricked(
+    pub(crate) fn render_bricked(
         &self,
         cache: &mut BrickCache,
         opts: &VolumeRenderOptions,

@@ -9,12 +9,12 @@ use std::hash::Hasher;
 use std::sync::{Arc, Mutex};
 
 /// Default budget: enough for a 513³ f32 volume on the host and on the GPU plus a sweep's images.
-pub const DEFAULT_BUDGET_MIB: u64 = 2048;
+pub(crate) const DEFAULT_BUDGET_MIB: u64 = 2048;
 
 /// Environment variable with the result-cache budget in MiB when `--cache-mib` is not given.
-pub const BUDGET_ENV: &str = "HDRVIS_CACHE_MIB";
+pub(crate) const BUDGET_ENV: &str = "HDRVIS_CACHE_MIB";
 
-/// The budget in MiB: the explicit value, else `HDRVIS_CACHE_MIB`, else [`DEFAULT_BUDGET_MIB`].
+/// The budget in MiB: the explicit value, else `HDRVIS_CACHE_MIB`, else `DEFAULT_BUDGET_MIB`.
 pub fn budget_mib(explicit: Option<u64>) -> crate::Result<u64> {
     match explicit {
         Some(v) => Ok(v),
@@ -32,27 +32,27 @@ pub fn budget_mib(explicit: Option<u64>) -> crate::Result<u64> {
 
 /// A hash of stage inputs, built field by field (xxh3: fast enough to hash whole volumes).
 #[derive(Default)]
-pub struct KeyBuilder(xxhash_rust::xxh3::Xxh3);
+pub(crate) struct KeyBuilder(xxhash_rust::xxh3::Xxh3);
 
 impl KeyBuilder {
-    pub fn new(stage: &str) -> Self {
+    pub(crate) fn new(stage: &str) -> Self {
         let mut k = KeyBuilder(xxhash_rust::xxh3::Xxh3::new());
         k.str(stage);
         k
     }
 
-    pub fn str(&mut self, s: &str) -> &mut Self {
+    pub(crate) fn str(&mut self, s: &str) -> &mut Self {
         self.u64(s.len() as u64);
         self.0.write(s.as_bytes());
         self
     }
 
-    pub fn u64(&mut self, v: u64) -> &mut Self {
+    pub(crate) fn u64(&mut self, v: u64) -> &mut Self {
         self.0.write(&v.to_le_bytes());
         self
     }
 
-    pub fn bytes(&mut self, b: &[u8]) -> &mut Self {
+    pub(crate) fn bytes(&mut self, b: &[u8]) -> &mut Self {
         self.u64(b.len() as u64);
         self.0.write(b);
         self
@@ -60,11 +60,11 @@ impl KeyBuilder {
 
     /// Any value through its `Debug` form: Rust prints floats with the shortest digits that
     /// round-trip, so two option sets hash alike only if every field is bit-for-bit equal.
-    pub fn debug(&mut self, v: &impl std::fmt::Debug) -> &mut Self {
+    pub(crate) fn debug(&mut self, v: &impl std::fmt::Debug) -> &mut Self {
         self.str(&format!("{v:?}"))
     }
 
-    pub fn finish(&self) -> u64 {
+    pub(crate) fn finish(&self) -> u64 {
         self.0.digest()
     }
 }
@@ -132,7 +132,7 @@ impl ResultCache {
 
     /// Stores `value` (of `bytes` bytes) under `key`, evicting least recently used entries until
     /// it fits; a value larger than the whole budget is not stored.
-    pub fn put<T: Any + Send + Sync>(&self, key: u64, value: Arc<T>, bytes: u64) {
+    pub(crate) fn put<T: Any + Send + Sync>(&self, key: u64, value: Arc<T>, bytes: u64) {
         if bytes > self.budget {
             return;
         }
@@ -162,7 +162,7 @@ impl ResultCache {
     }
 
     /// Drops the entries of type `T` for which `drop(key, value)` holds.
-    pub fn remove_where<T: Any + Send + Sync>(&self, drop: impl Fn(u64, &T) -> bool) {
+    pub(crate) fn remove_where<T: Any + Send + Sync>(&self, drop: impl Fn(u64, &T) -> bool) {
         let mut inner = self.inner.lock().expect("result cache poisoned");
         let victims: Vec<u64> = inner
             .entries
@@ -174,12 +174,6 @@ impl ResultCache {
             let e = inner.entries.remove(&k).expect("victim exists");
             inner.bytes -= e.bytes;
         }
-    }
-
-    pub fn clear(&self) {
-        let mut inner = self.inner.lock().expect("result cache poisoned");
-        inner.entries.clear();
-        inner.bytes = 0;
     }
 
     pub fn counters(&self) -> CacheCounters {

@@ -20,7 +20,7 @@ fn escape_fraction(x: f64) -> f64 {
 }
 
 /// Renders `volume` in f64. Pixels are returned as f32 only at the very end.
-pub fn render_volume_cpu(volume: &Volume, opts: &VolumeRenderOptions) -> Result<HdrImage> {
+pub(crate) fn render_volume_cpu(volume: &Volume, opts: &VolumeRenderOptions) -> Result<HdrImage> {
     let img = render_volume_f64(volume, opts)?;
     let pixels = img.into_iter().map(|p| p.map(|v| v as f32)).collect();
     Ok(HdrImage::from_pixels(opts.width, opts.height, pixels))

@@ -5,7 +5,7 @@ pub mod bricked;
 pub mod cache;
 pub mod cpu_reference;
 pub mod passes;
-pub mod route;
+pub(crate) mod route;
 pub mod session;
 pub mod surface;
 pub mod surface_reference;
@@ -81,7 +81,7 @@ pub enum TfSampling {
 }
 
 impl TfSampling {
-    pub const NAMES: &'static [&'static str] = &["point", "preintegrated"];
+    pub(crate) const NAMES: &'static [&'static str] = &["point", "preintegrated"];
 
     pub fn parse(s: &str) -> Result<TfSampling> {
         match s {
@@ -176,7 +176,7 @@ pub enum Precision {
 }
 
 impl Precision {
-    pub const NAMES: &'static [&'static str] = &["u8", "f16", "f32", "f32c", "f64"];
+    pub(crate) const NAMES: &'static [&'static str] = &["u8", "f16", "f32", "f32c", "f64"];
 
     pub fn parse(s: &str) -> Result<Precision> {
         match s {
@@ -206,7 +206,7 @@ impl Precision {
     }
 
     /// The shader's PRECISION override constant (f64 does not run in the shader).
-    pub fn shader_code(self) -> u32 {
+    pub(crate) fn shader_code(self) -> u32 {
         match self {
             Precision::F32 | Precision::F64 => 0,
             Precision::U8 => 1,
@@ -218,7 +218,7 @@ impl Precision {
 
 /// Default early-ray-termination threshold on transmittance: what is left behind it can change
 /// a pixel by at most this fraction of the saturated emission.
-pub const DEFAULT_EARLY_EXIT: f64 = 1e-5;
+pub(crate) const DEFAULT_EARLY_EXIT: f64 = 1e-5;
 
 impl VolumeRenderOptions {
     pub fn new(camera: Camera, tf: TransferFunction) -> Self {
@@ -280,7 +280,7 @@ impl VolumeRenderOptions {
     }
 
     /// Optical depth at which rays stop.
-    pub fn stop_optical_depth(&self) -> f64 {
+    pub(crate) fn stop_optical_depth(&self) -> f64 {
         if self.early_exit > 0.0 {
             -self.early_exit.ln()
         } else {
@@ -290,7 +290,7 @@ impl VolumeRenderOptions {
 }
 
 /// Per-pixel jitter fraction in [0, 1), identical to the shader's `hash_u32`.
-pub fn jitter_fraction(px: u32, py: u32, width: u32, height: u32, seed: u32) -> f64 {
+pub(crate) fn jitter_fraction(px: u32, py: u32, width: u32, height: u32, seed: u32) -> f64 {
     let x = px.wrapping_add(width.wrapping_mul(py.wrapping_add(height.wrapping_mul(seed))));
     let state = x.wrapping_mul(747796405).wrapping_add(2891336453);
     let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277803737);

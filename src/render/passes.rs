@@ -37,7 +37,7 @@ impl PassRecord {
         }
     }
 
-    pub fn with_detail(mut self, detail: impl Into<String>) -> Self {
+    pub(crate) fn with_detail(mut self, detail: impl Into<String>) -> Self {
         self.detail = detail.into();
         self
     }
@@ -63,24 +63,26 @@ impl std::fmt::Display for PassRecord {
 
 /// The records of one run (or one TUI update), in the order the passes finished.
 #[derive(Default)]
-pub struct PassLog(Mutex<Vec<PassRecord>>);
+pub(crate) struct PassLog(Mutex<Vec<PassRecord>>);
 
 impl PassLog {
-    pub fn push(&self, record: PassRecord) {
+    pub(crate) fn push(&self, record: PassRecord) {
         self.0.lock().expect("pass log poisoned").push(record);
     }
 
-    pub fn snapshot(&self) -> Vec<PassRecord> {
+    #[cfg(test)]
+    pub(crate) fn snapshot(&self) -> Vec<PassRecord> {
         self.0.lock().expect("pass log poisoned").clone()
     }
 
     /// The records so far, leaving the log empty for the next run.
-    pub fn take(&self) -> Vec<PassRecord> {
+    pub(crate) fn take(&self) -> Vec<PassRecord> {
         std::mem::take(&mut *self.0.lock().expect("pass log poisoned"))
     }
 
     /// How many times the pass `name` actually ran (cache hits not counted).
-    pub fn ran_count(&self, name: &str) -> usize {
+    #[cfg(test)]
+    pub(crate) fn ran_count(&self, name: &str) -> usize {
         count_ran(&self.snapshot(), name)
     }
 }

@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// Coarsest quick-look level: 16 times fewer voxels per axis.
-pub const MAX_LEVEL: u32 = 4;
+pub(crate) const MAX_LEVEL: u32 = 4;
 
 /// The volume a render reads: loaded whole, or opened as bricks and never loaded whole.
 #[derive(Clone, Debug)]
@@ -82,7 +82,7 @@ impl Bricking {
     }
 }
 
-/// How one render runs; chosen by [`RenderSession::choose_path`].
+/// How one render runs; chosen by `RenderSession::choose_path`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RenderPath {
     /// The whole volume in one 3-D texture, ray cast in one pass (u8, f16, f32, f32c).
@@ -94,17 +94,6 @@ pub enum RenderPath {
     /// Bricks in a GPU atlas with a page table; streamed front to back through the atlas when
     /// the bricks the transfer function needs exceed it (out of core).
     Bricked { brick: usize, skip: bool },
-}
-
-impl RenderPath {
-    pub fn name(self) -> &'static str {
-        match self {
-            RenderPath::InCore => "in-core",
-            RenderPath::F64Gpu => "f64 GPU",
-            RenderPath::F64Cpu => "f64 CPU",
-            RenderPath::Bricked { .. } => "bricked",
-        }
-    }
 }
 
 /// A finished volume render: the image and how it was made.
@@ -177,7 +166,7 @@ impl RenderSession {
     }
 
     /// The decision of how a render runs, in one place (see the module documentation).
-    pub fn choose_path(
+    pub(crate) fn choose_path(
         &self,
         source: &VolumeSource,
         opts: &VolumeRenderOptions,

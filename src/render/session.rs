@@ -24,7 +24,7 @@ use std::sync::{Arc, Mutex, OnceLock, Weak};
 use std::time::Instant;
 
 /// Metadata key under which an image records the passes that produced it.
-pub const PASSES_META: &str = "passes";
+pub(crate) const PASSES_META: &str = "passes";
 
 struct Gpu {
     volume: Arc<VolumeRenderer>,
@@ -94,7 +94,7 @@ impl RenderSession {
 
     /// This session with every render run afresh, for timing: loads, uploads, bricks and brick
     /// caches are still reused.
-    pub fn rerunning_renders(mut self) -> Self {
+    pub(crate) fn rerunning_renders(mut self) -> Self {
         self.rerun_renders = true;
         self
     }
@@ -122,7 +122,7 @@ impl RenderSession {
         Ok(self.gpu()?.volume.context().clone())
     }
 
-    pub fn volume_renderer(&self) -> Result<Arc<VolumeRenderer>> {
+    pub(crate) fn volume_renderer(&self) -> Result<Arc<VolumeRenderer>> {
         Ok(self.gpu()?.volume.clone())
     }
 
@@ -139,11 +139,11 @@ impl RenderSession {
         Ok(self.gpu()?.surface.clone())
     }
 
-    pub fn tonemapper(&self) -> Result<Arc<GpuToneMapper>> {
+    pub(crate) fn tonemapper(&self) -> Result<Arc<GpuToneMapper>> {
         Ok(self.gpu()?.tonemap.clone())
     }
 
-    pub fn log(&self) -> &PassLog {
+    pub(crate) fn log(&self) -> &PassLog {
         &self.log
     }
 
@@ -228,7 +228,7 @@ impl RenderSession {
     }
 
     /// A generated volume, cached under the generator's parameters.
-    pub fn generated_volume(
+    pub(crate) fn generated_volume(
         &self,
         params: &impl std::fmt::Debug,
         generate: impl FnOnce() -> Result<Volume>,
@@ -244,7 +244,7 @@ impl RenderSession {
     }
 
     /// The content hash of a volume (data, geometry, name), computed once per Arc.
-    pub fn volume_key(&self, volume: &Arc<Volume>) -> u64 {
+    pub(crate) fn volume_key(&self, volume: &Arc<Volume>) -> u64 {
         let addr = Arc::as_ptr(volume) as usize;
         let mut keys = self.volume_keys.lock().expect("volume keys poisoned");
         if let Some((w, k)) = keys.get(&addr) {
@@ -264,7 +264,7 @@ impl RenderSession {
     }
 
     /// The content hash of an image (pixels, extra channels, metadata), computed once per Arc.
-    pub fn image_key(&self, img: &Arc<HdrImage>) -> u64 {
+    pub(crate) fn image_key(&self, img: &Arc<HdrImage>) -> u64 {
         let addr = Arc::as_ptr(img) as usize;
         let mut keys = self.image_keys.lock().expect("image keys poisoned");
         if let Some((w, k)) = keys.get(&addr) {
@@ -369,7 +369,7 @@ impl RenderSession {
     }
 
     /// Records a sink (a written file, a preview) that took `ms`.
-    pub fn record_sink(&self, name: &str, ms: f64) {
+    pub(crate) fn record_sink(&self, name: &str, ms: f64) {
         self.log.push(PassRecord::ran(name, ms));
     }
 }

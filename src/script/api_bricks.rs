@@ -11,11 +11,11 @@ use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
 /// A volume opened as bricks (`open_volume`).
-pub type ScriptBricked = Arc<BrickedVolume>;
+pub(crate) type ScriptBricked = Arc<BrickedVolume>;
 
 const OPEN_KEYS: &[&str] = &["var", "brick"];
 
-pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_type_with_name::<ScriptBricked>("BrickedVolume");
     engine.register_get("name", |v: &mut ScriptBricked| v.name.clone());
     engine.register_get("dims", |v: &mut ScriptBricked| -> rhai::Array {

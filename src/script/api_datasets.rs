@@ -117,7 +117,7 @@ fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
     }
 }
 
-pub fn register(engine: &mut Engine) {
+pub(crate) fn register(engine: &mut Engine) {
     engine.register_fn("generate", |kind: &str, opts: Map| -> RResult<String> {
         let job = job_of(kind, &opts)?;
         let path = job

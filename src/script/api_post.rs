@@ -36,7 +36,7 @@ const TONEMAP_KEYS: &[&str] = &[
 ];
 
 /// Builds tone-mapping settings from a script's option map (defaults: Reinhard global, 0 EV).
-pub fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
+pub(crate) fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
     check_keys(opts, TONEMAP_KEYS, "tonemap")?;
     let mut s = ToneMapSettings::default();
     let mut op_name = "reinhard".to_string();
@@ -57,7 +57,7 @@ pub fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
     Ok(s)
 }
 
-pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_image", move |path: &str| -> RResult<ScriptImage> {
         let p = h.sandbox.read_path(path).map_err(to_rhai)?;

@@ -15,10 +15,10 @@ use crate::render::surface::{
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
-pub type ScriptGrid = Arc<Grid>;
+pub(crate) type ScriptGrid = Arc<Grid>;
 
 /// Every key `render_surface` accepts.
-pub const SURFACE_KEYS: &[&str] = &[
+pub(crate) const SURFACE_KEYS: &[&str] = &[
     "nu",
     "mode",
     "colormap",
@@ -119,7 +119,7 @@ fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
     Ok((o, many))
 }
 
-pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_type_with_name::<ScriptGrid>("Grid");
     engine.register_get("nx", |g: &mut ScriptGrid| g.nx() as i64);
     engine.register_get("ny", |g: &mut ScriptGrid| g.ny() as i64);

@@ -4,21 +4,21 @@
 use crate::error::Error;
 use rhai::{Dynamic, EvalAltResult, Map, Position};
 
-pub type RResult<T> = Result<T, Box<EvalAltResult>>;
+pub(crate) type RResult<T> = Result<T, Box<EvalAltResult>>;
 
 /// Library errors become Rhai runtime errors; the caller's position is filled in by Rhai.
-pub fn to_rhai(e: Error) -> Box<EvalAltResult> {
+pub(crate) fn to_rhai(e: Error) -> Box<EvalAltResult> {
     Box::new(EvalAltResult::ErrorRuntime(
         e.to_string().into(),
         Position::NONE,
     ))
 }
 
-pub fn err<T>(field: &str, msg: impl Into<String>) -> RResult<T> {
+pub(crate) fn err<T>(field: &str, msg: impl Into<String>) -> RResult<T> {
     Err(to_rhai(Error::invalid(field, msg)))
 }
 
-pub fn num(v: &Dynamic, field: &str) -> RResult<f64> {
+pub(crate) fn num(v: &Dynamic, field: &str) -> RResult<f64> {
     if let Ok(f) = v.as_float() {
         Ok(f)
     } else if let Ok(i) = v.as_int() {
@@ -28,12 +28,12 @@ pub fn num(v: &Dynamic, field: &str) -> RResult<f64> {
     }
 }
 
-pub fn int(v: &Dynamic, field: &str) -> RResult<i64> {
+pub(crate) fn int(v: &Dynamic, field: &str) -> RResult<i64> {
     v.as_int()
         .or_else(|_| err(field, format!("expected an integer, got {}", v.type_name())))
 }
 
-pub fn boolean(v: &Dynamic, field: &str) -> RResult<bool> {
+pub(crate) fn boolean(v: &Dynamic, field: &str) -> RResult<bool> {
     v.as_bool().or_else(|_| {
         err(
             field,
@@ -42,13 +42,13 @@ pub fn boolean(v: &Dynamic, field: &str) -> RResult<bool> {
     })
 }
 
-pub fn string(v: &Dynamic, field: &str) -> RResult<String> {
+pub(crate) fn string(v: &Dynamic, field: &str) -> RResult<String> {
     v.clone()
         .into_string()
         .or_else(|t| err(field, format!("expected a string, got {t}")))
 }
 
-pub fn vec3(v: &Dynamic, field: &str) -> RResult<[f64; 3]> {
+pub(crate) fn vec3(v: &Dynamic, field: &str) -> RResult<[f64; 3]> {
     let arr = v
         .clone()
         .into_array()
@@ -64,7 +64,7 @@ pub fn vec3(v: &Dynamic, field: &str) -> RResult<[f64; 3]> {
 }
 
 /// Control points [[t, value], ...].
-pub fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
+pub(crate) fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
     let arr = v.clone().into_array().or_else(|t| {
         err(
             field,
@@ -86,7 +86,7 @@ pub fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
 }
 
 /// Rejects keys outside `known`, naming them and listing the known ones.
-pub fn check_keys(map: &Map, known: &[&str], what: &str) -> RResult<()> {
+pub(crate) fn check_keys(map: &Map, known: &[&str], what: &str) -> RResult<()> {
     let mut unknown: Vec<&str> = map
         .keys()
         .map(|k| k.as_str())

@@ -5,7 +5,7 @@
 
 mod api_bricks;
 mod api_datasets;
-pub mod api_doc;
+pub(crate) mod api_doc;
 mod api_fields;
 mod api_grids;
 mod api_output;
@@ -126,12 +126,12 @@ pub(crate) struct ScriptHost {
 
 impl ScriptHost {
     /// Remembers the image most recently produced, for [`ScriptReport::last_image`].
-    pub fn note_image(&self, img: &Arc<HdrImage>) {
+    pub(crate) fn note_image(&self, img: &Arc<HdrImage>) {
         *self.last_image.lock().expect("last image poisoned") = Some(img.clone());
     }
 
     /// Records a `param()` call (the first call of a name keeps its list position).
-    pub fn note_param(&self, record: ParamRecord) {
+    pub(crate) fn note_param(&self, record: ParamRecord) {
         let mut params = self.params.lock().expect("params poisoned");
         match params.iter_mut().find(|p| p.name == record.name) {
             Some(p) => *p = record,
@@ -140,12 +140,12 @@ impl ScriptHost {
     }
 
     /// Whether an output may be skipped: `--resume` is on and the file is already there.
-    pub fn already_done(&self, path: &Path) -> bool {
+    pub(crate) fn already_done(&self, path: &Path) -> bool {
         self.resume && path.is_file()
     }
 
     /// Reports loop progress on stderr with an ETA; the bar is created on the first call.
-    pub fn progress(&self, done: u64, total: u64, label: &str) {
+    pub(crate) fn progress(&self, done: u64, total: u64, label: &str) {
         if !self.progress_enabled {
             return;
         }
@@ -332,7 +332,7 @@ fn describe_eval_error(name: &str, source: &str, err: &EvalAltResult) -> String 
 }
 
 /// `file:line:column: message`, then the source line and a caret under the column.
-pub fn format_error(name: &str, source: &str, msg: &str, pos: Position) -> String {
+pub(crate) fn format_error(name: &str, source: &str, msg: &str, pos: Position) -> String {
     match (pos.line(), pos.position()) {
         (Some(line), col) => {
             let col = col.unwrap_or(1);

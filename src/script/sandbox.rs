@@ -66,7 +66,7 @@ impl Sandbox {
     }
 
     /// A path the script wants to read, relative to the script's folder.
-    pub fn read_path(&self, requested: &str) -> Result<PathBuf> {
+    pub(crate) fn read_path(&self, requested: &str) -> Result<PathBuf> {
         let p = resolve(&self.script_dir.join(requested))?;
         if self.readable.iter().any(|r| p.starts_with(r)) {
             Ok(p)
@@ -81,7 +81,7 @@ impl Sandbox {
     }
 
     /// A path the script wants to write, relative to the output folder.
-    pub fn write_path(&self, requested: &str) -> Result<PathBuf> {
+    pub(crate) fn write_path(&self, requested: &str) -> Result<PathBuf> {
         if Path::new(requested).is_absolute() {
             return Err(Error::invalid(
                 "path",

@@ -11,20 +11,20 @@ use crate::error::{Error, Result};
 
 /// Rows [first, first + rows) of an item grid (pixels, or cells of a pyramid level or grid).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Band {
+pub(crate) struct Band {
     pub first: u32,
     pub rows: u32,
 }
 
 impl Band {
-    pub fn end(&self) -> u32 {
+    pub(crate) fn end(&self) -> u32 {
         self.first + self.rows
     }
 }
 
 /// A byte range of a buffer to bind, and the first row it holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Window {
+pub(crate) struct Window {
     pub offset: u64,
     pub size: u64,
     pub first_row: u32,
@@ -40,14 +40,14 @@ fn gcd(a: u64, b: u64) -> u64 {
 
 /// The smallest row count r such that r rows of `row_bytes` are a multiple of `align` bytes:
 /// bands that are multiples of it keep every window start aligned.
-pub fn row_step(row_bytes: u64, align: u64) -> u32 {
+pub(crate) fn row_step(row_bytes: u64, align: u64) -> u32 {
     (align / gcd(row_bytes.max(1), align)).max(1) as u32
 }
 
 /// The window of rows [first, end) of a plane of `row_bytes` rows that starts at byte `base`
 /// (itself a multiple of `align`): started at the last row at or before `first` whose offset
 /// is aligned.
-pub fn window(base: u64, row_bytes: u64, first: u32, end: u32, align: u64) -> Window {
+pub(crate) fn window(base: u64, row_bytes: u64, first: u32, end: u32, align: u64) -> Window {
     debug_assert_eq!(base % align, 0, "plane bases are aligned");
     let step = row_step(row_bytes, align);
     let start = first - first % step;
@@ -59,7 +59,7 @@ pub fn window(base: u64, row_bytes: u64, first: u32, end: u32, align: u64) -> Wi
 }
 
 /// Splits `total` rows into bands of `rows` (the last one shorter).
-pub fn split(total: u32, rows: u32) -> Vec<Band> {
+pub(crate) fn split(total: u32, rows: u32) -> Vec<Band> {
     let rows = rows.max(1);
     (0..total.div_ceil(rows))
         .map(|b| {
@@ -75,7 +75,12 @@ pub fn split(total: u32, rows: u32) -> Vec<Band> {
 /// The most rows per band, a multiple of `step` unless one band holds all `total` rows, for
 /// which `fits(rows)` holds (`fits` must be monotone: fewer rows never need more memory).
 /// `what` names the pass in the error when not even `step` rows fit.
-pub fn band_rows(total: u32, step: u32, what: &str, fits: impl Fn(u32) -> bool) -> Result<u32> {
+pub(crate) fn band_rows(
+    total: u32,
+    step: u32,
+    what: &str,
+    fits: impl Fn(u32) -> bool,
+) -> Result<u32> {
     if fits(total) {
         return Ok(total);
     }

@@ -33,7 +33,7 @@ const WARD_MAX_ITERATIONS: u32 = 100;
 
 /// Statistics of ln(L_w) over pixels whose exposed luminance is finite and > 0.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LogLuminanceStats {
+pub(crate) struct LogLuminanceStats {
     /// ln of the log-average luminance Lbar = exp(mean ln L_w).
     pub mean_log: f64,
     pub max_log: f64,
@@ -116,12 +116,12 @@ fn pairwise_sum(values: &[f64]) -> f64 {
 
 /// Log-luminance statistics of an image after `exposure_ev`; `None` when no pixel has a finite
 /// luminance > 0.
-pub fn luminance_log_stats(img: &HdrImage, exposure_ev: f64) -> Option<LogLuminanceStats> {
+pub(crate) fn luminance_log_stats(img: &HdrImage, exposure_ev: f64) -> Option<LogLuminanceStats> {
     Scene::new(img, exposure_ev).stats()
 }
 
 /// Tone-maps `img` on the CPU in f64. The result holds display-referred linear values in
-/// [0, 1] (apply [`HdrImage::to_srgb8`] or [`HdrImage::to_srgb16`] for a display image); missing pixels are
+/// [0, 1] (apply `HdrImage::to_srgb8` or `HdrImage::to_srgb16` for a display image); missing pixels are
 /// [0, 0, 0, 0]. Extra channels and metadata are carried over.
 pub fn tonemap_cpu(img: &HdrImage, s: &ToneMapSettings) -> Result<HdrImage> {
     s.validate()?;
@@ -244,7 +244,7 @@ fn drago(lw: f64, stats: &LogLuminanceStats, bias: f64, ld_max: f64) -> f64 {
 
 /// Reinhard 2002 eq. 4. Written with L / white / white so that a white near f32's limit does
 /// not overflow when squared.
-pub fn reinhard_global(l: f64, white: f64) -> f64 {
+pub(crate) fn reinhard_global(l: f64, white: f64) -> f64 {
     l * (1.0 + l / white / white) / (1.0 + l)
 }
 
@@ -705,7 +705,7 @@ pub fn auto_exposure_percentile(img: &HdrImage, percentile: f64, target: f64) ->
 }
 
 /// Linear RGB of the turbo colour map (colorgrad gives sRGB-encoded colours) at t in [0, 1].
-pub fn turbo_linear(t: f64) -> [f32; 3] {
+pub(crate) fn turbo_linear(t: f64) -> [f32; 3] {
     use colorgrad::Gradient;
     let c = colorgrad::preset::turbo().at(t.clamp(0.0, 1.0) as f32);
     [c.r, c.g, c.b].map(|v| srgb_to_linear(v as f64) as f32)
@@ -716,7 +716,7 @@ const MISSING_GREY: f32 = 0.2;
 
 /// Height in pixels of the false-colour legend strip: a tenth of the image, 4 to 24 pixels,
 /// none below 16 pixels of image height.
-pub fn legend_height(image_height: u32) -> u32 {
+pub(crate) fn legend_height(image_height: u32) -> u32 {
     if image_height >= 16 {
         (image_height / 10).clamp(4, 24)
     } else {
@@ -725,7 +725,7 @@ pub fn legend_height(image_height: u32) -> u32 {
 }
 
 /// 256 linear RGBA samples of turbo for `shaders/tonemap/false_colour.wgsl`'s `lut` binding.
-pub fn turbo_lut() -> Vec<[f32; 4]> {
+pub(crate) fn turbo_lut() -> Vec<[f32; 4]> {
     (0..256)
         .map(|i| {
             let [r, g, b] = turbo_linear(i as f64 / 255.0);
@@ -737,7 +737,7 @@ pub fn turbo_lut() -> Vec<[f32; 4]> {
 /// The whole decades (low, high) of log10 luminance the false-colour view spans: `decades` when
 /// given (checked), else those spanning the image's positive luminance after `exposure_ev`.
 /// Shared by [`false_colour_log10`] and the GPU false-colour pass.
-pub fn false_colour_decades(
+pub(crate) fn false_colour_decades(
     img: &HdrImage,
     exposure_ev: f64,
     decades: Option<(f64, f64)>,

@@ -3,7 +3,7 @@
 //! and exposure in stops and exposure brackets (several views of one HDR image, no re-render);
 //! the `hdrvis bench tonemap` benchmark is [`crate::bench::tonemap`].
 
-pub mod bands;
+pub(crate) mod bands;
 pub mod cpu;
 pub mod gpu;
 pub mod params;
@@ -15,9 +15,9 @@ pub use gpu::{GpuToneMapper, DISPLAY_REFERRED};
 pub use params::{Operator, ToneMapSettings};
 
 /// Largest exposure magnitude accepted, in stops (as [`ToneMapSettings::validate`]).
-pub const MAX_EV: f64 = 200.0;
+pub(crate) const MAX_EV: f64 = 200.0;
 
-/// Checks an exposure in stops: finite and within ±[`MAX_EV`].
+/// Checks an exposure in stops: finite and within ±`MAX_EV`.
 pub fn check_ev(field: &str, ev: f64) -> Result<()> {
     if ev.is_finite() && ev.abs() <= MAX_EV {
         Ok(())
@@ -60,7 +60,7 @@ pub fn bracket(img: &HdrImage, evs: &[f64]) -> Result<Vec<HdrImage>> {
 }
 
 /// A bracket holds 1 to 64 exposures.
-pub fn check_bracket(evs: &[f64]) -> Result<()> {
+pub(crate) fn check_bracket(evs: &[f64]) -> Result<()> {
     if evs.is_empty() || evs.len() > 64 {
         return Err(Error::invalid(
             "bracket",
@@ -72,7 +72,7 @@ pub fn check_bracket(evs: &[f64]) -> Result<()> {
 
 /// Whether `img` holds display-referred values in [0, 1] (tone-mapped or false colour), which a
 /// PNG writer should only sRGB-encode, never expose again.
-pub fn is_display_referred(img: &HdrImage) -> bool {
+pub(crate) fn is_display_referred(img: &HdrImage) -> bool {
     img.meta(DISPLAY_REFERRED) == Some("1")
 }
 

@@ -67,7 +67,7 @@ pub enum Operator {
 
 impl Operator {
     /// Names accepted by [`Operator::parse`], in the order of the variants.
-    pub const NAMES: [&'static str; 7] = [
+    pub(crate) const NAMES: [&'static str; 7] = [
         "linear",
         "drago",
         "reinhard",
@@ -109,7 +109,7 @@ impl Operator {
         Self::NAMES[self.code() as usize]
     }
 
-    /// The operator's number in the shaders' `op` field (the index into [`Operator::NAMES`]).
+    /// The operator's number in the shaders' `op` field (the index into `Operator::NAMES`).
     pub fn code(&self) -> u32 {
         match self {
             Operator::Linear => 0,
@@ -123,7 +123,7 @@ impl Operator {
     }
 
     /// Whether the operator's output at a pixel depends on its neighbourhood.
-    pub fn is_local(&self) -> bool {
+    pub(crate) fn is_local(&self) -> bool {
         matches!(
             self,
             Operator::ReinhardLocal { .. } | Operator::DurandBilateral { .. }
@@ -207,7 +207,7 @@ impl Operator {
     }
 
     /// Parameter names each operator accepts in [`Operator::parse`].
-    pub fn param_names(name: &str) -> &'static [&'static str] {
+    pub(crate) fn param_names(name: &str) -> &'static [&'static str] {
         match name {
             "drago" => &["bias", "ld_max"],
             "reinhard" => &["key", "white"],
@@ -321,12 +321,12 @@ pub fn blur_sigma(alpha1: f64, ratio: f64, index: u32) -> f64 {
 }
 
 /// Durand's spatial sigma in pixels for an image of the given size.
-pub fn durand_sigma_pixels(sigma_spatial: f64, width: u32, height: u32) -> f64 {
+pub(crate) fn durand_sigma_pixels(sigma_spatial: f64, width: u32, height: u32) -> f64 {
     (sigma_spatial * width.max(height) as f64).max(0.5)
 }
 
 /// Half-width of the truncated Gaussian window (3 sigma) used by both CPU and GPU blurs.
-pub fn gaussian_radius(sigma: f64) -> u32 {
+pub(crate) fn gaussian_radius(sigma: f64) -> u32 {
     (3.0 * sigma).ceil().max(1.0) as u32
 }
 
@@ -335,7 +335,7 @@ pub fn gaussian_radius(sigma: f64) -> u32 {
 /// interpolation: box and tent add about cell^2 / 4 of variance between them, which is taken off
 /// so that the whole chain blurs by about `sigma_px`. A grid of one-pixel cells is the image
 /// itself (nothing to take off).
-pub fn grid_sigma(sigma_px: f64, cell: u32) -> f64 {
+pub(crate) fn grid_sigma(sigma_px: f64, cell: u32) -> f64 {
     if cell <= 1 {
         return sigma_px;
     }
@@ -346,13 +346,13 @@ pub fn grid_sigma(sigma_px: f64, cell: u32) -> f64 {
 /// Reinhard's blurs at reduced resolution: scale `index` is blurred on pyramid level
 /// [`reinhard_level`] (level k halves the image k times by 2x2 averaging of the (L m, m) pairs),
 /// where its sigma still spans at least this many cells.
-pub const REINHARD_MIN_LEVEL_SIGMA: f64 = 0.8;
+pub(crate) const REINHARD_MIN_LEVEL_SIGMA: f64 = 0.8;
 
 /// Deepest pyramid level of Reinhard's blurs.
-pub const REINHARD_MAX_LEVEL: u32 = 6;
+pub(crate) const REINHARD_MAX_LEVEL: u32 = 6;
 
 /// The pyramid level on which Reinhard's Gaussian of `sigma_px` pixels is computed: the
-/// coarsest whose cells of 2^k pixels leave sigma_px / 2^k >= [`REINHARD_MIN_LEVEL_SIGMA`].
+/// coarsest whose cells of 2^k pixels leave sigma_px / 2^k >= `REINHARD_MIN_LEVEL_SIGMA`.
 pub fn reinhard_level(sigma_px: f64) -> u32 {
     let mut k = 0;
     while k < REINHARD_MAX_LEVEL
@@ -364,19 +364,19 @@ pub fn reinhard_level(sigma_px: f64) -> u32 {
 }
 
 /// Most intensity levels of Durand's piecewise-linear bilateral filter.
-pub const DURAND_MAX_LEVELS: u32 = 64;
+pub(crate) const DURAND_MAX_LEVELS: u32 = 64;
 /// Largest side, in cells, of Durand's downsampled grid (bounds its memory: 256^2 cells x
 /// [`DURAND_MAX_LEVELS`] levels x 8 bytes = 32 MiB).
-pub const DURAND_MAX_GRID_SIDE: u32 = 256;
+pub(crate) const DURAND_MAX_GRID_SIDE: u32 = 256;
 /// Smallest range weight of Durand's filter, e^-80: far levels still weigh (very little) so
 /// that a normalisation never divides 0 by 0, in f32 as in f64.
-pub const DURAND_MIN_LOG_WEIGHT: f64 = -80.0;
+pub(crate) const DURAND_MIN_LOG_WEIGHT: f64 = -80.0;
 
 /// Durand & Dorsey's own acceleration (their section 5.1): the bilateral filter of log10
 /// luminance as a piecewise-linear function of intensity. Levels i_j = first + j step span the
 /// image's log10 luminance at most sigma_r apart; the image is box-averaged onto a grid of
 /// `cell`-pixel cells; per level, the range weights w = count exp(-(mean - i_j)^2 / 2 sigma_r^2)
-/// and w mean are blurred by a Gaussian of `sigma_cells` ([`grid_sigma`]) within `radius`
+/// and w mean are blurred by a Gaussian of `sigma_cells` (`grid_sigma`) within `radius`
 /// cells (2 sigma); each pixel interpolates the two levels around its own l, each read
 /// bilinearly from the grid as (sum w mean) / (sum w).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -535,7 +535,7 @@ impl ToneMapSettings {
 /// dispatches of one operator: write one uniform per dispatch or use dynamic offsets.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ToneMapParams {
+pub(crate) struct ToneMapParams {
     pub width: u32,
     pub height: u32,
     /// [`Operator::code`].
@@ -609,7 +609,7 @@ pub struct ToneMapParams {
 
 impl ToneMapParams {
     /// The operator-wide fields for an image; pass fields start at zero.
-    pub fn new(settings: &ToneMapSettings, width: u32, height: u32) -> Self {
+    pub(crate) fn new(settings: &ToneMapSettings, width: u32, height: u32) -> Self {
         let mut p = ToneMapParams {
             width,
             height,
@@ -672,7 +672,7 @@ impl ToneMapParams {
 /// Means and extremes are kept as natural logs so that images near 1e-30 or 1e30 stay in range.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct LuminanceStats {
+pub(crate) struct LuminanceStats {
     /// mean of ln(L_w): ln of the log-average luminance Lbar.
     pub mean_log: f32,
     pub max_log: f32,

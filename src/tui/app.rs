@@ -28,15 +28,15 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// The parameter the TUI sets for the quick low-resolution render (then 1 for the full one).
-pub const PREVIEW_SCALE: &str = "preview_scale";
+pub(crate) const PREVIEW_SCALE: &str = "preview_scale";
 /// Scale of the quick first render.
-pub const LOW_RES_SCALE: f64 = 0.25;
+pub(crate) const LOW_RES_SCALE: f64 = 0.25;
 /// Exposure step of `+` / `-`, in stops.
-pub const EV_STEP: f64 = 0.5;
+pub(crate) const EV_STEP: f64 = 0.5;
 
 /// Something a key asks for.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Action {
+pub(crate) enum Action {
     Quit,
     ExposureUp,
     ExposureDown,
@@ -73,7 +73,7 @@ pub enum Action {
 
 impl Action {
     /// Whether the action changes a script parameter (an image file has none).
-    pub fn changes_scene(self) -> bool {
+    pub(crate) fn changes_scene(self) -> bool {
         use Action::*;
         matches!(
             self,
@@ -99,7 +99,7 @@ impl Action {
 }
 
 /// Every key binding: (keys as shown, action, what it does). The help overlay lists exactly this.
-pub const KEYS: &[(&str, Action, &str)] = &[
+pub(crate) const KEYS: &[(&str, Action, &str)] = &[
     ("+ / =", Action::ExposureUp, "exposure +0.5 EV"),
     ("-", Action::ExposureDown, "exposure -0.5 EV"),
     ("0", Action::ExposureReset, "exposure 0 EV"),
@@ -151,7 +151,7 @@ pub const KEYS: &[(&str, Action, &str)] = &[
 ];
 
 /// The action bound to a key, if any.
-pub fn action_for_key(key: KeyEvent) -> Option<Action> {
+pub(crate) fn action_for_key(key: KeyEvent) -> Option<Action> {
     use Action::*;
     if key.modifiers.contains(KeyModifiers::CONTROL) {
         return matches!(key.code, KeyCode::Char('c')).then_some(Quit);
@@ -195,7 +195,7 @@ pub fn action_for_key(key: KeyEvent) -> Option<Action> {
 
 /// What has to happen after an action.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Effect {
+pub(crate) enum Effect {
     /// Nothing changed (a key for a parameter the script does not have, for instance).
     None,
     /// Only the view of the HDR image changed: tone-map and encode again, no re-render.
@@ -210,7 +210,7 @@ pub enum Effect {
 }
 
 /// What the event loop has to do after a worker's reply or a reload.
-pub enum FollowUp {
+pub(crate) enum FollowUp {
     /// A stale reply: nothing changed, not even the screen.
     Ignore,
     /// The state changed: draw the screen again.
@@ -253,14 +253,14 @@ impl Requests {
 
 /// What the TUI shows: a script's scene or an HDR image file.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Source {
+pub(crate) enum Source {
     Script(PathBuf),
     Image(PathBuf),
 }
 
 /// The last render's report for the status line.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct RenderStatus {
+pub(crate) struct RenderStatus {
     pub adapter: String,
     pub render_ms: Option<f64>,
     /// Passes that ran in the last render with their times, e.g. `volume 212 ms`. The script
@@ -273,7 +273,7 @@ pub struct RenderStatus {
 
 /// The whole state of the TUI.
 #[derive(Clone, Debug)]
-pub struct App {
+pub(crate) struct App {
     pub source: Source,
     pub out_dir: PathBuf,
     /// Parameters the script asked for in its last successful run.
@@ -301,7 +301,7 @@ pub struct App {
 }
 
 impl App {
-    pub fn new(source: Source, out_dir: PathBuf, base_sets: Vec<(String, String)>) -> App {
+    pub(crate) fn new(source: Source, out_dir: PathBuf, base_sets: Vec<(String, String)>) -> App {
         App {
             source,
             out_dir,
@@ -324,7 +324,7 @@ impl App {
 
     /// The `--set` pairs of the next run: command-line ones, then the keys' overrides (the
     /// render worker adds the preview scale).
-    pub fn script_sets(&self) -> Vec<(String, String)> {
+    pub(crate) fn script_sets(&self) -> Vec<(String, String)> {
         let mut sets: Vec<(String, String)> = self
             .base_sets
             .iter()
@@ -336,7 +336,7 @@ impl App {
     }
 
     /// The parameters shown in the panel (the preview scale is the TUI's own).
-    pub fn panel_params(&self) -> Vec<&ParamRecord> {
+    pub(crate) fn panel_params(&self) -> Vec<&ParamRecord> {
         self.params
             .iter()
             .filter(|p| p.name != PREVIEW_SCALE)
@@ -344,12 +344,12 @@ impl App {
     }
 
     /// Whether the script reads `preview_scale`, so a quick low-resolution run is worth doing.
-    pub fn has_preview_scale(&self) -> bool {
+    pub(crate) fn has_preview_scale(&self) -> bool {
         self.params.iter().any(|p| p.name == PREVIEW_SCALE)
     }
 
     /// The current value of a parameter (override, else what the script last received).
-    pub fn param_value(&self, name: &str) -> Option<String> {
+    pub(crate) fn param_value(&self, name: &str) -> Option<String> {
         self.overrides.get(name).cloned().or_else(|| {
             self.params
                 .iter()
@@ -359,7 +359,7 @@ impl App {
     }
 
     /// Takes a finished run's parameter list (values the script received).
-    pub fn set_params(&mut self, params: Vec<ParamRecord>) {
+    pub(crate) fn set_params(&mut self, params: Vec<ParamRecord>) {
         self.params = params;
         let n = self.panel_params().len();
         if self.selected >= n {
@@ -473,7 +473,7 @@ impl App {
     /// The effect of a key press: Esc closes the help overlay, other keys go through
     /// [`action_for_key`] and [`App::apply`]; `None` for a key bound to nothing. Every action
     /// but saving clears the last notice.
-    pub fn on_key(&mut self, key: KeyEvent) -> Option<Effect> {
+    pub(crate) fn on_key(&mut self, key: KeyEvent) -> Option<Effect> {
         if self.show_help && key.code == KeyCode::Esc {
             self.show_help = false;
             return Some(Effect::Redraw);
@@ -486,7 +486,7 @@ impl App {
     }
 
     /// Applies an action and says what has to follow.
-    pub fn apply(&mut self, action: Action) -> Effect {
+    pub(crate) fn apply(&mut self, action: Action) -> Effect {
         use Action::*;
         if action.changes_scene() && !matches!(self.source, Source::Script(_)) {
             self.message = "an image file has no scene parameters".into();
@@ -583,7 +583,7 @@ impl App {
 
     /// The next script run to send to the render worker: a new id (replies to older runs
     /// become stale) and the busy mark in the status line.
-    pub fn render_job(&mut self) -> RenderJob {
+    pub(crate) fn render_job(&mut self) -> RenderJob {
         let id = self.requests.next();
         self.requests.render = id;
         self.status.busy = true;
@@ -598,7 +598,7 @@ impl App {
 
     /// The next view to send to the view worker for the picture's `area`, timed from now;
     /// `None` without an image or with an empty area.
-    pub fn view_job(&mut self, area: Rect) -> Option<ViewJob> {
+    pub(crate) fn view_job(&mut self, area: Rect) -> Option<ViewJob> {
         self.view_requested = Instant::now();
         let hdr = self.hdr.clone()?;
         if area.width == 0 || area.height == 0 {
@@ -617,7 +617,7 @@ impl App {
     /// A script run finished. A stale one is ignored; a good one replaces the image and the
     /// parameters (the view has to follow); a failed one shows its error over the last good
     /// image.
-    pub fn on_render_done(&mut self, done: RenderDone) -> FollowUp {
+    pub(crate) fn on_render_done(&mut self, done: RenderDone) -> FollowUp {
         if done.id != self.requests.render {
             return FollowUp::Ignore;
         }
@@ -650,7 +650,7 @@ impl App {
 
     /// The view worker finished. A stale picture is ignored; a current one is shown with its
     /// histogram and timing; an error is a notice (the last picture stays).
-    pub fn on_view_done(&mut self, done: ViewDone) -> FollowUp {
+    pub(crate) fn on_view_done(&mut self, done: ViewDone) -> FollowUp {
         if done.id != self.requests.view {
             return FollowUp::Ignore;
         }
@@ -673,7 +673,7 @@ impl App {
     }
 
     /// A save finished: the notice names the two files written, or the error.
-    pub fn on_saved(&mut self, saved: std::result::Result<(PathBuf, PathBuf), String>) {
+    pub(crate) fn on_saved(&mut self, saved: std::result::Result<(PathBuf, PathBuf), String>) {
         let name = |p: &Path| {
             p.file_name()
                 .map(|n| n.to_string_lossy().to_string())
@@ -688,7 +688,7 @@ impl App {
     /// Reload (a key or a change of the file on disk), with `notice` in the status line. An
     /// image file is re-read here (one that fails to read keeps the last good image and shows
     /// the error); a script is re-read by the render worker on its next run.
-    pub fn reload(&mut self, notice: &str) -> FollowUp {
+    pub(crate) fn reload(&mut self, notice: &str) -> FollowUp {
         self.message = notice.into();
         match &self.source {
             Source::Image(path) => {
@@ -881,7 +881,6 @@ mod tests {
             Prepared {
                 protocol: display.encode(image::RgbImage::new(16, 16), area).unwrap(),
                 histogram: None,
-                size: (16, 16),
             }
         });
         ViewDone {

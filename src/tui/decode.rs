@@ -11,20 +11,20 @@ use base64::Engine as _;
 /// A decoded picture: RGBA, rows from the top. Pixels a sixel image never paints stay
 /// transparent (alpha 0).
 #[derive(Clone, Debug, PartialEq)]
-pub struct DecodedImage {
-    pub width: u32,
-    pub height: u32,
-    pub rgba: Vec<[u8; 4]>,
+pub(crate) struct DecodedImage {
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) rgba: Vec<[u8; 4]>,
 }
 
 impl DecodedImage {
-    pub fn pixel(&self, x: u32, y: u32) -> [u8; 4] {
+    pub(crate) fn pixel(&self, x: u32, y: u32) -> [u8; 4] {
         self.rgba[(y * self.width + x) as usize]
     }
 }
 
 /// Removes tmux passthrough wrappers: `ESC P tmux; <payload with ESC doubled> ESC \`.
-pub fn unwrap_tmux(data: &str) -> String {
+pub(crate) fn unwrap_tmux(data: &str) -> String {
     let mut out = String::with_capacity(data.len());
     let mut rest = data;
     while let Some(start) = rest.find("\x1bPtmux;") {
@@ -212,7 +212,7 @@ impl SixelCanvas {
 }
 
 /// Decodes the first sixel image (`ESC P … q … ESC \`) in `data`.
-pub fn decode_sixel(data: &str) -> Result<DecodedImage> {
+pub(crate) fn decode_sixel(data: &str) -> Result<DecodedImage> {
     let body = sixel_body(data)?;
     let mut reader = SixelReader {
         bytes: body.as_bytes(),
@@ -252,7 +252,7 @@ pub fn decode_sixel(data: &str) -> Result<DecodedImage> {
 
 /// Decodes the first kitty graphics transmission (`ESC _ G keys ; base64 ESC \`, possibly
 /// chunked with `m=1`) in `data`: raw RGB (`f=24`) or RGBA (`f=32`), optionally `o=z`.
-pub fn decode_kitty(data: &str) -> Result<DecodedImage> {
+pub(crate) fn decode_kitty(data: &str) -> Result<DecodedImage> {
     let data = unwrap_tmux(data);
     let bad = |msg: String| Error::invalid("kitty", msg);
     let mut keys: Vec<(String, String)> = Vec::new();

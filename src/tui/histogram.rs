@@ -9,7 +9,7 @@ use ratatui::text::{Line, Span};
 
 /// Counts of log10 luminance over the positive finite pixels of an image.
 #[derive(Clone, Debug, PartialEq)]
-pub struct LogHistogram {
+pub(crate) struct LogHistogram {
     /// log10 of the smallest and largest positive luminance.
     pub lo: f64,
     pub hi: f64,
@@ -20,7 +20,7 @@ pub struct LogHistogram {
 
 /// The display window in log10 scene luminance at `exposure_ev`: scene values that land between
 /// 1/256 of display white and white (eight stops) under the plain exposure view.
-pub fn exposure_window(exposure_ev: f64) -> (f64, f64) {
+pub(crate) fn exposure_window(exposure_ev: f64) -> (f64, f64) {
     let white = -exposure_ev * std::f64::consts::LOG10_2;
     (white - 8.0 * std::f64::consts::LOG10_2, white)
 }
@@ -28,7 +28,7 @@ pub fn exposure_window(exposure_ev: f64) -> (f64, f64) {
 impl LogHistogram {
     /// `bins` equal bins in log10 luminance between the image's extremes; `None` when no pixel
     /// has a positive finite luminance.
-    pub fn new(img: &HdrImage, bins: usize) -> Option<LogHistogram> {
+    pub(crate) fn new(img: &HdrImage, bins: usize) -> Option<LogHistogram> {
         let bins = bins.max(1);
         let logs: Vec<f64> = img
             .pixels
@@ -57,14 +57,19 @@ impl LogHistogram {
     }
 
     /// The log10 luminance at the centre of bin `i`.
-    pub fn bin_centre(&self, i: usize) -> f64 {
+    pub(crate) fn bin_centre(&self, i: usize) -> f64 {
         let w = (self.hi - self.lo).max(1e-9) / self.counts.len() as f64;
         self.lo + (i as f64 + 0.5) * w
     }
 
     /// `height` lines of `width` columns (one bin per column, resampled), columns inside the
     /// exposure window drawn in yellow, others in grey, with a last line of decade labels.
-    pub fn lines(&self, exposure_ev: f64, width: usize, height: usize) -> Vec<Line<'static>> {
+    pub(crate) fn lines(
+        &self,
+        exposure_ev: f64,
+        width: usize,
+        height: usize,
+    ) -> Vec<Line<'static>> {
         if width == 0 || height < 2 {
             return Vec::new();
         }

@@ -1,21 +1,22 @@
 //! The terminal front end, `hdrvis tui SCRIPT.rhai | IMAGE.exr`: the only user of ratatui,
-//! crossterm and ratatui-image. [`app`] holds the state and the keys, [`ui`] draws it,
-//! [`view`] turns the HDR image into the display image, [`worker`] runs scripts and encodes
-//! pictures off the UI thread, [`protocol`] finds how the terminal shows pictures, [`terminal`]
-//! guarantees the terminal is restored, [`decode`] reads sixel/kitty payloads back (for tests),
+//! crossterm and ratatui-image. `app` holds the state and the keys, `ui` draws it,
+//! `view` turns the HDR image into the display image, `worker` runs scripts and encodes
+//! pictures off the UI thread, `protocol` finds how the terminal shows pictures, `terminal`
+//! guarantees the terminal is restored, `decode` (test code) reads sixel/kitty payloads back,
 //! and [`crate::bench::tui`] times key press to updated preview. One-shot inline pictures
 //! (`hdrvis run --preview`) are the io layer's ([`crate::io::terminal`]). The event loop here
 //! polls input every 15 ms and never waits on a render; what keys and worker replies do to the
-//! state is [`App`]'s.
+//! state is `App`'s.
 
-pub mod app;
-pub mod decode;
-pub mod histogram;
-pub mod protocol;
-pub mod terminal;
-pub mod ui;
-pub mod view;
-pub mod worker;
+pub(crate) mod app;
+#[cfg(test)]
+mod decode;
+pub(crate) mod histogram;
+pub(crate) mod protocol;
+pub(crate) mod terminal;
+pub(crate) mod ui;
+pub(crate) mod view;
+pub(crate) mod worker;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
@@ -49,7 +50,7 @@ pub struct TuiOptions {
 }
 
 /// The input's kind by extension: `.exr` is an image, anything else a script.
-pub fn source_of(path: &Path) -> Source {
+pub(crate) fn source_of(path: &Path) -> Source {
     if crate::io::extension(path) == "exr" {
         Source::Image(path.to_path_buf())
     } else {

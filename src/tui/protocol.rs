@@ -26,7 +26,7 @@ use ratatui_image::picker::{cap_parser::QueryStdioOptions, Picker, ProtocolType}
 use ratatui_image::protocol::Protocol;
 use std::time::Duration;
 
-pub use crate::io::terminal::{ProtocolChoice, PROTOCOL_ENV};
+pub(crate) use crate::io::terminal::ProtocolChoice;
 
 /// The ratatui-image protocol `--protocol` forces, `None` for auto.
 fn forced(choice: ProtocolChoice) -> Option<ProtocolType> {
@@ -41,7 +41,7 @@ fn forced(choice: ProtocolChoice) -> Option<ProtocolType> {
 
 /// Whether this process runs inside tmux (by `$TMUX`, which tmux always sets, or the terminal
 /// names ratatui-image looks at).
-pub fn in_tmux() -> bool {
+pub(crate) fn in_tmux() -> bool {
     std::env::var_os("TMUX").is_some_and(|v| !v.is_empty())
         || std::env::var("TERM").is_ok_and(|t| t.starts_with("tmux"))
         || std::env::var("TERM_PROGRAM").is_ok_and(|t| t == "tmux")
@@ -49,7 +49,7 @@ pub fn in_tmux() -> bool {
 
 /// Makes ratatui-image see tmux when only `$TMUX` says so. Changes this process's environment:
 /// call it before any other thread starts.
-pub fn prepare_environment() {
+pub(crate) fn prepare_environment() {
     let term_says_tmux = std::env::var("TERM").is_ok_and(|t| t.starts_with("tmux"))
         || std::env::var("TERM_PROGRAM").is_ok_and(|t| t == "tmux");
     if in_tmux() && !term_says_tmux {
@@ -58,7 +58,7 @@ pub fn prepare_environment() {
 }
 
 /// The tmux server's version as (major, minor), e.g. (3, 3) for "3.3a".
-pub fn tmux_version() -> Option<(u32, u32)> {
+pub(crate) fn tmux_version() -> Option<(u32, u32)> {
     let out = std::process::Command::new("tmux")
         .args(["display-message", "-p", "#{version}"])
         .stdin(std::process::Stdio::null())
@@ -69,7 +69,7 @@ pub fn tmux_version() -> Option<(u32, u32)> {
 }
 
 /// "3.3a" -> (3, 3); "0.26.5" -> (0, 26); "next-3.5" -> (3, 5).
-pub fn parse_version(s: &str) -> Option<(u32, u32)> {
+pub(crate) fn parse_version(s: &str) -> Option<(u32, u32)> {
     let s = s.trim_start_matches(|c: char| !c.is_ascii_digit());
     let mut parts = s.split(|c: char| !c.is_ascii_digit());
     let major = parts.next()?.parse().ok()?;
@@ -79,7 +79,7 @@ pub fn parse_version(s: &str) -> Option<(u32, u32)> {
 
 /// The chosen protocol with what the status line should say about it.
 #[derive(Clone)]
-pub struct Display {
+pub(crate) struct Display {
     pub picker: Picker,
     /// e.g. `sixel`, `kitty (compressed)`, `halfblocks: the terminal shows no graphics`.
     pub note: String,
@@ -89,7 +89,7 @@ pub struct Display {
 
 impl Display {
     /// A display for tests and benchmarks: `protocol` at a fixed cell size, no terminal query.
-    pub fn fixed(protocol: ProtocolType, cell: (u16, u16)) -> Display {
+    pub(crate) fn fixed(protocol: ProtocolType, cell: (u16, u16)) -> Display {
         #[allow(deprecated)] // the only constructor that takes a cell size without a terminal
         let mut picker = Picker::from_fontsize(cell.into());
         picker.set_protocol_type(protocol);
@@ -101,7 +101,7 @@ impl Display {
     }
 
     /// The area's size in pixels at the terminal's cell size.
-    pub fn pixels(&self, area: Rect) -> (u32, u32) {
+    pub(crate) fn pixels(&self, area: Rect) -> (u32, u32) {
         let fs = self.picker.font_size();
         (
             area.width as u32 * fs.width as u32,
@@ -110,7 +110,7 @@ impl Display {
     }
 
     /// Encodes `img` (already at most [`Display::pixels`] of `area`) for the terminal.
-    pub fn encode(&self, img: image::RgbImage, area: Rect) -> Result<Protocol> {
+    pub(crate) fn encode(&self, img: image::RgbImage, area: Rect) -> Result<Protocol> {
         self.picker
             .new_protocol(
                 image::DynamicImage::ImageRgb8(img),
@@ -132,7 +132,7 @@ fn name(p: ProtocolType) -> &'static str {
 
 /// What the terminal said to [`probe`].
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Probe {
+pub(crate) struct Probe {
     /// The status report came back (the terminal answers queries at all).
     pub answered: bool,
     pub kitty: bool,
@@ -147,7 +147,7 @@ pub struct Probe {
 /// image), XTVERSION, cell size, primary device attributes (sixel is attribute 4), and a status
 /// report that every terminal answers, which ends the read. Reads with `poll` and a deadline, so
 /// no thread is left behind reading stdin (it would steal key presses).
-pub fn probe(tmux: bool, timeout: Duration) -> Probe {
+pub(crate) fn probe(tmux: bool, timeout: Duration) -> Probe {
     let (start, esc, end) = if tmux {
         ("\x1bPtmux;", "\x1b\x1b", "\x1b\\")
     } else {
@@ -161,7 +161,7 @@ pub fn probe(tmux: bool, timeout: Duration) -> Probe {
 }
 
 /// Parses the answers to [`probe`]'s queries.
-pub fn parse_probe(answer: &str) -> Probe {
+pub(crate) fn parse_probe(answer: &str) -> Probe {
     let mut p = Probe {
         answered: answer.contains("\x1b[0n"),
         kitty: answer.contains("\x1b_Gi=31;OK"),
@@ -246,7 +246,7 @@ fn cell_from_winsize() -> Option<(u16, u16)> {
 
 /// Finds how to show pictures. Must run after the terminal entered raw mode and the alternate
 /// screen and before events are read (the answers arrive on stdin).
-pub fn detect(choice: ProtocolChoice) -> Display {
+pub(crate) fn detect(choice: ProtocolChoice) -> Display {
     if choice == ProtocolChoice::Halfblocks {
         let mut picker = Picker::halfblocks();
         picker.set_protocol_type(ProtocolType::Halfblocks);
@@ -333,7 +333,7 @@ pub fn detect(choice: ProtocolChoice) -> Display {
 }
 
 /// The text of an XTVERSION answer, `ESC P > | text ESC \`.
-pub fn parse_xtversion(answer: &str) -> Option<String> {
+pub(crate) fn parse_xtversion(answer: &str) -> Option<String> {
     let start = answer.find("\x1bP>|")? + 4;
     let end = answer[start..].find("\x1b\\")? + start;
     Some(answer[start..end].trim().to_string())

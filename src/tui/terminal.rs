@@ -20,7 +20,7 @@ static KITTY_IMAGES: AtomicBool = AtomicBool::new(false);
 
 /// Puts the terminal back: kitty images deleted, alternate screen left, cursor shown, raw mode
 /// off. Safe to call more than once and from any thread.
-pub fn restore() {
+pub(crate) fn restore() {
     if !ACTIVE.swap(false, Ordering::SeqCst) {
         return;
     }
@@ -39,18 +39,18 @@ pub fn restore() {
 }
 
 /// Remembers that kitty images were sent, so [`restore`] deletes them.
-pub fn note_kitty_images() {
+pub(crate) fn note_kitty_images() {
     KITTY_IMAGES.store(true, Ordering::SeqCst);
 }
 
 /// The TUI's terminal; dropping it restores the screen.
-pub struct TerminalGuard {
+pub(crate) struct TerminalGuard {
     pub terminal: Terminal<CrosstermBackend<Stdout>>,
 }
 
 impl TerminalGuard {
     /// Enters raw mode and the alternate screen and installs the panic hook.
-    pub fn enter() -> Result<TerminalGuard> {
+    pub(crate) fn enter() -> Result<TerminalGuard> {
         use std::io::IsTerminal;
         if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
             return Err(Error::invalid(
@@ -99,7 +99,7 @@ fn install_panic_hook() {
 /// Delivers SIGINT, SIGTERM and SIGHUP to `events` as their numbers. If `finished` is not set
 /// within a second of a signal, the terminal is restored here and the process exits with
 /// 128 + the signal's number.
-pub fn watch_signals(
+pub(crate) fn watch_signals(
     events: Sender<i32>,
     finished: std::sync::Arc<AtomicBool>,
 ) -> Result<std::thread::JoinHandle<()>> {

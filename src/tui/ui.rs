@@ -19,7 +19,7 @@ const HISTOGRAM_HEIGHT: u16 = 8;
 
 /// Where everything goes on a screen of a given size.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Areas {
+pub(crate) struct Areas {
     pub image_block: Rect,
     /// Inside the image's border: the cells the picture may cover.
     pub image: Rect,
@@ -31,7 +31,7 @@ pub struct Areas {
 /// The layout of a `size` screen. Below 60 columns the panel is dropped and the picture takes
 /// the width; the status line is always the last row (the picture never touches it, so a sixel
 /// image cannot scroll the screen).
-pub fn layout(size: Rect) -> Areas {
+pub(crate) fn layout(size: Rect) -> Areas {
     let rows = Layout::default()
         .direction(Direction::Vertical)
         .constraints([Constraint::Min(3), Constraint::Length(1)])
@@ -60,7 +60,7 @@ pub fn layout(size: Rect) -> Areas {
 
 /// Draws the whole screen. `image` is the picture already encoded for the terminal's protocol
 /// and sized for [`Areas::image`].
-pub fn draw(frame: &mut Frame, app: &App, image: Option<&Protocol>) {
+pub(crate) fn draw(frame: &mut Frame, app: &App, image: Option<&Protocol>) {
     let areas = layout(frame.area());
     let title = match &app.source {
         Source::Script(p) | Source::Image(p) => p

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 /// The display operators the `o` key cycles through: the plain exposure view (scene × 2^EV,
 /// clipped, as `save_png(image, path, ev)`), then every tone-mapping operator.
-pub const VIEW_OPERATORS: [&str; 8] = [
+pub(crate) const VIEW_OPERATORS: [&str; 8] = [
     "exposure",
     "linear",
     "reinhard",
@@ -28,7 +28,7 @@ pub const VIEW_OPERATORS: [&str; 8] = [
 
 /// The main parameter of each entry of [`VIEW_OPERATORS`]: (name, default, step, min, max);
 /// `None` where the operator has none worth a key.
-pub fn main_parameter(op: &str) -> Option<(&'static str, f64, f64, f64, f64)> {
+pub(crate) fn main_parameter(op: &str) -> Option<(&'static str, f64, f64, f64, f64)> {
     match op {
         "reinhard" | "reinhard-local" => Some(("key", 0.18, 0.03, 0.01, 1.0)),
         "drago" => Some(("bias", 0.85, 0.05, 0.05, 1.0)),
@@ -41,7 +41,7 @@ pub fn main_parameter(op: &str) -> Option<(&'static str, f64, f64, f64, f64)> {
 /// Which part of the image is shown: colour, one channel as grey, luminance, or an extra
 /// channel the image carries (a surface's data value or fringe intensity).
 #[derive(Clone, Debug, PartialEq)]
-pub enum Channel {
+pub(crate) enum Channel {
     Rgb,
     Red,
     Green,
@@ -52,7 +52,7 @@ pub enum Channel {
 }
 
 impl Channel {
-    pub fn label(&self) -> String {
+    pub(crate) fn label(&self) -> String {
         match self {
             Channel::Rgb => "RGB".into(),
             Channel::Red => "R".into(),
@@ -65,7 +65,7 @@ impl Channel {
     }
 
     /// Every channel `img` offers, in cycling order.
-    pub fn all(img: Option<&HdrImage>) -> Vec<Channel> {
+    pub(crate) fn all(img: Option<&HdrImage>) -> Vec<Channel> {
         let mut v = vec![
             Channel::Rgb,
             Channel::Red,
@@ -87,7 +87,7 @@ impl Channel {
 
 /// How the HDR image is turned into a display image.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ViewSettings {
+pub(crate) struct ViewSettings {
     pub exposure_ev: f64,
     /// Index into [`VIEW_OPERATORS`].
     pub operator: usize,
@@ -110,12 +110,12 @@ impl Default for ViewSettings {
 }
 
 impl ViewSettings {
-    pub fn operator_name(&self) -> &'static str {
+    pub(crate) fn operator_name(&self) -> &'static str {
         VIEW_OPERATORS[self.operator % VIEW_OPERATORS.len()]
     }
 
     /// The operator and its main parameter as one label, e.g. `reinhard key=0.18`.
-    pub fn operator_label(&self) -> String {
+    pub(crate) fn operator_label(&self) -> String {
         let name = self.operator_name();
         match main_parameter(name) {
             Some((p, default, ..)) => format!("{name} {p}={}", self.op_param.unwrap_or(default)),
@@ -124,7 +124,7 @@ impl ViewSettings {
     }
 
     /// Tone-mapping settings for operators other than the plain exposure view.
-    pub fn tonemap_settings(&self) -> Result<Option<ToneMapSettings>> {
+    pub(crate) fn tonemap_settings(&self) -> Result<Option<ToneMapSettings>> {
         let name = self.operator_name();
         if name == "exposure" {
             return Ok(None);
@@ -143,7 +143,7 @@ impl ViewSettings {
 }
 
 /// The chosen channel as an image: colour as is, a single channel as grey (alpha kept).
-pub fn select_channel(img: &HdrImage, channel: &Channel) -> Result<HdrImage> {
+pub(crate) fn select_channel(img: &HdrImage, channel: &Channel) -> Result<HdrImage> {
     let grey = |f: &dyn Fn(usize, [f32; 4]) -> f32| -> HdrImage {
         let pixels = img
             .pixels
@@ -182,7 +182,7 @@ pub fn select_channel(img: &HdrImage, channel: &Channel) -> Result<HdrImage> {
 /// pixel averages the source pixels its footprint touches (area averaging when shrinking,
 /// nearest pixels when enlarging a quick low-resolution render). Missing (non-finite) values
 /// are left out of each average; a footprint with none left stays NaN.
-pub fn resample(img: &HdrImage, max_w: u32, max_h: u32) -> HdrImage {
+pub(crate) fn resample(img: &HdrImage, max_w: u32, max_h: u32) -> HdrImage {
     let (w, h) = fit_within(img.width, img.height, max_w, max_h);
     if (w, h) == (img.width, img.height) {
         return img.clone();
@@ -228,7 +228,7 @@ fn span(i: u32, s: f64, n: u32) -> (u32, u32) {
 }
 
 /// The largest size with the aspect of `w` × `h` inside `max_w` × `max_h`, at least 1 × 1.
-pub fn fit_within(w: u32, h: u32, max_w: u32, max_h: u32) -> (u32, u32) {
+pub(crate) fn fit_within(w: u32, h: u32, max_w: u32, max_h: u32) -> (u32, u32) {
     if w == 0 || h == 0 {
         return (w, h);
     }
@@ -240,7 +240,7 @@ pub fn fit_within(w: u32, h: u32, max_w: u32, max_h: u32) -> (u32, u32) {
 }
 
 /// The display-referred linear image (values in [0, 1]) of `hdr` under `view`.
-pub fn display_image(hdr: &HdrImage, view: &ViewSettings) -> Result<HdrImage> {
+pub(crate) fn display_image(hdr: &HdrImage, view: &ViewSettings) -> Result<HdrImage> {
     let img = select_channel(hdr, &view.channel)?;
     let mut out = if view.false_colour {
         false_colour_log10(&img, view.exposure_ev, None)?
@@ -267,7 +267,7 @@ pub fn display_image(hdr: &HdrImage, view: &ViewSettings) -> Result<HdrImage> {
 }
 
 /// One line naming every view setting, stored in saved files.
-pub fn describe(view: &ViewSettings) -> String {
+pub(crate) fn describe(view: &ViewSettings) -> String {
     format!(
         "exposure {:+} EV, {}, channel {}{}",
         view.exposure_ev,
@@ -284,7 +284,7 @@ pub fn describe(view: &ViewSettings) -> String {
 /// Saves the current view at full resolution into `out_dir`: `<stem>_view<NNN>.exr`, the
 /// chosen channel exposed by 2^EV (scene-referred, linear), and `<stem>_view<NNN>.png`, the
 /// display image. The number is the first one free. Both are written atomically.
-pub fn save_view(
+pub(crate) fn save_view(
     hdr: &HdrImage,
     view: &ViewSettings,
     out_dir: &Path,

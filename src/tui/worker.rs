@@ -25,7 +25,7 @@ use std::time::Instant;
 
 /// What a script run gave the TUI.
 #[derive(Clone, Debug)]
-pub struct Scene {
+pub(crate) struct Scene {
     pub image: Arc<HdrImage>,
     pub params: Vec<ParamRecord>,
     /// The passes of the run: what ran and what came from the session's cache.
@@ -33,7 +33,7 @@ pub struct Scene {
 }
 
 /// Passes for the status line: `raycast 41 ms`, cached ones as `load (cached)`.
-pub fn pass_summary(passes: &[PassRecord]) -> Vec<String> {
+pub(crate) fn pass_summary(passes: &[PassRecord]) -> Vec<String> {
     passes
         .iter()
         .map(|p| match p.outcome {
@@ -44,7 +44,7 @@ pub fn pass_summary(passes: &[PassRecord]) -> Vec<String> {
 }
 
 /// The adapter's name and backend, e.g. `llvmpipe (Vulkan)`, once a run has started the GPU.
-pub fn adapter_of(session: &RenderSession) -> Option<String> {
+pub(crate) fn adapter_of(session: &RenderSession) -> Option<String> {
     let ctx = session.context().ok()?;
     let full = ctx.describe();
     let name = full.split(" (").next().unwrap_or(&full).to_string();
@@ -53,7 +53,7 @@ pub fn adapter_of(session: &RenderSession) -> Option<String> {
 
 /// Runs the script once with `sets` in `session` and picks the image to show: the last one
 /// passed to `preview(image)`, else the last one rendered, loaded or saved.
-pub fn render_scene(
+pub(crate) fn render_scene(
     script: &std::path::Path,
     base: &ScriptOptions,
     session: &Arc<RenderSession>,
@@ -85,7 +85,7 @@ pub fn render_scene(
 
 /// A request to re-run the script.
 #[derive(Clone, Debug)]
-pub struct RenderJob {
+pub(crate) struct RenderJob {
     pub id: u64,
     /// Whether to run a quick `preview_scale` = 0.25 pass first.
     pub low_res_first: bool,
@@ -95,7 +95,7 @@ pub struct RenderJob {
 
 /// A finished run.
 #[derive(Debug)]
-pub struct RenderDone {
+pub(crate) struct RenderDone {
     pub id: u64,
     /// `true` for the quick low-resolution pass.
     pub low_res: bool,
@@ -105,7 +105,7 @@ pub struct RenderDone {
 }
 
 /// Starts the render worker for `script`; results arrive on the returned receiver.
-pub fn spawn_render_worker(
+pub(crate) fn spawn_render_worker(
     script: PathBuf,
     base: ScriptOptions,
     session: Arc<RenderSession>,
@@ -186,16 +186,14 @@ fn latest<T>(first: T, rx: &Receiver<T>) -> T {
 }
 
 /// What the terminal shows for one HDR image and view.
-pub struct Prepared {
+pub(crate) struct Prepared {
     pub protocol: Protocol,
     pub histogram: Option<LogHistogram>,
-    /// The display image's size in pixels.
-    pub size: (u32, u32),
 }
 
 /// HDR image -> resampled to the area's pixels -> tone-mapped view -> encoded for the
 /// terminal, plus the log-luminance histogram of the resampled image.
-pub fn prepare(
+pub(crate) fn prepare(
     display: &Display,
     hdr: &HdrImage,
     view: &ViewSettings,
@@ -208,31 +206,29 @@ pub fn prepare(
         &crate::tui::view::select_channel(&small, &view.channel)?,
         64,
     );
-    let size = (shown.width, shown.height);
     let protocol = display.encode(srgb8_picture(&shown), area)?;
     Ok(Prepared {
         protocol,
         histogram,
-        size,
     })
 }
 
 /// A request to show an image.
-pub struct ViewJob {
+pub(crate) struct ViewJob {
     pub id: u64,
     pub hdr: Arc<HdrImage>,
     pub view: ViewSettings,
     pub area: Rect,
 }
 
-pub struct ViewDone {
+pub(crate) struct ViewDone {
     pub id: u64,
     pub outcome: std::result::Result<Prepared, String>,
     pub ms: f64,
 }
 
 /// Starts the view worker; results arrive on the returned receiver.
-pub fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<ViewDone>) {
+pub(crate) fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<ViewDone>) {
     let (job_tx, job_rx) = channel::<ViewJob>();
     let (done_tx, done_rx) = channel();
     std::thread::Builder::new()
