@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 pub const LUT_SIZE: usize = 4096;
 
 /// Smallest positive normal f32: the floor applied before a logarithm, on the GPU and the CPU alike.
-pub const LOG_FLOOR: f64 = 1.175_494_4e-38;
+pub(crate) const LOG_FLOOR: f64 = 1.175_494_4e-38;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Scale {
@@ -51,7 +51,7 @@ impl Scale {
     }
 
     /// The scaled value before normalisation to the domain.
-    pub fn apply(&self, v: f64) -> f64 {
+    pub(crate) fn apply(&self, v: f64) -> f64 {
         match *self {
             Scale::Linear => v,
             Scale::Log10 => v.max(LOG_FLOOR).log10(),
@@ -318,7 +318,7 @@ fn lens_placement(mapping: &ScaleMapping, lens: Lens) -> Result<Option<[f64; 4]>
 /// Segments whose table coordinates differ by less than this (in entries) take the table at their
 /// middle: below it the integral's difference quotient would lose more to f32 rounding on the
 /// GPU than the middle value differs from the mean.
-pub const PREINTEGRATION_MIN_SPAN: f64 = 1e-3;
+pub(crate) const PREINTEGRATION_MIN_SPAN: f64 = 1e-3;
 
 /// The table entry i whose linear piece [i, i + 1] holds coordinate x.
 fn table_cell(x: f64) -> usize {
@@ -326,7 +326,7 @@ fn table_cell(x: f64) -> usize {
 }
 
 /// The mean of max(v, 0) as v runs linearly from a to b.
-pub fn mean_positive_part(a: f64, b: f64) -> f64 {
+pub(crate) fn mean_positive_part(a: f64, b: f64) -> f64 {
     if a >= 0.0 && b >= 0.0 {
         0.5 * (a + b)
     } else if a <= 0.0 && b <= 0.0 {
@@ -359,7 +359,7 @@ pub fn piecewise(points: &[[f64; 2]], t: f64) -> f64 {
 
 /// The map from a data value to the table coordinate t in [0, 1].
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ScaleMapping {
+pub(crate) struct ScaleMapping {
     pub scale: Scale,
     pub s_lo: f64,
     pub inv_range: f64,
@@ -389,7 +389,7 @@ impl ScaleMapping {
         }
     }
 
-    pub fn scale_code(&self) -> u32 {
+    pub(crate) fn scale_code(&self) -> u32 {
         self.scale.code()
     }
 
@@ -418,7 +418,7 @@ fn lens_map(t: f64, [ta, tb, oa, ob]: [f64; 4]) -> f64 {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum TfKind {
+pub(crate) enum TfKind {
     EmissionAbsorption { emission: f64, absorption: f64 },
     Lut,
 }
@@ -426,8 +426,8 @@ pub enum TfKind {
 /// A transfer function with every number fixed: what the GPU uploads and the CPU reference uses.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ResolvedTransfer {
-    pub kind: TfKind,
-    pub mapping: ScaleMapping,
+    pub(crate) kind: TfKind,
+    pub(crate) mapping: ScaleMapping,
     /// LUT_SIZE entries of (r·e, g·e, b·e, extinction) in linear light; empty for emission–absorption.
     pub lut: Vec<[f64; 4]>,
 }
@@ -485,7 +485,12 @@ impl ResolvedTransfer {
     /// segment, this keeps transfer-function features narrower than a step that point sampling
     /// would step over. `integral` is [`Self::table_integral`]. The GPU computes the same
     /// quantity from a (hi, lo) f32 split of the integral.
-    pub fn segment_mean(&self, integral: &[[f64; 4]], front: f64, back: f64) -> ([f64; 3], f64) {
+    pub(crate) fn segment_mean(
+        &self,
+        integral: &[[f64; 4]],
+        front: f64,
+        back: f64,
+    ) -> ([f64; 3], f64) {
         match self.kind {
             TfKind::EmissionAbsorption {
                 emission,
@@ -516,7 +521,7 @@ impl ResolvedTransfer {
     /// round to — has zero emission and zero extinction, on the GPU as on the CPU. Conservative:
     /// the range is widened by f32 rounding, the scaled coordinate by 1e-5 scaled units (f32
     /// logarithms are far closer), and the table by one entry on each side.
-    pub fn is_transparent(&self, lo: f64, hi: f64) -> bool {
+    pub(crate) fn is_transparent(&self, lo: f64, hi: f64) -> bool {
         match self.kind {
             TfKind::EmissionAbsorption {
                 emission,
@@ -545,7 +550,7 @@ impl ResolvedTransfer {
     /// The GPU's pre-integration rows after the table: the running integral split into f32 (hi)
     /// and the f32 of what hi leaves out (lo), so differences of nearby entries keep ~1e-14 of
     /// the integral rather than f32's 6e-8.
-    pub fn table_integral_f32(&self) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+    pub(crate) fn table_integral_f32(&self) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
         let c = self.table_integral();
         let hi: Vec<[f32; 4]> = c.iter().map(|e| e.map(|v| v as f32)).collect();
         let lo = c
@@ -557,7 +562,7 @@ impl ResolvedTransfer {
     }
 
     /// The table rounded to f32, as the GPU holds it; the CPU reference evaluates the same numbers.
-    pub fn lut_f32(&self) -> Vec<[f32; 4]> {
+    pub(crate) fn lut_f32(&self) -> Vec<[f32; 4]> {
         self.lut.iter().map(|e| e.map(|v| v as f32)).collect()
     }
 }

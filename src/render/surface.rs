@@ -30,7 +30,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// Most properties one data pass writes (one RGBA32F target component each).
-pub const MAX_PROPERTIES: usize = 4;
+pub(crate) const MAX_PROPERTIES: usize = 4;
 /// Entries in the colour lookup table.
 pub const LUT_SIZE: usize = 256;
 /// Step-1 results kept per renderer.
@@ -184,13 +184,6 @@ impl PhaseMethod {
         }
     }
 
-    pub fn name(self) -> &'static str {
-        match self {
-            PhaseMethod::Reduced => "reduced",
-            PhaseMethod::Naive => "naive",
-        }
-    }
-
     /// What the image metadata says about the phase.
     pub fn describe(self) -> &'static str {
         match self {
@@ -248,7 +241,7 @@ impl Default for SurfaceOptions {
 }
 
 /// ν must be finite and positive.
-pub fn check_nu(nu: f64) -> Result<()> {
+pub(crate) fn check_nu(nu: f64) -> Result<()> {
     if nu.is_finite() && nu > 0.0 {
         Ok(())
     } else {
@@ -329,7 +322,7 @@ impl SurfaceOptions {
 }
 
 /// ν split into 12 + 12 significant bits and an f32 remainder (see the module notes).
-pub fn split_nu(nu: f64) -> [f32; 3] {
+pub(crate) fn split_nu(nu: f64) -> [f32; 3] {
     let lead = |x: f64| f32::from_bits((x as f32).to_bits() & 0xFFFF_F000);
     let a = lead(nu);
     let b = lead(nu - a as f64);
@@ -345,12 +338,12 @@ pub fn fringe_f64(nu: f64, d: f64) -> f64 {
 
 /// Direction towards the light of the 3-D views (normalised where used) and the ambient share:
 /// shade = ambient + (1 − ambient)·max(n·l, 0). Shared by the data pass and its CPU reference.
-pub const LIGHT_DIRECTION: [f64; 3] = [-0.4, -0.5, 0.77];
-pub const LIGHT_AMBIENT: f64 = 0.3;
+pub(crate) const LIGHT_DIRECTION: [f64; 3] = [-0.4, -0.5, 0.77];
+pub(crate) const LIGHT_AMBIENT: f64 = 0.3;
 
 /// The image size a render gets: the options' size, else the grid's node counts in map view and
 /// 512² in other views.
-pub fn default_size(grid: &Grid, opts: &SurfaceOptions) -> (u32, u32) {
+pub(crate) fn default_size(grid: &Grid, opts: &SurfaceOptions) -> (u32, u32) {
     let (dw, dh) = match opts.view {
         SurfaceView::Map => (grid.nx() as u32, grid.ny() as u32),
         _ => (512, 512),
@@ -363,7 +356,7 @@ pub fn default_size(grid: &Grid, opts: &SurfaceOptions) -> (u32, u32) {
 /// units from the first node, z = (height − hmin)·exaggeration − z_lo, so that the relief box
 /// is [0, box_size] (a flat surface gets a thin box around z = −z_lo).
 #[derive(Clone, Debug)]
-pub struct SurfaceGeometry {
+pub(crate) struct SurfaceGeometry {
     /// Relief height per node before exaggeration (holes at the lowest height; 0 when flat).
     pub heights: Vec<f64>,
     /// Node spacing (sx, sy) in world units.
@@ -467,7 +460,7 @@ impl SurfaceGeometry {
     }
 
     /// The height whose world z is 0 (the box floor): hmin + z_lo / exaggeration.
-    pub fn height_at_floor(&self) -> f64 {
+    pub(crate) fn height_at_floor(&self) -> f64 {
         self.height_min + self.z_lo / self.exaggeration
     }
 }
@@ -530,7 +523,7 @@ pub struct SurfaceCounters {
 
 /// Wall time of the two steps of one render.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SurfaceTiming {
+pub(crate) struct SurfaceTiming {
     /// The data pass, or `None` when its targets came from the cache.
     pub data_ms: Option<f64>,
     pub fringe_ms: f64,
@@ -559,21 +552,12 @@ impl SurfaceRenderer {
         }
     }
 
-    pub fn context(&self) -> &Arc<GpuContext> {
-        &self.ctx
-    }
-
     /// How many data and fringe passes this renderer has run.
     pub fn counters(&self) -> SurfaceCounters {
         SurfaceCounters {
             data_passes: self.data_passes.load(Ordering::Relaxed),
             fringe_passes: self.fringe_passes.load(Ordering::Relaxed),
         }
-    }
-
-    /// Drops the cached step-1 targets (the next render runs step 1 again).
-    pub fn clear_cache(&self) {
-        self.cache.lock().expect("surface cache poisoned").clear();
     }
 
     fn build(
@@ -814,7 +798,7 @@ impl SurfaceRenderer {
     }
 
     /// As [`Self::render`], also saying how long each step took (no data time on a cache hit).
-    pub fn render_timed(
+    pub(crate) fn render_timed(
         &self,
         grid: &Grid,
         opts: &SurfaceOptions,
@@ -1247,7 +1231,12 @@ impl FringeProfile {
 /// right over the colour domain — for cyclic mode one fringe period (0 to 1/ν), otherwise the
 /// property's data range — with the fringes of ν drawn in unless the mode is direct. The
 /// resolution 1/ν and the domain are recorded in the metadata.
-pub fn colorbar(grid: &Grid, opts: &SurfaceOptions, width: u32, height: u32) -> Result<HdrImage> {
+pub(crate) fn colorbar(
+    grid: &Grid,
+    opts: &SurfaceOptions,
+    width: u32,
+    height: u32,
+) -> Result<HdrImage> {
     opts.validate()?;
     if width == 0 || height == 0 || width > 16384 || height > 16384 {
         return Err(Error::invalid(

@@ -32,7 +32,7 @@ pub(crate) struct VolumeParams {
 
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
 /// (lavapipe, and GL on Mesa) ends any loop after 65535 iterations.
-pub const MAX_STEPS_PER_RAY: u64 = 4 * 65535;
+pub(crate) const MAX_STEPS_PER_RAY: u64 = 4 * 65535;
 
 /// A volume resident on the GPU, with what the renderer needs to know about it.
 pub struct GpuVolume {

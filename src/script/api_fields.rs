@@ -23,14 +23,14 @@ fn derived(v: &Volume, name: &str, f: impl Fn(f32) -> f32 + Sync) -> RResult<Scr
 }
 
 /// Transfer-function presets by name, for quick looks at HDR data.
-pub const TF_PRESETS: &[&str] = &[
+pub(crate) const TF_PRESETS: &[&str] = &[
     "log-inferno",
     "log-viridis",
     "symlog-diverging",
     "linear-grey",
 ];
 
-pub fn tf_preset(name: &str) -> crate::Result<TransferFunction> {
+pub(crate) fn tf_preset(name: &str) -> crate::Result<TransferFunction> {
     let lut = |scale, colormap: &str, emission: Vec<[f64; 2]>, opacity: Vec<[f64; 2]>| {
         TransferFunction::Lut(LutTransfer {
             scale,
@@ -74,7 +74,7 @@ pub fn tf_preset(name: &str) -> crate::Result<TransferFunction> {
     })
 }
 
-pub fn register(engine: &mut Engine) {
+pub(crate) fn register(engine: &mut Engine) {
     engine.register_fn("volume_log10", |v: &mut ScriptVolume| {
         // Zeros and negatives have no logarithm: they become missing values (NaN).
         derived(v, "log10", |x| if x > 0.0 { x.log10() } else { f32::NAN })

@@ -34,7 +34,7 @@ fn with_properties(g: &Grid, extra: Vec<(String, Vec<f64>, String)>) -> crate::R
     Ok(out)
 }
 
-pub fn register(engine: &mut Engine) {
+pub(crate) fn register(engine: &mut Engine) {
     engine.register_fn("grid_stats", grid_stats);
     engine.register_fn("grid_derive", grid_derive);
     engine.register_fn("grid_magnitude", grid_magnitude);

@@ -1,6 +1,6 @@
 //! Script API: datasets, transfer functions, cameras and volume rendering. Names fixed by the
 //! issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`. Saving,
-//! previews, progress and `param` are registered from here too but live in `api_output`.
+//! previews, progress and `param` live in `api_output`.
 
 use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
 use super::ScriptHost;
@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 /// A camera as scripts describe it; views that frame "the volume" are fixed at render time.
 #[derive(Clone, Debug)]
-pub enum ScriptCamera {
+pub(crate) enum ScriptCamera {
     Axis(Axis),
     Orbit {
         azimuth: f64,
@@ -40,8 +40,8 @@ impl ScriptCamera {
     }
 }
 
-pub type ScriptVolume = Arc<Volume>;
-pub type ScriptImage = Arc<HdrImage>;
+pub(crate) type ScriptVolume = Arc<Volume>;
+pub(crate) type ScriptImage = Arc<HdrImage>;
 
 const RENDER_KEYS: &[&str] = &[
     "tf",
@@ -70,14 +70,12 @@ const LUT_KEYS: &[&str] = &[
     "transparent_below",
 ];
 
-pub fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     register_types(engine);
     register_volumes(engine, &host);
     register_transfer_functions(engine);
     register_cameras(engine);
     register_render(engine, &host);
-    super::api_output::register_output(engine, &host);
-    super::api_output::register_params(engine, host);
 }
 
 /// The script-visible types and their read-only properties.

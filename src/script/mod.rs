@@ -187,6 +187,8 @@ pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
     // `eval` would let a script build code from strings and dodge the checks on its source.
     engine.disable_symbol("eval");
     api_render::register(&mut engine, host.clone());
+    api_output::register_output(&mut engine, &host);
+    api_output::register_params(&mut engine, host.clone());
     api_bricks::register(&mut engine, host.clone());
     api_post::register(&mut engine, host.clone());
     api_datasets::register(&mut engine);

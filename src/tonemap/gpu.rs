@@ -642,12 +642,6 @@ impl GpuToneMapper {
         Ok(())
     }
 
-    /// Scene-referred exposure, `img` × 2^EV on colour (alpha kept). This is one multiply per
-    /// value, so it runs on the CPU: an upload and a readback would cost more than the work.
-    pub fn exposure(&self, img: &HdrImage, exposure_ev: f64) -> Result<HdrImage> {
-        super::exposure(img, exposure_ev)
-    }
-
     /// False-colour view of log10 luminance (after `exposure_ev`) through turbo, over the whole
     /// decades `decades` or those spanning the image, with the legend strip along the bottom;
     /// the GPU twin of [`super::cpu::false_colour_log10`] (same metadata keys).

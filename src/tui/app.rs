@@ -18,7 +18,7 @@ use crate::script::{ParamKind, ParamRecord};
 use crate::tonemap::MAX_EV;
 use crate::tui::histogram::LogHistogram;
 use crate::tui::view::{main_parameter, Channel, ViewSettings, VIEW_OPERATORS};
-use crate::tui::worker::{pass_summary, RenderDone, RenderJob, ViewDone, ViewJob};
+use crate::tui::worker::{pass_summary, RenderDone, RenderJob, ViewDone, ViewJob, PREVIEW_SCALE};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use ratatui::layout::Rect;
 use ratatui_image::protocol::Protocol;
@@ -27,10 +27,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// The parameter the TUI sets for the quick low-resolution render (then 1 for the full one).
-pub(crate) const PREVIEW_SCALE: &str = "preview_scale";
-/// Scale of the quick first render.
-pub(crate) const LOW_RES_SCALE: f64 = 0.25;
 /// Exposure step of `+` / `-`, in stops.
 pub(crate) const EV_STEP: f64 = 0.5;
 

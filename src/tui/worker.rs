@@ -12,7 +12,6 @@ use crate::model::HdrImage;
 use crate::render::passes::{PassOutcome, PassRecord};
 use crate::render::session::RenderSession;
 use crate::script::{run_script_file, ParamRecord, ScriptOptions};
-use crate::tui::app::{LOW_RES_SCALE, PREVIEW_SCALE};
 use crate::tui::histogram::LogHistogram;
 use crate::tui::protocol::Display;
 use crate::tui::view::{display_image, resample, ViewSettings};
@@ -22,6 +21,11 @@ use std::path::PathBuf;
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::Arc;
 use std::time::Instant;
+
+/// The parameter the TUI sets for the quick low-resolution render (then 1 for the full one).
+pub(crate) const PREVIEW_SCALE: &str = "preview_scale";
+/// Scale of the quick first render.
+pub(crate) const LOW_RES_SCALE: f64 = 0.25;
 
 /// What a script run gave the TUI.
 #[derive(Clone, Debug)]
