@@ -143,6 +143,11 @@ impl RenderSession {
         Ok(self.gpu()?.tonemap.clone())
     }
 
+    /// The records of the passes run since the last call, in the order they finished.
+    pub fn take_passes(&self) -> Vec<PassRecord> {
+        self.log.take()
+    }
+
     pub(crate) fn log(&self) -> &PassLog {
         &self.log
     }

@@ -339,3 +339,114 @@ save_exr(render_volume(v, o), "c.exr");
         .unwrap_or_else(|| panic!("{}", lines[7]));
     assert!(passes > 1, "{}", lines[7]);
 }
+
+/// The routing decisions of `render_volume`, each with the path it takes or the one-line error
+/// that says what to do instead.
+#[test]
+fn render_volume_chooses_the_path_from_the_source_and_the_options() {
+    let vol = Arc::new(scene_volume());
+    let session = session();
+    let cam = Camera::axis(Axis::Z, &vol.bounds());
+    let o = options(&vol, cam, scene_tf(0.35), FilterMode::Exact);
+    let memory = VolumeSource::Memory(vol.clone());
+    let path = |source: &VolumeSource, b: Bricking| {
+        let mut o = o.clone();
+        o.bricking = b;
+        session.render_volume_detailed(source, &o).map(|r| r.path)
+    };
+    let bricked = |brick, skip| hdrvis::render::RenderPath::Bricked { brick, skip };
+    assert_eq!(
+        path(&memory, Bricking::default()).unwrap(),
+        hdrvis::render::RenderPath::InCore
+    );
+    // A budget that the volume (70·60·50 f32, 840 kB) and the image's buffers (246 kB) do not fit
+    // sends it to bricks of the default edge, streamed out of core.
+    let small = Bricking {
+        memory_budget: Some(1_000_000),
+        ..Default::default()
+    };
+    assert_eq!(path(&memory, small).unwrap(), bricked(32, true));
+    let skip_off = Bricking {
+        skip: Some(false),
+        brick: Some(16),
+        ..Default::default()
+    };
+    assert_eq!(path(&memory, skip_off).unwrap(), bricked(16, false));
+
+    let bv = Arc::new(BrickedVolume::from_volume(vol.clone(), 16).unwrap());
+    let opened = VolumeSource::Bricked(bv);
+    assert_eq!(
+        path(&opened, Bricking::default()).unwrap(),
+        bricked(16, true)
+    );
+    let err = path(
+        &opened,
+        Bricking {
+            brick: Some(8),
+            ..Default::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert_eq!(
+        err,
+        "brick: bricks test was opened with bricks of 16; give brick: 8 to open_volume instead"
+    );
+    let mut f64_opts = o.clone();
+    f64_opts.precision = Precision::F64;
+    let err = session
+        .render_volume(&opened, &f64_opts)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("precision: f64 runs on the CPU reference"),
+        "{err}"
+    );
+    let err = path(
+        &memory,
+        Bricking {
+            level: 5,
+            ..Default::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert_eq!(err, "level: expected 0 (full resolution) to 4, got 5");
+}
+
+/// A quick-look level renders a coarser copy, built once and then answered from the cache.
+#[test]
+fn a_level_renders_a_coarser_copy_built_once() {
+    let vol = Arc::new(scene_volume());
+    let session = session();
+    let cam = Camera::axis(Axis::Z, &vol.bounds());
+    let mut o = options(&vol, cam, scene_tf(0.0), FilterMode::Exact);
+    o.bricking.level = 1;
+    let source = VolumeSource::Memory(vol.clone());
+    let first = session.render_volume_detailed(&source, &o).unwrap();
+    assert_eq!(first.path, hdrvis::render::RenderPath::InCore);
+    assert!(first
+        .image
+        .meta("dataset")
+        .unwrap()
+        .contains("(level 1) 35x30x25"));
+    o.step = 0.5;
+    session.render_volume(&source, &o).unwrap();
+    let log = session.take_passes();
+    let level: Vec<bool> = log
+        .iter()
+        .filter(|r| r.name == "level")
+        .map(|r| r.is_cached())
+        .collect();
+    assert_eq!(level, [false, true], "{log:?}");
+    // The coarse image is close to the full-resolution one (same bounds, half the voxels).
+    o.bricking.level = 0;
+    let full = session.render_volume(&source, &o).unwrap();
+    let coarse = session.render_volume(&source, &{
+        let mut c = o.clone();
+        c.bricking.level = 1;
+        c
+    });
+    let d = diff(&coarse.unwrap().pixels, &full.pixels);
+    assert!(d > 0.0 && d < 0.5, "{d}");
+}
