@@ -6,6 +6,7 @@
 //! index of a file this way; other formats are loaded whole and bricked in memory.
 
 use super::netcdf;
+use super::scalar::Scalar;
 use crate::error::{Error, Result};
 use crate::model::bricks::{BrickedVolume, VoxelSource};
 use std::path::{Path, PathBuf};
@@ -49,90 +50,29 @@ pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<Bric
     }
 }
 
-/// The on-disk element types a memory-mapped array may have.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Element {
-    F16,
-    F32,
-    F64,
-    I8,
-    I16,
-    I32,
-    I64,
-    U8,
-    U16,
-    U32,
-    U64,
-}
-
-impl Element {
-    fn from_descr(d: &str) -> Option<(Element, bool)> {
-        let (order, rest) = d.split_at(1.min(d.len()));
-        let big = match order {
-            ">" => true,
-            "<" | "|" | "=" => false,
-            _ => return None,
-        };
-        let e = match rest {
-            "f2" => Element::F16,
-            "f4" => Element::F32,
-            "f8" => Element::F64,
-            "i1" => Element::I8,
-            "i2" => Element::I16,
-            "i4" => Element::I32,
-            "i8" => Element::I64,
-            "u1" | "b1" => Element::U8,
-            "u2" => Element::U16,
-            "u4" => Element::U32,
-            "u8" => Element::U64,
-            _ => return None,
-        };
-        Some((e, big))
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Element::I8 | Element::U8 => 1,
-            Element::F16 | Element::I16 | Element::U16 => 2,
-            Element::F32 | Element::I32 | Element::U32 => 4,
-            Element::F64 | Element::I64 | Element::U64 => 8,
-        }
-    }
-
-    /// Converts `bytes` (a whole number of elements) into `out`.
-    fn decode(self, big: bool, bytes: &[u8], out: &mut [f32]) {
-        macro_rules! conv {
-            ($t:ty, $n:literal, $f:expr) => {{
-                for (o, c) in out.iter_mut().zip(bytes.chunks_exact($n)) {
-                    let a: [u8; $n] = c.try_into().expect("chunk of element size");
-                    let v = if big {
-                        <$t>::from_be_bytes(a)
-                    } else {
-                        <$t>::from_le_bytes(a)
-                    };
-                    *o = $f(v);
-                }
-            }};
-        }
-        match self {
-            Element::F32 if !big => {
-                for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
-                    *o = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-                }
-            }
-            Element::F32 => conv!(f32, 4, |v| v),
-            Element::F64 => conv!(f64, 8, |v: f64| v as f32),
-            Element::F16 => conv!(u16, 2, |v| half::f16::from_bits(v).to_f32()),
-            Element::I8 => conv!(i8, 1, |v| v as f32),
-            Element::U8 => conv!(u8, 1, |v| v as f32),
-            Element::I16 => conv!(i16, 2, |v| v as f32),
-            Element::U16 => conv!(u16, 2, |v| v as f32),
-            Element::I32 => conv!(i32, 4, |v: i32| v as f64 as f32),
-            Element::U32 => conv!(u32, 4, |v: u32| v as f64 as f32),
-            Element::I64 => conv!(i64, 8, |v: i64| v as f64 as f32),
-            Element::U64 => conv!(u64, 8, |v: u64| v as f64 as f32),
-        }
-    }
+/// The sample type and byte order (true: big-endian) of a NumPy dtype descriptor.
+fn scalar_of_descr(d: &str) -> Option<(Scalar, bool)> {
+    let (order, rest) = d.split_at(1.min(d.len()));
+    let big = match order {
+        ">" => true,
+        "<" | "|" | "=" => false,
+        _ => return None,
+    };
+    let e = match rest {
+        "f2" => Scalar::F16,
+        "f4" => Scalar::F32,
+        "f8" => Scalar::F64,
+        "i1" => Scalar::I8,
+        "i2" => Scalar::I16,
+        "i4" => Scalar::I32,
+        "i8" => Scalar::I64,
+        "u1" | "b1" => Scalar::U8,
+        "u2" => Scalar::U16,
+        "u4" => Scalar::U32,
+        "u8" => Scalar::U64,
+        _ => return None,
+    };
+    Some((e, big))
 }
 
 /// A C-ordered 3-D `.npy` array read through a memory map.
@@ -141,7 +81,7 @@ pub(crate) struct MappedNpy {
     map: memmap2::Mmap,
     offset: usize,
     dims: [usize; 3],
-    element: Element,
+    element: Scalar,
     big_endian: bool,
 }
 
@@ -180,7 +120,7 @@ impl MappedNpy {
             npyz::DType::Plain(ts) => ts.to_string(),
             other => other.descr(),
         };
-        let (element, big_endian) = Element::from_descr(&descr).ok_or_else(|| {
+        let (element, big_endian) = scalar_of_descr(&descr).ok_or_else(|| {
             bad(format!(
                 "unsupported dtype {descr}; expected a plain numeric type such as <f4"
             ))
@@ -226,7 +166,7 @@ impl VoxelSource for MappedNpy {
         for k in lo[2]..lo[2] + size[2] {
             for j in lo[1]..lo[1] + size[1] {
                 let b = self.byte_of(lo[0], j, k);
-                self.element.decode(
+                self.element.decode_into(
                     self.big_endian,
                     &self.map[b..b + size[0] * es],
                     &mut out[o..o + size[0]],

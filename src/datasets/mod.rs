@@ -11,6 +11,7 @@ pub mod netcdf;
 pub(crate) mod nhdr;
 pub mod npy;
 pub mod okada;
+mod scalar;
 pub mod tsunami;
 pub(crate) mod vti;
 

@@ -3,72 +3,26 @@
 //! `dimension` (3), `sizes` (fastest axis first: x, y, z), `endian`, `encoding` (raw), `spacings`
 //! or a diagonal `space directions`, `space origin`, `byte skip`. Voxels are treated as cells.
 
+use super::scalar::Scalar;
 use crate::error::{Error, Result};
 use crate::model::Volume;
 use std::path::Path;
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Sample {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    F32,
-    F64,
-}
-
-impl Sample {
-    fn parse(s: &str) -> Option<Sample> {
-        Some(match s {
-            "signed char" | "int8" | "int8_t" | "char" => Sample::I8,
-            "uchar" | "unsigned char" | "uint8" | "uint8_t" => Sample::U8,
-            "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
-                Sample::I16
-            }
-            "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => {
-                Sample::U16
-            }
-            "int" | "signed int" | "int32" | "int32_t" => Sample::I32,
-            "uint" | "unsigned int" | "uint32" | "uint32_t" => Sample::U32,
-            "float" => Sample::F32,
-            "double" => Sample::F64,
-            _ => return None,
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Sample::I8 | Sample::U8 => 1,
-            Sample::I16 | Sample::U16 => 2,
-            Sample::I32 | Sample::U32 | Sample::F32 => 4,
-            Sample::F64 => 8,
+/// The sample type of an NRRD `type` field.
+fn sample_type(s: &str) -> Option<Scalar> {
+    Some(match s {
+        "signed char" | "int8" | "int8_t" | "char" => Scalar::I8,
+        "uchar" | "unsigned char" | "uint8" | "uint8_t" => Scalar::U8,
+        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
+            Scalar::I16
         }
-    }
-
-    fn decode(self, b: &[u8], big: bool) -> f32 {
-        macro_rules! num {
-            ($t:ty, $n:literal) => {{
-                let a: [u8; $n] = b.try_into().unwrap();
-                (if big {
-                    <$t>::from_be_bytes(a)
-                } else {
-                    <$t>::from_le_bytes(a)
-                }) as f32
-            }};
-        }
-        match self {
-            Sample::I8 => b[0] as i8 as f32,
-            Sample::U8 => b[0] as f32,
-            Sample::I16 => num!(i16, 2),
-            Sample::U16 => num!(u16, 2),
-            Sample::I32 => num!(i32, 4),
-            Sample::U32 => num!(u32, 4),
-            Sample::F32 => num!(f32, 4),
-            Sample::F64 => num!(f64, 8),
-        }
-    }
+        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => Scalar::U16,
+        "int" | "signed int" | "int32" | "int32_t" => Scalar::I32,
+        "uint" | "unsigned int" | "uint32" | "uint32_t" => Scalar::U32,
+        "float" => Scalar::F32,
+        "double" => Scalar::F64,
+        _ => return None,
+    })
 }
 
 fn parse_vector(s: &str) -> Option<Vec<f64>> {
@@ -106,7 +60,7 @@ pub(crate) fn read_nrrd(path: &Path) -> Result<Volume> {
     let header = std::str::from_utf8(&bytes[..header_end])
         .map_err(|_| Error::format(path, "header is not text"))?;
     let fields = parse_fields(path, header)?;
-    let sample = Sample::parse(fields.need("type")?).ok_or_else(|| {
+    let sample = sample_type(fields.need("type")?).ok_or_else(|| {
         Error::format(
             path,
             format!(
@@ -287,7 +241,7 @@ fn read_samples(
     bytes: &[u8],
     data_start: usize,
     dims: [usize; 3],
-    sample: Sample,
+    sample: Scalar,
     big: bool,
 ) -> Result<Vec<f32>> {
     let path = fields.path;
@@ -332,10 +286,7 @@ fn read_samples(
             format!("holds {} data bytes but {need_bytes} are needed", raw.len()),
         ));
     }
-    Ok(raw[..need_bytes]
-        .chunks_exact(sample.size())
-        .map(|b| sample.decode(b, big))
-        .collect())
+    Ok(sample.decode(big, &raw[..need_bytes]))
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use std::path::Path;
 use base64::Engine as _;
 use quick_xml::events::{BytesStart, Event};
 
+use super::scalar::Scalar;
 use crate::error::{Error, Result};
 
 /// A cell-centred scalar volume: `dims = [nx, ny, nz]` cells of size `spacing`, the first cell's
@@ -197,7 +198,7 @@ fn read_vti_bytes(path: &Path, bytes: &[u8]) -> Result<VtiVolume> {
 fn array_values(
     doc: &Document,
     array: &ArrayInfo,
-    element: Element,
+    element: Scalar,
     bytes: &[u8],
 ) -> std::result::Result<Vec<f32>, String> {
     let raw: Vec<u8> = match array.format.as_str() {
@@ -257,82 +258,30 @@ fn array_values(
             element.size()
         ));
     }
-    Ok(raw
-        .chunks_exact(element.size())
-        .map(|b| element.to_f32(b, doc.little_endian))
-        .collect())
+    Ok(element.decode(!doc.little_endian, &raw))
 }
 
-#[derive(Debug, Clone, Copy)]
-enum Element {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F32,
-    F64,
-}
-
-impl Element {
-    fn parse(name: &str) -> Option<Self> {
-        Some(match name {
-            "Int8" | "Char" => Element::I8,
-            "UInt8" | "UnsignedChar" => Element::U8,
-            "Int16" | "Short" => Element::I16,
-            "UInt16" | "UnsignedShort" => Element::U16,
-            "Int32" | "Int" => Element::I32,
-            "UInt32" | "UnsignedInt" => Element::U32,
-            "Int64" | "Long" => Element::I64,
-            "UInt64" | "UnsignedLong" => Element::U64,
-            "Float32" | "Float" => Element::F32,
-            "Float64" | "Double" => Element::F64,
-            _ => return None,
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Element::I8 | Element::U8 => 1,
-            Element::I16 | Element::U16 => 2,
-            Element::I32 | Element::U32 | Element::F32 => 4,
-            Element::I64 | Element::U64 | Element::F64 => 8,
-        }
-    }
-
-    fn to_f32(self, b: &[u8], little: bool) -> f32 {
-        macro_rules! get {
-            ($t:ty) => {{
-                let a = b.try_into().expect("chunk has the element size");
-                if little {
-                    <$t>::from_le_bytes(a)
-                } else {
-                    <$t>::from_be_bytes(a)
-                }
-            }};
-        }
-        match self {
-            Element::I8 => b[0] as i8 as f32,
-            Element::U8 => b[0] as f32,
-            Element::I16 => get!(i16) as f32,
-            Element::U16 => get!(u16) as f32,
-            Element::I32 => get!(i32) as f32,
-            Element::U32 => get!(u32) as f32,
-            Element::I64 => get!(i64) as f32,
-            Element::U64 => get!(u64) as f32,
-            Element::F32 => get!(f32),
-            Element::F64 => get!(f64) as f32,
-        }
-    }
+/// The sample type of a VTK `DataArray` `type` attribute.
+fn sample_type(name: &str) -> Option<Scalar> {
+    Some(match name {
+        "Int8" | "Char" => Scalar::I8,
+        "UInt8" | "UnsignedChar" => Scalar::U8,
+        "Int16" | "Short" => Scalar::I16,
+        "UInt16" | "UnsignedShort" => Scalar::U16,
+        "Int32" | "Int" => Scalar::I32,
+        "UInt32" | "UnsignedInt" => Scalar::U32,
+        "Int64" | "Long" => Scalar::I64,
+        "UInt64" | "UnsignedLong" => Scalar::U64,
+        "Float32" | "Float" => Scalar::F32,
+        "Float64" | "Double" => Scalar::F64,
+        _ => return None,
+    })
 }
 
 #[derive(Debug, Default)]
 struct ArrayInfo {
     name: String,
-    element_type: Option<Element>,
+    element_type: Option<Scalar>,
     format: String,
     offset: Option<u64>,
     components: usize,
@@ -512,7 +461,7 @@ fn data_array(tag: &BytesStart<'_>, on_points: bool) -> std::result::Result<Arra
     let type_name = attr(tag, "type")?.unwrap_or_default();
     Ok(ArrayInfo {
         name: attr(tag, "Name")?.unwrap_or_default(),
-        element_type: Element::parse(&type_name),
+        element_type: sample_type(&type_name),
         format: attr(tag, "format")?.unwrap_or_else(|| "ascii".into()),
         offset: attr(tag, "offset")?
             .map(|s| {

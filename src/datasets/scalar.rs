@@ -1,0 +1,115 @@
+//! The binary sample types of raw volume files (NRRD, VTK ImageData, memory-mapped NumPy) and
+//! their one conversion to f32. Each format names the types its own way and maps the names here;
+//! the decoding is shared, so the same bytes give the same value whatever file they came in.
+//! Integers of 32 and 64 bits go through f64, as the in-memory `.npy` reader converts them, so a
+//! memory-mapped `.npy` and a loaded one hold the same values.
+
+/// One stored sample type.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Scalar {
+    F16,
+    F32,
+    F64,
+    I8,
+    I16,
+    I32,
+    I64,
+    U8,
+    U16,
+    U32,
+    U64,
+}
+
+impl Scalar {
+    /// Bytes per sample.
+    pub(crate) fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::F16 | Scalar::I16 | Scalar::U16 => 2,
+            Scalar::F32 | Scalar::I32 | Scalar::U32 => 4,
+            Scalar::F64 | Scalar::I64 | Scalar::U64 => 8,
+        }
+    }
+
+    /// Converts `bytes` (a whole number of samples) into `out`, big- or little-endian.
+    pub(crate) fn decode_into(self, big: bool, bytes: &[u8], out: &mut [f32]) {
+        macro_rules! conv {
+            ($t:ty, $n:literal, $f:expr) => {{
+                for (o, c) in out.iter_mut().zip(bytes.chunks_exact($n)) {
+                    let a: [u8; $n] = c.try_into().expect("chunk of sample size");
+                    let v = if big {
+                        <$t>::from_be_bytes(a)
+                    } else {
+                        <$t>::from_le_bytes(a)
+                    };
+                    *o = $f(v);
+                }
+            }};
+        }
+        match self {
+            Scalar::F32 if !big => {
+                for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+                    *o = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+                }
+            }
+            Scalar::F32 => conv!(f32, 4, |v| v),
+            Scalar::F64 => conv!(f64, 8, |v: f64| v as f32),
+            Scalar::F16 => conv!(u16, 2, |v| half::f16::from_bits(v).to_f32()),
+            Scalar::I8 => conv!(i8, 1, |v| v as f32),
+            Scalar::U8 => conv!(u8, 1, |v| v as f32),
+            Scalar::I16 => conv!(i16, 2, |v| v as f32),
+            Scalar::U16 => conv!(u16, 2, |v| v as f32),
+            Scalar::I32 => conv!(i32, 4, |v: i32| v as f64 as f32),
+            Scalar::U32 => conv!(u32, 4, |v: u32| v as f64 as f32),
+            Scalar::I64 => conv!(i64, 8, |v: i64| v as f64 as f32),
+            Scalar::U64 => conv!(u64, 8, |v: u64| v as f64 as f32),
+        }
+    }
+
+    /// Every sample of `bytes` (a whole number of samples) as f32.
+    pub(crate) fn decode(self, big: bool, bytes: &[u8]) -> Vec<f32> {
+        let mut out = vec![0.0; bytes.len() / self.size()];
+        self.decode_into(big, bytes, &mut out);
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Scalar;
+
+    #[test]
+    fn every_type_decodes_both_byte_orders() {
+        let cases: [(Scalar, Vec<u8>, f32); 11] = [
+            (Scalar::I8, (-5i8).to_le_bytes().to_vec(), -5.0),
+            (Scalar::U8, 200u8.to_le_bytes().to_vec(), 200.0),
+            (Scalar::I16, (-300i16).to_le_bytes().to_vec(), -300.0),
+            (Scalar::U16, 60_000u16.to_le_bytes().to_vec(), 60_000.0),
+            (Scalar::I32, (-70_000i32).to_le_bytes().to_vec(), -70_000.0),
+            (Scalar::U32, 4_000_000_000u32.to_le_bytes().to_vec(), 4e9),
+            (
+                Scalar::I64,
+                (-1i64 << 40).to_le_bytes().to_vec(),
+                -(2f32.powi(40)),
+            ),
+            (
+                Scalar::U64,
+                (1u64 << 50).to_le_bytes().to_vec(),
+                2f32.powi(50),
+            ),
+            (
+                Scalar::F16,
+                half::f16::from_f32(0.5).to_bits().to_le_bytes().to_vec(),
+                0.5,
+            ),
+            (Scalar::F32, 1.25e-7f32.to_le_bytes().to_vec(), 1.25e-7),
+            (Scalar::F64, 3.5e20f64.to_le_bytes().to_vec(), 3.5e20),
+        ];
+        for (s, le, want) in cases {
+            assert_eq!(le.len(), s.size(), "{s:?}");
+            assert_eq!(s.decode(false, &le), [want], "{s:?} little-endian");
+            let be: Vec<u8> = le.iter().rev().copied().collect();
+            assert_eq!(s.decode(true, &be), [want], "{s:?} big-endian");
+        }
+    }
+}
