@@ -14,7 +14,7 @@ use crate::render::session::RenderSession;
 use crate::render::surface::{
     fringe_f64, FringeMode, PhaseMethod, SurfaceOptions, SurfaceRenderer,
 };
-use crate::render::volume::{GpuVolume, VolumeRenderer};
+use crate::render::volume::GpuVolume;
 use crate::render::VolumeRenderOptions;
 use crate::render::VolumeSource;
 use std::path::{Path, PathBuf};
@@ -533,12 +533,12 @@ fn time_volume(
 /// is called directly, not through `render_volume`: its f64 pixels are scored before an image
 /// would round them to f32.
 fn time_volume_f64_gpu(
-    renderer: &VolumeRenderer,
+    ctx: Arc<GpuContext>,
     gv: &GpuVolume,
     o: &VolumeRenderOptions,
     runs: usize,
 ) -> Result<Option<TimedImage>> {
-    let f64_gpu = crate::render::volume_f64::F64RayCaster::new(renderer.context().clone());
+    let f64_gpu = crate::render::volume_f64::F64RayCaster::new(ctx);
     if !f64_gpu.available() {
         return Ok(None);
     }
@@ -564,10 +564,11 @@ fn bench_volume_scene(
 ) -> Result<Vec<AccuracyRow>> {
     use crate::render::{Precision, TfSampling};
     let session = super::timing_session(ctx.clone());
-    let source = VolumeSource::Memory(Arc::new(volume.clone()));
-    let renderer = VolumeRenderer::new(ctx);
+    let shared = Arc::new(volume.clone());
+    // One upload serves the timed renders and the f64 kernel.
+    let gv = session.upload(&shared)?;
+    let source = VolumeSource::Memory(shared);
     let refs = volume_references(name, volume, options, runs, log)?;
-    let gv = GpuVolume::upload(renderer.context(), volume)?;
     let row = |variant: String, ms: &[f64], got: &[[f64; 4]], against: &'static str| {
         let reference = if against == CONVERGED {
             &refs.converged
@@ -598,7 +599,7 @@ fn bench_volume_scene(
         rows.push(r);
     }
     o.precision = Precision::F64;
-    if let Some((ms, got)) = time_volume_f64_gpu(&renderer, &gv, &o, runs)? {
+    if let Some((ms, got)) = time_volume_f64_gpu(ctx, &gv, &o, runs)? {
         rows.push(row("f64 (GPU)".into(), &ms, &got, SAME_STEP)?);
     }
     rows.push(row(

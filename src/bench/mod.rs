@@ -107,7 +107,7 @@ pub(crate) fn mantle_fluctuation(n: usize, seed: u64) -> Result<Volume> {
 
 /// The transfer function of the paper's Fig. 5 for the mantle's temperature fluctuation: symlog
 /// scale, spectral colours, the near-zero middle faint.
-pub(crate) fn mantle_fig5_tf() -> LutTransfer {
+pub fn mantle_fig5_tf() -> LutTransfer {
     LutTransfer {
         scale: Scale::Symlog { linthresh: 1e-3 },
         domain: Some([-0.3, 0.45]),

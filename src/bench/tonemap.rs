@@ -14,17 +14,6 @@ use crate::tonemap::params::{Operator, ToneMapSettings};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Every operator with its published defaults, in [`Operator::NAMES`] order.
-pub(crate) const OPERATORS: [Operator; 7] = [
-    Operator::Linear,
-    Operator::DRAGO,
-    Operator::REINHARD,
-    Operator::WARD,
-    Operator::Aces,
-    Operator::REINHARD_LOCAL,
-    Operator::DURAND,
-];
-
 /// One operator on one image size.
 #[derive(Clone, Debug)]
 pub struct ToneMapBenchRow {
@@ -99,7 +88,7 @@ pub fn bench_tonemap(
                 limit >> 20
             );
             progress(&format!("skipping: {why}"));
-            rows.extend(OPERATORS.iter().map(|op| ToneMapBenchRow {
+            rows.extend(Operator::ALL.iter().map(|op| ToneMapBenchRow {
                 op: op.name(),
                 local: op.is_local(),
                 size,
@@ -112,7 +101,7 @@ pub fn bench_tonemap(
         }
         progress(&format!("generating a {size}x{size} HDR image"));
         let img = synthetic_hdr(size, size);
-        for op in OPERATORS {
+        for op in Operator::ALL {
             let settings = ToneMapSettings {
                 op,
                 ..Default::default()

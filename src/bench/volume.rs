@@ -60,10 +60,7 @@ pub fn bench_volume_render(
     breakdown: bool,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<BenchRow>> {
-    let session = timing_session(ctx.clone());
-    // The breakdown times the shader with its samples cut short (SampleWork): an instrument on
-    // the renderer itself, not a render users get.
-    let renderer = VolumeRenderer::new(ctx);
+    let session = timing_session(ctx);
     let mut rows = Vec::new();
     for &(n, px) in sizes {
         log(&format!("generating {n}^3 volume ..."));
@@ -80,8 +77,10 @@ pub fn bench_volume_render(
         let mut stages: Vec<(SampleWork, Vec<f64>)> = Vec::new();
         if breakdown {
             log(&format!("{name}: timing the stages of a sample ..."));
-            let gv = GpuVolume::upload(renderer.context(), &vol)?;
-            stages = time_sample_stages(&renderer, &gv, &opts, runs)?;
+            // The shader with its samples cut short (SampleWork): an instrument on the renderer
+            // itself, not a render users get; it reads the session's upload.
+            let gv = session.upload(&vol)?;
+            stages = time_sample_stages(&*session.volume_renderer()?, &gv, &opts, runs)?;
         }
         let peer_result = peer.map(|script| run_vtk_peer(script, &vol, px, runs, log));
         rows.push(BenchRow {

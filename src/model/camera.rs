@@ -197,6 +197,22 @@ impl Camera {
         }
     }
 
+    /// The projection as the ray-casting shaders take it, the terms of [`Camera::ray`]:
+    /// `(1, tan of the horizontal half-angle, tan of the vertical half-angle, 0)` for perspective,
+    /// `(0, half width, half height, 0)` for orthographic.
+    pub(crate) fn shader_projection(&self, width: u32, height: u32) -> [f64; 4] {
+        match self.projection {
+            Projection::Perspective { fov_y_deg } => {
+                let ty = (0.5 * fov_y_deg.to_radians()).tan();
+                [1.0, ty * width as f64 / height as f64, ty, 0.0]
+            }
+            Projection::Orthographic {
+                half_width,
+                half_height,
+            } => [0.0, half_width, half_height, 0.0],
+        }
+    }
+
     /// The world ray through the centre of pixel (px, py) of a `width × height` image.
     pub fn ray(&self, px: u32, py: u32, width: u32, height: u32) -> ([f64; 3], [f64; 3]) {
         let sx = 2.0 * (px as f64 + 0.5) / width as f64 - 1.0;

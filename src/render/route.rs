@@ -230,27 +230,13 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<VolumeRender> {
         let t = Instant::now();
-        let finished = |image: HdrImage, bricks| VolumeRender {
-            image: Arc::new(image),
-            path,
-            seconds: t.elapsed().as_secs_f64(),
-            bricks,
-            compiled_pipeline: false,
-        };
-        let volume = match source {
-            VolumeSource::Memory(v) => Some(v),
-            VolumeSource::Bricked(_) => None,
-        };
-        match (path, volume) {
-            (RenderPath::InCore, Some(v)) => {
+        let (image, seconds, bricks, compiled_pipeline) = match (path, source) {
+            (RenderPath::InCore, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
                 let (img, timing) = self.volume_renderer()?.render(&gv, opts)?;
-                let mut r = finished(img, None);
-                r.seconds = timing.seconds;
-                r.compiled_pipeline = timing.compiled_pipeline;
-                Ok(r)
+                (img, timing.seconds, None, timing.compiled_pipeline)
             }
-            (RenderPath::F64Gpu, Some(v)) => {
+            (RenderPath::F64Gpu, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
                 let pixels = self.f64_renderer()?.render(&gv, opts)?;
                 let mut img = HdrImage::from_pixels(
@@ -262,14 +248,14 @@ impl RenderSession {
                 img.set_meta("tf", opts.tf.describe());
                 img.set_meta("camera", opts.camera.describe());
                 img.set_meta("adapter", self.context()?.describe());
-                Ok(finished(img, None))
+                (img, t.elapsed().as_secs_f64(), None, false)
             }
-            (RenderPath::F64Cpu, Some(v)) => {
+            (RenderPath::F64Cpu, VolumeSource::Memory(v)) => {
                 let mut img = super::cpu_reference::render_volume_cpu(v, opts)?;
                 img.set_meta("precision", "f64 (CPU)");
                 img.set_meta("tf", opts.tf.describe());
                 img.set_meta("tf_sampling", opts.tf_sampling.name());
-                Ok(finished(img, None))
+                (img, t.elapsed().as_secs_f64(), None, false)
             }
             (RenderPath::Bricked { brick, skip }, _) => {
                 let bricked = match source {
@@ -278,14 +264,22 @@ impl RenderSession {
                 };
                 let cache = self.brick_cache(&bricked, opts)?;
                 let mut cache = cache.0.lock().expect("brick cache poisoned");
-                let renderer = self.volume_renderer()?;
-                let (img, stats) = renderer.render_bricked(&mut cache, opts, skip)?;
-                let mut r = finished(img, Some(stats.clone()));
-                r.seconds = stats.seconds;
-                Ok(r)
+                let (img, stats) = self
+                    .volume_renderer()?
+                    .render_bricked(&mut cache, opts, skip)?;
+                (img, stats.seconds, Some(stats), false)
             }
-            (_, None) => unreachable!("choose_path sends bricked sources to the bricked path"),
-        }
+            (_, VolumeSource::Bricked(_)) => {
+                unreachable!("choose_path sends bricked sources to the bricked path")
+            }
+        };
+        Ok(VolumeRender {
+            image: Arc::new(image),
+            path,
+            seconds,
+            bricks,
+            compiled_pipeline,
+        })
     }
 
     /// The content key of a source: a memory volume's data hash, a bricked volume's identity
@@ -368,20 +362,16 @@ impl RenderSession {
             .u64(self.source_key(&VolumeSource::Bricked(volume.clone())))
             .debug(&budget)
             .finish();
-        if budget.is_some() {
-            self.cache()
-                .remove_where(|k, _: &SharedBrickCache| k != key);
-        }
         let (w, h) = (opts.width, opts.height);
-        let serves = |c: &SharedBrickCache| c.0.lock().is_ok_and(|c| c.serves(budget, w, h));
-        if self
-            .cache()
-            .get::<SharedBrickCache>(key)
-            .is_some_and(|c| !serves(&c))
-        {
-            self.cache()
-                .remove_where(|k, _: &SharedBrickCache| k == key);
-        }
+        // Under a budget only this volume's cache may hold GPU memory; a cache made for a
+        // smaller image is made anew.
+        self.cache().remove_where(|k, c: &SharedBrickCache| {
+            if k == key {
+                !c.0.lock().is_ok_and(|c| c.serves(budget, w, h))
+            } else {
+                budget.is_some()
+            }
+        });
         let ctx = self.context()?;
         self.stage_with(
             "brick-cache",

@@ -1089,21 +1089,7 @@ fn data_params(
         params.forward = v4(cam.forward, 0.0);
         params.right = v4(cam.right, 0.0);
         params.up = v4(cam.up, 0.0);
-        params.proj = match cam.projection {
-            Projection::Perspective { fov_y_deg } => {
-                let ty = (0.5 * fov_y_deg.to_radians()).tan();
-                [
-                    1.0,
-                    (ty * width as f64 / height as f64) as f32,
-                    ty as f32,
-                    0.0,
-                ]
-            }
-            Projection::Orthographic {
-                half_width,
-                half_height,
-            } => [0.0, half_width as f32, half_height as f32, 0.0],
-        };
+        params.proj = cam.shader_projection(width, height).map(|v| v as f32);
     }
     params
 }

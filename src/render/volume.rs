@@ -7,7 +7,7 @@ use super::{FilterMode, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::gpu::{pipeline, readback, shader, GpuContext};
 use crate::model::transfer::{ResolvedTransfer, TfKind, LUT_SIZE};
-use crate::model::{HdrImage, Projection, Volume, VolumeStats};
+use crate::model::{HdrImage, Volume, VolumeStats};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
@@ -605,21 +605,9 @@ fn volume_params(
     let lo = volume.origin;
     let eye = [cam.eye[0] - lo[0], cam.eye[1] - lo[1], cam.eye[2] - lo[2]];
     let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
-    let proj = match cam.projection {
-        Projection::Perspective { fov_y_deg } => {
-            let ty = (0.5 * fov_y_deg.to_radians()).tan();
-            [
-                1.0,
-                (ty * opts.width as f64 / opts.height as f64) as f32,
-                ty as f32,
-                0.0,
-            ]
-        }
-        Projection::Orthographic {
-            half_width,
-            half_height,
-        } => [0.0, half_width as f32, half_height as f32, 0.0],
-    };
+    let proj = cam
+        .shader_projection(opts.width, opts.height)
+        .map(|v| v as f32);
     let lens = tf.mapping.lens.unwrap_or([0.0, 1.0, 0.0, 1.0]);
     VolumeParams {
         eye: v4(eye, 0.0),

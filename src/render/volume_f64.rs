@@ -8,7 +8,6 @@ use super::volume::{GpuVolume, MAX_STEPS_PER_RAY};
 use super::VolumeRenderOptions;
 use crate::error::{Error, Result};
 use crate::gpu::{pipeline, readback, shader, GpuContext};
-use crate::model::camera::Projection;
 use crate::model::transfer::{ResolvedTransfer, TfKind};
 use std::sync::{Arc, OnceLock};
 
@@ -217,16 +216,7 @@ fn params64(
     let cam = &opts.camera;
     let lo = volume.origin;
     let v4 = |v: [f64; 3]| [v[0], v[1], v[2], 0.0];
-    let proj = match cam.projection {
-        Projection::Perspective { fov_y_deg } => {
-            let ty = (0.5 * fov_y_deg.to_radians()).tan();
-            [1.0, ty * opts.width as f64 / opts.height as f64, ty, 0.0]
-        }
-        Projection::Orthographic {
-            half_width,
-            half_height,
-        } => [0.0, half_width, half_height, 0.0],
-    };
+    let proj = cam.shader_projection(opts.width, opts.height);
     let (tf_kind, tf_consts) = match tf.kind {
         TfKind::Lut => (0u32, [0.0; 4]),
         TfKind::EmissionAbsorption {

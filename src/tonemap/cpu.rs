@@ -844,16 +844,6 @@ mod tests {
         }
     }
 
-    const ALL_OPERATORS: [Operator; 7] = [
-        Operator::Linear,
-        Operator::DRAGO,
-        Operator::REINHARD,
-        Operator::WARD,
-        Operator::Aces,
-        Operator::REINHARD_LOCAL,
-        Operator::DURAND,
-    ];
-
     fn out_lum(img: &HdrImage) -> Vec<f64> {
         img.pixels
             .iter()
@@ -971,7 +961,7 @@ mod tests {
             .map(|i| 10f64.powf(-6.0 + 12.0 * i as f64 / (n - 1) as f64) as f32)
             .collect();
         let img = grey(&values, n as u32);
-        for op in ALL_OPERATORS.iter().filter(|op| !op.is_local()) {
+        for op in Operator::ALL.iter().filter(|op| !op.is_local()) {
             let out = out_lum(&tonemap_cpu(&img, &settings(*op)).unwrap());
             for i in 1..n {
                 assert!(
@@ -1013,7 +1003,7 @@ mod tests {
     #[test]
     fn hard_images_stay_finite_and_in_range() {
         for (name, img) in hard_images() {
-            for op in ALL_OPERATORS {
+            for op in Operator::ALL {
                 for ev in [0.0, 40.0, -40.0] {
                     let s = ToneMapSettings {
                         exposure_ev: ev,

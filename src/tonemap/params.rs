@@ -77,6 +77,17 @@ impl Operator {
         "durand",
     ];
 
+    /// Every operator with its published defaults, in [`Operator::NAMES`] order.
+    pub(crate) const ALL: [Operator; 7] = [
+        Operator::Linear,
+        Operator::DRAGO,
+        Operator::REINHARD,
+        Operator::WARD,
+        Operator::Aces,
+        Operator::REINHARD_LOCAL,
+        Operator::DURAND,
+    ];
+
     pub const DRAGO: Operator = Operator::Drago {
         bias: 0.85,
         ld_max: 100.0,

@@ -174,14 +174,7 @@ fn eight_bit_compositing_loses_the_faint_structure_f32_keeps() {
         m.fluctuation.clone(),
     )
     .unwrap();
-    let tf = TransferFunction::Lut(LutTransfer {
-        scale: Scale::Symlog { linthresh: 1e-3 },
-        domain: Some([-0.3, 0.45]),
-        colormap: "spectral".into(),
-        emission: vec![[0.0, -1.0], [0.45, -3.0], [0.55, -3.0], [1.0, -0.5]],
-        opacity: vec![[0.0, -1.5], [0.4, -3.5], [0.6, -3.5], [1.0, -1.0]],
-        ..Default::default()
-    });
+    let tf = TransferFunction::Lut(hdrvis::bench::mantle_fig5_tf());
     let mut o =
         VolumeRenderOptions::new(Camera::orbit(&vol.bounds(), 30.0, 20.0, 30.0).unwrap(), tf);
     (o.width, o.height, o.step) = (64, 64, 0.5);
