@@ -17,6 +17,12 @@
 #if HW_FILTER
 @group(0) @binding(4) var volume_sampler: sampler;
 #endif
+#if SKIPPING
+// Empty-space skipping (src/render/skipping.rs): per cell of P.skip.x voxels, the Chebyshev
+// distance in cells to the nearest cell the transfer function does not leave empty (0: this
+// cell is not empty). Every cell within distance d - 1 of a cell at distance d is empty.
+@group(0) @binding(5) var skip_grid: texture_3d<f32>;
+#endif
 
 fn sample_volume(uvw: vec3<f32>) -> f32 {
 #if HW_FILTER
@@ -228,6 +234,30 @@ fn inner_step(s: ptr<function, RayState>, c: Inner, k: u32) {
     composite(s, ea, c.len, c.stop_tau);
 }
 
+#if SKIPPING
+// Where the march goes on from interior segment k: past every segment whose midpoint lies in
+// the empty block of cells around k's cell, rounded down to the march's groups of UNROLL (so
+// the segments taken, and the blocks their sums join in, are those of the march without
+// skipping), at most to `last`. Skipped segments would have composited exactly nothing: their
+// samples interpolate voxels of empty cells only (each cell's range covers its one-voxel apron).
+// Not empty, or the block ends within a segment: k itself.
+fn skip_empty(c: Inner, k: u32, last: u32) -> u32 {
+    let dims = vec3<f32>(textureDimensions(volume_tex));
+    let p = (c.uvw + c.step * f32(k)) * dims;
+    let v = c.step * dims;
+    let edge = P.skip.x;
+    let top = vec3<i32>(textureDimensions(skip_grid)) - vec3<i32>(1);
+    let cell = clamp(vec3<i32>(floor(p / edge)), vec3<i32>(0), top);
+    let d = textureLoad(skip_grid, cell, 0).r;
+    let lo = (vec3<f32>(cell) - (d - 1.0)) * edge;
+    let hi = (vec3<f32>(cell) + d) * edge;
+    let exits = select(vec3<f32>(3.0e38), (select(lo, hi, v > vec3<f32>(0.0)) - p) / v, abs(v) > vec3<f32>(1e-30));
+    let t = min(exits.x, min(exits.y, exits.z));
+    let next = k + u32(clamp(floor(t), 0.0, f32(last - k)));
+    return min(1u + ((next - 1u) / UNROLL) * UNROLL, last);
+}
+#endif
+
 // Steps per loop iteration. llvmpipe ends any loop after 65535 iterations, so a ray can take at
 // most 4 * 65535 steps (src/render/volume.rs refuses renders that would need more).
 const UNROLL: u32 = 4u;
@@ -270,28 +300,46 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let inner = Inner(m.uvw0 + m.duvw * (m.t_enter + m.first - 0.5 * m.ds), m.duvw * m.ds,
                           m.ds * m.voxels_per_unit, m.stop_tau, m.dir);
         var k = 1u;
+        // The first k at which the loop below ends: segments k.. are left to the tail.
+        let last = 1u + UNROLL * ((max(n, UNROLL + 1u) - UNROLL - 1u + UNROLL - 1u) / UNROLL);
         // f32 sums the interior segments in blocks of 64 (16 iterations) that join the ray's
         // totals together: a 64th of the additions to the large running sums, so about a 64th
-        // of their rounding drift on long rays of nearly equal contributions. The other
+        // of their rounding drift on long rays of nearly equal contributions. The blocks are
+        // those of the segment index, so skipping leaves the sums as they are. The other
         // precisions add each segment to the totals, as the arithmetic they emulate does.
         var block = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, s.transmittance, s.ta, false);
-        var iterations = 0u;
+        var block_index = 0u;
         while (k + UNROLL < n && !s.stopped) {
+#if SKIPPING
+            // Jump from empty block to empty block until the next group of samples is not
+            // empty: a loop of lookups only (lavapipe runs both sides of a branch, but a loop
+            // only as long as one of its lanes still jumps).
+            loop {
+                let next = skip_empty(inner, k, last);
+                if (next == k) {
+                    break;
+                }
+                k = next;
+            }
+            if (k + UNROLL >= n) {
+                break;
+            }
+#endif
             if (PRECISION == 0u) {
+                let b = (k - 1u) / 64u;
+                if (b != block_index) {
+                    s.color += block.color;
+                    s.tau += block.tau;
+                    block.color = vec3<f32>(0.0);
+                    block.tau = 0.0;
+                    block_index = b;
+                }
                 // The block stops where the ray would: its depth is counted from the totals'.
                 let rest = Inner(inner.uvw, inner.step, inner.len, inner.stop_tau - s.tau, inner.dir);
                 inner_step(&block, rest, k);
                 inner_step(&block, rest, k + 1u);
                 inner_step(&block, rest, k + 2u);
                 inner_step(&block, rest, k + 3u);
-                iterations += 1u;
-                if (iterations == 16u || block.stopped) {
-                    s.color += block.color;
-                    s.tau += block.tau;
-                    block.color = vec3<f32>(0.0);
-                    block.tau = 0.0;
-                    iterations = 0u;
-                }
                 s.transmittance = block.transmittance;
                 s.stopped = block.stopped;
             } else {

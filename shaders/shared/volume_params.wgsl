@@ -22,6 +22,8 @@ struct Params {
     image: vec4<u32>,
     // Blinn–Phong under a headlight: x ambient, y diffuse, z specular, w shininess (SHADING only)
     shading: vec4<f32>,
+    // Empty-space skipping (SKIPPING only): x voxels per cell edge of the skip grid
+    skip: vec4<f32>,
 }
 
 // 0: lookup table, 1: emission–absorption e·v, a·v.

@@ -2,7 +2,7 @@
 //! from empty-space skipping on the paper's mantle, and an f32 volume larger than the memory
 //! budget rendered out of core with its peak memory. Timings live here, never in tests.
 
-use super::{mantle_fig5_tf, median, peak_memory_mib, process_cpu_ms};
+use super::{mantle_fig5_tf, max_diff, median, peak_memory_mib, time_runs, Timings};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::{Axis, Camera, LutTransfer, TransferFunction};
@@ -37,44 +37,12 @@ fn mantle_tfs() -> Vec<(&'static str, TransferFunction)> {
     ]
 }
 
-fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    let peak = b
-        .iter()
-        .flat_map(|p| p[..3].iter().map(|&v| v as f64))
-        .fold(0.0, f64::max)
-        .max(f64::MIN_POSITIVE);
-    a.iter()
-        .zip(b)
-        .flat_map(|(p, q)| (0..4).map(move |c| (p[c] as f64 - q[c] as f64).abs()))
-        .fold(0.0, f64::max)
-        / peak
-}
-
 /// A render's pixels and, for the bricked path, what it did.
 type Rendered = (Vec<[f32; 4]>, Option<BrickedStats>);
 
-/// Wall-clock and process CPU milliseconds of each timed run.
-type Timings = (Vec<f64>, Vec<f64>);
-
-/// One warm-up call of `render`, then `runs` (at least one) timed ones: the wall-clock ms each
-/// reported and the process's CPU ms each took, and the last output.
-fn time_runs<T>(runs: usize, mut render: impl FnMut() -> Result<(T, f64)>) -> Result<(Timings, T)> {
-    render()?;
-    let mut ms = Vec::new();
-    let mut cpu_ms = Vec::new();
-    let mut last = None;
-    for _ in 0..runs.max(1) {
-        let c0 = process_cpu_ms().unwrap_or(f64::NAN);
-        let (out, seconds) = render()?;
-        cpu_ms.push(process_cpu_ms().unwrap_or(f64::NAN) - c0);
-        ms.push(seconds * 1e3);
-        last = Some(out);
-    }
-    Ok(((ms, cpu_ms), last.expect("one run")))
-}
-
 /// The mantle's temperature fluctuation at n³ rendered at size² (orbit view, one sample per
-/// voxel): the plain ray caster (auto and exact filter), bricked without and with skipping.
+/// voxel): the plain ray caster (auto and exact filter) and the bricked one, each without and
+/// with empty-space skipping.
 pub fn bench_skipping(
     ctx: Arc<GpuContext>,
     n: usize,
@@ -98,6 +66,7 @@ pub fn bench_skipping(
         o.width = size;
         o.height = size;
         o.step = 1.0;
+        o.empty_space_skipping = false;
         let mut exact = o.clone();
         exact.filter = FilterMode::Exact;
         let reference = render(&exact)?.0 .0;
@@ -112,15 +81,25 @@ pub fn bench_skipping(
                 diff: max_diff(img, &reference),
             });
         };
-        for (path, opts) in [("plain (auto filter)", &o), ("plain (exact)", &exact)] {
+        let skipping = |base: &VolumeRenderOptions| VolumeRenderOptions {
+            empty_space_skipping: true,
+            ..base.clone()
+        };
+        let plain = [
+            ("plain (auto filter)", o.clone()),
+            ("plain + skipping (auto filter)", skipping(&o)),
+            ("plain (exact)", exact.clone()),
+            ("plain + skipping (exact)", skipping(&exact)),
+        ];
+        for (path, opts) in &plain {
             let (timings, (img, _)) = time_runs(runs, || render(opts))?;
             record(path, timings, &img, None);
         }
         for (path, skip) in [("bricked", false), ("bricked + skipping", true)] {
             let mut b = o.clone();
+            b.empty_space_skipping = skip;
             b.bricking = Bricking {
                 brick: Some(brick),
-                skip: Some(skip),
                 ..Default::default()
             };
             let (timings, (img, st)) = time_runs(runs, || render(&b))?;
@@ -255,7 +234,6 @@ pub fn bench_large(
     o.step = 1.0;
     o.bricking = Bricking {
         memory_budget: Some((budget_mib * (1u64 << 20) as f64) as u64),
-        skip: Some(true),
         ..Default::default()
     };
     let session = super::timing_session(ctx);

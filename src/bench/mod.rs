@@ -17,6 +17,7 @@ pub mod bricks;
 pub(crate) mod chart;
 pub mod datasets;
 pub mod effects;
+pub mod skipping;
 pub mod surface;
 pub mod tonemap;
 pub mod tui;
@@ -46,6 +47,43 @@ pub(crate) fn time_renders(
         ms.push(last.seconds * 1e3);
     }
     Ok((ms, last))
+}
+
+/// Wall-clock and process CPU milliseconds of each timed run.
+pub(crate) type Timings = (Vec<f64>, Vec<f64>);
+
+/// One warm-up call of `render`, then `runs` (at least one) timed ones: the wall-clock ms each
+/// reported and the process's CPU ms each took, and the last output.
+pub(crate) fn time_runs<T>(
+    runs: usize,
+    mut render: impl FnMut() -> Result<(T, f64)>,
+) -> Result<(Timings, T)> {
+    render()?;
+    let mut ms = Vec::new();
+    let mut cpu_ms = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let c0 = process_cpu_ms().unwrap_or(f64::NAN);
+        let (out, seconds) = render()?;
+        cpu_ms.push(process_cpu_ms().unwrap_or(f64::NAN) - c0);
+        ms.push(seconds * 1e3);
+        last = Some(out);
+    }
+    Ok(((ms, cpu_ms), last.expect("one run")))
+}
+
+/// Largest difference over all channels between two images, relative to `b`'s peak colour.
+pub(crate) fn max_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    let peak = b
+        .iter()
+        .flat_map(|p| p[..3].iter().map(|&v| v as f64))
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..4).map(move |c| (p[c] as f64 - q[c] as f64).abs()))
+        .fold(0.0, f64::max)
+        / peak
 }
 
 pub fn median(v: &[f64]) -> f64 {

@@ -3,7 +3,7 @@
 //! shows its chart inline).
 
 use super::BenchCommand;
-use hdrvis::bench::{accuracy, bricks, datasets, effects, surface, tonemap, tui, volume};
+use hdrvis::bench::{accuracy, bricks, datasets, effects, skipping, surface, tonemap, tui, volume};
 use hdrvis::gpu::{BackendChoice, GpuContext};
 use hdrvis::Result;
 use std::path::Path;
@@ -38,6 +38,12 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
                 "{}",
                 bricks::format_skipping_table(&adapter, n, size, &rows)
             );
+            Ok(())
+        }
+        BenchCommand::Skipping { runs, quick } => {
+            let (ctx, adapter) = gpu(backend)?;
+            let rows = skipping::bench_skipping(ctx, runs, quick, &mut progress)?;
+            print!("{}", skipping::format_skipping_table(&adapter, &rows));
             Ok(())
         }
         BenchCommand::Large {

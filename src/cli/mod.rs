@@ -143,8 +143,19 @@ pub enum BenchCommand {
         #[arg(long)]
         scene: Option<String>,
     },
+    /// Empty-space skipping in the in-core ray caster, off against on in one run: the mantle
+    /// under its Fig. 5 transfer function (257^3 and 513^3 -> 512^2 and 1024^2) and the HDR
+    /// blobs (nothing to skip).
+    Skipping {
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Only the 257^3 mantle and the 256^3 blobs.
+        #[arg(long)]
+        quick: bool,
+    },
     /// Empty-space skipping: the mantle's temperature fluctuation N^3 -> SIZE^2 with the plain
-    /// ray caster, bricked, and bricked with skipping (Fig. 5 TF and hot plumes only).
+    /// ray caster and the bricked one, each without and with skipping (Fig. 5 TF and hot plumes
+    /// only).
     Bricks {
         #[arg(long, default_value_t = 3)]
         runs: usize,

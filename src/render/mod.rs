@@ -7,6 +7,7 @@ pub mod cpu_reference;
 pub mod passes;
 pub(crate) mod route;
 pub mod session;
+pub(crate) mod skipping;
 pub mod surface;
 pub mod surface_reference;
 pub mod volume;
@@ -64,6 +65,9 @@ pub struct VolumeRenderOptions {
     pub shading: Option<Shading>,
     /// Point-sampled or pre-integrated transfer function.
     pub tf_sampling: TfSampling,
+    /// Jump over space the transfer function leaves empty (missing data, transparent values);
+    /// the image is the same either way.
+    pub empty_space_skipping: bool,
     /// Whether and how the volume may be cut into bricks (bricked and out-of-core paths).
     pub bricking: Bricking,
 }
@@ -236,6 +240,7 @@ impl VolumeRenderOptions {
             precision: Precision::F32,
             shading: None,
             tf_sampling: TfSampling::Point,
+            empty_space_skipping: true,
             bricking: Bricking::default(),
         }
     }

@@ -4,9 +4,12 @@
 //!
 //! * a coarser quick-look level first, when the options ask for one (`bricking.level`);
 //! * f64 compositing on the GPU where the adapter has shader f64, else on the CPU reference;
-//! * the in-core ray caster when the volume is in memory and fits the GPU memory budget;
-//! * the bricked ray caster (empty-space skipping, streamed out of core through a brick cache
-//!   when the needed bricks exceed the budget) otherwise.
+//! * the in-core ray caster when the volume is in memory and fits the GPU memory budget, with
+//!   empty-space skipping ([`super::skipping`]) where enough of it is empty under the transfer
+//!   function;
+//! * the bricked ray caster (skipping empty bricks, streamed out of core through a brick cache
+//!   when the needed bricks exceed the budget) for opened volumes, volumes over the budget, and
+//!   renders that ask for bricks.
 //!
 //! Every intermediate — the level, the in-memory volume cut into bricks, the GPU brick cache,
 //! the upload, the image — is an entry of the session's result cache, so every path shows in
@@ -17,6 +20,7 @@
 use super::bricked::{BrickCache, BrickedStats};
 use super::cache::KeyBuilder;
 use super::session::{append_pass, image_bytes, raycast_effects, RenderSession};
+use super::skipping::{CellRanges, SkipGrid, CELL};
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::model::bricks::{BrickedVolume, DEFAULT_BRICK};
@@ -56,8 +60,6 @@ pub struct Bricking {
     /// GPU memory the render may use, in bytes; `None` is unlimited. An in-memory volume that
     /// does not fit renders bricked, streamed through a cache of this size.
     pub memory_budget: Option<u64>,
-    /// Empty-space skipping; `Some(true)` sends an in-memory volume to the bricked path.
-    pub skip: Option<bool>,
     /// Brick edge in voxels; `Some` sends an in-memory volume to the bricked path.
     pub brick: Option<usize>,
     /// Render a 2^level-times coarser copy (0 is full resolution).
@@ -85,8 +87,9 @@ impl Bricking {
 /// How one render runs; chosen by `RenderSession::choose_path`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RenderPath {
-    /// The whole volume in one 3-D texture, ray cast in one pass (u8, f16, f32, f32c).
-    InCore,
+    /// The whole volume in one 3-D texture, ray cast in one pass (u8, f16, f32, f32c), jumping
+    /// over empty cells when `skipping`.
+    InCore { skipping: bool },
     /// f64 compositing in a GPU compute shader (adapters with shader f64).
     F64Gpu,
     /// f64 compositing on the CPU reference.
@@ -157,6 +160,9 @@ impl RenderSession {
                 if let Some(b) = &r.bricks {
                     detail.push(bricked_detail(path, b));
                 }
+                if path == (RenderPath::InCore { skipping: true }) {
+                    detail.push("empty-space skipping".into());
+                }
                 if r.compiled_pipeline {
                     detail.push("pipeline built".into());
                 }
@@ -189,12 +195,14 @@ impl RenderSession {
                 let fits = b
                     .memory_budget
                     .is_none_or(|m| v.voxel_count() as u64 * 4 + pixels * 32 <= m);
-                if fits && b.skip != Some(true) && b.brick.is_none() {
-                    return Ok(RenderPath::InCore);
+                if fits && b.brick.is_none() {
+                    return Ok(RenderPath::InCore {
+                        skipping: self.skipping_pays(v, opts)?,
+                    });
                 }
                 RenderPath::Bricked {
                     brick: b.brick.unwrap_or(DEFAULT_BRICK),
-                    skip: b.skip.unwrap_or(true),
+                    skip: opts.empty_space_skipping,
                 }
             }
             VolumeSource::Bricked(bv) => {
@@ -215,12 +223,23 @@ impl RenderSession {
                 }
                 RenderPath::Bricked {
                     brick: bv.layout.brick,
-                    skip: b.skip.unwrap_or(true),
+                    skip: opts.empty_space_skipping,
                 }
             }
         };
         check_bricked_options(source.name(), opts)?;
         Ok(path)
+    }
+
+    /// Whether the in-core render of `volume` skips empty space: when asked (the default), for
+    /// point-sampled transfer functions (pre-integration carries each segment's value into
+    /// the next), and when enough cells are empty for the jumps to pay for the lookups.
+    fn skipping_pays(&self, volume: &Arc<Volume>, opts: &VolumeRenderOptions) -> Result<bool> {
+        if !opts.empty_space_skipping || opts.tf_sampling != TfSampling::Point {
+            return Ok(false);
+        }
+        let grid = self.skip_grid(volume, opts)?;
+        Ok(grid.empty_fraction() >= super::skipping::MIN_EMPTY_FRACTION)
     }
 
     fn run_path(
@@ -231,9 +250,14 @@ impl RenderSession {
     ) -> Result<VolumeRender> {
         let t = Instant::now();
         let (image, seconds, bricks, compiled_pipeline) = match (path, source) {
-            (RenderPath::InCore, VolumeSource::Memory(v)) => {
+            (RenderPath::InCore { skipping }, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
-                let (img, timing) = self.volume_renderer()?.render(&gv, opts)?;
+                let grid = if skipping {
+                    Some(self.skip_grid(v, opts)?)
+                } else {
+                    None
+                };
+                let (img, timing) = self.volume_renderer()?.render(&gv, opts, grid.as_deref())?;
                 (img, timing.seconds, None, timing.compiled_pipeline)
             }
             (RenderPath::F64Gpu, VolumeSource::Memory(v)) => {
@@ -388,15 +412,64 @@ impl RenderSession {
     }
 }
 
+impl RenderSession {
+    /// The per-cell value ranges of `volume`, read once and cached.
+    pub(crate) fn cell_ranges(&self, volume: &Arc<Volume>) -> Result<Arc<CellRanges>> {
+        let key = KeyBuilder::new("cell ranges")
+            .u64(self.volume_key(volume))
+            .u64(CELL as u64)
+            .finish();
+        self.stage_with(
+            "cell-ranges",
+            key,
+            false,
+            |c: &CellRanges| c.count() as u64 * 12,
+            |_, _| {},
+            || {
+                let c = CellRanges::of(volume.clone())?;
+                let detail = format!("{} cells of {CELL}³", c.count());
+                Ok((c, detail))
+            },
+        )
+    }
+
+    /// The skip grid of `volume` under the options' transfer function, cached per function.
+    pub(crate) fn skip_grid(
+        &self,
+        volume: &Arc<Volume>,
+        opts: &VolumeRenderOptions,
+    ) -> Result<Arc<SkipGrid>> {
+        let cells = self.cell_ranges(volume)?;
+        let key = KeyBuilder::new("skip grid")
+            .u64(self.volume_key(volume))
+            .debug(&opts.tf)
+            .finish();
+        let ctx = self.context()?;
+        self.stage_with(
+            "skip-grid",
+            key,
+            false,
+            |g: &SkipGrid| g.bytes(),
+            |_, _| {},
+            || {
+                let tf = opts.tf.resolve(cells.stats())?;
+                let g = SkipGrid::new(&ctx, &cells, &tf);
+                let detail = format!("{} of {} cells empty", g.empty, g.cells());
+                Ok((g, detail))
+            },
+        )
+    }
+}
+
 /// The options the bricked ray caster lacks, refused with what to do instead.
 fn check_bricked_options(name: &str, opts: &VolumeRenderOptions) -> Result<()> {
     if opts.shading.is_some() {
         return Err(Error::invalid(
             "shading",
             format!(
-                "{name} renders bricked here (open_volume, skip, brick or a memory_budget it exceeds), \
+                "{name} renders bricked here (open_volume, brick or a memory_budget it exceeds), \
                  and the bricked ray caster has no shading: its one-voxel brick apron is too \
-                 narrow for the gradient; to shade, load_volume it and render without skip, brick or \
+                 narrow for the gradient; to shade, load_volume it and render without brick or \
                  memory_budget"
             ),
         ));
@@ -406,7 +479,7 @@ fn check_bricked_options(name: &str, opts: &VolumeRenderOptions) -> Result<()> {
             "tf_sampling",
             format!(
                 "{name} renders bricked, and the bricked ray caster samples the transfer function \
-                 at segment midpoints only; load_volume it and render without skip, brick or \
+                 at segment midpoints only; load_volume it and render without brick or \
                  memory_budget to pre-integrate"
             ),
         ));

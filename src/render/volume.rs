@@ -3,6 +3,7 @@
 //! needed specialisation — hardware or exact filtering, transfer-function kind, data scale,
 //! lens, jitter — and renders HDR images of any camera.
 
+use super::skipping::SkipGrid;
 use super::{FilterMode, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::gpu::{pipeline, readback, shader, GpuContext};
@@ -28,6 +29,7 @@ pub(crate) struct VolumeParams {
     march: [f32; 4],
     image: [u32; 4],
     shading: [f32; 4],
+    skip: [f32; 4],
 }
 
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
@@ -127,6 +129,8 @@ pub(crate) struct PipelineKey {
     precision: u32,
     shading: bool,
     preintegrated: bool,
+    /// Empty-space skipping through a skip grid (plain ray caster, point sampling).
+    pub skipping: bool,
     work: SampleWork,
 }
 
@@ -234,6 +238,9 @@ impl VolumeRenderer {
         if key.preintegrated {
             defines.push("PREINTEGRATED");
         }
+        if key.skipping {
+            defines.push("SKIPPING");
+        }
         let name = if key.bricked {
             "volume_bricked.wgsl"
         } else {
@@ -248,6 +255,9 @@ impl VolumeRenderer {
         ];
         if key.hw_filter {
             entries.push(layout::filtering_sampler(4));
+        }
+        if key.skipping {
+            entries.push(layout::texture(5, wgpu::TextureViewDimension::D3, false));
         }
         if key.bricked {
             entries.extend([
@@ -289,22 +299,33 @@ impl VolumeRenderer {
         Ok((entry, true))
     }
 
-    /// Renders an HDR image of `volume`.
-    pub fn render(
+    /// Renders an HDR image of `volume`, skipping the empty space `skip` marks when given.
+    pub(crate) fn render(
         &self,
         volume: &GpuVolume,
         opts: &VolumeRenderOptions,
+        skip: Option<&SkipGrid>,
     ) -> Result<(HdrImage, RenderTiming)> {
-        self.render_work(volume, opts, SampleWork::Full)
+        self.render_with(volume, opts, SampleWork::Full, skip)
     }
 
-    /// `render` with the samples doing only `work` (see SampleWork): for timing what
-    /// each part of a sample costs, not for images.
+    /// The plain march (no skipping) with the samples doing only `work` (see SampleWork): for
+    /// timing what each part of a sample costs, not for images.
     pub fn render_work(
         &self,
         volume: &GpuVolume,
         opts: &VolumeRenderOptions,
         work: SampleWork,
+    ) -> Result<(HdrImage, RenderTiming)> {
+        self.render_with(volume, opts, work, None)
+    }
+
+    fn render_with(
+        &self,
+        volume: &GpuVolume,
+        opts: &VolumeRenderOptions,
+        work: SampleWork,
+        skip: Option<&SkipGrid>,
     ) -> Result<(HdrImage, RenderTiming)> {
         let geometry = Geometry {
             name: &volume.name,
@@ -315,6 +336,8 @@ impl VolumeRenderer {
         };
         let mut frame = self.frame(&geometry, opts, false)?;
         frame.key.work = work;
+        frame.key.skipping = skip.is_some();
+        frame.params.skip = [super::skipping::CELL as f32, 0.0, 0.0, 0.0];
         let (pipeline, compiled) = self.pipeline(frame.key)?;
         let (pipeline, layout) = (&pipeline.0, &pipeline.1);
         let device = &self.ctx.device;
@@ -327,8 +350,14 @@ impl VolumeRenderer {
         let lut_view = self.lut_view(&frame.tf, frame.key.preintegrated);
         let out = self.output_texture(opts);
         let out_view = out.create_view(&Default::default());
-        let entries =
+        let mut entries =
             self.common_entries(&frame.key, &params_buf, &volume.view, &lut_view, &out_view);
+        if let Some(grid) = skip {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 5,
+                resource: wgpu::BindingResource::TextureView(grid.view()),
+            });
+        }
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("volume"),
             layout,
@@ -386,6 +415,7 @@ impl VolumeRenderer {
             precision: opts.precision.shader_code(),
             shading: opts.shading.is_some(),
             preintegrated: opts.tf_sampling == TfSampling::PreIntegrated,
+            skipping: false,
             work: SampleWork::Full,
         };
         let params = volume_params(volume, opts, &tf, tf_consts, voxel, size);
@@ -641,6 +671,7 @@ fn volume_params(
                 s.shininess as f32,
             ]
         }),
+        skip: [0.0; 4],
     }
 }
 

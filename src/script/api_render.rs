@@ -57,6 +57,7 @@ const RENDER_KEYS: &[&str] = &[
     "precision",
     "shading",
     "tf_sampling",
+    "empty_space_skipping",
 ];
 const SHADING_KEYS: &[&str] = &["ambient", "diffuse", "specular", "shininess"];
 const LUT_KEYS: &[&str] = &[
@@ -354,13 +355,14 @@ fn take_render_option(o: &mut VolumeRenderOptions, key: &str, v: &Dynamic) -> RR
         "tf_sampling" => {
             o.tf_sampling = TfSampling::parse(&string(v, "tf_sampling")?).map_err(to_rhai)?
         }
+        "empty_space_skipping" => o.empty_space_skipping = boolean(v, "empty_space_skipping")?,
         _ => unreachable!("checked keys"),
     }
     Ok(())
 }
 
 /// The keys of `render_volume` for the bricked and out-of-core paths.
-const BRICKING_KEYS: &[&str] = &["memory_budget", "skip", "brick", "level"];
+const BRICKING_KEYS: &[&str] = &["memory_budget", "brick", "level"];
 
 fn mib_to_bytes(mib: f64) -> u64 {
     (mib * (1u64 << 20) as f64) as u64
@@ -376,7 +378,6 @@ fn take_bricking(b: &mut Bricking, key: &str, v: &Dynamic) -> RResult<bool> {
             }
             b.memory_budget = Some(mib_to_bytes(m));
         }
-        "skip" => b.skip = Some(boolean(v, "skip")?),
         "brick" => b.brick = Some(int(v, "brick")?.clamp(0, 1 << 20) as usize),
         "level" => {
             let l = int(v, "level")?;

@@ -67,7 +67,7 @@ fn session() -> RenderSession {
 fn plain(vol: &Volume, o: &VolumeRenderOptions) -> Vec<[f32; 4]> {
     let source = VolumeSource::Memory(Arc::new(vol.clone()));
     let r = session().render_volume_detailed(&source, o).unwrap();
-    assert_eq!(r.path, hdrvis::render::RenderPath::InCore);
+    assert!(matches!(r.path, hdrvis::render::RenderPath::InCore { .. }));
     r.image.pixels.clone()
 }
 
@@ -79,9 +79,9 @@ fn bricked_in(
     skip: bool,
 ) -> hdrvis::Result<(Vec<[f32; 4]>, BrickedStats)> {
     let mut o = o.clone();
+    o.empty_space_skipping = skip;
     o.bricking = Bricking {
         memory_budget: budget,
-        skip: Some(skip),
         ..Default::default()
     };
     let r = session.render_volume_detailed(&VolumeSource::Bricked(bv.clone()), &o)?;
@@ -263,7 +263,7 @@ fn scripts_refuse_shading_on_the_bricked_path_and_shade_the_plain_one() {
         hdrvis::script::run_script_source(&src, "t.rhai", dir.path(), &opts)
     };
     run("").expect("shading on the plain path");
-    let err = run(", skip: true").unwrap_err().to_string();
+    let err = run(", brick: 8").unwrap_err().to_string();
     let first = err.lines().next().unwrap();
     assert!(
         first.contains("Runtime error: shading:") && first.contains("bricked"),
@@ -349,15 +349,21 @@ fn render_volume_chooses_the_path_from_the_source_and_the_options() {
     let cam = Camera::axis(Axis::Z, &vol.bounds());
     let o = options(&vol, cam, scene_tf(0.35), FilterMode::Exact);
     let memory = VolumeSource::Memory(vol.clone());
-    let path = |source: &VolumeSource, b: Bricking| {
+    let path_skipping = |source: &VolumeSource, b: Bricking, skipping: bool| {
         let mut o = o.clone();
         o.bricking = b;
+        o.empty_space_skipping = skipping;
         session.render_volume_detailed(source, &o).map(|r| r.path)
     };
+    let path = |source: &VolumeSource, b: Bricking| path_skipping(source, b, true);
     let bricked = |brick, skip| hdrvis::render::RenderPath::Bricked { brick, skip };
+    let in_core = |skipping| hdrvis::render::RenderPath::InCore { skipping };
+    // In memory and within the budget: the plain ray caster, skipping the empty space the
+    // transfer function leaves (its lower 35 % is transparent), unless told not to.
+    assert_eq!(path(&memory, Bricking::default()).unwrap(), in_core(true));
     assert_eq!(
-        path(&memory, Bricking::default()).unwrap(),
-        hdrvis::render::RenderPath::InCore
+        path_skipping(&memory, Bricking::default(), false).unwrap(),
+        in_core(false)
     );
     // A budget that the volume (70·60·50 f32, 840 kB) and the image's buffers (246 kB) do not fit
     // sends it to bricks of the default edge, streamed out of core.
@@ -366,12 +372,14 @@ fn render_volume_chooses_the_path_from_the_source_and_the_options() {
         ..Default::default()
     };
     assert_eq!(path(&memory, small).unwrap(), bricked(32, true));
-    let skip_off = Bricking {
-        skip: Some(false),
+    let brick16 = Bricking {
         brick: Some(16),
         ..Default::default()
     };
-    assert_eq!(path(&memory, skip_off).unwrap(), bricked(16, false));
+    assert_eq!(
+        path_skipping(&memory, brick16, false).unwrap(),
+        bricked(16, false)
+    );
 
     let bv = Arc::new(BrickedVolume::from_volume(vol.clone(), 16).unwrap());
     let opened = VolumeSource::Bricked(bv);
@@ -424,7 +432,10 @@ fn a_level_renders_a_coarser_copy_built_once() {
     o.bricking.level = 1;
     let source = VolumeSource::Memory(vol.clone());
     let first = session.render_volume_detailed(&source, &o).unwrap();
-    assert_eq!(first.path, hdrvis::render::RenderPath::InCore);
+    assert!(matches!(
+        first.path,
+        hdrvis::render::RenderPath::InCore { .. }
+    ));
     assert!(first
         .image
         .meta("dataset")

@@ -11,6 +11,7 @@ mod common;
 mod datasets;
 mod passes;
 mod scripts;
+mod skipping;
 mod stability;
 mod surface;
 mod tonemap;

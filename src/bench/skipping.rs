@@ -1,0 +1,169 @@
+//! The empty-space skipping benchmark (`hdrvis bench skipping`): the in-core ray caster with
+//! and without skipping, side by side in one run (the two alternating run by run), on the
+//! paper's mantle under its Fig. 5 transfer function (missing data outside the shell and in the
+//! core) and on the HDR blobs (nothing to skip), with the largest difference between the two
+//! images.
+
+use super::{bench_tf, bench_volume, mantle_fig5_tf, mantle_fluctuation, max_diff, median};
+use super::{process_cpu_ms, timing_session};
+use crate::error::Result;
+use crate::gpu::GpuContext;
+use crate::model::{Camera, TransferFunction, Volume};
+use crate::render::{RenderPath, VolumeRenderOptions, VolumeSource};
+use std::sync::Arc;
+
+/// One scene measured with skipping off and on.
+#[derive(Clone, Debug)]
+pub struct SkippingRow {
+    pub scene: String,
+    /// Wall-clock ms of each run, without and with skipping.
+    pub plain_ms: Vec<f64>,
+    pub skipping_ms: Vec<f64>,
+    /// Process CPU ms of each run, without and with skipping.
+    pub plain_cpu_ms: Vec<f64>,
+    pub skipping_cpu_ms: Vec<f64>,
+    /// The path the render with skipping asked took (skipping only where enough is empty).
+    pub path: RenderPath,
+    /// Largest difference between the two images, relative to the plain one's peak colour.
+    pub diff: f64,
+}
+
+/// The scenes: (name, volume side, image side). `quick` keeps the small sizes only.
+fn scenes(quick: bool) -> Vec<(&'static str, usize, u32)> {
+    let mut v = vec![("mantle Fig. 5", 257, 512), ("mantle Fig. 5", 257, 1024)];
+    if !quick {
+        v.extend([("mantle Fig. 5", 513, 512), ("mantle Fig. 5", 513, 1024)]);
+    }
+    v.push(("HDR blobs", 256, 512));
+    if !quick {
+        v.push(("HDR blobs", 513, 1024));
+    }
+    v
+}
+
+/// Times every scene with skipping off and on, `runs` times each after a warm-up.
+pub fn bench_skipping(
+    ctx: Arc<GpuContext>,
+    runs: usize,
+    quick: bool,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<SkippingRow>> {
+    let mut rows = Vec::new();
+    let mut current: Option<(&str, usize, Arc<Volume>)> = None;
+    for (scene, n, px) in scenes(quick) {
+        let vol = match &current {
+            Some((s, m, v)) if *s == scene && *m == n => v.clone(),
+            _ => {
+                log(&format!("generating the {scene} volume at {n}^3 ..."));
+                let v = Arc::new(if scene == "HDR blobs" {
+                    bench_volume(n)?
+                } else {
+                    mantle_fluctuation(n, 7)?
+                });
+                current = Some((scene, n, v.clone()));
+                v
+            }
+        };
+        let tf = if scene == "HDR blobs" {
+            bench_tf()
+        } else {
+            TransferFunction::Lut(mantle_fig5_tf())
+        };
+        let mut o = VolumeRenderOptions::new(Camera::orbit(&vol.bounds(), 35.0, 20.0, 25.0)?, tf);
+        (o.width, o.height, o.step) = (px, px, 1.0);
+        let name = format!("{scene} {n}^3 -> {px}^2");
+        log(&format!("{name} ..."));
+        rows.push(time_pair(ctx.clone(), &name, &vol, &o, runs)?);
+    }
+    Ok(rows)
+}
+
+/// One scene without and with skipping: a warm-up of each, then the two alternating run by run
+/// so that drift of the machine's speed spreads over both.
+fn time_pair(
+    ctx: Arc<GpuContext>,
+    scene: &str,
+    vol: &Arc<Volume>,
+    o: &VolumeRenderOptions,
+    runs: usize,
+) -> Result<SkippingRow> {
+    let session = timing_session(ctx);
+    let source = VolumeSource::Memory(vol.clone());
+    let plain = VolumeRenderOptions {
+        empty_space_skipping: false,
+        ..o.clone()
+    };
+    let skipping = VolumeRenderOptions {
+        empty_space_skipping: true,
+        ..o.clone()
+    };
+    let reference = session.render_volume_detailed(&source, &plain)?;
+    let skipped = session.render_volume_detailed(&source, &skipping)?;
+    let mut row = SkippingRow {
+        scene: scene.into(),
+        plain_ms: Vec::new(),
+        skipping_ms: Vec::new(),
+        plain_cpu_ms: Vec::new(),
+        skipping_cpu_ms: Vec::new(),
+        path: skipped.path,
+        diff: max_diff(&skipped.image.pixels, &reference.image.pixels),
+    };
+    for _ in 0..runs.max(1) {
+        for (opts, ms, cpu) in [
+            (&plain, &mut row.plain_ms, &mut row.plain_cpu_ms),
+            (&skipping, &mut row.skipping_ms, &mut row.skipping_cpu_ms),
+        ] {
+            let c0 = process_cpu_ms().unwrap_or(f64::NAN);
+            let r = session.render_volume_detailed(&source, opts)?;
+            cpu.push(process_cpu_ms().unwrap_or(f64::NAN) - c0);
+            ms.push(r.seconds * 1e3);
+        }
+    }
+    Ok(row)
+}
+
+pub fn format_skipping_table(adapter: &str, rows: &[SkippingRow]) -> String {
+    let mut s = format!(
+        "adapter: {adapter}\nempty-space skipping in the in-core ray caster: orbit view, 1 sample/voxel, f32, auto filter, median of runs (the two alternating)\n"
+    );
+    s.push_str(&format!(
+        "{:<28} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10}  {}\n",
+        "scene",
+        "plain ms",
+        "skip ms",
+        "speed-up",
+        "CPU ms",
+        "CPU ms",
+        "CPU s-up",
+        "max diff",
+        "path taken"
+    ));
+    for r in rows {
+        let (p, k) = (median(&r.plain_ms), median(&r.skipping_ms));
+        let (pc, kc) = (median(&r.plain_cpu_ms), median(&r.skipping_cpu_ms));
+        // Process CPU time comes in 10 ms ticks: tiny renders read 0, which has no ratio.
+        let cpu_ratio = if pc > 0.0 && kc > 0.0 {
+            format!("{:.2}x", pc / kc)
+        } else {
+            "-".into()
+        };
+        let path = match r.path {
+            RenderPath::InCore { skipping: true } => "in-core, skipping",
+            RenderPath::InCore { skipping: false } => "in-core, too little empty to skip",
+            _ => "other",
+        };
+        s.push_str(&format!(
+            "{:<28} {:>9.1} {:>9.1} {:>8.2}x {:>8.0} {:>8.0} {:>9} {:>10.1e}  {path}\n",
+            r.scene,
+            p,
+            k,
+            p / k,
+            pc,
+            kc,
+            cpu_ratio,
+            r.diff
+        ));
+    }
+    s.push_str("speed-up: plain / skipping (wall clock, and CPU time of this process, which other jobs on the machine disturb less); max diff: between the two images, relative to the plain one's peak colour\n");
+    s
+}
