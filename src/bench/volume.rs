@@ -1,10 +1,16 @@
-//! The volume benchmark (`hdrvis bench volume`): the ray caster on the HDR blobs, axis view, one
-//! sample per voxel, optionally with VTK's GPU ray caster run side by side on the same data
-//! (`--peer vtk`) and the cost of each stage of a sample (`--breakdown`).
+//! The volume benchmark (`hdrvis bench volume`): the ray caster on the HDR blobs (nothing to
+//! skip) and on the paper's mantle under its Fig. 5 transfer function (missing data outside the
+//! shell and in the core), axis view, one sample per voxel, optionally with VTK's two volume
+//! mappers run side by side on the same data (`--peer vtk`: the GPU ray caster on the same
+//! llvmpipe, and the fixed-point CPU ray caster on two threads) and the cost of each stage of a
+//! sample (`--breakdown`).
 
-use super::{bench_tf, bench_volume, median, time_renders, timing_session};
+use super::{bench_tf, bench_volume, mantle_fig5_tf, mantle_fluctuation, median};
+use super::{time_renders, timing_session};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
+use crate::model::transfer::ResolvedTransfer;
+use crate::model::TransferFunction;
 use crate::model::{Axis, Camera, Volume};
 use crate::render::volume::{GpuVolume, SampleWork, VolumeRenderer};
 use crate::render::{VolumeRenderOptions, VolumeSource};
@@ -18,7 +24,8 @@ pub struct BenchRow {
     /// Samples a ray-caster takes at one sample per voxel without early termination.
     pub samples: u64,
     pub runs_ms: Vec<f64>,
-    pub peer: Option<PeerResult>,
+    /// With `--peer`: each of the peer's mappers on the same scene.
+    pub peers: Vec<PeerResult>,
     /// With `--breakdown`: the frame time of each stage of the per-sample work.
     pub stages: Vec<(SampleWork, Vec<f64>)>,
 }
@@ -40,21 +47,60 @@ impl BenchRow {
     }
 }
 
-/// The (volume side, image side) pairs of the benchmark: 256³ → 512², and with `quick` off
-/// also 513³ → 1024².
-pub fn volume_sizes(quick: bool) -> &'static [(usize, u32)] {
-    if quick {
-        &[(256, 512)]
-    } else {
-        &[(256, 512), (513, 1024)]
+/// A scene of the volume benchmark.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VolumeScene {
+    /// Gaussian blobs over five decades under a log10 transfer function: nothing to skip.
+    Blobs,
+    /// The mantle's temperature fluctuation under the paper's Fig. 5 transfer function, missing
+    /// outside the shell and in the core.
+    Mantle,
+}
+
+impl VolumeScene {
+    fn name(self) -> &'static str {
+        match self {
+            VolumeScene::Blobs => "blobs",
+            VolumeScene::Mantle => "mantle",
+        }
+    }
+
+    fn volume(self, n: usize) -> Result<Volume> {
+        match self {
+            VolumeScene::Blobs => bench_volume(n),
+            VolumeScene::Mantle => mantle_fluctuation(n, 7),
+        }
+    }
+
+    fn tf(self) -> TransferFunction {
+        match self {
+            VolumeScene::Blobs => bench_tf(),
+            VolumeScene::Mantle => TransferFunction::Lut(mantle_fig5_tf()),
+        }
     }
 }
 
-/// Times the volume ray caster on `sizes` (volume side, image side), axis view, one sample per
-/// voxel; with `breakdown`, also each stage of the per-sample work (SampleWork).
+/// The (scene, volume side, image side) triples of the benchmark: 256³ (257³ for the mantle) →
+/// 512², and with `quick` off also 513³ → 1024².
+pub fn volume_scenes(quick: bool) -> Vec<(VolumeScene, usize, u32)> {
+    let mut v = vec![
+        (VolumeScene::Blobs, 256, 512),
+        (VolumeScene::Mantle, 257, 512),
+    ];
+    if !quick {
+        v.extend([
+            (VolumeScene::Blobs, 513, 1024),
+            (VolumeScene::Mantle, 513, 1024),
+        ]);
+    }
+    v
+}
+
+/// Times the volume ray caster on `scenes`, axis view, one sample per voxel; with `breakdown`,
+/// also each stage of the per-sample work (SampleWork); with `peer`, VTK's mappers.
 pub fn bench_volume_render(
     ctx: Arc<GpuContext>,
-    sizes: &[(usize, u32)],
+    scenes: &[(VolumeScene, usize, u32)],
     runs: usize,
     peer: Option<&Path>,
     breakdown: bool,
@@ -62,17 +108,20 @@ pub fn bench_volume_render(
 ) -> Result<Vec<BenchRow>> {
     let session = timing_session(ctx);
     let mut rows = Vec::new();
-    for &(n, px) in sizes {
-        log(&format!("generating {n}^3 volume ..."));
-        let vol = Arc::new(bench_volume(n)?);
-        let mut opts = VolumeRenderOptions::new(Camera::axis(Axis::Z, &vol.bounds()), bench_tf());
+    for &(scene, n, px) in scenes {
+        log(&format!(
+            "generating the {} volume at {n}^3 ...",
+            scene.name()
+        ));
+        let vol = Arc::new(scene.volume(n)?);
+        let mut opts = VolumeRenderOptions::new(Camera::axis(Axis::Z, &vol.bounds()), scene.tf());
         opts.width = px;
         opts.height = px;
         opts.step = 1.0;
         // Warm-up: pipeline compilation and first-touch costs are not part of a frame.
         let source = VolumeSource::Memory(vol.clone());
         let (runs_ms, _) = time_renders(&session, &source, &opts, runs)?;
-        let name = format!("{n}^3 -> {px}^2");
+        let name = format!("{} {n}^3 -> {px}^2", scene.name());
         log(&format!("{name}: median {:.1} ms", median(&runs_ms)));
         let mut stages: Vec<(SampleWork, Vec<f64>)> = Vec::new();
         if breakdown {
@@ -82,12 +131,18 @@ pub fn bench_volume_render(
             let gv = session.upload(&vol)?;
             stages = time_sample_stages(&*session.volume_renderer()?, &gv, &opts, runs)?;
         }
-        let peer_result = peer.map(|script| run_vtk_peer(script, &vol, px, runs, log));
+        let peers = match peer {
+            Some(script) => {
+                let tf = opts.tf.resolve(&vol.stats())?;
+                run_vtk_peers(script, &vol, &tf, px, runs, log)
+            }
+            None => Vec::new(),
+        };
         rows.push(BenchRow {
             name,
             samples: px as u64 * px as u64 * n as u64,
             runs_ms,
-            peer: peer_result,
+            peers,
             stages,
         });
     }
@@ -117,78 +172,105 @@ fn time_sample_stages(
     Ok(stages)
 }
 
-/// Runs VTK's vtkGPUVolumeRayCastMapper through `tests/python/vtk_volume_bench.py` on the same
-/// volume, image size, sample distance and (sampled) transfer function.
-fn run_vtk_peer(
+/// The mappers of the VTK peer: its GPU ray caster and its fixed-point CPU ray caster.
+const VTK_MAPPERS: [&str; 2] = ["gpu", "fixedpoint"];
+
+/// Threads of VTK's fixed-point CPU ray caster: the machine's two cores, as lavapipe uses.
+const VTK_CPU_THREADS: usize = 2;
+
+/// Runs each of VTK's mappers through `tests/python/vtk_volume_bench.py` on the same volume,
+/// image size, sample distance and (sampled) transfer function.
+fn run_vtk_peers(
     script: &Path,
     vol: &Volume,
+    tf: &ResolvedTransfer,
     px: u32,
     runs: usize,
     log: &mut dyn FnMut(&str),
-) -> PeerResult {
-    let fail = |e: String| PeerResult {
-        name: "vtk".into(),
+) -> Vec<PeerResult> {
+    let fail = |mapper: &str, e: String| PeerResult {
+        name: format!("vtk {mapper}"),
         detail: String::new(),
         median_ms: None,
         error: Some(e),
     };
     let dir = match tempfile::tempdir() {
         Ok(d) => d,
-        Err(e) => return fail(e.to_string()),
+        Err(e) => return vec![fail("peer", e.to_string())],
     };
-    let (npy, tf_path) = match write_peer_inputs(dir.path(), vol) {
+    let (npy, tf_path) = match write_peer_inputs(dir.path(), vol, tf) {
         Ok(paths) => paths,
-        Err(e) => return fail(e),
+        Err(e) => return vec![fail("peer", e)],
     };
-    log(&format!("running peer vtk at {px}^2 ..."));
-    let out = std::process::Command::new("python3")
-        .arg(script)
-        .args(["--npy", &npy.display().to_string()])
-        .args(["--width", &px.to_string(), "--height", &px.to_string()])
-        .args([
-            "--sample-distance",
-            "1.0",
-            "--runs",
-            &runs.max(1).to_string(),
-        ])
-        .args(["--tf", &tf_path.display().to_string()])
-        .output();
-    let out = match out {
-        Ok(o) => o,
-        Err(e) => return fail(format!("cannot run python3: {e}")),
-    };
-    if !out.status.success() {
-        return fail(
-            String::from_utf8_lossy(&out.stderr)
-                .lines()
-                .last()
-                .unwrap_or("failed")
-                .to_string(),
-        );
+    let mut results = Vec::new();
+    for mapper in VTK_MAPPERS {
+        log(&format!("running peer vtk ({mapper}) at {px}^2 ..."));
+        let out = std::process::Command::new("python3")
+            .arg(script)
+            .args(["--npy", &npy.display().to_string()])
+            .args(["--width", &px.to_string(), "--height", &px.to_string()])
+            .args(["--sample-distance", "1.0"])
+            .args(["--runs", &runs.max(1).to_string()])
+            .args(["--mapper", mapper])
+            .args(["--threads", &VTK_CPU_THREADS.to_string()])
+            .args(["--tf", &tf_path.display().to_string()])
+            .output();
+        let result = match out {
+            Err(e) => fail(mapper, format!("cannot run python3: {e}")),
+            Ok(out) if !out.status.success() => fail(
+                mapper,
+                String::from_utf8_lossy(&out.stderr)
+                    .lines()
+                    .last()
+                    .unwrap_or("failed")
+                    .to_string(),
+            ),
+            Ok(out) => parse_peer_output(mapper, &String::from_utf8_lossy(&out.stdout))
+                .unwrap_or_else(|e| fail(mapper, e)),
+        };
+        results.push(result);
     }
-    parse_peer_output(&String::from_utf8_lossy(&out.stdout)).unwrap_or_else(fail)
+    results
 }
 
-/// Writes the peer's inputs into `dir`: the volume as `volume.npy` and the transfer function
-/// as `tf.json`; returns their paths, or the error's text.
-fn write_peer_inputs(dir: &Path, vol: &Volume) -> std::result::Result<(PathBuf, PathBuf), String> {
+/// Writes the peer's inputs into `dir`: the volume as `volume.npy` (missing values replaced by
+/// a value below the transfer function's domain, which it maps to nothing) and the transfer
+/// function as `tf.json`; returns their paths, or the error's text.
+fn write_peer_inputs(
+    dir: &Path,
+    vol: &Volume,
+    tf: &ResolvedTransfer,
+) -> std::result::Result<(PathBuf, PathBuf), String> {
+    let samples = tf.scaled_samples(129);
+    let (lo, hi) = (samples[0], samples[samples.len() - 1]);
+    let missing = (vol.data.iter().any(|v| !v.is_finite())).then_some(lo - (hi - lo).abs());
     let npy = dir.join("volume.npy");
-    crate::datasets::npy::write_npy_f32(&npy, &[vol.dims[2], vol.dims[1], vol.dims[0]], &vol.data)
+    let data: Vec<f32> = match missing {
+        Some(m) => vol
+            .data
+            .iter()
+            .map(|&v| if v.is_finite() { v } else { m as f32 })
+            .collect(),
+        None => vol.data.clone(),
+    };
+    crate::datasets::npy::write_npy_f32(&npy, &[vol.dims[2], vol.dims[1], vol.dims[0]], &data)
         .map_err(|e| e.to_string())?;
-    let json = peer_tf_json(vol).map_err(|e| e.to_string())?;
     let tf_path = dir.join("tf.json");
-    std::fs::write(&tf_path, json).map_err(|e| e.to_string())?;
+    std::fs::write(&tf_path, peer_tf_json(tf, &samples, missing)).map_err(|e| e.to_string())?;
     Ok((npy, tf_path))
 }
 
-/// The benchmark transfer function as the peer reads it. VTK's transfer functions are piecewise
-/// linear in the value: ours is sampled at log-spaced values.
-fn peer_tf_json(vol: &Volume) -> Result<String> {
-    let tf = bench_tf().resolve(&vol.stats())?;
+/// The transfer function as the peer reads it. VTK's transfer functions are piecewise linear in
+/// the value, so ours is sampled at values evenly spaced in its own scale; a stand-in for missing
+/// data below the domain emits and absorbs nothing.
+fn peer_tf_json(tf: &ResolvedTransfer, samples: &[f64], missing: Option<f64>) -> String {
     let mut color = Vec::new();
     let mut opacity = Vec::new();
-    for i in 0..=64 {
-        let v = 10f64.powf(-4.0 + 5.0 * i as f64 / 64.0);
+    if let Some(m) = missing {
+        color.push(format!("[{m:e}, 0, 0, 0]"));
+        opacity.push(format!("[{m:e}, 0]"));
+    }
+    for &v in samples {
         let (e, s) = tf.eval(v);
         color.push(format!(
             "[{v:e}, {}, {}, {}]",
@@ -198,15 +280,15 @@ fn peer_tf_json(vol: &Volume) -> Result<String> {
         ));
         opacity.push(format!("[{v:e}, {}]", -(-s).exp_m1()));
     }
-    Ok(format!(
+    format!(
         "{{\"color\": [{}], \"opacity\": [{}], \"scalar_opacity_unit_distance\": 1.0}}",
         color.join(", "),
         opacity.join(", ")
-    ))
+    )
 }
 
 /// The peer's result from the last JSON line of its output, or why there is none.
-fn parse_peer_output(text: &str) -> std::result::Result<PeerResult, String> {
+fn parse_peer_output(mapper: &str, text: &str) -> std::result::Result<PeerResult, String> {
     let line = text
         .lines()
         .rev()
@@ -227,9 +309,10 @@ fn parse_peer_output(text: &str) -> std::result::Result<PeerResult, String> {
     };
     match field("median_ms").and_then(|m| m.parse::<f64>().ok()) {
         Some(m) => Ok(PeerResult {
-            name: "vtk".into(),
+            name: format!("vtk {mapper}"),
             detail: format!(
-                "VTK {} on {}",
+                "{} (VTK {}) on {}",
+                field("mapper").unwrap_or_default(),
                 field("vtk_version").unwrap_or_default(),
                 field("gl_renderer").unwrap_or_default()
             ),
@@ -273,37 +356,34 @@ fn vtk_peer_script() -> Result<PathBuf> {
     ))
 }
 
-/// The table `hdrvis bench volume` prints.
+/// The table `hdrvis bench volume` prints: hdrvis's row, then one line per peer mapper.
 pub fn format_volume_table(adapter: &str, rows: &[BenchRow]) -> String {
-    let mut s = format!("adapter: {adapter}\nvolume benchmark: HDR blobs, log10 TF, axis view, f32, 1 sample/voxel, median of runs\n");
+    let mut s = format!("adapter: {adapter}\nvolume benchmark: axis view, f32, 1 sample/voxel, empty-space skipping as routed, median of runs; blobs: log10 TF; mantle: Fig. 5 symlog TF, missing data outside the shell and in the core\n");
     s.push_str(&format!(
-        "{:<18} {:>12} {:>10} {:>11} {:>11}  {}\n",
-        "scene", "samples", "median ms", "Msamples/s", "runs", "peer"
+        "{:<24} {:>12} {:>10} {:>11} {:>6}\n",
+        "scene", "samples", "median ms", "Msamples/s", "runs"
     ));
     for r in rows {
-        let peer = match &r.peer {
-            None => String::new(),
-            Some(p) => match (p.median_ms, &p.error) {
-                (Some(m), _) => format!(
-                    "{} {:.1} ms ({:.2}x slower than hdrvis) [{}]",
-                    p.name,
-                    m,
-                    m / r.median_ms(),
-                    p.detail
-                ),
-                (None, Some(e)) => format!("peer {} unavailable: {e}", p.name),
-                _ => String::new(),
-            },
-        };
         s.push_str(&format!(
-            "{:<18} {:>10.1} M {:>10.1} {:>11.1} {:>11}  {}\n",
+            "{:<24} {:>10.1} M {:>10.1} {:>11.1} {:>6}\n",
             r.name,
             r.samples as f64 / 1e6,
             r.median_ms(),
             r.msamples_per_s(),
             r.runs_ms.len(),
-            peer
         ));
+        for p in &r.peers {
+            let line = match (p.median_ms, &p.error) {
+                (Some(m), _) => format!(
+                    "{m:.1} ms, {:.2}x hdrvis's time [{}]",
+                    m / r.median_ms(),
+                    p.detail
+                ),
+                (None, Some(e)) => format!("unavailable: {e}"),
+                _ => String::new(),
+            };
+            s.push_str(&format!("  peer {:<18} {line}\n", p.name));
+        }
     }
     s
 }

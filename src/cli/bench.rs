@@ -115,7 +115,7 @@ fn bench_volume(
     let peer_script = volume::peer_script(peer)?;
     let rows = volume::bench_volume_render(
         ctx,
-        volume::volume_sizes(quick),
+        &volume::volume_scenes(quick),
         runs,
         peer_script.as_deref(),
         breakdown,

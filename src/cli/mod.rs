@@ -105,7 +105,8 @@ pub struct TuiArgs {
 
 #[derive(Subcommand, Debug)]
 pub enum BenchCommand {
-    /// Volume ray casting: 256^3 -> 512^2 and 513^3 -> 1024^2, one sample per voxel.
+    /// Volume ray casting, one sample per voxel, on the HDR blobs and the mantle (Fig. 5 TF):
+    /// 256^3 (257^3) -> 512^2 and 513^3 -> 1024^2.
     Volume {
         /// Timed runs per size (after one warm-up).
         #[arg(long, default_value_t = 5)]
@@ -113,7 +114,8 @@ pub enum BenchCommand {
         /// Only the small size (quick check).
         #[arg(long)]
         quick: bool,
-        /// Run a peer on the same data side by side: `vtk` (vtkGPUVolumeRayCastMapper via pip's vtk).
+        /// Run a peer on the same data side by side: `vtk` (pip's vtk: its GPU ray caster on the
+        /// same llvmpipe, and its fixed-point CPU ray caster on two threads).
         #[arg(long)]
         peer: Option<String>,
         /// Also time each stage of the per-sample work (march, volume sample, scale, table

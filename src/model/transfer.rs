@@ -61,6 +61,17 @@ impl Scale {
         }
     }
 
+    /// The value whose scaled value is `s`: the inverse of [`Self::apply`] on its range.
+    pub(crate) fn invert(&self, s: f64) -> f64 {
+        match *self {
+            Scale::Linear => s,
+            Scale::Log10 => 10f64.powf(s),
+            Scale::Symlog { linthresh } => {
+                s.signum() * linthresh * (s.abs() * std::f64::consts::LN_10).exp_m1()
+            }
+        }
+    }
+
     fn code(&self) -> u32 {
         match self {
             Scale::Linear => 0,
@@ -433,6 +444,18 @@ pub struct ResolvedTransfer {
 }
 
 impl ResolvedTransfer {
+    /// `count` values evenly spaced in the function's own scale across its domain (log-spaced
+    /// for log10): where to sample it for a peer whose functions are piecewise linear in value.
+    pub(crate) fn scaled_samples(&self, count: usize) -> Vec<f64> {
+        let m = &self.mapping;
+        (0..count)
+            .map(|i| {
+                let t = i as f64 / (count.max(2) - 1) as f64;
+                m.scale.invert(m.s_lo + t / m.inv_range)
+            })
+            .collect()
+    }
+
     /// Emission (linear RGB per voxel length) and extinction (per voxel length) for a finite value.
     pub fn eval(&self, v: f64) -> ([f64; 3], f64) {
         match self.kind {
@@ -579,6 +602,20 @@ mod tests {
             min_abs_nonzero: Some(min.abs().max(1e-30)),
             finite: 1,
             non_finite: 0,
+        }
+    }
+
+    #[test]
+    fn invert_undoes_apply_on_every_scale() {
+        for scale in [
+            Scale::Linear,
+            Scale::Log10,
+            Scale::Symlog { linthresh: 1e-3 },
+        ] {
+            for s in [-2.5, -0.3, 0.0, 0.7, 3.0] {
+                let back = scale.apply(scale.invert(s));
+                assert!((back - s).abs() < 1e-12, "{scale:?} {s}: {back}");
+            }
         }
     }
 

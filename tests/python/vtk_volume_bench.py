@@ -1,10 +1,15 @@
 #!/usr/bin/env python3
-"""Peer benchmark: VTK's vtkGPUVolumeRayCastMapper on hdrvis's volume, image size and step.
+"""Peer benchmark: VTK's volume mappers on hdrvis's volume, image size and step.
 
-`hdrvis bench volume --peer vtk` runs this script as a subprocess and compares its median frame
-time with hdrvis's own volume ray caster. Both must run on the same software rasterizer (Mesa
-llvmpipe), so the script forces VTK's offscreen EGL window and Mesa's software path, and refuses
-to report a timing from any other renderer unless told otherwise.
+`hdrvis bench volume --peer vtk` runs this script as a subprocess, once per mapper, and compares
+its median frame time with hdrvis's own volume ray caster:
+- `--mapper gpu`: vtkGPUVolumeRayCastMapper, which must run on the same software rasterizer as
+  hdrvis (Mesa llvmpipe), so the script forces VTK's offscreen EGL window and Mesa's software
+  path, and refuses to report a timing from any other renderer unless told otherwise;
+- `--mapper fixedpoint`: vtkFixedPointVolumeRayCastMapper, VTK's CPU ray caster (the one
+  ParaView offers on CPU-only machines), on `--threads` threads. It skips empty space with a
+  min-max volume of its own. It takes point data only, so its box is one voxel smaller (point
+  samples at the voxel centres, spanning [0.5, n - 0.5]).
 
 Scene, in hdrvis's conventions: voxels are cells, so an (nz, ny, nx) array spans [0, n] along each
 axis with unit spacing; orthographic camera looking along -z with +y up, framing the x/y extent;
@@ -42,6 +47,8 @@ def parse_args(argv):
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--tf", required=True, help="transfer function JSON")
     parser.add_argument("--save-png", help="write the last rendered frame here")
+    parser.add_argument("--mapper", choices=["gpu", "fixedpoint"], default="gpu")
+    parser.add_argument("--threads", type=int, default=2, help="fixedpoint: ray-casting threads")
     parser.add_argument(
         "--require-renderer",
         default="llvmpipe",
@@ -126,18 +133,24 @@ def llvmpipe_threads():
     return min(os.cpu_count() or 1, 16)
 
 
-def build_image_data(volume, image_data_type, numpy_support):
+def build_image_data(volume, image_data_type, numpy_support, cells):
     nz, ny, nx = volume.shape
     image = image_data_type()
-    # Cell data on an (n+1)-point grid: the box spans [0, n] and each value sits at a cell centre,
-    # the same geometry hdrvis uses, rather than VTK's default point samples spanning [0, n-1].
-    image.SetDimensions(nx + 1, ny + 1, nz + 1)
     image.SetSpacing(1.0, 1.0, 1.0)
-    image.SetOrigin(0.0, 0.0, 0.0)
     # C order (nz, ny, nx) ravels x-fastest, which is VTK's order; no copy.
     scalars = numpy_support.numpy_to_vtk(volume.reshape(-1), deep=0)
     scalars.SetName("values")
-    image.GetCellData().SetScalars(scalars)
+    if cells:
+        # Cell data on an (n+1)-point grid: the box spans [0, n] and each value sits at a cell
+        # centre, the same geometry hdrvis uses, rather than point samples spanning [0, n-1].
+        image.SetDimensions(nx + 1, ny + 1, nz + 1)
+        image.SetOrigin(0.0, 0.0, 0.0)
+        image.GetCellData().SetScalars(scalars)
+    else:
+        # Point data at the voxel centres (the fixed-point mapper reads no cell data).
+        image.SetDimensions(nx, ny, nz)
+        image.SetOrigin(0.5, 0.5, 0.5)
+        image.GetPointData().SetScalars(scalars)
     return image
 
 
@@ -168,7 +181,10 @@ def render_benchmark(args):
             vtkVolumeProperty,
             vtkWindowToImageFilter,
         )
-        from vtkmodules.vtkRenderingVolume import vtkGPUVolumeRayCastMapper
+        from vtkmodules.vtkRenderingVolume import (
+            vtkFixedPointVolumeRayCastMapper,
+            vtkGPUVolumeRayCastMapper,
+        )
     except ImportError as e:
         raise PeerUnavailable(f"vtk not installed: {e}") from e
 
@@ -188,7 +204,8 @@ def render_benchmark(args):
     volume = load_volume(args.npy, np)
     color_points, opacity_points, unit_distance = load_transfer_function(args.tf)
     nz, ny, nx = volume.shape
-    image = build_image_data(volume, vtkImageData, numpy_support)
+    gpu = args.mapper == "gpu"
+    image = build_image_data(volume, vtkImageData, numpy_support, cells=gpu)
 
     color = vtkColorTransferFunction()
     for value, r, g, b in color_points:
@@ -204,9 +221,19 @@ def render_benchmark(args):
     prop.SetInterpolationTypeToLinear()
     prop.ShadeOff()
 
-    mapper = vtkGPUVolumeRayCastMapper()
+    if gpu:
+        mapper = vtkGPUVolumeRayCastMapper()
+        mapper.SetScalarModeToUseCellData()
+        mapper.SetUseJittering(0)
+    else:
+        if not 1 <= args.threads <= 256:
+            raise PeerUnavailable(f"threads must be in 1..=256, got {args.threads}")
+        mapper = vtkFixedPointVolumeRayCastMapper()
+        mapper.SetScalarModeToUsePointData()
+        mapper.SetNumberOfThreads(args.threads)
+        # Its interactive sample distance would otherwise replace the still one while rendering.
+        mapper.SetInteractiveSampleDistance(args.sample_distance)
     mapper.SetInputData(image)
-    mapper.SetScalarModeToUseCellData()
     mapper.SetBlendModeToComposite()
     # Every knob that could change the step or the image resolution behind our back is pinned.
     mapper.SetAutoAdjustSampleDistances(0)
@@ -215,7 +242,6 @@ def render_benchmark(args):
     mapper.SetImageSampleDistance(1.0)
     mapper.SetMinimumImageSampleDistance(1.0)
     mapper.SetMaximumImageSampleDistance(1.0)
-    mapper.SetUseJittering(0)
 
     actor = vtkVolume()
     actor.SetMapper(mapper)
@@ -301,6 +327,8 @@ def render_benchmark(args):
 
     return {
         "peer": "vtk",
+        "mapper": mapper.GetClassName(),
+        "threads": args.threads if not gpu else None,
         "vtk_version": vtkVersion.GetVTKVersion(),
         "gl_renderer": gl_renderer,
         "gl_vendor": gl_vendor,
