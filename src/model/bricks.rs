@@ -118,6 +118,20 @@ impl BrickLayout {
 /// The finite value range of a brick's footprint; `None` when every voxel there is missing.
 pub(crate) type BrickRange = Option<[f32; 2]>;
 
+/// Which of `ranges` `tf` leaves empty: every value their footprint can interpolate to has zero
+/// emission and zero extinction, or every voxel there is missing. Skipping them changes no
+/// sample's contribution.
+pub(crate) fn empty_ranges(ranges: &[BrickRange], tf: &ResolvedTransfer) -> Vec<bool> {
+    let transparency = tf.transparency();
+    ranges
+        .iter()
+        .map(|r| match r {
+            None => true,
+            Some([lo, hi]) => transparency.covers(*lo as f64, *hi as f64),
+        })
+        .collect()
+}
+
 /// A volume as bricks: geometry, statistics and per-brick ranges, with voxels read on demand.
 pub struct BrickedVolume {
     pub name: String,
@@ -289,17 +303,9 @@ impl BrickedVolume {
         Ok(())
     }
 
-    /// Which bricks `tf` leaves empty: every value their footprint can interpolate to has zero
-    /// emission and zero extinction, or every voxel there is missing. Skipping them changes no
-    /// sample's contribution.
+    /// Which bricks `tf` leaves empty (see [`empty_ranges`]).
     pub(crate) fn empty_bricks(&self, tf: &ResolvedTransfer) -> Vec<bool> {
-        self.ranges
-            .iter()
-            .map(|r| match r {
-                None => true,
-                Some([lo, hi]) => tf.is_transparent(*lo as f64, *hi as f64),
-            })
-            .collect()
+        empty_ranges(&self.ranges, tf)
     }
 
     /// The volume averaged over 2×2×2 voxels (missing voxels left out of the mean; all missing

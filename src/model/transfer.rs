@@ -443,6 +443,43 @@ pub struct ResolvedTransfer {
     pub lut: Vec<[f64; 4]>,
 }
 
+/// Which value ranges a transfer function leaves transparent, in constant time per range: the
+/// number of table entries that emit or absorb before each entry.
+pub(crate) struct Transparency<'a> {
+    tf: &'a ResolvedTransfer,
+    visible_before: Vec<u32>,
+}
+
+impl Transparency<'_> {
+    /// Whether every value in [lo, hi] — and anything trilinear interpolation of such values can
+    /// round to — has zero emission and zero extinction, on the GPU as on the CPU. Conservative:
+    /// the range is widened by f32 rounding, the scaled coordinate by 1e-5 scaled units (f32
+    /// logarithms are far closer), and the table by one entry on each side.
+    pub(crate) fn covers(&self, lo: f64, hi: f64) -> bool {
+        match self.tf.kind {
+            TfKind::EmissionAbsorption {
+                emission,
+                absorption,
+            } => (emission == 0.0 && absorption == 0.0) || hi <= 0.0,
+            TfKind::Lut => {
+                let widen = 1e-6 * lo.abs().max(hi.abs());
+                let m = &self.tf.mapping;
+                let margin = 1e-5 * m.inv_range;
+                let base = |v: f64, d: f64| {
+                    ((m.scale.apply(v) - m.s_lo) * m.inv_range + d).clamp(0.0, 1.0)
+                };
+                let lens = |t: f64| m.lens.map_or(t, |l| lens_map(t, l));
+                let n = (LUT_SIZE - 1) as f64;
+                let first = (lens(base(lo - widen, -margin)) * n).floor() - 1.0;
+                let last = (lens(base(hi + widen, margin)) * n).ceil() + 1.0;
+                let first = first.clamp(0.0, n) as usize;
+                let last = last.clamp(0.0, n) as usize;
+                self.visible_before[last + 1] == self.visible_before[first]
+            }
+        }
+    }
+}
+
 impl ResolvedTransfer {
     /// `count` values evenly spaced in the function's own scale across its domain (log-spaced
     /// for log10): where to sample it for a peer whose functions are piecewise linear in value.
@@ -540,33 +577,19 @@ impl ResolvedTransfer {
         }
     }
 
-    /// Whether every value in [lo, hi] — and anything trilinear interpolation of such values can
-    /// round to — has zero emission and zero extinction, on the GPU as on the CPU. Conservative:
-    /// the range is widened by f32 rounding, the scaled coordinate by 1e-5 scaled units (f32
-    /// logarithms are far closer), and the table by one entry on each side.
-    pub(crate) fn is_transparent(&self, lo: f64, hi: f64) -> bool {
-        match self.kind {
-            TfKind::EmissionAbsorption {
-                emission,
-                absorption,
-            } => (emission == 0.0 && absorption == 0.0) || hi <= 0.0,
-            TfKind::Lut => {
-                let widen = 1e-6 * lo.abs().max(hi.abs());
-                let m = &self.mapping;
-                let margin = 1e-5 * m.inv_range;
-                let base = |v: f64, d: f64| {
-                    ((m.scale.apply(v) - m.s_lo) * m.inv_range + d).clamp(0.0, 1.0)
-                };
-                let lens = |t: f64| m.lens.map_or(t, |l| lens_map(t, l));
-                let n = (LUT_SIZE - 1) as f64;
-                let first = (lens(base(lo - widen, -margin)) * n).floor() - 1.0;
-                let last = (lens(base(hi + widen, margin)) * n).ceil() + 1.0;
-                let first = first.clamp(0.0, n) as usize;
-                let last = last.clamp(0.0, n) as usize;
-                self.lut[first..=last]
-                    .iter()
-                    .all(|e| e.iter().all(|&c| c as f32 == 0.0))
-            }
+    /// Which value ranges the function leaves transparent (see [`Transparency::covers`]); the
+    /// table's visible entries are counted once, so each range costs constant time.
+    pub(crate) fn transparency(&self) -> Transparency<'_> {
+        let mut visible_before = Vec::with_capacity(self.lut.len() + 1);
+        let mut count = 0u32;
+        visible_before.push(0);
+        for e in &self.lut {
+            count += u32::from(e.iter().any(|&c| c as f32 != 0.0));
+            visible_before.push(count);
+        }
+        Transparency {
+            tf: self,
+            visible_before,
         }
     }
 
@@ -687,11 +710,11 @@ mod tests {
             ..Default::default()
         });
         let r = tf.resolve(&stats(0.0, 1.0)).unwrap();
-        assert!(r.is_transparent(0.0, 0.49));
-        assert!(r.is_transparent(-5.0, 0.1));
+        assert!(r.transparency().covers(0.0, 0.49));
+        assert!(r.transparency().covers(-5.0, 0.1));
         // The first opaque entry is at t = 0.5; the margin keeps ranges just below it out.
-        assert!(!r.is_transparent(0.2, 0.4999));
-        assert!(!r.is_transparent(0.45, 0.6));
+        assert!(!r.transparency().covers(0.2, 0.4999));
+        assert!(!r.transparency().covers(0.45, 0.6));
         // Every value the table calls transparent evaluates to exactly zero.
         for i in 0..=1000 {
             let v = 0.4998 * i as f64 / 1000.0;
@@ -700,7 +723,7 @@ mod tests {
         }
         let ea = TransferFunction::emission_absorption(1.0, 0.5).unwrap();
         let r = ea.resolve(&stats(0.0, 1.0)).unwrap();
-        assert!(r.is_transparent(-3.0, 0.0) && !r.is_transparent(-3.0, 1e-30));
+        assert!(r.transparency().covers(-3.0, 0.0) && !r.transparency().covers(-3.0, 1e-30));
     }
 
     #[test]

@@ -11,7 +11,7 @@
 
 use crate::error::Result;
 use crate::gpu::GpuContext;
-use crate::model::bricks::{BrickLayout, BrickRange, BrickedVolume};
+use crate::model::bricks::{empty_ranges, BrickLayout, BrickRange, BrickedVolume};
 use crate::model::transfer::ResolvedTransfer;
 use crate::model::{Volume, VolumeStats};
 use std::sync::Arc;
@@ -52,13 +52,7 @@ impl CellRanges {
 
     /// Which cells `tf` leaves empty.
     pub(crate) fn empty_cells(&self, tf: &ResolvedTransfer) -> Vec<bool> {
-        self.ranges
-            .iter()
-            .map(|r| match r {
-                None => true,
-                Some([lo, hi]) => tf.is_transparent(*lo as f64, *hi as f64),
-            })
-            .collect()
+        empty_ranges(&self.ranges, tf)
     }
 }
 
@@ -119,40 +113,49 @@ impl SkipGrid {
 pub(crate) fn chebyshev_distance(empty: &[bool], grid: [usize; 3]) -> Vec<f32> {
     let [nx, ny, nz] = grid;
     let far = (nx.max(ny).max(nz) + 1) as u32;
-    let mut d: Vec<u32> = empty.iter().map(|&e| if e { far } else { 0 }).collect();
-    let idx = |x: usize, y: usize, z: usize| x + nx * (y + ny * z);
-    // Forward pass: neighbours earlier in raster order (13 of the 26); backward: the others.
-    for forward in [true, false] {
-        let order: Vec<usize> = if forward {
-            (0..nx * ny * nz).collect()
-        } else {
-            (0..nx * ny * nz).rev().collect()
-        };
-        for i in order {
-            let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
-            let mut best = d[i];
-            for dz in -1i64..=1 {
-                for dy in -1i64..=1 {
-                    for dx in -1i64..=1 {
-                        let earlier = (dz, dy, dx) < (0, 0, 0);
-                        if (dz, dy, dx) == (0, 0, 0) || earlier != forward {
-                            continue;
-                        }
-                        let (qx, qy, qz) = (x as i64 + dx, y as i64 + dy, z as i64 + dz);
-                        if qx < 0 || qy < 0 || qz < 0 {
-                            continue;
-                        }
-                        let (qx, qy, qz) = (qx as usize, qy as usize, qz as usize);
-                        if qx < nx && qy < ny && qz < nz {
-                            best = best.min(d[idx(qx, qy, qz)] + 1);
-                        }
-                    }
+    // A one-cell border that is never updated (outside the volume nothing is "not empty"), so
+    // neighbours need no bounds checks.
+    let (px, py) = (nx + 2, ny + 2);
+    let mut d = vec![far; px * py * (nz + 2)];
+    let padded = |x: usize, y: usize, z: usize| (x + 1) + px * ((y + 1) + py * (z + 1));
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                if !empty[x + nx * (y + ny * z)] {
+                    d[padded(x, y, z)] = 0;
                 }
             }
-            d[i] = best.min(far);
         }
     }
-    d.into_iter().map(|v| v as f32).collect()
+    // The 13 neighbours before a cell in raster order (x fastest); the pass back uses the others.
+    let mut before = Vec::new();
+    for dz in -1isize..=1 {
+        for dy in -1isize..=1 {
+            for dx in -1isize..=1 {
+                if (dz, dy, dx) < (0, 0, 0) {
+                    before.push(dx + px as isize * (dy + py as isize * dz));
+                }
+            }
+        }
+    }
+    let cells: Vec<usize> = (0..nz)
+        .flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| (x, y, z))))
+        .map(|(x, y, z)| padded(x, y, z))
+        .collect();
+    let relax = |d: &mut Vec<u32>, i: usize, sign: isize| {
+        let mut best = d[i];
+        for &o in &before {
+            best = best.min(d[(i as isize + sign * o) as usize] + 1);
+        }
+        d[i] = best.min(far);
+    };
+    for &i in &cells {
+        relax(&mut d, i, 1);
+    }
+    for &i in cells.iter().rev() {
+        relax(&mut d, i, -1);
+    }
+    cells.iter().map(|&i| d[i] as f32).collect()
 }
 
 #[cfg(test)]
