@@ -70,6 +70,10 @@ pub struct RunArgs {
     /// Print one line per pass: `pass NAME ran MS` or `pass NAME cached`.
     #[arg(long)]
     pub stats: bool,
+    /// Wall-clock limit of the run in seconds: past it the script stops with an error
+    /// (no limit by default).
+    #[arg(long, value_name = "SECONDS")]
+    pub timeout: Option<f64>,
     /// Memory budget of the result cache in MiB (default from HDRVIS_CACHE_MIB, else 2048):
     /// results of unchanged stages are reused within a run, least recently used evicted first.
     #[arg(long, value_name = "MIB")]

@@ -12,7 +12,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Writes a file atomically: `fill` writes into a temporary file beside `path`, which is renamed
-/// over `path` only when `fill` succeeded.
+/// over `path` only when `fill` succeeded. The file gets the mode a plain `open` would give it
+/// (0666 less the umask, so 0644 under the usual 022): colleagues and web servers can read the
+/// outputs, as they can any file the user creates.
 pub(crate) fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> Result<()>,
@@ -22,11 +24,7 @@ pub(crate) fn write_atomic(
         _ => Path::new("."),
     };
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".hdrvis-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| Error::io(dir, e))?;
+    let mut tmp = temporary_beside(dir)?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());
         fill(&mut w)?;
@@ -35,6 +33,20 @@ pub(crate) fn write_atomic(
     tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
+}
+
+/// A new temporary file `.hdrvis-*.tmp` in `dir` (the name a resumed run sweeps away), created
+/// with mode 0666 so that the kernel applies the umask exactly as it does to any new file:
+/// tempfile's default is owner-only, which the rename would keep.
+pub(crate) fn temporary_beside(dir: &Path) -> Result<tempfile::NamedTempFile> {
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".hdrvis-").suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    builder.tempfile_in(dir).map_err(|e| Error::io(dir, e))
 }
 
 /// Lower-case extension of a path, or "" when it has none.
