@@ -194,6 +194,7 @@ fn doctor_reports_adapter_and_capabilities() {
         let (code, stdout, stderr) = hdrvis(&["doctor", "--backend", backend], dir.path());
         assert_eq!(code, 0, "{stderr}");
         for key in [
+            "cache:",
             "adapter:",
             "backend:",
             "driver:",
