@@ -36,7 +36,13 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Some(Command::Tonemap(args)) => cli::tonemap::run_tonemap(&args, backend),
-        Some(Command::Doctor) => GpuContext::new(backend).map(|ctx| println!("{}", ctx.report())),
+        Some(Command::Doctor) => {
+            println!("{}", cli::cache::cache_line());
+            GpuContext::new(backend).map(|ctx| println!("{}", ctx.report()))
+        }
+        Some(Command::Animate(args)) => cli::animate::run_animate(&args)
+            .map(|n| println!("wrote {} ({n} frames)", args.output.display())),
+        Some(Command::Cache(cmd)) => cli::cache::run_cache(&cmd).map(|r| print!("{r}")),
     }
 }
 

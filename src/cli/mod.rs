@@ -1,7 +1,9 @@
 //! Command-line definitions (clap). Parsing only: every command calls into the library, through
-//! its handler in [`run`], [`bench`], [`datasets`] or [`tonemap`].
+//! its handler in [`run`], [`animate`], [`bench`], [`cache`], [`datasets`] or [`tonemap`].
 
+pub mod animate;
 pub mod bench;
+pub mod cache;
 pub mod datasets;
 pub mod run;
 pub mod tonemap;
@@ -23,8 +25,11 @@ pub struct Cli {
 pub enum Command {
     /// Run a Rhai script: `hdrvis run SCRIPT.rhai [--out DIR] [--set KEY=VALUE]...`
     Run(RunArgs),
-    /// Print the GPU adapter, backend, driver and capabilities.
+    /// Print the GPU adapter, backend, driver and capabilities, and the cache folder.
     Doctor,
+    /// The cache of generated datasets and compiled pipelines: `hdrvis cache du|clean`.
+    #[command(subcommand)]
+    Cache(cache::CacheCommand),
     /// Print the script API reference (Markdown).
     Api,
     /// Benchmarks.
@@ -37,6 +42,9 @@ pub enum Command {
     Info(datasets::InfoArgs),
     /// Tone-map an HDR OpenEXR into a display PNG or EXR: `hdrvis tonemap IN.exr -o OUT.png --op reinhard`
     Tonemap(tonemap::ToneMapArgs),
+    /// Frames as a movie: `hdrvis animate 'out/orbit/*.png' -o orbit.mp4` (.mp4/.webm through
+    /// ffmpeg, .gif, .png animated PNG).
+    Animate(animate::AnimateArgs),
     /// Interactive terminal viewer: `hdrvis tui SCRIPT.rhai` (the script's scene and params) or
     /// `hdrvis tui IMAGE.exr` (exposure, operator, false colour, channels). `?` lists the keys.
     Tui(TuiArgs),
@@ -70,6 +78,10 @@ pub struct RunArgs {
     /// Print one line per pass: `pass NAME ran MS` or `pass NAME cached`.
     #[arg(long)]
     pub stats: bool,
+    /// Wall-clock limit of the run in seconds: past it the script stops with an error
+    /// (no limit by default).
+    #[arg(long, value_name = "SECONDS")]
+    pub timeout: Option<f64>,
     /// Memory budget of the result cache in MiB (default from HDRVIS_CACHE_MIB, else 2048):
     /// results of unchanged stages are reused within a run, least recently used evicted first.
     #[arg(long, value_name = "MIB")]

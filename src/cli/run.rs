@@ -53,6 +53,16 @@ fn script_options(args: &RunArgs, backend: BackendChoice) -> Result<ScriptOption
         ));
     }
     opts.gpu_memory_mib = args.gpu_memory;
+    opts.timeout = match args.timeout {
+        Some(s) if s.is_finite() && s > 0.0 => Some(std::time::Duration::from_secs_f64(s)),
+        Some(s) => {
+            return Err(Error::invalid(
+                "--timeout",
+                format!("expected seconds > 0, got {s}"),
+            ))
+        }
+        None => None,
+    };
     opts.progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
     opts.cache_mib = budget_mib(args.cache_mib)?;
     opts.capture_previews = args.preview;

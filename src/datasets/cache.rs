@@ -1,10 +1,11 @@
 //! The dataset cache: generated fields are stored once under a name made of the generator and a
 //! hash of every parameter, so the demo, the case-study scripts and repeated CLI calls generate
 //! each dataset once. The folder is [`cache_dir`]: `$HDRVIS_CACHE` when that is set, else
-//! `datasets/cache` in the hdrvis checkout that contains the working directory, else
-//! `datasets/cache` under the working directory. `datasets/cache` is git-ignored. Files appear
+//! `datasets/cache` in the hdrvis checkout that contains the working directory (git-ignored),
+//! else the platform's cache folder (`$XDG_CACHE_HOME/hdrvis`, `~/.cache/hdrvis`). Files appear
 //! atomically: a generator writes a temporary file in the cache folder, which is renamed into
-//! place only when it succeeded.
+//! place only when it succeeded. [`usage`] and [`clean`] (`hdrvis cache du|clean`) manage it,
+//! touching only what hdrvis itself put there.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -76,6 +77,101 @@ pub(crate) fn cached_in(
     made.map(|()| path)
 }
 
+/// The compiled GPU pipelines live in this sub-folder of the cache (see `gpu`).
+const PIPELINES: &str = "pipelines";
+
+/// What the cache holds of one kind: generated datasets of one generator (`okada`, `mantle`,
+/// ...), compiled `pipelines`, or `partial` files a killed generator left behind.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct KindUsage {
+    pub kind: String,
+    pub files: u64,
+    pub bytes: u64,
+}
+
+/// One file hdrvis put in the cache, with its kind; anything else in the folder is no entry.
+fn entries(dir: &Path) -> Result<Vec<(String, PathBuf, u64)>> {
+    let mut found = Vec::new();
+    let listing = match std::fs::read_dir(dir) {
+        Ok(listing) => listing,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(found),
+        Err(e) => return Err(Error::io(dir, e)),
+    };
+    for entry in listing {
+        let entry = entry.map_err(|e| Error::io(dir, e))?;
+        let path = entry.path();
+        let name = entry.file_name().to_string_lossy().to_string();
+        if name == PIPELINES && path.is_dir() {
+            for file in std::fs::read_dir(&path).map_err(|e| Error::io(&path, e))? {
+                let file = file.map_err(|e| Error::io(&path, e))?.path();
+                if file.is_file() && crate::io::extension(&file) == "bin" {
+                    found.push((PIPELINES.to_string(), file.clone(), file_size(&file)));
+                }
+            }
+        } else if path.is_file() {
+            if let Some(kind) = kind_of(&name) {
+                found.push((kind, path.clone(), file_size(&path)));
+            }
+        }
+    }
+    Ok(found)
+}
+
+fn file_size(path: &Path) -> u64 {
+    std::fs::metadata(path).map(|m| m.len()).unwrap_or(0)
+}
+
+/// The kind of a cache file name: `<kind>-<key>.<ext>` as [`cached`] names generated datasets
+/// (the kind may hold '-'), `.…partial.…` for what a killed generator left; `None` for names
+/// hdrvis does not write.
+fn kind_of(name: &str) -> Option<String> {
+    if name.starts_with('.') && name.contains(".partial.") {
+        return Some("partial".to_string());
+    }
+    let (stem, ext) = name.rsplit_once('.')?;
+    let (kind, key) = stem.rsplit_once('-')?;
+    let ours = matches!(ext, "nc" | "npy")
+        && !kind.is_empty()
+        && !key.is_empty()
+        && key.chars().all(|c| c.is_ascii_alphanumeric());
+    ours.then(|| kind.to_string())
+}
+
+/// Files and bytes per kind in the cache folder `dir`, kinds in alphabetical order.
+pub fn usage(dir: &Path) -> Result<Vec<KindUsage>> {
+    let mut kinds: Vec<KindUsage> = Vec::new();
+    for (kind, _, bytes) in entries(dir)? {
+        match kinds.iter_mut().find(|k| k.kind == kind) {
+            Some(k) => {
+                k.files += 1;
+                k.bytes += bytes;
+            }
+            None => kinds.push(KindUsage {
+                kind,
+                files: 1,
+                bytes,
+            }),
+        }
+    }
+    kinds.sort_by(|a, b| a.kind.cmp(&b.kind));
+    Ok(kinds)
+}
+
+/// Removes the cache files hdrvis wrote in `dir` (of the given kinds, or all when `kinds` is
+/// empty) and returns how many files and bytes went. Other files in the folder stay, so a
+/// `HDRVIS_CACHE` pointed at a shared folder loses nothing of anyone else's.
+pub fn clean(dir: &Path, kinds: &[String]) -> Result<(u64, u64)> {
+    let (mut files, mut bytes) = (0, 0);
+    for (kind, path, size) in entries(dir)? {
+        if kinds.is_empty() || kinds.contains(&kind) {
+            std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
+            files += 1;
+            bytes += size;
+        }
+    }
+    Ok((files, bytes))
+}
+
 /// 64-bit FNV-1a hash (Fowler, Noll and Vo; offset basis 0xcbf29ce484222325, prime
 /// 0x100000001b3): stable across runs, platforms and compiler versions, unlike std's hasher.
 pub(crate) fn fnv1a64(bytes: &[u8]) -> u64 {
@@ -136,6 +232,43 @@ mod tests {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
         let err = cached_in(dir.path(), "mantle", "k", "nc", |_| Ok(())).unwrap_err();
         assert!(err.to_string().contains("without writing"), "{err}");
+    }
+
+    #[test]
+    fn usage_counts_each_kind_and_clean_removes_only_ours() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let put = |name: &str, len: usize| {
+            let p = d.join(name);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, vec![0u8; len]).unwrap();
+        };
+        put("okada-0123456789abcdef.nc", 100);
+        put("okada-fedcba9876543210.npy", 50);
+        put("bench-large-blobs-64.npy", 7);
+        put(".mantle-k.12-0.partial.nc", 3);
+        put("pipelines/abc_llvmpipe.bin", 20);
+        put("notes.txt", 1000);
+        put("pipelines/readme.md", 1000);
+        let kinds = usage(d).unwrap();
+        let summary: Vec<_> = kinds
+            .iter()
+            .map(|k| (k.kind.as_str(), k.files, k.bytes))
+            .collect();
+        assert_eq!(
+            summary,
+            [
+                ("bench-large-blobs", 1, 7),
+                ("okada", 2, 150),
+                ("partial", 1, 3),
+                ("pipelines", 1, 20)
+            ]
+        );
+        assert_eq!(clean(d, &["okada".to_string()]).unwrap(), (2, 150));
+        assert_eq!(clean(d, &[]).unwrap(), (3, 30));
+        assert!(usage(d).unwrap().is_empty());
+        assert!(d.join("notes.txt").is_file() && d.join("pipelines/readme.md").is_file());
+        assert!(usage(&d.join("absent")).unwrap().is_empty());
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! reader from the file name.
 
 pub mod bricked;
-pub(crate) mod cache;
+pub mod cache;
 pub mod generate;
 pub mod info;
 pub mod mantle;

@@ -314,32 +314,13 @@ pub fn write_volume(
     write_grid(path, &coords, &[var], global_attrs)
 }
 
-/// Runs `write` against a temporary file next to `path`, then renames it over `path`.
+/// [`crate::io::write_atomic`] for writers that speak `std::io` errors (the netCDF and VTK
+/// encoders).
 pub(crate) fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".hdrvis-").suffix(".part");
-    // Temporary files are owner-only by default; ask for 0o666 so that, once renamed, the file
-    // gets the usual permissions the umask allows, like any file the user creates.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    let tmp = builder.tempfile_in(dir).map_err(|e| Error::io(path, e))?;
-    {
-        let mut out = std::io::BufWriter::new(tmp.as_file());
-        write(&mut out).map_err(|e| Error::io(path, e))?;
-        out.flush().map_err(|e| Error::io(path, e))?;
-    }
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
+    crate::io::write_atomic(path, |out| write(out).map_err(|e| Error::io(path, e)))
 }
 
 fn open(path: &Path) -> Result<NcFile> {

@@ -1,8 +1,10 @@
-//! Image files — OpenEXR (the linear HDR master) and PNG (display views) — and the one way every output is written: to a temporary file in the destination folder
-//! that is renamed into place, so no reader ever sees a half-written file. The terminal is a sink
-//! too: [`terminal`] prints pictures inline, once. Also the one folder hdrvis caches things in
-//! (generated datasets, compiled GPU pipelines).
+//! Image files — OpenEXR (the linear HDR master) and PNG (display views) — and movies of frame
+//! sequences ([`animation`]), and the one way every output is written: to a temporary file in the
+//! destination folder that is renamed into place, so no reader ever sees a half-written file. The
+//! terminal is a sink too: [`terminal`] prints pictures inline, once. Also the one folder hdrvis
+//! caches things in (generated datasets, compiled GPU pipelines): [`cache_location`].
 
+pub mod animation;
 pub mod exr;
 pub mod png;
 pub mod terminal;
@@ -12,7 +14,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Writes a file atomically: `fill` writes into a temporary file beside `path`, which is renamed
-/// over `path` only when `fill` succeeded.
+/// over `path` only when `fill` succeeded. The file gets the mode a plain `open` would give it
+/// (0666 less the umask, so 0644 under the usual 022): colleagues and web servers can read the
+/// outputs, as they can any file the user creates.
 pub(crate) fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> Result<()>,
@@ -22,11 +26,7 @@ pub(crate) fn write_atomic(
         _ => Path::new("."),
     };
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".hdrvis-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| Error::io(dir, e))?;
+    let mut tmp = temporary_beside(dir)?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());
         fill(&mut w)?;
@@ -35,6 +35,20 @@ pub(crate) fn write_atomic(
     tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
+}
+
+/// A new temporary file `.hdrvis-*.tmp` in `dir` (the name a resumed run sweeps away), created
+/// with mode 0666 so that the kernel applies the umask exactly as it does to any new file:
+/// tempfile's default is owner-only, which the rename would keep.
+pub(crate) fn temporary_beside(dir: &Path) -> Result<tempfile::NamedTempFile> {
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".hdrvis-").suffix(".tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    builder.tempfile_in(dir).map_err(|e| Error::io(dir, e))
 }
 
 /// Lower-case extension of a path, or "" when it has none.
@@ -48,21 +62,47 @@ pub fn extension(path: &Path) -> String {
 /// Environment variable that overrides the cache folder.
 pub(crate) const CACHE_ENV: &str = "HDRVIS_CACHE";
 
-/// The folder hdrvis caches generated datasets and compiled pipelines in: `$HDRVIS_CACHE` when
-/// that is set, else `datasets/cache` in the hdrvis checkout that contains the working directory
-/// (found by walking up to a `Cargo.toml` naming the package `hdrvis`), else `datasets/cache`
-/// under the working directory.
+/// The folder hdrvis caches generated datasets and compiled pipelines in; see [`cache_location`].
 pub(crate) fn cache_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os(CACHE_ENV).filter(|d| !d.is_empty()) {
-        return PathBuf::from(dir);
+    cache_location().0
+}
+
+/// The cache folder and the rule that chose it, in words (`hdrvis doctor` shows both):
+/// `$HDRVIS_CACHE` when set; else `datasets/cache` of the hdrvis checkout the working directory
+/// lies in (a folder whose `Cargo.toml` names the package `hdrvis`: developers and the tests
+/// share what they generated); else the platform's cache folder, `$XDG_CACHE_HOME/hdrvis` or
+/// `~/.cache/hdrvis`. Never the working directory itself, where an installed tool has no
+/// business leaving files.
+pub fn cache_location() -> (PathBuf, &'static str) {
+    let set = |name: &str| std::env::var_os(name).filter(|d| !d.is_empty());
+    if let Some(dir) = set(CACHE_ENV) {
+        return (PathBuf::from(dir), "from HDRVIS_CACHE");
     }
-    let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
-    let root = cwd
-        .ancestors()
+    let cwd = std::env::current_dir().ok();
+    if let Some(root) = cwd
+        .iter()
+        .flat_map(|cwd| cwd.ancestors())
         .find(|dir| is_hdrvis_checkout(dir))
-        .map(Path::to_path_buf)
-        .unwrap_or(cwd);
-    root.join("datasets").join("cache")
+    {
+        return (
+            root.join("datasets").join("cache"),
+            "datasets/cache of the hdrvis checkout around the working directory",
+        );
+    }
+    // The XDG base-directory rules ignore a relative XDG_CACHE_HOME.
+    if let Some(xdg) = set("XDG_CACHE_HOME").filter(|d| Path::new(d).is_absolute()) {
+        return (PathBuf::from(xdg).join("hdrvis"), "$XDG_CACHE_HOME/hdrvis");
+    }
+    match set("HOME") {
+        Some(home) => (
+            PathBuf::from(home).join(".cache").join("hdrvis"),
+            "~/.cache/hdrvis",
+        ),
+        None => (
+            std::env::temp_dir().join("hdrvis-cache"),
+            "the temporary folder (no HOME or XDG_CACHE_HOME)",
+        ),
+    }
 }
 
 fn is_hdrvis_checkout(dir: &Path) -> bool {

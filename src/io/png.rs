@@ -34,6 +34,11 @@ pub fn write_display_png(image: &HdrImage, path: &Path, sixteen_bit: bool) -> Re
 
 /// The plain view: linear values × 2^EV, then sRGB.
 pub fn write_exposed_png(image: &HdrImage, path: &Path, exposure_ev: f64) -> Result<()> {
+    write_display_png(&exposed(image, exposure_ev)?, path, false)
+}
+
+/// The image with its colour × 2^EV (alpha kept): what the plain display view shows.
+pub(crate) fn exposed(image: &HdrImage, exposure_ev: f64) -> Result<HdrImage> {
     if !exposure_ev.is_finite() {
         return Err(Error::invalid(
             "exposure",
@@ -47,7 +52,7 @@ pub fn write_exposed_png(image: &HdrImage, path: &Path, exposure_ev: f64) -> Res
             *c *= gain;
         }
     }
-    write_display_png(&view, path, false)
+    Ok(view)
 }
 
 #[cfg(test)]

@@ -1,20 +1,22 @@
-//! Script API: what a run hands back — `save_exr`, `save_png`, `preview`, `already_done`,
-//! `progress` — and `param`, the values a run takes in (`--set name=value`). Outputs go only
+//! Script API: what a run hands back — `save_exr`, `save_png`, `save_animation`, `preview`,
+//! `already_done`, `progress` — and `param`, the values a run takes in (`--set name=value`). Outputs go only
 //! under the output folder, and with `--resume` ones that exist are not written again.
 //! `save_png` writes an HDR image exposed by 2^EV then sRGB, and a display-referred image
 //! (`display_referred = 1`: tone-mapped, false colour) as it is.
 
 use super::api_render::ScriptImage;
-use super::convert::{err, num, to_rhai, RResult};
+use super::convert::{check_keys, err, num, to_rhai, RResult};
 use super::{ParamKind, ParamRecord, ScriptHost};
+use crate::io::animation::RgbFrame;
 use crate::model::HdrImage;
-use rhai::{Dynamic, Engine};
+use rhai::{Array, Dynamic, Engine, Map};
 use std::collections::HashMap;
 use std::sync::Arc;
 
 /// The output functions: saving images and telling the user how the run goes.
 pub(crate) fn register_output(engine: &mut Engine, host: &Arc<ScriptHost>) {
     register_saves(engine, host);
+    register_animation(engine, host);
     register_feedback(engine, host);
 }
 
@@ -74,6 +76,72 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             save_png(img, path, num(&ev, "exposure")?)
         },
     );
+}
+
+/// Options of `save_animation`.
+const ANIMATION_KEYS: &[&str] = &["fps", "exposure"];
+
+/// `save_animation(frames, path[, #{fps, exposure}])`: images, or PNG files under the output
+/// folder, as one movie (see `io::animation`); frames are converted one at a time as the encoder
+/// takes them.
+fn register_animation(engine: &mut Engine, host: &Arc<ScriptHost>) {
+    let h = host.clone();
+    let save = move |frames: Array, path: &str, opts: &Map| -> RResult<()> {
+        check_keys(opts, ANIMATION_KEYS, "save_animation")?;
+        let get = |key: &str, default: f64| opts.get(key).map_or(Ok(default), |v| num(v, key));
+        let (fps, ev) = (get("fps", 12.0)?, get("exposure", 0.0)?);
+        let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+        crate::io::animation::MovieFormat::of(&p).map_err(to_rhai)?;
+        if h.already_done(&p) {
+            return Ok(());
+        }
+        let t = std::time::Instant::now();
+        let frame =
+            |i: usize| -> crate::Result<RgbFrame> { animation_frame(&h, &frames[i], i, ev) };
+        crate::io::animation::write_animation(&p, frames.len(), fps, frame).map_err(to_rhai)?;
+        h.session
+            .record_sink("save-animation", t.elapsed().as_secs_f64() * 1e3);
+        h.written.lock().expect("poisoned").push(p);
+        Ok(())
+    };
+    let save2 = save.clone();
+    engine.register_fn("save_animation", move |frames: Array, path: &str| {
+        save2(frames, path, &Map::new())
+    });
+    engine.register_fn(
+        "save_animation",
+        move |frames: Array, path: &str, opts: Map| save(frames, path, &opts),
+    );
+}
+
+/// Frame `i` of `save_animation`: an image exposed by 2^`ev` (a display-referred one as it is),
+/// or a PNG file named relative to the output folder, as `save_png` names them.
+fn animation_frame(h: &ScriptHost, item: &Dynamic, i: usize, ev: f64) -> crate::Result<RgbFrame> {
+    let field = format!("frames[{i}]");
+    if let Some(img) = item.clone().try_cast::<ScriptImage>() {
+        if crate::tonemap::is_display_referred(&img) && ev != 0.0 {
+            return Err(crate::Error::invalid(
+                field,
+                format!("exposure {ev} given for a tone-mapped (display-referred) image"),
+            ));
+        }
+        let view = crate::io::png::exposed(&img, ev)?;
+        return Ok(RgbFrame {
+            width: view.width,
+            height: view.height,
+            rgb: view.to_srgb8().into_flattened(),
+        });
+    }
+    match item.clone().into_immutable_string() {
+        Ok(name) => {
+            let p = h.sandbox.write_path(&name)?;
+            crate::io::animation::read_png_frame(&p)
+        }
+        Err(found) => Err(crate::Error::invalid(
+            field,
+            format!("expected an Image or the path of a PNG under the output folder, got {found}"),
+        )),
+    }
 }
 
 /// `preview`, `already_done` and `progress` (with and without a label).

@@ -20,10 +20,11 @@ use crate::gpu::BackendChoice;
 use crate::model::HdrImage;
 use crate::render::passes::PassRecord;
 use crate::render::session::RenderSession;
-use rhai::{Engine, EvalAltResult, Position};
+use rhai::{Dynamic, Engine, EvalAltResult, Position};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 pub use sandbox::Sandbox;
 
@@ -35,7 +36,8 @@ pub struct ScriptOptions {
     pub sets: Vec<(String, String)>,
     pub allowed_paths: Vec<PathBuf>,
     pub backend: BackendChoice,
-    /// Operation budget: a runaway loop stops with an error after this many operations.
+    /// Operation budget of a run without a [`timeout`](Self::timeout): a runaway loop stops with
+    /// an error after this many operations (about half a second of a tight loop).
     pub max_operations: u64,
     /// `--resume`: outputs that already exist are not written again, and `already_done(path)`
     /// tells the script so it can skip the work.
@@ -52,7 +54,27 @@ pub struct ScriptOptions {
     pub capture_previews: bool,
     /// Default `memory_budget` of every render, in MiB of GPU memory (`--gpu-memory`).
     pub gpu_memory_mib: Option<f64>,
+    /// Wall-clock limit of the run (`--timeout`): past it the script stops with an error at its
+    /// next operation, and the clock replaces the operation budget. `None` (the default of
+    /// `hdrvis run`) runs without one; interactive front ends re-run scripts with
+    /// [`INTERACTIVE_TIMEOUT`].
+    pub timeout: Option<Duration>,
 }
+
+/// The wall-clock limit interactive front ends (the TUI) give each re-run of a script, so a
+/// parameter change can never hang the session.
+pub const INTERACTIVE_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// Largest number of array elements a script may hold in one value, nested arrays counted.
+/// Rhai re-measures a container after every call that may change it (`push`, `+=`, ...), so
+/// growing one in a loop costs time quadratic in its size: 2^15 elements keep the worst case
+/// under a second, where 2^20 took minutes, and are far more than scripts need (control points,
+/// frame lists).
+pub const MAX_ARRAY_SIZE: usize = 1 << 15;
+/// Largest number of map entries in one value, nested maps counted (same quadratic re-measure).
+pub const MAX_MAP_SIZE: usize = 1 << 14;
+/// Longest string a script may build, in bytes.
+pub const MAX_STRING_SIZE: usize = 1 << 20;
 
 impl ScriptOptions {
     pub fn new(out_dir: impl Into<PathBuf>) -> Self {
@@ -68,6 +90,7 @@ impl ScriptOptions {
             cache_mib: crate::render::cache::DEFAULT_BUDGET_MIB,
             capture_previews: false,
             gpu_memory_mib: None,
+            timeout: None,
         }
     }
 }
@@ -170,16 +193,31 @@ impl ScriptHost {
 }
 
 /// Builds the engine every script runs in. Limits are always set: operations, call depth,
-/// expression depth, string, array and map sizes; modules cannot be imported from disk.
-pub(crate) fn new_engine(host: Arc<ScriptHost>, max_operations: u64) -> Engine {
+/// expression depth, string, array and map sizes, and with `timeout` the wall-clock time from
+/// now instead of the operation count; modules cannot be imported from disk.
+pub(crate) fn new_engine(
+    host: Arc<ScriptHost>,
+    max_operations: u64,
+    timeout: Option<Duration>,
+) -> Engine {
     let mut engine = Engine::new();
+    engine.set_max_operations(max_operations);
+    if let Some(limit) = timeout {
+        engine.set_max_operations(0);
+        let deadline = Instant::now() + limit;
+        // Rhai calls this before every operation; the clock is read every 1024th, which keeps
+        // the cost out of tight loops and still stops within microseconds of the deadline.
+        engine.on_progress(move |operations| {
+            (operations % 1024 == 0 && Instant::now() >= deadline)
+                .then(|| Dynamic::from(limit.as_secs_f64()))
+        });
+    }
     engine
-        .set_max_operations(max_operations)
         .set_max_call_levels(64)
         .set_max_expr_depths(64, 32)
-        .set_max_string_size(1 << 20)
-        .set_max_array_size(1 << 20)
-        .set_max_map_size(1 << 14)
+        .set_max_string_size(MAX_STRING_SIZE)
+        .set_max_array_size(MAX_ARRAY_SIZE)
+        .set_max_map_size(MAX_MAP_SIZE)
         .set_max_variables(1 << 12)
         .set_max_functions(1 << 10)
         .set_max_modules(0)
@@ -272,7 +310,7 @@ pub fn run_script_source(
         progress: Mutex::new(None),
         gpu_memory_mib: opts.gpu_memory_mib,
     });
-    let engine = new_engine(host.clone(), opts.max_operations);
+    let engine = new_engine(host.clone(), opts.max_operations, opts.timeout);
     let ast = engine
         .compile(source)
         .map_err(|e| Error::Script(format_error(name, source, &e.to_string(), e.position())))?;
@@ -317,15 +355,26 @@ fn remove_stale_temporaries(dir: &Path) {
 fn describe_eval_error(name: &str, source: &str, err: &EvalAltResult) -> String {
     // Errors raised inside registered functions carry the call site as their position.
     let mut msg = err.to_string();
-    if let EvalAltResult::ErrorFunctionNotFound(sig, _) = err {
-        let fn_name = sig.split(['(', ' ']).next().unwrap_or(sig);
-        let known = api_doc::signatures_named(fn_name);
-        if !known.is_empty() {
+    match err {
+        EvalAltResult::ErrorFunctionNotFound(sig, _) => {
+            let fn_name = sig.split(['(', ' ']).next().unwrap_or(sig);
+            let known = api_doc::signatures_named(fn_name);
+            if !known.is_empty() {
+                msg = format!(
+                    "wrong arguments in call {sig}; expected {}",
+                    known.join(" or ")
+                );
+            }
+        }
+        EvalAltResult::ErrorTerminated(limit, _) => {
+            msg = format!("stopped at the time limit of {limit} s (--timeout)");
+        }
+        EvalAltResult::ErrorDataTooLarge(what, _) => {
             msg = format!(
-                "wrong arguments in call {sig}; expected {}",
-                known.join(" or ")
+                "{what} over the script limit (arrays {MAX_ARRAY_SIZE} elements, maps {MAX_MAP_SIZE} entries, strings {MAX_STRING_SIZE} bytes, nested ones counted)"
             );
         }
+        _ => {}
     }
     if let Some(idx) = msg.rfind(" (line ") {
         msg.truncate(idx);
@@ -354,7 +403,7 @@ mod tests {
 
     #[test]
     fn every_registered_function_is_documented_and_vice_versa() {
-        let engine = new_engine(test_host(), 1000);
+        let engine = new_engine(test_host(), 1000, None);
         let registered = api_doc::registered(&engine);
         let documented = api_doc::documented();
         let undocumented: Vec<_> = registered.difference(&documented).collect();

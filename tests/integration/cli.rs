@@ -194,6 +194,7 @@ fn doctor_reports_adapter_and_capabilities() {
         let (code, stdout, stderr) = hdrvis(&["doctor", "--backend", backend], dir.path());
         assert_eq!(code, 0, "{stderr}");
         for key in [
+            "cache:",
             "adapter:",
             "backend:",
             "driver:",
@@ -570,4 +571,176 @@ fn accuracy_report_compares_naive_and_reduced_interference_phase() {
         );
         assert!(out.join("accuracy.png").is_file());
     }
+}
+
+/// Runs `hdrvis ARGS` under `sh -c 'umask 022; ...'` in `cwd`, so the mode the outputs get is
+/// the one a plain `open` would give there.
+#[cfg(unix)]
+fn hdrvis_under_umask_022(args: &[&str], cwd: &Path) {
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("umask 022; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(args)
+        .env("HDRVIS_CACHE", cwd.join("cache"))
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn outputs_get_the_mode_of_a_plain_open_under_the_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let script = r#"
+        let v = load_volume("blob.npy");
+        let img = render_volume(v, #{ tf: tf_emission_absorption(1, 1), width: 16, height: 12 });
+        save_exr(img, "view.exr");
+        save_png(img, "view.png");
+    "#;
+    write_volume(d);
+    std::fs::write(d.join("m.rhai"), script).unwrap();
+    hdrvis_under_umask_022(&["run", "m.rhai", "--out", "o"], d);
+    for ext in ["nc", "npy"] {
+        let out = format!("okada.{ext}");
+        hdrvis_under_umask_022(&["gen", "okada", "--n", "9", "-o", &out], d);
+    }
+    for file in ["o/view.exr", "o/view.png", "okada.nc", "okada.npy"] {
+        let mode = std::fs::metadata(d.join(file))
+            .unwrap()
+            .permissions()
+            .mode();
+        assert_eq!(mode & 0o777, 0o644, "{file}: mode {:o}", mode & 0o777);
+    }
+}
+
+#[test]
+fn runaway_array_growth_ends_within_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = "let a = []; for i in 0..1000000000 { a.push(i); }";
+    std::fs::write(dir.path().join("grow.rhai"), src).unwrap();
+    let start = std::time::Instant::now();
+    let (code, _, stderr) = hdrvis(&["run", "grow.rhai", "--out", "o"], dir.path());
+    let took = start.elapsed().as_secs_f64();
+    assert_one_line_error(code, &stderr, "Size of array/BLOB over the script limit");
+    assert!(stderr.starts_with("error: grow.rhai:1:"), "{stderr}");
+    assert!(took < 10.0, "the runaway array took {took:.1} s");
+}
+
+#[test]
+fn timeout_ends_an_endless_loop_on_time() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("spin.rhai"), "loop {}").unwrap();
+    let start = std::time::Instant::now();
+    let (code, _, stderr) = hdrvis(
+        &["run", "spin.rhai", "--out", "o", "--timeout", "2"],
+        dir.path(),
+    );
+    let took = start.elapsed().as_secs_f64();
+    assert_one_line_error(
+        code,
+        &stderr,
+        "stopped at the time limit of 2.0 s (--timeout)",
+    );
+    assert!(
+        (1.5..6.0).contains(&took),
+        "--timeout 2 ended after {took:.2} s"
+    );
+    let (code, _, stderr) = hdrvis(&["run", "spin.rhai", "--timeout", "0"], dir.path());
+    assert_one_line_error(code, &stderr, "--timeout: expected seconds > 0, got 0");
+}
+
+/// `hdrvis ARGS` in `cwd` with the cache chosen by the platform rules: no HDRVIS_CACHE, and
+/// `XDG_CACHE_HOME` and `HOME` as given.
+fn hdrvis_platform_cache(
+    args: &[&str],
+    cwd: &Path,
+    xdg: Option<&Path>,
+    home: &Path,
+) -> (i32, String, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hdrvis"));
+    cmd.args(args)
+        .current_dir(cwd)
+        .env_remove("HDRVIS_CACHE")
+        .env_remove("XDG_CACHE_HOME")
+        .env("HOME", home);
+    if let Some(xdg) = xdg {
+        cmd.env("XDG_CACHE_HOME", xdg);
+    }
+    let out = cmd.output().unwrap();
+    let text = |b: &[u8]| String::from_utf8_lossy(b).to_string();
+    (
+        out.status.code().unwrap_or(-1),
+        text(&out.stdout),
+        text(&out.stderr),
+    )
+}
+
+#[test]
+fn outside_the_checkout_the_cache_is_the_platform_one() {
+    let scratch = tempfile::tempdir().unwrap();
+    let (work, xdg, home) = (
+        scratch.path().join("work"),
+        scratch.path().join("xdg"),
+        scratch.path().join("home"),
+    );
+    std::fs::create_dir_all(&work).unwrap();
+    let script = "let g = load_grid(generate(\"okada\", #{ n: 9 })); print(g.nx);";
+    std::fs::write(work.join("g.rhai"), script).unwrap();
+    let (code, stdout, stderr) =
+        hdrvis_platform_cache(&["run", "g.rhai", "--out", "o"], &work, Some(&xdg), &home);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains('9'), "{stdout}");
+    let (code, stdout, stderr) =
+        hdrvis_platform_cache(&["gen", "mantle", "--n", "9"], &work, Some(&xdg), &home);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        Path::new(stdout.trim()).starts_with(xdg.join("hdrvis")),
+        "{stdout}"
+    );
+    assert!(
+        !work.join("datasets").exists(),
+        "datasets/ appeared in the working directory"
+    );
+    let mut here: Vec<_> = std::fs::read_dir(&work)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    here.sort();
+    assert_eq!(here, ["g.rhai", "o"]);
+
+    let (_, du, _) = hdrvis_platform_cache(&["cache", "du"], &work, Some(&xdg), &home);
+    let first = du.lines().next().unwrap();
+    assert_eq!(
+        first,
+        format!(
+            "cache: {} ($XDG_CACHE_HOME/hdrvis)",
+            xdg.join("hdrvis").display()
+        )
+    );
+    for kind in ["mantle ", "okada "] {
+        let line = du.lines().find(|l| l.starts_with(kind)).expect(kind);
+        assert!(line.contains(" 1 files "), "{du}");
+    }
+    let (code, cleaned, _) =
+        hdrvis_platform_cache(&["cache", "clean", "okada"], &work, Some(&xdg), &home);
+    assert_eq!(code, 0);
+    assert!(cleaned.contains("removed 1 files"), "{cleaned}");
+    let (_, du, _) = hdrvis_platform_cache(&["cache", "du"], &work, Some(&xdg), &home);
+    assert!(!du.contains("okada ") && du.contains("mantle "), "{du}");
+
+    // Without XDG_CACHE_HOME the cache is ~/.cache/hdrvis.
+    let (_, du, _) = hdrvis_platform_cache(&["cache", "du"], &work, None, &home);
+    let expected = home.join(".cache").join("hdrvis");
+    assert!(
+        du.starts_with(&format!("cache: {} (~/.cache/hdrvis)", expected.display())),
+        "{du}"
+    );
 }
