@@ -32,6 +32,7 @@ pub(crate) const SURFACE_KEYS: &[&str] = &[
     "exaggeration",
     "relief",
     "phase",
+    "antialias",
 ];
 
 fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
@@ -109,6 +110,7 @@ fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
             "exaggeration" => o.exaggeration = num(v, "exaggeration")?,
             "relief" => o.relief = Some(string(v, "relief")?),
             "phase" => o.phase = PhaseMethod::parse(&string(v, "phase")?).map_err(to_rhai)?,
+            "antialias" => o.antialias = boolean(v, "antialias")?,
             _ => unreachable!("checked keys"),
         }
     }
