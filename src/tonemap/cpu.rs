@@ -11,8 +11,8 @@
 use rayon::prelude::*;
 
 use super::params::{
-    blur_sigma, gaussian_radius, grid_sigma, reinhard_level, DurandGrid, Operator, ToneMapSettings,
-    DURAND_MIN_LOG_WEIGHT,
+    blur_sigma, gaussian_radius, grid_sigma, reinhard_level, DurandGrid, Gamut, Operator,
+    ToneMapSettings, DURAND_MIN_LOG_WEIGHT,
 };
 use crate::error::{Error, Result};
 use crate::model::colormap::srgb_to_linear;
@@ -139,13 +139,17 @@ pub fn tonemap_cpu(img: &HdrImage, s: &ToneMapSettings) -> Result<HdrImage> {
                 return [0.0; 4];
             };
             let mut out = [0.0f32; 4];
+            let mut c = [0.0f64; 3];
             for k in 0..3 {
-                let c = if lw > 0.0 && ld.is_finite() {
+                c[k] = if lw > 0.0 && ld.is_finite() {
                     (colour[k] / lw).powf(s.saturation) * ld
                 } else {
                     0.0
-                };
-                out[k] = (c + s.offset).clamp(0.0, 1.0).powf(inv_gamma) as f32;
+                } + s.offset;
+            }
+            let c = into_gamut(c, s.gamut);
+            for k in 0..3 {
+                out[k] = c[k].clamp(0.0, 1.0).powf(inv_gamma) as f32;
             }
             out[3] = p[3].clamp(0.0, 1.0);
             out
@@ -155,8 +159,20 @@ pub fn tonemap_cpu(img: &HdrImage, s: &ToneMapSettings) -> Result<HdrImage> {
     result.extra_channels = img.extra_channels.clone();
     result.metadata = img.metadata.clone();
     result.set_meta("tonemap", s.op.name());
+    result.set_meta("gamut", s.gamut.name());
     result.set_meta("transfer", "display-linear");
     Ok(result)
+}
+
+/// A display colour with its largest channel above 1 scaled by 1 / that channel (`Gamut::Scale`,
+/// hue and saturation kept), or left for the per-channel clamp (`Gamut::Clip`).
+pub(crate) fn into_gamut(c: [f64; 3], gamut: Gamut) -> [f64; 3] {
+    let largest = c[0].max(c[1]).max(c[2]);
+    if gamut == Gamut::Scale && largest > 1.0 {
+        c.map(|v| v / largest)
+    } else {
+        c
+    }
 }
 
 fn check_size(img: &HdrImage) -> Result<()> {
