@@ -107,6 +107,51 @@ impl Colormap {
     }
 }
 
+/// Colour names accepted where a single colour is asked for (a background, the colour of missing
+/// data), besides `#rrggbb`.
+pub(crate) const COLOUR_NAMES: &[(&str, [u8; 3])] = &[
+    ("black", [0, 0, 0]),
+    ("white", [255, 255, 255]),
+    ("grey", [128, 128, 128]),
+    ("gray", [128, 128, 128]),
+    ("lightgrey", [211, 211, 211]),
+    ("darkgrey", [64, 64, 64]),
+    ("tan", [210, 180, 140]),
+    ("beige", [245, 245, 220]),
+    ("sand", [194, 178, 128]),
+];
+
+/// The linear RGB of a named colour (`COLOUR_NAMES`, case-insensitive) or of `#rrggbb` (sRGB).
+pub(crate) fn named_colour(field: &str, name: &str) -> Result<[f64; 3]> {
+    let lower = name.trim().to_ascii_lowercase();
+    let srgb = if let Some(hex) = lower.strip_prefix('#') {
+        let byte = |i: usize| {
+            hex.get(i..i + 2)
+                .and_then(|h| u8::from_str_radix(h, 16).ok())
+        };
+        match (hex.len(), byte(0), byte(2), byte(4)) {
+            (6, Some(r), Some(g), Some(b)) => Some([r, g, b]),
+            _ => None,
+        }
+    } else {
+        COLOUR_NAMES
+            .iter()
+            .find(|(n, _)| *n == lower)
+            .map(|(_, c)| *c)
+    };
+    let names: Vec<&str> = COLOUR_NAMES.iter().map(|(n, _)| *n).collect();
+    srgb.map(|c| c.map(|v| srgb_to_linear(v as f64 / 255.0)))
+        .ok_or_else(|| {
+            Error::invalid(
+                field,
+                format!(
+                    "unknown colour {name:?}; expected #rrggbb or one of {}",
+                    names.join(", ")
+                ),
+            )
+        })
+}
+
 /// The IEC 61966-2-1 sRGB decoding curve (exact piecewise form): an encoded value, clamped to
 /// [0, 1], to linear light.
 pub fn srgb_to_linear(encoded: f64) -> f64 {
@@ -166,6 +211,18 @@ mod tests {
         }
         let e = Colormap::by_name("jet").unwrap_err().to_string();
         assert!(e.contains("viridis") && e.contains("jet"), "{e}");
+    }
+
+    #[test]
+    fn named_colours_and_hex_decode_to_linear_light() {
+        assert_eq!(named_colour("missing", "black").unwrap(), [0.0; 3]);
+        let tan = named_colour("missing", "Tan").unwrap();
+        assert!((tan[0] - srgb_to_linear(210.0 / 255.0)).abs() < 1e-12);
+        let hex = named_colour("missing", "#D2B48C").unwrap();
+        assert_eq!(hex, tan);
+        let e = named_colour("missing", "#12345").unwrap_err().to_string();
+        assert!(e.starts_with("missing:") && e.contains("tan"), "{e}");
+        assert!(named_colour("missing", "mauve").is_err());
     }
 
     #[test]

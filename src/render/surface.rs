@@ -202,6 +202,52 @@ impl PhaseMethod {
     }
 }
 
+/// How pixels without data (NaN nodes such as land, or the background of a 3-D view) are drawn.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum MissingColour {
+    /// RGBA 0: transparent in a PNG (which then gets an alpha channel) and in the EXR.
+    #[default]
+    Transparent,
+    /// An opaque colour (linear RGB) by name or `#rrggbb`; no fringe is ever drawn in it, as
+    /// no fringe is opaque and flat over an area with no data.
+    Colour { name: String, linear: [f64; 3] },
+}
+
+impl MissingColour {
+    /// `"transparent"`, a colour name or `#rrggbb`.
+    pub fn parse(name: &str) -> Result<MissingColour> {
+        if name.trim().eq_ignore_ascii_case("transparent") {
+            return Ok(MissingColour::Transparent);
+        }
+        let linear = crate::model::colormap::named_colour("missing", name)
+            .map_err(|e| Error::invalid("missing", format!("{e} (or \"transparent\")")))?;
+        Ok(MissingColour::Colour {
+            name: name.trim().to_string(),
+            linear,
+        })
+    }
+
+    /// What the image metadata says: `transparent` or the colour's name.
+    pub fn describe(&self) -> &str {
+        match self {
+            MissingColour::Transparent => "transparent",
+            MissingColour::Colour { name, .. } => name,
+        }
+    }
+
+    /// Paints every missing pixel (the fringe channel NaN there) in this colour.
+    fn paint(&self, pixels: &mut [[f32; 4]], fringe: &[f32]) {
+        if let MissingColour::Colour { linear, .. } = self {
+            let c = [linear[0] as f32, linear[1] as f32, linear[2] as f32, 1.0];
+            for (p, f) in pixels.iter_mut().zip(fringe) {
+                if f.is_nan() {
+                    *p = c;
+                }
+            }
+        }
+    }
+}
+
 /// Everything a surface render depends on besides the grid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
@@ -230,6 +276,8 @@ pub struct SurfaceOptions {
     /// Colours from the fringe averaged over each pixel's footprint (on by default), so fringes
     /// denser than the pixels fade to their mean instead of aliasing.
     pub antialias: bool,
+    /// How pixels without data are drawn (transparent by default).
+    pub missing: MissingColour,
 }
 
 impl Default for SurfaceOptions {
@@ -249,6 +297,7 @@ impl Default for SurfaceOptions {
             exaggeration: 1.0,
             phase: PhaseMethod::Reduced,
             antialias: true,
+            missing: MissingColour::Transparent,
         }
     }
 }
@@ -896,11 +945,12 @@ impl SurfaceRenderer {
         let lut = colormap_table(colormap);
         let params = fringe_params(data, slot, nu, opts, &lut);
         let FringeReadback {
-            pixels,
+            mut pixels,
             values,
             fringe,
             filtered,
         } = self.run_fringe(data, slot, opts, &params, &lut)?;
+        opts.missing.paint(&mut pixels, &fringe);
         let mut image = HdrImage::from_pixels(data.width, data.height, pixels);
         let channel = if name.is_empty() {
             "value".to_string()
@@ -945,6 +995,7 @@ impl SurfaceRenderer {
                 "off: colours from the point fringe"
             },
         );
+        image.set_meta("missing", opts.missing.describe());
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
     }

@@ -10,7 +10,7 @@ use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResul
 use super::ScriptHost;
 use crate::model::{Axis, Grid};
 use crate::render::surface::{
-    colorbar, legend, FringeMode, PhaseMethod, SurfaceOptions, SurfaceView,
+    colorbar, legend, FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView,
 };
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
@@ -33,6 +33,7 @@ pub(crate) const SURFACE_KEYS: &[&str] = &[
     "relief",
     "phase",
     "antialias",
+    "missing",
 ];
 
 fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
@@ -111,6 +112,9 @@ fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
             "relief" => o.relief = Some(string(v, "relief")?),
             "phase" => o.phase = PhaseMethod::parse(&string(v, "phase")?).map_err(to_rhai)?,
             "antialias" => o.antialias = boolean(v, "antialias")?,
+            "missing" => {
+                o.missing = MissingColour::parse(&string(v, "missing")?).map_err(to_rhai)?
+            }
             _ => unreachable!("checked keys"),
         }
     }

@@ -978,3 +978,83 @@ fn antialiasing_removes_the_moire_from_the_tsunami_scene() {
         assert!(kept < 0.03, "{backend:?}: {kept}");
     }
 }
+
+/// Issue #21, "Must show": "a surface with missing land distinct from dark fringes". Land (NaN)
+/// beside a sea whose fringes reach I = 0 (black in the modulated mode): in the default PNG
+/// land has alpha 0 and every sea pixel, the darkest fringes included, alpha 255; with
+/// `missing: "tan"` land is exactly tan (210, 180, 140) and no sea pixel is.
+#[test]
+fn missing_land_is_distinct_from_dark_fringes() {
+    use hdrvis::render::surface::MissingColour;
+    let (nx, ny) = (64, 32);
+    let land = |i: usize, j: usize| i < 12 || (40..50).contains(&i) && j > 20;
+    let g = Grid::from_fn("eta", nx, ny, |i, j| {
+        if land(i, j) {
+            f64::NAN
+        } else {
+            0.05 * i as f64 + 0.01 * j as f64
+        }
+    })
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let r = surface_renderer(BackendChoice::Vulkan);
+    let mut o = opts(4.0);
+    o.mode = FringeMode::Modulated;
+    o.antialias = false;
+    let img = r.render(&g, &o).unwrap().remove(0);
+    assert_eq!(img.meta("missing"), Some("transparent"));
+    let fringe = channel(&img, "fringe");
+    let path = dir.path().join("default.png");
+    hdrvis::io::png::write_display_png(&img, &path, false).unwrap();
+    let png = image::open(&path).unwrap();
+    assert_eq!(png.color(), image::ColorType::Rgba8);
+    let png = png.to_rgba8();
+    let mut dark = 0;
+    for row in 0..ny {
+        for px in 0..nx {
+            let p = png.get_pixel(px as u32, row as u32).0;
+            let j = ny - 1 - row;
+            if land(px, j) {
+                assert_eq!(p, [0, 0, 0, 0], "land ({px}, {j})");
+            } else {
+                assert_eq!(p[3], 255, "sea ({px}, {j})");
+                if fringe[row * nx + px] < 0.01 {
+                    dark += 1;
+                    assert!(p[0] < 40 && p[1] < 40 && p[2] < 40, "{p:?}");
+                }
+            }
+        }
+    }
+    assert!(dark > 10, "{dark} dark-fringe pixels");
+    o.missing = MissingColour::parse("tan").unwrap();
+    let tan_img = r.render(&g, &o).unwrap().remove(0);
+    assert_eq!(tan_img.meta("missing"), Some("tan"));
+    let path = dir.path().join("tan.png");
+    hdrvis::io::png::write_display_png(&tan_img, &path, false).unwrap();
+    let png = image::open(&path).unwrap();
+    assert_eq!(png.color(), image::ColorType::Rgb8);
+    let png = png.to_rgb8();
+    for row in 0..ny {
+        for px in 0..nx {
+            let p = png.get_pixel(px as u32, row as u32).0;
+            assert_eq!(
+                p == [210, 180, 140],
+                land(px, ny - 1 - row),
+                "({px}, {row}): {p:?}"
+            );
+        }
+    }
+    // The value and fringe channels still say "missing" there.
+    assert!(
+        channel(&tan_img, "fringe")
+            .iter()
+            .filter(|f| f.is_nan())
+            .count()
+            > 12 * ny
+    );
+    let e = MissingColour::parse("mauve").unwrap_err().to_string();
+    assert!(
+        e.starts_with("missing:") && e.contains("transparent"),
+        "{e}"
+    );
+}
