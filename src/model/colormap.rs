@@ -7,7 +7,8 @@
 use crate::error::{Error, Result};
 use colorgrad::Gradient;
 
-/// Every colour-map name hdrvis accepts. `sinebow` and `rainbow` are cyclic (for wrapped data).
+/// Every colour-map name hdrvis accepts, each also reversed with the suffix `_r` (`rd_bu_r` runs
+/// blue to red). `sinebow` and `rainbow` are cyclic (for wrapped data).
 pub(crate) const COLORMAP_NAMES: &[&str] = &[
     "viridis",
     "magma",
@@ -36,6 +37,8 @@ pub(crate) const COLORMAP_NAMES: &[&str] = &[
 pub(crate) struct Colormap {
     name: String,
     gradient: Option<Box<dyn Gradient + Send + Sync>>,
+    /// `_r`: t runs from 1 to 0.
+    reversed: bool,
 }
 
 impl std::fmt::Debug for Colormap {
@@ -47,7 +50,11 @@ impl std::fmt::Debug for Colormap {
 impl Colormap {
     pub(crate) fn by_name(name: &str) -> Result<Colormap> {
         use colorgrad::preset as p;
-        let gradient: Option<Box<dyn Gradient + Send + Sync>> = match name {
+        let (base, reversed) = match name.strip_suffix("_r") {
+            Some(base) => (base, true),
+            None => (name, false),
+        };
+        let gradient: Option<Box<dyn Gradient + Send + Sync>> = match base {
             "viridis" => Some(Box::new(p::viridis())),
             "magma" => Some(Box::new(p::magma())),
             "inferno" => Some(Box::new(p::inferno())),
@@ -74,7 +81,7 @@ impl Colormap {
                 return Err(Error::invalid(
                     "colormap",
                     format!(
-                        "unknown colour map {name:?}; known: {}",
+                        "unknown colour map {name:?}; known: {} (each also reversed with the suffix _r)",
                         COLORMAP_NAMES.join(", ")
                     ),
                 ))
@@ -83,6 +90,7 @@ impl Colormap {
         Ok(Colormap {
             name: name.to_string(),
             gradient,
+            reversed,
         })
     }
 
@@ -95,7 +103,8 @@ impl Colormap {
         match &self.gradient {
             None => [1.0; 3],
             Some(g) => {
-                let c = g.at(t.clamp(0.0, 1.0) as f32);
+                let t = t.clamp(0.0, 1.0);
+                let c = g.at(if self.reversed { 1.0 - t } else { t } as f32);
                 [c.r as f64, c.g as f64, c.b as f64].map(|v| v.clamp(0.0, 1.0))
             }
         }
@@ -211,6 +220,21 @@ mod tests {
         }
         let e = Colormap::by_name("jet").unwrap_err().to_string();
         assert!(e.contains("viridis") && e.contains("jet"), "{e}");
+    }
+
+    #[test]
+    fn reversed_maps_run_backwards() {
+        let (a, r) = (
+            Colormap::by_name("rd_bu").unwrap(),
+            Colormap::by_name("rd_bu_r").unwrap(),
+        );
+        for t in [0.0, 0.2, 0.5, 0.9, 1.0] {
+            assert_eq!(a.srgb(t), r.srgb(1.0 - t));
+        }
+        // rd_bu_r: blue at the low end, red at the high end.
+        let (low, high) = (r.srgb(0.0), r.srgb(1.0));
+        assert!(low[2] > low[0] && high[0] > high[2]);
+        assert!(Colormap::by_name("nope_r").is_err());
     }
 
     #[test]

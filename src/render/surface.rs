@@ -967,6 +967,7 @@ impl SurfaceRenderer {
         image
             .extra_channels
             .push(("fringe_filtered".to_string(), filtered));
+        let units_for_bar = units.clone();
         let u = if units.is_empty() {
             "data units".to_string()
         } else {
@@ -996,6 +997,7 @@ impl SurfaceRenderer {
             },
         );
         image.set_meta("missing", opts.missing.describe());
+        surface_colour_bar(opts, &params, nu, colormap.name(), &units_for_bar).record(&mut image);
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
     }
@@ -1311,6 +1313,33 @@ fn colour_domain(opts: &SurfaceOptions, (lo, hi): (f64, f64), d_ref: f64) -> (f6
         (a, if b > a { 1.0 / (b - a) } else { 0.0 }, 0.0)
     } else {
         (lo - d_ref, if hi > lo { 1.0 / (hi - lo) } else { 0.0 }, 0.0)
+    }
+}
+
+/// The colour bar of a fringe pass: one fringe period (0 to 1/ν) in cyclic mode, otherwise the
+/// colour domain the pass used (log10 of magnitudes for log colour, magnitudes for absolute).
+fn surface_colour_bar(
+    opts: &SurfaceOptions,
+    params: &FringeParams,
+    nu: f64,
+    colormap: &str,
+    units: &str,
+) -> crate::model::text::ColourBar {
+    use crate::model::text::{BarScale, ColourBar};
+    let [_, d_ref, c_lo, c_inv] = params.refs.map(|v| v as f64);
+    let span = if c_inv > 0.0 { 1.0 / c_inv } else { 0.0 };
+    let (scale, lo, hi) = match opts.mode {
+        FringeMode::Cyclic => (BarScale::Linear, 0.0, 1.0 / nu),
+        _ if opts.log_color => (BarScale::Log10, 10f64.powf(c_lo), 10f64.powf(c_lo + span)),
+        _ if opts.absolute => (BarScale::Linear, c_lo, c_lo + span),
+        _ => (BarScale::Linear, c_lo + d_ref, c_lo + d_ref + span),
+    };
+    ColourBar {
+        colormap: colormap.to_string(),
+        scale,
+        lo,
+        hi,
+        units: units.to_string(),
     }
 }
 

@@ -1058,3 +1058,94 @@ fn missing_land_is_distinct_from_dark_fringes() {
         "{e}"
     );
 }
+
+/// Issue #20 item 8 and #21 item 11: `save_png(img, path, #{legend: true})` draws the colour bar
+/// the render recorded under the picture — a surface in log colour (labelled decades) and a
+/// volume through a symlog `tf_lut` — and an image without one is a one-line error.
+#[test]
+fn save_png_legend_draws_the_recorded_colour_bar() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = r#"
+        let g = grid_from_fn();
+        let img = render_surface(g, #{ nu: 2.0, mode: "direct", colormap: "viridis", log_color: true });
+        save_png(img, "surface.png", #{ legend: true });
+        let vol = load_volume(generate("mantle", #{ n: 33, field: "fluctuation", seed: 7 }));
+        let tf = tf_lut(#{ scale: "symlog", linthresh: 1e-3, domain: [-0.3, 0.45], colormap: "rd_bu_r" });
+        save_png(render_volume(vol, #{ tf: tf, width: 160, height: 96 }), "volume.png", #{ legend: true, exposure: 1.0 });
+    "#;
+    // A grid from 1e-3 to 10 m over four decades, written as .npy for load_grid.
+    let (nx, ny) = (120, 40);
+    let values: Vec<f64> = (0..nx * ny)
+        .map(|k| 10f64.powf(-3.0 + 4.0 * (k % nx) as f64 / (nx - 1) as f64))
+        .collect();
+    write_npy(&dir.path().join("g.npy"), ny, nx, &values);
+    let script = script.replace("grid_from_fn()", "load_grid(\"g.npy\")");
+    std::fs::write(dir.path().join("s.rhai"), script).unwrap();
+    let (code, out, err) = crate::cli::hdrvis(&["run", "s.rhai"], dir.path());
+    assert_eq!(code, 0, "{out}\n{err}");
+    let strip = 4 + 12 + 3 + 24;
+    let surface = image::open(dir.path().join("out/surface.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(surface.dimensions(), (nx as u32, (ny + strip) as u32));
+    // Direct mode, log colour: the picture's columns and the bar's run through the same colours.
+    let bar_row = (ny + 4 + 6) as u32;
+    for x in [0u32, 60, 119] {
+        let a = surface.get_pixel(x, 0).0;
+        let b = surface.get_pixel(x, bar_row).0;
+        assert!(
+            a.iter()
+                .zip(b)
+                .all(|(p, q)| (*p as i32 - q as i32).abs() <= 3),
+            "{x}: {a:?} {b:?}"
+        );
+    }
+    // White ticks below the bar at decades 1e-3 and 1 (x = 119·k/4 for k decades up; at 120 px
+    // the five decades are thinned to every third).
+    let tick_row = (ny + 4 + 12 + 1) as u32;
+    for k in [0, 3] {
+        let x = (119.0 * k as f64 / 4.0).round() as u32;
+        assert_eq!(
+            surface.get_pixel(x, tick_row).0,
+            [255, 255, 255],
+            "decade {k}"
+        );
+    }
+    let volume = image::open(dir.path().join("out/volume.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(volume.dimensions(), (160, 96 + strip as u32));
+    // rd_bu_r: blue at the cold end of the bar, red at the hot end.
+    let (cold, hot) = (
+        volume.get_pixel(0, 96 + 10).0,
+        volume.get_pixel(159, 96 + 10).0,
+    );
+    assert!(cold[2] > cold[0] && hot[0] > hot[2], "{cold:?} {hot:?}");
+    let no_bar = r#"
+        let img = render_volume(load_volume(generate("mantle", #{ n: 17 })), #{ tf: tf_emission_absorption(1.0, 1.0), width: 8, height: 8 });
+        save_png(img, "x.png", #{ legend: true });
+    "#;
+    std::fs::write(dir.path().join("bad.rhai"), no_bar).unwrap();
+    let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai"], dir.path());
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("legend") && err.contains("colour bar"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out/x.png").exists());
+}
+
+/// A little-endian f64 .npy of shape (ny, nx).
+fn write_npy(path: &std::path::Path, ny: usize, nx: usize, values: &[f64]) {
+    let dict = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({ny}, {nx}), }}");
+    let mut header = dict.into_bytes();
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(b' ');
+    }
+    header.push(b'\n');
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend((header.len() as u16).to_le_bytes());
+    bytes.extend(header);
+    bytes.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(path, bytes).unwrap();
+}
