@@ -222,7 +222,7 @@ impl ColourBar {
             }
             BarScale::Linear => {
                 let span = hi - lo;
-                if !(span > 0.0) {
+                if span.is_nan() || span <= 0.0 {
                     return vec![(lo, format_number(lo))];
                 }
                 let raw = span / most.max(1) as f64;
