@@ -781,6 +781,18 @@ pub(crate) fn false_colour_decades(
     Ok(range)
 }
 
+/// The false-colour view's colour bar: turbo over luminance 10^low to 10^high on a log10 scale,
+/// so `save_png(view, path, #{legend: true})` labels its decades.
+pub(crate) fn false_colour_bar(low: f64, high: f64) -> crate::model::text::ColourBar {
+    crate::model::text::ColourBar {
+        colormap: "turbo".into(),
+        scale: crate::model::text::BarScale::Log10,
+        lo: 10f64.powf(low),
+        hi: 10f64.powf(high),
+        units: "luminance (image units)".into(),
+    }
+}
+
 /// False-colour view of log10 luminance (after `exposure_ev`) through turbo, over whole decades
 /// `decades` = (low, high) or, by default, those spanning the image. Black pixels take the low
 /// end, missing ones a neutral grey. When the image is at least 16 pixels tall a legend strip is
@@ -840,6 +852,7 @@ pub fn false_colour_log10(
     out.metadata = img.metadata.clone();
     out.set_meta("false_colour.log10_min", format!("{low}"));
     out.set_meta("false_colour.log10_max", format!("{high}"));
+    false_colour_bar(low, high).record(&mut out);
     out.set_meta("transfer", "display-linear");
     Ok(out)
 }
@@ -1206,6 +1219,10 @@ mod tests {
         let out = false_colour_log10(&img, 0.0, None).unwrap();
         assert_eq!(out.meta("false_colour.log10_min"), Some("-2"));
         assert_eq!(out.meta("false_colour.log10_max"), Some("2"));
+        // Its colour bar labels the decades 0.01 to 100.
+        let bar = crate::model::text::ColourBar::of(&out).unwrap();
+        let labels: Vec<String> = bar.ticks(10).into_iter().map(|(_, l)| l).collect();
+        assert_eq!(labels, ["0.01", "0.1", "1", "10", "100"]);
         assert_eq!(
             out.pixels[0],
             [MISSING_GREY, MISSING_GREY, MISSING_GREY, 1.0]

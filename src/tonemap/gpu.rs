@@ -706,6 +706,7 @@ impl GpuToneMapper {
         out.metadata = img.metadata.clone();
         out.set_meta("false_colour.log10_min", format!("{low}"));
         out.set_meta("false_colour.log10_max", format!("{high}"));
+        super::cpu::false_colour_bar(low, high).record(&mut out);
         out.set_meta("transfer", "display-linear");
         out.set_meta(DISPLAY_REFERRED, "1");
         Ok(out)
