@@ -5,6 +5,10 @@
 // hi + rest (two f32s), ν as three f32 parts; hi and ν's leading parts have 12 significant bits
 // (hi is split here by masking mantissa bits), so their products are exact in f32 and their
 // fractions are taken before anything is added; frac(ν·d_ref) comes from the host in f64.
+// Antialiasing: the fringe averaged over the pixel's footprint, a Gaussian of σ = 0.5 pixel along
+// the data's gradient, is (1 + cos 2πν·d · exp(−2π²ν²σ²|∇d|²))/2 for a field linear across the
+// footprint; ∇d (data units per pixel) comes from central differences of the neighbouring
+// pixels (one-sided beside a missing pixel), so it is the screen-space derivative in 3-D views.
 // Keep Params in sync with src/render/surface.rs (FringeParams).
 
 struct Params {
@@ -19,6 +23,9 @@ struct Params {
     mode: vec4<u32>,
     // x: width, y: height, z: LUT size
     dims: vec4<u32>,
+    // xyz: the cyclic map's mean colour (what fringes above the pixel rate fade to in cyclic
+    // mode); w: ν·σ with σ = 0.5 pixel, the footprint's width in fringes per data-unit-per-pixel
+    footprint: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -30,6 +37,7 @@ struct Params {
 @group(0) @binding(4) var<storage, read> lut: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> out_color: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> out_value: array<f32>;
+@group(0) @binding(7) var<storage, read_write> out_filtered: array<f32>;
 
 override SLOT: u32 = 0u;
 // The colour mode (0 cyclic, 1 modulated, 2 direct), `absolute`, `log_color`, and whether the
@@ -43,6 +51,9 @@ override WRITE_VALUE: bool = true;
 // evaluated directly, as a straightforward implementation would; only for measuring what the
 // reduction buys.
 override NAIVE_PHASE: bool = false;
+// Whether the colour uses the footprint-filtered fringe (`antialias`, on by default); the
+// filtered fringe is written either way.
+override ANTIALIAS: bool = true;
 
 const TAU: f32 = 6.283185307179586;
 
@@ -74,6 +85,44 @@ fn colormap(t: f32) -> vec3<f32> {
     return mix(a, b, f);
 }
 
+// d − d_ref at pixel `px` of this slot's plane.
+fn offset_at(px: u32) -> f32 {
+    let plane = SLOT * params.dims.x * params.dims.y + px;
+    return data_hi[plane] + data_rest[plane];
+}
+
+fn valid_at(px: u32) -> bool {
+    return (u32(data_mask[px].x) & (1u << SLOT)) != 0u;
+}
+
+// The derivative of d along one image axis at pixel `px` (data units per pixel): the central
+// difference of the neighbours `before` and `after`, one-sided where one of them is missing or
+// off the image (`has_*` false; the index is then `px` itself, so no load leaves the buffers),
+// 0 where both are.
+fn derivative(px: u32, centre: f32, before: u32, has_before: bool, after: u32, has_after: bool) -> f32 {
+    let b = has_before && valid_at(before);
+    let a = has_after && valid_at(after);
+    let db = centre - offset_at(before);
+    let da = offset_at(after) - centre;
+    if (a && b) {
+        return 0.5 * (da + db);
+    }
+    return select(0.0, da, a) + select(0.0, db, b);
+}
+
+// exp(−2π²ν²σ²|∇d|²): how much of the fringe's contrast survives the pixel's footprint.
+fn footprint_contrast(gid: vec2<u32>, px: u32, centre: f32) -> f32 {
+    let w = params.dims.x;
+    let left = gid.x > 0u;
+    let right = gid.x + 1u < w;
+    let up = gid.y > 0u;
+    let down = gid.y + 1u < params.dims.y;
+    let gx = derivative(px, centre, select(px, px - 1u, left), left, select(px, px + 1u, right), right);
+    let gy = derivative(px, centre, select(px, px - w, up), up, select(px, px + w, down), down);
+    let s = params.footprint.w * length(vec2<f32>(gx, gy));
+    return exp(-2.0 * 9.869604401089358 * s * s);
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= params.dims.x || gid.y >= params.dims.y) {
@@ -89,6 +138,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (WRITE_VALUE) {
             out_value[px] = 0.0;
         }
+        out_filtered[px] = 0.0;
         return;
     }
     let plane = slot * params.dims.x * params.dims.y + px;
@@ -113,6 +163,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let centred = ph - round(ph);
         fringe = 0.5 + 0.5 * cos(TAU * centred);
     }
+    let contrast = footprint_contrast(gid.xy, px, hi + rest);
+    let filtered = 0.5 + (fringe - 0.5) * contrast;
+    var shown = fringe;
+    if (ANTIALIAS) {
+        shown = filtered;
+    }
     var colour: vec3<f32>;
     var t: f32;
     if (MODE == 0u) {
@@ -126,12 +182,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         t = ((hi + rest) - params.refs.z) * params.refs.w;
     }
     colour = colormap(t);
+    if (MODE == 0u && ANTIALIAS) {
+        // The phase's colour cycle fades to the map's mean as the fringes do.
+        colour = params.footprint.xyz + (colour - params.footprint.xyz) * contrast;
+    }
     if (MODE != 2u) {
         let depth = params.shade.x;
-        colour *= (1.0 - depth) + depth * fringe;
+        colour *= (1.0 - depth) + depth * shown;
     }
     colour *= m.y;
     out_color[px] = vec4<f32>(colour, fringe);
+    out_filtered[px] = filtered;
     if (WRITE_VALUE) {
         out_value[px] = d;
     }

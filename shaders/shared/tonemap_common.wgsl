@@ -10,7 +10,7 @@ struct ToneMapParams {
     pass_index: u32, sigma: f32, radius: u32, direction: u32,
     cell: u32, grid_width: u32, grid_height: u32, levels: u32,
     first_level: f32, level_step: f32, band_first: u32, dst_offset: u32,
-    band_rows: u32, window_first: u32, pad0: u32, pad1: u32,
+    band_rows: u32, window_first: u32, gamut_clip: u32, pad1: u32,
 }
 
 struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
@@ -21,6 +21,9 @@ struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
 override OP: u32 = 0u;
 override PLAIN_SATURATION: bool = true;
 override PLAIN_GAMMA: bool = true;
+// Gamut (src/tonemap/params.rs `Gamut`): false scales a colour whose largest channel exceeds 1
+// by 1 / max (hue kept), true clips each channel.
+override GAMUT_CLIP: bool = false;
 
 const REC709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 
@@ -38,7 +41,8 @@ fn pixel_index(id: vec3<u32>, groups: vec3<u32>) -> u32 {
 // buffers are bound as windows starting at the band's first row, so an item index within the
 // band is also its index in those windows. Global coordinates add band_first back.
 
-// (C / L_w)^s * L_d, + offset, clamped, ^(1 / gamma). pow(0, y) is indeterminate in WGSL,
+// (C / L_w)^s * L_d, + offset, into the gamut (scaled by 1 / max above 1 unless clipping), clamped,
+// ^(1 / gamma). pow(0, y) is indeterminate in WGSL,
 // hence the selects.
 fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
     var ratio = colour / y;
@@ -49,7 +53,11 @@ fn compose(colour: vec3<f32>, y: f32, ld: f32) -> vec3<f32> {
             ratio = vec3<f32>(1.0);
         }
     }
-    let v = clamp(ratio * ld + params.offset, vec3<f32>(0.0), vec3<f32>(1.0));
+    var c = ratio * ld + params.offset;
+    if !GAMUT_CLIP {
+        c /= max(max(max(c.r, c.g), c.b), 1.0);
+    }
+    let v = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
     if PLAIN_GAMMA {
         return v;
     }

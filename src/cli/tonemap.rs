@@ -6,7 +6,7 @@
 
 use hdrvis::gpu::{BackendChoice, GpuContext};
 use hdrvis::tonemap::cpu::{auto_exposure_key, auto_exposure_percentile};
-use hdrvis::tonemap::{check_ev, GpuToneMapper, Operator, ToneMapSettings};
+use hdrvis::tonemap::{check_ev, Gamut, GpuToneMapper, Operator, ToneMapSettings};
 use hdrvis::{Error, Result};
 use std::path::PathBuf;
 
@@ -45,6 +45,10 @@ pub struct ToneMapArgs {
     /// Offset added to display values before clamping, in [-1, 1].
     #[arg(long, default_value_t = 0.0)]
     pub offset: f64,
+    /// Colours with a channel above 1 after the operator: `scale` by 1 / max (keeps the hue) or
+    /// `clip` each channel.
+    #[arg(long, value_name = "scale|clip", default_value = "scale")]
+    pub gamut: String,
     /// Any other operator parameter by its paper name, e.g. `--param contrast=8`; repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
     pub params: Vec<String>,
@@ -84,6 +88,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         offset: args.offset,
         gamma: args.gamma,
         saturation: args.saturation,
+        gamut: Gamut::parse(&args.gamut).map_err(|e| with_flag(e, "--gamut"))?,
         op,
     };
     settings.validate()?;

@@ -18,7 +18,7 @@ use crate::error::{Error, Result};
 
 /// Bumped whenever a generator's output changes for the same parameters, so old cache entries
 /// are not reused.
-const GENERATOR_VERSION: u32 = 1;
+const GENERATOR_VERSION: u32 = 2;
 
 /// File formats the generators write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -144,7 +144,8 @@ impl Default for TsunamiOptions {
 
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TsunamiResult {
-    /// Largest |eta| reached in each cell over the run, the initial state included, m.
+    /// Largest |eta| reached in each cell over the run, the initial state included, m; NaN on
+    /// land (depth <= 0).
     pub max_abs_eta: Vec<f64>,
     /// First time |eta| exceeded the arrival threshold, s; NaN where it never did.
     pub arrival_time_s: Vec<f64>,
@@ -239,8 +240,16 @@ pub(crate) fn simulate(
             progress((step + 1) as f64 / steps as f64);
         }
     }
+    // Land has no sea surface: its maximum is missing (NaN), not a zero wave that would draw as
+    // a calm sea (or a dark fringe) in a surface map.
+    let max_abs_eta = model
+        .max_abs_eta
+        .iter()
+        .zip(&bathy.depth_m)
+        .map(|(&m, &d)| if d > 0.0 { m } else { f64::NAN })
+        .collect();
     Ok(TsunamiResult {
-        max_abs_eta: model.max_abs_eta,
+        max_abs_eta,
         arrival_time_s: model.arrival_time_s,
         final_eta: model.eta,
         steps,

@@ -7,29 +7,67 @@ use crate::error::{Error, Result};
 use crate::model::HdrImage;
 use std::path::Path;
 
-/// Writes display-referred linear values (clamped to [0, 1]) as an sRGB PNG.
+/// Whether the PNG of `image` keeps its alpha: images that mark missing data transparent
+/// (metadata `missing = transparent`, as surface renders do) and have such pixels.
+fn keeps_alpha(image: &HdrImage) -> bool {
+    image.meta("missing") == Some("transparent") && image.pixels.iter().any(|p| p[3] < 1.0)
+}
+
+/// Writes display-referred linear values (clamped to [0, 1]) as an sRGB PNG: RGB, or RGBA (alpha
+/// linear, as PNG defines it) when the image marks missing data transparent and has some.
 pub fn write_display_png(image: &HdrImage, path: &Path, sixteen_bit: bool) -> Result<()> {
     let (w, h) = (image.width, image.height);
     if w == 0 || h == 0 {
         return Err(Error::invalid("image", "cannot write an empty image"));
     }
+    let alpha = keeps_alpha(image);
     crate::io::write_atomic(path, |writer| {
         let encoder = image::codecs::png::PngEncoder::new(writer);
         use image::ImageEncoder;
         let result = if sixteen_bit {
+            let rgb = image.to_srgb16();
+            let bytes: Vec<u8> = if alpha {
+                rgb.iter()
+                    .zip(&image.pixels)
+                    .flat_map(|(c, p)| [c[0], c[1], c[2], quantise(p[3], 65535.0) as u16])
+                    .flat_map(u16::to_be_bytes)
+                    .collect()
+            } else {
+                rgb.into_iter()
+                    .flatten()
+                    .flat_map(u16::to_be_bytes)
+                    .collect()
+            };
+            let colour = if alpha {
+                image::ExtendedColorType::Rgba16
+            } else {
+                image::ExtendedColorType::Rgb16
+            };
+            encoder.write_image(&bytes, w, h, colour)
+        } else if alpha {
             let bytes: Vec<u8> = image
-                .to_srgb16()
-                .into_iter()
-                .flatten()
-                .flat_map(u16::to_be_bytes)
+                .to_srgb8()
+                .iter()
+                .zip(&image.pixels)
+                .flat_map(|(c, p)| [c[0], c[1], c[2], quantise(p[3], 255.0) as u8])
                 .collect();
-            encoder.write_image(&bytes, w, h, image::ExtendedColorType::Rgb16)
+            encoder.write_image(&bytes, w, h, image::ExtendedColorType::Rgba8)
         } else {
             let bytes = image.to_srgb8().into_flattened();
             encoder.write_image(&bytes, w, h, image::ExtendedColorType::Rgb8)
         };
         result.map_err(|e| Error::format(path, format!("cannot encode PNG: {e}")))
     })
+}
+
+/// A linear alpha in [0, 1] (NaN as 0) on a 0..=`top` integer scale.
+fn quantise(alpha: f32, top: f32) -> f32 {
+    let a = if alpha.is_nan() {
+        0.0
+    } else {
+        alpha.clamp(0.0, 1.0)
+    };
+    (a * top + 0.5).floor()
 }
 
 /// The plain view: linear values × 2^EV, then sRGB.

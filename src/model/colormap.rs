@@ -7,7 +7,8 @@
 use crate::error::{Error, Result};
 use colorgrad::Gradient;
 
-/// Every colour-map name hdrvis accepts. `sinebow` and `rainbow` are cyclic (for wrapped data).
+/// Every colour-map name hdrvis accepts, each also reversed with the suffix `_r` (`rd_bu_r` runs
+/// blue to red). `sinebow` and `rainbow` are cyclic (for wrapped data).
 pub(crate) const COLORMAP_NAMES: &[&str] = &[
     "viridis",
     "magma",
@@ -36,6 +37,8 @@ pub(crate) const COLORMAP_NAMES: &[&str] = &[
 pub(crate) struct Colormap {
     name: String,
     gradient: Option<Box<dyn Gradient + Send + Sync>>,
+    /// `_r`: t runs from 1 to 0.
+    reversed: bool,
 }
 
 impl std::fmt::Debug for Colormap {
@@ -47,7 +50,11 @@ impl std::fmt::Debug for Colormap {
 impl Colormap {
     pub(crate) fn by_name(name: &str) -> Result<Colormap> {
         use colorgrad::preset as p;
-        let gradient: Option<Box<dyn Gradient + Send + Sync>> = match name {
+        let (base, reversed) = match name.strip_suffix("_r") {
+            Some(base) => (base, true),
+            None => (name, false),
+        };
+        let gradient: Option<Box<dyn Gradient + Send + Sync>> = match base {
             "viridis" => Some(Box::new(p::viridis())),
             "magma" => Some(Box::new(p::magma())),
             "inferno" => Some(Box::new(p::inferno())),
@@ -74,7 +81,7 @@ impl Colormap {
                 return Err(Error::invalid(
                     "colormap",
                     format!(
-                        "unknown colour map {name:?}; known: {}",
+                        "unknown colour map {name:?}; known: {} (each also reversed with the suffix _r)",
                         COLORMAP_NAMES.join(", ")
                     ),
                 ))
@@ -83,6 +90,7 @@ impl Colormap {
         Ok(Colormap {
             name: name.to_string(),
             gradient,
+            reversed,
         })
     }
 
@@ -95,7 +103,8 @@ impl Colormap {
         match &self.gradient {
             None => [1.0; 3],
             Some(g) => {
-                let c = g.at(t.clamp(0.0, 1.0) as f32);
+                let t = t.clamp(0.0, 1.0);
+                let c = g.at(if self.reversed { 1.0 - t } else { t } as f32);
                 [c.r as f64, c.g as f64, c.b as f64].map(|v| v.clamp(0.0, 1.0))
             }
         }
@@ -105,6 +114,51 @@ impl Colormap {
     pub(crate) fn linear_rgb(&self, t: f64) -> [f64; 3] {
         self.srgb(t).map(srgb_to_linear)
     }
+}
+
+/// Colour names accepted where a single colour is asked for (a background, the colour of missing
+/// data), besides `#rrggbb`.
+pub(crate) const COLOUR_NAMES: &[(&str, [u8; 3])] = &[
+    ("black", [0, 0, 0]),
+    ("white", [255, 255, 255]),
+    ("grey", [128, 128, 128]),
+    ("gray", [128, 128, 128]),
+    ("lightgrey", [211, 211, 211]),
+    ("darkgrey", [64, 64, 64]),
+    ("tan", [210, 180, 140]),
+    ("beige", [245, 245, 220]),
+    ("sand", [194, 178, 128]),
+];
+
+/// The linear RGB of a named colour (`COLOUR_NAMES`, case-insensitive) or of `#rrggbb` (sRGB).
+pub(crate) fn named_colour(field: &str, name: &str) -> Result<[f64; 3]> {
+    let lower = name.trim().to_ascii_lowercase();
+    let srgb = if let Some(hex) = lower.strip_prefix('#') {
+        let byte = |i: usize| {
+            hex.get(i..i + 2)
+                .and_then(|h| u8::from_str_radix(h, 16).ok())
+        };
+        match (hex.len(), byte(0), byte(2), byte(4)) {
+            (6, Some(r), Some(g), Some(b)) => Some([r, g, b]),
+            _ => None,
+        }
+    } else {
+        COLOUR_NAMES
+            .iter()
+            .find(|(n, _)| *n == lower)
+            .map(|(_, c)| *c)
+    };
+    let names: Vec<&str> = COLOUR_NAMES.iter().map(|(n, _)| *n).collect();
+    srgb.map(|c| c.map(|v| srgb_to_linear(v as f64 / 255.0)))
+        .ok_or_else(|| {
+            Error::invalid(
+                field,
+                format!(
+                    "unknown colour {name:?}; expected #rrggbb or one of {}",
+                    names.join(", ")
+                ),
+            )
+        })
 }
 
 /// The IEC 61966-2-1 sRGB decoding curve (exact piecewise form): an encoded value, clamped to
@@ -166,6 +220,33 @@ mod tests {
         }
         let e = Colormap::by_name("jet").unwrap_err().to_string();
         assert!(e.contains("viridis") && e.contains("jet"), "{e}");
+    }
+
+    #[test]
+    fn reversed_maps_run_backwards() {
+        let (a, r) = (
+            Colormap::by_name("rd_bu").unwrap(),
+            Colormap::by_name("rd_bu_r").unwrap(),
+        );
+        for t in [0.0, 0.2, 0.5, 0.9, 1.0] {
+            assert_eq!(a.srgb(t), r.srgb(1.0 - t));
+        }
+        // rd_bu_r: blue at the low end, red at the high end.
+        let (low, high) = (r.srgb(0.0), r.srgb(1.0));
+        assert!(low[2] > low[0] && high[0] > high[2]);
+        assert!(Colormap::by_name("nope_r").is_err());
+    }
+
+    #[test]
+    fn named_colours_and_hex_decode_to_linear_light() {
+        assert_eq!(named_colour("missing", "black").unwrap(), [0.0; 3]);
+        let tan = named_colour("missing", "Tan").unwrap();
+        assert!((tan[0] - srgb_to_linear(210.0 / 255.0)).abs() < 1e-12);
+        let hex = named_colour("missing", "#D2B48C").unwrap();
+        assert_eq!(hex, tan);
+        let e = named_colour("missing", "#12345").unwrap_err().to_string();
+        assert!(e.starts_with("missing:") && e.contains("tan"), "{e}");
+        assert!(named_colour("missing", "mauve").is_err());
     }
 
     #[test]

@@ -166,6 +166,33 @@ impl TransferFunction {
         }
     }
 
+    /// The colour bar of a lookup-table transfer function on a volume with `stats` (its colour
+    /// map over the resolved domain on its scale, lens not drawn); `None` for emission-absorption
+    /// or a domain that does not resolve.
+    pub(crate) fn colour_bar(
+        &self,
+        stats: &VolumeStats,
+        units: &str,
+    ) -> Option<crate::model::text::ColourBar> {
+        use crate::model::text::{BarScale, ColourBar};
+        let TransferFunction::Lut(l) = self else {
+            return None;
+        };
+        let [lo, hi] = l.domain_bounds(stats).ok()?;
+        let scale = match l.scale_mapping(lo, hi).scale {
+            Scale::Linear => BarScale::Linear,
+            Scale::Log10 => BarScale::Log10,
+            Scale::Symlog { linthresh } => BarScale::Symlog { linthresh },
+        };
+        Some(ColourBar {
+            colormap: l.colormap.clone(),
+            scale,
+            lo,
+            hi,
+            units: units.to_string(),
+        })
+    }
+
     /// Fixes the domain against the volume's statistics and bakes the table.
     pub fn resolve(&self, stats: &VolumeStats) -> Result<ResolvedTransfer> {
         match self {

@@ -18,6 +18,14 @@
 //! fringe pass to what a straightforward implementation does (d as one f32, cos 2πν·d in f32);
 //! `hdrvis bench accuracy` measures both.
 //!
+//! Antialiasing: fringes denser than the pixels would alias into moiré, so the fringe pass also
+//! writes the fringe averaged over the pixel's footprint — a Gaussian of σ = 0.5 pixel along the
+//! data's gradient, (1 + cos 2πν·d · exp(−2π²ν²σ²|∇d|²))/2 for a field linear across it, with ∇d
+//! in data units per pixel from central differences of the neighbouring pixels (the screen-space
+//! derivative in 3-D views). The colours use it unless `antialias` is off; the point value stays
+//! in the `fringe` channel and the filtered one is `fringe_filtered` ([`fringe_filtered_f64`] and
+//! [`pixel_gradient`] are the f64 forms).
+//!
 //! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 
 use crate::error::{Error, Result};
@@ -61,6 +69,7 @@ struct FringeParams {
     shade: [f32; 4],
     mode: [u32; 4],
     dims: [u32; 4],
+    footprint: [f32; 4],
 }
 
 /// How the surface is seen in step 1.
@@ -193,6 +202,52 @@ impl PhaseMethod {
     }
 }
 
+/// How pixels without data (NaN nodes such as land, or the background of a 3-D view) are drawn.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum MissingColour {
+    /// RGBA 0: transparent in a PNG (which then gets an alpha channel) and in the EXR.
+    #[default]
+    Transparent,
+    /// An opaque colour (linear RGB) by name or `#rrggbb`; no fringe is ever drawn in it, as
+    /// no fringe is opaque and flat over an area with no data.
+    Colour { name: String, linear: [f64; 3] },
+}
+
+impl MissingColour {
+    /// `"transparent"`, a colour name or `#rrggbb`.
+    pub fn parse(name: &str) -> Result<MissingColour> {
+        if name.trim().eq_ignore_ascii_case("transparent") {
+            return Ok(MissingColour::Transparent);
+        }
+        let linear = crate::model::colormap::named_colour("missing", name)
+            .map_err(|e| Error::invalid("missing", format!("{e} (or \"transparent\")")))?;
+        Ok(MissingColour::Colour {
+            name: name.trim().to_string(),
+            linear,
+        })
+    }
+
+    /// What the image metadata says: `transparent` or the colour's name.
+    pub fn describe(&self) -> &str {
+        match self {
+            MissingColour::Transparent => "transparent",
+            MissingColour::Colour { name, .. } => name,
+        }
+    }
+
+    /// Paints every missing pixel (the fringe channel NaN there) in this colour.
+    fn paint(&self, pixels: &mut [[f32; 4]], fringe: &[f32]) {
+        if let MissingColour::Colour { linear, .. } = self {
+            let c = [linear[0] as f32, linear[1] as f32, linear[2] as f32, 1.0];
+            for (p, f) in pixels.iter_mut().zip(fringe) {
+                if f.is_nan() {
+                    *p = c;
+                }
+            }
+        }
+    }
+}
+
 /// Everything a surface render depends on besides the grid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
@@ -218,6 +273,11 @@ pub struct SurfaceOptions {
     pub exaggeration: f64,
     /// How the fringe pass evaluates the phase (reduced by default).
     pub phase: PhaseMethod,
+    /// Colours from the fringe averaged over each pixel's footprint (on by default), so fringes
+    /// denser than the pixels fade to their mean instead of aliasing.
+    pub antialias: bool,
+    /// How pixels without data are drawn (transparent by default).
+    pub missing: MissingColour,
 }
 
 impl Default for SurfaceOptions {
@@ -236,6 +296,8 @@ impl Default for SurfaceOptions {
             relief: None,
             exaggeration: 1.0,
             phase: PhaseMethod::Reduced,
+            antialias: true,
+            missing: MissingColour::Transparent,
         }
     }
 }
@@ -334,6 +396,50 @@ pub(crate) fn split_nu(nu: f64) -> [f32; 3] {
 pub fn fringe_f64(nu: f64, d: f64) -> f64 {
     let ph = (nu * d).rem_euclid(1.0);
     0.5 + 0.5 * (std::f64::consts::TAU * (ph - ph.round())).cos()
+}
+
+/// Width of the pixel footprint the antialiased fringe averages over: a Gaussian of this σ, in
+/// pixels, along the data's gradient.
+pub const FOOTPRINT_SIGMA: f64 = 0.5;
+
+/// The f64 reference of the antialiased fringe: the point fringe's contrast scaled by
+/// exp(−2π²ν²σ²|∇d|²), the average of (1 + cos 2πν·d)/2 over a Gaussian footprint of σ =
+/// [`FOOTPRINT_SIGMA`] pixel for a field linear across it; `gradient` is |∇d| in data units per
+/// pixel.
+pub fn fringe_filtered_f64(nu: f64, d: f64, gradient: f64) -> f64 {
+    let s = nu * FOOTPRINT_SIGMA * gradient;
+    let contrast = (-2.0 * std::f64::consts::PI.powi(2) * s * s).exp();
+    0.5 + (fringe_f64(nu, d) - 0.5) * contrast
+}
+
+/// |∇d| at pixel (x, y) of a `width`-wide row-major plane (data units per pixel), as the fringe
+/// pass takes it: central differences of the neighbours along each axis, one-sided where one
+/// neighbour is missing (NaN) or off the image, 0 along an axis where both are.
+pub fn pixel_gradient(values: &[f64], width: usize, x: usize, y: usize) -> f64 {
+    let height = values.len() / width;
+    let at = |x: usize, y: usize| values[y * width + x];
+    let centre = at(x, y);
+    let axis = |before: Option<f64>, after: Option<f64>| {
+        let (b, a) = (
+            before.filter(|v| v.is_finite()),
+            after.filter(|v| v.is_finite()),
+        );
+        match (b, a) {
+            (Some(b), Some(a)) => 0.5 * (a - b),
+            (None, Some(a)) => a - centre,
+            (Some(b), None) => centre - b,
+            (None, None) => 0.0,
+        }
+    };
+    let gx = axis(
+        (x > 0).then(|| at(x - 1, y)),
+        (x + 1 < width).then(|| at(x + 1, y)),
+    );
+    let gy = axis(
+        (y > 0).then(|| at(x, y - 1)),
+        (y + 1 < height).then(|| at(x, y + 1)),
+    );
+    gx.hypot(gy)
 }
 
 /// Direction towards the light of the 3-D views (normalised where used) and the ambient share:
@@ -490,6 +596,7 @@ struct DataTargets {
 struct FringeOutputs {
     color: ReadbackBuffer,
     value: ReadbackBuffer,
+    filtered: ReadbackBuffer,
 }
 
 /// What a fringe pipeline is specialised on (pipeline constants of surface_fringe.wgsl).
@@ -501,6 +608,7 @@ struct FringeVariant {
     log_color: bool,
     write_value: bool,
     naive_phase: bool,
+    antialias: bool,
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -618,7 +726,7 @@ impl SurfaceRenderer {
         if let Some(p) = cache.get(&variant) {
             return Ok(p.clone());
         }
-        let entries = crate::gpu::layout::uniform_then_storage(4, 2);
+        let entries = crate::gpu::layout::uniform_then_storage(4, 3);
         let p = self.build(
             "surface_fringe.wgsl",
             "surface fringe pass",
@@ -630,6 +738,7 @@ impl SurfaceRenderer {
                 ("LOG_COLOR", variant.log_color as u8 as f64),
                 ("WRITE_VALUE", variant.write_value as u8 as f64),
                 ("NAIVE_PHASE", variant.naive_phase as u8 as f64),
+                ("ANTIALIAS", variant.antialias as u8 as f64),
             ],
         )?;
         cache.insert(variant, p.clone());
@@ -833,13 +942,15 @@ impl SurfaceRenderer {
     ) -> Result<HdrImage> {
         check_nu(nu)?;
         let (name, units, _, range) = data.props[slot].clone();
-        let params = fringe_params(data, slot, nu, opts);
         let lut = colormap_table(colormap);
+        let params = fringe_params(data, slot, nu, opts, &lut);
         let FringeReadback {
-            pixels,
+            mut pixels,
             values,
             fringe,
+            filtered,
         } = self.run_fringe(data, slot, opts, &params, &lut)?;
+        opts.missing.paint(&mut pixels, &fringe);
         let mut image = HdrImage::from_pixels(data.width, data.height, pixels);
         let channel = if name.is_empty() {
             "value".to_string()
@@ -853,6 +964,10 @@ impl SurfaceRenderer {
         };
         image.extra_channels.push((channel, values));
         image.extra_channels.push(("fringe".to_string(), fringe));
+        image
+            .extra_channels
+            .push(("fringe_filtered".to_string(), filtered));
+        let units_for_bar = units.clone();
         let u = if units.is_empty() {
             "data units".to_string()
         } else {
@@ -873,6 +988,16 @@ impl SurfaceRenderer {
         );
         image.set_meta("view", data.view.clone());
         image.set_meta("phase", opts.phase.describe());
+        image.set_meta(
+            "antialias",
+            if opts.antialias {
+                "colours from the fringe averaged over a Gaussian footprint of sigma 0.5 pixel"
+            } else {
+                "off: colours from the point fringe"
+            },
+        );
+        image.set_meta("missing", opts.missing.describe());
+        surface_colour_bar(opts, &params, nu, colormap.name(), &units_for_bar).record(&mut image);
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
     }
@@ -900,6 +1025,7 @@ impl SurfaceRenderer {
             log_color: opts.log_color,
             write_value: cached_values.is_none(),
             naive_phase: opts.phase == PhaseMethod::Naive,
+            antialias: opts.antialias,
         })?;
         let n = data.width as u64 * data.height as u64;
         let mut outputs = data.outputs.lock().expect("surface outputs poisoned");
@@ -907,6 +1033,7 @@ impl SurfaceRenderer {
         let outs = outputs.get_or_insert_with(|| FringeOutputs {
             color: ReadbackBuffer::new(&self.ctx, "surface image", n * 16, none),
             value: ReadbackBuffer::new(&self.ctx, "surface value", n * 4, none),
+            filtered: ReadbackBuffer::new(&self.ctx, "surface fringe filtered", n * 4, none),
         });
         let enc = self.encode_fringe(&pipeline, params, lut, data, outs, cached_values.is_none());
         let profile = FringeProfile::start();
@@ -917,6 +1044,12 @@ impl SurfaceRenderer {
         profile.mark("fringe compute");
         self.fringe_passes.fetch_add(1, Ordering::Relaxed);
         let mut pixels: Vec<[f32; 4]> = outs.color.read(&self.ctx, n * 16)?;
+        let mut filtered: Vec<f32> = outs.filtered.read(&self.ctx, n * 4)?;
+        for (f, p) in filtered.iter_mut().zip(&pixels) {
+            if p[3] < 0.0 {
+                *f = f32::NAN;
+            }
+        }
         profile.mark("+ rgba readback");
         let values: Vec<f32> = match cached_values {
             Some(v) => v,
@@ -942,6 +1075,7 @@ impl SurfaceRenderer {
             pixels,
             values,
             fringe,
+            filtered,
         })
     }
 
@@ -967,11 +1101,20 @@ impl SurfaceRenderer {
         let (w, h) = (data.width, data.height);
         let n = w as u64 * h as u64;
         let (out, out_value) = (&outs.color.buffer, &outs.value.buffer);
+        let out_filtered = &outs.filtered.buffer;
         let bind = self.bind(
             "surface fringe",
             &pipeline.1,
             &ubuf,
-            &[&data.hi, &data.rest, &data.mask, &lut_buf, out, out_value],
+            &[
+                &data.hi,
+                &data.rest,
+                &data.mask,
+                &lut_buf,
+                out,
+                out_value,
+                out_filtered,
+            ],
         );
         let mut enc = device.create_command_encoder(&Default::default());
         {
@@ -981,6 +1124,7 @@ impl SurfaceRenderer {
             pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
         }
         outs.color.record_copy(&mut enc, n * 16);
+        outs.filtered.record_copy(&mut enc, n * 4);
         if write_value {
             outs.value.record_copy(&mut enc, n * 4);
         }
@@ -1095,8 +1239,24 @@ fn data_params(
 }
 
 /// The fringe pass's parameters for `slot` at `nu`: ν split for exact phases, the reference
-/// phase, the colour domain, shading and mode.
-fn fringe_params(data: &DataTargets, slot: usize, nu: f64, opts: &SurfaceOptions) -> FringeParams {
+/// phase, the colour domain, shading and mode, and the footprint (with the mean of the colour
+/// table `lut`, what cyclic colours fade to).
+fn fringe_params(
+    data: &DataTargets,
+    slot: usize,
+    nu: f64,
+    opts: &SurfaceOptions,
+    lut: &[[f32; 4]],
+) -> FringeParams {
+    // The table's mean by the trapezoid rule (its entries are samples at both ends of [0, 1]).
+    let mut mean = [0f32; 3];
+    let last = lut.len() - 1;
+    for (i, c) in lut.iter().enumerate() {
+        let w = if i == 0 || i == last { 0.5 } else { 1.0 } / last as f32;
+        for k in 0..3 {
+            mean[k] += c[k] * w;
+        }
+    }
     let (_, _, d_ref, range) = &data.props[slot];
     let d_ref = *d_ref;
     let (c_lo, c_inv, floor) = colour_domain(opts, range.unwrap_or((d_ref, d_ref)), d_ref);
@@ -1117,6 +1277,7 @@ fn fringe_params(data: &DataTargets, slot: usize, nu: f64, opts: &SurfaceOptions
             opts.log_color as u32,
         ],
         dims: [data.width, data.height, LUT_SIZE as u32, 0],
+        footprint: [mean[0], mean[1], mean[2], (nu * FOOTPRINT_SIGMA) as f32],
     }
 }
 
@@ -1155,6 +1316,33 @@ fn colour_domain(opts: &SurfaceOptions, (lo, hi): (f64, f64), d_ref: f64) -> (f6
     }
 }
 
+/// The colour bar of a fringe pass: one fringe period (0 to 1/ν) in cyclic mode, otherwise the
+/// colour domain the pass used (log10 of magnitudes for log colour, magnitudes for absolute).
+fn surface_colour_bar(
+    opts: &SurfaceOptions,
+    params: &FringeParams,
+    nu: f64,
+    colormap: &str,
+    units: &str,
+) -> crate::model::text::ColourBar {
+    use crate::model::text::{BarScale, ColourBar};
+    let [_, d_ref, c_lo, c_inv] = params.refs.map(|v| v as f64);
+    let span = if c_inv > 0.0 { 1.0 / c_inv } else { 0.0 };
+    let (scale, lo, hi) = match opts.mode {
+        FringeMode::Cyclic => (BarScale::Linear, 0.0, 1.0 / nu),
+        _ if opts.log_color => (BarScale::Log10, 10f64.powf(c_lo), 10f64.powf(c_lo + span)),
+        _ if opts.absolute => (BarScale::Linear, c_lo, c_lo + span),
+        _ => (BarScale::Linear, c_lo + d_ref, c_lo + d_ref + span),
+    };
+    ColourBar {
+        colormap: colormap.to_string(),
+        scale,
+        lo,
+        hi,
+        units: units.to_string(),
+    }
+}
+
 /// The colour map sampled at LUT_SIZE points, as the fringe shader's table.
 fn colormap_table(colormap: &Colormap) -> Vec<[f32; 4]> {
     (0..LUT_SIZE)
@@ -1185,11 +1373,12 @@ fn take_fringe(pixels: &mut [[f32; 4]]) -> Vec<f32> {
 }
 
 /// What the fringe pass of one slot hands back: colours with alpha 1 (missing pixels all 0),
-/// the value channel and the fringe (NaN where missing).
+/// the value channel, the fringe and the footprint-filtered fringe (NaN where missing).
 struct FringeReadback {
     pixels: Vec<[f32; 4]>,
     values: Vec<f32>,
     fringe: Vec<f32>,
+    filtered: Vec<f32>,
 }
 
 /// Step-2 stage times on stderr when `HDRVIS_SURFACE_PROFILE` is set, counted from the submit.

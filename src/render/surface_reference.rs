@@ -6,11 +6,13 @@
 //! Lambert shading on central differences of the relief one node apart. Only the arithmetic
 //! differs (f64 here, f32 on the GPU, and d itself rather than hi + rest around d_ref), so a
 //! comparison measures what f32 costs. The fringe of a reference pixel is
-//! [`fringe_f64`](super::surface::fringe_f64) of its value.
+//! [`fringe_f64`](super::surface::fringe_f64) of its value, and its antialiased fringe
+//! [`fringe_filtered_f64`](super::surface::fringe_filtered_f64) of its value and the
+//! [`pixel_gradient`](super::surface::pixel_gradient) of the reference's value plane.
 
 use super::surface::{
-    default_size, fringe_f64, SurfaceGeometry, SurfaceOptions, SurfaceView, LIGHT_AMBIENT,
-    LIGHT_DIRECTION, MAX_PROPERTIES,
+    default_size, fringe_f64, fringe_filtered_f64, pixel_gradient, SurfaceGeometry, SurfaceOptions,
+    SurfaceView, LIGHT_AMBIENT, LIGHT_DIRECTION, MAX_PROPERTIES,
 };
 use crate::error::{Error, Result};
 use crate::model::Grid;
@@ -47,6 +49,24 @@ impl SurfaceReference {
             .map(|&d| {
                 if d.is_finite() {
                     fringe_f64(nu, d)
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect()
+    }
+
+    /// The fringe averaged over each pixel's footprint (NaN where missing), as the fringe pass's
+    /// `fringe_filtered` channel.
+    pub fn fringe_filtered(&self, slot: usize, nu: f64) -> Vec<f64> {
+        let values = &self.values[slot];
+        let w = self.width as usize;
+        values
+            .iter()
+            .enumerate()
+            .map(|(i, &d)| {
+                if d.is_finite() {
+                    fringe_filtered_f64(nu, d, pixel_gradient(values, w, i % w, i / w))
                 } else {
                     f64::NAN
                 }

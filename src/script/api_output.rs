@@ -2,10 +2,11 @@
 //! `already_done`, `progress` — and `param`, the values a run takes in (`--set name=value`). Outputs go only
 //! under the output folder, and with `--resume` ones that exist are not written again.
 //! `save_png` writes an HDR image exposed by 2^EV then sRGB, and a display-referred image
-//! (`display_referred = 1`: tone-mapped, false colour) as it is.
+//! (`display_referred = 1`: tone-mapped, false colour) as it is; `save_png(img, path, #{legend:
+//! true, exposure})` adds the colour bar the render recorded, with labelled ticks and units.
 
 use super::api_render::ScriptImage;
-use super::convert::{check_keys, err, num, to_rhai, RResult};
+use super::convert::{boolean, check_keys, err, num, to_rhai, RResult};
 use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::io::animation::RgbFrame;
 use crate::model::HdrImage;
@@ -20,7 +21,10 @@ pub(crate) fn register_output(engine: &mut Engine, host: &Arc<ScriptHost>) {
     register_feedback(engine, host);
 }
 
-/// `save_exr` and `save_png` (with and without an exposure).
+/// Keys of `save_png(img, path, #{...})`.
+const SAVE_PNG_KEYS: &[&str] = &["exposure", "legend"];
+
+/// `save_exr` and `save_png` (with and without an exposure or options).
 fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn(
@@ -43,7 +47,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     // A display-referred image (tone-mapped or false colour, metadata `display_referred = 1`)
     // already holds display values: it is written with the sRGB curve only, and asking for an
     // exposure on it is an error (expose the HDR image before tone mapping instead).
-    let save_png = move |img: &mut ScriptImage, path: &str, ev: f64| -> RResult<()> {
+    let save_png = move |img: &mut ScriptImage, path: &str, ev: f64, legend: bool| -> RResult<()> {
         let display = crate::tonemap::is_display_referred(img);
         if display && ev != 0.0 {
             return err(
@@ -56,7 +60,21 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             return Ok(());
         }
         let t = std::time::Instant::now();
-        if display {
+        if legend {
+            let bar = crate::model::text::ColourBar::of(img).ok_or_else(|| {
+                to_rhai(crate::Error::invalid(
+                    "legend",
+                    "this image records no colour bar (render_surface and render_volume with a tf_lut transfer function do)",
+                ))
+            })?;
+            let view = if display {
+                (**img).clone()
+            } else {
+                crate::tonemap::exposure(img, ev).map_err(to_rhai)?
+            };
+            let framed = crate::model::text::with_colour_bar(&view, &bar).map_err(to_rhai)?;
+            crate::io::png::write_display_png(&framed, &p, false).map_err(to_rhai)?;
+        } else if display {
             crate::io::png::write_display_png(img, &p, false).map_err(to_rhai)?;
         } else {
             crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
@@ -68,12 +86,25 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     };
     let save_png2 = save_png.clone();
     engine.register_fn("save_png", move |img: &mut ScriptImage, path: &str| {
-        save_png2(img, path, 0.0)
+        save_png2(img, path, 0.0, false)
     });
     engine.register_fn(
         "save_png",
         move |img: &mut ScriptImage, path: &str, ev: Dynamic| -> RResult<()> {
-            save_png(img, path, num(&ev, "exposure")?)
+            // An exposure in stops, or a map #{exposure, legend}.
+            if let Some(opts) = ev.clone().try_cast::<rhai::Map>() {
+                check_keys(&opts, SAVE_PNG_KEYS, "save_png")?;
+                let exposure = match opts.get("exposure") {
+                    Some(v) => num(v, "exposure")?,
+                    None => 0.0,
+                };
+                let legend = match opts.get("legend") {
+                    Some(v) => boolean(v, "legend")?,
+                    None => false,
+                };
+                return save_png(img, path, exposure, legend);
+            }
+            save_png(img, path, num(&ev, "exposure")?, false)
         },
     );
 }

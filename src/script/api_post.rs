@@ -7,7 +7,7 @@
 use super::api_render::ScriptImage;
 use super::convert::{check_keys, err, num, string, to_rhai, RResult};
 use super::ScriptHost;
-use crate::tonemap::{Operator, ToneMapSettings};
+use crate::tonemap::{Gamut, Operator, ToneMapSettings};
 use rhai::{Array, Dynamic, Engine, Map};
 use std::sync::Arc;
 
@@ -19,6 +19,7 @@ const TONEMAP_KEYS: &[&str] = &[
     "saturation",
     "gamma",
     "offset",
+    "gamut",
     "key",
     "white",
     "bias",
@@ -48,6 +49,7 @@ pub(crate) fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
             "saturation" => s.saturation = num(v, "saturation")?,
             "gamma" => s.gamma = num(v, "gamma")?,
             "offset" => s.offset = num(v, "offset")?,
+            "gamut" => s.gamut = Gamut::parse(&string(v, "gamut")?).map_err(to_rhai)?,
             other => params.push((other.to_string(), num(v, other)?)),
         }
     }

@@ -242,7 +242,16 @@ fn register_render(engine: &mut Engine, host: &Arc<ScriptHost>) {
         move |volume: &mut ScriptVolume, opts: Map| -> RResult<ScriptImage> {
             let source = VolumeSource::Memory(volume.clone());
             let o = render_options(&h, &opts, &source)?;
-            render_and_note(&h, &source, &o)
+            let img = render_and_note(&h, &source, &o)?;
+            // The transfer function's colour bar, for save_png(img, path, #{legend: true}).
+            Ok(match o.tf.colour_bar(&volume.stats(), &volume.units) {
+                Some(bar) => {
+                    let mut with_bar = (*img).clone();
+                    bar.record(&mut with_bar);
+                    Arc::new(with_bar)
+                }
+                None => img,
+            })
         },
     );
 }

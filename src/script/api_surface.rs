@@ -10,7 +10,7 @@ use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResul
 use super::ScriptHost;
 use crate::model::{Axis, Grid};
 use crate::render::surface::{
-    colorbar, legend, FringeMode, PhaseMethod, SurfaceOptions, SurfaceView,
+    colorbar, legend, FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView,
 };
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
@@ -32,6 +32,8 @@ pub(crate) const SURFACE_KEYS: &[&str] = &[
     "exaggeration",
     "relief",
     "phase",
+    "antialias",
+    "missing",
 ];
 
 fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
@@ -109,6 +111,10 @@ fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
             "exaggeration" => o.exaggeration = num(v, "exaggeration")?,
             "relief" => o.relief = Some(string(v, "relief")?),
             "phase" => o.phase = PhaseMethod::parse(&string(v, "phase")?).map_err(to_rhai)?,
+            "antialias" => o.antialias = boolean(v, "antialias")?,
+            "missing" => {
+                o.missing = MissingColour::parse(&string(v, "missing")?).map_err(to_rhai)?
+            }
             _ => unreachable!("checked keys"),
         }
     }

@@ -11,8 +11,8 @@
 use rayon::prelude::*;
 
 use super::params::{
-    blur_sigma, gaussian_radius, grid_sigma, reinhard_level, DurandGrid, Operator, ToneMapSettings,
-    DURAND_MIN_LOG_WEIGHT,
+    blur_sigma, gaussian_radius, grid_sigma, reinhard_level, DurandGrid, Gamut, Operator,
+    ToneMapSettings, DURAND_MIN_LOG_WEIGHT,
 };
 use crate::error::{Error, Result};
 use crate::model::colormap::srgb_to_linear;
@@ -139,13 +139,17 @@ pub fn tonemap_cpu(img: &HdrImage, s: &ToneMapSettings) -> Result<HdrImage> {
                 return [0.0; 4];
             };
             let mut out = [0.0f32; 4];
+            let mut c = [0.0f64; 3];
             for k in 0..3 {
-                let c = if lw > 0.0 && ld.is_finite() {
+                c[k] = if lw > 0.0 && ld.is_finite() {
                     (colour[k] / lw).powf(s.saturation) * ld
                 } else {
                     0.0
-                };
-                out[k] = (c + s.offset).clamp(0.0, 1.0).powf(inv_gamma) as f32;
+                } + s.offset;
+            }
+            let c = into_gamut(c, s.gamut);
+            for k in 0..3 {
+                out[k] = c[k].clamp(0.0, 1.0).powf(inv_gamma) as f32;
             }
             out[3] = p[3].clamp(0.0, 1.0);
             out
@@ -155,8 +159,20 @@ pub fn tonemap_cpu(img: &HdrImage, s: &ToneMapSettings) -> Result<HdrImage> {
     result.extra_channels = img.extra_channels.clone();
     result.metadata = img.metadata.clone();
     result.set_meta("tonemap", s.op.name());
+    result.set_meta("gamut", s.gamut.name());
     result.set_meta("transfer", "display-linear");
     Ok(result)
+}
+
+/// A display colour with its largest channel above 1 scaled by 1 / that channel (`Gamut::Scale`,
+/// hue and saturation kept), or left for the per-channel clamp (`Gamut::Clip`).
+pub(crate) fn into_gamut(c: [f64; 3], gamut: Gamut) -> [f64; 3] {
+    let largest = c[0].max(c[1]).max(c[2]);
+    if gamut == Gamut::Scale && largest > 1.0 {
+        c.map(|v| v / largest)
+    } else {
+        c
+    }
 }
 
 fn check_size(img: &HdrImage) -> Result<()> {
@@ -765,6 +781,18 @@ pub(crate) fn false_colour_decades(
     Ok(range)
 }
 
+/// The false-colour view's colour bar: turbo over luminance 10^low to 10^high on a log10 scale,
+/// so `save_png(view, path, #{legend: true})` labels its decades.
+pub(crate) fn false_colour_bar(low: f64, high: f64) -> crate::model::text::ColourBar {
+    crate::model::text::ColourBar {
+        colormap: "turbo".into(),
+        scale: crate::model::text::BarScale::Log10,
+        lo: 10f64.powf(low),
+        hi: 10f64.powf(high),
+        units: "luminance (image units)".into(),
+    }
+}
+
 /// False-colour view of log10 luminance (after `exposure_ev`) through turbo, over whole decades
 /// `decades` = (low, high) or, by default, those spanning the image. Black pixels take the low
 /// end, missing ones a neutral grey. When the image is at least 16 pixels tall a legend strip is
@@ -824,6 +852,7 @@ pub fn false_colour_log10(
     out.metadata = img.metadata.clone();
     out.set_meta("false_colour.log10_min", format!("{low}"));
     out.set_meta("false_colour.log10_max", format!("{high}"));
+    false_colour_bar(low, high).record(&mut out);
     out.set_meta("transfer", "display-linear");
     Ok(out)
 }
@@ -1190,6 +1219,10 @@ mod tests {
         let out = false_colour_log10(&img, 0.0, None).unwrap();
         assert_eq!(out.meta("false_colour.log10_min"), Some("-2"));
         assert_eq!(out.meta("false_colour.log10_max"), Some("2"));
+        // Its colour bar labels the decades 0.01 to 100.
+        let bar = crate::model::text::ColourBar::of(&out).unwrap();
+        let labels: Vec<String> = bar.ticks(10).into_iter().map(|(_, l)| l).collect();
+        assert_eq!(labels, ["0.01", "0.1", "1", "10", "100"]);
         assert_eq!(
             out.pixels[0],
             [MISSING_GREY, MISSING_GREY, MISSING_GREY, 1.0]

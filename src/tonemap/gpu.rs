@@ -60,6 +60,7 @@ struct Specialisation {
     op: u32,
     plain_saturation: bool,
     plain_gamma: bool,
+    gamut_clip: bool,
 }
 
 impl Specialisation {
@@ -68,14 +69,16 @@ impl Specialisation {
             op: p.op,
             plain_saturation: p.saturation == 1.0,
             plain_gamma: p.inv_gamma == 1.0,
+            gamut_clip: p.gamut_clip != 0,
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 3] {
+    fn constants(&self) -> [(&'static str, f64); 4] {
         [
             ("OP", self.op as f64),
             ("PLAIN_SATURATION", self.plain_saturation as u8 as f64),
             ("PLAIN_GAMMA", self.plain_gamma as u8 as f64),
+            ("GAMUT_CLIP", self.gamut_clip as u8 as f64),
         ]
     }
 }
@@ -703,6 +706,7 @@ impl GpuToneMapper {
         out.metadata = img.metadata.clone();
         out.set_meta("false_colour.log10_min", format!("{low}"));
         out.set_meta("false_colour.log10_max", format!("{high}"));
+        super::cpu::false_colour_bar(low, high).record(&mut out);
         out.set_meta("transfer", "display-linear");
         out.set_meta(DISPLAY_REFERRED, "1");
         Ok(out)
@@ -1020,6 +1024,7 @@ fn tonemapped_image(img: &HdrImage, settings: &ToneMapSettings, pixels: Vec<[f32
     out.extra_channels = img.extra_channels.clone();
     out.metadata = img.metadata.clone();
     out.set_meta("tonemap", settings.op.name());
+    out.set_meta("gamut", settings.gamut.name());
     out.set_meta("tonemap.exposure_ev", format!("{}", settings.exposure_ev));
     out.set_meta("transfer", "display-linear");
     out.set_meta(DISPLAY_REFERRED, "1");

@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::model::HdrImage;
 
 pub use gpu::{GpuToneMapper, DISPLAY_REFERRED};
-pub use params::{Operator, ToneMapSettings};
+pub use params::{Gamut, Operator, ToneMapSettings};
 
 /// Largest exposure magnitude accepted, in stops (as [`ToneMapSettings::validate`]).
 pub(crate) const MAX_EV: f64 = 200.0;

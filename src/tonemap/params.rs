@@ -479,9 +479,44 @@ fn as_count(field: &str, value: f64, min: u32, max: u32) -> Result<u32> {
     }
 }
 
+/// How a display colour with a channel above 1 is brought into [0, 1] after the operator.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Gamut {
+    /// Scale the whole colour by 1 / its largest channel: hue and saturation are kept (a bright
+    /// colour never turns into another hue, so the colour bar still reads the data).
+    #[default]
+    Scale,
+    /// Clip each channel to 1 on its own (changes the hue of bright saturated colours).
+    Clip,
+}
+
+impl Gamut {
+    /// The gamut names `parse` accepts.
+    pub const NAMES: &'static [&'static str] = &["scale", "clip"];
+
+    pub fn parse(name: &str) -> Result<Gamut> {
+        match name.to_ascii_lowercase().as_str() {
+            "scale" => Ok(Gamut::Scale),
+            "clip" => Ok(Gamut::Clip),
+            _ => Err(Error::invalid(
+                "gamut",
+                format!("expected \"scale\" or \"clip\", got {name:?}"),
+            )),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Gamut::Scale => "scale",
+            Gamut::Clip => "clip",
+        }
+    }
+}
+
 /// Everything a tone-mapping pass needs. The pipeline per pixel is: scene colour x 2^EV ->
-/// operator on Rec. 709 luminance -> colour (C / L_w)^saturation * L_d -> + offset, clamp to
-/// [0, 1] -> ^(1 / gamma). The result is display-referred linear; the sRGB curve comes after.
+/// operator on Rec. 709 luminance -> colour (C / L_w)^saturation * L_d -> + offset -> gamut
+/// (a colour whose largest channel exceeds 1 scaled by 1 / max, or clipped per channel) -> clamp
+/// to [0, 1] -> ^(1 / gamma). The result is display-referred linear; the sRGB curve comes after.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToneMapSettings {
     /// Exposure in stops: scene values are multiplied by 2^EV before the operator.
@@ -492,6 +527,8 @@ pub struct ToneMapSettings {
     pub gamma: f64,
     /// Colour saturation s >= 0 in C_d = (C / L_w)^s L_d; 1 keeps the scene's chromaticity.
     pub saturation: f64,
+    /// How colours above 1 come into [0, 1] (scaled, keeping their hue, by default).
+    pub gamut: Gamut,
     pub op: Operator,
 }
 
@@ -502,6 +539,7 @@ impl Default for ToneMapSettings {
             offset: 0.0,
             gamma: 1.0,
             saturation: 1.0,
+            gamut: Gamut::Scale,
             op: Operator::REINHARD,
         }
     }
@@ -614,8 +652,10 @@ pub(crate) struct ToneMapParams {
     /// First row of the window bound for a pass's input when it is not the band itself (the
     /// band plus a halo, or the rows a downsample reads).
     pub window_first: u32,
+    /// 1 for [`Gamut::Clip`] (read on the host as a pipeline constant, `GAMUT_CLIP`).
+    pub gamut_clip: u32,
     /// Uniform structs are a multiple of 16 bytes.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 impl ToneMapParams {
@@ -629,6 +669,7 @@ impl ToneMapParams {
             offset: settings.offset as f32,
             inv_gamma: (1.0 / settings.gamma) as f32,
             saturation: settings.saturation as f32,
+            gamut_clip: (settings.gamut == Gamut::Clip) as u32,
             band_rows: height,
             ..Default::default()
         };

@@ -6,7 +6,8 @@ use crate::common::renderer;
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::Grid;
 use hdrvis::render::surface::{
-    fringe_f64, FringeMode, PhaseMethod, SurfaceOptions, SurfaceRenderer, SurfaceView,
+    fringe_f64, fringe_filtered_f64, pixel_gradient, FringeMode, PhaseMethod, SurfaceOptions,
+    SurfaceRenderer, SurfaceView,
 };
 use hdrvis::render::surface_reference::{surface_reference, SurfaceReference};
 use std::sync::Arc;
@@ -538,6 +539,9 @@ fn perspective_view_matches_the_f64_reference() {
             let excluded = silhouette_pixels(&reference, 3.0);
             let (value, fringe) = (channel(&img, "d"), channel(&img, "fringe"));
             let expect_fringe = reference.fringe(0, nu);
+            let filtered = channel(&img, "fringe_filtered");
+            let expect_filtered = reference.fringe_filtered(0, nu);
+            let mut worst_filtered = 0f64;
             let (mut worst_value, mut worst_fringe, mut worst_shade) = (0f64, 0f64, 0f64);
             let mut compared = 0;
             for k in 0..img.pixels.len() {
@@ -557,6 +561,8 @@ fn perspective_view_matches_the_f64_reference() {
                 compared += 1;
                 worst_value = worst_value.max((value[k] as f64 - d).abs());
                 worst_fringe = worst_fringe.max((fringe[k] as f64 - expect_fringe[k]).abs());
+                worst_filtered =
+                    worst_filtered.max((filtered[k] as f64 - expect_filtered[k]).abs());
                 for c in 0..3 {
                     let s = img.pixels[k][c] as f64;
                     worst_shade = worst_shade.max((s - reference.shade[k]).abs());
@@ -589,6 +595,13 @@ fn perspective_view_matches_the_f64_reference() {
             assert!(
                 worst_shade < 3e-4,
                 "{backend:?} {view:?}: shade {worst_shade}"
+            );
+            // The screen-space gradient of both from the same neighbours: within the fringe's
+            // tolerance (measured below 2e-4).
+            eprintln!("{backend:?} {view:?}: fringe_filtered {worst_filtered:.2e}");
+            assert!(
+                worst_filtered < 1.5e-3,
+                "{backend:?} {view:?}: fringe_filtered {worst_filtered}"
             );
         }
     }
@@ -721,4 +734,418 @@ fn legend_states_the_resolution_in_drawn_text() {
             assert_eq!(p == [1.0; 4], bits & (1 << gx) != 0, "({gx}, {gy})");
         }
     }
+}
+
+/// The largest |fringe_filtered − closed form| over the pixels where `keep` holds, the closed form
+/// (1 + cos 2πν·d · exp(−2π²ν²σ²g²))/2 taken with the node's value and the gradient `grad` (data
+/// units per pixel) at pixel (px, row).
+fn max_filtered_error(
+    grid: &Grid,
+    img: &hdrvis::model::HdrImage,
+    nu: f64,
+    grad: &dyn Fn(usize, usize) -> f64,
+    keep: &dyn Fn(usize, usize) -> bool,
+) -> f64 {
+    let f = channel(img, "fringe_filtered");
+    let (_, d) = grid.property_at(0);
+    let mut worst: f64 = 0.0;
+    for row in 0..grid.ny() {
+        for px in (0..grid.nx()).filter(|&px| keep(px, row)) {
+            let expect = fringe_filtered_f64(nu, d[node_of(grid, px, row)], grad(px, row));
+            worst = worst.max((f[row * grid.nx() + px] as f64 - expect).abs());
+        }
+    }
+    worst
+}
+
+/// Issue #20, "Must show": "on linear fields and a chirp whose fringes exceed the pixel rate,
+/// `fringe_filtered` equals the closed form above within 2e-4 (1e-2 on the chirp, whose curvature
+/// the formula ignores); the point `fringe` channel is unchanged".
+#[test]
+fn antialiased_fringe_matches_the_footprint_closed_form() {
+    let (nx, ny) = (80, 48);
+    // Slopes in data units per pixel (map view: one pixel per node); ν·|∇d| from 0.1 (well
+    // resolved) to 3 fringes per pixel (far above the pixel rate of 1/2).
+    let linear: [(f64, f64, f64); 4] = [
+        (0.01, 0.0, 10.0),
+        (0.02, -0.015, 10.0),
+        (0.12, 0.05, 10.0),
+        (0.3, 0.0, 10.0),
+    ];
+    // A chirp d = c·x², its local rate 2ν·c·x reaching 2.4 fringes per pixel at the right edge;
+    // and the same linear field around 10⁶ (the range-reduced phase at ν·d ≈ 10⁷).
+    let (c, chirp_nx) = (0.0025, 480);
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        for &(a, b, nu) in &linear {
+            for offset in [-0.7, 1.0e6] {
+                let g = Grid::from_fn("lin", nx, ny, |i, j| offset + a * i as f64 + b * j as f64)
+                    .unwrap();
+                for mode in [
+                    FringeMode::Cyclic,
+                    FringeMode::Modulated,
+                    FringeMode::Direct,
+                ] {
+                    let mut o = opts(nu);
+                    o.mode = mode;
+                    let img = r.render(&g, &o).unwrap().remove(0);
+                    let err = max_filtered_error(&g, &img, nu, &|_, _| a.hypot(b), &|_, _| true);
+                    assert!(
+                        err < 2e-4,
+                        "{backend:?} slope ({a}, {b}) offset {offset} {mode:?}: {err}"
+                    );
+                    assert!(
+                        max_fringe_error(&g, &img, nu, 0) < 1e-5,
+                        "{backend:?}: point fringe"
+                    );
+                }
+            }
+        }
+        let g = Grid::from_fn("chirp", chirp_nx, 4, |i, _| c * (i * i) as f64).unwrap();
+        let nu = 1.0;
+        let img = r.render(&g, &opts(nu)).unwrap().remove(0);
+        // Interior pixels: the central difference of c·x² is 2c·x exactly.
+        let err = max_filtered_error(&g, &img, nu, &|px, _| 2.0 * c * px as f64, &|px, _| {
+            px > 0 && px + 1 < chirp_nx
+        });
+        eprintln!("{backend:?} chirp: fringe_filtered vs closed form {err:.2e}");
+        assert!(err < 1e-2, "{backend:?} chirp: {err}");
+        // And against the true Gaussian average of the point fringe along x (numerical, 2001
+        // samples over ±6σ): the closed form ignores the curvature, still within 1e-2.
+        let f = channel(&img, "fringe_filtered");
+        let mut worst: f64 = 0.0;
+        for (px, &got) in f.iter().enumerate().take(chirp_nx - 1).skip(1) {
+            let (mut sum, mut wsum) = (0.0, 0.0);
+            for k in -1000..=1000 {
+                let t = k as f64 * 3.0 / 1000.0;
+                let w = (-t * t / (2.0 * 0.25)).exp();
+                let x = px as f64 + t;
+                sum += w * fringe_f64(nu, c * x * x);
+                wsum += w;
+            }
+            worst = worst.max((got as f64 - sum / wsum).abs());
+        }
+        eprintln!("{backend:?} chirp: fringe_filtered vs Gaussian footprint average {worst:.2e}");
+        assert!(
+            worst < 1e-2,
+            "{backend:?} chirp vs footprint average: {worst}"
+        );
+        // Where the chirp is above the pixel rate the filtered fringe has faded to its mean.
+        assert!(f[400..chirp_nx - 1].iter().all(|v| (v - 0.5).abs() < 1e-3));
+        let point = channel(&img, "fringe");
+        assert!(point[400..chirp_nx - 1]
+            .iter()
+            .any(|v| (v - 0.5).abs() > 0.4));
+    }
+}
+
+/// Colours follow the filtered fringe unless `antialias: false`, in every mode: modulated with the
+/// constant `white` map shows the fringe itself, cyclic fades to the map's mean where the fringes
+/// exceed the pixel rate, direct has no fringes; the `fringe` channel does not change.
+#[test]
+fn colours_use_the_filtered_fringe_unless_antialias_is_off() {
+    let g = Grid::from_fn("d", 64, 16, |i, _| 0.004 * (i * i) as f64).unwrap();
+    let nu = 1.0;
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        let render = |mode, colormap: &str, antialias| {
+            let o = SurfaceOptions {
+                nu: vec![nu],
+                mode,
+                colormap: Some(colormap.into()),
+                antialias,
+                ..Default::default()
+            };
+            r.render(&g, &o).unwrap().remove(0)
+        };
+        let on = render(FringeMode::Modulated, "white", true);
+        let off = render(FringeMode::Modulated, "white", false);
+        assert_eq!(channel(&on, "fringe"), channel(&off, "fringe"));
+        assert_eq!(
+            channel(&on, "fringe_filtered"),
+            channel(&off, "fringe_filtered")
+        );
+        for k in 0..on.pixels.len() {
+            assert!((on.pixels[k][0] - channel(&on, "fringe_filtered")[k]).abs() < 1e-5);
+            assert!((off.pixels[k][0] - channel(&off, "fringe")[k]).abs() < 1e-5);
+        }
+        assert!(on.meta("antialias").is_some());
+        // Cyclic: the colour of the phase fades towards the map's mean m as the fringes do,
+        // colour = (m + (c − m)·contrast)·I_filtered with c the point colour; so m recovered
+        // from each pixel must be one constant (where the contrast has dropped enough to see it).
+        let cyc = render(FringeMode::Cyclic, "sinebow", true);
+        let cyc_off = render(FringeMode::Cyclic, "sinebow", false);
+        let d = g.property("d").unwrap();
+        let w = g.nx();
+        let mut means: Vec<[f64; 3]> = Vec::new();
+        for px in 1..w - 1 {
+            let grad = pixel_gradient(d, w, px, 0);
+            assert!((grad - 0.008 * px as f64).abs() < 1e-9);
+            let contrast = (-2.0 * std::f64::consts::PI.powi(2) * (nu * 0.5 * grad).powi(2)).exp();
+            let fil = channel(&cyc, "fringe_filtered")[px] as f64;
+            let pt = channel(&cyc_off, "fringe")[px] as f64;
+            if contrast > 0.8 || pt < 0.2 || fil < 0.2 {
+                continue;
+            }
+            let m = [0, 1, 2].map(|ch| {
+                let c = cyc_off.pixels[px][ch] as f64 / pt;
+                (cyc.pixels[px][ch] as f64 / fil - c * contrast) / (1.0 - contrast)
+            });
+            means.push(m);
+        }
+        assert!(means.len() > 10, "{}", means.len());
+        for ch in 0..3 {
+            let (lo, hi) = means.iter().fold((f64::MAX, f64::MIN), |(a, b), m| {
+                (a.min(m[ch]), b.max(m[ch]))
+            });
+            assert!(
+                hi - lo < 2e-2 && lo > 0.05 && hi < 0.95,
+                "{backend:?} ch {ch}: mean {lo}..{hi}"
+            );
+        }
+        let direct = render(FringeMode::Direct, "white", true);
+        assert!(direct.pixels.iter().all(|p| (p[0] - 1.0).abs() < 1e-6));
+        assert!(channel(&direct, "fringe_filtered")
+            .iter()
+            .all(|v| v.is_finite()));
+    }
+}
+
+/// Issue #20, "Must show": "an image test shows the moiré gone from the tsunami scene". The
+/// paper's tsunami scene (ν = 10 per metre) drawn at half its node count: near the coast the
+/// fringes are denser than the pixels. Where the local rate ν·|∇d| exceeds 0.6 fringes per
+/// pixel any contrast left is moiré; the point fringe keeps a full one (mean |I − ½| near 1/π),
+/// the filtered fringe fades it, while fringes well below the pixel rate keep their contrast.
+#[test]
+fn antialiasing_removes_the_moire_from_the_tsunami_scene() {
+    use hdrvis::datasets::generate::{BathymetrySource, TsunamiJob};
+    use hdrvis::datasets::tsunami::{TsunamiOptions, SOUTH_CHINA_SEA_EXTENT_M};
+    let dir = tempfile::tempdir().unwrap();
+    let nc = dir.path().join("tsunami.nc");
+    let job = TsunamiJob {
+        bathymetry: BathymetrySource::Synthetic {
+            n: 240,
+            extent_m: SOUTH_CHINA_SEA_EXTENT_M,
+        },
+        options: TsunamiOptions {
+            duration_s: 7200.0,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    job.run(&nc, &mut |_| {}).unwrap();
+    let grid = hdrvis::datasets::load_grid(&nc, Some("max_abs_eta")).unwrap();
+    let nu = 10.0;
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        let o = SurfaceOptions {
+            nu: vec![nu],
+            width: Some(120),
+            height: Some(120),
+            ..Default::default()
+        };
+        let img = r.render(&grid, &o).unwrap().remove(0);
+        let values: Vec<f64> = channel(&img, "max_abs_eta")
+            .iter()
+            .map(|&v| v as f64)
+            .collect();
+        let (point, filtered) = (channel(&img, "fringe"), channel(&img, "fringe_filtered"));
+        let (mut above, mut below) = (Vec::new(), Vec::new());
+        for k in (0..values.len()).filter(|&k| values[k].is_finite()) {
+            let rate = nu * pixel_gradient(&values, 120, k % 120, k / 120);
+            if rate > 0.6 {
+                above.push(k);
+            } else if rate < 0.05 {
+                below.push(k);
+            }
+        }
+        let contrast = |f: &[f32], set: &[usize]| {
+            set.iter().map(|&k| (f[k] as f64 - 0.5).abs()).sum::<f64>() / set.len() as f64
+        };
+        let (moire_point, moire_filtered) = (contrast(point, &above), contrast(filtered, &above));
+        let kept = below
+            .iter()
+            .map(|&k| (point[k] - filtered[k]).abs())
+            .fold(0f32, f32::max);
+        eprintln!(
+            "{backend:?}: {} px above the pixel rate, mean |I - 1/2| point {moire_point:.3}, filtered {moire_filtered:.4}; {} px below, worst change {kept:.4}",
+            above.len(),
+            below.len()
+        );
+        assert!(above.len() > 200 && below.len() > 1000);
+        assert!(moire_point > 0.2, "{backend:?}: {moire_point}");
+        assert!(moire_filtered < 0.02, "{backend:?}: {moire_filtered}");
+        assert!(kept < 0.03, "{backend:?}: {kept}");
+    }
+}
+
+/// Issue #21, "Must show": "a surface with missing land distinct from dark fringes". Land (NaN)
+/// beside a sea whose fringes reach I = 0 (black in the modulated mode): in the default PNG
+/// land has alpha 0 and every sea pixel, the darkest fringes included, alpha 255; with
+/// `missing: "tan"` land is exactly tan (210, 180, 140) and no sea pixel is.
+#[test]
+fn missing_land_is_distinct_from_dark_fringes() {
+    use hdrvis::render::surface::MissingColour;
+    let (nx, ny) = (64, 32);
+    let land = |i: usize, j: usize| i < 12 || (40..50).contains(&i) && j > 20;
+    let g = Grid::from_fn("eta", nx, ny, |i, j| {
+        if land(i, j) {
+            f64::NAN
+        } else {
+            0.05 * i as f64 + 0.01 * j as f64
+        }
+    })
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let r = surface_renderer(BackendChoice::Vulkan);
+    let mut o = opts(4.0);
+    o.mode = FringeMode::Modulated;
+    o.antialias = false;
+    let img = r.render(&g, &o).unwrap().remove(0);
+    assert_eq!(img.meta("missing"), Some("transparent"));
+    let fringe = channel(&img, "fringe");
+    let path = dir.path().join("default.png");
+    hdrvis::io::png::write_display_png(&img, &path, false).unwrap();
+    let png = image::open(&path).unwrap();
+    assert_eq!(png.color(), image::ColorType::Rgba8);
+    let png = png.to_rgba8();
+    let mut dark = 0;
+    for row in 0..ny {
+        for px in 0..nx {
+            let p = png.get_pixel(px as u32, row as u32).0;
+            let j = ny - 1 - row;
+            if land(px, j) {
+                assert_eq!(p, [0, 0, 0, 0], "land ({px}, {j})");
+            } else {
+                assert_eq!(p[3], 255, "sea ({px}, {j})");
+                if fringe[row * nx + px] < 0.01 {
+                    dark += 1;
+                    assert!(p[0] < 40 && p[1] < 40 && p[2] < 40, "{p:?}");
+                }
+            }
+        }
+    }
+    assert!(dark > 10, "{dark} dark-fringe pixels");
+    o.missing = MissingColour::parse("tan").unwrap();
+    let tan_img = r.render(&g, &o).unwrap().remove(0);
+    assert_eq!(tan_img.meta("missing"), Some("tan"));
+    let path = dir.path().join("tan.png");
+    hdrvis::io::png::write_display_png(&tan_img, &path, false).unwrap();
+    let png = image::open(&path).unwrap();
+    assert_eq!(png.color(), image::ColorType::Rgb8);
+    let png = png.to_rgb8();
+    for row in 0..ny {
+        for px in 0..nx {
+            let p = png.get_pixel(px as u32, row as u32).0;
+            assert_eq!(
+                p == [210, 180, 140],
+                land(px, ny - 1 - row),
+                "({px}, {row}): {p:?}"
+            );
+        }
+    }
+    // The value and fringe channels still say "missing" there.
+    assert!(
+        channel(&tan_img, "fringe")
+            .iter()
+            .filter(|f| f.is_nan())
+            .count()
+            > 12 * ny
+    );
+    let e = MissingColour::parse("mauve").unwrap_err().to_string();
+    assert!(
+        e.starts_with("missing:") && e.contains("transparent"),
+        "{e}"
+    );
+}
+
+/// Issue #20 item 8 and #21 item 11: `save_png(img, path, #{legend: true})` draws the colour bar
+/// the render recorded under the picture — a surface in log colour (labelled decades) and a
+/// volume through a symlog `tf_lut` — and an image without one is a one-line error.
+#[test]
+fn save_png_legend_draws_the_recorded_colour_bar() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = r#"
+        let g = grid_from_fn();
+        let img = render_surface(g, #{ nu: 2.0, mode: "direct", colormap: "viridis", log_color: true });
+        save_png(img, "surface.png", #{ legend: true });
+        let vol = load_volume(generate("mantle", #{ n: 33, field: "fluctuation", seed: 7 }));
+        let tf = tf_lut(#{ scale: "symlog", linthresh: 1e-3, domain: [-0.3, 0.45], colormap: "rd_bu_r" });
+        save_png(render_volume(vol, #{ tf: tf, width: 160, height: 96 }), "volume.png", #{ legend: true, exposure: 1.0 });
+    "#;
+    // A grid from 1e-3 to 10 m over four decades, written as .npy for load_grid.
+    let (nx, ny) = (120, 40);
+    let values: Vec<f64> = (0..nx * ny)
+        .map(|k| 10f64.powf(-3.0 + 4.0 * (k % nx) as f64 / (nx - 1) as f64))
+        .collect();
+    write_npy(&dir.path().join("g.npy"), ny, nx, &values);
+    let script = script.replace("grid_from_fn()", "load_grid(\"g.npy\")");
+    std::fs::write(dir.path().join("s.rhai"), script).unwrap();
+    let (code, out, err) = crate::cli::hdrvis(&["run", "s.rhai"], dir.path());
+    assert_eq!(code, 0, "{out}\n{err}");
+    let strip = 4 + 12 + 3 + 24;
+    let surface = image::open(dir.path().join("out/surface.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(surface.dimensions(), (nx as u32, (ny + strip) as u32));
+    // Direct mode, log colour: the picture's columns and the bar's run through the same colours.
+    let bar_row = (ny + 4 + 6) as u32;
+    for x in [0u32, 60, 119] {
+        let a = surface.get_pixel(x, 0).0;
+        let b = surface.get_pixel(x, bar_row).0;
+        assert!(
+            a.iter()
+                .zip(b)
+                .all(|(p, q)| (*p as i32 - q as i32).abs() <= 3),
+            "{x}: {a:?} {b:?}"
+        );
+    }
+    // White ticks below the bar at decades 1e-3 and 1 (x = 119·k/4 for k decades up; at 120 px
+    // the five decades are thinned to every third).
+    let tick_row = (ny + 4 + 12 + 1) as u32;
+    for k in [0, 3] {
+        let x = (119.0 * k as f64 / 4.0).round() as u32;
+        assert_eq!(
+            surface.get_pixel(x, tick_row).0,
+            [255, 255, 255],
+            "decade {k}"
+        );
+    }
+    let volume = image::open(dir.path().join("out/volume.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(volume.dimensions(), (160, 96 + strip as u32));
+    // rd_bu_r: blue at the cold end of the bar, red at the hot end.
+    let (cold, hot) = (
+        volume.get_pixel(0, 96 + 10).0,
+        volume.get_pixel(159, 96 + 10).0,
+    );
+    assert!(cold[2] > cold[0] && hot[0] > hot[2], "{cold:?} {hot:?}");
+    let no_bar = r#"
+        let img = render_volume(load_volume(generate("mantle", #{ n: 17 })), #{ tf: tf_emission_absorption(1.0, 1.0), width: 8, height: 8 });
+        save_png(img, "x.png", #{ legend: true });
+    "#;
+    std::fs::write(dir.path().join("bad.rhai"), no_bar).unwrap();
+    let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai"], dir.path());
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("legend") && err.contains("colour bar"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out/x.png").exists());
+}
+
+/// A little-endian f64 .npy of shape (ny, nx).
+fn write_npy(path: &std::path::Path, ny: usize, nx: usize, values: &[f64]) {
+    let dict = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({ny}, {nx}), }}");
+    let mut header = dict.into_bytes();
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(b' ');
+    }
+    header.push(b'\n');
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend((header.len() as u16).to_le_bytes());
+    bytes.extend(header);
+    bytes.extend(values.iter().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(path, bytes).unwrap();
 }

@@ -11,7 +11,7 @@ use hdrvis::gpu::BackendChoice;
 use hdrvis::model::{Axis, Camera, HdrImage};
 use hdrvis::render::VolumeRenderOptions;
 use hdrvis::tonemap::cpu::{false_colour_log10, tonemap_cpu};
-use hdrvis::tonemap::{GpuToneMapper, Operator, ToneMapSettings};
+use hdrvis::tonemap::{Gamut, GpuToneMapper, Operator, ToneMapSettings};
 use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
@@ -150,13 +150,18 @@ fn compare_all(backend: BackendChoice, images: &[(&str, HdrImage)]) -> f32 {
     let mut worst_all = 0.0f32;
     for (name, img) in images {
         for op in ALL {
-            for (ev, sat, gamma, offset) in [(0.0, 1.0, 1.0, 0.0), (1.5, 0.6, 2.2, -0.02)] {
+            for (ev, sat, gamma, offset, gamut) in [
+                (0.0, 1.0, 1.0, 0.0, Gamut::Scale),
+                (1.5, 0.6, 2.2, -0.02, Gamut::Scale),
+                (2.5, 1.0, 1.0, 0.0, Gamut::Clip),
+            ] {
                 let s = ToneMapSettings {
                     op,
                     exposure_ev: ev,
                     saturation: sat,
                     gamma,
                     offset,
+                    gamut,
                 };
                 let cpu = tonemap_cpu(img, &s).unwrap();
                 let gpu = m.tonemap(img, &s).unwrap();
@@ -495,7 +500,13 @@ fn tonemap_cli_reads_half_exr_and_writes_png_and_exr() {
         .iter()
         .flatten()
         .all(|v| (0.0..=1.0).contains(v)));
-    assert!(back.pixels.iter().any(|p| p[0] > 0.5));
+    // Blue is the largest channel (three times red); the default gamut keeps the ratio.
+    assert!(back.pixels.iter().any(|p| p[2] > 0.5));
+    assert!(back
+        .pixels
+        .iter()
+        .filter(|p| p[2] > 0.01)
+        .all(|p| (p[0] / p[2] - 1.0 / 3.0).abs() < 2e-3));
     let (rc, _, err) = hdrvis(
         &["tonemap", "in.exr", "-o", "fc.png", "--false-colour"],
         dir.path(),
@@ -691,4 +702,169 @@ fn tonemap_images_beyond_one_binding_run_in_bands() {
         assert_eq!(max_diff(&a, &b).0, 0.0, "{backend:?} false colour");
         eprintln!("{backend:?}: banded tone mapping, worst |cpu - gpu| = {worst_cpu:.2e}");
     }
+}
+
+/// Hue angle of a linear RGB colour (the angle in the opponent plane, unchanged by scaling the
+/// colour or adding grey) and its chroma, max − min.
+fn hue_and_chroma(c: [f64; 3]) -> (f64, f64) {
+    let hue = (3f64.sqrt() * (c[1] - c[2])).atan2(2.0 * c[0] - c[1] - c[2]);
+    let chroma = c[0].max(c[1]).max(c[2]) - c[0].min(c[1]).min(c[2]);
+    (hue, chroma)
+}
+
+fn hue_difference(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(std::f64::consts::TAU);
+    d.min(std::f64::consts::TAU - d)
+}
+
+/// Issue #21, item 9: "every operator keeps the hue of every pixel of a colour-mapped render
+/// within 1e-3 radians wherever the colour is not grey". A volume render through a colour map,
+/// exposed 3 stops up so that every operator drives bright colours past 1, on the GPU (Vulkan,
+/// GL) and the CPU reference; `gamut: "clip"` is shown to change hues on the same image.
+#[test]
+fn tonemap_every_operator_keeps_the_hue_of_a_colour_mapped_render() {
+    let mut operators = ALL.to_vec();
+    operators.push(Operator::Reinhard {
+        key: 0.5,
+        white: Some(0.4),
+    });
+    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        let img = volume_render(backend);
+        for &op in &operators {
+            let mut worst_clip = 0.0f64;
+            for gamut in [Gamut::Scale, Gamut::Clip] {
+                let s = ToneMapSettings {
+                    op,
+                    exposure_ev: 3.0,
+                    gamut,
+                    ..Default::default()
+                };
+                let gpu = mapper(backend).tonemap(&img, &s).unwrap();
+                let cpu = tonemap_cpu(&img, &s).unwrap();
+                let (mut worst, mut compared) = (0.0f64, 0usize);
+                for (k, p) in img.pixels.iter().enumerate() {
+                    let (hue_in, chroma_in) = hue_and_chroma([0, 1, 2].map(|c| p[c] as f64));
+                    let lum_in = p[0].max(p[1]).max(p[2]) as f64;
+                    if chroma_in.is_nan() || chroma_in <= 0.05 * lum_in {
+                        continue; // grey (or black, or missing)
+                    }
+                    for out in [&gpu, &cpu] {
+                        let q = [0, 1, 2].map(|c| out.pixels[k][c] as f64);
+                        let (hue_out, chroma_out) = hue_and_chroma(q);
+                        if chroma_out < 0.01 {
+                            continue; // too dark to have a hue on a display
+                        }
+                        worst = worst.max(hue_difference(hue_in, hue_out));
+                        compared += 1;
+                    }
+                }
+                assert!(compared > 1000, "{backend:?} {}: {compared}", op.name());
+                match gamut {
+                    Gamut::Scale => assert!(
+                        worst < 1e-3,
+                        "{backend:?} {} gamut scale: hue moved {worst} rad",
+                        op.name()
+                    ),
+                    Gamut::Clip => worst_clip = worst,
+                }
+                assert_eq!(gpu.meta("gamut"), Some(gamut.name()));
+            }
+            eprintln!(
+                "{backend:?} {}: clip moves the hue by up to {worst_clip:.3} rad",
+                op.name()
+            );
+            assert!(worst_clip > 0.1, "{backend:?} {}: {worst_clip}", op.name());
+        }
+    }
+}
+
+/// Reinhard's global operator on coloured pixels with the default gamut: C_d = C / L_w · L_d,
+/// then divided by its largest channel where that exceeds 1, L_d = L (1 + L / L_white²) / (1 + L).
+#[test]
+fn tonemap_reinhard_global_closed_form_with_gamut_scaling() {
+    let chroma = [0.9f64, 0.35, 0.12];
+    let y = 0.2126 * chroma[0] + 0.7152 * chroma[1] + 0.0722 * chroma[2];
+    let img = {
+        let mut img = HdrImage::new(48, 2);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            let l = 10f64.powf(-2.0 + 4.0 * (i % 48) as f64 / 47.0);
+            *p = [0, 1, 2]
+                .map(|c| (l * chroma[c] / y) as f32)
+                .into_iter()
+                .chain([1.0])
+                .collect::<Vec<_>>()
+                .try_into()
+                .unwrap();
+        }
+        img
+    };
+    let lw: Vec<f64> = img.luminance().iter().map(|&l| l as f64).collect();
+    let lbar = (lw.iter().map(|l| l.ln()).sum::<f64>() / lw.len() as f64).exp();
+    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        let (key, white) = (0.3, 2.0);
+        let s = settings(Operator::Reinhard {
+            key,
+            white: Some(white),
+        });
+        let gpu = mapper(backend).tonemap(&img, &s).unwrap();
+        let cpu = tonemap_cpu(&img, &s).unwrap();
+        let mut worst = 0.0f64;
+        let mut scaled = 0;
+        for (k, &l_w) in lw.iter().enumerate() {
+            let l = key / lbar * l_w;
+            let ld = l * (1.0 + l / (white * white)) / (1.0 + l);
+            let c = [0, 1, 2].map(|ch| img.pixels[k][ch] as f64 / l_w * ld);
+            let largest = c[0].max(c[1]).max(c[2]);
+            if largest > 1.0 {
+                scaled += 1;
+            }
+            let expect = c.map(|v| v / largest.max(1.0));
+            for out in [&gpu, &cpu] {
+                for (got, want) in out.pixels[k].iter().zip(expect) {
+                    worst = worst.max((*got as f64 - want).abs());
+                }
+            }
+        }
+        assert!(scaled > 10, "{scaled}");
+        assert!(worst < 2e-6, "{backend:?}: {worst}");
+    }
+}
+
+/// `hdrvis tonemap --gamut clip` clips per channel (blue at 1 with red past half of it, where the
+/// default scaling keeps red at a third of blue); a misspelt gamut is one line naming the flag, and writes nothing.
+#[test]
+fn tonemap_cli_gamut_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    write_half_exr(&dir.path().join("in.exr"), &["R", "G", "B"], 24, 16);
+    let run = |gamut: &str, out: &str| {
+        hdrvis(
+            &[
+                "tonemap",
+                "in.exr",
+                "-o",
+                out,
+                "--op",
+                "linear",
+                "--exposure",
+                "8",
+                "--gamut",
+                gamut,
+            ],
+            dir.path(),
+        )
+    };
+    let (rc, _, err) = run("clip", "clip.exr");
+    assert_eq!(rc, 0, "{err}");
+    let clip = hdrvis::io::exr::read_exr(&dir.path().join("clip.exr")).unwrap();
+    assert!(clip.pixels.iter().any(|p| p[0] > 0.5 && p[2] == 1.0));
+    assert_eq!(clip.meta("gamut"), Some("clip"));
+    let (rc, _, err) = run("scale", "scale.exr");
+    assert_eq!(rc, 0, "{err}");
+    let scale = hdrvis::io::exr::read_exr(&dir.path().join("scale.exr")).unwrap();
+    assert!(scale.pixels.iter().all(|p| p[0] <= p[2] / 3.0 + 1e-3));
+    let (rc, _, err) = run("hue", "bad.png");
+    assert_ne!(rc, 0);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--gamut") && err.contains("\"clip\""), "{err}");
+    assert!(!dir.path().join("bad.png").exists());
 }
