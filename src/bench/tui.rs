@@ -15,6 +15,7 @@ use crate::render::session::RenderSession;
 use crate::script::ScriptOptions;
 use crate::tui::app::{Action, App, Effect, Source};
 use crate::tui::protocol::Display;
+use crate::tui::scene::SceneEdit;
 use crate::tui::worker::{prepare, render_scene};
 use crate::tui::worker::{LOW_RES_SCALE, PREVIEW_SCALE};
 use ratatui::layout::Rect;
@@ -147,7 +148,7 @@ fn run(
 ) -> Result<crate::tui::worker::Scene> {
     let mut sets = app.script_sets();
     sets.push((PREVIEW_SCALE.into(), format!("{LOW_RES_SCALE}")));
-    render_scene(script, base, session, sets)
+    Ok(render_scene(script, base, session, sets, &SceneEdit::default())?.scene)
 }
 
 /// The table `hdrvis bench tui` prints.

@@ -61,6 +61,18 @@ impl Scale {
         }
     }
 
+    /// The data value whose scaled value is `s`: the inverse of [`Scale::apply`] (above the
+    /// log floor for log10).
+    pub(crate) fn invert(&self, s: f64) -> f64 {
+        match *self {
+            Scale::Linear => s,
+            Scale::Log10 => 10f64.powf(s),
+            Scale::Symlog { linthresh } => {
+                s.signum() * linthresh * (s.abs() * std::f64::consts::LN_10).exp_m1()
+            }
+        }
+    }
+
     fn code(&self) -> u32 {
         match self {
             Scale::Linear => 0,

@@ -13,6 +13,7 @@ pub(crate) mod app;
 mod decode;
 pub(crate) mod histogram;
 pub(crate) mod protocol;
+pub(crate) mod scene;
 pub(crate) mod terminal;
 pub(crate) mod ui;
 pub(crate) mod view;

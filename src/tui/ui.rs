@@ -4,7 +4,9 @@
 //! over the bottom of the picture, and the help overlay listing [`KEYS`]. Tested with ratatui's
 //! `TestBackend`.
 
+use crate::script::ParamKind;
 use crate::tui::app::{App, Source, KEYS};
+use crate::tui::scene::format_number;
 use ratatui::layout::{Constraint, Direction, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
@@ -147,6 +149,7 @@ fn draw_params(frame: &mut Frame, app: &App, area: Rect) {
             Span::raw(format!("{}×{} {}", hdr.width, hdr.height, app.status.stage)),
         ]));
     }
+    lines.extend(edit_lines(app, key));
     let params = app.panel_params();
     if !params.is_empty() {
         lines.push(Line::from(Span::styled(
@@ -156,6 +159,10 @@ fn draw_params(frame: &mut Frame, app: &App, area: Rect) {
     }
     for (i, p) in params.iter().enumerate() {
         let value = app.param_value(&p.name).unwrap_or_default();
+        let value = match (p.kind, value.trim().parse::<f64>()) {
+            (ParamKind::Float, Ok(v)) => format_number(v),
+            _ => value,
+        };
         let changed = app.overrides.contains_key(&p.name);
         let style = if i == app.selected {
             Style::default().add_modifier(Modifier::REVERSED)
@@ -182,6 +189,36 @@ fn draw_params(frame: &mut Frame, app: &App, area: Rect) {
         Paragraph::new(lines).block(Block::default().borders(Borders::ALL).title(" view ")),
         area,
     );
+}
+
+/// The keys' own changes to the last volume render, when there are any.
+fn edit_lines(app: &App, key: Style) -> Vec<Line<'static>> {
+    let e = &app.edit;
+    let mut lines = Vec::new();
+    if e.azimuth_deg != 0.0 || e.elevation_deg != 0.0 || e.zoom != 1.0 {
+        lines.push(Line::from(vec![
+            Span::styled("camera   ", key),
+            Span::raw(format!(
+                "az {:+}° el {:+}° ×{}",
+                e.azimuth_deg,
+                e.elevation_deg,
+                format_number(e.zoom)
+            )),
+        ]));
+    }
+    if e.opacity_decades != 0.0 {
+        lines.push(Line::from(vec![
+            Span::styled("opacity  ", key),
+            Span::raw(format!("{:+} decades", e.opacity_decades)),
+        ]));
+    }
+    if let Some([lo, hi]) = e.lens {
+        lines.push(Line::from(vec![
+            Span::styled("window   ", key),
+            Span::raw(format!("[{}, {}]", format_number(lo), format_number(hi))),
+        ]));
+    }
+    lines
 }
 
 fn draw_histogram(frame: &mut Frame, app: &App, area: Rect) {
@@ -216,6 +253,12 @@ fn draw_status(frame: &mut Frame, app: &App, area: Rect) {
         segments.push(Span::styled(
             app.message.clone(),
             Style::default().fg(Color::Green),
+        ));
+    }
+    if !app.log_line.is_empty() {
+        segments.push(Span::styled(
+            format!("print: {}", app.log_line),
+            Style::default().fg(Color::Magenta),
         ));
     }
     if !s.adapter.is_empty() {
@@ -326,6 +369,7 @@ mod tests {
             rec("azimuth", "35.0"),
             rec("elevation", "20.0"),
             rec("zoom", "1.0"),
+            rec("lens_lo", "-12499999999999.0"),
         ]);
         app.view.exposure_ev = 0.5;
         let img = HdrImage::from_pixels(
@@ -400,11 +444,11 @@ mod tests {
         );
         assert_eq!(
             lines[6].chars().skip(50).collect::<String>(),
-            "│> azimuth    35.0           │"
+            "│> azimuth    35             │"
         );
         assert_eq!(
             lines[7].chars().skip(50).collect::<String>(),
-            "│  elevation  20.0           │"
+            "│  elevation  20             │"
         );
         assert!(lines[15].contains("log10 luminance"));
         assert!(
