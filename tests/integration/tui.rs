@@ -291,6 +291,125 @@ fn script_errors_show_with_caret_and_a_fixed_file_reloads() {
     assert_restored(&t, "tui-exit=0");
 }
 
+/// A scene with no `param` at all: the TUI's own keys must still orbit it and change its opacity.
+const PLAIN_SCENE: &str = r#"
+let mantle = generate_mantle(#{ n: 32, field: "fluctuation", seed: 7 });
+let tf = tf_lut(#{ scale: "symlog", linthresh: 1e-3, domain: [-0.3, 0.45], colormap: "spectral",
+    emission: [[0.0, -1.0], [1.0, -0.5]], opacity: [[0.0, -1.5], [0.5, -3.0], [1.0, -1.0]] });
+let img = render_volume(mantle, #{ tf: tf, camera: camera_orbit(30.0, 20.0), width: 64, height: 64 });
+save_exr(img, "scene.exr");
+save_png(img, "scene.png");
+print("hello from the script");
+"#;
+
+#[test]
+fn a_script_without_params_is_orbited_and_made_denser_without_rewriting_its_outputs() {
+    if !tools(&["tmux"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (script, out) = (dir.path().join("plain.rhai"), dir.path().join("out"));
+    std::fs::write(&script, PLAIN_SCENE).unwrap();
+    let bin = env!("CARGO_BIN_EXE_hdrvis");
+    let run = Command::new(bin)
+        .args([
+            "run",
+            script.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let outputs = [out.join("scene.exr"), out.join("scene.png")];
+    let mtimes: Vec<_> = outputs
+        .iter()
+        .map(|p| std::fs::metadata(p).unwrap().modified().unwrap())
+        .collect();
+    std::thread::sleep(Duration::from_millis(50));
+
+    let t = Tmux::start("plain");
+    t.line(&format!(
+        "{bin} tui {} --out {} --protocol halfblocks; echo \"tui\"-exit=$?; stty -a | grep -o -- '-\\?icanon\\|-\\?echo ' | tr '\\n' ' '; echo",
+        script.display(),
+        out.display()
+    ));
+    let s = t.wait_for("image    64×64 full", Duration::from_secs(60));
+    assert!(s.contains("print: hello from the script"), "{s}");
+    let idle = |t: &Tmux, what: &str| {
+        let s = t.wait_for(what, Duration::from_secs(30));
+        let t0 = Instant::now();
+        let mut s = s;
+        while s.contains("rendering…") {
+            assert!(t0.elapsed() < Duration::from_secs(60), "{s}");
+            std::thread::sleep(Duration::from_millis(100));
+            s = t.screen();
+        }
+        s
+    };
+    t.keys(&["s"]);
+    t.wait_for("saved plain_view001.exr", Duration::from_secs(20));
+    t.keys(&["l"]);
+    let s = idle(&t, "camera   az +15°");
+    // The status line reports the re-render and its time.
+    let status = s.lines().last().unwrap_or_default().to_string();
+    let ms = status
+        .split("re-render ")
+        .nth(1)
+        .and_then(|r| r.split(" ms").next())
+        .and_then(|v| v.trim().parse::<f64>().ok());
+    assert!(
+        ms.is_some_and(|ms| ms > 0.0),
+        "no re-render time: {status:?}"
+    );
+    assert!(!s.contains("has no param"), "{s}");
+    t.keys(&["s"]);
+    t.wait_for("saved plain_view002.exr", Duration::from_secs(20));
+    t.keys(&["a"]);
+    idle(&t, "opacity  +0.25 decades");
+    t.keys(&["s"]);
+    t.wait_for("saved plain_view003.exr", Duration::from_secs(20));
+    t.keys(&["q"]);
+    assert_restored(&t, "tui-exit=0");
+
+    let view =
+        |i: u32| hdrvis::io::exr::read_exr(&out.join(format!("plain_view00{i}.exr"))).unwrap();
+    let (v1, v2, v3) = (view(1), view(2), view(3));
+    let differing = |a: &hdrvis::model::HdrImage, b: &hdrvis::model::HdrImage| {
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-4 * p[k].abs().max(1e-3)))
+            .count()
+    };
+    assert!(
+        differing(&v1, &v2) > 200,
+        "the orbit changed {} pixels",
+        differing(&v1, &v2)
+    );
+    assert!(
+        differing(&v2, &v3) > 200,
+        "the opacity changed {} pixels",
+        differing(&v2, &v3)
+    );
+    // More extinction: the picture's total emission changes, and the first view is the script's
+    // own render (what `hdrvis run` saved).
+    let script_img = hdrvis::io::exr::read_exr(&outputs[0]).unwrap();
+    assert_eq!(
+        differing(&script_img, &v1),
+        0,
+        "the first view is the script's render"
+    );
+    for (p, before) in outputs.iter().zip(&mtimes) {
+        let after = std::fs::metadata(p).unwrap().modified().unwrap();
+        assert_eq!(after, *before, "{} was written again", p.display());
+    }
+}
+
 /// Reads an X window dump (`xwd`, ZPixmap, 24/32 bits per pixel) into RGB.
 fn read_xwd(b: &[u8]) -> Option<image::RgbImage> {
     let field = |i: usize| -> Option<u32> {
