@@ -1,8 +1,9 @@
 //! The TUI's state and what keys do to it, without a terminal: an [`App`] struct, an [`Action`]
 //! per key ([`KEYS`] is the one table the help overlay, the README and the key handler share),
 //! and [`App::apply`], which changes the state and says what has to happen next ([`Effect`]):
-//! redisplay the HDR image already held (exposure, operator, channel), re-run the script with new
-//! parameter values (camera, ν, transfer function), save, reload or quit. The workers' replies
+//! redisplay the HDR image already held (exposure, operator, channel), render again (a script
+//! parameter changed: re-run the script; else only its last volume render with the keys' edit),
+//! save, reload or quit. The workers' replies
 //! are state transitions too: [`App::on_render_done`], [`App::on_view_done`] and
 //! [`App::on_saved`] drop stale replies (to a request a newer one replaced), keep the last good
 //! image on errors and say what the event loop has to do next ([`FollowUp`]).
@@ -10,14 +11,17 @@
 //! Script contract: every `param(name, default)` the script calls is listed in the parameter
 //! panel and can be stepped; these names have keys of their own: `azimuth`, `elevation` (degrees),
 //! `zoom` (a factor), `nu`, `mode` (surfaces), `opacity` (decades added to the transfer
-//! function's extinction), `lens_lo`, `lens_hi` (the magnification window, in data values), and `preview_scale` (set by the TUI: 0.25 for the quick first render, 1 for
-//! the full one).
+//! function's extinction), `lens_lo`, `lens_hi` (the magnification window, in data values), and
+//! `preview_scale` (set by the TUI: 0.25 for the quick first render, 1 for the full one). Where
+//! the script declares no such parameter, the camera, opacity and lens keys change the TUI's own
+//! [`SceneEdit`] of the script's last volume render, which renders again without a script run.
 
 use crate::model::HdrImage;
 use crate::model::Scale;
 use crate::script::{ParamKind, ParamRecord};
 use crate::tonemap::MAX_EV;
 use crate::tui::histogram::LogHistogram;
+use crate::tui::protocol::Picture;
 use crate::tui::scene::{format_number, step_window, SceneEdit};
 use crate::tui::view::{main_parameter, Channel, ViewSettings, VIEW_OPERATORS};
 use crate::tui::worker::{
@@ -25,7 +29,6 @@ use crate::tui::worker::{
 };
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use ratatui::layout::Rect;
-use ratatui_image::protocol::Protocol;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -220,7 +223,7 @@ pub(crate) enum FollowUp {
     /// The script has to run again.
     RequestRender,
     /// A new picture for the terminal: show it.
-    ShowPicture(Protocol),
+    ShowPicture(Picture),
 }
 
 impl std::fmt::Debug for FollowUp {

@@ -6,13 +6,13 @@
 
 use crate::script::ParamKind;
 use crate::tui::app::{App, Source, KEYS};
+use crate::tui::protocol::Picture;
 use crate::tui::scene::format_number;
 use ratatui::layout::{Constraint, Direction, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph, Wrap};
 use ratatui::Frame;
-use ratatui_image::protocol::Protocol;
 
 /// Width of the right-hand column (parameters and histogram).
 const PANEL_WIDTH: u16 = 30;
@@ -62,7 +62,7 @@ pub(crate) fn layout(size: Rect) -> Areas {
 
 /// Draws the whole screen. `image` is the picture already encoded for the terminal's protocol
 /// and sized for [`Areas::image`].
-pub(crate) fn draw(frame: &mut Frame, app: &App, image: Option<&Protocol>) {
+pub(crate) fn draw(frame: &mut Frame, app: &App, image: Option<&Picture>) {
     let areas = layout(frame.area());
     let title = match &app.source {
         Source::Script(p) | Source::Image(p) => p
@@ -76,7 +76,11 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, image: Option<&Protocol>) {
     ));
     frame.render_widget(image_block, areas.image_block);
     match image {
-        Some(protocol) => frame.render_widget(ratatui_image::Image::new(protocol), areas.image),
+        Some(Picture::Widget(protocol)) => {
+            frame.render_widget(ratatui_image::Image::new(protocol), areas.image)
+        }
+        // Placed by the event loop after the frame; the cells under it stay blank.
+        Some(Picture::KittyDirect(_)) => {}
         None => {
             let text = if app.status.busy {
                 "rendering…"
@@ -387,7 +391,7 @@ mod tests {
         app
     }
 
-    fn render(app: &App, w: u16, h: u16, image: Option<&Protocol>) -> Vec<String> {
+    fn render(app: &App, w: u16, h: u16, image: Option<&Picture>) -> Vec<String> {
         let mut term = Terminal::new(TestBackend::new(w, h)).unwrap();
         term.draw(|f| draw(f, app, image)).unwrap();
         screen(term.backend().buffer())
@@ -526,7 +530,8 @@ mod tests {
             )
             .unwrap();
         let mut term = Terminal::new(TestBackend::new(80, 24)).unwrap();
-        term.draw(|f| draw(f, &app, Some(&protocol))).unwrap();
+        let picture = Picture::Widget(protocol);
+        term.draw(|f| draw(f, &app, Some(&picture))).unwrap();
         let buf = term.backend().buffer();
         let top = &buf[(areas.image.x + 3, areas.image.y + 1)];
         let bottom = &buf[(areas.image.x + 3, areas.image.bottom() - 2)];

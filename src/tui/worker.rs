@@ -2,9 +2,11 @@
 //! [`RenderSession`] for the whole TUI session, so loaded data, uploads, renders and the GPU
 //! stay in its result cache and only the passes a change touches run again) first at
 //! `preview_scale` 0.25 when the script reads it, then at full resolution, skipping the full run
-//! when a newer request is already waiting. The view worker turns the HDR image into what the
-//! terminal shows (downsample, tone-map, encode for the protocol, histogram). Both keep only the
-//! newest request: keys pressed while a job runs coalesce into one job.
+//! when a newer request is already waiting. A job that changes no script parameter only renders
+//! the last full run's volume render again with the keys' [`SceneEdit`]. Script runs here never
+//! write the script's outputs and capture its prints. The view worker turns the HDR image into
+//! what the terminal shows (downsample, tone-map, encode for the protocol, histogram). Both keep
+//! only the newest request: keys pressed while a job runs coalesce into one job.
 
 use crate::error::{Error, Result};
 use crate::io::terminal::srgb8_picture;
@@ -13,11 +15,10 @@ use crate::render::passes::{PassOutcome, PassRecord};
 use crate::render::session::RenderSession;
 use crate::script::{run_script_file, LastVolumeRender, ParamRecord, ScriptOptions};
 use crate::tui::histogram::LogHistogram;
-use crate::tui::protocol::Display;
+use crate::tui::protocol::{Display, Picture};
 use crate::tui::scene::{LensSpace, SceneEdit};
 use crate::tui::view::{display_image, resample, ViewSettings};
 use ratatui::layout::Rect;
-use ratatui_image::protocol::Protocol;
 use std::path::PathBuf;
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::Arc;
@@ -353,7 +354,7 @@ fn latest<T>(first: T, rx: &Receiver<T>) -> T {
 
 /// What the terminal shows for one HDR image and view.
 pub(crate) struct Prepared {
-    pub protocol: Protocol,
+    pub protocol: Picture,
     pub histogram: Option<LogHistogram>,
 }
 

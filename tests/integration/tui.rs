@@ -2,10 +2,11 @@
 //! change exposure, save again, quit; the saved EXR and PNG files exist and differ exactly as an
 //! exposure change should, and the terminal is restored (alternate screen left, shell prompt
 //! back, line editing and echo on). Also: SIGTERM restores the terminal, a script error shows
-//! with line and caret inside the TUI and a corrected file reloads by itself. And a real terminal:
-//! xterm in VT340 mode (sixel) under Xvfb shows the picture, located in a screenshot.
+//! with line and caret inside the TUI and a corrected file reloads by itself. And real terminals
+//! under Xvfb, the picture located in a screenshot: xterm in VT340 mode (sixel), and kitty
+//! (Debian's 0.26, direct placement) for the TUI and for `run --preview`.
 //!
-//! Missing tmux, xterm or Xvfb skip with a printed reason, unless `HDRVIS_REQUIRE_TUI_TOOLS=1`
+//! Missing tmux, xterm, kitty or Xvfb skip with a printed reason, unless `HDRVIS_REQUIRE_TUI_TOOLS=1`
 //! (CI), which turns a missing tool into a failure.
 
 use std::path::{Path, PathBuf};
@@ -29,7 +30,7 @@ fn tools(list: &[&str]) -> bool {
         panic!("HDRVIS_REQUIRE_TUI_TOOLS=1 but {missing:?} not installed");
     }
     eprintln!(
-        "skipped: {missing:?} not installed (apt-get install tmux xterm xvfb x11-apps imagemagick)"
+        "skipped: {missing:?} not installed (apt-get install tmux xterm kitty xvfb x11-apps)"
     );
     false
 }
@@ -473,13 +474,9 @@ impl Drop for Child {
     }
 }
 
-#[test]
-fn xterm_vt340_shows_the_sixel_picture() {
-    if !tools(&["Xvfb", "xterm", "xwd"]) {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    // A picture to find: green everywhere, a red square in its top-left quarter (orientation).
+/// Writes the picture the screenshot tests look for: green everywhere, a red square in its
+/// top-left quarter (orientation), 96 x 64 (aspect 3:2).
+fn target_exr(dir: &Path) -> PathBuf {
     let (w, h) = (96u32, 64u32);
     let pixels = (0..w * h)
         .map(|i| {
@@ -491,11 +488,14 @@ fn xterm_vt340_shows_the_sixel_picture() {
             }
         })
         .collect();
-    let exr = dir.path().join("target.exr");
+    let exr = dir.join("target.exr");
     hdrvis::io::exr::write_exr(&hdrvis::model::HdrImage::from_pixels(w, h, pixels), &exr).unwrap();
+    exr
+}
 
-    // Xvfb picks a free display itself and writes its number to the pipe, so stale lock files
-    // or a parallel run never make this test wait on a display that is not there.
+/// Starts Xvfb on a display it picks itself (it writes the number to the pipe, so stale lock
+/// files or a parallel run never make a test wait on a display that is not there).
+fn start_xvfb() -> (Terminated, String) {
     let mut xvfb = Command::new("Xvfb")
         .args([
             "-displayfd",
@@ -516,43 +516,22 @@ fn xterm_vt340_shows_the_sixel_picture() {
         &mut number,
     )
     .unwrap();
-    let _xvfb = Terminated(xvfb);
     let display = format!(":{}", number.trim());
+    let xvfb = Terminated(xvfb);
     assert!(number.trim().parse::<u32>().is_ok(), "Xvfb did not start");
-    let shell = format!(
-        "{} tui {} --out {}; sleep 30",
-        env!("CARGO_BIN_EXE_hdrvis"),
-        exr.display(),
-        dir.path().join("out").display()
-    );
-    let _xterm = Child(
-        Command::new("xterm")
-            .args([
-                "-display",
-                &display,
-                "-ti",
-                "vt340",
-                "-xrm",
-                "XTerm*numColorRegisters: 256",
-                "-geometry",
-                "80x24+0+0",
-                "-e",
-                "sh",
-                "-c",
-                &shell,
-            ])
-            .env_remove("TMUX")
-            .env_remove("HDRVIS_TUI_PROTOCOL")
-            .spawn()
-            .unwrap(),
-    );
-    let shot = dir.path().join("shot.png");
+    (xvfb, display)
+}
+
+/// Takes screenshots of `display` until the target picture ([`target_exr`]) shows, then checks
+/// it: its 3:2 aspect, the red square in its top-left quarter, red covering about 1/16 of it.
+fn assert_target_on_screen(display: &str, dir: &Path, what: &str) {
+    let shot = dir.join("shot.png");
     let t0 = Instant::now();
     let (mut found, mut last) = (None, String::new());
     while t0.elapsed() < Duration::from_secs(60) && found.is_none() {
         std::thread::sleep(Duration::from_millis(500));
         let grab = Command::new("xwd")
-            .args(["-root", "-silent", "-display", &display])
+            .args(["-root", "-silent", "-display", display])
             .output()
             .unwrap();
         let Some(img) = read_xwd(&grab.stdout) else {
@@ -588,22 +567,125 @@ fn xterm_vt340_shows_the_sixel_picture() {
         }
     }
     let ((gx0, gy0, gx1, gy1), (rx0, ry0, rx1, ry1), gn, rn) =
-        found.unwrap_or_else(|| panic!("no picture in the screenshot after 60 s: {last}"));
+        found.unwrap_or_else(|| panic!("{what}: no picture in the screenshot after 60 s: {last}"));
     let (gw, gh) = ((gx1 - gx0 + 1) as f64, (gy1 - gy0 + 1) as f64);
-    // The picture keeps its 3:2 aspect, the red square sits in its top-left quarter, and red
-    // covers about 1/16 of it.
-    assert!((gw / gh - 1.5).abs() < 0.1, "aspect {gw}x{gh}");
+    assert!((gw / gh - 1.5).abs() < 0.1, "{what}: aspect {gw}x{gh}");
     assert!(
         rx0 <= gx0 + 2 && ry0 <= gy0 + 2,
-        "red at ({rx0}, {ry0}), picture at ({gx0}, {gy0})"
+        "{what}: red at ({rx0}, {ry0}), picture at ({gx0}, {gy0})"
     );
-    assert!(((rx1 - rx0 + 1) as f64 / gw - 0.25).abs() < 0.05);
-    assert!(((ry1 - ry0 + 1) as f64 / gh - 0.25).abs() < 0.05);
+    assert!(((rx1 - rx0 + 1) as f64 / gw - 0.25).abs() < 0.05, "{what}");
+    assert!(((ry1 - ry0 + 1) as f64 / gh - 0.25).abs() < 0.05, "{what}");
     let red_share = rn as f64 / (gn + rn) as f64;
     assert!(
         (red_share - 1.0 / 16.0).abs() < 0.02,
-        "red share {red_share}"
+        "{what}: red share {red_share}"
     );
+}
+
+#[test]
+fn xterm_vt340_shows_the_sixel_picture() {
+    if !tools(&["Xvfb", "xterm", "xwd"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exr = target_exr(dir.path());
+    let (_xvfb, display) = start_xvfb();
+    let shell = format!(
+        "{} tui {} --out {}; sleep 30",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        exr.display(),
+        dir.path().join("out").display()
+    );
+    let _xterm = Child(
+        Command::new("xterm")
+            .args([
+                "-display",
+                &display,
+                "-ti",
+                "vt340",
+                "-xrm",
+                "XTerm*numColorRegisters: 256",
+                "-geometry",
+                "80x24+0+0",
+                "-e",
+                "sh",
+                "-c",
+                &shell,
+            ])
+            .env_remove("TMUX")
+            .env_remove("HDRVIS_TUI_PROTOCOL")
+            .spawn()
+            .unwrap(),
+    );
+    assert_target_on_screen(&display, dir.path(), "xterm sixel");
+}
+
+/// Runs `shell` in a real kitty (Debian's package) under Xvfb, on Mesa's software OpenGL.
+fn kitty_shows_the_target(shell: &str, dir: &Path, what: &str) {
+    let (_xvfb, display) = start_xvfb();
+    let _kitty = Child(
+        Command::new("kitty")
+            .args([
+                "--config",
+                "NONE",
+                "-o",
+                "initial_window_width=800",
+                "-o",
+                "initial_window_height=600",
+                "-o",
+                "remember_window_size=no",
+                "-o",
+                "font_size=10",
+                "sh",
+                "-c",
+                shell,
+            ])
+            .env("DISPLAY", &display)
+            .env("LIBGL_ALWAYS_SOFTWARE", "1")
+            .env_remove("TMUX")
+            .env_remove("HDRVIS_TUI_PROTOCOL")
+            .env_remove("KITTY_WINDOW_ID")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    assert_target_on_screen(&display, dir, what);
+}
+
+#[test]
+fn kitty_shows_the_tui_picture() {
+    if !tools(&["Xvfb", "kitty", "xwd"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exr = target_exr(dir.path());
+    let shell = format!(
+        "{} tui {} --out {}; sleep 30",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        exr.display(),
+        dir.path().join("out").display()
+    );
+    kitty_shows_the_target(&shell, dir.path(), "kitty tui");
+}
+
+#[test]
+fn kitty_shows_the_run_preview_picture() {
+    if !tools(&["Xvfb", "kitty", "xwd"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    target_exr(dir.path());
+    let script = dir.path().join("show.rhai");
+    std::fs::write(&script, "preview(load_image(\"target.exr\"));\n").unwrap();
+    let shell = format!(
+        "{} run {} --out {} --preview; sleep 30",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        script.display(),
+        dir.path().join("out").display()
+    );
+    kitty_shows_the_target(&shell, dir.path(), "kitty run --preview");
 }
 
 #[test]
