@@ -614,6 +614,7 @@ fn xterm_vt340_shows_the_sixel_picture() {
                 &shell,
             ])
             .env_remove("TMUX")
+            .env_remove("TERM_PROGRAM")
             .env_remove("HDRVIS_TUI_PROTOCOL")
             .spawn()
             .unwrap(),
@@ -621,9 +622,12 @@ fn xterm_vt340_shows_the_sixel_picture() {
     assert_target_on_screen(&display, dir.path(), "xterm sixel");
 }
 
-/// Runs `shell` in a real kitty (Debian's package) under Xvfb, on Mesa's software OpenGL.
-fn kitty_shows_the_target(shell: &str, dir: &Path, what: &str) {
+/// Runs `shell` in a real kitty (Debian's package) under Xvfb, on Mesa's software OpenGL, finds
+/// the picture in a screenshot and, with `expect_text`, that text on kitty's screen (read back
+/// through kitty's remote control), e.g. the protocol the TUI's status line names.
+fn kitty_shows_the_target(shell: &str, dir: &Path, what: &str, expect_text: Option<&str>) {
     let (_xvfb, display) = start_xvfb();
+    let socket = format!("unix:{}", dir.join("kitty.sock").display());
     let _kitty = Child(
         Command::new("kitty")
             .args([
@@ -637,6 +641,10 @@ fn kitty_shows_the_target(shell: &str, dir: &Path, what: &str) {
                 "remember_window_size=no",
                 "-o",
                 "font_size=10",
+                "-o",
+                "allow_remote_control=yes",
+                "--listen-on",
+                &socket,
                 "sh",
                 "-c",
                 shell,
@@ -646,12 +654,24 @@ fn kitty_shows_the_target(shell: &str, dir: &Path, what: &str) {
             .env_remove("TMUX")
             .env_remove("HDRVIS_TUI_PROTOCOL")
             .env_remove("KITTY_WINDOW_ID")
+            .env_remove("TERM_PROGRAM")
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::null())
             .spawn()
             .unwrap(),
     );
     assert_target_on_screen(&display, dir, what);
+    if let Some(text) = expect_text {
+        let screen = Command::new("kitty")
+            .args(["@", "--to", &socket, "get-text"])
+            .output()
+            .unwrap();
+        let screen = String::from_utf8_lossy(&screen.stdout);
+        assert!(
+            screen.contains(text),
+            "{what}: {text:?} not on screen:\n{screen}"
+        );
+    }
 }
 
 #[test]
@@ -667,7 +687,14 @@ fn kitty_shows_the_tui_picture() {
         exr.display(),
         dir.path().join("out").display()
     );
-    kitty_shows_the_target(&shell, dir.path(), "kitty tui");
+    // kitty 0.26 has no Unicode placeholders: the picture must be a directly placed image, not
+    // half blocks.
+    kitty_shows_the_target(
+        &shell,
+        dir.path(),
+        "kitty tui",
+        Some("kitty direct placement"),
+    );
 }
 
 #[test]
@@ -685,7 +712,7 @@ fn kitty_shows_the_run_preview_picture() {
         script.display(),
         dir.path().join("out").display()
     );
-    kitty_shows_the_target(&shell, dir.path(), "kitty run --preview");
+    kitty_shows_the_target(&shell, dir.path(), "kitty run --preview", None);
 }
 
 #[test]
