@@ -419,7 +419,7 @@ mod tests {
         let back = crate::tui::decode::decode_kitty(&escape).unwrap();
         assert_eq!((back.width, back.height), (100, 60));
         for (x, y) in [(0, 0), (99, 0), (37, 59)] {
-            assert_eq!(back.pixel(x, y), [x as u8, y as u8, 77]);
+            assert_eq!(back.pixel(x, y), [x as u8, y as u8, 77, 255]);
         }
     }
 
