@@ -6,8 +6,10 @@
 //!
 //! Cases: exposure +0.5 EV and the next operator (no script run: tone-map, encode), ν × 1.25
 //! (script re-run in the kept session: only the fringe pass renders), and a 15° orbit (script
-//! re-run: the ray cast at preview size). Each is timed from applying the key's action to the
-//! encoded picture, after a warm-up, and reported as the median.
+//! re-run: the ray cast at preview size). Then exposure, operator and false colour on the
+//! full-resolution image the TUI holds after its full pass, rendered at 600² and 1200²
+//! ([`FULL_SIZES`]). Each is timed from applying the key's action to the encoded picture, after
+//! a warm-up, and reported as the median.
 
 use crate::error::Result;
 use crate::gpu::BackendChoice;
@@ -15,6 +17,7 @@ use crate::render::session::RenderSession;
 use crate::script::ScriptOptions;
 use crate::tui::app::{Action, App, Effect, Source};
 use crate::tui::protocol::Display;
+use crate::tui::scene::SceneEdit;
 use crate::tui::worker::{prepare, render_scene};
 use crate::tui::worker::{LOW_RES_SCALE, PREVIEW_SCALE};
 use ratatui::layout::Rect;
@@ -126,8 +129,87 @@ pub fn bench_tui(
             }
         }
     }
+    rows.extend(bench_full_size_views(
+        &script,
+        &base,
+        &session,
+        dir.path(),
+        n,
+        runs,
+        log,
+    )?);
     let adapter = crate::tui::worker::adapter_of(&session).unwrap_or_default();
     Ok((adapter, rows))
+}
+
+/// Side lengths of the full-size renders whose view keys are timed: the 600² and a
+/// larger one.
+pub const FULL_SIZES: [u32; 2] = [600, 1200];
+
+/// The view keys (exposure, operator, false colour) on the full-resolution HDR image the TUI
+/// holds after its full pass, at each of [`FULL_SIZES`]: the image is downsampled to the
+/// picture's pixels first and tone-mapped there; only saving touches every pixel.
+fn bench_full_size_views(
+    script: &Path,
+    base: &ScriptOptions,
+    session: &Arc<RenderSession>,
+    dir: &Path,
+    n: usize,
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<TuiBenchRow>> {
+    let area = Rect::new(1, 1, 48, 21);
+    let mut rows = Vec::new();
+    for size in FULL_SIZES {
+        let sets = vec![
+            ("n".to_string(), n.to_string()),
+            ("size".to_string(), size.to_string()),
+        ];
+        let mut app = App::new(Source::Script(script.into()), dir.into(), sets);
+        log(&format!("full-size {size}² render of the {n}³ volume"));
+        let mut full = app.script_sets();
+        full.push((PREVIEW_SCALE.into(), "1".into()));
+        let scene = render_scene(script, base, session, full, &SceneEdit::default())?.scene;
+        app.hdr = Some(scene.image);
+        for protocol in [ProtocolType::Sixel, ProtocolType::Halfblocks] {
+            let display = Display::fixed(protocol, (8, 16));
+            for (case, action) in [
+                ("exposure +0.5 EV", Action::ExposureUp),
+                ("next operator", Action::NextOperator),
+                ("false colour", Action::ToggleFalseColour),
+            ] {
+                let mut times = Vec::new();
+                for i in 0..=runs {
+                    let t0 = Instant::now();
+                    app.apply(action);
+                    let hdr = app.hdr.clone().expect("rendered above");
+                    let p = prepare(&display, &hdr, &app.view, area)?;
+                    std::hint::black_box(&p.protocol);
+                    if i > 0 {
+                        times.push(t0.elapsed().as_secs_f64() * 1e3);
+                    }
+                    // Every run times the same work: operator 1 (linear), false colour on.
+                    app.view.operator = 0;
+                    app.view.false_colour = false;
+                    app.view.exposure_ev = 0.0;
+                }
+                let row = TuiBenchRow {
+                    case: format!("{case} (render {size}²)"),
+                    protocol: display.note.clone(),
+                    runs_ms: times,
+                    budget_ms: 100.0,
+                };
+                log(&format!(
+                    "{}: {} median {:.1} ms",
+                    row.protocol,
+                    row.case,
+                    row.median()
+                ));
+                rows.push(row);
+            }
+        }
+    }
+    Ok(rows)
 }
 
 fn size_label(scene: &str, n: usize) -> String {
@@ -147,13 +229,13 @@ fn run(
 ) -> Result<crate::tui::worker::Scene> {
     let mut sets = app.script_sets();
     sets.push((PREVIEW_SCALE.into(), format!("{LOW_RES_SCALE}")));
-    render_scene(script, base, session, sets)
+    Ok(render_scene(script, base, session, sets, &SceneEdit::default())?.scene)
 }
 
 /// The table `hdrvis bench tui` prints.
 pub fn format_tui_table(adapter: &str, rows: &[TuiBenchRow]) -> String {
     let mut s = format!(
-        "key press -> updated preview (adapter: {adapter}; picture 48x21 cells, 384x336 px; preview render 96x96)\n"
+        "key press -> updated preview (adapter: {adapter}; picture 48x21 cells, 384x336 px; preview render 96x96, full renders as named)\n"
     );
     s.push_str(&format!(
         "{:<44} {:<11} {:>10} {:>8} {:>8}\n",

@@ -61,7 +61,8 @@ impl Scale {
         }
     }
 
-    /// The value whose scaled value is `s`: the inverse of [`Self::apply`] on its range.
+    /// The data value whose scaled value is `s`: the inverse of [`Scale::apply`] (above the
+    /// log floor for log10).
     pub(crate) fn invert(&self, s: f64) -> f64 {
         match *self {
             Scale::Linear => s,

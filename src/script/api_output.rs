@@ -32,7 +32,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
         move |img: &mut ScriptImage, path: &str| -> RResult<()> {
             let p = h.sandbox.write_path(path).map_err(to_rhai)?;
             h.note_image(img);
-            if h.already_done(&p) {
+            if h.already_done(&p) || !h.write_outputs {
                 return Ok(());
             }
             let t = std::time::Instant::now();
@@ -56,7 +56,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             );
         }
         let p = h.sandbox.write_path(path).map_err(to_rhai)?;
-        if h.already_done(&p) {
+        if h.already_done(&p) || !h.write_outputs {
             return Ok(());
         }
         let t = std::time::Instant::now();

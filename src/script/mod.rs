@@ -20,6 +20,7 @@ use crate::gpu::BackendChoice;
 use crate::model::HdrImage;
 use crate::render::passes::PassRecord;
 use crate::render::session::RenderSession;
+use crate::render::{VolumeRenderOptions, VolumeSource};
 use rhai::{Dynamic, Engine, EvalAltResult, Position};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -59,6 +60,12 @@ pub struct ScriptOptions {
     /// `hdrvis run`) runs without one; interactive front ends re-run scripts with
     /// [`INTERACTIVE_TIMEOUT`].
     pub timeout: Option<Duration>,
+    /// Carry out `save_exr`/`save_png`; off in `hdrvis tui`, whose re-runs must not overwrite
+    /// the script's outputs (its `s` key saves the view instead).
+    pub write_outputs: bool,
+    /// Keep what `print` and `debug` say in [`ScriptReport::printed`] instead of writing it to
+    /// stdout (where it would land on the TUI's screen).
+    pub capture_prints: bool,
 }
 
 /// The wall-clock limit interactive front ends (the TUI) give each re-run of a script, so a
@@ -91,6 +98,8 @@ impl ScriptOptions {
             capture_previews: false,
             gpu_memory_mib: None,
             timeout: None,
+            write_outputs: true,
+            capture_prints: false,
         }
     }
 }
@@ -128,6 +137,18 @@ pub struct ScriptReport {
     /// The last image the script rendered, loaded or saved (what the TUI shows when the script
     /// previews nothing).
     pub last_image: Option<Arc<HdrImage>>,
+    /// The last `render_volume` of the run: its volume and options, so a client (the TUI) can
+    /// render it again with another camera or transfer function without re-running the script.
+    pub last_volume_render: Option<LastVolumeRender>,
+    /// What `print`/`debug` said, when [`ScriptOptions::capture_prints`] is on.
+    pub printed: Vec<String>,
+}
+
+/// A volume render call as the script made it: the source and the resolved options.
+#[derive(Clone, Debug)]
+pub struct LastVolumeRender {
+    pub source: VolumeSource,
+    pub options: VolumeRenderOptions,
 }
 
 /// State shared by the registered functions of one run.
@@ -140,6 +161,11 @@ pub(crate) struct ScriptHost {
     pub capture_previews: bool,
     pub previews: Mutex<Vec<Arc<HdrImage>>>,
     pub last_image: Mutex<Option<Arc<HdrImage>>>,
+    pub last_volume_render: Mutex<Option<LastVolumeRender>>,
+    pub printed: Mutex<Vec<String>>,
+    /// [`ScriptOptions::write_outputs`].
+    pub write_outputs: bool,
+    capture_prints: bool,
     pub resume: bool,
     progress_enabled: bool,
     progress: Mutex<Option<indicatif::ProgressBar>>,
@@ -224,6 +250,22 @@ pub(crate) fn new_engine(
         .set_module_resolver(rhai::module_resolvers::DummyModuleResolver::new());
     // `eval` would let a script build code from strings and dodge the checks on its source.
     engine.disable_symbol("eval");
+    if host.capture_prints {
+        let h = host.clone();
+        engine.on_print(move |text| {
+            h.printed
+                .lock()
+                .expect("printed poisoned")
+                .push(text.into())
+        });
+        let h = host.clone();
+        engine.on_debug(move |text, _, _| {
+            h.printed
+                .lock()
+                .expect("printed poisoned")
+                .push(text.into())
+        });
+    }
     api_render::register(&mut engine, host.clone());
     api_output::register_output(&mut engine, &host);
     api_output::register_params(&mut engine, host.clone());
@@ -253,6 +295,10 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         capture_previews: false,
         previews: Mutex::new(Vec::new()),
         last_image: Mutex::new(None),
+        last_volume_render: Mutex::new(None),
+        printed: Mutex::new(Vec::new()),
+        write_outputs: true,
+        capture_prints: false,
         resume: false,
         progress_enabled: false,
         progress: Mutex::new(None),
@@ -305,6 +351,10 @@ pub fn run_script_source(
         capture_previews: opts.capture_previews,
         previews: Mutex::new(Vec::new()),
         last_image: Mutex::new(None),
+        last_volume_render: Mutex::new(None),
+        printed: Mutex::new(Vec::new()),
+        write_outputs: opts.write_outputs,
+        capture_prints: opts.capture_prints,
         resume: opts.resume,
         progress_enabled: opts.progress,
         progress: Mutex::new(None),
@@ -327,6 +377,8 @@ pub fn run_script_source(
         params: take(&host.params),
         previews: take(&host.previews),
         last_image: take(&host.last_image),
+        last_volume_render: take(&host.last_volume_render),
+        printed: take(&host.printed),
     })
 }
 

@@ -1,8 +1,9 @@
 //! The TUI's state and what keys do to it, without a terminal: an [`App`] struct, an [`Action`]
 //! per key ([`KEYS`] is the one table the help overlay, the README and the key handler share),
 //! and [`App::apply`], which changes the state and says what has to happen next ([`Effect`]):
-//! redisplay the HDR image already held (exposure, operator, channel), re-run the script with new
-//! parameter values (camera, ν, transfer function), save, reload or quit. The workers' replies
+//! redisplay the HDR image already held (exposure, operator, channel), render again (a script
+//! parameter changed: re-run the script; else only its last volume render with the keys' edit),
+//! save, reload or quit. The workers' replies
 //! are state transitions too: [`App::on_render_done`], [`App::on_view_done`] and
 //! [`App::on_saved`] drop stale replies (to a request a newer one replaced), keep the last good
 //! image on errors and say what the event loop has to do next ([`FollowUp`]).
@@ -10,18 +11,24 @@
 //! Script contract: every `param(name, default)` the script calls is listed in the parameter
 //! panel and can be stepped; these names have keys of their own: `azimuth`, `elevation` (degrees),
 //! `zoom` (a factor), `nu`, `mode` (surfaces), `opacity` (decades added to the transfer
-//! function's extinction), `lens_lo`, `lens_hi` (the magnification window, in data values), and `preview_scale` (set by the TUI: 0.25 for the quick first render, 1 for
-//! the full one).
+//! function's extinction), `lens_lo`, `lens_hi` (the magnification window, in data values), and
+//! `preview_scale` (set by the TUI: 0.25 for the quick first render, 1 for the full one). Where
+//! the script declares no such parameter, the camera, opacity and lens keys change the TUI's own
+//! [`SceneEdit`] of the script's last volume render, which renders again without a script run.
 
 use crate::model::HdrImage;
+use crate::model::Scale;
 use crate::script::{ParamKind, ParamRecord};
 use crate::tonemap::MAX_EV;
 use crate::tui::histogram::LogHistogram;
+use crate::tui::protocol::Picture;
+use crate::tui::scene::{format_number, step_window, SceneEdit};
 use crate::tui::view::{main_parameter, Channel, ViewSettings, VIEW_OPERATORS};
-use crate::tui::worker::{pass_summary, RenderDone, RenderJob, ViewDone, ViewJob, PREVIEW_SCALE};
+use crate::tui::worker::{
+    pass_summary, RenderDone, RenderJob, ViewDone, ViewJob, VolumeKeys, PREVIEW_SCALE,
+};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use ratatui::layout::Rect;
-use ratatui_image::protocol::Protocol;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -216,7 +223,7 @@ pub(crate) enum FollowUp {
     /// The script has to run again.
     RequestRender,
     /// A new picture for the terminal: show it.
-    ShowPicture(Protocol),
+    ShowPicture(Picture),
 }
 
 impl std::fmt::Debug for FollowUp {
@@ -291,6 +298,16 @@ pub(crate) struct App {
     /// How images reach the terminal, e.g. `sixel` or `halfblocks (no graphics answer)`.
     pub protocol_note: String,
     pub show_help: bool,
+    /// The keys' own changes to the script's last volume render (camera, opacity, window), for
+    /// the quantities the script declares no `param` for.
+    pub edit: SceneEdit,
+    /// What those keys can act on: `None` until a run rendered a volume.
+    pub volume: Option<VolumeKeys>,
+    /// The last line the script printed.
+    pub log_line: String,
+    /// A script parameter (or the file) changed since the last render job: the script has to
+    /// run again, not only its last volume render.
+    script_dirty: bool,
     requests: Requests,
     /// When the last view was requested: the status line reports key → picture time.
     view_requested: Instant,
@@ -313,6 +330,10 @@ impl App {
             message: String::new(),
             protocol_note: String::new(),
             show_help: false,
+            edit: SceneEdit::default(),
+            volume: None,
+            log_line: String::new(),
+            script_dirty: true,
             requests: Requests::default(),
             view_requested: Instant::now(),
         }
@@ -363,6 +384,37 @@ impl App {
         }
     }
 
+    /// Sets a script parameter's `--set` value: the next render job runs the script.
+    fn set_override(&mut self, name: impl Into<String>, value: impl Into<String>) {
+        self.overrides.insert(name.into(), value.into());
+        self.script_dirty = true;
+    }
+
+    /// Whether the script declares `param(name, ...)`: then that parameter, not the TUI's own
+    /// edit of the volume render, is what the key changes.
+    pub(crate) fn declares(&self, name: &str) -> bool {
+        self.params.iter().any(|p| p.name == name)
+    }
+
+    /// A camera, opacity or lens key: steps the script's parameter `name` with `by_param` when
+    /// it declares one, else changes the TUI's edit of the last volume render with `by_edit`.
+    fn scene_key(
+        &mut self,
+        name: &str,
+        by_param: impl Fn(f64) -> f64,
+        by_edit: impl Fn(&mut SceneEdit),
+    ) -> Effect {
+        if self.declares(name) {
+            return self.step_number(name, by_param);
+        }
+        if self.volume.is_none() {
+            self.message = format!("the script has no volume render and no param(\"{name}\", ...)");
+            return Effect::None;
+        }
+        by_edit(&mut self.edit);
+        Effect::Rerender
+    }
+
     /// Changes a numeric parameter with `f`; `Effect::None` when the script has no such
     /// parameter or it is not a number.
     fn step_number(&mut self, name: &str, f: impl Fn(f64) -> f64) -> Effect {
@@ -383,7 +435,7 @@ impl App {
             ParamKind::Float => format_float(next),
             _ => return Effect::None,
         };
-        self.overrides.insert(name.to_string(), text);
+        self.set_override(name.to_string(), text);
         Effect::Rerender
     }
 
@@ -395,7 +447,7 @@ impl App {
         match record.kind {
             ParamKind::Bool => {
                 let v = self.param_value(&record.name).unwrap_or_default() == "true";
-                self.overrides.insert(record.name, (!v).to_string());
+                self.set_override(record.name, (!v).to_string());
                 Effect::Rerender
             }
             ParamKind::Text => {
@@ -448,21 +500,45 @@ impl App {
         Effect::Rerender
     }
 
-    /// Moves the magnification window [lens_lo, lens_hi] (data values) by `shift` of its width
-    /// and widens it by `grow` of its width on each side.
+    /// Moves the magnification window by `shift` of its width and widens it by `grow` of its
+    /// width on each side, in the transfer function's scale (decades on log10 and symlog): the
+    /// script's `lens_lo`/`lens_hi` when it declares them, else the TUI's edit of the last
+    /// volume render's window.
     fn lens(&mut self, shift: f64, grow: f64) -> Effect {
-        let get = |n: &str| self.param_value(n).and_then(|v| v.parse::<f64>().ok());
-        let (Some(lo), Some(hi)) = (get("lens_lo"), get("lens_hi")) else {
-            self.message = "the script has no param(\"lens_lo\"/\"lens_hi\", ...)".into();
+        let space = self.volume.as_ref().and_then(|v| v.lens);
+        let scale = space.map_or(Scale::Linear, |s| s.scale);
+        if self.declares("lens_lo") && self.declares("lens_hi") {
+            let get = |n: &str| self.param_value(n).and_then(|v| v.parse::<f64>().ok());
+            let (Some(lo), Some(hi)) = (get("lens_lo"), get("lens_hi")) else {
+                return Effect::None;
+            };
+            let Some([lo, hi]) = step_window([lo, hi], scale, shift, grow) else {
+                self.message = "the magnification window is at its limit".into();
+                return Effect::None;
+            };
+            self.set_override("lens_lo", format_float(lo));
+            self.set_override("lens_hi", format_float(hi));
+            return Effect::Rerender;
+        }
+        let Some(space) = space else {
+            self.message = if self.volume.is_some() {
+                "the transfer function has no colour table to magnify (use tf_lut)".into()
+            } else {
+                "the script has no volume render and no param(\"lens_lo\"/\"lens_hi\", ...)".into()
+            };
             return Effect::None;
         };
-        let width = (hi - lo).abs().max(1e-12);
-        let (lo, hi) = (lo + (shift - grow) * width, hi + (shift + grow) * width);
-        if hi <= lo {
+        let start = self.edit.lens.unwrap_or_else(|| space.start());
+        let Some(window) = step_window(start, space.scale, shift, grow) else {
+            self.message = "the magnification window is at its limit".into();
             return Effect::None;
-        }
-        self.overrides.insert("lens_lo".into(), format_float(lo));
-        self.overrides.insert("lens_hi".into(), format_float(hi));
+        };
+        self.edit.lens = Some(window);
+        self.message = format!(
+            "window [{}, {}]",
+            format_number(window[0]),
+            format_number(window[1])
+        );
         Effect::Rerender
     }
 
@@ -502,17 +578,25 @@ impl App {
                 Effect::Redisplay
             }
             NextChannel => self.cycle_channel(),
-            OrbitLeft => self.step_number("azimuth", |v| v - 15.0),
-            OrbitRight => self.step_number("azimuth", |v| v + 15.0),
-            OrbitUp => self.step_number("elevation", |v| (v + 10.0).min(89.0)),
-            OrbitDown => self.step_number("elevation", |v| (v - 10.0).max(-89.0)),
-            ZoomIn => self.step_number("zoom", |v| v * 1.25),
-            ZoomOut => self.step_number("zoom", |v| v / 1.25),
+            OrbitLeft => self.scene_key("azimuth", |v| v - 15.0, |e| e.azimuth_deg -= 15.0),
+            OrbitRight => self.scene_key("azimuth", |v| v + 15.0, |e| e.azimuth_deg += 15.0),
+            OrbitUp => self.scene_key(
+                "elevation",
+                |v| (v + 10.0).min(89.0),
+                |e| e.elevation_deg += 10.0,
+            ),
+            OrbitDown => self.scene_key(
+                "elevation",
+                |v| (v - 10.0).max(-89.0),
+                |e| e.elevation_deg -= 10.0,
+            ),
+            ZoomIn => self.scene_key("zoom", |v| v * 1.25, |e| e.zoom *= 1.25),
+            ZoomOut => self.scene_key("zoom", |v| v / 1.25, |e| e.zoom /= 1.25),
             NuUp => self.step_number("nu", |v| v * 1.25),
             NuDown => self.step_number("nu", |v| v / 1.25),
             NextMode => self.cycle_mode(),
-            OpacityUp => self.step_number("opacity", |v| v + 0.25),
-            OpacityDown => self.step_number("opacity", |v| v - 0.25),
+            OpacityUp => self.scene_key("opacity", |v| v + 0.25, |e| e.opacity_decades += 0.25),
+            OpacityDown => self.scene_key("opacity", |v| v - 0.25, |e| e.opacity_decades -= 0.25),
             LensLeft => self.lens(-0.25, 0.0),
             LensRight => self.lens(0.25, 0.0),
             LensWider => self.lens(0.0, 0.125),
@@ -589,6 +673,8 @@ impl App {
             // not read preview_scale just renders at full size once).
             low_res_first: self.params.is_empty() || self.has_preview_scale(),
             sets: self.script_sets(),
+            edit: self.edit.clone(),
+            rerun_script: std::mem::take(&mut self.script_dirty) || self.volume.is_none(),
         }
     }
 
@@ -619,25 +705,27 @@ impl App {
         }
         self.status.adapter = done.adapter.unwrap_or_default();
         self.status.render_ms = Some(done.ms);
-        self.status.stage = if done.low_res { "preview" } else { "full" }.into();
+        self.status.stage = match (done.rerender, done.low_res && !done.last) {
+            (true, true) => "preview re-render",
+            (true, false) => "re-render",
+            (false, true) => "preview",
+            (false, false) => "full",
+        }
+        .into();
+        self.status.busy = !done.last;
         match done.outcome {
             Ok(scene) => {
                 self.error = None;
-                // A script that ignores preview_scale rendered at full size in its quick pass:
-                // no full pass follows.
-                let quick_only =
-                    done.low_res && !scene.params.iter().any(|p| p.name == PREVIEW_SCALE);
-                self.status.busy = done.low_res && !quick_only;
-                if quick_only {
-                    self.status.stage = "full".into();
-                }
                 self.hdr = Some(scene.image);
                 self.set_params(scene.params);
+                self.volume = scene.volume;
+                if let Some(line) = scene.printed.last() {
+                    self.log_line = line.clone();
+                }
                 self.status.passes = pass_summary(&scene.passes);
                 FollowUp::RequestView
             }
             Err(msg) => {
-                self.status.busy = false;
                 self.error = Some(msg);
                 FollowUp::Redraw
             }
@@ -697,7 +785,10 @@ impl App {
                 }
                 FollowUp::RequestView
             }
-            Source::Script(_) => FollowUp::RequestRender,
+            Source::Script(_) => {
+                self.script_dirty = true;
+                FollowUp::RequestRender
+            }
         }
     }
 }
@@ -719,8 +810,12 @@ fn well_known_step(name: &str) -> Option<Step> {
     })
 }
 
-/// A float as `param()` parses it back: always with a decimal point, no noise digits.
+/// A float as `param()` parses it back: always with a decimal point, no noise digits, in
+/// scientific notation (all digits kept) for magnitudes from 1e6 and below 1e-4.
 fn format_float(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) {
+        return format!("{v:e}");
+    }
     let rounded = (v * 1e9).round() / 1e9;
     let s = format!("{rounded}");
     if s.contains(['.', 'e', 'E']) || !rounded.is_finite() {
@@ -803,6 +898,48 @@ mod tests {
     }
 
     #[test]
+    fn without_params_the_keys_edit_the_last_volume_render() {
+        use crate::tui::scene::LensSpace;
+        let mut app = App::new(Source::Script("s.rhai".into()), "out".into(), Vec::new());
+        app.set_params(vec![record("n", ParamKind::Int, "64")]);
+        assert_eq!(app.apply(Action::OrbitRight), Effect::None, "no volume yet");
+        app.volume = Some(VolumeKeys {
+            lens: Some(LensSpace {
+                scale: Scale::Log10,
+                scaled_domain: [10.0, 14.0],
+                window: Some([1e12, 1e13]),
+            }),
+        });
+        assert!(
+            app.render_job().rerun_script,
+            "the first job runs the script"
+        );
+        assert_eq!(app.apply(Action::OrbitRight), Effect::Rerender);
+        assert_eq!(app.apply(Action::OrbitUp), Effect::Rerender);
+        assert_eq!(app.apply(Action::ZoomIn), Effect::Rerender);
+        assert_eq!(app.apply(Action::OpacityDown), Effect::Rerender);
+        let e = &app.edit;
+        assert_eq!(
+            (e.azimuth_deg, e.elevation_deg, e.zoom, e.opacity_decades),
+            (15.0, 10.0, 1.25, -0.25)
+        );
+        assert!(app.overrides.is_empty());
+        let job = app.render_job();
+        assert!(!job.rerun_script, "only the volume render runs again");
+        assert_eq!(job.edit, app.edit);
+        // `<` then `w` on the log scale: decades, never a bound at or below 0.
+        app.apply(Action::LensLeft);
+        app.apply(Action::LensWider);
+        let [lo, hi] = app.edit.lens.unwrap();
+        assert!((lo.log10() - 11.625).abs() < 1e-9 && (hi.log10() - 12.875).abs() < 1e-9);
+        assert_eq!(app.message, "window [4.217e11, 7.499e12]");
+        // A declared parameter changes the script's value and re-runs the script.
+        app.selected = 0;
+        assert_eq!(app.apply(Action::StepUp), Effect::Rerender);
+        assert!(app.render_job().rerun_script);
+    }
+
+    #[test]
     fn the_selected_parameter_steps_by_its_kind() {
         let mut app = script_app();
         app.selected = 3; // n = 128, an integer >= 64: doubles
@@ -857,13 +994,22 @@ mod tests {
             image: Arc::new(HdrImage::from_pixels(1, 1, vec![[value; 4]])),
             params,
             passes: Vec::new(),
+            volume: None,
+            printed: Vec::new(),
         }
     }
 
     fn render_done(id: u64, low_res: bool, outcome: Result<Scene, String>) -> RenderDone {
+        // As the worker says: a quick pass is the last one when the script ignores the scale.
+        let last = !low_res
+            || outcome
+                .as_ref()
+                .map_or(true, |s| !s.params.iter().any(|p| p.name == PREVIEW_SCALE));
         RenderDone {
             id,
             low_res,
+            rerender: false,
+            last,
             outcome,
             ms: 12.0,
             adapter: Some("llvmpipe (Vulkan)".into()),

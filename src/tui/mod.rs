@@ -13,6 +13,7 @@ pub(crate) mod app;
 mod decode;
 pub(crate) mod histogram;
 pub(crate) mod protocol;
+pub(crate) mod scene;
 pub(crate) mod terminal;
 pub(crate) mod ui;
 pub(crate) mod view;
@@ -23,11 +24,11 @@ use crate::gpu::BackendChoice;
 use crate::render::session::RenderSession;
 use crate::script::ScriptOptions;
 use app::{App, Effect, FollowUp, Source};
+use protocol::Picture;
 use protocol::ProtocolChoice;
 use ratatui::crossterm::event::{self, Event, KeyEventKind};
 use ratatui::layout::Rect;
 use ratatui_image::picker::ProtocolType;
-use ratatui_image::protocol::Protocol;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, Receiver, Sender};
@@ -75,7 +76,7 @@ pub fn run_tui(opts: &TuiOptions) -> Result<()> {
     protocol::prepare_environment();
     let mut guard = terminal::TerminalGuard::enter()?;
     let display = protocol::detect(opts.protocol);
-    if display.picker.protocol_type() == ProtocolType::Kitty {
+    if display.kitty_direct || display.picker.protocol_type() == ProtocolType::Kitty {
         terminal::note_kitty_images();
     }
     let finished = Arc::new(AtomicBool::new(false));
@@ -100,7 +101,9 @@ struct EventLoop<'a> {
     render: Option<(Sender<worker::RenderJob>, Receiver<worker::RenderDone>)>,
     view: (Sender<worker::ViewJob>, Receiver<worker::ViewDone>),
     saves: (Sender<SaveResult>, Receiver<SaveResult>),
-    picture: Option<Protocol>,
+    picture: Option<Picture>,
+    /// A directly placed kitty picture has to be written again (new picture, cleared screen).
+    place_kitty: bool,
     image_area: Rect,
     /// The screen needs drawing.
     dirty: bool,
@@ -182,6 +185,7 @@ fn event_loop(
         view,
         saves: channel(),
         picture: None,
+        place_kitty: false,
         image_area: Rect::default(),
         dirty: true,
         redraw_on_change,
@@ -218,6 +222,7 @@ impl EventLoop<'_> {
                     .terminal
                     .draw(|f| ui::draw(f, app, picture))
                     .map_err(terminal_error)?;
+                self.place_kitty_picture()?;
                 self.dirty = false;
             }
             if let Ok(sig) = signals.try_recv() {
@@ -235,6 +240,28 @@ impl EventLoop<'_> {
                 self.follow_up(next);
             }
         }
+    }
+
+    /// Writes a directly placed kitty picture at the picture area's top-left cell, replacing
+    /// the one shown before (kitty before 0.28; other pictures are part of the frame).
+    fn place_kitty_picture(&mut self) -> Result<()> {
+        use std::io::Write;
+        let Some(Picture::KittyDirect(escape)) = &self.picture else {
+            return Ok(());
+        };
+        if !std::mem::take(&mut self.place_kitty) {
+            return Ok(());
+        }
+        let id = protocol::KITTY_DIRECT_ID;
+        let mut out = std::io::stdout().lock();
+        write!(
+            out,
+            "\x1b_Ga=d,d=I,i={id},q=2\x1b\\\x1b[{};{}H{escape}",
+            self.image_area.y + 1,
+            self.image_area.x + 1
+        )
+        .and_then(|_| out.flush())
+        .map_err(terminal_error)
     }
 
     /// A new picture area (first frame, resized terminal) needs a view of its own size.
@@ -264,6 +291,7 @@ impl EventLoop<'_> {
                 // Pictures drawn by the terminal (sixel) are not cleared by a diff.
                 let _ = self.guard.terminal.clear();
                 self.dirty = true;
+                self.place_kitty = true;
                 Effect::Redraw
             }
             _ => Effect::None,
@@ -293,6 +321,7 @@ impl EventLoop<'_> {
             FollowUp::RequestRender => self.send_render(),
             FollowUp::ShowPicture(picture) => {
                 self.picture = Some(picture);
+                self.place_kitty = true;
                 if self.redraw_on_change {
                     let _ = self.guard.terminal.clear();
                 }

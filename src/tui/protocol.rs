@@ -77,10 +77,48 @@ pub(crate) fn parse_version(s: &str) -> Option<(u32, u32)> {
     Some((major, minor))
 }
 
+/// Kitty image id of the TUI's picture in direct-placement mode.
+pub(crate) const KITTY_DIRECT_ID: u32 = 7431;
+
+/// A picture ready for the terminal.
+pub(crate) enum Picture {
+    /// Drawn by ratatui-image's widget inside the frame (half blocks, sixel, kitty placeholders).
+    Widget(Protocol),
+    /// The escape sequence of a kitty image placed directly at the cursor (`a=T`), for kitty
+    /// before 0.28; written after the frame at the picture area's corner.
+    KittyDirect(String),
+}
+
+/// The kitty graphics escape that transmits `img` (24-bit RGB, sent in the stream: `t=d`) and
+/// shows it at the cursor under the text (`z=-1`) without moving the cursor (`C=1`), in
+/// base64 chunks of 4096 bytes.
+pub(crate) fn kitty_direct_escape(img: &image::RgbImage) -> String {
+    use base64::Engine as _;
+    let data = base64::engine::general_purpose::STANDARD.encode(img.as_raw());
+    let chunks: Vec<&[u8]> = data.as_bytes().chunks(4096).collect();
+    let mut out = String::with_capacity(data.len() + chunks.len() * 16 + 80);
+    for (i, chunk) in chunks.iter().enumerate() {
+        let more = u8::from(i + 1 < chunks.len());
+        let chunk = std::str::from_utf8(chunk).unwrap_or_default();
+        if i == 0 {
+            out.push_str(&format!(
+                "\x1b_Ga=T,f=24,t=d,s={},v={},i={KITTY_DIRECT_ID},z=-1,C=1,q=2,m={more};{chunk}\x1b\\",
+                img.width(),
+                img.height()
+            ));
+        } else {
+            out.push_str(&format!("\x1b_Gm={more};{chunk}\x1b\\"));
+        }
+    }
+    out
+}
+
 /// The chosen protocol with what the status line should say about it.
 #[derive(Clone)]
 pub(crate) struct Display {
     pub picker: Picker,
+    /// Place kitty images directly (kitty before 0.28, which lacks Unicode placeholders).
+    pub kitty_direct: bool,
     /// e.g. `sixel`, `kitty (compressed)`, `halfblocks: the terminal shows no graphics`.
     pub note: String,
     /// Clear the screen when the picture changes (sixel through tmux passthrough).
@@ -97,6 +135,7 @@ impl Display {
             picker,
             note: name(protocol).to_string(),
             redraw_on_change: false,
+            kitty_direct: false,
         }
     }
 
@@ -110,13 +149,17 @@ impl Display {
     }
 
     /// Encodes `img` (already at most [`Display::pixels`] of `area`) for the terminal.
-    pub(crate) fn encode(&self, img: image::RgbImage, area: Rect) -> Result<Protocol> {
+    pub(crate) fn encode(&self, img: image::RgbImage, area: Rect) -> Result<Picture> {
+        if self.kitty_direct {
+            return Ok(Picture::KittyDirect(kitty_direct_escape(&img)));
+        }
         self.picker
             .new_protocol(
                 image::DynamicImage::ImageRgb8(img),
                 area.as_size(),
                 ratatui_image::Resize::Fit(None),
             )
+            .map(Picture::Widget)
             .map_err(|e| Error::invalid("terminal image", e.to_string()))
     }
 }
@@ -254,6 +297,7 @@ pub(crate) fn detect(choice: ProtocolChoice) -> Display {
             picker,
             note: "halfblocks (forced)".into(),
             redraw_on_change: false,
+            kitty_direct: false,
         };
     }
     let tmux = in_tmux();
@@ -284,6 +328,7 @@ pub(crate) fn detect(choice: ProtocolChoice) -> Display {
         p
     });
     let mut note;
+    let mut kitty_direct = false;
     if let Some(forced) = forced(choice) {
         picker.set_protocol_type(forced);
         note = format!("{} (forced)", name(forced));
@@ -301,9 +346,17 @@ pub(crate) fn detect(choice: ProtocolChoice) -> Display {
             if let Some(v) = &found.version {
                 if let Some(rest) = v.strip_prefix("kitty") {
                     if parse_version(rest).is_some_and(|ver| ver < (0, 28)) {
-                        picker.set_protocol_type(ProtocolType::Halfblocks);
-                        note =
-                            format!("halfblocks: {v} predates Unicode placeholders (kitty 0.28)");
+                        // Direct placement needs the cursor where the picture goes, which tmux
+                        // does not pass through faithfully.
+                        if tmux {
+                            picker.set_protocol_type(ProtocolType::Halfblocks);
+                            note = format!(
+                                "halfblocks: {v} predates Unicode placeholders (kitty 0.28)"
+                            );
+                        } else {
+                            kitty_direct = true;
+                            note = format!("kitty direct placement ({v})");
+                        }
                     }
                 }
             }
@@ -329,6 +382,7 @@ pub(crate) fn detect(choice: ProtocolChoice) -> Display {
         picker,
         note,
         redraw_on_change,
+        kitty_direct,
     }
 }
 
@@ -353,6 +407,20 @@ mod tests {
             Some("kitty(0.26.5)")
         );
         assert_eq!(parse_xtversion("\x1b[0n"), None);
+    }
+
+    #[test]
+    fn kitty_direct_placement_decodes_to_the_picture() {
+        // 100 x 60 RGB is 18000 bytes, 24000 base64 characters: six chunks.
+        let img = image::RgbImage::from_fn(100, 60, |x, y| image::Rgb([x as u8, y as u8, 77]));
+        let escape = kitty_direct_escape(&img);
+        assert_eq!(escape.matches("\x1b_G").count(), 6);
+        assert!(escape.starts_with("\x1b_Ga=T,f=24,t=d,s=100,v=60,"));
+        let back = crate::tui::decode::decode_kitty(&escape).unwrap();
+        assert_eq!((back.width, back.height), (100, 60));
+        for (x, y) in [(0, 0), (99, 0), (37, 59)] {
+            assert_eq!(back.pixel(x, y), [x as u8, y as u8, 77, 255]);
+        }
     }
 
     #[test]
@@ -399,7 +467,9 @@ mod tests {
             let (w, h) = display.pixels(area);
             assert_eq!((w, h), (120, 100));
             let img = image::RgbImage::from_fn(w, h, pattern);
-            let encoded = display.encode(img.clone(), area).unwrap();
+            let Picture::Widget(encoded) = display.encode(img.clone(), area).unwrap() else {
+                panic!("a widget picture");
+            };
             let mut buf = Buffer::empty(area);
             ratatui_image::Image::new(&encoded).render(area, &mut buf);
             let payload = buf[(0, 0)].symbol().to_string();

@@ -4,13 +4,15 @@
 //! over the bottom of the picture, and the help overlay listing [`KEYS`]. Tested with ratatui's
 //! `TestBackend`.
 
+use crate::script::ParamKind;
 use crate::tui::app::{App, Source, KEYS};
+use crate::tui::protocol::Picture;
+use crate::tui::scene::format_number;
 use ratatui::layout::{Constraint, Direction, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph, Wrap};
 use ratatui::Frame;
-use ratatui_image::protocol::Protocol;
 
 /// Width of the right-hand column (parameters and histogram).
 const PANEL_WIDTH: u16 = 30;
@@ -60,7 +62,7 @@ pub(crate) fn layout(size: Rect) -> Areas {
 
 /// Draws the whole screen. `image` is the picture already encoded for the terminal's protocol
 /// and sized for [`Areas::image`].
-pub(crate) fn draw(frame: &mut Frame, app: &App, image: Option<&Protocol>) {
+pub(crate) fn draw(frame: &mut Frame, app: &App, image: Option<&Picture>) {
     let areas = layout(frame.area());
     let title = match &app.source {
         Source::Script(p) | Source::Image(p) => p
@@ -74,7 +76,11 @@ pub(crate) fn draw(frame: &mut Frame, app: &App, image: Option<&Protocol>) {
     ));
     frame.render_widget(image_block, areas.image_block);
     match image {
-        Some(protocol) => frame.render_widget(ratatui_image::Image::new(protocol), areas.image),
+        Some(Picture::Widget(protocol)) => {
+            frame.render_widget(ratatui_image::Image::new(protocol), areas.image)
+        }
+        // Placed by the event loop after the frame; the cells under it stay blank.
+        Some(Picture::KittyDirect(_)) => {}
         None => {
             let text = if app.status.busy {
                 "rendering…"
@@ -147,6 +153,7 @@ fn draw_params(frame: &mut Frame, app: &App, area: Rect) {
             Span::raw(format!("{}×{} {}", hdr.width, hdr.height, app.status.stage)),
         ]));
     }
+    lines.extend(edit_lines(app, key));
     let params = app.panel_params();
     if !params.is_empty() {
         lines.push(Line::from(Span::styled(
@@ -156,6 +163,10 @@ fn draw_params(frame: &mut Frame, app: &App, area: Rect) {
     }
     for (i, p) in params.iter().enumerate() {
         let value = app.param_value(&p.name).unwrap_or_default();
+        let value = match (p.kind, value.trim().parse::<f64>()) {
+            (ParamKind::Float, Ok(v)) => format_number(v),
+            _ => value,
+        };
         let changed = app.overrides.contains_key(&p.name);
         let style = if i == app.selected {
             Style::default().add_modifier(Modifier::REVERSED)
@@ -182,6 +193,36 @@ fn draw_params(frame: &mut Frame, app: &App, area: Rect) {
         Paragraph::new(lines).block(Block::default().borders(Borders::ALL).title(" view ")),
         area,
     );
+}
+
+/// The keys' own changes to the last volume render, when there are any.
+fn edit_lines(app: &App, key: Style) -> Vec<Line<'static>> {
+    let e = &app.edit;
+    let mut lines = Vec::new();
+    if e.azimuth_deg != 0.0 || e.elevation_deg != 0.0 || e.zoom != 1.0 {
+        lines.push(Line::from(vec![
+            Span::styled("camera   ", key),
+            Span::raw(format!(
+                "az {:+}° el {:+}° ×{}",
+                e.azimuth_deg,
+                e.elevation_deg,
+                format_number(e.zoom)
+            )),
+        ]));
+    }
+    if e.opacity_decades != 0.0 {
+        lines.push(Line::from(vec![
+            Span::styled("opacity  ", key),
+            Span::raw(format!("{:+} decades", e.opacity_decades)),
+        ]));
+    }
+    if let Some([lo, hi]) = e.lens {
+        lines.push(Line::from(vec![
+            Span::styled("window   ", key),
+            Span::raw(format!("[{}, {}]", format_number(lo), format_number(hi))),
+        ]));
+    }
+    lines
 }
 
 fn draw_histogram(frame: &mut Frame, app: &App, area: Rect) {
@@ -216,6 +257,12 @@ fn draw_status(frame: &mut Frame, app: &App, area: Rect) {
         segments.push(Span::styled(
             app.message.clone(),
             Style::default().fg(Color::Green),
+        ));
+    }
+    if !app.log_line.is_empty() {
+        segments.push(Span::styled(
+            format!("print: {}", app.log_line),
+            Style::default().fg(Color::Magenta),
         ));
     }
     if !s.adapter.is_empty() {
@@ -326,6 +373,7 @@ mod tests {
             rec("azimuth", "35.0"),
             rec("elevation", "20.0"),
             rec("zoom", "1.0"),
+            rec("lens_lo", "-12499999999999.0"),
         ]);
         app.view.exposure_ev = 0.5;
         let img = HdrImage::from_pixels(
@@ -343,7 +391,7 @@ mod tests {
         app
     }
 
-    fn render(app: &App, w: u16, h: u16, image: Option<&Protocol>) -> Vec<String> {
+    fn render(app: &App, w: u16, h: u16, image: Option<&Picture>) -> Vec<String> {
         let mut term = Terminal::new(TestBackend::new(w, h)).unwrap();
         term.draw(|f| draw(f, app, image)).unwrap();
         screen(term.backend().buffer())
@@ -400,11 +448,11 @@ mod tests {
         );
         assert_eq!(
             lines[6].chars().skip(50).collect::<String>(),
-            "│> azimuth    35.0           │"
+            "│> azimuth    35             │"
         );
         assert_eq!(
             lines[7].chars().skip(50).collect::<String>(),
-            "│  elevation  20.0           │"
+            "│  elevation  20             │"
         );
         assert!(lines[15].contains("log10 luminance"));
         assert!(
@@ -482,7 +530,8 @@ mod tests {
             )
             .unwrap();
         let mut term = Terminal::new(TestBackend::new(80, 24)).unwrap();
-        term.draw(|f| draw(f, &app, Some(&protocol))).unwrap();
+        let picture = Picture::Widget(protocol);
+        term.draw(|f| draw(f, &app, Some(&picture))).unwrap();
         let buf = term.backend().buffer();
         let top = &buf[(areas.image.x + 3, areas.image.y + 1)];
         let bottom = &buf[(areas.image.x + 3, areas.image.bottom() - 2)];

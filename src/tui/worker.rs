@@ -2,21 +2,23 @@
 //! [`RenderSession`] for the whole TUI session, so loaded data, uploads, renders and the GPU
 //! stay in its result cache and only the passes a change touches run again) first at
 //! `preview_scale` 0.25 when the script reads it, then at full resolution, skipping the full run
-//! when a newer request is already waiting. The view worker turns the HDR image into what the
-//! terminal shows (downsample, tone-map, encode for the protocol, histogram). Both keep only the
-//! newest request: keys pressed while a job runs coalesce into one job.
+//! when a newer request is already waiting. A job that changes no script parameter only renders
+//! the last full run's volume render again with the keys' [`SceneEdit`]. Script runs here never
+//! write the script's outputs and capture its prints. The view worker turns the HDR image into
+//! what the terminal shows (downsample, tone-map, encode for the protocol, histogram). Both keep
+//! only the newest request: keys pressed while a job runs coalesce into one job.
 
 use crate::error::{Error, Result};
 use crate::io::terminal::srgb8_picture;
 use crate::model::HdrImage;
 use crate::render::passes::{PassOutcome, PassRecord};
 use crate::render::session::RenderSession;
-use crate::script::{run_script_file, ParamRecord, ScriptOptions};
+use crate::script::{run_script_file, LastVolumeRender, ParamRecord, ScriptOptions};
 use crate::tui::histogram::LogHistogram;
-use crate::tui::protocol::Display;
+use crate::tui::protocol::{Display, Picture};
+use crate::tui::scene::{LensSpace, SceneEdit};
 use crate::tui::view::{display_image, resample, ViewSettings};
 use ratatui::layout::Rect;
-use ratatui_image::protocol::Protocol;
 use std::path::PathBuf;
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::Arc;
@@ -27,13 +29,25 @@ pub(crate) const PREVIEW_SCALE: &str = "preview_scale";
 /// Scale of the quick first render.
 pub(crate) const LOW_RES_SCALE: f64 = 0.25;
 
-/// What a script run gave the TUI.
+/// What a script run (or a re-render of its last volume render) gave the TUI.
 #[derive(Clone, Debug)]
 pub(crate) struct Scene {
     pub image: Arc<HdrImage>,
     pub params: Vec<ParamRecord>,
     /// The passes of the run: what ran and what came from the session's cache.
     pub passes: Vec<PassRecord>,
+    /// Where the last volume render's magnification window lives; `None` when the script
+    /// rendered no volume (then the camera and opacity keys need the script's `param`s).
+    pub volume: Option<VolumeKeys>,
+    /// What the script printed, in order.
+    pub printed: Vec<String>,
+}
+
+/// What the TUI's own camera, opacity and lens keys can act on.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct VolumeKeys {
+    /// `None` for a transfer function without a colour table (no window to move).
+    pub lens: Option<LensSpace>,
 }
 
 /// Passes for the status line: `raycast 41 ms`, cached ones as `load (cached)`.
@@ -55,39 +69,78 @@ pub(crate) fn adapter_of(session: &RenderSession) -> Option<String> {
     Some(format!("{name} ({})", ctx.backend_name()))
 }
 
-/// Runs the script once with `sets` in `session` and picks the image to show: the last one
-/// passed to `preview(image)`, else the last one rendered, loaded or saved.
+/// A script run's result with the volume render it ended on (to render again with the keys'
+/// changes).
+pub(crate) struct ScriptRun {
+    pub scene: Scene,
+    pub last_render: Option<LastVolumeRender>,
+}
+
+/// Runs the script once with `sets` in `session`, without writing its outputs and with its
+/// prints captured, and picks the image to show: with a non-identity `edit`, the last volume
+/// render rendered again with it; else the last image passed to `preview(image)`, else the last
+/// one rendered, loaded or saved.
 pub(crate) fn render_scene(
     script: &std::path::Path,
     base: &ScriptOptions,
     session: &Arc<RenderSession>,
     sets: Vec<(String, String)>,
-) -> Result<Scene> {
+    edit: &SceneEdit,
+) -> Result<ScriptRun> {
     let mut opts = base.clone();
     opts.sets = sets;
     opts.session = Some(session.clone());
     opts.capture_previews = true;
+    opts.capture_prints = true;
+    opts.write_outputs = false;
     opts.progress = false;
     let report = run_script_file(script, &opts)?;
-    let image = report
-        .previews
-        .last()
-        .cloned()
-        .or(report.last_image)
-        .ok_or_else(|| {
+    let mut passes = report.passes;
+    let shown = report.previews.last().cloned().or(report.last_image);
+    let image = match (&report.last_volume_render, edit.is_identity()) {
+        (Some(render), false) => {
+            let img = rerender(session, render, edit, 1.0)?;
+            passes.extend(session.log().take());
+            img
+        }
+        _ => shown.ok_or_else(|| {
             Error::invalid(
                 script.display().to_string(),
                 "the script produced no image: call preview(image) on what the TUI should show",
             )
-        })?;
-    Ok(Scene {
-        image,
-        params: report.params,
-        passes: report.passes,
+        })?,
+    };
+    Ok(ScriptRun {
+        scene: Scene {
+            image,
+            params: report.params,
+            passes,
+            volume: report.last_volume_render.as_ref().map(|r| VolumeKeys {
+                lens: LensSpace::of(r),
+            }),
+            printed: report.printed,
+        },
+        last_render: report.last_volume_render,
     })
 }
 
-/// A request to re-run the script.
+/// The script's last volume render again with `edit`, at `scale` times its size (at least 16
+/// pixels a side), from the session: no data reload, no script run.
+pub(crate) fn rerender(
+    session: &RenderSession,
+    render: &LastVolumeRender,
+    edit: &SceneEdit,
+    scale: f64,
+) -> Result<Arc<HdrImage>> {
+    let mut o = edit.apply(render);
+    if scale < 1.0 {
+        let shrink = |v: u32| ((v as f64 * scale).round() as u32).max(16).min(v);
+        (o.width, o.height) = (shrink(o.width), shrink(o.height));
+    }
+    session.render_volume(&render.source, &o)
+}
+
+/// A request to re-run the script, or only to render its last volume render again.
 #[derive(Clone, Debug)]
 pub(crate) struct RenderJob {
     pub id: u64,
@@ -95,6 +148,11 @@ pub(crate) struct RenderJob {
     pub low_res_first: bool,
     /// The `--set` pairs without `preview_scale` (the worker adds it).
     pub sets: Vec<(String, String)>,
+    /// The keys' changes to the last volume render.
+    pub edit: SceneEdit,
+    /// A parameter changed (or the file): the script runs again. Otherwise the last full run's
+    /// volume render is rendered again with `edit`.
+    pub rerun_script: bool,
 }
 
 /// A finished run.
@@ -103,9 +161,132 @@ pub(crate) struct RenderDone {
     pub id: u64,
     /// `true` for the quick low-resolution pass.
     pub low_res: bool,
+    /// `true` when only the last volume render ran again (no script run).
+    pub rerender: bool,
+    /// Whether this is the job's last reply (no full-resolution pass follows).
+    pub last: bool,
     pub outcome: std::result::Result<Scene, String>,
     pub ms: f64,
     pub adapter: Option<String>,
+}
+
+/// Re-renders smaller than this many pixels skip the quick pass.
+const QUICK_PASS_MIN_PIXELS: u64 = 160 * 160;
+
+/// The render worker's state between jobs: the last full run's volume render and parameters.
+struct RenderWorker {
+    script: PathBuf,
+    base: ScriptOptions,
+    session: Arc<RenderSession>,
+    last_render: Option<LastVolumeRender>,
+    params: Vec<ParamRecord>,
+    jobs: Receiver<RenderJob>,
+    done: Sender<RenderDone>,
+}
+
+impl RenderWorker {
+    /// Sends one reply; `false` when the TUI has gone.
+    fn send(&self, job: &RenderJob, low_res: bool, rerender: bool, last: bool, run: Timed) -> bool {
+        let (outcome, ms) = run;
+        self.done
+            .send(RenderDone {
+                id: job.id,
+                low_res,
+                rerender,
+                last,
+                outcome,
+                ms,
+                adapter: adapter_of(&self.session),
+            })
+            .is_ok()
+    }
+
+    /// Runs the script at `scale` (the quick pass at [`LOW_RES_SCALE`], the full one at 1).
+    fn run_script(&mut self, job: &RenderJob, scale: f64) -> Timed {
+        let mut sets = job.sets.clone();
+        sets.push((PREVIEW_SCALE.to_string(), format!("{scale}")));
+        let t0 = Instant::now();
+        let outcome = render_scene(&self.script, &self.base, &self.session, sets, &job.edit);
+        let outcome = outcome.map(|run| {
+            if scale == 1.0 || !reads_preview_scale(&run.scene) {
+                self.last_render = run.last_render;
+                self.params = run.scene.params.clone();
+            }
+            run.scene
+        });
+        (outcome.map_err(|e| e.to_string()), ms_since(t0))
+    }
+
+    /// Renders the last volume render again with the job's edit at `scale`.
+    fn rerender(&self, job: &RenderJob, render: &LastVolumeRender, scale: f64) -> Timed {
+        let t0 = Instant::now();
+        self.session.log().take();
+        let outcome = rerender(&self.session, render, &job.edit, scale).map(|image| Scene {
+            image,
+            params: self.params.clone(),
+            passes: self.session.log().take(),
+            volume: Some(VolumeKeys {
+                lens: LensSpace::of(render),
+            }),
+            printed: Vec::new(),
+        });
+        (outcome.map_err(|e| e.to_string()), ms_since(t0))
+    }
+
+    /// Carries out one job; returns a newer job that pre-empted its full pass, or `Err` when
+    /// the TUI has gone.
+    fn handle(&mut self, job: RenderJob) -> std::result::Result<Option<RenderJob>, ()> {
+        let sent = |ok: bool| if ok { Ok(()) } else { Err(()) };
+        if let (false, Some(render)) = (job.rerun_script, self.last_render.clone()) {
+            let (w, h) = (render.options.width as u64, render.options.height as u64);
+            if w * h >= QUICK_PASS_MIN_PIXELS {
+                let quick = self.rerender(&job, &render, LOW_RES_SCALE);
+                let failed = quick.0.is_err();
+                sent(self.send(&job, true, true, failed, quick))?;
+                if failed {
+                    return Ok(None);
+                }
+                if let Ok(newer) = self.jobs.try_recv() {
+                    return Ok(Some(newer));
+                }
+            }
+            let full = self.rerender(&job, &render, 1.0);
+            sent(self.send(&job, false, true, true, full))?;
+            return Ok(None);
+        }
+        if job.low_res_first {
+            let quick = self.run_script(&job, LOW_RES_SCALE);
+            // A failed run, or a script that ignores preview_scale (its quick run was already
+            // the full one), ends the job here.
+            let last = quick.0.as_ref().map_or(true, |s| !reads_preview_scale(s));
+            sent(self.send(&job, true, false, last, quick))?;
+            if last {
+                return Ok(None);
+            }
+            // A newer request makes the full-resolution run of this one pointless; the kept
+            // volume render is the quick run's, so the newer job must run the script.
+            if let Ok(newer) = self.jobs.try_recv() {
+                return Ok(Some(RenderJob {
+                    rerun_script: true,
+                    ..newer
+                }));
+            }
+        }
+        let full = self.run_script(&job, 1.0);
+        sent(self.send(&job, false, false, true, full))?;
+        Ok(None)
+    }
+}
+
+/// A run's outcome and its milliseconds.
+type Timed = (std::result::Result<Scene, String>, f64);
+
+fn ms_since(t0: Instant) -> f64 {
+    t0.elapsed().as_secs_f64() * 1e3
+}
+
+fn reads_preview_scale(scene: &Scene) -> bool {
+    scene.params.iter().any(|p| p.name == PREVIEW_SCALE)
 }
 
 /// Starts the render worker for `script`; results arrive on the returned receiver.
@@ -119,65 +300,47 @@ pub(crate) fn spawn_render_worker(
     std::thread::Builder::new()
         .name("hdrvis-render".into())
         .spawn(move || {
+            let mut worker = RenderWorker {
+                script,
+                base,
+                session,
+                last_render: None,
+                params: Vec::new(),
+                jobs: job_rx,
+                done: done_tx,
+            };
             let mut pending: Option<RenderJob> = None;
             loop {
                 let job = match pending.take() {
                     Some(j) => j,
-                    None => match job_rx.recv() {
+                    None => match worker.jobs.recv() {
                         Ok(j) => j,
                         Err(_) => return,
                     },
                 };
-                let job = latest(job, &job_rx);
-                let run = |scale: f64| {
-                    let mut sets = job.sets.clone();
-                    sets.push((PREVIEW_SCALE.to_string(), format!("{scale}")));
-                    let t0 = Instant::now();
-                    let outcome =
-                        render_scene(&script, &base, &session, sets).map_err(|e| e.to_string());
-                    (outcome, t0.elapsed().as_secs_f64() * 1e3)
-                };
-                if job.low_res_first {
-                    let (outcome, ms) = run(LOW_RES_SCALE);
-                    // A failed run, or a script that ignores preview_scale (its quick run was
-                    // already the full one), ends the job here.
-                    let failed = outcome
-                        .as_ref()
-                        .map_or(true, |s| !s.params.iter().any(|p| p.name == PREVIEW_SCALE));
-                    let sent = done_tx.send(RenderDone {
-                        id: job.id,
-                        low_res: true,
-                        outcome,
-                        ms,
-                        adapter: adapter_of(&session),
-                    });
-                    if sent.is_err() {
-                        return;
-                    }
-                    if failed {
-                        continue;
-                    }
-                    // A newer request makes the full-resolution run of this one pointless.
-                    if let Ok(newer) = job_rx.try_recv() {
-                        pending = Some(newer);
-                        continue;
-                    }
-                }
-                let (outcome, ms) = run(1.0);
-                let sent = done_tx.send(RenderDone {
-                    id: job.id,
-                    low_res: false,
-                    outcome,
-                    ms,
-                    adapter: adapter_of(&session),
-                });
-                if sent.is_err() {
-                    return;
+                let job = latest_render(job, &worker.jobs);
+                match worker.handle(job) {
+                    Ok(next) => pending = next,
+                    Err(()) => return,
                 }
             }
         })
         .expect("spawning the render thread");
     (job_tx, done_rx)
+}
+
+/// The newest render job, `first` or one queued behind it; it re-runs the script when any job it
+/// replaces would have.
+fn latest_render(first: RenderJob, rx: &Receiver<RenderJob>) -> RenderJob {
+    let mut job = first;
+    while let Ok(newer) = rx.try_recv() {
+        let rerun_script = job.rerun_script || newer.rerun_script;
+        job = RenderJob {
+            rerun_script,
+            ..newer
+        };
+    }
+    job
 }
 
 /// The newest job: `first` or anything queued behind it.
@@ -191,7 +354,7 @@ fn latest<T>(first: T, rx: &Receiver<T>) -> T {
 
 /// What the terminal shows for one HDR image and view.
 pub(crate) struct Prepared {
-    pub protocol: Protocol,
+    pub protocol: Picture,
     pub histogram: Option<LogHistogram>,
 }
 

@@ -2,10 +2,11 @@
 //! change exposure, save again, quit; the saved EXR and PNG files exist and differ exactly as an
 //! exposure change should, and the terminal is restored (alternate screen left, shell prompt
 //! back, line editing and echo on). Also: SIGTERM restores the terminal, a script error shows
-//! with line and caret inside the TUI and a corrected file reloads by itself. And a real terminal:
-//! xterm in VT340 mode (sixel) under Xvfb shows the picture, located in a screenshot.
+//! with line and caret inside the TUI and a corrected file reloads by itself. And real terminals
+//! under Xvfb, the picture located in a screenshot: xterm in VT340 mode (sixel), and kitty
+//! (Debian's 0.26, direct placement) for the TUI and for `run --preview`.
 //!
-//! Missing tmux, xterm or Xvfb skip with a printed reason, unless `HDRVIS_REQUIRE_TUI_TOOLS=1`
+//! Missing tmux, xterm, kitty or Xvfb skip with a printed reason, unless `HDRVIS_REQUIRE_TUI_TOOLS=1`
 //! (CI), which turns a missing tool into a failure.
 
 use std::path::{Path, PathBuf};
@@ -29,7 +30,7 @@ fn tools(list: &[&str]) -> bool {
         panic!("HDRVIS_REQUIRE_TUI_TOOLS=1 but {missing:?} not installed");
     }
     eprintln!(
-        "skipped: {missing:?} not installed (apt-get install tmux xterm xvfb x11-apps imagemagick)"
+        "skipped: {missing:?} not installed (apt-get install tmux xterm kitty xvfb x11-apps)"
     );
     false
 }
@@ -291,6 +292,125 @@ fn script_errors_show_with_caret_and_a_fixed_file_reloads() {
     assert_restored(&t, "tui-exit=0");
 }
 
+/// A scene with no `param` at all: the TUI's own keys must still orbit it and change its opacity.
+const PLAIN_SCENE: &str = r#"
+let mantle = generate_mantle(#{ n: 32, field: "fluctuation", seed: 7 });
+let tf = tf_lut(#{ scale: "symlog", linthresh: 1e-3, domain: [-0.3, 0.45], colormap: "spectral",
+    emission: [[0.0, -1.0], [1.0, -0.5]], opacity: [[0.0, -1.5], [0.5, -3.0], [1.0, -1.0]] });
+let img = render_volume(mantle, #{ tf: tf, camera: camera_orbit(30.0, 20.0), width: 64, height: 64 });
+save_exr(img, "scene.exr");
+save_png(img, "scene.png");
+print("hello from the script");
+"#;
+
+#[test]
+fn a_script_without_params_is_orbited_and_made_denser_without_rewriting_its_outputs() {
+    if !tools(&["tmux"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (script, out) = (dir.path().join("plain.rhai"), dir.path().join("out"));
+    std::fs::write(&script, PLAIN_SCENE).unwrap();
+    let bin = env!("CARGO_BIN_EXE_hdrvis");
+    let run = Command::new(bin)
+        .args([
+            "run",
+            script.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let outputs = [out.join("scene.exr"), out.join("scene.png")];
+    let mtimes: Vec<_> = outputs
+        .iter()
+        .map(|p| std::fs::metadata(p).unwrap().modified().unwrap())
+        .collect();
+    std::thread::sleep(Duration::from_millis(50));
+
+    let t = Tmux::start("plain");
+    t.line(&format!(
+        "{bin} tui {} --out {} --protocol halfblocks; echo \"tui\"-exit=$?; stty -a | grep -o -- '-\\?icanon\\|-\\?echo ' | tr '\\n' ' '; echo",
+        script.display(),
+        out.display()
+    ));
+    let s = t.wait_for("image    64×64 full", Duration::from_secs(60));
+    assert!(s.contains("print: hello from the script"), "{s}");
+    let idle = |t: &Tmux, what: &str| {
+        let s = t.wait_for(what, Duration::from_secs(30));
+        let t0 = Instant::now();
+        let mut s = s;
+        while s.contains("rendering…") {
+            assert!(t0.elapsed() < Duration::from_secs(60), "{s}");
+            std::thread::sleep(Duration::from_millis(100));
+            s = t.screen();
+        }
+        s
+    };
+    t.keys(&["s"]);
+    t.wait_for("saved plain_view001.exr", Duration::from_secs(20));
+    t.keys(&["l"]);
+    let s = idle(&t, "camera   az +15°");
+    // The status line reports the re-render and its time.
+    let status = s.lines().last().unwrap_or_default().to_string();
+    let ms = status
+        .split("re-render ")
+        .nth(1)
+        .and_then(|r| r.split(" ms").next())
+        .and_then(|v| v.trim().parse::<f64>().ok());
+    assert!(
+        ms.is_some_and(|ms| ms > 0.0),
+        "no re-render time: {status:?}"
+    );
+    assert!(!s.contains("has no param"), "{s}");
+    t.keys(&["s"]);
+    t.wait_for("saved plain_view002.exr", Duration::from_secs(20));
+    t.keys(&["a"]);
+    idle(&t, "opacity  +0.25 decades");
+    t.keys(&["s"]);
+    t.wait_for("saved plain_view003.exr", Duration::from_secs(20));
+    t.keys(&["q"]);
+    assert_restored(&t, "tui-exit=0");
+
+    let view =
+        |i: u32| hdrvis::io::exr::read_exr(&out.join(format!("plain_view00{i}.exr"))).unwrap();
+    let (v1, v2, v3) = (view(1), view(2), view(3));
+    let differing = |a: &hdrvis::model::HdrImage, b: &hdrvis::model::HdrImage| {
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-4 * p[k].abs().max(1e-3)))
+            .count()
+    };
+    assert!(
+        differing(&v1, &v2) > 200,
+        "the orbit changed {} pixels",
+        differing(&v1, &v2)
+    );
+    assert!(
+        differing(&v2, &v3) > 200,
+        "the opacity changed {} pixels",
+        differing(&v2, &v3)
+    );
+    // More extinction: the picture's total emission changes, and the first view is the script's
+    // own render (what `hdrvis run` saved).
+    let script_img = hdrvis::io::exr::read_exr(&outputs[0]).unwrap();
+    assert_eq!(
+        differing(&script_img, &v1),
+        0,
+        "the first view is the script's render"
+    );
+    for (p, before) in outputs.iter().zip(&mtimes) {
+        let after = std::fs::metadata(p).unwrap().modified().unwrap();
+        assert_eq!(after, *before, "{} was written again", p.display());
+    }
+}
+
 /// Reads an X window dump (`xwd`, ZPixmap, 24/32 bits per pixel) into RGB.
 fn read_xwd(b: &[u8]) -> Option<image::RgbImage> {
     let field = |i: usize| -> Option<u32> {
@@ -354,13 +474,9 @@ impl Drop for Child {
     }
 }
 
-#[test]
-fn xterm_vt340_shows_the_sixel_picture() {
-    if !tools(&["Xvfb", "xterm", "xwd"]) {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    // A picture to find: green everywhere, a red square in its top-left quarter (orientation).
+/// Writes the picture the screenshot tests look for: green everywhere, a red square in its
+/// top-left quarter (orientation), 96 x 64 (aspect 3:2).
+fn target_exr(dir: &Path) -> PathBuf {
     let (w, h) = (96u32, 64u32);
     let pixels = (0..w * h)
         .map(|i| {
@@ -372,11 +488,14 @@ fn xterm_vt340_shows_the_sixel_picture() {
             }
         })
         .collect();
-    let exr = dir.path().join("target.exr");
+    let exr = dir.join("target.exr");
     hdrvis::io::exr::write_exr(&hdrvis::model::HdrImage::from_pixels(w, h, pixels), &exr).unwrap();
+    exr
+}
 
-    // Xvfb picks a free display itself and writes its number to the pipe, so stale lock files
-    // or a parallel run never make this test wait on a display that is not there.
+/// Starts Xvfb on a display it picks itself (it writes the number to the pipe, so stale lock
+/// files or a parallel run never make a test wait on a display that is not there).
+fn start_xvfb() -> (Terminated, String) {
     let mut xvfb = Command::new("Xvfb")
         .args([
             "-displayfd",
@@ -397,43 +516,22 @@ fn xterm_vt340_shows_the_sixel_picture() {
         &mut number,
     )
     .unwrap();
-    let _xvfb = Terminated(xvfb);
     let display = format!(":{}", number.trim());
+    let xvfb = Terminated(xvfb);
     assert!(number.trim().parse::<u32>().is_ok(), "Xvfb did not start");
-    let shell = format!(
-        "{} tui {} --out {}; sleep 30",
-        env!("CARGO_BIN_EXE_hdrvis"),
-        exr.display(),
-        dir.path().join("out").display()
-    );
-    let _xterm = Child(
-        Command::new("xterm")
-            .args([
-                "-display",
-                &display,
-                "-ti",
-                "vt340",
-                "-xrm",
-                "XTerm*numColorRegisters: 256",
-                "-geometry",
-                "80x24+0+0",
-                "-e",
-                "sh",
-                "-c",
-                &shell,
-            ])
-            .env_remove("TMUX")
-            .env_remove("HDRVIS_TUI_PROTOCOL")
-            .spawn()
-            .unwrap(),
-    );
-    let shot = dir.path().join("shot.png");
+    (xvfb, display)
+}
+
+/// Takes screenshots of `display` until the target picture ([`target_exr`]) shows, then checks
+/// it: its 3:2 aspect, the red square in its top-left quarter, red covering about 1/16 of it.
+fn assert_target_on_screen(display: &str, dir: &Path, what: &str) {
+    let shot = dir.join("shot.png");
     let t0 = Instant::now();
     let (mut found, mut last) = (None, String::new());
     while t0.elapsed() < Duration::from_secs(60) && found.is_none() {
         std::thread::sleep(Duration::from_millis(500));
         let grab = Command::new("xwd")
-            .args(["-root", "-silent", "-display", &display])
+            .args(["-root", "-silent", "-display", display])
             .output()
             .unwrap();
         let Some(img) = read_xwd(&grab.stdout) else {
@@ -469,22 +567,152 @@ fn xterm_vt340_shows_the_sixel_picture() {
         }
     }
     let ((gx0, gy0, gx1, gy1), (rx0, ry0, rx1, ry1), gn, rn) =
-        found.unwrap_or_else(|| panic!("no picture in the screenshot after 60 s: {last}"));
+        found.unwrap_or_else(|| panic!("{what}: no picture in the screenshot after 60 s: {last}"));
     let (gw, gh) = ((gx1 - gx0 + 1) as f64, (gy1 - gy0 + 1) as f64);
-    // The picture keeps its 3:2 aspect, the red square sits in its top-left quarter, and red
-    // covers about 1/16 of it.
-    assert!((gw / gh - 1.5).abs() < 0.1, "aspect {gw}x{gh}");
+    assert!((gw / gh - 1.5).abs() < 0.1, "{what}: aspect {gw}x{gh}");
     assert!(
         rx0 <= gx0 + 2 && ry0 <= gy0 + 2,
-        "red at ({rx0}, {ry0}), picture at ({gx0}, {gy0})"
+        "{what}: red at ({rx0}, {ry0}), picture at ({gx0}, {gy0})"
     );
-    assert!(((rx1 - rx0 + 1) as f64 / gw - 0.25).abs() < 0.05);
-    assert!(((ry1 - ry0 + 1) as f64 / gh - 0.25).abs() < 0.05);
+    assert!(((rx1 - rx0 + 1) as f64 / gw - 0.25).abs() < 0.05, "{what}");
+    assert!(((ry1 - ry0 + 1) as f64 / gh - 0.25).abs() < 0.05, "{what}");
     let red_share = rn as f64 / (gn + rn) as f64;
     assert!(
         (red_share - 1.0 / 16.0).abs() < 0.02,
-        "red share {red_share}"
+        "{what}: red share {red_share}"
     );
+}
+
+#[test]
+fn xterm_vt340_shows_the_sixel_picture() {
+    if !tools(&["Xvfb", "xterm", "xwd"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exr = target_exr(dir.path());
+    let (_xvfb, display) = start_xvfb();
+    let shell = format!(
+        "{} tui {} --out {}; sleep 30",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        exr.display(),
+        dir.path().join("out").display()
+    );
+    let _xterm = Child(
+        Command::new("xterm")
+            .args([
+                "-display",
+                &display,
+                "-ti",
+                "vt340",
+                "-xrm",
+                "XTerm*numColorRegisters: 256",
+                "-geometry",
+                "80x24+0+0",
+                "-e",
+                "sh",
+                "-c",
+                &shell,
+            ])
+            .env_remove("TMUX")
+            .env_remove("TERM_PROGRAM")
+            .env_remove("HDRVIS_TUI_PROTOCOL")
+            .spawn()
+            .unwrap(),
+    );
+    assert_target_on_screen(&display, dir.path(), "xterm sixel");
+}
+
+/// Runs `shell` in a real kitty (Debian's package) under Xvfb, on Mesa's software OpenGL, finds
+/// the picture in a screenshot and, with `expect_text`, that text on kitty's screen (read back
+/// through kitty's remote control), e.g. the protocol the TUI's status line names.
+fn kitty_shows_the_target(shell: &str, dir: &Path, what: &str, expect_text: Option<&str>) {
+    let (_xvfb, display) = start_xvfb();
+    let socket = format!("unix:{}", dir.join("kitty.sock").display());
+    let _kitty = Child(
+        Command::new("kitty")
+            .args([
+                "--config",
+                "NONE",
+                "-o",
+                "initial_window_width=800",
+                "-o",
+                "initial_window_height=600",
+                "-o",
+                "remember_window_size=no",
+                "-o",
+                "font_size=10",
+                "-o",
+                "allow_remote_control=yes",
+                "--listen-on",
+                &socket,
+                "sh",
+                "-c",
+                shell,
+            ])
+            .env("DISPLAY", &display)
+            .env("LIBGL_ALWAYS_SOFTWARE", "1")
+            .env_remove("TMUX")
+            .env_remove("HDRVIS_TUI_PROTOCOL")
+            .env_remove("KITTY_WINDOW_ID")
+            .env_remove("TERM_PROGRAM")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    assert_target_on_screen(&display, dir, what);
+    if let Some(text) = expect_text {
+        let screen = Command::new("kitty")
+            .args(["@", "--to", &socket, "get-text"])
+            .output()
+            .unwrap();
+        let screen = String::from_utf8_lossy(&screen.stdout);
+        assert!(
+            screen.contains(text),
+            "{what}: {text:?} not on screen:\n{screen}"
+        );
+    }
+}
+
+#[test]
+fn kitty_shows_the_tui_picture() {
+    if !tools(&["Xvfb", "kitty", "xwd"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exr = target_exr(dir.path());
+    let shell = format!(
+        "{} tui {} --out {}; sleep 30",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        exr.display(),
+        dir.path().join("out").display()
+    );
+    // kitty 0.26 has no Unicode placeholders: the picture must be a directly placed image, not
+    // half blocks.
+    kitty_shows_the_target(
+        &shell,
+        dir.path(),
+        "kitty tui",
+        Some("kitty direct placement"),
+    );
+}
+
+#[test]
+fn kitty_shows_the_run_preview_picture() {
+    if !tools(&["Xvfb", "kitty", "xwd"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    target_exr(dir.path());
+    let script = dir.path().join("show.rhai");
+    std::fs::write(&script, "preview(load_image(\"target.exr\"));\n").unwrap();
+    let shell = format!(
+        "{} run {} --out {} --preview; sleep 30",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        script.display(),
+        dir.path().join("out").display()
+    );
+    kitty_shows_the_target(&shell, dir.path(), "kitty run --preview", None);
 }
 
 #[test]
