@@ -251,9 +251,12 @@ impl Camera {
                 half_height,
             } => format!("orthographic {}x{}", 2.0 * half_width, 2.0 * half_height),
         };
+        use super::transfer::plain_list;
         format!(
-            "{p}; eye {:?}; forward {:?}; up {:?}",
-            self.eye, self.forward, self.up
+            "{p}; eye {}; forward {}; up {}",
+            plain_list(&self.eye),
+            plain_list(&self.forward),
+            plain_list(&self.up)
         )
     }
 }

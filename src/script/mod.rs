@@ -276,6 +276,7 @@ pub fn run_script_source(
     let ast = engine
         .compile(source)
         .map_err(|e| Error::Script(format_error(name, source, &e.to_string(), e.position())))?;
+    check_sets_are_read(&ast, &opts.sets)?;
     engine
         .run_ast(&ast)
         .map_err(|e| Error::Script(describe_eval_error(name, source, &e)))?;
@@ -290,6 +291,51 @@ pub fn run_script_source(
         previews: take(&host.previews),
         last_image: take(&host.last_image),
     })
+}
+
+/// The names the script's `param(NAME, default)` calls read, found in its syntax tree (function
+/// bodies included), sorted; `None` when some call computes its name, so the set is unknown.
+pub fn script_param_names(ast: &rhai::AST) -> Option<Vec<String>> {
+    use rhai::{ASTNode, Expr};
+    let mut names = std::collections::BTreeSet::new();
+    let mut computed = false;
+    ast.walk(&mut |path: &[ASTNode]| {
+        if let Some(ASTNode::Expr(Expr::FnCall(call, _))) = path.last() {
+            if call.name == "param" && call.args.len() == 2 {
+                match &call.args[0] {
+                    Expr::StringConstant(s, _) => {
+                        names.insert(s.to_string());
+                    }
+                    _ => computed = true,
+                }
+            }
+        }
+        true
+    });
+    (!computed).then(|| names.into_iter().collect())
+}
+
+/// Refuses a `--set NAME=...` that no `param("NAME", ...)` of the script reads, before anything
+/// runs: a misspelt name would otherwise run the whole script with the default.
+fn check_sets_are_read(ast: &rhai::AST, sets: &[(String, String)]) -> Result<()> {
+    let Some(known) = script_param_names(ast) else {
+        return Ok(());
+    };
+    let Some((unread, _)) = sets.iter().find(|(k, _)| !known.contains(k)) else {
+        return Ok(());
+    };
+    let listed = if known.is_empty() {
+        "the script reads no parameters".to_string()
+    } else {
+        format!("its parameters: {}", known.join(", "))
+    };
+    let hint = crate::error::closest_name(unread, known.iter().map(String::as_str))
+        .map(|c| format!("did you mean {c}? "))
+        .unwrap_or_default();
+    Err(Error::invalid(
+        format!("--set {unread}"),
+        format!("no param(\"{unread}\", ...) in the script reads it; {hint}{listed}"),
+    ))
 }
 
 /// A run killed mid-write leaves its temporary file (`.hdrvis-*.tmp`, see io::write_atomic)
