@@ -2,7 +2,9 @@
 //! issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`. Saving,
 //! previews, progress and `param` live in `api_output`.
 
-use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
+use super::convert::{
+    boolean, check_keys, err, int, num, points, string, to_rhai, variable_option, vec3, RResult,
+};
 use super::ScriptHost;
 use crate::model::{
     Aabb, Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume, VolumeStats,
@@ -98,9 +100,23 @@ fn register_types(engine: &mut Engine) {
 fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_volume", move |path: &str| -> RResult<ScriptVolume> {
-        let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        h.session.load_volume(&p, None).map_err(to_rhai)
+        let (p, variable) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+        h.session
+            .load_volume(&p, variable.as_deref())
+            .map_err(to_rhai)
     });
+    let h = host.clone();
+    engine.register_fn(
+        "load_volume",
+        move |path: &str, opts: Map| -> RResult<ScriptVolume> {
+            check_keys(&opts, &["variable"], "load_volume")?;
+            let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+            let variable = variable_option(&opts, from_path, "load_volume")?;
+            h.session
+                .load_volume(&p, variable.as_deref())
+                .map_err(to_rhai)
+        },
+    );
 
     let h = host.clone();
     engine.register_fn(

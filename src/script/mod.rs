@@ -275,7 +275,7 @@ pub fn run_script_source(
     let engine = new_engine(host.clone(), opts.max_operations);
     let ast = engine
         .compile(source)
-        .map_err(|e| Error::Script(format_error(name, source, &e.to_string(), e.position())))?;
+        .map_err(|e| Error::Script(describe_parse_error(name, source, &e)))?;
     check_sets_are_read(&ast, &opts.sets)?;
     engine
         .run_ast(&ast)
@@ -358,6 +358,19 @@ fn remove_stale_temporaries(dir: &Path) {
     while let Some(d) = stack.pop() {
         walk(&d, &mut stack);
     }
+}
+
+/// A parse error at `file:line:col`; a reserved word used as a map key (`#{var: ...}`) names the
+/// option to write instead.
+fn describe_parse_error(name: &str, source: &str, err: &rhai::ParseError) -> String {
+    let mut msg = err.to_string();
+    if let Some(idx) = msg.rfind(" (line ") {
+        msg.truncate(idx);
+    }
+    if msg.contains("'var' is a reserved keyword") {
+        msg.push_str("; to pick a variable of a data file write variable: \"NAME\"");
+    }
+    format_error(name, source, &msg, err.position())
 }
 
 fn describe_eval_error(name: &str, source: &str, err: &EvalAltResult) -> String {
