@@ -13,6 +13,7 @@ mod api_post;
 mod api_render;
 mod api_surface;
 mod convert;
+mod progress;
 mod sandbox;
 
 use crate::error::{Error, Result};
@@ -52,6 +53,19 @@ pub struct ScriptOptions {
     pub capture_previews: bool,
     /// Default `memory_budget` of every render, in MiB of GPU memory (`--gpu-memory`).
     pub gpu_memory_mib: Option<f64>,
+    /// Told of every output the moment it is complete on disk (`hdrvis run` prints "wrote ...",
+    /// so an interrupted run has already reported what it wrote).
+    pub on_written: Option<WrittenObserver>,
+}
+
+/// A callback for each file a run writes; see [`ScriptOptions::on_written`].
+#[derive(Clone)]
+pub struct WrittenObserver(pub Arc<dyn Fn(&Path) + Send + Sync>);
+
+impl std::fmt::Debug for WrittenObserver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("WrittenObserver")
+    }
 }
 
 impl ScriptOptions {
@@ -68,6 +82,7 @@ impl ScriptOptions {
             cache_mib: crate::render::cache::DEFAULT_BUDGET_MIB,
             capture_previews: false,
             gpu_memory_mib: None,
+            on_written: None,
         }
     }
 }
@@ -119,9 +134,10 @@ pub(crate) struct ScriptHost {
     pub last_image: Mutex<Option<Arc<HdrImage>>>,
     pub resume: bool,
     progress_enabled: bool,
-    progress: Mutex<Option<indicatif::ProgressBar>>,
+    progress: Mutex<progress::ProgressState>,
     /// Default memory budget of renders (MiB), and the bricked path's caches.
     pub gpu_memory_mib: Option<f64>,
+    on_written: Option<WrittenObserver>,
 }
 
 impl ScriptHost {
@@ -144,28 +160,20 @@ impl ScriptHost {
         self.resume && path.is_file()
     }
 
-    /// Reports loop progress on stderr with an ETA; the bar is created on the first call.
+    /// Reports loop progress on stderr with an ETA from the rate measured so far.
     pub(crate) fn progress(&self, done: u64, total: u64, label: &str) {
-        if !self.progress_enabled {
-            return;
+        if self.progress_enabled {
+            let mut state = self.progress.lock().expect("progress poisoned");
+            state.report(done, total, label);
         }
-        let mut slot = self.progress.lock().expect("progress poisoned");
-        let bar = slot.get_or_insert_with(|| {
-            let bar = indicatif::ProgressBar::new(total);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} eta {eta}")
-                    .expect("valid template")
-                    .progress_chars("=> "),
-            );
-            bar
-        });
-        bar.set_length(total);
-        bar.set_position(done.min(total));
-        bar.set_message(label.to_string());
-        if done >= total {
-            bar.finish();
-            *slot = None;
+    }
+
+    /// Records a finished output and tells the observer.
+    pub(crate) fn note_written(&self, path: PathBuf) {
+        if let Some(observer) = &self.on_written {
+            (observer.0)(&path);
         }
+        self.written.lock().expect("written poisoned").push(path);
     }
 }
 
@@ -217,8 +225,9 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         last_image: Mutex::new(None),
         resume: false,
         progress_enabled: false,
-        progress: Mutex::new(None),
+        progress: Mutex::new(progress::ProgressState::default()),
         gpu_memory_mib: None,
+        on_written: None,
     })
 }
 
@@ -269,8 +278,9 @@ pub fn run_script_source(
         last_image: Mutex::new(None),
         resume: opts.resume,
         progress_enabled: opts.progress,
-        progress: Mutex::new(None),
+        progress: Mutex::new(progress::ProgressState::default()),
         gpu_memory_mib: opts.gpu_memory_mib,
+        on_written: opts.on_written.clone(),
     });
     let engine = new_engine(host.clone(), opts.max_operations);
     let ast = engine
