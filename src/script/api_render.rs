@@ -340,6 +340,7 @@ pub(crate) fn render_options(
             fov: 35.0,
         },
     };
+    let is_axis = matches!(camera, ScriptCamera::Axis(_));
     let camera = camera.resolve(&source.bounds()).map_err(to_rhai)?;
     let mut o = VolumeRenderOptions::new(camera, tf);
     for (k, v) in opts {
@@ -347,11 +348,25 @@ pub(crate) fn render_options(
             take_render_option(&mut o, k.as_str(), v)?;
         }
     }
+    if is_axis {
+        // Square pixels: a missing side follows the box, a given size is letterboxed.
+        let given = |key: &str, v: u32| opts.contains_key(key).then_some(v);
+        let (w, h) = o.camera.square_pixel_size(
+            given("width", o.width),
+            given("height", o.height),
+            AXIS_LONG_SIDE,
+        );
+        (o.width, o.height) = (w, h);
+        o.camera = o.camera.letterboxed(w, h);
+    }
     if o.bricking.memory_budget.is_none() {
         o.bricking.memory_budget = host.gpu_memory_mib.map(mib_to_bytes);
     }
     Ok(o)
 }
+
+/// Pixels on the longer side of an axis view given no width or height.
+const AXIS_LONG_SIDE: u32 = 512;
 
 /// Sets one of [`RENDER_KEYS`] (checked before).
 fn take_render_option(o: &mut VolumeRenderOptions, key: &str, v: &Dynamic) -> RResult<()> {
