@@ -42,7 +42,11 @@ fn with_suggestion(mut e: clap::Error, args: &[String]) -> clap::Error {
                 .flat_map(|a| a.get_long_and_visible_aliases().unwrap_or_default())
                 .map(|l| format!("--{l}"))
                 .collect::<Vec<_>>();
-            (e.get(ContextKind::InvalidArg), ContextKind::SuggestedArg, longs)
+            (
+                e.get(ContextKind::InvalidArg),
+                ContextKind::SuggestedArg,
+                longs,
+            )
         }
         _ => return e,
     };
@@ -50,7 +54,9 @@ fn with_suggestion(mut e: clap::Error, args: &[String]) -> clap::Error {
         return e;
     };
     if e.get(suggestion_kind).is_none() {
-        if let Some(best) = hdrvis::error::closest_name(&wanted, candidates.iter().map(String::as_str)) {
+        if let Some(best) =
+            hdrvis::error::closest_name(&wanted, candidates.iter().map(String::as_str))
+        {
             e.insert(suggestion_kind, ContextValue::String(best.to_string()));
         }
     }

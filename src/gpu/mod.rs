@@ -267,7 +267,13 @@ impl GpuContext {
             if first.is_none() {
                 // wgpu's messages run over several lines; the first says what happened.
                 let text = e.to_string();
-                *first = Some(text.lines().next().unwrap_or("unknown error").trim().to_string());
+                *first = Some(
+                    text.lines()
+                        .next()
+                        .unwrap_or("unknown error")
+                        .trim()
+                        .to_string(),
+                );
             }
         }));
         let pipeline_cache = if wanted.contains(wgpu::Features::PIPELINE_CACHE) {

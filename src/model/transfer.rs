@@ -615,7 +615,11 @@ mod tests {
             ("SymLog", "symlog"),
             ("symmetric-log", "symlog"),
         ] {
-            assert_eq!(Scale::parse(name, Some(1.0)).unwrap().name(), want, "{name}");
+            assert_eq!(
+                Scale::parse(name, Some(1.0)).unwrap().name(),
+                want,
+                "{name}"
+            );
         }
         let err = Scale::parse("lgo10", None).unwrap_err().to_string();
         assert!(err.contains("did you mean log10?"), "{err}");

@@ -292,7 +292,11 @@ impl VolumeRenderOptions {
 /// Refuses, before any GPU work, an RGBA f32 image the adapter cannot hold: a side beyond its
 /// largest 2-D texture, or more bytes (rows padded to wgpu's copy alignment) than its largest
 /// buffer, which the read back needs. The message names the limit and the largest square that fits.
-pub(crate) fn check_output_fits(caps: &crate::gpu::Capabilities, width: u32, height: u32) -> Result<()> {
+pub(crate) fn check_output_fits(
+    caps: &crate::gpu::Capabilities,
+    width: u32,
+    height: u32,
+) -> Result<()> {
     let side = caps.max_texture_2d;
     if width > side || height > side {
         return Err(Error::invalid(

@@ -306,11 +306,17 @@ pub fn run_script_source(
 /// The names the script's `param(NAME, default)` calls read, found in its syntax tree (function
 /// bodies included), sorted; `None` when some call computes its name, so the set is unknown.
 pub fn script_param_names(ast: &rhai::AST) -> Option<Vec<String>> {
-    use rhai::{ASTNode, Expr};
+    use rhai::{ASTNode, Expr, Stmt};
     let mut names = std::collections::BTreeSet::new();
     let mut computed = false;
     ast.walk(&mut |path: &[ASTNode]| {
-        if let Some(ASTNode::Expr(Expr::FnCall(call, _))) = path.last() {
+        // A call is an expression, or a statement of its own (a function's last line).
+        let call = match path.last() {
+            Some(ASTNode::Expr(Expr::FnCall(call, _))) => Some(call),
+            Some(ASTNode::Stmt(Stmt::FnCall(call, _))) => Some(call),
+            _ => None,
+        };
+        if let Some(call) = call {
             if call.name == "param" && call.args.len() == 2 {
                 match &call.args[0] {
                     Expr::StringConstant(s, _) => {

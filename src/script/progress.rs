@@ -85,7 +85,10 @@ mod tests {
     fn eta_is_the_measured_rate_times_the_items_left() {
         let mut state = ProgressState::default();
         // 24 items of ~3 s each; the script reports 0 at t = 10 s, then after each item.
-        assert_eq!(state.status_at(0, 24, "sweep", 10.0), "sweep elapsed 0s eta ?");
+        assert_eq!(
+            state.status_at(0, 24, "sweep", 10.0),
+            "sweep elapsed 0s eta ?"
+        );
         // 3 done after 9 s: 3 s per item, 21 left -> 63 s (the issue saw "eta 4s" here).
         assert_eq!(
             state.status_at(3, 24, "sweep", 19.0),
