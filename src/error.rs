@@ -52,3 +52,37 @@ impl Error {
         }
     }
 }
+
+/// The candidate closest to a misspelt `word` (letters swapped, dropped, added or changed, case
+/// ignored), for "did you mean ...?" hints; `None` when nothing is close.
+pub fn closest_name<'a>(
+    word: &str,
+    candidates: impl IntoIterator<Item = &'a str>,
+) -> Option<&'a str> {
+    let word = word.to_ascii_lowercase();
+    // One edit per three letters, at least one: "rnu" -> "run", "sizee" -> "size".
+    let allowed = (word.chars().count() / 3).max(1);
+    candidates
+        .into_iter()
+        .map(|c| {
+            (
+                strsim::damerau_levenshtein(&word, &c.to_ascii_lowercase()),
+                c,
+            )
+        })
+        .filter(|(d, _)| *d <= allowed)
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, c)| c)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn closest_name_finds_swapped_dropped_and_added_letters() {
+        let names = ["run", "info", "tonemap", "output"];
+        assert_eq!(super::closest_name("rnu", names), Some("run"));
+        assert_eq!(super::closest_name("ouput", names), Some("output"));
+        assert_eq!(super::closest_name("TONEMAPP", names), Some("tonemap"));
+        assert_eq!(super::closest_name("xyz", names), None);
+    }
+}

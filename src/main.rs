@@ -3,7 +3,6 @@
 
 mod cli;
 
-use clap::Parser;
 use cli::{Cli, Command};
 use hdrvis::gpu::{BackendChoice, GpuContext};
 use hdrvis::Result;
@@ -11,7 +10,7 @@ use std::path::Path;
 
 fn main() {
     quiet_wayland_probe();
-    let cli = Cli::parse();
+    let cli = cli::parse();
     if let Err(e) = run(cli) {
         eprintln!("error: {e}");
         std::process::exit(1);

@@ -125,7 +125,7 @@ pub struct TsunamiArgs {
     #[arg(long, value_name = "FILE")]
     pub bathymetry: Option<PathBuf>,
     /// Name of the elevation array in --bathymetry
-    #[arg(long, requires = "bathymetry")]
+    #[arg(long = "variable", visible_alias = "var", requires = "bathymetry")]
     pub var: Option<String>,
     /// Cells per side of the synthetic basin
     #[arg(long, default_value_t = 1000)]
@@ -182,10 +182,11 @@ pub struct MantleArgs {
 
 #[derive(clap::Args, Debug)]
 pub struct InfoArgs {
-    /// A data file: .nc, .npy, .npz, .vti, .nhdr or .nrrd
+    /// A data file: .nc, .npy, .npz, .vti, .nhdr, .nrrd or an OpenEXR image (.exr)
     pub file: PathBuf,
-    /// The variable or array to describe (default: the first data variable, or the largest array)
-    #[arg(long)]
+    /// The variable or array to describe (default: the first data variable, or the largest
+    /// array); for an .exr, one channel (default: all)
+    #[arg(long = "variable", visible_alias = "var")]
     pub var: Option<String>,
 }
 

@@ -8,8 +8,62 @@ pub mod datasets;
 pub mod run;
 pub mod tonemap;
 
-use clap::{Parser, Subcommand};
+use clap::error::{ContextKind, ContextValue, ErrorKind};
+use clap::{CommandFactory, Parser, Subcommand};
 use std::path::PathBuf;
+
+/// Parses the command line; on a misspelt command or option that clap finds no near match for
+/// (letters swapped: `rnu`), adds the closest one as its tip, then exits as clap does.
+pub fn parse() -> Cli {
+    let args: Vec<String> = std::env::args().collect();
+    Cli::try_parse_from(&args).unwrap_or_else(|e| with_suggestion(e, &args).exit())
+}
+
+/// Adds "a similar subcommand/argument exists" to an unknown-command or unknown-option error
+/// that has no suggestion yet.
+fn with_suggestion(mut e: clap::Error, args: &[String]) -> clap::Error {
+    let cmd = Cli::command();
+    let (wanted, suggestion_kind, candidates) = match e.kind() {
+        ErrorKind::InvalidSubcommand => (
+            e.get(ContextKind::InvalidSubcommand),
+            ContextKind::SuggestedSubcommand,
+            cmd.get_subcommands()
+                .map(|c| c.get_name().to_string())
+                .collect::<Vec<_>>(),
+        ),
+        ErrorKind::UnknownArgument => {
+            // The options of the subcommand named on the line, and the global ones.
+            let sub = args
+                .iter()
+                .skip(1)
+                .find_map(|a| cmd.get_subcommands().find(|c| c.get_name() == a));
+            let longs = sub
+                .into_iter()
+                .flat_map(|c| c.get_arguments())
+                .chain(cmd.get_arguments())
+                .flat_map(|a| a.get_long_and_visible_aliases().unwrap_or_default())
+                .map(|l| format!("--{l}"))
+                .collect::<Vec<_>>();
+            (
+                e.get(ContextKind::InvalidArg),
+                ContextKind::SuggestedArg,
+                longs,
+            )
+        }
+        _ => return e,
+    };
+    let Some(ContextValue::String(wanted)) = wanted.cloned() else {
+        return e;
+    };
+    if e.get(suggestion_kind).is_none() {
+        if let Some(best) =
+            hdrvis::error::closest_name(&wanted, candidates.iter().map(String::as_str))
+        {
+            e.insert(suggestion_kind, ContextValue::String(best.to_string()));
+        }
+    }
+    e
+}
 
 #[derive(Parser, Debug)]
 #[command(name = "hdrvis", version, about = "Headless HDR visualisation of geoscience data", long_about = None)]
@@ -51,7 +105,7 @@ pub enum Command {
     /// Run the built-in demo scene (also what `hdrvis` does with no command).
     Demo {
         /// Output folder.
-        #[arg(long, default_value = "out/demo")]
+        #[arg(long, visible_alias = "output", default_value = "out/demo")]
         out: PathBuf,
     },
 }
@@ -60,7 +114,7 @@ pub enum Command {
 pub struct RunArgs {
     pub script: PathBuf,
     /// Output folder: every file the script writes goes here.
-    #[arg(long, short, default_value = "out")]
+    #[arg(long, short, visible_alias = "output", default_value = "out")]
     pub out: PathBuf,
     /// Script parameter read by `param(name, default)`; repeatable.
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -101,7 +155,7 @@ pub struct TuiArgs {
     /// A .rhai script or an OpenEXR image.
     pub input: PathBuf,
     /// Output folder: saved views (s) and the script's own outputs.
-    #[arg(long, short, default_value = "out")]
+    #[arg(long, short, visible_alias = "output", default_value = "out")]
     pub out: PathBuf,
     /// Script parameter read by `param(name, default)`; repeatable.
     #[arg(long = "set", value_name = "KEY=VALUE")]

@@ -7,22 +7,30 @@ use hdrvis::gpu::BackendChoice;
 use hdrvis::io::terminal::ProtocolChoice;
 use hdrvis::model::HdrImage;
 use hdrvis::render::cache::budget_mib;
-use hdrvis::script::{run_script_file, run_script_source, ScriptOptions};
+use hdrvis::script::{run_script_file, run_script_source, ScriptOptions, WrittenObserver};
 use hdrvis::{Error, Result};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 const DEMO_SCRIPT: &str = include_str!("../../scripts/demo.rhai");
 
-/// `hdrvis run SCRIPT.rhai`: runs the script, prints the files it wrote, with `--stats` one
-/// line per pass, and with `--preview` its images inline.
+/// `hdrvis run SCRIPT.rhai`: runs the script, printing each file as it is written, with
+/// `--stats` one line per pass, and with `--preview` its images inline. A run stopped by an
+/// error or by SIGINT/SIGTERM says so and how many files it wrote.
 pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
-    let opts = script_options(args, backend)?;
+    let mut opts = script_options(args, backend)?;
     let protocol = ProtocolChoice::resolve(args.protocol.as_deref())?;
-    let report = run_script_file(&args.script, &opts)?;
-    for p in &report.written {
-        println!("wrote {}", p.display());
-    }
+    let written = Arc::new(Mutex::new(Vec::new()));
+    opts.on_written = Some(print_as_written(written.clone()));
+    stop_on_signals(written.clone())?;
+    let report = run_script_file(&args.script, &opts).map_err(|e| {
+        let list = written.lock().expect("written poisoned");
+        if list.is_empty() {
+            e
+        } else {
+            Error::Script(format!("{e}\n{}", stop_line("an error", &list)))
+        }
+    })?;
     if args.stats {
         for r in &report.passes {
             println!("{r}");
@@ -36,6 +44,53 @@ pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
         };
         print_previews(&args.script, &images, protocol)?;
     }
+    Ok(())
+}
+
+/// Prints "wrote PATH" the moment a file is complete and remembers it for [`stop_line`].
+fn print_as_written(written: Arc<Mutex<Vec<PathBuf>>>) -> WrittenObserver {
+    WrittenObserver(Arc::new(move |path: &Path| {
+        // The list's lock also orders these lines against the signal handler's summary.
+        let mut list = written.lock().expect("written poisoned");
+        println!("wrote {}", path.display());
+        list.push(path.to_path_buf());
+    }))
+}
+
+/// `stopped by WHY after writing N files: a, b` (the "wrote" lines above name them too).
+fn stop_line(why: &str, written: &[PathBuf]) -> String {
+    let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    match names.len() {
+        0 => format!("stopped by {why} before writing any file"),
+        n => format!(
+            "stopped by {why} after writing {n} file{}: {}",
+            if n == 1 { "" } else { "s" },
+            names.join(", ")
+        ),
+    }
+}
+
+/// On SIGINT or SIGTERM: prints what the run wrote and that it stopped, then dies of the same
+/// signal, so the exit status is what it would have been without the handler. Outputs are
+/// written atomically, so nothing half-written is left under its final name.
+fn stop_on_signals(written: Arc<Mutex<Vec<PathBuf>>>) -> Result<()> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])
+        .map_err(|e| Error::invalid("signals", e.to_string()))?;
+    std::thread::Builder::new()
+        .name("hdrvis-stop".into())
+        .spawn(move || {
+            if let Some(sig) = signals.forever().next() {
+                let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
+                // A panic elsewhere may have poisoned the lock; the list is still whole.
+                let list = written.lock().unwrap_or_else(|p| p.into_inner());
+                eprintln!("{}", stop_line(name, &list));
+                let _ = std::io::Write::flush(&mut std::io::stdout());
+                let _ = signal_hook::low_level::emulate_default_handler(sig);
+                std::process::exit(128 + sig);
+            }
+        })
+        .map_err(|e| Error::invalid("signals", e.to_string()))?;
     Ok(())
 }
 
@@ -112,14 +167,11 @@ fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
 pub fn run_demo(out: &Path, backend: BackendChoice) -> Result<()> {
     let mut opts = ScriptOptions::new(out);
     opts.backend = backend;
+    opts.on_written = Some(print_as_written(Arc::new(Mutex::new(Vec::new()))));
     let dir: PathBuf = std::env::current_dir().map_err(|e| Error::io(".", e))?;
     eprintln!(
         "hdrvis demo: rendering a generated mantle volume into {}",
         out.display()
     );
-    let report = run_script_source(DEMO_SCRIPT, "scripts/demo.rhai", &dir, &opts)?;
-    for p in report.written {
-        println!("wrote {}", p.display());
-    }
-    Ok(())
+    run_script_source(DEMO_SCRIPT, "scripts/demo.rhai", &dir, &opts).map(|_| ())
 }

@@ -229,7 +229,7 @@ impl NetcdfSource {
                 .find(|a| !a.is_coordinate && fits(&a.shape))
                 .map(|a| a.name.clone())
                 .ok_or_else(|| {
-                    Error::format(path, "no 3-D data variable to pick; name one with var")
+                    Error::format(path, "no 3-D data variable to pick; name one with variable")
                 })?,
         };
         let listing = listed.iter().find(|a| a.name == name).ok_or_else(|| {

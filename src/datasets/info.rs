@@ -83,9 +83,13 @@ impl ValueStats {
     }
 }
 
-/// The report `hdrvis info FILE [--var NAME]` prints. Without `var`, an `.npz` is described by
-/// its largest array and a NetCDF file by its first data variable; both list every array.
+/// The report `hdrvis info FILE [--variable NAME]` prints. Without `var`, an `.npz` is described
+/// by its largest array and a NetCDF file by its first data variable; both list every array. An
+/// OpenEXR image is described by its channels (`var` names one) and metadata.
 pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
+    if crate::io::extension(path) == "exr" {
+        return exr_report(path, var);
+    }
     let array = read_array(path, var, None)?;
     let mut out = String::new();
     let _ = writeln!(out, "file: {}", path.display());
@@ -100,6 +104,55 @@ pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
         }
     }
     describe_array(&mut out, &array);
+    Ok(out)
+}
+
+/// The report of an OpenEXR image: size, channels with their finite range and missing counts
+/// (one channel with `var`), and the text metadata.
+fn exr_report(path: &Path, channel: Option<&str>) -> Result<String> {
+    let img = crate::io::exr::read_exr(path)?;
+    let mut channels: Vec<(String, Vec<f64>)> = ["R", "G", "B", "A"]
+        .iter()
+        .enumerate()
+        .map(|(c, name)| {
+            let values = img.pixels.iter().map(|p| f64::from(p[c])).collect();
+            (name.to_string(), values)
+        })
+        .collect();
+    for (name, values) in &img.extra_channels {
+        channels.push((name.clone(), values.iter().map(|&v| f64::from(v)).collect()));
+    }
+    if let Some(wanted) = channel {
+        let names: Vec<&str> = channels.iter().map(|(n, _)| n.as_str()).collect();
+        if !names.contains(&wanted) {
+            return Err(crate::error::Error::format(
+                path,
+                format!("no channel '{wanted}'; the image has: {}", names.join(", ")),
+            ));
+        }
+        channels.retain(|(n, _)| n == wanted);
+    }
+    let mut out = String::new();
+    let _ = writeln!(out, "file: {}", path.display());
+    let _ = writeln!(out, "image: {} x {} pixels", img.width, img.height);
+    let _ = writeln!(out, "channels ({}):", channels.len());
+    let show = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.6e}"));
+    for (name, values) in &channels {
+        let stats = ValueStats::of(values);
+        let _ = writeln!(
+            out,
+            "  {name}: min {} max {} smallest non-zero |v| {} ({} NaN, {} infinite)",
+            show(stats.min),
+            show(stats.max),
+            show(stats.min_abs_nonzero),
+            stats.nan,
+            stats.infinite
+        );
+    }
+    let _ = writeln!(out, "metadata ({}):", img.metadata.len());
+    for (key, value) in &img.metadata {
+        let _ = writeln!(out, "  {key}: {value}");
+    }
     Ok(out)
 }
 

@@ -552,7 +552,7 @@ fn no_array(path: &Path, rank_name: &str, listed: &[ArrayListing]) -> Error {
     Error::format(
         path,
         format!(
-            "no {rank_name}data array to pick; name one with --var; the file has: {}",
+            "no {rank_name}data array to pick; name one with variable (--variable); the file has: {}",
             describe(listed)
         ),
     )

@@ -91,6 +91,9 @@ pub struct GpuContext {
     /// The driver's compiled pipelines, loaded from and saved to disk where the backend supports
     /// it (Vulkan), so that a second run does not compile its shaders again.
     pipeline_cache: Option<PersistentPipelineCache>,
+    /// The first GPU error no error scope caught (out of memory, a lost device), kept for
+    /// [`GpuContext::wait`] to return: wgpu's default handler panics instead.
+    uncaptured: Arc<std::sync::Mutex<Option<String>>>,
 }
 
 struct PersistentPipelineCache {
@@ -257,6 +260,22 @@ impl GpuContext {
             max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
             mappable_primary_buffers: wanted.contains(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS),
         };
+        let uncaptured = Arc::new(std::sync::Mutex::new(None));
+        let slot = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            let mut first = slot.lock().unwrap_or_else(|p| p.into_inner());
+            if first.is_none() {
+                // wgpu's messages run over several lines; the first says what happened.
+                let text = e.to_string();
+                *first = Some(
+                    text.lines()
+                        .next()
+                        .unwrap_or("unknown error")
+                        .trim()
+                        .to_string(),
+                );
+            }
+        }));
         let pipeline_cache = if wanted.contains(wgpu::Features::PIPELINE_CACHE) {
             PersistentPipelineCache::open(&device, &info)
         } else {
@@ -270,6 +289,7 @@ impl GpuContext {
             info,
             caps,
             pipeline_cache,
+            uncaptured,
         }))
     }
 
@@ -369,13 +389,27 @@ impl GpuContext {
     }
 
     /// Blocks until all submitted work is done.
+    /// Waits for the submitted work; an error the device reported meanwhile that no error scope
+    /// caught (out of memory above all) is returned here as one line.
     pub fn wait(&self) -> Result<()> {
-        self.device
+        let polled = self
+            .device
             .poll(wgpu::PollType::Wait {
                 submission_index: None,
                 timeout: None,
             })
             .map(|_| ())
-            .map_err(|e| Error::Gpu(format!("waiting for the device failed: {e}")))
+            .map_err(|e| Error::Gpu(format!("waiting for the device failed: {e}")));
+        let reported = self
+            .uncaptured
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .take();
+        match reported {
+            Some(msg) => Err(Error::Gpu(format!(
+                "{msg} (the device could not do the work asked; try a smaller image or volume, or --gpu-memory)"
+            ))),
+            None => polled,
+        }
     }
 }

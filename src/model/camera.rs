@@ -197,6 +197,52 @@ impl Camera {
         }
     }
 
+    /// The image size that shows this orthographic view with square pixels: the sides given are
+    /// kept, a missing one follows the window's aspect, and with neither the longer side is
+    /// `long_side` pixels. A perspective view keeps what is given (`long_side` square otherwise).
+    pub(crate) fn square_pixel_size(
+        &self,
+        width: Option<u32>,
+        height: Option<u32>,
+        long_side: u32,
+    ) -> (u32, u32) {
+        let Projection::Orthographic {
+            half_width,
+            half_height,
+        } = self.projection
+        else {
+            return (width.unwrap_or(long_side), height.unwrap_or(long_side));
+        };
+        let aspect = half_width / half_height;
+        let side = |v: f64| v.round().clamp(1.0, u32::MAX as f64) as u32;
+        match (width, height) {
+            (Some(w), Some(h)) => (w, h),
+            (Some(w), None) => (w, side(w as f64 / aspect)),
+            (None, Some(h)) => (side(h as f64 * aspect), h),
+            (None, None) if aspect >= 1.0 => (long_side, side(long_side as f64 / aspect)),
+            (None, None) => (side(long_side as f64 * aspect), long_side),
+        }
+    }
+
+    /// This orthographic view widened along one side to the image's aspect, the window centred
+    /// (letterboxing): pixels stay square and the background shows beside the data instead of
+    /// the data being stretched. A perspective view is returned as it is.
+    pub(crate) fn letterboxed(mut self, width: u32, height: u32) -> Camera {
+        if let Projection::Orthographic {
+            half_width,
+            half_height,
+        } = &mut self.projection
+        {
+            let image_aspect = width as f64 / height.max(1) as f64;
+            if *half_width / *half_height < image_aspect {
+                *half_width = *half_height * image_aspect;
+            } else {
+                *half_height = *half_width / image_aspect;
+            }
+        }
+        self
+    }
+
     /// The projection as the ray-casting shaders take it, the terms of [`Camera::ray`]:
     /// `(1, tan of the horizontal half-angle, tan of the vertical half-angle, 0)` for perspective,
     /// `(0, half width, half height, 0)` for orthographic.
@@ -251,9 +297,12 @@ impl Camera {
                 half_height,
             } => format!("orthographic {}x{}", 2.0 * half_width, 2.0 * half_height),
         };
+        use super::transfer::plain_list;
         format!(
-            "{p}; eye {:?}; forward {:?}; up {:?}",
-            self.eye, self.forward, self.up
+            "{p}; eye {}; forward {}; up {}",
+            plain_list(&self.eye),
+            plain_list(&self.forward),
+            plain_list(&self.up)
         )
     }
 }
@@ -281,6 +330,29 @@ fn frame(eye: [f64; 3], target: [f64; 3], up: [f64; 3]) -> Result<([f64; 3], [f6
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn axis_views_keep_the_aspect_of_the_box() {
+        let b = Aabb {
+            lo: [0.0, 0.0, 0.0],
+            hi: [20.0, 25.0, 5.0],
+        };
+        let cam = Camera::axis(Axis::Z, &b);
+        assert_eq!(cam.square_pixel_size(None, None, 512), (410, 512));
+        assert_eq!(cam.square_pixel_size(Some(40), None, 512), (40, 50));
+        assert_eq!(cam.square_pixel_size(None, Some(100), 512), (80, 100));
+        // 100 x 100 pixels of a 20 x 25 box: 4 units per... 0.25 units per pixel both ways.
+        let wide = cam.letterboxed(100, 100);
+        let (left, _) = wide.ray(0, 50, 100, 100);
+        let (right, _) = wide.ray(99, 50, 100, 100);
+        let (top, _) = wide.ray(50, 0, 100, 100);
+        let (bottom, _) = wide.ray(50, 99, 100, 100);
+        let per_px_x = (right[0] - left[0]) / 99.0;
+        let per_px_y = (top[1] - bottom[1]) / 99.0;
+        assert!((per_px_x - 0.25).abs() < 1e-12 && (per_px_y - 0.25).abs() < 1e-12);
+        // The box is centred: 10 pixels of background each side of its 80.
+        assert!((left[0] - (-2.5 + 0.125)).abs() < 1e-12, "{left:?}");
+    }
 
     #[test]
     fn axis_view_frames_bounds_exactly() {

@@ -28,17 +28,36 @@ pub enum Scale {
 }
 
 impl Scale {
+    /// Every name [`Scale::parse`] accepts, case ignored: the scale's own name first, then its
+    /// aliases.
+    pub const NAMES: &'static [&'static [&'static str]] = &[
+        &["linear", "lin"],
+        &["log10", "log", "logarithmic"],
+        &["symlog", "symmetric-log"],
+    ];
+
+    /// The scale named `name` (case ignored; aliases in [`Scale::NAMES`]).
     pub fn parse(name: &str, linthresh: Option<f64>) -> Result<Scale> {
-        match name {
-            "linear" => Ok(Scale::Linear),
-            "log10" | "log" => Ok(Scale::Log10),
-            "symlog" => Ok(Scale::Symlog {
+        let lower = name.trim().to_ascii_lowercase();
+        match Scale::NAMES
+            .iter()
+            .position(|aliases| aliases.contains(&lower.as_str()))
+        {
+            Some(0) => Ok(Scale::Linear),
+            Some(1) => Ok(Scale::Log10),
+            Some(_) => Ok(Scale::Symlog {
                 linthresh: linthresh.unwrap_or(0.0),
             }),
-            _ => Err(Error::invalid(
-                "scale",
-                format!("unknown scale {name:?}; known: linear, log10, symlog"),
-            )),
+            None => {
+                let all = Scale::NAMES.iter().flat_map(|a| a.iter().copied());
+                let hint = crate::error::closest_name(&lower, all)
+                    .map(|c| format!("did you mean {c}? "))
+                    .unwrap_or_default();
+                Err(Error::invalid(
+                    "scale",
+                    format!("unknown scale {name:?}; {hint}known: linear (lin), log10 (log, logarithmic), symlog (symmetric-log)"),
+                ))
+            }
         }
     }
 
@@ -132,6 +151,18 @@ pub enum TransferFunction {
     Lut(LutTransfer),
 }
 
+/// Numbers as a reader writes them, for metadata: `[0.001, 3]`.
+pub(crate) fn plain_list(values: &[f64]) -> String {
+    let items: Vec<String> = values.iter().map(f64::to_string).collect();
+    format!("[{}]", items.join(", "))
+}
+
+/// Control points as plain text: `[[0, -3], [1, 0]]`.
+fn plain_points(points: &[[f64; 2]]) -> String {
+    let items: Vec<String> = points.iter().map(|p| plain_list(p)).collect();
+    format!("[{}]", items.join(", "))
+}
+
 impl TransferFunction {
     pub fn emission_absorption(emission: f64, absorption: f64) -> Result<TransferFunction> {
         for (f, v) in [("tf.emission", emission), ("tf.absorption", absorption)] {
@@ -155,13 +186,17 @@ impl TransferFunction {
                 absorption,
             } => format!("emission-absorption e={emission} a={absorption}"),
             TransferFunction::Lut(l) => format!(
-                "lut scale={} domain={:?} lens={:?} colormap={} emission={:?} opacity={:?} transparent_below={}",
+                "lut scale={} domain={} lens={} colormap={} emission={} opacity={} transparent_below={}",
                 l.scale.name(),
-                l.domain,
-                l.lens,
+                l.domain.map_or("auto".to_string(), |d| plain_list(&d)),
+                l.lens.map_or("none".to_string(), |z| format!(
+                    "{} factor {}",
+                    plain_list(&[z.lo, z.hi]),
+                    z.factor
+                )),
                 l.colormap,
-                l.emission,
-                l.opacity,
+                plain_points(&l.emission),
+                plain_points(&l.opacity),
                 l.transparent_below
             ),
         }
@@ -643,6 +678,39 @@ impl ResolvedTransfer {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn scale_names_ignore_case_and_accept_aliases() {
+        use super::Scale;
+        for (name, want) in [
+            ("LOG10", "log10"),
+            ("Log", "log10"),
+            ("logarithmic", "log10"),
+            ("Lin", "linear"),
+            ("SymLog", "symlog"),
+            ("symmetric-log", "symlog"),
+        ] {
+            assert_eq!(
+                Scale::parse(name, Some(1.0)).unwrap().name(),
+                want,
+                "{name}"
+            );
+        }
+        let err = Scale::parse("lgo10", None).unwrap_err().to_string();
+        assert!(err.contains("did you mean log10?"), "{err}");
+    }
+
+    #[test]
+    fn metadata_text_has_no_program_formatting() {
+        let tf = super::TransferFunction::Lut(super::LutTransfer {
+            domain: Some([0.001, 3.0]),
+            ..Default::default()
+        });
+        let text = tf.describe();
+        assert!(text.contains("domain=[0.001, 3] "), "{text}");
+        assert!(text.contains("emission=[[0, 0], [1, 0]]"), "{text}");
+        assert!(!text.contains("Some") && !text.contains("None"), "{text}");
+    }
+
     use super::*;
 
     fn stats(min: f64, max: f64) -> VolumeStats {

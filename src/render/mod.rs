@@ -294,6 +294,38 @@ impl VolumeRenderOptions {
     }
 }
 
+/// Refuses, before any GPU work, an RGBA f32 image the adapter cannot hold: a side beyond its
+/// largest 2-D texture, or more bytes (rows padded to wgpu's copy alignment) than its largest
+/// buffer, which the read back needs. The message names the limit and the largest square that fits.
+pub(crate) fn check_output_fits(
+    caps: &crate::gpu::Capabilities,
+    width: u32,
+    height: u32,
+) -> Result<()> {
+    let side = caps.max_texture_2d;
+    if width > side || height > side {
+        return Err(Error::invalid(
+            "width, height",
+            format!("{width} x {height} pixels: this adapter's 2-D images are at most {side} px per side (max_texture_dimension_2d)"),
+        ));
+    }
+    let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64;
+    let row = (width as u64 * 16).div_ceil(align) * align;
+    let bytes = row * height as u64;
+    if bytes > caps.max_buffer_size {
+        let square = ((caps.max_buffer_size / 16) as f64).sqrt() as u64;
+        return Err(Error::invalid(
+            "width, height",
+            format!(
+                "{width} x {height} pixels of RGBA f32 need {} MiB, above this adapter's largest buffer of {} MiB (max_buffer_size); at most about {square} x {square} pixels",
+                bytes >> 20,
+                caps.max_buffer_size >> 20
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Per-pixel jitter fraction in [0, 1), identical to the shader's `hash_u32`.
 pub(crate) fn jitter_fraction(px: u32, py: u32, width: u32, height: u32, seed: u32) -> f64 {
     let x = px.wrapping_add(width.wrapping_mul(py.wrapping_add(height.wrapping_mul(seed))));

@@ -139,6 +139,9 @@ impl RenderSession {
             level => VolumeSource::Memory(self.level(source, level)?),
         };
         let path = self.choose_path(&source, opts)?;
+        if matches!(path, RenderPath::InCore { .. } | RenderPath::Bricked { .. }) {
+            super::check_output_fits(&self.context()?.caps, opts.width, opts.height)?;
+        }
         let key = KeyBuilder::new("raycast")
             .u64(self.source_key(&source))
             .debug(&path)

@@ -3,7 +3,7 @@
 //! the render session's one entry point like every other render (see `render::route`).
 
 use super::api_render::{render_and_note, render_options, ScriptImage};
-use super::convert::{check_keys, int, string, to_rhai, RResult};
+use super::convert::{check_keys, int, to_rhai, variable_option, RResult};
 use super::ScriptHost;
 use crate::model::bricks::{BrickedVolume, DEFAULT_BRICK};
 use crate::render::VolumeSource;
@@ -13,7 +13,7 @@ use std::sync::Arc;
 /// A volume opened as bricks (`open_volume`).
 pub(crate) type ScriptBricked = Arc<BrickedVolume>;
 
-const OPEN_KEYS: &[&str] = &["var", "brick"];
+const OPEN_KEYS: &[&str] = &["variable", "brick"];
 
 pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_type_with_name::<ScriptBricked>("BrickedVolume");
@@ -26,9 +26,10 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     });
     let h = host.clone();
     engine.register_fn("open_volume", move |path: &str| -> RResult<ScriptBricked> {
-        let p = h.sandbox.read_path(path).map_err(to_rhai)?;
+        let (p, variable) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
         Ok(Arc::new(
-            crate::datasets::bricked::open_bricked(&p, None, DEFAULT_BRICK).map_err(to_rhai)?,
+            crate::datasets::bricked::open_bricked(&p, variable.as_deref(), DEFAULT_BRICK)
+                .map_err(to_rhai)?,
         ))
     });
     let h = host.clone();
@@ -36,18 +37,14 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "open_volume",
         move |path: &str, opts: Map| -> RResult<ScriptBricked> {
             check_keys(&opts, OPEN_KEYS, "open_volume")?;
-            let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-            let mut var = None;
-            let mut brick = DEFAULT_BRICK;
-            for (k, v) in &opts {
-                match k.as_str() {
-                    "var" => var = Some(string(v, "var")?),
-                    "brick" => brick = int(v, "brick")?.clamp(0, 1 << 20) as usize,
-                    _ => unreachable!("checked keys"),
-                }
-            }
+            let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+            let variable = variable_option(&opts, from_path, "open_volume")?;
+            let brick = match opts.get("brick") {
+                Some(v) => int(v, "brick")?.clamp(0, 1 << 20) as usize,
+                None => DEFAULT_BRICK,
+            };
             Ok(Arc::new(
-                crate::datasets::bricked::open_bricked(&p, var.as_deref(), brick)
+                crate::datasets::bricked::open_bricked(&p, variable.as_deref(), brick)
                     .map_err(to_rhai)?,
             ))
         },

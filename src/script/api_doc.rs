@@ -43,9 +43,10 @@ pub(crate) const AREAS: &[&str] = &[
 ];
 
 pub(crate) const API: &[ApiEntry] = &[
-    e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x) or .vti, relative to the script's folder."),
+    e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x) or .vti, relative to the script's folder; \"box.nc:T\" picks the variable T of a file with several."),
+    e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with #{variable: \"T\"}: the array or variable to read (an unknown one lists the file's)."),
     e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy memory-mapped, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
-    e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with #{var, brick: 8|16|32|64|128}."),
+    e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with #{variable, brick: 8|16|32|64|128}; \"box.nc:T\" also picks the variable."),
     e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3: #{n, seed, field: \"temperature\"|\"fluctuation\"|\"viscosity\", plumes, slabs}; outside the shell is missing (NaN)."),
     e("datasets", "generate", &["kind: string", "options: map"], "string", "Path of a cached NetCDF dataset, generated on a miss: \"okada\" #{strike, dip, rake, slip, length, width, depth, depth_ref, extent, n} (ux, uy, uz), \"tsunami\" #{n, extent, duration, boundary} (max_abs_eta, arrival_time, depth), \"mantle\" #{n, seed, field, plumes, slabs}."),
     e("datasets", "volume_log10", &["volume: Volume"], "Volume", "log10 of every voxel; zeros and negatives become missing (NaN)."),
@@ -56,7 +57,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("datasets", "get$name", &["volume: Volume"], "string", "volume.name (grids have .name too)"),
     e("datasets", "get$dims", &["volume: Volume"], "array", "volume.dims: [nx, ny, nz]"),
     e("transfer functions", "tf_emission_absorption", &["e: number", "a: number"], "TransferFunction", "Grey emission e·v and extinction a·v per voxel length."),
-    e("transfer functions", "tf_lut", &["options: map"], "TransferFunction", "HDR table: #{scale: \"linear\"|\"log10\"|\"symlog\", linthresh, domain: [lo, hi], lens: #{lo, hi, factor}, colormap, emission: [[t, log10 e], ...], opacity: [[t, log10 sigma], ...], transparent_below}."),
+    e("transfer functions", "tf_lut", &["options: map"], "TransferFunction", "HDR table: #{scale: \"linear\"|\"log10\"|\"symlog\" (case ignored; aliases lin, log, logarithmic, symmetric-log), linthresh, domain: [lo, hi], lens: #{lo, hi, factor}, colormap, emission: [[t, log10 e], ...], opacity: [[t, log10 sigma], ...], transparent_below}."),
     e("transfer functions", "tf_preset", &["name: string"], "TransferFunction", "A ready-made HDR transfer function: log-inferno, log-viridis, symlog-diverging, linear-grey."),
     e("cameras", "camera_axis", &["axis: string"], "Camera", "Orthographic view along \"x\", \"y\" or \"z\" framing the volume exactly."),
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number"], "Camera", "Perspective camera orbiting the volume's centre (degrees; fov 35)."),
@@ -66,7 +67,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping empty bricks unless empty_space_skipping: false, out of core beyond memory_budget."),
     e("rendering", "get$width", &["image: Image"], "int", "image.width"),
     e("rendering", "get$height", &["image: Image"], "int", "image.height"),
-    e("surfaces", "load_grid", &["path: string"], "Grid", "A 2-D field from .npy, .npz or .nc; every same-shape array becomes a property (elevation-like names become the relief)."),
+    e("surfaces", "load_grid", &["path: string"], "Grid", "A 2-D field from .npy, .npz or .nc; every same-shape array becomes a property (elevation-like names become the relief); \"f.nc:eta\" keeps only that variable, as below."),
     e("surfaces", "load_grid", &["path: string", "name: string"], "Grid", "As above, keeping only the named array as the property."),
     e("surfaces", "grid_stats", &["grid: Grid", "property: string"], "map", "#{min, max, min_positive, finite, missing} of one property."),
     e("surfaces", "grid_derive", &["grid: Grid", "property: string", "op: string", "name: string"], "Grid", "A copy with a derived property: op \"log10\" (zeros and negatives missing) or \"abs\"."),

@@ -39,7 +39,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             crate::io::exr::write_exr(img, &p).map_err(to_rhai)?;
             h.session
                 .record_sink("save-exr", t.elapsed().as_secs_f64() * 1e3);
-            h.written.lock().expect("poisoned").push(p);
+            h.note_written(p);
             Ok(())
         },
     );
@@ -81,7 +81,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
         }
         h.session
             .record_sink("save-png", t.elapsed().as_secs_f64() * 1e3);
-        h.written.lock().expect("poisoned").push(p);
+        h.note_written(p);
         Ok(())
     };
     let save_png2 = save_png.clone();

@@ -2,7 +2,9 @@
 //! issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`. Saving,
 //! previews, progress and `param` live in `api_output`.
 
-use super::convert::{boolean, check_keys, err, int, num, points, string, to_rhai, vec3, RResult};
+use super::convert::{
+    boolean, check_keys, err, int, num, points, string, to_rhai, variable_option, vec3, RResult,
+};
 use super::ScriptHost;
 use crate::model::{
     Aabb, Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume, VolumeStats,
@@ -99,9 +101,23 @@ fn register_types(engine: &mut Engine) {
 fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_volume", move |path: &str| -> RResult<ScriptVolume> {
-        let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        h.session.load_volume(&p, None).map_err(to_rhai)
+        let (p, variable) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+        h.session
+            .load_volume(&p, variable.as_deref())
+            .map_err(to_rhai)
     });
+    let h = host.clone();
+    engine.register_fn(
+        "load_volume",
+        move |path: &str, opts: Map| -> RResult<ScriptVolume> {
+            check_keys(&opts, &["variable"], "load_volume")?;
+            let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+            let variable = variable_option(&opts, from_path, "load_volume")?;
+            h.session
+                .load_volume(&p, variable.as_deref())
+                .map_err(to_rhai)
+        },
+    );
 
     let h = host.clone();
     engine.register_fn(
@@ -341,6 +357,7 @@ pub(crate) fn render_options(
             fov: 35.0,
         },
     };
+    let is_axis = matches!(camera, ScriptCamera::Axis(_));
     let camera = camera.resolve(&source.bounds()).map_err(to_rhai)?;
     let mut o = VolumeRenderOptions::new(camera, tf);
     for (k, v) in opts {
@@ -348,11 +365,25 @@ pub(crate) fn render_options(
             take_render_option(&mut o, k.as_str(), v)?;
         }
     }
+    if is_axis {
+        // Square pixels: a missing side follows the box, a given size is letterboxed.
+        let given = |key: &str, v: u32| opts.contains_key(key).then_some(v);
+        let (w, h) = o.camera.square_pixel_size(
+            given("width", o.width),
+            given("height", o.height),
+            AXIS_LONG_SIDE,
+        );
+        (o.width, o.height) = (w, h);
+        o.camera = o.camera.letterboxed(w, h);
+    }
     if o.bricking.memory_budget.is_none() {
         o.bricking.memory_budget = host.gpu_memory_mib.map(mib_to_bytes);
     }
     Ok(o)
 }
+
+/// Pixels on the longer side of an axis view given no width or height.
+const AXIS_LONG_SIDE: u32 = 512;
 
 /// Sets one of [`RENDER_KEYS`] (checked before).
 fn take_render_option(o: &mut VolumeRenderOptions, key: &str, v: &Dynamic) -> RResult<()> {

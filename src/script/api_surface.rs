@@ -139,8 +139,10 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
 
     let h = host.clone();
     engine.register_fn("load_grid", move |path: &str| -> RResult<ScriptGrid> {
-        let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-        h.session.load_grid(&p, None).map_err(to_rhai)
+        let (p, variable) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+        h.session
+            .load_grid(&p, variable.as_deref())
+            .map_err(to_rhai)
     });
     let h = host.clone();
     engine.register_fn(

@@ -106,3 +106,23 @@ pub(crate) fn check_keys(map: &Map, known: &[&str], what: &str) -> RResult<()> {
         ),
     )
 }
+
+/// The `variable` of a loader's options map merged with the one a `FILE:VARIABLE` path named;
+/// naming two different ones is an error.
+pub(crate) fn variable_option(
+    opts: &Map,
+    from_path: Option<String>,
+    what: &str,
+) -> RResult<Option<String>> {
+    let given = opts
+        .get("variable")
+        .map(|v| string(v, "variable"))
+        .transpose()?;
+    match (given, from_path) {
+        (Some(a), Some(b)) if a != b => err(
+            what,
+            format!("the path names variable {b:?} and the options variable {a:?}; give one"),
+        ),
+        (a, b) => Ok(a.or(b)),
+    }
+}

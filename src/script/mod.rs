@@ -13,6 +13,7 @@ mod api_post;
 mod api_render;
 mod api_surface;
 mod convert;
+mod progress;
 mod sandbox;
 
 use crate::error::{Error, Result};
@@ -66,6 +67,19 @@ pub struct ScriptOptions {
     /// Keep what `print` and `debug` say in [`ScriptReport::printed`] instead of writing it to
     /// stdout (where it would land on the TUI's screen).
     pub capture_prints: bool,
+    /// Told of every output the moment it is complete on disk (`hdrvis run` prints "wrote ...",
+    /// so an interrupted run has already reported what it wrote).
+    pub on_written: Option<WrittenObserver>,
+}
+
+/// A callback for each file a run writes; see [`ScriptOptions::on_written`].
+#[derive(Clone)]
+pub struct WrittenObserver(pub Arc<dyn Fn(&Path) + Send + Sync>);
+
+impl std::fmt::Debug for WrittenObserver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("WrittenObserver")
+    }
 }
 
 /// The wall-clock limit interactive front ends (the TUI) give each re-run of a script, so a
@@ -100,6 +114,7 @@ impl ScriptOptions {
             timeout: None,
             write_outputs: true,
             capture_prints: false,
+            on_written: None,
         }
     }
 }
@@ -168,9 +183,10 @@ pub(crate) struct ScriptHost {
     capture_prints: bool,
     pub resume: bool,
     progress_enabled: bool,
-    progress: Mutex<Option<indicatif::ProgressBar>>,
+    progress: Mutex<progress::ProgressState>,
     /// Default memory budget of renders (MiB), and the bricked path's caches.
     pub gpu_memory_mib: Option<f64>,
+    on_written: Option<WrittenObserver>,
 }
 
 impl ScriptHost {
@@ -193,28 +209,20 @@ impl ScriptHost {
         self.resume && path.is_file()
     }
 
-    /// Reports loop progress on stderr with an ETA; the bar is created on the first call.
+    /// Reports loop progress on stderr with an ETA from the rate measured so far.
     pub(crate) fn progress(&self, done: u64, total: u64, label: &str) {
-        if !self.progress_enabled {
-            return;
+        if self.progress_enabled {
+            let mut state = self.progress.lock().expect("progress poisoned");
+            state.report(done, total, label);
         }
-        let mut slot = self.progress.lock().expect("progress poisoned");
-        let bar = slot.get_or_insert_with(|| {
-            let bar = indicatif::ProgressBar::new(total);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} eta {eta}")
-                    .expect("valid template")
-                    .progress_chars("=> "),
-            );
-            bar
-        });
-        bar.set_length(total);
-        bar.set_position(done.min(total));
-        bar.set_message(label.to_string());
-        if done >= total {
-            bar.finish();
-            *slot = None;
+    }
+
+    /// Records a finished output and tells the observer.
+    pub(crate) fn note_written(&self, path: PathBuf) {
+        if let Some(observer) = &self.on_written {
+            (observer.0)(&path);
         }
+        self.written.lock().expect("written poisoned").push(path);
     }
 }
 
@@ -301,8 +309,9 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         capture_prints: false,
         resume: false,
         progress_enabled: false,
-        progress: Mutex::new(None),
+        progress: Mutex::new(progress::ProgressState::default()),
         gpu_memory_mib: None,
+        on_written: None,
     })
 }
 
@@ -357,13 +366,15 @@ pub fn run_script_source(
         capture_prints: opts.capture_prints,
         resume: opts.resume,
         progress_enabled: opts.progress,
-        progress: Mutex::new(None),
+        progress: Mutex::new(progress::ProgressState::default()),
         gpu_memory_mib: opts.gpu_memory_mib,
+        on_written: opts.on_written.clone(),
     });
     let engine = new_engine(host.clone(), opts.max_operations, opts.timeout);
     let ast = engine
         .compile(source)
-        .map_err(|e| Error::Script(format_error(name, source, &e.to_string(), e.position())))?;
+        .map_err(|e| Error::Script(describe_parse_error(name, source, &e)))?;
+    check_sets_are_read(&ast, &opts.sets)?;
     engine
         .run_ast(&ast)
         .map_err(|e| Error::Script(describe_eval_error(name, source, &e)))?;
@@ -380,6 +391,57 @@ pub fn run_script_source(
         last_volume_render: take(&host.last_volume_render),
         printed: take(&host.printed),
     })
+}
+
+/// The names the script's `param(NAME, default)` calls read, found in its syntax tree (function
+/// bodies included), sorted; `None` when some call computes its name, so the set is unknown.
+pub fn script_param_names(ast: &rhai::AST) -> Option<Vec<String>> {
+    use rhai::{ASTNode, Expr, Stmt};
+    let mut names = std::collections::BTreeSet::new();
+    let mut computed = false;
+    ast.walk(&mut |path: &[ASTNode]| {
+        // A call is an expression, or a statement of its own (a function's last line).
+        let call = match path.last() {
+            Some(ASTNode::Expr(Expr::FnCall(call, _))) => Some(call),
+            Some(ASTNode::Stmt(Stmt::FnCall(call, _))) => Some(call),
+            _ => None,
+        };
+        if let Some(call) = call {
+            if call.name == "param" && call.args.len() == 2 {
+                match &call.args[0] {
+                    Expr::StringConstant(s, _) => {
+                        names.insert(s.to_string());
+                    }
+                    _ => computed = true,
+                }
+            }
+        }
+        true
+    });
+    (!computed).then(|| names.into_iter().collect())
+}
+
+/// Refuses a `--set NAME=...` that no `param("NAME", ...)` of the script reads, before anything
+/// runs: a misspelt name would otherwise run the whole script with the default.
+fn check_sets_are_read(ast: &rhai::AST, sets: &[(String, String)]) -> Result<()> {
+    let Some(known) = script_param_names(ast) else {
+        return Ok(());
+    };
+    let Some((unread, _)) = sets.iter().find(|(k, _)| !known.contains(k)) else {
+        return Ok(());
+    };
+    let listed = if known.is_empty() {
+        "the script reads no parameters".to_string()
+    } else {
+        format!("its parameters: {}", known.join(", "))
+    };
+    let hint = crate::error::closest_name(unread, known.iter().map(String::as_str))
+        .map(|c| format!("did you mean {c}? "))
+        .unwrap_or_default();
+    Err(Error::invalid(
+        format!("--set {unread}"),
+        format!("no param(\"{unread}\", ...) in the script reads it; {hint}{listed}"),
+    ))
 }
 
 /// A run killed mid-write leaves its temporary file (`.hdrvis-*.tmp`, see io::write_atomic)
@@ -402,6 +464,19 @@ fn remove_stale_temporaries(dir: &Path) {
     while let Some(d) = stack.pop() {
         walk(&d, &mut stack);
     }
+}
+
+/// A parse error at `file:line:col`; a reserved word used as a map key (`#{var: ...}`) names the
+/// option to write instead.
+fn describe_parse_error(name: &str, source: &str, err: &rhai::ParseError) -> String {
+    let mut msg = err.to_string();
+    if let Some(idx) = msg.rfind(" (line ") {
+        msg.truncate(idx);
+    }
+    if msg.contains("'var' is a reserved keyword") {
+        msg.push_str("; to pick a variable of a data file write variable: \"NAME\"");
+    }
+    format_error(name, source, &msg, err.position())
 }
 
 fn describe_eval_error(name: &str, source: &str, err: &EvalAltResult) -> String {

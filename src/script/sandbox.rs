@@ -80,6 +80,25 @@ impl Sandbox {
         }
     }
 
+    /// A data file the script wants to read, with the variable a `FILE:VARIABLE` shorthand names
+    /// (`box.nc:T`) when the whole text is not itself an existing file but the part before the
+    /// last colon is.
+    pub(crate) fn read_data_path(&self, requested: &str) -> Result<(PathBuf, Option<String>)> {
+        let whole = self.read_path(requested);
+        if whole.as_ref().is_ok_and(|p| p.is_file()) {
+            return Ok((whole?, None));
+        }
+        if let Some((file, variable)) = requested.rsplit_once(':') {
+            let names_variable = !variable.is_empty() && !variable.contains(['/', '\\']);
+            if names_variable && !file.is_empty() {
+                if let Some(p) = self.read_path(file).ok().filter(|p| p.is_file()) {
+                    return Ok((p, Some(variable.to_string())));
+                }
+            }
+        }
+        Ok((whole?, None))
+    }
+
     /// A path the script wants to write, relative to the output folder.
     pub(crate) fn write_path(&self, requested: &str) -> Result<PathBuf> {
         if Path::new(requested).is_absolute() {

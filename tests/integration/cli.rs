@@ -573,6 +573,62 @@ fn accuracy_report_compares_naive_and_reduced_interference_phase() {
     }
 }
 
+#[test]
+fn misspelt_commands_and_options_get_a_suggestion() {
+    let dir = tempfile::tempdir().unwrap();
+    for (args, tip) in [
+        (&["rnu", "s.rhai"][..], "a similar subcommand exists: 'run'"),
+        (
+            &["run", "s.rhai", "--ouput", "o"][..],
+            "a similar argument exists: '--output'",
+        ),
+        (
+            &["info", "f.nc", "--varaible", "T"][..],
+            "a similar argument exists: '--variable'",
+        ),
+    ] {
+        let (code, _, stderr) = hdrvis(args, dir.path());
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(tip), "{args:?}: {stderr}");
+    }
+}
+
+#[test]
+fn info_describes_an_exr_with_plain_metadata() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_volume(d);
+    let script = r#"
+        let v = load_volume("blob.npy");
+        let tf = tf_lut(#{ scale: "LOG10", domain: [0.001, 3], colormap: "viridis" });
+        save_exr(render_volume(v, #{ tf: tf, camera: camera_axis("z"), width: 24, height: 30 }), "x.exr");
+    "#;
+    std::fs::write(d.join("s.rhai"), script).unwrap();
+    let (code, _, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], d);
+    assert_eq!(code, 0, "{stderr}");
+    let img = hdrvis::io::exr::read_exr(&d.join("o/x.exr")).unwrap();
+    let (code, stdout, stderr) = hdrvis(&["info", "o/x.exr"], d);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("image: 24 x 30 pixels"), "{stdout}");
+    let max_r = img.pixels.iter().map(|p| p[0]).fold(f32::MIN, f32::max);
+    assert!(
+        stdout.contains(&format!("max {:.6e}", f64::from(max_r))),
+        "{stdout}"
+    );
+    assert!(stdout.contains("  A: min"), "{stdout}");
+    let tf = stdout.lines().find(|l| l.starts_with("  tf: ")).unwrap();
+    assert!(
+        tf.contains("scale=log10 domain=[0.001, 3] ") && !tf.contains("Some"),
+        "{tf}"
+    );
+    let (code, stdout, stderr) = hdrvis(&["info", "o/x.exr", "--variable", "G"], d);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("channels (1):") && stdout.contains("  G: min"),
+        "{stdout}"
+    );
+}
+
 /// Runs `hdrvis ARGS` under `sh -c 'umask 022; ...'` in `cwd`, so the mode the outputs get is
 /// the one a plain `open` would give there.
 #[cfg(unix)]

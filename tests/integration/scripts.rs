@@ -28,21 +28,23 @@ fn every_script_runs_and_writes_valid_images() {
     for script in scripts {
         let name = script.file_stem().unwrap().to_string_lossy().to_string();
         let out_dir = work.path().join(&name);
+        let source = std::fs::read_to_string(&script).unwrap();
+        // Only the parameters the script reads: a --set it does not read is refused.
+        let sets = sets_read_by(
+            &source,
+            &[
+                ("n", "40"),
+                ("size", "40"),
+                ("duration", "1200.0"),
+                ("frames", "3"),
+            ],
+        );
         let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
             .arg("run")
             .arg(&script)
             .arg("--out")
             .arg(&out_dir)
-            .args([
-                "--set",
-                "n=40",
-                "--set",
-                "size=40",
-                "--set",
-                "duration=1200.0",
-                "--set",
-                "frames=3",
-            ])
+            .args(&sets)
             .env("HDRVIS_CACHE", &cache)
             .output()
             .unwrap();
@@ -86,6 +88,284 @@ fn every_script_runs_and_writes_valid_images() {
             }
         }
     }
+}
+
+/// The sets every script gets in `every_script_runs_and_writes_valid_images` that it reads.
+fn sets_read_by(source: &str, sets: &[(&str, &str)]) -> Vec<String> {
+    sets.iter()
+        .filter(|(k, _)| source.contains(&format!("param(\"{k}\"")))
+        .flat_map(|(k, v)| ["--set".to_string(), format!("{k}={v}")])
+        .collect()
+}
+
+/// A 20 x 25 x 5 box of ones (x, y, z), one unit per voxel.
+fn write_box(dir: &Path) {
+    let ones = vec![1.0f32; 20 * 25 * 5];
+    hdrvis::datasets::npy::write_npy_f32(&dir.join("box.npy"), &[5, 25, 20], &ones).unwrap();
+}
+
+#[test]
+fn a_variable_is_picked_by_option_and_by_shorthand_in_an_xarray_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let nc = d.join("box.nc");
+    let Some(report) = crate::cli::python_check("write_box_nc.py", &[nc.to_str().unwrap()]) else {
+        return;
+    };
+    assert!(report.starts_with("exit 0"), "{report}");
+    let script = r#"
+        for v in [load_volume("box.nc"), load_volume("box.nc", #{ variable: "S" }),
+                  load_volume("box.nc:S"), open_volume("box.nc", #{ variable: "S", brick: 8 }),
+                  open_volume("box.nc:T")] {
+            let s = volume_stats(v);
+            print(`${v.dims} ${s.min} ${s.max}`);
+        }
+    "#;
+    std::fs::write(d.join("s.rhai"), script).unwrap();
+    let (code, stdout, stderr) = crate::cli::hdrvis(&["run", "s.rhai", "-o", "o"], d);
+    assert_eq!(code, 0, "{stderr}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    // T = 1 + x over x = 0..19; S = 100 + y over y = 0..24.
+    let t = "[20, 25, 5] 1.0 20.0";
+    let s = "[20, 25, 5] 100.0 124.0";
+    assert_eq!(lines, [t, s, s, s, t], "{stdout}");
+
+    for (call, needle) in [
+        (
+            r#"load_volume("box.nc", #{ variable: "Q" })"#,
+            "no variable 'Q'; the file has: T",
+        ),
+        (
+            r#"load_volume("box.nc:Q")"#,
+            "no variable 'Q'; the file has: T",
+        ),
+        (
+            r#"open_volume("box.nc", #{ var: "T" })"#,
+            "write variable: \"NAME\"",
+        ),
+        (r#"load_volume("box.nc:T", #{ variable: "S" })"#, "give one"),
+    ] {
+        std::fs::write(d.join("bad.rhai"), format!("let v = {call};")).unwrap();
+        let (code, _, stderr) = crate::cli::hdrvis(&["run", "bad.rhai", "-o", "o"], d);
+        assert_eq!(code, 1, "{call}: {stderr}");
+        assert!(
+            stderr.lines().next().unwrap().contains(needle),
+            "{call}: {stderr}"
+        );
+    }
+}
+
+#[test]
+fn a_set_no_param_reads_is_refused_before_anything_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_box(d);
+    let script = r#"
+        fn exposure() { param("exposure", 0.0) }
+        let v = load_volume("box.npy");
+        let img = render_volume(v, #{ tf: tf_emission_absorption(1.0, 0.1), camera: camera_axis("z"),
+                                      width: param("size", 16) });
+        save_png(img, "view.png", exposure());
+    "#;
+    std::fs::write(d.join("sweep.rhai"), script).unwrap();
+    let (code, stdout, stderr) =
+        crate::cli::hdrvis(&["run", "sweep.rhai", "-o", "o", "--set", "sizee=64"], d);
+    assert_eq!(code, 1, "{stderr}");
+    assert_eq!(
+        stderr.trim(),
+        "error: --set sizee: no param(\"sizee\", ...) in the script reads it; did you mean size? \
+         its parameters: exposure, size"
+    );
+    let nothing_written = std::fs::read_dir(d.join("o")).map_or(true, |mut r| r.next().is_none());
+    assert!(stdout.is_empty() && nothing_written, "{stdout}");
+    // The parameter read inside a function counts, and the right name runs.
+    let (code, stdout, stderr) = crate::cli::hdrvis(
+        &[
+            "run",
+            "sweep.rhai",
+            "-o",
+            "o",
+            "--set",
+            "size=20",
+            "--set",
+            "exposure=1.0",
+        ],
+        d,
+    );
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("view.png"), "{stdout}");
+}
+
+/// Columns and rows of `img` that hold any emission (the box), as (columns, rows).
+fn lit_extent(img: &hdrvis::model::HdrImage) -> (usize, usize) {
+    let lit = |x: u32, y: u32| img.pixel(x, y)[0] > 0.0;
+    let cols = (0..img.width)
+        .filter(|&x| (0..img.height).any(|y| lit(x, y)))
+        .count();
+    let rows = (0..img.height)
+        .filter(|&y| (0..img.width).any(|x| lit(x, y)))
+        .count();
+    (cols, rows)
+}
+
+#[test]
+fn axis_views_of_a_20_by_25_box_have_square_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_box(d);
+    let script = r#"
+        let v = load_volume("box.npy");
+        let tf = tf_emission_absorption(1.0, 0.1);
+        save_exr(render_volume(v, #{ tf: tf, camera: camera_axis("z") }), "auto.exr");
+        save_exr(render_volume(v, #{ tf: tf, camera: camera_axis("z"), width: 100, height: 100 }), "square.exr");
+        save_exr(render_volume(v, #{ tf: tf, camera: camera_axis("z"), height: 50 }), "h50.exr");
+    "#;
+    std::fs::write(d.join("s.rhai"), script).unwrap();
+    let (code, _, stderr) = crate::cli::hdrvis(&["run", "s.rhai", "-o", "o"], d);
+    assert_eq!(code, 0, "{stderr}");
+    let read = |name: &str| hdrvis::io::exr::read_exr(&d.join("o").join(name)).unwrap();
+    // No size: the box's aspect, 512 on the long side, the box filling the image.
+    let auto = read("auto.exr");
+    assert_eq!((auto.width, auto.height), (410, 512));
+    assert_eq!(lit_extent(&auto), (410, 512));
+    // 100 x 100: letterboxed, 0.25 units per pixel both ways, background beside the box.
+    let square = read("square.exr");
+    assert_eq!((square.width, square.height), (100, 100));
+    assert_eq!(lit_extent(&square), (80, 100));
+    assert_eq!(square.pixel(5, 50)[0], 0.0, "background left of the box");
+    let h50 = read("h50.exr");
+    assert_eq!((h50.width, h50.height), (40, 50));
+}
+
+#[test]
+fn image_sizes_beyond_the_adapter_are_refused_and_out_of_memory_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_box(d);
+    let script = r#"
+        let v = load_volume("box.npy");
+        let n = param("n", 16384);
+        let img = render_volume(v, #{ tf: tf_emission_absorption(1.0, 0.1), camera: camera_axis("z"),
+                                      width: n, height: n });
+        save_exr(img, "big.exr");
+    "#;
+    std::fs::write(d.join("big.rhai"), script).unwrap();
+    let (code, stdout, stderr) = crate::cli::hdrvis(&["run", "big.rhai", "-o", "o"], d);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    if code != 0 {
+        // Refused before any GPU work, naming the adapter's limit.
+        assert_eq!(code, 1, "{stderr}");
+        let first = stderr.lines().next().unwrap();
+        assert!(
+            first.contains("16384 x 16384 pixels")
+                && (first.contains("max_buffer_size")
+                    || first.contains("max_texture_dimension_2d")),
+            "{stderr}"
+        );
+    } else {
+        assert!(stdout.contains("big.exr"), "{stdout}");
+    }
+    // Out of memory forced by a 1.5 GB address-space limit on a 1 GiB image (lavapipe's device
+    // memory is host memory): one error line, exit 1, no panic.
+    let hdrvis_bin = env!("CARGO_BIN_EXE_hdrvis");
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 1500000 && exec '{hdrvis_bin}' run big.rhai -o o --set n=8192"
+        ))
+        .current_dir(d)
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let adapter = crate::common::renderer(hdrvis::gpu::BackendChoice::Auto)
+        .context()
+        .info
+        .device_type;
+    if adapter != wgpu::DeviceType::Cpu {
+        // A real GPU's memory is not bounded by ulimit; the render may succeed.
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        return;
+    }
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let first = stderr.lines().next().unwrap();
+    assert!(first.contains("gpu: Out of Memory"), "{stderr}");
+    assert!(
+        !stderr.contains("panicked") && !d.join("o/big.exr").exists(),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn sigterm_mid_sweep_prints_what_was_written() {
+    use std::io::{BufRead, BufReader};
+    use std::os::unix::process::ExitStatusExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_box(d);
+    let script = r#"
+        let v = load_volume("box.npy");
+        for i in 0..2000 {
+            let img = render_volume(v, #{ tf: tf_emission_absorption(1.0, 0.1 + i * 0.001),
+                                          camera: camera_orbit(i * 1.0, 20.0), width: 64, height: 64 });
+            save_png(img, `frame-${i}.png`);
+        }
+    "#;
+    std::fs::write(d.join("sweep.rhai"), script).unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(["run", "sweep.rhai", "-o", "o"])
+        .current_dir(d)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let mut lines = Vec::new();
+    // Two outputs reported while the run goes on, then SIGTERM.
+    while lines.len() < 2 {
+        let mut line = String::new();
+        assert!(
+            stdout.read_line(&mut line).unwrap() > 0,
+            "the sweep ended early"
+        );
+        lines.push(line.trim().to_string());
+    }
+    let killed = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut stdout, &mut rest).unwrap();
+    lines.extend(rest.lines().map(str::to_string));
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr).unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(
+        status.signal(),
+        Some(15),
+        "dies of SIGTERM as without the handler"
+    );
+    let written: Vec<&str> = lines
+        .iter()
+        .map(|l| l.strip_prefix("wrote ").expect("only wrote lines"))
+        .collect();
+    assert!(written.len() >= 2 && written.len() < 2000, "{written:?}");
+    for (i, w) in written.iter().enumerate() {
+        assert!(
+            w.ends_with(&format!("frame-{i}.png")) && Path::new(w).is_file(),
+            "{w}"
+        );
+    }
+    let stop = stderr
+        .lines()
+        .find(|l| l.starts_with("stopped by SIGTERM"))
+        .unwrap_or_else(|| panic!("no stop line: {stderr}"));
+    assert!(
+        stop.contains(&format!("after writing {} files: ", written.len()))
+            && stop.ends_with(written.last().unwrap()),
+        "{stop}"
+    );
 }
 
 /// Whether `ffmpeg` and `ffprobe` run; when not, the movie checks that need them are skipped,
