@@ -123,7 +123,7 @@ fn register_animation(engine: &mut Engine, host: &Arc<ScriptHost>) {
         let (fps, ev) = (get("fps", 12.0)?, get("exposure", 0.0)?);
         let p = h.sandbox.write_path(path).map_err(to_rhai)?;
         crate::io::animation::MovieFormat::of(&p).map_err(to_rhai)?;
-        if h.already_done(&p) {
+        if h.already_done(&p) || !h.write_outputs {
             return Ok(());
         }
         let t = std::time::Instant::now();

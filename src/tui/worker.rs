@@ -94,6 +94,8 @@ pub(crate) fn render_scene(
     opts.capture_prints = true;
     opts.write_outputs = false;
     opts.progress = false;
+    // A parameter change must never hang the session.
+    opts.timeout = Some(crate::script::INTERACTIVE_TIMEOUT);
     let report = run_script_file(script, &opts)?;
     let mut passes = report.passes;
     let shown = report.previews.last().cloned().or(report.last_image);
