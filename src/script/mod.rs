@@ -421,6 +421,19 @@ pub fn script_param_names(ast: &rhai::AST) -> Option<Vec<String>> {
     (!computed).then(|| names.into_iter().collect())
 }
 
+/// Whether the script at `path` may read `param(name, ...)`: false only when it parses and
+/// names all its parameters literally, none of them `name` (front ends use it before setting a
+/// parameter of their own, such as the TUI's `preview_scale`).
+pub(crate) fn may_read_param(path: &Path, name: &str) -> bool {
+    let Ok(source) = std::fs::read_to_string(path) else {
+        return true;
+    };
+    match Engine::new_raw().compile(&source) {
+        Ok(ast) => script_param_names(&ast).is_none_or(|names| names.iter().any(|n| n == name)),
+        Err(_) => true,
+    }
+}
+
 /// Refuses a `--set NAME=...` that no `param("NAME", ...)` of the script reads, before anything
 /// runs: a misspelt name would otherwise run the whole script with the default.
 fn check_sets_are_read(ast: &rhai::AST, sets: &[(String, String)]) -> Result<()> {

@@ -206,7 +206,10 @@ impl RenderWorker {
     /// Runs the script at `scale` (the quick pass at [`LOW_RES_SCALE`], the full one at 1).
     fn run_script(&mut self, job: &RenderJob, scale: f64) -> Timed {
         let mut sets = job.sets.clone();
-        sets.push((PREVIEW_SCALE.to_string(), format!("{scale}")));
+        // A script that reads no preview_scale would refuse it (a misspelt --set).
+        if crate::script::may_read_param(&self.script, PREVIEW_SCALE) {
+            sets.push((PREVIEW_SCALE.to_string(), format!("{scale}")));
+        }
         let t0 = Instant::now();
         let outcome = render_scene(&self.script, &self.base, &self.session, sets, &job.edit);
         let outcome = outcome.map(|run| {

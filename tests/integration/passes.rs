@@ -183,7 +183,7 @@ fn stats_flag_prints_one_line_per_pass() {
     let names: Vec<&str> = lines.iter().map(|l| l.split(' ').nth(1).unwrap()).collect();
     assert_eq!(
         names,
-        ["generate", "upload", "raycast", "tonemap", "save-exr"],
+        ["generate", "cell-ranges", "skip-grid", "upload", "raycast", "tonemap", "save-exr"],
         "{stdout}"
     );
     for l in &lines {
