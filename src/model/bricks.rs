@@ -170,10 +170,42 @@ impl BrickedVolume {
         origin: [f64; 3],
         brick: usize,
     ) -> Result<BrickedVolume> {
-        use rayon::prelude::*;
         let dims = source.dims();
         super::volume::check_shape(&dims, "dims")?;
         let layout = BrickLayout::new(dims, brick)?;
+        Self::index(name.into(), source, spacing, origin, layout)
+    }
+
+    /// The value ranges of an in-memory volume over cells of `edge` voxels (any edge of at
+    /// least 2, unlike the bricks a render may ask for): the skip grid's input.
+    pub(crate) fn cells(volume: Arc<Volume>, edge: usize) -> Result<BrickedVolume> {
+        let dims = volume.dims;
+        let layout = BrickLayout {
+            dims,
+            brick: edge.max(2),
+            grid: dims.map(|d| d.div_ceil(edge.max(2))),
+        };
+        let (spacing, origin) = (volume.spacing, volume.origin);
+        Self::index(
+            volume.name.clone(),
+            Arc::new(MemorySource(volume)),
+            spacing,
+            origin,
+            layout,
+        )
+    }
+
+    /// Streams `source` once for the per-brick ranges of `layout` and the volume statistics.
+    fn index(
+        name: String,
+        source: Arc<dyn VoxelSource>,
+        spacing: [f64; 3],
+        origin: [f64; 3],
+        layout: BrickLayout,
+    ) -> Result<BrickedVolume> {
+        use rayon::prelude::*;
+        let dims = layout.dims;
+        let brick = layout.brick;
         let [nx, ny, nz] = dims;
         let slice = nx * ny;
         let slab_slices = (brick + 2).min(nz);
@@ -220,7 +252,7 @@ impl BrickedVolume {
         }
         source.release(0, nz);
         Ok(BrickedVolume {
-            name: name.into(),
+            name,
             units: String::new(),
             dims,
             spacing,

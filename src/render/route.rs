@@ -20,7 +20,7 @@
 use super::bricked::{BrickCache, BrickedStats};
 use super::cache::KeyBuilder;
 use super::session::{append_pass, image_bytes, raycast_effects, RenderSession};
-use super::skipping::{CellRanges, SkipGrid, CELL};
+use super::skipping::{CellRanges, SkipGrid};
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::model::bricks::{BrickedVolume, DEFAULT_BRICK};
@@ -420,7 +420,6 @@ impl RenderSession {
     pub(crate) fn cell_ranges(&self, volume: &Arc<Volume>) -> Result<Arc<CellRanges>> {
         let key = KeyBuilder::new("cell ranges")
             .u64(self.volume_key(volume))
-            .u64(CELL as u64)
             .finish();
         self.stage_with(
             "cell-ranges",
@@ -430,7 +429,7 @@ impl RenderSession {
             |_, _| {},
             || {
                 let c = CellRanges::of(volume.clone())?;
-                let detail = format!("{} cells of {CELL}³", c.count());
+                let detail = format!("{} cells of {}³", c.count(), c.edge());
                 Ok((c, detail))
             },
         )

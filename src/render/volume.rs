@@ -337,7 +337,7 @@ impl VolumeRenderer {
         let mut frame = self.frame(&geometry, opts, false)?;
         frame.key.work = work;
         frame.key.skipping = skip.is_some();
-        frame.params.skip = [super::skipping::CELL as f32, 0.0, 0.0, 0.0];
+        frame.params.skip = [skip.map_or(0, |g| g.edge) as f32, 0.0, 0.0, 0.0];
         let (pipeline, compiled) = self.pipeline(frame.key)?;
         let (pipeline, layout) = (&pipeline.0, &pipeline.1);
         let device = &self.ctx.device;

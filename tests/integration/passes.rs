@@ -183,7 +183,15 @@ fn stats_flag_prints_one_line_per_pass() {
     let names: Vec<&str> = lines.iter().map(|l| l.split(' ').nth(1).unwrap()).collect();
     assert_eq!(
         names,
-        ["generate", "cell-ranges", "skip-grid", "upload", "raycast", "tonemap", "save-exr"],
+        [
+            "generate",
+            "cell-ranges",
+            "skip-grid",
+            "upload",
+            "raycast",
+            "tonemap",
+            "save-exr"
+        ],
         "{stdout}"
     );
     for l in &lines {
