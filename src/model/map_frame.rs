@@ -344,3 +344,108 @@ fn draw_upright_bar(out: &mut HdrImage, l: &FrameLayout, bar: &ColourBar) -> cra
     out.set_meta("frame_bar_ticks", drawn.join(" "));
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::text::BarScale;
+
+    fn coords(name: &str, units: &str, values: Vec<f64>) -> GridCoords {
+        GridCoords {
+            name: name.into(),
+            units: units.into(),
+            values,
+        }
+    }
+
+    #[test]
+    fn axes_come_from_even_coordinates_and_round_trip_through_metadata() {
+        let lon = MapAxis::of_coords(&coords("lon", "degrees_east", vec![-10.0, -9.5, -9.0]));
+        let lon = lon.unwrap();
+        assert_eq!((lon.lo, lon.hi), (-10.25, -8.75));
+        let uneven = coords("depth", "m", vec![0.0, 1.0, 3.0]);
+        assert_eq!(MapAxis::of_coords(&uneven), None);
+        let y = MapAxis::of_coords(&coords("y", "km", vec![0.0, 2.0])).unwrap();
+        let axes = MapAxes { x: lon, y };
+        let mut img = HdrImage::new(3, 2);
+        assert_eq!(MapAxes::of(&img), None);
+        axes.record(&mut img);
+        assert_eq!(MapAxes::of(&img), Some(axes.clone()));
+        // Pixel centres on nodes: node i of 3 is column i; the top row is the northern node.
+        for (i, v) in [-10.0, -9.5, -9.0].into_iter().enumerate() {
+            assert_eq!(axes.x.pixel(v, 3, false), i as u32);
+        }
+        assert_eq!(
+            (axes.y.pixel(2.0, 2, true), axes.y.pixel(0.0, 2, true)),
+            (0, 1)
+        );
+    }
+
+    #[test]
+    fn labels_name_hemispheres_on_geographic_axes_and_units_elsewhere() {
+        let axis = |name: &str, units: &str| MapAxis {
+            name: name.into(),
+            units: units.into(),
+            lo: -1.0,
+            hi: 1.0,
+        };
+        let lon = axis("longitude", "");
+        assert_eq!(lon.label(-120.5, ['E', 'W']), "120.5°W");
+        assert_eq!(lon.label(0.0, ['E', 'W']), "0°");
+        assert_eq!(axis("phi", "degrees_north").label(15.0, ['N', 'S']), "15°N");
+        assert_eq!(lon.title(), "");
+        assert_eq!(axis("x", "m").label(2.5e6, ['E', 'W']), "2.5e6");
+        assert_eq!(axis("x", "m").title(), "x (m)");
+        assert_ne!(
+            crate::model::text::glyph('°'),
+            crate::model::text::glyph('?')
+        );
+    }
+
+    #[test]
+    fn frame_places_the_map_ticks_and_bar_by_the_layout() {
+        let axes = MapAxes {
+            x: MapAxis::of_coords(&coords("x", "m", (0..40).map(f64::from).collect())).unwrap(),
+            y: MapAxis::of_coords(&coords("y", "m", (0..30).map(f64::from).collect())).unwrap(),
+        };
+        let mut img = HdrImage::new(40, 30);
+        img.pixels.fill([0.25, 0.5, 0.75, 1.0]);
+        let bar = ColourBar {
+            colormap: "viridis".into(),
+            scale: BarScale::Linear,
+            lo: 0.0,
+            hi: 1.0,
+            units: "m".into(),
+        };
+        let out = with_map_frame(&img, &axes, Some(&bar)).unwrap();
+        // 40 × 30 px leave room for two labels a side (a label and a glyph per tick): steps of
+        // 20, ticks at 0 and 20; the widest y label, "20", is 16 px, so the map starts at
+        // 6 + 16 + 2 + 4 + 1.
+        let (left, top) = (29u32, 19u32);
+        assert_eq!(out.meta("frame_map_origin"), Some("29 19"));
+        let at = |x: u32, y: u32| out.pixels[(y * out.width + x) as usize];
+        assert_eq!(at(left, top), [0.25, 0.5, 0.75, 1.0]);
+        assert_eq!(at(left + 39, top + 29), [0.25, 0.5, 0.75, 1.0]);
+        assert_eq!(at(left - 1, top), BLACK);
+        // Ticks in the columns of nodes 0 and 20 (x = node index here) and the rows of nodes 0
+        // and 20 counted from the north; no tick at node 10.
+        for v in [0u32, 20] {
+            assert_eq!(at(left + v, top + 30 + 2), BLACK, "x tick {v}");
+            assert_eq!(at(left - 3, top + 29 - v), BLACK, "y tick {v}");
+        }
+        assert_eq!(at(left + 10, top + 30 + 2), WHITE);
+        assert_eq!(at(left - 3, top + 19), WHITE);
+        // Bar ticks at rows top + round((1 − t) · 29), drawn right of the bar.
+        let ticks = out.meta("frame_bar_ticks").unwrap().to_string();
+        assert!(ticks.split(' ').count() >= 2, "{ticks}");
+        for t in ticks.split(' ') {
+            let (v, row) = t.split_once('@').unwrap();
+            let (v, row): (f64, u32) = (v.parse().unwrap(), row.parse().unwrap());
+            assert_eq!(row, top + ((1.0 - v) * 29.0).round() as u32);
+            assert_eq!(
+                at(left + 40 + 1 + FRAME_BAR_GAP + FRAME_BAR_WIDTH, row),
+                BLACK
+            );
+        }
+    }
+}
