@@ -7,6 +7,7 @@ pub(crate) mod camera;
 pub mod colormap;
 pub(crate) mod grid;
 pub(crate) mod image;
+pub(crate) mod map_frame;
 pub mod text;
 pub mod transfer;
 pub(crate) mod volume;

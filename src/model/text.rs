@@ -1,12 +1,13 @@
 //! Text drawn into HDR images for legends: the 8×8 bitmap glyphs of the `font8x8` crate (Basic
-//! Latin and Greek, so "ν" prints), scaled by whole pixels, and the number format legends use.
+//! Latin, Latin-1 and Greek, so "ν" and "°" print), scaled by whole pixels, and the number format
+//! legends use.
 //! Pixels are written as linear values, so text stays crisp in the EXR and in any PNG view.
 //! [`ColourBar`] is the colour bar a render records in its metadata (colour map, scale, domain,
 //! units) and [`with_colour_bar`] draws it under an image with labelled ticks — every decade on
 //! log10 and symlog scales — for `save_png(img, path, #{legend: true})`.
 
 use super::HdrImage;
-use font8x8::{UnicodeFonts, BASIC_FONTS, GREEK_FONTS};
+use font8x8::{UnicodeFonts, BASIC_FONTS, GREEK_FONTS, LATIN_FONTS};
 
 /// Glyph cell size in font pixels.
 pub(crate) const GLYPH: u32 = 8;
@@ -17,6 +18,7 @@ pub fn glyph(c: char) -> [u8; 8] {
     BASIC_FONTS
         .get(c)
         .or_else(|| GREEK_FONTS.get(c))
+        .or_else(|| LATIN_FONTS.get(c))
         .or_else(|| BASIC_FONTS.get('?'))
         .unwrap_or([0; 8])
 }
@@ -81,6 +83,29 @@ pub(crate) fn format_number(v: f64) -> String {
         let (mantissa, exponent) = s.split_once('e').unwrap_or((&s, "0"));
         format!("{}e{exponent}", trim(mantissa.to_string()))
     }
+}
+
+/// Round values for the ticks of a linear axis over [lo, hi]: multiples of 1, 2 or 5 times a
+/// power of ten, the step the smallest giving at most about `most` ticks (one tick, `lo`, for
+/// an empty span). A value within 1e-9 of a step of zero is exactly 0.
+pub(crate) fn nice_ticks(lo: f64, hi: f64, most: usize) -> Vec<f64> {
+    let span = hi - lo;
+    if span.is_nan() || span <= 0.0 {
+        return vec![lo];
+    }
+    let raw = span / most.max(1) as f64;
+    let power = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * power)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * power);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last)
+        .map(|i| i as f64 * step)
+        .map(|v| if v.abs() < step * 1e-9 { 0.0 } else { v })
+        .collect()
 }
 
 /// The scale a colour bar's ticks follow (that of the transfer function or colour mapping).
@@ -178,6 +203,24 @@ impl ColourBar {
         }
     }
 
+    /// The bar's units and scale as one line of at most `width` pixels ("m, log10 scale", then
+    /// shorter forms; empty when even the units do not fit).
+    pub(crate) fn caption(&self, width: u32) -> String {
+        let units = match self.units.as_str() {
+            "" => "data units".to_string(),
+            "1" => "dimensionless".to_string(),
+            u => u.to_string(),
+        };
+        [
+            format!("{units}, {} scale", self.scale.describe()),
+            format!("{units}, {}", self.scale.describe()),
+            units,
+        ]
+        .into_iter()
+        .find(|c| text_width(c, 1) <= width)
+        .unwrap_or_default()
+    }
+
     /// Tick values with their labels: every decade (thinned to at most `most`) on log10, zero and
     /// the decades of both signs beyond the linear threshold on symlog, and steps of 1, 2 or 5
     /// times a power of ten on a linear scale.
@@ -220,30 +263,10 @@ impl ColourBar {
                 );
                 t
             }
-            BarScale::Linear => {
-                let span = hi - lo;
-                if span.is_nan() || span <= 0.0 {
-                    return vec![(lo, format_number(lo))];
-                }
-                let raw = span / most.max(1) as f64;
-                let power = 10f64.powf(raw.log10().floor());
-                let step = [1.0, 2.0, 5.0, 10.0]
-                    .iter()
-                    .map(|m| m * power)
-                    .find(|s| *s >= raw)
-                    .unwrap_or(10.0 * power);
-                let first = (lo / step).ceil() as i64;
-                let last = (hi / step).floor() as i64;
-                (first..=last)
-                    .map(|i| {
-                        let v = i as f64 * step;
-                        (
-                            v,
-                            format_number(if v.abs() < step * 1e-9 { 0.0 } else { v }),
-                        )
-                    })
-                    .collect()
-            }
+            BarScale::Linear => nice_ticks(lo, hi, most)
+                .into_iter()
+                .map(|v| (v, format_number(v)))
+                .collect(),
         };
         ticks.retain(|(v, _)| *v >= lo && *v <= hi);
         ticks
@@ -293,19 +316,7 @@ pub(crate) fn with_colour_bar(img: &HdrImage, bar: &ColourBar) -> crate::Result<
             drawn.push(format!("{v}@{x}"));
         }
     }
-    let units = match bar.units.as_str() {
-        "" => "data units".to_string(),
-        "1" => "dimensionless".to_string(),
-        u => u.to_string(),
-    };
-    let caption = [
-        format!("{units}, {} scale", bar.scale.describe()),
-        format!("{units}, {}", bar.scale.describe()),
-        units,
-    ]
-    .into_iter()
-    .find(|c| text_width(c, 1) + 4 <= w)
-    .unwrap_or_default();
+    let caption = bar.caption(w.saturating_sub(4));
     let cx = (w as i64 - text_width(&caption, 1) as i64 - 2).max(0);
     draw_text(
         &mut out,

@@ -584,6 +584,8 @@ struct DataTargets {
     /// Per rendered property: name, units, d_ref, finite range.
     props: Vec<PropMeta>,
     view: String,
+    /// The map's coordinate axes (map view of a grid with evenly spaced coordinates).
+    axes: Option<crate::model::map_frame::MapAxes>,
     /// Fringe-pass outputs and their staging copies, reused by every step-2 run on these targets.
     outputs: Mutex<Option<FringeOutputs>>,
     /// Per property slot, the value channel as returned (missing pixels NaN): it depends on the
@@ -867,6 +869,9 @@ impl SurfaceRenderer {
             height,
             props: nodes.meta,
             view: opts.view.describe(),
+            axes: map
+                .then(|| crate::model::map_frame::MapAxes::of_grid(grid))
+                .flatten(),
             outputs: Mutex::new(None),
             values: Mutex::new(HashMap::new()),
         });
@@ -987,6 +992,9 @@ impl SurfaceRenderer {
             },
         );
         image.set_meta("view", data.view.clone());
+        if let Some(axes) = &data.axes {
+            axes.record(&mut image);
+        }
         image.set_meta("phase", opts.phase.describe());
         image.set_meta(
             "antialias",

@@ -90,7 +90,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("output", "save_exr", &["image: Image", "path: string"], "()", "Linear OpenEXR (float R, G, B, A plus extra channels and provenance), under the output folder."),
     e("output", "save_png", &["image: Image", "path: string"], "()", "8-bit sRGB view of the image at 0 EV, under the output folder."),
     e("output", "save_png", &["image: Image", "path: string", "exposure: number"], "()", "8-bit sRGB view at the given exposure in stops."),
-    e("output", "save_png", &["image: Image", "path: string", "options: map"], "()", "As above with #{exposure, legend: true} (the colour bar the render recorded drawn beneath, with labelled decades and units)."),
+    e("output", "save_png", &["image: Image", "path: string", "options: map"], "()", "As above with #{exposure, legend: true} (the colour bar the render recorded drawn beneath, with labelled decades and units) or frame: true (a map-view surface with lat/lon or x/y axes and the colour bar beside it)."),
     e("output", "save_animation", &["frames: array", "path: string"], "()", "A movie of the frames (Images, or paths of PNGs under the output folder) at 12 frames/s: .mp4 (H.264) and .webm (VP9) through the system's ffmpeg, .gif and .png (animated PNG) without it. Under the output folder; frames are converted one at a time."),
     e("output", "save_animation", &["frames: array", "path: string", "options: map"], "()", "As above with #{fps, exposure} (exposure in stops, for HDR images)."),
     e("parameters and sweeps", "already_done", &["path: string"], "bool", "True when `--resume` is on and this output already exists: skip its work."),

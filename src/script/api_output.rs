@@ -3,7 +3,8 @@
 //! under the output folder, and with `--resume` ones that exist are not written again.
 //! `save_png` writes an HDR image exposed by 2^EV then sRGB, and a display-referred image
 //! (`display_referred = 1`: tone-mapped, false colour) as it is; `save_png(img, path, #{legend:
-//! true, exposure})` adds the colour bar the render recorded, with labelled ticks and units.
+//! true, exposure})` adds the colour bar the render recorded, with labelled ticks and units, and
+//! `frame: true` draws a map-view surface with its coordinate axes and the colour bar beside it.
 
 use super::api_render::ScriptImage;
 use super::convert::{boolean, check_keys, err, num, to_rhai, RResult};
@@ -22,7 +23,57 @@ pub(crate) fn register_output(engine: &mut Engine, host: &Arc<ScriptHost>) {
 }
 
 /// Keys of `save_png(img, path, #{...})`.
-const SAVE_PNG_KEYS: &[&str] = &["exposure", "legend"];
+const SAVE_PNG_KEYS: &[&str] = &["exposure", "legend", "frame"];
+
+/// What `save_png` draws around the picture.
+#[derive(Clone, Copy, PartialEq)]
+enum PngDecoration {
+    None,
+    /// The recorded colour bar beneath (`legend: true`).
+    Legend,
+    /// Axes along the left and bottom and the colour bar beside the map (`frame: true`).
+    Frame,
+}
+
+/// The picture `save_png` writes for `decoration`: the image (exposed by 2^`ev` unless
+/// display-referred) with the colour bar beneath or in a frame with axes; `None` to write the
+/// image as it is. An image without what the decoration needs is a one-line error.
+fn decorated(
+    img: &HdrImage,
+    ev: f64,
+    display: bool,
+    decoration: PngDecoration,
+) -> crate::Result<Option<HdrImage>> {
+    use crate::model::map_frame::{with_map_frame, MapAxes};
+    use crate::model::text::{with_colour_bar, ColourBar};
+    let bar = ColourBar::of(img);
+    let axes = match decoration {
+        PngDecoration::None => return Ok(None),
+        PngDecoration::Legend => None,
+        PngDecoration::Frame => Some(MapAxes::of(img).ok_or_else(|| {
+            crate::Error::invalid(
+                "frame",
+                "this image records no map axes (render_surface in map view of a grid with evenly spaced coordinates does)",
+            )
+        })?),
+    };
+    if decoration == PngDecoration::Legend && bar.is_none() {
+        return Err(crate::Error::invalid(
+            "legend",
+            "this image records no colour bar (render_surface and render_volume with a tf_lut transfer function do)",
+        ));
+    }
+    let view = if display {
+        img.clone()
+    } else {
+        crate::tonemap::exposure(img, ev)?
+    };
+    Ok(Some(match (axes, bar) {
+        (Some(axes), bar) => with_map_frame(&view, &axes, bar.as_ref())?,
+        (None, Some(bar)) => with_colour_bar(&view, &bar)?,
+        (None, None) => view,
+    }))
+}
 
 /// `save_exr` and `save_png` (with and without an exposure or options).
 fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
@@ -47,7 +98,11 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     // A display-referred image (tone-mapped or false colour, metadata `display_referred = 1`)
     // already holds display values: it is written with the sRGB curve only, and asking for an
     // exposure on it is an error (expose the HDR image before tone mapping instead).
-    let save_png = move |img: &mut ScriptImage, path: &str, ev: f64, legend: bool| -> RResult<()> {
+    let save_png = move |img: &mut ScriptImage,
+                         path: &str,
+                         ev: f64,
+                         decoration: PngDecoration|
+          -> RResult<()> {
         let display = crate::tonemap::is_display_referred(img);
         if display && ev != 0.0 {
             return err(
@@ -60,20 +115,8 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             return Ok(());
         }
         let t = std::time::Instant::now();
-        if legend {
-            let bar = crate::model::text::ColourBar::of(img).ok_or_else(|| {
-                to_rhai(crate::Error::invalid(
-                    "legend",
-                    "this image records no colour bar (render_surface and render_volume with a tf_lut transfer function do)",
-                ))
-            })?;
-            let view = if display {
-                (**img).clone()
-            } else {
-                crate::tonemap::exposure(img, ev).map_err(to_rhai)?
-            };
-            let framed = crate::model::text::with_colour_bar(&view, &bar).map_err(to_rhai)?;
-            crate::io::png::write_display_png(&framed, &p, false).map_err(to_rhai)?;
+        if let Some(picture) = decorated(img, ev, display, decoration).map_err(to_rhai)? {
+            crate::io::png::write_display_png(&picture, &p, false).map_err(to_rhai)?;
         } else if display {
             crate::io::png::write_display_png(img, &p, false).map_err(to_rhai)?;
         } else {
@@ -86,25 +129,29 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     };
     let save_png2 = save_png.clone();
     engine.register_fn("save_png", move |img: &mut ScriptImage, path: &str| {
-        save_png2(img, path, 0.0, false)
+        save_png2(img, path, 0.0, PngDecoration::None)
     });
     engine.register_fn(
         "save_png",
         move |img: &mut ScriptImage, path: &str, ev: Dynamic| -> RResult<()> {
-            // An exposure in stops, or a map #{exposure, legend}.
+            // An exposure in stops, or a map #{exposure, legend, frame}.
             if let Some(opts) = ev.clone().try_cast::<rhai::Map>() {
                 check_keys(&opts, SAVE_PNG_KEYS, "save_png")?;
                 let exposure = match opts.get("exposure") {
                     Some(v) => num(v, "exposure")?,
                     None => 0.0,
                 };
-                let legend = match opts.get("legend") {
-                    Some(v) => boolean(v, "legend")?,
-                    None => false,
+                let flag = |key: &str| opts.get(key).map_or(Ok(false), |v| boolean(v, key));
+                let decoration = if flag("frame")? {
+                    PngDecoration::Frame
+                } else if flag("legend")? {
+                    PngDecoration::Legend
+                } else {
+                    PngDecoration::None
                 };
-                return save_png(img, path, exposure, legend);
+                return save_png(img, path, exposure, decoration);
             }
-            save_png(img, path, num(&ev, "exposure")?, false)
+            save_png(img, path, num(&ev, "exposure")?, PngDecoration::None)
         },
     );
 }

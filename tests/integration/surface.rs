@@ -1149,3 +1149,112 @@ fn write_npy(path: &std::path::Path, ny: usize, nx: usize, values: &[f64]) {
     bytes.extend(values.iter().flat_map(|v| v.to_le_bytes()));
     std::fs::write(path, bytes).unwrap();
 }
+
+/// Issue #21 item 10: `save_png(img, path, #{frame: true})` on a map-view render of a lon/lat
+/// grid (NetCDF, latitudes stored north to south) with known extent — lon 120–130° E every
+/// 0.05°, lat 10–20° N every 0.125° — and a wave height rising eastwards. The map sits unscaled
+/// at the documented offset (left = 6 pad + 32 for "10°N" + 2 + 4 tick + 1 outline = 45,
+/// top = 6 + 8 + 4 + 1 = 19); ticks are dark at the columns and rows where the map view puts
+/// 120, 125, 130° E and 10, 15, 20° N; the colour bar right of the map runs from the map's
+/// highest colour at the top to its lowest at the bottom. A perspective render has no map axes:
+/// a one-line error, no file.
+#[test]
+fn save_png_frame_draws_axes_and_the_colour_bar_beside_the_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let (nx, ny) = (201usize, 81usize);
+    let lon: Vec<f64> = (0..nx).map(|i| 120.0 + 0.05 * i as f64).collect();
+    let lat: Vec<f64> = (0..ny).map(|j| 20.0 - 0.125 * j as f64).collect();
+    let eta: Vec<f64> = (0..nx * ny)
+        .map(|k| 0.01 + 0.02 * (lon[k % nx] - 120.0))
+        .collect();
+    hdrvis::datasets::netcdf::write_grid::<f64>(
+        dir.path().join("sea.nc"),
+        &[
+            ("lat", &lat, "degrees_north"),
+            ("lon", &lon, "degrees_east"),
+        ],
+        &[("eta", &eta, "m", "wave height")],
+        &[],
+    )
+    .unwrap();
+    let script = r#"
+        let img = render_surface(load_grid("sea.nc"), #{ nu: 10.0, mode: "direct", colormap: "viridis" });
+        save_png(img, "plain.png");
+        save_png(img, "framed.png", #{ frame: true });
+    "#;
+    std::fs::write(dir.path().join("s.rhai"), script).unwrap();
+    let (code, out, err) = crate::cli::hdrvis(&["run", "s.rhai"], dir.path());
+    assert_eq!(code, 0, "{out}\n{err}");
+    let plain = image::open(dir.path().join("out/plain.png"))
+        .unwrap()
+        .to_rgb8();
+    let framed = image::open(dir.path().join("out/framed.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(plain.dimensions(), (nx as u32, ny as u32));
+    let (left, top, w, h) = (45u32, 19u32, nx as u32, ny as u32);
+    assert!(framed.width() > left + w + 1 + 12 + 12 && framed.height() > top + h + 4 + 8);
+    for y in 0..h {
+        for x in 0..w {
+            assert_eq!(
+                framed.get_pixel(left + x, top + y),
+                plain.get_pixel(x, y),
+                "map pixel ({x}, {y})"
+            );
+        }
+    }
+    let dark = |p: &image::Rgb<u8>| p.0.iter().all(|c| *c < 40);
+    // The outline one pixel outside the map.
+    assert!((top - 1..=top + h).all(|y| dark(framed.get_pixel(left - 1, y))));
+    assert!((left - 1..=left + w).all(|x| dark(framed.get_pixel(x, top + h))));
+    // Bottom ticks: map column of lon = floor((lon - 119.975) / 10.05 · 201), in the margin
+    // row two pixels below the outline; nothing else dark in that row over the map's width.
+    let columns: Vec<u32> = [120.0, 125.0, 130.0]
+        .iter()
+        .map(|v: &f64| ((v - 119.975) / 10.05 * w as f64).floor() as u32)
+        .collect();
+    assert_eq!(columns, [0, 100, 200]);
+    let dark_columns: Vec<u32> = (0..w)
+        .filter(|x| dark(framed.get_pixel(left + x, top + h + 2)))
+        .collect();
+    assert_eq!(dark_columns, columns);
+    // Left ticks: map row of lat = floor((20.0625 − lat) / 10.125 · 81), two pixels left of the
+    // outline.
+    let rows: Vec<u32> = [20.0, 15.0, 10.0]
+        .iter()
+        .map(|v: &f64| ((20.0625 - v) / 10.125 * h as f64).floor() as u32)
+        .collect();
+    assert_eq!(rows, [0, 40, 80]);
+    let dark_rows: Vec<u32> = (0..h)
+        .filter(|y| dark(framed.get_pixel(left - 3, top + y)))
+        .collect();
+    assert_eq!(dark_rows, rows);
+    // The colour bar: 12 px right of the outline, as tall as the map, the map's colours from
+    // its eastern (highest) column at the top to its western (lowest) at the bottom, viridis'
+    // green rising monotonically upwards.
+    let bar_x = left + w + 1 + 12 + 6;
+    let close = |a: [u8; 3], b: [u8; 3]| {
+        a.iter()
+            .zip(b)
+            .all(|(p, q)| (*p as i32 - q as i32).abs() <= 4)
+    };
+    let (bar_top, bar_bottom) = (
+        framed.get_pixel(bar_x, top).0,
+        framed.get_pixel(bar_x, top + h - 1).0,
+    );
+    let (east, west) = (plain.get_pixel(w - 1, 0).0, plain.get_pixel(0, 0).0);
+    assert!(close(bar_top, east), "{bar_top:?} {east:?}");
+    assert!(close(bar_bottom, west), "{bar_bottom:?} {west:?}");
+    assert!((0..h - 1).all(
+        |y| framed.get_pixel(bar_x, top + y).0[1] >= framed.get_pixel(bar_x, top + y + 1).0[1]
+    ));
+    let no_axes = r#"
+        let img = render_surface(load_grid("sea.nc"), #{ nu: 10.0, view: camera_orbit(30, 40), width: 16, height: 16 });
+        save_png(img, "p.png", #{ frame: true });
+    "#;
+    std::fs::write(dir.path().join("bad.rhai"), no_axes).unwrap();
+    let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai"], dir.path());
+    assert_ne!(code, 0);
+    assert!(err.contains("frame") && err.contains("map axes"), "{err}");
+    assert!(!dir.path().join("out/p.png").exists());
+}
