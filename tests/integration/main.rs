@@ -9,6 +9,7 @@ mod bricks;
 mod cli;
 mod common;
 mod datasets;
+mod doc_examples;
 mod passes;
 mod scripts;
 mod skipping;

@@ -91,7 +91,7 @@ fn every_script_runs_and_writes_valid_images() {
 }
 
 /// The sets every script gets in `every_script_runs_and_writes_valid_images` that it reads.
-fn sets_read_by(source: &str, sets: &[(&str, &str)]) -> Vec<String> {
+pub(crate) fn sets_read_by(source: &str, sets: &[(&str, &str)]) -> Vec<String> {
     sets.iter()
         .filter(|(k, _)| source.contains(&format!("param(\"{k}\"")))
         .flat_map(|(k, v)| ["--set".to_string(), format!("{k}={v}")])
@@ -370,7 +370,7 @@ fn sigterm_mid_sweep_prints_what_was_written() {
 
 /// Whether `ffmpeg` and `ffprobe` run; when not, the movie checks that need them are skipped,
 /// unless HDRVIS_REQUIRE_FFMPEG=1 (as in CI) makes their absence a failure.
-fn ffmpeg_tools() -> bool {
+pub(crate) fn ffmpeg_tools() -> bool {
     let runs = |tool: &str| {
         Command::new(tool)
             .arg("-version")
