@@ -4,11 +4,11 @@
 //! core) and on the HDR blobs (nothing to skip), with the largest difference between the two
 //! images.
 
-use super::{bench_tf, bench_volume, mantle_fig5_tf, mantle_fluctuation, max_diff, median};
-use super::{process_cpu_ms, timing_session};
+use super::volume::VolumeScene;
+use super::{max_diff, median, process_cpu_ms, timing_session};
 use crate::error::Result;
 use crate::gpu::GpuContext;
-use crate::model::{Camera, TransferFunction, Volume};
+use crate::model::{Camera, Volume};
 use crate::render::{RenderPath, VolumeRenderOptions, VolumeSource};
 use std::sync::Arc;
 
@@ -28,15 +28,16 @@ pub struct SkippingRow {
     pub diff: f64,
 }
 
-/// The scenes: (name, volume side, image side). `quick` keeps the small sizes only.
-fn scenes(quick: bool) -> Vec<(&'static str, usize, u32)> {
-    let mut v = vec![("mantle Fig. 5", 257, 512), ("mantle Fig. 5", 257, 1024)];
+/// The scenes: (scene, volume side, image side). `quick` keeps the small sizes only.
+fn scenes(quick: bool) -> Vec<(VolumeScene, usize, u32)> {
+    let (mantle, blobs) = (VolumeScene::Mantle, VolumeScene::Blobs);
+    let mut v = vec![(mantle, 257, 512), (mantle, 257, 1024)];
     if !quick {
-        v.extend([("mantle Fig. 5", 513, 512), ("mantle Fig. 5", 513, 1024)]);
+        v.extend([(mantle, 513, 512), (mantle, 513, 1024)]);
     }
-    v.push(("HDR blobs", 256, 512));
+    v.push((blobs, 256, 512));
     if !quick {
-        v.push(("HDR blobs", 513, 1024));
+        v.push((blobs, 513, 1024));
     }
     v
 }
@@ -49,29 +50,24 @@ pub fn bench_skipping(
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<SkippingRow>> {
     let mut rows = Vec::new();
-    let mut current: Option<(&str, usize, Arc<Volume>)> = None;
+    let mut current: Option<(VolumeScene, usize, Arc<Volume>)> = None;
     for (scene, n, px) in scenes(quick) {
         let vol = match &current {
             Some((s, m, v)) if *s == scene && *m == n => v.clone(),
             _ => {
-                log(&format!("generating the {scene} volume at {n}^3 ..."));
-                let v = Arc::new(if scene == "HDR blobs" {
-                    bench_volume(n)?
-                } else {
-                    mantle_fluctuation(n, 7)?
-                });
+                log(&format!(
+                    "generating the {} volume at {n}^3 ...",
+                    scene.name()
+                ));
+                let v = Arc::new(scene.volume(n)?);
                 current = Some((scene, n, v.clone()));
                 v
             }
         };
-        let tf = if scene == "HDR blobs" {
-            bench_tf()
-        } else {
-            TransferFunction::Lut(mantle_fig5_tf())
-        };
-        let mut o = VolumeRenderOptions::new(Camera::orbit(&vol.bounds(), 35.0, 20.0, 25.0)?, tf);
+        let camera = Camera::orbit(&vol.bounds(), 35.0, 20.0, 25.0)?;
+        let mut o = VolumeRenderOptions::new(camera, scene.tf());
         (o.width, o.height, o.step) = (px, px, 1.0);
-        let name = format!("{scene} {n}^3 -> {px}^2");
+        let name = format!("{} {n}^3 -> {px}^2", scene.name());
         log(&format!("{name} ..."));
         rows.push(time_pair(ctx.clone(), &name, &vol, &o, runs)?);
     }

@@ -58,21 +58,21 @@ pub enum VolumeScene {
 }
 
 impl VolumeScene {
-    fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             VolumeScene::Blobs => "blobs",
             VolumeScene::Mantle => "mantle",
         }
     }
 
-    fn volume(self, n: usize) -> Result<Volume> {
+    pub(crate) fn volume(self, n: usize) -> Result<Volume> {
         match self {
             VolumeScene::Blobs => bench_volume(n),
             VolumeScene::Mantle => mantle_fluctuation(n, 7),
         }
     }
 
-    fn tf(self) -> TransferFunction {
+    pub(crate) fn tf(self) -> TransferFunction {
         match self {
             VolumeScene::Blobs => bench_tf(),
             VolumeScene::Mantle => TransferFunction::Lut(mantle_fig5_tf()),
