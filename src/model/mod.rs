@@ -5,6 +5,7 @@
 pub mod bricks;
 pub(crate) mod camera;
 pub mod colormap;
+pub mod geometry;
 pub(crate) mod grid;
 pub(crate) mod image;
 pub(crate) mod map_frame;
@@ -13,6 +14,7 @@ pub mod transfer;
 pub(crate) mod volume;
 
 pub use camera::{Axis, Camera, Projection};
+pub use geometry::{CoordAxis, Geometry, SphericalGrid};
 pub use grid::{Grid, GridCoords};
 pub use image::HdrImage;
 pub use transfer::{Lens, LutTransfer, Scale, TransferFunction};

@@ -3,6 +3,7 @@
 //! origin + (i + 0.5)·s. Values are stored as f32 in x-fastest order, the layout of a C-ordered
 //! NumPy array of shape (nz, ny, nx); NaN and ±Inf mark missing values.
 
+use super::geometry::Geometry;
 use crate::error::{Error, Result};
 
 /// Axis-aligned bounding box in world units.
@@ -144,6 +145,8 @@ pub struct Volume {
     /// World position of the volume's lower corner (not of the first voxel centre).
     pub origin: [f64; 3],
     pub data: Vec<f32>,
+    /// Where the voxels lie: a regular box unless a reader found other coordinates.
+    pub geometry: Geometry,
 }
 
 /// Largest voxel count per axis accepted anywhere; far beyond any file a user has, small enough
@@ -191,7 +194,36 @@ impl Volume {
             spacing,
             origin,
             data,
+            geometry: Geometry::Regular,
         })
+    }
+
+    /// The volume with its voxels placed by `geometry`, after checking that the axes match the
+    /// voxel counts.
+    pub fn with_geometry(mut self, geometry: Geometry) -> Result<Self> {
+        let lengths: [usize; 3] = match &geometry {
+            Geometry::Regular => self.dims,
+            Geometry::Rectilinear(axes) => [axes[0].len(), axes[1].len(), axes[2].len()],
+            Geometry::Spherical(g) => {
+                g.check("geometry")?;
+                let mut n = [0; 3];
+                n[g.axis_of[0]] = g.radius.len();
+                n[g.axis_of[1]] = g.latitude.len();
+                n[g.axis_of[2]] = g.longitude.len();
+                n
+            }
+        };
+        if lengths != self.dims {
+            return Err(Error::invalid(
+                "geometry",
+                format!(
+                    "coordinate axes of lengths {lengths:?} do not match the voxel counts {:?}",
+                    self.dims
+                ),
+            ));
+        }
+        self.geometry = geometry;
+        Ok(self)
     }
 
     /// Builds a unit-spacing volume at the origin by evaluating `f(x, y, z)` at voxel centres.
@@ -225,6 +257,19 @@ impl Volume {
     }
 
     pub fn bounds(&self) -> Aabb {
+        match &self.geometry {
+            Geometry::Regular => {}
+            Geometry::Rectilinear(axes) => {
+                return Aabb {
+                    lo: [axes[0].lo, axes[1].lo, axes[2].lo],
+                    hi: [axes[0].hi, axes[1].hi, axes[2].hi],
+                }
+            }
+            Geometry::Spherical(g) => {
+                let (lo, hi) = g.bounds();
+                return Aabb { lo, hi };
+            }
+        }
         let mut hi = [0.0; 3];
         for (a, h) in hi.iter_mut().enumerate() {
             *h = self.origin[a] + self.dims[a] as f64 * self.spacing[a];
@@ -235,9 +280,22 @@ impl Volume {
         }
     }
 
-    /// The length of one "voxel" for step sizes and optical depths: the smallest spacing.
+    /// The length of one "voxel" for step sizes and optical depths: the smallest spacing (of a
+    /// shell, the smallest radial spacing).
     pub(crate) fn voxel_length(&self) -> f64 {
-        self.spacing.iter().cloned().fold(f64::INFINITY, f64::min)
+        match &self.geometry {
+            Geometry::Regular => self.spacing.iter().cloned().fold(f64::INFINITY, f64::min),
+            Geometry::Rectilinear(axes) => axes
+                .iter()
+                .map(|a| a.min_spacing())
+                .fold(f64::INFINITY, f64::min),
+            Geometry::Spherical(g) => g.length_scale(),
+        }
+    }
+
+    /// Whether the voxels sit on the regular grid of `origin` and `spacing`.
+    pub(crate) fn is_regular(&self) -> bool {
+        matches!(self.geometry, Geometry::Regular)
     }
 
     pub fn stats(&self) -> VolumeStats {
