@@ -4,6 +4,7 @@
 
 pub mod bricked;
 pub mod cache;
+pub mod cf;
 pub mod generate;
 pub mod info;
 pub mod mantle;
@@ -16,24 +17,48 @@ pub mod tsunami;
 pub(crate) mod vti;
 
 use crate::error::{Error, Result};
-use crate::model::{Grid, GridCoords, Volume};
+use crate::model::{CoordAxis, Geometry, Grid, GridCoords, Volume};
 use std::path::Path;
 
-/// Loads a scalar volume, choosing the reader by extension; see [`load_volume_var`].
+/// Loads a scalar volume, choosing the reader by extension; see [`load_volume_with`].
 pub fn load_volume(path: &Path) -> Result<Volume> {
-    load_volume_var(path, None)
+    load_volume_with(path, &LoadOptions::default())
+}
+
+/// [`load_volume_with`] of the variable `var` (else the file's first 3-D data variable).
+pub fn load_volume_var(path: &Path, var: Option<&str>) -> Result<Volume> {
+    let opts = LoadOptions {
+        variable: var.map(str::to_string),
+        ..LoadOptions::default()
+    };
+    load_volume_with(path, &opts)
+}
+
+/// How [`load_volume_with`] reads a file.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadOptions {
+    /// The array or variable to read.
+    pub variable: Option<String>,
+    /// Treat geographic coordinates as Cartesian lengths (the box of the coordinate values)
+    /// instead of placing the volume on the sphere.
+    pub cartesian: bool,
+    /// The planet's radius in the vertical axis's unit, over the file's (default 6371 km).
+    pub planet_radius: Option<f64>,
 }
 
 /// Loads a scalar volume, choosing the reader by extension: `.npy` (shape (nz, ny, nx)),
 /// `.npz` (the array `var`, else the largest 3-D one), `.nc` (the variable `var`, else the first
 /// 3-D data variable; dimensions (z, y, x), leading length-1 dimensions such as a single time
-/// step are dropped), `.vti`, `.nhdr`/`.nrrd`. For NetCDF, an axis whose coordinate variable is
-/// evenly spaced (within 1e-5 of its mean step) gets that spacing and the origin
-/// `first centre - spacing / 2`, since values are cell centred; a decreasing coordinate is
-/// flipped so that the volume runs in increasing coordinate; an axis without a coordinate
-/// variable, or an unevenly spaced one, is indexed (spacing 1, origin 0). Units come from the
+/// step are dropped), `.vti`, `.nhdr`/`.nrrd`. For NetCDF, a variable on CF latitude, longitude
+/// and a vertical length axis becomes a spherical volume (see [`cf`]) unless
+/// `opts.cartesian`. Otherwise an axis whose coordinate variable is evenly spaced (within 1e-5 of
+/// its mean step) gets that spacing and the origin `first centre - spacing / 2`, since values
+/// are cell centred, and a decreasing coordinate is flipped so that the volume runs in
+/// increasing coordinate; an axis without a coordinate variable is indexed (spacing 1, origin
+/// 0); when a coordinate is unevenly spaced the volume is rectilinear. Units come from the
 /// variable's `units` attribute.
-pub fn load_volume_var(path: &Path, var: Option<&str>) -> Result<Volume> {
+pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
+    let var = opts.variable.as_deref();
     if !path.exists() {
         return Err(Error::io(
             path,
@@ -43,7 +68,7 @@ pub fn load_volume_var(path: &Path, var: Option<&str>) -> Result<Volume> {
     match crate::io::extension(path).as_str() {
         "npy" => volume_from_npy(path),
         "npz" => volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None]),
-        "nc" | "nc4" | "cdf" | "netcdf" => volume_from_netcdf(path, var),
+        "nc" | "nc4" | "cdf" | "netcdf" => volume_from_netcdf(path, opts),
         "vti" => {
             let vti = vti::read_vti(path)?;
             if let Some(wanted) = var.filter(|w| *w != vti.name) {
@@ -300,6 +325,8 @@ pub(crate) struct ArrayData {
     /// Values the file marks as missing (`_FillValue`, `missing_value`, outside `valid_range`),
     /// already turned into NaN; 0 for formats without such a convention.
     pub fill_count: usize,
+    /// The variable's attributes (NetCDF), for the CF metadata that places it in the world.
+    pub attributes: Vec<(String, netcdf::NcAttribute)>,
 }
 
 /// The arrays a file holds: every variable of a NetCDF file, every member of an `.npz`, the one
@@ -474,6 +501,7 @@ fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Res
         units: variable.units,
         fill_count: decoded_nan.saturating_sub(raw_nan),
         data: variable.data,
+        attributes: variable.attributes,
     })
 }
 
@@ -522,6 +550,7 @@ fn plain_array(name: &str, shape: Vec<usize>, dtype: String, data: Vec<f64>) -> 
         units: None,
         data,
         fill_count: 0,
+        attributes: Vec::new(),
     }
 }
 
@@ -558,13 +587,42 @@ fn no_array(path: &Path, rank_name: &str, listed: &[ArrayListing]) -> Error {
     )
 }
 
-fn volume_from_netcdf(path: &Path, var: Option<&str>) -> Result<Volume> {
-    let array = read_array(path, var, Some(3))?;
-    let mut axes = [None, None, None];
-    // Volume axes are x, y, z; the array's dimensions run z, y, x.
-    for (axis, dim) in axes.iter_mut().zip(array.dims.iter().rev()) {
-        *axis = netcdf::read_coordinate(path, dim)?;
+fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volume> {
+    let array = read_array(path, opts.variable.as_deref(), Some(3))?;
+    // The volume's three dimensions: the last three (leading length-1 ones were squeezed).
+    let dims: Vec<(String, usize)> = array.dims[array.dims.len() - 3..]
+        .iter()
+        .cloned()
+        .zip(array.shape.iter().copied())
+        .collect();
+    let coords = cf::dim_coords(path, &dims)?;
+    if !opts.cartesian {
+        let attrs = netcdf::NcVariable {
+            name: array.name.clone(),
+            dims: dims.clone(),
+            data: Vec::new(),
+            units: array.units.clone(),
+            long_name: None,
+            attributes: array.attributes.clone(),
+        };
+        let sphere = cf::SphereOptions {
+            planet_radius: opts.planet_radius,
+        };
+        let declared = cf::declared_radius(path, &attrs)?;
+        if let Some(grid) = cf::spherical_grid(path, &array.name, &coords, declared, &sphere)? {
+            let volume = volume_from_array(path, array, [None, None, None])?;
+            return volume
+                .with_geometry(Geometry::Spherical(Box::new(grid)))
+                .map_err(|e| Error::format(path, e.to_string()));
+        }
     }
+    // Volume axes are x, y, z; the array's dimensions run z, y, x.
+    let axes: Vec<Option<Vec<f64>>> = coords
+        .iter()
+        .rev()
+        .map(|d| d.coord.as_ref().map(|c| c.data.clone()))
+        .collect();
+    let axes = [axes[0].clone(), axes[1].clone(), axes[2].clone()];
     volume_from_array(path, array, axes)
 }
 
@@ -576,6 +634,19 @@ fn volume_from_array(path: &Path, array: ArrayData, axes: [Option<Vec<f64>>; 3])
     let mut data: Vec<f32> = array.data.iter().map(|&v| v as f32).collect();
     let mut spacing = [1.0; 3];
     let mut origin = [0.0; 3];
+    let uneven = axes
+        .iter()
+        .flatten()
+        .any(|values| even_step(values).is_none());
+    if uneven {
+        let mut volume = Volume::new(array.name, dims, spacing, origin, data)
+            .map_err(|e| Error::format(path, e.to_string()))?;
+        volume.units = array.units.unwrap_or_default();
+        let rectilinear = rectilinear_axes(path, &axes, dims)?;
+        return volume
+            .with_geometry(Geometry::Rectilinear(Box::new(rectilinear)))
+            .map_err(|e| Error::format(path, e.to_string()));
+    }
     for (a, coord) in axes.iter().enumerate() {
         let Some(values) = coord.as_deref() else {
             continue;
@@ -584,12 +655,6 @@ fn volume_from_array(path: &Path, array: ArrayData, axes: [Option<Vec<f64>>; 3])
             [single] => origin[a] = single - 0.5,
             [first, .., last] => {
                 let step = (last - first) / (values.len() - 1) as f64;
-                let even = values
-                    .windows(2)
-                    .all(|w| ((w[1] - w[0]) - step).abs() <= 1e-5 * step.abs());
-                if !even {
-                    continue;
-                }
                 spacing[a] = step.abs();
                 origin[a] = first.min(*last) - 0.5 * step.abs();
                 if step < 0.0 {
@@ -603,6 +668,53 @@ fn volume_from_array(path: &Path, array: ArrayData, axes: [Option<Vec<f64>>; 3])
         .map_err(|e| Error::format(path, e.to_string()))?;
     volume.units = array.units.unwrap_or_default();
     Ok(volume)
+}
+
+/// The mean step of coordinates that are evenly spaced within 1e-5 of it, else `None`.
+fn even_step(values: &[f64]) -> Option<f64> {
+    let [first, .., last] = values else {
+        return Some(1.0);
+    };
+    let step = (last - first) / (values.len() - 1) as f64;
+    values
+        .windows(2)
+        .all(|w| ((w[1] - w[0]) - step).abs() <= 1e-5 * step.abs())
+        .then_some(step)
+}
+
+/// Coordinate axes of a rectilinear volume: cell-centred, each domain reaching half the end
+/// spacing beyond the first and last centres (as a regular axis's cells do); an axis without
+/// coordinates is indexed.
+fn rectilinear_axes(
+    path: &Path,
+    axes: &[Option<Vec<f64>>; 3],
+    dims: [usize; 3],
+) -> Result<[CoordAxis; 3]> {
+    let names = ["x", "y", "z"];
+    let mut out = Vec::new();
+    for a in 0..3 {
+        let axis = match &axes[a] {
+            None => CoordAxis::uniform_cells(0.0, 1.0, dims[a]),
+            Some(values) if values.len() < 2 => CoordAxis::uniform_cells(values[0] - 0.5, 1.0, 1),
+            Some(values) => {
+                let n = values.len();
+                let half_first = 0.5 * (values[1] - values[0]).abs();
+                let half_last = 0.5 * (values[n - 1] - values[n - 2]).abs();
+                let (lo, hi) = if values[n - 1] > values[0] {
+                    (values[0] - half_first, values[n - 1] + half_last)
+                } else {
+                    (values[n - 1] - half_last, values[0] + half_first)
+                };
+                CoordAxis::new(
+                    values.clone(),
+                    Some((lo, hi)),
+                    &format!("{}: coordinate of axis {}", path.display(), names[a]),
+                )?
+            }
+        };
+        out.push(axis);
+    }
+    Ok([out[0].clone(), out[1].clone(), out[2].clone()])
 }
 
 /// Reverses the order of the voxels along volume axis `axis` (0 = x, 1 = y, 2 = z).

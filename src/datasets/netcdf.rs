@@ -77,6 +77,19 @@ pub fn list_variables(path: impl AsRef<Path>) -> Result<Vec<(String, Dims)>> {
         .collect()
 }
 
+/// The file's global attributes, reduced to text and numbers.
+pub(crate) fn global_attributes(path: impl AsRef<Path>) -> Result<Vec<(String, NcAttribute)>> {
+    let path = path.as_ref();
+    let file = open(path)?;
+    let attrs = file
+        .global_attributes()
+        .map_err(|e| reader_error(path, e))?;
+    Ok(attrs
+        .iter()
+        .filter_map(|a| convert_attribute(&a.value).map(|v| (a.name.clone(), v)))
+        .collect())
+}
+
 /// Reads one variable with CF masking and unpacking applied. A name the file lacks gives an
 /// error that lists the variables it has.
 pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {

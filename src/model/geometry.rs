@@ -332,6 +332,32 @@ impl SphericalGrid {
     }
 }
 
+/// The radii and angles a shell spans, for reports.
+impl std::fmt::Display for SphericalGrid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let u = &self.length_unit;
+        write!(
+            f,
+            "radius {}–{} {u} (from {}; planet radius {} {u}), latitude {}° to {}°, ",
+            self.radius.lo,
+            self.radius.hi,
+            self.vertical,
+            self.planet_radius,
+            self.latitude.lo,
+            self.latitude.hi
+        )?;
+        if self.lon_wraps {
+            write!(f, "longitude all round from {}°", self.longitude.lo)
+        } else {
+            write!(
+                f,
+                "longitude {}° to {}°",
+                self.longitude.lo, self.longitude.hi
+            )
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

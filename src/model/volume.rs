@@ -355,6 +355,41 @@ impl Volume {
     }
 }
 
+/// One line for people: name, geometry, shape, units, value range and, for shells, the radii
+/// and angles they span.
+impl std::fmt::Display for Volume {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [nx, ny, nz] = self.dims;
+        write!(
+            f,
+            "Volume \"{}\" {} {nx}x{ny}x{nz}",
+            self.name,
+            self.geometry.name()
+        )?;
+        if !self.units.is_empty() {
+            write!(f, ", units {}", self.units)?;
+        }
+        let s = self.stats();
+        if s.finite > 0 {
+            write!(f, ", range [{:.6e}, {:.6e}]", s.min, s.max)?;
+        }
+        if s.non_finite > 0 {
+            write!(f, ", {} missing", s.non_finite)?;
+        }
+        match &self.geometry {
+            Geometry::Regular => {
+                let b = self.bounds();
+                write!(f, ", box {:?} to {:?}", b.lo, b.hi)
+            }
+            Geometry::Rectilinear(_) => {
+                let b = self.bounds();
+                write!(f, ", rectilinear box {:?} to {:?}", b.lo, b.hi)
+            }
+            Geometry::Spherical(g) => write!(f, ", {g}"),
+        }
+    }
+}
+
 /// Rejects zero or absurd dimensions, and volumes larger than the memory this machine has,
 /// before anything is allocated.
 pub(crate) fn check_dims(dims: &[usize], field: &str) -> Result<()> {

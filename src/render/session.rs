@@ -196,15 +196,24 @@ impl RenderSession {
         Ok(value)
     }
 
-    /// Reads a volume file; the same unchanged file is read once per session.
-    pub fn load_volume(&self, path: &Path, var: Option<&str>) -> Result<Arc<Volume>> {
-        let key = file_key("load volume", path, var)?;
+    /// Reads a volume file; the same unchanged file is read once per session and options.
+    pub fn load_volume(
+        &self,
+        path: &Path,
+        opts: &crate::datasets::LoadOptions,
+    ) -> Result<Arc<Volume>> {
+        let key = file_key("load volume", path, Some(&format!("{opts:?}")))?;
         self.stage(
             "load",
             key,
             volume_bytes,
             |_, _| {},
-            || Ok((crate::datasets::load_volume_var(path, var)?, String::new())),
+            || {
+                Ok((
+                    crate::datasets::load_volume_with(path, opts)?,
+                    String::new(),
+                ))
+            },
         )
     }
 

@@ -6,6 +6,7 @@ use super::convert::{
     boolean, check_keys, err, int, num, points, string, to_rhai, variable_option, vec3, RResult,
 };
 use super::ScriptHost;
+use crate::datasets::LoadOptions;
 use crate::model::{
     Aabb, Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume, VolumeStats,
 };
@@ -93,6 +94,11 @@ fn register_types(engine: &mut Engine) {
     engine.register_get("dims", |v: &mut ScriptVolume| -> rhai::Array {
         v.dims.iter().map(|&d| Dynamic::from(d as i64)).collect()
     });
+    engine.register_get("geometry", |v: &mut ScriptVolume| {
+        v.geometry.name().to_string()
+    });
+    engine.register_fn("to_string", |v: &mut ScriptVolume| v.to_string());
+    engine.register_fn("to_debug", |v: &mut ScriptVolume| v.to_string());
     engine.register_get("width", |i: &mut ScriptImage| i.width as i64);
     engine.register_get("height", |i: &mut ScriptImage| i.height as i64);
 }
@@ -102,20 +108,45 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("load_volume", move |path: &str| -> RResult<ScriptVolume> {
         let (p, variable) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
-        h.session
-            .load_volume(&p, variable.as_deref())
-            .map_err(to_rhai)
+        let opts = LoadOptions {
+            variable,
+            ..LoadOptions::default()
+        };
+        h.session.load_volume(&p, &opts).map_err(to_rhai)
     });
     let h = host.clone();
     engine.register_fn(
         "load_volume",
         move |path: &str, opts: Map| -> RResult<ScriptVolume> {
-            check_keys(&opts, &["variable"], "load_volume")?;
+            check_keys(
+                &opts,
+                &["variable", "geometry", "planet_radius"],
+                "load_volume",
+            )?;
             let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
-            let variable = variable_option(&opts, from_path, "load_volume")?;
-            h.session
-                .load_volume(&p, variable.as_deref())
-                .map_err(to_rhai)
+            let load = LoadOptions {
+                variable: variable_option(&opts, from_path, "load_volume")?,
+                cartesian: match opts
+                    .get("geometry")
+                    .map(|g| string(g, "geometry"))
+                    .transpose()?
+                {
+                    None => false,
+                    Some(g) if g == "cartesian" => true,
+                    Some(g) if g == "auto" => false,
+                    Some(g) => {
+                        return err(
+                            "geometry",
+                            format!("expected \"auto\" or \"cartesian\", got {g:?}"),
+                        )
+                    }
+                },
+                planet_radius: opts
+                    .get("planet_radius")
+                    .map(|r| num(r, "planet_radius"))
+                    .transpose()?,
+            };
+            h.session.load_volume(&p, &load).map_err(to_rhai)
         },
     );
 

@@ -1,0 +1,356 @@
+//! The CF conventions a viewer needs to place a NetCDF volume in the world: which coordinate is
+//! latitude (`degrees_north` or `standard_name: latitude`), longitude (`degrees_east`), and the
+//! vertical axis — depth (`positive: down` or `standard_name: depth`), radius, or height (positive
+//! up) — in metres or kilometres. A variable on latitude, longitude and a vertical axis becomes a
+//! spherical volume ([`SphericalGrid`]) in the vertical axis's length unit; any other becomes a
+//! Cartesian box, rectilinear where a coordinate is unevenly spaced.
+
+use std::path::Path;
+
+use super::netcdf::{self, NcAttribute, NcVariable};
+use crate::error::{Error, Result};
+use crate::model::{CoordAxis, SphericalGrid};
+
+/// Earth's mean radius, used when neither the file nor the script gives one.
+pub const EARTH_RADIUS_KM: f64 = 6371.0;
+
+/// What a coordinate variable is under CF.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum AxisRole {
+    Latitude,
+    Longitude,
+    /// A vertical coordinate; `to_unit` converts its values to `unit` (m or km).
+    Vertical {
+        kind: Vertical,
+        unit: &'static str,
+        to_unit: f64,
+    },
+    Other,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Vertical {
+    Depth,
+    Radius,
+    Height,
+}
+
+impl Vertical {
+    fn name(self) -> &'static str {
+        match self {
+            Vertical::Depth => "depth",
+            Vertical::Radius => "radius",
+            Vertical::Height => "height",
+        }
+    }
+}
+
+/// One dimension of a variable with its coordinate variable, if the file has one.
+pub(crate) struct DimCoord {
+    pub name: String,
+    pub coord: Option<NcVariable>,
+}
+
+fn text<'a>(v: &'a NcVariable, key: &str) -> Option<&'a str> {
+    match v.attribute(key) {
+        Some(NcAttribute::Text(s)) => Some(s.trim()),
+        _ => None,
+    }
+}
+
+/// The length unit of `units` as (canonical name, factor to it), or `None` for a non-length.
+fn length_unit(units: &str) -> Option<(&'static str, f64)> {
+    match units.trim().to_ascii_lowercase().as_str() {
+        "m" | "meter" | "meters" | "metre" | "metres" => Some(("m", 1.0)),
+        "km" | "kilometer" | "kilometers" | "kilometre" | "kilometres" => Some(("km", 1.0)),
+        _ => None,
+    }
+}
+
+/// The CF role of coordinate variable `v`; a vertical axis without usable units is an error
+/// naming `path` and the variable.
+pub(crate) fn axis_role(path: &Path, v: &NcVariable) -> Result<AxisRole> {
+    let units = v.units.as_deref().unwrap_or("").trim().to_ascii_lowercase();
+    let standard = text(v, "standard_name").unwrap_or("").to_ascii_lowercase();
+    let positive = text(v, "positive").unwrap_or("").to_ascii_lowercase();
+    let name = v.name.to_ascii_lowercase();
+    let lat_units = [
+        "degrees_north",
+        "degree_north",
+        "degree_n",
+        "degrees_n",
+        "degreen",
+        "degreesn",
+    ];
+    let lon_units = [
+        "degrees_east",
+        "degree_east",
+        "degree_e",
+        "degrees_e",
+        "degreee",
+        "degreese",
+    ];
+    if standard == "latitude" || lat_units.contains(&units.as_str()) {
+        return Ok(AxisRole::Latitude);
+    }
+    if standard == "longitude" || lon_units.contains(&units.as_str()) {
+        return Ok(AxisRole::Longitude);
+    }
+    let kind =
+        if positive == "down" || standard == "depth" || (positive.is_empty() && name == "depth") {
+            Some(Vertical::Depth)
+        } else if standard == "radius" || name == "radius" {
+            Some(Vertical::Radius)
+        } else if positive == "up"
+            || ["height", "altitude", "height_above_reference_ellipsoid"]
+                .contains(&standard.as_str())
+            || (positive.is_empty() && ["height", "altitude"].contains(&name.as_str()))
+        {
+            Some(Vertical::Height)
+        } else {
+            None
+        };
+    let Some(kind) = kind else {
+        return Ok(AxisRole::Other);
+    };
+    if units.is_empty() {
+        return Err(Error::format(
+            path,
+            format!(
+                "vertical coordinate '{}' has no units; expected units of length (m or km)",
+                v.name
+            ),
+        ));
+    }
+    match length_unit(&units) {
+        Some((unit, to_unit)) => Ok(AxisRole::Vertical {
+            kind,
+            unit,
+            to_unit,
+        }),
+        None => Err(Error::format(
+            path,
+            format!(
+                "vertical coordinate '{}' is in '{units}'; expected units of length (m or km)",
+                v.name
+            ),
+        )),
+    }
+}
+
+/// The domain `[lo, hi]` from the CF `bounds` variable of a coordinate, when it names one.
+fn cf_bounds(path: &Path, v: &NcVariable) -> Result<Option<(f64, f64)>> {
+    let Some(name) = text(v, "bounds") else {
+        return Ok(None);
+    };
+    let b = netcdf::read_variable(path, name)?;
+    let finite = b.data.iter().filter(|x| x.is_finite());
+    let lo = finite.clone().fold(f64::INFINITY, |a, &x| a.min(x));
+    let hi = finite.fold(f64::NEG_INFINITY, |a, &x| a.max(x));
+    Ok((lo < hi).then_some((lo, hi)))
+}
+
+/// Reads the coordinate variable of each dimension of `var` (slowest first).
+pub(crate) fn dim_coords(path: &Path, dims: &[(String, usize)]) -> Result<Vec<DimCoord>> {
+    let mut out = Vec::new();
+    for (name, _) in dims {
+        let coord = match netcdf::read_coordinate(path, name)? {
+            Some(_) => Some(netcdf::read_variable(path, name)?),
+            None => None,
+        };
+        out.push(DimCoord {
+            name: name.clone(),
+            coord,
+        });
+    }
+    Ok(out)
+}
+
+/// Options that shape a spherical volume: a planet radius in the vertical axis's unit that
+/// overrides the file's.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphereOptions {
+    pub planet_radius: Option<f64>,
+}
+
+/// The spherical grid of a variable on (vertical, latitude, longitude) in any order, or `None`
+/// when its dimensions are not those three. `dims` are the variable's last three dimensions,
+/// slowest first, so volume axis `a` is `dims[2 - a]`.
+pub(crate) fn spherical_grid(
+    path: &Path,
+    var: &str,
+    dims: &[DimCoord],
+    declared: Option<(f64, Option<&'static str>)>,
+    opts: &SphereOptions,
+) -> Result<Option<SphericalGrid>> {
+    let field = |d: &DimCoord| {
+        format!(
+            "{}: variable '{var}', coordinate '{}'",
+            path.display(),
+            d.name
+        )
+    };
+    let mut roles = Vec::new();
+    for d in dims {
+        roles.push(match &d.coord {
+            Some(c) => axis_role(path, c)?,
+            None => AxisRole::Other,
+        });
+    }
+    let find = |want: fn(&AxisRole) -> bool| roles.iter().position(want);
+    let (Some(lat), Some(lon), Some(vert)) = (
+        find(|r| matches!(r, AxisRole::Latitude)),
+        find(|r| matches!(r, AxisRole::Longitude)),
+        find(|r| matches!(r, AxisRole::Vertical { .. })),
+    ) else {
+        return Ok(None);
+    };
+    let AxisRole::Vertical {
+        kind,
+        unit,
+        to_unit,
+    } = roles[vert]
+    else {
+        unreachable!("found as vertical")
+    };
+    let coord = |i: usize| dims[i].coord.as_ref().expect("a role needs a coordinate");
+    let metres_to_unit = if unit == "km" { 1e-3 } else { 1.0 };
+    let planet_radius = match (opts.planet_radius, declared) {
+        (Some(r), _) => r,
+        (None, Some((r, None))) => r,
+        (None, Some((r, Some(_metres)))) => r * metres_to_unit,
+        (None, None) => EARTH_RADIUS_KM * 1e3 * metres_to_unit,
+    };
+    if !(planet_radius.is_finite() && planet_radius > 0.0) {
+        return Err(Error::invalid(
+            "planet_radius",
+            format!("expected a length > 0, got {planet_radius}"),
+        ));
+    }
+    let to_radius = |x: f64| match kind {
+        Vertical::Depth => planet_radius - x * to_unit,
+        Vertical::Radius => x * to_unit,
+        Vertical::Height => planet_radius + x * to_unit,
+    };
+    let vc = coord(vert);
+    let radii: Vec<f64> = vc.data.iter().map(|&x| to_radius(x)).collect();
+    let bounds = cf_bounds(path, vc)?.map(|(a, b)| (to_radius(a), to_radius(b)));
+    let radius = CoordAxis::new(radii, bounds, &field(&dims[vert]))?;
+    if radius.lo < 0.0 {
+        return Err(Error::format(
+            path,
+            format!(
+                "variable '{var}': {} '{}' reaches {} {unit}, deeper than the planet's radius {planet_radius} {unit} (set planet_radius)",
+                kind.name(),
+                dims[vert].name,
+                planet_radius - radius.lo
+            ),
+        ));
+    }
+    let latitude = latitude_axis(path, coord(lat), &field(&dims[lat]))?;
+    let (longitude, lon_wraps) = longitude_axis(path, coord(lon), &field(&dims[lon]))?;
+    let grid = SphericalGrid {
+        axis_of: [2 - vert, 2 - lat, 2 - lon],
+        radius,
+        latitude,
+        longitude,
+        lon_wraps,
+        planet_radius,
+        length_unit: unit.to_string(),
+        vertical: kind.name().to_string(),
+    };
+    grid.check(&format!("{}: variable '{var}'", path.display()))?;
+    Ok(Some(grid))
+}
+
+/// Latitudes in degrees; a domain that ends within one spacing of a pole extends to it.
+fn latitude_axis(path: &Path, v: &NcVariable, field: &str) -> Result<CoordAxis> {
+    if let Some(bad) = v.data.iter().find(|x| x.abs() > 90.0) {
+        return Err(Error::format(
+            path,
+            format!("{field}: latitude {bad} is beyond ±90 degrees"),
+        ));
+    }
+    let mut axis = CoordAxis::new(v.data.clone(), cf_bounds(path, v)?, field)?;
+    let step = axis.min_spacing();
+    if 90.0 - axis.hi <= step {
+        axis.hi = 90.0;
+    }
+    if axis.lo + 90.0 <= step {
+        axis.lo = -90.0;
+    }
+    Ok(axis)
+}
+
+/// Longitudes in degrees, and whether they cover the whole circle: the gap across the seam is
+/// no wider than 1.5 of the axis's widest spacing. A circle's domain is one turn from its
+/// lowest cell edge, so values stored from −180 or from 0 describe the same domain.
+fn longitude_axis(path: &Path, v: &NcVariable, field: &str) -> Result<(CoordAxis, bool)> {
+    let axis = CoordAxis::new(v.data.clone(), cf_bounds(path, v)?, field)?;
+    let n = axis.len();
+    if n < 2 {
+        return Ok((axis, false));
+    }
+    let first = axis.centres[0];
+    let last = axis.centres[n - 1];
+    let span = (last - first).abs();
+    let widest = axis
+        .centres
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f64::max);
+    let gap = 360.0 - span;
+    if span > 360.0 {
+        return Err(Error::format(
+            path,
+            format!("{field}: longitudes span {span} degrees; expected at most 360"),
+        ));
+    }
+    if gap > 0.0 && gap <= 1.5 * widest {
+        let lo = first.min(last) - 0.5 * gap;
+        let wrapped = CoordAxis {
+            centres: axis.centres,
+            lo,
+            hi: lo + 360.0,
+        };
+        return Ok((wrapped, true));
+    }
+    Ok((axis, false))
+}
+
+/// A planet radius the file declares, with its unit: a global or variable attribute
+/// `planet_radius` (in the vertical axis's unit, `None` as unit) or CF's grid-mapping
+/// `earth_radius` (metres).
+#[allow(clippy::type_complexity)]
+pub(crate) fn declared_radius(
+    path: &Path,
+    var: &NcVariable,
+) -> Result<Option<(f64, Option<&'static str>)>> {
+    let number = |a: Option<&NcAttribute>| match a {
+        Some(NcAttribute::Numbers(n)) => n.first().copied(),
+        _ => None,
+    };
+    if let Some(r) = number(var.attribute("planet_radius")) {
+        return Ok(Some((r, None)));
+    }
+    let global = netcdf::global_attributes(path)?;
+    let find = |key: &str| {
+        global.iter().find_map(|(k, v)| match v {
+            NcAttribute::Numbers(n) if k == key => n.first().copied(),
+            _ => None,
+        })
+    };
+    if let Some(r) = find("planet_radius") {
+        return Ok(Some((r, None)));
+    }
+    if let Some(mapping) = text(var, "grid_mapping") {
+        let m = netcdf::read_variable(path, mapping)?;
+        if let Some(r) = m.attributes.iter().find_map(|(k, v)| match v {
+            NcAttribute::Numbers(n) if k == "earth_radius" => n.first().copied(),
+            _ => None,
+        }) {
+            return Ok(Some((r, Some("m"))));
+        }
+    }
+    Ok(None)
+}
