@@ -41,6 +41,14 @@ pub(crate) const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/shared/optics.wgsl"),
     ),
     (
+        "shared/preintegrate.wgsl",
+        include_str!("../../shaders/shared/preintegrate.wgsl"),
+    ),
+    (
+        "volume_mapped.wgsl",
+        include_str!("../../shaders/volume_mapped.wgsl"),
+    ),
+    (
         "shared/tonemap_common.wgsl",
         include_str!("../../shaders/shared/tonemap_common.wgsl"),
     ),
@@ -94,6 +102,16 @@ pub(crate) const PIPELINES: &[(&str, &[&[&str]])] = &[
     ("tonemap/reinhard_local.wgsl", &[&[]]),
     ("tonemap/durand_bilateral.wgsl", &[&[]]),
     ("tonemap/false_colour.wgsl", &[&[]]),
+    (
+        "volume_mapped.wgsl",
+        &[
+            &[],
+            &["SPHERICAL"],
+            &["SPHERICAL", "SHADING"],
+            &["SPHERICAL", "PREINTEGRATED"],
+            &["PREINTEGRATED", "SHADING"],
+        ],
+    ),
     ("surface_data.wgsl", &[&[]]),
     ("surface_fringe.wgsl", &[&[]]),
 ];

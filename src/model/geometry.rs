@@ -332,6 +332,103 @@ impl SphericalGrid {
     }
 }
 
+impl SphericalGrid {
+    /// The parts of the ray `o + t·d` (t ≥ 0) inside the domain, in order: the outer sphere
+    /// clipped by the inner one and by the latitude cones and longitude planes of a wedge. The
+    /// ends are the exact crossings; the parts between them are told apart by their midpoints.
+    pub fn ray_intervals(&self, o: [f64; 3], d: [f64; 3]) -> Vec<(f64, f64)> {
+        let Some((t0, t1)) = sphere_hit(o, d, self.radius.hi) else {
+            return Vec::new();
+        };
+        let (t0, t1) = (t0.max(0.0), t1);
+        if t1 <= t0 {
+            return Vec::new();
+        }
+        let mut cuts = vec![t0, t1];
+        if self.radius.lo > 0.0 {
+            if let Some((a, b)) = sphere_hit(o, d, self.radius.lo) {
+                cuts.extend([a, b]);
+            }
+        }
+        for lat in [self.latitude.lo, self.latitude.hi] {
+            if lat.abs() < 90.0 {
+                cuts.extend(cone_hits(o, d, lat));
+            }
+        }
+        if !self.lon_wraps {
+            for lon in [self.longitude.lo, self.longitude.hi] {
+                let (s, c) = lon.to_radians().sin_cos();
+                let (no, nd) = (-s * o[0] + c * o[1], -s * d[0] + c * d[1]);
+                if nd != 0.0 {
+                    cuts.push(-no / nd);
+                }
+            }
+        }
+        cuts.retain(|t| t.is_finite() && *t >= t0 && *t <= t1);
+        cuts.sort_by(f64::total_cmp);
+        let mut parts: Vec<(f64, f64)> = Vec::new();
+        for w in cuts.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if b <= a {
+                continue;
+            }
+            let m = 0.5 * (a + b);
+            if !self.contains([o[0] + m * d[0], o[1] + m * d[1], o[2] + m * d[2]]) {
+                continue;
+            }
+            match parts.last_mut() {
+                Some(last) if last.1 == a => last.1 = b,
+                _ => parts.push((a, b)),
+            }
+        }
+        parts
+    }
+}
+
+/// Entry and exit of the ray on the sphere of radius `r` about the origin, with the roots
+/// computed without cancellation.
+pub(crate) fn sphere_hit(o: [f64; 3], d: [f64; 3], r: f64) -> Option<(f64, f64)> {
+    let a = dot(d, d);
+    let b = dot(o, d);
+    let c = dot(o, o) - r * r;
+    let disc = b * b - a * c;
+    if disc <= 0.0 || a == 0.0 {
+        return None;
+    }
+    let q = -(b + b.signum() * disc.sqrt());
+    let (x, y) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
+    Some((x.min(y), x.max(y)))
+}
+
+/// Crossings of the ray with the cone (both nappes) of latitude `lat_deg`.
+fn cone_hits(o: [f64; 3], d: [f64; 3], lat_deg: f64) -> Vec<f64> {
+    let (s, c) = lat_deg.to_radians().sin_cos();
+    let (s2, c2) = (s * s, c * c);
+    let a = c2 * d[2] * d[2] - s2 * (d[0] * d[0] + d[1] * d[1]);
+    let b = c2 * o[2] * d[2] - s2 * (o[0] * d[0] + o[1] * d[1]);
+    let cc = c2 * o[2] * o[2] - s2 * (o[0] * o[0] + o[1] * o[1]);
+    if a.abs() < 1e-300 {
+        return if b != 0.0 {
+            vec![-cc / (2.0 * b)]
+        } else {
+            Vec::new()
+        };
+    }
+    let disc = b * b - a * cc;
+    if disc < 0.0 {
+        return Vec::new();
+    }
+    let q = -(b + if b >= 0.0 { 1.0 } else { -1.0 } * disc.sqrt());
+    if q == 0.0 {
+        return vec![0.0];
+    }
+    vec![q / a, cc / q]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
 /// The radii and angles a shell spans, for reports.
 impl std::fmt::Display for SphericalGrid {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -419,6 +516,44 @@ mod tests {
         g.check("v").unwrap();
         let (lo, hi) = g.bounds();
         assert_eq!((lo, hi), ([-3.0, -3.0, -3.0], [3.0, 3.0, 3.0]));
+    }
+
+    #[test]
+    fn ray_intervals_are_the_chords_of_shell_and_wedge() {
+        let g = global(0.0);
+        // Along x at impact parameter b in the equatorial plane... here along z at (b, 0).
+        for b in [0.0, 0.5, 1.2, 2.0, 2.9] {
+            let parts = g.ray_intervals([b, 0.0, -10.0], [0.0, 0.0, 1.0]);
+            let total: f64 = parts.iter().map(|(a, c)| c - a).sum();
+            let chord = |r: f64| {
+                if b < r {
+                    2.0 * (r * r - b * b).sqrt()
+                } else {
+                    0.0
+                }
+            };
+            assert!(
+                (total - (chord(3.0) - chord(1.0))).abs() < 1e-12,
+                "b {b}: {parts:?}"
+            );
+            assert_eq!(parts.len(), if b < 1.0 { 2 } else { 1 });
+        }
+        // A wedge: longitudes 0 to 90, latitudes 0 to 90, radius 1 to 3; a ray along z at
+        // (1.5, 1.5) crosses it from the equator to the outer sphere.
+        let mut w = global(0.0);
+        w.lon_wraps = false;
+        w.longitude = CoordAxis::new(vec![10.0, 80.0], Some((0.0, 90.0)), "lon").unwrap();
+        w.latitude = CoordAxis::new(vec![10.0, 80.0], Some((0.0, 90.0)), "lat").unwrap();
+        let parts = w.ray_intervals([1.5, 1.5, -10.0], [0.0, 0.0, 1.0]);
+        let top = (9.0f64 - 4.5).sqrt();
+        assert_eq!(parts.len(), 1);
+        assert!(
+            (parts[0].0 - 10.0).abs() < 1e-12 && (parts[0].1 - (10.0 + top)).abs() < 1e-12,
+            "{parts:?}"
+        );
+        assert!(w
+            .ray_intervals([-1.5, 1.5, -10.0], [0.0, 0.0, 1.0])
+            .is_empty());
     }
 
     #[test]

@@ -294,7 +294,7 @@ impl Volume {
     }
 
     /// Whether the voxels sit on the regular grid of `origin` and `spacing`.
-    pub(crate) fn is_regular(&self) -> bool {
+    pub fn is_regular(&self) -> bool {
         matches!(self.geometry, Geometry::Regular)
     }
 
@@ -320,6 +320,83 @@ impl Volume {
             lo[a] -= h;
             hi[a] += h;
             *ga = (self.sample_trilinear(hi) - self.sample_trilinear(lo)) / (2.0 * h);
+        }
+        g
+    }
+
+    /// The fractional voxel indices (cell centre i at i) of world point `p`, through the
+    /// volume's geometry.
+    pub(crate) fn fractional_indices(&self, p: [f64; 3]) -> [f64; 3] {
+        match &self.geometry {
+            Geometry::Regular => [0, 1, 2].map(|a| (p[a] - self.origin[a]) / self.spacing[a] - 0.5),
+            Geometry::Rectilinear(axes) => [0, 1, 2].map(|a| axes[a].fractional_index(p[a])),
+            Geometry::Spherical(g) => g.fractional_indices(p),
+        }
+    }
+
+    /// Exact trilinear interpolation in f64 at world position `p` through any geometry:
+    /// trilinear in index space, clamp-to-edge, the longitude of a full circle periodic.
+    /// Non-finite like [`Self::sample_trilinear`].
+    pub(crate) fn sample_world(&self, p: [f64; 3]) -> f64 {
+        let g = self.fractional_indices(p);
+        let wrap_axis = match &self.geometry {
+            Geometry::Spherical(s) if s.lon_wraps => Some(s.axis_of[2]),
+            _ => None,
+        };
+        self.interpolate(g, wrap_axis)
+    }
+
+    /// Trilinear interpolation at fractional indices `g`, periodic along `wrap_axis`.
+    fn interpolate(&self, g: [f64; 3], wrap_axis: Option<usize>) -> f64 {
+        let mut base = [0i64; 3];
+        let mut frac = [0f64; 3];
+        for a in 0..3 {
+            let f = g[a].floor();
+            base[a] = f as i64;
+            frac[a] = g[a] - f;
+        }
+        let index = |a: usize, i: i64| -> usize {
+            let n = self.dims[a] as i64;
+            if wrap_axis == Some(a) {
+                i.rem_euclid(n) as usize
+            } else {
+                i.clamp(0, n - 1) as usize
+            }
+        };
+        let mut acc = 0.0;
+        for corner in 0..8 {
+            let di = corner & 1;
+            let dj = (corner >> 1) & 1;
+            let dk = (corner >> 2) & 1;
+            let w = (if di == 1 { frac[0] } else { 1.0 - frac[0] })
+                * (if dj == 1 { frac[1] } else { 1.0 - frac[1] })
+                * (if dk == 1 { frac[2] } else { 1.0 - frac[2] });
+            let v = self.data[self.index(
+                index(0, base[0] + di as i64),
+                index(1, base[1] + dj as i64),
+                index(2, base[2] + dk as i64),
+            )] as f64;
+            if !v.is_finite() {
+                return f64::NAN;
+            }
+            acc += w * v;
+        }
+        acc
+    }
+
+    /// Gradient in world space by central differences one voxel length apart along each
+    /// world axis, through any geometry.
+    pub(crate) fn gradient_world(&self, p: [f64; 3]) -> [f64; 3] {
+        if self.is_regular() {
+            return self.gradient(p);
+        }
+        let h = self.voxel_length();
+        let mut g = [0.0; 3];
+        for (a, ga) in g.iter_mut().enumerate() {
+            let (mut lo, mut hi) = (p, p);
+            lo[a] -= h;
+            hi[a] += h;
+            *ga = (self.sample_world(hi) - self.sample_world(lo)) / (2.0 * h);
         }
         g
     }

@@ -480,6 +480,7 @@ impl VolumeRenderer {
             spacing: volume.spacing,
             origin: volume.origin,
             stats: &volume.stats,
+            voxel: super::volume::min_spacing(volume.spacing),
         };
         // `auto` filters exactly here. The texture unit would see atlas coordinates, whose f32
         // rounding depends on where a brick landed in the cache (differences up to 1e-3 of the

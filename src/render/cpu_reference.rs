@@ -7,7 +7,7 @@ use super::{jitter_fraction, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
 use crate::model::camera::sub;
 use crate::model::transfer::ResolvedTransfer;
-use crate::model::{Aabb, HdrImage, Volume};
+use crate::model::{Aabb, Geometry, HdrImage, Volume};
 use rayon::prelude::*;
 
 /// (1 - exp(-x)) / x, computed without cancellation; 1 at x = 0.
@@ -82,10 +82,27 @@ impl Tracer<'_> {
     fn pixel(&self, px: u32, py: u32) -> [f64; 4] {
         let (w, h) = (self.opts.width, self.opts.height);
         let (o, d) = self.opts.camera.ray(px, py, w, h);
-        let o = sub(o, self.bounds.lo);
-        let (color, tau) = match self.local.intersect(o, d) {
-            Some((t0, t1)) if t1 > t0.max(0.0) => self.march(px, py, o, d, t0.max(0.0), t1),
-            _ => ([0.0; 3], 0.0),
+        let (color, tau) = match &self.volume.geometry {
+            Geometry::Regular => {
+                // In the box's frame, as the shader marches.
+                let o = sub(o, self.bounds.lo);
+                match self.local.intersect(o, d) {
+                    Some((t0, t1)) if t1 > t0.max(0.0) => {
+                        self.march(px, py, o, d, &[(t0.max(0.0), t1)])
+                    }
+                    _ => ([0.0; 3], 0.0),
+                }
+            }
+            Geometry::Rectilinear(_) => match self.bounds.intersect(o, d) {
+                Some((t0, t1)) if t1 > t0.max(0.0) => {
+                    self.march(px, py, o, d, &[(t0.max(0.0), t1)])
+                }
+                _ => ([0.0; 3], 0.0),
+            },
+            Geometry::Spherical(g) => match g.ray_intervals(o, d) {
+                parts if parts.is_empty() => ([0.0; 3], 0.0),
+                parts => self.march(px, py, o, d, &parts),
+            },
         };
         let t = (-tau).exp();
         let bg = self.opts.background;
@@ -97,15 +114,17 @@ impl Tracer<'_> {
         ]
     }
 
-    /// Colour and optical depth along the ray from `t_enter` to `t1`.
+    /// Colour and optical depth along the ray through the parts `parts` of it inside the
+    /// domain (in order). The segments are those of the whole ray from the first part's start:
+    /// the first one (jittered), then steps of ds; each is cut to the parts it overlaps, and a
+    /// cut piece is sampled at its own middle.
     fn march(
         &self,
         px: u32,
         py: u32,
         o: [f64; 3],
         d: [f64; 3],
-        t_enter: f64,
-        t1: f64,
+        parts: &[(f64, f64)],
     ) -> ([f64; 3], f64) {
         let (opts, ds, voxel) = (self.opts, self.ds, self.voxel);
         let first = if opts.jitter {
@@ -113,55 +132,68 @@ impl Tracer<'_> {
         } else {
             ds
         };
-        let span = t1 - t_enter;
-        let n = if span > first {
-            ((span - first) / ds).ceil() as u64 + 1
+        let t_enter = parts[0].0;
+        let seg_end = |k: u64| t_enter + first + k as f64 * ds;
+        let seg_start = |k: u64| if k == 0 { t_enter } else { seg_end(k - 1) };
+        let offset = if self.volume.is_regular() {
+            self.bounds.lo
         } else {
-            1
+            [0.0; 3]
         };
-        let lo = self.bounds.lo;
-        let at = |t: f64| [0, 1, 2].map(|a| lo[a] + o[a] + d[a] * t);
+        let at = |t: f64| [0, 1, 2].map(|a| offset[a] + o[a] + d[a] * t);
         let mut tau = 0.0f64;
         let mut color = [0.0f64; 3];
-        let mut ta = t_enter;
-        // Pre-integration reads the value at segment ends, the front one carried.
-        let mut front = if self.preintegrated {
-            self.volume.sample_trilinear(at(t_enter))
-        } else {
-            f64::NAN
-        };
-        for k in 0..n {
-            let tb = (t_enter + first + k as f64 * ds).min(t1);
-            let mid = 0.5 * (ta + tb);
-            let mut len = (tb - ta) / voxel;
-            ta = tb;
-            let p = at(mid);
-            let sample = if self.preintegrated {
-                let back = self.volume.sample_trilinear(at(tb));
-                let pair = (front, back);
-                front = back;
-                self.segment(pair, &mut len)
+        for &(u, v) in parts {
+            // The segment before the one holding u, in case rounding put u past its start
+            // (an empty piece is passed over).
+            let mut k = if u <= seg_end(0) {
+                0
             } else {
-                let v = self.volume.sample_trilinear(p);
-                v.is_finite().then(|| self.tf.eval(v))
+                ((u - t_enter - first) / ds).floor().max(0.0) as u64
             };
-            let Some((mut e, a)) = sample else {
-                continue;
+            // Pre-integration reads the value at segment ends, the front one carried.
+            let mut front = if self.preintegrated {
+                self.volume.sample_world(at(u))
+            } else {
+                f64::NAN
             };
-            if let Some(sh) = &opts.shading {
-                if e.iter().any(|&c| c > 0.0) {
-                    let f = sh.factor(self.volume.gradient(p), d);
-                    e = e.map(|c| c * f);
+            while seg_start(k) < v {
+                let ta = seg_start(k).max(u);
+                let tb = seg_end(k).min(v);
+                k += 1;
+                if tb <= ta {
+                    continue;
                 }
-            }
-            let x = a * len;
-            let weight = (-tau).exp() * len * escape_fraction(x);
-            for c in 0..3 {
-                color[c] += weight * e[c];
-            }
-            tau += x;
-            if tau > self.stop_tau {
-                break;
+                let mid = 0.5 * (ta + tb);
+                let mut len = (tb - ta) / voxel;
+                let p = at(mid);
+                let sample = if self.preintegrated {
+                    let back = self.volume.sample_world(at(tb));
+                    let pair = (front, back);
+                    front = back;
+                    self.segment(pair, &mut len)
+                } else {
+                    let v = self.volume.sample_world(p);
+                    v.is_finite().then(|| self.tf.eval(v))
+                };
+                let Some((mut e, a)) = sample else {
+                    continue;
+                };
+                if let Some(sh) = &opts.shading {
+                    if e.iter().any(|&c| c > 0.0) {
+                        let f = sh.factor(self.volume.gradient_world(p), d);
+                        e = e.map(|c| c * f);
+                    }
+                }
+                let x = a * len;
+                let weight = (-tau).exp() * len * escape_fraction(x);
+                for c in 0..3 {
+                    color[c] += weight * e[c];
+                }
+                tau += x;
+                if tau > self.stop_tau {
+                    return (color, tau);
+                }
             }
         }
         (color, tau)

@@ -97,6 +97,9 @@ pub enum RenderPath {
     /// Bricks in a GPU atlas with a page table; streamed front to back through the atlas when
     /// the bricks the transfer function needs exceed it (out of core).
     Bricked { brick: usize, skip: bool },
+    /// Voxels placed by coordinate axes (spherical shells and wedges, rectilinear boxes): each
+    /// ray cut analytically to the domain, each sample mapped through the axes.
+    Mapped,
 }
 
 /// A finished volume render: the image and how it was made.
@@ -111,6 +114,37 @@ pub struct VolumeRender {
     pub bricks: Option<BrickedStats>,
     /// Whether the render had to compile its pipeline first (in-core path).
     pub compiled_pipeline: bool,
+}
+
+/// How a volume placed by coordinate axes renders: f64 on the CPU reference (the f64 GPU shader
+/// knows boxes only), everything else in the mapped ray caster, whole; bricks are refused.
+fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
+    if opts.precision == Precision::F64 {
+        return Ok(RenderPath::F64Cpu);
+    }
+    let refuse = |field: &str, what: &str| {
+        Err(Error::invalid(
+            field,
+            format!(
+                "{} is a {} volume placed by coordinate axes, which renders whole in GPU memory; {what}",
+                v.name,
+                v.geometry.name()
+            ),
+        ))
+    };
+    if opts.bricking.brick.is_some() {
+        return refuse("brick", "bricks are for regular boxes (leave brick out)");
+    }
+    let pixels = opts.width as u64 * opts.height as u64;
+    if let Some(m) = opts.bricking.memory_budget {
+        if v.voxel_count() as u64 * 4 + pixels * 32 > m {
+            return refuse(
+                "memory_budget",
+                "it does not fit this budget (raise memory_budget, or resample it to a box with resample())",
+            );
+        }
+    }
+    Ok(RenderPath::Mapped)
 }
 
 /// A GPU brick cache as a result-cache entry: renders through it take turns.
@@ -136,10 +170,22 @@ impl RenderSession {
         opts.bricking.validate()?;
         let source = match opts.bricking.level {
             0 => source.clone(),
+            _ if matches!(source, VolumeSource::Memory(v) if !v.is_regular()) => {
+                return Err(Error::invalid(
+                    "level",
+                    format!(
+                        "{} is placed by coordinate axes; quick-look levels are for regular boxes",
+                        source.name()
+                    ),
+                ))
+            }
             level => VolumeSource::Memory(self.level(source, level)?),
         };
         let path = self.choose_path(&source, opts)?;
-        if matches!(path, RenderPath::InCore { .. } | RenderPath::Bricked { .. }) {
+        if matches!(
+            path,
+            RenderPath::InCore { .. } | RenderPath::Bricked { .. } | RenderPath::Mapped
+        ) {
             super::check_output_fits(&self.context()?.caps, opts.width, opts.height)?;
         }
         let key = KeyBuilder::new("raycast")
@@ -182,6 +228,7 @@ impl RenderSession {
     ) -> Result<RenderPath> {
         let b = &opts.bricking;
         let path = match source {
+            VolumeSource::Memory(v) if !v.is_regular() => return mapped_path(v, opts),
             VolumeSource::Memory(v) => {
                 if opts.precision == Precision::F64 {
                     // f64 has no bricked variant and no budget: the GPU shader where it runs.
@@ -283,6 +330,11 @@ impl RenderSession {
                 img.set_meta("tf", opts.tf.describe());
                 img.set_meta("tf_sampling", opts.tf_sampling.name());
                 (img, t.elapsed().as_secs_f64(), None, false)
+            }
+            (RenderPath::Mapped, VolumeSource::Memory(v)) => {
+                let gv = self.upload(v)?;
+                let (img, timing) = self.volume_renderer()?.render_mapped(v, &gv, opts)?;
+                (img, timing.seconds, None, timing.compiled_pipeline)
             }
             (RenderPath::Bricked { brick, skip }, _) => {
                 let bricked = match source {

@@ -270,7 +270,7 @@ impl RenderSession {
         let key = KeyBuilder::new("volume")
             .str(&volume.name)
             .str(&volume.units)
-            .debug(&(volume.dims, volume.spacing, volume.origin))
+            .debug(&(volume.dims, volume.spacing, volume.origin, &volume.geometry))
             .bytes(bytemuck::cast_slice(&volume.data))
             .finish();
         keys.insert(addr, (Arc::downgrade(volume), key));

@@ -128,9 +128,11 @@ pub(crate) struct PipelineKey {
     jitter: bool,
     precision: u32,
     shading: bool,
-    preintegrated: bool,
+    pub preintegrated: bool,
     /// Empty-space skipping through a skip grid (plain ray caster, point sampling).
     pub skipping: bool,
+    /// Voxels placed by coordinate axes (volume_mapped.wgsl): 1 rectilinear, 2 spherical.
+    pub mapped: u32,
     work: SampleWork,
 }
 
@@ -241,8 +243,13 @@ impl VolumeRenderer {
         if key.skipping {
             defines.push("SKIPPING");
         }
+        if key.mapped == 2 {
+            defines.push("SPHERICAL");
+        }
         let name = if key.bricked {
             "volume_bricked.wgsl"
+        } else if key.mapped > 0 {
+            "volume_mapped.wgsl"
         } else {
             "volume.wgsl"
         };
@@ -258,6 +265,9 @@ impl VolumeRenderer {
         }
         if key.skipping {
             entries.push(layout::texture(5, wgpu::TextureViewDimension::D3, false));
+        }
+        if key.mapped > 0 {
+            entries.extend([layout::uniform_buffer(5), layout::storage_buffer(6, true)]);
         }
         if key.bricked {
             entries.extend([
@@ -333,6 +343,7 @@ impl VolumeRenderer {
             spacing: volume.spacing,
             origin: volume.origin,
             stats: &volume.stats,
+            voxel: min_spacing(volume.spacing),
         };
         let mut frame = self.frame(&geometry, opts, false)?;
         frame.key.work = work;
@@ -358,10 +369,32 @@ impl VolumeRenderer {
                 resource: wgpu::BindingResource::TextureView(grid.view()),
             });
         }
+        let (pixels, seconds) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
+        let image = self.finish_image(&geometry, opts, frame.key.hw_filter, pixels);
+        Ok((
+            image,
+            RenderTiming {
+                seconds,
+                compiled_pipeline: compiled,
+            },
+        ))
+    }
+
+    /// Runs one ray-casting pass with these bindings and reads the image back: the pixels and
+    /// the seconds from submission to host memory.
+    pub(crate) fn dispatch(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        layout: &wgpu::BindGroupLayout,
+        entries: &[wgpu::BindGroupEntry],
+        out: &wgpu::Texture,
+        opts: &VolumeRenderOptions,
+    ) -> Result<(Vec<[f32; 4]>, f64)> {
+        let device = &self.ctx.device;
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("volume"),
             layout,
-            entries: &entries,
+            entries,
         });
         let start = std::time::Instant::now();
         let mut enc = device.create_command_encoder(&Default::default());
@@ -372,16 +405,8 @@ impl VolumeRenderer {
             pass.dispatch_workgroups(opts.width.div_ceil(8), opts.height.div_ceil(8), 1);
         }
         self.ctx.queue.submit([enc.finish()]);
-        let pixels = readback::read_rgba32f_texture(&self.ctx, &out)?;
-        let seconds = start.elapsed().as_secs_f64();
-        let image = self.finish_image(&geometry, opts, frame.key.hw_filter, pixels);
-        Ok((
-            image,
-            RenderTiming {
-                seconds,
-                compiled_pipeline: compiled,
-            },
-        ))
+        let pixels = readback::read_rgba32f_texture(&self.ctx, out)?;
+        Ok((pixels, start.elapsed().as_secs_f64()))
     }
 
     /// Everything one render fixes before dispatch: checked options, the resolved transfer
@@ -393,7 +418,7 @@ impl VolumeRenderer {
         bricked: bool,
     ) -> Result<Frame> {
         self.check_image_options(opts)?;
-        let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+        let voxel = volume.voxel;
         let size = volume.size();
         check_steps_per_ray(opts, voxel, size)?;
         let tf = opts.tf.resolve(volume.stats)?;
@@ -416,6 +441,7 @@ impl VolumeRenderer {
             shading: opts.shading.is_some(),
             preintegrated: opts.tf_sampling == TfSampling::PreIntegrated,
             skipping: false,
+            mapped: 0,
             work: SampleWork::Full,
         };
         let params = volume_params(volume, opts, &tf, tf_consts, voxel, size);
@@ -675,6 +701,11 @@ fn volume_params(
     }
 }
 
+/// The smallest of three spacings: a regular box's voxel length.
+pub(crate) fn min_spacing(spacing: [f64; 3]) -> f64 {
+    spacing.iter().cloned().fold(f64::INFINITY, f64::min)
+}
+
 /// What a render needs to know of a volume's geometry, resident or bricked.
 pub(crate) struct Geometry<'a> {
     pub name: &'a str,
@@ -682,6 +713,8 @@ pub(crate) struct Geometry<'a> {
     pub spacing: [f64; 3],
     pub origin: [f64; 3],
     pub stats: &'a VolumeStats,
+    /// The length `step`, emission and extinction count in (the smallest spacing of a box).
+    pub voxel: f64,
 }
 
 impl Geometry<'_> {

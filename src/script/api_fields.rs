@@ -17,6 +17,8 @@ fn derived(v: &Volume, name: &str, f: impl Fn(f32) -> f32 + Sync) -> RResult<Scr
         v.origin,
         data,
     )
+    .map_err(to_rhai)?
+    .with_geometry(v.geometry.clone())
     .map_err(to_rhai)?;
     out.units = v.units.clone();
     Ok(Arc::new(out))
@@ -103,6 +105,16 @@ fn volume_magnitude(parts: Array) -> RResult<ScriptVolume> {
     let Some(first) = vols.first() else {
         return err("volume_magnitude", "expected at least one Volume");
     };
+    if let Some(bad) = vols.iter().find(|v| v.geometry != first.geometry) {
+        return err(
+            "volume_magnitude",
+            format!(
+                "components lie on different grids: {} and {}",
+                first.geometry.name(),
+                bad.geometry.name()
+            ),
+        );
+    }
     if let Some(bad) = vols.iter().find(|v| v.dims != first.dims) {
         return err(
             "volume_magnitude",
@@ -128,7 +140,9 @@ fn volume_magnitude(parts: Array) -> RResult<ScriptVolume> {
             .join(", ")
     );
     Ok(Arc::new(
-        Volume::new(name, first.dims, first.spacing, first.origin, data).map_err(to_rhai)?,
+        Volume::new(name, first.dims, first.spacing, first.origin, data)
+            .and_then(|v| v.with_geometry(first.geometry.clone()))
+            .map_err(to_rhai)?,
     ))
 }
 
@@ -155,6 +169,16 @@ fn volume_subset(v: &mut ScriptVolume, lo: Array, hi: Array) -> RResult<ScriptVo
             format!(
                 "expected lo < hi on every axis within {:?}, got {lo:?} .. {hi:?}",
                 v.dims
+            ),
+        );
+    }
+    if !v.is_regular() {
+        return err(
+            "volume_subset",
+            format!(
+                "{} is a {} volume placed by coordinate axes; subsets are for regular boxes",
+                v.name,
+                v.geometry.name()
             ),
         );
     }

@@ -13,6 +13,7 @@ mod doc_examples;
 mod passes;
 mod scripts;
 mod skipping;
+mod spherical;
 mod stability;
 mod surface;
 mod tonemap;

@@ -1,0 +1,421 @@
+// Ray casting of volumes placed by coordinate axes: spherical shells and wedges (SPHERICAL) on
+// (radius, latitude, longitude) axes, and rectilinear boxes (otherwise) with non-uniform axes.
+// Each ray is cut analytically to the domain (a shell: outer and inner sphere, latitude cones and
+// longitude planes; a box: its faces); the segments of the whole ray, as volume.wgsl marches
+// them, are cut to those parts and each piece is sampled at its middle, so a constant field
+// integrates to the exact chord. A sample maps through the axes to fractional voxel indices and
+// is interpolated trilinearly in index space, the longitude of a full circle periodic. Keep in
+// sync with src/render/cpu_reference.rs and src/model/geometry.rs (the f64 reference).
+#include "shared/optics.wgsl"
+#include "shared/camera.wgsl"
+#include "shared/march.wgsl"
+#include "shared/volume_params.wgsl"
+
+// Keep in sync with MappedParams in src/render/mapped.rs.
+struct Mapped {
+    // SPHERICAL: x inner radius, y outer radius, z lowest latitude, w highest (degrees).
+    // Otherwise: xyz the box's lower corner in world coordinates.
+    domain_lo: vec4<f32>,
+    // SPHERICAL: x lowest longitude, y highest (degrees), z 1 when the longitude wraps.
+    domain_hi: vec4<f32>,
+    // Per coordinate (x: radius or x, y: latitude or y, z: longitude or z): its texture axis.
+    axis_of: vec4<u32>,
+    // Per coordinate: the number of centres and where they start in `coords` (uneven axes).
+    count: vec4<u32>,
+    offset: vec4<u32>,
+    // Per coordinate: the first centre and 1 / step of an even axis; 0 marks an uneven one.
+    first: vec4<f32>,
+    inv_step: vec4<f32>,
+    // Per coordinate: +1 or -1, the centres in `coords` times this run upward.
+    dir: vec4<f32>,
+    // The longitude seam of a full circle: x the first centre, y the last, z the first one
+    // turn later (in the axis's direction).
+    seam: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var volume_tex: texture_3d<f32>;
+@group(0) @binding(2) var lut: texture_2d<f32>;
+@group(0) @binding(3) var out_image: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(5) var<uniform> G: Mapped;
+@group(0) @binding(6) var<storage, read> coords: array<f32>;
+
+const DEG: f32 = 57.295779513;
+
+// Fractional index of value x along coordinate c: i at centre i, linear between centres and
+// beyond the ends (CoordAxis::fractional_index).
+fn axis_index(c: u32, x: f32) -> f32 {
+    if (G.inv_step[c] != 0.0) {
+        return (x - G.first[c]) * G.inv_step[c];
+    }
+    let y = x * G.dir[c];
+    let off = G.offset[c];
+    var lo = 0u;
+    var hi = G.count[c] - 1u;
+    // Largest centre at or below y, by bisection (at most 17 halvings for 65536 centres).
+    for (var i = 0u; i < 17u; i++) {
+        if (hi - lo <= 1u) {
+            break;
+        }
+        let mid = (lo + hi) / 2u;
+        if (coords[off + mid] <= y) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let a = coords[off + lo];
+    let b = coords[off + lo + 1u];
+    return f32(lo) + (y - a) / (b - a);
+}
+
+#if SPHERICAL
+// Longitude (degrees) moved by whole turns into [lo, lo + 360).
+fn wrap_lon(lon: f32) -> f32 {
+    let lo = G.domain_hi.x;
+    return lo + (lon - lo) - 360.0 * floor((lon - lo) / 360.0);
+}
+
+// Fractional longitude index, across the seam from the last centre to the first one a turn
+// later when the axis wraps.
+fn lon_index(lon: f32) -> f32 {
+    if (G.domain_hi.z > 0.5) {
+        let rising = G.dir.z > 0.0;
+        let first = G.seam.x;
+        let last = G.seam.y;
+        let beyond = select(lon < last || lon > first, lon > last || lon < first, rising);
+        if (beyond) {
+            var l = lon;
+            if (rising && lon < first) {
+                l = lon + 360.0;
+            } else if (!rising && lon > first) {
+                l = lon - 360.0;
+            }
+            return f32(G.count.z - 1u) + (l - last) / (G.seam.z - last);
+        }
+    }
+    return axis_index(2u, lon);
+}
+
+// (radius, latitude°, longitude° in the domain's turn) of a world point.
+fn spherical(p: vec3<f32>) -> vec3<f32> {
+    let rho = length(p.xy);
+    return vec3<f32>(length(p), atan2(p.z, rho) * DEG, wrap_lon(atan2(p.y, p.x) * DEG));
+}
+
+fn inside(p: vec3<f32>) -> bool {
+    let s = spherical(p);
+    return s.x >= G.domain_lo.x && s.x <= G.domain_lo.y && s.y >= G.domain_lo.z
+        && s.y <= G.domain_lo.w && (G.domain_hi.z > 0.5 || s.z <= G.domain_hi.y);
+}
+#endif
+
+// The value at world point p (relative to the box's corner for boxes, to the planet's centre
+// for shells): trilinear in index space, clamped at the edges, periodic in a full longitude.
+fn sample_at(p: vec3<f32>) -> f32 {
+#if SPHERICAL
+    let s = spherical(p);
+    let f = vec3<f32>(axis_index(0u, s.x), axis_index(1u, s.y), lon_index(s.z));
+#else
+    let w = p + G.domain_lo.xyz;
+    let f = vec3<f32>(axis_index(0u, w.x), axis_index(1u, w.y), axis_index(2u, w.z));
+#endif
+    var g = vec3<f32>(0.0);
+    g[G.axis_of.x] = f.x;
+    g[G.axis_of.y] = f.y;
+    g[G.axis_of.z] = f.z;
+    let dims = vec3<i32>(textureDimensions(volume_tex));
+    let g0 = floor(g);
+    let t = g - g0;
+    let top = dims - vec3<i32>(1);
+    var a = clamp(vec3<i32>(g0), vec3<i32>(0), top);
+    var b = clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top);
+#if SPHERICAL
+    if (G.domain_hi.z > 0.5) {
+        let ax = G.axis_of.z;
+        let n = dims[ax];
+        a[ax] = ((i32(g0[ax]) % n) + n) % n;
+        b[ax] = ((i32(g0[ax]) + 1) % n + n) % n;
+    }
+#endif
+    return trilinear_texels(volume_tex, a, b, t);
+}
+
+#if SHADING
+// Blinn–Phong factor under a headlight from the world-space gradient by central differences
+// one length unit (P.march.y⁻¹) apart (Volume::gradient_world).
+fn shading_factor(p: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let h = 1.0 / P.march.y;
+    let gx = sample_at(p + vec3<f32>(h, 0.0, 0.0)) - sample_at(p - vec3<f32>(h, 0.0, 0.0));
+    let gy = sample_at(p + vec3<f32>(0.0, h, 0.0)) - sample_at(p - vec3<f32>(0.0, h, 0.0));
+    let gz = sample_at(p + vec3<f32>(0.0, 0.0, h)) - sample_at(p - vec3<f32>(0.0, 0.0, h));
+    let g = vec3<f32>(gx, gy, gz) / (2.0 * h);
+    let len2 = dot(g, g);
+    if (!(len2 > 0.0) || !is_finite_f32(len2)) {
+        return 1.0;
+    }
+    let c = abs(dot(g, dir)) * inverseSqrt(len2);
+    return P.shading.x + P.shading.y * c + P.shading.z * pow(c, P.shading.w);
+}
+#endif
+
+#if PREINTEGRATED
+#include "shared/preintegrate.wgsl"
+#endif
+
+// The parts of a ray inside the domain, in order.
+const MAX_PARTS: u32 = 6u;
+struct Parts {
+    span: array<vec2<f32>, 6>,
+    n: u32,
+}
+
+#if SPHERICAL
+// Entry and exit of the ray on the sphere of radius r, roots without cancellation.
+fn sphere_hit(o: vec3<f32>, d: vec3<f32>, r: f32) -> vec2<f32> {
+    let a = dot(d, d);
+    let b = dot(o, d);
+    let c = dot(o, o) - r * r;
+    let disc = b * b - a * c;
+    if (disc <= 0.0) {
+        return vec2<f32>(1.0, -1.0);
+    }
+    let q = -(b + select(-1.0, 1.0, b >= 0.0) * sqrt(disc));
+    if (q == 0.0) {
+        return vec2<f32>(0.0);
+    }
+    let x = q / a;
+    let y = c / q;
+    return vec2<f32>(min(x, y), max(x, y));
+}
+
+// Crossings of the ray with the cone of latitude lat (degrees), both nappes; NaN for none.
+fn cone_hits(o: vec3<f32>, d: vec3<f32>, lat: f32) -> vec2<f32> {
+    let s = sin(lat / DEG);
+    let cs = cos(lat / DEG);
+    let s2 = s * s;
+    let c2 = cs * cs;
+    let a = c2 * d.z * d.z - s2 * dot(d.xy, d.xy);
+    let b = c2 * o.z * d.z - s2 * dot(o.xy, d.xy);
+    let cc = c2 * o.z * o.z - s2 * dot(o.xy, o.xy);
+    let none = bitcast<f32>(0x7fc00000u);
+    if (abs(a) < 1e-30) {
+        return vec2<f32>(select(none, -cc / (2.0 * b), b != 0.0), none);
+    }
+    let disc = b * b - a * cc;
+    if (disc < 0.0) {
+        return vec2<f32>(none);
+    }
+    let q = -(b + select(-1.0, 1.0, b >= 0.0) * sqrt(disc));
+    if (q == 0.0) {
+        return vec2<f32>(0.0, none);
+    }
+    return vec2<f32>(q / a, cc / q);
+}
+
+// SphericalGrid::ray_intervals: the crossings of every boundary, sorted; the pieces between
+// them whose middles are inside, neighbours merged.
+fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
+    var out = Parts(array<vec2<f32>, 6>(), 0u);
+    let outer = sphere_hit(o, d, G.domain_lo.y);
+    let t0 = max(outer.x, 0.0);
+    let t1 = outer.y;
+    if (!(t1 > t0)) {
+        return out;
+    }
+    var cuts = array<f32, 10>();
+    cuts[0] = t0;
+    cuts[1] = t1;
+    var n = 2u;
+    var extra = array<f32, 8>();
+    let none = bitcast<f32>(0x7fc00000u);
+    for (var i = 0u; i < 8u; i++) {
+        extra[i] = none;
+    }
+    if (G.domain_lo.x > 0.0) {
+        let inner = sphere_hit(o, d, G.domain_lo.x);
+        if (inner.y > inner.x) {
+            extra[0] = inner.x;
+            extra[1] = inner.y;
+        }
+    }
+    if (abs(G.domain_lo.z) < 90.0) {
+        let c = cone_hits(o, d, G.domain_lo.z);
+        extra[2] = c.x;
+        extra[3] = c.y;
+    }
+    if (abs(G.domain_lo.w) < 90.0) {
+        let c = cone_hits(o, d, G.domain_lo.w);
+        extra[4] = c.x;
+        extra[5] = c.y;
+    }
+    if (G.domain_hi.z < 0.5) {
+        for (var j = 0u; j < 2u; j++) {
+            let lon = select(G.domain_hi.x, G.domain_hi.y, j == 1u) / DEG;
+            let no = -sin(lon) * o.x + cos(lon) * o.y;
+            let nd = -sin(lon) * d.x + cos(lon) * d.y;
+            if (nd != 0.0) {
+                extra[6u + j] = -no / nd;
+            }
+        }
+    }
+    // Insertion of the crossings within [t0, t1] into the sorted list.
+    for (var i = 0u; i < 8u; i++) {
+        let t = extra[i];
+        if (!(t > t0 && t < t1)) {
+            continue;
+        }
+        var j = n;
+        while (j > 0u && cuts[j - 1u] > t) {
+            cuts[j] = cuts[j - 1u];
+            j -= 1u;
+        }
+        cuts[j] = t;
+        n += 1u;
+    }
+    for (var i = 0u; i + 1u < n; i++) {
+        let a = cuts[i];
+        let b = cuts[i + 1u];
+        if (!(b > a) || !inside(o + d * (0.5 * (a + b)))) {
+            continue;
+        }
+        if (out.n > 0u && out.span[out.n - 1u].y == a) {
+            out.span[out.n - 1u].y = b;
+        } else if (out.n < MAX_PARTS) {
+            out.span[out.n] = vec2<f32>(a, b);
+            out.n += 1u;
+        }
+    }
+    return out;
+}
+#else
+fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
+    var out = Parts(array<vec2<f32>, 6>(), 0u);
+    let hit = box_hit(o, d, P.box_size.xyz);
+    let t0 = max(hit.x, 0.0);
+    if (hit.y > t0) {
+        out.span[0] = vec2<f32>(t0, hit.y);
+        out.n = 1u;
+    }
+    return out;
+}
+#endif
+
+// The fixed quantities of one ray: origin and unit direction, where its segment grid starts,
+// its first segment and its step (world units).
+struct Ray2 {
+    o: vec3<f32>,
+    d: vec3<f32>,
+    t_enter: f32,
+    first: f32,
+    ds: f32,
+}
+
+fn seg_end(r: Ray2, k: u32) -> f32 {
+    return r.t_enter + r.first + f32(k) * r.ds;
+}
+
+fn seg_start(r: Ray2, k: u32) -> f32 {
+    return select(seg_end(r, k - 1u), r.t_enter, k == 0u);
+}
+
+// Segment k of the ray cut to the part [u, v]: sampled at its middle and composited.
+fn piece(s: ptr<function, RayState>, r: Ray2, k: u32, u: f32, v: f32) {
+    let a = max(seg_start(r, k), u);
+    let b = min(seg_end(r, k), v);
+    if ((*s).stopped || !(b > a)) {
+        return;
+    }
+    let p = r.o + r.d * (0.5 * (a + b));
+    let value = sample_at(p);
+    var ea = select(vec4<f32>(0.0), transfer(value), is_finite_f32(value));
+#if SHADING
+    if (any(ea.rgb > vec3<f32>(0.0))) {
+        ea = vec4<f32>(ea.rgb * shading_factor(p, r.d), ea.a);
+    }
+#endif
+    composite(s, ea, (b - a) * P.march.y, P.march.z);
+}
+
+#if PREINTEGRATED
+// Segment k cut to [u, v], pre-integrated between its end values (the front one carried).
+fn piece_pre(s: ptr<function, RayState>, front: ptr<function, Front>, r: Ray2, k: u32, u: f32, v: f32) {
+    let a = max(seg_start(r, k), u);
+    let b = min(seg_end(r, k), v);
+    if ((*s).stopped || !(b > a)) {
+        return;
+    }
+    let len = (b - a) * P.march.y;
+    let back = front_at(sample_at(r.o + r.d * b));
+    let front_ok = is_finite_f32((*front).v);
+    let back_ok = is_finite_f32(back.v);
+    var ea = vec4<f32>(0.0);
+    var seg = len;
+    if (front_ok && back_ok) {
+        ea = segment_mean(*front, back);
+    } else if (front_ok || back_ok) {
+        seg = 0.5 * len;
+        if (TF_KIND == 1u) {
+            let c = max(select(back.v, (*front).v, front_ok), 0.0);
+            ea = vec4<f32>(vec3<f32>(P.tf.x * c), P.tf.y * c);
+        } else {
+            ea = table_at(select(back.x, (*front).x, front_ok));
+        }
+    }
+#if SHADING
+    if (any(ea.rgb > vec3<f32>(0.0))) {
+        ea = vec4<f32>(ea.rgb * shading_factor(r.o + r.d * (0.5 * (a + b)), r.d), ea.a);
+    }
+#endif
+    *front = back;
+    composite(s, ea, seg, P.march.z);
+}
+#endif
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let w = P.image.x;
+    let h = P.image.y;
+    if (gid.x >= w || gid.y >= h) {
+        return;
+    }
+    let ray = camera_ray(gid.x, gid.y, w, h, P.eye.xyz, P.forward.xyz, P.right.xyz, P.up.xyz, P.proj);
+    let parts = ray_parts(ray.origin, ray.dir);
+    var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, 0.0, false);
+    if (parts.n > 0u) {
+        let ds = P.march.x;
+        let r = Ray2(ray.origin, ray.dir, parts.span[0].x, first_segment(gid.xy, w, h, ds), ds);
+        for (var i = 0u; i < parts.n; i++) {
+            let u = parts.span[i].x;
+            let v = parts.span[i].y;
+            // The segment before the one holding u, in case rounding put u past its start
+            // (an empty piece is passed over).
+            var k = 0u;
+            if (u > seg_end(r, 0u)) {
+                k = u32(max(floor((u - r.t_enter - r.first) / ds), 0.0));
+            }
+#if PREINTEGRATED
+            var front = front_at(sample_at(r.o + r.d * u));
+#endif
+            // Four segments per iteration: llvmpipe ends a loop after 65535 iterations.
+            loop {
+                if (s.stopped || seg_start(r, k) >= v) {
+                    break;
+                }
+#if PREINTEGRATED
+                piece_pre(&s, &front, r, k, u, v);
+                piece_pre(&s, &front, r, k + 1u, u, v);
+                piece_pre(&s, &front, r, k + 2u, u, v);
+                piece_pre(&s, &front, r, k + 3u, u, v);
+#else
+                piece(&s, r, k, u, v);
+                piece(&s, r, k + 1u, u, v);
+                piece(&s, r, k + 2u, u, v);
+                piece(&s, r, k + 3u, u, v);
+#endif
+                k += 4u;
+            }
+        }
+    }
+    textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));
+}

@@ -1,0 +1,199 @@
+//! The GPU ray caster for volumes placed by coordinate axes (`shaders/volume_mapped.wgsl`):
+//! spherical shells and wedges, and rectilinear boxes with uneven axes. It shares the in-core
+//! ray caster's texture, transfer tables, parameters and pipeline cache, and adds the axes: an
+//! even axis as its first centre and step, an uneven one as its centres in a storage buffer
+//! that the shader bisects.
+
+use super::volume::{Geometry as FrameGeometry, GpuVolume, RenderTiming, VolumeRenderer};
+use super::VolumeRenderOptions;
+use crate::error::{Error, Result};
+use crate::model::{CoordAxis, Geometry, HdrImage, Volume};
+
+/// Host mirror of `Mapped` in shaders/volume_mapped.wgsl — keep in sync.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct MappedParams {
+    domain_lo: [f32; 4],
+    domain_hi: [f32; 4],
+    axis_of: [u32; 4],
+    count: [u32; 4],
+    offset: [u32; 4],
+    first: [f32; 4],
+    inv_step: [f32; 4],
+    dir: [f32; 4],
+    seam: [f32; 4],
+}
+
+impl MappedParams {
+    /// Coordinate `c` from `axis`: an even axis by its first centre and step, an uneven one by
+    /// its centres appended to `coords`, stored rising.
+    fn set_axis(&mut self, c: usize, axis: &CoordAxis, coords: &mut Vec<f32>) {
+        let n = axis.len();
+        self.count[c] = n as u32;
+        let rising = n < 2 || axis.centres[1] > axis.centres[0];
+        self.dir[c] = if rising { 1.0 } else { -1.0 };
+        match axis.uniform_step() {
+            Some(step) if n >= 2 => {
+                self.first[c] = axis.centres[0] as f32;
+                self.inv_step[c] = (1.0 / step) as f32;
+            }
+            _ if n < 2 => {
+                self.first[c] = axis.centres[0] as f32;
+                self.inv_step[c] = 1.0;
+            }
+            _ => {
+                self.offset[c] = coords.len() as u32;
+                coords.extend(
+                    axis.centres
+                        .iter()
+                        .map(|&x| (x * self.dir[c] as f64) as f32),
+                );
+            }
+        }
+    }
+}
+
+/// The shader's view of `volume`'s geometry: the pipeline variant (1 rectilinear,
+/// 2 spherical), the uniform block, the uneven axes' centres, and the frame geometry the
+/// shared parameters are built from (the eye relative to the box's corner, or to the planet's
+/// centre for a shell).
+fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 3])> {
+    let mut p = MappedParams::default();
+    let mut coords = Vec::new();
+    let bounds = volume.bounds();
+    match &volume.geometry {
+        Geometry::Regular => Err(Error::invalid(
+            "geometry",
+            "a regular volume renders in the in-core ray caster",
+        )),
+        Geometry::Rectilinear(axes) => {
+            p.domain_lo = [
+                bounds.lo[0] as f32,
+                bounds.lo[1] as f32,
+                bounds.lo[2] as f32,
+                0.0,
+            ];
+            p.domain_hi = [
+                bounds.hi[0] as f32,
+                bounds.hi[1] as f32,
+                bounds.hi[2] as f32,
+                0.0,
+            ];
+            for (a, axis) in axes.iter().enumerate() {
+                p.axis_of[a] = a as u32;
+                p.set_axis(a, axis, &mut coords);
+            }
+            coords.resize(coords.len().max(4), 0.0);
+            Ok((1, p, coords, bounds.lo))
+        }
+        Geometry::Spherical(g) => {
+            let f = |x: f64| x as f32;
+            p.domain_lo = [
+                f(g.radius.lo),
+                f(g.radius.hi),
+                f(g.latitude.lo),
+                f(g.latitude.hi),
+            ];
+            p.domain_hi = [
+                f(g.longitude.lo),
+                f(g.longitude.hi),
+                if g.lon_wraps { 1.0 } else { 0.0 },
+                0.0,
+            ];
+            for (c, axis) in [&g.radius, &g.latitude, &g.longitude]
+                .into_iter()
+                .enumerate()
+            {
+                p.axis_of[c] = g.axis_of[c] as u32;
+                p.set_axis(c, axis, &mut coords);
+            }
+            let lon = &g.longitude.centres;
+            let turn = if p.dir[2] > 0.0 { 360.0 } else { -360.0 };
+            p.seam = [f(lon[0]), f(lon[lon.len() - 1]), f(lon[0] + turn), 0.0];
+            coords.resize(coords.len().max(4), 0.0);
+            Ok((2, p, coords, [0.0; 3]))
+        }
+    }
+}
+
+impl VolumeRenderer {
+    /// Renders `volume` (uploaded as `gpu`) through its coordinate axes.
+    pub(crate) fn render_mapped(
+        &self,
+        volume: &Volume,
+        gpu: &GpuVolume,
+        opts: &VolumeRenderOptions,
+    ) -> Result<(HdrImage, RenderTiming)> {
+        if opts.filter == super::FilterMode::Hardware {
+            return Err(Error::invalid(
+                "filter",
+                "volumes placed by coordinate axes are filtered exactly in index space; use \"exact\" or \"auto\"",
+            ));
+        }
+        let (kind, params, coords, origin) = mapped_params(volume)?;
+        let size = volume.bounds().size();
+        let geometry = FrameGeometry {
+            name: &gpu.name,
+            dims: volume.dims,
+            spacing: [0, 1, 2].map(|a| size[a] / volume.dims[a] as f64),
+            origin,
+            stats: &gpu.stats,
+            voxel: volume.voxel_length(),
+        };
+        let mut frame = self.frame(&geometry, opts, false)?;
+        frame.key.hw_filter = false;
+        frame.key.mapped = kind;
+        let (pipeline, compiled) = self.pipeline(frame.key)?;
+        let (pipeline, layout) = (&pipeline.0, &pipeline.1);
+        use wgpu::util::DeviceExt;
+        let device = &self.context().device;
+        let buffer = |label: &str, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let params_buf = buffer(
+            "volume params",
+            bytemuck::bytes_of(&frame.params),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let mapped_buf = buffer(
+            "mapped geometry",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let coords_buf = buffer(
+            "axis centres",
+            bytemuck::cast_slice(&coords),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let lut_view = self.lut_view(&frame.tf, frame.key.preintegrated);
+        let out = self.output_texture(opts);
+        let out_view = out.create_view(&Default::default());
+        let mut entries =
+            self.common_entries(&frame.key, &params_buf, gpu.view(), &lut_view, &out_view);
+        entries.push(wgpu::BindGroupEntry {
+            binding: 5,
+            resource: mapped_buf.as_entire_binding(),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: 6,
+            resource: coords_buf.as_entire_binding(),
+        });
+        let (pixels, seconds) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
+        let mut image = self.finish_image(&geometry, opts, false, pixels);
+        image.set_meta("geometry", volume.geometry.name());
+        if let Geometry::Spherical(g) = &volume.geometry {
+            image.set_meta("domain", g.to_string());
+        }
+        Ok((
+            image,
+            RenderTiming {
+                seconds,
+                compiled_pipeline: compiled,
+            },
+        ))
+    }
+}
