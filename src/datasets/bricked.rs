@@ -269,6 +269,7 @@ impl NetcdfSource {
         let dims = [s[2], s[1], s[0]];
         crate::model::volume::check_shape(&dims, "shape")
             .map_err(|e| Error::format(path, e.to_string()))?;
+        refuse_geographic(path, &name, &dim_names[lead..], s)?;
         let mut spacing = [1.0; 3];
         let mut origin = [0.0; 3];
         let mut flip = [false; 3];
@@ -284,11 +285,15 @@ impl NetcdfSource {
                     let even = values
                         .windows(2)
                         .all(|w| ((w[1] - w[0]) - step).abs() <= 1e-5 * step.abs());
-                    if even {
-                        spacing[a] = step.abs();
-                        origin[a] = first.min(*last) - 0.5 * step.abs();
-                        flip[a] = step < 0.0;
+                    if !even {
+                        return Err(Error::format(
+                            path,
+                            format!("'{name}': coordinate '{dim}' is unevenly spaced; bricked (opened) volumes need even spacing, so read it with load_volume"),
+                        ));
                     }
+                    spacing[a] = step.abs();
+                    origin[a] = first.min(*last) - 0.5 * step.abs();
+                    flip[a] = step < 0.0;
                 }
                 [] => {}
             }
@@ -305,6 +310,25 @@ impl NetcdfSource {
             units,
         })
     }
+}
+
+/// Bricks and out-of-core rendering work on regular boxes: a variable on latitude and
+/// longitude is refused with what to do instead.
+fn refuse_geographic(path: &Path, name: &str, dims: &[String], shape: &[usize]) -> Result<()> {
+    let dims: Vec<(String, usize)> = dims.iter().cloned().zip(shape.iter().copied()).collect();
+    for d in super::cf::dim_coords(path, &dims)? {
+        let Some(c) = &d.coord else { continue };
+        if matches!(
+            super::cf::axis_role(path, c)?,
+            super::cf::AxisRole::Latitude | super::cf::AxisRole::Longitude
+        ) {
+            return Err(Error::format(
+                path,
+                format!("'{name}' lies on geographic coordinates ('{}'); bricked (opened) volumes are regular boxes, so read it with load_volume (native spherical rendering) or load it with geometry: \"cartesian\" and save a box", d.name),
+            ));
+        }
+    }
+    Ok(())
 }
 
 impl VoxelSource for NetcdfSource {

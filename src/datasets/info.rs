@@ -104,6 +104,9 @@ pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
         }
     }
     describe_array(&mut out, &array);
+    if matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") && array.shape.len() >= 3 {
+        let _ = writeln!(out, "geometry: {}", super::netcdf_geometry(path, &array)?);
+    }
     Ok(out)
 }
 

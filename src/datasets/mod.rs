@@ -597,19 +597,7 @@ fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volume> {
         .collect();
     let coords = cf::dim_coords(path, &dims)?;
     if !opts.cartesian {
-        let attrs = netcdf::NcVariable {
-            name: array.name.clone(),
-            dims: dims.clone(),
-            data: Vec::new(),
-            units: array.units.clone(),
-            long_name: None,
-            attributes: array.attributes.clone(),
-        };
-        let sphere = cf::SphereOptions {
-            planet_radius: opts.planet_radius,
-        };
-        let declared = cf::declared_radius(path, &attrs)?;
-        if let Some(grid) = cf::spherical_grid(path, &array.name, &coords, declared, &sphere)? {
+        if let Some(grid) = spherical_grid_of(path, &array, &coords, opts)? {
             let volume = volume_from_array(path, array, [None, None, None])?;
             return volume
                 .with_geometry(Geometry::Spherical(Box::new(grid)))
@@ -624,6 +612,50 @@ fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volume> {
         .collect();
     let axes = [axes[0].clone(), axes[1].clone(), axes[2].clone()];
     volume_from_array(path, array, axes)
+}
+
+/// The spherical grid of a NetCDF variable whose last three dimensions CF marks as latitude,
+/// longitude and a vertical length axis, else `None`.
+fn spherical_grid_of(
+    path: &Path,
+    array: &ArrayData,
+    coords: &[cf::DimCoord],
+    opts: &LoadOptions,
+) -> Result<Option<crate::model::SphericalGrid>> {
+    let attrs = netcdf::NcVariable {
+        name: array.name.clone(),
+        dims: Vec::new(),
+        data: Vec::new(),
+        units: array.units.clone(),
+        long_name: None,
+        attributes: array.attributes.clone(),
+    };
+    let sphere = cf::SphereOptions {
+        planet_radius: opts.planet_radius,
+    };
+    let declared = cf::declared_radius(path, &attrs)?;
+    cf::spherical_grid(path, &array.name, coords, declared, &sphere)
+}
+
+/// `hdrvis info`'s line on where a NetCDF volume lies: on the sphere, with its radii and
+/// angles, or in a Cartesian box.
+pub(crate) fn netcdf_geometry(path: &Path, array: &ArrayData) -> Result<String> {
+    let n = array.dims.len();
+    if n < 3 {
+        return Ok("cartesian (not a volume)".into());
+    }
+    let dims: Vec<(String, usize)> = array.dims[n - 3..]
+        .iter()
+        .cloned()
+        .zip(array.shape[n - 3..].iter().copied())
+        .collect();
+    let coords = cf::dim_coords(path, &dims)?;
+    Ok(
+        match spherical_grid_of(path, array, &coords, &LoadOptions::default())? {
+            Some(g) => format!("spherical: {g}"),
+            None => "cartesian".into(),
+        },
+    )
 }
 
 /// Builds a volume from a 3-D array (z, y, x) and optional cell-centre coordinates per volume

@@ -172,6 +172,40 @@ impl Camera {
         )
     }
 
+    /// A perspective camera above latitude `lat_deg`, longitude `lon_deg` (Earth-centred frame:
+    /// +x toward 0°N 0°E, +z north) at `distance` from `centre`, looking at it with north up
+    /// (at the poles, +y up as in the axis view along z).
+    pub fn geo(
+        centre: [f64; 3],
+        lat_deg: f64,
+        lon_deg: f64,
+        distance: f64,
+        fov_y_deg: f64,
+    ) -> Result<Camera> {
+        check_finite("camera.lat", &[lat_deg, lon_deg])?;
+        if !(-90.0..=90.0).contains(&lat_deg) {
+            return Err(Error::invalid(
+                "camera.lat",
+                format!("expected degrees in [-90, 90], got {lat_deg}"),
+            ));
+        }
+        if !(distance.is_finite() && distance > 0.0) {
+            return Err(Error::invalid(
+                "camera.distance",
+                format!("expected a distance > 0, got {distance}"),
+            ));
+        }
+        let (sl, cl) = lat_deg.to_radians().sin_cos();
+        let (so, co) = lon_deg.to_radians().sin_cos();
+        let dir = [cl * co, cl * so, sl];
+        let up = if lat_deg.abs() > 89.9 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [0.0, 0.0, 1.0]
+        };
+        Camera::look_at(add_scaled(centre, dir, distance), centre, up, fov_y_deg)
+    }
+
     /// The orthographic view along an axis that frames `bounds` exactly: pixel centres sit at
     /// (i + 0.5)/W of the extent. "x" looks from +x (right = +y, up = +z), "y" from −y
     /// (right = +x, up = +z), "z" from +z (right = +x, up = +y).
@@ -370,6 +404,16 @@ mod tests {
         let (o, d) = cam.ray(0, 0, 2, 8);
         assert_eq!(d, [-1.0, 0.0, 0.0]);
         assert!((o[1] - 0.5).abs() < 1e-12 && (o[2] - 7.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn geo_camera_looks_at_the_centre_with_north_up() {
+        let c = Camera::geo([0.0; 3], 0.0, 90.0, 3.0, 30.0).unwrap();
+        assert!((c.eye[1] - 3.0).abs() < 1e-12 && c.eye[0].abs() < 1e-12);
+        assert!((c.forward[1] + 1.0).abs() < 1e-12 && (c.up[2] - 1.0).abs() < 1e-12);
+        let pole = Camera::geo([0.0; 3], 90.0, 0.0, 2.0, 30.0).unwrap();
+        assert!((pole.forward[2] + 1.0).abs() < 1e-12 && (pole.right[0] - 1.0).abs() < 1e-12);
+        assert!(Camera::geo([0.0; 3], 91.0, 0.0, 2.0, 30.0).is_err());
     }
 
     #[test]

@@ -8,7 +8,8 @@ use super::convert::{
 use super::ScriptHost;
 use crate::datasets::LoadOptions;
 use crate::model::{
-    Aabb, Axis, Camera, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume, VolumeStats,
+    Axis, Camera, Geometry, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume,
+    VolumeStats,
 };
 use crate::render::{
     Bricking, FilterMode, Precision, Shading, TfSampling, VolumeRenderOptions, VolumeSource,
@@ -25,13 +26,37 @@ pub(crate) enum ScriptCamera {
         elevation: f64,
         fov: f64,
     },
+    /// Above a latitude and longitude, at a distance in outer radii of the volume's shell.
+    Geo {
+        lat: f64,
+        lon: f64,
+        distance: f64,
+        fov: f64,
+    },
     Fixed(Camera),
 }
 
 impl ScriptCamera {
-    /// The camera for a volume with these bounds.
-    pub(crate) fn resolve(&self, bounds: &Aabb) -> crate::Result<Camera> {
+    /// The camera for `source`.
+    pub(crate) fn resolve(&self, source: &VolumeSource) -> crate::Result<Camera> {
+        let bounds = &source.bounds();
         match self {
+            ScriptCamera::Geo {
+                lat,
+                lon,
+                distance,
+                fov,
+            } => {
+                // A shell's centre is the planet's; a box's its middle.
+                let (centre, radius) = match source {
+                    VolumeSource::Memory(v) => match &v.geometry {
+                        Geometry::Spherical(g) => ([0.0; 3], g.outer_radius()),
+                        _ => (bounds.center(), 0.5 * bounds.diagonal()),
+                    },
+                    VolumeSource::Bricked(_) => (bounds.center(), 0.5 * bounds.diagonal()),
+                };
+                Camera::geo(centre, *lat, *lon, distance * radius, *fov)
+            }
             ScriptCamera::Axis(a) => Ok(Camera::axis(*a, bounds)),
             ScriptCamera::Orbit {
                 azimuth,
@@ -265,6 +290,33 @@ fn register_cameras(engine: &mut Engine) {
             })
         },
     );
+    for with_fov in [false, true] {
+        let geo = move |lat: Dynamic, lon: Dynamic, d: Dynamic, fov: Option<Dynamic>| {
+            Ok(ScriptCamera::Geo {
+                lat: num(&lat, "lat")?,
+                lon: num(&lon, "lon")?,
+                distance: num(&d, "distance")?,
+                fov: fov.map(|f| num(&f, "fov")).transpose()?.unwrap_or(35.0),
+            })
+        };
+        if with_fov {
+            engine.register_fn(
+                "camera_geo",
+                move |lat: Dynamic,
+                      lon: Dynamic,
+                      d: Dynamic,
+                      fov: Dynamic|
+                      -> RResult<ScriptCamera> { geo(lat, lon, d, Some(fov)) },
+            );
+        } else {
+            engine.register_fn(
+                "camera_geo",
+                move |lat: Dynamic, lon: Dynamic, d: Dynamic| -> RResult<ScriptCamera> {
+                    geo(lat, lon, d, None)
+                },
+            );
+        }
+    }
     engine.register_fn(
         "camera_look_at",
         |eye: Dynamic, target: Dynamic, up: Dynamic, fov: Dynamic| -> RResult<ScriptCamera> {
@@ -389,7 +441,7 @@ pub(crate) fn render_options(
         },
     };
     let is_axis = matches!(camera, ScriptCamera::Axis(_));
-    let camera = camera.resolve(&source.bounds()).map_err(to_rhai)?;
+    let camera = camera.resolve(source).map_err(to_rhai)?;
     let mut o = VolumeRenderOptions::new(camera, tf);
     for (k, v) in opts {
         if !take_bricking(&mut o.bricking, k.as_str(), v)? {

@@ -83,6 +83,9 @@ fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
                             fov,
                         },
                         ScriptCamera::Fixed(c) => SurfaceView::Camera(c),
+                        ScriptCamera::Geo { .. } => {
+                            return err("view", "camera_geo looks at a spherical volume; a surface takes camera_axis(\"z\"), \"map\", \"perspective\" or camera_orbit(...)")
+                        }
                     }
                 } else {
                     match string(v, "view")?.as_str() {

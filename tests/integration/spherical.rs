@@ -334,3 +334,129 @@ fn bad_coordinates_are_one_line_errors_naming_the_file() {
     };
     assert!(load_volume_with(&deep, &opts).is_ok());
 }
+
+#[test]
+fn stretched_ocean_levels_render_in_their_true_geometry() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(path) = cf_file(
+        dir.path(),
+        "ocean.nc",
+        &["ocean", "--ndepth", "9", "--nlat", "2"],
+    ) else {
+        return;
+    };
+    let v = load_volume(&path).unwrap();
+    let Geometry::Rectilinear(axes) = &v.geometry else {
+        panic!("expected rectilinear, got {}", v.geometry.name())
+    };
+    // Depths 5, 15, 45, ..., 495, 645 m: cells reach half a spacing beyond the ends.
+    assert_eq!((axes[2].lo, axes[2].hi), (0.0, 645.0 + 75.0));
+    let b = v.bounds();
+    // Seen along x: each pixel integrates value = depth over the box's x extent.
+    let (w, h) = (20u32, 120u32);
+    let mut o = VolumeRenderOptions::new(
+        Camera::axis(Axis::X, &b),
+        TransferFunction::emission_absorption(1.0, 0.0).unwrap(),
+    );
+    o.width = w;
+    o.height = h;
+    o.step = 0.25;
+    o.early_exit = 0.0;
+    let (img, path_taken) = render(&v, &o);
+    assert_eq!(path_taken, RenderPath::Mapped);
+    o.precision = Precision::F64;
+    let cpu = hdrvis::render::cpu_reference::render_volume_f64(&v, &o).unwrap();
+    let voxel = 10.0; // the smallest spacing (depth 5 to 15 m)
+    let (lx, z_hi) = (b.hi[0] - b.lo[0], b.hi[2]);
+    let mut checked = 0;
+    for py in 0..h {
+        let z = z_hi - (py as f64 + 0.5) / h as f64 * (b.hi[2] - b.lo[2]);
+        if !(5.0..=645.0).contains(&z) {
+            continue;
+        }
+        let want = z * lx / voxel;
+        let i = (py * w + w / 2) as usize;
+        let got = img[i][0] as f64;
+        assert!(
+            (got - want).abs() <= 1e-3 * want,
+            "z {z}: GPU {got} want {want}"
+        );
+        assert!(
+            (cpu[i][0] - want).abs() <= 1e-9 * want,
+            "z {z}: CPU {} want {want}",
+            cpu[i][0]
+        );
+        checked += 1;
+    }
+    assert!(checked > 80, "{checked}");
+}
+
+#[test]
+fn scripts_print_render_and_info_reports_a_shell() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let Some(_) = cf_file(
+        d,
+        "shell.nc",
+        &["shell", "--nlat", "18", "--nlon", "36", "--ndepth", "6"],
+    ) else {
+        return;
+    };
+    let script = r#"
+        let v = load_volume("shell.nc");
+        print(v);
+        print(v.geometry);
+        let tf = tf_emission_absorption(1.0, 0.0);
+        let img = render_volume(v, #{ tf: tf, camera: camera_geo(30.0, 45.0, 3.0), width: 48, height: 48 });
+        save_exr(img, "geo.exr");
+        let top = render_volume(v, #{ tf: tf, camera: camera_axis("z"), width: 40 });
+        print(`${top.width}x${top.height}`);
+        let flat = load_volume("shell.nc", #{ geometry: "cartesian" });
+        print(flat.geometry);
+    "#;
+    std::fs::write(d.join("s.rhai"), script).unwrap();
+    let (code, stdout, stderr) = crate::cli::hdrvis(&["run", "s.rhai", "-o", "o"], d);
+    assert_eq!(code, 0, "{stderr}");
+    let lines: Vec<&str> = stdout
+        .lines()
+        .filter(|l| !l.starts_with("wrote "))
+        .collect();
+    assert!(
+        lines[0].starts_with("Volume \"dvs\" spherical 36x18x6, units percent"),
+        "{stdout}"
+    );
+    assert!(
+        lines[0].contains("latitude -90° to 90°") && lines[0].contains("longitude all round"),
+        "{stdout}"
+    );
+    assert_eq!(lines[1], "spherical");
+    assert_eq!(lines[2], "40x40", "the axis view of a shell is square");
+    assert_eq!(lines[3], "cartesian");
+    let img = hdrvis::io::exr::read_exr(&d.join("o/geo.exr")).unwrap();
+    // The planet fills the middle of the view and not the corners.
+    let at = |x: u32, y: u32| img.pixels[(y * img.width + x) as usize][0];
+    assert!(
+        at(24, 24) > 1.0 && at(0, 0) == 0.0,
+        "{} {}",
+        at(24, 24),
+        at(0, 0)
+    );
+
+    let (code, out, err) = crate::cli::hdrvis(&["info", "shell.nc"], d);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains(
+            "geometry: spherical: radius 3480–6371 km (from depth; planet radius 6371 km)"
+        ),
+        "{out}"
+    );
+    // Opening it as bricks is refused with what to do.
+    std::fs::write(d.join("b.rhai"), r#"open_volume("shell.nc");"#).unwrap();
+    let (code, _, err) = crate::cli::hdrvis(&["run", "b.rhai", "-o", "o"], d);
+    assert_ne!(code, 0);
+    let first = err.lines().next().unwrap_or("");
+    assert!(
+        first.contains("geographic coordinates") && first.contains("load_volume"),
+        "{err}"
+    );
+}

@@ -8,6 +8,8 @@ KIND:
   shell      value 1 everywhere (a constant shell)
   radial     value = radius in km (linear in radius)
   lonfield   value = 2 + cos(lon) * cos(lat) + 0.1 * depth index (smooth, no seam)
+  ocean      a Cartesian box (x, y in m, no latitude/longitude) on stretched depth levels
+             (quadratic, positive down, m); value = depth: a rectilinear volume
 Options:
   --lon0 L         first cell edge of the longitudes (-180 or 0; default -180)
   --nlat N --nlon N --ndepth N   (defaults 36, 72, 8)
@@ -33,7 +35,7 @@ except ImportError as exc:  # pragma: no cover - depends on the machine
 
 ap = argparse.ArgumentParser()
 ap.add_argument("out")
-ap.add_argument("kind", choices=["shell", "radial", "lonfield"])
+ap.add_argument("kind", choices=["shell", "radial", "lonfield", "ocean"])
 ap.add_argument("--lon0", type=float, default=-180.0)
 ap.add_argument("--nlat", type=int, default=36)
 ap.add_argument("--nlon", type=int, default=72)
@@ -46,6 +48,22 @@ ap.add_argument("--order", default="depth,latitude,longitude")
 ap.add_argument("--no-units", action="store_true")
 ap.add_argument("--radius", type=float)
 a = ap.parse_args()
+
+if a.kind == "ocean":
+    depth = 10.0 * np.arange(a.ndepth) ** 2 + 5.0
+    y = 100.0 * np.arange(6)
+    x = 100.0 * np.arange(5)
+    dd = np.broadcast_to(depth[:, None, None], (a.ndepth, 6, 5)).astype(np.float32)
+    ds = xr.Dataset(
+        {"temp": (("depth", "y", "x"), dd, {"units": "m"})},
+        coords={
+            "depth": ("depth", depth, {"units": "m", "positive": "down"}),
+            "y": ("y", y, {"units": "m"}),
+            "x": ("x", x, {"units": "m"}),
+        },
+    )
+    ds.to_netcdf(a.out, format="NETCDF4")
+    sys.exit(0)
 
 R = a.radius if a.radius else 6371.0
 if a.uneven:
