@@ -44,7 +44,7 @@ pub(crate) const AREAS: &[&str] = &[
 
 pub(crate) const API: &[ApiEntry] = &[
     e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x) or .vti, relative to the script's folder; \"box.nc:T\" picks the variable T of a file with several."),
-    e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with #{variable: \"T\"}: the array or variable to read (an unknown one lists the file's)."),
+    e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with #{variable: \"T\"}: the array or variable to read (an unknown one lists the file's); geometry: \"auto\" (CF latitude, longitude and depth/radius/height make a spherical volume) or \"cartesian\" (coordinates as box lengths); planet_radius: in the vertical axis's unit (default the file's, else 6371 km)."),
     e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy memory-mapped, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
     e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with #{variable, brick: 8|16|32|64|128}; \"box.nc:T\" also picks the variable."),
     e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3: #{n, seed, field: \"temperature\"|\"fluctuation\"|\"viscosity\", plumes, slabs}; outside the shell is missing (NaN)."),
@@ -53,6 +53,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("datasets", "volume_abs", &["volume: Volume"], "Volume", "|v| of every voxel."),
     e("datasets", "volume_magnitude", &["components: array"], "Volume", "sqrt(sum of squares) of same-shape volumes, e.g. [vx, vy, vz]."),
     e("datasets", "volume_subset", &["volume: Volume", "lo: array", "hi: array"], "Volume", "The voxels [lo, hi) as a new volume at the same world position."),
+    e("datasets", "volume.geometry", &[], "string", "\"spherical\" for a shell or wedge on (radius, latitude, longitude), \"cartesian\" for a box (regular or rectilinear); print(volume) shows geometry, shape, units, range and extent."),
     e("datasets", "volume_stats", &["volume: Volume"], "map", "#{min, max, min_positive, finite, missing} over the finite voxels."),
     e("datasets", "get$name", &["volume: Volume"], "string", "volume.name (grids have .name too)"),
     e("datasets", "get$dims", &["volume: Volume"], "array", "volume.dims: [nx, ny, nz]"),
@@ -62,6 +63,8 @@ pub(crate) const API: &[ApiEntry] = &[
     e("cameras", "camera_axis", &["axis: string"], "Camera", "Orthographic view along \"x\", \"y\" or \"z\" framing the volume exactly."),
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number"], "Camera", "Perspective camera orbiting the volume's centre (degrees; fov 35)."),
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
+    e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number"], "Camera", "Perspective camera above latitude, longitude (degrees) at distance times the shell's outer radius from the planet's centre (a box: times half its diagonal from its centre), looking at the centre with north up (fov 35)."),
+    e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
     e("cameras", "camera_look_at", &["eye: array", "target: array", "up: array", "fov: number"], "Camera", "Free perspective camera."),
     e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast: #{tf, camera, width, height, step (voxels), jitter, seed, early_exit, background: [r, g, b], filter: \"auto\"|\"hardware\"|\"exact\", precision: \"u8\"|\"f16\"|\"f32\"|\"f32c\"|\"f64\" (f64 on the GPU where the adapter has shader f64, else the CPU), shading: true|false|#{ambient, diffuse, specular, shininess} (Blinn–Phong headlight on the data gradient; absent = no shading code; not on the bricked path), tf_sampling: \"point\"|\"preintegrated\" (the transfer function's mean between the values at each segment's ends; not on the bricked path), empty_space_skipping (default true: jump over space the transfer function leaves empty — missing data, transparent values — with the same image), memory_budget (MiB of GPU memory; larger volumes stream through a brick cache), brick (edge in voxels: render bricked), level (0 full, 1 half, ... 4: quick look)}. Results of the plain path are cached: an identical call returns the earlier image without a ray cast."),
     e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping empty bricks unless empty_space_skipping: false, out of core beyond memory_budget."),

@@ -460,3 +460,59 @@ fn scripts_print_render_and_info_reports_a_shell() {
         "{err}"
     );
 }
+
+#[test]
+fn preintegrated_shaded_lut_renders_match_the_f64_reference() {
+    use hdrvis::model::{LutTransfer, Scale};
+    use hdrvis::render::{Shading, TfSampling};
+    let dir = tempfile::tempdir().unwrap();
+    let Some(path) = cf_file(
+        dir.path(),
+        "f.nc",
+        &["lonfield", "--nlat", "18", "--nlon", "36", "--ndepth", "6"],
+    ) else {
+        return;
+    };
+    let v = load_volume(&path).unwrap();
+    let tf = TransferFunction::Lut(LutTransfer {
+        scale: Scale::Log10,
+        colormap: "viridis".into(),
+        emission: vec![[0.0, 0.0], [1.0, 1.0]],
+        opacity: vec![[0.0, -2.0], [1.0, -0.5]],
+        ..Default::default()
+    });
+    for (sampling, shading) in [
+        (TfSampling::Point, None),
+        (TfSampling::PreIntegrated, None),
+        (TfSampling::Point, Some(Shading::default())),
+    ] {
+        let mut o = VolumeRenderOptions::new(
+            Camera::orbit(&v.bounds(), 40.0, 30.0, 35.0).unwrap(),
+            tf.clone(),
+        );
+        o.width = 40;
+        o.height = 40;
+        o.tf_sampling = sampling;
+        o.shading = shading;
+        o.jitter = true;
+        let (gpu, _) = render(&v, &o);
+        let cpu = hdrvis::render::cpu_reference::render_volume_f64(&v, &o).unwrap();
+        let peak = cpu
+            .iter()
+            .map(|p| p[0].max(p[1]).max(p[2]))
+            .fold(0.0, f64::max);
+        let worst = gpu
+            .iter()
+            .zip(&cpu)
+            .map(|(g, c)| {
+                (0..3)
+                    .map(|k| (g[k] as f64 - c[k]).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            peak > 0.05 && worst < 2e-3 * peak,
+            "{sampling:?} {shading:?}: {worst:.2e} of peak {peak:.3}"
+        );
+    }
+}
