@@ -266,9 +266,9 @@ pub(crate) fn spherical_grid(
 /// Latitudes in degrees; a domain that ends within one spacing of a pole extends to it.
 fn latitude_axis(path: &Path, v: &NcVariable, field: &str) -> Result<CoordAxis> {
     if let Some(bad) = v.data.iter().find(|x| x.abs() > 90.0) {
-        return Err(Error::format(
-            path,
-            format!("{field}: latitude {bad} is beyond ±90 degrees"),
+        return Err(Error::invalid(
+            field,
+            format!("latitude {bad} is beyond ±90 degrees"),
         ));
     }
     let mut axis = CoordAxis::new(v.data.clone(), cf_bounds(path, v)?, field)?;
@@ -301,9 +301,9 @@ fn longitude_axis(path: &Path, v: &NcVariable, field: &str) -> Result<(CoordAxis
         .fold(0.0, f64::max);
     let gap = 360.0 - span;
     if span > 360.0 {
-        return Err(Error::format(
-            path,
-            format!("{field}: longitudes span {span} degrees; expected at most 360"),
+        return Err(Error::invalid(
+            field,
+            format!("longitudes span {span} degrees; expected at most 360"),
         ));
     }
     if gap > 0.0 && gap <= 1.5 * widest {

@@ -433,10 +433,16 @@ fn check_monotonic(values: &[f64]) -> std::result::Result<(), String> {
     let increasing = values.windows(2).all(|w| w[1] > w[0]);
     let decreasing = values.windows(2).all(|w| w[1] < w[0]);
     if increasing || decreasing {
-        Ok(())
-    } else {
-        Err("is not strictly monotonic".to_string())
+        return Ok(());
     }
+    if let Some(i) = values.windows(2).position(|w| w[1] == w[0]) {
+        return Err(format!(
+            "has duplicate coordinates at {i} and {} ({}); expected strictly monotonic values",
+            i + 1,
+            values[i]
+        ));
+    }
+    Err("is not strictly monotonic".to_string())
 }
 
 fn check_name(field: &str, name: &str) -> Result<()> {

@@ -516,3 +516,53 @@ fn preintegrated_shaded_lut_renders_match_the_f64_reference() {
         );
     }
 }
+
+#[test]
+fn bad_geographic_files_fail_in_one_line_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let small = ["--nlat", "4", "--nlon", "8", "--ndepth", "3"];
+    let cases: [(&str, &[&str], &str); 4] = [
+        ("lat.nc", &["--bad-lat"], "beyond ±90"),
+        ("dup.nc", &["--dup-depth"], "duplicate coordinates"),
+        ("units.nc", &["--no-units"], "has no units"),
+        (
+            "deep.nc",
+            &["--depth-bottom", "9000"],
+            "deeper than the planet",
+        ),
+    ];
+    for (name, extra, needle) in cases {
+        let mut args = vec!["shell"];
+        args.extend_from_slice(&small);
+        args.extend_from_slice(extra);
+        let Some(_) = cf_file(d, name, &args) else {
+            return;
+        };
+        let script = format!(
+            "let v = load_volume(\"{name}\");\nsave_exr(render_volume(v, #{{ tf: tf_emission_absorption(1.0, 0.0), width: 8, height: 8 }}), \"x.exr\");"
+        );
+        std::fs::write(d.join("bad.rhai"), script).unwrap();
+        let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai", "-o", "out"], d);
+        assert_ne!(code, 0, "{name}");
+        let first = err.lines().next().unwrap_or("");
+        assert!(
+            first.contains(name) && first.contains(needle),
+            "{name}: {err}"
+        );
+        assert!(
+            first.contains("dvs") || first.contains("depth") || first.contains("latitude"),
+            "{err}"
+        );
+        assert!(
+            !d.join("out/x.exr").exists(),
+            "{name}: an output was written"
+        );
+        let (code, _, err) = crate::cli::hdrvis(&["info", name], d);
+        assert_ne!(code, 0, "info {name}");
+        assert!(
+            err.trim().lines().count() == 1 && err.contains(needle),
+            "info {name}: {err}"
+        );
+    }
+}

@@ -20,6 +20,8 @@ Options:
                    "latitude,longitude,depth"
   --no-units       leave the depth axis without units (a bad file)
   --radius R       write the global attribute planet_radius = R (km)
+  --bad-lat        shift the latitudes north so the last one is beyond 90 (a bad file)
+  --dup-depth      repeat the first depth level (a bad file)
 Exit status 77 (skipped) when numpy or xarray is not installed.
 """
 
@@ -47,6 +49,8 @@ ap.add_argument("--wedge", type=float, nargs=4)
 ap.add_argument("--order", default="depth,latitude,longitude")
 ap.add_argument("--no-units", action="store_true")
 ap.add_argument("--radius", type=float)
+ap.add_argument("--bad-lat", action="store_true")
+ap.add_argument("--dup-depth", action="store_true")
 a = ap.parse_args()
 
 if a.kind == "ocean":
@@ -84,6 +88,10 @@ else:
     lon = a.lon0 + 360.0 / a.nlon * (np.arange(a.nlon) + 0.5)
     lat_bounds = lon_bounds = None
 
+if a.bad_lat:
+    lat = lat + 25.0
+if a.dup_depth:
+    depth[1] = depth[0]
 dd, la, lo = np.meshgrid(depth, lat, lon, indexing="ij")
 if a.kind == "shell":
     v = np.ones(dd.shape)
