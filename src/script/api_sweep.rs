@@ -243,3 +243,64 @@ pub fn check_sweep_script(script: &Path, sets: &[(String, String)]) -> Result<()
         ))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::script::run_script_source;
+
+    const SWEEP: &str = r#"
+        let v = generate_mantle(#{ n: 8 });
+        let tf = tf_emission_absorption(1.0, 1.0);
+        for i in shard([0, 1, 2, 3, 4]) {
+            let img = render_volume(v, #{ tf: tf, width: 7, height: 5 });
+            if img.width != 7 || img.height != 5 { throw "planned image of the wrong size"; }
+            let views = bracket(img, [-1.0, 1.0]);
+            save_png(views[1], `p/f${i}.png`, 0.5);
+            save_exr(tonemap(exposure(img, 1.0), "aces"), `p/f${i}.exr`);
+        }
+        let owned = [];
+        for i in shard(10..=19) { owned.push(i); }
+        if owned != [15, 16, 17, 18, 19] { throw `shard(10..=19) gave ${owned}`; }
+        owned.clear();
+        for i in shard(0..3) { owned.push(i); }
+        if owned != [1, 2] { throw `shard(0..3) gave ${owned}`; }
+    "#;
+
+    #[test]
+    fn a_planning_run_lists_the_task_outputs_without_rendering_or_writing() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut opts = ScriptOptions::new(dir.path().join("out"));
+        opts.progress = false;
+        opts.plan_only = true;
+        opts.shard = Shard { index: 1, count: 2 };
+        let report = run_script_source(SWEEP, "sweep.rhai", dir.path(), &opts).unwrap();
+        let names: Vec<String> = report
+            .written
+            .iter()
+            .map(|p| p.strip_prefix(dir.path().canonicalize().unwrap().join("out")).unwrap().display().to_string())
+            .collect();
+        // Task 1 of 2 owns items 2, 3 and 4 of five.
+        assert_eq!(
+            names,
+            ["p/f2.png", "p/f2.exr", "p/f3.png", "p/f3.exr", "p/f4.png", "p/f4.exr"]
+        );
+        assert!(report.written.iter().all(|p| !p.exists()));
+        assert!(!dir.path().join("out/p").exists());
+        assert!(report.passes.iter().all(|p| p.name != "raycast"), "{:?}", report.passes);
+    }
+
+    #[test]
+    fn a_sweep_script_without_shard_is_refused_for_a_job_array() {
+        let dir = tempfile::tempdir().unwrap();
+        let with = dir.path().join("with.rhai");
+        let without = dir.path().join("without.rhai");
+        std::fs::write(&with, SWEEP).unwrap();
+        std::fs::write(&without, "let n = param(\"n\", 3); for i in 0..n { print(i); }").unwrap();
+        check_sweep_script(&with, &[]).unwrap();
+        let e = check_sweep_script(&without, &[]).unwrap_err().to_string();
+        assert!(e.contains("never calls shard"), "{e}");
+        let e = check_sweep_script(&with, &[("size".into(), "3".into())]).unwrap_err().to_string();
+        assert!(e.starts_with("--set size:"), "{e}");
+    }
+}
