@@ -278,7 +278,12 @@ mod tests {
         let names: Vec<String> = report
             .written
             .iter()
-            .map(|p| p.strip_prefix(dir.path().canonicalize().unwrap().join("out")).unwrap().display().to_string())
+            .map(|p| {
+                p.strip_prefix(dir.path().canonicalize().unwrap().join("out"))
+                    .unwrap()
+                    .display()
+                    .to_string()
+            })
             .collect();
         // Task 1 of 2 owns items 2, 3 and 4 of five.
         assert_eq!(
@@ -287,7 +292,11 @@ mod tests {
         );
         assert!(report.written.iter().all(|p| !p.exists()));
         assert!(!dir.path().join("out/p").exists());
-        assert!(report.passes.iter().all(|p| p.name != "raycast"), "{:?}", report.passes);
+        assert!(
+            report.passes.iter().all(|p| p.name != "raycast"),
+            "{:?}",
+            report.passes
+        );
     }
 
     #[test]
@@ -296,11 +305,17 @@ mod tests {
         let with = dir.path().join("with.rhai");
         let without = dir.path().join("without.rhai");
         std::fs::write(&with, SWEEP).unwrap();
-        std::fs::write(&without, "let n = param(\"n\", 3); for i in 0..n { print(i); }").unwrap();
+        std::fs::write(
+            &without,
+            "let n = param(\"n\", 3); for i in 0..n { print(i); }",
+        )
+        .unwrap();
         check_sweep_script(&with, &[]).unwrap();
         let e = check_sweep_script(&without, &[]).unwrap_err().to_string();
         assert!(e.contains("never calls shard"), "{e}");
-        let e = check_sweep_script(&with, &[("size".into(), "3".into())]).unwrap_err().to_string();
+        let e = check_sweep_script(&with, &[("size".into(), "3".into())])
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("--set size:"), "{e}");
     }
 }
