@@ -33,6 +33,9 @@ fn hdrvis_in(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
     cmd.output().expect("run hdrvis")
 }
 
+/// Environment variables a command gets on top of the test's own.
+type Env<'a> = &'a [(&'a str, &'a str)];
+
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
@@ -187,7 +190,7 @@ fn bad_shards_and_inconsistent_slurm_variables_are_one_line_errors_writing_nothi
     let d = dir.path();
     let script = sweep_script();
     let script = script.to_str().unwrap();
-    let cases: &[(&[&str], &[(&str, &str)], &str)] = &[
+    let cases: &[(&[&str], Env, &str)] = &[
         (&["--shard", "3/2"], &[], "--shard: expected I/N"),
         (&["--shard", "0/0"], &[], "--shard: expected I/N"),
         (&["--shard", "x/y"], &[], "--shard: expected I/N"),
@@ -406,7 +409,7 @@ fn slurm_writes_a_ready_job_script_and_refuses_what_it_cannot_submit() {
     let orbit = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/orbit.rhai");
     let empty_path = d.join("no-tools");
     std::fs::create_dir_all(&empty_path).unwrap();
-    let cases: &[(Vec<&str>, &[(&str, &str)], &str)] = &[
+    let cases: &[(Vec<&str>, Env, &str)] = &[
         (
             vec!["slurm", script, "--array", "2", "--out", "a", "--submit"],
             &[("PATH", empty_path.to_str().unwrap())],
@@ -490,7 +493,7 @@ fn start_cluster() -> Result<Cluster, String> {
     let uid = Command::new("id")
         .arg("-u")
         .output()
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| format!("cannot run `id -u`: {e}"))?;
     if text(&uid.stdout).trim() != "0" {
         return Err("slurmd needs root".into());
     }
