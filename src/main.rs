@@ -41,6 +41,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Animate(args)) => cli::animate::run_animate(&args)
             .map(|n| println!("wrote {} ({n} frames)", args.output.display())),
+        Some(Command::Slurm(args)) => cli::slurm::run_slurm(&args),
+        Some(Command::SweepStatus(args)) => cli::slurm::run_sweep_status(&args, backend),
         Some(Command::Cache(cmd)) => cli::cache::run_cache(&cmd).map(|r| print!("{r}")),
     }
 }

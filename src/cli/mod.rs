@@ -1,11 +1,13 @@
 //! Command-line definitions (clap). Parsing only: every command calls into the library, through
-//! its handler in [`run`], [`animate`], [`bench`], [`cache`], [`datasets`] or [`tonemap`].
+//! its handler in [`run`], [`animate`], [`bench`], [`cache`], [`datasets`], [`slurm`] or
+//! [`tonemap`].
 
 pub mod animate;
 pub mod bench;
 pub mod cache;
 pub mod datasets;
 pub mod run;
+pub mod slurm;
 pub mod tonemap;
 
 use clap::error::{ContextKind, ContextValue, ErrorKind};
@@ -102,6 +104,12 @@ pub enum Command {
     /// Interactive terminal viewer: `hdrvis tui SCRIPT.rhai` (the script's scene and params) or
     /// `hdrvis tui IMAGE.exr` (exposure, operator, false colour, channels). `?` lists the keys.
     Tui(TuiArgs),
+    /// A Slurm job array sharing out a sweep: `hdrvis slurm SCRIPT.rhai --array N [--submit]`
+    /// writes the job script (and submits it with sbatch).
+    Slurm(slurm::SlurmArgs),
+    /// The outputs a sweep writes that are missing, found without rendering:
+    /// `hdrvis sweep-status --out DIR SCRIPT.rhai [--array N]`.
+    SweepStatus(slurm::SweepStatusArgs),
     /// Run the built-in demo scene (also what `hdrvis` does with no command).
     Demo {
         /// Output folder.
@@ -125,6 +133,10 @@ pub struct RunArgs {
     /// Skip outputs that already exist (resume an interrupted sweep).
     #[arg(long)]
     pub resume: bool,
+    /// Run task I of N (0 <= I < N) of a shared sweep: `shard(list)` returns its share.
+    /// Default: from the Slurm job array or srun task variables, else the whole list.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
     /// GPU memory budget of every render in MiB (the scripts' `memory_budget` default): larger
     /// volumes stream through a brick cache of this size.
     #[arg(long = "gpu-memory", value_name = "MIB")]

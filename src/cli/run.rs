@@ -7,7 +7,7 @@ use hdrvis::gpu::BackendChoice;
 use hdrvis::io::terminal::ProtocolChoice;
 use hdrvis::model::HdrImage;
 use hdrvis::render::cache::budget_mib;
-use hdrvis::script::{run_script_file, run_script_source, ScriptOptions, WrittenObserver};
+use hdrvis::script::{run_script_file, run_script_source, ScriptOptions, Shard, WrittenObserver};
 use hdrvis::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -101,6 +101,15 @@ fn script_options(args: &RunArgs, backend: BackendChoice) -> Result<ScriptOption
     opts.allowed_paths = args.allow_paths.clone();
     opts.sets = parse_sets(&args.sets)?;
     opts.resume = args.resume;
+    let (shard, source) = Shard::resolve(args.shard.as_deref(), |name| std::env::var(name).ok())?;
+    opts.shard = shard;
+    if shard.count > 1 {
+        // The task's log says which share it rendered; its "wrote" lines say what that was.
+        eprintln!(
+            "hdrvis run: task {} of {} ({source}): shard() gives it its share",
+            shard.index, shard.count
+        );
+    }
     if let Some(m) = args.gpu_memory.filter(|m| !(m.is_finite() && *m > 0.0)) {
         return Err(Error::invalid(
             "--gpu-memory",
@@ -151,7 +160,7 @@ pub fn run_tui(args: &TuiArgs, backend: BackendChoice) -> Result<()> {
     hdrvis::tui::run_tui(&opts)
 }
 
-fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
+pub(super) fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
     sets.iter()
         .map(|s| match s.split_once('=') {
             Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.to_string())),

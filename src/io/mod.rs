@@ -37,6 +37,13 @@ pub(crate) fn write_atomic(
     Ok(())
 }
 
+/// Writes a text file atomically (see [`write_atomic`]): job scripts, reports.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomic(path, |w| {
+        w.write_all(text.as_bytes()).map_err(|e| Error::io(path, e))
+    })
+}
+
 /// A new temporary file `.hdrvis-*.tmp` in `dir` (the name a resumed run sweeps away), created
 /// with mode 0666 so that the kernel applies the umask exactly as it does to any new file:
 /// tempfile's default is owner-only, which the rename would keep.

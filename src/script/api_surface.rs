@@ -44,7 +44,7 @@ fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
 }
 
 /// Parses the option map; the boolean says whether `property` was an array.
-fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
+pub(crate) fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
     check_keys(opts, SURFACE_KEYS, "render_surface")?;
     let mut o = SurfaceOptions::default();
     let mut many = false;

@@ -12,9 +12,11 @@ mod api_output;
 mod api_post;
 mod api_render;
 mod api_surface;
+mod api_sweep;
 mod convert;
 mod progress;
 mod sandbox;
+mod shard;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
@@ -28,7 +30,9 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+pub use api_sweep::{check_sweep_script, sweep_status, SweepStatus};
 pub use sandbox::Sandbox;
+pub use shard::{Shard, ShardSource};
 
 /// How a script is run: where it writes, what `param()` returns, what else it may read.
 #[derive(Clone, Debug)]
@@ -70,6 +74,11 @@ pub struct ScriptOptions {
     /// Told of every output the moment it is complete on disk (`hdrvis run` prints "wrote ...",
     /// so an interrupted run has already reported what it wrote).
     pub on_written: Option<WrittenObserver>,
+    /// The share of the sweep this run owns: what `shard(list)` returns (`--shard`, Slurm).
+    pub shard: Shard,
+    /// A planning run (`hdrvis sweep-status`): renders return blank images and saves record
+    /// their path in [`ScriptReport::written`] without writing; see `api_sweep`.
+    pub plan_only: bool,
 }
 
 /// A callback for each file a run writes; see [`ScriptOptions::on_written`].
@@ -115,6 +124,8 @@ impl ScriptOptions {
             write_outputs: true,
             capture_prints: false,
             on_written: None,
+            shard: Shard::ALL,
+            plan_only: false,
         }
     }
 }
@@ -187,6 +198,9 @@ pub(crate) struct ScriptHost {
     /// Default memory budget of renders (MiB), and the bricked path's caches.
     pub gpu_memory_mib: Option<f64>,
     on_written: Option<WrittenObserver>,
+    /// [`ScriptOptions::shard`].
+    pub shard: Shard,
+    plan_only: bool,
 }
 
 impl ScriptHost {
@@ -282,7 +296,12 @@ pub(crate) fn new_engine(
     api_datasets::register(&mut engine);
     api_fields::register(&mut engine);
     api_grids::register(&mut engine);
-    api_surface::register(&mut engine, host);
+    api_surface::register(&mut engine, host.clone());
+    api_sweep::register(&mut engine, &host);
+    // Last: the planning forms replace the rendering and writing functions registered above.
+    if host.plan_only {
+        api_sweep::register_planning(&mut engine, &host);
+    }
     engine
 }
 
@@ -312,6 +331,8 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         progress: Mutex::new(progress::ProgressState::default()),
         gpu_memory_mib: None,
         on_written: None,
+        shard: Shard::ALL,
+        plan_only: false,
     })
 }
 
@@ -341,7 +362,7 @@ pub fn run_script_source(
         sets.insert(k.clone(), v.clone());
     }
     if opts.resume {
-        remove_stale_temporaries(&opts.out_dir);
+        remove_stale_temporaries(&opts.out_dir, opts.shard.count > 1);
     }
     let session = opts.session.clone().unwrap_or_else(|| {
         Arc::new(RenderSession::new(
@@ -369,6 +390,8 @@ pub fn run_script_source(
         progress: Mutex::new(progress::ProgressState::default()),
         gpu_memory_mib: opts.gpu_memory_mib,
         on_written: opts.on_written.clone(),
+        shard: opts.shard,
+        plan_only: opts.plan_only,
     });
     let engine = new_engine(host.clone(), opts.max_operations, opts.timeout);
     let ast = engine
@@ -459,7 +482,18 @@ fn check_sets_are_read(ast: &rhai::AST, sets: &[(String, String)]) -> Result<()>
 
 /// A run killed mid-write leaves its temporary file (`.hdrvis-*.tmp`, see io::write_atomic)
 /// behind; the finished outputs are never partial, so resuming only has to sweep these away.
-fn remove_stale_temporaries(dir: &Path) {
+/// When the run is one task of several sharing the folder (`shared`), another task may be
+/// writing one right now: only temporaries untouched for [`STALE_TEMPORARY`] go, as a writer
+/// keeps its file's modification time fresh.
+fn remove_stale_temporaries(dir: &Path, shared: bool) {
+    let stale = |p: &Path| {
+        !shared
+            || std::fs::metadata(p)
+                .and_then(|m| m.modified())
+                .ok()
+                .and_then(|t| t.elapsed().ok())
+                .is_some_and(|age| age >= STALE_TEMPORARY)
+    };
     let walk = |d: &Path, stack: &mut Vec<PathBuf>| {
         if let Ok(entries) = std::fs::read_dir(d) {
             for e in entries.flatten() {
@@ -467,7 +501,7 @@ fn remove_stale_temporaries(dir: &Path) {
                 let name = e.file_name().to_string_lossy().to_string();
                 if p.is_dir() {
                     stack.push(p);
-                } else if name.starts_with(".hdrvis-") && name.ends_with(".tmp") {
+                } else if name.starts_with(".hdrvis-") && name.ends_with(".tmp") && stale(&p) {
                     let _ = std::fs::remove_file(&p);
                 }
             }
@@ -478,6 +512,10 @@ fn remove_stale_temporaries(dir: &Path) {
         walk(&d, &mut stack);
     }
 }
+
+/// How long a temporary output of a shared sweep folder must be left untouched before a
+/// resumed task takes it for the remains of a killed one.
+const STALE_TEMPORARY: Duration = Duration::from_secs(600);
 
 /// A parse error at `file:line:col`; a reserved word used as a map key (`#{var: ...}`) names the
 /// option to write instead.

@@ -7,6 +7,7 @@
 
 mod bricks;
 mod cli;
+mod cluster;
 mod common;
 mod datasets;
 mod doc_examples;
