@@ -9,7 +9,7 @@ use std::path::Path;
 use hdf5_reader::{ByteOrder, Datatype, Hdf5File};
 
 use super::scalar::Scalar;
-use super::ArrayListing;
+use super::{ArrayData, ArrayListing};
 use crate::error::{Error, Result};
 
 /// The extensions read as HDF5.
@@ -104,12 +104,9 @@ pub(crate) fn list_datasets(path: &Path) -> Result<Vec<ArrayListing>> {
 }
 
 /// The numeric dataset `name` (a path inside the file, with or without the leading '/'): its
-/// shape, values as f32 (C order) and `units` attribute. Without `name`, an error lists the
-/// 3-D numeric datasets.
-pub(crate) fn read_dataset(
-    path: &Path,
-    name: Option<&str>,
-) -> Result<(String, Vec<usize>, String, Vec<f32>, Option<String>)> {
+/// shape, values (C order, as f32 volumes hold them) and `units` attribute. Without `name`, an
+/// error lists the 3-D numeric datasets.
+pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData> {
     let listed = list_datasets(path)?;
     let describe = |rank: Option<usize>| {
         let names: Vec<String> = listed
@@ -175,11 +172,12 @@ pub(crate) fn read_dataset(
         .and_then(|a| a.read_string().ok())
         .map(|u| u.trim_end_matches('\0').to_string())
         .filter(|u| !u.is_empty());
-    Ok((
-        full,
-        listing.shape.clone(),
-        listing.dtype.clone(),
-        sample.decode(big, &raw),
-        units,
-    ))
+    let values = sample
+        .decode(big, &raw)
+        .into_iter()
+        .map(f64::from)
+        .collect();
+    let mut array = super::plain_array(&full, listing.shape.clone(), listing.dtype.clone(), values);
+    array.units = units;
+    Ok(array)
 }

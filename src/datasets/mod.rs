@@ -381,17 +381,7 @@ pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) ->
         "npz" => read_npz_array(path, var, rank)?,
         "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank)?,
         "vti" | "vtk" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
-        ext if hdf5::EXTENSIONS.contains(&ext) => {
-            let (name, shape, dtype, data, units) = hdf5::read_dataset(path, var)?;
-            let mut array = plain_array(
-                &name,
-                shape,
-                dtype,
-                data.iter().map(|&v| v as f64).collect(),
-            );
-            array.units = units;
-            array
-        }
+        ext if hdf5::EXTENSIONS.contains(&ext) => hdf5::read_dataset(path, var)?,
         other => {
             return Err(Error::format(
                 path,

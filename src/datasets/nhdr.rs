@@ -454,3 +454,81 @@ mod tests {
         assert_eq!(v.data, vec![1.5, -2.0]);
     }
 }
+
+#[cfg(test)]
+mod encoding_tests {
+    use super::*;
+    use std::io::Write as _;
+
+    const HEADER: &str = "NRRD0004\ntype: short\ndimension: 3\nsizes: 3 1 1\nendian: big\n";
+
+    fn attached(dir: &Path, name: &str, encoding: &str, data: &[u8]) -> std::path::PathBuf {
+        let mut bytes = format!("{HEADER}encoding: {encoding}\n\n").into_bytes();
+        bytes.extend_from_slice(data);
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+
+    fn shorts() -> Vec<u8> {
+        [-300i16, 0, 32000]
+            .iter()
+            .flat_map(|v| v.to_be_bytes())
+            .collect()
+    }
+
+    #[test]
+    fn gzip_bzip2_and_ascii_read_like_raw() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        gz.write_all(&shorts()).unwrap();
+        let gz = gz.finish().unwrap();
+        let mut bz = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::default());
+        bz.write_all(&shorts()).unwrap();
+        let bz = bz.finish().unwrap();
+        for (name, encoding, data) in [
+            ("r.nrrd", "raw", shorts()),
+            ("g.nrrd", "gzip", gz.clone()),
+            ("z.nrrd", "gz", gz.clone()),
+            ("b.nrrd", "bzip2", bz.clone()),
+            ("a.nrrd", "ascii", b"-300\n0 32000\n".to_vec()),
+        ] {
+            let v = read_nrrd(&attached(dir.path(), name, encoding, &data)).unwrap();
+            assert_eq!(v.data, [-300.0, 0.0, 32000.0], "{encoding}");
+        }
+        // Half a gzip stream, a stream of the wrong length, ascii with a word too many.
+        let err = read_nrrd(&attached(dir.path(), "h.nrrd", "gzip", &gz[..gz.len() / 2]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with(&format!("{}", dir.path().join("h.nrrd").display()))
+                && err.contains("gzip"),
+            "{err}"
+        );
+        let mut short = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        short.write_all(&shorts()[..4]).unwrap();
+        let err = read_nrrd(&attached(
+            dir.path(),
+            "s.nrrd",
+            "gzip",
+            &short.finish().unwrap(),
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.ends_with("gzip data inflate to 4 bytes but 6 are needed"),
+            "{err}"
+        );
+        let err = read_nrrd(&attached(dir.path(), "m.nrrd", "txt", b"1 2 3 4"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("more than the 3 values"), "{err}");
+        let err = read_nrrd(&attached(dir.path(), "x.nrrd", "hex", b"00"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("encoding \"hex\" is not supported") && err.contains("unu save"),
+            "{err}"
+        );
+    }
+}

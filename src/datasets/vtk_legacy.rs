@@ -503,19 +503,22 @@ fn volume_of(
 
 /// One rectilinear axis as voxel centres: the points themselves for point data (domain from the
 /// first to the last), the midpoints between them (domain from the first to the last point) for
-/// cell data; a single point or cell spans one unit around its coordinate.
+/// cell data; a single point spans one unit around it (point data) or from it (cell data).
 struct LoadedAxis {
     axis: CoordAxis,
     /// The domain's ends as a regular volume would span them: half a step beyond the end
     /// centres for point data.
     lo: f64,
     hi: f64,
+    /// The coordinates as the file gives them.
+    points: Vec<f64>,
 }
 
 impl LoadedAxis {
-    /// The signed step when the centres are evenly spaced within `tolerance` of it.
+    /// The signed step when the file's points (the centres for point data, the cell bounds for
+    /// cell data) are evenly spaced within `tolerance` of it.
     fn uniform_step(&self, tolerance: f64) -> Option<f64> {
-        let c = &self.axis.centres;
+        let c = &self.points;
         let n = c.len();
         if n < 2 {
             return Some(self.hi - self.lo);
@@ -534,15 +537,18 @@ fn axis_of(
 ) -> std::result::Result<LoadedAxis, String> {
     let n = points.len();
     let (axis, lo, hi) = if on_points && n > 1 {
-        let axis = CoordAxis::new(points, None, field).map_err(|e| e.to_string())?;
+        let axis = CoordAxis::new(points.clone(), None, field).map_err(|e| e.to_string())?;
         let half = 0.5 * (axis.hi - axis.lo) / (n - 1) as f64;
         let (lo, hi) = (axis.lo - half, axis.hi + half);
         (axis, lo, hi)
     } else if n < 2 {
+        // One point: a unit voxel centred on it (point data), or one layer of unit cells from it
+        // (cell data, VTK's convention for a flat axis, as `.vti` reads it).
         let p = points.first().copied().unwrap_or(0.0);
-        let axis =
-            CoordAxis::new(vec![p], Some((p - 0.5, p + 0.5)), field).map_err(|e| e.to_string())?;
-        (axis, p - 0.5, p + 0.5)
+        let lo = if on_points { p - 0.5 } else { p };
+        let axis = CoordAxis::new(vec![lo + 0.5], Some((lo, lo + 1.0)), field)
+            .map_err(|e| e.to_string())?;
+        (axis, lo, lo + 1.0)
     } else {
         let mids = points.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
         let bounds = (points[0], points[n - 1]);
@@ -550,5 +556,137 @@ fn axis_of(
         let (lo, hi) = (axis.lo, axis.hi);
         (axis, lo, hi)
     };
-    Ok(LoadedAxis { axis, lo, hi })
+    Ok(LoadedAxis {
+        axis,
+        lo,
+        hi,
+        points,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &[u8], var: Option<&str>) -> Result<Volume> {
+        read_vtk_bytes(Path::new("t.vtk"), text, var)
+    }
+
+    #[test]
+    fn ascii_cell_data_sits_between_the_points() {
+        let v = read(
+            b"# vtk DataFile Version 3.0\ncells\nASCII\nDATASET STRUCTURED_POINTS\n\
+              DIMENSIONS 3 2 2\nASPECT_RATIO 0.5 2 4\nORIGIN 10 20 30\nCELL_DATA 2\n\
+              SCALARS other int 1\nLOOKUP_TABLE default\n7 8\n\
+              SCALARS rho float\nLOOKUP_TABLE default\n1.5 -2.25\n",
+            Some("rho"),
+        )
+        .unwrap();
+        assert_eq!(
+            (v.name.as_str(), v.dims, v.spacing, v.origin, v.data),
+            (
+                "rho",
+                [2, 1, 1],
+                [0.5, 2.0, 4.0],
+                [10.0, 20.0, 30.0],
+                vec![1.5, -2.25]
+            )
+        );
+    }
+
+    #[test]
+    fn binary_point_data_is_big_endian_and_centred_on_the_points() {
+        let mut file = b"# vtk DataFile Version 5.1\npoints\nBINARY\nDATASET STRUCTURED_POINTS\n\
+            DIMENSIONS 2 1 1\nSPACING 2 1 1\nORIGIN 4 0 0\nPOINT_DATA 2\nSCALARS s double\n\
+            LOOKUP_TABLE default\n"
+            .to_vec();
+        file.extend(3.0f64.to_be_bytes());
+        file.extend((-1e-30f64).to_be_bytes());
+        file.extend(b"\nMETADATA\nINFORMATION 0\n\n");
+        let v = read(&file, None).unwrap();
+        assert_eq!(
+            (v.dims, v.spacing, v.origin, v.data),
+            (
+                [2, 1, 1],
+                [2.0, 1.0, 1.0],
+                [3.0, -0.5, -0.5],
+                vec![3.0, -1e-30]
+            )
+        );
+        // Cut inside the values: the error names the file and the array.
+        let err = read(&file[..file.len() - 30], None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("t.vtk: ") && err.contains("array 's'") && !err.contains('\n'),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn rectilinear_grids_are_regular_when_even_and_keep_uneven_coordinates() {
+        let grid = |x: &str, z: &str| {
+            format!(
+                "# vtk DataFile Version 3.0\nr\nASCII\nDATASET RECTILINEAR_GRID\nDIMENSIONS 3 1 2\n\
+                 X_COORDINATES 3 double\n{x}\nY_COORDINATES 1 float\n5\nZ_COORDINATES 2 float\n{z}\n\
+                 CELL_DATA 2\nFIELD FieldData 1\nv 1 2 float\n1 2\n"
+            )
+        };
+        // Cell data on x = 0, 1, 3: centres 0.5 and 2, domain [0, 3]; z cells of 1 to 2.
+        let v = read(grid("0 1 3", "1 2").as_bytes(), None).unwrap();
+        let Geometry::Rectilinear(axes) = &v.geometry else {
+            panic!("{:?}", v.geometry)
+        };
+        assert_eq!(
+            (axes[0].centres.clone(), axes[0].lo, axes[0].hi),
+            (vec![0.5, 2.0], 0.0, 3.0)
+        );
+        assert_eq!(
+            (axes[2].centres.clone(), axes[2].lo, axes[2].hi),
+            (vec![1.5], 1.0, 2.0)
+        );
+        assert_eq!((v.name.as_str(), v.data.clone()), ("v", vec![1.0, 2.0]));
+        // Decreasing even x (3, 2, 1): a regular volume, flipped to run in increasing x.
+        let v = read(grid("3 2 1", "1 2").as_bytes(), None).unwrap();
+        assert_eq!(v.geometry, Geometry::Regular);
+        assert_eq!(
+            (v.spacing[0], v.origin[0], v.data),
+            (1.0, 1.0, vec![2.0, 1.0])
+        );
+    }
+
+    #[test]
+    fn unsupported_datasets_and_wrong_counts_are_one_line_errors() {
+        let err = read(
+            b"# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 0 float\n",
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("DATASET POLYDATA is not supported") && err.contains(".vti"),
+            "{err}"
+        );
+        let err = read(
+            b"# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\n\
+              POINT_DATA 7\nSCALARS s float\n1 2 3 4 5 6 7\n",
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            err,
+            "t.vtk: POINT_DATA 7 does not match DIMENSIONS [2, 2, 2] (8 expected)"
+        );
+        let err = read(b"hello", None).unwrap_err().to_string();
+        assert!(err.contains("not a legacy VTK file"), "{err}");
+        let err = read(
+            b"# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 1 1 1\n\
+              POINT_DATA 1\nSCALARS s float\n1\n",
+            Some("t"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(err, "t.vtk: no array 't'; the file has: s");
+    }
 }
