@@ -182,7 +182,8 @@ pub struct MantleArgs {
 
 #[derive(clap::Args, Debug)]
 pub struct InfoArgs {
-    /// A data file: .nc, .npy, .npz, .vti, .nhdr, .nrrd or an OpenEXR image (.exr)
+    /// A data file: .nc, .npy, .npz, .vti, .vtk, .nhdr, .nrrd, .h5 (FILE.h5:/group/name) or an
+    /// OpenEXR image (.exr)
     pub file: PathBuf,
     /// The variable or array to describe (default: the first data variable, or the largest
     /// array); for an .exr, one channel (default: all)

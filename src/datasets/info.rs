@@ -85,8 +85,16 @@ impl ValueStats {
 
 /// The report `hdrvis info FILE [--variable NAME]` prints. Without `var`, an `.npz` is described
 /// by its largest array and a NetCDF file by its first data variable; both list every array. An
-/// OpenEXR image is described by its channels (`var` names one) and metadata.
+/// OpenEXR image is described by its channels (`var` names one) and metadata. A `FILE:NAME`
+/// path that is not itself a file names the variable after the last colon (`volume.h5:/a/b`).
 pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
+    let shorthand = (!path.exists() && var.is_none())
+        .then(|| path.to_str()?.rsplit_once(':'))
+        .flatten()
+        .filter(|(file, name)| !name.is_empty() && Path::new(file).is_file());
+    if let Some((file, name)) = shorthand {
+        return info_report(Path::new(file), Some(name));
+    }
     if crate::io::extension(path) == "exr" {
         return exr_report(path, var);
     }
@@ -94,7 +102,9 @@ pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
     let mut out = String::new();
     let _ = writeln!(out, "file: {}", path.display());
     let ext = crate::io::extension(path);
-    if matches!(ext.as_str(), "npz" | "nc" | "nc4" | "cdf" | "netcdf") {
+    if matches!(ext.as_str(), "npz" | "nc" | "nc4" | "cdf" | "netcdf")
+        || super::hdf5::EXTENSIONS.contains(&ext.as_str())
+    {
         let listed = list_arrays(path)?;
         let _ = writeln!(out, "arrays ({}):", listed.len());
         for a in &listed {

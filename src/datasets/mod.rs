@@ -6,6 +6,7 @@ pub mod bricked;
 pub mod cache;
 pub mod cf;
 pub mod generate;
+pub(crate) mod hdf5;
 pub mod info;
 pub mod mantle;
 pub mod netcdf;
@@ -15,10 +16,14 @@ pub mod okada;
 mod scalar;
 pub mod tsunami;
 pub(crate) mod vti;
+pub(crate) mod vtk_legacy;
 
 use crate::error::{Error, Result};
 use crate::model::{CoordAxis, Geometry, Grid, GridCoords, Volume};
 use std::path::Path;
+
+/// The volume file extensions `load_volume` knows, for error messages.
+const VOLUME_EXTENSIONS: &str = ".npy, .npz, .nc, .vti, .vtk, .nhdr, .nrrd or .h5";
 
 /// Loads a scalar volume, choosing the reader by extension; see [`load_volume_with`].
 pub fn load_volume(path: &Path) -> Result<Volume> {
@@ -81,11 +86,13 @@ pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
                 .map_err(|e| Error::format(path, e.to_string()))
         }
         "nhdr" | "nrrd" => nhdr::read_nrrd(path),
+        "vtk" => vtk_legacy::read_vtk(path, var),
+        ext if hdf5::EXTENSIONS.contains(&ext) => {
+            volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None])
+        }
         other => Err(Error::format(
             path,
-            format!(
-                "unknown volume format {other:?}; expected .npy, .npz, .nc, .vti, .nhdr or .nrrd"
-            ),
+            format!("unknown volume format {other:?}; expected {VOLUME_EXTENSIONS}"),
         )),
     }
 }
@@ -367,6 +374,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
                 })
                 .collect())
         }
+        ext if hdf5::EXTENSIONS.contains(&ext) => hdf5::list_datasets(path),
         _ => {
             let array = read_array(path, None, None)?;
             Ok(vec![ArrayListing {
@@ -399,13 +407,12 @@ pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) ->
         }
         "npz" => read_npz_array(path, var, rank)?,
         "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank)?,
-        "vti" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
+        "vti" | "vtk" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
+        ext if hdf5::EXTENSIONS.contains(&ext) => hdf5::read_dataset(path, var)?,
         other => {
             return Err(Error::format(
                 path,
-                format!(
-                "unknown array format {other:?}; expected .npy, .npz, .nc, .vti, .nhdr or .nrrd"
-            ),
+                format!("unknown array format {other:?}; expected {VOLUME_EXTENSIONS}"),
             ))
         }
     };
@@ -505,14 +512,17 @@ fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Res
     })
 }
 
-/// [`read_array`] of the one volume of a `.vti` or `.nhdr`/`.nrrd` file (`ext`), as (z, y, x).
+/// [`read_array`] of the one volume of a `.vti`, `.vtk` or `.nhdr`/`.nrrd` file (`ext`), as
+/// (z, y, x).
 fn read_volume_array(path: &Path, ext: &str, var: Option<&str>) -> Result<ArrayData> {
-    let volume = if ext == "vti" {
-        let v = vti::read_vti(path)?;
-        Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
-            .map_err(|e| Error::format(path, e.to_string()))?
-    } else {
-        nhdr::read_nrrd(path)?
+    let volume = match ext {
+        "vti" => {
+            let v = vti::read_vti(path)?;
+            Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
+                .map_err(|e| Error::format(path, e.to_string()))?
+        }
+        "vtk" => vtk_legacy::read_vtk(path, var)?,
+        _ => nhdr::read_nrrd(path)?,
     };
     if let Some(wanted) = var.filter(|w| *w != volume.name) {
         return Err(Error::format(

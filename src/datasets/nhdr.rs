@@ -1,6 +1,7 @@
 //! Raw volumes described by an NRRD header: a detached `.nhdr` naming its `data file`, or an
 //! attached `.nrrd` whose data follow the blank line after the header. Fields read: `type`,
-//! `dimension` (3), `sizes` (fastest axis first: x, y, z), `endian`, `encoding` (raw), `spacings`
+//! `dimension` (3), `sizes` (fastest axis first: x, y, z), `endian`, `encoding` (raw, gzip,
+//! bzip2 or ascii, decompressed by the pure-Rust flate2 and bzip2 crates), `spacings`
 //! or a diagonal `space directions`, `space origin`, `byte skip`. Voxels are treated as cells.
 
 use super::scalar::Scalar;
@@ -28,6 +29,77 @@ fn sample_type(s: &str) -> Option<Scalar> {
 fn parse_vector(s: &str) -> Option<Vec<f64>> {
     let inner = s.trim().strip_prefix('(')?.strip_suffix(')')?;
     inner.split(',').map(|x| x.trim().parse().ok()).collect()
+}
+
+/// How the samples are stored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Encoding {
+    Raw,
+    Gzip,
+    Bzip2,
+    Ascii,
+}
+
+impl Encoding {
+    /// The `encoding` field (raw when absent).
+    fn of(fields: &Fields) -> Result<Encoding> {
+        Ok(match fields.get("encoding").unwrap_or("raw") {
+            "raw" => Encoding::Raw,
+            "gzip" | "gz" => Encoding::Gzip,
+            "bzip2" | "bz2" => Encoding::Bzip2,
+            "ascii" | "txt" | "text" => Encoding::Ascii,
+            other => {
+                return Err(Error::format(
+                    fields.path,
+                    format!(
+                        "encoding {other:?} is not supported; expected raw, gzip, bzip2 or ascii \
+                         (re-save with `unu save -e gzip` or pynrrd)"
+                    ),
+                ))
+            }
+        })
+    }
+
+    /// `need` bytes after `skip` decompressed bytes of `stored`; at most `skip + need` bytes are
+    /// inflated, so a wrong size cannot exhaust memory.
+    fn inflate(
+        self,
+        stored: &[u8],
+        skip: usize,
+        need: usize,
+    ) -> std::result::Result<Vec<u8>, String> {
+        use std::io::Read as _;
+        let want = skip.saturating_add(need);
+        let mut out = Vec::with_capacity(want);
+        let (name, result) = match self {
+            Encoding::Gzip => (
+                "gzip",
+                flate2::read::MultiGzDecoder::new(stored)
+                    .take(want as u64)
+                    .read_to_end(&mut out),
+            ),
+            _ => (
+                "bzip2",
+                bzip2::read::MultiBzDecoder::new(stored)
+                    .take(want as u64)
+                    .read_to_end(&mut out),
+            ),
+        };
+        result.map_err(|e| format!("corrupt {name} data: {e}"))?;
+        if out.len() < want {
+            return Err(format!(
+                "{name} data inflate to {} bytes but {need} are needed{}",
+                out.len(),
+                if skip > 0 {
+                    format!(" after {skip} skipped")
+                } else {
+                    String::new()
+                }
+            ));
+        }
+        out.drain(..skip);
+        Ok(out)
+    }
 }
 
 /// The header's fields (`key: value`, keys lower-case), with the file for error messages.
@@ -70,13 +142,7 @@ pub(crate) fn read_nrrd(path: &Path) -> Result<Volume> {
         )
     })?;
     let dims = parse_dims(&fields)?;
-    let encoding = fields.get("encoding").unwrap_or("raw");
-    if encoding != "raw" {
-        return Err(Error::format(
-            path,
-            format!("encoding {encoding:?} is not supported; expected raw"),
-        ));
-    }
+    let encoding = Encoding::of(&fields)?;
     let big = match fields.get("endian") {
         None | Some("little") => false,
         Some("big") => true,
@@ -87,7 +153,7 @@ pub(crate) fn read_nrrd(path: &Path) -> Result<Volume> {
             ))
         }
     };
-    if sample.size() > 1 && fields.get("endian").is_none() {
+    if sample.size() > 1 && encoding != Encoding::Ascii && fields.get("endian").is_none() {
         return Err(Error::format(
             path,
             "missing required field \"endian\" for a multi-byte type",
@@ -104,7 +170,7 @@ pub(crate) fn read_nrrd(path: &Path) -> Result<Volume> {
             origin[a] = v[a] - 0.5 * spacing[a];
         }
     }
-    let data = read_samples(&fields, &bytes, data_start, dims, sample, big)?;
+    let data = read_samples(&fields, &bytes, data_start, dims, (sample, encoding), big)?;
     let name = path
         .file_stem()
         .and_then(|s| s.to_str())
@@ -235,13 +301,14 @@ fn parse_spacing(fields: &Fields) -> Result<[f64; 3]> {
 }
 
 /// The voxels, from the `data file` the header names or from the data attached after the
-/// header (`bytes` from `data_start`), after `byte skip` bytes.
+/// header (`bytes` from `data_start`), after `byte skip` bytes (of the decompressed data for
+/// gzip and bzip2).
 fn read_samples(
     fields: &Fields,
     bytes: &[u8],
     data_start: usize,
     dims: [usize; 3],
-    sample: Scalar,
+    (sample, encoding): (Scalar, Encoding),
     big: bool,
 ) -> Result<Vec<f32>> {
     let path = fields.path;
@@ -257,36 +324,73 @@ fn read_samples(
     let count = dims[0] * dims[1] * dims[2];
     let need_bytes = count * sample.size();
     let owned;
-    let (data_path, raw): (std::path::PathBuf, &[u8]) = match fields
+    let (data_path, stored): (std::path::PathBuf, &[u8]) = match fields
         .get("data file")
         .or_else(|| fields.get("datafile"))
     {
         Some(name) => {
             let p = path.parent().unwrap_or(Path::new(".")).join(name);
             let len = std::fs::metadata(&p).map_err(|e| Error::io(&p, e))?.len() as usize;
-            if len < skip + need_bytes {
+            if encoding == Encoding::Raw && len < skip + need_bytes {
                 return Err(Error::format(&p, format!("holds {len} bytes but the header {} needs {} ({}x{}x{} {:?} + {skip} skipped)", path.display(), skip + need_bytes, dims[0], dims[1], dims[2], sample)));
             }
             owned = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
-            (p, &owned[skip..])
+            (p, &owned[..])
         }
         None => {
-            if data_start + skip > bytes.len() {
+            if data_start > bytes.len() {
                 return Err(Error::format(
                     path,
                     "no data: expected a \"data file\" field or data after a blank line",
                 ));
             }
-            (path.to_path_buf(), &bytes[data_start + skip..])
+            (path.to_path_buf(), &bytes[data_start..])
         }
     };
-    if raw.len() < need_bytes {
-        return Err(Error::format(
-            &data_path,
-            format!("holds {} data bytes but {need_bytes} are needed", raw.len()),
+    let fail = |msg: String| Error::format(&data_path, msg);
+    match encoding {
+        Encoding::Ascii => ascii_samples(stored, count, sample).map_err(fail),
+        Encoding::Raw => {
+            let raw = stored.get(skip..).unwrap_or_default();
+            if raw.len() < need_bytes {
+                return Err(fail(format!(
+                    "holds {} data bytes but {need_bytes} are needed",
+                    raw.len()
+                )));
+            }
+            Ok(sample.decode(big, &raw[..need_bytes]))
+        }
+        Encoding::Gzip | Encoding::Bzip2 => {
+            let raw = encoding.inflate(stored, skip, need_bytes).map_err(fail)?;
+            Ok(sample.decode(big, &raw))
+        }
+    }
+}
+
+/// `count` samples written as text numbers separated by white space.
+fn ascii_samples(
+    text: &[u8],
+    count: usize,
+    sample: Scalar,
+) -> std::result::Result<Vec<f32>, String> {
+    let text = std::str::from_utf8(text).map_err(|_| "ascii data is not text".to_string())?;
+    let mut words = text.split_ascii_whitespace();
+    let mut out = Vec::with_capacity(count);
+    for i in 0..count {
+        let w = words
+            .next()
+            .ok_or_else(|| format!("ascii data end after {i} of {count} values"))?;
+        let v = sample
+            .parse_text(w)
+            .ok_or_else(|| format!("ascii value {i} '{w}' is not a number"))?;
+        out.push(v);
+    }
+    if words.next().is_some() {
+        return Err(format!(
+            "ascii data hold more than the {count} values the sizes need"
         ));
     }
-    Ok(sample.decode(big, &raw[..need_bytes]))
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -348,5 +452,83 @@ mod tests {
         std::fs::write(dir.path().join("a.nrrd"), bytes).unwrap();
         let v = read_nrrd(&dir.path().join("a.nrrd")).unwrap();
         assert_eq!(v.data, vec![1.5, -2.0]);
+    }
+}
+
+#[cfg(test)]
+mod encoding_tests {
+    use super::*;
+    use std::io::Write as _;
+
+    const HEADER: &str = "NRRD0004\ntype: short\ndimension: 3\nsizes: 3 1 1\nendian: big\n";
+
+    fn attached(dir: &Path, name: &str, encoding: &str, data: &[u8]) -> std::path::PathBuf {
+        let mut bytes = format!("{HEADER}encoding: {encoding}\n\n").into_bytes();
+        bytes.extend_from_slice(data);
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+
+    fn shorts() -> Vec<u8> {
+        [-300i16, 0, 32000]
+            .iter()
+            .flat_map(|v| v.to_be_bytes())
+            .collect()
+    }
+
+    #[test]
+    fn gzip_bzip2_and_ascii_read_like_raw() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        gz.write_all(&shorts()).unwrap();
+        let gz = gz.finish().unwrap();
+        let mut bz = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::default());
+        bz.write_all(&shorts()).unwrap();
+        let bz = bz.finish().unwrap();
+        for (name, encoding, data) in [
+            ("r.nrrd", "raw", shorts()),
+            ("g.nrrd", "gzip", gz.clone()),
+            ("z.nrrd", "gz", gz.clone()),
+            ("b.nrrd", "bzip2", bz.clone()),
+            ("a.nrrd", "ascii", b"-300\n0 32000\n".to_vec()),
+        ] {
+            let v = read_nrrd(&attached(dir.path(), name, encoding, &data)).unwrap();
+            assert_eq!(v.data, [-300.0, 0.0, 32000.0], "{encoding}");
+        }
+        // Half a gzip stream, a stream of the wrong length, ascii with a word too many.
+        let err = read_nrrd(&attached(dir.path(), "h.nrrd", "gzip", &gz[..gz.len() / 2]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with(&format!("{}", dir.path().join("h.nrrd").display()))
+                && err.contains("gzip"),
+            "{err}"
+        );
+        let mut short = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        short.write_all(&shorts()[..4]).unwrap();
+        let err = read_nrrd(&attached(
+            dir.path(),
+            "s.nrrd",
+            "gzip",
+            &short.finish().unwrap(),
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.ends_with("gzip data inflate to 4 bytes but 6 are needed"),
+            "{err}"
+        );
+        let err = read_nrrd(&attached(dir.path(), "m.nrrd", "txt", b"1 2 3 4"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("more than the 3 values"), "{err}");
+        let err = read_nrrd(&attached(dir.path(), "x.nrrd", "hex", b"00"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("encoding \"hex\" is not supported") && err.contains("unu save"),
+            "{err}"
+        );
     }
 }

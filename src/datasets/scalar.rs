@@ -66,6 +66,15 @@ impl Scalar {
         }
     }
 
+    /// One sample written as text (ascii VTK and NRRD data): a float sample is parsed straight
+    /// to f32 so that it rounds once, exactly as its binary form would hold it.
+    pub(crate) fn parse_text(self, word: &str) -> Option<f32> {
+        match self {
+            Scalar::F32 | Scalar::F16 => word.parse::<f32>().ok(),
+            _ => word.parse::<f64>().ok().map(|v| v as f32),
+        }
+    }
+
     /// Every sample of `bytes` (a whole number of samples) as f32.
     pub(crate) fn decode(self, big: bool, bytes: &[u8]) -> Vec<f32> {
         let mut out = vec![0.0; bytes.len() / self.size()];

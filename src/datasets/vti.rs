@@ -3,7 +3,9 @@
 //! nz`) whose `Origin` is the volume's minimum corner: ParaView then draws each value over the
 //! box it stands for, with no half-voxel shift. Writing uses a raw appended little-endian block
 //! after a UInt64 byte count, the most compact uncompressed layout VTK defines. Reading accepts
-//! one uncompressed scalar array in ascii, inline base64 or appended (raw or base64) form; a
+//! one scalar array in ascii, inline base64 or appended (raw or base64) form, uncompressed or
+//! compressed in VTK's block layout (a header of block count, block size, last block size and
+//! each block's compressed size, then the blocks) by zlib (VTK's default), LZ4 or LZMA; a
 //! `PointData` array is read as cells centred on its points (origin moved back half a voxel).
 
 use std::path::Path;
@@ -105,8 +107,7 @@ pub(crate) fn write_vti(
 }
 
 /// Reads a `.vti` file's scalar array: the `CellData` array named by its `Scalars` attribute (or
-/// its first), else the first `PointData` array. Compressed files are refused with an error that
-/// says so.
+/// its first), else the first `PointData` array.
 pub(crate) fn read_vti(path: impl AsRef<Path>) -> Result<VtiVolume> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
@@ -175,7 +176,8 @@ fn read_vti_bytes(path: &Path, bytes: &[u8]) -> Result<VtiVolume> {
         .element_type
         .ok_or_else(|| fail(format!("array '{}' has an unknown type", array.name)))?;
 
-    let data = array_values(&doc, array, element, bytes).map_err(fail)?;
+    let data = array_values(&doc, array, element, count, bytes)
+        .map_err(|e| fail(format!("array '{}': {e}", array.name)))?;
     if data.len() != count {
         return Err(fail(format!(
             "array '{}' has {} values; the extent needs {count} ({})",
@@ -194,13 +196,18 @@ fn read_vti_bytes(path: &Path, bytes: &[u8]) -> Result<VtiVolume> {
 }
 
 /// The values of `array` as f32, decoded from its ascii or base64 text or from the file's
-/// appended block (`bytes` is the whole file).
+/// appended block (`bytes` is the whole file); a compressed array must inflate to `count`
+/// values.
 fn array_values(
     doc: &Document,
     array: &ArrayInfo,
     element: Scalar,
+    count: usize,
     bytes: &[u8],
 ) -> std::result::Result<Vec<f32>, String> {
+    let expected_bytes = count
+        .checked_mul(element.size())
+        .ok_or("the extent is too large")?;
     let raw: Vec<u8> = match array.format.as_str() {
         "ascii" => {
             let text = std::str::from_utf8(&array.text)
@@ -208,9 +215,9 @@ fn array_values(
             return text
                 .split_ascii_whitespace()
                 .map(|t| {
-                    t.parse::<f64>()
-                        .map(|v| v as f32)
-                        .map_err(|_| format!("'{t}' in ascii DataArray is not a number"))
+                    element
+                        .parse_text(t)
+                        .ok_or_else(|| format!("'{t}' in ascii DataArray is not a number"))
                 })
                 .collect();
         }
@@ -221,7 +228,10 @@ fn array_values(
                 .copied()
                 .filter(|b| !b.is_ascii_whitespace())
                 .collect();
-            decode_base64_block(&text, doc.header_size, doc.little_endian)?
+            match doc.compressor {
+                None => decode_base64_block(&text, doc.header_size, doc.little_endian)?,
+                Some(c) => decode_compressed_base64(&text, doc, c, expected_bytes)?,
+            }
         }
         "appended" => {
             let start = doc
@@ -233,16 +243,21 @@ fn array_values(
                 .checked_add(offset)
                 .filter(|&f| f <= bytes.len())
                 .ok_or_else(|| format!("appended offset {offset} is past the end of the file"))?;
-            if doc.appended_raw {
-                read_raw_block(&bytes[from..], doc.header_size, doc.little_endian)?
-            } else {
-                let text: Vec<u8> = bytes[from..]
-                    .iter()
-                    .copied()
-                    .take_while(|&b| b != b'<')
-                    .filter(|b| !b.is_ascii_whitespace())
-                    .collect();
-                decode_base64_block(&text, doc.header_size, doc.little_endian)?
+            match (doc.appended_raw, doc.compressor) {
+                (true, None) => read_raw_block(&bytes[from..], doc.header_size, doc.little_endian)?,
+                (true, Some(c)) => read_compressed_raw(&bytes[from..], doc, c, expected_bytes)?,
+                (false, compressor) => {
+                    let text: Vec<u8> = bytes[from..]
+                        .iter()
+                        .copied()
+                        .take_while(|&b| b != b'<')
+                        .filter(|b| !b.is_ascii_whitespace())
+                        .collect();
+                    match compressor {
+                        None => decode_base64_block(&text, doc.header_size, doc.little_endian)?,
+                        Some(c) => decode_compressed_base64(&text, doc, c, expected_bytes)?,
+                    }
+                }
             }
         }
         other => {
@@ -289,8 +304,77 @@ struct ArrayInfo {
     text: Vec<u8>,
 }
 
+/// A `VTKFile` `compressor`: how each block of a binary array is compressed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Compressor {
+    Zlib,
+    Lz4,
+    Lzma,
+}
+
+impl Compressor {
+    fn from_name(name: &str) -> std::result::Result<Compressor, String> {
+        Ok(match name {
+            "vtkZLibDataCompressor" => Compressor::Zlib,
+            "vtkLZ4DataCompressor" => Compressor::Lz4,
+            "vtkLZMADataCompressor" => Compressor::Lzma,
+            other => {
+                return Err(format!(
+                    "compressor '{other}' is not supported; save with vtkZLibDataCompressor, \
+                     vtkLZ4DataCompressor, vtkLZMADataCompressor or none"
+                ))
+            }
+        })
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Compressor::Zlib => "zlib",
+            Compressor::Lz4 => "LZ4",
+            Compressor::Lzma => "LZMA",
+        }
+    }
+
+    /// One block inflated; it must give exactly `size` bytes.
+    fn inflate(self, block: &[u8], size: usize) -> std::result::Result<Vec<u8>, String> {
+        use std::io::Read as _;
+        let mut out = Vec::with_capacity(size);
+        let result = match self {
+            Compressor::Zlib => flate2::read::ZlibDecoder::new(block)
+                .take(size as u64 + 1)
+                .read_to_end(&mut out)
+                .map(|_| ())
+                .map_err(|e| e.to_string()),
+            Compressor::Lz4 => lz4_flex::block::decompress_into(block, {
+                out.resize(size, 0);
+                &mut out
+            })
+            .map(|n| out.truncate(n))
+            .map_err(|e| e.to_string()),
+            Compressor::Lzma => {
+                lzma_rs::xz_decompress(&mut std::io::BufReader::new(block), &mut out)
+                    .map_err(|e| e.to_string())
+            }
+        };
+        result.map_err(|e| format!("corrupt {} block: {e}", self.name()))?;
+        if out.len() != size {
+            let got = if out.len() > size {
+                "more than".to_string()
+            } else {
+                out.len().to_string()
+            };
+            return Err(format!(
+                "{} block inflates to {got} bytes; its header says {size}",
+                self.name()
+            ));
+        }
+        Ok(out)
+    }
+}
+
 #[derive(Debug)]
 struct Document {
+    compressor: Option<Compressor>,
     little_endian: bool,
     header_size: usize,
     whole_extent: Option<[i64; 6]>,
@@ -324,6 +408,7 @@ impl Document {
 fn parse_document(bytes: &[u8]) -> std::result::Result<Document, String> {
     let mut reader = quick_xml::Reader::from_reader(bytes);
     let mut doc = Document {
+        compressor: None,
         little_endian: true,
         header_size: 4,
         whole_extent: None,
@@ -416,17 +501,15 @@ fn parse_document(bytes: &[u8]) -> std::result::Result<Document, String> {
     Ok(doc)
 }
 
-/// The `VTKFile` root's attributes: type ImageData, uncompressed, byte order, header size.
+/// The `VTKFile` root's attributes: type ImageData, compressor, byte order, header size.
 fn read_root(doc: &mut Document, tag: &BytesStart<'_>) -> std::result::Result<(), String> {
     let kind = attr(tag, "type")?.unwrap_or_default();
     if kind != "ImageData" {
         return Err(format!("VTKFile type is '{kind}', expected ImageData"));
     }
-    if let Some(c) = attr(tag, "compressor")? {
-        return Err(format!(
-            "compressed .vti ({c}) is not supported; save it uncompressed"
-        ));
-    }
+    doc.compressor = attr(tag, "compressor")?
+        .map(|c| Compressor::from_name(&c))
+        .transpose()?;
     doc.little_endian = attr(tag, "byte_order")?.as_deref() != Some("BigEndian");
     doc.header_size = match attr(tag, "header_type")?.as_deref() {
         None | Some("UInt32") => 4,
@@ -612,6 +695,147 @@ fn decode_base64_block(
         .ok_or_else(|| format!("DataArray ends before its {n} bytes"))
 }
 
+/// A compressed array's header: `[block count, block size, last block size, compressed sizes…]`.
+struct BlockHeader {
+    block_size: usize,
+    last_size: usize,
+    compressed: Vec<usize>,
+}
+
+impl BlockHeader {
+    /// The header from its `3 + block count` numbers (each `header_size` bytes in `bytes`),
+    /// checked to describe `expected_bytes` of data.
+    fn parse(
+        bytes: &[u8],
+        doc: &Document,
+        expected_bytes: usize,
+    ) -> std::result::Result<BlockHeader, String> {
+        let h = doc.header_size;
+        let numbers: Vec<u64> = bytes
+            .chunks_exact(h)
+            .map(|c| byte_count(c, doc.little_endian))
+            .collect();
+        let too_large = || "compression header numbers too large".to_string();
+        let as_usize = |v: u64| usize::try_from(v).map_err(|_| too_large());
+        let blocks = as_usize(numbers[0])?;
+        let block_size = as_usize(numbers[1])?;
+        let last = as_usize(numbers[2])?;
+        let last_size = if last == 0 { block_size } else { last };
+        let total = blocks
+            .checked_sub(1)
+            .map_or(Some(0), |full| {
+                full.checked_mul(block_size)?.checked_add(last_size)
+            })
+            .ok_or_else(too_large)?;
+        if total != expected_bytes || (blocks > 0 && (block_size == 0 || last_size > block_size)) {
+            return Err(format!(
+                "compression header describes {blocks} blocks of {block_size} bytes (last {last_size}), \
+                 {total} bytes in all; the extent needs {expected_bytes}"
+            ));
+        }
+        let compressed = numbers[3..]
+            .iter()
+            .map(|&v| as_usize(v))
+            .collect::<std::result::Result<_, _>>()?;
+        Ok(BlockHeader {
+            block_size,
+            last_size,
+            compressed,
+        })
+    }
+
+    /// The header's length in bytes once the block count (the first number) is known.
+    fn len_for(prefix: &[u8], doc: &Document) -> std::result::Result<usize, String> {
+        let blocks = usize::try_from(byte_count(&prefix[..doc.header_size], doc.little_endian))
+            .ok()
+            .and_then(|b| b.checked_add(3)?.checked_mul(doc.header_size))
+            .ok_or("compression header block count too large")?;
+        Ok(blocks)
+    }
+
+    fn compressed_total(&self) -> std::result::Result<usize, String> {
+        self.compressed
+            .iter()
+            .try_fold(0usize, |acc, &c| acc.checked_add(c))
+            .ok_or_else(|| "compressed sizes too large".to_string())
+    }
+
+    /// Every block of `data` (the blocks back to back) inflated and joined.
+    fn inflate(&self, data: &[u8], compressor: Compressor) -> std::result::Result<Vec<u8>, String> {
+        let mut out = Vec::new();
+        let mut at = 0usize;
+        let n = self.compressed.len();
+        for (b, &c) in self.compressed.iter().enumerate() {
+            let block = at
+                .checked_add(c)
+                .and_then(|end| data.get(at..end))
+                .ok_or_else(|| format!("data end inside compressed block {} of {n}", b + 1))?;
+            let size = if b + 1 == n {
+                self.last_size
+            } else {
+                self.block_size
+            };
+            let inflated = compressor
+                .inflate(block, size)
+                .map_err(|e| format!("{e} (block {} of {n})", b + 1))?;
+            out.extend_from_slice(&inflated);
+            at += c;
+        }
+        Ok(out)
+    }
+}
+
+/// A compressed array in raw appended data: the header, then the compressed blocks.
+fn read_compressed_raw(
+    block: &[u8],
+    doc: &Document,
+    compressor: Compressor,
+    expected_bytes: usize,
+) -> std::result::Result<Vec<u8>, String> {
+    let prefix = block
+        .get(..3 * doc.header_size)
+        .ok_or("appended data ends inside a compression header")?;
+    let header_len = BlockHeader::len_for(prefix, doc)?;
+    let header_bytes = block
+        .get(..header_len)
+        .ok_or("appended data ends inside a compression header")?;
+    let header = BlockHeader::parse(header_bytes, doc, expected_bytes)?;
+    header.inflate(&block[header_len..], compressor)
+}
+
+/// A compressed array in base64: the header and the blocks are encoded as two base64 streams.
+fn decode_compressed_base64(
+    text: &[u8],
+    doc: &Document,
+    compressor: Compressor,
+    expected_bytes: usize,
+) -> std::result::Result<Vec<u8>, String> {
+    let engine = base64::engine::general_purpose::STANDARD;
+    let decode = |chars: &[u8]| {
+        engine
+            .decode(chars)
+            .map_err(|e| format!("bad base64 in DataArray: {e}"))
+    };
+    // The first three numbers are 3·h bytes, a whole number of base64 groups.
+    let prefix = decode(
+        text.get(..4 * doc.header_size)
+            .ok_or("base64 DataArray ends inside its compression header")?,
+    )?;
+    let header_len = BlockHeader::len_for(&prefix, doc)?;
+    let header_chars = header_len.div_ceil(3) * 4;
+    let header_bytes = decode(
+        text.get(..header_chars)
+            .ok_or("base64 DataArray ends inside its compression header")?,
+    )?;
+    let header = BlockHeader::parse(&header_bytes[..header_len], doc, expected_bytes)?;
+    let data_chars = header.compressed_total()?.div_ceil(3) * 4;
+    let data = decode(
+        text.get(header_chars..header_chars + data_chars)
+            .ok_or("base64 DataArray ends inside its compressed blocks")?,
+    )?;
+    header.inflate(&data, compressor)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -652,11 +876,57 @@ mod tests {
     }
 
     #[test]
-    fn compressed_file_is_refused_clearly() {
-        let err = read_vti(fixture("cells_zlib.vti")).unwrap_err().to_string();
+    fn reads_the_vtk_written_zlib_fixture() {
+        assert_eq!(
+            read_vti(fixture("cells_zlib.vti")).unwrap(),
+            fixture_volume()
+        );
+    }
+
+    /// A compressed block in VTK's layout around `payload`: one block, UInt32 header.
+    fn one_block_file(dir: &Path, compressor: &str, payload: &[u8], size: u32) -> PathBuf {
+        let mut block = Vec::new();
+        for n in [1, size, size, payload.len() as u32] {
+            block.extend(n.to_le_bytes());
+        }
+        let engine = base64::engine::general_purpose::STANDARD;
+        let text = format!("{}{}", engine.encode(&block), engine.encode(payload));
+        let path = dir.join(format!("{compressor}.vti"));
+        std::fs::write(&path, format!(
+            "<VTKFile type=\"ImageData\" version=\"0.1\" byte_order=\"LittleEndian\" compressor=\"{compressor}\">\
+             <ImageData WholeExtent=\"0 2 0 1 0 1\" Origin=\"0 0 0\" Spacing=\"1 1 1\"><Piece Extent=\"0 2 0 1 0 1\">\
+             <CellData Scalars=\"s\"><DataArray type=\"Float32\" Name=\"s\" format=\"binary\">{text}</DataArray></CellData>\
+             </Piece></ImageData></VTKFile>")).unwrap();
+        path
+    }
+
+    #[test]
+    fn lz4_blocks_round_trip_and_bad_blocks_name_the_array() {
+        let dir = tempfile::tempdir().unwrap();
+        let values: Vec<u8> = [1.5f32, -2.0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let lz4 = lz4_flex::block::compress(&values);
+        let path = one_block_file(dir.path(), "vtkLZ4DataCompressor", &lz4, 8);
+        assert_eq!(read_vti(&path).unwrap().data, [1.5, -2.0]);
+        // A header that promises 12 bytes for 2 cells, and a block that is not LZ4.
+        let path = one_block_file(dir.path(), "vtkLZ4DataCompressor", &lz4, 12);
+        let err = read_vti(&path).unwrap_err().to_string();
         assert!(
-            err.contains("cells_zlib.vti")
-                && err.contains("compressed .vti (vtkZLibDataCompressor) is not supported"),
+            err.contains("array 's'") && err.contains("12 bytes in all; the extent needs 8"),
+            "{err}"
+        );
+        let path = one_block_file(dir.path(), "vtkZLibDataCompressor", &lz4, 8);
+        let err = read_vti(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("Compressor.vti: array 's': corrupt zlib block"),
+            "{err}"
+        );
+        let path = one_block_file(dir.path(), "vtkZstdCompressor", &lz4, 8);
+        let err = read_vti(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("compressor 'vtkZstdCompressor' is not supported"),
             "{err}"
         );
     }
@@ -726,6 +996,7 @@ mod tests {
             "cells_binary.vti",
             "cells_appended.vti",
             "cells_appended_base64.vti",
+            "cells_zlib.vti",
         ] {
             let bytes = std::fs::read(fixture(name)).unwrap();
             for len in 0..bytes.len() {

@@ -43,7 +43,7 @@ pub(crate) const AREAS: &[&str] = &[
 ];
 
 pub(crate) const API: &[ApiEntry] = &[
-    e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x) or .vti, relative to the script's folder; \"box.nc:T\" picks the variable T of a file with several."),
+    e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x), .vti, legacy .vtk or an HDF5 dataset, relative to the script's folder; \"box.nc:T\" picks the variable T of a file with several, \"volume.h5:/group/name\" an HDF5 dataset."),
     e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with #{variable: \"T\"}: the array or variable to read (an unknown one lists the file's); geometry: \"auto\" (CF latitude, longitude and depth/radius/height make a spherical volume) or \"cartesian\" (coordinates as box lengths); planet_radius: in the vertical axis's unit (default the file's, else 6371 km)."),
     e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy memory-mapped, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
     e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with #{variable, brick: 8|16|32|64|128}; \"box.nc:T\" also picks the variable."),

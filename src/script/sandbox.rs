@@ -89,7 +89,9 @@ impl Sandbox {
             return Ok((whole?, None));
         }
         if let Some((file, variable)) = requested.rsplit_once(':') {
-            let names_variable = !variable.is_empty() && !variable.contains(['/', '\\']);
+            // A path inside an HDF5 file starts with '/' (`volume.h5:/group/name`).
+            let names_variable = !variable.is_empty()
+                && (variable.starts_with('/') || !variable.contains(['/', '\\']));
             if names_variable && !file.is_empty() {
                 if let Some(p) = self.read_path(file).ok().filter(|p| p.is_file()) {
                     return Ok((p, Some(variable.to_string())));

@@ -1,9 +1,13 @@
 //! Generated datasets through the binary, checked by independent clients: `hdrvis gen okada`
 //! read back by netCDF4-python and xarray against the library's own Okada values, `hdrvis info`
-//! and a NetCDF volume rendered through `load_volume`.
+//! and a NetCDF volume rendered through `load_volume`. The files users have: one volume written by
+//! VTK, pynrrd and h5py in every layout hdrvis reads loads and renders exactly like its `.npy`.
 
 use crate::cli::{hdrvis, python_check};
 use hdrvis::datasets::okada::{surface_field, Elastic, FaultSegment};
+use hdrvis::datasets::{load_volume, load_volume_var};
+use hdrvis::model::{Geometry, Volume};
+use std::path::Path;
 
 #[test]
 fn okada_netcdf_reads_in_netcdf4_and_xarray() {
@@ -140,4 +144,226 @@ fn tsunami_on_real_bathymetry() {
         .map(|(e, _)| *e);
     assert!(sea.len() > 1000 && sea.iter().filter(|e| **e > 0.0).count() > sea.len() / 2);
     assert!(land.into_iter().all(|e| e.is_nan()));
+}
+
+/// What tests/python/write_formats.py writes: spacing and minimum corner of every file with
+/// geometry.
+const FORMAT_SPACING: [f64; 3] = [0.5, 0.25, 2.0];
+const FORMAT_CORNER: [f64; 3] = [-1.0, 2.0, 0.5];
+
+/// Every reference file of tests/python/write_formats.py in a fresh folder; `None` when the
+/// Python modules are missing (and HDRVIS_REQUIRE_PYTHON is not set).
+fn reference_files() -> Option<tempfile::TempDir> {
+    let dir = tempfile::tempdir().unwrap();
+    let report = python_check("write_formats.py", &[dir.path().to_str().unwrap()])?;
+    assert!(report.starts_with("exit 0"), "{report}");
+    Some(dir)
+}
+
+fn bits(data: &[f32]) -> Vec<u32> {
+    data.iter().map(|v| v.to_bits()).collect()
+}
+
+/// `v` holds exactly the values and dims of `expect` (the `.npy`), with `spacing` and `origin`.
+fn assert_same_volume(
+    file: &str,
+    v: &Volume,
+    expect: &Volume,
+    spacing: [f64; 3],
+    origin: [f64; 3],
+) {
+    assert_eq!(v.dims, expect.dims, "{file} dims");
+    assert_eq!(bits(&v.data), bits(&expect.data), "{file} values");
+    assert_eq!(
+        (v.spacing, v.origin),
+        (spacing, origin),
+        "{file} spacing and origin"
+    );
+}
+
+#[test]
+fn every_reference_format_loads_exactly_like_the_npy() {
+    let Some(dir) = reference_files() else { return };
+    let d = dir.path();
+    let expect = load_volume(&d.join("expect.npy")).unwrap();
+    assert_eq!(expect.dims, [5, 4, 3]);
+    let with_geometry = [
+        "vti_zlib.vti",
+        "vti_zlib_binary.vti",
+        "vti_zlib_raw.vti",
+        "vti_zlib_uint32.vti",
+        "vti_zlib_blocks.vti",
+        "vti_lz4.vti",
+        "vti_lzma.vti",
+        "vti_ascii.vti",
+        "vti_raw.vti",
+        "vti_points.vti",
+        "vtk_points_binary.vtk",
+        "vtk_points_ascii.vtk",
+        "vtk_cells_binary.vtk",
+        "vtk_cells_ascii.vtk",
+        "rect_uniform_binary.vtk",
+        "rect_uniform_ascii.vtk",
+        "nrrd_raw.nrrd",
+        "nrrd_raw.nhdr",
+        "nrrd_gzip.nrrd",
+        "nrrd_gzip.nhdr",
+        "nrrd_bzip2.nrrd",
+        "nrrd_bzip2.nhdr",
+        "nrrd_ascii.nrrd",
+        "nrrd_ascii.nhdr",
+    ];
+    for file in with_geometry {
+        let v = load_volume(&d.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(v.geometry, Geometry::Regular, "{file}");
+        assert_same_volume(file, &v, &expect, FORMAT_SPACING, FORMAT_CORNER);
+    }
+    // HDF5 datasets carry no geometry, like a .npy; f32 chunked + gzip + shuffle, f64 contiguous.
+    for name in ["/fields/density", "fields/density_f64"] {
+        let v = load_volume_var(&d.join("volume.h5"), Some(name)).unwrap();
+        assert_same_volume(name, &v, &expect, [1.0; 3], [0.0; 3]);
+    }
+    let density = load_volume_var(&d.join("volume.h5"), Some("/fields/density")).unwrap();
+    assert_eq!(density.units, "kg m-3");
+    let counts = load_volume_var(&d.join("volume.h5"), Some("/counts")).unwrap();
+    let expect_counts = load_volume(&d.join("counts.npy")).unwrap();
+    assert_eq!(bits(&counts.data), bits(&expect_counts.data));
+    // Non-uniform z centres 1, 2, 4 make a rectilinear volume; x and y keep their centres.
+    let v = load_volume(&d.join("rect_stretched_binary.vtk")).unwrap();
+    assert_eq!(bits(&v.data), bits(&expect.data));
+    let Geometry::Rectilinear(axes) = &v.geometry else {
+        panic!("rect_stretched_binary.vtk: {:?}", v.geometry)
+    };
+    assert_eq!(axes[2].centres, [1.0, 2.0, 4.0]);
+    assert_eq!(axes[0].centres, [-0.75, -0.25, 0.25, 0.75, 1.25]);
+    assert_eq!((axes[2].lo, axes[2].hi), (1.0, 4.0));
+}
+
+#[test]
+fn a_zlib_vti_renders_bit_identically_to_the_npy() {
+    use crate::common::render;
+    use hdrvis::gpu::BackendChoice;
+    use hdrvis::model::{Camera, TransferFunction};
+    use hdrvis::render::VolumeRenderOptions;
+    let Some(dir) = reference_files() else { return };
+    let vti = load_volume(&dir.path().join("vti_zlib.vti")).unwrap();
+    let mut npy = load_volume(&dir.path().join("expect.npy")).unwrap();
+    (npy.spacing, npy.origin) = (FORMAT_SPACING, FORMAT_CORNER);
+    let cam = Camera::orbit(&vti.bounds(), 30.0, 20.0, 40.0).unwrap();
+    let mut opts = VolumeRenderOptions::new(
+        cam,
+        TransferFunction::emission_absorption(1e-3, 1e-4).unwrap(),
+    );
+    (opts.width, opts.height, opts.step) = (24, 20, 0.5);
+    let a = render(BackendChoice::Vulkan, &vti, &opts);
+    let b = render(BackendChoice::Vulkan, &npy, &opts);
+    let px = |img: &hdrvis::model::HdrImage| {
+        img.pixels
+            .iter()
+            .flat_map(|p| p.map(f32::to_bits))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(px(&a), px(&b));
+    assert!(a.pixels.iter().any(|p| p[3] > 0.0));
+}
+
+/// Writes `bytes` to `dir/name` and returns `hdrvis info name`'s exit code and stderr.
+fn info_of(dir: &Path, name: &str, bytes: &[u8]) -> (i32, String) {
+    std::fs::write(dir.join(name), bytes).unwrap();
+    let (code, _, stderr) = hdrvis(&["info", name], dir);
+    (code, stderr)
+}
+
+#[test]
+fn corrupt_compressed_blocks_and_wrong_counts_are_one_line_errors() {
+    let Some(dir) = reference_files() else { return };
+    let d = dir.path();
+    let read = |name: &str| std::fs::read(d.join(name)).unwrap();
+    // A zlib block cut short: the raw appended block loses its last 8 bytes (the closing tags
+    // follow, so the stream is corrupt rather than short).
+    let raw = read("vti_zlib_raw.vti");
+    let appended = raw.windows(13).position(|w| w == b"<AppendedData").unwrap();
+    let underscore = appended + raw[appended..].iter().position(|&b| b == b'_').unwrap();
+    let end = raw
+        .windows(16)
+        .position(|w| w == b"\n  </AppendedDat")
+        .unwrap();
+    let mut cut = raw[..end - 8].to_vec();
+    cut.extend_from_slice(&raw[end..]);
+    let mut flipped = raw.clone();
+    // Bytes inside the deflate stream changed: the header (UInt64: 4 numbers) is 32 bytes.
+    for b in &mut flipped[underscore + 1 + 32 + 4..underscore + 1 + 32 + 12] {
+        *b ^= 0x5a;
+    }
+    let mut gz = read("nrrd_gzip.raw.gz");
+    gz.truncate(gz.len() / 2);
+    let nhdr = read("nrrd_gzip.nhdr");
+    let sp = read("vtk_points_binary.vtk");
+    let wrong_count = String::from_utf8_lossy(&sp).replacen("POINT_DATA 60", "POINT_DATA 61", 1);
+    let mut short_legacy = sp.clone();
+    short_legacy.truncate(sp.len() - 40);
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("cut.vti", cut, "array 'density'"),
+        ("flipped.vti", flipped, "array 'density'"),
+        ("count.vtk", wrong_count.into_bytes(), "POINT_DATA 61"),
+        ("short.vtk", short_legacy, "density"),
+    ];
+    for (name, bytes, needle) in cases {
+        let (code, stderr) = info_of(d, name, &bytes);
+        assert_ne!(code, 0, "{name}");
+        assert!(
+            stderr.contains(name) && stderr.contains(needle),
+            "{name}: {stderr}"
+        );
+        assert_eq!(stderr.trim().lines().count(), 1, "{name}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    // A truncated gzip data file named by a detached header.
+    std::fs::write(d.join("half.raw.gz"), &gz).unwrap();
+    let header = String::from_utf8_lossy(&nhdr).replace("nrrd_gzip.raw.gz", "half.raw.gz");
+    let (code, stderr) = info_of(d, "half.nhdr", header.as_bytes());
+    assert_ne!(code, 0);
+    assert!(
+        stderr.contains("half.raw.gz") && stderr.contains("gzip"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    // The same through a script's load_volume: non-zero exit, the file named, nothing written.
+    std::fs::write(d.join("s.rhai"), "let v = load_volume(\"cut.vti\");\nsave_exr(render_volume(v, #{ tf: tf_emission_absorption(1, 1) }), \"x.exr\");").unwrap();
+    let (code, _, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], d);
+    assert_ne!(code, 0);
+    assert!(
+        stderr.contains("cut.vti") && stderr.contains("density"),
+        "{stderr}"
+    );
+    assert!(!d.join("o/x.exr").exists());
+}
+
+#[test]
+fn hdf5_without_a_dataset_path_lists_the_3d_datasets() {
+    let Some(dir) = reference_files() else { return };
+    let d = dir.path();
+    let (code, _, stderr) = hdrvis(&["info", "volume.h5"], d);
+    assert_ne!(code, 0);
+    assert!(
+        stderr.contains("/fields/density [3, 4, 5] float32")
+            && stderr.contains("/counts [3, 4, 5] int16")
+            && !stderr.contains("/map"),
+        "{stderr}"
+    );
+    let (code, stdout, stderr) = hdrvis(&["info", "volume.h5:/fields/density"], d);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("kg m-3") && stdout.contains("/map"),
+        "{stdout}"
+    );
+    // Scripts name the dataset the same way.
+    std::fs::write(
+        d.join("h.rhai"),
+        "let v = load_volume(\"volume.h5:/fields/density\"); print(v.dims);",
+    )
+    .unwrap();
+    let (code, stdout, stderr) = hdrvis(&["run", "h.rhai", "--out", "o"], d);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("[5, 4, 3]"), "{stdout}");
 }

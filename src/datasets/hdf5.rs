@@ -1,0 +1,183 @@
+//! Plain HDF5 datasets (`.h5`, `.hdf5`, `.he5`), read by `hdf5-reader`, the pure-Rust reader
+//! that `netcdf-reader` uses for NetCDF-4: any layout (contiguous, compact, chunked with deflate,
+//! shuffle, Fletcher-32 or LZ4), integers and floats of either byte order. A dataset is named by
+//! its path inside the file (`file.h5:/group/name`); a 3-D one of shape (nz, ny, nx) loads like a
+//! `.npy` (spacing 1, origin 0), with units from a `units` attribute.
+
+use std::path::Path;
+
+use hdf5_reader::{ByteOrder, Datatype, Hdf5File};
+
+use super::scalar::Scalar;
+use super::{ArrayData, ArrayListing};
+use crate::error::{Error, Result};
+
+/// The extensions read as HDF5.
+pub(crate) const EXTENSIONS: [&str; 3] = ["h5", "hdf5", "he5"];
+
+fn open(path: &Path) -> Result<Hdf5File> {
+    Hdf5File::open(path).map_err(|e| Error::format(path, format!("not a readable HDF5 file: {e}")))
+}
+
+/// The stored sample type and byte order (`true`: big-endian) of a numeric datatype.
+fn sample_type(dtype: &Datatype) -> Option<(Scalar, bool)> {
+    let (scalar, order) = match *dtype {
+        Datatype::FloatingPoint { size, byte_order } => (
+            match size {
+                2 => Scalar::F16,
+                4 => Scalar::F32,
+                8 => Scalar::F64,
+                _ => return None,
+            },
+            byte_order,
+        ),
+        Datatype::FixedPoint {
+            size,
+            signed,
+            byte_order,
+        } => (
+            match (size, signed) {
+                (1, true) => Scalar::I8,
+                (1, false) => Scalar::U8,
+                (2, true) => Scalar::I16,
+                (2, false) => Scalar::U16,
+                (4, true) => Scalar::I32,
+                (4, false) => Scalar::U32,
+                (8, true) => Scalar::I64,
+                (8, false) => Scalar::U64,
+                _ => return None,
+            },
+            byte_order,
+        ),
+        _ => return None,
+    };
+    Some((scalar, order == ByteOrder::BigEndian))
+}
+
+/// A short name of a datatype for listings: `float32`, `int16`, … or `other`.
+fn type_name(dtype: &Datatype) -> String {
+    let name = match sample_type(dtype) {
+        Some((s, _)) => match s {
+            Scalar::F16 => "float16",
+            Scalar::F32 => "float32",
+            Scalar::F64 => "float64",
+            Scalar::I8 => "int8",
+            Scalar::I16 => "int16",
+            Scalar::I32 => "int32",
+            Scalar::I64 => "int64",
+            Scalar::U8 => "uint8",
+            Scalar::U16 => "uint16",
+            Scalar::U32 => "uint32",
+            Scalar::U64 => "uint64",
+        },
+        None => "other",
+    };
+    name.to_string()
+}
+
+/// Every dataset in the file, by full path (`/group/name`), in listing order.
+pub(crate) fn list_datasets(path: &Path) -> Result<Vec<ArrayListing>> {
+    let file = open(path)?;
+    let root = file
+        .root_group()
+        .map_err(|e| Error::format(path, e.to_string()))?;
+    let mut listed = Vec::new();
+    let mut pending = vec![(String::new(), root)];
+    while let Some((prefix, group)) = pending.pop() {
+        let (groups, datasets) = group
+            .members()
+            .map_err(|e| Error::format(path, format!("group '{prefix}/': {e}")))?;
+        for d in datasets {
+            listed.push(ArrayListing {
+                name: format!("{prefix}/{}", d.name()),
+                shape: d.shape().iter().map(|&n| n as usize).collect(),
+                dtype: type_name(d.dtype()),
+                is_coordinate: false,
+            });
+        }
+        // Reversed so that the stack visits groups in listing order.
+        for g in groups.into_iter().rev() {
+            pending.push((format!("{prefix}/{}", g.name()), g));
+        }
+    }
+    Ok(listed)
+}
+
+/// The numeric dataset `name` (a path inside the file, with or without the leading '/'): its
+/// shape, values (C order, as f32 volumes hold them) and `units` attribute. Without `name`, an
+/// error lists the 3-D numeric datasets.
+pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData> {
+    let listed = list_datasets(path)?;
+    let describe = |rank: Option<usize>| {
+        let names: Vec<String> = listed
+            .iter()
+            .filter(|a| rank.is_none_or(|r| a.shape.len() == r) && a.dtype != "other")
+            .map(|a| format!("{} {:?} {}", a.name, a.shape, a.dtype))
+            .collect();
+        if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        }
+    };
+    let Some(name) = name else {
+        return Err(Error::format(
+            path,
+            format!(
+                "name the dataset to read as FILE:/group/name (or variable); the 3-D datasets are: {}",
+                describe(Some(3))
+            ),
+        ));
+    };
+    let full = format!("/{}", name.trim_start_matches('/'));
+    let Some(listing) = listed.iter().find(|a| a.name == full) else {
+        return Err(Error::format(
+            path,
+            format!(
+                "no dataset '{full}'; the numeric datasets are: {}",
+                describe(None)
+            ),
+        ));
+    };
+    let fail = |msg: String| Error::format(path, format!("dataset '{full}': {msg}"));
+    let file = open(path)?;
+    let dataset = file.dataset(&full).map_err(|e| fail(e.to_string()))?;
+    let (sample, big) = sample_type(dataset.dtype()).ok_or_else(|| {
+        fail(format!(
+            "type {:?} is not an integer or float type",
+            dataset.dtype()
+        ))
+    })?;
+    let count = listing
+        .shape
+        .iter()
+        .try_fold(1usize, |acc, &n| acc.checked_mul(n))
+        .ok_or_else(|| fail(format!("shape {:?} is too large", listing.shape)))?;
+    crate::model::volume::check_allocation(
+        (count as u64).saturating_mul(4 + sample.size() as u64),
+        &format!("{}: dataset '{full}'", path.display()),
+    )?;
+    let raw = dataset.read_raw_bytes().map_err(|e| fail(e.to_string()))?;
+    if raw.len() != count * sample.size() {
+        return Err(fail(format!(
+            "read {} bytes; shape {:?} needs {}",
+            raw.len(),
+            listing.shape,
+            count * sample.size()
+        )));
+    }
+    let units = dataset
+        .attribute("units")
+        .ok()
+        .and_then(|a| a.read_string().ok())
+        .map(|u| u.trim_end_matches('\0').to_string())
+        .filter(|u| !u.is_empty());
+    let values = sample
+        .decode(big, &raw)
+        .into_iter()
+        .map(f64::from)
+        .collect();
+    let mut array = super::plain_array(&full, listing.shape.clone(), listing.dtype.clone(), values);
+    array.units = units;
+    Ok(array)
+}
