@@ -1,6 +1,7 @@
 // Interference surfaces, step 1 (the data pass): one invocation per pixel finds the grid point
 // it shows — in map view directly (pixel centres on grid nodes at the default size), in the
-// perspective view by marching the camera ray over the relief and refining the hit by bisection —
+// perspective view by marching the camera ray over the relief and refining the hit by bisection,
+// in the globe view where the ray meets the unit sphere (latitude and longitude to nodes) —
 // and writes up to four properties there into float targets in one pass: the f32 part `hi` of
 // (d − d_ref) and the f32 remainder `rest`, so the fringe pass can keep f64 precision through the
 // phase. Missing nodes never leak into neighbours: interpolation weights only valid corners, and a
@@ -20,14 +21,17 @@ struct Params {
     light: vec4<f32>,
     // box size in world units (relief box), w unused
     box_size: vec4<f32>,
+    // globe view: first longitude, longitude spacing, first latitude, latitude spacing (degrees)
+    globe: vec4<f32>,
     // x: nx, y: ny, z: width, w: height
     dims: vec4<u32>,
-    // x: number of properties written
+    // x: number of properties written; y: 1 when the longitudes close the circle (globe view)
     counts: vec4<u32>,
 }
 
-// 1: map view (top-down orthographic, pixel centres spread evenly over the nodes); 0: perspective.
-override MAP_VIEW: u32 = 1u;
+// 1: map view (top-down orthographic, pixel centres spread evenly over the nodes); 0: perspective
+// over the relief; 2: globe (the grid draped on the unit sphere).
+override VIEW: u32 = 1u;
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Storage buffers rather than textures: plain loads and stores are several times faster on
@@ -55,11 +59,16 @@ struct Sample {
 // Bilinear sample of the properties at continuous node coordinates (u along x, v along y),
 // weighting valid corners only; `mask` has bit p set when property p's nearest node is valid.
 fn sample_props(u: f32, v: f32) -> Sample {
-    let nmax = vec2<f32>(f32(params.dims.x - 1u), f32(params.dims.y - 1u));
-    let uv = clamp(vec2<f32>(u, v), vec2<f32>(0.0), nmax);
+    // With closed longitudes u runs up to nx (the wrap back to the first node).
+    let umax = select(f32(params.dims.x - 1u), f32(params.dims.x), params.counts.y == 1u);
+    let uv = clamp(vec2<f32>(u, v), vec2<f32>(0.0), vec2<f32>(umax, f32(params.dims.y - 1u)));
     let base = min(vec2<u32>(floor(uv)), params.dims.xy - vec2<u32>(1u));
-    let f = uv - vec2<f32>(base);
-    let next = min(base + vec2<u32>(1u), params.dims.xy - vec2<u32>(1u));
+    let f = min(uv - vec2<f32>(base), vec2<f32>(1.0));
+    var next = min(base + vec2<u32>(1u), params.dims.xy - vec2<u32>(1u));
+    if (params.counts.y == 1u && base.x + 1u == params.dims.x) {
+        // Longitudes that close the circle: the last node's neighbour is the first.
+        next.x = 0u;
+    }
     if (all(f == vec2<f32>(0.0))) {
         // On a node (map view at the default size): the node's values, untouched.
         let k = node(base);
@@ -111,6 +120,50 @@ fn height_at(u: f32, v: f32) -> f32 {
     return (h - params.cell.w) * params.cell.z;
 }
 
+// Where the ray first meets the unit sphere in front of the eye (x: distance, y: 1 on a hit), the
+// near root taken without cancellation as in geometry::sphere_hit.
+fn globe_hit(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    let a = dot(d, d);
+    let b = dot(o, d);
+    let c = dot(o, o) - 1.0;
+    let disc = b * b - a * c;
+    if (disc <= 0.0) {
+        return vec2<f32>(0.0);
+    }
+    let q = -(b + select(-1.0, 1.0, b >= 0.0) * sqrt(disc));
+    let t = min(q / a, c / q);
+    return vec2<f32>(t, select(0.0, 1.0, t >= 0.0));
+}
+
+// Fractional node coordinates of a sphere point (GlobeFrame::node_coords); z < 0 when the point
+// lies outside the grid's cells.
+fn globe_nodes(p: vec3<f32>) -> vec3<f32> {
+    let deg = 57.29577951308232;
+    let lat = atan2(p.z, length(p.xy)) * deg;
+    let lon = atan2(p.y, p.x) * deg;
+    let g = params.globe;
+    let n = vec2<f32>(params.dims.xy);
+    let v = (lat - g.z) / g.w;
+    if (v < -0.5 || v > n.y - 0.5) {
+        return vec3<f32>(0.0, 0.0, -1.0);
+    }
+    let rel = (lon - g.x) / g.y;
+    var u: f32;
+    if (params.counts.y == 1u) {
+        u = rel - n.x * floor(rel / n.x);
+        u = select(u, 0.0, u >= n.x);
+    } else {
+        let turn = 360.0 / g.y;
+        let r = rel + 0.5;
+        u = r - turn * floor(r / turn) - 0.5;
+        if (u > n.x - 0.5) {
+            return vec3<f32>(0.0, 0.0, -1.0);
+        }
+        u = clamp(u, 0.0, n.x - 1.0);
+    }
+    return vec3<f32>(u, clamp(v, 0.0, n.y - 1.0), 1.0);
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = params.dims.z;
@@ -123,13 +176,30 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var v: f32;
     var shade = 1.0;
     var hit = true;
-    if (MAP_VIEW == 1u) {
+    if (VIEW == 1u) {
         // Pixel centres spread evenly over the node range; at the default size (one pixel per
         // node) u and v are exact integers. Row 0 is the northern (largest y) row.
         let scale = vec2<f32>(f32(params.dims.x), f32(params.dims.y)) / vec2<f32>(f32(w), f32(h));
         u = (f32(gid.x) + 0.5) * scale.x - 0.5;
         let row = (f32(gid.y) + 0.5) * scale.y - 0.5;
         v = f32(params.dims.y - 1u) - row;
+    } else if (VIEW == 2u) {
+        let ray = camera_ray(gid.x, gid.y, w, h, params.eye.xyz, params.forward.xyz,
+                             params.right.xyz, params.up.xyz, params.proj);
+        let sphere = globe_hit(ray.origin, ray.dir);
+        hit = false;
+        if (sphere.y > 0.5) {
+            let p = ray.origin + sphere.x * ray.dir;
+            let nodes = globe_nodes(p);
+            if (nodes.z > 0.0) {
+                u = nodes.x;
+                v = nodes.y;
+                hit = true;
+                // Headlight (GlobeFrame::shade): the normal of the unit sphere is p.
+                let amb = params.light.w;
+                shade = amb + (1.0 - amb) * max(-dot(p, ray.dir), 0.0);
+            }
+        }
     } else {
         let ray = camera_ray(gid.x, gid.y, w, h, params.eye.xyz, params.forward.xyz,
                              params.right.xyz, params.up.xyz, params.proj);

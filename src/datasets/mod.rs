@@ -19,7 +19,7 @@ pub(crate) mod vti;
 pub(crate) mod vtk_legacy;
 
 use crate::error::{Error, Result};
-use crate::model::{CoordAxis, Geometry, Grid, GridCoords, Volume};
+use crate::model::{CoordAxis, CoordKind, Geometry, Grid, GridCoords, Volume};
 use std::path::Path;
 
 /// The volume file extensions `load_volume` knows, for error messages.
@@ -140,6 +140,8 @@ pub struct GridAxis {
     pub name: String,
     pub units: Option<String>,
     pub values: Vec<f64>,
+    /// Longitude or latitude as CF marks it (NetCDF), else plain.
+    pub kind: CoordKind,
 }
 
 /// A 2-D field with its metadata, as [`read_grid`] reads it.
@@ -174,6 +176,7 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
                             name: name.to_string(),
                             units: None,
                             values: axis.data,
+                            kind: CoordKind::Plain,
                         }));
                     }
                 }
@@ -187,10 +190,21 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
         "nc" | "nc4" | "cdf" | "netcdf" => {
             let axis = |dim: &str| -> Result<Option<GridAxis>> {
                 Ok(match netcdf::read_coordinate(path, dim)? {
-                    Some(values) => Some(GridAxis {
-                        name: dim.to_string(),
-                        units: netcdf::read_variable(path, dim)?.units,
-                        values,
+                    Some(values) => Some({
+                        let var = netcdf::read_variable(path, dim)?;
+                        // Only longitude and latitude matter to a grid; a vertical axis's unit
+                        // check is the volume reader's concern, so its error is not raised here.
+                        let kind = match cf::axis_role(path, &var) {
+                            Ok(cf::AxisRole::Longitude) => CoordKind::Longitude,
+                            Ok(cf::AxisRole::Latitude) => CoordKind::Latitude,
+                            _ => CoordKind::Plain,
+                        };
+                        GridAxis {
+                            name: dim.to_string(),
+                            units: var.units,
+                            values,
+                            kind,
+                        }
                     }),
                     None => None,
                 })
@@ -241,7 +255,8 @@ pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
         .to_string();
     let units: Vec<(String, String)> = props.iter().map(|p| (p.0.clone(), p.2.clone())).collect();
     let props = props.into_iter().map(|(n, v, _)| (n, v)).collect();
-    let mut grid = Grid::with_coords(&name, x, y, props, elevation)?;
+    let mut grid = Grid::with_coords(&name, x, y, props, elevation)
+        .map_err(|e| Error::format(path, format!("{} (variable {:?})", e, file.name)))?;
     for (property, units) in &units {
         grid.set_units(property, units)?;
     }
@@ -255,6 +270,7 @@ fn grid_coords(axis: Option<GridAxis>, name: &str, n: usize) -> GridCoords {
             name: a.name,
             units: a.units.unwrap_or_default(),
             values: a.values,
+            kind: a.kind,
         },
         None => GridCoords::index(name, n),
     }

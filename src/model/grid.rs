@@ -2,7 +2,10 @@
 //! their units, one or more named properties of the same shape and an optional elevation for
 //! relief. Coordinates are stored increasing (rows and columns of a file stored north-to-south or
 //! east-to-west are flipped on construction), so image rows map to grid rows the same way for every
-//! source. NaN marks a missing value. Each grid gets a unique identity on construction, which the
+//! source. NaN marks a missing value. An axis knows whether it is a longitude or a latitude
+//! ([`CoordKind`], from the file's CF attributes); a grid with longitude along x and latitude along
+//! y is geographic, and its map keeps the equirectangular aspect of [`Grid::map_aspect`]. Each
+//! grid gets a unique identity on construction, which the
 //! surface renderer uses to key its cached data passes; the fields are private so that identity
 //! cannot go stale.
 
@@ -11,12 +14,22 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
-/// One grid axis: node coordinates (increasing), the axis name and its units.
-#[derive(Clone, Debug, PartialEq)]
+/// What a grid axis measures: plain coordinates, or degrees of longitude or latitude.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CoordKind {
+    #[default]
+    Plain,
+    Longitude,
+    Latitude,
+}
+
+/// One grid axis: node coordinates (increasing), the axis name, its units and what it measures.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct GridCoords {
     pub name: String,
     pub units: String,
     pub values: Vec<f64>,
+    pub kind: CoordKind,
 }
 
 impl GridCoords {
@@ -26,6 +39,7 @@ impl GridCoords {
             name: name.to_string(),
             units: "node".to_string(),
             values: (0..n).map(|i| i as f64).collect(),
+            kind: CoordKind::Plain,
         }
     }
 
@@ -85,6 +99,17 @@ fn check_axis(axis: &GridCoords, n: usize, which: &str) -> Result<()> {
             which,
             format!("{} coordinates must be strictly monotonic", axis.name),
         ));
+    }
+    if axis.kind == CoordKind::Latitude {
+        if let Some(bad) = axis.values.iter().find(|v| v.abs() > 90.0) {
+            return Err(Error::invalid(
+                which,
+                format!(
+                    "latitude {} is {bad} degrees; expected values in [-90, 90]",
+                    axis.name
+                ),
+            ));
+        }
     }
     Ok(())
 }
@@ -213,6 +238,29 @@ impl Grid {
         }
     }
 
+    /// A geographic grid: longitudes `lon` (degrees east) along x, latitudes `lat` (degrees
+    /// north, within ±90) along y, properties `lat.len() * lon.len()` values row-major.
+    pub fn from_lon_lat(
+        name: &str,
+        lon: Vec<f64>,
+        lat: Vec<f64>,
+        properties: Vec<(String, Vec<f64>)>,
+    ) -> Result<Grid> {
+        let axis = |name: &str, units: &str, values, kind| GridCoords {
+            name: name.to_string(),
+            units: units.to_string(),
+            values,
+            kind,
+        };
+        Grid::with_coords(
+            name,
+            axis("lon", "degrees_east", lon, CoordKind::Longitude),
+            axis("lat", "degrees_north", lat, CoordKind::Latitude),
+            properties,
+            None,
+        )
+    }
+
     /// A grid from one generated or computed field, for tests and generators.
     pub fn from_fn(
         name: &str,
@@ -253,6 +301,33 @@ impl Grid {
     pub fn y(&self) -> &GridCoords {
         &self.y
     }
+    /// Whether x is a longitude and y a latitude (from the file's CF attributes).
+    pub fn is_geographic(&self) -> bool {
+        self.x.kind == CoordKind::Longitude && self.y.kind == CoordKind::Latitude
+    }
+
+    /// Width over height of the map of a geographic grid: equirectangular with the scale of the
+    /// map's central latitude, so one degree of longitude is cos(lat_c) times one degree of
+    /// latitude: (lon extent · cos lat_c) / lat extent, the extents reaching half a node spacing
+    /// beyond the first and last nodes (the map's edges; pixel centres sit on nodes). `None` for
+    /// other grids, whose map has one pixel per node.
+    pub fn map_aspect(&self) -> Option<f64> {
+        if !self.is_geographic() {
+            return None;
+        }
+        let extent = |c: &GridCoords| {
+            let step = c.spacing();
+            let (first, last) = (c.values[0], c.values[c.values.len() - 1]);
+            (first - step / 2.0, last + step / 2.0)
+        };
+        let (lon_lo, lon_hi) = extent(&self.x);
+        let (lat_lo, lat_hi) = extent(&self.y);
+        // A single node has no spacing: one degree stands in for it.
+        let span = |lo: f64, hi: f64| if hi > lo { hi - lo } else { 1.0 };
+        let lat_c = (0.5 * (lat_lo + lat_hi)).clamp(-90.0, 90.0).to_radians();
+        Some(span(lon_lo, lon_hi) * lat_c.cos().max(1e-6) / span(lat_lo, lat_hi))
+    }
+
     pub fn elevation(&self) -> Option<&[f64]> {
         self.elevation.as_deref()
     }
@@ -356,11 +431,13 @@ mod tests {
             name: "lon".into(),
             units: "deg".into(),
             values: vec![2.0, 1.0],
+            kind: CoordKind::Longitude,
         };
         let y = GridCoords {
             name: "lat".into(),
             units: "deg".into(),
             values: vec![5.0, 4.0],
+            kind: CoordKind::Latitude,
         };
         let g = Grid::with_coords(
             "g",
@@ -372,5 +449,30 @@ mod tests {
         .unwrap();
         assert_eq!(g.x().values, vec![1.0, 2.0]);
         assert_eq!(g.property("v").unwrap(), &[4.0, 3.0, 2.0, 1.0]);
+        assert!(g.is_geographic());
+    }
+
+    #[test]
+    fn geographic_map_aspect_uses_the_central_latitude() {
+        // Nodes on 1° cell centres: the map's edges are lat 30..60 and lon 0..90.
+        let lon: Vec<f64> = (0..90).map(|i| 0.5 + i as f64).collect();
+        let lat: Vec<f64> = (0..30).map(|j| 30.5 + j as f64).collect();
+        let g = Grid::from_lon_lat("g", lon, lat, vec![("v".into(), vec![0.0; 2700])]).unwrap();
+        let expect = 90.0 * 45f64.to_radians().cos() / 30.0;
+        assert!((g.map_aspect().unwrap() - expect).abs() < 1e-12);
+        let plain = Grid::from_fn("p", 90, 30, |_, _| 0.0).unwrap();
+        assert_eq!(plain.map_aspect(), None);
+        let e = Grid::from_lon_lat(
+            "g",
+            vec![0.0, 1.0],
+            vec![89.0, 91.0],
+            vec![("v".into(), vec![0.0; 4])],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("lat") && e.contains("91") && e.contains("[-90, 90]"),
+            "{e}"
+        );
     }
 }

@@ -355,6 +355,7 @@ mod tests {
             name: name.into(),
             units: units.into(),
             values,
+            ..Default::default()
         }
     }
 

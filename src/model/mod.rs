@@ -15,7 +15,7 @@ pub(crate) mod volume;
 
 pub use camera::{Axis, Camera, Projection};
 pub use geometry::{CoordAxis, Geometry, SphericalGrid};
-pub use grid::{Grid, GridCoords};
+pub use grid::{CoordKind, Grid, GridCoords};
 pub use image::HdrImage;
 pub use transfer::{Lens, LutTransfer, Scale, TransferFunction};
 pub use volume::{Aabb, Volume, VolumeStats};

@@ -26,12 +26,18 @@
 //! in the `fringe` channel and the filtered one is `fringe_filtered` ([`fringe_filtered_f64`] and
 //! [`pixel_gradient`] are the f64 forms).
 //!
+//! Geographic grids (longitude along x, latitude along y): the map keeps the equirectangular
+//! aspect of [`Grid::map_aspect`], and [`SurfaceView::Globe`] drapes the field on the unit sphere
+//! of the Earth-centred frame ([`GlobeFrame`]) for any camera.
+//!
 //! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 
 use crate::error::{Error, Result};
 use crate::gpu::transfer::ReadbackBuffer;
 use crate::gpu::{pipeline, shader, GpuContext};
 use crate::model::colormap::Colormap;
+use crate::model::geometry::sphere_hit;
+use crate::model::map_frame::MapAxis;
 use crate::model::{Aabb, Camera, Grid, HdrImage, Projection};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -56,6 +62,7 @@ struct DataParams {
     cell: [f32; 4],
     light: [f32; 4],
     box_size: [f32; 4],
+    globe: [f32; 4],
     dims: [u32; 4],
     counts: [u32; 4],
 }
@@ -86,6 +93,9 @@ pub enum SurfaceView {
     /// Any camera, in the surface's world space: x = (x − x₀), y = (y − y₀) in coordinate units,
     /// z = (height − min height) × exaggeration.
     Camera(Camera),
+    /// A geographic grid draped on the unit sphere (Earth-centred frame: +x toward 0°N 0°E, +y
+    /// toward 0°N 90°E, +z north), seen by this camera in that frame; no relief.
+    Globe(Camera),
 }
 
 impl SurfaceView {
@@ -97,8 +107,9 @@ impl SurfaceView {
                 elevation,
                 fov,
             } => vec![1, azimuth.to_bits(), elevation.to_bits(), fov.to_bits()],
-            SurfaceView::Camera(c) => {
-                let mut k = vec![2];
+            SurfaceView::Camera(c) | SurfaceView::Globe(c) => {
+                let globe = matches!(self, SurfaceView::Globe(_));
+                let mut k = vec![2 + globe as u64];
                 for v in [c.eye, c.forward, c.right, c.up] {
                     k.extend(v.iter().map(|x| x.to_bits()));
                 }
@@ -123,7 +134,124 @@ impl SurfaceView {
                 fov,
             } => format!("orbit azimuth {azimuth} elevation {elevation} fov {fov}"),
             SurfaceView::Camera(c) => c.describe(),
+            SurfaceView::Globe(c) => format!("globe (unit sphere), {}", c.describe()),
         }
+    }
+
+    /// The globe seen from `distance` sphere radii above the centre of `grid`'s extent, north
+    /// up (+y up over a pole), with a `fov`-degree perspective.
+    pub fn globe_above(grid: &Grid, distance: f64, fov: f64) -> Result<SurfaceView> {
+        let frame = GlobeFrame::of(grid)?;
+        let (lat, lon) = frame.centre();
+        Ok(SurfaceView::Globe(Camera::geo([0.0; 3], lat, lon, distance, fov)?))
+    }
+
+    /// 0: perspective over the relief, 1: map, 2: globe (the data shader's `VIEW`).
+    fn code(&self) -> u32 {
+        match self {
+            SurfaceView::Map => 1,
+            SurfaceView::Globe(_) => 2,
+            _ => 0,
+        }
+    }
+}
+
+/// How a geographic grid lies on the globe's unit sphere: its first node and spacing in degrees,
+/// its node counts, and whether its longitudes close the circle (nx spacings make 360°), in
+/// which case interpolation runs on from the last node to the first. Each node covers the cell
+/// half a spacing either side, as in the map; elsewhere the sphere shows no data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct GlobeFrame {
+    pub lon0: f64,
+    pub dlon: f64,
+    pub lat0: f64,
+    pub dlat: f64,
+    pub nx: usize,
+    pub ny: usize,
+    pub wrap: bool,
+}
+
+impl GlobeFrame {
+    /// The frame of a geographic grid with evenly spaced coordinates; anything else is an error
+    /// saying what the globe needs.
+    pub fn of(grid: &Grid) -> Result<GlobeFrame> {
+        if !grid.is_geographic() {
+            return Err(Error::invalid(
+                "view",
+                format!(
+                    "the globe needs longitude along x and latitude along y (CF units degrees_east and degrees_north); grid {:?} has {:?} ({}) and {:?} ({})",
+                    grid.name(),
+                    grid.x().name,
+                    grid.x().units,
+                    grid.y().name,
+                    grid.y().units
+                ),
+            ));
+        }
+        if MapAxis::of_coords(grid.x()).is_none() || MapAxis::of_coords(grid.y()).is_none() {
+            return Err(Error::invalid(
+                "view",
+                format!(
+                    "the globe needs evenly spaced longitudes and latitudes; grid {:?} has uneven ones",
+                    grid.name()
+                ),
+            ));
+        }
+        let (nx, ny) = (grid.nx(), grid.ny());
+        // A single node stands for a 1° cell.
+        let step =
+            |c: &crate::model::GridCoords| if c.values.len() > 1 { c.spacing() } else { 1.0 };
+        let dlon = step(grid.x());
+        Ok(GlobeFrame {
+            lon0: grid.x().values[0],
+            dlon,
+            lat0: grid.y().values[0],
+            dlat: step(grid.y()),
+            nx,
+            ny,
+            wrap: (nx as f64 * dlon - 360.0).abs() <= 1e-3 * dlon,
+        })
+    }
+
+    /// (latitude, longitude) of the middle of the grid's extent.
+    pub fn centre(&self) -> (f64, f64) {
+        (
+            self.lat0 + 0.5 * (self.ny - 1) as f64 * self.dlat,
+            self.lon0 + 0.5 * (self.nx - 1) as f64 * self.dlon,
+        )
+    }
+
+    /// Fractional node coordinates (u along x, v along y) of a point at `lat`, `lon` degrees,
+    /// or `None` outside the grid's cells. With `wrap`, u lies in [0, nx); otherwise it is
+    /// clamped to the nodes.
+    pub fn node_coords(&self, lat: f64, lon: f64) -> Option<(f64, f64)> {
+        let (nx, ny) = (self.nx as f64, self.ny as f64);
+        let v = (lat - self.lat0) / self.dlat;
+        if !(-0.5..=ny - 0.5).contains(&v) {
+            return None;
+        }
+        let v = v.clamp(0.0, ny - 1.0);
+        let rel = (lon - self.lon0) / self.dlon;
+        if self.wrap {
+            let u = rel.rem_euclid(nx);
+            return Some((if u >= nx { 0.0 } else { u }, v));
+        }
+        let u = (rel + 0.5).rem_euclid(360.0 / self.dlon) - 0.5;
+        (u <= nx - 0.5).then(|| (u.clamp(0.0, nx - 1.0), v))
+    }
+
+    /// Where the ray o + t·d (d of unit length) first meets the unit sphere in front of the eye:
+    /// (t, point), or `None`.
+    pub fn hit(o: [f64; 3], d: [f64; 3]) -> Option<(f64, [f64; 3])> {
+        let (t, _) = sphere_hit(o, d, 1.0)?;
+        (t >= 0.0).then(|| (t, [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]]))
+    }
+
+    /// Headlight shading at a sphere point whose outward normal is `p` for a ray along `d`:
+    /// ambient + (1 − ambient)·max(p·(−d), 0), so the limb darkens whichever side is seen.
+    pub fn shade(p: [f64; 3], d: [f64; 3]) -> f64 {
+        let facing = -(p[0] * d[0] + p[1] * d[1] + p[2] * d[2]);
+        LIGHT_AMBIENT + (1.0 - LIGHT_AMBIENT) * facing.max(0.0)
     }
 }
 
@@ -450,11 +578,43 @@ pub(crate) const LIGHT_AMBIENT: f64 = 0.3;
 /// The image size a render gets: the options' size, else the grid's node counts in map view and
 /// 512² in other views.
 pub(crate) fn default_size(grid: &Grid, opts: &SurfaceOptions) -> (u32, u32) {
-    let (dw, dh) = match opts.view {
-        SurfaceView::Map => (grid.nx() as u32, grid.ny() as u32),
-        _ => (512, 512),
-    };
-    (opts.width.unwrap_or(dw), opts.height.unwrap_or(dh))
+    match (&opts.view, grid.map_aspect()) {
+        (SurfaceView::Map, Some(aspect)) => {
+            geographic_map_size(grid.nx(), grid.ny(), aspect, opts.width, opts.height)
+        }
+        (SurfaceView::Map, None) => (
+            opts.width.unwrap_or(grid.nx() as u32),
+            opts.height.unwrap_or(grid.ny() as u32),
+        ),
+        _ => (opts.width.unwrap_or(512), opts.height.unwrap_or(512)),
+    }
+}
+
+/// The map size of a geographic grid whose map is `aspect` times as wide as high: both sides
+/// as given; one given, the other from the aspect; neither, the smallest image of that aspect
+/// with at least one pixel per node along both axes (at most 16384 a side).
+fn geographic_map_size(
+    nx: usize,
+    ny: usize,
+    aspect: f64,
+    width: Option<u32>,
+    height: Option<u32>,
+) -> (u32, u32) {
+    let side = |v: f64| v.round().clamp(1.0, 16384.0) as u32;
+    match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, side(w as f64 / aspect)),
+        (None, Some(h)) => (side(h as f64 * aspect), h),
+        (None, None) => {
+            let (w, h) = if nx as f64 >= ny as f64 * aspect {
+                (nx as f64, nx as f64 / aspect)
+            } else {
+                (ny as f64 * aspect, ny as f64)
+            };
+            let shrink = (16384.0 / w.max(h)).min(1.0);
+            (side(w * shrink), side(h * shrink))
+        }
+    }
 }
 
 /// Where the surface sits in world space and how it is seen, as both the data pass and its f64
@@ -474,16 +634,29 @@ pub(crate) struct SurfaceGeometry {
     /// World z of the box's lower corner before the shift to 0 (negative for a flat surface).
     pub z_lo: f64,
     pub box_size: [f64; 3],
-    /// The camera with its eye relative to the box's lower corner; `None` in map view.
+    /// The camera with its eye relative to the box's lower corner (in the Earth-centred frame
+    /// on the globe); `None` in map view.
     pub camera: Option<Camera>,
+    /// How the grid lies on the sphere in the globe view.
+    pub globe: Option<GlobeFrame>,
 }
 
 impl SurfaceGeometry {
     pub fn new(grid: &Grid, opts: &SurfaceOptions) -> Result<Self> {
         let (nx, ny) = (grid.nx(), grid.ny());
         // Relief heights (world z before exaggeration), holes at the lowest height.
+        let globe = match opts.view {
+            SurfaceView::Globe(_) => Some(GlobeFrame::of(grid)?),
+            _ => None,
+        };
         let relief: Option<Vec<f64>> = match (&opts.view, opts.relief.as_deref()) {
             (SurfaceView::Map, _) | (_, None) | (_, Some("none")) => None,
+            (SurfaceView::Globe(_), Some(_)) => {
+                return Err(Error::invalid(
+                    "relief",
+                    "the globe view draws the field on the sphere without relief; leave relief out or use \"none\"",
+                ))
+            }
             (_, Some("elevation")) => Some(
                 grid.elevation()
                     .ok_or_else(|| {
@@ -548,10 +721,13 @@ impl SurfaceGeometry {
                 Some(Camera::orbit(&b, azimuth, elevation, fov)?)
             }
             SurfaceView::Camera(c) => Some(c),
+            SurfaceView::Globe(c) => Some(c),
         };
-        // Positions relative to the box's lower corner (z = z_lo).
+        // Positions relative to the box's lower corner (z = z_lo); the globe's frame is its own.
         let camera = camera.map(|mut c| {
-            c.eye[2] -= z_lo;
+            if globe.is_none() {
+                c.eye[2] -= z_lo;
+            }
             c
         });
         Ok(SurfaceGeometry {
@@ -562,6 +738,7 @@ impl SurfaceGeometry {
             z_lo,
             box_size: size,
             camera,
+            globe,
         })
     }
 
@@ -642,7 +819,7 @@ pub(crate) struct SurfaceTiming {
 /// The two-step surface renderer with its pipelines and step-1 cache; one per GPU context.
 pub struct SurfaceRenderer {
     ctx: Arc<GpuContext>,
-    data_pipelines: Mutex<HashMap<bool, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
+    data_pipelines: Mutex<HashMap<u32, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
     fringe_pipelines:
         Mutex<HashMap<FringeVariant, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
     cache: Mutex<Vec<(DataKey, Arc<DataTargets>)>>,
@@ -698,12 +875,13 @@ impl SurfaceRenderer {
         )?))
     }
 
+    /// The data pass specialised for a view ([`SurfaceView::code`]).
     fn data_pipeline(
         &self,
-        map: bool,
+        view: u32,
     ) -> Result<Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>> {
         let mut cache = self.data_pipelines.lock().expect("pipeline cache poisoned");
-        if let Some(p) = cache.get(&map) {
+        if let Some(p) = cache.get(&view) {
             return Ok(p.clone());
         }
         let entries = crate::gpu::layout::uniform_then_storage(4, 3);
@@ -711,9 +889,9 @@ impl SurfaceRenderer {
             "surface_data.wgsl",
             "surface data pass",
             &entries,
-            &[("MAP_VIEW", map as u32 as f64)],
+            &[("VIEW", view as f64)],
         )?;
-        cache.insert(map, p.clone());
+        cache.insert(view, p.clone());
         Ok(p)
     }
 
@@ -833,7 +1011,7 @@ impl SurfaceRenderer {
         let t_height = self.input_buffer("surface nodes height", bytemuck::cast_slice(&heights));
         let map = opts.view == SurfaceView::Map;
         let params = data_params(&geo, grid, props.len(), width, height);
-        let pipeline = self.data_pipeline(map)?;
+        let pipeline = self.data_pipeline(opts.view.code())?;
         let device = &self.ctx.device;
         use wgpu::util::DeviceExt;
         let ubuf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -1233,9 +1411,14 @@ fn data_params(
         ],
         light: v4(LIGHT_DIRECTION, LIGHT_AMBIENT),
         box_size: v4(geo.box_size, 0.0),
+        globe: [0.0; 4],
         dims: [nx as u32, ny as u32, width, height],
         counts: [properties as u32, 0, 0, 0],
     };
+    if let Some(g) = &geo.globe {
+        params.globe = [g.lon0 as f32, g.dlon as f32, g.lat0 as f32, g.dlat as f32];
+        params.counts[1] = g.wrap as u32;
+    }
     if let Some(cam) = &geo.camera {
         params.eye = v4(cam.eye, 0.0);
         params.forward = v4(cam.forward, 0.0);

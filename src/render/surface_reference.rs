@@ -3,7 +3,9 @@
 //! over the relief (steps of half a cell along the ray's horizontal run, at most 4096 per ray,
 //! the first step below the surface refined by 12 bisections), the same bilinear sampling that
 //! weights valid corners only and marks a pixel missing when its nearest node is, and the same
-//! Lambert shading on central differences of the relief one node apart. Only the arithmetic
+//! Lambert shading on central differences of the relief one node apart; on the globe the same
+//! ray–sphere hit, latitude and longitude to nodes ([`GlobeFrame`], interpolation wrapping
+//! across closed longitudes) and headlight shading. Only the arithmetic
 //! differs (f64 here, f32 on the GPU, and d itself rather than hi + rest around d_ref), so a
 //! comparison measures what f32 costs. The fringe of a reference pixel is
 //! [`fringe_f64`](super::surface::fringe_f64) of its value, and its antialiased fringe
@@ -11,11 +13,12 @@
 //! [`pixel_gradient`](super::surface::pixel_gradient) of the reference's value plane.
 
 use super::surface::{
-    default_size, fringe_f64, fringe_filtered_f64, pixel_gradient, SurfaceGeometry, SurfaceOptions,
-    SurfaceView, LIGHT_AMBIENT, LIGHT_DIRECTION, MAX_PROPERTIES,
+    default_size, fringe_f64, fringe_filtered_f64, pixel_gradient, GlobeFrame, SurfaceGeometry,
+    SurfaceOptions, SurfaceView, LIGHT_AMBIENT, LIGHT_DIRECTION, MAX_PROPERTIES,
 };
 use crate::error::{Error, Result};
 use crate::model::Grid;
+use crate::model::SphericalGrid;
 
 /// Bisection steps refining a ray's first step below the relief (as the shader).
 const BISECTIONS: usize = 12;
@@ -85,20 +88,35 @@ struct Scene<'a> {
 
 impl Scene<'_> {
     /// Clamped bilinear footing at node coordinates (u, v), as the shader: base node, the next
-    /// node (clamped to the grid) and the fractions.
+    /// node (clamped to the grid, or the first after the last where longitudes close the
+    /// circle) and the fractions.
     fn footing(&self, u: f64, v: f64) -> ([usize; 2], [usize; 2], [f64; 2]) {
-        let (nxm, nym) = ((self.nx - 1) as f64, (self.ny - 1) as f64);
-        let (u, v) = (u.clamp(0.0, nxm), v.clamp(0.0, nym));
+        let wrap = self.geo.globe.is_some_and(|g| g.wrap);
+        let umax = if wrap { self.nx } else { self.nx - 1 } as f64;
+        let (u, v) = (u.clamp(0.0, umax), v.clamp(0.0, (self.ny - 1) as f64));
         let base = [
             (u.floor() as usize).min(self.nx - 1),
             (v.floor() as usize).min(self.ny - 1),
         ];
-        let f = [u - base[0] as f64, v - base[1] as f64];
+        let f = [(u - base[0] as f64).min(1.0), v - base[1] as f64];
         let next = [
-            (base[0] + 1).min(self.nx - 1),
+            if wrap && base[0] + 1 == self.nx {
+                0
+            } else {
+                (base[0] + 1).min(self.nx - 1)
+            },
             (base[1] + 1).min(self.ny - 1),
         ];
         (base, next, f)
+    }
+
+    /// What a globe pixel's ray shows: (t, u, v, shade) where it meets the sphere inside the
+    /// grid's cells.
+    fn globe(&self, frame: &GlobeFrame, o: [f64; 3], d: [f64; 3]) -> Option<(f64, f64, f64, f64)> {
+        let (t, p) = GlobeFrame::hit(o, d)?;
+        let (_, lat, lon) = SphericalGrid::from_world(p);
+        let (u, v) = frame.node_coords(lat, lon)?;
+        Some((t, u, v, GlobeFrame::shade(p, d)))
     }
 
     fn node(&self, i: usize, j: usize) -> usize {
@@ -266,9 +284,12 @@ pub fn surface_reference(grid: &Grid, opts: &SurfaceOptions) -> Result<SurfaceRe
                 }
                 (_, Some(camera)) => {
                     let (o, d) = camera.ray(px, py, width, height);
-                    scene
-                        .march(o, d)
-                        .map(|(t, u, v)| (t, u, v, scene.shade(u, v)))
+                    match &scene.geo.globe {
+                        Some(frame) => scene.globe(frame, o, d),
+                        None => scene
+                            .march(o, d)
+                            .map(|(t, u, v)| (t, u, v, scene.shade(u, v))),
+                    }
                 }
             };
             if let Some((t, u, v, shade)) = found {

@@ -166,6 +166,7 @@ fn grid_subset(g: &mut ScriptGrid, lo: Array, hi: Array) -> RResult<ScriptGrid> 
         name: c.name.clone(),
         units: c.units.clone(),
         values: c.values[a..b].to_vec(),
+        kind: c.kind,
     };
     let props: Vec<(String, Vec<f64>)> = (0..g.property_names().len())
         .map(|i| {

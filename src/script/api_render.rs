@@ -8,7 +8,7 @@ use super::convert::{
 use super::ScriptHost;
 use crate::datasets::LoadOptions;
 use crate::model::{
-    Axis, Camera, Geometry, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume,
+    Aabb, Axis, Camera, Geometry, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume,
     VolumeStats,
 };
 use crate::render::{
@@ -39,24 +39,32 @@ pub(crate) enum ScriptCamera {
 impl ScriptCamera {
     /// The camera for `source`.
     pub(crate) fn resolve(&self, source: &VolumeSource) -> crate::Result<Camera> {
-        let bounds = &source.bounds();
+        let bounds = source.bounds();
+        // A shell's centre is the planet's; a box's its middle.
+        let sphere = match source {
+            VolumeSource::Memory(v) => match &v.geometry {
+                Geometry::Spherical(g) => ([0.0; 3], g.outer_radius()),
+                _ => (bounds.center(), 0.5 * bounds.diagonal()),
+            },
+            VolumeSource::Bricked(_) => (bounds.center(), 0.5 * bounds.diagonal()),
+        };
+        self.resolve_in(&bounds, sphere)
+    }
+
+    /// The camera for a scene with these bounds, `camera_geo` counting from the centre and in
+    /// units of the radius of `sphere`.
+    pub(crate) fn resolve_in(
+        &self,
+        bounds: &Aabb,
+        sphere: ([f64; 3], f64),
+    ) -> crate::Result<Camera> {
         match self {
             ScriptCamera::Geo {
                 lat,
                 lon,
                 distance,
                 fov,
-            } => {
-                // A shell's centre is the planet's; a box's its middle.
-                let (centre, radius) = match source {
-                    VolumeSource::Memory(v) => match &v.geometry {
-                        Geometry::Spherical(g) => ([0.0; 3], g.outer_radius()),
-                        _ => (bounds.center(), 0.5 * bounds.diagonal()),
-                    },
-                    VolumeSource::Bricked(_) => (bounds.center(), 0.5 * bounds.diagonal()),
-                };
-                Camera::geo(centre, *lat, *lon, distance * radius, *fov)
-            }
+            } => Camera::geo(sphere.0, *lat, *lon, distance * sphere.1, *fov),
             ScriptCamera::Axis(a) => Ok(Camera::axis(*a, bounds)),
             ScriptCamera::Orbit {
                 azimuth,

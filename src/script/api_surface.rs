@@ -3,12 +3,13 @@
 //! per script run caches the data pass, so rendering the same grid and view again with another
 //! ν, mode or colour map runs only the fringe pass. `property` may be one name (the result is one
 //! image) or an array of up to four names (the result is an array of images, all from one data
-//! pass).
+//! pass). `view: "globe"` (or `globe: true` with a camera) drapes a geographic grid on the
+//! sphere.
 
 use super::api_render::{ScriptCamera, ScriptImage};
 use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResult};
 use super::ScriptHost;
-use crate::model::{Axis, Grid};
+use crate::model::{Aabb, Axis, Grid};
 use crate::render::surface::{
     colorbar, legend, FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView,
 };
@@ -24,6 +25,7 @@ pub(crate) const SURFACE_KEYS: &[&str] = &[
     "colormap",
     "property",
     "view",
+    "globe",
     "width",
     "height",
     "modulation",
@@ -66,46 +68,8 @@ pub(crate) fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions,
                 }
                 Err(_) => o.properties = vec![string(v, "property")?],
             },
-            "view" => {
-                o.view = if let Some(c) = v.clone().try_cast::<ScriptCamera>() {
-                    match c {
-                        ScriptCamera::Axis(Axis::Z) => SurfaceView::Map,
-                        ScriptCamera::Axis(_) => {
-                            return err("view", "a surface is seen from above: camera_axis(\"z\"), \"map\", \"perspective\" or camera_orbit(...)")
-                        }
-                        ScriptCamera::Orbit {
-                            azimuth,
-                            elevation,
-                            fov,
-                        } => SurfaceView::Orbit {
-                            azimuth,
-                            elevation,
-                            fov,
-                        },
-                        ScriptCamera::Fixed(c) => SurfaceView::Camera(c),
-                        ScriptCamera::Geo { .. } => {
-                            return err("view", "camera_geo looks at a spherical volume; a surface takes camera_axis(\"z\"), \"map\", \"perspective\" or camera_orbit(...)")
-                        }
-                    }
-                } else {
-                    match string(v, "view")?.as_str() {
-                        "map" => SurfaceView::Map,
-                        "perspective" | "3d" => SurfaceView::Orbit {
-                            azimuth: -60.0,
-                            elevation: 35.0,
-                            fov: 40.0,
-                        },
-                        other => {
-                            return err(
-                                "view",
-                                format!(
-                                    "expected \"map\", \"perspective\" or a camera, got {other:?}"
-                                ),
-                            )
-                        }
-                    }
-                }
-            }
+            // Resolved after the loop: the view depends on `globe` too.
+            "view" | "globe" => {}
             "width" => o.width = Some(int(v, "width")?.clamp(0, u32::MAX as i64) as u32),
             "height" => o.height = Some(int(v, "height")?.clamp(0, u32::MAX as i64) as u32),
             "modulation" => o.modulation = num(v, "modulation")?,
@@ -121,11 +85,88 @@ pub(crate) fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions,
             _ => unreachable!("checked keys"),
         }
     }
-    // Relief defaults to the grid's elevation in 3-D views.
-    if o.relief.is_none() && o.view != SurfaceView::Map && grid.elevation().is_some() {
+    let globe = opts
+        .get("globe")
+        .map(|v| boolean(v, "globe"))
+        .transpose()?
+        .unwrap_or(false);
+    o.view = surface_view(grid, opts.get("view"), globe)?;
+    // Relief defaults to the grid's elevation in 3-D views over the plane.
+    if o.relief.is_none()
+        && !matches!(o.view, SurfaceView::Map | SurfaceView::Globe(_))
+        && grid.elevation().is_some()
+    {
         o.relief = Some("elevation".into());
     }
     Ok((o, many))
+}
+
+/// Distance of the default globe camera from the planet's centre, in sphere radii, and its
+/// field of view in degrees.
+const GLOBE_DISTANCE: f64 = 3.0;
+const GLOBE_FOV: f64 = 35.0;
+
+/// The view of `view` (a name or a camera; the map when absent). With `globe` the grid lies on
+/// the unit sphere and the camera is in the Earth-centred frame: `camera_axis` frames the sphere's
+/// box along that axis, `camera_orbit` orbits the centre, `"globe"` or no view looks from
+/// above the grid's centre.
+fn surface_view(grid: &Grid, view: Option<&Dynamic>, globe: bool) -> RResult<SurfaceView> {
+    let camera = view.and_then(|v| v.clone().try_cast::<ScriptCamera>());
+    let name = match (view, &camera) {
+        (Some(v), None) => Some(string(v, "view")?),
+        _ => None,
+    };
+    if globe || name.as_deref() == Some("globe") {
+        let sphere_box = Aabb {
+            lo: [-1.0; 3],
+            hi: [1.0; 3],
+        };
+        return match (camera, name.as_deref()) {
+            (Some(c), _) => Ok(SurfaceView::Globe(
+                c.resolve_in(&sphere_box, ([0.0; 3], 1.0)).map_err(to_rhai)?,
+            )),
+            (None, None | Some("globe")) => {
+                SurfaceView::globe_above(grid, GLOBE_DISTANCE, GLOBE_FOV).map_err(to_rhai)
+            }
+            (None, Some(other)) => err(
+                "view",
+                format!("globe: true takes \"globe\" or a camera as the view, got {other:?}"),
+            ),
+        };
+    }
+    if let Some(c) = camera {
+        return Ok(match c {
+            ScriptCamera::Axis(Axis::Z) => SurfaceView::Map,
+            ScriptCamera::Axis(_) => {
+                return err("view", "a surface is seen from above: camera_axis(\"z\"), \"map\", \"perspective\", \"globe\" or camera_orbit(...)")
+            }
+            ScriptCamera::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => SurfaceView::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            },
+            ScriptCamera::Fixed(c) => SurfaceView::Camera(c),
+            ScriptCamera::Geo { .. } => {
+                return err("view", "camera_geo looks at a sphere: use it with view \"globe\" (globe: true) or on a spherical volume")
+            }
+        });
+    }
+    match name.as_deref() {
+        None | Some("map") => Ok(SurfaceView::Map),
+        Some("perspective" | "3d") => Ok(SurfaceView::Orbit {
+            azimuth: -60.0,
+            elevation: 35.0,
+            fov: 40.0,
+        }),
+        Some(other) => err(
+            "view",
+            format!("expected \"map\", \"perspective\", \"globe\" or a camera, got {other:?}"),
+        ),
+    }
 }
 
 pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {

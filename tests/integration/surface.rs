@@ -1,6 +1,7 @@
 //! Interference surfaces: the fringe channel against (1 + cos 2πνd)/2 for analytic fields in map
 //! view, fringe counts, f64 phase stability at ν·d ≈ 8·10⁶, four properties in one data pass,
-//! the step-1 cache, holes, constant fields and bad input — on Vulkan and GL.
+//! the step-1 cache, holes, constant fields and bad input, geographic maps' aspect and the globe
+//! view — on Vulkan and GL.
 
 use crate::common::renderer;
 use hdrvis::gpu::BackendChoice;
@@ -1178,7 +1179,7 @@ fn save_png_frame_draws_axes_and_the_colour_bar_beside_the_map() {
     )
     .unwrap();
     let script = r#"
-        let img = render_surface(load_grid("sea.nc"), #{ nu: 10.0, mode: "direct", colormap: "viridis" });
+        let img = render_surface(load_grid("sea.nc"), #{ nu: 10.0, mode: "direct", colormap: "viridis", width: 201, height: 81 });
         save_png(img, "plain.png");
         save_png(img, "framed.png", #{ frame: true });
     "#;
@@ -1257,4 +1258,311 @@ fn save_png_frame_draws_axes_and_the_colour_bar_beside_the_map() {
     assert_ne!(code, 0);
     assert!(err.contains("frame") && err.contains("map axes"), "{err}");
     assert!(!dir.path().join("out/p.png").exists());
+}
+
+/// (name, units) of the y and x axes of a geographic grid file and of a plain one.
+const GEO_AXES: [[&str; 2]; 2] = [["lat", "degrees_north"], ["lon", "degrees_east"]];
+const PLAIN_AXES: [[&str; 2]; 2] = [["y", "m"], ["x", "m"]];
+
+/// The map of a grid whose coordinates CF marks as longitude and latitude keeps the
+/// equirectangular aspect of its central latitude: cell edges lat 30..60, lon 0..90 give
+/// 90·cos 45° / 30; the same grid in metres keeps one pixel per node. Files written by xarray
+/// (latitudes stored north to south) load the same way; a latitude of 91° is a one-line error.
+#[test]
+fn geographic_map_keeps_the_cos_latitude_aspect() {
+    let dir = tempfile::tempdir().unwrap();
+    let lon: Vec<f64> = (0..90).map(|i| 0.5 + i as f64).collect();
+    let lat: Vec<f64> = (0..30).map(|j| 30.5 + j as f64).collect();
+    let eta: Vec<f64> = (0..90 * 30)
+        .map(|k| 2.0 * lat[k / 90] + 0.1 * lon[k % 90])
+        .collect();
+    // hdrvis's writer marks axes named lat/lon as latitude/longitude, so the plain grid is y/x.
+    for (name, axes) in [("geo.nc", GEO_AXES), ("plain.nc", PLAIN_AXES)] {
+        hdrvis::datasets::netcdf::write_grid::<f64>(
+            dir.path().join(name),
+            &[
+                (axes[0][0], &lat, axes[0][1]),
+                (axes[1][0], &lon, axes[1][1]),
+            ],
+            &[("eta", &eta, "m", "wave height")],
+            &[],
+        )
+        .unwrap();
+    }
+    let aspect = 90.0 * 45f64.to_radians().cos() / 30.0;
+    let geo = hdrvis::datasets::load_grid(&dir.path().join("geo.nc"), None).unwrap();
+    let plain = hdrvis::datasets::load_grid(&dir.path().join("plain.nc"), None).unwrap();
+    assert!(geo.is_geographic() && !plain.is_geographic());
+    assert!((geo.map_aspect().unwrap() - aspect).abs() < 1e-12);
+    let r = surface_renderer(BackendChoice::Vulkan);
+    let size = |g: &Grid, width: Option<u32>| {
+        let o = SurfaceOptions { width, ..opts(1.0) };
+        let img = &r.render(g, &o).unwrap()[0];
+        (img.width, img.height)
+    };
+    // At least one pixel per node: 90 wide, 90 / aspect = 42.4 rows.
+    assert_eq!(size(&geo, None), (90, 42));
+    assert_eq!(
+        size(&geo, Some(300)),
+        (300, (300.0 / aspect).round() as u32)
+    );
+    assert_eq!(size(&plain, None), (90, 30));
+    let (w, h) = size(&geo, None);
+    assert!((w as f64 / h as f64 - aspect).abs() <= aspect / h as f64);
+
+    // The same through xarray, stored north to south: the map's rows run north to south.
+    let xr = dir.path().join("xr.nc");
+    let made = crate::cli::python_check(
+        "write_cf_latlon.py",
+        &[xr.to_str().unwrap(), "--descending"],
+    );
+    if let Some(out) = made {
+        assert!(out.starts_with("exit 0"), "{out}");
+        let g = hdrvis::datasets::load_grid(&xr, None).unwrap();
+        assert!(g.is_geographic());
+        assert!((g.map_aspect().unwrap() - aspect).abs() < 1e-12);
+        let img = &r.render(&g, &opts(1.0)).unwrap()[0];
+        assert_eq!((img.width, img.height), (90, 42));
+        let values = channel(img, "eta");
+        // Top row: the northern edge row (lat 59.5 at the pixel centre nearest the edge).
+        let top = 2.0 * 59.5 + 0.1 * 0.5;
+        assert!(
+            (values[0] as f64 - top).abs() < 0.5 * 2.0 + 1e-3,
+            "{}",
+            values[0]
+        );
+        assert!(values[0] > values[(img.height as usize - 1) * img.width as usize]);
+        let bad = dir.path().join("bad.nc");
+        let out =
+            crate::cli::python_check("write_cf_latlon.py", &[bad.to_str().unwrap(), "--bad-lat"])
+                .unwrap();
+        assert!(out.starts_with("exit 0"), "{out}");
+        let e = hdrvis::datasets::load_grid(&bad, None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bad.nc") && e.contains("latitude") && e.contains("91") && e.contains("eta"),
+            "{e}"
+        );
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}
+
+/// A global field d = 2·lat + 0.1·lon on 5° cells (longitudes closing the circle).
+fn global_grid() -> Grid {
+    let lon: Vec<f64> = (0..72).map(|i| 2.5 + 5.0 * i as f64).collect();
+    let lat: Vec<f64> = (0..36).map(|j| -87.5 + 5.0 * j as f64).collect();
+    let d: Vec<f64> = (0..72 * 36)
+        .map(|k| 2.0 * lat[k / 72] + 0.1 * lon[k % 72])
+        .collect();
+    Grid::from_lon_lat("global", lon, lat, vec![("d".into(), d)]).unwrap()
+}
+
+/// The field of `global_grid` where the ray meets the unit sphere, in closed form: linear in
+/// latitude (held at the outermost node rows beyond them) and in longitude, except across the
+/// cell from 357.5° to 362.5°, where it runs linearly from the last node's value to the first's.
+fn global_closed_form(o: [f64; 3], d: [f64; 3]) -> Option<(f64, f64, f64)> {
+    let b = o[0] * d[0] + o[1] * d[1] + o[2] * d[2];
+    let c = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - 1.0;
+    let disc = b * b - c;
+    if disc <= 0.0 {
+        return None;
+    }
+    let t = -b - disc.sqrt();
+    let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+    let lat = p[2].atan2(p[0].hypot(p[1])).to_degrees();
+    let lon = p[1].atan2(p[0]).to_degrees().rem_euclid(360.0);
+    let lat_term = 2.0 * lat.clamp(-87.5, 87.5);
+    let lon_term = if (2.5..=357.5).contains(&lon) {
+        0.1 * lon
+    } else {
+        let f = ((lon - 357.5).rem_euclid(360.0)) / 5.0;
+        0.1 * (357.5 * (1.0 - f) + 2.5 * f)
+    };
+    Some((lat, lon, lat_term + lon_term))
+}
+
+/// The globe view: the field draped on the unit sphere, seen from 3 radii above (22.5°N,
+/// 32.5°E). The f64 reference equals the closed form at every pixel (the seam cell included);
+/// the centre pixel shows the sub-camera node, its fringe (1 + cos 2πν·d)/2 of d = 48.25; the
+/// limb sits at the sphere's projected radius within a pixel with background outside; the GPU
+/// matches the reference in all three colour modes: fringe within 1.5e-3, shading within 2e-3,
+/// and the value as if its hit point were within 3e-5 rad of the f64 one (the f32 atan2 of
+/// lavapipe is approximate; the error in d is that angle times |∂d/∂lat| + |∂d/∂lon|/cos lat).
+#[test]
+fn globe_view_drapes_the_field_on_the_sphere() {
+    let g = global_grid();
+    let n = 129u32;
+    let fov = 35.0;
+    let eye = hdrvis::model::SphericalGrid::to_world(3.0, 22.5, 32.5);
+    let camera = hdrvis::model::Camera::look_at(eye, [0.0; 3], [0.0, 0.0, 1.0], fov).unwrap();
+    let nu = 0.05;
+    let base = SurfaceOptions {
+        view: SurfaceView::Globe(camera),
+        width: Some(n),
+        height: Some(n),
+        antialias: false,
+        ..opts(nu)
+    };
+    let reference = surface_reference(&g, &base).unwrap();
+    let centre = (n / 2 * n + n / 2) as usize;
+    let sub_camera = 2.0 * 22.5 + 0.1 * 32.5;
+    assert!((reference.values[0][centre] - sub_camera).abs() < 1e-9);
+    // Limb: hit iff the pixel ray's angle from the axis is below asin(1/3); in pixels from the
+    // centre that is tan(asin 1/3) / tan(fov/2) · n/2.
+    let limb_px = (1f64 / 3.0).asin().tan() / (0.5 * fov).to_radians().tan() * n as f64 / 2.0;
+    let radius = |k: usize| {
+        let (x, y) = ((k as u32 % n) as f64 + 0.5, (k as u32 / n) as f64 + 0.5);
+        (x - n as f64 / 2.0).hypot(y - n as f64 / 2.0)
+    };
+    let mut hits = 0;
+    for k in 0..(n * n) as usize {
+        let (o, d) = camera.ray(k as u32 % n, k as u32 / n, n, n);
+        match global_closed_form(o, d) {
+            Some((_, _, expect)) => {
+                assert!(reference.hit[k], "pixel {k}");
+                assert!((reference.values[0][k] - expect).abs() < 1e-9, "pixel {k}");
+                hits += 1;
+            }
+            None => assert!(!reference.hit[k], "pixel {k}"),
+        }
+        if (radius(k) - limb_px).abs() > 1.0 {
+            assert_eq!(reference.hit[k], radius(k) < limb_px, "pixel {k}");
+        }
+    }
+    assert!(hits > 5000, "{hits}");
+    let silhouette: Vec<bool> = (0..(n * n) as usize)
+        .map(|k| (radius(k) - limb_px).abs() <= 1.5)
+        .collect();
+    for backend in BACKENDS {
+        let r = surface_renderer(backend);
+        for mode in [
+            FringeMode::Cyclic,
+            FringeMode::Modulated,
+            FringeMode::Direct,
+        ] {
+            let o = SurfaceOptions {
+                mode,
+                colormap: Some("white".into()),
+                modulation: 0.6,
+                ..base.clone()
+            };
+            let img = &r.render(&g, &o).unwrap()[0];
+            let (values, fringe) = (channel(img, "d"), channel(img, "fringe"));
+            let expect_fringe = reference.fringe(0, nu);
+            let mut worst_angle: f64 = 0.0;
+            assert!((fringe[centre] as f64 - fringe_f64(nu, sub_camera)).abs() < 1e-4);
+            let mut compared = 0;
+            for k in 0..(n * n) as usize {
+                if silhouette[k] {
+                    continue;
+                }
+                if !reference.hit[k] {
+                    assert_eq!(img.pixels[k], [0.0; 4], "{backend:?} background {k}");
+                    assert!(values[k].is_nan() && fringe[k].is_nan());
+                    continue;
+                }
+                compared += 1;
+                let dv = (values[k] as f64 - reference.values[0][k]).abs();
+                let (o, d) = camera.ray(k as u32 % n, k as u32 / n, n, n);
+                let (lat, _, _) = global_closed_form(o, d).unwrap();
+                let per_radian = (2.0 + 0.1 / lat.to_radians().cos()).to_degrees();
+                worst_angle = worst_angle.max(dv / per_radian);
+                let df = (fringe[k] as f64 - expect_fringe[k]).abs();
+                assert!(df < 1.5e-3, "{backend:?} fringe {k}: {df}");
+                let shade = reference.shade[k];
+                // White colour map: direct shows the shading, modulated shade·(1 − m + m·I).
+                let colour = match mode {
+                    FringeMode::Direct => Some(shade),
+                    FringeMode::Modulated => Some(shade * (0.4 + 0.6 * expect_fringe[k])),
+                    FringeMode::Cyclic => None,
+                };
+                if let Some(c) = colour {
+                    assert!(
+                        (img.pixels[k][0] as f64 - c).abs() < 2e-3,
+                        "{backend:?} {mode:?} colour {k}"
+                    );
+                }
+                assert_eq!(img.pixels[k][3], 1.0);
+            }
+            assert!(compared > 5000, "{compared}");
+            eprintln!("{backend:?} {mode:?}: hit points within {worst_angle:.2e} rad");
+            assert!(
+                worst_angle < 3e-5,
+                "{backend:?} {mode:?}: {worst_angle:.2e} rad"
+            );
+        }
+    }
+}
+
+/// Scripts: `view: "globe"` looks from above the grid's centre, `globe: true` takes any camera;
+/// a grid in metres or relief on the globe is a one-line error with no image written.
+#[test]
+fn script_renders_the_globe_and_refuses_what_it_cannot_drape() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = global_grid();
+    let (lon, lat) = (g.x().values.clone(), g.y().values.clone());
+    let d = g.property("d").unwrap().to_vec();
+    for (name, axes) in [("globe.nc", GEO_AXES), ("flat.nc", PLAIN_AXES)] {
+        hdrvis::datasets::netcdf::write_grid::<f64>(
+            dir.path().join(name),
+            &[
+                (axes[0][0], &lat, axes[0][1]),
+                (axes[1][0], &lon, axes[1][1]),
+            ],
+            &[("d", &d, "m", "test field")],
+            &[],
+        )
+        .unwrap();
+    }
+    let script = r#"
+        let g = load_grid("globe.nc");
+        save_exr(render_surface(g, #{ nu: 0.05, view: "globe", width: 65, height: 65 }), "above.exr");
+        save_exr(render_surface(g, #{ nu: 0.05, globe: true, view: camera_axis("z"), width: 64, height: 64 }), "pole.exr");
+    "#;
+    std::fs::write(dir.path().join("s.rhai"), script).unwrap();
+    let (code, out, err) = crate::cli::hdrvis(&["run", "s.rhai"], dir.path());
+    assert_eq!(code, 0, "{out}\n{err}");
+    let read = |name: &str| hdrvis::io::exr::read_exr(&dir.path().join("out").join(name)).unwrap();
+    // Above the centre of the extent (0°N, 180°E): the centre pixel shows d = 2·0 + 0.1·180.
+    let above = read("above.exr");
+    let v = &above
+        .extra_channels
+        .iter()
+        .find(|(n, _)| n == "d")
+        .unwrap()
+        .1;
+    assert!(
+        (v[32 * 65 + 32] as f64 - 18.0).abs() < 1e-3,
+        "{}",
+        v[32 * 65 + 32]
+    );
+    assert!(v[0].is_nan());
+    // camera_axis("z") frames [-1, 1]² from above the North Pole: the disc fills the image and
+    // the corners are background; the centre shows the polar row d = 2·87.5 + 0.1·lon.
+    let pole = read("pole.exr");
+    assert_eq!(pole.pixels[0], [0.0; 4]);
+    assert_eq!(pole.pixels[32 * 64 + 32][3], 1.0);
+    assert_eq!(pole.pixels[32 * 64 + 1][3], 1.0);
+    for (view, needs) in [
+        (
+            r#"load_grid("flat.nc"), #{ nu: 1.0, view: "globe" }"#,
+            "degrees_east",
+        ),
+        (
+            r#"load_grid("globe.nc"), #{ nu: 1.0, view: "globe", relief: "d" }"#,
+            "relief",
+        ),
+        (
+            r#"load_grid("globe.nc"), #{ nu: 1.0, globe: true, view: "perspective" }"#,
+            "globe",
+        ),
+    ] {
+        let bad = format!("save_exr(render_surface({view}), \"bad.exr\");");
+        std::fs::write(dir.path().join("bad.rhai"), bad).unwrap();
+        let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai"], dir.path());
+        assert_ne!(code, 0);
+        assert!(err.contains(needs), "{err}");
+        assert!(!dir.path().join("out/bad.exr").exists());
+    }
 }
