@@ -5,6 +5,8 @@
 //! naively in f32 and range-reduced, timed (the fringe pass) and compared with the f64 fringe
 //! image — relative RMS and maximum error, PSNR of the 8-bit tone-mapped view, and the fraction
 //! of pixels that lost detail — as a table, CSV, JSON and a log–log chart of error against time.
+//! The `shell` scene sets the mantle rendered natively on its spherical grid against the paper's
+//! way, the shell resampled onto boxes of 128³, 256³ and 513³ voxels (`super::spherical`).
 
 use super::{bench_tf, bench_volume, mantle_fig5_tf, median};
 use crate::error::{Error, Result};
@@ -37,6 +39,10 @@ pub struct AccuracyRow {
     /// What the row is compared with: `SAME_STEP` (arithmetic alone), `CONVERGED` (the
     /// integral itself, for the step and sampling knobs) or the surfaces' per-node f64 phase.
     pub reference: &'static str,
+    /// Memory of the voxels rendered, MiB (NaN where not measured: all but the shell scene).
+    pub memory_mib: f64,
+    /// Milliseconds spent preparing the volume (the shell scene's resampling; NaN elsewhere).
+    pub prepare_ms: f64,
 }
 
 /// Reference of the precision rows: f64 on the same rays, steps and table.
@@ -63,22 +69,40 @@ pub enum SceneKind {
     /// An interference surface in map view at one pixel per node: the phase methods are
     /// compared on its fringe intensity I = (1 + cos 2πν·d)/2.
     Surface { grid: Grid, options: SurfaceOptions },
+    /// A spherical shell rendered natively and resampled onto boxes of `boxes` voxels a side.
+    Shell {
+        volume: Volume,
+        options: VolumeRenderOptions,
+        boxes: Vec<usize>,
+    },
 }
 
 /// Names of the built-in scenes, in report order.
-pub(crate) const SCENE_NAMES: &[&str] = &["mantle", "blobs", "band", "tsunami", "fault"];
+pub(crate) const SCENE_NAMES: &[&str] = &["mantle", "blobs", "band", "tsunami", "fault", "shell"];
+
+/// Sides of the resampled boxes of the shell scene: the paper's 513³ and two coarser; `quick`,
+/// two small ones for tests.
+pub fn shell_boxes(quick: bool) -> Vec<usize> {
+    if quick {
+        vec![32, 64]
+    } else {
+        vec![128, 256, 513]
+    }
+}
 
 /// The built-in accuracy scenes: the mantle's temperature fluctuation (symlog TF, as in the
 /// demo), the HDR blobs of the volume benchmark (log10 TF) and the same blobs through a narrow
 /// band of the TF (one tenth of a decade around 0.01, bright and opaque: the case that
 /// pre-integration is for), all in perspective, `size`²
 /// pixels from `n`³ voxels; and the paper's two surface case studies on `grid`² nodes
-/// (`tsunami_scene`, `fault_scene`), generated through the dataset cache.
+/// (`tsunami_scene`, `fault_scene`), generated through the dataset cache; and the mantle's
+/// shell on the spherical grid of an `n`³ box against its resampled `boxes`.
 pub fn accuracy_scenes(
     size: u32,
     n: usize,
     grid: usize,
     only: Option<&str>,
+    boxes: &[usize],
 ) -> Result<Vec<AccuracyScene>> {
     if let Some(name) = only {
         if !SCENE_NAMES.contains(&name) {
@@ -98,6 +122,18 @@ pub fn accuracy_scenes(
     }
     if wants("fault") {
         scenes.push(fault_scene(grid)?);
+    }
+    if wants("shell") {
+        let volume = super::spherical::native_mantle(n)?;
+        let options = super::spherical::shell_options(&volume, size)?;
+        scenes.push(AccuracyScene {
+            name: "shell".into(),
+            kind: SceneKind::Shell {
+                volume,
+                options,
+                boxes: boxes.to_vec(),
+            },
+        });
     }
     Ok(scenes)
 }
@@ -303,6 +339,19 @@ pub fn bench_accuracy(
                 runs,
                 log,
             )?),
+            SceneKind::Shell {
+                volume,
+                options,
+                boxes,
+            } => rows.extend(super::spherical::shell_rows(
+                ctx.clone(),
+                &scene.name,
+                volume,
+                options,
+                boxes,
+                runs,
+                log,
+            )?),
         }
     }
     Ok(rows)
@@ -322,7 +371,7 @@ fn grey(fringe: impl Iterator<Item = f64>) -> Vec<[f64; 4]> {
 }
 
 /// A row scored against `reference`: the median of `ms` and the error metrics of `got`.
-fn scored_row(
+pub(crate) fn scored_row(
     scene: &str,
     variant: String,
     ms: &[f64],
@@ -342,11 +391,13 @@ fn scored_row(
         psnr_8bit,
         lost_detail,
         reference: against,
+        memory_mib: f64::NAN,
+        prepare_ms: f64::NAN,
     })
 }
 
 /// The row of the f64 CPU reference itself: its time, and no error.
-fn reference_row(scene: &str, f64_ms: &[f64], against: &'static str) -> AccuracyRow {
+pub(crate) fn reference_row(scene: &str, f64_ms: &[f64], against: &'static str) -> AccuracyRow {
     AccuracyRow {
         scene: scene.to_string(),
         variant: "f64 (CPU)".into(),
@@ -356,6 +407,8 @@ fn reference_row(scene: &str, f64_ms: &[f64], against: &'static str) -> Accuracy
         psnr_8bit: f64::INFINITY,
         lost_detail: 0.0,
         reference: against,
+        memory_mib: f64::NAN,
+        prepare_ms: f64::NAN,
     }
 }
 
@@ -456,21 +509,21 @@ fn time_fringe_pass(
 }
 
 /// The f64 CPU references of one volume scene.
-struct VolumeReferences {
+pub(crate) struct VolumeReferences {
     /// Point-sampled at the scene's step and its settings ([`SAME_STEP`]), the last of several
     /// timed renders.
     same_step: Vec<[f64; 4]>,
     /// Milliseconds of each same-step render.
-    same_step_ms: Vec<f64>,
+    pub(crate) same_step_ms: Vec<f64>,
     /// The integral itself ([`CONVERGED`]).
-    converged: Vec<[f64; 4]>,
+    pub(crate) converged: Vec<[f64; 4]>,
     /// Point-sampled at 1/8 of the step, to be scored against `converged`, and its time.
     fine_point: Vec<[f64; 4]>,
     fine_point_ms: f64,
 }
 
 /// Renders the f64 CPU references of a volume scene.
-fn volume_references(
+pub(crate) fn volume_references(
     name: &str,
     volume: &Volume,
     options: &VolumeRenderOptions,
@@ -512,7 +565,7 @@ fn volume_references(
 
 /// One warm-up render (pipeline build), then `runs` timed ones through the session's entry
 /// point; the last image is returned.
-fn time_volume(
+pub(crate) fn time_volume(
     session: &RenderSession,
     source: &VolumeSource,
     o: &VolumeRenderOptions,
@@ -657,9 +710,30 @@ pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
             100.0 * r.lost_detail
         ));
     }
-    for line in f32_cost_summary(rows) {
+    for line in f32_cost_summary(rows)
+        .into_iter()
+        .chain(super::spherical::shell_summary(rows))
+    {
         s.push_str(&line);
         s.push('\n');
+    }
+    let costs: Vec<&AccuracyRow> = rows.iter().filter(|r| r.memory_mib.is_finite()).collect();
+    if !costs.is_empty() {
+        s.push_str(&format!(
+            "{:<8} {:<17} {:>11} {:>14} {:>10} {:>11}\n",
+            "scene", "variant", "memory MiB", "resampling ms", "median ms", "rel RMS"
+        ));
+        for r in costs {
+            s.push_str(&format!(
+                "{:<8} {:<17} {:>11.1} {:>14.0} {:>10.1} {:>11.2e}\n",
+                r.scene,
+                r.variant,
+                r.memory_mib,
+                if r.prepare_ms.is_finite() { r.prepare_ms } else { 0.0 },
+                r.median_ms,
+                r.rel_rms
+            ));
+        }
     }
     s
 }
@@ -761,13 +835,13 @@ pub fn write_accuracy_files(dir: &Path, rows: &[AccuracyRow]) -> Result<(PathBuf
     crate::io::write_atomic(&csv, |w| {
         writeln!(
             w,
-            "scene,variant,reference,median_ms,rel_rms,max_rel,psnr_8bit_db,lost_detail"
+            "scene,variant,reference,median_ms,rel_rms,max_rel,psnr_8bit_db,lost_detail,memory_mib,prepare_ms"
         )
         .map_err(|e| Error::io(&csv, e))?;
         for r in rows {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{}",
                 r.scene,
                 r.variant,
                 r.reference,
@@ -775,7 +849,9 @@ pub fn write_accuracy_files(dir: &Path, rows: &[AccuracyRow]) -> Result<(PathBuf
                 r.rel_rms,
                 r.max_rel,
                 num(r.psnr_8bit),
-                r.lost_detail
+                r.lost_detail,
+                num(r.memory_mib),
+                num(r.prepare_ms)
             )
             .map_err(|e| Error::io(&csv, e))?;
         }
@@ -786,8 +862,8 @@ pub fn write_accuracy_files(dir: &Path, rows: &[AccuracyRow]) -> Result<(PathBuf
             .iter()
             .map(|r| {
                 format!(
-                    "{{\"scene\": \"{}\", \"variant\": \"{}\", \"reference\": \"{}\", \"median_ms\": {}, \"rel_rms\": {}, \"max_rel\": {}, \"psnr_8bit_db\": {}, \"lost_detail\": {}}}",
-                    r.scene, r.variant, r.reference, num(r.median_ms), num(r.rel_rms), num(r.max_rel), num(r.psnr_8bit), num(r.lost_detail)
+                    "{{\"scene\": \"{}\", \"variant\": \"{}\", \"reference\": \"{}\", \"median_ms\": {}, \"rel_rms\": {}, \"max_rel\": {}, \"psnr_8bit_db\": {}, \"lost_detail\": {}, \"memory_mib\": {}, \"prepare_ms\": {}}}",
+                    r.scene, r.variant, r.reference, num(r.median_ms), num(r.rel_rms), num(r.max_rel), num(r.psnr_8bit), num(r.lost_detail), num(r.memory_mib), num(r.prepare_ms)
                 )
             })
             .collect();

@@ -507,7 +507,9 @@ fn accuracy_report_writes_table_files_and_chart() {
     let (code, _, stderr) = hdrvis(&["bench", "accuracy", "--scene", "nope"], dir.path());
     assert_ne!(code, 0);
     assert!(
-        stderr.contains("unknown scene \"nope\"; known: mantle, blobs, band, tsunami, fault"),
+        stderr.contains(
+            "unknown scene \"nope\"; known: mantle, blobs, band, tsunami, fault, shell"
+        ),
         "{stderr}"
     );
 }
