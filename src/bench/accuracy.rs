@@ -343,7 +343,7 @@ pub fn bench_accuracy(
                 volume,
                 options,
                 boxes,
-            } => rows.extend(super::spherical::shell_rows(
+            } => rows.extend(shell_rows(
                 ctx.clone(),
                 &scene.name,
                 volume,
@@ -680,6 +680,105 @@ fn bench_volume_scene(
     Ok(rows)
 }
 
+/// The accuracy report's `shell` scene: the native shell at steps of 0.5, 1 and 2 radial
+/// spacings and its resampled boxes of `boxes` voxels a side at 0.5 of their own voxel, in f32
+/// on the GPU, each against the native integral (f64, pre-integrated at 1/8 of the step), with
+/// the voxels' memory and the resampling's time; and the f64 reference's own time.
+pub(crate) fn shell_rows(
+    ctx: Arc<GpuContext>,
+    name: &str,
+    shell: &Volume,
+    options: &VolumeRenderOptions,
+    boxes: &[usize],
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<AccuracyRow>> {
+    use crate::render::Precision;
+    let refs = volume_references(name, shell, options, runs, log)?;
+    let session = super::timing_session(ctx);
+    let size = (options.width, options.height);
+    let bytes = |v: &Volume| v.voxel_count() as f64 * 4.0 / (1u64 << 20) as f64;
+    let mut rows = Vec::new();
+    let shared = Arc::new(shell.clone());
+    let source = VolumeSource::Memory(shared);
+    let mut o = options.clone();
+    o.precision = Precision::F32;
+    for factor in [1.0, 2.0, 4.0] {
+        o.step = options.step * factor;
+        let (ms, got) = time_volume(&session, &source, &o, runs)?;
+        let variant = format!("native step {}", o.step);
+        let mut r = scored_row(name, variant, &ms, &got, &refs.converged, size, CONVERGED)?;
+        r.memory_mib = bytes(shell);
+        r.prepare_ms = 0.0;
+        log(&format!(
+            "{name} {}: {:.1} ms, rel RMS {:.2e}",
+            r.variant, r.median_ms, r.rel_rms
+        ));
+        rows.push(r);
+    }
+    for &n in boxes {
+        log(&format!("{name}: resampling onto {n}^3 ..."));
+        let t = std::time::Instant::now();
+        let boxed = crate::model::resample_to_box(shell, n)?;
+        let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
+        let step_world = options.step * boxed.voxel_length();
+        let ob = super::spherical::box_options(&o, &boxed, shell.voxel_length(), step_world);
+        let memory = bytes(&boxed);
+        let source = VolumeSource::Memory(Arc::new(boxed));
+        let (ms, got) = time_volume(&session, &source, &ob, runs)?;
+        drop(source);
+        let mut r = scored_row(
+            name,
+            format!("box {n}^3"),
+            &ms,
+            &got,
+            &refs.converged,
+            size,
+            CONVERGED,
+        )?;
+        r.memory_mib = memory;
+        r.prepare_ms = prepare_ms;
+        log(&format!(
+            "{name} {}: {:.1} ms (+{:.0} ms resampling), rel RMS {:.2e}",
+            r.variant, r.median_ms, prepare_ms, r.rel_rms
+        ));
+        rows.push(r);
+    }
+    let mut reference = reference_row(name, &refs.same_step_ms, CONVERGED);
+    reference.variant = "native f64 (CPU)".into();
+    reference.memory_mib = bytes(shell);
+    rows.push(reference);
+    Ok(rows)
+}
+
+/// Per box of the shell scene: the fastest native render at least as accurate, and its time
+/// against the box's.
+pub(crate) fn shell_summary(rows: &[AccuracyRow]) -> Vec<String> {
+    let native: Vec<&AccuracyRow> = rows
+        .iter()
+        .filter(|r| r.variant.starts_with("native step"))
+        .collect();
+    rows.iter()
+        .filter(|r| r.variant.starts_with("box "))
+        .map(|b| {
+            match native
+                .iter()
+                .filter(|r| r.rel_rms <= b.rel_rms)
+                .min_by(|x, y| x.median_ms.total_cmp(&y.median_ms))
+            {
+                Some(s) => format!(
+                    "{}: {} (rel RMS {:.1e}, {:.0} MiB) at least as accurate as the {} (rel RMS {:.1e}, {:.0} MiB + {:.0} ms resampling) in {:.2}x its render time",
+                    b.scene, s.variant, s.rel_rms, s.memory_mib, b.variant, b.rel_rms, b.memory_mib, b.prepare_ms, s.median_ms / b.median_ms
+                ),
+                None => format!(
+                    "{}: the {} (rel RMS {:.1e}) is more accurate than every native step",
+                    b.scene, b.variant, b.rel_rms
+                ),
+            }
+        })
+        .collect()
+}
+
 pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
     let mut s = format!("adapter: {adapter}\naccuracy against f64 CPU references: the same rays, steps and table ({SAME_STEP}), the integral, pre-integrated at 1/8 of the step ({CONVERGED}), the fringe at each node ({PER_NODE})\n");
     s.push_str(&format!(
@@ -712,7 +811,7 @@ pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
     }
     for line in f32_cost_summary(rows)
         .into_iter()
-        .chain(super::spherical::shell_summary(rows))
+        .chain(shell_summary(rows))
     {
         s.push_str(&line);
         s.push('\n');
@@ -729,7 +828,11 @@ pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
                 r.scene,
                 r.variant,
                 r.memory_mib,
-                if r.prepare_ms.is_finite() { r.prepare_ms } else { 0.0 },
+                if r.prepare_ms.is_finite() {
+                    r.prepare_ms
+                } else {
+                    0.0
+                },
                 r.median_ms,
                 r.rel_rms
             ));

@@ -2,11 +2,9 @@
 //! regular box. `hdrvis bench spherical` times one spherical sample against one Cartesian sample
 //! (the mantle's native shell and its resampled box, the same camera, transfer function and step
 //! length in the world, no empty-space skipping and no early exit, runs alternating), counting
-//! the samples each ray takes analytically; the accuracy report's `shell` scene
-//! (`shell_rows`) scores the native render and boxes of several sizes against the f64 native
-//! integral, with their memory and the resampling's time.
+//! the samples each ray takes analytically. The accuracy report's `shell` scene
+//! (`super::accuracy`) builds on the shell, views and transfer-function rescaling here.
 
-use super::accuracy::{AccuracyRow, CONVERGED};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::{Camera, Geometry, TransferFunction, Volume};
@@ -119,8 +117,9 @@ impl SphericalRow {
 
 /// The native shell of [`native_mantle`]`(n)` and its `n`³ box at the same step in the world
 /// (half the shell's radial spacing), `size`² pixels, f32, no skipping, no early exit; renders
-/// alternate, `runs` each after a warm-up. The box is also timed with empty-space skipping (its
-/// core and corners are missing), the way a user would render it.
+/// alternate, `runs` each after a warm-up. The box is also timed with the shader's own
+/// trilinear filter (eight texel loads, as the shell's samples take) and with empty-space
+/// skipping (its core and corners are missing), the way a user would render it.
 pub fn bench_spherical(
     ctx: Arc<GpuContext>,
     n: usize,
@@ -136,13 +135,29 @@ pub fn bench_spherical(
     o.empty_space_skipping = false;
     let step_world = o.step * shell.voxel_length();
     let ob = box_options(&o, &boxed, shell.voxel_length(), step_world);
+    // The shell's samples load eight texels and weigh them in the shader; so may the box's.
+    let mut ob_exact = ob.clone();
+    ob_exact.filter = crate::render::FilterMode::Exact;
     let mut ob_skip = ob.clone();
     ob_skip.empty_space_skipping = true;
     let session = super::timing_session(ctx);
     let cases = [
-        ("spherical (native shell)", VolumeSource::Memory(shell.clone()), &o),
+        (
+            "spherical (native shell)",
+            VolumeSource::Memory(shell.clone()),
+            &o,
+        ),
         ("cartesian (box)", VolumeSource::Memory(boxed.clone()), &ob),
-        ("cartesian (box, skipping)", VolumeSource::Memory(boxed.clone()), &ob_skip),
+        (
+            "cartesian (box, exact filter)",
+            VolumeSource::Memory(boxed.clone()),
+            &ob_exact,
+        ),
+        (
+            "cartesian (box, skipping)",
+            VolumeSource::Memory(boxed.clone()),
+            &ob_skip,
+        ),
     ];
     let mut ms = vec![Vec::new(); cases.len()];
     for (_, source, opts) in &cases {
@@ -179,132 +194,29 @@ pub fn format_spherical_table(adapter: &str, n: usize, size: u32, rows: &[Spheri
         "adapter: {adapter}\nmantle shell for an {n}^3 box and that box, {size}^2 px, f32, the same step in the world, no early exit; skipping off unless named\n"
     );
     s.push_str(&format!(
-        "{:<26} {:>12} {:>10} {:>12} {:>11}\n",
-        "variant", "voxels", "median ms", "samples (M)", "ns/sample"
+        "{:<30} {:>12} {:>10} {:>12} {:>11}\n",
+        "variant", "voxels", "median ms", "samples", "ns/sample"
     ));
     for r in rows {
         s.push_str(&format!(
-            "{:<26} {:>12} {:>10.1} {:>12.2} {:>11.3}\n",
+            "{:<30} {:>12} {:>10.1} {:>12.0} {:>11.3}\n",
             r.variant,
             r.voxels,
             r.median_ms,
-            r.samples / 1e6,
+            r.samples,
             r.ns_per_sample()
         ));
     }
-    if let [shell, boxed, skipping, ..] = rows {
+    if let [shell, boxed, exact, skipping, ..] = rows {
         s.push_str(&format!(
-            "a spherical sample costs {:.2}x a Cartesian one; the shell renders in {:.2}x the box's time ({:.2}x with the box skipping)\n",
+            "a spherical sample costs {:.2}x a Cartesian one ({:.2}x one filtered in the shader); the shell renders in {:.2}x the box's time ({:.2}x with the box skipping)\n",
             shell.ns_per_sample() / boxed.ns_per_sample(),
+            shell.ns_per_sample() / exact.ns_per_sample(),
             shell.median_ms / boxed.median_ms,
             shell.median_ms / skipping.median_ms
         ));
     }
     s
-}
-
-/// The accuracy report's `shell` scene: the native shell at steps of 0.5, 1 and 2 radial
-/// spacings and its resampled boxes of `boxes` voxels a side at 0.5 of their own voxel, in f32
-/// on the GPU, each against the native integral (f64, pre-integrated at 1/8 of the step), with
-/// the voxels' memory and the resampling's time; and the f64 reference's own time.
-pub(crate) fn shell_rows(
-    ctx: Arc<GpuContext>,
-    name: &str,
-    shell: &Volume,
-    options: &VolumeRenderOptions,
-    boxes: &[usize],
-    runs: usize,
-    log: &mut dyn FnMut(&str),
-) -> Result<Vec<AccuracyRow>> {
-    use crate::render::Precision;
-    let refs = super::accuracy::volume_references(name, shell, options, runs, log)?;
-    let session = super::timing_session(ctx);
-    let size = (options.width, options.height);
-    let bytes = |v: &Volume| v.voxel_count() as f64 * 4.0 / (1u64 << 20) as f64;
-    let mut rows = Vec::new();
-    let shared = Arc::new(shell.clone());
-    let source = VolumeSource::Memory(shared);
-    let mut o = options.clone();
-    o.precision = Precision::F32;
-    for factor in [1.0, 2.0, 4.0] {
-        o.step = options.step * factor;
-        let (ms, got) = super::accuracy::time_volume(&session, &source, &o, runs)?;
-        let variant = format!("native step {}", o.step);
-        let mut r = super::accuracy::scored_row(
-            name,
-            variant,
-            &ms,
-            &got,
-            &refs.converged,
-            size,
-            CONVERGED,
-        )?;
-        r.memory_mib = bytes(shell);
-        r.prepare_ms = 0.0;
-        log(&format!("{name} {}: {:.1} ms, rel RMS {:.2e}", r.variant, r.median_ms, r.rel_rms));
-        rows.push(r);
-    }
-    for &n in boxes {
-        log(&format!("{name}: resampling onto {n}^3 ..."));
-        let t = std::time::Instant::now();
-        let boxed = crate::model::resample_to_box(shell, n)?;
-        let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
-        let step_world = options.step * boxed.voxel_length();
-        let ob = box_options(&o, &boxed, shell.voxel_length(), step_world);
-        let memory = bytes(&boxed);
-        let source = VolumeSource::Memory(Arc::new(boxed));
-        let (ms, got) = super::accuracy::time_volume(&session, &source, &ob, runs)?;
-        drop(source);
-        let mut r = super::accuracy::scored_row(
-            name,
-            format!("box {n}^3"),
-            &ms,
-            &got,
-            &refs.converged,
-            size,
-            CONVERGED,
-        )?;
-        r.memory_mib = memory;
-        r.prepare_ms = prepare_ms;
-        log(&format!(
-            "{name} {}: {:.1} ms (+{:.0} ms resampling), rel RMS {:.2e}",
-            r.variant, r.median_ms, prepare_ms, r.rel_rms
-        ));
-        rows.push(r);
-    }
-    let mut reference = super::accuracy::reference_row(name, &refs.same_step_ms, CONVERGED);
-    reference.variant = "native f64 (CPU)".into();
-    reference.memory_mib = bytes(shell);
-    rows.push(reference);
-    Ok(rows)
-}
-
-/// Per box of the shell scene: the fastest native render at least as accurate, and its time
-/// against the box's.
-pub(crate) fn shell_summary(rows: &[AccuracyRow]) -> Vec<String> {
-    let native: Vec<&AccuracyRow> = rows
-        .iter()
-        .filter(|r| r.variant.starts_with("native step"))
-        .collect();
-    rows.iter()
-        .filter(|r| r.variant.starts_with("box "))
-        .map(|b| {
-            match native
-                .iter()
-                .filter(|r| r.rel_rms <= b.rel_rms)
-                .min_by(|x, y| x.median_ms.total_cmp(&y.median_ms))
-            {
-                Some(s) => format!(
-                    "{}: {} (rel RMS {:.1e}, {:.0} MiB) at least as accurate as the {} (rel RMS {:.1e}, {:.0} MiB + {:.0} ms resampling) in {:.2}x its render time",
-                    b.scene, s.variant, s.rel_rms, s.memory_mib, b.variant, b.rel_rms, b.memory_mib, b.prepare_ms, s.median_ms / b.median_ms
-                ),
-                None => format!(
-                    "{}: the {} (rel RMS {:.1e}) is more accurate than every native step",
-                    b.scene, b.variant, b.rel_rms
-                ),
-            }
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -321,7 +233,10 @@ mod tests {
                 absorption: 2.0
             }
         );
-        let TransferFunction::Lut(l) = per_longer_voxel(&TransferFunction::Lut(super::super::mantle_fig5_tf()), 100.0) else {
+        let TransferFunction::Lut(l) = per_longer_voxel(
+            &TransferFunction::Lut(super::super::mantle_fig5_tf()),
+            100.0,
+        ) else {
             panic!("a table stays a table");
         };
         let base = super::super::mantle_fig5_tf();

@@ -633,7 +633,14 @@ impl MantleJob {
                     .collect();
                 let vars: Vec<netcdf::GridVar<'_, f32>> = wanted
                     .iter()
-                    .map(|&f| (f.name(), volume.field(f).unwrap_or(&[]), "1", mantle_long_name(f)))
+                    .map(|&f| {
+                        (
+                            f.name(),
+                            volume.field(f).unwrap_or(&[]),
+                            "1",
+                            mantle_long_name(f),
+                        )
+                    })
                     .collect();
                 let s = volume.spherical;
                 let texts = [
@@ -956,7 +963,14 @@ mod tests {
             },
             native: true,
         };
-        assert_ne!(job.cache_key(), MantleJob { native: false, ..job.clone() }.cache_key());
+        assert_ne!(
+            job.cache_key(),
+            MantleJob {
+                native: false,
+                ..job.clone()
+            }
+            .cache_key()
+        );
         let out = dir.path().join("m.nc");
         job.run(&out, &mut |_| {}).unwrap();
         let t = netcdf::read_variable(&out, "temperature").unwrap();

@@ -1148,7 +1148,10 @@ impl NativeMantle {
         };
         let [nlon, nlat, nr] = self.dims;
         let mut v = crate::model::Volume::new(
-            format!("mantle-{} {nr}x{nlat}x{nlon} (r, lat, lon) seed={seed}", field.name()),
+            format!(
+                "mantle-{} {nr}x{nlat}x{nlon} (r, lat, lon) seed={seed}",
+                field.name()
+            ),
             self.dims,
             [1.0; 3],
             [0.0; 3],
@@ -1165,14 +1168,19 @@ impl NativeMantle {
 /// Builds the spherical grid and returns the requested fields on it, with no Cartesian
 /// resampling (`opts.n` only picks the default resolution). Memory: 4 bytes per node for the
 /// grid and for each field.
-pub fn generate_native(opts: &MantleOptions, progress: &mut dyn FnMut(f64)) -> Result<NativeMantle> {
+pub fn generate_native(
+    opts: &MantleOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<NativeMantle> {
     use crate::model::{CoordAxis, SphericalGrid as Shell};
     opts.validate()?;
     progress(0.0);
     let grid = build_spherical(opts, &mut |f| progress(0.8 * f))?;
     let res = grid.resolution;
     let km = super::cf::EARTH_RADIUS_KM;
-    let radii: Vec<f64> = (0..res.radial).map(|ir| km * node_radius(&res, ir)).collect();
+    let radii: Vec<f64> = (0..res.radial)
+        .map(|ir| km * node_radius(&res, ir))
+        .collect();
     // Colatitude row it is latitude 90 - it·dθ; latitudes are stored rising.
     let latitudes: Vec<f64> = (0..res.theta)
         .map(|j| -90.0 + j as f64 * 180.0 / (res.theta - 1) as f64)

@@ -158,15 +158,18 @@ mod tests {
         let size = b.size();
         let longest = size.iter().cloned().fold(0.0, f64::max);
         assert!((h - longest / 40.0).abs() < 1e-12);
-        for a in 0..3 {
-            assert!(boxed.dims[a] as f64 * h >= size[a] - 1e-9);
-            assert!((boxed.dims[a] as f64 - 1.0) * h < size[a]);
+        for (a, &side) in size.iter().enumerate() {
+            assert!(boxed.dims[a] as f64 * h >= side - 1e-9);
+            assert!((boxed.dims[a] as f64 - 1.0) * h < side);
             assert!(boxed.origin[a] <= b.lo[a] + 1e-12);
         }
         assert_eq!(boxed.dims.iter().max(), Some(&40));
         // Inside the wedge, the radius; the corner beyond its longitudes is missing.
         let stats = boxed.stats();
-        assert!(stats.min >= 1.0 - 1e-5 && stats.max <= 3.0 + 1e-5, "{stats:?}");
+        assert!(
+            stats.min >= 1.0 - 1e-5 && stats.max <= 3.0 + 1e-5,
+            "{stats:?}"
+        );
         assert!(stats.non_finite > 0 && stats.finite > 0);
         assert!(resample_to_box(&shell, 1).is_err());
     }

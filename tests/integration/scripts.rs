@@ -550,3 +550,39 @@ fn tomography_script_renders_the_fixture_as_a_disc() {
     }
     assert!(inside > 1500 && outside > 250, "{inside} {outside}");
 }
+
+/// `resample(volume, #{ n })` from a script: the tomography shell on a 40-voxel box, the same
+/// value range inside (trilinear interpolation cannot leave it), missing outside the shell.
+#[test]
+fn resample_from_a_script_boxes_the_shell() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("box.rhai");
+    let model = root.join("datasets/fixtures/tomography.nc");
+    std::fs::write(
+        &script,
+        format!(
+            "let v = load_volume({model:?});\nlet b = resample(v, #{{ n: 40 }});\nlet s = volume_stats(v);\nlet t = volume_stats(b);\nprint(`${{b.geometry}} ${{b.dims}} ${{t.min >= s.min}} ${{t.max <= s.max}} ${{t.missing > 0}}`);\n"
+        ),
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .arg("run")
+        .arg(&script)
+        .arg("--out")
+        .arg(dir.path().join("out"))
+        .arg("--allow-path")
+        .arg(root.join("datasets/fixtures"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("cartesian [40, 40, 40] true true true"),
+        "{stdout}"
+    );
+}
