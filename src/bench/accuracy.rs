@@ -5,6 +5,8 @@
 //! naively in f32 and range-reduced, timed (the fringe pass) and compared with the f64 fringe
 //! image — relative RMS and maximum error, PSNR of the 8-bit tone-mapped view, and the fraction
 //! of pixels that lost detail — as a table, CSV, JSON and a log–log chart of error against time.
+//! The `shell` scene sets the mantle rendered natively on its spherical grid against the paper's
+//! way, the shell resampled onto boxes of 128³, 256³ and 513³ voxels (`super::spherical`).
 
 use super::{bench_tf, bench_volume, mantle_fig5_tf, median};
 use crate::error::{Error, Result};
@@ -37,6 +39,10 @@ pub struct AccuracyRow {
     /// What the row is compared with: `SAME_STEP` (arithmetic alone), `CONVERGED` (the
     /// integral itself, for the step and sampling knobs) or the surfaces' per-node f64 phase.
     pub reference: &'static str,
+    /// Memory of the voxels rendered, MiB (NaN where not measured: all but the shell scene).
+    pub memory_mib: f64,
+    /// Milliseconds spent preparing the volume (the shell scene's resampling; NaN elsewhere).
+    pub prepare_ms: f64,
 }
 
 /// Reference of the precision rows: f64 on the same rays, steps and table.
@@ -63,22 +69,40 @@ pub enum SceneKind {
     /// An interference surface in map view at one pixel per node: the phase methods are
     /// compared on its fringe intensity I = (1 + cos 2πν·d)/2.
     Surface { grid: Grid, options: SurfaceOptions },
+    /// A spherical shell rendered natively and resampled onto boxes of `boxes` voxels a side.
+    Shell {
+        volume: Volume,
+        options: VolumeRenderOptions,
+        boxes: Vec<usize>,
+    },
 }
 
 /// Names of the built-in scenes, in report order.
-pub(crate) const SCENE_NAMES: &[&str] = &["mantle", "blobs", "band", "tsunami", "fault"];
+pub(crate) const SCENE_NAMES: &[&str] = &["mantle", "blobs", "band", "tsunami", "fault", "shell"];
+
+/// Sides of the resampled boxes of the shell scene: the paper's 513³ and two coarser; `quick`,
+/// two small ones for tests.
+pub fn shell_boxes(quick: bool) -> Vec<usize> {
+    if quick {
+        vec![32, 64]
+    } else {
+        vec![128, 256, 513]
+    }
+}
 
 /// The built-in accuracy scenes: the mantle's temperature fluctuation (symlog TF, as in the
 /// demo), the HDR blobs of the volume benchmark (log10 TF) and the same blobs through a narrow
 /// band of the TF (one tenth of a decade around 0.01, bright and opaque: the case that
 /// pre-integration is for), all in perspective, `size`²
 /// pixels from `n`³ voxels; and the paper's two surface case studies on `grid`² nodes
-/// (`tsunami_scene`, `fault_scene`), generated through the dataset cache.
+/// (`tsunami_scene`, `fault_scene`), generated through the dataset cache; and the mantle's
+/// shell on the spherical grid of an `n`³ box against its resampled `boxes`.
 pub fn accuracy_scenes(
     size: u32,
     n: usize,
     grid: usize,
     only: Option<&str>,
+    boxes: &[usize],
 ) -> Result<Vec<AccuracyScene>> {
     if let Some(name) = only {
         if !SCENE_NAMES.contains(&name) {
@@ -98,6 +122,18 @@ pub fn accuracy_scenes(
     }
     if wants("fault") {
         scenes.push(fault_scene(grid)?);
+    }
+    if wants("shell") {
+        let volume = super::spherical::native_mantle(n)?;
+        let options = super::spherical::shell_options(&volume, size)?;
+        scenes.push(AccuracyScene {
+            name: "shell".into(),
+            kind: SceneKind::Shell {
+                volume,
+                options,
+                boxes: boxes.to_vec(),
+            },
+        });
     }
     Ok(scenes)
 }
@@ -303,6 +339,19 @@ pub fn bench_accuracy(
                 runs,
                 log,
             )?),
+            SceneKind::Shell {
+                volume,
+                options,
+                boxes,
+            } => rows.extend(shell_rows(
+                ctx.clone(),
+                &scene.name,
+                volume,
+                options,
+                boxes,
+                runs,
+                log,
+            )?),
         }
     }
     Ok(rows)
@@ -322,7 +371,7 @@ fn grey(fringe: impl Iterator<Item = f64>) -> Vec<[f64; 4]> {
 }
 
 /// A row scored against `reference`: the median of `ms` and the error metrics of `got`.
-fn scored_row(
+pub(crate) fn scored_row(
     scene: &str,
     variant: String,
     ms: &[f64],
@@ -342,11 +391,13 @@ fn scored_row(
         psnr_8bit,
         lost_detail,
         reference: against,
+        memory_mib: f64::NAN,
+        prepare_ms: f64::NAN,
     })
 }
 
 /// The row of the f64 CPU reference itself: its time, and no error.
-fn reference_row(scene: &str, f64_ms: &[f64], against: &'static str) -> AccuracyRow {
+pub(crate) fn reference_row(scene: &str, f64_ms: &[f64], against: &'static str) -> AccuracyRow {
     AccuracyRow {
         scene: scene.to_string(),
         variant: "f64 (CPU)".into(),
@@ -356,6 +407,8 @@ fn reference_row(scene: &str, f64_ms: &[f64], against: &'static str) -> Accuracy
         psnr_8bit: f64::INFINITY,
         lost_detail: 0.0,
         reference: against,
+        memory_mib: f64::NAN,
+        prepare_ms: f64::NAN,
     }
 }
 
@@ -456,21 +509,21 @@ fn time_fringe_pass(
 }
 
 /// The f64 CPU references of one volume scene.
-struct VolumeReferences {
+pub(crate) struct VolumeReferences {
     /// Point-sampled at the scene's step and its settings ([`SAME_STEP`]), the last of several
     /// timed renders.
     same_step: Vec<[f64; 4]>,
     /// Milliseconds of each same-step render.
-    same_step_ms: Vec<f64>,
+    pub(crate) same_step_ms: Vec<f64>,
     /// The integral itself ([`CONVERGED`]).
-    converged: Vec<[f64; 4]>,
+    pub(crate) converged: Vec<[f64; 4]>,
     /// Point-sampled at 1/8 of the step, to be scored against `converged`, and its time.
     fine_point: Vec<[f64; 4]>,
     fine_point_ms: f64,
 }
 
 /// Renders the f64 CPU references of a volume scene.
-fn volume_references(
+pub(crate) fn volume_references(
     name: &str,
     volume: &Volume,
     options: &VolumeRenderOptions,
@@ -512,7 +565,7 @@ fn volume_references(
 
 /// One warm-up render (pipeline build), then `runs` timed ones through the session's entry
 /// point; the last image is returned.
-fn time_volume(
+pub(crate) fn time_volume(
     session: &RenderSession,
     source: &VolumeSource,
     o: &VolumeRenderOptions,
@@ -627,6 +680,105 @@ fn bench_volume_scene(
     Ok(rows)
 }
 
+/// The accuracy report's `shell` scene: the native shell at steps of 0.5, 1 and 2 radial
+/// spacings and its resampled boxes of `boxes` voxels a side at 0.5 of their own voxel, in f32
+/// on the GPU, each against the native integral (f64, pre-integrated at 1/8 of the step), with
+/// the voxels' memory and the resampling's time; and the f64 reference's own time.
+pub(crate) fn shell_rows(
+    ctx: Arc<GpuContext>,
+    name: &str,
+    shell: &Volume,
+    options: &VolumeRenderOptions,
+    boxes: &[usize],
+    runs: usize,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<AccuracyRow>> {
+    use crate::render::Precision;
+    let refs = volume_references(name, shell, options, runs, log)?;
+    let session = super::timing_session(ctx);
+    let size = (options.width, options.height);
+    let bytes = |v: &Volume| v.voxel_count() as f64 * 4.0 / (1u64 << 20) as f64;
+    let mut rows = Vec::new();
+    let shared = Arc::new(shell.clone());
+    let source = VolumeSource::Memory(shared);
+    let mut o = options.clone();
+    o.precision = Precision::F32;
+    for factor in [1.0, 2.0, 4.0] {
+        o.step = options.step * factor;
+        let (ms, got) = time_volume(&session, &source, &o, runs)?;
+        let variant = format!("native step {}", o.step);
+        let mut r = scored_row(name, variant, &ms, &got, &refs.converged, size, CONVERGED)?;
+        r.memory_mib = bytes(shell);
+        r.prepare_ms = 0.0;
+        log(&format!(
+            "{name} {}: {:.1} ms, rel RMS {:.2e}",
+            r.variant, r.median_ms, r.rel_rms
+        ));
+        rows.push(r);
+    }
+    for &n in boxes {
+        log(&format!("{name}: resampling onto {n}^3 ..."));
+        let t = std::time::Instant::now();
+        let boxed = crate::model::resample_to_box(shell, n)?;
+        let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
+        let step_world = options.step * boxed.voxel_length();
+        let ob = super::spherical::box_options(&o, &boxed, shell.voxel_length(), step_world);
+        let memory = bytes(&boxed);
+        let source = VolumeSource::Memory(Arc::new(boxed));
+        let (ms, got) = time_volume(&session, &source, &ob, runs)?;
+        drop(source);
+        let mut r = scored_row(
+            name,
+            format!("box {n}^3"),
+            &ms,
+            &got,
+            &refs.converged,
+            size,
+            CONVERGED,
+        )?;
+        r.memory_mib = memory;
+        r.prepare_ms = prepare_ms;
+        log(&format!(
+            "{name} {}: {:.1} ms (+{:.0} ms resampling), rel RMS {:.2e}",
+            r.variant, r.median_ms, prepare_ms, r.rel_rms
+        ));
+        rows.push(r);
+    }
+    let mut reference = reference_row(name, &refs.same_step_ms, CONVERGED);
+    reference.variant = "native f64 (CPU)".into();
+    reference.memory_mib = bytes(shell);
+    rows.push(reference);
+    Ok(rows)
+}
+
+/// Per box of the shell scene: the fastest native render at least as accurate, and its time
+/// against the box's.
+pub(crate) fn shell_summary(rows: &[AccuracyRow]) -> Vec<String> {
+    let native: Vec<&AccuracyRow> = rows
+        .iter()
+        .filter(|r| r.variant.starts_with("native step"))
+        .collect();
+    rows.iter()
+        .filter(|r| r.variant.starts_with("box "))
+        .map(|b| {
+            match native
+                .iter()
+                .filter(|r| r.rel_rms <= b.rel_rms)
+                .min_by(|x, y| x.median_ms.total_cmp(&y.median_ms))
+            {
+                Some(s) => format!(
+                    "{}: {} (rel RMS {:.1e}, {:.0} MiB) at least as accurate as the {} (rel RMS {:.1e}, {:.0} MiB + {:.0} ms resampling) in {:.2}x its render time",
+                    b.scene, s.variant, s.rel_rms, s.memory_mib, b.variant, b.rel_rms, b.memory_mib, b.prepare_ms, s.median_ms / b.median_ms
+                ),
+                None => format!(
+                    "{}: the {} (rel RMS {:.1e}) is more accurate than every native step",
+                    b.scene, b.variant, b.rel_rms
+                ),
+            }
+        })
+        .collect()
+}
+
 pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
     let mut s = format!("adapter: {adapter}\naccuracy against f64 CPU references: the same rays, steps and table ({SAME_STEP}), the integral, pre-integrated at 1/8 of the step ({CONVERGED}), the fringe at each node ({PER_NODE})\n");
     s.push_str(&format!(
@@ -657,9 +809,34 @@ pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
             100.0 * r.lost_detail
         ));
     }
-    for line in f32_cost_summary(rows) {
+    for line in f32_cost_summary(rows)
+        .into_iter()
+        .chain(shell_summary(rows))
+    {
         s.push_str(&line);
         s.push('\n');
+    }
+    let costs: Vec<&AccuracyRow> = rows.iter().filter(|r| r.memory_mib.is_finite()).collect();
+    if !costs.is_empty() {
+        s.push_str(&format!(
+            "{:<8} {:<17} {:>11} {:>14} {:>10} {:>11}\n",
+            "scene", "variant", "memory MiB", "resampling ms", "median ms", "rel RMS"
+        ));
+        for r in costs {
+            s.push_str(&format!(
+                "{:<8} {:<17} {:>11.1} {:>14.0} {:>10.1} {:>11.2e}\n",
+                r.scene,
+                r.variant,
+                r.memory_mib,
+                if r.prepare_ms.is_finite() {
+                    r.prepare_ms
+                } else {
+                    0.0
+                },
+                r.median_ms,
+                r.rel_rms
+            ));
+        }
     }
     s
 }
@@ -761,13 +938,13 @@ pub fn write_accuracy_files(dir: &Path, rows: &[AccuracyRow]) -> Result<(PathBuf
     crate::io::write_atomic(&csv, |w| {
         writeln!(
             w,
-            "scene,variant,reference,median_ms,rel_rms,max_rel,psnr_8bit_db,lost_detail"
+            "scene,variant,reference,median_ms,rel_rms,max_rel,psnr_8bit_db,lost_detail,memory_mib,prepare_ms"
         )
         .map_err(|e| Error::io(&csv, e))?;
         for r in rows {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{}",
                 r.scene,
                 r.variant,
                 r.reference,
@@ -775,7 +952,9 @@ pub fn write_accuracy_files(dir: &Path, rows: &[AccuracyRow]) -> Result<(PathBuf
                 r.rel_rms,
                 r.max_rel,
                 num(r.psnr_8bit),
-                r.lost_detail
+                r.lost_detail,
+                num(r.memory_mib),
+                num(r.prepare_ms)
             )
             .map_err(|e| Error::io(&csv, e))?;
         }
@@ -786,8 +965,8 @@ pub fn write_accuracy_files(dir: &Path, rows: &[AccuracyRow]) -> Result<(PathBuf
             .iter()
             .map(|r| {
                 format!(
-                    "{{\"scene\": \"{}\", \"variant\": \"{}\", \"reference\": \"{}\", \"median_ms\": {}, \"rel_rms\": {}, \"max_rel\": {}, \"psnr_8bit_db\": {}, \"lost_detail\": {}}}",
-                    r.scene, r.variant, r.reference, num(r.median_ms), num(r.rel_rms), num(r.max_rel), num(r.psnr_8bit), num(r.lost_detail)
+                    "{{\"scene\": \"{}\", \"variant\": \"{}\", \"reference\": \"{}\", \"median_ms\": {}, \"rel_rms\": {}, \"max_rel\": {}, \"psnr_8bit_db\": {}, \"lost_detail\": {}, \"memory_mib\": {}, \"prepare_ms\": {}}}",
+                    r.scene, r.variant, r.reference, num(r.median_ms), num(r.rel_rms), num(r.max_rel), num(r.psnr_8bit), num(r.lost_detail), num(r.memory_mib), num(r.prepare_ms)
                 )
             })
             .collect();

@@ -70,7 +70,10 @@ fn generator_jobs(quick: bool) -> [(String, Job); 3] {
         ),
         (
             format!("mantle {0}^3 temperature", mantle.n),
-            Job::Mantle(MantleJob { options: mantle }),
+            Job::Mantle(MantleJob {
+                options: mantle,
+                native: false,
+            }),
         ),
         (
             "tsunami synthetic basin, 2 h".to_string(),

@@ -18,6 +18,7 @@ pub(crate) mod chart;
 pub mod datasets;
 pub mod effects;
 pub mod skipping;
+pub mod spherical;
 pub mod surface;
 pub mod tonemap;
 pub mod tui;

@@ -3,7 +3,9 @@
 //! shows its chart inline).
 
 use super::BenchCommand;
-use hdrvis::bench::{accuracy, bricks, datasets, effects, skipping, surface, tonemap, tui, volume};
+use hdrvis::bench::{
+    accuracy, bricks, datasets, effects, skipping, spherical, surface, tonemap, tui, volume,
+};
 use hdrvis::gpu::{BackendChoice, GpuContext};
 use hdrvis::Result;
 use std::path::Path;
@@ -25,7 +27,24 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             grid,
             out,
             scene,
-        } => bench_accuracy(backend, runs, (size, n, grid), &out, scene.as_deref()),
+            quick,
+        } => bench_accuracy(
+            backend,
+            runs,
+            (size, n, grid),
+            &out,
+            scene.as_deref(),
+            &accuracy::shell_boxes(quick),
+        ),
+        BenchCommand::Spherical { runs, n, size } => {
+            let (ctx, adapter) = gpu(backend)?;
+            let rows = spherical::bench_spherical(ctx, n, size, runs, &mut progress)?;
+            print!(
+                "{}",
+                spherical::format_spherical_table(&adapter, n, size, &rows)
+            );
+            Ok(())
+        }
         BenchCommand::Bricks {
             runs,
             n,
@@ -133,9 +152,10 @@ fn bench_accuracy(
     (size, n, grid): (u32, usize, usize),
     out: &Path,
     scene: Option<&str>,
+    boxes: &[usize],
 ) -> Result<()> {
     let (ctx, adapter) = gpu(backend)?;
-    let scenes = accuracy::accuracy_scenes(size, n, grid, scene)?;
+    let scenes = accuracy::accuracy_scenes(size, n, grid, scene, boxes)?;
     let rows = accuracy::bench_accuracy(ctx, &scenes, runs, &mut progress)?;
     print!("{}", accuracy::format_accuracy_table(&adapter, &rows));
     let (csv, json) = accuracy::write_accuracy_files(out, &rows)?;

@@ -22,7 +22,8 @@ pub enum GenCommand {
     /// Linear shallow-water tsunami from the Okada uplift of a Manila-trench-like thrust (or
     /// --segments): maximum |eta| and arrival time.
     Tsunami(TsunamiArgs),
-    /// Synthetic mantle convection in a spherical shell, resampled to an N^3 box.
+    /// Synthetic mantle convection in a spherical shell, resampled to an N^3 box (or, with
+    /// --native, on its own spherical grid as CF NetCDF).
     Mantle(MantleArgs),
 }
 
@@ -176,6 +177,10 @@ pub struct MantleArgs {
     /// Viscosity contrast r_mu of eta = r_mu^(0.5 - T)
     #[arg(long, default_value_t = 1.0e5)]
     pub viscosity_contrast: f64,
+    /// Keep the spherical grid the field is computed on: CF NetCDF on (radius in km, latitude,
+    /// longitude), which loads as a spherical volume; N then only sets the grid's resolution
+    #[arg(long)]
+    pub native: bool,
     #[command(flatten)]
     pub output: OutputArgs,
 }
@@ -324,6 +329,7 @@ pub fn job_of(cmd: &GenCommand) -> Result<(Job, &OutputArgs)> {
                     fields,
                     ..MantleOptions::default()
                 },
+                native: a.native,
             };
             (Job::Mantle(job), &a.output)
         }

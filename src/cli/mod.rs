@@ -202,8 +202,9 @@ pub enum BenchCommand {
         breakdown: bool,
     },
     /// What accuracy costs: every compositing precision (u8, f16, f32, f32c, f64) timed and
-    /// compared with the f64 reference on the mantle and HDR-blob scenes, and the naive and
-    /// range-reduced interference phase on the tsunami and fault surfaces.
+    /// compared with the f64 reference on the mantle and HDR-blob scenes, the naive and
+    /// range-reduced interference phase on the tsunami and fault surfaces, and the mantle's
+    /// shell rendered natively against its resampled 128^3, 256^3 and 513^3 boxes.
     Accuracy {
         #[arg(long, default_value_t = 3)]
         runs: usize,
@@ -219,9 +220,25 @@ pub enum BenchCommand {
         /// Nodes per side of the tsunami and fault grids.
         #[arg(long, default_value_t = 256)]
         grid: usize,
-        /// Only this scene (mantle, blobs, band, tsunami, fault); all by default.
+        /// Only this scene (mantle, blobs, band, tsunami, fault, shell); all by default.
         #[arg(long)]
         scene: Option<String>,
+        /// Resample the shell onto 32^3 and 64^3 boxes only (quick check).
+        #[arg(long)]
+        quick: bool,
+    },
+    /// One spherical sample against one Cartesian sample: the mantle's native shell and its
+    /// resampled N^3 box, the same view and step in the world, no skipping and no early exit,
+    /// runs alternating; samples counted along each ray.
+    Spherical {
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Side of the box (and the spherical grid fine enough for it).
+        #[arg(long, default_value_t = 256)]
+        n: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 512)]
+        size: u32,
     },
     /// Empty-space skipping in the in-core ray caster, off against on in one run: the mantle
     /// under its Fig. 5 transfer function (257^3 and 513^3 -> 512^2 and 1024^2) and the HDR

@@ -560,10 +560,13 @@ fn bathymetry_from_file(path: &Path, var: Option<&str>) -> Result<tsunami::Bathy
 /// surface radius is 1), NaN outside the shell. NetCDF output holds the requested fields
 /// (`temperature`, `fluctuation`, `viscosity`; non-dimensional, f32) on coordinates `z`, `y`, `x`
 /// (cell centres, units of the surface radius); `.npy` output is one field, f32 of shape
-/// (n, n, n), so exactly one must be requested.
+/// (n, n, n), so exactly one must be requested. With `native`, the fields stay on the spherical
+/// grid they are computed on and go to CF NetCDF on (radius, latitude, longitude) — radius in km
+/// (surface 6371 km), degrees north and east — which loads as a spherical volume.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct MantleJob {
     pub options: MantleOptions,
+    pub native: bool,
 }
 
 impl MantleJob {
@@ -590,7 +593,7 @@ impl MantleJob {
             o.order,
             o.viscosity_contrast,
             fields.join(",")
-        )
+        ) + if self.native { "; native" } else { "" }
     }
 
     pub(crate) fn cache_key(&self) -> String {
@@ -614,6 +617,9 @@ impl MantleJob {
                 ),
             ));
         }
+        if self.native {
+            return self.run_native(out, format, progress);
+        }
         let volume = mantle::generate(o, progress)?;
         let n = volume.n;
         match format {
@@ -628,12 +634,12 @@ impl MantleJob {
                 let vars: Vec<netcdf::GridVar<'_, f32>> = wanted
                     .iter()
                     .map(|&f| {
-                        let long_name = match f {
-                            MantleField::Temperature => "non-dimensional temperature (1 at the core-mantle boundary, 0 at the surface)",
-                            MantleField::Fluctuation => "temperature minus its mean over the sphere of the same radius",
-                            MantleField::Viscosity => "relative viscosity r_mu^(0.5 - T)",
-                        };
-                        (f.name(), volume.field(f).unwrap_or(&[]), "1", long_name)
+                        (
+                            f.name(),
+                            volume.field(f).unwrap_or(&[]),
+                            "1",
+                            mantle_long_name(f),
+                        )
                     })
                     .collect();
                 let s = volume.spherical;
@@ -671,6 +677,77 @@ impl MantleJob {
                 )
             }
         }
+    }
+}
+
+impl MantleJob {
+    /// The global attributes of a mantle file: its parameters and the cache key.
+    fn parameter_texts(&self) -> Vec<(&'static str, String)> {
+        let o = &self.options;
+        vec![
+            ("seed", format!("{}", o.seed)),
+            ("plumes", format!("{}", o.plumes)),
+            ("slabs", format!("{}", o.slabs)),
+            ("rayleigh", format!("{}", o.rayleigh)),
+            ("epsilon", format!("{}", o.epsilon)),
+            ("degree", format!("{}", o.degree)),
+            ("order", format!("{}", o.order)),
+            ("viscosity_contrast", format!("{}", o.viscosity_contrast)),
+            ("hdrvis_cache_key", self.cache_key()),
+        ]
+    }
+
+    /// The fields on their spherical grid as CF NetCDF on (radius, latitude, longitude).
+    fn run_native(
+        &self,
+        out: &Path,
+        format: OutputFormat,
+        progress: &mut dyn FnMut(f64),
+    ) -> Result<()> {
+        if format != OutputFormat::NetCdf {
+            return Err(Error::invalid(
+                "native",
+                format!(
+                    "{}: the spherical grid needs its coordinates; write .nc (CF NetCDF)",
+                    out.display()
+                ),
+            ));
+        }
+        let native = mantle::generate_native(&self.options, progress)?;
+        let g = &native.geometry;
+        let vars: Vec<netcdf::GridVar<'_, f32>> = native
+            .fields
+            .iter()
+            .map(|(f, data)| (f.name(), data.as_slice(), "1", mantle_long_name(*f)))
+            .collect();
+        let texts = self.parameter_texts();
+        let mut attrs: Vec<(&str, &str)> = vec![
+            ("title", "Synthetic mantle convection in a spherical shell"),
+            ("source", "hdrvis gen mantle --native: Zhong et al. (2008) initial condition with boundary layers, plumes and slabs, on its spherical grid"),
+            ("length_units_note", "radius in km with the surface at 6371 km and the core-mantle boundary at 0.55 of it; latitude and longitude nodes include both poles"),
+        ];
+        attrs.extend(texts.iter().map(|(k, v)| (*k, v.as_str())));
+        netcdf::write_grid::<f32>(
+            out,
+            &[
+                ("radius", &g.radius.centres, "km"),
+                ("latitude", &g.latitude.centres, "degrees_north"),
+                ("longitude", &g.longitude.centres, "degrees_east"),
+            ],
+            &vars,
+            &attrs,
+        )
+    }
+}
+
+/// The `long_name` of a mantle field in files.
+fn mantle_long_name(f: MantleField) -> &'static str {
+    match f {
+        MantleField::Temperature => {
+            "non-dimensional temperature (1 at the core-mantle boundary, 0 at the surface)"
+        }
+        MantleField::Fluctuation => "temperature minus its mean over the sphere of the same radius",
+        MantleField::Viscosity => "relative viscosity r_mu^(0.5 - T)",
     }
 }
 
@@ -861,6 +938,7 @@ mod tests {
                 n: 17,
                 ..MantleOptions::default()
             },
+            native: false,
         };
         let out = dir.path().join("m.nc");
         job.run(&out, &mut |_| {}).unwrap();
@@ -871,5 +949,48 @@ mod tests {
         assert!(t.data[0].is_nan());
         let err = job.run(&dir.path().join("m.npy"), &mut |_| {}).unwrap_err();
         assert!(err.to_string().starts_with("field:"), "{err}");
+    }
+
+    #[test]
+    fn native_mantle_is_cf_on_its_spherical_grid_and_loads_as_a_shell() {
+        use crate::model::Geometry;
+        let dir = tempfile::tempdir().unwrap();
+        let job = MantleJob {
+            options: MantleOptions {
+                n: 17,
+                fields: mantle::MantleFields::only(MantleField::Temperature),
+                ..MantleOptions::default()
+            },
+            native: true,
+        };
+        assert_ne!(
+            job.cache_key(),
+            MantleJob {
+                native: false,
+                ..job.clone()
+            }
+            .cache_key()
+        );
+        let out = dir.path().join("m.nc");
+        job.run(&out, &mut |_| {}).unwrap();
+        let t = netcdf::read_variable(&out, "temperature").unwrap();
+        let names: Vec<&str> = t.dims.iter().map(|d| d.0.as_str()).collect();
+        assert_eq!(names, ["radius", "latitude", "longitude"]);
+        let v = crate::datasets::load_volume(&out).unwrap();
+        let Geometry::Spherical(g) = &v.geometry else {
+            panic!("{v}");
+        };
+        let (nr, nlat, nlon) = (t.dims[0].1, t.dims[1].1, t.dims[2].1);
+        assert_eq!(v.dims, [nlon, nlat, nr]);
+        // The shell 0.55 <= r <= 1 of a 6371 km planet, poles included, longitudes all round.
+        assert!((g.radius.lo - 0.55 * 6371.0).abs() < 1e-6 && (g.radius.hi - 6371.0).abs() < 1e-6);
+        assert_eq!((g.latitude.lo, g.latitude.hi), (-90.0, 90.0));
+        assert!(g.lon_wraps);
+        // Temperature is 1 on the core-mantle boundary and 0 at the surface, at every node.
+        let layer = nlat * nlon;
+        assert!(v.data[..layer].iter().all(|&x| (x - 1.0).abs() < 1e-6));
+        assert!(v.data[(nr - 1) * layer..].iter().all(|&x| x.abs() < 1e-6));
+        let err = job.run(&dir.path().join("m.npy"), &mut |_| {}).unwrap_err();
+        assert!(err.to_string().contains("write .nc"), "{err}");
     }
 }

@@ -410,7 +410,6 @@ impl SphericalGrid {
         }
     }
 
-    #[cfg(test)]
     fn derive(&self, field: MantleField, temperature: f64, radial_mean: f64) -> f64 {
         match field {
             MantleField::Temperature => temperature,
@@ -1125,6 +1124,109 @@ pub fn generate(opts: &MantleOptions, progress: &mut dyn FnMut(f64)) -> Result<M
         fluctuation,
         viscosity,
         spherical: grid.resolution,
+    })
+}
+
+/// The mantle on its own spherical grid, as a convection code would write it: node radii in km
+/// (the surface at Earth's radius, the core-mantle boundary at 0.55 of it), latitudes from the
+/// South Pole to the North Pole inclusive, longitudes all round; and the requested fields on
+/// that grid, longitude fastest, then latitude, then radius (the C order of a NetCDF variable on
+/// (radius, latitude, longitude)).
+#[derive(Clone, Debug)]
+pub struct NativeMantle {
+    pub geometry: crate::model::SphericalGrid,
+    /// Voxel counts (longitudes, latitudes, radii).
+    pub dims: [usize; 3],
+    pub fields: Vec<(MantleField, Vec<f32>)>,
+}
+
+impl NativeMantle {
+    /// One field as a spherical volume (`None` when it was not generated).
+    pub fn volume(&self, field: MantleField, seed: u64) -> Result<Option<crate::model::Volume>> {
+        let Some((_, data)) = self.fields.iter().find(|(f, _)| *f == field) else {
+            return Ok(None);
+        };
+        let [nlon, nlat, nr] = self.dims;
+        let mut v = crate::model::Volume::new(
+            format!(
+                "mantle-{} {nr}x{nlat}x{nlon} (r, lat, lon) seed={seed}",
+                field.name()
+            ),
+            self.dims,
+            [1.0; 3],
+            [0.0; 3],
+            data.clone(),
+        )?
+        .with_geometry(crate::model::Geometry::Spherical(Box::new(
+            self.geometry.clone(),
+        )))?;
+        v.units = "non-dimensional".into();
+        Ok(Some(v))
+    }
+}
+
+/// Builds the spherical grid and returns the requested fields on it, with no Cartesian
+/// resampling (`opts.n` only picks the default resolution). Memory: 4 bytes per node for the
+/// grid and for each field.
+pub fn generate_native(
+    opts: &MantleOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<NativeMantle> {
+    use crate::model::{CoordAxis, SphericalGrid as Shell};
+    opts.validate()?;
+    progress(0.0);
+    let grid = build_spherical(opts, &mut |f| progress(0.8 * f))?;
+    let res = grid.resolution;
+    let km = super::cf::EARTH_RADIUS_KM;
+    let radii: Vec<f64> = (0..res.radial)
+        .map(|ir| km * node_radius(&res, ir))
+        .collect();
+    // Colatitude row it is latitude 90 - it·dθ; latitudes are stored rising.
+    let latitudes: Vec<f64> = (0..res.theta)
+        .map(|j| -90.0 + j as f64 * 180.0 / (res.theta - 1) as f64)
+        .collect();
+    let step = 360.0 / res.phi as f64;
+    let longitudes: Vec<f64> = (0..res.phi).map(|ip| ip as f64 * step).collect();
+    let geometry = Shell {
+        axis_of: [2, 1, 0],
+        radius: CoordAxis::new(radii, None, "radius")?,
+        latitude: CoordAxis::new(latitudes, None, "latitude")?,
+        longitude: CoordAxis {
+            centres: longitudes,
+            lo: -0.5 * step,
+            hi: 360.0 - 0.5 * step,
+        },
+        lon_wraps: true,
+        planet_radius: km,
+        length_unit: "km".into(),
+        vertical: "radius".into(),
+    };
+    let layer = res.theta * res.phi;
+    let mut fields = Vec::new();
+    for field in MantleField::ALL {
+        if !opts.fields.contains(field) {
+            continue;
+        }
+        let mut data = allocate(res.nodes(), field.name())?;
+        data.par_chunks_mut(layer)
+            .enumerate()
+            .for_each(|(ir, shell)| {
+                let mean = grid.radial_mean[ir];
+                for (j, row) in shell.chunks_mut(res.phi).enumerate() {
+                    let it = res.theta - 1 - j;
+                    for (ip, out) in row.iter_mut().enumerate() {
+                        let t = grid.temperature[(it * res.phi + ip) * res.radial + ir] as f64;
+                        *out = grid.derive(field, t, mean) as f32;
+                    }
+                }
+            });
+        fields.push((field, data));
+    }
+    progress(1.0);
+    Ok(NativeMantle {
+        geometry,
+        dims: [res.phi, res.theta, res.radial],
+        fields,
     })
 }
 

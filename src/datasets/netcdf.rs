@@ -474,7 +474,7 @@ fn coordinate_attributes(name: &str, units: &str) -> Vec<(&'static str, String)>
         "lon" | "longitude" => (Some("longitude"), Some("X")),
         "x" => (None, Some("X")),
         "y" => (None, Some("Y")),
-        "z" | "depth" | "height" => (None, Some("Z")),
+        "z" | "depth" | "height" | "radius" => (None, Some("Z")),
         "time" => (Some("time"), Some("T")),
         _ => (None, None),
     };

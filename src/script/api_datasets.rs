@@ -107,8 +107,19 @@ fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
             Ok(Job::Tsunami(job))
         }
         "mantle" => {
-            let (options, _) = mantle_options(opts, "generate mantle")?;
-            Ok(Job::Mantle(MantleJob { options }))
+            // `native` chooses the file's grid; the other keys are the generator's.
+            let mut opts = opts.clone();
+            let native = match opts.remove("native") {
+                Some(v) => v.as_bool().or_else(|_| {
+                    super::convert::err(
+                        "native",
+                        format!("expected true or false, got {}", v.type_name()),
+                    )
+                })?,
+                None => false,
+            };
+            let (options, _) = mantle_options(&opts, "generate mantle")?;
+            Ok(Job::Mantle(MantleJob { options, native }))
         }
         other => super::convert::err(
             "generate",

@@ -1,10 +1,11 @@
 //! Script API: derived fields and subsets of volumes (log10, abs, magnitude of components, a box
-//! of voxels) and transfer-function presets. Derived volumes are new volumes; the originals stay.
+//! of voxels, a shell resampled onto a regular box) and transfer-function presets. Derived
+//! volumes are new volumes; the originals stay.
 
 use super::api_render::ScriptVolume;
-use super::convert::{err, int, to_rhai, RResult};
+use super::convert::{check_keys, err, int, to_rhai, RResult};
 use crate::model::{LutTransfer, Scale, TransferFunction, Volume};
-use rhai::{Array, Engine};
+use rhai::{Array, Engine, Map};
 use std::sync::Arc;
 
 fn derived(v: &Volume, name: &str, f: impl Fn(f32) -> f32 + Sync) -> RResult<ScriptVolume> {
@@ -86,6 +87,7 @@ pub(crate) fn register(engine: &mut Engine) {
     });
     engine.register_fn("volume_magnitude", volume_magnitude);
     engine.register_fn("volume_subset", volume_subset);
+    engine.register_fn("resample", resample);
     engine.register_fn("tf_preset", |name: &str| tf_preset(name).map_err(to_rhai));
 }
 
@@ -143,6 +145,20 @@ fn volume_magnitude(parts: Array) -> RResult<ScriptVolume> {
         Volume::new(name, first.dims, first.spacing, first.origin, data)
             .and_then(|v| v.with_geometry(first.geometry.clone()))
             .map_err(to_rhai)?,
+    ))
+}
+
+/// `resample(v, #{ n: N })`: the volume on a regular box over its bounding box, N cubic voxels
+/// along the longest side, missing outside a shell's domain (the paper's preparation of
+/// spherical data).
+fn resample(v: &mut ScriptVolume, opts: Map) -> RResult<ScriptVolume> {
+    check_keys(&opts, &["n"], "resample")?;
+    let Some(n) = opts.get("n") else {
+        return err("resample", "expected #{ n: voxels along the longest side }");
+    };
+    let n = int(n, "resample n")?.clamp(0, 1 << 20) as usize;
+    Ok(Arc::new(
+        crate::model::resample_to_box(v, n).map_err(to_rhai)?,
     ))
 }
 

@@ -507,9 +507,94 @@ fn accuracy_report_writes_table_files_and_chart() {
     let (code, _, stderr) = hdrvis(&["bench", "accuracy", "--scene", "nope"], dir.path());
     assert_ne!(code, 0);
     assert!(
-        stderr.contains("unknown scene \"nope\"; known: mantle, blobs, band, tsunami, fault"),
+        stderr
+            .contains("unknown scene \"nope\"; known: mantle, blobs, band, tsunami, fault, shell"),
         "{stderr}"
     );
+}
+
+/// The accuracy report's shell scene: native steps and resampled boxes scored against the native
+/// f64 integral, with the boxes' memory (n³ · 4 bytes) and resampling time; the finer box is the
+/// more accurate. And `bench spherical` counts the samples both renders take.
+#[test]
+fn shell_scene_compares_native_sampling_with_resampled_boxes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("acc");
+    let (code, stdout, stderr) = hdrvis(
+        &[
+            "bench",
+            "accuracy",
+            "--runs",
+            "1",
+            "--size",
+            "24",
+            "--n",
+            "24",
+            "--scene",
+            "shell",
+            "--quick",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let row = |v: &str| {
+        rows.iter()
+            .find(|r| r[1] == v)
+            .unwrap_or_else(|| panic!("{v}: {csv}"))
+    };
+    let num = |r: &Vec<&str>, c: usize| -> f64 { r[c].parse().unwrap() };
+    assert_eq!(rows.len(), 6, "{csv}");
+    assert_eq!(num(row("box 32^3"), 8), 0.125);
+    assert_eq!(num(row("box 64^3"), 8), 1.0);
+    assert!(num(row("box 64^3"), 9) > 0.0);
+    assert!(num(row("box 64^3"), 4) < num(row("box 32^3"), 4), "{csv}");
+    assert!(
+        num(row("native step 0.5"), 4) < num(row("native step 2"), 4),
+        "{csv}"
+    );
+    assert!(num(row("native step 0.5"), 4) < 1e-2, "{csv}");
+    assert!(
+        stdout.contains("at least as accurate as the box")
+            || stdout.contains("more accurate than every native step"),
+        "{stdout}"
+    );
+
+    let (code, stdout, stderr) = hdrvis(
+        &[
+            "bench",
+            "spherical",
+            "--runs",
+            "1",
+            "--n",
+            "16",
+            "--size",
+            "16",
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let samples: Vec<f64> = stdout
+        .lines()
+        .filter(|l| l.starts_with("spherical (") || l.starts_with("cartesian ("))
+        .map(|l| l.split_whitespace().rev().nth(1).unwrap().parse().unwrap())
+        .collect();
+    // Native shell, box, box filtered in the shader, box with skipping: the three box renders
+    // take the same samples, more than the shell (the box holds the sphere and its corners).
+    assert_eq!(samples.len(), 4, "{stdout}");
+    assert!(samples[0] > 0.0 && samples[1] > samples[0], "{stdout}");
+    assert!(
+        samples[1] == samples[2] && samples[2] == samples[3],
+        "{stdout}"
+    );
+    assert!(stdout.contains("a spherical sample costs"), "{stdout}");
 }
 
 /// The surface scenes of the accuracy report (the paper's Fig. 3 and Fig. 4 data at large ν·d):

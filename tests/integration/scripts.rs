@@ -45,6 +45,9 @@ fn every_script_runs_and_writes_valid_images() {
             .arg("--out")
             .arg(&out_dir)
             .args(&sets)
+            // The real-shaped examples read their small models from the fixtures.
+            .arg("--allow-path")
+            .arg(root.join("datasets/fixtures"))
             .env("HDRVIS_CACHE", &cache)
             .output()
             .unwrap();
@@ -500,4 +503,86 @@ fn orbit_frames_become_movies() {
         .filter(|n| n.starts_with(".hdrvis-"))
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+/// `scripts/tomography.rhai` renders the CF global model of the fixtures natively: in the view
+/// from above the North Pole every ray through the shell gathers light and opacity, and every
+/// ray past the outer sphere (radius 6371 − 25 km) none; the shell is seen as a disc.
+#[test]
+fn tomography_script_renders_the_fixture_as_a_disc() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out_dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .arg("run")
+        .arg(root.join("scripts/tomography.rhai"))
+        .args(["--out"])
+        .arg(out_dir.path())
+        .args(["--set", "size=48", "--allow-path"])
+        .arg(root.join("datasets/fixtures"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("spherical 90x45x16"), "{stdout}");
+    let img = hdrvis::io::exr::read_exr(&out_dir.path().join("tomography_pole.exr")).unwrap();
+    let n = img.width as usize;
+    assert_eq!((img.width, img.height), (48, 48));
+    let (mut inside, mut outside) = (0, 0);
+    for py in 0..n {
+        for px in 0..n {
+            // The axis view spans the shell's box [-R, R]², R the outer radius.
+            let x = 2.0 * (px as f64 + 0.5) / n as f64 - 1.0;
+            let y = 1.0 - 2.0 * (py as f64 + 0.5) / n as f64;
+            let b = (x * x + y * y).sqrt();
+            let p = img.pixels[py * n + px];
+            if b < 0.95 {
+                inside += 1;
+                assert!(p[3] > 1e-3 && p[0] + p[1] + p[2] > 0.0, "b {b}: {p:?}");
+            } else if b > 1.05 {
+                outside += 1;
+                assert_eq!(p, [0.0; 4], "b {b}");
+            }
+        }
+    }
+    assert!(inside > 1500 && outside > 250, "{inside} {outside}");
+}
+
+/// `resample(volume, #{ n })` from a script: the tomography shell on a 40-voxel box, the same
+/// value range inside (trilinear interpolation cannot leave it), missing outside the shell.
+#[test]
+fn resample_from_a_script_boxes_the_shell() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("box.rhai");
+    let model = root.join("datasets/fixtures/tomography.nc");
+    std::fs::write(
+        &script,
+        format!(
+            "let v = load_volume({model:?});\nlet b = resample(v, #{{ n: 40 }});\nlet s = volume_stats(v);\nlet t = volume_stats(b);\nprint(`${{b.geometry}} ${{b.dims}} ${{t.min >= s.min}} ${{t.max <= s.max}} ${{t.missing > 0}}`);\n"
+        ),
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .arg("run")
+        .arg(&script)
+        .arg("--out")
+        .arg(dir.path().join("out"))
+        .arg("--allow-path")
+        .arg(root.join("datasets/fixtures"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("cartesian [40, 40, 40] true true true"),
+        "{stdout}"
+    );
 }
