@@ -18,6 +18,9 @@ const DEMO_SCRIPT: &str = include_str!("../../scripts/demo.rhai");
 /// `--stats` one line per pass, and with `--preview` its images inline. A run stopped by an
 /// error or by SIGINT/SIGTERM says so and how many files it wrote.
 pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
+    if super::cluster::run_if_launched(args, backend)? {
+        return Ok(());
+    }
     let mut opts = script_options(args, backend)?;
     let protocol = ProtocolChoice::resolve(args.protocol.as_deref())?;
     let written = Arc::new(Mutex::new(Vec::new()));
@@ -48,7 +51,7 @@ pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
 }
 
 /// Prints "wrote PATH" the moment a file is complete and remembers it for [`stop_line`].
-fn print_as_written(written: Arc<Mutex<Vec<PathBuf>>>) -> WrittenObserver {
+pub(super) fn print_as_written(written: Arc<Mutex<Vec<PathBuf>>>) -> WrittenObserver {
     WrittenObserver(Arc::new(move |path: &Path| {
         // The list's lock also orders these lines against the signal handler's summary.
         let mut list = written.lock().expect("written poisoned");
@@ -95,7 +98,7 @@ fn stop_on_signals(written: Arc<Mutex<Vec<PathBuf>>>) -> Result<()> {
 }
 
 /// The script options `hdrvis run`'s flags ask for.
-fn script_options(args: &RunArgs, backend: BackendChoice) -> Result<ScriptOptions> {
+pub(super) fn script_options(args: &RunArgs, backend: BackendChoice) -> Result<ScriptOptions> {
     let mut opts = ScriptOptions::new(&args.out);
     opts.backend = backend;
     opts.allowed_paths = args.allow_paths.clone();

@@ -9,7 +9,9 @@
 //!   function;
 //! * the bricked ray caster (skipping empty bricks, streamed out of core through a brick cache
 //!   when the needed bricks exceed the budget) for opened volumes, volumes over the budget, and
-//!   renders that ask for bricks.
+//!   renders that ask for bricks;
+//! * before all of these, when the session is one of several ranks (MPI), the distributed
+//!   render ([`super::distributed`]): a slab per rank, composited sort-last.
 //!
 //! Every intermediate — the level, the in-memory volume cut into bricks, the GPU brick cache,
 //! the upload, the image — is an entry of the session's result cache, so every path shows in
@@ -97,6 +99,9 @@ pub enum RenderPath {
     /// Bricks in a GPU atlas with a page table; streamed front to back through the atlas when
     /// the bricks the transfer function needs exceed it (out of core).
     Bricked { brick: usize, skip: bool },
+    /// One slab of the volume per rank of the session's group (MPI), partial images
+    /// composited sort-last onto rank 0 and handed to every rank.
+    Distributed { ranks: usize },
 }
 
 /// A finished volume render: the image and how it was made.
@@ -139,7 +144,10 @@ impl RenderSession {
             level => VolumeSource::Memory(self.level(source, level)?),
         };
         let path = self.choose_path(&source, opts)?;
-        if matches!(path, RenderPath::InCore { .. } | RenderPath::Bricked { .. }) {
+        if matches!(
+            path,
+            RenderPath::InCore { .. } | RenderPath::Bricked { .. } | RenderPath::Distributed { .. }
+        ) {
             super::check_output_fits(&self.context()?.caps, opts.width, opts.height)?;
         }
         let key = KeyBuilder::new("raycast")
@@ -147,10 +155,13 @@ impl RenderSession {
             .debug(&path)
             .debug(opts)
             .finish();
+        // A distributed render always runs: every rank must take part in the compositing, and
+        // the ranks' caches need not agree on what they still hold.
+        let rerun = self.renders_rerun() || matches!(path, RenderPath::Distributed { .. });
         self.stage_with(
             "raycast",
             key,
-            self.renders_rerun(),
+            rerun,
             |r: &VolumeRender| image_bytes(&r.image),
             |r, rec| {
                 if let Some(img) = Arc::get_mut(&mut r.image) {
@@ -165,6 +176,13 @@ impl RenderSession {
                 }
                 if path == (RenderPath::InCore { skipping: true }) {
                     detail.push("empty-space skipping".into());
+                }
+                if let (RenderPath::Distributed { ranks }, Some(world)) = (path, self.cluster()) {
+                    detail.push(format!(
+                        "distributed over {ranks} ranks ({}, {})",
+                        world.transport(),
+                        super::distributed::Scheme::for_ranks(ranks).name()
+                    ));
                 }
                 if r.compiled_pipeline {
                     detail.push("pipeline built".into());
@@ -181,6 +199,12 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<RenderPath> {
         let b = &opts.bricking;
+        if let Some(world) = self.cluster().filter(|w| w.size() > 1) {
+            super::distributed::check_options(source, opts, world.size())?;
+            return Ok(RenderPath::Distributed {
+                ranks: world.size(),
+            });
+        }
         let path = match source {
             VolumeSource::Memory(v) => {
                 if opts.precision == Precision::F64 {
@@ -296,6 +320,12 @@ impl RenderSession {
                     .render_bricked(&mut cache, opts, skip)?;
                 (img, stats.seconds, Some(stats), false)
             }
+            (RenderPath::Distributed { .. }, _) => {
+                let world = self.cluster().expect("choose_path saw the session's group");
+                let r = self.render_distributed(world.as_ref(), source, opts)?;
+                let seconds = r.render_seconds + r.composite_seconds;
+                (r.image, seconds, None, r.compiled_pipeline)
+            }
             (_, VolumeSource::Bricked(_)) => {
                 unreachable!("choose_path sends bricked sources to the bricked path")
             }
@@ -311,7 +341,7 @@ impl RenderSession {
 
     /// The content key of a source: a memory volume's data hash, a bricked volume's identity
     /// (its source, layout and per-brick ranges, which change when the file's data change).
-    fn source_key(&self, source: &VolumeSource) -> u64 {
+    pub(super) fn source_key(&self, source: &VolumeSource) -> u64 {
         match source {
             VolumeSource::Memory(v) => self.volume_key(v),
             VolumeSource::Bricked(b) => {
