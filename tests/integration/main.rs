@@ -9,6 +9,7 @@ mod bricks;
 mod cli;
 mod common;
 mod datasets;
+mod distributed;
 mod doc_examples;
 mod passes;
 mod scripts;
