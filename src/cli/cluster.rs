@@ -96,9 +96,9 @@ fn run_rank(
             }
             for (rank, peak) in peaks.iter().enumerate() {
                 println!(
-                    "rank {rank} of {}: peak memory {:.1} MiB (VmHWM)",
+                    "rank {rank} of {}: peak memory {} (VmHWM)",
                     peaks.len(),
-                    *peak as f64 / (1u64 << 20) as f64
+                    super::run::mib(*peak)
                 );
             }
         }

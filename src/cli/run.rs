@@ -38,6 +38,9 @@ pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
         for r in &report.passes {
             println!("{r}");
         }
+        if let Some(peak) = hdrvis::render::distributed::peak_memory_bytes() {
+            println!("peak memory {} (VmHWM)", mib(peak));
+        }
     }
     if args.preview {
         let images: Vec<_> = if report.previews.is_empty() {
@@ -48,6 +51,11 @@ pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
         print_previews(&args.script, &images, protocol)?;
     }
     Ok(())
+}
+
+/// Bytes as MiB with one decimal, for the `--stats` memory lines.
+pub(super) fn mib(bytes: u64) -> String {
+    format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64)
 }
 
 /// Prints "wrote PATH" the moment a file is complete and remembers it for [`stop_line`].

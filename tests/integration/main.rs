@@ -9,6 +9,7 @@ mod bricks;
 mod cli;
 mod common;
 mod datasets;
+mod mpi;
 mod distributed;
 mod doc_examples;
 mod passes;
