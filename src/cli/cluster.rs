@@ -20,10 +20,18 @@ fn launched() -> Option<(usize, usize)> {
     .find_map(|(r, n)| Some((var(r)?, var(n)?)))
 }
 
+/// `hdrvis run`: as a rank when an MPI launcher started several, else as one process.
+pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
+    if run_if_launched(args, backend)? {
+        return Ok(());
+    }
+    super::run::run_script(args, backend)
+}
+
 /// Runs `hdrvis run` as a rank when an MPI launcher started several; `Ok(false)` when this is
 /// an ordinary single-process run.
 #[cfg(not(feature = "mpi"))]
-pub fn run_if_launched(_args: &RunArgs, _backend: BackendChoice) -> Result<bool> {
+fn run_if_launched(_args: &RunArgs, _backend: BackendChoice) -> Result<bool> {
     match launched() {
         Some((rank, n)) if n > 1 => {
             // Every rank would otherwise render the whole script and write the same files.
@@ -42,7 +50,7 @@ pub fn run_if_launched(_args: &RunArgs, _backend: BackendChoice) -> Result<bool>
 }
 
 #[cfg(feature = "mpi")]
-pub fn run_if_launched(args: &RunArgs, backend: BackendChoice) -> Result<bool> {
+fn run_if_launched(args: &RunArgs, backend: BackendChoice) -> Result<bool> {
     use hdrvis::render::distributed::mpi::MpiExchange;
     use hdrvis::render::distributed::Exchange;
     use std::sync::Arc;
@@ -81,7 +89,9 @@ fn run_rank(
     let session = RenderSession::new(backend, opts.cache_mib << 20).with_cluster(world.clone());
     opts.session = Some(Arc::new(session));
     if root {
-        opts.on_written = Some(super::run::print_as_written(Arc::new(Mutex::new(Vec::new()))));
+        opts.on_written = Some(super::run::print_as_written(Arc::new(Mutex::new(
+            Vec::new(),
+        ))));
     } else {
         opts.write_outputs = false;
         opts.capture_prints = true;

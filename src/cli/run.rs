@@ -18,9 +18,6 @@ const DEMO_SCRIPT: &str = include_str!("../../scripts/demo.rhai");
 /// `--stats` one line per pass, and with `--preview` its images inline. A run stopped by an
 /// error or by SIGINT/SIGTERM says so and how many files it wrote.
 pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
-    if super::cluster::run_if_launched(args, backend)? {
-        return Ok(());
-    }
     let mut opts = script_options(args, backend)?;
     let protocol = ProtocolChoice::resolve(args.protocol.as_deref())?;
     let written = Arc::new(Mutex::new(Vec::new()));

@@ -76,14 +76,13 @@ fn blobs_with_hole() -> Volume {
     v
 }
 
-fn options(vol: &Volume, camera: Camera, tf: TransferFunction) -> VolumeRenderOptions {
+fn options(camera: Camera, tf: TransferFunction) -> VolumeRenderOptions {
     let mut o = VolumeRenderOptions::new(camera, tf);
     (o.width, o.height, o.step) = (40, 32, 0.7);
     o.filter = FilterMode::Exact;
     // The split never stops rays early (a rank cannot know what lies in front of it).
     o.early_exit = 0.0;
     o.background = [0.02, 0.01, 0.03];
-    let _ = vol;
     o
 }
 
@@ -92,8 +91,14 @@ fn slabs_on_two_three_and_four_ranks_give_the_single_process_image() {
     let vol = blobs_with_hole();
     let bounds = vol.bounds();
     let cameras = [
-        ("perspective", Camera::orbit(&bounds, 35.0, 25.0, 40.0).unwrap()),
-        ("from below", Camera::orbit(&bounds, 20.0, -60.0, 40.0).unwrap()),
+        (
+            "perspective",
+            Camera::orbit(&bounds, 35.0, 25.0, 40.0).unwrap(),
+        ),
+        (
+            "from below",
+            Camera::orbit(&bounds, 20.0, -60.0, 40.0).unwrap(),
+        ),
         ("axis z", Camera::axis(Axis::Z, &bounds)),
         ("axis x", Camera::axis(Axis::X, &bounds)),
     ];
@@ -107,7 +112,7 @@ fn slabs_on_two_three_and_four_ranks_give_the_single_process_image() {
     let source = VolumeSource::Memory(Arc::new(vol.clone()));
     for (cam_name, cam) in &cameras {
         for (tf_name, tf) in &tfs {
-            let mut o = options(&vol, cam.clone(), tf.clone());
+            let mut o = options(*cam, tf.clone());
             o.jitter = cam_name == &"perspective";
             let single = render(BackendChoice::Vulkan, &vol, &o).pixels;
             for n in [2, 3, 4] {
@@ -127,7 +132,7 @@ fn slabs_on_two_three_and_four_ranks_give_the_single_process_image() {
 fn shaded_slabs_match_and_bad_splits_are_refused() {
     let vol = hdr_blobs(24);
     let cam = Camera::orbit(&vol.bounds(), 35.0, 25.0, 40.0).unwrap();
-    let mut o = options(&vol, cam, log_lut());
+    let mut o = options(cam, log_lut());
     o.shading = Some(Default::default());
     let single = render(BackendChoice::Vulkan, &vol, &o).pixels;
     let source = VolumeSource::Memory(Arc::new(vol.clone()));
@@ -156,5 +161,8 @@ fn shaded_slabs_match_and_bad_splits_are_refused() {
     let mut u8_opts = o.clone();
     u8_opts.precision = hdrvis::render::Precision::U8;
     let err = render_split(2, &source, &u8_opts).unwrap_err().to_string();
-    assert!(err.starts_with("precision: a render split over 2 ranks"), "{err}");
+    assert!(
+        err.starts_with("precision: a render split over 2 ranks"),
+        "{err}"
+    );
 }

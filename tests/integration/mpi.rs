@@ -17,7 +17,9 @@ fn mpi_binary() -> Option<PathBuf> {
         None
     };
     if Command::new("mpirun").arg("--version").output().is_err() {
-        return missing("mpirun is not installed (apt-get install openmpi-bin libopenmpi-dev)".into());
+        return missing(
+            "mpirun is not installed (apt-get install openmpi-bin libopenmpi-dev)".into(),
+        );
     }
     match std::env::var_os("HDRVIS_MPI_BIN").map(PathBuf::from) {
         Some(p) if p.is_file() => Some(p),
@@ -96,7 +98,11 @@ fn stderr(o: &Output) -> String {
 /// Largest channel difference of two EXRs over the second one's peak colour channel.
 fn worst_over_peak(a: &Path, b: &Path) -> f64 {
     let (a, b) = (read_exr(a).unwrap(), read_exr(b).unwrap());
-    let peak = b.pixels.iter().flat_map(|p| p[..3].iter()).fold(0.0f32, |m, &v| m.max(v));
+    let peak = b
+        .pixels
+        .iter()
+        .flat_map(|p| p[..3].iter())
+        .fold(0.0f32, |m, &v| m.max(v));
     assert!(peak > 0.0);
     a.pixels
         .iter()
@@ -112,7 +118,12 @@ fn mpirun_on_two_three_and_four_ranks_gives_the_single_process_image() {
     let dir = tempfile::tempdir().unwrap();
     let script = scene(dir.path(), 32);
     for (tf, camera) in [("lut", "orbit"), ("ea", "axis")] {
-        let sets = ["--set", &format!("tf={tf}"), "--set", &format!("camera={camera}")];
+        let sets = [
+            "--set",
+            &format!("tf={tf}"),
+            "--set",
+            &format!("camera={camera}"),
+        ];
         let single_out = dir.path().join(format!("single-{tf}"));
         let single = run(&bin, 1, &script, &single_out, &sets);
         assert!(single.status.success(), "{}", stderr(&single));
@@ -144,7 +155,16 @@ fn mpirun_on_two_three_and_four_ranks_gives_the_single_process_image() {
 fn rank_peaks(text: &str) -> Vec<f64> {
     text.lines()
         .filter(|l| l.starts_with("rank ") && l.contains("peak memory"))
-        .map(|l| l.split("peak memory ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap())
+        .map(|l| {
+            l.split("peak memory ")
+                .nth(1)
+                .unwrap()
+                .split(' ')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap()
+        })
         .collect()
 }
 
@@ -167,7 +187,13 @@ fn each_ranks_peak_memory_falls_with_the_rank_count() {
     args.extend(["--set", "open=1"]);
     let mut worst_by_ranks = Vec::new();
     for ranks in [2, 4] {
-        let o = run(&bin, ranks, &script, &dir.path().join(format!("r{ranks}")), &args);
+        let o = run(
+            &bin,
+            ranks,
+            &script,
+            &dir.path().join(format!("r{ranks}")),
+            &args,
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         let peaks = rank_peaks(&stdout(&o));
         assert_eq!(peaks.len(), ranks, "{}", stdout(&o));
@@ -194,7 +220,10 @@ fn mpi_errors_end_every_rank_with_one_line() {
     let err = stderr(&o);
     let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error: ")).collect();
     assert_eq!(lines.len(), 1, "{err}");
-    assert!(lines[0].contains("4 ranks cannot share") && lines[0].contains("3 z-slices"), "{err}");
+    assert!(
+        lines[0].contains("4 ranks cannot share") && lines[0].contains("3 z-slices"),
+        "{err}"
+    );
     assert!(!out.join("img.exr").exists());
     // A script error every rank meets: printed once.
     let bad = dir.path().join("bad.rhai");
@@ -203,6 +232,10 @@ fn mpi_errors_end_every_rank_with_one_line() {
     assert!(!o.status.success());
     assert_ne!(o.status.code(), Some(124), "ranks hung: {}", stderr(&o));
     let err = stderr(&o);
-    assert_eq!(err.lines().filter(|l| l.starts_with("error: ")).count(), 1, "{err}");
+    assert_eq!(
+        err.lines().filter(|l| l.starts_with("error: ")).count(),
+        1,
+        "{err}"
+    );
     assert!(err.contains("missing.npy"), "{err}");
 }

@@ -203,7 +203,10 @@ fn gather(
                 format!("rank {from} sent a malformed image piece"),
             )
         };
-        let head: [u8; 8] = msg.get(..8).and_then(|h| h.try_into().ok()).ok_or_else(bad)?;
+        let head: [u8; 8] = msg
+            .get(..8)
+            .and_then(|h| h.try_into().ok())
+            .ok_or_else(bad)?;
         let start = u64::from_le_bytes(head) as usize;
         let body = &msg[8..];
         let len = body.len() / 16;
@@ -248,12 +251,15 @@ mod tests {
     #[test]
     fn joined_homogeneous_slabs_give_the_closed_form_of_the_whole_depth() {
         let (e, a) = (2.0, 3.0);
-        let whole = e / a * (1.0 - (-a as f64).exp());
+        let whole = e / a * (1.0 - f64::exp(-a));
         for n in [2, 3, 5] {
             for minus in [false, true] {
                 let p = homogeneous(n, e, a, minus);
                 let joined = p[1..].iter().fold(p[0], |acc, &u| join(acc, u));
-                assert!((f64::from(joined[0]) - whole).abs() < 1e-6, "{n}: {joined:?}");
+                assert!(
+                    (f64::from(joined[0]) - whole).abs() < 1e-6,
+                    "{n}: {joined:?}"
+                );
                 assert!((f64::from(joined[3].abs()) - a).abs() < 1e-6);
                 assert_eq!(joined[3].is_sign_negative(), minus);
             }
@@ -279,7 +285,9 @@ mod tests {
     fn random_partials(n: usize, len: usize) -> Vec<Vec<Partial>> {
         let mut x = 12345u64;
         let mut next = move || {
-            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (x >> 40) as f32 / (1u64 << 24) as f32
         };
         let mut out: Vec<Vec<Partial>> = vec![Vec::new(); n];
@@ -309,7 +317,10 @@ mod tests {
                 let got = run(partials.clone(), scheme);
                 for (g, r) in got.iter().zip(&reference) {
                     for c in 0..4 {
-                        assert!((g[c] - r[c]).abs() <= 2e-6 * r[c].abs().max(1.0), "{n} {scheme:?}: {g:?} vs {r:?}");
+                        assert!(
+                            (g[c] - r[c]).abs() <= 2e-6 * r[c].abs().max(1.0),
+                            "{n} {scheme:?}: {g:?} vs {r:?}"
+                        );
                     }
                 }
             }
@@ -326,7 +337,11 @@ mod tests {
             std::thread::scope(|s| {
                 for ex in &group {
                     s.spawn(move || {
-                        let data = if ex.rank() == 2 % n { vec![7u8, 8, 9] } else { Vec::new() };
+                        let data = if ex.rank() == 2 % n {
+                            vec![7u8, 8, 9]
+                        } else {
+                            Vec::new()
+                        };
                         assert_eq!(broadcast(ex, 2 % n, data).unwrap(), vec![7, 8, 9]);
                     });
                 }

@@ -41,7 +41,7 @@ pub(crate) fn broadcast(ex: &dyn Exchange, root: usize, data: Vec<u8>) -> Result
     }
     let mut step = span >> 1;
     while step > 0 {
-        if me % (step << 1) == 0 && me + step < n {
+        if me.is_multiple_of(step << 1) && me + step < n {
             ex.send((me + step + root) % n, &data)?;
         }
         step >>= 1;

@@ -20,14 +20,10 @@ pub mod mpi;
 pub use composite::{Partial, Scheme};
 pub use exchange::{ChannelExchange, Exchange};
 
-use super::route::VolumeSource;
-use super::session::RenderSession;
-use super::volume::Geometry;
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
-use crate::model::{HdrImage, Volume};
-use std::sync::Arc;
-use std::time::Instant;
+use crate::model::bricks::VoxelSource;
+use crate::model::Volume;
 
 /// Slices read past each side of a slab: the trilinear samples of midpoints in the slab reach
 /// one slice beyond it, the central differences of shading one more.
@@ -90,9 +86,10 @@ impl Slab {
 }
 
 /// The options a distributed render cannot honour, refused with what to do instead; more
-/// ranks than the volume has slices.
+/// ranks than the volume `name` has slices (`nz`).
 pub(crate) fn check_options(
-    source: &VolumeSource,
+    name: &str,
+    nz: usize,
     opts: &VolumeRenderOptions,
     ranks: usize,
 ) -> Result<()> {
@@ -114,145 +111,38 @@ pub(crate) fn check_options(
             ),
         ));
     }
-    Slab::new(dims_of(source)[2], 0, ranks, source.name()).map(|_| ())
+    Slab::new(nz, 0, ranks, name).map(|_| ())
 }
 
-fn dims_of(source: &VolumeSource) -> [usize; 3] {
-    match source {
-        VolumeSource::Memory(v) => v.dims,
-        VolumeSource::Bricked(b) => b.dims,
-    }
+/// Where a volume lies and what it is called: what a slab read needs besides the voxels.
+pub(crate) struct Placement<'a> {
+    pub name: &'a str,
+    pub spacing: [f64; 3],
+    pub origin: [f64; 3],
 }
 
 /// Reads a slab's slices (with its ghost slices) of `source` as a volume of its own, placed
 /// where those slices lie in the whole volume.
-pub(crate) fn read_slab(source: &VolumeSource, slab: &Slab) -> Result<Volume> {
-    let [nx, ny, _] = dims_of(source);
+pub(crate) fn read_slab(
+    source: &dyn VoxelSource,
+    place: &Placement,
+    slab: &Slab,
+) -> Result<Volume> {
+    let [nx, ny, _] = source.dims();
     let count = slab.read_hi - slab.read_lo;
-    let (name, spacing, origin, data) = match source {
-        VolumeSource::Memory(v) => {
-            let range = slab.read_lo * nx * ny..slab.read_hi * nx * ny;
-            (&v.name, v.spacing, v.origin, v.data[range].to_vec())
-        }
-        VolumeSource::Bricked(b) => {
-            crate::model::volume::check_allocation((nx * ny * count * 4) as u64, "slab")?;
-            let mut data = vec![0f32; nx * ny * count];
-            b.source()
-                .read_box([0, 0, slab.read_lo], [nx, ny, count], &mut data)?;
-            b.source().release(slab.read_lo, slab.read_hi);
-            (&b.name, b.spacing, b.origin, data)
-        }
-    };
-    let mut origin = origin;
-    origin[2] += slab.read_lo as f64 * spacing[2];
+    crate::model::volume::check_allocation((nx * ny * count * 4) as u64, "slab")?;
+    let mut data = vec![0f32; nx * ny * count];
+    source.read_box([0, 0, slab.read_lo], [nx, ny, count], &mut data)?;
+    source.release(slab.read_lo, slab.read_hi);
+    let mut origin = place.origin;
+    origin[2] += slab.read_lo as f64 * place.spacing[2];
     Volume::new(
-        format!("{name} (slab {} of {})", slab.rank + 1, slab.count),
+        format!("{} (slab {} of {})", place.name, slab.rank + 1, slab.count),
         [nx, ny, count],
-        spacing,
+        place.spacing,
         origin,
         data,
     )
-}
-
-/// One rank's share of a distributed render.
-pub(crate) struct DistributedRender {
-    pub image: HdrImage,
-    /// Seconds of the slab's ray cast, of compositing (with the hand-out of the image).
-    pub render_seconds: f64,
-    pub composite_seconds: f64,
-    pub compiled_pipeline: bool,
-}
-
-impl RenderSession {
-    /// This rank's slab of `source` rendered, the partial images composited and the finished
-    /// image handed to every rank (see the module documentation).
-    pub(crate) fn render_distributed(
-        &self,
-        world: &dyn Exchange,
-        source: &VolumeSource,
-        opts: &VolumeRenderOptions,
-    ) -> Result<DistributedRender> {
-        let (rank, n) = (world.rank(), world.size());
-        let dims = dims_of(source);
-        let slab = Slab::new(dims[2], rank, n, source.name())?;
-        let (spacing, origin, stats) = match source {
-            VolumeSource::Memory(v) => (v.spacing, v.origin, v.stats()),
-            VolumeSource::Bricked(b) => (b.spacing, b.origin, b.stats),
-        };
-        let part = self.slab_volume(source, &slab)?;
-        let gpu_part = self.upload(&part)?;
-        let whole = Geometry {
-            name: source.name(),
-            dims,
-            spacing,
-            origin,
-            stats: &stats,
-        };
-        let t = Instant::now();
-        let (partial, timing) = self.volume_renderer()?.render_slab(
-            &gpu_part,
-            &whole,
-            opts,
-            slab.shader_params(dims[2], spacing[2]),
-        )?;
-        let render_seconds = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let scheme = Scheme::for_ranks(n);
-        let mut image = partial;
-        let composited = composite::composite(world, std::mem::take(&mut image.pixels), scheme)?;
-        let finished: Vec<[f32; 4]> = composited
-            .map(|px| {
-                px.into_iter()
-                    .map(|p| composite::finish(p, opts.background))
-                    .collect()
-            })
-            .unwrap_or_default();
-        let bytes = exchange::broadcast(world, 0, bytemuck::cast_slice(&finished).to_vec())?;
-        image.pixels = bytemuck::pod_collect_to_vec(&bytes);
-        if image.pixels.len() != (opts.width * opts.height) as usize {
-            return Err(Error::invalid(
-                "distributed",
-                "rank 0 handed out an image of the wrong size",
-            ));
-        }
-        image.set_meta(
-            "distributed",
-            format!(
-                "{n} ranks over {}, slabs along z, {} compositing",
-                world.transport(),
-                scheme.name()
-            ),
-        );
-        Ok(DistributedRender {
-            image,
-            render_seconds,
-            composite_seconds: t.elapsed().as_secs_f64(),
-            compiled_pipeline: timing.compiled_pipeline,
-        })
-    }
-
-    /// A rank's slab of `source`, read once per session (the `slab` stage).
-    fn slab_volume(&self, source: &VolumeSource, slab: &Slab) -> Result<Arc<Volume>> {
-        let key = super::cache::KeyBuilder::new("slab")
-            .u64(self.source_key(source))
-            .debug(slab)
-            .finish();
-        self.stage_with(
-            "slab",
-            key,
-            false,
-            |v: &Volume| v.data.len() as u64 * 4,
-            |_, _| {},
-            || {
-                let v = read_slab(source, slab)?;
-                let detail = format!(
-                    "rank {} of {}: z {}..{} (+{GHOST} ghost slices)",
-                    slab.rank, slab.count, slab.z0, slab.z1
-                );
-                Ok((v, detail))
-            },
-        )
-    }
 }
 
 /// This process's peak resident memory (VmHWM of /proc/self/status), bytes; `None` where the
@@ -267,6 +157,7 @@ pub fn peak_memory_bytes() -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::Arc;
 
     #[test]
     fn slabs_cover_the_slices_once_and_their_boundaries_agree() {
@@ -286,17 +177,30 @@ mod tests {
             }
         }
         let first = Slab::new(8, 0, 2, "v").unwrap().shader_params(8, 1.0);
-        assert_eq!([first[0], first[1], first[2], first[3]], [-f32::MAX, 4.0, 0.0, 8.0]);
+        assert_eq!(
+            [first[0], first[1], first[2], first[3]],
+            [-f32::MAX, 4.0, 0.0, 8.0]
+        );
         let err = Slab::new(3, 0, 4, "blobs").unwrap_err().to_string();
-        assert!(err.contains("4 ranks cannot share blobs: it has 3 z-slices"), "{err}");
+        assert!(
+            err.contains("4 ranks cannot share blobs: it has 3 z-slices"),
+            "{err}"
+        );
     }
 
     #[test]
     fn a_slab_volume_holds_its_slices_and_ghosts_where_they_lie() {
         let data: Vec<f32> = (0..2 * 2 * 6).map(|i| i as f32).collect();
-        let v = Arc::new(Volume::new("v", [2, 2, 6], [1.0, 1.0, 0.5], [0.0, 0.0, 1.0], data).unwrap());
+        let v =
+            Arc::new(Volume::new("v", [2, 2, 6], [1.0, 1.0, 0.5], [0.0, 0.0, 1.0], data).unwrap());
         let slab = Slab::new(6, 2, 3, "v").unwrap();
-        let part = read_slab(&VolumeSource::Memory(v), &slab).unwrap();
+        let place = Placement {
+            name: "v",
+            spacing: v.spacing,
+            origin: v.origin,
+        };
+        let source = crate::model::bricks::MemorySource(v);
+        let part = read_slab(&source, &place, &slab).unwrap();
         assert_eq!(part.dims, [2, 2, 4]);
         assert_eq!(part.origin[2], 1.0 + 2.0 * 0.5);
         assert_eq!(part.data[0], 8.0);
