@@ -24,7 +24,29 @@
 @group(0) @binding(5) var skip_grid: texture_3d<f32>;
 #endif
 
+// Voxel counts of the whole volume: the texture's, or with SLAB the texture's x and y and the
+// global z count (the texture holds this rank's slab and its ghost slices).
+fn volume_dims() -> vec3<f32> {
+#if SLAB
+    return vec3<f32>(vec2<f32>(textureDimensions(volume_tex).xy), P.slab.w);
+#else
+    return vec3<f32>(textureDimensions(volume_tex));
+#endif
+}
+
 fn sample_volume(uvw: vec3<f32>) -> f32 {
+#if SLAB
+    // Global texture coordinates, exact trilinear interpolation of the slab's slices: the ghost
+    // slices hold the neighbours' voxels, and the clamps act only at the volume's own faces.
+    let dims = vec3<i32>(textureDimensions(volume_tex));
+    let g = uvw * volume_dims() - 0.5 - vec3<f32>(0.0, 0.0, P.slab.z);
+    let g0 = floor(g);
+    let f = g - g0;
+    let top = dims - vec3<i32>(1);
+    let a = clamp(vec3<i32>(g0), vec3<i32>(0), top);
+    let b = clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top);
+    return trilinear_texels(volume_tex, a, b, f);
+#else
 #if HW_FILTER
     return textureSampleLevel(volume_tex, volume_sampler, uvw, 0.0).r;
 #else
@@ -38,6 +60,7 @@ fn sample_volume(uvw: vec3<f32>) -> f32 {
     let b = clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top);
     return trilinear_texels(volume_tex, a, b, f);
 #endif
+#endif
 }
 
 #if SHADING
@@ -47,7 +70,7 @@ fn sample_volume(uvw: vec3<f32>) -> f32 {
 // value the sample keeps its unshaded emission (factor 1). Matches shading_factor in
 // src/render/cpu_reference.rs.
 fn shading_factor(uvw: vec3<f32>, dir: vec3<f32>) -> f32 {
-    let dims = vec3<f32>(textureDimensions(volume_tex));
+    let dims = volume_dims();
     let h = 1.0 / dims;
     let spacing = P.box_size.xyz / dims;
     let gx = sample_volume(uvw + vec3<f32>(h.x, 0.0, 0.0)) - sample_volume(uvw - vec3<f32>(h.x, 0.0, 0.0));
@@ -197,6 +220,45 @@ fn skip_empty(c: Inner, k: u32, last: u32) -> u32 {
 }
 #endif
 
+#if SLAB
+// The segments of a ray this rank composites: those whose midpoints lie in its slab's z range
+// [P.slab.x, P.slab.y), the samples where the whole volume's march puts them (the same first
+// segment and step from the global box entry), every segment its full length, no early
+// termination (what lies in front is another rank's). Returns premultiplied colour and optical
+// depth, the depth's sign bit set when the ray runs towards -z (compositing order).
+fn march_slab(m: March, origin_z: f32, dir_z: f32) -> RayState {
+    var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, m.t_enter, false);
+    // The candidate segments from where the ray crosses the slab's planes, widened by two on
+    // each side; the midpoint test below decides, the same on every rank.
+    var k_lo = 0.0;
+    var k_hi = f32(m.steps) - 1.0;
+    if (abs(dir_z) > 0.0) {
+        let ta = (P.slab.x - origin_z) / dir_z;
+        let tb = (P.slab.y - origin_z) / dir_z;
+        let t0 = clamp(min(ta, tb), m.t_enter, m.t_exit);
+        let t1 = clamp(max(ta, tb), m.t_enter, m.t_exit);
+        k_lo = max(floor((t0 - m.t_enter - m.first) / m.ds) - 2.0, 0.0);
+        k_hi = min(ceil((t1 - m.t_enter - m.first) / m.ds) + 2.0, k_hi);
+    }
+    for (var k = u32(k_lo); f32(k) <= k_hi; k += 1u) {
+        let ta = select(segment_end(m, k - 1u), m.t_enter, k == 0u);
+        let tb = segment_end(m, k);
+        let mid = 0.5 * (ta + tb);
+        let z = origin_z + dir_z * mid;
+        if (z >= P.slab.x && z < P.slab.y) {
+            var ea = sample_work(m.uvw0 + m.duvw * mid);
+#if SHADING
+            if (any(ea.rgb > vec3<f32>(0.0))) {
+                ea = vec4<f32>(ea.rgb * shading_factor(m.uvw0 + m.duvw * mid, m.dir), ea.a);
+            }
+#endif
+            composite(&s, ea, (tb - ta) * m.voxels_per_unit, 3.0e38);
+        }
+    }
+    return s;
+}
+#endif
+
 // Steps per loop iteration. llvmpipe ends any loop after 65535 iterations, so a ray can take at
 // most 4 * 65535 steps (src/render/volume.rs refuses renders that would need more).
 const UNROLL: u32 = 4u;
@@ -213,6 +275,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let hit = box_hit(ray.origin, ray.dir, size);
     let t_enter = max(hit.x, 0.0);
     let t_exit = hit.y;
+#if SLAB
+    var partial = vec4<f32>(0.0);
+    if (t_exit > t_enter) {
+        let ds = P.march.x;
+        let first = first_segment(gid.xy, w, h, ds);
+        let n = segment_count(t_exit - t_enter, first, ds);
+        let inv_size = 1.0 / size;
+        let m = March(t_enter, t_exit, first, ds, P.march.y, P.march.z, n, ray.origin * inv_size, ray.dir * inv_size, ray.dir);
+        let s = march_slab(m, ray.origin.z, ray.dir.z);
+        partial = vec4<f32>(s.color, s.tau);
+    }
+    let sign = select(0u, 0x80000000u, ray.dir.z < 0.0);
+    partial.w = bitcast<f32>(bitcast<u32>(partial.w) | sign);
+    textureStore(out_image, vec2<i32>(gid.xy), partial);
+#else
     var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, t_enter, false);
     if (t_exit > t_enter) {
         let ds = P.march.x;
@@ -302,4 +379,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 #endif
     }
     textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));
+#endif
 }

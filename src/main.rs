@@ -23,7 +23,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         None => cli::run::run_demo(Path::new("out/demo"), backend),
         Some(Command::Demo { out }) => cli::run::run_demo(&out, backend),
-        Some(Command::Run(args)) => cli::run::run_script(&args, backend),
+        Some(Command::Run(args)) => cli::cluster::run_script(&args, backend),
         Some(Command::Tui(args)) => cli::run::run_tui(&args, backend),
         Some(Command::Bench(cmd)) => cli::bench::run_bench(cmd, backend),
         Some(Command::Gen(cmd)) => {

@@ -24,6 +24,10 @@ struct Params {
     shading: vec4<f32>,
     // Empty-space skipping (SKIPPING only): x voxels per cell edge of the skip grid
     skip: vec4<f32>,
+    // One slab of a distributed render (SLAB only): x, y the z range (world units from the
+    // box's lower corner) whose segment midpoints this rank composites, z the global index of
+    // the first z-slice in the texture, w the volume's global slice count.
+    slab: vec4<f32>,
 }
 
 // 0: lookup table, 1: emission–absorption e·v, a·v.

@@ -5,6 +5,7 @@
 pub mod animate;
 pub mod bench;
 pub mod cache;
+pub mod cluster;
 pub mod datasets;
 pub mod run;
 pub mod slurm;

@@ -35,6 +35,9 @@ pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
         for r in &report.passes {
             println!("{r}");
         }
+        if let Some(peak) = hdrvis::render::distributed::peak_memory_bytes() {
+            println!("peak memory {} (VmHWM)", mib(peak));
+        }
     }
     if args.preview {
         let images: Vec<_> = if report.previews.is_empty() {
@@ -47,8 +50,13 @@ pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
     Ok(())
 }
 
+/// Bytes as MiB with one decimal, for the `--stats` memory lines.
+pub(super) fn mib(bytes: u64) -> String {
+    format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64)
+}
+
 /// Prints "wrote PATH" the moment a file is complete and remembers it for [`stop_line`].
-fn print_as_written(written: Arc<Mutex<Vec<PathBuf>>>) -> WrittenObserver {
+pub(super) fn print_as_written(written: Arc<Mutex<Vec<PathBuf>>>) -> WrittenObserver {
     WrittenObserver(Arc::new(move |path: &Path| {
         // The list's lock also orders these lines against the signal handler's summary.
         let mut list = written.lock().expect("written poisoned");
@@ -95,7 +103,7 @@ fn stop_on_signals(written: Arc<Mutex<Vec<PathBuf>>>) -> Result<()> {
 }
 
 /// The script options `hdrvis run`'s flags ask for.
-fn script_options(args: &RunArgs, backend: BackendChoice) -> Result<ScriptOptions> {
+pub(super) fn script_options(args: &RunArgs, backend: BackendChoice) -> Result<ScriptOptions> {
     let mut opts = ScriptOptions::new(&args.out);
     opts.backend = backend;
     opts.allowed_paths = args.allow_paths.clone();

@@ -92,6 +92,8 @@ pub(crate) const PIPELINES: &[(&str, &[&[&str]])] = &[
             &["PREINTEGRATED"],
             &["HW_FILTER", "PREINTEGRATED"],
             &["SHADING", "PREINTEGRATED"],
+            &["SLAB"],
+            &["SLAB", "SHADING"],
         ],
     ),
     ("volume_f64.wgsl", &[&[]]),

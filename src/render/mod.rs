@@ -4,6 +4,7 @@
 pub mod bricked;
 pub mod cache;
 pub mod cpu_reference;
+pub mod distributed;
 pub(crate) mod mapped;
 pub mod passes;
 pub(crate) mod route;

@@ -9,7 +9,9 @@
 //!   function;
 //! * the bricked ray caster (skipping empty bricks, streamed out of core through a brick cache
 //!   when the needed bricks exceed the budget) for opened volumes, volumes over the budget, and
-//!   renders that ask for bricks.
+//!   renders that ask for bricks;
+//! * before all of these, when the session is one of several ranks (MPI), the distributed
+//!   render ([`super::distributed`]): a slab per rank, composited sort-last.
 //!
 //! Every intermediate — the level, the in-memory volume cut into bricks, the GPU brick cache,
 //! the upload, the image — is an entry of the session's result cache, so every path shows in
@@ -19,11 +21,13 @@
 
 use super::bricked::{BrickCache, BrickedStats};
 use super::cache::KeyBuilder;
+use super::distributed::{self, read_slab, Exchange, Placement, Slab};
 use super::session::{append_pass, image_bytes, raycast_effects, RenderSession};
 use super::skipping::{CellRanges, SkipGrid};
+use super::volume::Geometry;
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
-use crate::model::bricks::{BrickedVolume, DEFAULT_BRICK};
+use crate::model::bricks::{BrickedVolume, MemorySource, DEFAULT_BRICK};
 use crate::model::{Aabb, HdrImage, Volume};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -100,6 +104,9 @@ pub enum RenderPath {
     /// Voxels placed by coordinate axes (spherical shells and wedges, rectilinear boxes): each
     /// ray cut analytically to the domain, each sample mapped through the axes.
     Mapped,
+    /// One slab of the volume per rank of the session's group (MPI), partial images
+    /// composited sort-last onto rank 0 and handed to every rank.
+    Distributed { ranks: usize },
 }
 
 /// A finished volume render: the image and how it was made.
@@ -184,7 +191,10 @@ impl RenderSession {
         let path = self.choose_path(&source, opts)?;
         if matches!(
             path,
-            RenderPath::InCore { .. } | RenderPath::Bricked { .. } | RenderPath::Mapped
+            RenderPath::InCore { .. }
+                | RenderPath::Bricked { .. }
+                | RenderPath::Mapped
+                | RenderPath::Distributed { .. }
         ) {
             super::check_output_fits(&self.context()?.caps, opts.width, opts.height)?;
         }
@@ -193,10 +203,13 @@ impl RenderSession {
             .debug(&path)
             .debug(opts)
             .finish();
+        // A distributed render always runs: every rank must take part in the compositing, and
+        // the ranks' caches need not agree on what they still hold.
+        let rerun = self.renders_rerun() || matches!(path, RenderPath::Distributed { .. });
         self.stage_with(
             "raycast",
             key,
-            self.renders_rerun(),
+            rerun,
             |r: &VolumeRender| image_bytes(&r.image),
             |r, rec| {
                 if let Some(img) = Arc::get_mut(&mut r.image) {
@@ -211,6 +224,13 @@ impl RenderSession {
                 }
                 if path == (RenderPath::InCore { skipping: true }) {
                     detail.push("empty-space skipping".into());
+                }
+                if let (RenderPath::Distributed { ranks }, Some(world)) = (path, self.cluster()) {
+                    detail.push(format!(
+                        "distributed over {ranks} ranks ({}, {})",
+                        world.transport(),
+                        distributed::Scheme::for_ranks(ranks).name()
+                    ));
                 }
                 if r.compiled_pipeline {
                     detail.push("pipeline built".into());
@@ -227,6 +247,28 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<RenderPath> {
         let b = &opts.bricking;
+        if let Some(world) = self.cluster().filter(|w| w.size() > 1) {
+            if let VolumeSource::Memory(v) = source {
+                if !v.is_regular() {
+                    return Err(Error::invalid(
+                        "ranks",
+                        format!(
+                            "{} is a {} volume placed by coordinate axes; distributed renders split regular boxes into slabs (run it on one rank)",
+                            v.name,
+                            v.geometry.name()
+                        ),
+                    ));
+                }
+            }
+            let nz = match source {
+                VolumeSource::Memory(v) => v.dims[2],
+                VolumeSource::Bricked(b) => b.dims[2],
+            };
+            distributed::check_options(source.name(), nz, opts, world.size())?;
+            return Ok(RenderPath::Distributed {
+                ranks: world.size(),
+            });
+        }
         let path = match source {
             VolumeSource::Memory(v) if !v.is_regular() => return mapped_path(v, opts),
             VolumeSource::Memory(v) => {
@@ -348,6 +390,12 @@ impl RenderSession {
                     .render_bricked(&mut cache, opts, skip)?;
                 (img, stats.seconds, Some(stats), false)
             }
+            (RenderPath::Distributed { .. }, _) => {
+                let world = self.cluster().expect("choose_path saw the session's group");
+                let r = self.render_distributed(world.as_ref(), source, opts)?;
+                let seconds = r.render_seconds + r.composite_seconds;
+                (r.image, seconds, None, r.compiled_pipeline)
+            }
             (_, VolumeSource::Bricked(_)) => {
                 unreachable!("choose_path sends bricked sources to the bricked path")
             }
@@ -363,7 +411,7 @@ impl RenderSession {
 
     /// The content key of a source: a memory volume's data hash, a bricked volume's identity
     /// (its source, layout and per-brick ranges, which change when the file's data change).
-    fn source_key(&self, source: &VolumeSource) -> u64 {
+    pub(super) fn source_key(&self, source: &VolumeSource) -> u64 {
         match source {
             VolumeSource::Memory(v) => self.volume_key(v),
             VolumeSource::Bricked(b) => {
@@ -510,6 +558,134 @@ impl RenderSession {
                 let g = SkipGrid::new(&ctx, &cells, &tf);
                 let detail = format!("{} of {} cells empty", g.empty, g.cells());
                 Ok((g, detail))
+            },
+        )
+    }
+}
+
+/// One rank's share of a distributed render.
+pub(crate) struct DistributedRender {
+    pub image: HdrImage,
+    /// Seconds of the slab's ray cast, of compositing (with the hand-out of the image).
+    pub render_seconds: f64,
+    pub composite_seconds: f64,
+    pub compiled_pipeline: bool,
+}
+
+impl RenderSession {
+    /// This rank's slab of `source` rendered, the partial images composited and the finished
+    /// image handed to every rank (see the module documentation).
+    pub(crate) fn render_distributed(
+        &self,
+        world: &dyn Exchange,
+        source: &VolumeSource,
+        opts: &VolumeRenderOptions,
+    ) -> Result<DistributedRender> {
+        let (rank, n) = (world.rank(), world.size());
+        let dims = match source {
+            VolumeSource::Memory(v) => v.dims,
+            VolumeSource::Bricked(b) => b.dims,
+        };
+        let slab = Slab::new(dims[2], rank, n, source.name())?;
+        let (spacing, origin, stats) = match source {
+            VolumeSource::Memory(v) => (v.spacing, v.origin, v.stats()),
+            VolumeSource::Bricked(b) => (b.spacing, b.origin, b.stats),
+        };
+        let part = self.slab_volume(source, &slab)?;
+        let gpu_part = self.upload(&part)?;
+        let whole = Geometry {
+            name: source.name(),
+            dims,
+            spacing,
+            origin,
+            stats: &stats,
+            voxel: super::volume::min_spacing(spacing),
+        };
+        let t = Instant::now();
+        let (partial, timing) = self.volume_renderer()?.render_slab(
+            &gpu_part,
+            &whole,
+            opts,
+            slab.shader_params(dims[2], spacing[2]),
+        )?;
+        let render_seconds = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let scheme = distributed::Scheme::for_ranks(n);
+        let mut image = partial;
+        let composited =
+            distributed::composite::composite(world, std::mem::take(&mut image.pixels), scheme)?;
+        let finished: Vec<[f32; 4]> = composited
+            .map(|px| {
+                px.into_iter()
+                    .map(|p| distributed::composite::finish(p, opts.background))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let bytes =
+            distributed::exchange::broadcast(world, 0, bytemuck::cast_slice(&finished).to_vec())?;
+        image.pixels = bytemuck::pod_collect_to_vec(&bytes);
+        if image.pixels.len() != (opts.width * opts.height) as usize {
+            return Err(Error::invalid(
+                "distributed",
+                "rank 0 handed out an image of the wrong size",
+            ));
+        }
+        image.set_meta(
+            "distributed",
+            format!(
+                "{n} ranks over {}, slabs along z, {} compositing",
+                world.transport(),
+                scheme.name()
+            ),
+        );
+        Ok(DistributedRender {
+            image,
+            render_seconds,
+            composite_seconds: t.elapsed().as_secs_f64(),
+            compiled_pipeline: timing.compiled_pipeline,
+        })
+    }
+
+    /// A rank's slab of `source`, read once per session (the `slab` stage).
+    fn slab_volume(&self, source: &VolumeSource, slab: &Slab) -> Result<Arc<Volume>> {
+        let key = KeyBuilder::new("slab")
+            .u64(self.source_key(source))
+            .debug(slab)
+            .finish();
+        self.stage_with(
+            "slab",
+            key,
+            false,
+            |v: &Volume| v.data.len() as u64 * 4,
+            |_, _| {},
+            || {
+                let v = match source {
+                    VolumeSource::Memory(v) => {
+                        let place = Placement {
+                            name: &v.name,
+                            spacing: v.spacing,
+                            origin: v.origin,
+                        };
+                        read_slab(&MemorySource(v.clone()), &place, slab)?
+                    }
+                    VolumeSource::Bricked(b) => {
+                        let place = Placement {
+                            name: &b.name,
+                            spacing: b.spacing,
+                            origin: b.origin,
+                        };
+                        read_slab(b.source().as_ref(), &place, slab)?
+                    }
+                };
+                let detail = format!(
+                    "rank {} of {}: z {}..{} (+{} ghost slices)",
+                    slab.rank,
+                    slab.count,
+                    slab.z0,
+                    slab.z1,
+                    distributed::GHOST
+                );
+                Ok((v, detail))
             },
         )
     }

@@ -8,6 +8,7 @@
 //! or a sweep that re-runs a script reuses what earlier runs computed.
 
 use super::cache::{KeyBuilder, ResultCache};
+use super::distributed::Exchange;
 use super::passes::{describe, PassLog, PassRecord};
 use super::surface::{SurfaceOptions, SurfaceRenderer};
 use super::volume::{GpuVolume, VolumeRenderer};
@@ -46,6 +47,9 @@ pub struct RenderSession {
     /// Renders run even when the cache holds their image (benchmarks time every render; what
     /// they read and upload is still reused).
     rerun_renders: bool,
+    /// The ranks this session renders with (MPI, or threads in tests); every volume render is
+    /// split over them when there are several.
+    cluster: Option<Arc<dyn Exchange>>,
 }
 
 fn ms_since(t: Instant) -> f64 {
@@ -89,7 +93,20 @@ impl RenderSession {
             volume_keys: Mutex::new(HashMap::new()),
             image_keys: Mutex::new(HashMap::new()),
             rerun_renders: false,
+            cluster: None,
         }
+    }
+
+    /// This session as one rank of `world`: every volume render is split over its ranks
+    /// ([`super::distributed`]), and each rank must run the same renders in the same order.
+    pub fn with_cluster(mut self, world: Arc<dyn Exchange>) -> Self {
+        self.cluster = Some(world);
+        self
+    }
+
+    /// The ranks this session renders with, when it is one of a group.
+    pub fn cluster(&self) -> Option<&Arc<dyn Exchange>> {
+        self.cluster.as_ref()
     }
 
     /// This session with every render run afresh, for timing: loads, uploads, bricks and brick

@@ -143,7 +143,9 @@ impl SurfaceView {
     pub fn globe_above(grid: &Grid, distance: f64, fov: f64) -> Result<SurfaceView> {
         let frame = GlobeFrame::of(grid)?;
         let (lat, lon) = frame.centre();
-        Ok(SurfaceView::Globe(Camera::geo([0.0; 3], lat, lon, distance, fov)?))
+        Ok(SurfaceView::Globe(Camera::geo(
+            [0.0; 3], lat, lon, distance, fov,
+        )?))
     }
 
     /// 0: perspective over the relief, 1: map, 2: globe (the data shader's `VIEW`).

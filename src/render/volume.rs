@@ -30,6 +30,7 @@ pub(crate) struct VolumeParams {
     image: [u32; 4],
     shading: [f32; 4],
     skip: [f32; 4],
+    slab: [f32; 4],
 }
 
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
@@ -109,6 +110,18 @@ impl GpuVolume {
         })
     }
 
+    /// The geometry the ray caster needs, from the resident volume.
+    pub(crate) fn geometry(&self) -> Geometry<'_> {
+        Geometry {
+            name: &self.name,
+            dims: self.dims,
+            spacing: self.spacing,
+            origin: self.origin,
+            stats: &self.stats,
+            voxel: min_spacing(self.spacing),
+        }
+    }
+
     pub fn bytes(&self) -> u64 {
         (self.texture.width() as u64)
             * (self.texture.height() as u64)
@@ -133,6 +146,8 @@ pub(crate) struct PipelineKey {
     pub skipping: bool,
     /// Voxels placed by coordinate axes (volume_mapped.wgsl): 1 rectilinear, 2 spherical.
     pub mapped: u32,
+    /// One slab of a distributed render (plain ray caster): partial images.
+    pub slab: bool,
     work: SampleWork,
 }
 
@@ -246,6 +261,9 @@ impl VolumeRenderer {
         if key.mapped == 2 {
             defines.push("SPHERICAL");
         }
+        if key.slab {
+            defines.push("SLAB");
+        }
         let name = if key.bricked {
             "volume_bricked.wgsl"
         } else if key.mapped > 0 {
@@ -316,7 +334,22 @@ impl VolumeRenderer {
         opts: &VolumeRenderOptions,
         skip: Option<&SkipGrid>,
     ) -> Result<(HdrImage, RenderTiming)> {
-        self.render_with(volume, opts, SampleWork::Full, skip)
+        let geometry = volume.geometry();
+        self.render_with(volume, &geometry, opts, SampleWork::Full, skip, None)
+    }
+
+    /// The partial image of one slab of a distributed render: `volume` holds the slab's
+    /// z-slices and its ghost slices, `whole` is the geometry of the whole volume, `slab` the
+    /// shader's slab parameters (see `Params.slab` in shaders/shared/volume_params.wgsl). Each
+    /// pixel holds premultiplied colour and signed optical depth ([`super::distributed`]).
+    pub(crate) fn render_slab(
+        &self,
+        volume: &GpuVolume,
+        whole: &Geometry,
+        opts: &VolumeRenderOptions,
+        slab: [f32; 4],
+    ) -> Result<(HdrImage, RenderTiming)> {
+        self.render_with(volume, whole, opts, SampleWork::Full, None, Some(slab))
     }
 
     /// The plain march (no skipping) with the samples doing only `work` (see SampleWork): for
@@ -327,28 +360,30 @@ impl VolumeRenderer {
         opts: &VolumeRenderOptions,
         work: SampleWork,
     ) -> Result<(HdrImage, RenderTiming)> {
-        self.render_with(volume, opts, work, None)
+        let geometry = volume.geometry();
+        self.render_with(volume, &geometry, opts, work, None, None)
     }
 
     fn render_with(
         &self,
         volume: &GpuVolume,
+        geometry: &Geometry,
         opts: &VolumeRenderOptions,
         work: SampleWork,
         skip: Option<&SkipGrid>,
+        slab: Option<[f32; 4]>,
     ) -> Result<(HdrImage, RenderTiming)> {
-        let geometry = Geometry {
-            name: &volume.name,
-            dims: volume.dims,
-            spacing: volume.spacing,
-            origin: volume.origin,
-            stats: &volume.stats,
-            voxel: min_spacing(volume.spacing),
-        };
-        let mut frame = self.frame(&geometry, opts, false)?;
+        let mut frame = self.frame(geometry, opts, false)?;
         frame.key.work = work;
         frame.key.skipping = skip.is_some();
         frame.params.skip = [skip.map_or(0, |g| g.edge) as f32, 0.0, 0.0, 0.0];
+        if let Some(slab) = slab {
+            // Slabs interpolate exactly: the texture unit's filter would see the slab's
+            // texture, not the volume's.
+            frame.key.slab = true;
+            frame.key.hw_filter = false;
+            frame.params.slab = slab;
+        }
         let (pipeline, compiled) = self.pipeline(frame.key)?;
         let (pipeline, layout) = (&pipeline.0, &pipeline.1);
         let device = &self.ctx.device;
@@ -370,7 +405,7 @@ impl VolumeRenderer {
             });
         }
         let (pixels, seconds) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
-        let image = self.finish_image(&geometry, opts, frame.key.hw_filter, pixels);
+        let image = self.finish_image(geometry, opts, frame.key.hw_filter, pixels);
         Ok((
             image,
             RenderTiming {
@@ -442,6 +477,7 @@ impl VolumeRenderer {
             preintegrated: opts.tf_sampling == TfSampling::PreIntegrated,
             skipping: false,
             mapped: 0,
+            slab: false,
             work: SampleWork::Full,
         };
         let params = volume_params(volume, opts, &tf, tf_consts, voxel, size);
@@ -698,6 +734,7 @@ fn volume_params(
             ]
         }),
         skip: [0.0; 4],
+        slab: [0.0; 4],
     }
 }
 

@@ -123,7 +123,8 @@ fn surface_view(grid: &Grid, view: Option<&Dynamic>, globe: bool) -> RResult<Sur
         };
         return match (camera, name.as_deref()) {
             (Some(c), _) => Ok(SurfaceView::Globe(
-                c.resolve_in(&sphere_box, ([0.0; 3], 1.0)).map_err(to_rhai)?,
+                c.resolve_in(&sphere_box, ([0.0; 3], 1.0))
+                    .map_err(to_rhai)?,
             )),
             (None, None | Some("globe")) => {
                 SurfaceView::globe_above(grid, GLOBE_DISTANCE, GLOBE_FOV).map_err(to_rhai)
