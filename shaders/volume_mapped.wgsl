@@ -18,8 +18,13 @@ struct Mapped {
     domain_lo: vec4<f32>,
     // SPHERICAL: x lowest longitude, y highest (degrees), z 1 when the longitude wraps.
     domain_hi: vec4<f32>,
-    // Per coordinate (x: radius or x, y: latitude or y, z: longitude or z): its texture axis.
+    // Per coordinate (x: radius or x, y: latitude or y, z: longitude or z): its texture axis,
+    // and the same as one-hot rows (texture index = sum of f.c * row c), so no vector is indexed
+    // by a runtime value (CPU rasterizers spill such vectors to memory).
     axis_of: vec4<u32>,
+    row_x: vec4<f32>,
+    row_y: vec4<f32>,
+    row_z: vec4<f32>,
     // Per coordinate: the number of centres and where they start in `coords` (uneven axes).
     count: vec4<u32>,
     offset: vec4<u32>,
@@ -45,9 +50,18 @@ const DEG: f32 = 57.295779513;
 // Fractional index of value x along coordinate c: i at centre i, linear between centres and
 // beyond the ends (CoordAxis::fractional_index).
 fn axis_index(c: u32, x: f32) -> f32 {
+#if UNEVEN
     if (G.inv_step[c] != 0.0) {
         return (x - G.first[c]) * G.inv_step[c];
     }
+    return uneven_index(c, x);
+#else
+    return (x - G.first[c]) * G.inv_step[c];
+#endif
+}
+
+#if UNEVEN
+fn uneven_index(c: u32, x: f32) -> f32 {
     let y = x * G.dir[c];
     let off = G.offset[c];
     var lo = 0u;
@@ -68,6 +82,7 @@ fn axis_index(c: u32, x: f32) -> f32 {
     let b = coords[off + lo + 1u];
     return f32(lo) + (y - a) / (b - a);
 }
+#endif
 
 #if SPHERICAL
 // Longitude (degrees) moved by whole turns into [lo, lo + 360).
@@ -79,6 +94,7 @@ fn wrap_lon(lon: f32) -> f32 {
 // Fractional longitude index, across the seam from the last centre to the first one a turn
 // later when the axis wraps.
 fn lon_index(lon: f32) -> f32 {
+#if SEAM
     if (G.domain_hi.z > 0.5) {
         let rising = G.dir.z > 0.0;
         let first = G.seam.x;
@@ -94,6 +110,9 @@ fn lon_index(lon: f32) -> f32 {
             return f32(G.count.z - 1u) + (l - last) / (G.seam.z - last);
         }
     }
+#endif
+    // Without SEAM an even circle's gap across the seam is one step: the index runs on past
+    // the last centre and the texel wrap below joins it to the first.
     return axis_index(2u, lon);
 }
 
@@ -120,10 +139,7 @@ fn sample_at(p: vec3<f32>) -> f32 {
     let w = p + G.domain_lo.xyz;
     let f = vec3<f32>(axis_index(0u, w.x), axis_index(1u, w.y), axis_index(2u, w.z));
 #endif
-    var g = vec3<f32>(0.0);
-    g[G.axis_of.x] = f.x;
-    g[G.axis_of.y] = f.y;
-    g[G.axis_of.z] = f.z;
+    let g = f.x * G.row_x.xyz + f.y * G.row_y.xyz + f.z * G.row_z.xyz;
     let dims = vec3<i32>(textureDimensions(volume_tex));
     let g0 = floor(g);
     let t = g - g0;
@@ -132,10 +148,15 @@ fn sample_at(p: vec3<f32>) -> f32 {
     var b = clamp(vec3<i32>(g0) + vec3<i32>(1), vec3<i32>(0), top);
 #if SPHERICAL
     if (G.domain_hi.z > 0.5) {
-        let ax = G.axis_of.z;
-        let n = dims[ax];
-        a[ax] = ((i32(g0[ax]) % n) + n) % n;
-        b[ax] = ((i32(g0[ax]) + 1) % n + n) % n;
+        // The longitude's texel pair, wrapped (its index lies in [-1, n]): selects, not an
+        // integer remainder, which CPU rasterizers do lane by lane.
+        let lon_axis = vec3<i32>(G.row_z.xyz);
+        let g0i = vec3<i32>(g0);
+        let wa = select(g0i, g0i + dims, g0i < vec3<i32>(0));
+        let wb = select(g0i + 1, g0i + 1 - dims, g0i + 1 >= dims);
+        let on = lon_axis == vec3<i32>(1);
+        a = select(a, wa, on);
+        b = select(b, wb, on);
     }
 #endif
     return trilinear_texels(volume_tex, a, b, t);

@@ -108,9 +108,11 @@ pub(crate) const PIPELINES: &[(&str, &[&[&str]])] = &[
         "volume_mapped.wgsl",
         &[
             &[],
+            &["UNEVEN"],
             &["SPHERICAL"],
+            &["SPHERICAL", "UNEVEN", "SEAM"],
             &["SPHERICAL", "SHADING"],
-            &["SPHERICAL", "PREINTEGRATED"],
+            &["SPHERICAL", "UNEVEN", "PREINTEGRATED"],
             &["PREINTEGRATED", "SHADING"],
         ],
     ),

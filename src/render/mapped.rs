@@ -16,6 +16,9 @@ struct MappedParams {
     domain_lo: [f32; 4],
     domain_hi: [f32; 4],
     axis_of: [u32; 4],
+    row_x: [f32; 4],
+    row_y: [f32; 4],
+    row_z: [f32; 4],
     count: [u32; 4],
     offset: [u32; 4],
     first: [f32; 4],
@@ -27,7 +30,15 @@ struct MappedParams {
 impl MappedParams {
     /// Coordinate `c` from `axis`: an even axis by its first centre and step, an uneven one by
     /// its centres appended to `coords`, stored rising.
-    fn set_axis(&mut self, c: usize, axis: &CoordAxis, coords: &mut Vec<f32>) {
+    fn set_axis(&mut self, c: usize, axis: &CoordAxis, texture_axis: usize, coords: &mut Vec<f32>) {
+        self.axis_of[c] = texture_axis as u32;
+        let mut row = [0.0; 4];
+        row[texture_axis] = 1.0;
+        match c {
+            0 => self.row_x = row,
+            1 => self.row_y = row,
+            _ => self.row_z = row,
+        }
         let n = axis.len();
         self.count[c] = n as u32;
         let rising = n < 2 || axis.centres[1] > axis.centres[0];
@@ -53,8 +64,16 @@ impl MappedParams {
     }
 }
 
-/// The shader's view of `volume`'s geometry: the pipeline variant (1 rectilinear,
-/// 2 spherical), the uniform block, the uneven axes' centres, and the frame geometry the
+/// Pipeline variants of the mapped ray caster, as bits of `PipelineKey::mapped`.
+pub(crate) const RECTILINEAR: u32 = 1;
+pub(crate) const SPHERICAL: u32 = 2;
+/// Some axis is uneven: its centres are bisected.
+pub(crate) const UNEVEN: u32 = 4;
+/// The longitude closes the circle across a gap other than its step.
+pub(crate) const SEAM: u32 = 8;
+
+/// The shader's view of `volume`'s geometry: the pipeline variant (bits above), the uniform
+/// block, the uneven axes' centres, and the frame geometry the
 /// shared parameters are built from (the eye relative to the box's corner, or to the planet's
 /// centre for a shell).
 fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 3])> {
@@ -80,11 +99,11 @@ fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 
                 0.0,
             ];
             for (a, axis) in axes.iter().enumerate() {
-                p.axis_of[a] = a as u32;
-                p.set_axis(a, axis, &mut coords);
+                p.set_axis(a, axis, a, &mut coords);
             }
+            let uneven = if coords.is_empty() { 0 } else { UNEVEN };
             coords.resize(coords.len().max(4), 0.0);
-            Ok((1, p, coords, bounds.lo))
+            Ok((RECTILINEAR | uneven, p, coords, bounds.lo))
         }
         Geometry::Spherical(g) => {
             let f = |x: f64| x as f32;
@@ -104,14 +123,21 @@ fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 
                 .into_iter()
                 .enumerate()
             {
-                p.axis_of[c] = g.axis_of[c] as u32;
-                p.set_axis(c, axis, &mut coords);
+                p.set_axis(c, axis, g.axis_of[c], &mut coords);
             }
             let lon = &g.longitude.centres;
             let turn = if p.dir[2] > 0.0 { 360.0 } else { -360.0 };
             p.seam = [f(lon[0]), f(lon[lon.len() - 1]), f(lon[0] + turn), 0.0];
+            // An even circle whose last centre is one step from the first a turn later needs
+            // no seam code: its index runs on across the seam.
+            let even_seam = g.longitude.uniform_step().is_some_and(|step| {
+                lon.len() >= 2
+                    && ((lon[lon.len() - 1] + step) - (lon[0] + turn)).abs() <= 1e-9 * 360.0
+            });
+            let seam = if g.lon_wraps && !even_seam { SEAM } else { 0 };
+            let uneven = if coords.is_empty() { 0 } else { UNEVEN };
             coords.resize(coords.len().max(4), 0.0);
-            Ok((2, p, coords, [0.0; 3]))
+            Ok((SPHERICAL | uneven | seam, p, coords, [0.0; 3]))
         }
     }
 }

@@ -144,7 +144,8 @@ pub(crate) struct PipelineKey {
     pub preintegrated: bool,
     /// Empty-space skipping through a skip grid (plain ray caster, point sampling).
     pub skipping: bool,
-    /// Voxels placed by coordinate axes (volume_mapped.wgsl): 1 rectilinear, 2 spherical.
+    /// Voxels placed by coordinate axes (volume_mapped.wgsl): bits of `mapped::RECTILINEAR`,
+    /// `SPHERICAL`, `UNEVEN`, `SEAM`.
     pub mapped: u32,
     /// One slab of a distributed render (plain ray caster): partial images.
     pub slab: bool,
@@ -258,8 +259,15 @@ impl VolumeRenderer {
         if key.skipping {
             defines.push("SKIPPING");
         }
-        if key.mapped == 2 {
+        use super::mapped;
+        if key.mapped & mapped::SPHERICAL != 0 {
             defines.push("SPHERICAL");
+        }
+        if key.mapped & mapped::UNEVEN != 0 {
+            defines.push("UNEVEN");
+        }
+        if key.mapped & mapped::SEAM != 0 {
+            defines.push("SEAM");
         }
         if key.slab {
             defines.push("SLAB");
