@@ -4,7 +4,10 @@
 //! even axis as its first centre and step, an uneven one as its centres in a storage buffer
 //! that the shader bisects.
 
-use super::volume::{Geometry as FrameGeometry, GpuVolume, RenderTiming, VolumeRenderer};
+use super::volume::{
+    Geometry as FrameGeometry, GpuVolume, RenderTiming, VolumeRenderer, RECTILINEAR, SEAM,
+    SPHERICAL, UNEVEN,
+};
 use super::VolumeRenderOptions;
 use crate::error::{Error, Result};
 use crate::model::{CoordAxis, Geometry, HdrImage, Volume};
@@ -63,14 +66,6 @@ impl MappedParams {
         }
     }
 }
-
-/// Pipeline variants of the mapped ray caster, as bits of `PipelineKey::mapped`.
-pub(crate) const RECTILINEAR: u32 = 1;
-pub(crate) const SPHERICAL: u32 = 2;
-/// Some axis is uneven: its centres are bisected.
-pub(crate) const UNEVEN: u32 = 4;
-/// The longitude closes the circle across a gap other than its step.
-pub(crate) const SEAM: u32 = 8;
 
 /// The shader's view of `volume`'s geometry: the pipeline variant (bits above), the uniform
 /// block, the uneven axes' centres, and the frame geometry the

@@ -33,6 +33,14 @@ pub(crate) struct VolumeParams {
     slab: [f32; 4],
 }
 
+/// Pipeline variants of the mapped ray caster, as bits of `PipelineKey::mapped`.
+pub(crate) const RECTILINEAR: u32 = 1;
+pub(crate) const SPHERICAL: u32 = 2;
+/// Some axis is uneven: its centres are bisected.
+pub(crate) const UNEVEN: u32 = 4;
+/// The longitude closes the circle across a gap other than its step.
+pub(crate) const SEAM: u32 = 8;
+
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
 /// (lavapipe, and GL on Mesa) ends any loop after 65535 iterations.
 pub(crate) const MAX_STEPS_PER_RAY: u64 = 4 * 65535;
@@ -259,14 +267,13 @@ impl VolumeRenderer {
         if key.skipping {
             defines.push("SKIPPING");
         }
-        use super::mapped;
-        if key.mapped & mapped::SPHERICAL != 0 {
+        if key.mapped & SPHERICAL != 0 {
             defines.push("SPHERICAL");
         }
-        if key.mapped & mapped::UNEVEN != 0 {
+        if key.mapped & UNEVEN != 0 {
             defines.push("UNEVEN");
         }
-        if key.mapped & mapped::SEAM != 0 {
+        if key.mapped & SEAM != 0 {
             defines.push("SEAM");
         }
         if key.slab {
