@@ -118,31 +118,15 @@ fn march_step_pre(s: ptr<function, RayState>, front: ptr<function, Front>, m: Ma
     let len = (tb - (*s).ta) * m.voxels_per_unit;
     (*s).ta = tb;
     let back = front_at(sample_volume(m.uvw0 + m.duvw * tb));
-    let front_ok = is_finite_f32((*front).v);
-    let back_ok = is_finite_f32(back.v);
-    var ea = vec4<f32>(0.0);
-    var seg = len;
-    if (front_ok && back_ok) {
-        ea = segment_mean(*front, back);
-    } else if (front_ok || back_ok) {
-        // The edge of missing data lies somewhere in the segment: take it as the middle, so
-        // the half next to the finite end carries that end's value (as point sampling keeps a
-        // segment whose middle is finite).
-        seg = 0.5 * len;
-        if (TF_KIND == 1u) {
-            let c = max(select(back.v, (*front).v, front_ok), 0.0);
-            ea = vec4<f32>(vec3<f32>(P.tf.x * c), P.tf.y * c);
-        } else {
-            ea = table_at(select(back.x, (*front).x, front_ok));
-        }
-    }
+    let piece = segment_between(*front, back, len);
+    var ea = piece.ea;
 #if SHADING
     if (any(ea.rgb > vec3<f32>(0.0))) {
         ea = vec4<f32>(ea.rgb * shading_factor(m.uvw0 + m.duvw * mid, m.dir), ea.a);
     }
 #endif
     *front = back;
-    composite(s, ea, seg, m.stop_tau);
+    composite(s, ea, piece.len, m.stop_tau);
 }
 #endif
 

@@ -368,28 +368,15 @@ fn piece_pre(s: ptr<function, RayState>, front: ptr<function, Front>, r: Ray2, k
     }
     let len = (b - a) * P.march.y;
     let back = front_at(sample_at(r.o + r.d * b));
-    let front_ok = is_finite_f32((*front).v);
-    let back_ok = is_finite_f32(back.v);
-    var ea = vec4<f32>(0.0);
-    var seg = len;
-    if (front_ok && back_ok) {
-        ea = segment_mean(*front, back);
-    } else if (front_ok || back_ok) {
-        seg = 0.5 * len;
-        if (TF_KIND == 1u) {
-            let c = max(select(back.v, (*front).v, front_ok), 0.0);
-            ea = vec4<f32>(vec3<f32>(P.tf.x * c), P.tf.y * c);
-        } else {
-            ea = table_at(select(back.x, (*front).x, front_ok));
-        }
-    }
+    let piece = segment_between(*front, back, len);
+    var ea = piece.ea;
 #if SHADING
     if (any(ea.rgb > vec3<f32>(0.0))) {
         ea = vec4<f32>(ea.rgb * shading_factor(r.o + r.d * (0.5 * (a + b)), r.d), ea.a);
     }
 #endif
     *front = back;
-    composite(s, ea, seg, P.march.z);
+    composite(s, ea, piece.len, P.march.z);
 }
 #endif
 

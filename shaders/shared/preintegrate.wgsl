@@ -65,3 +65,30 @@ fn segment_mean(a: Front, b: Front) -> vec4<f32> {
     }
     return ((b.c_hi - a.c_hi) + (b.c_lo - a.c_lo)) / dx;
 }
+
+
+// What a pre-integrated segment composites: its emission–absorption over `len` lengths.
+struct Segment {
+    ea: vec4<f32>,
+    len: f32,
+}
+
+// The segment of `len` lengths between the carried front and `back`: the transfer function's
+// mean between two finite ends; where one end is missing, the edge of missing data is taken at
+// the middle, so the half next to the finite end carries that end's value (as point sampling
+// keeps a segment whose middle is finite); nothing where both are missing.
+fn segment_between(front: Front, back: Front, len: f32) -> Segment {
+    let front_ok = is_finite_f32(front.v);
+    let back_ok = is_finite_f32(back.v);
+    if (front_ok && back_ok) {
+        return Segment(segment_mean(front, back), len);
+    }
+    if (!front_ok && !back_ok) {
+        return Segment(vec4<f32>(0.0), len);
+    }
+    if (TF_KIND == 1u) {
+        let c = max(select(back.v, front.v, front_ok), 0.0);
+        return Segment(vec4<f32>(vec3<f32>(P.tf.x * c), P.tf.y * c), 0.5 * len);
+    }
+    return Segment(table_at(select(back.x, front.x, front_ok)), 0.5 * len);
+}

@@ -324,31 +324,27 @@ fn longitude_axis(path: &Path, v: &NcVariable, field: &str) -> Result<(CoordAxis
 #[allow(clippy::type_complexity)]
 pub(crate) fn declared_radius(
     path: &Path,
-    var: &NcVariable,
+    attributes: &[(String, NcAttribute)],
 ) -> Result<Option<(f64, Option<&'static str>)>> {
-    let number = |a: Option<&NcAttribute>| match a {
-        Some(NcAttribute::Numbers(n)) => n.first().copied(),
-        _ => None,
-    };
-    if let Some(r) = number(var.attribute("planet_radius")) {
-        return Ok(Some((r, None)));
-    }
-    let global = netcdf::global_attributes(path)?;
-    let find = |key: &str| {
-        global.iter().find_map(|(k, v)| match v {
+    let number = |attrs: &[(String, NcAttribute)], key: &str| {
+        attrs.iter().find_map(|(k, v)| match v {
             NcAttribute::Numbers(n) if k == key => n.first().copied(),
             _ => None,
         })
     };
-    if let Some(r) = find("planet_radius") {
+    if let Some(r) = number(attributes, "planet_radius") {
         return Ok(Some((r, None)));
     }
-    if let Some(mapping) = text(var, "grid_mapping") {
+    if let Some(r) = number(&netcdf::global_attributes(path)?, "planet_radius") {
+        return Ok(Some((r, None)));
+    }
+    let mapping = attributes.iter().find_map(|(k, v)| match v {
+        NcAttribute::Text(name) if k == "grid_mapping" => Some(name.trim()),
+        _ => None,
+    });
+    if let Some(mapping) = mapping {
         let m = netcdf::read_variable(path, mapping)?;
-        if let Some(r) = m.attributes.iter().find_map(|(k, v)| match v {
-            NcAttribute::Numbers(n) if k == "earth_radius" => n.first().copied(),
-            _ => None,
-        }) {
+        if let Some(r) = number(&m.attributes, "earth_radius") {
             return Ok(Some((r, Some("m"))));
         }
     }

@@ -648,18 +648,10 @@ fn spherical_grid_of(
     coords: &[cf::DimCoord],
     opts: &LoadOptions,
 ) -> Result<Option<crate::model::SphericalGrid>> {
-    let attrs = netcdf::NcVariable {
-        name: array.name.clone(),
-        dims: Vec::new(),
-        data: Vec::new(),
-        units: array.units.clone(),
-        long_name: None,
-        attributes: array.attributes.clone(),
-    };
     let sphere = cf::SphereOptions {
         planet_radius: opts.planet_radius,
     };
-    let declared = cf::declared_radius(path, &attrs)?;
+    let declared = cf::declared_radius(path, &array.attributes)?;
     cf::spherical_grid(path, &array.name, coords, declared, &sphere)
 }
 

@@ -303,6 +303,7 @@ impl Volume {
     }
 
     /// Value at voxel (i, j, k) with indices clamped to the grid, as clamp-to-edge texturing does.
+    #[cfg(test)]
     pub(crate) fn voxel_clamped(&self, i: i64, j: i64, k: i64) -> f32 {
         let c = |v: i64, n: usize| v.clamp(0, n as i64 - 1) as usize;
         self.data[self.index(c(i, self.dims[0]), c(j, self.dims[1]), c(k, self.dims[2]))]
@@ -402,33 +403,7 @@ impl Volume {
     }
 
     pub(crate) fn sample_trilinear(&self, p: [f64; 3]) -> f64 {
-        let mut base = [0i64; 3];
-        let mut frac = [0f64; 3];
-        for a in 0..3 {
-            let g = (p[a] - self.origin[a]) / self.spacing[a] - 0.5;
-            let f = g.floor();
-            base[a] = f as i64;
-            frac[a] = g - f;
-        }
-        let mut acc = 0.0;
-        for corner in 0..8 {
-            let di = corner & 1;
-            let dj = (corner >> 1) & 1;
-            let dk = (corner >> 2) & 1;
-            let w = (if di == 1 { frac[0] } else { 1.0 - frac[0] })
-                * (if dj == 1 { frac[1] } else { 1.0 - frac[1] })
-                * (if dk == 1 { frac[2] } else { 1.0 - frac[2] });
-            let v = self.voxel_clamped(
-                base[0] + di as i64,
-                base[1] + dj as i64,
-                base[2] + dk as i64,
-            ) as f64;
-            if !v.is_finite() {
-                return f64::NAN;
-            }
-            acc += w * v;
-        }
-        acc
+        self.interpolate(self.fractional_indices(p), None)
     }
 }
 
