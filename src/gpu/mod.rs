@@ -3,10 +3,12 @@
 //! fallback. Capabilities that change how hdrvis renders — float32 filtering, f64 and f16 in
 //! shaders, texture limits — are detected here, and every missing one has a working path.
 
+pub(crate) mod filter_probe;
 pub(crate) mod layout;
 pub(crate) mod pipeline;
 pub(crate) mod readback;
 pub mod shader;
+pub(crate) mod timestamps;
 pub mod transfer;
 
 use crate::error::{Error, Result};
@@ -79,6 +81,8 @@ pub struct Capabilities {
     /// requested only on CPU adapters, where device memory is host memory: uploads and
     /// readbacks then skip the staging copy (see [`transfer`]).
     pub mappable_primary_buffers: bool,
+    /// Timestamp queries: benchmarks report the ray cast's own GPU time beside the wall clock.
+    pub timestamp_query: bool,
 }
 
 pub struct GpuContext {
@@ -94,6 +98,8 @@ pub struct GpuContext {
     /// The first GPU error no error scope caught (out of memory, a lost device), kept for
     /// [`GpuContext::wait`] to return: wgpu's default handler panics instead.
     uncaptured: Arc<std::sync::Mutex<Option<String>>>,
+    /// The texture unit's trilinear error, measured on first use ([`filter_probe`]).
+    filter_error: std::sync::OnceLock<Option<f64>>,
 }
 
 struct PersistentPipelineCache {
@@ -229,6 +235,7 @@ impl GpuContext {
             (wgpu::Features::SHADER_F64, "shader_f64"),
             (wgpu::Features::SHADER_F16, "shader_f16"),
             (wgpu::Features::PIPELINE_CACHE, "pipeline_cache"),
+            (wgpu::Features::TIMESTAMP_QUERY, "timestamp_query"),
         ] {
             if features.contains(f) && !off(name) {
                 wanted |= f;
@@ -259,6 +266,7 @@ impl GpuContext {
             max_buffer_size: limits.max_buffer_size,
             max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
             mappable_primary_buffers: wanted.contains(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS),
+            timestamp_query: wanted.contains(wgpu::Features::TIMESTAMP_QUERY),
         };
         let uncaptured = Arc::new(std::sync::Mutex::new(None));
         let slot = uncaptured.clone();
@@ -290,6 +298,7 @@ impl GpuContext {
             caps,
             pipeline_cache,
             uncaptured,
+            filter_error: std::sync::OnceLock::new(),
         }))
     }
 
@@ -323,6 +332,26 @@ impl GpuContext {
         )
     }
 
+    /// The largest error of the texture unit's trilinear filter, in units of the step between
+    /// two texels, measured once on first use; `None` where the adapter cannot filter float32
+    /// textures (or the probe could not run).
+    pub fn hardware_filter_error(&self) -> Option<f64> {
+        *self.filter_error.get_or_init(|| {
+            if self.caps.float32_filterable {
+                filter_probe::measure_filter_error(self).ok()
+            } else {
+                None
+            }
+        })
+    }
+
+    /// Whether `filter: "auto"` takes the texture unit: only where it filters float32 textures
+    /// with weights as exact as the shader's own (the one place this is decided).
+    pub(crate) fn auto_filter_is_hardware(&self) -> bool {
+        self.hardware_filter_error()
+            .is_some_and(|e| e <= filter_probe::EXACT_FILTER_TOLERANCE)
+    }
+
     /// The `hdrvis doctor` report.
     pub fn report(&self) -> String {
         let yes = |b: bool| if b { "yes" } else { "no" };
@@ -335,7 +364,7 @@ impl GpuContext {
             self.info.driver,
             self.info.driver_info,
             yes(c.float32_filterable),
-            if c.float32_filterable { " (hardware trilinear)" } else { " (exact manual trilinear in the shader)" },
+            self.filter_note(),
             yes(c.shader_f64),
             yes(c.shader_f16),
             c.max_texture_3d,
@@ -352,6 +381,19 @@ impl GpuContext {
     }
 
     /// The pipeline cache to pass to pipeline creation (`None` where the backend has none).
+    /// What `filter: "auto"` does here and why, for the doctor report.
+    fn filter_note(&self) -> String {
+        match self.hardware_filter_error() {
+            Some(e) if e <= filter_probe::EXACT_FILTER_TOLERANCE => {
+                format!(" (weights exact in f32, error {e:.1e}: auto uses the texture unit)")
+            }
+            Some(e) => format!(
+                " (weights quantised, error {e:.1e} of a texel step: auto filters exactly in the shader)"
+            ),
+            None => " (auto filters exactly in the shader)".to_string(),
+        }
+    }
+
     pub(crate) fn pipeline_cache(&self) -> Option<&wgpu::PipelineCache> {
         self.pipeline_cache.as_ref().map(|p| &p.cache)
     }

@@ -203,18 +203,13 @@ impl VolumeRenderer {
             binding: 6,
             resource: coords_buf.as_entire_binding(),
         });
-        let (pixels, seconds) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
+        let (pixels, mut timing) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
         let mut image = self.finish_image(&geometry, opts, false, pixels);
         image.set_meta("geometry", volume.geometry.name());
         if let Geometry::Spherical(g) = &volume.geometry {
             image.set_meta("domain", g.to_string());
         }
-        Ok((
-            image,
-            RenderTiming {
-                seconds,
-                compiled_pipeline: compiled,
-            },
-        ))
+        timing.compiled_pipeline = compiled;
+        Ok((image, timing))
     }
 }

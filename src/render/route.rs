@@ -24,7 +24,7 @@ use super::cache::KeyBuilder;
 use super::distributed::{self, read_slab, Exchange, Placement, Slab};
 use super::session::{append_pass, image_bytes, raycast_effects, RenderSession};
 use super::skipping::{CellRanges, SkipGrid};
-use super::volume::Geometry;
+use super::volume::{Geometry, RenderTiming};
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::model::bricks::{BrickedVolume, MemorySource, DEFAULT_BRICK};
@@ -117,6 +117,9 @@ pub struct VolumeRender {
     /// Seconds the render itself took, from submission to the image in host memory (not
     /// counting levels, bricking or uploads).
     pub seconds: f64,
+    /// The ray-casting pass alone on the device's clock (GPU timestamps), on the in-core and
+    /// mapped paths where the adapter has them.
+    pub gpu_seconds: Option<f64>,
     /// What the bricked path did (passes, bricks read, GPU memory).
     pub bricks: Option<BrickedStats>,
     /// Whether the render had to compile its pipeline first (in-core path).
@@ -341,7 +344,7 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<VolumeRender> {
         let t = Instant::now();
-        let (image, seconds, bricks, compiled_pipeline) = match (path, source) {
+        let (image, timing, bricks) = match (path, source) {
             (RenderPath::InCore { skipping }, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
                 let grid = if skipping {
@@ -350,7 +353,7 @@ impl RenderSession {
                     None
                 };
                 let (img, timing) = self.volume_renderer()?.render(&gv, opts, grid.as_deref())?;
-                (img, timing.seconds, None, timing.compiled_pipeline)
+                (img, timing, None)
             }
             (RenderPath::F64Gpu, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
@@ -364,19 +367,19 @@ impl RenderSession {
                 img.set_meta("tf", opts.tf.describe());
                 img.set_meta("camera", opts.camera.describe());
                 img.set_meta("adapter", self.context()?.describe());
-                (img, t.elapsed().as_secs_f64(), None, false)
+                (img, wall_seconds(t.elapsed().as_secs_f64()), None)
             }
             (RenderPath::F64Cpu, VolumeSource::Memory(v)) => {
                 let mut img = super::cpu_reference::render_volume_cpu(v, opts)?;
                 img.set_meta("precision", "f64 (CPU)");
                 img.set_meta("tf", opts.tf.describe());
                 img.set_meta("tf_sampling", opts.tf_sampling.name());
-                (img, t.elapsed().as_secs_f64(), None, false)
+                (img, wall_seconds(t.elapsed().as_secs_f64()), None)
             }
             (RenderPath::Mapped, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
                 let (img, timing) = self.volume_renderer()?.render_mapped(v, &gv, opts)?;
-                (img, timing.seconds, None, timing.compiled_pipeline)
+                (img, timing, None)
             }
             (RenderPath::Bricked { brick, skip }, _) => {
                 let bricked = match source {
@@ -388,13 +391,17 @@ impl RenderSession {
                 let (img, stats) = self
                     .volume_renderer()?
                     .render_bricked(&mut cache, opts, skip)?;
-                (img, stats.seconds, Some(stats), false)
+                (img, wall_seconds(stats.seconds), Some(stats))
             }
             (RenderPath::Distributed { .. }, _) => {
                 let world = self.cluster().expect("choose_path saw the session's group");
                 let r = self.render_distributed(world.as_ref(), source, opts)?;
-                let seconds = r.render_seconds + r.composite_seconds;
-                (r.image, seconds, None, r.compiled_pipeline)
+                let timing = RenderTiming {
+                    seconds: r.render_seconds + r.composite_seconds,
+                    compiled_pipeline: r.compiled_pipeline,
+                    gpu_seconds: None,
+                };
+                (r.image, timing, None)
             }
             (_, VolumeSource::Bricked(_)) => {
                 unreachable!("choose_path sends bricked sources to the bricked path")
@@ -403,9 +410,10 @@ impl RenderSession {
         Ok(VolumeRender {
             image: Arc::new(image),
             path,
-            seconds,
+            seconds: timing.seconds,
+            gpu_seconds: timing.gpu_seconds,
             bricks,
-            compiled_pipeline,
+            compiled_pipeline: timing.compiled_pipeline,
         })
     }
 
@@ -737,4 +745,12 @@ fn bricked_detail(path: RenderPath, s: &BrickedStats) -> String {
         s.passes,
         if s.passes == 1 { "" } else { "es" }
     )
+}
+
+/// The timing of a render measured on the host alone.
+fn wall_seconds(seconds: f64) -> RenderTiming {
+    RenderTiming {
+        seconds,
+        ..Default::default()
+    }
 }

@@ -6,6 +6,7 @@
 use super::skipping::SkipGrid;
 use super::{FilterMode, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
+use crate::gpu::timestamps::PassTimestamps;
 use crate::gpu::{pipeline, readback, shader, GpuContext};
 use crate::model::transfer::{ResolvedTransfer, TfKind, LUT_SIZE};
 use crate::model::{HdrImage, Volume, VolumeStats};
@@ -220,6 +221,8 @@ pub struct RenderTiming {
     pub seconds: f64,
     /// Whether the pipeline for this variant had to be compiled first.
     pub compiled_pipeline: bool,
+    /// The ray-casting pass alone on the device's clock, where the adapter has timestamps.
+    pub gpu_seconds: Option<f64>,
 }
 
 impl VolumeRenderer {
@@ -419,19 +422,15 @@ impl VolumeRenderer {
                 resource: wgpu::BindingResource::TextureView(grid.view()),
             });
         }
-        let (pixels, seconds) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
+        let (pixels, mut timing) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
         let image = self.finish_image(geometry, opts, frame.key.hw_filter, pixels);
-        Ok((
-            image,
-            RenderTiming {
-                seconds,
-                compiled_pipeline: compiled,
-            },
-        ))
+        timing.compiled_pipeline = compiled;
+        Ok((image, timing))
     }
 
-    /// Runs one ray-casting pass with these bindings and reads the image back: the pixels and
-    /// the seconds from submission to host memory.
+    /// Runs one ray-casting pass with these bindings and reads the image back: the pixels, the
+    /// seconds from submission to host memory and, where the adapter has timestamps, the pass's
+    /// own time on the device.
     pub(crate) fn dispatch(
         &self,
         pipeline: &wgpu::ComputePipeline,
@@ -439,8 +438,9 @@ impl VolumeRenderer {
         entries: &[wgpu::BindGroupEntry],
         out: &wgpu::Texture,
         opts: &VolumeRenderOptions,
-    ) -> Result<(Vec<[f32; 4]>, f64)> {
+    ) -> Result<(Vec<[f32; 4]>, RenderTiming)> {
         let device = &self.ctx.device;
+        let stamps = PassTimestamps::new(&self.ctx);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("volume"),
             layout,
@@ -449,14 +449,29 @@ impl VolumeRenderer {
         let start = std::time::Instant::now();
         let mut enc = device.create_command_encoder(&Default::default());
         {
-            let mut pass = enc.begin_compute_pass(&Default::default());
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("ray cast"),
+                timestamp_writes: stamps.as_ref().map(PassTimestamps::writes),
+            });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind_group, &[]);
             pass.dispatch_workgroups(opts.width.div_ceil(8), opts.height.div_ceil(8), 1);
         }
+        if let Some(s) = &stamps {
+            s.resolve(&mut enc);
+        }
         self.ctx.queue.submit([enc.finish()]);
         let pixels = readback::read_rgba32f_texture(&self.ctx, out)?;
-        Ok((pixels, start.elapsed().as_secs_f64()))
+        let seconds = start.elapsed().as_secs_f64();
+        let gpu_seconds = stamps.map(|s| s.seconds(&self.ctx)).transpose()?;
+        Ok((
+            pixels,
+            RenderTiming {
+                seconds,
+                compiled_pipeline: false,
+                gpu_seconds,
+            },
+        ))
     }
 
     /// Everything one render fixes before dispatch: checked options, the resolved transfer
@@ -524,7 +539,7 @@ impl VolumeRenderer {
     fn hardware_filtering(&self, filter: FilterMode) -> Result<bool> {
         Ok(match filter {
             FilterMode::Exact => false,
-            FilterMode::Auto => self.ctx.caps.float32_filterable,
+            FilterMode::Auto => self.ctx.auto_filter_is_hardware(),
             FilterMode::Hardware => {
                 if !self.ctx.caps.float32_filterable {
                     return Err(Error::invalid(
