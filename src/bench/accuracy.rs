@@ -571,7 +571,7 @@ pub(crate) fn time_volume(
     o: &VolumeRenderOptions,
     runs: usize,
 ) -> Result<TimedImage> {
-    let (ms, last) = super::time_renders(session, source, o, runs)?;
+    let (super::RenderRuns { ms, .. }, last) = super::time_renders(session, source, o, runs)?;
     let got = last
         .image
         .pixels

@@ -75,7 +75,7 @@ pub fn bench_effects(
         o.shading = shading;
         o.jitter = jitter;
         progress(&format!("effects: {name}"));
-        let (ms, _) = super::time_renders(&timing, &source, &o, runs)?;
+        let (super::RenderRuns { ms, .. }, _) = super::time_renders(&timing, &source, &o, runs)?;
         rows.push(EffectRow {
             name: name.into(),
             runs_ms: ms,

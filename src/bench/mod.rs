@@ -40,14 +40,23 @@ pub(crate) fn time_renders(
     source: &VolumeSource,
     opts: &VolumeRenderOptions,
     runs: usize,
-) -> Result<(Vec<f64>, Arc<VolumeRender>)> {
+) -> Result<(RenderRuns, Arc<VolumeRender>)> {
     let mut last = session.render_volume_detailed(source, opts)?;
-    let mut ms = Vec::new();
+    let mut times = RenderRuns::default();
     for _ in 0..runs.max(1) {
         last = session.render_volume_detailed(source, opts)?;
-        ms.push(last.seconds * 1e3);
+        times.ms.push(last.seconds * 1e3);
+        times.gpu_ms.extend(last.gpu_seconds.map(|g| g * 1e3));
     }
-    Ok((ms, last))
+    Ok((times, last))
+}
+
+/// The milliseconds of timed renders: wall clock from submission to the image in host memory,
+/// and the ray-casting pass on the GPU's own clock (empty where the adapter has no timestamps).
+#[derive(Clone, Debug, Default)]
+pub struct RenderRuns {
+    pub ms: Vec<f64>,
+    pub gpu_ms: Vec<f64>,
 }
 
 /// Wall-clock and process CPU milliseconds of each timed run.

@@ -22,6 +22,10 @@ pub struct SkippingRow {
     /// Process CPU ms of each run, without and with skipping.
     pub plain_cpu_ms: Vec<f64>,
     pub skipping_cpu_ms: Vec<f64>,
+    /// The ray-casting pass on the device's clock, without and with skipping (empty without
+    /// timestamp queries).
+    pub plain_gpu_ms: Vec<f64>,
+    pub skipping_gpu_ms: Vec<f64>,
     /// The path the render with skipping asked took (skipping only where enough is empty).
     pub path: RenderPath,
     /// Largest difference between the two images, relative to the plain one's peak colour.
@@ -101,18 +105,31 @@ fn time_pair(
         skipping_ms: Vec::new(),
         plain_cpu_ms: Vec::new(),
         skipping_cpu_ms: Vec::new(),
+        plain_gpu_ms: Vec::new(),
+        skipping_gpu_ms: Vec::new(),
         path: skipped.path,
         diff: max_diff(&skipped.image.pixels, &reference.image.pixels),
     };
     for _ in 0..runs.max(1) {
-        for (opts, ms, cpu) in [
-            (&plain, &mut row.plain_ms, &mut row.plain_cpu_ms),
-            (&skipping, &mut row.skipping_ms, &mut row.skipping_cpu_ms),
+        for (opts, ms, cpu, gpu) in [
+            (
+                &plain,
+                &mut row.plain_ms,
+                &mut row.plain_cpu_ms,
+                &mut row.plain_gpu_ms,
+            ),
+            (
+                &skipping,
+                &mut row.skipping_ms,
+                &mut row.skipping_cpu_ms,
+                &mut row.skipping_gpu_ms,
+            ),
         ] {
             let c0 = process_cpu_ms().unwrap_or(f64::NAN);
             let r = session.render_volume_detailed(&source, opts)?;
             cpu.push(process_cpu_ms().unwrap_or(f64::NAN) - c0);
             ms.push(r.seconds * 1e3);
+            gpu.extend(r.gpu_seconds.map(|g| g * 1e3));
         }
     }
     Ok(row)
@@ -123,7 +140,7 @@ pub fn format_skipping_table(adapter: &str, rows: &[SkippingRow]) -> String {
         "adapter: {adapter}\nempty-space skipping in the in-core ray caster: orbit view, 1 sample/voxel, f32, auto filter, median of runs (the two alternating)\n"
     );
     s.push_str(&format!(
-        "{:<28} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10}  {}\n",
+        "{:<28} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8} {:>8} {:>9} {:>10}  {}\n",
         "scene",
         "plain ms",
         "skip ms",
@@ -131,6 +148,9 @@ pub fn format_skipping_table(adapter: &str, rows: &[SkippingRow]) -> String {
         "CPU ms",
         "CPU ms",
         "CPU s-up",
+        "GPU ms",
+        "GPU ms",
+        "GPU s-up",
         "max diff",
         "path taken"
     ));
@@ -143,13 +163,26 @@ pub fn format_skipping_table(adapter: &str, rows: &[SkippingRow]) -> String {
         } else {
             "-".into()
         };
+        let (pg, kg) = (median(&r.plain_gpu_ms), median(&r.skipping_gpu_ms));
+        let gpu = |v: f64| {
+            if r.plain_gpu_ms.is_empty() {
+                "-".to_string()
+            } else {
+                format!("{v:.2}")
+            }
+        };
+        let gpu_ratio = if r.plain_gpu_ms.is_empty() {
+            "-".to_string()
+        } else {
+            format!("{:.2}x", pg / kg)
+        };
         let path = match r.path {
             RenderPath::InCore { skipping: true } => "in-core, skipping",
             RenderPath::InCore { skipping: false } => "in-core, too little empty to skip",
             _ => "other",
         };
         s.push_str(&format!(
-            "{:<28} {:>9.1} {:>9.1} {:>8.2}x {:>8.0} {:>8.0} {:>9} {:>10.1e}  {path}\n",
+            "{:<28} {:>9.1} {:>9.1} {:>8.2}x {:>8.0} {:>8.0} {:>9} {:>8} {:>8} {:>9} {:>10.1e}  {path}\n",
             r.scene,
             p,
             k,
@@ -157,9 +190,12 @@ pub fn format_skipping_table(adapter: &str, rows: &[SkippingRow]) -> String {
             pc,
             kc,
             cpu_ratio,
+            gpu(pg),
+            gpu(kg),
+            gpu_ratio,
             r.diff
         ));
     }
-    s.push_str("speed-up: plain / skipping (wall clock, and CPU time of this process, which other jobs on the machine disturb less); max diff: between the two images, relative to the plain one's peak colour\n");
+    s.push_str("speed-up: plain / skipping (wall clock; CPU time of this process, which other jobs on the machine disturb less; the ray-casting pass on the GPU's own clock where the adapter has timestamps); max diff: between the two images, relative to the plain one's peak colour\n");
     s
 }

@@ -5,7 +5,7 @@
 //! llvmpipe, and the fixed-point CPU ray caster on two threads) and the cost of each stage of a
 //! sample (`--breakdown`).
 
-use super::{bench_tf, bench_volume, mantle_fig5_tf, mantle_fluctuation, median};
+use super::{bench_tf, bench_volume, mantle_fig5_tf, mantle_fluctuation, median, RenderRuns};
 use super::{time_renders, timing_session};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
@@ -28,6 +28,8 @@ pub struct BenchRow {
     pub peers: Vec<PeerResult>,
     /// With `--breakdown`: the frame time of each stage of the per-sample work.
     pub stages: Vec<(SampleWork, Vec<f64>)>,
+    /// The ray-casting pass of each run on the GPU's own clock (empty without timestamps).
+    pub gpu_ms: Vec<f64>,
 }
 
 #[derive(Clone, Debug)]
@@ -120,7 +122,13 @@ pub fn bench_volume_render(
         opts.step = 1.0;
         // Warm-up: pipeline compilation and first-touch costs are not part of a frame.
         let source = VolumeSource::Memory(vol.clone());
-        let (runs_ms, _) = time_renders(&session, &source, &opts, runs)?;
+        let (
+            RenderRuns {
+                ms: runs_ms,
+                gpu_ms,
+            },
+            _,
+        ) = time_renders(&session, &source, &opts, runs)?;
         let name = format!("{} {n}^3 -> {px}^2", scene.name());
         log(&format!("{name}: median {:.1} ms", median(&runs_ms)));
         let mut stages: Vec<(SampleWork, Vec<f64>)> = Vec::new();
@@ -142,6 +150,7 @@ pub fn bench_volume_render(
             name,
             samples: px as u64 * px as u64 * n as u64,
             runs_ms,
+            gpu_ms,
             peers,
             stages,
         });
@@ -358,18 +367,24 @@ fn vtk_peer_script() -> Result<PathBuf> {
 
 /// The table `hdrvis bench volume` prints: hdrvis's row, then one line per peer mapper.
 pub fn format_volume_table(adapter: &str, rows: &[BenchRow]) -> String {
-    let mut s = format!("adapter: {adapter}\nvolume benchmark: axis view, f32, 1 sample/voxel, empty-space skipping as routed, median of runs; blobs: log10 TF; mantle: Fig. 5 symlog TF, missing data outside the shell and in the core\n");
+    let mut s = format!("adapter: {adapter}\nvolume benchmark: axis view, f32, 1 sample/voxel, empty-space skipping as routed, median of runs (wall clock to the image in host memory; GPU ms: the ray-casting pass on the device's clock); blobs: log10 TF; mantle: Fig. 5 symlog TF, missing data outside the shell and in the core\n");
     s.push_str(&format!(
-        "{:<24} {:>12} {:>10} {:>11} {:>6}\n",
-        "scene", "samples", "median ms", "Msamples/s", "runs"
+        "{:<24} {:>12} {:>10} {:>11} {:>10} {:>6}\n",
+        "scene", "samples", "median ms", "Msamples/s", "GPU ms", "runs"
     ));
     for r in rows {
+        let gpu = if r.gpu_ms.is_empty() {
+            "-".to_string()
+        } else {
+            format!("{:.2}", median(&r.gpu_ms))
+        };
         s.push_str(&format!(
-            "{:<24} {:>10.1} M {:>10.1} {:>11.1} {:>6}\n",
+            "{:<24} {:>10.1} M {:>10.1} {:>11.1} {:>10} {:>6}\n",
             r.name,
             r.samples as f64 / 1e6,
             r.median_ms(),
             r.msamples_per_s(),
+            gpu,
             r.runs_ms.len(),
         ));
         for p in &r.peers {
