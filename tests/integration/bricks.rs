@@ -231,7 +231,10 @@ fn memory_mapped_npy_renders_like_the_loaded_volume() {
     let fixed = 8 * 12 + 2 * 96 * 80 * 16 + 96 * 80 * 52 + (1 << 17);
     let (img, st) = bricked(&bv, &o, Some(fixed + 3 * slot), true);
     assert!(st.passes > 1, "{st:?}");
-    assert!(diff(&img, &plain(&vol, &o)) < 1e-5);
+    // The bricked shader is compiled apart from the plain one, and a GPU's compiler may
+    // contract their f32 arithmetic differently (NVIDIA's H100: 1.5e-5 after three passes).
+    let d = diff(&img, &plain(&vol, &o));
+    assert!(d < 3e-5, "out of core in {} passes: {d:.2e}", st.passes);
 }
 
 #[test]

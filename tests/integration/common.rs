@@ -7,6 +7,19 @@ use hdrvis::render::volume::VolumeRenderer;
 use hdrvis::render::{RenderPath, VolumeRenderOptions, VolumeSource};
 use std::sync::{Arc, OnceLock};
 
+/// The backends GPU tests run on: Vulkan and the GL fallback, or those `HDRVIS_TEST_BACKENDS`
+/// names ("vulkan", "gl", comma-separated) on a machine whose GL cannot run headless (NVIDIA's
+/// EGL without a display, on the lent GPU machines).
+pub fn backends() -> Vec<BackendChoice> {
+    match std::env::var("HDRVIS_TEST_BACKENDS") {
+        Ok(list) => list
+            .split(',')
+            .map(|b| BackendChoice::parse(b.trim()).unwrap_or_else(|e| panic!("{e}")))
+            .collect(),
+        Err(_) => vec![BackendChoice::Vulkan, BackendChoice::Gl],
+    }
+}
+
 pub fn renderer(backend: BackendChoice) -> Arc<VolumeRenderer> {
     static VK: OnceLock<Arc<VolumeRenderer>> = OnceLock::new();
     static GL: OnceLock<Arc<VolumeRenderer>> = OnceLock::new();

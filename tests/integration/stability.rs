@@ -9,8 +9,6 @@ use hdrvis::model::{Axis, Camera, LutTransfer, Scale, TransferFunction, Volume};
 use hdrvis::render::cpu_reference::render_volume_f64;
 use hdrvis::render::{FilterMode, Precision, VolumeRenderOptions};
 
-const BACKENDS: [BackendChoice; 2] = [BackendChoice::Vulkan, BackendChoice::Gl];
-
 fn gpu(backend: BackendChoice, vol: &Volume, o: &VolumeRenderOptions) -> Vec<[f64; 4]> {
     render(backend, vol, o)
         .pixels
@@ -42,7 +40,7 @@ fn tiny_extinction_over_a_hundred_thousand_steps() {
         0.01,
     );
     let reference = render_volume_f64(&vol, &o).unwrap();
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         for precision in [Precision::F32, Precision::F32c] {
             let mut o = o.clone();
             o.precision = precision;
@@ -85,7 +83,7 @@ fn data_spanning_sixty_decades_with_log_scale() {
     });
     let o = axis(&vol, tf, 0.5);
     let reference = render_volume_f64(&vol, &o).unwrap();
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let g = gpu(backend, &vol, &o);
         assert!(all_finite(&g));
         let err = rel_rms(&g, &reference);
@@ -125,7 +123,7 @@ fn constant_zero_and_negative_volumes_under_log_scales() {
         let o = axis(&vol, tf, 0.5);
         let reference = render_volume_f64(&vol, &o).unwrap();
         assert!(all_finite(&reference), "{name}");
-        for backend in BACKENDS {
+        for backend in crate::common::backends() {
             let g = gpu(backend, &vol, &o);
             assert!(all_finite(&g), "{name} {backend:?}");
             let err = rel_rms(&g, &reference);
@@ -143,7 +141,7 @@ fn very_small_and_very_large_steps() {
         o.width = 12;
         o.height = 12;
         let reference = render_volume_f64(&vol, &o).unwrap();
-        for backend in BACKENDS {
+        for backend in crate::common::backends() {
             let g = gpu(backend, &vol, &o);
             assert!(all_finite(&g));
             let err = rel_rms(&g, &reference);

@@ -13,8 +13,6 @@ use hdrvis::render::surface::{
 use hdrvis::render::surface_reference::{surface_reference, SurfaceReference};
 use std::sync::Arc;
 
-const BACKENDS: [BackendChoice; 2] = [BackendChoice::Vulkan, BackendChoice::Gl];
-
 fn surface_renderer(backend: BackendChoice) -> SurfaceRenderer {
     SurfaceRenderer::new(renderer(backend).context().clone())
 }
@@ -74,7 +72,7 @@ fn analytic_fields_match_closed_form_in_map_view() {
             }),
         ),
     ];
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for (name, f) in &fields {
             let g = Grid::from_fn(name, nx, ny, f).unwrap();
@@ -97,7 +95,7 @@ fn ramp_maxima_count_equals_nu_times_range() {
     // d = i/(n-1) on [0, 1] along x: ν·Δd maxima (interior peaks, plus the one at d = 0).
     let n = 1000;
     let g = Grid::from_fn("ramp", n, 3, |i, _| i as f64 / (n - 1) as f64).unwrap();
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for nu in [5.0, 12.0, 40.0] {
             let img = r.render(&g, &opts(nu)).unwrap().remove(0);
@@ -128,7 +126,7 @@ fn phase_stays_within_1e_3_of_f64_near_a_million() {
         1.0e6 * (i as f64 / 127.0) + 0.01 * j as f64
     })
     .unwrap();
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for grid in [&g, &wide] {
             let img = r.render(grid, &opts(8.0)).unwrap().remove(0);
@@ -171,7 +169,7 @@ fn four_property_grid() -> Grid {
 fn four_properties_in_one_pass_equal_single_renders() {
     let g = four_property_grid();
     let names = ["ux", "uy", "uz", "w"];
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         let mut o = opts(8.0);
         o.properties = names.iter().map(|s| s.to_string()).collect();
@@ -266,7 +264,7 @@ fn nan_holes_are_missing_and_do_not_touch_neighbours() {
     })
     .unwrap();
     let nu = 4.0;
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         // Also at a non-native size (bilinear between nodes): no NaN may leak.
         let img = r.render(&g, &opts(nu)).unwrap().remove(0);
@@ -306,7 +304,7 @@ fn nan_holes_are_missing_and_do_not_touch_neighbours() {
 #[test]
 fn constant_field_renders_one_fringe_value() {
     let g = Grid::from_fn("c", 16, 16, |_, _| 0.3).unwrap();
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for mode in [
             FringeMode::Cyclic,
@@ -363,7 +361,7 @@ fn perspective_view_with_relief_renders_lit_fringes() {
         10.0 * (-(x * x + y * y) / 200.0).exp()
     })
     .unwrap();
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         let mut o = opts(0.5);
         o.view = SurfaceView::Orbit {
@@ -400,7 +398,7 @@ fn naive_phase_loses_at_large_nu_d_what_the_reduced_phase_keeps() {
         1.0e5 + 0.0173 * i as f64 + 0.0041 * j as f64 + 2e-3 * (0.3 * i as f64).sin()
     })
     .unwrap();
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         let mut errors = Vec::new();
         for grid in [&small, &large] {
@@ -418,7 +416,10 @@ fn naive_phase_loses_at_large_nu_d_what_the_reduced_phase_keeps() {
             unreachable!()
         };
         eprintln!("{backend:?}: naive/reduced max fringe error, nu*d < 300: {small_naive:.1e}/{small_reduced:.1e}; nu*d ~ 8e5: {large_naive:.1e}/{large_reduced:.1e}");
-        assert!(small_naive < 1e-4 && small_reduced < 1e-5, "{errors:?}");
+        // The naive phase is the device's f32 cosine of 2πνd, whose precision Vulkan leaves to
+        // the driver (2^-11 absolute inside [-π, π], nothing promised beyond): lavapipe keeps
+        // 4e-5 here, NVIDIA's H100 1.3e-4. The reduced phase must not depend on it.
+        assert!(small_naive < 5e-4 && small_reduced < 1e-5, "{errors:?}");
         assert!(large_reduced < 1e-5, "{errors:?}");
         // f32 spacing at 1e5 is 7.8e-3: ν times that is 1/16 of a fringe before the cosine
         // loses more at arguments of 5e6 rad.
@@ -520,7 +521,7 @@ fn perspective_view_matches_the_f64_reference() {
             fov: 35.0,
         },
     ];
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for view in views {
             let o = SurfaceOptions {
@@ -776,7 +777,7 @@ fn antialiased_fringe_matches_the_footprint_closed_form() {
     // A chirp d = c·x², its local rate 2ν·c·x reaching 2.4 fringes per pixel at the right edge;
     // and the same linear field around 10⁶ (the range-reduced phase at ν·d ≈ 10⁷).
     let (c, chirp_nx) = (0.0025, 480);
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for &(a, b, nu) in &linear {
             for offset in [-0.7, 1.0e6] {
@@ -847,7 +848,7 @@ fn antialiased_fringe_matches_the_footprint_closed_form() {
 fn colours_use_the_filtered_fringe_unless_antialias_is_off() {
     let g = Grid::from_fn("d", 64, 16, |i, _| 0.004 * (i * i) as f64).unwrap();
     let nu = 1.0;
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         let render = |mode, colormap: &str, antialias| {
             let o = SurfaceOptions {
@@ -937,7 +938,7 @@ fn antialiasing_removes_the_moire_from_the_tsunami_scene() {
     job.run(&nc, &mut |_| {}).unwrap();
     let grid = hdrvis::datasets::load_grid(&nc, Some("max_abs_eta")).unwrap();
     let nu = 10.0;
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         let o = SurfaceOptions {
             nu: vec![nu],
@@ -1434,7 +1435,7 @@ fn globe_view_drapes_the_field_on_the_sphere() {
     let silhouette: Vec<bool> = (0..(n * n) as usize)
         .map(|k| (radius(k) - limb_px).abs() <= 1.5)
         .collect();
-    for backend in BACKENDS {
+    for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for mode in [
             FringeMode::Cyclic,

@@ -90,6 +90,15 @@ fn max_diff(a: &HdrImage, b: &HdrImage) -> (f32, usize) {
     worst
 }
 
+/// How many pixels differ by more than `tol` in some channel (NaN counts as different).
+fn pixels_beyond(a: &HdrImage, b: &HdrImage, tol: f32) -> usize {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(p, q)| (0..4).any(|k| (p[k] - q[k]).is_nan() || (p[k] - q[k]).abs() > tol))
+        .count()
+}
+
 fn synthetic() -> Vec<(&'static str, HdrImage)> {
     let (w, h) = (97u32, 61u32);
     let mut pixels: Vec<[f32; 4]> = (0..w * h)
@@ -205,7 +214,7 @@ fn volume_render(backend: BackendChoice) -> HdrImage {
 
 #[test]
 fn tonemap_gpu_matches_cpu_on_a_volume_render() {
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let img = volume_render(backend);
         let lum = img.luminance();
         let (lo, hi) = lum
@@ -311,7 +320,7 @@ fn tonemap_reinhard_global_closed_form() {
     let lbar = (img.pixels.iter().map(|p| (p[0] as f64).ln()).sum::<f64>()
         / img.pixels.len() as f64)
         .exp();
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         for (key, white) in [(0.18, 1.5), (0.5, 20.0), (0.09, 0.7)] {
             let s = settings(Operator::Reinhard {
                 key,
@@ -362,7 +371,7 @@ fn tonemap_one_stop_doubles_linear_values() {
 fn tonemap_global_operators_are_monotonic() {
     // Eight decades of grey, in increasing order.
     let img = grey(512, 1, |i| 10f32.powf(-4.0 + 8.0 * i as f32 / 511.0));
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         for op in GLOBAL {
             let out = mapper(backend).tonemap(&img, &settings(op)).unwrap();
             for w in out.pixels.windows(2) {
@@ -667,7 +676,7 @@ fn tonemap_images_beyond_one_binding_run_in_bands() {
         epsilon: 0.05,
         scales: 8,
     };
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let whole = mapper(backend);
         let banded = GpuToneMapper::with_window_limit(whole.context().clone(), 64 << 10);
         let mut worst_cpu = 0.0f32;
@@ -680,9 +689,16 @@ fn tonemap_images_beyond_one_binding_run_in_bands() {
             let one = whole.tonemap(&img, &s).unwrap();
             let many = banded.tonemap(&img, &s).unwrap();
             let (worst, at) = max_diff(&cpu, &many);
+            // Reinhard's local operator picks each pixel's scale by a threshold on the
+            // centre-surround activity, so a pixel whose activity lies within f32 rounding of
+            // epsilon may take the neighbouring scale (seen on NVIDIA's H100 in one run of two,
+            // 1.4e-3 at worst): a few such pixels, each within 2e-2, and every other pixel
+            // within TOL.
+            let knife_edge = matches!(op, Operator::ReinhardLocal { .. });
+            let beyond = pixels_beyond(&cpu, &many, TOL);
             assert!(
-                worst <= TOL,
-                "{backend:?} {} in {bands} bands: |cpu - gpu| = {worst} at {at}: cpu {:?} gpu {:?}",
+                (knife_edge && beyond <= 4 && worst <= 2e-2) || worst <= TOL,
+                "{backend:?} {} in {bands} bands: |cpu - gpu| = {worst} at {at} ({beyond} pixels beyond {TOL}): cpu {:?} gpu {:?}",
                 op.name(),
                 cpu.pixels[at],
                 many.pixels[at]
@@ -693,6 +709,12 @@ fn tonemap_images_beyond_one_binding_run_in_bands() {
                 "{backend:?} {}: banded differs from whole by {apart} at {at}",
                 op.name()
             );
+            if beyond > 0 {
+                eprintln!(
+                    "{backend:?} {}: {beyond} knife-edge pixels, worst {worst:.2e}",
+                    op.name()
+                );
+            }
             worst_cpu = worst_cpu.max(worst);
         }
         let (a, b) = (
@@ -728,7 +750,7 @@ fn tonemap_every_operator_keeps_the_hue_of_a_colour_mapped_render() {
         key: 0.5,
         white: Some(0.4),
     });
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let img = volume_render(backend);
         for &op in &operators {
             let mut worst_clip = 0.0f64;
@@ -800,7 +822,7 @@ fn tonemap_reinhard_global_closed_form_with_gamut_scaling() {
     };
     let lw: Vec<f64> = img.luminance().iter().map(|&l| l as f64).collect();
     let lbar = (lw.iter().map(|l| l.ln()).sum::<f64>() / lw.len() as f64).exp();
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let (key, white) = (0.3, 2.0);
         let s = settings(Operator::Reinhard {
             key,

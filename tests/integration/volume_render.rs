@@ -48,7 +48,7 @@ fn homogeneous_slab_matches_closed_form() {
         );
         let alpha = 1.0 - (-a * v * l).exp();
         assert!(cpu.iter().all(|p| (p[3] - alpha).abs() < 1e-12));
-        for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        for backend in crate::common::backends() {
             let gpu = gpu_render(backend, &vol, &o);
             let err = max_rel(&red(&gpu), &vec![expect; 64], 0.0);
             assert!(err < 1e-4, "{backend:?} step {step}: rel err {err}");
@@ -111,7 +111,7 @@ fn gaussian_blob_emission_absorption_closed_forms() {
         let mut o = axis_opts(&vol, Axis::Z, tf, 0.1);
         o.background = bg;
         let floor = 1e-3 * expect.iter().cloned().fold(0.0, f64::max);
-        for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        for backend in crate::common::backends() {
             let gpu = gpu_render(backend, &vol, &o);
             let err = max_rel(&red(&gpu), &expect, floor);
             assert!(err < 1e-4, "{name} {backend:?}: rel err {err}");
@@ -164,7 +164,7 @@ fn tiny_extinction_accumulates_over_ten_thousand_steps() {
     let tau: f64 = a * 100.0;
     let expect_i = e / a * (-(-tau).exp_m1());
     let expect_alpha = -(-tau).exp_m1();
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let gpu = gpu_render(backend, &vol, &o);
         for p in &gpu {
             assert!(
@@ -191,7 +191,7 @@ fn saturation_within_one_step_gives_e_over_a() {
         TransferFunction::emission_absorption(e, a).unwrap(),
         1.0,
     );
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         for p in gpu_render(backend, &vol, &o) {
             assert!(
                 (p[0] - e / a).abs() / (e / a) < 1e-5,
@@ -244,7 +244,7 @@ fn gpu_matches_cpu_reference_with_log_opacity_transfer() {
         .iter()
         .map(|p| p[0].max(p[1]).max(p[2]))
         .fold(0.0, f64::max);
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         for filter in [FilterMode::Exact, FilterMode::Auto] {
             o.filter = filter;
             let gpu = gpu_render(backend, &vol, &o);
@@ -276,7 +276,7 @@ fn gpu_matches_cpu_reference_with_log_opacity_transfer() {
         cpu_j.iter().zip(&cpu).any(|(a, b)| a[0] != b[0]),
         "jitter changed nothing"
     );
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let gpu = gpu_render(backend, &vol, &o);
         let worst = gpu
             .iter()
@@ -302,7 +302,7 @@ fn missing_voxels_stay_local() {
     let idx = dirty.index(3, 4, 5);
     dirty.data[idx] = f32::INFINITY;
     let o = axis_opts(&clean, Axis::Z, log_tf(), 0.5);
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let a = gpu_render(backend, &clean, &o);
         let b = gpu_render(backend, &dirty, &o);
         assert!(b.iter().all(|p| p.iter().all(|v| v.is_finite())));
@@ -355,7 +355,7 @@ fn gradient_shading_matches_the_cpu_reference_and_is_absent_when_off() {
     for (s, p) in shaded.iter().zip(&plain) {
         assert!(s[0] <= 1.3 * p[0] + 1e-12 && s[3] == p[3], "{s:?} {p:?}");
     }
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let gpu = gpu_render(backend, &vol, &o);
         // Where the gradient nearly vanishes (blob centres) its direction comes from differences
         // that cancel to a few f32 ulps of the value, so the factor carries more rounding than
@@ -488,7 +488,7 @@ fn preintegration_keeps_a_narrow_opacity_peak_at_large_steps() {
             cpu_err < 1e-6,
             "CPU pre-integrated at step {step}: {cpu_err}"
         );
-        for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+        for backend in crate::common::backends() {
             let gpu = gpu_render(backend, &vol, &o);
             let err = gpu
                 .iter()
@@ -531,7 +531,7 @@ fn preintegrated_gpu_matches_the_cpu_reference() {
         "pre-integration changed nothing"
     );
     o.tf_sampling = TfSampling::PreIntegrated;
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let worst = worst_rel(&gpu_render(backend, &vol, &o), &cpu);
         assert!(
             worst < 1e-3,
@@ -541,7 +541,7 @@ fn preintegrated_gpu_matches_the_cpu_reference() {
     // Emission–absorption: the mean of a·v over a linear v.
     o.tf = TransferFunction::emission_absorption(0.02, 0.5).unwrap();
     let cpu = render_volume_f64(&vol, &o).unwrap();
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let worst = worst_rel(&gpu_render(backend, &vol, &o), &cpu);
         assert!(worst < 1e-3, "{backend:?} emission–absorption: {worst}");
     }
@@ -557,7 +557,7 @@ fn preintegrated_gpu_matches_the_cpu_reference() {
     o.tf = log_tf();
     let cpu = render_volume_f64(&holed, &o).unwrap();
     assert!(cpu.iter().flatten().all(|v| v.is_finite()));
-    for backend in [BackendChoice::Vulkan, BackendChoice::Gl] {
+    for backend in crate::common::backends() {
         let worst = worst_rel(&gpu_render(backend, &holed, &o), &cpu);
         assert!(worst < 1e-3, "{backend:?} with missing voxels: {worst}");
     }
