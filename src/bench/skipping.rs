@@ -99,6 +99,10 @@ fn time_pair(
     };
     let reference = session.render_volume_detailed(&source, &plain)?;
     let skipped = session.render_volume_detailed(&source, &skipping)?;
+    super::warm_up(|| {
+        session.render_volume_detailed(&source, &plain)?;
+        session.render_volume_detailed(&source, &skipping).map(drop)
+    })?;
     let mut row = SkippingRow {
         scene: scene.into(),
         plain_ms: Vec::new(),

@@ -170,9 +170,12 @@ pub fn bench_spherical(
     ];
     let mut ms = vec![Vec::new(); cases.len()];
     let mut gpu_ms = vec![Vec::new(); cases.len()];
-    for (_, source, opts) in &cases {
-        session.render_volume_detailed(source, opts)?;
-    }
+    super::warm_up(|| {
+        for (_, source, opts) in &cases {
+            session.render_volume_detailed(source, opts)?;
+        }
+        Ok(())
+    })?;
     for run in 0..runs.max(1) {
         for (i, (name, source, opts)) in cases.iter().enumerate() {
             let r = session.render_volume_detailed(source, opts)?;
