@@ -16,7 +16,8 @@ struct Mapped {
     // SPHERICAL: x inner radius, y outer radius, z lowest latitude, w highest (degrees).
     // Otherwise: xyz the box's lower corner in world coordinates.
     domain_lo: vec4<f32>,
-    // SPHERICAL: x lowest longitude, y highest (degrees), z 1 when the longitude wraps.
+    // SPHERICAL: x lowest longitude, y highest (degrees), z 1 when the longitude wraps, w the
+    // whole turns between x and [-180, 180).
     domain_hi: vec4<f32>,
     // Per coordinate (x: radius or x, y: latitude or y, z: longitude or z): its texture axis,
     // and the same as one-hot rows (texture index = sum of f.c * row c), so no vector is indexed
@@ -36,12 +37,18 @@ struct Mapped {
     // The longitude seam of a full circle: x the first centre, y the last, z the first one
     // turn later (in the axis's direction).
     seam: vec4<f32>,
+    // 1 / the texture's size along x, y and z.
+    inv_dims: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var volume_tex: texture_3d<f32>;
 @group(0) @binding(2) var lut: texture_2d<f32>;
 @group(0) @binding(3) var out_image: texture_storage_2d<rgba32float, write>;
+#if HW_FILTER
+// Clamped to the edges; the longitude's texture axis repeats where the circle closes.
+@group(0) @binding(4) var volume_sampler: sampler;
+#endif
 @group(0) @binding(5) var<uniform> G: Mapped;
 @group(0) @binding(6) var<storage, read> coords: array<f32>;
 
@@ -85,10 +92,11 @@ fn uneven_index(c: u32, x: f32) -> f32 {
 #endif
 
 #if SPHERICAL
-// Longitude (degrees) moved by whole turns into [lo, lo + 360).
+// Longitude (degrees, from atan2: in [-180, 180]) moved by whole turns into [lo, lo + 360):
+// one turn up where it lies below lo moved into [-180, 180), then the turns between the two.
 fn wrap_lon(lon: f32) -> f32 {
-    let lo = G.domain_hi.x;
-    return lo + (lon - lo) - 360.0 * floor((lon - lo) / 360.0);
+    let turns = G.domain_hi.w;
+    return lon + select(0.0, 360.0, lon < G.domain_hi.x - turns) + turns;
 }
 
 // Fractional longitude index, across the seam from the last centre to the first one a turn
@@ -139,7 +147,15 @@ fn sample_at(p: vec3<f32>) -> f32 {
     let w = p + G.domain_lo.xyz;
     let f = vec3<f32>(axis_index(0u, w.x), axis_index(1u, w.y), axis_index(2u, w.z));
 #endif
+#if CF_AXES
+    let g = f.zyx;
+#else
     let g = f.x * G.row_x.xyz + f.y * G.row_y.xyz + f.z * G.row_z.xyz;
+#endif
+#if HW_FILTER
+    // The texture unit's trilinear filter at index g (texel centres at i + 0.5).
+    return textureSampleLevel(volume_tex, volume_sampler, (g + 0.5) * G.inv_dims.xyz, 0.0).r;
+#else
     let dims = vec3<i32>(textureDimensions(volume_tex));
     let g0 = floor(g);
     let t = g - g0;
@@ -160,6 +176,7 @@ fn sample_at(p: vec3<f32>) -> f32 {
     }
 #endif
     return trilinear_texels(volume_tex, a, b, t);
+#endif
 }
 
 #if SHADING
@@ -234,6 +251,38 @@ fn cone_hits(o: vec3<f32>, d: vec3<f32>, lat: f32) -> vec2<f32> {
     return vec2<f32>(q / a, cc / q);
 }
 
+#if SHELL
+// A whole shell: the outer sphere's chord less the inner sphere's, the parts
+// SphericalGrid::ray_intervals finds for it (a crossing of the inner sphere counts only strictly
+// inside the chord; a tangent ray passes whole).
+fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
+    var out = Parts(array<vec2<f32>, 6>(), 0u);
+    let outer = sphere_hit(o, d, G.domain_lo.y);
+    let t0 = max(outer.x, 0.0);
+    let t1 = outer.y;
+    if (!(t1 > t0)) {
+        return out;
+    }
+    var inner = vec2<f32>(1.0, -1.0);
+    if (G.domain_lo.x > 0.0) {
+        inner = sphere_hit(o, d, G.domain_lo.x);
+    }
+    if (!(inner.y > inner.x) || inner.y <= t0 || inner.x >= t1) {
+        out.span[0] = vec2<f32>(t0, t1);
+        out.n = 1u;
+        return out;
+    }
+    if (inner.x > t0) {
+        out.span[0] = vec2<f32>(t0, inner.x);
+        out.n = 1u;
+    }
+    if (t1 > inner.y) {
+        out.span[out.n] = vec2<f32>(inner.y, t1);
+        out.n += 1u;
+    }
+    return out;
+}
+#else
 // SphericalGrid::ray_intervals: the crossings of every boundary, sorted; the pieces between
 // them whose middles are inside, neighbours merged.
 fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
@@ -309,6 +358,7 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
     }
     return out;
 }
+#endif
 #else
 fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
     var out = Parts(array<vec2<f32>, 6>(), 0u);
@@ -338,6 +388,15 @@ fn seg_end(r: Ray2, k: u32) -> f32 {
 
 fn seg_start(r: Ray2, k: u32) -> f32 {
     return select(seg_end(r, k - 1u), r.t_enter, k == 0u);
+}
+
+// The segment before the one holding a part's start u, in case rounding put u past its start
+// (an empty piece is passed over).
+fn first_piece(r: Ray2, u: f32) -> u32 {
+    if (u > seg_end(r, 0u)) {
+        return u32(max(floor((u - r.t_enter - r.first) / r.ds), 0.0));
+    }
+    return 0u;
 }
 
 // Segment k of the ray cut to the part [u, v]: sampled at its middle and composited.
@@ -393,35 +452,44 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (parts.n > 0u) {
         let ds = P.march.x;
         let r = Ray2(ray.origin, ray.dir, parts.span[0].x, first_segment(gid.xy, w, h, ds), ds);
-        for (var i = 0u; i < parts.n; i++) {
-            let u = parts.span[i].x;
-            let v = parts.span[i].y;
-            // The segment before the one holding u, in case rounding put u past its start
-            // (an empty piece is passed over).
-            var k = 0u;
-            if (u > seg_end(r, 0u)) {
-                k = u32(max(floor((u - r.t_enter - r.first) / ds), 0.0));
+        // One loop over every part's segments, moving on to the next part where one ends: the
+        // lanes of a SIMD group then take as many iterations as their longest ray, not the sum
+        // over parts of each part's longest (a ray through the core has two parts, its
+        // neighbour past the core one).
+        var i = 0u;
+        var u = parts.span[0].x;
+        var v = parts.span[0].y;
+        var k = first_piece(r, u);
+#if PREINTEGRATED
+        var front = front_at(sample_at(r.o + r.d * u));
+#endif
+        // Four segments per iteration: llvmpipe ends a loop after 65535 iterations.
+        loop {
+            if (s.stopped || i >= parts.n) {
+                break;
             }
 #if PREINTEGRATED
-            var front = front_at(sample_at(r.o + r.d * u));
-#endif
-            // Four segments per iteration: llvmpipe ends a loop after 65535 iterations.
-            loop {
-                if (s.stopped || seg_start(r, k) >= v) {
-                    break;
-                }
-#if PREINTEGRATED
-                piece_pre(&s, &front, r, k, u, v);
-                piece_pre(&s, &front, r, k + 1u, u, v);
-                piece_pre(&s, &front, r, k + 2u, u, v);
-                piece_pre(&s, &front, r, k + 3u, u, v);
+            piece_pre(&s, &front, r, k, u, v);
+            piece_pre(&s, &front, r, k + 1u, u, v);
+            piece_pre(&s, &front, r, k + 2u, u, v);
+            piece_pre(&s, &front, r, k + 3u, u, v);
 #else
-                piece(&s, r, k, u, v);
-                piece(&s, r, k + 1u, u, v);
-                piece(&s, r, k + 2u, u, v);
-                piece(&s, r, k + 3u, u, v);
+            piece(&s, r, k, u, v);
+            piece(&s, r, k + 1u, u, v);
+            piece(&s, r, k + 2u, u, v);
+            piece(&s, r, k + 3u, u, v);
 #endif
-                k += 4u;
+            k += 4u;
+            if (seg_start(r, k) >= v) {
+                i += 1u;
+                if (i < parts.n) {
+                    u = parts.span[i].x;
+                    v = parts.span[i].y;
+                    k = first_piece(r, u);
+#if PREINTEGRATED
+                    front = front_at(sample_at(r.o + r.d * u));
+#endif
+                }
             }
         }
     }

@@ -5,8 +5,8 @@
 //! that the shader bisects.
 
 use super::volume::{
-    Geometry as FrameGeometry, GpuVolume, RenderTiming, VolumeRenderer, RECTILINEAR, SEAM,
-    SPHERICAL, UNEVEN,
+    Geometry as FrameGeometry, GpuVolume, RenderTiming, VolumeRenderer, CF_AXES, RECTILINEAR, SEAM,
+    SHELL, SPHERICAL, UNEVEN,
 };
 use super::VolumeRenderOptions;
 use crate::error::{Error, Result};
@@ -28,6 +28,7 @@ struct MappedParams {
     inv_step: [f32; 4],
     dir: [f32; 4],
     seam: [f32; 4],
+    inv_dims: [f32; 4],
 }
 
 impl MappedParams {
@@ -72,7 +73,10 @@ impl MappedParams {
 /// shared parameters are built from (the eye relative to the box's corner, or to the planet's
 /// centre for a shell).
 fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 3])> {
-    let mut p = MappedParams::default();
+    let mut p = MappedParams {
+        inv_dims: [0, 1, 2, 2].map(|a| 1.0 / volume.dims[a] as f32),
+        ..Default::default()
+    };
     let mut coords = Vec::new();
     let bounds = volume.bounds();
     match &volume.geometry {
@@ -108,11 +112,14 @@ fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 
                 f(g.latitude.lo),
                 f(g.latitude.hi),
             ];
+            // The whole turns between the domain's first longitude and [-180°, 180°), where
+            // atan2 lands: the shader wraps by one comparison and these turns.
+            let turns = 360.0 * ((g.longitude.lo + 180.0) / 360.0).floor();
             p.domain_hi = [
                 f(g.longitude.lo),
                 f(g.longitude.hi),
                 if g.lon_wraps { 1.0 } else { 0.0 },
-                0.0,
+                f(turns),
             ];
             for (c, axis) in [&g.radius, &g.latitude, &g.longitude]
                 .into_iter()
@@ -132,7 +139,15 @@ fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 
             let seam = if g.lon_wraps && !even_seam { SEAM } else { 0 };
             let uneven = if coords.is_empty() { 0 } else { UNEVEN };
             coords.resize(coords.len().max(4), 0.0);
-            Ok((SPHERICAL | uneven | seam, p, coords, [0.0; 3]))
+            let cf_axes = if g.axis_of == [2, 1, 0] { CF_AXES } else { 0 };
+            let whole = g.lon_wraps && g.latitude.lo <= -90.0 && g.latitude.hi >= 90.0;
+            let shell = if whole { SHELL } else { 0 };
+            Ok((
+                SPHERICAL | uneven | seam | cf_axes | shell,
+                p,
+                coords,
+                [0.0; 3],
+            ))
         }
     }
 }
@@ -145,12 +160,6 @@ impl VolumeRenderer {
         gpu: &GpuVolume,
         opts: &VolumeRenderOptions,
     ) -> Result<(HdrImage, RenderTiming)> {
-        if opts.filter == super::FilterMode::Hardware {
-            return Err(Error::invalid(
-                "filter",
-                "volumes placed by coordinate axes are filtered exactly in index space; use \"exact\" or \"auto\"",
-            ));
-        }
         let (kind, params, coords, origin) = mapped_params(volume)?;
         let size = volume.bounds().size();
         let geometry = FrameGeometry {
@@ -161,9 +170,11 @@ impl VolumeRenderer {
             stats: &gpu.stats,
             voxel: volume.voxel_length(),
         };
-        let mut frame = self.frame(&geometry, opts, false)?;
-        frame.key.hw_filter = false;
-        frame.key.mapped = kind;
+        let frame = {
+            let mut f = self.frame(&geometry, opts, false)?;
+            f.key.mapped = kind;
+            f
+        };
         let (pipeline, compiled) = self.pipeline(frame.key)?;
         let (pipeline, layout) = (&pipeline.0, &pipeline.1);
         use wgpu::util::DeviceExt;
@@ -195,6 +206,19 @@ impl VolumeRenderer {
         let out_view = out.create_view(&Default::default());
         let mut entries =
             self.common_entries(&frame.key, &params_buf, gpu.view(), &lut_view, &out_view);
+        // The texture unit filters in index space too (the shader hands it the fractional
+        // index); a longitude that closes the circle repeats, so its last and first texels
+        // are neighbours, as the exact path's wrap makes them.
+        let wrapping_sampler;
+        let wraps = matches!(&volume.geometry, Geometry::Spherical(g) if g.lon_wraps);
+        if frame.key.hw_filter && wraps {
+            wrapping_sampler = self.sampler_repeating(params.axis_of[2] as usize);
+            for e in &mut entries {
+                if e.binding == 4 {
+                    e.resource = wgpu::BindingResource::Sampler(&wrapping_sampler);
+                }
+            }
+        }
         entries.push(wgpu::BindGroupEntry {
             binding: 5,
             resource: mapped_buf.as_entire_binding(),
@@ -204,7 +228,7 @@ impl VolumeRenderer {
             resource: coords_buf.as_entire_binding(),
         });
         let (pixels, mut timing) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
-        let mut image = self.finish_image(&geometry, opts, false, pixels);
+        let mut image = self.finish_image(&geometry, opts, frame.key.hw_filter, pixels);
         image.set_meta("geometry", volume.geometry.name());
         if let Geometry::Spherical(g) = &volume.geometry {
             image.set_meta("domain", g.to_string());

@@ -41,6 +41,12 @@ pub(crate) const SPHERICAL: u32 = 2;
 pub(crate) const UNEVEN: u32 = 4;
 /// The longitude closes the circle across a gap other than its step.
 pub(crate) const SEAM: u32 = 8;
+/// Radius, latitude and longitude on texture axes z, y and x: a CF variable stored (level,
+/// latitude, longitude), compiled to a swizzle instead of the general axis rows.
+pub(crate) const CF_AXES: u32 = 16;
+/// A whole shell: every latitude and a longitude that closes the circle, so a ray's parts are
+/// the outer sphere's chord less the inner sphere's, in closed form.
+pub(crate) const SHELL: u32 = 32;
 
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
 /// (lavapipe, and GL on Mesa) ends any loop after 65535 iterations.
@@ -154,7 +160,7 @@ pub(crate) struct PipelineKey {
     /// Empty-space skipping through a skip grid (plain ray caster, point sampling).
     pub skipping: bool,
     /// Voxels placed by coordinate axes (volume_mapped.wgsl): bits of `mapped::RECTILINEAR`,
-    /// `SPHERICAL`, `UNEVEN`, `SEAM`.
+    /// `SPHERICAL`, `UNEVEN`, `SEAM`, `CF_AXES`, `SHELL`.
     pub mapped: u32,
     /// One slab of a distributed render (plain ray caster): partial images.
     pub slab: bool,
@@ -227,16 +233,7 @@ pub struct RenderTiming {
 
 impl VolumeRenderer {
     pub fn new(ctx: Arc<GpuContext>) -> Self {
-        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("volume trilinear"),
-            address_mode_u: wgpu::AddressMode::ClampToEdge,
-            address_mode_v: wgpu::AddressMode::ClampToEdge,
-            address_mode_w: wgpu::AddressMode::ClampToEdge,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Nearest,
-            ..Default::default()
-        });
+        let sampler = trilinear_sampler(&ctx.device, None);
         VolumeRenderer {
             ctx,
             pipelines: Mutex::new(HashMap::new()),
@@ -275,6 +272,12 @@ impl VolumeRenderer {
         }
         if key.mapped & UNEVEN != 0 {
             defines.push("UNEVEN");
+        }
+        if key.mapped & CF_AXES != 0 {
+            defines.push("CF_AXES");
+        }
+        if key.mapped & SHELL != 0 {
+            defines.push("SHELL");
         }
         if key.mapped & SEAM != 0 {
             defines.push("SEAM");
@@ -552,6 +555,12 @@ impl VolumeRenderer {
         })
     }
 
+    /// The trilinear sampler with texture axis `axis` repeating (a longitude that closes the
+    /// circle) and the others clamped to their edges.
+    pub(crate) fn sampler_repeating(&self, axis: usize) -> wgpu::Sampler {
+        trilinear_sampler(&self.ctx.device, Some(axis))
+    }
+
     pub(crate) fn common_entries<'a>(
         &'a self,
         key: &PipelineKey,
@@ -795,4 +804,26 @@ pub(crate) struct Frame {
     pub key: PipelineKey,
     pub tf: ResolvedTransfer,
     pub params: VolumeParams,
+}
+
+/// A trilinear sampler clamped to the edges, except texture axis `repeat` (0 x, 1 y, 2 z), which
+/// repeats.
+fn trilinear_sampler(device: &wgpu::Device, repeat: Option<usize>) -> wgpu::Sampler {
+    let mode = |axis| {
+        if repeat == Some(axis) {
+            wgpu::AddressMode::Repeat
+        } else {
+            wgpu::AddressMode::ClampToEdge
+        }
+    };
+    device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("volume trilinear"),
+        address_mode_u: mode(0),
+        address_mode_v: mode(1),
+        address_mode_w: mode(2),
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        mipmap_filter: wgpu::MipmapFilterMode::Nearest,
+        ..Default::default()
+    })
 }
