@@ -179,7 +179,7 @@ fn register_animation(engine: &mut Engine, host: &Arc<ScriptHost>) {
         crate::io::animation::write_animation(&p, frames.len(), fps, frame).map_err(to_rhai)?;
         h.session
             .record_sink("save-animation", t.elapsed().as_secs_f64() * 1e3);
-        h.written.lock().expect("poisoned").push(p);
+        h.note_written(p);
         Ok(())
     };
     let save2 = save.clone();

@@ -446,10 +446,16 @@ fn orbit_frames_become_movies() {
         (
             out.status.success(),
             String::from_utf8_lossy(&out.stderr).to_string(),
+            String::from_utf8_lossy(&out.stdout).to_string(),
         )
     };
-    let (ok, stderr) = run(&["run", "orbit.rhai", "--out", "o"], None);
+    let (ok, stderr, stdout) = run(&["run", "orbit.rhai", "--out", "o"], None);
     assert!(ok, "{stderr}");
+    // Movies are outputs like images: each reported the moment it is complete.
+    for movie in ["orbit.png", "two.gif"] {
+        let line = format!("wrote {}", d.join("o").join(movie).display());
+        assert!(stdout.lines().any(|l| l == line), "{line} in {stdout}");
+    }
     let frames = apng_frames(&d.join("o/orbit.png"));
     assert_eq!(frames.len(), 36);
     assert_eq!(frames[9], png_pixels(&d.join("o/orbit/az90.png")));
@@ -459,7 +465,7 @@ fn orbit_frames_become_movies() {
     assert_eq!(gif.into_frames().collect_frames().unwrap().len(), 2);
 
     // The command line: the pattern expands in natural order (az20 is the third frame).
-    let (ok, stderr) = run(
+    let (ok, stderr, _) = run(
         &["animate", "o/orbit/az*.png", "-o", "cli.png", "--fps", "6"],
         None,
     );
@@ -472,7 +478,7 @@ fn orbit_frames_become_movies() {
     // Without ffmpeg an MP4 is a one-line hint and no file.
     let empty = d.join("no-tools");
     std::fs::create_dir_all(&empty).unwrap();
-    let (ok, stderr) = run(&["animate", "o/orbit/*.png", "-o", "x.mp4"], Some(&empty));
+    let (ok, stderr, _) = run(&["animate", "o/orbit/*.png", "-o", "x.mp4"], Some(&empty));
     assert!(
         !ok && stderr.contains("needs ffmpeg, which is not installed"),
         "{stderr}"
@@ -480,7 +486,7 @@ fn orbit_frames_become_movies() {
     assert!(!d.join("x.mp4").exists());
 
     if ffmpeg_tools() {
-        let (ok, stderr) = run(&["animate", "o/orbit/*.png", "-o", "orbit.mp4"], None);
+        let (ok, stderr, _) = run(&["animate", "o/orbit/*.png", "-o", "orbit.mp4"], None);
         assert!(ok, "{stderr}");
         let probe = Command::new("ffprobe")
             .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
