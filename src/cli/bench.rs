@@ -102,6 +102,23 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             );
             Ok(())
         }
+        BenchCommand::Distributed {
+            runs,
+            n,
+            size,
+            ranks,
+            sides,
+            report,
+        } => {
+            let bench = hdrvis::bench::distributed::DistributedBench {
+                n,
+                size,
+                runs,
+                sides: whole_numbers("--sides", &sides)?,
+            };
+            let ranks = whole_numbers("--ranks", &ranks)?;
+            super::cluster::bench_distributed(backend, &bench, &ranks, report.as_deref())
+        }
         BenchCommand::Surface { runs, n } => {
             let (ctx, adapter) = gpu(backend)?;
             let rows = surface::bench_surface(ctx, n, runs, &mut progress)?;
@@ -109,6 +126,22 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// A comma-separated list of whole numbers >= 1, as `--ranks` and `--sides` take them.
+fn whole_numbers<T: std::str::FromStr + From<u8> + PartialOrd>(
+    flag: &str,
+    text: &str,
+) -> Result<Vec<T>> {
+    text.split(',')
+        .map(|t| match t.trim().parse::<T>() {
+            Ok(v) if v >= T::from(1) => Ok(v),
+            _ => Err(hdrvis::Error::invalid(
+                flag,
+                format!("expected whole numbers >= 1 separated by commas, got {text:?}"),
+            )),
+        })
+        .collect()
 }
 
 /// A benchmark's progress line, on stderr.
