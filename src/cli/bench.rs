@@ -102,23 +102,7 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             );
             Ok(())
         }
-        BenchCommand::Distributed {
-            runs,
-            n,
-            size,
-            ranks,
-            sides,
-            report,
-        } => {
-            let bench = hdrvis::bench::distributed::DistributedBench {
-                n,
-                size,
-                runs,
-                sides: whole_numbers("--sides", &sides)?,
-            };
-            let ranks = whole_numbers("--ranks", &ranks)?;
-            super::cluster::bench_distributed(backend, &bench, &ranks, report.as_deref())
-        }
+        cmd @ BenchCommand::Distributed { .. } => bench_distributed(backend, cmd),
         BenchCommand::Surface { runs, n } => {
             let (ctx, adapter) = gpu(backend)?;
             let rows = surface::bench_surface(ctx, n, runs, &mut progress)?;
@@ -126,6 +110,29 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `hdrvis bench distributed`, its lists as typed.
+fn bench_distributed(backend: BackendChoice, cmd: BenchCommand) -> Result<()> {
+    let BenchCommand::Distributed {
+        runs,
+        n,
+        size,
+        ranks,
+        sides,
+        report,
+    } = cmd
+    else {
+        unreachable!("run_bench hands over bench distributed only")
+    };
+    let bench = hdrvis::bench::distributed::DistributedBench {
+        n,
+        size,
+        runs,
+        sides: whole_numbers("--sides", &sides)?,
+    };
+    let ranks = whole_numbers("--ranks", &ranks)?;
+    super::cluster::bench_distributed(backend, &bench, &ranks, report.as_deref())
 }
 
 /// A comma-separated list of whole numbers >= 1, as `--ranks` and `--sides` take them.
