@@ -16,6 +16,7 @@ pub mod accuracy;
 pub mod bricks;
 pub(crate) mod chart;
 pub mod datasets;
+pub mod distributed;
 pub mod effects;
 pub mod skipping;
 pub mod spherical;

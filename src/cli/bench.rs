@@ -102,6 +102,7 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             );
             Ok(())
         }
+        cmd @ BenchCommand::Distributed { .. } => bench_distributed(backend, cmd),
         BenchCommand::Surface { runs, n } => {
             let (ctx, adapter) = gpu(backend)?;
             let rows = surface::bench_surface(ctx, n, runs, &mut progress)?;
@@ -109,6 +110,45 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `hdrvis bench distributed`, its lists as typed.
+fn bench_distributed(backend: BackendChoice, cmd: BenchCommand) -> Result<()> {
+    let BenchCommand::Distributed {
+        runs,
+        n,
+        size,
+        ranks,
+        sides,
+        report,
+    } = cmd
+    else {
+        unreachable!("run_bench hands over bench distributed only")
+    };
+    let bench = hdrvis::bench::distributed::DistributedBench {
+        n,
+        size,
+        runs,
+        sides: whole_numbers("--sides", &sides)?,
+    };
+    let ranks = whole_numbers("--ranks", &ranks)?;
+    super::cluster::bench_distributed(backend, &bench, &ranks, report.as_deref())
+}
+
+/// A comma-separated list of whole numbers >= 1, as `--ranks` and `--sides` take them.
+fn whole_numbers<T: std::str::FromStr + From<u8> + PartialOrd>(
+    flag: &str,
+    text: &str,
+) -> Result<Vec<T>> {
+    text.split(',')
+        .map(|t| match t.trim().parse::<T>() {
+            Ok(v) if v >= T::from(1) => Ok(v),
+            _ => Err(hdrvis::Error::invalid(
+                flag,
+                format!("expected whole numbers >= 1 separated by commas, got {text:?}"),
+            )),
+        })
+        .collect()
 }
 
 /// A benchmark's progress line, on stderr.

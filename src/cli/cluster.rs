@@ -4,8 +4,10 @@
 //! is printed once and ends every rank (MPI_Abort), so no rank hangs waiting for it.
 
 use super::RunArgs;
+use hdrvis::bench::distributed::DistributedBench;
 use hdrvis::gpu::BackendChoice;
 use hdrvis::{Error, Result};
+use std::path::Path;
 
 /// The rank and rank count an MPI launcher gave this process, from the environment it sets
 /// (OpenMPI's mpirun, MPICH's hydra and Slurm's PMI2 set these); `None` outside a launch.
@@ -26,6 +28,141 @@ pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
         return Ok(());
     }
     super::run::run_script(args, backend)
+}
+
+/// `hdrvis bench distributed` without MPI: what to build instead.
+#[cfg(not(feature = "mpi"))]
+pub fn bench_distributed(
+    _backend: BackendChoice,
+    _bench: &DistributedBench,
+    _ranks: &[usize],
+    _report: Option<&Path>,
+) -> Result<()> {
+    Err(Error::invalid(
+        "bench distributed",
+        "this hdrvis was built without MPI; build it with `cargo build --release --features mpi` (Debian: apt-get install openmpi-bin libopenmpi-dev libclang-dev)",
+    ))
+}
+
+/// `hdrvis bench distributed`: started by an MPI launcher, this process is one rank of the
+/// world it measures (rank 0 prints its table, or with `report` writes its report there);
+/// otherwise it starts that world with `mpirun --oversubscribe -n R` of this binary for each
+/// rank count R and prints the scaling table of them all.
+#[cfg(feature = "mpi")]
+pub fn bench_distributed(
+    backend: BackendChoice,
+    bench: &DistributedBench,
+    ranks: &[usize],
+    report: Option<&Path>,
+) -> Result<()> {
+    use hdrvis::bench::distributed::{format_scaling_table, format_world_report};
+    if launched().is_none() {
+        return bench_worlds(backend, bench, ranks);
+    }
+    let world = std::sync::Arc::new(hdrvis::render::distributed::mpi::MpiExchange::init()?);
+    let measured = hdrvis::gpu::GpuContext::new(backend).and_then(|ctx| {
+        let machine = machine(&ctx);
+        let report_of_rank0 =
+            hdrvis::bench::distributed::bench_world(ctx, world.clone(), bench, &mut |m| {
+                eprintln!("{m}")
+            })?;
+        match (report_of_rank0, report) {
+            (Some(r), Some(path)) => {
+                std::fs::write(path, format_world_report(&r)).map_err(|e| Error::io(path, e))
+            }
+            (Some(r), None) => {
+                print!("{}", format_scaling_table(&machine, &[r]));
+                Ok(())
+            }
+            (None, _) => Ok(()),
+        }
+    });
+    if let Err(e) = measured {
+        eprintln!("error: {e}");
+        world.abort(1);
+    }
+    Ok(())
+}
+
+/// What a table's numbers were measured on: the adapter and the CPU count.
+#[cfg(feature = "mpi")]
+fn machine(ctx: &hdrvis::gpu::GpuContext) -> String {
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    format!("{}; {cores} CPU cores", ctx.describe())
+}
+
+/// One `mpirun --oversubscribe -n R` world of this binary per rank count, each writing its
+/// report to a temporary file; then the scaling table of them all.
+#[cfg(feature = "mpi")]
+fn bench_worlds(backend: BackendChoice, bench: &DistributedBench, ranks: &[usize]) -> Result<()> {
+    use hdrvis::bench::distributed::{bench_volume_file, format_scaling_table, parse_world_report};
+    let mpirun = super::slurm::find_on_path("mpirun").ok_or_else(|| {
+        Error::invalid(
+            "bench distributed",
+            "mpirun not found on PATH (Debian: apt-get install openmpi-bin)",
+        )
+    })?;
+    let exe = std::env::current_exe().map_err(|e| Error::io("hdrvis", e))?;
+    let machine = machine(&*hdrvis::gpu::GpuContext::new(backend)?);
+    // Written here, so no rank's peak memory holds the generated volume.
+    eprintln!("preparing the mantle {}^3 ...", bench.n);
+    bench_volume_file(bench.n)?;
+    let dir = tempfile::tempdir().map_err(|e| Error::io("temporary folder", e))?;
+    let mut reports = Vec::new();
+    for &r in ranks {
+        eprintln!("{r} ranks: mpirun --oversubscribe -n {r} ...");
+        let report = dir.path().join(format!("ranks-{r}.txt"));
+        let mut cmd = std::process::Command::new(&mpirun);
+        cmd.arg("--oversubscribe");
+        if is_root() {
+            cmd.arg("--allow-run-as-root");
+        }
+        let sides: Vec<String> = bench.sides.iter().map(u32::to_string).collect();
+        cmd.args(["-n", &r.to_string()])
+            .arg(&exe)
+            .arg(format!("--backend={}", backend_name(backend)))
+            .args(["bench", "distributed", "--runs", &bench.runs.to_string()])
+            .args([
+                "--n",
+                &bench.n.to_string(),
+                "--size",
+                &bench.size.to_string(),
+            ])
+            .args(["--sides", &sides.join(","), "--report"])
+            .arg(&report)
+            .stdout(std::process::Stdio::null());
+        let status = cmd.status().map_err(|e| Error::io(&mpirun, e))?;
+        let text = std::fs::read_to_string(&report).unwrap_or_default();
+        if !status.success() || text.is_empty() {
+            return Err(Error::invalid(
+                "bench distributed",
+                format!("mpirun -n {r} failed ({status}); its ranks' errors are above"),
+            ));
+        }
+        reports.push(parse_world_report(
+            &text,
+            &format!("the report of {r} ranks"),
+        )?);
+    }
+    print!("{}", format_scaling_table(&machine, &reports));
+    Ok(())
+}
+
+#[cfg(feature = "mpi")]
+fn backend_name(backend: BackendChoice) -> &'static str {
+    match backend {
+        BackendChoice::Auto => "auto",
+        BackendChoice::Vulkan => "vulkan",
+        BackendChoice::Gl => "gl",
+    }
+}
+
+/// Whether this process runs as root, whom mpirun refuses without `--allow-run-as-root`: the
+/// owner of /proc/self is the process's effective user.
+#[cfg(feature = "mpi")]
+fn is_root() -> bool {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata("/proc/self").is_ok_and(|m| m.uid() == 0)
 }
 
 /// Runs `hdrvis run` as a rank when an MPI launcher started several; `Ok(false)` when this is
@@ -85,7 +222,7 @@ fn run_rank(
     use hdrvis::render::session::RenderSession;
     use std::sync::{Arc, Mutex};
     let root = world.rank() == 0;
-    let mut opts = super::run::script_options(args, backend)?;
+    let mut opts = super::run::script_options(args, backend, Some(world.as_ref()))?;
     let session = RenderSession::new(backend, opts.cache_mib << 20).with_cluster(world.clone());
     opts.session = Some(Arc::new(session));
     if root {
@@ -119,20 +256,6 @@ fn run_rank(
 /// Every rank's peak resident memory, gathered on rank 0 (empty on the others).
 #[cfg(feature = "mpi")]
 fn gather_peaks(world: &dyn hdrvis::render::distributed::Exchange) -> Result<Vec<u64>> {
-    use hdrvis::render::distributed::peak_memory_bytes;
-    let mine = peak_memory_bytes().unwrap_or(0);
-    if world.rank() != 0 {
-        world.send(0, &mine.to_le_bytes())?;
-        return Ok(Vec::new());
-    }
-    let mut peaks = vec![mine];
-    for from in 1..world.size() {
-        let msg = world.recv(from)?;
-        let bytes: [u8; 8] = msg
-            .as_slice()
-            .try_into()
-            .map_err(|_| Error::invalid("mpi", format!("rank {from} sent no peak memory")))?;
-        peaks.push(u64::from_le_bytes(bytes));
-    }
-    Ok(peaks)
+    use hdrvis::render::distributed::{exchange::gather_u64, peak_memory_bytes};
+    gather_u64(world, peak_memory_bytes().unwrap_or(0))
 }

@@ -326,6 +326,31 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 512)]
         size: u32,
     },
+    /// Distributed rendering (`--features mpi`): strong scaling of the mantle N^3 -> SIZE^2 over
+    /// MPI ranks on this machine (`mpirun --oversubscribe -n R` of this binary for each R of
+    /// --ranks), compositing time per image side and scheme, each rank's peak memory, and the
+    /// cost model's prediction from the measured link. Started by mpirun or srun itself, it
+    /// measures the world it is in.
+    Distributed {
+        /// Timed runs per case (after one warm-up).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Volume side in voxels.
+        #[arg(long, default_value_t = 257)]
+        n: usize,
+        /// Image side in pixels.
+        #[arg(long, default_value_t = 512)]
+        size: u32,
+        /// Rank counts, comma-separated.
+        #[arg(long, default_value = "1,2,4")]
+        ranks: String,
+        /// Image sides of the compositing cases, comma-separated.
+        #[arg(long, default_value = "256,512,1024,2048")]
+        sides: String,
+        /// Where a rank count's run writes its report for the run that started it.
+        #[arg(long, hide = true)]
+        report: Option<PathBuf>,
+    },
     /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
     /// two-step render, medians.
     Surface {

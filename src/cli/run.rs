@@ -7,6 +7,7 @@ use hdrvis::gpu::BackendChoice;
 use hdrvis::io::terminal::ProtocolChoice;
 use hdrvis::model::HdrImage;
 use hdrvis::render::cache::budget_mib;
+use hdrvis::render::distributed::Exchange;
 use hdrvis::script::{run_script_file, run_script_source, ScriptOptions, Shard, WrittenObserver};
 use hdrvis::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -18,7 +19,7 @@ const DEMO_SCRIPT: &str = include_str!("../../scripts/demo.rhai");
 /// `--stats` one line per pass, and with `--preview` its images inline. A run stopped by an
 /// error or by SIGINT/SIGTERM says so and how many files it wrote.
 pub fn run_script(args: &RunArgs, backend: BackendChoice) -> Result<()> {
-    let mut opts = script_options(args, backend)?;
+    let mut opts = script_options(args, backend, None)?;
     let protocol = ProtocolChoice::resolve(args.protocol.as_deref())?;
     let written = Arc::new(Mutex::new(Vec::new()));
     opts.on_written = Some(print_as_written(written.clone()));
@@ -102,16 +103,26 @@ fn stop_on_signals(written: Arc<Mutex<Vec<PathBuf>>>) -> Result<()> {
     Ok(())
 }
 
-/// The script options `hdrvis run`'s flags ask for.
-pub(super) fn script_options(args: &RunArgs, backend: BackendChoice) -> Result<ScriptOptions> {
+/// The script options `hdrvis run`'s flags ask for, for a process alone or (`world`) one rank
+/// of an MPI world, whose ranks all own the same share of a sweep.
+pub(super) fn script_options(
+    args: &RunArgs,
+    backend: BackendChoice,
+    world: Option<&dyn Exchange>,
+) -> Result<ScriptOptions> {
     let mut opts = ScriptOptions::new(&args.out);
     opts.backend = backend;
     opts.allowed_paths = args.allow_paths.clone();
     opts.sets = parse_sets(&args.sets)?;
     opts.resume = args.resume;
-    let (shard, source) = Shard::resolve(args.shard.as_deref(), |name| std::env::var(name).ok())?;
+    let ranks = world.map_or(1, |w| w.size());
+    let (shard, source) = Shard::resolve(
+        args.shard.as_deref(),
+        |name| std::env::var(name).ok(),
+        ranks,
+    )?;
     opts.shard = shard;
-    if shard.count > 1 {
+    if shard.count > 1 && world.is_none_or(|w| w.rank() == 0) {
         // The task's log says which share it rendered; its "wrote" lines say what that was.
         eprintln!(
             "hdrvis run: task {} of {} ({source}): shard() gives it its share",

@@ -271,7 +271,7 @@ fn shell_quote(text: &str) -> String {
 }
 
 /// The first executable file called `name` in a folder of PATH.
-fn find_on_path(name: &str) -> Option<PathBuf> {
+pub(super) fn find_on_path(name: &str) -> Option<PathBuf> {
     use std::os::unix::fs::PermissionsExt;
     std::env::split_paths(&std::env::var_os("PATH")?)
         .map(|dir| dir.join(name))

@@ -1,6 +1,8 @@
 //! Which share of a sweep one task owns, when the sweep is shared out over several processes:
 //! `hdrvis run --shard I/N`, a Slurm job array (`SLURM_ARRAY_TASK_ID` with `_COUNT` or
-//! `_MIN`/`_MAX`/`_STEP`) and `srun` steps (`SLURM_PROCID` of `SLURM_NTASKS`). Task `i` of `n`
+//! `_MIN`/`_MAX`/`_STEP`) and `srun` steps (`SLURM_PROCID` of `SLURM_NTASKS`) — unless the
+//! step's tasks are the ranks of one MPI world, which render every volume together and so
+//! must all own the same share. Task `i` of `n`
 //! owns one contiguous block of a list of `len` items, `[⌊i·len/n⌋, ⌊(i+1)·len/n⌋)`: the blocks
 //! are disjoint, cover the list, differ in size by at most one, and keep neighbouring items (the
 //! frames of one camera path, the levels of one transfer function) in one process, where the
@@ -83,9 +85,22 @@ impl Shard {
     /// [`Shard::ALL`] without them. Under an array whose tasks run `srun` steps of several tasks,
     /// each array task's share is shared again among its steps' tasks. Variables that do not
     /// agree are a one-line error naming the variable.
-    pub fn from_slurm(var: impl Fn(&str) -> Option<String>) -> Result<(Shard, ShardSource)> {
+    ///
+    /// `mpi_ranks` is the size of the MPI world this process is one rank of (1 outside one).
+    /// With more than one, the `srun` step's tasks are those ranks: every `render_volume` is a
+    /// collective call they make together, so the step variables share nothing out (each rank
+    /// owning a different share would hang the ranks or mix their volumes). The job array
+    /// still shares: every rank of one array task owns that task's share.
+    pub fn from_slurm(
+        var: impl Fn(&str) -> Option<String>,
+        mpi_ranks: usize,
+    ) -> Result<(Shard, ShardSource)> {
         let array = array_share(&var)?;
-        let steps = step_share(&var)?;
+        let steps = if mpi_ranks > 1 {
+            None
+        } else {
+            step_share(&var)?
+        };
         Ok(match (array, steps) {
             (None, None) => (Shard::ALL, ShardSource::Alone),
             (Some(a), None) => (a, ShardSource::SlurmArray),
@@ -100,14 +115,16 @@ impl Shard {
         })
     }
 
-    /// `--shard` when given (it wins over the environment), else the Slurm variables.
+    /// `--shard` when given (it wins over the environment), else the Slurm variables; every
+    /// rank of an MPI world of `mpi_ranks` gets the same share ([`Shard::from_slurm`]).
     pub fn resolve(
         flag: Option<&str>,
         var: impl Fn(&str) -> Option<String>,
+        mpi_ranks: usize,
     ) -> Result<(Shard, ShardSource)> {
         match flag {
             Some(text) => Ok((Shard::parse(text)?, ShardSource::Flag)),
-            None => Shard::from_slurm(var),
+            None => Shard::from_slurm(var, mpi_ranks),
         }
     }
 
@@ -269,7 +286,7 @@ mod tests {
 
     #[test]
     fn slurm_arrays_and_steps_give_the_task_its_share() {
-        let share = |pairs: &[(&str, &str)]| Shard::from_slurm(env(pairs)).unwrap();
+        let share = |pairs: &[(&str, &str)]| Shard::from_slurm(env(pairs), 1).unwrap();
         assert_eq!(share(&[]), (Shard::ALL, ShardSource::Alone));
         let array = [
             ("SLURM_ARRAY_TASK_ID", "2"),
@@ -316,8 +333,60 @@ mod tests {
         );
         // The flag wins over the environment.
         assert_eq!(
-            Shard::resolve(Some("0/2"), env(&array)).unwrap(),
+            Shard::resolve(Some("0/2"), env(&array), 1).unwrap(),
             (Shard { index: 0, count: 2 }, ShardSource::Flag)
+        );
+    }
+
+    #[test]
+    fn the_ranks_of_one_mpi_world_own_the_same_share() {
+        // srun --mpi=pmix -n 4 inside array task 2 of 4: the step's tasks are one MPI world.
+        let array = [
+            ("SLURM_ARRAY_TASK_ID", "2"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+        ];
+        let shares: Vec<_> = (0..4)
+            .map(|rank| {
+                let procid = rank.to_string();
+                let pairs: Vec<(&str, &str)> = array
+                    .iter()
+                    .copied()
+                    .chain([
+                        ("SLURM_STEP_ID", "0"),
+                        ("SLURM_PROCID", procid.as_str()),
+                        ("SLURM_NTASKS", "4"),
+                    ])
+                    .collect();
+                let mpi = Shard::from_slurm(env(&pairs), 4).unwrap();
+                let alone = Shard::from_slurm(env(&pairs), 1).unwrap();
+                (mpi, alone)
+            })
+            .collect();
+        for (rank, (mpi, alone)) in shares.iter().enumerate() {
+            // Every rank: array task 2 of 4, frames 5..7 of 10, as the batch shell would own.
+            assert_eq!(
+                *mpi,
+                (Shard { index: 2, count: 4 }, ShardSource::SlurmArray),
+                "rank {rank}"
+            );
+            assert_eq!(mpi.0.range(10), 5..7);
+            // Four independent processes (no MPI world) share the array task's share again.
+            let index = 2 * 4 + rank as u64;
+            assert_eq!(alone.0, Shard { index, count: 16 }, "rank {rank}");
+        }
+        // An MPI step outside an array owns everything; --shard still shares it.
+        let step = [
+            ("SLURM_STEP_ID", "0"),
+            ("SLURM_PROCID", "1"),
+            ("SLURM_NTASKS", "2"),
+        ];
+        assert_eq!(
+            Shard::resolve(None, env(&step), 2).unwrap(),
+            (Shard::ALL, ShardSource::Alone)
+        );
+        assert_eq!(
+            Shard::resolve(Some("1/3"), env(&step), 2).unwrap(),
+            (Shard { index: 1, count: 3 }, ShardSource::Flag)
         );
     }
 
@@ -383,7 +452,7 @@ mod tests {
             ),
         ];
         for (pairs, needle) in cases {
-            let e = Shard::from_slurm(env(pairs)).unwrap_err().to_string();
+            let e = Shard::from_slurm(env(pairs), 1).unwrap_err().to_string();
             assert!(e.starts_with(needle), "{pairs:?}: {e}");
             assert!(!e.contains('\n'), "{e}");
         }

@@ -885,3 +885,18 @@ fn outside_the_checkout_the_cache_is_the_platform_one() {
         "{du}"
     );
 }
+
+/// `hdrvis bench distributed` in the default build says how to build the MPI one; a bad
+/// `--ranks` list is refused first in any build.
+#[test]
+fn bench_distributed_refuses_without_mpi_and_bad_rank_lists() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, _, stderr) = hdrvis(&["bench", "distributed", "--ranks", "1,0"], dir.path());
+    assert_one_line_error(code, &stderr, "--ranks: expected whole numbers >= 1");
+    #[cfg(not(feature = "mpi"))]
+    {
+        let (code, stdout, stderr) = hdrvis(&["bench", "distributed"], dir.path());
+        assert_one_line_error(code, &stderr, "--features mpi");
+        assert!(stdout.is_empty(), "{stdout}");
+    }
+}

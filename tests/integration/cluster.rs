@@ -3,7 +3,8 @@
 //! `tests/cluster/slurm-up.sh` starts (munged, slurmctld, slurmd under a temporary folder, torn
 //! down when this test binary ends), and `hdrvis sweep-status`. Every split must write the
 //! serial run's files, each exactly once, and a cancelled task resubmitted with `--resume` must
-//! complete the sweep. The Slurm tests are skipped with a reason when slurmctld is missing or
+//! complete the sweep; an MPI job array through `srun --mpi=pmix` must give the single-process
+//! images. The Slurm tests are skipped with a reason when slurmctld is missing or
 //! the tests do not run as root, unless HDRVIS_REQUIRE_SLURM=1 (as in CI).
 
 use std::collections::BTreeSet;
@@ -652,6 +653,101 @@ fn a_real_slurm_job_array_and_srun_tasks_write_the_serial_files_each_once() {
     );
     assert_disjoint_cover(&logs, &names);
     assert_same_files(d, "steps", &names);
+}
+
+/// An MPI render through Slurm: `sbatch` of a two-task job array whose tasks each run one
+/// `srun --mpi=pmix` step of two MPI ranks (the binary built with `--features mpi`). The array
+/// shares the sweep; the two ranks of a step render every frame of their task's share together
+/// (the step's SLURM_PROCID must not share it again), and rank 0 alone writes and prints.
+#[test]
+fn an_mpi_job_array_through_slurm_renders_each_frame_on_two_ranks_once() {
+    let Some(slurm) = cluster() else {
+        return;
+    };
+    let Some(bin) = crate::mpi::mpi_binary() else {
+        return;
+    };
+    let mpi_types = slurm.client("srun", &["--mpi=list"]);
+    let listed = format!("{}{}", text(&mpi_types.stdout), text(&mpi_types.stderr));
+    assert!(
+        listed.lines().any(|l| l.trim() == "pmix"),
+        "srun --mpi=list offers no pmix (Debian's slurm-wlm has it): {listed}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let names = serial_run(d);
+    let script = sweep_script();
+    let sets: Vec<String> = SMALL.iter().map(|a| a.to_string()).collect();
+    let job = format!(
+        "#!/bin/bash\n\
+         #SBATCH --array=0-1\n\
+         #SBATCH --ntasks=2\n\
+         #SBATCH --output=mpi-%A_%a.out\n\
+         #SBATCH --error=mpi-%A_%a.err\n\
+         export OMPI_MCA_btl_vader_single_copy_mechanism=none\n\
+         srun --mpi=pmix --label {} run {} --out mpi {}\n",
+        bin.display(),
+        script.display(),
+        sets.join(" ")
+    );
+    std::fs::write(d.join("mpi.sbatch"), job).unwrap();
+    let out = Command::new("sbatch")
+        .args(["--parsable", "mpi.sbatch"])
+        .current_dir(d)
+        .env("SLURM_CONF", &slurm.conf)
+        .env("HDRVIS_CACHE", d.join("cache"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let id = text(&out.stdout)
+        .trim()
+        .split(';')
+        .next()
+        .unwrap()
+        .to_string();
+    slurm.wait(&id);
+    let mut logs = Vec::new();
+    for task in 0..2 {
+        let read = |ext: &str| {
+            std::fs::read_to_string(d.join(format!("mpi-{id}_{task}.{ext}"))).unwrap_or_default()
+        };
+        let (stdout, stderr) = (read("out"), read("err"));
+        // One array task of two, said once, by rank 0; the step's ranks are not tasks.
+        let said: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.contains("hdrvis run: task"))
+            .collect();
+        assert_eq!(
+            said,
+            [format!(
+                "0: hdrvis run: task {task} of 2 (Slurm job array): shard() gives it its share"
+            )],
+            "task {task}: {stderr}"
+        );
+        assert!(
+            !stdout.lines().any(|l| l.trim_start().starts_with("1: ")),
+            "rank 1 printed: {stdout}"
+        );
+        let rank0: Vec<&str> = stdout
+            .lines()
+            .filter_map(|l| l.trim_start().strip_prefix("0: "))
+            .collect();
+        logs.push(rank0.join("\n"));
+    }
+    // Seven frames over two array tasks: 3 and 4 frames, a PNG and an EXR each.
+    assert_eq!(
+        logs.iter().map(|l| wrote(l).len()).collect::<Vec<_>>(),
+        [6, 8]
+    );
+    assert_disjoint_cover(&logs, &names);
+    assert_eq!(frames(&d.join("mpi")), names);
+    for name in names.iter().filter(|n| n.ends_with(".exr")) {
+        let worst = crate::mpi::worst_over_peak(
+            &d.join("mpi/sweep_slurm").join(name),
+            &d.join("serial/sweep_slurm").join(name),
+        );
+        assert!(worst < 1e-5, "{name}: {worst:.2e} of the peak");
+    }
 }
 
 #[test]

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// The MPI-enabled hdrvis, when it and mpirun are here.
-fn mpi_binary() -> Option<PathBuf> {
+pub(crate) fn mpi_binary() -> Option<PathBuf> {
     let require = std::env::var("HDRVIS_REQUIRE_MPI").is_ok_and(|v| v == "1");
     let missing = |why: String| {
         assert!(!require, "HDRVIS_REQUIRE_MPI=1 but {why}");
@@ -96,7 +96,7 @@ fn stderr(o: &Output) -> String {
 }
 
 /// Largest channel difference of two EXRs over the second one's peak colour channel.
-fn worst_over_peak(a: &Path, b: &Path) -> f64 {
+pub(crate) fn worst_over_peak(a: &Path, b: &Path) -> f64 {
     let (a, b) = (read_exr(a).unwrap(), read_exr(b).unwrap());
     let peak = b
         .pixels
@@ -238,4 +238,69 @@ fn mpi_errors_end_every_rank_with_one_line() {
         "{err}"
     );
     assert!(err.contains("missing.npy"), "{err}");
+}
+
+/// The hdrvis built with `--features mpi` on a machine without the MPI library: the loader's
+/// one line, exit status 127, nothing written. The library is hidden in a mount namespace of
+/// its own (`unshare --mount`, root): the system's library folder is replaced there by links
+/// to all its files but libmpi.so*.
+#[test]
+fn a_missing_mpi_library_is_one_line_and_writes_nothing() {
+    let Some(bin) = mpi_binary() else { return };
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+    if !root {
+        let require = std::env::var("HDRVIS_REQUIRE_MPI").is_ok_and(|v| v == "1");
+        assert!(
+            !require,
+            "HDRVIS_REQUIRE_MPI=1 but hiding libmpi needs root"
+        );
+        eprintln!("skipped: hiding libmpi needs root (unshare --mount)");
+        return;
+    }
+    let lib = Path::new("/usr/lib/x86_64-linux-gnu");
+    assert!(
+        lib.join("libmpi.so.40").exists(),
+        "Debian's libmpi.so.40 is not in {}",
+        lib.display()
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let script = scene(dir.path(), 8);
+    let (original, links, out) = (
+        dir.path().join("original"),
+        dir.path().join("links"),
+        dir.path().join("out"),
+    );
+    std::fs::create_dir_all(&original).unwrap();
+    std::fs::create_dir_all(&links).unwrap();
+    let hide = r#"set -e
+mount --bind "$1" "$2"
+for p in "$2"/*; do n=${p##*/}; case $n in libmpi.so*) ;; *) ln -s "$p" "$3/$n";; esac; done
+mount --bind "$3" "$1"
+shift 3
+exec "$@""#;
+    let o = Command::new("unshare")
+        .args(["--mount", "sh", "-c", hide, "hide"])
+        .arg(lib)
+        .arg(&original)
+        .arg(&links)
+        .arg(&bin)
+        .args(["run", "--out"])
+        .arg(&out)
+        .arg(&script)
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(127), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains(
+            "error while loading shared libraries: libmpi.so.40: cannot open shared object file"
+        ),
+        "{err}"
+    );
+    assert!(stdout(&o).is_empty());
+    assert!(!out.exists(), "wrote {}", out.display());
 }

@@ -49,6 +49,36 @@ pub(crate) fn broadcast(ex: &dyn Exchange, root: usize, data: Vec<u8>) -> Result
     Ok(data)
 }
 
+/// Every rank's `value` on rank 0, in rank order (empty on the others).
+pub fn gather_u64(ex: &dyn Exchange, value: u64) -> Result<Vec<u64>> {
+    if ex.rank() != 0 {
+        ex.send(0, &value.to_le_bytes())?;
+        return Ok(Vec::new());
+    }
+    let mut values = vec![value];
+    for from in 1..ex.size() {
+        let msg = ex.recv(from)?;
+        let bytes: [u8; 8] = msg.as_slice().try_into().map_err(|_| {
+            Error::invalid(
+                "distributed",
+                format!(
+                    "rank {from} sent {} bytes, expected one 8-byte number",
+                    msg.len()
+                ),
+            )
+        })?;
+        values.push(u64::from_le_bytes(bytes));
+    }
+    Ok(values)
+}
+
+/// Returns on every rank once every rank has called it (a gather onto rank 0, then its
+/// broadcast).
+pub fn barrier(ex: &dyn Exchange) -> Result<()> {
+    gather_u64(ex, 0)?;
+    broadcast(ex, 0, Vec::new()).map(drop)
+}
+
 /// One rank of a group of threads in one process, connected by channels.
 pub struct ChannelExchange {
     rank: usize,
@@ -117,5 +147,32 @@ impl Exchange for ChannelExchange {
 
     fn transport(&self) -> &'static str {
         "threads"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gather_collects_in_rank_order_and_barrier_returns_on_every_rank() {
+        let group = ChannelExchange::group(3);
+        let gathered: Vec<Vec<u64>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = group
+                .iter()
+                .map(|ex| {
+                    scope.spawn(move || {
+                        barrier(ex).unwrap();
+                        gather_u64(ex, 10 * ex.rank() as u64 + 7).unwrap()
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        assert_eq!(gathered, [vec![7, 17, 27], vec![], vec![]]);
+        let short = ChannelExchange::group(2);
+        short[1].send(0, &[1, 2, 3]).unwrap();
+        let e = gather_u64(&short[0], 0).unwrap_err().to_string();
+        assert!(e.contains("rank 1 sent 3 bytes"), "{e}");
     }
 }
