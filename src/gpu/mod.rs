@@ -357,7 +357,7 @@ impl GpuContext {
         let yes = |b: bool| if b { "yes" } else { "no" };
         let c = &self.caps;
         format!(
-            "adapter:  {}\nbackend:  {}\ntype:     {:?}\ndriver:   {} {}\nfloat32 filtering: {}{}\nshader f64: {}\nshader f16: {}\nmax 3-D texture: {}^3 voxels\nmax 2-D texture: {} px\nmax buffer: {} MiB\nmax storage binding: {} MiB\nmapped storage buffers: {}",
+            "adapter:  {}\nbackend:  {}\ntype:     {:?}\ndriver:   {} {}\nfloat32 filtering: {}{}\nshader f64: {}\nshader f16: {}\nmax 3-D texture: {}^3 voxels\nmax 2-D texture: {} px\nmax buffer: {} MiB\nmax storage binding: {} MiB\nmapped storage buffers: {}\ntimestamps: {}",
             self.info.name,
             self.backend_name(),
             self.info.device_type,
@@ -372,6 +372,7 @@ impl GpuContext {
             c.max_buffer_size >> 20,
             c.max_storage_buffer_binding_size >> 20,
             yes(c.mappable_primary_buffers),
+            yes(c.timestamp_query),
         ) + "\npipeline cache: "
             + match self.pipeline_cache_path() {
                 Some(p) => format!("yes ({})", p.display()),
