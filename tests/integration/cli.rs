@@ -247,7 +247,7 @@ fn backend_from_environment_and_missing_capability_fallback() {
     assert!(out.status.success());
     assert!(stdout.contains("backend:  GL"), "{stdout}");
     assert!(
-        stdout.contains("float32 filtering: no (exact manual trilinear"),
+        stdout.contains("float32 filtering: no (auto filters exactly in the shader)"),
         "{stdout}"
     );
     assert!(stdout.contains("shader f64: no"), "{stdout}");

@@ -595,3 +595,44 @@ fn cost_breakdown_stages_do_what_they_say() {
     assert_eq!(image(&gother, SampleWork::March), stages[0]);
     assert_ne!(image(&gother, SampleWork::Sample), stages[1]);
 }
+
+/// The texture unit's filter, measured: its weights at least as exact as 8 fractional bits
+/// (1/512 of a texel step), exact in f32 on CPU rasterizers (lavapipe, llvmpipe), and `auto`
+/// takes it exactly where the probe finds it exact; a render with `auto` records that choice.
+#[test]
+fn the_filter_probe_measures_the_texture_units_weights_and_auto_follows_it() {
+    for backend in crate::common::backends() {
+        let ctx = crate::common::renderer(backend).context().clone();
+        let Some(error) = ctx.hardware_filter_error() else {
+            assert!(
+                !ctx.caps.float32_filterable,
+                "{backend:?}: probe did not run"
+            );
+            continue;
+        };
+        assert!(error <= 1.0 / 512.0 + 1e-6, "{backend:?}: {error}");
+        if ctx.info.device_type == wgpu::DeviceType::Cpu {
+            assert!(
+                error < 1e-6,
+                "{backend:?}: a CPU rasterizer filters in f32: {error}"
+            );
+        }
+        let vol = Volume::from_fn("ramp", [8, 8, 8], |x, _, _| x).unwrap();
+        let mut o = VolumeRenderOptions::new(
+            Camera::axis(Axis::Z, &vol.bounds()),
+            TransferFunction::emission_absorption(1.0, 0.0).unwrap(),
+        );
+        o.width = 8;
+        o.height = 8;
+        let img = render_on(backend, &vol, &o, RenderPath::InCore { skipping: false });
+        let hardware = error <= 1e-5;
+        assert_eq!(
+            img.meta("filter")
+                .unwrap_or_default()
+                .starts_with("hardware"),
+            hardware,
+            "{backend:?}: error {error}, image filter {:?}",
+            img.meta("filter")
+        );
+    }
+}
