@@ -469,7 +469,8 @@ fn rank_name(rank: Option<usize>) -> String {
     rank.map(|r| format!("{r}-D ")).unwrap_or_default()
 }
 
-/// [`read_array`] of an `.npz` member: `var`, else the largest array of the rank.
+/// [`read_array`] of an `.npz` member: `var`, else the largest array of the rank (the first of
+/// equally large ones).
 fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
     let listed = list_arrays(path)?;
     let name = match var {
@@ -477,6 +478,8 @@ fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
         None => listed
             .iter()
             .filter(|a| fits_rank(&a.shape, rank))
+            // Reversed so that of equally large arrays the first in the archive wins.
+            .rev()
             .max_by_key(|a| a.shape.iter().product::<usize>())
             .map(|a| a.name.clone())
             .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
@@ -487,7 +490,13 @@ fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
     let mut archive = open_npz(path)?;
     let mut entry = npz_member(&mut archive, path, &name)?;
     let size = entry.size();
-    let npy = npy::read_npy_from::<f64, _>(&mut entry, size, path)?;
+    let npy = npy::read_npy_from::<f64, _>(&mut entry, size, path).map_err(|e| match e {
+        Error::Format { path, msg } => Error::Format {
+            path,
+            msg: format!("array '{name}': {msg}"),
+        },
+        other => other,
+    })?;
     // Reading on to the member's end makes zip compare its CRC-32: a damaged stored member is
     // then an error rather than wrong values.
     std::io::copy(&mut entry, &mut std::io::sink())
@@ -618,9 +627,20 @@ fn npz_member<'a>(
     path: &Path,
     name: &str,
 ) -> Result<zip::read::ZipFile<'a, std::io::BufReader<std::fs::File>>> {
-    archive
+    let entry = archive
         .by_name(&npyz::npz::file_name_from_array_name(name))
-        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))
+        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
+    // NumPy writes only these two, and zip is built with no other decoder.
+    match entry.compression() {
+        zip::CompressionMethod::Stored | zip::CompressionMethod::Deflated => Ok(entry),
+        other => Err(Error::format(
+            path,
+            format!(
+                "array '{name}' is compressed with {other}; expected a stored or deflated member \
+                 (np.savez, np.savez_compressed)"
+            ),
+        )),
+    }
 }
 
 fn describe(listed: &[ArrayListing]) -> String {
