@@ -886,7 +886,6 @@ mod tests {
 
     #[test]
     fn tsunami_reads_lonlat_bathymetry_from_npz() {
-        use npyz::WriterBuilder;
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("topo.npz");
         let (nx, ny) = (12, 10);
@@ -896,24 +895,16 @@ mod tests {
         let topo: Vec<f64> = (0..nx * ny)
             .map(|k| if k < nx { 50.0 } else { -3000.0 })
             .collect();
-        {
-            let mut npz = npyz::npz::NpzWriter::create(&path).unwrap();
-            for (name, shape, data) in [
-                ("topo", vec![ny as u64, nx as u64], &topo),
-                ("longitude", vec![nx as u64], &lon),
-                ("latitude", vec![ny as u64], &lat),
-            ] {
-                let mut w = npz
-                    .array::<f64>(name, Default::default())
-                    .unwrap()
-                    .default_dtype()
-                    .shape(&shape)
-                    .begin_nd()
-                    .unwrap();
-                w.extend(data.iter().copied()).unwrap();
-                w.finish().unwrap();
-            }
-        }
+        crate::datasets::npy::write_npz(
+            &path,
+            &[
+                ("topo", &[ny, nx], &topo),
+                ("longitude", &[nx], &lon),
+                ("latitude", &[ny], &lat),
+            ],
+            true,
+        )
+        .unwrap();
         let job = TsunamiJob {
             bathymetry: BathymetrySource::File {
                 path: path.clone(),

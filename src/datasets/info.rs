@@ -341,30 +341,19 @@ mod tests {
 
     #[test]
     fn npz_lists_arrays_and_picks_the_largest() {
-        use npyz::WriterBuilder;
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.npz");
-        {
-            let mut npz = npyz::npz::NpzWriter::create(&path).unwrap();
-            for (name, shape, data) in [
-                ("lon", vec![3u64], vec![1.0f32, 2.0, 3.0]),
-                ("elev", vec![2, 3], vec![-1.0, 1.0, 2.0, 3.0, 4.0, 5.0]),
-            ] {
-                let mut w = npz
-                    .array::<f32>(name, Default::default())
-                    .unwrap()
-                    .default_dtype()
-                    .shape(&shape)
-                    .begin_nd()
-                    .unwrap();
-                w.extend(data).unwrap();
-                w.finish().unwrap();
-            }
-        }
+        let lon = [1.0f32, 2.0, 3.0];
+        let elev = [-1.0f32, 1.0, 2.0, 3.0, 4.0, 5.0];
+        crate::datasets::npy::write_npz(
+            &path,
+            &[("lon", &[3], &lon), ("elev", &[2, 3], &elev)],
+            false,
+        )
+        .unwrap();
         let listed = list_arrays(&path).unwrap();
         let names: Vec<&str> = listed.iter().map(|a| a.name.as_str()).collect();
-        assert_eq!(names.len(), 2);
-        assert!(names.contains(&"lon") && names.contains(&"elev"));
+        assert_eq!(names, ["lon", "elev"]);
         let report = info_report(&path, None).unwrap();
         assert!(
             report.contains("variable: elev") && report.contains("* elev [2, 3]"),

@@ -358,16 +358,24 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
     match crate::io::extension(path).as_str() {
         "npz" => {
             let mut archive = open_npz(path)?;
-            let names: Vec<String> = archive.array_names().map(str::to_string).collect();
+            let names = npz_array_names(&archive, path)?;
             let mut listed = Vec::with_capacity(names.len());
             for name in names {
-                let npy = archive
-                    .by_name(&name)
-                    .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?
-                    .ok_or_else(|| Error::format(path, format!("array '{name}' vanished")))?;
+                // Only the member's header is read: its shape and dtype.
+                let npy =
+                    npyz::NpyFile::new(npz_member(&mut archive, path, &name)?).map_err(|e| {
+                        Error::format(
+                            path,
+                            format!("array '{name}': not a valid .npy member: {e}"),
+                        )
+                    })?;
                 listed.push(ArrayListing {
                     shape: npy.shape().iter().map(|&s| s as usize).collect(),
-                    dtype: npy.dtype().descr(),
+                    // "<f4" as the array's own report spells it (descr() quotes it as Python does).
+                    dtype: match npy.dtype() {
+                        npyz::DType::Plain(ts) => ts.to_string(),
+                        other => other.descr(),
+                    },
                     is_coordinate: false,
                     name,
                 });
@@ -461,7 +469,8 @@ fn rank_name(rank: Option<usize>) -> String {
     rank.map(|r| format!("{r}-D ")).unwrap_or_default()
 }
 
-/// [`read_array`] of an `.npz` member: `var`, else the largest array of the rank.
+/// [`read_array`] of an `.npz` member: `var`, else the largest array of the rank (the first of
+/// equally large ones).
 fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
     let listed = list_arrays(path)?;
     let name = match var {
@@ -469,6 +478,8 @@ fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
         None => listed
             .iter()
             .filter(|a| fits_rank(&a.shape, rank))
+            // Reversed so that of equally large arrays the first in the archive wins.
+            .rev()
             .max_by_key(|a| a.shape.iter().product::<usize>())
             .map(|a| a.name.clone())
             .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
@@ -477,13 +488,19 @@ fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
         return Err(missing_array(path, &name, &listed));
     }
     let mut archive = open_npz(path)?;
-    let member = npyz::npz::file_name_from_array_name(&name);
-    let entry = archive
-        .zip_archive()
-        .by_name(&member)
-        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
+    let mut entry = npz_member(&mut archive, path, &name)?;
     let size = entry.size();
-    let npy = npy::read_npy_from::<f64, _>(entry, size, path)?;
+    let npy = npy::read_npy_from::<f64, _>(&mut entry, size, path).map_err(|e| match e {
+        Error::Format { path, msg } => Error::Format {
+            path,
+            msg: format!("array '{name}': {msg}"),
+        },
+        other => other,
+    })?;
+    // Reading on to the member's end makes zip compare its CRC-32: a damaged stored member is
+    // then an error rather than wrong values.
+    std::io::copy(&mut entry, &mut std::io::sink())
+        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
     Ok(plain_array(&name, npy.shape, npy.dtype, npy.data))
 }
 
@@ -580,9 +597,50 @@ fn plain_array(name: &str, shape: Vec<usize>, dtype: String, data: Vec<f64>) -> 
     }
 }
 
-fn open_npz(path: &Path) -> Result<npyz::npz::NpzArchive<std::io::BufReader<std::fs::File>>> {
-    npyz::npz::NpzArchive::open(path)
+/// An `.npz` file opened as the zip archive it is (members stored or deflated, as `np.savez`
+/// and `np.savez_compressed` write them).
+type NpzArchive = zip::ZipArchive<std::io::BufReader<std::fs::File>>;
+
+fn open_npz(path: &Path) -> Result<NpzArchive> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    zip::ZipArchive::new(std::io::BufReader::new(file))
         .map_err(|e| Error::format(path, format!("not a readable .npz archive: {e}")))
+}
+
+/// The arrays of an `.npz` in archive order: its `NAME.npy` members, named without the suffix
+/// (other members are not arrays and are passed over, as NumPy's `load` does).
+fn npz_array_names(archive: &NpzArchive, path: &Path) -> Result<Vec<String>> {
+    let mut names = Vec::with_capacity(archive.len());
+    for member in archive.file_names() {
+        let member =
+            member.map_err(|e| Error::format(path, format!("unreadable .npz member name: {e}")))?;
+        if let Some(name) = npyz::npz::array_name_from_file_name(&member) {
+            names.push(name.to_string());
+        }
+    }
+    Ok(names)
+}
+
+/// The member holding array `name`, decompressed as it is read.
+fn npz_member<'a>(
+    archive: &'a mut NpzArchive,
+    path: &Path,
+    name: &str,
+) -> Result<zip::read::ZipFile<'a, std::io::BufReader<std::fs::File>>> {
+    let entry = archive
+        .by_name(&npyz::npz::file_name_from_array_name(name))
+        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
+    // NumPy writes only these two, and zip is built with no other decoder.
+    match entry.compression() {
+        zip::CompressionMethod::Stored | zip::CompressionMethod::Deflated => Ok(entry),
+        other => Err(Error::format(
+            path,
+            format!(
+                "array '{name}' is compressed with {other}; expected a stored or deflated member \
+                 (np.savez, np.savez_compressed)"
+            ),
+        )),
+    }
 }
 
 fn describe(listed: &[ArrayListing]) -> String {
@@ -819,6 +877,92 @@ mod load_tests {
             err.contains("no variable 't'") && err.contains("rho"),
             "{err}"
         );
+    }
+
+    /// A 4 x 3 x 2 volume over six decades, both signs, and its x axis, written to `dir/name`.
+    fn write_npz_volume(path: &Path, compressed: bool) -> (Vec<f64>, [f64; 4]) {
+        let rho: Vec<f64> = (0..24)
+            .map(|i| (i as f64 - 11.5) * 10f64.powi(i % 6 - 3))
+            .collect();
+        let x = [0.5, 1.5, 2.5, 3.5];
+        let zeros = vec![0.0; 4096];
+        npy::write_npz(
+            path,
+            &[
+                ("x", &[4], &x),
+                ("rho", &[2, 3, 4], &rho),
+                ("zeros", &[4096], &zeros),
+            ],
+            compressed,
+        )
+        .unwrap();
+        (rho, x)
+    }
+
+    #[test]
+    fn npz_round_trips_stored_and_deflated_members() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut sizes = Vec::new();
+        for compressed in [false, true] {
+            let path = dir.path().join(format!("v{compressed}.npz"));
+            let (rho, x) = write_npz_volume(&path, compressed);
+            let listed = list_arrays(&path).unwrap();
+            let shapes: Vec<(&str, &[usize], &str)> = listed
+                .iter()
+                .map(|a| (a.name.as_str(), a.shape.as_slice(), a.dtype.as_str()))
+                .collect();
+            assert_eq!(
+                shapes,
+                [
+                    ("x", &[4][..], "<f8"),
+                    ("rho", &[2, 3, 4], "<f8"),
+                    ("zeros", &[4096], "<f8")
+                ]
+            );
+            // The only 3-D array is the volume; f64 values arrive rounded to f32.
+            let v = load_volume(&path).unwrap();
+            assert_eq!((v.name.as_str(), v.dims), ("rho", [4, 3, 2]));
+            let expect: Vec<f32> = rho.iter().map(|&r| r as f32).collect();
+            assert_eq!(v.data, expect);
+            assert_eq!(read_array(&path, Some("x"), Some(1)).unwrap().data, x);
+            sizes.push(std::fs::metadata(&path).unwrap().len());
+        }
+        // Stored: at least the 4096 zeros' 32768 bytes; deflated, they shrink to a few dozen.
+        assert!(sizes[0] > 32_768 && sizes[1] < 2_000, "{sizes:?}");
+    }
+
+    #[test]
+    fn unreadable_npz_is_a_one_line_error_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = dir.path().join("good.npz");
+        let (rho, _) = write_npz_volume(&good, false);
+        let bytes = std::fs::read(&good).unwrap();
+        // A byte of rho's first value flipped: the archive stays well-formed, but the member's
+        // CRC-32 no longer matches.
+        let first = rho[0].to_le_bytes();
+        let at = bytes.windows(8).position(|w| w == first).unwrap();
+        let mut flipped = bytes.clone();
+        flipped[at + 3] ^= 0x40;
+        let cases: [(&str, Vec<u8>, &str); 3] = [
+            (
+                "text.npz",
+                b"x,y\n1,2\n".to_vec(),
+                "not a readable .npz archive",
+            ),
+            (
+                "half.npz",
+                bytes[..bytes.len() / 2].to_vec(),
+                "not a readable .npz archive",
+            ),
+            ("flipped.npz", flipped, "array 'rho'"),
+        ];
+        for (name, contents, needle) in cases {
+            let path = dir.path().join(name);
+            std::fs::write(&path, contents).unwrap();
+            let err = load_volume(&path).unwrap_err().to_string();
+            assert!(err.contains(name) && err.contains(needle), "{err}");
+            assert_eq!(err.lines().count(), 1, "{err}");
+        }
     }
 
     #[test]

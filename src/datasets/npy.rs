@@ -1,6 +1,6 @@
 //! NumPy `.npy` arrays (C order; f32, f64, i16, u16, u8 and the other plain numeric types) read
 //! through the `npyz` crate, with the declared size checked against the file before anything is
-//! allocated; and `.npy` output for generated fields.
+//! allocated; `.npy` output for generated fields and `.npz` archives of named arrays.
 
 use crate::error::{Error, Result};
 use npyz::{DType, TypeChar};
@@ -132,20 +132,63 @@ pub fn write_npy<T: npyz::AutoSerialize + Copy>(
     shape: &[usize],
     data: &[T],
 ) -> Result<()> {
-    use npyz::WriterBuilder;
+    crate::io::write_atomic(path, |w| write_npy_to(w, path, shape, data))
+}
+
+/// One named array of an `.npz` archive: name, shape (C order) and values.
+pub type NpzArray<'a, T> = (&'a str, &'a [usize], &'a [T]);
+
+/// Writes named C-ordered arrays as an `.npz` archive atomically, one `NAME.npy` member each:
+/// stored as `np.savez` writes them or, with `compressed`, deflated as `np.savez_compressed` does.
+pub fn write_npz<T: npyz::AutoSerialize + Copy>(
+    path: &Path,
+    arrays: &[NpzArray<'_, T>],
+    compressed: bool,
+) -> Result<()> {
+    use zip::write::SimpleFileOptions;
+    let zip_error = |e: zip::result::ZipError| Error::io(path, e.into());
+    let method = if compressed {
+        zip::CompressionMethod::Deflated
+    } else {
+        zip::CompressionMethod::Stored
+    };
     crate::io::write_atomic(path, |w| {
-        let shape: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
-        let mut writer = npyz::WriteOptions::new()
-            .default_dtype()
-            .shape(&shape)
-            .writer(w)
-            .begin_nd()
-            .map_err(|e| Error::io(path, e))?;
-        writer
-            .extend(data.iter().copied())
-            .map_err(|e| Error::io(path, e))?;
-        writer.finish().map_err(|e| Error::io(path, e))
+        let mut archive = zip::ZipWriter::new(w);
+        for &(name, shape, data) in arrays {
+            // Zip64 records only where a member may pass 4 GiB (the header adds at most a few KiB).
+            let large = std::mem::size_of_val(data) as u64 + 65_536 > u64::from(u32::MAX);
+            let options = SimpleFileOptions::default()
+                .compression_method(method)
+                .large_file(large);
+            archive
+                .start_file(npyz::npz::file_name_from_array_name(name), options)
+                .map_err(zip_error)?;
+            write_npy_to(&mut archive, path, shape, data)?;
+        }
+        archive.finish().map_err(zip_error)?;
+        Ok(())
     })
+}
+
+/// The `.npy` bytes of a C-ordered array, written to `w`; `path` names the file in errors.
+fn write_npy_to<T: npyz::AutoSerialize + Copy, W: std::io::Write>(
+    w: W,
+    path: &Path,
+    shape: &[usize],
+    data: &[T],
+) -> Result<()> {
+    use npyz::WriterBuilder;
+    let shape: Vec<u64> = shape.iter().map(|&s| s as u64).collect();
+    let mut writer = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(&shape)
+        .writer(w)
+        .begin_nd()
+        .map_err(|e| Error::io(path, e))?;
+    writer
+        .extend(data.iter().copied())
+        .map_err(|e| Error::io(path, e))?;
+    writer.finish().map_err(|e| Error::io(path, e))
 }
 
 /// Writes a C-ordered f32 array atomically.

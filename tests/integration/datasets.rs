@@ -240,6 +240,36 @@ fn every_reference_format_loads_exactly_like_the_npy() {
 }
 
 #[test]
+fn npz_from_numpy_savez_and_savez_compressed_loads_like_the_npy() {
+    let Some(dir) = reference_files() else { return };
+    let d = dir.path();
+    let expect = load_volume(&d.join("expect.npy")).unwrap();
+    let expect_counts = load_volume(&d.join("counts.npy")).unwrap();
+    for file in ["npz_stored.npz", "npz_deflated.npz"] {
+        let path = d.join(file);
+        // density and counts are equally large: the first in the archive is the default.
+        let v = load_volume(&path).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(v.name, "density", "{file}");
+        assert_same_volume(file, &v, &expect, [1.0; 3], [0.0; 3]);
+        let counts = load_volume_var(&path, Some("counts")).unwrap();
+        assert_eq!(bits(&counts.data), bits(&expect_counts.data), "{file}");
+        let (code, stdout, stderr) = hdrvis(&["info", file, "--variable", "x"], d);
+        assert_eq!(code, 0, "{stderr}");
+        for line in [
+            "arrays (4):",
+            "  density [3, 4, 5] <f4",
+            "  counts [3, 4, 5] <i2",
+            "  map [4, 5] <f4",
+            "* x [5] <f8",
+            "min: -7.500000e-1",
+            "max: 1.250000e0",
+        ] {
+            assert!(stdout.contains(line), "{file}: {line:?} in\n{stdout}");
+        }
+    }
+}
+
+#[test]
 fn a_zlib_vti_renders_bit_identically_to_the_npy() {
     use crate::common::render;
     use hdrvis::gpu::BackendChoice;
@@ -295,6 +325,15 @@ fn corrupt_compressed_blocks_and_wrong_counts_are_one_line_errors() {
     for b in &mut flipped[underscore + 1 + 32 + 4..underscore + 1 + 32 + 12] {
         *b ^= 0x5a;
     }
+    // The deflated density member of np.savez_compressed's archive with bytes in the middle of its
+    // stream changed (the local header is 30 bytes, then the name and extra field).
+    let deflated = read("npz_deflated.npz");
+    let le16 = |at: usize| usize::from(u16::from_le_bytes([deflated[at], deflated[at + 1]]));
+    let stream = 30 + le16(26) + le16(28);
+    let mut inflated_wrong = deflated.clone();
+    for b in &mut inflated_wrong[stream + 120..stream + 128] {
+        *b ^= 0x5a;
+    }
     let mut gz = read("nrrd_gzip.raw.gz");
     gz.truncate(gz.len() / 2);
     let nhdr = read("nrrd_gzip.nhdr");
@@ -307,6 +346,18 @@ fn corrupt_compressed_blocks_and_wrong_counts_are_one_line_errors() {
         ("flipped.vti", flipped, "array 'density'"),
         ("count.vtk", wrong_count.into_bytes(), "POINT_DATA 61"),
         ("short.vtk", short_legacy, "density"),
+        ("npz_bzip2.npz", read("npz_bzip2.npz"), "Bzip2"),
+        (
+            "npz_cut.npz",
+            deflated[..deflated.len() / 2].to_vec(),
+            "not a readable .npz",
+        ),
+        ("npz_flipped.npz", inflated_wrong, "array 'density'"),
+        (
+            "npz_text.npz",
+            b"density = 1\n".to_vec(),
+            "not a readable .npz",
+        ),
     ];
     for (name, bytes, needle) in cases {
         let (code, stderr) = info_of(d, name, &bytes);

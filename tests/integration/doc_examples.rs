@@ -8,8 +8,7 @@
 //! `scripts/` are run by `scripts.rs`.
 
 use hdrvis::datasets::netcdf::write_grid;
-use hdrvis::datasets::npy::write_npy_f32;
-use npyz::WriterBuilder;
+use hdrvis::datasets::npy::{write_npy_f32, write_npz};
 use std::path::Path;
 use std::process::Command;
 
@@ -118,19 +117,13 @@ fn write_data_files(dir: &Path) {
     )
     .unwrap();
     let elevation: Vec<f64> = nodes().map(|(i, _)| 100.0 * i).collect();
-    let mut npz = npyz::npz::NpzWriter::create(dir.join("field.npz")).unwrap();
-    for (name, data) in [("uz", &uz), ("elevation", &elevation)] {
-        let mut w = npz
-            .array::<f64>(name, Default::default())
-            .unwrap()
-            .default_dtype()
-            .shape(&[u64::from(ny), u64::from(nx)])
-            .begin_nd()
-            .unwrap();
-        w.extend(data.iter().copied()).unwrap();
-        w.finish().unwrap();
-    }
-    drop(npz);
+    let shape = [ny as usize, nx as usize];
+    write_npz(
+        &dir.join("field.npz"),
+        &[("uz", &shape, &uz), ("elevation", &shape, &elevation)],
+        false,
+    )
+    .unwrap();
 
     // mantle.npy: a positive field over six decades, 12³ voxels.
     let n = 12usize;

@@ -20,12 +20,18 @@ The volume has nx=5, ny=4, nz=3 cells, values v(i, j, k) = (1 + i + 10 j + 100 k
   nrrd_<encoding>.nrrd / .nhdr    pynrrd, encodings raw, gzip, bzip2, ascii; attached and detached
   volume.h5                       h5py: /fields/density (f32, chunked + gzip + shuffle),
                                   /fields/density_f64 (contiguous), /counts (int16), /map (2-D)
+  npz_stored.npz, npz_deflated.npz np.savez and np.savez_compressed: density, counts, map and
+                                  x (the x centres), the same arrays as volume.h5
+  npz_bzip2.npz                   density.npy in a bzip2 zip member (zipfile), which numpy never
+                                  writes: hdrvis refuses it
 
 Exit status 77 (skipped) when numpy, vtk, pynrrd or h5py is not installed.
 """
 
+import io
 import os
 import sys
+import zipfile
 
 try:
     import numpy as np
@@ -135,9 +141,13 @@ def write_nrrd(out, data):
                        index_order="C")
 
 
-def write_hdf5(out, data):
+def count_values():
     k, j, i = np.meshgrid(np.arange(NZ), np.arange(NY), np.arange(NX), indexing="ij")
-    counts = (i + 10 * j + 100 * k).astype(np.int16)
+    return (i + 10 * j + 100 * k).astype(np.int16)
+
+
+def write_hdf5(out, data):
+    counts = count_values()
     np.save(os.path.join(out, "counts.npy"), counts)
     with h5py.File(os.path.join(out, "volume.h5"), "w") as f:
         fields = f.create_group("fields")
@@ -149,6 +159,17 @@ def write_hdf5(out, data):
         f.create_dataset("map", data=data[0])
 
 
+def write_npz(out, data):
+    x = CENTRE0[0] + SPACING[0] * np.arange(NX)
+    arrays = dict(density=data, counts=count_values(), map=data[0], x=x)
+    np.savez(os.path.join(out, "npz_stored.npz"), **arrays)
+    np.savez_compressed(os.path.join(out, "npz_deflated.npz"), **arrays)
+    member = io.BytesIO()
+    np.save(member, data)
+    with zipfile.ZipFile(os.path.join(out, "npz_bzip2.npz"), "w", zipfile.ZIP_BZIP2) as z:
+        z.writestr("density.npy", member.getvalue())
+
+
 def main():
     out = sys.argv[1]
     data = values()
@@ -157,6 +178,7 @@ def main():
     write_legacy(out, data)
     write_nrrd(out, data)
     write_hdf5(out, data)
+    write_npz(out, data)
 
 
 if __name__ == "__main__":
