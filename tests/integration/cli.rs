@@ -584,7 +584,8 @@ fn shell_scene_compares_native_sampling_with_resampled_boxes() {
     let samples: Vec<f64> = stdout
         .lines()
         .filter(|l| l.starts_with("spherical (") || l.starts_with("cartesian ("))
-        .map(|l| l.split_whitespace().rev().nth(1).unwrap().parse().unwrap())
+        // ... samples, ns/sample, GPU ms, GPU ns/sample ("-" without timestamps).
+        .map(|l| l.split_whitespace().rev().nth(3).unwrap().parse().unwrap())
         .collect();
     // Native shell, box, box filtered in the shader, box with skipping: the three box renders
     // take the same samples, more than the shell (the box holds the sphere and its corners).
