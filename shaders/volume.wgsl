@@ -76,13 +76,7 @@ fn shading_factor(uvw: vec3<f32>, dir: vec3<f32>) -> f32 {
     let gx = sample_volume(uvw + vec3<f32>(h.x, 0.0, 0.0)) - sample_volume(uvw - vec3<f32>(h.x, 0.0, 0.0));
     let gy = sample_volume(uvw + vec3<f32>(0.0, h.y, 0.0)) - sample_volume(uvw - vec3<f32>(0.0, h.y, 0.0));
     let gz = sample_volume(uvw + vec3<f32>(0.0, 0.0, h.z)) - sample_volume(uvw - vec3<f32>(0.0, 0.0, h.z));
-    let g = vec3<f32>(gx, gy, gz) / (2.0 * spacing);
-    let len2 = dot(g, g);
-    if (!(len2 > 0.0) || !is_finite_f32(len2)) {
-        return 1.0;
-    }
-    let c = abs(dot(g, dir)) * inverseSqrt(len2);
-    return P.shading.x + P.shading.y * c + P.shading.z * pow(c, P.shading.w);
+    return headlight(vec3<f32>(gx, gy, gz) / (2.0 * spacing), dir);
 }
 #endif
 

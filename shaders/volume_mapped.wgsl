@@ -187,13 +187,7 @@ fn shading_factor(p: vec3<f32>, dir: vec3<f32>) -> f32 {
     let gx = sample_at(p + vec3<f32>(h, 0.0, 0.0)) - sample_at(p - vec3<f32>(h, 0.0, 0.0));
     let gy = sample_at(p + vec3<f32>(0.0, h, 0.0)) - sample_at(p - vec3<f32>(0.0, h, 0.0));
     let gz = sample_at(p + vec3<f32>(0.0, 0.0, h)) - sample_at(p - vec3<f32>(0.0, 0.0, h));
-    let g = vec3<f32>(gx, gy, gz) / (2.0 * h);
-    let len2 = dot(g, g);
-    if (!(len2 > 0.0) || !is_finite_f32(len2)) {
-        return 1.0;
-    }
-    let c = abs(dot(g, dir)) * inverseSqrt(len2);
-    return P.shading.x + P.shading.y * c + P.shading.z * pow(c, P.shading.w);
+    return headlight(vec3<f32>(gx, gy, gz) / (2.0 * h), dir);
 }
 #endif
 

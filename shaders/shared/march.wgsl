@@ -32,6 +32,18 @@ fn trilinear_texels(tex: texture_3d<f32>, a: vec3<i32>, b: vec3<i32>, f: vec3<f3
     return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
 }
 
+// Blinn–Phong factor for data gradient g under a headlight along -dir (light and eye together,
+// so the half vector is the light vector), two-sided; 1 (unshaded) where the gradient vanishes
+// or touches a missing value.
+fn headlight(g: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let len2 = dot(g, g);
+    if (!(len2 > 0.0) || !is_finite_f32(len2)) {
+        return 1.0;
+    }
+    let c = abs(dot(g, dir)) * inverseSqrt(len2);
+    return P.shading.x + P.shading.y * c + P.shading.z * pow(c, P.shading.w);
+}
+
 // Data value -> table coordinate in [0, 1] (see ScaleMapping::map).
 fn scaled(v: f32) -> f32 {
     var s = v;

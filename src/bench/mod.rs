@@ -72,9 +72,9 @@ pub(crate) fn warm_up(mut render: impl FnMut() -> Result<()>) -> Result<()> {
 /// The milliseconds of timed renders: wall clock from submission to the image in host memory,
 /// and the ray-casting pass on the GPU's own clock (empty where the adapter has no timestamps).
 #[derive(Clone, Debug, Default)]
-pub struct RenderRuns {
-    pub ms: Vec<f64>,
-    pub gpu_ms: Vec<f64>,
+pub(crate) struct RenderRuns {
+    pub(crate) ms: Vec<f64>,
+    pub(crate) gpu_ms: Vec<f64>,
 }
 
 /// Wall-clock and process CPU milliseconds of each timed run.

@@ -209,14 +209,11 @@ impl VolumeRenderer {
         // The texture unit filters in index space too (the shader hands it the fractional
         // index); a longitude that closes the circle repeats, so its last and first texels
         // are neighbours, as the exact path's wrap makes them.
-        let wrapping_sampler;
         let wraps = matches!(&volume.geometry, Geometry::Spherical(g) if g.lon_wraps);
         if frame.key.hw_filter && wraps {
-            wrapping_sampler = self.sampler_repeating(params.axis_of[2] as usize);
-            for e in &mut entries {
-                if e.binding == 4 {
-                    e.resource = wgpu::BindingResource::Sampler(&wrapping_sampler);
-                }
+            let repeating = self.sampler_repeating(params.axis_of[2] as usize);
+            for e in entries.iter_mut().filter(|e| e.binding == 4) {
+                e.resource = wgpu::BindingResource::Sampler(repeating);
             }
         }
         entries.push(wgpu::BindGroupEntry {

@@ -218,6 +218,8 @@ pub struct VolumeRenderer {
     ctx: Arc<GpuContext>,
     pipelines: Mutex<HashMap<PipelineKey, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
     sampler: wgpu::Sampler,
+    /// The same with texture axis x, y or z repeating (a longitude that closes the circle).
+    repeating: [wgpu::Sampler; 3],
 }
 
 /// What a render did, for benchmarks and `--stats`.
@@ -234,10 +236,12 @@ pub struct RenderTiming {
 impl VolumeRenderer {
     pub fn new(ctx: Arc<GpuContext>) -> Self {
         let sampler = trilinear_sampler(&ctx.device, None);
+        let repeating = [0, 1, 2].map(|axis| trilinear_sampler(&ctx.device, Some(axis)));
         VolumeRenderer {
             ctx,
             pipelines: Mutex::new(HashMap::new()),
             sampler,
+            repeating,
         }
     }
 
@@ -557,8 +561,8 @@ impl VolumeRenderer {
 
     /// The trilinear sampler with texture axis `axis` repeating (a longitude that closes the
     /// circle) and the others clamped to their edges.
-    pub(crate) fn sampler_repeating(&self, axis: usize) -> wgpu::Sampler {
-        trilinear_sampler(&self.ctx.device, Some(axis))
+    pub(crate) fn sampler_repeating(&self, axis: usize) -> &wgpu::Sampler {
+        &self.repeating[axis]
     }
 
     pub(crate) fn common_entries<'a>(
