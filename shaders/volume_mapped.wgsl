@@ -92,7 +92,7 @@ fn uneven_index(c: u32, x: f32) -> f32 {
 #endif
 
 #if SPHERICAL
-// Longitude (degrees, from atan2: in [-180, 180]) moved by whole turns into [lo, lo + 360):
+// Longitude (degrees, in [-180, 180]) moved by whole turns into [lo, lo + 360):
 // one turn up where it lies below lo moved into [-180, 180), then the turns between the two.
 fn wrap_lon(lon: f32) -> f32 {
     let turns = G.domain_hi.w;
@@ -124,10 +124,34 @@ fn lon_index(lon: f32) -> f32 {
     return axis_index(2u, lon);
 }
 
-// (radius, latitude°, longitude° in the domain's turn) of a world point.
+// atan(x) for |x| <= 1 as x + x³ q(x²), q fitted to atan within 5e-8 rad over [0, 1] (near the
+// f32 rounding of the result), evaluated by Estrin's scheme: a short dependency chain, which is
+// what a CPU rasterizer's sample waits on. The builtin atan2 is longer in both (two divisions,
+// a longer polynomial by Horner's scheme).
+fn atan_unit(x: f32) -> f32 {
+    let z = x * x;
+    let z2 = z * z;
+    let q01 = -0.3333165869 + 0.1996269845 * z;
+    let q23 = -0.1397655037 + 0.0979414761 * z;
+    let q45 = -0.0577723594 + 0.0230392673 * z;
+    let q = (q01 + q23 * z2) + (q45 - 0.0043551637 * z2) * (z2 * z2);
+    return x + x * z * q;
+}
+
+// (radius, latitude°, longitude° in the domain's turn) of a world point. The latitude from its
+// half angle, tan(lat / 2) = z / (r + rho), whose argument never leaves [-1, 1]; the longitude
+// from the smaller over the larger of |x| and |y|, put into its octant.
 fn spherical(p: vec3<f32>) -> vec3<f32> {
     let rho = length(p.xy);
-    return vec3<f32>(length(p), atan2(p.z, rho) * DEG, wrap_lon(atan2(p.y, p.x) * DEG));
+    let r = length(p);
+    let lat = 2.0 * atan_unit(p.z / max(r + rho, 1e-30));
+    let ax = abs(p.x);
+    let ay = abs(p.y);
+    let a = atan_unit(min(ax, ay) / max(max(ax, ay), 1e-30));
+    var lon = select(a, 1.5707963268 - a, ay > ax);
+    lon = select(lon, 3.1415926536 - lon, p.x < 0.0);
+    lon = select(lon, -lon, p.y < 0.0);
+    return vec3<f32>(r, lat * DEG, wrap_lon(lon * DEG));
 }
 
 fn inside(p: vec3<f32>) -> bool {
@@ -266,14 +290,13 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
         out.n = 1u;
         return out;
     }
-    if (inner.x > t0) {
-        out.span[0] = vec2<f32>(t0, inner.x);
-        out.n = 1u;
-    }
-    if (t1 > inner.y) {
-        out.span[out.n] = vec2<f32>(inner.y, t1);
-        out.n += 1u;
-    }
+    // The part in front of the core (where the ray starts outside it), then the one behind it;
+    // constant indices, as in part_span.
+    let front = inner.x > t0;
+    let back = t1 > inner.y;
+    out.span[0] = select(vec2<f32>(inner.y, t1), vec2<f32>(t0, inner.x), front);
+    out.span[1] = vec2<f32>(inner.y, t1);
+    out.n = select(0u, 1u, front) + select(0u, 1u, back);
     return out;
 }
 #else
@@ -367,13 +390,14 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
 #endif
 
 // The fixed quantities of one ray: origin and unit direction, where its segment grid starts,
-// its first segment and its step (world units).
+// its first segment, its step (world units) and the step's inverse.
 struct Ray2 {
     o: vec3<f32>,
     d: vec3<f32>,
     t_enter: f32,
     first: f32,
     ds: f32,
+    inv_ds: f32,
 }
 
 fn seg_end(r: Ray2, k: u32) -> f32 {
@@ -387,51 +411,141 @@ fn seg_start(r: Ray2, k: u32) -> f32 {
 // The segment before the one holding a part's start u, in case rounding put u past its start
 // (an empty piece is passed over).
 fn first_piece(r: Ray2, u: f32) -> u32 {
-    if (u > seg_end(r, 0u)) {
-        return u32(max(floor((u - r.t_enter - r.first) / r.ds), 0.0));
-    }
-    return 0u;
+    let k = u32(max(floor((u - r.t_enter - r.first) * r.inv_ds), 0.0));
+    return select(0u, k, u > seg_end(r, 0u));
 }
 
-// Segment k of the ray cut to the part [u, v]: sampled at its middle and composited.
-fn piece(s: ptr<function, RayState>, r: Ray2, k: u32, u: f32, v: f32) {
-    let a = max(seg_start(r, k), u);
-    let b = min(seg_end(r, k), v);
-    if ((*s).stopped || !(b > a)) {
+// Where a ray's march stands: segment k of its grid within part i, [u, v].
+struct Walk {
+    i: u32,
+    k: u32,
+    u: f32,
+    v: f32,
+}
+
+// The walk one segment on: the next segment, or where this part ends, `k_next`, the first
+// segment of the next part, `next`. Selects, not a branch: CPU rasterizers would run a branch's
+// body on every step anyway.
+fn walk_next(w: Walk, r: Ray2, next: vec2<f32>, k_next: u32) -> Walk {
+    let ends = seg_end(r, w.k) >= w.v;
+    return Walk(select(w.i, w.i + 1u, ends), select(w.k + 1u, k_next, ends), select(w.u, next.x, ends), select(w.v, next.y, ends));
+}
+
+// The piece the walk stands on: its segment cut to its part (empty where rounding leaves none).
+fn walk_piece(w: Walk, r: Ray2) -> vec2<f32> {
+    return vec2<f32>(max(seg_start(r, w.k), w.u), min(seg_end(r, w.k), w.v));
+}
+
+// Where piece ab is sampled: its middle.
+fn piece_point(r: Ray2, ab: vec2<f32>) -> vec3<f32> {
+    return r.o + r.d * (0.5 * (ab.x + ab.y));
+}
+
+// Composites piece ab, whose value at its middle is `value`.
+fn piece(s: ptr<function, RayState>, r: Ray2, ab: vec2<f32>, value: f32) {
+    if ((*s).stopped || !(ab.y > ab.x)) {
         return;
     }
-    let p = r.o + r.d * (0.5 * (a + b));
-    let value = sample_at(p);
     var ea = select(vec4<f32>(0.0), transfer(value), is_finite_f32(value));
 #if SHADING
     if (any(ea.rgb > vec3<f32>(0.0))) {
-        ea = vec4<f32>(ea.rgb * shading_factor(p, r.d), ea.a);
+        ea = vec4<f32>(ea.rgb * shading_factor(piece_point(r, ab), r.d), ea.a);
     }
 #endif
-    composite(s, ea, (b - a) * P.march.y, P.march.z);
+    composite(s, ea, (ab.y - ab.x) * P.march.y, P.march.z);
 }
 
 #if PREINTEGRATED
-// Segment k cut to [u, v], pre-integrated between its end values (the front one carried).
-fn piece_pre(s: ptr<function, RayState>, front: ptr<function, Front>, r: Ray2, k: u32, u: f32, v: f32) {
-    let a = max(seg_start(r, k), u);
-    let b = min(seg_end(r, k), v);
-    if ((*s).stopped || !(b > a)) {
+// Piece ab pre-integrated between its end values (the front one carried).
+fn piece_pre(s: ptr<function, RayState>, front: ptr<function, Front>, r: Ray2, ab: vec2<f32>) {
+    if ((*s).stopped || !(ab.y > ab.x)) {
         return;
     }
-    let len = (b - a) * P.march.y;
-    let back = front_at(sample_at(r.o + r.d * b));
+    let len = (ab.y - ab.x) * P.march.y;
+    let back = front_at(sample_at(r.o + r.d * ab.y));
     let piece = segment_between(*front, back, len);
     var ea = piece.ea;
 #if SHADING
     if (any(ea.rgb > vec3<f32>(0.0))) {
-        ea = vec4<f32>(ea.rgb * shading_factor(r.o + r.d * (0.5 * (a + b)), r.d), ea.a);
+        ea = vec4<f32>(ea.rgb * shading_factor(piece_point(r, ab), r.d), ea.a);
     }
 #endif
     *front = back;
     composite(s, ea, piece.len, P.march.z);
 }
 #endif
+
+// The walk one segment on (walk_next) through the ray's parts. A whole shell has at most two,
+// the second one's first segment found once per ray (`second`); other domains index the parts
+// with a runtime value, which CPU rasterizers do through memory.
+fn walk_after(w: Walk, r: Ray2, parts: Parts, second: u32) -> Walk {
+#if SHELL
+    return walk_next(w, r, parts.span[1], second);
+#else
+    let next = parts.span[min(w.i + 1u, MAX_PARTS - 1u)];
+    return walk_next(w, r, next, first_piece(r, next.x));
+#endif
+}
+
+// Steps one loop may take: llvmpipe ends any loop after 65535 iterations, so the march is a loop
+// of such loops.
+const LOOP_STEPS: u32 = 65000u;
+
+// Marches the ray's parts, one loop over all of their segments, moving on to the next part where
+// one ends: the lanes of a SIMD group then take as many iterations as their longest ray, not the
+// sum over parts of each part's longest (a ray through the core has two parts, its neighbour
+// past the core one). One segment per iteration, and the next one's sample is taken before this
+// one is composited: on a CPU rasterizer the sample's latency (the map to indices, the texel
+// loads) then overlaps the compositing; more segments per iteration measured slower there.
+fn march_parts(s: ptr<function, RayState>, r: Ray2, parts: Parts) {
+    let span = parts.span[0];
+    var w = Walk(0u, first_piece(r, span.x), span.x, span.y);
+    var ab = walk_piece(w, r);
+    let second = first_piece(r, parts.span[1].x);
+#if PREINTEGRATED
+    var front = front_at(sample_at(r.o + r.d * span.x));
+#if SHELL
+    let front_second = front_at(sample_at(r.o + r.d * parts.span[1].x));
+#endif
+#else
+    var value = sample_at(piece_point(r, ab));
+#endif
+    loop {
+        var j = 0u;
+        loop {
+            if ((*s).stopped || w.i >= parts.n || j >= LOOP_STEPS) {
+                break;
+            }
+            j += 1u;
+#if PREINTEGRATED
+            piece_pre(s, &front, r, ab);
+            let w_next = walk_after(w, r, parts, second);
+            // A new part starts from the value at its entry (a copy for a shell: CPU rasterizers
+            // run this body on every step).
+            if (w_next.i != w.i && w_next.i < parts.n) {
+#if SHELL
+                front = front_second;
+#else
+                front = front_at(sample_at(r.o + r.d * w_next.u));
+#endif
+            }
+            w = w_next;
+            ab = walk_piece(w, r);
+#else
+            let w_next = walk_after(w, r, parts, second);
+            let ab_next = walk_piece(w_next, r);
+            let value_next = sample_at(piece_point(r, ab_next));
+            piece(s, r, ab, value);
+            w = w_next;
+            ab = ab_next;
+            value = value_next;
+#endif
+        }
+        if ((*s).stopped || w.i >= parts.n) {
+            break;
+        }
+    }
+}
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -445,47 +559,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, 0.0, false);
     if (parts.n > 0u) {
         let ds = P.march.x;
-        let r = Ray2(ray.origin, ray.dir, parts.span[0].x, first_segment(gid.xy, w, h, ds), ds);
-        // One loop over every part's segments, moving on to the next part where one ends: the
-        // lanes of a SIMD group then take as many iterations as their longest ray, not the sum
-        // over parts of each part's longest (a ray through the core has two parts, its
-        // neighbour past the core one).
-        var i = 0u;
-        var u = parts.span[0].x;
-        var v = parts.span[0].y;
-        var k = first_piece(r, u);
-#if PREINTEGRATED
-        var front = front_at(sample_at(r.o + r.d * u));
-#endif
-        // Four segments per iteration: llvmpipe ends a loop after 65535 iterations.
-        loop {
-            if (s.stopped || i >= parts.n) {
-                break;
-            }
-#if PREINTEGRATED
-            piece_pre(&s, &front, r, k, u, v);
-            piece_pre(&s, &front, r, k + 1u, u, v);
-            piece_pre(&s, &front, r, k + 2u, u, v);
-            piece_pre(&s, &front, r, k + 3u, u, v);
-#else
-            piece(&s, r, k, u, v);
-            piece(&s, r, k + 1u, u, v);
-            piece(&s, r, k + 2u, u, v);
-            piece(&s, r, k + 3u, u, v);
-#endif
-            k += 4u;
-            if (seg_start(r, k) >= v) {
-                i += 1u;
-                if (i < parts.n) {
-                    u = parts.span[i].x;
-                    v = parts.span[i].y;
-                    k = first_piece(r, u);
-#if PREINTEGRATED
-                    front = front_at(sample_at(r.o + r.d * u));
-#endif
-                }
-            }
-        }
+        let r = Ray2(ray.origin, ray.dir, parts.span[0].x, first_segment(gid.xy, w, h, ds), ds, 1.0 / ds);
+        march_parts(&s, r, parts);
     }
     textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));
 }
