@@ -181,20 +181,35 @@ fn inner_step(s: ptr<function, RayState>, c: Inner, k: u32) {
 // skipping), at most to `last`. Skipped segments would have composited exactly nothing: their
 // samples interpolate voxels of empty cells only (each cell's range covers its one-voxel apron).
 // Not empty, or the block ends within a segment: k itself.
-fn skip_empty(c: Inner, k: u32, last: u32) -> u32 {
-    let dims = vec3<f32>(textureDimensions(volume_tex));
-    let p = (c.uvw + c.step * f32(k)) * dims;
-    let v = c.step * dims;
-    let edge = P.skip.x;
+fn skip_empty(r: SkipRay, k: u32, last: u32) -> u32 {
+    let q = r.q0 + r.dq * f32(k);
     let top = vec3<i32>(textureDimensions(skip_grid)) - vec3<i32>(1);
-    let cell = clamp(vec3<i32>(floor(p / edge)), vec3<i32>(0), top);
+    let cell = clamp(vec3<i32>(floor(q)), vec3<i32>(0), top);
     let d = textureLoad(skip_grid, cell, 0).r;
-    let lo = (vec3<f32>(cell) - (d - 1.0)) * edge;
-    let hi = (vec3<f32>(cell) + d) * edge;
-    let exits = select(vec3<f32>(3.0e38), (select(lo, hi, v > vec3<f32>(0.0)) - p) / v, abs(v) > vec3<f32>(1e-30));
+    let c = vec3<f32>(cell);
+    let exits = (select(c - (d - 1.0), c + d, r.up) - q) * r.inv_dq;
     let t = min(exits.x, min(exits.y, exits.z));
     let next = k + u32(clamp(floor(t), 0.0, f32(last - k)));
     return min(1u + ((next - 1u) / UNROLL) * UNROLL, last);
+}
+
+// A ray's interior segments in skip-grid cells: the midpoint of segment k lies at q0 + dq k;
+// inv_dq is 1 / dq, or huge along an axis the ray does not move on (whose exit then never comes
+// first); `up` picks the block's upper face as the exit. Found once per ray, so each lookup
+// (on the samples' critical path: their position waits for it) multiplies where it divided.
+struct SkipRay {
+    q0: vec3<f32>,
+    dq: vec3<f32>,
+    inv_dq: vec3<f32>,
+    up: vec3<bool>,
+}
+
+fn skip_ray(c: Inner) -> SkipRay {
+    let to_cells = vec3<f32>(textureDimensions(volume_tex)) / P.skip.x;
+    let dq = c.step * to_cells;
+    let moves = abs(dq) > vec3<f32>(1e-30);
+    let inv_dq = select(vec3<f32>(3.0e38), 1.0 / dq, moves);
+    return SkipRay(c.uvw * to_cells, dq, inv_dq, select(vec3<bool>(true), dq >= vec3<f32>(0.0), moves));
 }
 #endif
 
@@ -303,13 +318,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         // precisions add each segment to the totals, as the arithmetic they emulate does.
         var block = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, s.transmittance, s.ta, false);
         var block_index = 0u;
+#if SKIPPING
+        let sr = skip_ray(inner);
+#endif
         while (k + UNROLL < n && !s.stopped) {
 #if SKIPPING
             // Jump from empty block to empty block until the next group of samples is not
             // empty: a loop of lookups only (lavapipe runs both sides of a branch, but a loop
             // only as long as one of its lanes still jumps).
             loop {
-                let next = skip_empty(inner, k, last);
+                let next = skip_empty(sr, k, last);
                 if (next == k) {
                     break;
                 }
