@@ -114,6 +114,8 @@ pub(crate) const PIPELINES: &[(&str, &[&[&str]])] = &[
             &["SPHERICAL", "SHADING"],
             &["SPHERICAL", "UNEVEN", "PREINTEGRATED"],
             &["PREINTEGRATED", "SHADING"],
+            &["SPHERICAL", "SHELL", "CF_AXES", "HW_FILTER"],
+            &["SPHERICAL", "SHELL", "PREINTEGRATED", "SHADING"],
         ],
     ),
     ("surface_data.wgsl", &[&[]]),
