@@ -192,8 +192,13 @@ fn event_loop(
         stem,
         watch: FileWatch::new(&opts.input),
     };
-    tui.run(&signals)
+    let result = tui.run(&signals);
+    tui.finish_render();
+    result
 }
+
+/// Longest wait on quitting for a render in flight (see [`EventLoop::finish_render`]).
+const FINISH_RENDER: Duration = Duration::from_secs(30);
 
 /// The render worker for `script`, with one [`RenderSession`] for the whole TUI session.
 fn spawn_render(
@@ -211,6 +216,22 @@ fn spawn_render(
 }
 
 impl EventLoop<'_> {
+    /// Lets a render in flight end before the process does: process exit unmaps the shader code
+    /// that lavapipe's threads may still be running (a segfault after `q`). The worker ends once
+    /// its job channel closes, dropping the GPU session on its own thread; at most
+    /// [`FINISH_RENDER`].
+    fn finish_render(&mut self) {
+        let Some((jobs, done)) = self.render.take() else {
+            return;
+        };
+        drop(jobs);
+        let deadline = Instant::now() + FINISH_RENDER;
+        while done
+            .recv_timeout(deadline.saturating_duration_since(Instant::now()))
+            .is_ok()
+        {}
+    }
+
     /// Polls input every 15 ms and never waits on a worker, until `q`, Ctrl-C or a signal.
     fn run(&mut self, signals: &Receiver<i32>) -> Result<()> {
         self.send_render();
