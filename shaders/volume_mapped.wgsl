@@ -269,15 +269,21 @@ fn cone_hits(o: vec3<f32>, d: vec3<f32>, lat: f32) -> vec2<f32> {
     return vec2<f32>(q / a, cc / q);
 }
 
+// The ray's chord through the outer sphere from the eye on (empty where it misses).
+fn outer_chord(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    let outer = sphere_hit(o, d, G.domain_lo.y);
+    return vec2<f32>(max(outer.x, 0.0), outer.y);
+}
+
 #if SHELL
 // A whole shell: the outer sphere's chord less the inner sphere's, the parts
 // SphericalGrid::ray_intervals finds for it (a crossing of the inner sphere counts only strictly
 // inside the chord; a tangent ray passes whole).
 fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
     var out = Parts(array<vec2<f32>, 6>(), 0u);
-    let outer = sphere_hit(o, d, G.domain_lo.y);
-    let t0 = max(outer.x, 0.0);
-    let t1 = outer.y;
+    let chord = outer_chord(o, d);
+    let t0 = chord.x;
+    let t1 = chord.y;
     if (!(t1 > t0)) {
         return out;
     }
@@ -291,7 +297,7 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
         return out;
     }
     // The part in front of the core (where the ray starts outside it), then the one behind it;
-    // constant indices, as in part_span.
+    // constant indices, as walk_after reads them.
     let front = inner.x > t0;
     let back = t1 > inner.y;
     out.span[0] = select(vec2<f32>(inner.y, t1), vec2<f32>(t0, inner.x), front);
@@ -304,9 +310,9 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
 // them whose middles are inside, neighbours merged.
 fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
     var out = Parts(array<vec2<f32>, 6>(), 0u);
-    let outer = sphere_hit(o, d, G.domain_lo.y);
-    let t0 = max(outer.x, 0.0);
-    let t1 = outer.y;
+    let chord = outer_chord(o, d);
+    let t0 = chord.x;
+    let t1 = chord.y;
     if (!(t1 > t0)) {
         return out;
     }
