@@ -18,10 +18,11 @@
 @group(0) @binding(4) var volume_sampler: sampler;
 #endif
 #if SKIPPING
-// Empty-space skipping (src/render/skipping.rs): per cell of P.skip.x voxels, the Chebyshev
-// distance in cells to the nearest cell the transfer function does not leave empty (0: this
-// cell is not empty). Every cell within distance d - 1 of a cell at distance d is empty.
-@group(0) @binding(5) var skip_grid: texture_3d<f32>;
+// Empty-space skipping (src/render/skipping.rs): per octant of ray directions (stacked along
+// z) and per cell of P.skip.x voxels, the edge d in cells of the largest cube of cells the
+// transfer function leaves empty that has the cell at a corner and reaches into the octant
+// (0: this cell is not empty).
+@group(0) @binding(5) var skip_grid: texture_3d<u32>;
 #endif
 
 // Voxel counts of the whole volume: the texture's, or with SLAB the texture's x and y and the
@@ -176,16 +177,15 @@ fn inner_step(s: ptr<function, RayState>, c: Inner, k: u32) {
 
 #if SKIPPING
 // Where the march goes on from interior segment k: past every segment whose midpoint lies in
-// the empty block of cells around k's cell, rounded down to the march's groups of UNROLL (so
+// the empty cube of cells ahead of k's cell, rounded down to the march's groups of UNROLL (so
 // the segments taken, and the blocks their sums join in, are those of the march without
 // skipping), at most to `last`. Skipped segments would have composited exactly nothing: their
 // samples interpolate voxels of empty cells only (each cell's range covers its one-voxel apron).
-// Not empty, or the block ends within a segment: k itself.
+// Not empty, or the cube ends before the next group: k itself.
 fn skip_empty(r: SkipRay, k: u32, last: u32) -> u32 {
     let q = r.q0 + r.dq * f32(k);
-    let top = vec3<i32>(textureDimensions(skip_grid)) - vec3<i32>(1);
-    let cell = clamp(vec3<i32>(floor(q)), vec3<i32>(0), top);
-    let d = textureLoad(skip_grid, cell, 0).r;
+    let cell = clamp(vec3<i32>(floor(q)), vec3<i32>(0), r.top);
+    let d = f32(textureLoad(skip_grid, cell + vec3<i32>(0, 0, r.layer), 0).r);
     let c = vec3<f32>(cell);
     let exits = (select(c - (d - 1.0), c + d, r.up) - q) * r.inv_dq;
     let t = min(exits.x, min(exits.y, exits.z));
@@ -195,13 +195,16 @@ fn skip_empty(r: SkipRay, k: u32, last: u32) -> u32 {
 
 // A ray's interior segments in skip-grid cells: the midpoint of segment k lies at q0 + dq k;
 // inv_dq is 1 / dq, or huge along an axis the ray does not move on (whose exit then never comes
-// first); `up` picks the block's upper face as the exit. Found once per ray, so each lookup
+// first); `up` picks the cube's upper face as the exit; `top` is the last cell and `layer` the
+// first z of the ray's octant in the grid. Found once per ray, so each lookup
 // (on the samples' critical path: their position waits for it) multiplies where it divided.
 struct SkipRay {
     q0: vec3<f32>,
     dq: vec3<f32>,
     inv_dq: vec3<f32>,
     up: vec3<bool>,
+    top: vec3<i32>,
+    layer: i32,
 }
 
 fn skip_ray(c: Inner) -> SkipRay {
@@ -209,7 +212,10 @@ fn skip_ray(c: Inner) -> SkipRay {
     let dq = c.step * to_cells;
     let moves = abs(dq) > vec3<f32>(1e-30);
     let inv_dq = select(vec3<f32>(3.0e38), 1.0 / dq, moves);
-    return SkipRay(c.uvw * to_cells, dq, inv_dq, select(vec3<bool>(true), dq >= vec3<f32>(0.0), moves));
+    let up = select(vec3<bool>(true), dq >= vec3<f32>(0.0), moves);
+    let cells = vec3<i32>(textureDimensions(skip_grid)) / vec3<i32>(1, 1, 8);
+    let octant = select(1, 0, up.x) + select(2, 0, up.y) + select(4, 0, up.z);
+    return SkipRay(c.uvw * to_cells, dq, inv_dq, up, cells - vec3<i32>(1), octant * cells.z);
 }
 #endif
 

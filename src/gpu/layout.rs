@@ -50,6 +50,21 @@ pub(crate) fn texture(
     )
 }
 
+/// A sampled unsigned-integer texture at `binding` (read with textureLoad).
+pub(crate) fn uint_texture(
+    binding: u32,
+    dimension: wgpu::TextureViewDimension,
+) -> wgpu::BindGroupLayoutEntry {
+    entry(
+        binding,
+        wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Uint,
+            view_dimension: dimension,
+            multisampled: false,
+        },
+    )
+}
+
 /// A write-only Rgba32Float 2-D storage texture at `binding`.
 pub(crate) fn storage_texture_rgba32f(binding: u32) -> wgpu::BindGroupLayoutEntry {
     entry(

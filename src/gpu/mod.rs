@@ -415,6 +415,16 @@ impl GpuContext {
     /// A 3-D single-channel f32 texture of `size` texels (x, y, z) that shaders sample and the
     /// host writes: a volume or a brick atlas.
     pub(crate) fn r32f_texture_3d(&self, label: &str, size: [u32; 3]) -> wgpu::Texture {
+        self.texture_3d(label, size, wgpu::TextureFormat::R32Float)
+    }
+
+    /// A 3-D texture of `size` texels (x, y, z) in `format` that shaders read and the host writes.
+    pub(crate) fn texture_3d(
+        &self,
+        label: &str,
+        size: [u32; 3],
+        format: wgpu::TextureFormat,
+    ) -> wgpu::Texture {
         self.device.create_texture(&wgpu::TextureDescriptor {
             label: Some(label),
             size: wgpu::Extent3d {
@@ -425,7 +435,7 @@ impl GpuContext {
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::R32Float,
+            format,
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         })

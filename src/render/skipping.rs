@@ -3,11 +3,12 @@
 //! voxels and a one-voxel apron: everything a sample inside it interpolates). Against the
 //! render's transfer function each cell is empty — every value it can interpolate to has zero
 //! emission and extinction, or it holds only missing data — or not; a transfer-function change
-//! re-classifies the ranges without reading the volume again. The GPU gets, per cell, the
-//! Chebyshev distance in cells to the nearest cell that is not empty, so one lookup tells how
-//! large a block of empty cells surrounds a sample and the march jumps to that block's exit in
-//! one loop iteration (`skip_empty` in shaders/volume.wgsl). The jump lands on the march's own
-//! segment grid, so the image is the one without skipping.
+//! re-classifies the ranges without reading the volume again. The GPU gets, per cell and per
+//! octant of ray directions, the edge of the largest cube of empty cells reaching from the cell
+//! into that octant ([`octant_extents`]), so one lookup tells how much empty space lies ahead
+//! of a sample and the march jumps to that cube's exit in one loop iteration (`skip_empty` in
+//! shaders/volume.wgsl). The jump lands on the march's own segment grid, so the image is the
+//! one without skipping.
 
 use crate::error::Result;
 use crate::gpu::GpuContext;
@@ -81,20 +82,25 @@ impl SkipGrid {
     pub(crate) fn new(ctx: &GpuContext, cells: &CellRanges, tf: &ResolvedTransfer) -> SkipGrid {
         let grid = cells.layout.grid;
         let empty = cells.empty_cells(tf);
-        let distance = chebyshev_distance(&empty, grid);
-        let texture = ctx.r32f_texture_3d("skip grid", grid.map(|g| g as u32));
+        let extents = octant_extents(&empty, grid);
+        let stacked = [grid[0], grid[1], grid[2] * 8];
+        let texture = ctx.texture_3d(
+            "skip grid",
+            stacked.map(|g| g as u32),
+            wgpu::TextureFormat::R8Uint,
+        );
         ctx.queue.write_texture(
             texture.as_image_copy(),
-            bytemuck::cast_slice(&distance),
+            bytemuck::cast_slice(&extents),
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
-                bytes_per_row: Some(grid[0] as u32 * 4),
+                bytes_per_row: Some(grid[0] as u32),
                 rows_per_image: Some(grid[1] as u32),
             },
             wgpu::Extent3d {
                 width: grid[0] as u32,
                 height: grid[1] as u32,
-                depth_or_array_layers: grid[2] as u32,
+                depth_or_array_layers: stacked[2] as u32,
             },
         );
         SkipGrid {
@@ -118,87 +124,126 @@ impl SkipGrid {
     }
 
     pub(crate) fn bytes(&self) -> u64 {
-        self.cells() as u64 * 4
+        self.cells() as u64 * 8
     }
 }
 
-/// Per cell, the Chebyshev (L∞) distance in cells to the nearest cell that is not empty: 0 for
-/// those, and past the grid's largest extent where every cell is empty. Two raster passes with
-/// the 26-neighbourhood at unit cost, exact for this metric.
-pub(crate) fn chebyshev_distance(empty: &[bool], grid: [usize; 3]) -> Vec<f32> {
+/// The largest extent [`octant_extents`] records: the grid's texels are bytes, and a cube of 255
+/// cells (1020 voxels or more) is as good as unbounded for a jump.
+const MAX_EXTENT: u32 = 255;
+
+/// Per octant of directions and per cell, the edge in cells of the largest cube of empty cells
+/// that has the cell at a corner and extends into that octant: 0 for a cell that is not empty.
+/// Octant o = (x falls) + 2 (y falls) + 4 (z falls) fills cells o·n .. (o+1)·n of the result
+/// (n cells in the grid, x fastest). Outside the grid counts as empty. A ray whose direction
+/// lies in octant o jumps from a cell of extent d to where it leaves that cube: it moves away
+/// from the cells behind it, so a cube that reaches only forwards is as large as the empty
+/// space ahead allows, where a cube centred on the cell would stop at the space just left.
+/// One pass per octant, cells ahead first: a cube of edge m at c is empty exactly when c is
+/// and the cubes of edge m - 1 at its seven forward neighbours are.
+pub(crate) fn octant_extents(empty: &[bool], grid: [usize; 3]) -> Vec<u8> {
     let [nx, ny, nz] = grid;
-    let far = (nx.max(ny).max(nz) + 1) as u32;
-    // A one-cell border that is never updated (outside the volume nothing is "not empty"), so
-    // neighbours need no bounds checks.
-    let (px, py) = (nx + 2, ny + 2);
-    let mut d = vec![far; px * py * (nz + 2)];
-    let padded = |x: usize, y: usize, z: usize| (x + 1) + px * ((y + 1) + py * (z + 1));
-    for z in 0..nz {
-        for y in 0..ny {
-            for x in 0..nx {
-                if !empty[x + nx * (y + ny * z)] {
-                    d[padded(x, y, z)] = 0;
+    let n = nx * ny * nz;
+    let mut out = vec![0u8; 8 * n];
+    for (octant, ext) in out.chunks_exact_mut(n).enumerate() {
+        let falls = |axis: usize| octant & (1 << axis) != 0;
+        // Along each axis: the cells in the order visited, and the neighbour ahead of a cell.
+        let order = |len: usize, falls: bool| -> Vec<usize> {
+            if falls {
+                (0..len).collect()
+            } else {
+                (0..len).rev().collect()
+            }
+        };
+        let ahead = |i: usize, len: usize, falls: bool| -> Option<usize> {
+            if falls {
+                i.checked_sub(1)
+            } else {
+                Some(i + 1).filter(|&j| j < len)
+            }
+        };
+        for &z in &order(nz, falls(2)) {
+            for &y in &order(ny, falls(1)) {
+                for &x in &order(nx, falls(0)) {
+                    let i = x + nx * (y + ny * z);
+                    if !empty[i] {
+                        continue;
+                    }
+                    let next = [
+                        ahead(x, nx, falls(0)),
+                        ahead(y, ny, falls(1)),
+                        ahead(z, nz, falls(2)),
+                    ];
+                    let mut smallest = MAX_EXTENT;
+                    for corner in 1..8usize {
+                        let pick = |axis: usize, at: usize| {
+                            if corner & (1 << axis) == 0 {
+                                Some(at)
+                            } else {
+                                next[axis]
+                            }
+                        };
+                        if let (Some(a), Some(b), Some(c)) = (pick(0, x), pick(1, y), pick(2, z)) {
+                            smallest = smallest.min(u32::from(ext[a + nx * (b + ny * c)]));
+                        }
+                    }
+                    ext[i] = (smallest + 1).min(MAX_EXTENT) as u8;
                 }
             }
         }
     }
-    // The 13 neighbours before a cell in raster order (x fastest); the pass back uses the others.
-    let mut before = Vec::new();
-    for dz in -1isize..=1 {
-        for dy in -1isize..=1 {
-            for dx in -1isize..=1 {
-                if (dz, dy, dx) < (0, 0, 0) {
-                    before.push(dx + px as isize * (dy + py as isize * dz));
-                }
-            }
-        }
-    }
-    let cells: Vec<usize> = (0..nz)
-        .flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| (x, y, z))))
-        .map(|(x, y, z)| padded(x, y, z))
-        .collect();
-    let relax = |d: &mut Vec<u32>, i: usize, sign: isize| {
-        let mut best = d[i];
-        for &o in &before {
-            best = best.min(d[(i as isize + sign * o) as usize] + 1);
-        }
-        d[i] = best.min(far);
-    };
-    for &i in &cells {
-        relax(&mut d, i, 1);
-    }
-    for &i in cells.iter().rev() {
-        relax(&mut d, i, -1);
-    }
-    cells.iter().map(|&i| d[i] as f32).collect()
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The distance by brute force: the nearest non-empty cell over the whole grid.
-    fn brute(empty: &[bool], grid: [usize; 3]) -> Vec<f32> {
+    /// The extents by brute force: per octant and cell, the largest cube of empty cells (the
+    /// parts inside the grid) reaching from the cell into the octant.
+    fn brute(empty: &[bool], grid: [usize; 3]) -> Vec<u8> {
         let [nx, ny, nz] = grid;
-        let far = (nx.max(ny).max(nz) + 1) as f32;
-        (0..empty.len())
-            .map(|i| {
+        let n = empty.len();
+        let mut out = vec![0u8; 8 * n];
+        for octant in 0..8usize {
+            for i in 0..n {
                 let p = [i % nx, (i / nx) % ny, i / (nx * ny)];
-                let mut best = far;
-                for (j, &e) in empty.iter().enumerate() {
-                    if !e {
-                        let q = [j % nx, (j / nx) % ny, j / (nx * ny)];
-                        let d = (0..3).map(|a| p[a].abs_diff(q[a])).max().unwrap() as f32;
-                        best = best.min(d);
-                    }
+                let cube_empty = |m: usize| {
+                    (0..m * m * m).all(|j| {
+                        let v = [j % m, (j / m) % m, j / (m * m)];
+                        let c: Vec<Option<usize>> = (0..3)
+                            .map(|a| {
+                                if octant & (1 << a) != 0 {
+                                    p[a].checked_sub(v[a])
+                                } else {
+                                    Some(p[a] + v[a]).filter(|&q| q < grid[a])
+                                }
+                            })
+                            .collect();
+                        match (c[0], c[1], c[2]) {
+                            (Some(x), Some(y), Some(z)) => empty[x + nx * (y + ny * z)],
+                            _ => true,
+                        }
+                    })
+                };
+                // A cube past the grid's largest extent adds only cells outside the grid.
+                let beyond = nx.max(ny).max(nz) + 1;
+                let mut m = 0;
+                while m < beyond && cube_empty(m + 1) {
+                    m += 1;
                 }
-                best
-            })
-            .collect()
+                out[octant * n + i] = if m == beyond {
+                    MAX_EXTENT as u8
+                } else {
+                    m as u8
+                };
+            }
+        }
+        out
     }
 
     #[test]
-    fn chebyshev_distance_matches_brute_force() {
+    fn octant_extents_match_brute_force() {
         let grid = [7, 5, 6];
         let n = grid.iter().product::<usize>();
         // A few patterns: a sparse pseudo-random set, a single cell, nothing, everything.
@@ -213,8 +258,12 @@ mod tests {
             .collect();
         let mut single = vec![true; n];
         single[3 + 7 * (2 + 5 * 4)] = false;
-        for empty in [sparse, single, vec![true; n], vec![false; n]] {
-            assert_eq!(chebyshev_distance(&empty, grid), brute(&empty, grid));
+        for empty in [sparse, single, vec![false; n]] {
+            assert_eq!(octant_extents(&empty, grid), brute(&empty, grid));
         }
+        // Nothing visible: every cube is unbounded, up to the largest extent a byte records.
+        assert!(octant_extents(&vec![true; n], grid)
+            .iter()
+            .all(|&e| u32::from(e) == MAX_EXTENT));
     }
 }

@@ -307,7 +307,7 @@ impl VolumeRenderer {
             entries.push(layout::filtering_sampler(4));
         }
         if key.skipping {
-            entries.push(layout::texture(5, wgpu::TextureViewDimension::D3, false));
+            entries.push(layout::uint_texture(5, wgpu::TextureViewDimension::D3));
         }
         if key.mapped > 0 {
             entries.extend([layout::uniform_buffer(5), layout::storage_buffer(6, true)]);
