@@ -176,25 +176,6 @@ impl BrickedVolume {
         Self::index(name.into(), source, spacing, origin, layout)
     }
 
-    /// The value ranges of an in-memory volume over cells of `edge` voxels (any edge of at
-    /// least 2, unlike the bricks a render may ask for): the skip grid's input.
-    pub(crate) fn cells(volume: Arc<Volume>, edge: usize) -> Result<BrickedVolume> {
-        let dims = volume.dims;
-        let layout = BrickLayout {
-            dims,
-            brick: edge.max(2),
-            grid: dims.map(|d| d.div_ceil(edge.max(2))),
-        };
-        let (spacing, origin) = (volume.spacing, volume.origin);
-        Self::index(
-            volume.name.clone(),
-            Arc::new(MemorySource(volume)),
-            spacing,
-            origin,
-            layout,
-        )
-    }
-
     /// Streams `source` once for the per-brick ranges of `layout` and the volume statistics.
     fn index(
         name: String,

@@ -10,6 +10,7 @@ pub(crate) mod grid;
 pub(crate) mod image;
 pub(crate) mod map_frame;
 pub(crate) mod resample;
+pub(crate) mod stencil;
 pub mod text;
 pub mod transfer;
 pub(crate) mod volume;

@@ -12,7 +12,8 @@
 
 use crate::error::Result;
 use crate::gpu::GpuContext;
-use crate::model::bricks::{empty_ranges, BrickLayout, BrickRange, BrickedVolume};
+use crate::model::bricks::{empty_ranges, BrickLayout, BrickRange};
+use crate::model::stencil::stencil_ranges;
 use crate::model::transfer::ResolvedTransfer;
 use crate::model::{Volume, VolumeStats};
 use std::sync::Arc;
@@ -23,7 +24,10 @@ use std::sync::Arc;
 /// skip about 10 % more of the time than 8-voxel ones; `hdrvis bench skipping`).
 pub(crate) fn cell_edge(dims: [usize; 3]) -> usize {
     if dims.iter().all(|&d| d <= 384) {
-        4
+        std::env::var("HDRVIS_CELL")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(4)
     } else {
         8
     }
@@ -43,11 +47,16 @@ pub(crate) struct CellRanges {
 
 impl CellRanges {
     pub(crate) fn of(volume: Arc<Volume>) -> Result<CellRanges> {
-        let b = BrickedVolume::cells(volume.clone(), cell_edge(volume.dims))?;
+        let edge = cell_edge(volume.dims);
+        let layout = BrickLayout {
+            dims: volume.dims,
+            brick: edge,
+            grid: volume.dims.map(|d| d.div_ceil(edge)),
+        };
         Ok(CellRanges {
-            layout: b.layout,
-            ranges: b.ranges,
-            stats: b.stats,
+            ranges: stencil_ranges(&volume, &layout),
+            layout,
+            stats: volume.stats(),
         })
     }
 
