@@ -217,6 +217,38 @@ fn skip_ray(c: Inner) -> SkipRay {
     let octant = select(1, 0, up.x) + select(2, 0, up.y) + select(4, 0, up.z);
     return SkipRay(c.uvw * to_cells, dq, inv_dq, up, cells - vec3<i32>(1), octant * cells.z);
 }
+
+// The ray's parameter interval within one slab of the hull: between the planes where its
+// projection on n is lh.x and lh.y (a ray parallel to them gets a huge interval, or an empty
+// one outside them).
+fn hull_slab(t: vec2<f32>, o: vec3<f32>, d: vec3<f32>, n: vec3<f32>, lh: vec2<f32>) -> vec2<f32> {
+    let po = dot(o, n);
+    let pd = dot(d, n);
+    let inv = 1.0 / select(pd, 1e-30, abs(pd) < 1e-30);
+    let a = (lh.x - po) * inv;
+    let b = (lh.y - po) * inv;
+    return vec2<f32>(max(t.x, min(a, b)), min(t.y, max(a, b)));
+}
+
+// Where the ray uvw0 + duvw t lies in the hull of the cells that are not empty (empty when
+// x > y): outside it every sample is in an empty cell.
+fn hull_span(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    var t = vec2<f32>(-3.0e38, 3.0e38);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, 0.0, 0.0), P.hull[0].xy);
+    t = hull_slab(t, o, d, vec3<f32>(0.0, 1.0, 0.0), P.hull[0].zw);
+    t = hull_slab(t, o, d, vec3<f32>(0.0, 0.0, 1.0), P.hull[1].xy);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, 1.0, 0.0), P.hull[1].zw);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, -1.0, 0.0), P.hull[2].xy);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, 0.0, 1.0), P.hull[2].zw);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, 0.0, -1.0), P.hull[3].xy);
+    t = hull_slab(t, o, d, vec3<f32>(0.0, 1.0, 1.0), P.hull[3].zw);
+    t = hull_slab(t, o, d, vec3<f32>(0.0, 1.0, -1.0), P.hull[4].xy);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, 1.0, 1.0), P.hull[4].zw);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, 1.0, -1.0), P.hull[5].xy);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, -1.0, 1.0), P.hull[5].zw);
+    t = hull_slab(t, o, d, vec3<f32>(1.0, -1.0, -1.0), P.hull[6].xy);
+    return t;
+}
 #endif
 
 #if SLAB
@@ -315,8 +347,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let inner = Inner(m.uvw0 + m.duvw * (m.t_enter + m.first - 0.5 * m.ds), m.duvw * m.ds,
                           m.ds * m.voxels_per_unit, m.stop_tau, m.dir);
         var k = 1u;
+        // The segments the loop and the tail march: 1..n_to, all of them without skipping.
+        var n_to = n;
+#if SKIPPING
+        // Only segments in the hull can composite anything: the march begins at the group
+        // holding the one before the hull's entry and ends after the one after its exit.
+        let span = hull_span(m.uvw0, m.duvw);
+        let k_in = max(u32(clamp(floor((span.x - m.t_enter - m.first) / m.ds), 0.0, f32(n))), 1u);
+        k = 1u + ((k_in - 1u) / UNROLL) * UNROLL;
+        let k_out = u32(clamp(floor((span.y - m.t_enter - m.first) / m.ds) + 3.0, 1.0, f32(n)));
+        n_to = select(1u, k_out, span.x <= span.y);
+#endif
         // The first k at which the loop below ends: segments k.. are left to the tail.
-        let last = 1u + UNROLL * ((max(n, UNROLL + 1u) - UNROLL - 1u + UNROLL - 1u) / UNROLL);
+        let last = 1u + UNROLL * ((max(n_to, UNROLL + 1u) - UNROLL - 1u + UNROLL - 1u) / UNROLL);
         // f32 sums the interior segments in blocks of 64 (16 iterations) that join the ray's
         // totals together: a 64th of the additions to the large running sums, so about a 64th
         // of their rounding drift on long rays of nearly equal contributions. The blocks are
@@ -327,7 +370,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 #if SKIPPING
         let sr = skip_ray(inner);
 #endif
-        while (k + UNROLL < n && !s.stopped) {
+        while (k + UNROLL < n_to && !s.stopped) {
 #if SKIPPING
             // Jump from empty block to empty block until the next group of samples is not
             // empty: a loop of lookups only (lavapipe runs both sides of a branch, but a loop
@@ -339,7 +382,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 }
                 k = next;
             }
-            if (k + UNROLL >= n) {
+            if (k + UNROLL >= n_to) {
                 break;
             }
 #endif
@@ -372,7 +415,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             s.color += block.color;
             s.tau += block.tau;
         }
-        // At most three interior segments and the last one remain.
+        // At most three interior segments and the last one remain (past the hull, segments
+        // that composite nothing).
         s.ta = segment_end(m, k - 1u);
         march_step(&s, m, k);
         march_step(&s, m, k + 1u);

@@ -28,6 +28,10 @@ struct Params {
     // box's lower corner) whose segment midpoints this rank composites, z the global index of
     // the first z-slice in the texture, w the volume's global slice count.
     slab: vec4<f32>,
+    // Empty-space skipping (SKIPPING only): the hull of the cells that are not empty, the lowest
+    // and highest projection on each of 13 directions (HULL_DIRECTIONS in
+    // src/render/skipping.rs), direction i in hull[i / 2].xy (even i) or .zw (odd i).
+    hull: array<vec4<f32>, 7>,
 }
 
 // 0: lookup table, 1: emission–absorption e·v, a·v.

@@ -94,6 +94,8 @@ pub(crate) const PIPELINES: &[(&str, &[&[&str]])] = &[
             &["SHADING", "PREINTEGRATED"],
             &["SLAB"],
             &["SLAB", "SHADING"],
+            &["SKIPPING"],
+            &["SKIPPING", "HW_FILTER", "SHADING"],
         ],
     ),
     ("volume_f64.wgsl", &[&[]]),

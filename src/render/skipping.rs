@@ -84,7 +84,60 @@ pub(crate) struct SkipGrid {
     /// Voxels per cell edge.
     pub edge: usize,
     pub empty: usize,
+    /// The cells that are not empty, bounded by the slabs of [`HULL_DIRECTIONS`].
+    hull: [[f32; 2]; 13],
     view: wgpu::TextureView,
+}
+
+/// The directions of the slabs that bound the cells that are not empty, in texture
+/// coordinates: the axes, the face diagonals and the body diagonals (a 26-sided hull, which cuts
+/// the corners and edges of the box that a shell or a mask leaves empty). Mirrored by the
+/// shader's `hull_span`.
+pub(crate) const HULL_DIRECTIONS: [[f32; 3]; 13] = [
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [1.0, 1.0, 0.0],
+    [1.0, -1.0, 0.0],
+    [1.0, 0.0, 1.0],
+    [1.0, 0.0, -1.0],
+    [0.0, 1.0, 1.0],
+    [0.0, 1.0, -1.0],
+    [1.0, 1.0, 1.0],
+    [1.0, 1.0, -1.0],
+    [1.0, -1.0, 1.0],
+    [1.0, -1.0, -1.0],
+];
+
+/// Per direction of [`HULL_DIRECTIONS`], the smallest and largest projection of the corners of
+/// the cells that are not empty, in texture coordinates (a cell of `edge` voxels at c spans
+/// c·edge/dims to (c + 1)·edge/dims, the last cut at 1). With every cell empty, an empty
+/// interval (lowest above highest).
+pub(crate) fn hull(
+    empty: &[bool],
+    grid: [usize; 3],
+    edge: usize,
+    dims: [usize; 3],
+) -> [[f32; 2]; 13] {
+    let mut hull = [[f32::INFINITY, f32::NEG_INFINITY]; 13];
+    let [nx, ny, _] = grid;
+    for (i, _) in empty.iter().enumerate().filter(|(_, &e)| !e) {
+        let c = [i % nx, (i / nx) % ny, i / (nx * ny)];
+        let lo = [0, 1, 2].map(|a| (c[a] * edge) as f32 / dims[a] as f32);
+        let hi = [0, 1, 2].map(|a| (((c[a] + 1) * edge).min(dims[a])) as f32 / dims[a] as f32);
+        for (h, d) in hull.iter_mut().zip(&HULL_DIRECTIONS) {
+            // The box's extreme projections: per axis the corner that lowers or raises it.
+            let (mut low, mut high) = (0.0, 0.0);
+            for a in 0..3 {
+                let (p, q) = (d[a] * lo[a], d[a] * hi[a]);
+                low += p.min(q);
+                high += p.max(q);
+            }
+            h[0] = h[0].min(low);
+            h[1] = h[1].max(high);
+        }
+    }
+    hull
 }
 
 impl SkipGrid {
@@ -115,9 +168,21 @@ impl SkipGrid {
         SkipGrid {
             grid,
             edge: cells.edge(),
+            hull: hull(&empty, grid, cells.edge(), cells.layout.dims),
             empty: empty.iter().filter(|&&e| e).count(),
             view: texture.create_view(&Default::default()),
         }
+    }
+
+    /// The hull's slabs as the shader's `P.hull`: direction i's lowest and highest
+    /// projection in `hull[i / 2]`, .xy for even i and .zw for odd.
+    pub(crate) fn hull_params(&self) -> [[f32; 4]; 7] {
+        let mut p = [[0.0; 4]; 7];
+        for (i, h) in self.hull.iter().enumerate() {
+            p[i / 2][2 * (i % 2)] = h[0];
+            p[i / 2][2 * (i % 2) + 1] = h[1];
+        }
+        p
     }
 
     pub(crate) fn view(&self) -> &wgpu::TextureView {

@@ -32,6 +32,7 @@ pub(crate) struct VolumeParams {
     shading: [f32; 4],
     skip: [f32; 4],
     slab: [f32; 4],
+    hull: [[f32; 4]; 7],
 }
 
 /// Pipeline variants of the mapped ray caster, as bits of `PipelineKey::mapped`.
@@ -402,6 +403,9 @@ impl VolumeRenderer {
         frame.key.work = work;
         frame.key.skipping = skip.is_some();
         frame.params.skip = [skip.map_or(0, |g| g.edge) as f32, 0.0, 0.0, 0.0];
+        if let Some(g) = skip {
+            frame.params.hull = g.hull_params();
+        }
         if let Some(slab) = slab {
             // Slabs interpolate exactly: the texture unit's filter would see the slab's
             // texture, not the volume's.
@@ -778,6 +782,7 @@ fn volume_params(
         }),
         skip: [0.0; 4],
         slab: [0.0; 4],
+        hull: [[0.0; 4]; 7],
     }
 }
 
