@@ -21,8 +21,9 @@
 // Empty-space skipping (src/render/skipping.rs): per octant of ray directions (stacked along
 // z) and per cell of P.skip.x voxels, the edge d in cells of the largest cube of cells the
 // transfer function leaves empty that has the cell at a corner and reaches into the octant
-// (0: this cell is not empty).
-@group(0) @binding(5) var skip_grid: texture_3d<u32>;
+// (0: this cell is not empty), as bytes read as unorm (d / 255) through a nearest sampler.
+@group(0) @binding(5) var skip_grid: texture_3d<f32>;
+@group(0) @binding(6) var skip_sampler: sampler;
 #endif
 
 // Voxel counts of the whole volume: the texture's, or with SLAB the texture's x and y and the
@@ -185,7 +186,7 @@ fn inner_step(s: ptr<function, RayState>, c: Inner, k: u32) {
 fn skip_empty(r: SkipRay, k: u32, last: u32) -> u32 {
     let q = r.q0 + r.dq * f32(k);
     let cell = clamp(vec3<i32>(floor(q)), vec3<i32>(0), r.top);
-    let d = f32(textureLoad(skip_grid, cell + vec3<i32>(0, 0, r.layer), 0).r);
+    let d = round(255.0 * textureSampleLevel(skip_grid, skip_sampler, (vec3<f32>(cell + vec3<i32>(0, 0, r.layer)) + 0.5) * r.inv_cells, 0.0).r);
     let c = vec3<f32>(cell);
     let exits = (select(c - (d - 1.0), c + d, r.up) - q) * r.inv_dq;
     let t = min(exits.x, min(exits.y, exits.z));
@@ -195,9 +196,10 @@ fn skip_empty(r: SkipRay, k: u32, last: u32) -> u32 {
 
 // A ray's interior segments in skip-grid cells: the midpoint of segment k lies at q0 + dq k;
 // inv_dq is 1 / dq, or huge along an axis the ray does not move on (whose exit then never comes
-// first); `up` picks the cube's upper face as the exit; `top` is the last cell and `layer` the
-// first z of the ray's octant in the grid. Found once per ray, so each lookup
-// (on the samples' critical path: their position waits for it) multiplies where it divided.
+// first); `up` picks the cube's upper face as the exit; `top` is the last cell, `layer` the
+// first z of the ray's octant in the grid and inv_cells the grid's texel size. Found once per
+// ray, so each lookup (on the samples' critical path: their position waits for it) multiplies
+// where it divided.
 struct SkipRay {
     q0: vec3<f32>,
     dq: vec3<f32>,
@@ -205,6 +207,7 @@ struct SkipRay {
     up: vec3<bool>,
     top: vec3<i32>,
     layer: i32,
+    inv_cells: vec3<f32>,
 }
 
 fn skip_ray(c: Inner) -> SkipRay {
@@ -215,7 +218,7 @@ fn skip_ray(c: Inner) -> SkipRay {
     let up = select(vec3<bool>(true), dq >= vec3<f32>(0.0), moves);
     let cells = vec3<i32>(textureDimensions(skip_grid)) / vec3<i32>(1, 1, 8);
     let octant = select(1, 0, up.x) + select(2, 0, up.y) + select(4, 0, up.z);
-    return SkipRay(c.uvw * to_cells, dq, inv_dq, up, cells - vec3<i32>(1), octant * cells.z);
+    return SkipRay(c.uvw * to_cells, dq, inv_dq, up, cells - vec3<i32>(1), octant * cells.z, 1.0 / vec3<f32>(textureDimensions(skip_grid)));
 }
 
 // The ray's parameter interval within one slab of the hull: between the planes where its

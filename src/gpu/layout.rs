@@ -50,21 +50,6 @@ pub(crate) fn texture(
     )
 }
 
-/// A sampled unsigned-integer texture at `binding` (read with textureLoad).
-pub(crate) fn uint_texture(
-    binding: u32,
-    dimension: wgpu::TextureViewDimension,
-) -> wgpu::BindGroupLayoutEntry {
-    entry(
-        binding,
-        wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Uint,
-            view_dimension: dimension,
-            multisampled: false,
-        },
-    )
-}
-
 /// A write-only Rgba32Float 2-D storage texture at `binding`.
 pub(crate) fn storage_texture_rgba32f(binding: u32) -> wgpu::BindGroupLayoutEntry {
     entry(
@@ -82,6 +67,14 @@ pub(crate) fn filtering_sampler(binding: u32) -> wgpu::BindGroupLayoutEntry {
     entry(
         binding,
         wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+    )
+}
+
+/// A non-filtering (nearest) sampler at `binding`.
+pub(crate) fn nearest_sampler(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    entry(
+        binding,
+        wgpu::BindingType::Sampler(wgpu::SamplerBindingType::NonFiltering),
     )
 }
 

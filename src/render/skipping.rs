@@ -87,6 +87,7 @@ pub(crate) struct SkipGrid {
     /// The cells that are not empty, bounded by the slabs of [`HULL_DIRECTIONS`].
     hull: [[f32; 2]; 13],
     view: wgpu::TextureView,
+    sampler: wgpu::Sampler,
 }
 
 /// The directions of the slabs that bound the cells that are not empty, in texture
@@ -149,7 +150,7 @@ impl SkipGrid {
         let texture = ctx.texture_3d(
             "skip grid",
             stacked.map(|g| g as u32),
-            wgpu::TextureFormat::R8Uint,
+            wgpu::TextureFormat::R8Unorm,
         );
         ctx.queue.write_texture(
             texture.as_image_copy(),
@@ -171,6 +172,13 @@ impl SkipGrid {
             hull: hull(&empty, grid, cells.edge(), cells.layout.dims),
             empty: empty.iter().filter(|&&e| e).count(),
             view: texture.create_view(&Default::default()),
+            // Nearest texel, clamped to the edge (the defaults). The shader samples the bytes
+            // through the texture unit rather than loading them: on lavapipe the skipping march
+            // ran 1.55x against 1.47x the plain march, mean of five alternating builds.
+            sampler: ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("skip grid"),
+                ..Default::default()
+            }),
         }
     }
 
@@ -183,6 +191,10 @@ impl SkipGrid {
             p[i / 2][2 * (i % 2) + 1] = h[1];
         }
         p
+    }
+
+    pub(crate) fn sampler(&self) -> &wgpu::Sampler {
+        &self.sampler
     }
 
     pub(crate) fn view(&self) -> &wgpu::TextureView {

@@ -308,7 +308,10 @@ impl VolumeRenderer {
             entries.push(layout::filtering_sampler(4));
         }
         if key.skipping {
-            entries.push(layout::uint_texture(5, wgpu::TextureViewDimension::D3));
+            entries.extend([
+                layout::texture(5, wgpu::TextureViewDimension::D3, false),
+                layout::nearest_sampler(6),
+            ]);
         }
         if key.mapped > 0 {
             entries.extend([layout::uniform_buffer(5), layout::storage_buffer(6, true)]);
@@ -431,6 +434,10 @@ impl VolumeRenderer {
             entries.push(wgpu::BindGroupEntry {
                 binding: 5,
                 resource: wgpu::BindingResource::TextureView(grid.view()),
+            });
+            entries.push(wgpu::BindGroupEntry {
+                binding: 6,
+                resource: wgpu::BindingResource::Sampler(grid.sampler()),
             });
         }
         let (pixels, mut timing) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
