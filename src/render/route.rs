@@ -348,7 +348,7 @@ impl RenderSession {
             (RenderPath::InCore { skipping }, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
                 let grid = if skipping {
-                    Some(self.skip_grid(v, opts)?)
+                    Some(self.routed_skip_grid(v, opts)?)
                 } else {
                     None
                 };
@@ -543,6 +543,29 @@ impl RenderSession {
         )
     }
 
+    fn skip_grid_key(&self, volume: &Arc<Volume>, opts: &VolumeRenderOptions) -> u64 {
+        KeyBuilder::new("skip grid")
+            .u64(self.volume_key(volume))
+            .debug(&opts.tf)
+            .finish()
+    }
+
+    /// The skip grid the routing of this render fetched (and logged), fetched again without a
+    /// second line in the pass log; built if the cache has let it go meanwhile.
+    fn routed_skip_grid(
+        &self,
+        volume: &Arc<Volume>,
+        opts: &VolumeRenderOptions,
+    ) -> Result<Arc<SkipGrid>> {
+        match self
+            .cache()
+            .get::<SkipGrid>(self.skip_grid_key(volume, opts))
+        {
+            Some(g) => Ok(g),
+            None => self.skip_grid(volume, opts),
+        }
+    }
+
     /// The skip grid of `volume` under the options' transfer function, cached per function.
     pub(crate) fn skip_grid(
         &self,
@@ -550,10 +573,7 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<Arc<SkipGrid>> {
         let cells = self.cell_ranges(volume)?;
-        let key = KeyBuilder::new("skip grid")
-            .u64(self.volume_key(volume))
-            .debug(&opts.tf)
-            .finish();
+        let key = self.skip_grid_key(volume, opts);
         let ctx = self.context()?;
         self.stage_with(
             "skip-grid",
