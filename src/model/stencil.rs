@@ -28,6 +28,27 @@ fn stencil_voxels(b: usize, n: usize) -> [usize; 2] {
     [b.saturating_sub(1), b.min(n - 1)]
 }
 
+/// Along a row of n voxels' finiteness, the n + 1 stencils' (stencil_voxels): out[b] is
+/// finite[b - 1] and finite[b], clamped at the ends.
+fn pairs_and(finite: &[bool], out: &mut [bool]) {
+    let n = finite.len();
+    out[0] = finite[0];
+    out[n] = finite[n - 1];
+    and_into(&mut out[1..n], &finite[..n - 1], &finite[1..]);
+}
+
+fn and_into(out: &mut [bool], a: &[bool], b: &[bool]) {
+    for ((o, &x), &y) in out.iter_mut().zip(a).zip(b) {
+        *o = x & y;
+    }
+}
+
+fn or_into(out: &mut [bool], a: &[bool], b: &[bool]) {
+    for ((o, &x), &y) in out.iter_mut().zip(a).zip(b) {
+        *o = x | y;
+    }
+}
+
 /// One layer of cells (z index `cz`): which stencils of the layer are whole, and which voxels
 /// of its footprint belong to one.
 struct CellLayer<'a> {
@@ -67,73 +88,75 @@ impl<'a> CellLayer<'a> {
     }
 
     /// A stencil is whole when its eight voxels are finite: an AND over the two voxels of each
-    /// axis in turn.
+    /// axis in turn, a row at a time.
     fn whole_stencils(&self) -> Vec<bool> {
         let [nx, ny, nz] = self.layout.dims;
         let (sx, sy) = (nx + 1, ny + 1);
         let slices = self.z_hi - self.z_lo;
-        let data = &self.volume.data;
+        let data = &self.volume.data[nx * ny * self.z_lo..nx * ny * self.z_hi];
         let mut along_x = vec![false; slices * ny * sx];
-        for z in 0..slices {
-            for y in 0..ny {
-                let row = &data[nx * (y + ny * (z + self.z_lo))..][..nx];
-                for b in 0..sx {
-                    let [a, c] = stencil_voxels(b, nx);
-                    along_x[b + sx * (y + ny * z)] = row[a].is_finite() && row[c].is_finite();
-                }
+        let mut finite = vec![false; nx];
+        for (row, out) in data.chunks_exact(nx).zip(along_x.chunks_exact_mut(sx)) {
+            for (f, v) in finite.iter_mut().zip(row) {
+                *f = v.is_finite();
             }
+            pairs_and(&finite, out);
         }
         let mut along_xy = vec![false; slices * sy * sx];
-        for z in 0..slices {
-            for by in 0..sy {
+        for (plane, out) in along_x
+            .chunks_exact(ny * sx)
+            .zip(along_xy.chunks_exact_mut(sy * sx))
+        {
+            for (by, row) in out.chunks_exact_mut(sx).enumerate() {
                 let [a, c] = stencil_voxels(by, ny);
-                for bx in 0..sx {
-                    along_xy[bx + sx * (by + sy * z)] =
-                        along_x[bx + sx * (a + ny * z)] && along_x[bx + sx * (c + ny * z)];
-                }
+                and_into(row, &plane[a * sx..][..sx], &plane[c * sx..][..sx]);
             }
         }
-        let mut whole = vec![false; (self.b_hi - self.b_lo) * sy * sx];
-        for bz in self.b_lo..self.b_hi {
+        let plane = sy * sx;
+        let mut whole = vec![false; (self.b_hi - self.b_lo) * plane];
+        for (bz, out) in (self.b_lo..self.b_hi).zip(whole.chunks_exact_mut(plane)) {
             let [a, c] = stencil_voxels(bz, nz).map(|z| z - self.z_lo);
-            for i in 0..sy * sx {
-                whole[i + sy * sx * (bz - self.b_lo)] =
-                    along_xy[i + sy * sx * a] && along_xy[i + sy * sx * c];
-            }
+            and_into(
+                out,
+                &along_xy[a * plane..][..plane],
+                &along_xy[c * plane..][..plane],
+            );
         }
         whole
     }
 
     /// A voxel v belongs to stencils v and v + 1 along each axis: an OR over those in turn (in
-    /// z only over the layer's own stencils).
+    /// z only over the layer's own stencils), a row at a time.
     fn voxels_in_whole_stencils(&self) -> Vec<bool> {
         let [nx, ny, _] = self.layout.dims;
         let (sx, sy) = (nx + 1, ny + 1);
+        let plane = sy * sx;
         let slices = self.z_hi - self.z_lo;
-        let stencil = |bz: usize, i: usize| {
-            (self.b_lo..self.b_hi).contains(&bz) && self.whole[i + sy * sx * (bz - self.b_lo)]
-        };
-        let mut along_z = vec![false; slices * sy * sx];
-        for z in 0..slices {
-            let v = z + self.z_lo;
-            for i in 0..sy * sx {
-                along_z[i + sy * sx * z] = stencil(v, i) || stencil(v + 1, i);
+        let none = vec![false; plane];
+        let stencils = |bz: usize| -> &[bool] {
+            if (self.b_lo..self.b_hi).contains(&bz) {
+                &self.whole[(bz - self.b_lo) * plane..][..plane]
+            } else {
+                &none
             }
+        };
+        let mut along_z = vec![false; slices * plane];
+        for (z, out) in along_z.chunks_exact_mut(plane).enumerate() {
+            let v = z + self.z_lo;
+            or_into(out, stencils(v), stencils(v + 1));
         }
         let mut along_zy = vec![false; slices * ny * sx];
-        for z in 0..slices {
-            for y in 0..ny {
-                for bx in 0..sx {
-                    let at = |by: usize| along_z[bx + sx * (by + sy * z)];
-                    along_zy[bx + sx * (y + ny * z)] = at(y) || at(y + 1);
-                }
+        for (src, out) in along_z
+            .chunks_exact(plane)
+            .zip(along_zy.chunks_exact_mut(ny * sx))
+        {
+            for (y, row) in out.chunks_exact_mut(sx).enumerate() {
+                or_into(row, &src[y * sx..][..sx], &src[(y + 1) * sx..][..sx]);
             }
         }
         let mut voxels = vec![false; slices * ny * nx];
-        for zy in 0..slices * ny {
-            for x in 0..nx {
-                voxels[x + nx * zy] = along_zy[x + sx * zy] || along_zy[x + 1 + sx * zy];
-            }
+        for (src, out) in along_zy.chunks_exact(sx).zip(voxels.chunks_exact_mut(nx)) {
+            or_into(out, &src[..nx], &src[1..]);
         }
         voxels
     }
