@@ -208,8 +208,8 @@ impl<'a> CellLayer<'a> {
 mod tests {
     use super::*;
 
-    /// The ranges by brute force: every sample position of a fine lattice inside each cell,
-    /// its stencil, and the values of the stencils without a missing voxel.
+    /// The ranges by brute force: every stencil the samples inside each cell use, and the
+    /// values of those without a missing voxel.
     fn brute(volume: &Volume, layout: &BrickLayout) -> Vec<BrickRange> {
         let [nx, ny, nz] = layout.dims;
         let e = layout.brick;
