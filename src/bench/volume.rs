@@ -36,7 +36,11 @@ pub struct BenchRow {
 pub struct PeerResult {
     pub name: String,
     pub detail: String,
+    /// The median of the mapper's round medians.
     pub median_ms: Option<f64>,
+    /// Per round: the mapper's median over hdrvis's median of the same round.
+    pub ratios: Vec<f64>,
+    /// Why the mapper's rounds ended early, or why it did not run.
     pub error: Option<String>,
 }
 
@@ -99,11 +103,14 @@ pub fn volume_scenes(quick: bool) -> Vec<(VolumeScene, usize, u32)> {
 }
 
 /// Times the volume ray caster on `scenes`, axis view, one sample per voxel; with `breakdown`,
-/// also each stage of the per-sample work (SampleWork); with `peer`, VTK's mappers.
+/// also each stage of the per-sample work (SampleWork); with `peer`, VTK's mappers. The timing
+/// goes in `rounds` (at least one): hdrvis's `runs`, then each peer mapper's, back to back, so
+/// that each round's ratios compare times taken a few seconds apart on a machine whose speed
+/// drifts.
 pub fn bench_volume_render(
     ctx: Arc<GpuContext>,
     scenes: &[(VolumeScene, usize, u32)],
-    runs: usize,
+    (runs, rounds): (usize, usize),
     peer: Option<&Path>,
     breakdown: bool,
     log: &mut dyn FnMut(&str),
@@ -120,17 +127,30 @@ pub fn bench_volume_render(
         opts.width = px;
         opts.height = px;
         opts.step = 1.0;
-        // Warm-up: pipeline compilation and first-touch costs are not part of a frame.
-        let source = VolumeSource::Memory(vol.clone());
-        let (
-            RenderRuns {
-                ms: runs_ms,
-                gpu_ms,
-            },
-            _,
-        ) = time_renders(&session, &source, &opts, runs)?;
         let name = format!("{} {n}^3 -> {px}^2", scene.name());
-        log(&format!("{name}: median {:.1} ms", median(&runs_ms)));
+        let source = VolumeSource::Memory(vol.clone());
+        let peer = match peer {
+            Some(script) => Some(PeerInputs::write(
+                script,
+                &vol,
+                &opts.tf.resolve(&vol.stats())?,
+            )),
+            None => None,
+        };
+        let mut times = RenderRuns::default();
+        let mut peers: Vec<PeerRounds> = Vec::new();
+        for round in 0..rounds.max(1) {
+            // Each round warms up again: pipeline compilation and first-touch costs are not
+            // part of a frame, and a peer process has run in between.
+            let (r, _) = time_renders(&session, &source, &opts, runs)?;
+            let ours = median(&r.ms);
+            log(&format!("{name}: round {}: median {ours:.1} ms", round + 1));
+            times.ms.extend(r.ms);
+            times.gpu_ms.extend(r.gpu_ms);
+            if let Some(inputs) = &peer {
+                run_vtk_round(inputs, px, runs, ours, &mut peers, log);
+            }
+        }
         let mut stages: Vec<(SampleWork, Vec<f64>)> = Vec::new();
         if breakdown {
             log(&format!("{name}: timing the stages of a sample ..."));
@@ -139,19 +159,12 @@ pub fn bench_volume_render(
             let gv = session.upload(&vol)?;
             stages = time_sample_stages(&*session.volume_renderer()?, &gv, &opts, runs)?;
         }
-        let peers = match peer {
-            Some(script) => {
-                let tf = opts.tf.resolve(&vol.stats())?;
-                run_vtk_peers(script, &vol, &tf, px, runs, log)
-            }
-            None => Vec::new(),
-        };
         rows.push(BenchRow {
             name,
             samples: px as u64 * px as u64 * n as u64,
-            runs_ms,
-            gpu_ms,
-            peers,
+            runs_ms: times.ms,
+            gpu_ms: times.gpu_ms,
+            peers: peers.into_iter().map(PeerRounds::result).collect(),
             stages,
         });
     }
@@ -187,59 +200,111 @@ const VTK_MAPPERS: [&str; 2] = ["gpu", "fixedpoint"];
 /// Threads of VTK's fixed-point CPU ray caster: the machine's two cores, as lavapipe uses.
 const VTK_CPU_THREADS: usize = 2;
 
-/// Runs each of VTK's mappers through `tests/python/vtk_volume_bench.py` on the same volume,
-/// image size, sample distance and (sampled) transfer function.
-fn run_vtk_peers(
-    script: &Path,
-    vol: &Volume,
-    tf: &ResolvedTransfer,
+/// The peer's script and its inputs, written once per scene into a directory that lives as long
+/// as this does (or why they could not be written).
+struct PeerInputs {
+    script: PathBuf,
+    files: std::result::Result<(tempfile::TempDir, PathBuf, PathBuf), String>,
+}
+
+impl PeerInputs {
+    fn write(script: &Path, vol: &Volume, tf: &ResolvedTransfer) -> PeerInputs {
+        let files = tempfile::tempdir()
+            .map_err(|e| e.to_string())
+            .and_then(|dir| {
+                let (npy, tf) = write_peer_inputs(dir.path(), vol, tf)?;
+                Ok((dir, npy, tf))
+            });
+        PeerInputs {
+            script: script.to_path_buf(),
+            files,
+        }
+    }
+}
+
+/// One peer mapper over the rounds so far: its median of each round, its ratio to hdrvis's
+/// median of the same round, and the error that ended its rounds, if one did.
+struct PeerRounds {
+    mapper: &'static str,
+    detail: String,
+    medians: Vec<f64>,
+    ratios: Vec<f64>,
+    error: Option<String>,
+}
+
+impl PeerRounds {
+    fn result(self) -> PeerResult {
+        PeerResult {
+            name: format!("vtk {}", self.mapper),
+            detail: self.detail,
+            median_ms: (!self.medians.is_empty()).then(|| median(&self.medians)),
+            ratios: self.ratios,
+            error: self.error,
+        }
+    }
+}
+
+/// One round of each VTK mapper whose rounds have not failed: its median over `runs` and its
+/// ratio to `ours`, hdrvis's median of the same round.
+fn run_vtk_round(
+    inputs: &PeerInputs,
     px: u32,
     runs: usize,
+    ours: f64,
+    peers: &mut Vec<PeerRounds>,
     log: &mut dyn FnMut(&str),
-) -> Vec<PeerResult> {
-    let fail = |mapper: &str, e: String| PeerResult {
-        name: format!("vtk {mapper}"),
-        detail: String::new(),
-        median_ms: None,
-        error: Some(e),
-    };
-    let dir = match tempfile::tempdir() {
-        Ok(d) => d,
-        Err(e) => return vec![fail("peer", e.to_string())],
-    };
-    let (npy, tf_path) = match write_peer_inputs(dir.path(), vol, tf) {
-        Ok(paths) => paths,
-        Err(e) => return vec![fail("peer", e)],
-    };
-    let mut results = Vec::new();
-    for mapper in VTK_MAPPERS {
-        log(&format!("running peer vtk ({mapper}) at {px}^2 ..."));
-        let out = std::process::Command::new("python3")
-            .arg(script)
-            .args(["--npy", &npy.display().to_string()])
-            .args(["--width", &px.to_string(), "--height", &px.to_string()])
-            .args(["--sample-distance", "1.0"])
-            .args(["--runs", &runs.max(1).to_string()])
-            .args(["--mapper", mapper])
-            .args(["--threads", &VTK_CPU_THREADS.to_string()])
-            .args(["--tf", &tf_path.display().to_string()])
-            .output();
-        let result = match out {
-            Err(e) => fail(mapper, format!("cannot run python3: {e}")),
-            Ok(out) if !out.status.success() => fail(
-                mapper,
-                String::from_utf8_lossy(&out.stderr)
-                    .lines()
-                    .last()
-                    .unwrap_or("failed")
-                    .to_string(),
-            ),
-            Ok(out) => parse_peer_output(mapper, &String::from_utf8_lossy(&out.stdout))
-                .unwrap_or_else(|e| fail(mapper, e)),
-        };
-        results.push(result);
+) {
+    if peers.is_empty() {
+        peers.extend(VTK_MAPPERS.map(|mapper| PeerRounds {
+            mapper,
+            detail: String::new(),
+            medians: Vec::new(),
+            ratios: Vec::new(),
+            error: None,
+        }));
     }
-    results
+    for p in peers.iter_mut().filter(|p| p.error.is_none()) {
+        log(&format!("running peer vtk ({}) at {px}^2 ...", p.mapper));
+        match run_vtk_mapper(inputs, p.mapper, px, runs) {
+            Ok((median_ms, detail)) => {
+                p.medians.push(median_ms);
+                p.ratios.push(median_ms / ours);
+                p.detail = detail;
+            }
+            Err(e) => p.error = Some(e),
+        }
+    }
+}
+
+/// One VTK mapper through `tests/python/vtk_volume_bench.py` on the same volume, image size,
+/// sample distance and (sampled) transfer function: its median ms and what ran, or why it did
+/// not.
+fn run_vtk_mapper(
+    inputs: &PeerInputs,
+    mapper: &str,
+    px: u32,
+    runs: usize,
+) -> std::result::Result<(f64, String), String> {
+    let (_, npy, tf_path) = inputs.files.as_ref().map_err(Clone::clone)?;
+    let out = std::process::Command::new("python3")
+        .arg(&inputs.script)
+        .args(["--npy", &npy.display().to_string()])
+        .args(["--width", &px.to_string(), "--height", &px.to_string()])
+        .args(["--sample-distance", "1.0"])
+        .args(["--runs", &runs.max(1).to_string()])
+        .args(["--mapper", mapper])
+        .args(["--threads", &VTK_CPU_THREADS.to_string()])
+        .args(["--tf", &tf_path.display().to_string()])
+        .output()
+        .map_err(|e| format!("cannot run python3: {e}"))?;
+    if !out.status.success() {
+        return Err(String::from_utf8_lossy(&out.stderr)
+            .lines()
+            .last()
+            .unwrap_or("failed")
+            .to_string());
+    }
+    parse_peer_output(&String::from_utf8_lossy(&out.stdout))
 }
 
 /// Writes the peer's inputs into `dir`: the volume as `volume.npy` (missing values replaced by
@@ -296,8 +361,9 @@ fn peer_tf_json(tf: &ResolvedTransfer, samples: &[f64], missing: Option<f64>) ->
     )
 }
 
-/// The peer's result from the last JSON line of its output, or why there is none.
-fn parse_peer_output(mapper: &str, text: &str) -> std::result::Result<PeerResult, String> {
+/// The peer's median ms and what ran, from the last JSON line of its output, or why there is
+/// none.
+fn parse_peer_output(text: &str) -> std::result::Result<(f64, String), String> {
     let line = text
         .lines()
         .rev()
@@ -317,17 +383,15 @@ fn parse_peer_output(mapper: &str, text: &str) -> std::result::Result<PeerResult
         }
     };
     match field("median_ms").and_then(|m| m.parse::<f64>().ok()) {
-        Some(m) => Ok(PeerResult {
-            name: format!("vtk {mapper}"),
-            detail: format!(
+        Some(m) => Ok((
+            m,
+            format!(
                 "{} (VTK {}) on {}",
                 field("mapper").unwrap_or_default(),
                 field("vtk_version").unwrap_or_default(),
                 field("gl_renderer").unwrap_or_default()
             ),
-            median_ms: Some(m),
-            error: None,
-        }),
+        )),
         None => Err(format!("unexpected peer output: {line}")),
     }
 }
@@ -367,7 +431,7 @@ fn vtk_peer_script() -> Result<PathBuf> {
 
 /// The table `hdrvis bench volume` prints: hdrvis's row, then one line per peer mapper.
 pub fn format_volume_table(adapter: &str, rows: &[BenchRow]) -> String {
-    let mut s = format!("adapter: {adapter}\nvolume benchmark: axis view, f32, 1 sample/voxel, empty-space skipping as routed, median of runs (wall clock to the image in host memory; GPU ms: the ray-casting pass on the device's clock); blobs: log10 TF; mantle: Fig. 5 symlog TF, missing data outside the shell and in the core\n");
+    let mut s = format!("adapter: {adapter}\nvolume benchmark: axis view, f32, 1 sample/voxel, empty-space skipping as routed, median of runs (wall clock to the image in host memory; GPU ms: the ray-casting pass on the device's clock; a peer's x: the median over rounds of its median over hdrvis's, the two timed back to back); blobs: log10 TF; mantle: Fig. 5 symlog TF, missing data outside the shell and in the core\n");
     s.push_str(&format!(
         "{:<24} {:>12} {:>10} {:>11} {:>10} {:>6}\n",
         "scene", "samples", "median ms", "Msamples/s", "GPU ms", "runs"
@@ -389,11 +453,19 @@ pub fn format_volume_table(adapter: &str, rows: &[BenchRow]) -> String {
         ));
         for p in &r.peers {
             let line = match (p.median_ms, &p.error) {
-                (Some(m), _) => format!(
-                    "{m:.1} ms, {:.2}x hdrvis's time [{}]",
-                    m / r.median_ms(),
-                    p.detail
-                ),
+                (Some(m), error) => {
+                    let rounds: Vec<String> = p.ratios.iter().map(|x| format!("{x:.2}")).collect();
+                    let failed = error
+                        .as_ref()
+                        .map(|e| format!("; a later round failed: {e}"))
+                        .unwrap_or_default();
+                    format!(
+                        "{m:.1} ms, {:.2}x hdrvis's time (rounds: {}{failed}) [{}]",
+                        median(&p.ratios),
+                        rounds.join(" "),
+                        p.detail
+                    )
+                }
                 (None, Some(e)) => format!("unavailable: {e}"),
                 _ => String::new(),
             };
@@ -429,4 +501,54 @@ pub fn format_breakdown_table(rows: &[BenchRow]) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row_with_peer(ratios: Vec<f64>, error: Option<String>) -> BenchRow {
+        BenchRow {
+            name: "mantle 257^3 -> 512^2".into(),
+            samples: 1,
+            runs_ms: vec![400.0, 500.0, 450.0],
+            peers: vec![PeerResult {
+                name: "vtk fixedpoint".into(),
+                detail: "vtkFixedPointVolumeRayCastMapper (VTK 9.7.2) on llvmpipe".into(),
+                median_ms: Some(600.0),
+                ratios,
+                error,
+            }],
+            stages: Vec::new(),
+            gpu_ms: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_peer_ratio_is_the_median_of_its_rounds_not_of_pooled_times() {
+        // Pooled medians would give 600 / 450 = 1.33x; the rounds' own ratios say 1.60x.
+        let table = format_volume_table("test", &[row_with_peer(vec![1.2, 1.6, 1.7], None)]);
+        assert!(
+            table.contains("600.0 ms, 1.60x hdrvis's time (rounds: 1.20 1.60 1.70)"),
+            "{table}"
+        );
+        let failed =
+            format_volume_table("test", &[row_with_peer(vec![1.5], Some("no EGL".into()))]);
+        assert!(
+            failed.contains("1.50x hdrvis's time (rounds: 1.50; a later round failed: no EGL)"),
+            "{failed}"
+        );
+    }
+
+    #[test]
+    fn the_peer_json_line_gives_its_median_and_what_ran() {
+        let out = "VTK chatter\n{\"peer\": \"vtk\", \"mapper\": \"vtkFixedPointVolumeRayCastMapper\", \"vtk_version\": \"9.7.2\", \"gl_renderer\": \"llvmpipe (LLVM 15)\", \"median_ms\": 588.25, \"runs_ms\": [1.0]}\n";
+        let (ms, detail) = parse_peer_output(out).unwrap();
+        assert_eq!(ms, 588.25);
+        assert_eq!(
+            detail,
+            "vtkFixedPointVolumeRayCastMapper (VTK 9.7.2) on llvmpipe (LLVM 15)"
+        );
+        assert!(parse_peer_output("no json here").is_err());
+    }
 }

@@ -18,8 +18,9 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             runs,
             quick,
             peer,
+            rounds,
             breakdown,
-        } => bench_volume(backend, runs, quick, peer.as_deref(), breakdown),
+        } => bench_volume(backend, (runs, rounds), quick, peer.as_deref(), breakdown),
         BenchCommand::Accuracy {
             runs,
             size,
@@ -165,7 +166,7 @@ fn gpu(backend: BackendChoice) -> Result<(Arc<GpuContext>, String)> {
 
 fn bench_volume(
     backend: BackendChoice,
-    runs: usize,
+    runs: (usize, usize),
     quick: bool,
     peer: Option<&str>,
     breakdown: bool,
