@@ -24,10 +24,7 @@ use std::sync::Arc;
 /// skip about 10 % more of the time than 8-voxel ones; `hdrvis bench skipping`).
 pub(crate) fn cell_edge(dims: [usize; 3]) -> usize {
     if dims.iter().all(|&d| d <= 384) {
-        std::env::var("HDRVIS_CELL")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(4)
+        4
     } else {
         8
     }
