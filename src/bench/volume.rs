@@ -103,10 +103,9 @@ pub fn volume_scenes(quick: bool) -> Vec<(VolumeScene, usize, u32)> {
 }
 
 /// Times the volume ray caster on `scenes`, axis view, one sample per voxel; with `breakdown`,
-/// also each stage of the per-sample work (SampleWork); with `peer`, VTK's mappers. The timing
-/// goes in `rounds` (at least one): hdrvis's `runs`, then each peer mapper's, back to back, so
-/// that each round's ratios compare times taken a few seconds apart on a machine whose speed
-/// drifts.
+/// also each stage of the per-sample work (SampleWork); with `peer`, VTK's mappers, the timing in
+/// `rounds` (at least one): hdrvis's `runs`, then each peer mapper's, back to back, so that each
+/// round's ratios compare times taken seconds apart on a machine whose speed drifts.
 pub fn bench_volume_render(
     ctx: Arc<GpuContext>,
     scenes: &[(VolumeScene, usize, u32)],
@@ -139,7 +138,8 @@ pub fn bench_volume_render(
         };
         let mut times = RenderRuns::default();
         let mut peers: Vec<PeerRounds> = Vec::new();
-        for round in 0..rounds.max(1) {
+        let rounds = if peer.is_some() { rounds.max(1) } else { 1 };
+        for round in 0..rounds {
             // Each round warms up again: pipeline compilation and first-touch costs are not
             // part of a frame, and a peer process has run in between.
             let (r, _) = time_renders(&session, &source, &opts, runs)?;

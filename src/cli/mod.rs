@@ -197,8 +197,8 @@ pub enum BenchCommand {
         /// same llvmpipe, and its fixed-point CPU ray caster on two threads).
         #[arg(long)]
         peer: Option<String>,
-        /// Rounds of timing: hdrvis's runs, then each peer's, back to back; a peer's ratio is
-        /// the median of the rounds' ratios.
+        /// With --peer: rounds of timing, hdrvis's runs then each peer's, back to back; a peer's
+        /// ratio is the median of the rounds' ratios.
         #[arg(long, default_value_t = 3)]
         rounds: usize,
         /// Also time each stage of the per-sample work (march, volume sample, scale, table
