@@ -8,7 +8,7 @@ use super::volume::VolumeScene;
 use super::{max_diff, median, process_cpu_ms, timing_session};
 use crate::error::Result;
 use crate::gpu::GpuContext;
-use crate::model::{Camera, Volume};
+use crate::model::{Axis, Camera, Volume};
 use crate::render::{RenderPath, VolumeRenderOptions, VolumeSource};
 use std::sync::Arc;
 
@@ -32,6 +32,32 @@ pub struct SkippingRow {
     pub diff: f64,
 }
 
+/// The view the skipping benchmark renders from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SkippingView {
+    /// 35° azimuth, 20° elevation, 25° field of view: rays at every angle to the grid.
+    Orbit,
+    /// Along the z axis, the x/y extent framed: `hdrvis bench volume`'s view, where VTK's
+    /// mappers run beside hdrvis.
+    Axis,
+}
+
+impl SkippingView {
+    fn camera(self, vol: &Volume) -> Result<Camera> {
+        match self {
+            SkippingView::Orbit => Camera::orbit(&vol.bounds(), 35.0, 20.0, 25.0),
+            SkippingView::Axis => Ok(Camera::axis(Axis::Z, &vol.bounds())),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            SkippingView::Orbit => "orbit view",
+            SkippingView::Axis => "axis view",
+        }
+    }
+}
+
 /// The scenes: (scene, volume side, image side). `quick` keeps the small sizes only.
 fn scenes(quick: bool) -> Vec<(VolumeScene, usize, u32)> {
     let (mantle, blobs) = (VolumeScene::Mantle, VolumeScene::Blobs);
@@ -46,11 +72,12 @@ fn scenes(quick: bool) -> Vec<(VolumeScene, usize, u32)> {
     v
 }
 
-/// Times every scene with skipping off and on, `runs` times each after a warm-up.
+/// Times every scene from `view` with skipping off and on, `runs` times each after a warm-up.
 pub fn bench_skipping(
     ctx: Arc<GpuContext>,
     runs: usize,
     quick: bool,
+    view: SkippingView,
     log: &mut dyn FnMut(&str),
 ) -> Result<Vec<SkippingRow>> {
     let mut rows = Vec::new();
@@ -68,8 +95,7 @@ pub fn bench_skipping(
                 v
             }
         };
-        let camera = Camera::orbit(&vol.bounds(), 35.0, 20.0, 25.0)?;
-        let mut o = VolumeRenderOptions::new(camera, scene.tf());
+        let mut o = VolumeRenderOptions::new(view.camera(&vol)?, scene.tf());
         (o.width, o.height, o.step) = (px, px, 1.0);
         let name = format!("{} {n}^3 -> {px}^2", scene.name());
         log(&format!("{name} ..."));
@@ -158,9 +184,10 @@ pub(crate) fn paired_speed_up(plain: &[f64], skipping: &[f64]) -> f64 {
     median(&ratios)
 }
 
-pub fn format_skipping_table(adapter: &str, rows: &[SkippingRow]) -> String {
+pub fn format_skipping_table(adapter: &str, view: SkippingView, rows: &[SkippingRow]) -> String {
     let mut s = format!(
-        "adapter: {adapter}\nempty-space skipping in the in-core ray caster: orbit view, 1 sample/voxel, f32, auto filter, pairs of runs back to back, plain or skipping first in turn\n"
+        "adapter: {adapter}\nempty-space skipping in the in-core ray caster: {}, 1 sample/voxel, f32, auto filter, pairs of runs back to back, plain or skipping first in turn\n",
+        view.name()
     );
     s.push_str(&format!(
         "{:<28} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8} {:>8} {:>9} {:>10}  {}\n",

@@ -2,7 +2,7 @@
 //! and its table on stdout (the accuracy benchmark also writes its files and, on a terminal,
 //! shows its chart inline).
 
-use super::BenchCommand;
+use super::{BenchCommand, SkippingViewArg};
 use hdrvis::bench::{
     accuracy, bricks, datasets, effects, skipping, spherical, surface, tonemap, tui, volume,
 };
@@ -60,10 +60,14 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             );
             Ok(())
         }
-        BenchCommand::Skipping { runs, quick } => {
+        BenchCommand::Skipping { runs, quick, view } => {
+            let view = match view {
+                SkippingViewArg::Orbit => skipping::SkippingView::Orbit,
+                SkippingViewArg::Axis => skipping::SkippingView::Axis,
+            };
             let (ctx, adapter) = gpu(backend)?;
-            let rows = skipping::bench_skipping(ctx, runs, quick, &mut progress)?;
-            print!("{}", skipping::format_skipping_table(&adapter, &rows));
+            let rows = skipping::bench_skipping(ctx, runs, quick, view, &mut progress)?;
+            print!("{}", skipping::format_skipping_table(&adapter, view, &rows));
             Ok(())
         }
         BenchCommand::Large {

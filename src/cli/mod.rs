@@ -182,6 +182,12 @@ pub struct TuiArgs {
     pub protocol: Option<String>,
 }
 
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SkippingViewArg {
+    Orbit,
+    Axis,
+}
+
 #[derive(Subcommand, Debug)]
 pub enum BenchCommand {
     /// Volume ray casting, one sample per voxel, on the HDR blobs and the mantle (Fig. 5 TF):
@@ -254,6 +260,9 @@ pub enum BenchCommand {
         /// Only the 257^3 mantle and the 256^3 blobs.
         #[arg(long)]
         quick: bool,
+        /// `orbit` (rays at every angle to the grid) or `axis` (bench volume's view, along z).
+        #[arg(long, value_enum, default_value_t = SkippingViewArg::Orbit)]
+        view: SkippingViewArg,
     },
     /// Empty-space skipping: the mantle's temperature fluctuation N^3 -> SIZE^2 with the plain
     /// ray caster and the bricked one, each without and with skipping (Fig. 5 TF and hot plumes
