@@ -11,6 +11,15 @@ use hdrvis::Result;
 use std::path::Path;
 use std::sync::Arc;
 
+impl From<SkippingViewArg> for skipping::SkippingView {
+    fn from(view: SkippingViewArg) -> Self {
+        match view {
+            SkippingViewArg::Orbit => skipping::SkippingView::Orbit,
+            SkippingViewArg::Axis => skipping::SkippingView::Axis,
+        }
+    }
+}
+
 /// Runs the benchmark `cmd` names and prints its report.
 pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
     match cmd {
@@ -61,10 +70,7 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             Ok(())
         }
         BenchCommand::Skipping { runs, quick, view } => {
-            let view = match view {
-                SkippingViewArg::Orbit => skipping::SkippingView::Orbit,
-                SkippingViewArg::Axis => skipping::SkippingView::Axis,
-            };
+            let view = view.into();
             let (ctx, adapter) = gpu(backend)?;
             let rows = skipping::bench_skipping(ctx, runs, quick, view, &mut progress)?;
             print!("{}", skipping::format_skipping_table(&adapter, view, &rows));
