@@ -293,9 +293,9 @@ fn march_slab(m: March, origin_z: f32, dir_z: f32) -> RayState {
 }
 #endif
 
-// Steps per loop iteration. llvmpipe ends any loop after 65535 iterations, so a ray can take at
-// most 4 * 65535 steps (src/render/volume.rs refuses renders that would need more).
-const UNROLL: u32 = 4u;
+// UNROLL (shared/march.wgsl) steps per loop iteration. llvmpipe ends any loop after 65535
+// iterations, so a ray can take at most 4 * 65535 steps (src/render/volume.rs refuses renders
+// that would need more).
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -347,7 +347,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         // go through march_step; the segments between all have length ds, so their midpoints
         // form an arithmetic sequence and need no clamping or carried end point.
         march_step(&s, m, 0u);
-        let inner = Inner(m.uvw0 + m.duvw * (m.t_enter + m.first - 0.5 * m.ds), m.duvw * m.ds,
+        let inner = Inner(interior_origin(m), m.duvw * m.ds,
                           m.ds * m.voxels_per_unit, m.stop_tau, m.dir);
         var k = 1u;
         // The segments the loop and the tail march: 1..n_to, all of them without skipping.
@@ -362,7 +362,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         n_to = select(1u, k_out, span.x <= span.y);
 #endif
         // The first k at which the loop below ends: segments k.. are left to the tail.
-        let last = 1u + UNROLL * ((max(n_to, UNROLL + 1u) - UNROLL - 1u + UNROLL - 1u) / UNROLL);
+        let last = interior_end(n_to);
         // f32 sums the interior segments in blocks of 64 (16 iterations) that join the ray's
         // totals together: a 64th of the additions to the large running sums, so about a 64th
         // of their rounding drift on long rays of nearly equal contributions. The blocks are
@@ -390,7 +390,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
 #endif
             if (PRECISION == 0u) {
-                let b = (k - 1u) / 64u;
+                let b = sum_block(k);
                 if (b != block_index) {
                     s.color += block.color;
                     s.tau += block.tau;

@@ -88,8 +88,11 @@ fn march_step(s: ptr<function, RayState>, c: ptr<function, Cursor>, m: March) {
     }
     let k = (*c).k;
     let tb = segment_end(m, k);
+    // The in-core march's positions and lengths (shared/march.wgsl interior_end).
+    let interior = k >= 1u && k < interior_end(m.steps);
     let mid = 0.5 * ((*s).ta + tb);
-    let pv = (m.uvw0 + m.duvw * mid) * vec3<f32>(BR.dims.xyz);
+    let uvw = select(m.uvw0 + m.duvw * mid, interior_origin(m) + (m.duvw * m.ds) * f32(k), interior);
+    let pv = uvw * vec3<f32>(BR.dims.xyz);
     if (k >= (*c).k_end) {
         // B is a power of two, so the scaling is exact.
         let bc = vec3<u32>(clamp(floor(pv / f32(BR.dims.w)), vec3<f32>(0.0), vec3<f32>(BR.grid.xyz - vec3<u32>(1u))));
@@ -124,17 +127,47 @@ fn march_step(s: ptr<function, RayState>, c: ptr<function, Cursor>, m: March) {
         }
         (*c).k_end = end;
         if (entry == EMPTY) {
-            // Every sample up to the exit is transparent: they would add exactly nothing.
+            // Every sample up to the exit is transparent: they would add exactly nothing. A jump
+            // into another f32 block ends the block the samples before it were summed in.
+            if (PRECISION == 0u && sum_block(end) != sum_block(k - 1u)) {
+                end_block(s);
+            }
             (*s).ta = segment_end(m, end - 1u);
             (*c).k = end;
             return;
         }
     }
-    let len = (tb - (*s).ta) * m.voxels_per_unit;
+    let len = select((tb - (*s).ta) * m.voxels_per_unit, m.ds * m.voxels_per_unit, interior);
     (*s).ta = tb;
     (*c).k = k + 1u;
     let v = sample_brick(pv, (*c).offset);
-    composite(s, select(vec4<f32>(0.0), transfer(v), is_finite_f32(v)), len, m.stop_tau);
+    let ea = select(vec4<f32>(0.0), transfer(v), is_finite_f32(v));
+    if (PRECISION == 0u) {
+        // The in-core march's f32 sums: interior segments in blocks of 64, the others onto the
+        // totals directly.
+        if (!interior || sum_block(k) != sum_block(k - 1u)) {
+            end_block(s);
+        }
+        if (interior) {
+            var block = RayState((*s).color_carry, vec3<f32>(0.0), (*s).tau_carry, 0.0, (*s).transmittance, (*s).ta, false);
+            composite(&block, ea, len, m.stop_tau - (*s).tau);
+            (*s).color_carry = block.color;
+            (*s).tau_carry = block.tau;
+            (*s).transmittance = block.transmittance;
+            (*s).stopped = block.stopped;
+            return;
+        }
+    }
+    composite(s, ea, len, m.stop_tau);
+}
+
+// f32: the block of interior segments being summed (kept in the carry fields, which only f32c
+// uses otherwise) joins the ray's totals. A block with nothing in it adds exactly zero.
+fn end_block(s: ptr<function, RayState>) {
+    (*s).color += (*s).color_carry;
+    (*s).tau += (*s).tau_carry;
+    (*s).color_carry = vec3<f32>(0.0);
+    (*s).tau_carry = 0.0;
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -190,6 +223,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if ((flags & LAST_PASS) == 0u) {
         return;
+    }
+    if (PRECISION == 0u) {
+        end_block(&s);
     }
     textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));
 }

@@ -99,6 +99,29 @@ fn segment_end(m: March, k: u32) -> f32 {
     return min(m.t_enter + m.first + f32(k) * m.ds, m.t_exit);
 }
 
+// The in-core ray caster takes its interior segments four at a time; the bricked one takes the
+// same segments one at a time, at the same positions and with the same sums.
+const UNROLL: u32 = 4u;
+
+// The first segment past the interior of a march whose segments 1..n_to are taken: segments
+// 1..interior_end(n_to) have length ds and midpoints on the sequence interior_origin(m) + k *
+// duvw * ds (no clamp at the exit, no carried end point); segment 0 and those from here on go
+// through segment_end. Both ray casters place their samples this way, so a sample that falls
+// on a voxel boundary next to a missing voxel is missing in both or in neither.
+fn interior_end(n_to: u32) -> u32 {
+    return 1u + UNROLL * ((max(n_to, UNROLL + 1u) - UNROLL - 1u + UNROLL - 1u) / UNROLL);
+}
+
+// Where interior segment 0 would have its midpoint: segment k's is this plus k * duvw * ds.
+fn interior_origin(m: March) -> vec3<f32> {
+    return m.uvw0 + m.duvw * (m.t_enter + m.first - 0.5 * m.ds);
+}
+
+// The f32 block of 64 interior segments that segment k's sums join (see volume.wgsl).
+fn sum_block(k: u32) -> u32 {
+    return (k - 1u) / 64u;
+}
+
 // Length of a ray's first segment: the step, or with JITTER a fraction of it drawn per pixel
 // (the same on every run and backend).
 fn first_segment(px: vec2<u32>, w: u32, h: u32, ds: f32) -> f32 {
