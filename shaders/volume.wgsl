@@ -257,9 +257,10 @@ fn hull_span(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
 #if SLAB
 // The segments of a ray this rank composites: those whose midpoints lie in its slab's z range
 // [P.slab.x, P.slab.y), the samples where the whole volume's march puts them (the same first
-// segment and step from the global box entry), every segment its full length, no early
-// termination (what lies in front is another rank's). Returns premultiplied colour and optical
-// depth, the depth's sign bit set when the ray runs towards -z (compositing order).
+// segment and step from the global box entry, the same positions to the last bit), every
+// segment its full length, no early termination (what lies in front is another rank's).
+// Returns premultiplied colour and optical depth, the depth's sign bit set when the ray runs
+// towards -z (compositing order).
 fn march_slab(m: March, origin_z: f32, dir_z: f32) -> RayState {
     var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, m.t_enter, false);
     // The candidate segments from where the ray crosses the slab's planes, widened by two on
@@ -280,13 +281,17 @@ fn march_slab(m: March, origin_z: f32, dir_z: f32) -> RayState {
         let mid = 0.5 * (ta + tb);
         let z = origin_z + dir_z * mid;
         if (z >= P.slab.x && z < P.slab.y) {
-            var ea = sample_work(m.uvw0 + m.duvw * mid);
+            // The single process's positions and lengths (shared/march.wgsl interior_end).
+            let interior = k >= 1u && k < interior_end(m.steps);
+            let uvw = select(m.uvw0 + m.duvw * mid, interior_origin(m) + (m.duvw * m.ds) * f32(k), interior);
+            var ea = sample_work(uvw);
 #if SHADING
             if (any(ea.rgb > vec3<f32>(0.0))) {
-                ea = vec4<f32>(ea.rgb * shading_factor(m.uvw0 + m.duvw * mid, m.dir), ea.a);
+                ea = vec4<f32>(ea.rgb * shading_factor(uvw, m.dir), ea.a);
             }
 #endif
-            composite(&s, ea, (tb - ta) * m.voxels_per_unit, 3.0e38);
+            let len = select((tb - ta) * m.voxels_per_unit, m.ds * m.voxels_per_unit, interior);
+            composite(&s, ea, len, 3.0e38);
         }
     }
     return s;

@@ -166,3 +166,33 @@ fn shaded_slabs_match_and_bad_splits_are_refused() {
         "{err}"
     );
 }
+
+/// The mantle's shell edges: a sample on a voxel boundary beside a missing voxel is missing or not
+/// depending on the last bit of its position, so every rank must place each sample exactly where
+/// the single process does (its interior segments on the same arithmetic sequence).
+#[test]
+fn slabs_of_the_mantle_place_their_samples_where_one_process_does() {
+    use hdrvis::datasets::mantle::{generate, MantleField, MantleFields, MantleOptions};
+    let n = 65;
+    let m = generate(
+        &MantleOptions {
+            n,
+            fields: MantleFields::only(MantleField::Fluctuation),
+            ..Default::default()
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    let h = 2.0 / n as f64;
+    let vol = Volume::new("mantle", [n; 3], [h; 3], [-1.0; 3], m.fluctuation).unwrap();
+    let tf = TransferFunction::Lut(hdrvis::bench::mantle_fig5_tf());
+    let mut o = options(Camera::orbit(&vol.bounds(), 35.0, 20.0, 25.0).unwrap(), tf);
+    (o.width, o.height, o.step) = (128, 128, 1.0);
+    let single = render(BackendChoice::Vulkan, &vol, &o).pixels;
+    let source = VolumeSource::Memory(Arc::new(vol.clone()));
+    for ranks in [2, 3] {
+        let images = render_split(ranks, &source, &o).unwrap();
+        let worst = worst_over_peak(&images[0], &single);
+        assert!(worst < 1e-5, "{ranks} ranks: {worst:.2e} of the peak");
+    }
+}
