@@ -67,15 +67,64 @@ pub fn write_exr(image: &HdrImage, path: &Path) -> Result<()> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list),
     );
-    let exr_image = Image::from_layer(layer);
+    let mut encoded = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut encoded)
+        .map_err(|e| Error::format(path, format!("cannot encode EXR: {e}")))?;
+    let mut bytes = encoded.into_inner();
+    sort_provenance_attributes(&mut bytes)
+        .map_err(|why| Error::format(path, format!("cannot order the EXR header: {why}")))?;
     crate::io::write_atomic(path, |writer| {
-        // exr needs Seek; the temporary file is seekable but a BufWriter is only via its inner file.
-        let file = writer.get_mut();
-        exr_image
-            .write()
-            .to_buffered(std::io::BufWriter::new(&mut **file))
-            .map_err(|e| Error::format(path, format!("cannot encode EXR: {e}")))
+        std::io::Write::write_all(writer, &bytes).map_err(|e| Error::io(path, e))
     })
+}
+
+/// The exr crate keeps custom attributes in a `HashMap` and writes them in its per-process random
+/// order, so the same render gave different bytes from run to run. They are written last in the
+/// header, one after the other; this puts them in name order in place. The header keeps its
+/// length, so the chunk offsets after it stay valid.
+fn sort_provenance_attributes(bytes: &mut [u8]) -> std::result::Result<(), String> {
+    let mut spans = Vec::new();
+    let mut at = 8; // magic number and version field
+    loop {
+        let name_end = nul_after(bytes, at)?;
+        if name_end == at {
+            break;
+        }
+        let type_end = nul_after(bytes, name_end + 1)?;
+        let size_at = type_end + 1;
+        let size = bytes
+            .get(size_at..size_at + 4)
+            .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .ok_or("header ends inside an attribute")?;
+        let end = size_at + 4 + usize::try_from(size).map_err(|_| "negative attribute size")?;
+        if end > bytes.len() {
+            return Err("header ends inside an attribute".into());
+        }
+        spans.push((at, end, bytes[at..name_end].starts_with(b"hdrvis:")));
+        at = end;
+    }
+    let Some(first) = spans.iter().position(|s| s.2) else {
+        return Ok(());
+    };
+    let ours = &spans[first..];
+    if ours.iter().any(|s| !s.2) {
+        return Err("provenance attributes are not the header's last".into());
+    }
+    let (start, end) = (ours[0].0, ours[ours.len() - 1].1);
+    let mut records: Vec<Vec<u8>> = ours.iter().map(|s| bytes[s.0..s.1].to_vec()).collect();
+    records.sort();
+    bytes[start..end].copy_from_slice(&records.concat());
+    Ok(())
+}
+
+fn nul_after(bytes: &[u8], from: usize) -> std::result::Result<usize, String> {
+    bytes
+        .get(from..)
+        .and_then(|rest| rest.iter().position(|&b| b == 0))
+        .map(|i| from + i)
+        .ok_or_else(|| "header ends inside a name".into())
 }
 
 /// Reads the first layer's R, G, B (and A if present, else 1) as f32, plus every other channel
@@ -159,6 +208,8 @@ pub fn read_exr(path: &Path) -> Result<HdrImage> {
             ));
         }
     }
+    // The attributes come out of a HashMap; name order is the one files are written in.
+    out.metadata.sort();
     Ok(out)
 }
 
@@ -182,6 +233,40 @@ mod tests {
         assert_eq!(back.meta("dataset"), Some("mantle n=64"));
         // Only the final file remains: the temporary was renamed, not copied.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn the_same_image_is_written_as_the_same_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut img = HdrImage::new(5, 3);
+        for (i, p) in img.pixels.iter_mut().enumerate() {
+            *p = [i as f32, 1e-6, 3e4, 1.0];
+        }
+        let keys = [
+            "dataset",
+            "camera",
+            "tf",
+            "precision",
+            "adapter",
+            "exposure",
+        ];
+        for (i, k) in keys.iter().enumerate() {
+            img.set_meta(k, &format!("value {i}"));
+        }
+        let files: Vec<Vec<u8>> = (0..6)
+            .map(|i| {
+                let p = dir.path().join(format!("{i}.exr"));
+                write_exr(&img, &p).unwrap();
+                std::fs::read(&p).unwrap()
+            })
+            .collect();
+        assert!(files.iter().all(|f| *f == files[0]));
+        let back = read_exr(&dir.path().join("0.exr")).unwrap();
+        let mut sorted: Vec<&str> = keys.to_vec();
+        sorted.sort();
+        let read_keys: Vec<&str> = back.metadata.iter().map(|(k, _)| k.as_str()).collect();
+        assert_eq!(read_keys, sorted);
+        assert_eq!(back.meta("tf"), Some("value 2"));
     }
 
     #[test]

@@ -18,6 +18,9 @@ pub struct PassRecord {
     pub outcome: PassOutcome,
     /// Effects compiled into the pass, e.g. "shading, jitter" for a ray cast; empty for none.
     pub detail: String,
+    /// How this run of the pass went (e.g. "pipeline built"): printed in the log, but not part
+    /// of the image's provenance, which says only what made the image.
+    pub note: String,
 }
 
 impl PassRecord {
@@ -26,6 +29,7 @@ impl PassRecord {
             name: name.to_string(),
             outcome: PassOutcome::Ran { ms },
             detail: String::new(),
+            note: String::new(),
         }
     }
 
@@ -34,6 +38,7 @@ impl PassRecord {
             name: name.to_string(),
             outcome: PassOutcome::Cached,
             detail: String::new(),
+            note: String::new(),
         }
     }
 
@@ -54,8 +59,12 @@ impl std::fmt::Display for PassRecord {
             PassOutcome::Ran { ms } => write!(f, "pass {} ran {ms:.1} ms", self.name)?,
             PassOutcome::Cached => write!(f, "pass {} cached", self.name)?,
         }
-        if !self.detail.is_empty() {
-            write!(f, " [{}]", self.detail)?;
+        let extra: Vec<&str> = [self.detail.as_str(), self.note.as_str()]
+            .into_iter()
+            .filter(|s| !s.is_empty())
+            .collect();
+        if !extra.is_empty() {
+            write!(f, " [{}]", extra.join(", "))?;
         }
         Ok(())
     }
@@ -95,11 +104,15 @@ pub fn count_ran(records: &[PassRecord], name: &str) -> usize {
         .count()
 }
 
-/// Records as one metadata line: `upload cached; raycast ran 412.3 ms [jitter]; ...`.
+/// Records as the image's `passes` metadata: `raycast [jitter]; tonemap [aces]`. Times, cache
+/// hits and notes are left out, so the same work writes the same file bytes on every run.
 pub fn describe(records: &[PassRecord]) -> String {
     records
         .iter()
-        .map(|r| r.to_string().trim_start_matches("pass ").to_string())
+        .map(|r| match r.detail.as_str() {
+            "" => r.name.clone(),
+            detail => format!("{} [{detail}]", r.name),
+        })
         .collect::<Vec<_>>()
         .join("; ")
 }
@@ -129,7 +142,14 @@ mod tests {
         log.push(PassRecord::ran("raycast", 2.0));
         assert_eq!(log.ran_count("raycast"), 1);
         assert_eq!(log.ran_count("upload"), 0);
-        assert_eq!(describe(&log.take()), "upload cached; raycast ran 2.0 ms");
+        let mut built = PassRecord::ran("raycast", 3.0).with_detail("jitter");
+        built.note = "pipeline built".into();
+        assert_eq!(
+            built.to_string(),
+            "pass raycast ran 3.0 ms [jitter, pipeline built]"
+        );
+        log.push(built);
+        assert_eq!(describe(&log.take()), "upload; raycast; raycast [jitter]");
         assert!(log.snapshot().is_empty());
     }
 }

@@ -215,6 +215,9 @@ impl RenderSession {
             rerun,
             |r: &VolumeRender| image_bytes(&r.image),
             |r, rec| {
+                if r.compiled_pipeline {
+                    rec.note = "pipeline built".into();
+                }
                 if let Some(img) = Arc::get_mut(&mut r.image) {
                     append_pass(img, rec);
                 }
@@ -234,9 +237,6 @@ impl RenderSession {
                         world.transport(),
                         distributed::Scheme::for_ranks(ranks).name()
                     ));
-                }
-                if r.compiled_pipeline {
-                    detail.push("pipeline built".into());
                 }
                 Ok((r, detail.join(", ")))
             },

@@ -184,6 +184,7 @@ impl RenderSession {
         annotate: impl FnOnce(&mut T, &PassRecord),
         compute: impl FnOnce() -> Result<(T, String)>,
     ) -> Result<Arc<T>> {
+        let annotate = |value: &mut T, record: &mut PassRecord| annotate(value, record);
         self.stage_with(name, key, false, bytes, annotate, compute)
     }
 
@@ -194,7 +195,7 @@ impl RenderSession {
         key: u64,
         rerun: bool,
         bytes: impl FnOnce(&T) -> u64,
-        annotate: impl FnOnce(&mut T, &PassRecord),
+        annotate: impl FnOnce(&mut T, &mut PassRecord),
         compute: impl FnOnce() -> Result<(T, String)>,
     ) -> Result<Arc<T>> {
         if !rerun {
@@ -205,8 +206,8 @@ impl RenderSession {
         }
         let t = Instant::now();
         let (mut value, detail) = compute()?;
-        let r = PassRecord::ran(name, ms_since(t)).with_detail(detail);
-        annotate(&mut value, &r);
+        let mut r = PassRecord::ran(name, ms_since(t)).with_detail(detail);
+        annotate(&mut value, &mut r);
         let value = Arc::new(value);
         self.cache.put(key, value.clone(), bytes(&value));
         self.log.push(r);

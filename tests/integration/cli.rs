@@ -106,6 +106,31 @@ fn script_renders_and_writes_exr_read_by_openexr() {
     }
 }
 
+#[test]
+fn the_same_script_writes_the_same_exr_bytes_on_every_run() {
+    let dir = tempfile::tempdir().unwrap();
+    write_volume(dir.path());
+    // Many provenance attributes (camera, tf, passes with a tone map, ...) in one file.
+    let script = r#"
+        let v = load_volume("blob.npy");
+        let img = render_volume(v, #{ tf: tf_lut(#{scale: "log"}), camera: camera_orbit(30.0, 20.0),
+                                      width: 32, height: 24, shading: true });
+        save_exr(tonemap(img, "aces"), "blob.exr");
+    "#;
+    std::fs::write(dir.path().join("s.rhai"), script).unwrap();
+    let bytes: Vec<Vec<u8>> = ["a", "b", "c"]
+        .iter()
+        .map(|out| {
+            let (code, _, stderr) = hdrvis(&["run", "s.rhai", "--out", out], dir.path());
+            assert_eq!(code, 0, "{stderr}");
+            std::fs::read(dir.path().join(out).join("blob.exr")).unwrap()
+        })
+        .collect();
+    let img = hdrvis::io::exr::read_exr(&dir.path().join("a/blob.exr")).unwrap();
+    assert!(img.metadata.len() >= 6, "{:?}", img.metadata);
+    assert!(bytes.iter().all(|b| *b == bytes[0]));
+}
+
 fn assert_one_line_error(code: i32, stderr: &str, needle: &str) {
     assert_ne!(code, 0, "expected failure, stderr: {stderr}");
     let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();

@@ -83,8 +83,9 @@ fn each_kind_of_change_reruns_only_its_dependants() {
     // The file records how its image was made.
     let img = hdrvis::io::exr::read_exr(&dir.path().join("shown.exr")).unwrap();
     let passes = img.meta("passes").unwrap_or_default();
+    // Which passes and effects, not how long they took: the same work writes the same bytes.
     assert!(
-        passes.contains("raycast ran") && passes.contains("tonemap ran"),
+        passes.starts_with("raycast") && passes.contains("; tonemap [") && !passes.contains(" ms"),
         "{passes}"
     );
 }
