@@ -251,7 +251,7 @@ mod tests {
             "exposure",
         ];
         for (i, k) in keys.iter().enumerate() {
-            img.set_meta(k, &format!("value {i}"));
+            img.set_meta(k, format!("value {i}"));
         }
         let files: Vec<Vec<u8>> = (0..6)
             .map(|i| {
