@@ -105,8 +105,9 @@ pub enum Command {
     /// Interactive terminal viewer: `hdrvis tui SCRIPT.rhai` (the script's scene and params) or
     /// `hdrvis tui IMAGE.exr` (exposure, operator, false colour, channels). `?` lists the keys.
     Tui(TuiArgs),
-    /// A Slurm job array sharing out a sweep: `hdrvis slurm SCRIPT.rhai --array N [--submit]`
-    /// writes the job script (and submits it with sbatch).
+    /// A script as a Slurm job: `hdrvis slurm SCRIPT.rhai [--array N] [--ranks R] [--submit]`
+    /// writes the job script (a job array sharing out a sweep, MPI ranks rendering together);
+    /// `--submit` hands it to sbatch.
     Slurm(slurm::SlurmArgs),
     /// The outputs a sweep writes that are missing, found without rendering:
     /// `hdrvis sweep-status --out DIR SCRIPT.rhai [--array N]`.

@@ -1,8 +1,8 @@
-//! `hdrvis slurm` and `hdrvis sweep-status`: a sweep shared out over a Slurm job array. The
-//! first writes a ready job script (one array task per share, each running `hdrvis run
-//! --resume` on the script, whose `shard(list)` gives the task its items) and with `--submit`
-//! hands it to sbatch; the second lists the outputs a sweep writes that are missing, from a
-//! planning run of the script that renders nothing.
+//! `hdrvis slurm` and `hdrvis sweep-status`: scripts run as Slurm jobs. The first writes a ready
+//! job script (a job array with one task per share, each running `hdrvis run --resume` on the
+//! script, whose `shard(list)` gives the task its items; and/or MPI ranks started by `srun
+//! --mpi=…` that render every volume together) and with `--submit` hands it to sbatch; the second
+//! lists the outputs a sweep writes that are missing, from a planning run that renders nothing.
 
 use super::run::parse_sets;
 use hdrvis::gpu::BackendChoice;
@@ -15,9 +15,20 @@ use std::path::{Path, PathBuf};
 pub struct SlurmArgs {
     /// The sweep: a script that loops over `shard(items)`.
     pub script: PathBuf,
-    /// Array tasks to share the sweep over: `#SBATCH --array=0-(N-1)`.
+    /// Array tasks to share the sweep over: `#SBATCH --array=0-(N-1)` (the script must loop
+    /// over `shard(items)`). Without it the job runs the script once.
     #[arg(long, value_name = "N")]
-    pub array: u64,
+    pub array: Option<u64>,
+    /// MPI ranks rendering every volume together, in each task: `#SBATCH --ntasks=R` and
+    /// `srun --mpi=TYPE` (needs hdrvis built with `--features mpi`).
+    #[arg(long, value_name = "R", default_value_t = 1)]
+    pub ranks: u32,
+    /// Nodes the ranks of a task spread over: `#SBATCH --nodes=M`.
+    #[arg(long, value_name = "M")]
+    pub nodes: Option<u32>,
+    /// srun's MPI plugin for the ranks (`srun --mpi=list` shows the site's).
+    #[arg(long, value_name = "TYPE", default_value = "pmix")]
+    pub mpi: String,
     /// Output folder of the sweep; the job script and the tasks' logs go to DIR/slurm/.
     #[arg(long, short, visible_alias = "output", default_value = "out")]
     pub out: PathBuf,
@@ -80,15 +91,7 @@ pub struct SweepStatusArgs {
 
 /// `hdrvis slurm`: checks the script, writes the job script and, with `--submit`, submits it.
 pub fn run_slurm(args: &SlurmArgs) -> Result<()> {
-    if args.array == 0 {
-        return Err(Error::invalid("--array", "expected at least 1 task, got 0"));
-    }
-    if args.max_running == Some(0) {
-        return Err(Error::invalid(
-            "--max-running",
-            "expected at least 1, got 0",
-        ));
-    }
+    check_job_shape(args)?;
     let sbatch = if args.submit {
         Some(find_on_path("sbatch").ok_or_else(|| {
             Error::invalid(
@@ -100,7 +103,7 @@ pub fn run_slurm(args: &SlurmArgs) -> Result<()> {
         None
     };
     let sets = parse_sets(&args.sets)?;
-    check_sweep_script(&args.script, &sets)?;
+    check_sweep_script(&args.script, &sets, args.array.is_some())?;
     let job = JobScript::new(args)?;
     let text = job.text(args, &sets)?;
     std::fs::create_dir_all(&job.log_dir).map_err(|e| Error::io(&job.log_dir, e))?;
@@ -112,12 +115,75 @@ pub fn run_slurm(args: &SlurmArgs) -> Result<()> {
     if let Some(sbatch) = sbatch {
         let id = submit(&sbatch, &job.file)?;
         println!(
-            "submitted job {id}: {} tasks, logs in {}",
-            args.array,
+            "submitted job {id}: {}, logs in {}",
+            job_shape(args),
             job.log_dir.display()
         );
     }
     Ok(())
+}
+
+/// Refuses counts of zero, a throttle without an array, and ranks this build cannot start.
+fn check_job_shape(args: &SlurmArgs) -> Result<()> {
+    if args.array == Some(0) {
+        return Err(Error::invalid("--array", "expected at least 1 task, got 0"));
+    }
+    match args.max_running {
+        Some(0) => {
+            return Err(Error::invalid(
+                "--max-running",
+                "expected at least 1, got 0",
+            ))
+        }
+        Some(_) if args.array.is_none() => {
+            return Err(Error::invalid(
+                "--max-running",
+                "limits the tasks of a job array; give --array N too",
+            ))
+        }
+        _ => {}
+    }
+    if args.ranks == 0 || args.nodes == Some(0) {
+        let field = if args.ranks == 0 {
+            "--ranks"
+        } else {
+            "--nodes"
+        };
+        return Err(Error::invalid(field, "expected at least 1, got 0"));
+    }
+    if args.nodes.is_some_and(|m| m > args.ranks) {
+        return Err(Error::invalid(
+            "--nodes",
+            format!(
+                "{} nodes for {} ranks would leave nodes idle; give at most as many nodes as ranks",
+                args.nodes.unwrap_or(0),
+                args.ranks
+            ),
+        ));
+    }
+    if args.ranks > 1 && !cfg!(feature = "mpi") {
+        return Err(Error::invalid(
+            "--ranks",
+            format!(
+                "this hdrvis was built without MPI, so each of the {} ranks would run the whole script alone; build it with `cargo build --release --features mpi` and run that binary's `hdrvis slurm`",
+                args.ranks
+            ),
+        ));
+    }
+    directive_value("--mpi", &args.mpi)?;
+    Ok(())
+}
+
+/// "3 array tasks of 2 MPI ranks", "1 task": what a job runs, for messages and the job script.
+fn job_shape(args: &SlurmArgs) -> String {
+    let tasks = match args.array {
+        Some(n) => format!("{n} array task{}", if n == 1 { "" } else { "s" }),
+        None => "1 task".to_string(),
+    };
+    match args.ranks {
+        1 => tasks,
+        r => format!("{tasks} of {r} MPI ranks"),
+    }
 }
 
 /// Where the job script goes and what it runs, as absolute paths (a job starts elsewhere).
@@ -157,23 +223,73 @@ impl JobScript {
         })
     }
 
-    /// The job script: #SBATCH lines, then one `srun hdrvis run --resume` of the sweep.
+    /// The job script: a comment saying what it runs, #SBATCH lines, then one `srun hdrvis run
+    /// --resume` of the script.
     fn text(&self, args: &SlurmArgs, sets: &[(String, String)]) -> Result<String> {
-        let last = args.array - 1;
-        let throttle = args
-            .max_running
-            .map(|k| format!("%{k}"))
-            .unwrap_or_default();
+        let set_args: Vec<String> = sets
+            .iter()
+            .map(|(k, v)| format!("--set {}", shell_quote(&format!("{k}={v}"))))
+            .collect();
+        let script = self.script.display();
+        let mut text = format!(
+            "#!/bin/bash\n# Written by `hdrvis slurm`: runs\n#   {script}\n# as {shape}.\n",
+            shape = job_shape(args)
+        );
+        if let Some(n) = args.array {
+            text.push_str(&format!(
+                "# Each task renders the items shard() gives it and logs its \"wrote\" lines. Submitting\n\
+                 # this file again renders only what is missing (--resume); what that is:\n\
+                 #   hdrvis sweep-status --out {out} {script} --array {n}{sets}\n",
+                out = self.out.display(),
+                sets = set_args.iter().map(|a| format!(" {a}")).collect::<String>(),
+            ));
+        } else {
+            text.push_str(
+                "# Submitting this file again writes only the outputs that are missing (--resume).\n",
+            );
+        }
+        if args.ranks > 1 {
+            text.push_str(&format!(
+                "# The {} ranks of the step render every volume together; rank 0 writes and prints.\n",
+                args.ranks
+            ));
+        }
+        for o in self.directives(args)? {
+            text.push_str(&format!("#SBATCH {o}\n"));
+        }
+        text.push_str("set -euo pipefail\n");
+        text.push_str(&self.command(args, &set_args)?.join(" "));
+        text.push('\n');
+        Ok(text)
+    }
+
+    /// The #SBATCH options: name, array, logs, then the resources asked for, then the user's.
+    fn directives(&self, args: &SlurmArgs) -> Result<Vec<String>> {
+        // %A_%a is an array task's job and task id, %j a plain job's id.
+        let id = if args.array.is_some() { "%A_%a" } else { "%j" };
         let log = |ext: &str| -> Result<String> {
-            let path = format!("{}/{}-%A_%a.{ext}", self.log_dir.display(), self.name);
+            let path = format!("{}/{}-{id}.{ext}", self.log_dir.display(), self.name);
             directive_value("--out", &path).map(str::to_string)
         };
-        let mut options = vec![
-            format!("--job-name={}", directive_value("--job-name", &self.name)?),
-            format!("--array=0-{last}{throttle}"),
-            format!("--output={}", log("out")?),
-            format!("--error={}", log("err")?),
-        ];
+        let mut options = vec![format!(
+            "--job-name={}",
+            directive_value("--job-name", &self.name)?
+        )];
+        if let Some(n) = args.array {
+            let throttle = args
+                .max_running
+                .map(|k| format!("%{k}"))
+                .unwrap_or_default();
+            options.push(format!("--array=0-{}{throttle}", n - 1));
+        }
+        options.push(format!("--output={}", log("out")?));
+        options.push(format!("--error={}", log("err")?));
+        if args.ranks > 1 {
+            options.push(format!("--ntasks={}", args.ranks));
+        }
+        if let Some(m) = args.nodes {
+            options.push(format!("--nodes={m}"));
+        }
         let given = [
             ("time", &args.time),
             ("partition", &args.partition),
@@ -199,48 +315,32 @@ impl JobScript {
             }
             options.push(directive_value("sbatch options", extra)?.to_string());
         }
-        let mut command = vec![
-            "srun".to_string(),
+        Ok(options)
+    }
+
+    /// `srun [--mpi=TYPE] HDRVIS run SCRIPT --out DIR --resume [--set …] [--allow-path …]`.
+    fn command(&self, args: &SlurmArgs, set_args: &[String]) -> Result<Vec<String>> {
+        let mut command = vec!["srun".to_string()];
+        if args.ranks > 1 {
+            command.push(format!("--mpi={}", shell_quote(&args.mpi)));
+        }
+        command.extend([
             shell_quote(&self.hdrvis.display().to_string()),
             "run".into(),
             shell_quote(&self.script.display().to_string()),
             "--out".into(),
             shell_quote(&self.out.display().to_string()),
             "--resume".into(),
-        ];
-        let set_args: Vec<String> = sets
-            .iter()
-            .map(|(k, v)| format!("--set {}", shell_quote(&format!("{k}={v}"))))
-            .collect();
+        ]);
         command.extend(set_args.iter().cloned());
+        let cwd = std::env::current_dir().map_err(|e| Error::io(".", e))?;
         for dir in &args.allow_paths {
-            let abs = std::env::current_dir()
-                .map_err(|e| Error::io(".", e))?
-                .join(dir);
             command.push(format!(
                 "--allow-path {}",
-                shell_quote(&abs.display().to_string())
+                shell_quote(&cwd.join(dir).display().to_string())
             ));
         }
-        let mut text = format!(
-            "#!/bin/bash\n\
-             # Written by `hdrvis slurm`: {n} array tasks share the sweep\n\
-             #   {script}\n\
-             # each rendering the items shard() gives it and logging its \"wrote\" lines. Submitting\n\
-             # this file again renders only what is missing (--resume); what that is:\n\
-             #   hdrvis sweep-status --out {out} {script} --array {n}{sets}\n",
-            n = args.array,
-            script = self.script.display(),
-            out = self.out.display(),
-            sets = set_args.iter().map(|a| format!(" {a}")).collect::<String>(),
-        );
-        for o in options {
-            text.push_str(&format!("#SBATCH {o}\n"));
-        }
-        text.push_str("set -euo pipefail\n");
-        text.push_str(&command.join(" "));
-        text.push('\n');
-        Ok(text)
+        Ok(command)
     }
 }
 

@@ -214,9 +214,10 @@ pub fn sweep_status(
     Ok(status)
 }
 
-/// Checks a script before it is handed to a job array: it parses, every `--set` names a
-/// parameter it reads, and it calls `shard` (without it, every task would render everything).
-pub fn check_sweep_script(script: &Path, sets: &[(String, String)]) -> Result<()> {
+/// Checks a script before it is handed to a batch job: it parses, every `--set` names a
+/// parameter it reads, and, when `shared` (a job array shares it out), it calls `shard`
+/// (without it, every task would render everything).
+pub fn check_sweep_script(script: &Path, sets: &[(String, String)], shared: bool) -> Result<()> {
     let source = std::fs::read_to_string(script).map_err(|e| Error::io(script, e))?;
     let ast = Engine::new_raw().compile(&source).map_err(|e| {
         Error::Script(super::describe_parse_error(
@@ -226,6 +227,9 @@ pub fn check_sweep_script(script: &Path, sets: &[(String, String)]) -> Result<()
         ))
     })?;
     super::check_sets_are_read(&ast, sets)?;
+    if !shared {
+        return Ok(());
+    }
     let mut calls_shard = false;
     ast.walk(&mut |path: &[rhai::ASTNode]| {
         use rhai::{ASTNode, Expr, Stmt};
@@ -310,10 +314,13 @@ mod tests {
             "let n = param(\"n\", 3); for i in 0..n { print(i); }",
         )
         .unwrap();
-        check_sweep_script(&with, &[]).unwrap();
-        let e = check_sweep_script(&without, &[]).unwrap_err().to_string();
+        check_sweep_script(&with, &[], true).unwrap();
+        check_sweep_script(&without, &[], false).unwrap();
+        let e = check_sweep_script(&without, &[], true)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("never calls shard"), "{e}");
-        let e = check_sweep_script(&with, &[("size".into(), "3".into())])
+        let e = check_sweep_script(&with, &[("size".into(), "3".into())], true)
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("--set size:"), "{e}");

@@ -23,7 +23,12 @@ const SMALL: [&str; 6] = ["--set", "n=24", "--set", "size=24", "--set", "frames=
 /// `hdrvis ARGS` in `dir` with the dataset cache there, none of the caller's own Slurm task
 /// variables (a CI job may itself run under Slurm), and `env` added.
 fn hdrvis_in(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hdrvis"));
+    binary_in(Path::new(env!("CARGO_BIN_EXE_hdrvis")), dir, args, env)
+}
+
+/// [`hdrvis_in`] with another build of hdrvis (the MPI one).
+fn binary_in(bin: &Path, dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(bin);
     cmd.args(args)
         .current_dir(dir)
         .env("HDRVIS_CACHE", dir.join("cache"));
@@ -435,6 +440,27 @@ fn slurm_writes_a_ready_job_script_and_refuses_what_it_cannot_submit() {
         ),
         (
             vec![
+                "slurm", script, "--array", "2", "--out", "f", "--ranks", "2",
+            ],
+            &[],
+            "error: --ranks: this hdrvis was built without MPI",
+        ),
+        (
+            vec![
+                "slurm",
+                script,
+                "--ranks",
+                "1",
+                "--out",
+                "g",
+                "--max-running",
+                "2",
+            ],
+            &[],
+            "error: --max-running: limits the tasks of a job array",
+        ),
+        (
+            vec![
                 "slurm", script, "--array", "2", "--out", "d", "--set", "sise=3",
             ],
             &[],
@@ -464,6 +490,31 @@ fn slurm_writes_a_ready_job_script_and_refuses_what_it_cannot_submit() {
         let out_dir = d.join(args[5]);
         assert!(!out_dir.join("slurm").exists(), "{args:?} wrote a job file");
     }
+
+    // Without --array, one job runs the script once: no array, no shard() needed, %j logs.
+    let orbit = orbit.to_str().unwrap();
+    let out = hdrvis_in(d, &["slurm", orbit, "--out", "once", "--time", "5"], &[]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let job = std::fs::read_to_string(d.join("once/slurm/orbit.sbatch")).unwrap();
+    let directives: Vec<&str> = job.lines().filter(|l| l.starts_with("#SBATCH")).collect();
+    let logs = d.join("once/slurm/orbit");
+    assert_eq!(
+        directives,
+        [
+            "#SBATCH --job-name=orbit".to_string(),
+            format!("#SBATCH --output={}-%j.out", logs.display()),
+            format!("#SBATCH --error={}-%j.err", logs.display()),
+            "#SBATCH --time=5".into(),
+        ]
+    );
+    assert_eq!(
+        job.lines().last().unwrap(),
+        format!(
+            "srun {} run {orbit} --out {} --resume",
+            env!("CARGO_BIN_EXE_hdrvis"),
+            d.join("once").display()
+        )
+    );
 }
 
 /// A one-node Slurm cluster started by tests/cluster/slurm-up.sh for this test binary.
@@ -655,10 +706,11 @@ fn a_real_slurm_job_array_and_srun_tasks_write_the_serial_files_each_once() {
     assert_same_files(d, "steps", &names);
 }
 
-/// An MPI render through Slurm: `sbatch` of a two-task job array whose tasks each run one
-/// `srun --mpi=pmix` step of two MPI ranks (the binary built with `--features mpi`). The array
-/// shares the sweep; the two ranks of a step render every frame of their task's share together
-/// (the step's SLURM_PROCID must not share it again), and rank 0 alone writes and prints.
+/// An MPI render through Slurm: `hdrvis slurm --array 2 --ranks 2 --submit` (the binary built
+/// with `--features mpi`) writes and submits a two-task job array whose tasks each run one
+/// `srun --mpi=pmix` step of two MPI ranks. The array shares the sweep; the two ranks of a step
+/// render every frame of their task's share together (the step's SLURM_PROCID must not share it
+/// again), and rank 0 alone writes and prints.
 #[test]
 fn an_mpi_job_array_through_slurm_renders_each_frame_on_two_ranks_once() {
     let Some(slurm) = cluster() else {
@@ -677,42 +729,34 @@ fn an_mpi_job_array_through_slurm_renders_each_frame_on_two_ranks_once() {
     let d = dir.path();
     let names = serial_run(d);
     let script = sweep_script();
-    let sets: Vec<String> = SMALL.iter().map(|a| a.to_string()).collect();
-    let job = format!(
-        "#!/bin/bash\n\
-         #SBATCH --array=0-1\n\
-         #SBATCH --ntasks=2\n\
-         #SBATCH --output=mpi-%A_%a.out\n\
-         #SBATCH --error=mpi-%A_%a.err\n\
-         export OMPI_MCA_btl_vader_single_copy_mechanism=none\n\
-         srun --mpi=pmix --label {} run {} --out mpi {}\n",
-        bin.display(),
-        script.display(),
-        sets.join(" ")
-    );
-    std::fs::write(d.join("mpi.sbatch"), job).unwrap();
-    let out = Command::new("sbatch")
-        .args(["--parsable", "mpi.sbatch"])
-        .current_dir(d)
-        .env("SLURM_CONF", &slurm.conf)
-        .env("HDRVIS_CACHE", d.join("cache"))
-        .output()
-        .unwrap();
+    let script = script.to_str().unwrap();
+    let mut args = vec![
+        "slurm", script, "--array", "2", "--ranks", "2", "--out", "mpi", "--submit",
+    ];
+    args.extend(SMALL);
+    // The job inherits the submitting environment (sbatch's default): the cluster and OpenMPI's
+    // setting for containers without cross-memory attach.
+    let env = [
+        ("SLURM_CONF", slurm.conf.as_str()),
+        ("OMPI_MCA_btl_vader_single_copy_mechanism", "none"),
+    ];
+    let out = binary_in(&bin, d, &args, &env);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let id = text(&out.stdout)
-        .trim()
-        .split(';')
-        .next()
-        .unwrap()
-        .to_string();
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains(": 2 array tasks of 2 MPI ranks, logs in"),
+        "{stdout}"
+    );
+    let job = std::fs::read_to_string(d.join("mpi/slurm/sweep_slurm.sbatch")).unwrap();
+    assert!(job.lines().any(|l| l == "#SBATCH --ntasks=2"), "{job}");
+    let srun = format!("srun --mpi=pmix {} run {script} --out ", bin.display());
+    assert!(job.lines().last().unwrap().starts_with(&srun), "{job}");
+    let id = submitted_id(&stdout);
     slurm.wait(&id);
     let mut logs = Vec::new();
     for task in 0..2 {
-        let read = |ext: &str| {
-            std::fs::read_to_string(d.join(format!("mpi-{id}_{task}.{ext}"))).unwrap_or_default()
-        };
-        let (stdout, stderr) = (read("out"), read("err"));
-        // One array task of two, said once, by rank 0; the step's ranks are not tasks.
+        let (stdout, stderr) = task_logs(d, "mpi", &id, task);
+        // One array task of two, said once (by rank 0); the step's ranks are not tasks.
         let said: Vec<&str> = stderr
             .lines()
             .filter(|l| l.contains("hdrvis run: task"))
@@ -720,19 +764,12 @@ fn an_mpi_job_array_through_slurm_renders_each_frame_on_two_ranks_once() {
         assert_eq!(
             said,
             [format!(
-                "0: hdrvis run: task {task} of 2 (Slurm job array): shard() gives it its share"
+                "hdrvis run: task {task} of 2 (Slurm job array): shard() gives it its share"
             )],
             "task {task}: {stderr}"
         );
-        assert!(
-            !stdout.lines().any(|l| l.trim_start().starts_with("1: ")),
-            "rank 1 printed: {stdout}"
-        );
-        let rank0: Vec<&str> = stdout
-            .lines()
-            .filter_map(|l| l.trim_start().strip_prefix("0: "))
-            .collect();
-        logs.push(rank0.join("\n"));
+        // Each frame's lines once: a second rank printing would repeat them.
+        logs.push(stdout);
     }
     // Seven frames over two array tasks: 3 and 4 frames, a PNG and an EXR each.
     assert_eq!(
