@@ -209,7 +209,7 @@ impl RenderSession {
         // A distributed render always runs: every rank must take part in the compositing, and
         // the ranks' caches need not agree on what they still hold.
         let rerun = self.renders_rerun() || matches!(path, RenderPath::Distributed { .. });
-        self.stage_with(
+        let render = self.stage_with(
             "raycast",
             key,
             rerun,
@@ -240,7 +240,12 @@ impl RenderSession {
                 }
                 Ok((r, detail.join(", ")))
             },
-        )
+        );
+        self.routed_grid
+            .lock()
+            .expect("routed grid poisoned")
+            .take();
+        render
     }
 
     /// The decision of how a render runs, in one place (see the module documentation).
@@ -334,7 +339,12 @@ impl RenderSession {
             return Ok(false);
         }
         let grid = self.skip_grid(volume, opts)?;
-        Ok(grid.empty_fraction() >= super::skipping::MIN_EMPTY_FRACTION)
+        let pays = grid.empty_fraction() >= super::skipping::MIN_EMPTY_FRACTION;
+        if pays {
+            let key = self.skip_grid_key(volume, opts);
+            *self.routed_grid.lock().expect("routed grid poisoned") = Some((key, grid));
+        }
+        Ok(pays)
     }
 
     fn run_path(
@@ -551,18 +561,25 @@ impl RenderSession {
     }
 
     /// The skip grid the routing of this render fetched (and logged), fetched again without a
-    /// second line in the pass log; built if the cache has let it go meanwhile.
+    /// second line in the pass log: from the cache, else as the routing held it; built again
+    /// only when neither has it.
     fn routed_skip_grid(
         &self,
         volume: &Arc<Volume>,
         opts: &VolumeRenderOptions,
     ) -> Result<Arc<SkipGrid>> {
-        match self
-            .cache()
-            .get::<SkipGrid>(self.skip_grid_key(volume, opts))
-        {
-            Some(g) => Ok(g),
-            None => self.skip_grid(volume, opts),
+        let key = self.skip_grid_key(volume, opts);
+        if let Some(g) = self.cache().get::<SkipGrid>(key) {
+            return Ok(g);
+        }
+        let routed = self
+            .routed_grid
+            .lock()
+            .expect("routed grid poisoned")
+            .clone();
+        match routed {
+            Some((k, g)) if k == key => Ok(g),
+            _ => self.skip_grid(volume, opts),
         }
     }
 

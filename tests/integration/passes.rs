@@ -163,6 +163,31 @@ fn a_small_budget_evicts_and_recomputes() {
     assert!(session.cache().counters().bytes <= 100 << 10);
 }
 
+/// With nothing cached, each render still reads the cells and classifies them once: the grid
+/// the routing classified to decide on skipping is the one the ray cast uses.
+#[test]
+fn a_render_with_nothing_cached_classifies_its_cells_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = Arc::new(RenderSession::new(BackendChoice::Auto, 0));
+    let script = r#"
+        let v = generate_mantle(#{n: 33, seed: 5});
+        let o = #{tf: tf_lut(#{scale: "symlog", linthresh: 0.01}), width: 16, height: 16};
+        let a = render_volume(v, o);
+        o.camera = camera_axis("x");
+        let b = render_volume(v, o);
+    "#;
+    let passes = run(script, &session, dir.path(), &[]);
+    let counts: Vec<usize> = ["cell-ranges", "skip-grid", "upload", "raycast"]
+        .iter()
+        .map(|name| count_ran(&passes, name))
+        .collect();
+    assert_eq!(counts, [2, 2, 2, 2], "{passes:?}");
+    assert!(
+        passes.iter().any(|p| p.detail == "empty-space skipping"),
+        "{passes:?}"
+    );
+}
+
 #[test]
 fn stats_flag_prints_one_line_per_pass() {
     let dir = tempfile::tempdir().unwrap();
