@@ -342,8 +342,10 @@ fn sweep_killed_midway_resumes_to_the_same_files() {
             if !already_done(name) {
                 let img = render_volume(v, #{ tf: tf_emission_absorption(0.5 + i, 0.2), camera: camera_orbit(20.0 * i, 15.0),
                                               width: 256, height: 256, step: 0.1 });
-                save_exr(img, name);
+                // The file already_done checks is written last, so it means the whole frame is
+                // there (docs/cluster.md): a kill between the two writes redoes the frame.
                 save_png(img, `sweep/a${i}.png`, evs[i]);
+                save_exr(img, name);
             }
             progress(i + 1, evs.len(), "sweep");
         }
