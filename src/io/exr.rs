@@ -67,18 +67,43 @@ pub fn write_exr(image: &HdrImage, path: &Path) -> Result<()> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list),
     );
-    let mut encoded = std::io::Cursor::new(Vec::new());
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(&mut encoded)
-        .map_err(|e| Error::format(path, format!("cannot encode EXR: {e}")))?;
-    let mut bytes = encoded.into_inner();
-    sort_provenance_attributes(&mut bytes)
-        .map_err(|why| Error::format(path, format!("cannot order the EXR header: {why}")))?;
+    let exr_image = Image::from_layer(layer);
     crate::io::write_atomic(path, |writer| {
-        std::io::Write::write_all(writer, &bytes).map_err(|e| Error::io(path, e))
+        // exr needs Seek; the temporary file is seekable but a BufWriter is only via its inner file.
+        let file = writer.get_mut();
+        exr_image
+            .write()
+            .to_buffered(std::io::BufWriter::new(&mut **file))
+            .map_err(|e| Error::format(path, format!("cannot encode EXR: {e}")))?;
+        sort_header_in_place(file).map_err(|why| {
+            Error::format(
+                path,
+                format!("cannot order the EXR header's attributes: {why}"),
+            )
+        })
     })
 }
+
+/// Reads back the start of the written file, which holds the whole header (attributes are
+/// short: a header over [`HEADER_READ`] bytes is refused), and rewrites it in order.
+fn sort_header_in_place(file: &mut std::fs::File) -> std::result::Result<(), String> {
+    use std::io::{Read, Seek, SeekFrom, Write};
+    let io = |e: std::io::Error| e.to_string();
+    file.seek(SeekFrom::Start(0)).map_err(io)?;
+    let mut head = Vec::new();
+    Read::take(&mut *file, HEADER_READ)
+        .read_to_end(&mut head)
+        .map_err(io)?;
+    sort_provenance_attributes(&mut head)?;
+    file.seek(SeekFrom::Start(0)).map_err(io)?;
+    file.write_all(&head).map_err(io)?;
+    file.seek(SeekFrom::End(0)).map_err(io)?;
+    Ok(())
+}
+
+/// How much of a written file [`sort_header_in_place`] reads: far more than any header hdrvis
+/// writes (a few KiB of attributes).
+const HEADER_READ: u64 = 1 << 20;
 
 /// The exr crate keeps custom attributes in a `HashMap` and writes them in its per-process random
 /// order, so the same render gave different bytes from run to run. They are written last in the
