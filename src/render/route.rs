@@ -109,6 +109,23 @@ pub enum RenderPath {
     Distributed { ranks: usize },
 }
 
+/// How a render runs, as `choose_path` decided it, with the skip grid the decision classified
+/// when the in-core march skips: the ray cast takes it from here, so a render classifies its
+/// cells once even when the cache keeps nothing.
+pub(crate) struct Route {
+    pub path: RenderPath,
+    pub skip_grid: Option<Arc<SkipGrid>>,
+}
+
+impl From<RenderPath> for Route {
+    fn from(path: RenderPath) -> Route {
+        Route {
+            path,
+            skip_grid: None,
+        }
+    }
+}
+
 /// A finished volume render: the image and how it was made.
 #[derive(Debug)]
 pub struct VolumeRender {
@@ -191,7 +208,8 @@ impl RenderSession {
             }
             level => VolumeSource::Memory(self.level(source, level)?),
         };
-        let path = self.choose_path(&source, opts)?;
+        let route = self.choose_path(&source, opts)?;
+        let path = route.path;
         if matches!(
             path,
             RenderPath::InCore { .. }
@@ -209,7 +227,7 @@ impl RenderSession {
         // A distributed render always runs: every rank must take part in the compositing, and
         // the ranks' caches need not agree on what they still hold.
         let rerun = self.renders_rerun() || matches!(path, RenderPath::Distributed { .. });
-        let render = self.stage_with(
+        self.stage_with(
             "raycast",
             key,
             rerun,
@@ -223,7 +241,7 @@ impl RenderSession {
                 }
             },
             || {
-                let r = self.run_path(&source, path, opts)?;
+                let r = self.run_path(&source, &route, opts)?;
                 let mut detail = raycast_effects(opts);
                 if let Some(b) = &r.bricks {
                     detail.push(bricked_detail(path, b));
@@ -240,12 +258,7 @@ impl RenderSession {
                 }
                 Ok((r, detail.join(", ")))
             },
-        );
-        self.routed_grid
-            .lock()
-            .expect("routed grid poisoned")
-            .take();
-        render
+        )
     }
 
     /// The decision of how a render runs, in one place (see the module documentation).
@@ -253,7 +266,7 @@ impl RenderSession {
         &self,
         source: &VolumeSource,
         opts: &VolumeRenderOptions,
-    ) -> Result<RenderPath> {
+    ) -> Result<Route> {
         let b = &opts.bricking;
         if let Some(world) = self.cluster().filter(|w| w.size() > 1) {
             if let VolumeSource::Memory(v) = source {
@@ -275,10 +288,13 @@ impl RenderSession {
             distributed::check_options(source.name(), nz, opts, world.size())?;
             return Ok(RenderPath::Distributed {
                 ranks: world.size(),
-            });
+            }
+            .into());
         }
         let path = match source {
-            VolumeSource::Memory(v) if !v.is_regular() => return mapped_path(v, opts),
+            VolumeSource::Memory(v) if !v.is_regular() => {
+                return mapped_path(v, opts).map(Route::from)
+            }
             VolumeSource::Memory(v) => {
                 if opts.precision == Precision::F64 {
                     // f64 has no bricked variant and no budget: the GPU shader where it runs.
@@ -289,15 +305,20 @@ impl RenderSession {
                         RenderPath::F64Gpu
                     } else {
                         RenderPath::F64Cpu
-                    });
+                    }
+                    .into());
                 }
                 let pixels = opts.width as u64 * opts.height as u64;
                 let fits = b
                     .memory_budget
                     .is_none_or(|m| v.voxel_count() as u64 * 4 + pixels * 32 <= m);
                 if fits && b.brick.is_none() {
-                    return Ok(RenderPath::InCore {
-                        skipping: self.skipping_pays(v, opts)?,
+                    let skip_grid = self.paying_skip_grid(v, opts)?;
+                    return Ok(Route {
+                        path: RenderPath::InCore {
+                            skipping: skip_grid.is_some(),
+                        },
+                        skip_grid,
                     });
                 }
                 RenderPath::Bricked {
@@ -328,41 +349,38 @@ impl RenderSession {
             }
         };
         check_bricked_options(source.name(), opts)?;
-        Ok(path)
+        Ok(path.into())
     }
 
-    /// Whether the in-core render of `volume` skips empty space: when asked (the default), for
-    /// point-sampled transfer functions (pre-integration carries each segment's value into
-    /// the next), and when enough cells are empty for the jumps to pay for the lookups.
-    fn skipping_pays(&self, volume: &Arc<Volume>, opts: &VolumeRenderOptions) -> Result<bool> {
+    /// The skip grid the in-core render of `volume` skips with, or `None` when it does not
+    /// skip: skipping is when asked (the default), for point-sampled transfer functions
+    /// (pre-integration carries each segment's value into the next), and when enough cells are
+    /// empty for the jumps to pay for the lookups.
+    fn paying_skip_grid(
+        &self,
+        volume: &Arc<Volume>,
+        opts: &VolumeRenderOptions,
+    ) -> Result<Option<Arc<SkipGrid>>> {
         if !opts.empty_space_skipping || opts.tf_sampling != TfSampling::Point {
-            return Ok(false);
+            return Ok(None);
         }
         let grid = self.skip_grid(volume, opts)?;
-        let pays = grid.empty_fraction() >= super::skipping::MIN_EMPTY_FRACTION;
-        if pays {
-            let key = self.skip_grid_key(volume, opts);
-            *self.routed_grid.lock().expect("routed grid poisoned") = Some((key, grid));
-        }
-        Ok(pays)
+        Ok((grid.empty_fraction() >= super::skipping::MIN_EMPTY_FRACTION).then_some(grid))
     }
 
     fn run_path(
         &self,
         source: &VolumeSource,
-        path: RenderPath,
+        route: &Route,
         opts: &VolumeRenderOptions,
     ) -> Result<VolumeRender> {
         let t = Instant::now();
+        let path = route.path;
         let (image, timing, bricks) = match (path, source) {
-            (RenderPath::InCore { skipping }, VolumeSource::Memory(v)) => {
+            (RenderPath::InCore { .. }, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
-                let grid = if skipping {
-                    Some(self.routed_skip_grid(v, opts)?)
-                } else {
-                    None
-                };
-                let (img, timing) = self.volume_renderer()?.render(&gv, opts, grid.as_deref())?;
+                let grid = route.skip_grid.as_deref();
+                let (img, timing) = self.volume_renderer()?.render(&gv, opts, grid)?;
                 (img, timing, None)
             }
             (RenderPath::F64Gpu, VolumeSource::Memory(v)) => {
@@ -553,36 +571,6 @@ impl RenderSession {
         )
     }
 
-    fn skip_grid_key(&self, volume: &Arc<Volume>, opts: &VolumeRenderOptions) -> u64 {
-        KeyBuilder::new("skip grid")
-            .u64(self.volume_key(volume))
-            .debug(&opts.tf)
-            .finish()
-    }
-
-    /// The skip grid the routing of this render fetched (and logged), fetched again without a
-    /// second line in the pass log: from the cache, else as the routing held it; built again
-    /// only when neither has it.
-    fn routed_skip_grid(
-        &self,
-        volume: &Arc<Volume>,
-        opts: &VolumeRenderOptions,
-    ) -> Result<Arc<SkipGrid>> {
-        let key = self.skip_grid_key(volume, opts);
-        if let Some(g) = self.cache().get::<SkipGrid>(key) {
-            return Ok(g);
-        }
-        let routed = self
-            .routed_grid
-            .lock()
-            .expect("routed grid poisoned")
-            .clone();
-        match routed {
-            Some((k, g)) if k == key => Ok(g),
-            _ => self.skip_grid(volume, opts),
-        }
-    }
-
     /// The skip grid of `volume` under the options' transfer function, cached per function.
     pub(crate) fn skip_grid(
         &self,
@@ -590,7 +578,10 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<Arc<SkipGrid>> {
         let cells = self.cell_ranges(volume)?;
-        let key = self.skip_grid_key(volume, opts);
+        let key = KeyBuilder::new("skip grid")
+            .u64(self.volume_key(volume))
+            .debug(&opts.tf)
+            .finish();
         let ctx = self.context()?;
         self.stage_with(
             "skip-grid",

@@ -50,9 +50,6 @@ pub struct RenderSession {
     /// The ranks this session renders with (MPI, or threads in tests); every volume render is
     /// split over them when there are several.
     cluster: Option<Arc<dyn Exchange>>,
-    /// The skip grid the routing of the render under way classified, by key, for its ray cast
-    /// when the cache could not keep it (a small budget would otherwise classify twice).
-    pub(super) routed_grid: Mutex<Option<(u64, Arc<super::skipping::SkipGrid>)>>,
 }
 
 fn ms_since(t: Instant) -> f64 {
@@ -97,7 +94,6 @@ impl RenderSession {
             image_keys: Mutex::new(HashMap::new()),
             rerun_renders: false,
             cluster: None,
-            routed_grid: Mutex::new(None),
         }
     }
 
