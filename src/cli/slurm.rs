@@ -151,12 +151,11 @@ fn check_job_shape(args: &SlurmArgs) -> Result<()> {
         };
         return Err(Error::invalid(field, "expected at least 1, got 0"));
     }
-    if args.nodes.is_some_and(|m| m > args.ranks) {
+    if let Some(m) = args.nodes.filter(|&m| m > args.ranks) {
         return Err(Error::invalid(
             "--nodes",
             format!(
-                "{} nodes for {} ranks would leave nodes idle; give at most as many nodes as ranks",
-                args.nodes.unwrap_or(0),
+                "{m} nodes for {} ranks would leave nodes idle; give at most as many nodes as ranks",
                 args.ranks
             ),
         ));
@@ -194,6 +193,7 @@ struct JobScript {
     hdrvis: PathBuf,
     script: PathBuf,
     out: PathBuf,
+    allow_paths: Vec<PathBuf>,
 }
 
 impl JobScript {
@@ -220,6 +220,7 @@ impl JobScript {
             hdrvis,
             script,
             out,
+            allow_paths: args.allow_paths.iter().map(|d| cwd.join(d)).collect(),
         })
     }
 
@@ -258,7 +259,7 @@ impl JobScript {
             text.push_str(&format!("#SBATCH {o}\n"));
         }
         text.push_str("set -euo pipefail\n");
-        text.push_str(&self.command(args, &set_args)?.join(" "));
+        text.push_str(&self.command(args, &set_args).join(" "));
         text.push('\n');
         Ok(text)
     }
@@ -319,7 +320,7 @@ impl JobScript {
     }
 
     /// `srun [--mpi=TYPE] HDRVIS run SCRIPT --out DIR --resume [--set …] [--allow-path …]`.
-    fn command(&self, args: &SlurmArgs, set_args: &[String]) -> Result<Vec<String>> {
+    fn command(&self, args: &SlurmArgs, set_args: &[String]) -> Vec<String> {
         let mut command = vec!["srun".to_string()];
         if args.ranks > 1 {
             command.push(format!("--mpi={}", shell_quote(&args.mpi)));
@@ -333,14 +334,13 @@ impl JobScript {
             "--resume".into(),
         ]);
         command.extend(set_args.iter().cloned());
-        let cwd = std::env::current_dir().map_err(|e| Error::io(".", e))?;
-        for dir in &args.allow_paths {
+        for dir in &self.allow_paths {
             command.push(format!(
                 "--allow-path {}",
-                shell_quote(&cwd.join(dir).display().to_string())
+                shell_quote(&dir.display().to_string())
             ));
         }
-        Ok(command)
+        command
     }
 }
 
