@@ -126,12 +126,8 @@ pub struct RunArgs {
     /// Output folder: every file the script writes goes here.
     #[arg(long, short, visible_alias = "output", default_value = "out")]
     pub out: PathBuf,
-    /// Script parameter read by `param(name, default)`; repeatable.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub sets: Vec<String>,
-    /// Extra folder the script may read; repeatable.
-    #[arg(long = "allow-path", value_name = "DIR")]
-    pub allow_paths: Vec<PathBuf>,
+    #[command(flatten)]
+    pub inputs: ScriptInputArgs,
     /// Skip outputs that already exist (resume an interrupted sweep).
     #[arg(long)]
     pub resume: bool,
@@ -164,6 +160,33 @@ pub struct RunArgs {
     pub protocol: Option<String>,
 }
 
+/// The flags of every command that runs a script: its parameters and the folders it may read.
+#[derive(clap::Args, Debug)]
+pub struct ScriptInputArgs {
+    /// Script parameter read by `param(name, default)`; repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Extra folder the script may read; repeatable.
+    #[arg(long = "allow-path", value_name = "DIR")]
+    pub allow_paths: Vec<PathBuf>,
+}
+
+impl ScriptInputArgs {
+    /// The `--set` pairs, each split at its first `=`.
+    pub fn parsed_sets(&self) -> hdrvis::Result<Vec<(String, String)>> {
+        self.sets
+            .iter()
+            .map(|s| match s.split_once('=') {
+                Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.to_string())),
+                _ => Err(hdrvis::Error::invalid(
+                    "--set",
+                    format!("expected KEY=VALUE, got {s:?}"),
+                )),
+            })
+            .collect()
+    }
+}
+
 #[derive(clap::Args, Debug)]
 pub struct TuiArgs {
     /// A .rhai script or an OpenEXR image.
@@ -171,12 +194,8 @@ pub struct TuiArgs {
     /// Output folder: saved views (s) and the script's own outputs.
     #[arg(long, short, visible_alias = "output", default_value = "out")]
     pub out: PathBuf,
-    /// Script parameter read by `param(name, default)`; repeatable.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub sets: Vec<String>,
-    /// Extra folder the script may read; repeatable.
-    #[arg(long = "allow-path", value_name = "DIR")]
-    pub allow_paths: Vec<PathBuf>,
+    #[command(flatten)]
+    pub inputs: ScriptInputArgs,
     /// Image protocol: auto (ask the terminal), kitty, sixel, iterm2, halfblocks
     /// (default from HDRVIS_TUI_PROTOCOL, else auto).
     #[arg(long)]

@@ -112,8 +112,8 @@ pub(super) fn script_options(
 ) -> Result<ScriptOptions> {
     let mut opts = ScriptOptions::new(&args.out);
     opts.backend = backend;
-    opts.allowed_paths = args.allow_paths.clone();
-    opts.sets = parse_sets(&args.sets)?;
+    opts.allowed_paths = args.inputs.allow_paths.clone();
+    opts.sets = args.inputs.parsed_sets()?;
     opts.resume = args.resume;
     let ranks = world.map_or(1, |w| w.size());
     let (shard, source) = Shard::resolve(
@@ -170,25 +170,13 @@ pub fn run_tui(args: &TuiArgs, backend: BackendChoice) -> Result<()> {
     let opts = hdrvis::tui::TuiOptions {
         input: args.input.clone(),
         out_dir: args.out.clone(),
-        sets: parse_sets(&args.sets)?,
-        allowed_paths: args.allow_paths.clone(),
+        sets: args.inputs.parsed_sets()?,
+        allowed_paths: args.inputs.allow_paths.clone(),
         backend,
         protocol: ProtocolChoice::resolve(args.protocol.as_deref())?,
         cache_mib: budget_mib(None)?,
     };
     hdrvis::tui::run_tui(&opts)
-}
-
-pub(super) fn parse_sets(sets: &[String]) -> Result<Vec<(String, String)>> {
-    sets.iter()
-        .map(|s| match s.split_once('=') {
-            Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.to_string())),
-            _ => Err(Error::invalid(
-                "--set",
-                format!("expected KEY=VALUE, got {s:?}"),
-            )),
-        })
-        .collect()
 }
 
 /// The built-in demo: a generated mantle-like volume rendered with an HDR transfer function.

@@ -4,7 +4,7 @@
 //! --mpi=…` that render every volume together) and with `--submit` hands it to sbatch; the second
 //! lists the outputs a sweep writes that are missing, from a planning run that renders nothing.
 
-use super::run::parse_sets;
+use super::ScriptInputArgs;
 use hdrvis::gpu::BackendChoice;
 use hdrvis::render::cache::budget_mib;
 use hdrvis::script::{check_sweep_script, sweep_status, ScriptOptions, Shard};
@@ -32,12 +32,8 @@ pub struct SlurmArgs {
     /// Output folder of the sweep; the job script and the tasks' logs go to DIR/slurm/.
     #[arg(long, short, visible_alias = "output", default_value = "out")]
     pub out: PathBuf,
-    /// Script parameter read by `param(name, default)`; repeatable.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub sets: Vec<String>,
-    /// Extra folder the script may read; repeatable.
-    #[arg(long = "allow-path", value_name = "DIR")]
-    pub allow_paths: Vec<PathBuf>,
+    #[command(flatten)]
+    pub inputs: ScriptInputArgs,
     /// Wall-clock limit of each task (sbatch's formats: MINUTES, HH:MM:SS, D-HH:MM:SS).
     #[arg(long)]
     pub time: Option<String>,
@@ -75,12 +71,8 @@ pub struct SweepStatusArgs {
     /// Output folder of the sweep.
     #[arg(long, short, visible_alias = "output", default_value = "out")]
     pub out: PathBuf,
-    /// Script parameter read by `param(name, default)`; repeatable (as the sweep ran).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub sets: Vec<String>,
-    /// Extra folder the script may read; repeatable.
-    #[arg(long = "allow-path", value_name = "DIR")]
-    pub allow_paths: Vec<PathBuf>,
+    #[command(flatten)]
+    pub inputs: ScriptInputArgs,
     /// Say which tasks of an array of N have outputs missing (the indices to resubmit).
     #[arg(long, value_name = "N", conflicts_with = "shard")]
     pub array: Option<u64>,
@@ -102,7 +94,7 @@ pub fn run_slurm(args: &SlurmArgs) -> Result<()> {
     } else {
         None
     };
-    let sets = parse_sets(&args.sets)?;
+    let sets = args.inputs.parsed_sets()?;
     check_sweep_script(&args.script, &sets, args.array.is_some())?;
     let job = JobScript::new(args)?;
     let text = job.text(args, &sets)?;
@@ -220,7 +212,12 @@ impl JobScript {
             hdrvis,
             script,
             out,
-            allow_paths: args.allow_paths.iter().map(|d| cwd.join(d)).collect(),
+            allow_paths: args
+                .inputs
+                .allow_paths
+                .iter()
+                .map(|d| cwd.join(d))
+                .collect(),
         })
     }
 
@@ -409,8 +406,8 @@ fn submit(sbatch: &Path, file: &Path) -> Result<String> {
 pub fn run_sweep_status(args: &SweepStatusArgs, backend: BackendChoice) -> Result<()> {
     let mut opts = ScriptOptions::new(&args.out);
     opts.backend = backend;
-    opts.sets = parse_sets(&args.sets)?;
-    opts.allowed_paths = args.allow_paths.clone();
+    opts.sets = args.inputs.parsed_sets()?;
+    opts.allowed_paths = args.inputs.allow_paths.clone();
     opts.cache_mib = budget_mib(None)?;
     if let Some(text) = &args.shard {
         opts.shard = Shard::parse(text)?;
