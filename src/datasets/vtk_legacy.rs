@@ -295,26 +295,43 @@ fn read_grid(t: &mut Tokens) -> std::result::Result<GridHeader, String> {
     Ok(GridHeader { points, placement })
 }
 
-/// Skips a `FIELD name n` block (its keyword already read): n arrays of
-/// `name components tuples type` and their values.
+/// Skips a `FIELD name n` block (its keyword already read).
 fn skip_field(t: &mut Tokens) -> std::result::Result<(), String> {
     t.word()?;
     let arrays: usize = t.number("FIELD")?;
     for _ in 0..arrays {
-        let name = t.word()?.to_string();
-        let components: usize = t.number(&name)?;
-        let tuples: usize = t.number(&name)?;
-        let type_name = t.word()?;
-        let n = components
-            .checked_mul(tuples)
-            .ok_or_else(|| format!("FIELD array '{name}' is too large"))?;
-        t.values(n, type_name, &name)?;
-        if t.peek().is_some_and(|w| w.eq_ignore_ascii_case("METADATA")) {
-            t.word()?;
-            skip_metadata(t);
-        }
+        field_entry(t)?;
     }
     Ok(())
+}
+
+/// One array of a `FIELD` block: `name components tuples type`, its values and any `METADATA`.
+struct FieldEntry {
+    name: String,
+    components: usize,
+    tuples: usize,
+    values: Vec<f32>,
+}
+
+fn field_entry(t: &mut Tokens) -> std::result::Result<FieldEntry, String> {
+    let name = t.word()?.to_string();
+    let components: usize = t.number(&name)?;
+    let tuples: usize = t.number(&name)?;
+    let type_name = t.word()?;
+    let count = components
+        .checked_mul(tuples)
+        .ok_or_else(|| format!("FIELD array '{name}' is too large"))?;
+    let values = t.values(count, type_name, &name)?;
+    if t.peek().is_some_and(|w| w.eq_ignore_ascii_case("METADATA")) {
+        t.word()?;
+        skip_metadata(t);
+    }
+    Ok(FieldEntry {
+        name,
+        components,
+        tuples,
+        values,
+    })
 }
 
 /// Skips a `METADATA` block (its keyword already read): its lines up to an empty one.
@@ -426,22 +443,14 @@ fn field_array(
     t.word()?;
     let arrays: usize = t.number("FIELD")?;
     for _ in 0..arrays {
-        let name = t.word()?.to_string();
-        let components: usize = t.number(&name)?;
-        let tuples: usize = t.number(&name)?;
-        let type_name = t.word()?;
-        let count = components
-            .checked_mul(tuples)
-            .ok_or_else(|| format!("FIELD array '{name}' is too large"))?;
-        let values = t.values(count, type_name, &name)?;
-        if t.peek().is_some_and(|w| w.eq_ignore_ascii_case("METADATA")) {
-            t.word()?;
-            skip_metadata(t);
+        let entry = field_entry(t)?;
+        if entry.components == 1 && entry.tuples == n && var.is_none_or(|v| v == entry.name) {
+            return Ok(Some(Array {
+                name: entry.name,
+                values: entry.values,
+            }));
         }
-        if components == 1 && tuples == n && var.is_none_or(|v| v == name) {
-            return Ok(Some(Array { name, values }));
-        }
-        seen.push(name);
+        seen.push(entry.name);
     }
     Ok(None)
 }
