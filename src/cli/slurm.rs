@@ -117,31 +117,32 @@ pub fn run_slurm(args: &SlurmArgs) -> Result<()> {
 
 /// Refuses counts of zero, a throttle without an array, and ranks this build cannot start.
 fn check_job_shape(args: &SlurmArgs) -> Result<()> {
-    if args.array == Some(0) {
-        return Err(Error::invalid("--array", "expected at least 1 task, got 0"));
+    let counts = [
+        ("--array", args.array, "expected at least 1 task, got 0"),
+        (
+            "--max-running",
+            args.max_running,
+            "expected at least 1, got 0",
+        ),
+        (
+            "--ranks",
+            Some(u64::from(args.ranks)),
+            "expected at least 1, got 0",
+        ),
+        (
+            "--nodes",
+            args.nodes.map(u64::from),
+            "expected at least 1, got 0",
+        ),
+    ];
+    if let Some((field, _, why)) = counts.iter().find(|c| c.1 == Some(0)) {
+        return Err(Error::invalid(*field, *why));
     }
-    match args.max_running {
-        Some(0) => {
-            return Err(Error::invalid(
-                "--max-running",
-                "expected at least 1, got 0",
-            ))
-        }
-        Some(_) if args.array.is_none() => {
-            return Err(Error::invalid(
-                "--max-running",
-                "limits the tasks of a job array; give --array N too",
-            ))
-        }
-        _ => {}
-    }
-    if args.ranks == 0 || args.nodes == Some(0) {
-        let field = if args.ranks == 0 {
-            "--ranks"
-        } else {
-            "--nodes"
-        };
-        return Err(Error::invalid(field, "expected at least 1, got 0"));
+    if args.max_running.is_some() && args.array.is_none() {
+        return Err(Error::invalid(
+            "--max-running",
+            "limits the tasks of a job array; give --array N too",
+        ));
     }
     if let Some(m) = args.nodes.filter(|&m| m > args.ranks) {
         return Err(Error::invalid(
