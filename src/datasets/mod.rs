@@ -2,6 +2,7 @@
 //! datasets work lands, the generators of the paper's case studies. `load_volume` picks the
 //! reader from the file name.
 
+pub mod access;
 pub mod bricked;
 pub mod cache;
 pub mod cf;

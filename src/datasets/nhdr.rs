@@ -329,7 +329,7 @@ fn read_samples(
         .or_else(|| fields.get("datafile"))
     {
         Some(name) => {
-            let p = path.parent().unwrap_or(Path::new(".")).join(name);
+            let p = super::access::referenced_file(path, "data file", name)?;
             let len = std::fs::metadata(&p).map_err(|e| Error::io(&p, e))?.len() as usize;
             if encoding == Encoding::Raw && len < skip + need_bytes {
                 return Err(Error::format(&p, format!("holds {len} bytes but the header {} needs {} ({}x{}x{} {:?} + {skip} skipped)", path.display(), skip + need_bytes, dims[0], dims[1], dims[2], sample)));

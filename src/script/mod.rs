@@ -398,9 +398,12 @@ pub fn run_script_source(
         .compile(source)
         .map_err(|e| Error::Script(describe_parse_error(name, source, &e)))?;
     check_sets_are_read(&ast, &opts.sets)?;
+    // Files that data files name (an NRRD header's `data file`) obey the sandbox too.
+    let scope = crate::datasets::access::ReadScope::enter(host.sandbox.readable());
     engine
         .run_ast(&ast)
         .map_err(|e| Error::Script(describe_eval_error(name, source, &e)))?;
+    drop(scope);
     drop(engine);
     fn take<T: Default>(m: &Mutex<T>) -> T {
         std::mem::take(&mut *m.lock().expect("run state poisoned"))

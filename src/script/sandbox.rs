@@ -4,49 +4,14 @@
 //! the existing part, so `../x` or a link cannot escape.
 
 use crate::error::{Error, Result};
-use std::path::{Component, Path, PathBuf};
+use crate::datasets::access::resolve;
+use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug)]
 pub struct Sandbox {
     script_dir: PathBuf,
     out_dir: PathBuf,
     readable: Vec<PathBuf>,
-}
-
-/// Absolute, `..`-free form of a path whose tail may not exist yet: the longest existing prefix
-/// is canonicalised (resolving symlinks) and the rest appended lexically.
-fn resolve(path: &Path) -> Result<PathBuf> {
-    let abs = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        std::env::current_dir()
-            .map_err(|e| Error::io(".", e))?
-            .join(path)
-    };
-    let mut clean = PathBuf::new();
-    for c in abs.components() {
-        match c {
-            Component::ParentDir => {
-                clean.pop();
-            }
-            Component::CurDir => {}
-            other => clean.push(other.as_os_str()),
-        }
-    }
-    let mut existing = clean.clone();
-    let mut tail = Vec::new();
-    while !existing.exists() {
-        match existing.file_name() {
-            Some(n) => tail.push(n.to_os_string()),
-            None => break,
-        }
-        existing.pop();
-    }
-    let mut out = existing.canonicalize().unwrap_or(existing);
-    for t in tail.into_iter().rev() {
-        out.push(t);
-    }
-    Ok(out)
 }
 
 impl Sandbox {
@@ -63,6 +28,11 @@ impl Sandbox {
             out_dir,
             readable,
         })
+    }
+
+    /// The folders the script may read, resolved (for [`crate::datasets::access::ReadScope`]).
+    pub(crate) fn readable(&self) -> &[PathBuf] {
+        &self.readable
     }
 
     /// A path the script wants to read, relative to the script's folder.

@@ -212,6 +212,49 @@ fn bad_script_calls_are_clear_errors() {
     assert_one_line_error(code, &stderr, "expected an integer");
 }
 
+/// A detached NRRD header in the script's folder may not name a data file outside the sandbox:
+/// not absolutely, not through `..`, not through a symlink; inside it, the header still reads.
+#[test]
+fn nrrd_data_files_outside_the_sandbox_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("scripts");
+    std::fs::create_dir_all(&d).unwrap();
+    let secret = dir.path().join("secret.raw");
+    std::fs::write(&secret, 7.5f32.to_le_bytes().repeat(8)).unwrap();
+    std::fs::write(d.join("ok.raw"), 2.5f32.to_le_bytes().repeat(8)).unwrap();
+    std::os::unix::fs::symlink(&secret, d.join("link.raw")).unwrap();
+    let header = |data: &str| {
+        format!("NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nendian: little\nencoding: raw\ndata file: {data}\n")
+    };
+    let names = [
+        ("abs", secret.display().to_string()),
+        ("up", "../secret.raw".to_string()),
+        ("link", "link.raw".to_string()),
+        ("ok", "ok.raw".to_string()),
+    ];
+    for (name, data) in &names {
+        std::fs::write(d.join(format!("{name}.nhdr")), header(data)).unwrap();
+    }
+    for (name, _) in &names[..3] {
+        for call in ["load_volume", "open_volume", "load_grid"] {
+            let script = format!("print(volume_stats({call}(\"{name}.nhdr\")));");
+            std::fs::write(d.join("s.rhai"), script).unwrap();
+            let (code, stdout, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], &d);
+            assert_one_line_error(code, &stderr, "data file");
+            assert!(stderr.contains("outside the folders"), "{name} {call}: {stderr}");
+            assert!(!stdout.contains("7.5"), "{stdout}");
+        }
+    }
+    std::fs::write(d.join("s.rhai"), "print(volume_stats(load_volume(\"ok.nhdr\")).max);").unwrap();
+    let (code, stdout, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], &d);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("2.5"), "{stdout}");
+    // The command line is the user's own: it follows the header wherever it points.
+    let (code, stdout, stderr) = hdrvis(&["info", "up.nhdr"], &d);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("7.5"), "{stdout}");
+}
+
 #[test]
 fn doctor_reports_adapter_and_capabilities() {
     let dir = tempfile::tempdir().unwrap();
