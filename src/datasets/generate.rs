@@ -114,6 +114,9 @@ pub struct OkadaJob {
     pub observation_depth_m: f64,
 }
 
+/// Most cells per side of a synthetic tsunami basin.
+pub(crate) const MAX_TSUNAMI_N: usize = 16384;
+
 impl Default for OkadaJob {
     /// The paper's case II (Yuan et al. 2008, section 3.2) on a 1000 km square, 1001 nodes a side.
     fn default() -> Self {
@@ -376,10 +379,10 @@ impl TsunamiJob {
     pub(crate) fn load_bathymetry(&self) -> Result<tsunami::Bathymetry> {
         match &self.bathymetry {
             BathymetrySource::Synthetic { n, extent_m } => {
-                if !(2..=16384).contains(n) {
+                if !(2..=MAX_TSUNAMI_N).contains(n) {
                     return Err(Error::invalid(
                         "n",
-                        format!("cells per side must lie in [2, 16384], got {n}"),
+                        format!("cells per side must lie in [2, {MAX_TSUNAMI_N}], got {n}"),
                     ));
                 }
                 if !(extent_m.is_finite() && *extent_m > 0.0) {

@@ -26,10 +26,10 @@ pub(crate) const OUTER_RADIUS: f64 = 1.0;
 pub(crate) const CRITICAL_RAYLEIGH: f64 = 1.0e3;
 
 const SHELL_THICKNESS: f64 = OUTER_RADIUS - INNER_RADIUS;
-const MAX_N: usize = 2048;
+pub(crate) const MAX_N: usize = 2048;
 const MAX_AXIS_NODES: usize = 16384;
 const MAX_DEGREE: usize = 64;
-const MAX_FEATURES: usize = 10_000;
+pub(crate) const MAX_FEATURES: usize = 10_000;
 const MAX_RAYLEIGH: f64 = 1.0e12;
 /// Plumes and slabs need a size even when the shell is conductive; they take the one of this
 /// Rayleigh number then.

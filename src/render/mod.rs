@@ -31,6 +31,8 @@ pub enum FilterMode {
 }
 
 impl FilterMode {
+    pub(crate) const NAMES: &'static [&'static str] = &["auto", "hardware", "exact"];
+
     pub fn parse(s: &str) -> Result<FilterMode> {
         match s {
             "auto" => Ok(FilterMode::Auto),
@@ -249,10 +251,10 @@ impl VolumeRenderOptions {
 
     pub fn validate(&self) -> Result<()> {
         for (f, v) in [("width", self.width), ("height", self.height)] {
-            if v == 0 || v > 16384 {
+            if v == 0 || v > MAX_IMAGE_SIDE {
                 return Err(Error::invalid(
                     f,
-                    format!("expected 1 to 16384 pixels, got {v}"),
+                    format!("expected 1 to {MAX_IMAGE_SIDE} pixels, got {v}"),
                 ));
             }
         }
@@ -295,6 +297,9 @@ impl VolumeRenderOptions {
         }
     }
 }
+
+/// The largest side of a rendered image, in pixels.
+pub(crate) const MAX_IMAGE_SIDE: u32 = 16384;
 
 /// Refuses, before any GPU work, an RGBA f32 image the adapter cannot hold: a side beyond its
 /// largest 2-D texture, or more bytes (rows padded to wgpu's copy alignment) than its largest

@@ -269,6 +269,8 @@ pub enum FringeMode {
 }
 
 impl FringeMode {
+    pub(crate) const NAMES: &'static [&'static str] = &["cyclic", "modulated", "direct"];
+
     pub fn parse(s: &str) -> Result<FringeMode> {
         match s {
             "cyclic" => Ok(FringeMode::Cyclic),
@@ -312,6 +314,8 @@ pub enum PhaseMethod {
 }
 
 impl PhaseMethod {
+    pub(crate) const NAMES: &'static [&'static str] = &["reduced", "naive"];
+
     pub fn parse(s: &str) -> Result<PhaseMethod> {
         match s {
             "reduced" => Ok(PhaseMethod::Reduced),
@@ -485,10 +489,13 @@ impl SurfaceOptions {
         }
         for (f, v) in [("width", self.width), ("height", self.height)] {
             if let Some(v) = v {
-                if v == 0 || v > 16384 {
+                if v == 0 || v > crate::render::MAX_IMAGE_SIDE {
                     return Err(Error::invalid(
                         f,
-                        format!("expected 1 to 16384 pixels, got {v}"),
+                        format!(
+                            "expected 1 to {} pixels, got {v}",
+                            crate::render::MAX_IMAGE_SIDE
+                        ),
                     ));
                 }
             }
@@ -1599,6 +1606,10 @@ impl FringeProfile {
 /// right over the colour domain — for cyclic mode one fringe period (0 to 1/ν), otherwise the
 /// property's data range — with the fringes of ν drawn in unless the mode is direct. The
 /// resolution 1/ν and the domain are recorded in the metadata.
+/// The tallest colour bar, in pixels: a bar is a strip, and the limit keeps a mistyped size from
+/// allocating gigabytes.
+pub(crate) const MAX_COLORBAR_HEIGHT: u32 = 1024;
+
 pub(crate) fn colorbar(
     grid: &Grid,
     opts: &SurfaceOptions,
@@ -1606,11 +1617,17 @@ pub(crate) fn colorbar(
     height: u32,
 ) -> Result<HdrImage> {
     opts.validate()?;
-    if width == 0 || height == 0 || width > 16384 || height > 16384 {
-        return Err(Error::invalid(
-            "width",
-            "expected 1 to 16384 pixels per side",
-        ));
+    let side = crate::render::MAX_IMAGE_SIDE;
+    for (field, v, max) in [
+        ("width", width, side),
+        ("height", height, MAX_COLORBAR_HEIGHT),
+    ] {
+        if v == 0 || v > max {
+            return Err(Error::invalid(
+                field,
+                format!("expected 1 to {max} pixels, got {v}"),
+            ));
+        }
     }
     let p = SurfaceRenderer::property_indices(grid, opts)?[0];
     let nu = opts.nu_for(0);

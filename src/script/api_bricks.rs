@@ -2,10 +2,11 @@
 //! memory-mapped `.npy`, NetCDF read by hyperslabs); `render_volume` on such a volume goes to
 //! the render session's one entry point like every other render (see `render::route`).
 
-use super::api_render::{render_and_note, render_options, ScriptImage};
-use super::convert::{check_keys, int, to_rhai, variable_option, RResult};
+use super::api_render::{blank, render_and_note, render_options, ScriptImage};
+use super::convert::{to_rhai, variable_option, RResult};
+use super::options::{opt, Kind, OptionTable};
 use super::ScriptHost;
-use crate::model::bricks::{BrickedVolume, DEFAULT_BRICK};
+use crate::model::bricks::{BrickedVolume, BRICK_SIZES, DEFAULT_BRICK};
 use crate::render::VolumeSource;
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
@@ -13,7 +14,28 @@ use std::sync::Arc;
 /// A volume opened as bricks (`open_volume`).
 pub(crate) type ScriptBricked = Arc<BrickedVolume>;
 
-const OPEN_KEYS: &[&str] = &["variable", "brick"];
+pub(crate) const OPEN_VOLUME: OptionTable = OptionTable {
+    function: "open_volume",
+    options: &[
+        opt(
+            "variable",
+            Kind::Text("\"fluctuation\""),
+            "the file's first 3-D variable",
+            "the array or variable to read",
+        ),
+        opt(
+            "brick",
+            Kind::Int(
+                BRICK_SIZES[0] as i64,
+                BRICK_SIZES[BRICK_SIZES.len() - 1] as i64,
+            ),
+            "32",
+            "brick edge in voxels: 8, 16, 32, 64 or 128",
+        ),
+    ],
+    call: "open_volume(generate(\"mantle\", #{ n: 4 }), OPTS)",
+    base: "#{}",
+};
 
 pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_type_with_name::<ScriptBricked>("BrickedVolume");
@@ -36,13 +58,10 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "open_volume",
         move |path: &str, opts: Map| -> RResult<ScriptBricked> {
-            check_keys(&opts, OPEN_KEYS, "open_volume")?;
+            let given = OPEN_VOLUME.read(&opts)?;
             let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
-            let variable = variable_option(&opts, from_path, "open_volume")?;
-            let brick = match opts.get("brick") {
-                Some(v) => int(v, "brick")?.clamp(0, 1 << 20) as usize,
-                None => DEFAULT_BRICK,
-            };
+            let variable = variable_option(given.string("variable")?, from_path, "open_volume")?;
+            let brick = given.count("brick")?.unwrap_or(DEFAULT_BRICK);
             Ok(Arc::new(
                 crate::datasets::bricked::open_bricked(&p, variable.as_deref(), brick)
                     .map_err(to_rhai)?,
@@ -55,6 +74,9 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         move |volume: &mut ScriptBricked, opts: Map| -> RResult<ScriptImage> {
             let source = VolumeSource::Bricked(volume.clone());
             let o = render_options(&h, &opts, &source)?;
+            if h.plan_only {
+                return Ok(blank(o.width, o.height));
+            }
             render_and_note(&h, &source, &o)
         },
     );

@@ -2,123 +2,204 @@
 //! of the cached NetCDF file (generated on a miss), which `load_grid` / `load_volume` then read;
 //! the cache folder is readable by every script.
 
-use super::convert::{check_keys, int, num, string, to_rhai, RResult};
+use super::convert::{to_rhai, RResult};
+use super::options::{opt, Kind, OptionTable};
 use crate::datasets::generate::{
-    BathymetrySource, Job, MantleJob, OkadaJob, OutputFormat, TsunamiJob,
+    BathymetrySource, Job, MantleJob, OkadaJob, OutputFormat, TsunamiJob, MAX_TSUNAMI_N,
 };
-use crate::datasets::mantle::{MantleField, MantleFields, MantleOptions};
-use crate::datasets::okada::DepthRef;
+use crate::datasets::mantle::{MantleField, MantleFields, MantleOptions, MAX_FEATURES, MAX_N};
+use crate::datasets::okada::{DepthRef, MAX_GRID_SIDE};
 use crate::datasets::tsunami::Boundary;
 use rhai::{Engine, Map};
 
-const OKADA_KEYS: &[&str] = &[
-    "strike",
-    "dip",
-    "rake",
-    "slip",
-    "length",
-    "width",
-    "depth",
-    "depth_ref",
-    "extent",
-    "n",
-];
-const TSUNAMI_KEYS: &[&str] = &["n", "extent", "duration", "boundary"];
-const MANTLE_KEYS: &[&str] = &["n", "seed", "field", "plumes", "slabs"];
+const MANTLE_FIELDS: &[&str] = &["temperature", "fluctuation", "viscosity"];
 
-/// The mantle options of `generate("mantle", #{…})` and `generate_mantle(#{…})`: `n`, `seed`,
-/// `plumes`, `slabs` and the one `field` to generate (fluctuation by default), which is returned
-/// beside the options. `what` names the function in the error for an unknown key.
-pub(super) fn mantle_options(opts: &Map, what: &str) -> RResult<(MantleOptions, MantleField)> {
-    check_keys(opts, MANTLE_KEYS, what)?;
+/// The generator's options, shared by `generate_mantle` and `generate("mantle", ...)`.
+macro_rules! mantle_option_specs {
+    () => {
+        [
+            opt(
+                "n",
+                Kind::Int(2, MAX_N as i64),
+                "513",
+                "cells per axis of the cube [-1, 1]³",
+            ),
+            opt(
+                "seed",
+                Kind::Int(0, i64::MAX),
+                "1",
+                "random seed of the plumes and slabs",
+            ),
+            opt(
+                "field",
+                Kind::Choice(MANTLE_FIELDS),
+                "\"fluctuation\"",
+                "the field generated",
+            ),
+            opt(
+                "plumes",
+                Kind::Int(0, MAX_FEATURES as i64),
+                "12",
+                "hot plumes rising from the core–mantle boundary",
+            ),
+            opt(
+                "slabs",
+                Kind::Int(0, MAX_FEATURES as i64),
+                "8",
+                "cold slabs sinking from the surface",
+            ),
+        ]
+    };
+}
+
+pub(crate) const GENERATE_MANTLE: OptionTable = OptionTable {
+    function: "generate_mantle",
+    options: &mantle_option_specs!(),
+    call: "generate_mantle(OPTS)",
+    base: "#{ n: 4 }",
+};
+
+pub(crate) const GENERATE_MANTLE_FILE: OptionTable = OptionTable {
+    function: "generate mantle",
+    options: &{
+        let [a, b, c, d, e] = mantle_option_specs!();
+        [
+            a,
+            b,
+            c,
+            d,
+            e,
+            opt("native", Kind::Bool, "false", "keep the spherical grid: CF on radius (km), latitude and longitude, loaded as a spherical volume"),
+        ]
+    },
+    call: "generate(\"mantle\", OPTS)",
+    base: "#{ n: 4 }",
+};
+
+pub(crate) const GENERATE_OKADA: OptionTable = OptionTable {
+    function: "generate okada",
+    options: &[
+        opt("strike", Kind::Finite, "0", "fault strike, degrees clockwise from north"),
+        opt("dip", Kind::Num(-90.0, 90.0), "6", "fault dip, degrees"),
+        opt("rake", Kind::Finite, "-90", "slip direction on the fault, degrees"),
+        opt("slip", Kind::Finite, "10", "slip, m"),
+        opt("length", Kind::NumAbove(0.0, 1e8), "100000", "along strike, m"),
+        opt("width", Kind::NumAbove(0.0, 1e8), "50000", "down dip, m"),
+        opt("depth", Kind::NumAbove(0.0, 1e7), "50000", "depth of the reference point, m (positive down; the whole fault must lie below the surface)"),
+        opt("depth_ref", Kind::Choice(&["top", "centroid", "bottom"]), "\"centroid\"", "the point of the fault that depth gives"),
+        opt("extent", Kind::NumAbove(0.0, 1e9), "1000000", "side of the square surface grid, m"),
+        opt("n", Kind::Int(2, MAX_GRID_SIDE as i64), "1001", "nodes per side"),
+    ],
+    call: "generate(\"okada\", OPTS)",
+    base: "#{ n: 3, depth_ref: \"top\" }",
+};
+
+pub(crate) const GENERATE_TSUNAMI: OptionTable = OptionTable {
+    function: "generate tsunami",
+    options: &[
+        opt(
+            "n",
+            Kind::Int(2, MAX_TSUNAMI_N as i64),
+            "1000",
+            "cells per side of the synthetic basin",
+        ),
+        opt(
+            "extent",
+            Kind::NumAbove(0.0, 1e8),
+            "2000000",
+            "side of the basin, m",
+        ),
+        opt(
+            "duration",
+            Kind::NumAbove(0.0, 1e7),
+            "7200",
+            "simulated time, s",
+        ),
+        opt(
+            "boundary",
+            Kind::Choice(&["open", "reflective"]),
+            "\"open\"",
+            "what the basin's edges do to waves",
+        ),
+    ],
+    call: "generate(\"tsunami\", OPTS)",
+    base: "#{ n: 8, duration: 1.0 }",
+};
+
+/// The mantle options of `generate("mantle", #{…})` (`table` [`GENERATE_MANTLE_FILE`]) and
+/// `generate_mantle(#{…})` ([`GENERATE_MANTLE`]), with the one field to generate and whether
+/// to keep the native grid.
+pub(super) fn mantle_options(
+    opts: &Map,
+    table: &'static OptionTable,
+) -> RResult<(MantleOptions, MantleField, bool)> {
+    let given = table.read(opts)?;
     let mut o = MantleOptions::default();
-    let mut field = MantleField::Fluctuation;
-    for (k, v) in opts {
-        match k.as_str() {
-            "n" => o.n = int(v, "n")?.clamp(0, 4096) as usize,
-            "seed" => o.seed = int(v, "seed")? as u64,
-            "plumes" => o.plumes = int(v, "plumes")?.clamp(0, 10_000) as usize,
-            "slabs" => o.slabs = int(v, "slabs")?.clamp(0, 10_000) as usize,
-            "field" => field = MantleField::parse(&string(v, "field")?).map_err(to_rhai)?,
-            _ => unreachable!("checked keys"),
-        }
-    }
+    o.n = given.count("n")?.unwrap_or(o.n);
+    o.seed = given.int("seed")?.map_or(o.seed, |s| s as u64);
+    o.plumes = given.count("plumes")?.unwrap_or(o.plumes);
+    o.slabs = given.count("slabs")?.unwrap_or(o.slabs);
+    let field = match given.string("field")? {
+        Some(name) => MantleField::parse(&name).map_err(to_rhai)?,
+        None => MantleField::Fluctuation,
+    };
     o.fields = MantleFields::only(field);
-    Ok((o, field))
+    let native = given.has("native") && given.bool("native")? == Some(true);
+    Ok((o, field, native))
+}
+
+fn okada_job(opts: &Map) -> RResult<Job> {
+    let given = GENERATE_OKADA.read(opts)?;
+    let mut job = OkadaJob::default();
+    let seg = &mut job.segments[0];
+    let set = |target: &mut f64, name: &str| -> RResult<()> {
+        if let Some(x) = given.num(name)? {
+            *target = x;
+        }
+        Ok(())
+    };
+    set(&mut seg.strike_deg, "strike")?;
+    set(&mut seg.dip_deg, "dip")?;
+    set(&mut seg.rake_deg, "rake")?;
+    set(&mut seg.slip_m, "slip")?;
+    set(&mut seg.length_m, "length")?;
+    set(&mut seg.width_m, "width")?;
+    set(&mut seg.depth_m, "depth")?;
+    if let Some(r) = given.string("depth_ref")? {
+        seg.depth_ref = DepthRef::parse(&r).map_err(to_rhai)?;
+    }
+    set(&mut job.extent_m, "extent")?;
+    job.n = given.count("n")?.unwrap_or(job.n);
+    Ok(Job::Okada(job))
+}
+
+fn tsunami_job(opts: &Map) -> RResult<Job> {
+    let given = GENERATE_TSUNAMI.read(opts)?;
+    let mut job = TsunamiJob::default();
+    if let Some(d) = given.num("duration")? {
+        job.options.duration_s = d;
+    }
+    if let Some(b) = given.string("boundary")? {
+        job.options.boundary = if b == "reflective" {
+            Boundary::Reflective
+        } else {
+            Boundary::Open
+        };
+    }
+    // The default basin is synthetic; n and extent size it.
+    if let BathymetrySource::Synthetic { n, extent_m } = &mut job.bathymetry {
+        *n = given.count("n")?.unwrap_or(*n);
+        *extent_m = given.num("extent")?.unwrap_or(*extent_m);
+    }
+    Ok(Job::Tsunami(job))
 }
 
 fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
     match kind {
-        "okada" => {
-            check_keys(opts, OKADA_KEYS, "generate okada")?;
-            let mut job = OkadaJob::default();
-            let seg = &mut job.segments[0];
-            for (k, v) in opts {
-                match k.as_str() {
-                    "strike" => seg.strike_deg = num(v, "strike")?,
-                    "dip" => seg.dip_deg = num(v, "dip")?,
-                    "rake" => seg.rake_deg = num(v, "rake")?,
-                    "slip" => seg.slip_m = num(v, "slip")?,
-                    "length" => seg.length_m = num(v, "length")?,
-                    "width" => seg.width_m = num(v, "width")?,
-                    "depth" => seg.depth_m = num(v, "depth")?,
-                    "depth_ref" => {
-                        seg.depth_ref =
-                            DepthRef::parse(&string(v, "depth_ref")?).map_err(to_rhai)?
-                    }
-                    "extent" => job.extent_m = num(v, "extent")?,
-                    "n" => job.n = int(v, "n")?.clamp(0, 100_000) as usize,
-                    _ => unreachable!("checked keys"),
-                }
-            }
-            Ok(Job::Okada(job))
-        }
-        "tsunami" => {
-            check_keys(opts, TSUNAMI_KEYS, "generate tsunami")?;
-            let mut job = TsunamiJob::default();
-            let (mut n, mut extent) = match job.bathymetry {
-                BathymetrySource::Synthetic { n, extent_m } => (n, extent_m),
-                _ => unreachable!("the default is synthetic"),
-            };
-            for (k, v) in opts {
-                match k.as_str() {
-                    "n" => n = int(v, "n")?.clamp(0, 100_000) as usize,
-                    "extent" => extent = num(v, "extent")?,
-                    "duration" => job.options.duration_s = num(v, "duration")?,
-                    "boundary" => {
-                        job.options.boundary = match string(v, "boundary")?.as_str() {
-                            "open" => Boundary::Open,
-                            "reflective" => Boundary::Reflective,
-                            other => {
-                                return super::convert::err(
-                                    "boundary",
-                                    format!("expected open or reflective, got {other:?}"),
-                                )
-                            }
-                        }
-                    }
-                    _ => unreachable!("checked keys"),
-                }
-            }
-            job.bathymetry = BathymetrySource::Synthetic {
-                n,
-                extent_m: extent,
-            };
-            Ok(Job::Tsunami(job))
-        }
+        "okada" => okada_job(opts),
+        "tsunami" => tsunami_job(opts),
         "mantle" => {
-            // `native` chooses the file's grid; the other keys are the generator's.
-            let mut opts = opts.clone();
-            let native = match opts.remove("native") {
-                Some(v) => v.as_bool().or_else(|_| {
-                    super::convert::err(
-                        "native",
-                        format!("expected true or false, got {}", v.type_name()),
-                    )
-                })?,
-                None => false,
-            };
-            let (options, _) = mantle_options(&opts, "generate mantle")?;
+            let (options, _, native) = mantle_options(opts, &GENERATE_MANTLE_FILE)?;
             Ok(Job::Mantle(MantleJob { options, native }))
         }
         other => super::convert::err(

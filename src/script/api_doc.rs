@@ -2,6 +2,16 @@
 //! description); a test checks that the entries and the engine's registered functions are the
 //! same set, and `hdrvis api` prints the reference that `docs/api.md` holds.
 
+use super::api_bricks::OPEN_VOLUME;
+use super::api_datasets::{
+    GENERATE_MANTLE, GENERATE_MANTLE_FILE, GENERATE_OKADA, GENERATE_TSUNAMI,
+};
+use super::api_fields::RESAMPLE;
+use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
+use super::api_post::TONEMAP;
+use super::api_render::{LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
+use super::api_surface::{RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
+use super::options::OptionTable;
 #[cfg(test)]
 use std::collections::BTreeSet;
 
@@ -12,6 +22,8 @@ pub(crate) struct ApiEntry {
     pub params: &'static [&'static str],
     pub returns: &'static str,
     pub doc: &'static str,
+    /// The option tables of the function's `options` map (and of maps nested in it).
+    pub options: &'static [&'static OptionTable],
 }
 
 const fn e(
@@ -27,7 +39,13 @@ const fn e(
         params,
         returns,
         doc,
+        options: &[],
     }
+}
+
+/// An entry whose options map is described by `options`.
+const fn with(entry: ApiEntry, options: &'static [&'static OptionTable]) -> ApiEntry {
+    ApiEntry { options, ..entry }
 }
 
 /// Areas in the order the reference lists them.
@@ -44,11 +62,11 @@ pub(crate) const AREAS: &[&str] = &[
 
 pub(crate) const API: &[ApiEntry] = &[
     e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x), .vti, legacy .vtk or an HDF5 dataset, relative to the script's folder; \"box.nc:T\" picks the variable T of a file with several, \"volume.h5:/group/name\" an HDF5 dataset."),
-    e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with #{variable: \"T\"}: the array or variable to read (an unknown one lists the file's); geometry: \"auto\" (CF latitude, longitude and depth/radius/height make a spherical volume) or \"cartesian\" (coordinates as box lengths); planet_radius: in the vertical axis's unit (default the file's, else 6371 km)."),
+    with(e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with options:"), &[&LOAD_VOLUME]),
     e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy memory-mapped, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
-    e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with #{variable, brick: 8|16|32|64|128}; \"box.nc:T\" also picks the variable."),
-    e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3: #{n, seed, field: \"temperature\"|\"fluctuation\"|\"viscosity\", plumes, slabs}; outside the shell is missing (NaN)."),
-    e("datasets", "generate", &["kind: string", "options: map"], "string", "Path of a cached NetCDF dataset, generated on a miss: \"okada\" #{strike, dip, rake, slip, length, width, depth, depth_ref, extent, n} (ux, uy, uz), \"tsunami\" #{n, extent, duration, boundary} (max_abs_eta, arrival_time, depth), \"mantle\" #{n, seed, field, plumes, slabs, native} (native: true keeps the spherical grid, CF on radius in km, latitude, longitude; loads as a spherical volume)."),
+    with(e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with options (\"box.nc:T\" also picks the variable):"), &[&OPEN_VOLUME]),
+    with(e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3; outside the shell is missing (NaN). Options:"), &[&GENERATE_MANTLE]),
+    with(e("datasets", "generate", &["kind: string", "options: map"], "string", "Path of a cached NetCDF dataset, generated on a miss: \"okada\" (ux, uy, uz), \"tsunami\" (max_abs_eta, arrival_time, depth) or \"mantle\" (the field). Options of each kind:"), &[&GENERATE_OKADA, &GENERATE_TSUNAMI, &GENERATE_MANTLE_FILE]),
     e("datasets", "volume_log10", &["volume: Volume"], "Volume", "log10 of every voxel; zeros and negatives become missing (NaN)."),
     e("datasets", "volume_abs", &["volume: Volume"], "Volume", "|v| of every voxel."),
     e("datasets", "volume_magnitude", &["components: array"], "Volume", "sqrt(sum of squares) of same-shape volumes, e.g. [vx, vy, vz]."),
@@ -56,12 +74,12 @@ pub(crate) const API: &[ApiEntry] = &[
     e("datasets", "get$geometry", &["volume: Volume"], "string", "volume.geometry: \"spherical\" for a shell or wedge on (radius, latitude, longitude), \"cartesian\" for a box (regular or rectilinear)."),
     e("datasets", "to_string", &["volume: Volume"], "string", "One line: name, geometry, shape, units, value range, missing count and extent (radii and angles of a shell); print(volume) shows it."),
     e("datasets", "to_debug", &["volume: Volume"], "string", "The same line as to_string (debug printing)."),
-    e("datasets", "resample", &["volume: Volume", "options: map"], "Volume", "#{n}: the volume on a regular Cartesian box over its bounding box, n cubic voxels along the longest side, trilinear in the source's index space at voxel centres; missing (NaN) outside a shell or wedge. The paper's way of rendering spherical data; emission and extinction then count per box voxel."),
+    with(e("datasets", "resample", &["volume: Volume", "options: map"], "Volume", "The volume on a regular Cartesian box over its bounding box, n cubic voxels along the longest side, trilinear in the source's index space at voxel centres; missing (NaN) outside a shell or wedge. The paper's way of rendering spherical data; emission and extinction then count per box voxel. Options:"), &[&RESAMPLE]),
     e("datasets", "volume_stats", &["volume: Volume"], "map", "#{min, max, min_positive, finite, missing} over the finite voxels."),
     e("datasets", "get$name", &["volume: Volume"], "string", "volume.name (grids have .name too)"),
     e("datasets", "get$dims", &["volume: Volume"], "array", "volume.dims: [nx, ny, nz]"),
     e("transfer functions", "tf_emission_absorption", &["e: number", "a: number"], "TransferFunction", "Grey emission e·v and extinction a·v per voxel length."),
-    e("transfer functions", "tf_lut", &["options: map"], "TransferFunction", "HDR table: #{scale: \"linear\"|\"log10\"|\"symlog\" (case ignored; aliases lin, log, logarithmic, symmetric-log), linthresh, domain: [lo, hi], lens: #{lo, hi, factor}, colormap, emission: [[t, log10 e], ...], opacity: [[t, log10 sigma], ...], transparent_below}."),
+    with(e("transfer functions", "tf_lut", &["options: map"], "TransferFunction", "HDR table from a scale, a colour map and log10 emission and extinction curves over t in [0, 1]. Options:"), &[&TF_LUT, &LENS]),
     e("transfer functions", "tf_preset", &["name: string"], "TransferFunction", "A ready-made HDR transfer function: log-inferno, log-viridis, symlog-diverging, linear-grey."),
     e("cameras", "camera_axis", &["axis: string"], "Camera", "Orthographic view along \"x\", \"y\" or \"z\" framing the volume exactly."),
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number"], "Camera", "Perspective camera orbiting the volume's centre (degrees; fov 35)."),
@@ -69,8 +87,8 @@ pub(crate) const API: &[ApiEntry] = &[
     e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number"], "Camera", "Perspective camera above latitude, longitude (degrees) at distance times the shell's outer radius from the planet's centre (a box: times half its diagonal from its centre), looking at the centre with north up (fov 35)."),
     e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
     e("cameras", "camera_look_at", &["eye: array", "target: array", "up: array", "fov: number"], "Camera", "Free perspective camera."),
-    e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast: #{tf, camera, width, height, step (voxels), jitter, seed, early_exit, background: [r, g, b], filter: \"auto\"|\"hardware\"|\"exact\", precision: \"u8\"|\"f16\"|\"f32\"|\"f32c\"|\"f64\" (f64 on the GPU where the adapter has shader f64, else the CPU), shading: true|false|#{ambient, diffuse, specular, shininess} (Blinn–Phong headlight on the data gradient; absent = no shading code; not on the bricked path), tf_sampling: \"point\"|\"preintegrated\" (the transfer function's mean between the values at each segment's ends; not on the bricked path), empty_space_skipping (default true: jump over space the transfer function leaves empty — missing data, transparent values — with the same image), memory_budget (MiB of GPU memory; larger volumes stream through a brick cache), brick (edge in voxels: render bricked), level (0 full, 1 half, ... 4: quick look)}. Results of the plain path are cached: an identical call returns the earlier image without a ray cast."),
-    e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping empty bricks unless empty_space_skipping: false, out of core beyond memory_budget."),
+    with(e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast. Results of the plain path are cached: an identical call returns the earlier image without a ray cast. Options:"), &[&RENDER_VOLUME, &SHADING]),
+    with(e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping empty bricks unless empty_space_skipping: false, out of core beyond memory_budget; the same options."), &[&RENDER_VOLUME, &SHADING]),
     e("rendering", "get$width", &["image: Image"], "int", "image.width"),
     e("rendering", "get$height", &["image: Image"], "int", "image.height"),
     e("surfaces", "load_grid", &["path: string"], "Grid", "A 2-D field from .npy, .npz or .nc; every same-shape array becomes a property (elevation-like names become the relief); \"f.nc:eta\" keeps only that variable, as below."),
@@ -82,23 +100,23 @@ pub(crate) const API: &[ApiEntry] = &[
     e("surfaces", "get$nx", &["grid: Grid"], "int", "grid.nx"),
     e("surfaces", "get$ny", &["grid: Grid"], "int", "grid.ny"),
     e("surfaces", "get$properties", &["grid: Grid"], "array", "grid.properties: the property names"),
-    e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2: #{nu (number or one per property), mode: \"cyclic\"|\"modulated\"|\"direct\", colormap, property (name, or an array of up to four rendered from one data pass, returning an array), view: \"map\" (a geographic grid keeps the cos-latitude aspect), \"perspective\", \"globe\" (a lon/lat grid draped on the unit sphere, seen from 3 radii above its centre) or a Camera, globe: true (the Camera looks at the sphere in the Earth-centred frame), width, height, modulation, absolute, log_color, exaggeration, relief, phase: \"reduced\" (default: f64-exact phase) or \"naive\" (cos(2 pi nu d) in f32, for comparison), antialias (default true: colours from the fringe averaged over the pixel footprint), missing: \"transparent\" (default) or a colour name / #rrggbb}. The EXR gets the data value, `fringe` and `fringe_filtered` channels."),
+    with(e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2. The EXR gets the data value, `fringe` and `fringe_filtered` channels. Options:"), &[&RENDER_SURFACE]),
     e("surfaces", "render_surface", &["grid: Grid"], "Image", "An error naming the options render_surface needs."),
-    e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for the same options (plus width, height), with the resolution 1/nu in its metadata."),
-    e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for the same options (plus width, default 384): the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text."),
+    with(e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for render_surface's options, with the resolution 1/nu in its metadata. Options:"), &[&SURFACE_COLORBAR]),
+    with(e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for render_surface's options: the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text. Options:"), &[&SURFACE_LEGEND]),
     e("exposure and tone mapping", "load_image", &["path: string"], "Image", "Reads an RGB(A) OpenEXR (float or half, from any producer) as an HDR image."),
     e("exposure and tone mapping", "exposure", &["image: Image", "ev: number"], "Image", "The HDR image times 2^ev (no re-render)."),
     e("exposure and tone mapping", "bracket", &["image: Image", "evs: array"], "array", "One exposed HDR image per EV, all from the same render."),
-    e("exposure and tone mapping", "tonemap", &["image: Image", "options: map"], "Image", "Display-referred image in [0, 1]: #{op: \"linear\"|\"drago\"|\"reinhard\"|\"ward\"|\"aces\"|\"reinhard-local\"|\"durand\", exposure, key, white, bias, saturation, gamma, offset, gamut: \"scale\" (default: keeps hue) or \"clip\", ...} (GPU, with an f64 CPU reference)."),
+    with(e("exposure and tone mapping", "tonemap", &["image: Image", "options: map"], "Image", "Display-referred image in [0, 1] (GPU, with an f64 CPU reference); each operator takes only its own parameters. Options:"), &[&TONEMAP]),
     e("exposure and tone mapping", "tonemap", &["image: Image", "op: string"], "Image", "As above with the operator's defaults."),
     e("exposure and tone mapping", "false_colour", &["image: Image"], "Image", "False-colour view of log10 luminance with a decade legend."),
     e("output", "preview", &["image: Image"], "()", "Shows the image inline when stdout is a terminal (kitty, iTerm2, sixel or half blocks); a no-op otherwise. Under `hdrvis tui` the last previewed image is what the TUI shows; under `hdrvis run --preview` previews are printed once after the run."),
     e("output", "save_exr", &["image: Image", "path: string"], "()", "Linear OpenEXR (float R, G, B, A plus extra channels and provenance), under the output folder."),
     e("output", "save_png", &["image: Image", "path: string"], "()", "8-bit sRGB view of the image at 0 EV, under the output folder."),
     e("output", "save_png", &["image: Image", "path: string", "exposure: number"], "()", "8-bit sRGB view at the given exposure in stops."),
-    e("output", "save_png", &["image: Image", "path: string", "options: map"], "()", "As above with #{exposure, legend: true} (the colour bar the render recorded drawn beneath, with labelled decades and units) or frame: true (a map-view surface with lat/lon or x/y axes and the colour bar beside it)."),
+    with(e("output", "save_png", &["image: Image", "path: string", "options: map"], "()", "As above with options:"), &[&SAVE_PNG]),
     e("output", "save_animation", &["frames: array", "path: string"], "()", "A movie of the frames (Images, or paths of PNGs under the output folder) at 12 frames/s: .mp4 (H.264) and .webm (VP9) through the system's ffmpeg, .gif and .png (animated PNG) without it. Under the output folder; frames are converted one at a time."),
-    e("output", "save_animation", &["frames: array", "path: string", "options: map"], "()", "As above with #{fps, exposure} (exposure in stops, for HDR images)."),
+    with(e("output", "save_animation", &["frames: array", "path: string", "options: map"], "()", "As above with options:"), &[&SAVE_ANIMATION]),
     e("parameters and sweeps", "already_done", &["path: string"], "bool", "True when `--resume` is on and this output already exists: skip its work."),
     e("parameters and sweeps", "progress", &["done: int", "total: int"], "()", "Progress bar with ETA on stderr (when it is a terminal)."),
     e("parameters and sweeps", "progress", &["done: int", "total: int", "label: string"], "()", "As above, with a label."),
@@ -154,16 +172,178 @@ pub(crate) fn signatures_named(name: &str) -> Vec<String> {
         .collect()
 }
 
+/// The option lists of `e` under its line, each table once: one listed for an earlier entry is
+/// referred to.
+fn push_options(s: &mut String, e: &ApiEntry, listed: &mut Vec<&'static str>) {
+    let nested = e.options.len() > 1;
+    for table in e.options {
+        if listed.contains(&table.function) {
+            s.push_str(&format!(
+                "  - {}: the options listed above\n",
+                table.function
+            ));
+            continue;
+        }
+        listed.push(table.function);
+        if nested {
+            s.push_str(&format!("  - {}:\n", table.function));
+        }
+        let indent = if nested { "    " } else { "  " };
+        for line in table.reference_lines() {
+            s.push_str(&format!("{indent}- {line}\n"));
+        }
+    }
+}
+
 /// The reference as Markdown (what `hdrvis api` prints and docs/api.md holds).
 pub(crate) fn reference_markdown() -> String {
     let mut s = String::from(
         "# hdrvis script API\n\nGenerated by `hdrvis api` from the functions the engine registers; a test keeps this file current.\nPaths read resolve against the script's folder; outputs go under `--out`. Options maps reject unknown keys.\n",
     );
+    let mut listed = Vec::new();
     for area in AREAS {
         s.push_str(&format!("\n## {area}\n\n"));
         for e in API.iter().filter(|e| e.area == *area) {
             s.push_str(&format!("- `{}` — {}\n", signature(e), e.doc));
+            push_options(&mut s, e, &mut listed);
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::script::{run_script_source, ScriptOptions};
+
+    /// Runs `source` as a planning run (options checked, nothing rendered or written) in a
+    /// folder holding `geo.nc`, a small grid `uz` on CF latitude and longitude (the surface
+    /// tables' calls load it).
+    fn plan(source: &str) -> crate::Result<()> {
+        let dir = tempfile::tempdir().unwrap();
+        let uz: Vec<f64> = (0..12).map(|i| i as f64 * 0.25 - 1.0).collect();
+        crate::datasets::netcdf::write_grid(
+            dir.path().join("geo.nc"),
+            &[
+                ("lat", &[10.0, 20.0, 30.0], "degrees_north"),
+                ("lon", &[100.0, 110.0, 120.0, 130.0], "degrees_east"),
+            ],
+            &[("uz", &uz, "m", "uplift")],
+            &[],
+        )
+        .unwrap();
+        let mut opts = ScriptOptions::new(dir.path().join("out"));
+        opts.progress = false;
+        opts.plan_only = true;
+        run_script_source(source, "t.rhai", dir.path(), &opts).map(|_| ())
+    }
+
+    fn tables() -> Vec<&'static OptionTable> {
+        let mut all: Vec<&'static OptionTable> = Vec::new();
+        for table in API.iter().flat_map(|e| e.options.iter().copied()) {
+            if !all.iter().any(|t| t.function == table.function) {
+                all.push(table);
+            }
+        }
+        all
+    }
+
+    /// Every table: an unknown key is refused naming the known options, and every option the
+    /// table describes is accepted with a value of its kind.
+    #[test]
+    fn every_option_table_refuses_unknown_keys_and_accepts_each_option() {
+        let tables = tables();
+        assert!(tables.len() >= 17, "{} tables", tables.len());
+        for table in tables {
+            let call = table.call.replace("OPTS", "o");
+            let unknown = format!("let o = {}; o.no_such_option = 1; {call};", table.base);
+            let e = plan(&unknown).unwrap_err().to_string();
+            let expected = format!(
+                "unknown option no_such_option; known options: {}",
+                table.names().join(", ")
+            );
+            assert!(e.contains(&expected), "{}: {e}", table.function);
+            for spec in table.options {
+                // An operator parameter needs an operator that takes it.
+                let base = match operators_taking(spec.name).first() {
+                    Some(op) if table.function == "tonemap" => format!("#{{ op: {op:?} }}"),
+                    _ => table.base.to_string(),
+                };
+                let source = format!(
+                    "let o = {base}; o[{:?}] = {}; {call};",
+                    spec.name,
+                    spec.kind.example(spec.default)
+                );
+                if let Err(e) = plan(&source) {
+                    panic!(
+                        "{}: option {} refused: {e}\n{source}",
+                        table.function, spec.name
+                    );
+                }
+            }
+        }
+    }
+
+    /// The tone-mapping operators that take the parameter `name`.
+    fn operators_taking(name: &str) -> Vec<&'static str> {
+        crate::tonemap::Operator::NAMES
+            .into_iter()
+            .filter(|op| crate::tonemap::Operator::param_names(op).contains(&name))
+            .collect()
+    }
+
+    /// Each operator parameter of `tonemap` names, in its doc, exactly the operators that take it.
+    #[test]
+    fn tonemap_parameters_name_their_operators() {
+        for spec in TONEMAP.options {
+            let ops = operators_taking(spec.name);
+            if ops.is_empty() {
+                continue;
+            }
+            let prefix = format!("{}: ", ops.join(", "));
+            assert!(spec.doc.starts_with(&prefix), "{}: {}", spec.name, spec.doc);
+        }
+    }
+
+    /// docs/api.md lists each table's options (with `docs_api_md_is_current`, which holds it to
+    /// the generated reference, exactly those; checked line by line so that a missing one is
+    /// named).
+    #[test]
+    fn docs_api_md_lists_every_table_option() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/api.md");
+        let doc = std::fs::read_to_string(&path).unwrap();
+        for table in tables() {
+            for line in table.reference_lines() {
+                assert!(
+                    doc.contains(&line),
+                    "docs/api.md lacks {}: {line}",
+                    table.function
+                );
+            }
+        }
+    }
+
+    /// Values are refused as the script wrote them, in a real run and in a planning run alike.
+    #[test]
+    fn out_of_range_options_quote_the_value_as_written() {
+        let cases = [
+            ("generate_mantle(#{ n: 100000 });", "n: 100000; expected integer 2..=2048"),
+            ("generate_mantle(#{ n: -5 });", "n: -5; expected integer 2..=2048"),
+            ("generate_mantle(#{ plumes: 4611686018427387904 });", "plumes: 4611686018427387904;"),
+            ("render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 100000 });", "width: 100000; expected integer 1..=16384"),
+            ("tonemap(exposure(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), 0.0), #{ op: \"drago\", key: 0.2 });", "drago.key"),
+            ("surface_colorbar(load_grid(generate(\"okada\", #{ n: 3 })), #{ width: 100000, height: 100000 });", "width: 100000; expected integer 1..=16384"),
+        ];
+        for (source, needle) in cases {
+            let e = plan(source).unwrap_err().to_string();
+            assert!(e.contains(needle), "{source}: {e}");
+            let dir = tempfile::tempdir().unwrap();
+            let mut opts = ScriptOptions::new(dir.path().join("out"));
+            opts.progress = false;
+            let e = run_script_source(source, "t.rhai", dir.path(), &opts)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(needle), "real run: {source}: {e}");
+        }
+    }
 }

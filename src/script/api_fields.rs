@@ -3,7 +3,9 @@
 //! volumes are new volumes; the originals stay.
 
 use super::api_render::ScriptVolume;
-use super::convert::{check_keys, err, int, to_rhai, RResult};
+use super::convert::{err, int, to_rhai, RResult};
+use super::options::{opt, Kind, OptionTable};
+use crate::model::volume::MAX_DIM;
 use crate::model::{LutTransfer, Scale, TransferFunction, Volume};
 use rhai::{Array, Engine, Map};
 use std::sync::Arc;
@@ -148,15 +150,25 @@ fn volume_magnitude(parts: Array) -> RResult<ScriptVolume> {
     ))
 }
 
+pub(crate) const RESAMPLE: OptionTable = OptionTable {
+    function: "resample",
+    options: &[opt(
+        "n",
+        Kind::Int(2, MAX_DIM as i64),
+        "required",
+        "voxels along the longest side of the box",
+    )],
+    call: "resample(load_volume(generate(\"mantle\", #{ n: 4, native: true })), OPTS)",
+    base: "#{}",
+};
+
 /// `resample(v, #{ n: N })`: the volume on a regular box over its bounding box, N cubic voxels
 /// along the longest side, missing outside a shell's domain (the paper's preparation of
 /// spherical data).
 fn resample(v: &mut ScriptVolume, opts: Map) -> RResult<ScriptVolume> {
-    check_keys(&opts, &["n"], "resample")?;
-    let Some(n) = opts.get("n") else {
+    let Some(n) = RESAMPLE.read(&opts)?.count("n")? else {
         return err("resample", "expected #{ n: voxels along the longest side }");
     };
-    let n = int(n, "resample n")?.clamp(0, 1 << 20) as usize;
     Ok(Arc::new(
         crate::model::resample_to_box(v, n).map_err(to_rhai)?,
     ))

@@ -7,10 +7,12 @@
 //! `frame: true` draws a map-view surface with its coordinate axes and the colour bar beside it.
 
 use super::api_render::ScriptImage;
-use super::convert::{boolean, check_keys, err, num, to_rhai, RResult};
+use super::convert::{err, num, to_rhai, RResult};
+use super::options::{opt, Kind, OptionTable};
 use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::io::animation::RgbFrame;
 use crate::model::HdrImage;
+use crate::tonemap::MAX_EV;
 use rhai::{Array, Dynamic, Engine, Map};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -23,7 +25,16 @@ pub(crate) fn register_output(engine: &mut Engine, host: &Arc<ScriptHost>) {
 }
 
 /// Keys of `save_png(img, path, #{...})`.
-const SAVE_PNG_KEYS: &[&str] = &["exposure", "legend", "frame"];
+pub(crate) const SAVE_PNG: OptionTable = OptionTable {
+    function: "save_png",
+    options: &[
+        opt("exposure", Kind::Num(-MAX_EV, MAX_EV), "0", "stops"),
+        opt("legend", Kind::Bool, "false", "the colour bar the render recorded drawn beneath, with labelled decades and units"),
+        opt("frame", Kind::Bool, "false", "a map-view surface with lat/lon or x/y axes and the colour bar beside it"),
+    ],
+    call: "save_png(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), \"x.png\", OPTS)",
+    base: "#{}",
+};
 
 /// What `save_png` draws around the picture.
 #[derive(Clone, Copy, PartialEq)]
@@ -83,7 +94,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
         move |img: &mut ScriptImage, path: &str| -> RResult<()> {
             let p = h.sandbox.write_path(path).map_err(to_rhai)?;
             h.note_image(img);
-            if h.already_done(&p) || !h.write_outputs {
+            if h.planned(&p) || h.already_done(&p) || !h.write_outputs {
                 return Ok(());
             }
             let t = std::time::Instant::now();
@@ -111,7 +122,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             );
         }
         let p = h.sandbox.write_path(path).map_err(to_rhai)?;
-        if h.already_done(&p) || !h.write_outputs {
+        if h.planned(&p) || h.already_done(&p) || !h.write_outputs {
             return Ok(());
         }
         let t = std::time::Instant::now();
@@ -136,15 +147,11 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
         move |img: &mut ScriptImage, path: &str, ev: Dynamic| -> RResult<()> {
             // An exposure in stops, or a map #{exposure, legend, frame}.
             if let Some(opts) = ev.clone().try_cast::<rhai::Map>() {
-                check_keys(&opts, SAVE_PNG_KEYS, "save_png")?;
-                let exposure = match opts.get("exposure") {
-                    Some(v) => num(v, "exposure")?,
-                    None => 0.0,
-                };
-                let flag = |key: &str| opts.get(key).map_or(Ok(false), |v| boolean(v, key));
-                let decoration = if flag("frame")? {
+                let given = SAVE_PNG.read(&opts)?;
+                let exposure = given.num("exposure")?.unwrap_or(0.0);
+                let decoration = if given.bool("frame")? == Some(true) {
                     PngDecoration::Frame
-                } else if flag("legend")? {
+                } else if given.bool("legend")? == Some(true) {
                     PngDecoration::Legend
                 } else {
                     PngDecoration::None
@@ -156,8 +163,15 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     );
 }
 
-/// Options of `save_animation`.
-const ANIMATION_KEYS: &[&str] = &["fps", "exposure"];
+pub(crate) const SAVE_ANIMATION: OptionTable = OptionTable {
+    function: "save_animation",
+    options: &[
+        opt("fps", Kind::Num(0.1, 1000.0), "12", "frames per second"),
+        opt("exposure", Kind::Num(-MAX_EV, MAX_EV), "0", "stops, for HDR images"),
+    ],
+    call: "save_animation([render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 })], \"x.gif\", OPTS)",
+    base: "#{}",
+};
 
 /// `save_animation(frames, path[, #{fps, exposure}])`: images, or PNG files under the output
 /// folder, as one movie (see `io::animation`); frames are converted one at a time as the encoder
@@ -165,12 +179,12 @@ const ANIMATION_KEYS: &[&str] = &["fps", "exposure"];
 fn register_animation(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
     let save = move |frames: Array, path: &str, opts: &Map| -> RResult<()> {
-        check_keys(opts, ANIMATION_KEYS, "save_animation")?;
-        let get = |key: &str, default: f64| opts.get(key).map_or(Ok(default), |v| num(v, key));
-        let (fps, ev) = (get("fps", 12.0)?, get("exposure", 0.0)?);
+        let given = SAVE_ANIMATION.read(opts)?;
+        let fps = given.num("fps")?.unwrap_or(12.0);
+        let ev = given.num("exposure")?.unwrap_or(0.0);
         let p = h.sandbox.write_path(path).map_err(to_rhai)?;
         crate::io::animation::MovieFormat::of(&p).map_err(to_rhai)?;
-        if h.already_done(&p) || !h.write_outputs {
+        if h.planned(&p) || h.already_done(&p) || !h.write_outputs {
             return Ok(());
         }
         let t = std::time::Instant::now();
@@ -226,6 +240,9 @@ fn animation_frame(h: &ScriptHost, item: &Dynamic, i: usize, ev: f64) -> crate::
 fn register_feedback(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
     engine.register_fn("preview", move |img: &mut ScriptImage| -> RResult<()> {
+        if h.plan_only {
+            return Ok(());
+        }
         if h.capture_previews {
             h.previews
                 .lock()

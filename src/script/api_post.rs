@@ -5,56 +5,70 @@
 //! `save_png` (registered with the render API) writes those with the sRGB curve only.
 
 use super::api_render::ScriptImage;
-use super::convert::{check_keys, err, num, string, to_rhai, RResult};
+use super::convert::{err, num, to_rhai, RResult};
+use super::options::{opt, Kind, OptionTable};
 use super::ScriptHost;
-use crate::tonemap::{Gamut, Operator, ToneMapSettings};
+use crate::tonemap::{Gamut, Operator, ToneMapSettings, MAX_EV};
 use rhai::{Array, Dynamic, Engine, Map};
 use std::sync::Arc;
 
 /// Options of `tonemap(image, #{...})`: the settings shared by every operator, then every
-/// operator parameter (each operator accepts its own, see [`Operator::param_names`]).
-const TONEMAP_KEYS: &[&str] = &[
-    "op",
-    "exposure",
-    "saturation",
-    "gamma",
-    "offset",
-    "gamut",
-    "key",
-    "white",
-    "bias",
-    "ld_min",
-    "ld_max",
-    "bins",
-    "alpha1",
-    "ratio",
-    "phi",
-    "epsilon",
-    "scales",
-    "contrast",
-    "sigma_spatial",
-    "sigma_range",
-];
+/// operator parameter (each operator accepts its own, see [`Operator::param_names`]). A
+/// parameter's range depends on its operator (and, for ward's ld_max, on another parameter), so
+/// the table checks only that it is a finite number and [`Operator::validate`] the range.
+pub(crate) const TONEMAP: OptionTable = OptionTable {
+    function: "tonemap",
+    options: &[
+        opt("op", Kind::Choice(&Operator::NAMES), "\"reinhard\"", "the operator"),
+        opt("exposure", Kind::Num(-MAX_EV, MAX_EV), "0", "stops: scene values times 2^exposure before the operator"),
+        opt("saturation", Kind::Num(0.0, 10.0), "1", "colour saturation s in (C / L)^s L_d; 1 keeps the scene's chromaticity"),
+        opt("gamma", Kind::Num(0.1, 10.0), "1", "display gamma, v^(1/gamma) after the offset"),
+        opt("offset", Kind::Num(-1.0, 1.0), "0", "added to display values before clamping"),
+        opt("gamut", Kind::Choice(Gamut::NAMES), "\"scale\"", "how colours above 1 come into range: scale keeps the hue, clip clips each channel"),
+        opt("key", Kind::Finite, "0.18", "reinhard, reinhard-local: the key (middle grey)"),
+        opt("white", Kind::Finite, "the largest scaled luminance", "reinhard: L_white"),
+        opt("bias", Kind::Finite, "0.85", "drago: the bias b"),
+        opt("ld_min", Kind::Finite, "1", "ward: display minimum luminance, cd/m²"),
+        opt("ld_max", Kind::Finite, "100", "drago, ward: display maximum luminance, cd/m²"),
+        opt("bins", Kind::Finite, "100", "ward: histogram bins (a whole number)"),
+        opt("alpha1", Kind::Finite, "0.35", "reinhard-local: the centre's scale, px"),
+        opt("ratio", Kind::Finite, "1.6", "reinhard-local: ratio of successive scales"),
+        opt("phi", Kind::Finite, "8", "reinhard-local: sharpening"),
+        opt("epsilon", Kind::Finite, "0.05", "reinhard-local: threshold of the scale choice"),
+        opt("scales", Kind::Finite, "8", "reinhard-local: number of scales (a whole number)"),
+        opt("contrast", Kind::Finite, "5", "durand: target contrast of the base layer"),
+        opt("sigma_spatial", Kind::Finite, "0.02", "durand: spatial sigma, fraction of the larger image side"),
+        opt("sigma_range", Kind::Finite, "0.4", "durand: range sigma, log10 luminance"),
+    ],
+    call: "tonemap(exposure(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), 0.0), OPTS)",
+    base: "#{}",
+};
+
+/// The shared settings of [`TONEMAP`], read by name.
+const SHARED_SETTINGS: [&str; 6] = ["op", "exposure", "saturation", "gamma", "offset", "gamut"];
 
 /// Builds tone-mapping settings from a script's option map (defaults: Reinhard global, 0 EV).
 pub(crate) fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
-    check_keys(opts, TONEMAP_KEYS, "tonemap")?;
+    let given = TONEMAP.read(opts)?;
     let mut s = ToneMapSettings::default();
-    let mut op_name = "reinhard".to_string();
-    let mut params: Vec<(String, f64)> = Vec::new();
-    for (k, v) in opts {
-        match k.as_str() {
-            "op" => op_name = string(v, "op")?,
-            "exposure" => s.exposure_ev = num(v, "exposure")?,
-            "saturation" => s.saturation = num(v, "saturation")?,
-            "gamma" => s.gamma = num(v, "gamma")?,
-            "offset" => s.offset = num(v, "offset")?,
-            "gamut" => s.gamut = Gamut::parse(&string(v, "gamut")?).map_err(to_rhai)?,
-            other => params.push((other.to_string(), num(v, other)?)),
+    s.exposure_ev = given.num("exposure")?.unwrap_or(s.exposure_ev);
+    s.saturation = given.num("saturation")?.unwrap_or(s.saturation);
+    s.gamma = given.num("gamma")?.unwrap_or(s.gamma);
+    s.offset = given.num("offset")?.unwrap_or(s.offset);
+    if let Some(g) = given.string("gamut")? {
+        s.gamut = Gamut::parse(&g).map_err(to_rhai)?;
+    }
+    let op_name = given.string("op")?.unwrap_or_else(|| "reinhard".into());
+    // The operator parameters, in the script's order (the operator refuses another's).
+    let mut params: Vec<(&str, f64)> = Vec::new();
+    for key in opts.keys().map(|k| k.as_str()) {
+        if !SHARED_SETTINGS.contains(&key) {
+            if let Some(v) = given.num(key)? {
+                params.push((key, v));
+            }
         }
     }
-    let borrowed: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-    s.op = Operator::parse(&op_name, &borrowed).map_err(to_rhai)?;
+    s.op = Operator::parse(&op_name, &params).map_err(to_rhai)?;
     s.validate().map_err(to_rhai)?;
     Ok(s)
 }
@@ -106,6 +120,9 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             );
         }
         let settings = settings_from_map(opts)?;
+        if h.plan_only {
+            return Ok(planned_display_image(img));
+        }
         h.session.tonemap(img, &settings).map_err(to_rhai)
     };
     let tonemap2 = tonemap.clone();
@@ -126,7 +143,17 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "false_colour",
         move |img: &mut ScriptImage| -> RResult<ScriptImage> {
+            if h.plan_only {
+                return Ok(planned_display_image(img));
+            }
             h.session.false_colour(img).map_err(to_rhai)
         },
     );
+}
+
+/// A planning run's tone-mapped image: the input marked display-referred, as the real one is.
+fn planned_display_image(img: &ScriptImage) -> ScriptImage {
+    let mut out = (**img).clone();
+    out.set_meta(crate::tonemap::DISPLAY_REFERRED, "1");
+    Arc::new(out)
 }

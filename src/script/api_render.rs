@@ -2,17 +2,19 @@
 //! issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`. Saving,
 //! previews, progress and `param` live in `api_output`.
 
-use super::convert::{
-    boolean, check_keys, err, int, num, points, string, to_rhai, variable_option, vec3, RResult,
-};
+use super::convert::{boolean, err, num, points, to_rhai, variable_option, vec3, RResult};
+use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
 use crate::datasets::LoadOptions;
+use crate::model::bricks::BRICK_SIZES;
 use crate::model::{
     Aabb, Axis, Camera, Geometry, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume,
     VolumeStats,
 };
+use crate::render::route::MAX_LEVEL;
 use crate::render::{
     Bricking, FilterMode, Precision, Shading, TfSampling, VolumeRenderOptions, VolumeSource,
+    MAX_IMAGE_SIDE,
 };
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
@@ -79,33 +81,88 @@ impl ScriptCamera {
 pub(crate) type ScriptVolume = Arc<Volume>;
 pub(crate) type ScriptImage = Arc<HdrImage>;
 
-const RENDER_KEYS: &[&str] = &[
-    "tf",
-    "camera",
-    "width",
-    "height",
-    "step",
-    "jitter",
-    "seed",
-    "early_exit",
-    "background",
-    "filter",
-    "precision",
-    "shading",
-    "tf_sampling",
-    "empty_space_skipping",
-];
-const SHADING_KEYS: &[&str] = &["ambient", "diffuse", "specular", "shininess"];
-const LUT_KEYS: &[&str] = &[
-    "scale",
-    "linthresh",
-    "domain",
-    "lens",
-    "colormap",
-    "emission",
-    "opacity",
-    "transparent_below",
-];
+/// The image side limit as an option range.
+const SIDE: Kind = Kind::Int(1, MAX_IMAGE_SIDE as i64);
+
+pub(crate) const LOAD_VOLUME: OptionTable = OptionTable {
+    function: "load_volume",
+    options: &[
+        opt("variable", Kind::Text("\"fluctuation\""), "the file's first 3-D variable", "the array or variable to read (an unknown one lists the file's)"),
+        opt("geometry", Kind::Choice(&["auto", "cartesian"]), "\"auto\"", "auto: CF latitude, longitude and depth/radius/height make a spherical volume; cartesian: coordinates as box lengths"),
+        opt("planet_radius", Kind::NumAbove(0.0, f64::INFINITY), "the file's, else 6371 km", "the planet's radius in the vertical axis's unit"),
+    ],
+    call: "load_volume(generate(\"mantle\", #{ n: 4, native: true }), OPTS)",
+    base: "#{}",
+};
+
+pub(crate) const RENDER_VOLUME: OptionTable = OptionTable {
+    function: "render_volume",
+    options: &[
+        opt("tf", Kind::Value("TransferFunction", "tf_emission_absorption(1.0, 1.0)"), "required", "from tf_lut, tf_preset or tf_emission_absorption"),
+        opt("camera", Kind::Value("Camera", "camera_axis(\"z\")"), "camera_orbit(30, 25)", "from camera_axis, camera_orbit, camera_geo or camera_look_at"),
+        opt("width", SIDE, "512", "pixels (an axis view given only one side keeps square pixels)"),
+        opt("height", SIDE, "512", "pixels"),
+        opt("step", Kind::Num(1e-4, 1e4), "1", "ray-march step in voxels"),
+        opt("jitter", Kind::Bool, "false", "offset each ray's first sample randomly (hides wood-grain)"),
+        opt("seed", Kind::Int(0, u32::MAX as i64), "0", "seed of the jitter"),
+        opt("early_exit", Kind::Num(0.0, 0.999_999), "0", "stop a ray once its transmittance falls below this (0: never)"),
+        opt("background", Kind::Value("[r, g, b]", "[0.0, 0.0, 0.0]"), "[0, 0, 0]", "linear radiance behind the volume"),
+        opt("filter", Kind::Choice(FilterMode::NAMES), "\"auto\"", "trilinear filtering: hardware where exact enough, exact in the shader otherwise"),
+        opt("precision", Kind::Choice(Precision::NAMES), "\"f32\"", "compositing precision (f64 on the GPU where the adapter has shader f64, else the CPU)"),
+        opt("shading", Kind::Value("true | false | #{ambient, diffuse, specular, shininess}", "true"), "false", "Blinn–Phong headlight on the data gradient (absent: no shading code; not on the bricked path)"),
+        opt("tf_sampling", Kind::Choice(TfSampling::NAMES), "\"point\"", "preintegrated: the transfer function's mean between the values at each segment's ends (not on the bricked path)"),
+        opt("empty_space_skipping", Kind::Bool, "true", "jump over space the transfer function leaves empty (missing data, transparent values), with the same image"),
+        opt("memory_budget", Kind::NumAbove(0.0, 1e9), "--gpu-memory, else unlimited", "MiB of GPU memory; larger volumes stream through a brick cache"),
+        opt("brick", Kind::Int(BRICK_SIZES[0] as i64, BRICK_SIZES[BRICK_SIZES.len() - 1] as i64), "none", "brick edge in voxels (8, 16, 32, 64 or 128): render bricked"),
+        opt("level", Kind::Int(0, MAX_LEVEL as i64), "0", "0 full resolution, 1 half, ... 4: quick look"),
+    ],
+    call: "render_volume(generate_mantle(#{ n: 4 }), OPTS)",
+    base: "#{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }",
+};
+
+pub(crate) const SHADING: OptionTable = OptionTable {
+    function: "render_volume shading",
+    options: &[
+        opt("ambient", Kind::Num(0.0, 100.0), "0.3", "light everywhere"),
+        opt("diffuse", Kind::Num(0.0, 100.0), "0.7", "Lambertian term"),
+        opt("specular", Kind::Num(0.0, 100.0), "0.3", "Blinn–Phong highlight"),
+        opt("shininess", Kind::Num(1.0, 10_000.0), "32", "highlight exponent"),
+    ],
+    call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, shading: OPTS })",
+    base: "#{}",
+};
+
+pub(crate) const TF_LUT: OptionTable = OptionTable {
+    function: "tf_lut",
+    options: &[
+        opt("scale", Kind::Text("\"symlog\""), "\"linear\"", "\"linear\" | \"log10\" | \"symlog\" (case ignored; aliases lin, log, logarithmic, symmetric-log)"),
+        opt("linthresh", Kind::NumAbove(0.0, f64::INFINITY), "1e-3 of the domain's largest magnitude", "symlog: half-width of the linear part around zero"),
+        opt("domain", Kind::Value("[lo, hi]", "[0.0, 1.0]"), "the data's range", "values mapped to t = 0 and 1"),
+        opt("lens", Kind::Value("#{lo, hi, factor}", "#{ lo: 0.2, hi: 0.4, factor: 4.0 }"), "none", "magnify the sub-range [lo, hi] of t by factor (all three required)"),
+        opt("colormap", Kind::Text("\"viridis\""), "\"viridis\"", "a colour map name (tf_lut lists them on a typo)"),
+        opt("emission", Kind::Value("[[t, log10 e], ...]", "[[0.0, -1.0], [1.0, 0.0]]"), "a ramp", "log10 emission control points over t"),
+        opt("opacity", Kind::Value("[[t, log10 sigma], ...]", "[[0.0, -1.0], [1.0, 0.0]]"), "a ramp", "log10 extinction control points over t"),
+        opt("transparent_below", Kind::Finite, "none", "values below it emit and absorb nothing"),
+    ],
+    call: "tf_lut(OPTS)",
+    base: "#{}",
+};
+
+pub(crate) const LENS: OptionTable = OptionTable {
+    function: "tf_lut lens",
+    options: &[
+        opt(
+            "lo",
+            Kind::Finite,
+            "required",
+            "start of the magnified sub-range of t",
+        ),
+        opt("hi", Kind::Finite, "required", "its end"),
+        opt("factor", Kind::Finite, "required", "magnification"),
+    ],
+    call: "tf_lut(#{ lens: OPTS })",
+    base: "#{ lo: 0.2, hi: 0.4, factor: 4.0 }",
+};
 
 pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     register_types(engine);
@@ -151,33 +208,12 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
     engine.register_fn(
         "load_volume",
         move |path: &str, opts: Map| -> RResult<ScriptVolume> {
-            check_keys(
-                &opts,
-                &["variable", "geometry", "planet_radius"],
-                "load_volume",
-            )?;
+            let given = LOAD_VOLUME.read(&opts)?;
             let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
             let load = LoadOptions {
-                variable: variable_option(&opts, from_path, "load_volume")?,
-                cartesian: match opts
-                    .get("geometry")
-                    .map(|g| string(g, "geometry"))
-                    .transpose()?
-                {
-                    None => false,
-                    Some(g) if g == "cartesian" => true,
-                    Some(g) if g == "auto" => false,
-                    Some(g) => {
-                        return err(
-                            "geometry",
-                            format!("expected \"auto\" or \"cartesian\", got {g:?}"),
-                        )
-                    }
-                },
-                planet_radius: opts
-                    .get("planet_radius")
-                    .map(|r| num(r, "planet_radius"))
-                    .transpose()?,
+                variable: variable_option(given.string("variable")?, from_path, "load_volume")?,
+                cartesian: given.string("geometry")?.as_deref() == Some("cartesian"),
+                planet_radius: given.num("planet_radius")?,
             };
             h.session.load_volume(&p, &load).map_err(to_rhai)
         },
@@ -187,7 +223,8 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
     engine.register_fn(
         "generate_mantle",
         move |opts: Map| -> RResult<ScriptVolume> {
-            let (o, field) = super::api_datasets::mantle_options(&opts, "generate_mantle")?;
+            let (o, field, _) =
+                super::api_datasets::mantle_options(&opts, &super::api_datasets::GENERATE_MANTLE)?;
             // Generation takes seconds at 256³; a re-run of the script (TUI, sweep) reuses it.
             h.session
                 .generated_volume(&("mantle", &o, field.name()), || {
@@ -225,34 +262,36 @@ fn register_transfer_functions(engine: &mut Engine) {
     engine.register_fn("tf_lut", tf_lut);
 }
 
-/// `tf_lut(#{...})`: a colour-map transfer function from the keys in [`LUT_KEYS`].
+/// `tf_lut(#{...})`: a colour-map transfer function from the options in [`TF_LUT`].
 fn tf_lut(opts: Map) -> RResult<TransferFunction> {
-    check_keys(&opts, LUT_KEYS, "tf_lut")?;
+    let given = TF_LUT.read(&opts)?;
     let mut l = LutTransfer::default();
-    let mut scale = "linear".to_string();
-    let mut linthresh = None;
-    for (k, v) in &opts {
-        match k.as_str() {
-            "scale" => scale = string(v, "scale")?,
-            "linthresh" => linthresh = Some(num(v, "linthresh")?),
-            "domain" => {
-                let d = points(&Dynamic::from(vec![v.clone()]), "domain")?;
-                l.domain = Some(d[0]);
-            }
-            "lens" => l.lens = Some(lens(v)?),
-            "colormap" => l.colormap = string(v, "colormap")?,
-            "emission" => l.emission = points(v, "emission")?,
-            "opacity" => l.opacity = points(v, "opacity")?,
-            "transparent_below" => l.transparent_below = num(v, "transparent_below")?,
-            _ => unreachable!("checked keys"),
-        }
+    if let Some(d) = given.value("domain")? {
+        let d = points(&Dynamic::from(vec![d.clone()]), "domain")?;
+        l.domain = Some(d[0]);
     }
-    l.scale = Scale::parse(&scale, linthresh).map_err(to_rhai)?;
+    if let Some(v) = given.value("lens")? {
+        l.lens = Some(lens(v)?);
+    }
+    if let Some(c) = given.string("colormap")? {
+        l.colormap = c;
+    }
+    if let Some(v) = given.value("emission")? {
+        l.emission = points(v, "emission")?;
+    }
+    if let Some(v) = given.value("opacity")? {
+        l.opacity = points(v, "opacity")?;
+    }
+    if let Some(t) = given.num("transparent_below")? {
+        l.transparent_below = t;
+    }
+    let scale = given.string("scale")?.unwrap_or_else(|| "linear".into());
+    l.scale = Scale::parse(&scale, given.num("linthresh")?).map_err(to_rhai)?;
     crate::model::colormap::Colormap::by_name(&l.colormap).map_err(to_rhai)?;
     Ok(TransferFunction::Lut(l))
 }
 
-/// The `lens` key of `tf_lut`: a map #{lo, hi, factor}, all required.
+/// The `lens` option of `tf_lut`: a map #{lo, hi, factor} ([`LENS`]), all required.
 fn lens(v: &Dynamic) -> RResult<Lens> {
     let m = v.clone().try_cast::<Map>().ok_or_else(|| {
         to_rhai(crate::Error::invalid(
@@ -260,11 +299,11 @@ fn lens(v: &Dynamic) -> RResult<Lens> {
             "expected a map #{lo, hi, factor}",
         ))
     })?;
-    check_keys(&m, &["lo", "hi", "factor"], "lens")?;
+    let given = LENS.read(&m)?;
     let get = |key: &str| {
-        m.get(key)
+        given
+            .num(key)?
             .ok_or_else(|| to_rhai(crate::Error::invalid("lens", format!("missing {key}"))))
-            .and_then(|x| num(x, key))
     };
     Ok(Lens {
         lo: get("lo")?,
@@ -349,6 +388,9 @@ fn register_render(engine: &mut Engine, host: &Arc<ScriptHost>) {
         move |volume: &mut ScriptVolume, opts: Map| -> RResult<ScriptImage> {
             let source = VolumeSource::Memory(volume.clone());
             let o = render_options(&h, &opts, &source)?;
+            if h.plan_only {
+                return Ok(blank(o.width, o.height));
+            }
             let img = render_and_note(&h, &source, &o)?;
             // The transfer function's colour bar, for save_png(img, path, #{legend: true}).
             Ok(match o.tf.colour_bar(&volume.stats(), &volume.units) {
@@ -363,7 +405,7 @@ fn register_render(engine: &mut Engine, host: &Arc<ScriptHost>) {
     );
 }
 
-/// `shading: true` (the default coefficients), `false`, or a map of coefficients.
+/// `shading: true` (the default coefficients), `false`, or a map of coefficients ([`SHADING`]).
 fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
     if v.is_bool() {
         return Ok(boolean(v, "shading")?.then(Shading::default));
@@ -374,20 +416,26 @@ fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
             "expected true, false or a map #{ambient, diffuse, specular, shininess}",
         ))
     })?;
-    check_keys(&m, SHADING_KEYS, "shading")?;
+    let given = SHADING.read(&m)?;
     let mut s = Shading::default();
-    for (k, x) in &m {
-        let x = num(x, k)?;
-        match k.as_str() {
-            "ambient" => s.ambient = x,
-            "diffuse" => s.diffuse = x,
-            "specular" => s.specular = x,
-            "shininess" => s.shininess = x,
-            _ => unreachable!("checked keys"),
+    for (target, name) in [
+        (&mut s.ambient, "ambient"),
+        (&mut s.diffuse, "diffuse"),
+        (&mut s.specular, "specular"),
+        (&mut s.shininess, "shininess"),
+    ] {
+        if let Some(x) = given.num(name)? {
+            *target = x;
         }
     }
     s.validate().map_err(to_rhai)?;
     Ok(Some(s))
+}
+
+/// A planning run's stand-in for a rendered image: the size the real one would have, no pixels
+/// worth looking at.
+pub(crate) fn blank(width: u32, height: u32) -> ScriptImage {
+    Arc::new(HdrImage::new(width, height))
 }
 
 /// `volume_stats` as a script map.
@@ -429,13 +477,12 @@ pub(crate) fn render_options(
     opts: &Map,
     source: &VolumeSource,
 ) -> RResult<VolumeRenderOptions> {
-    let keys: Vec<&str> = RENDER_KEYS.iter().chain(BRICKING_KEYS).copied().collect();
-    check_keys(opts, &keys, "render_volume")?;
-    let tf = match opts.get("tf") {
+    let given = RENDER_VOLUME.read(opts)?;
+    let tf = match given.value("tf")? {
         Some(v) => v.clone().try_cast::<TransferFunction>().ok_or_else(|| to_rhai(crate::Error::invalid("tf", "expected a TransferFunction (from tf_lut or tf_emission_absorption)")))?,
         None => return err("tf", "render_volume needs a transfer function: tf: tf_lut(#{...}) or tf_emission_absorption(e, a)"),
     };
-    let camera = match opts.get("camera") {
+    let camera = match given.value("camera")? {
         Some(v) => v.clone().try_cast::<ScriptCamera>().ok_or_else(|| {
             to_rhai(crate::Error::invalid(
                 "camera",
@@ -451,17 +498,14 @@ pub(crate) fn render_options(
     let is_axis = matches!(camera, ScriptCamera::Axis(_));
     let camera = camera.resolve(source).map_err(to_rhai)?;
     let mut o = VolumeRenderOptions::new(camera, tf);
-    for (k, v) in opts {
-        if !take_bricking(&mut o.bricking, k.as_str(), v)? {
-            take_render_option(&mut o, k.as_str(), v)?;
-        }
-    }
+    take_render_options(&mut o, &given)?;
+    take_bricking(&mut o.bricking, &given)?;
     if is_axis {
         // Square pixels: a missing side follows the box, a given size is letterboxed.
-        let given = |key: &str, v: u32| opts.contains_key(key).then_some(v);
+        let side = |key: &str, v: u32| given.has(key).then_some(v);
         let (w, h) = o.camera.square_pixel_size(
-            given("width", o.width),
-            given("height", o.height),
+            side("width", o.width),
+            side("height", o.height),
             AXIS_LONG_SIDE,
         );
         (o.width, o.height) = (w, h);
@@ -476,59 +520,54 @@ pub(crate) fn render_options(
 /// Pixels on the longer side of an axis view given no width or height.
 const AXIS_LONG_SIDE: u32 = 512;
 
-/// Sets one of [`RENDER_KEYS`] (checked before).
-fn take_render_option(o: &mut VolumeRenderOptions, key: &str, v: &Dynamic) -> RResult<()> {
-    match key {
-        "tf" | "camera" => {}
-        "width" => o.width = int(v, "width")?.clamp(0, u32::MAX as i64) as u32,
-        "height" => o.height = int(v, "height")?.clamp(0, u32::MAX as i64) as u32,
-        "step" => o.step = num(v, "step")?,
-        "jitter" => o.jitter = boolean(v, "jitter")?,
-        "seed" => o.seed = int(v, "seed")? as u32,
-        "early_exit" => o.early_exit = num(v, "early_exit")?,
-        "background" => o.background = vec3(v, "background")?,
-        "filter" => o.filter = FilterMode::parse(&string(v, "filter")?).map_err(to_rhai)?,
-        "precision" => o.precision = Precision::parse(&string(v, "precision")?).map_err(to_rhai)?,
-        "shading" => o.shading = shading(v)?,
-        "tf_sampling" => {
-            o.tf_sampling = TfSampling::parse(&string(v, "tf_sampling")?).map_err(to_rhai)?
-        }
-        "empty_space_skipping" => o.empty_space_skipping = boolean(v, "empty_space_skipping")?,
-        _ => unreachable!("checked keys"),
+/// Sets the rendering options of [`RENDER_VOLUME`] the script gave (the transfer function and
+/// camera are read before).
+fn take_render_options(o: &mut VolumeRenderOptions, given: &Given) -> RResult<()> {
+    if let Some(w) = given.int("width")? {
+        o.width = w as u32;
     }
+    if let Some(h) = given.int("height")? {
+        o.height = h as u32;
+    }
+    o.step = given.num("step")?.unwrap_or(o.step);
+    o.jitter = given.bool("jitter")?.unwrap_or(o.jitter);
+    o.seed = given.int("seed")?.map_or(o.seed, |s| s as u32);
+    o.early_exit = given.num("early_exit")?.unwrap_or(o.early_exit);
+    if let Some(v) = given.value("background")? {
+        o.background = vec3(v, "background")?;
+    }
+    if let Some(f) = given.string("filter")? {
+        o.filter = FilterMode::parse(&f).map_err(to_rhai)?;
+    }
+    if let Some(p) = given.string("precision")? {
+        o.precision = Precision::parse(&p).map_err(to_rhai)?;
+    }
+    if let Some(v) = given.value("shading")? {
+        o.shading = shading(v)?;
+    }
+    if let Some(t) = given.string("tf_sampling")? {
+        o.tf_sampling = TfSampling::parse(&t).map_err(to_rhai)?;
+    }
+    o.empty_space_skipping = given
+        .bool("empty_space_skipping")?
+        .unwrap_or(o.empty_space_skipping);
     Ok(())
 }
-
-/// The keys of `render_volume` for the bricked and out-of-core paths.
-const BRICKING_KEYS: &[&str] = &["memory_budget", "brick", "level"];
 
 fn mib_to_bytes(mib: f64) -> u64 {
     (mib * (1u64 << 20) as f64) as u64
 }
 
-/// Takes `key` if it is one of [`BRICKING_KEYS`]; false otherwise.
-fn take_bricking(b: &mut Bricking, key: &str, v: &Dynamic) -> RResult<bool> {
-    match key {
-        "memory_budget" => {
-            let m = num(v, "memory_budget")?;
-            if !(m.is_finite() && m > 0.0) {
-                return err("memory_budget", format!("expected MiB > 0, got {m}"));
-            }
-            b.memory_budget = Some(mib_to_bytes(m));
-        }
-        "brick" => b.brick = Some(int(v, "brick")?.clamp(0, 1 << 20) as usize),
-        "level" => {
-            let l = int(v, "level")?;
-            let max = crate::render::route::MAX_LEVEL as i64;
-            if !(0..=max).contains(&l) {
-                return err(
-                    "level",
-                    format!("expected 0 (full resolution) to {max}, got {l}"),
-                );
-            }
-            b.level = l as u32;
-        }
-        _ => return Ok(false),
+/// Sets the bricked and out-of-core options of [`RENDER_VOLUME`] the script gave.
+fn take_bricking(b: &mut Bricking, given: &Given) -> RResult<()> {
+    if let Some(m) = given.num("memory_budget")? {
+        b.memory_budget = Some(mib_to_bytes(m));
     }
-    Ok(true)
+    if let Some(edge) = given.count("brick")? {
+        b.brick = Some(edge);
+    }
+    if let Some(l) = given.int("level")? {
+        b.level = l as u32;
+    }
+    Ok(())
 }

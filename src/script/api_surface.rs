@@ -7,36 +7,140 @@
 //! sphere.
 
 use super::api_render::{ScriptCamera, ScriptImage};
-use super::convert::{boolean, check_keys, err, int, num, string, to_rhai, RResult};
+use super::convert::{err, num, string, to_rhai, RResult};
+use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
-use crate::model::{Aabb, Axis, Grid};
+use crate::model::{Aabb, Axis, Grid, HdrImage};
 use crate::render::surface::{
     colorbar, legend, FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView,
+    MAX_COLORBAR_HEIGHT,
 };
+use crate::render::MAX_IMAGE_SIDE;
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
 pub(crate) type ScriptGrid = Arc<Grid>;
 
-/// Every key `render_surface` accepts.
-pub(crate) const SURFACE_KEYS: &[&str] = &[
-    "nu",
-    "mode",
-    "colormap",
-    "property",
-    "view",
-    "globe",
-    "width",
-    "height",
-    "modulation",
-    "absolute",
-    "log_color",
-    "exaggeration",
-    "relief",
-    "phase",
-    "antialias",
-    "missing",
-];
+/// The options `render_surface`, `surface_colorbar` and `surface_legend` share: what is drawn
+/// and how (the images' sizes are each function's own).
+macro_rules! surface_option_specs {
+    () => {
+        [
+            opt("nu", Kind::Value("number > 0, or one per property", "[2.0]"), "1", "ν: fringes per data unit (one fringe per 1/ν)"),
+            opt("mode", Kind::Choice(FringeMode::NAMES), "\"cyclic\"", "cyclic: the colour map over each fringe; modulated: the data's colour modulated by the fringes; direct: the data's colour"),
+            opt("colormap", Kind::Text("\"viridis\""), "sinebow (cyclic), else viridis", "a colour map name"),
+            opt("property", Kind::Value("string, or an array of up to four", "\"uz\""), "the grid's first property", "what is drawn; an array renders each from one data pass and returns an array"),
+            opt("view", Kind::Value("\"map\" | \"perspective\" | \"globe\" | Camera", "\"perspective\""), "\"map\"", "map (a geographic grid keeps the cos-latitude aspect), perspective, globe (a lon/lat grid draped on the unit sphere, seen from 3 radii above its centre) or a camera"),
+            opt("globe", Kind::Bool, "false", "a camera view looks at the grid on the sphere, in the Earth-centred frame"),
+            opt("modulation", Kind::Num(0.0, 1.0), "1", "depth of the fringes' modulation"),
+            opt("absolute", Kind::Bool, "false", "fringes of |d|"),
+            opt("log_color", Kind::Bool, "false", "colours over log10 of the data"),
+            opt("exaggeration", Kind::Num(0.0, f64::INFINITY), "1", "vertical exaggeration of the relief in 3-D views"),
+            opt("relief", Kind::Text("\"uz\""), "the grid's elevation in 3-D views", "the property that lifts the surface"),
+            opt("phase", Kind::Choice(PhaseMethod::NAMES), "\"reduced\"", "reduced: f64-exact phase; naive: cos(2πνd) in f32, for comparison"),
+            opt("antialias", Kind::Bool, "true", "colours from the fringe averaged over each pixel's footprint"),
+            opt("missing", Kind::Text("\"grey\""), "\"transparent\"", "colour of missing data: \"transparent\", a colour name or #rrggbb"),
+        ]
+    };
+}
+
+/// The side limit of images as an option range.
+const SIDE: Kind = Kind::Int(1, MAX_IMAGE_SIDE as i64);
+
+pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
+    function: "render_surface",
+    options: &{
+        let [a, b, c, d, e, f, g, h, i, j, k, l, m, n] = surface_option_specs!();
+        [
+            a,
+            b,
+            c,
+            d,
+            e,
+            f,
+            opt(
+                "width",
+                SIDE,
+                "from the view and the grid's aspect",
+                "pixels",
+            ),
+            opt(
+                "height",
+                SIDE,
+                "from the view and the grid's aspect",
+                "pixels",
+            ),
+            g,
+            h,
+            i,
+            j,
+            k,
+            l,
+            m,
+            n,
+        ]
+    },
+    call: "render_surface(load_grid(\"geo.nc\"), OPTS)",
+    base: "#{ width: 8, height: 8 }",
+};
+
+pub(crate) const SURFACE_COLORBAR: OptionTable = OptionTable {
+    function: "surface_colorbar",
+    options: &{
+        let [a, b, c, d, e, f, g, h, i, j, k, l, m, n] = surface_option_specs!();
+        [
+            a,
+            b,
+            c,
+            d,
+            e,
+            f,
+            g,
+            h,
+            i,
+            j,
+            k,
+            l,
+            m,
+            n,
+            opt("width", SIDE, "256", "the bar's length in pixels"),
+            opt(
+                "height",
+                Kind::Int(1, MAX_COLORBAR_HEIGHT as i64),
+                "16",
+                "the bar's thickness in pixels",
+            ),
+        ]
+    },
+    call: "surface_colorbar(load_grid(\"geo.nc\"), OPTS)",
+    base: "#{}",
+};
+
+pub(crate) const SURFACE_LEGEND: OptionTable = OptionTable {
+    function: "surface_legend",
+    options: &{
+        let [a, b, c, d, e, f, g, h, i, j, k, l, m, n] = surface_option_specs!();
+        [
+            a,
+            b,
+            c,
+            d,
+            e,
+            f,
+            g,
+            h,
+            i,
+            j,
+            k,
+            l,
+            m,
+            n,
+            opt("width", SIDE, "384", "the legend's width in pixels"),
+        ]
+    },
+    call: "surface_legend(load_grid(\"geo.nc\"), OPTS)",
+    base: "#{}",
+};
 
 fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
     match v.clone().into_array() {
@@ -45,52 +149,47 @@ fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
     }
 }
 
-/// Parses the option map; the boolean says whether `property` was an array.
-pub(crate) fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
-    check_keys(opts, SURFACE_KEYS, "render_surface")?;
+/// The surface options of `table` the script gave; the boolean says whether `property` was an
+/// array.
+pub(crate) fn parse_options(grid: &Grid, given: &Given) -> RResult<(SurfaceOptions, bool)> {
     let mut o = SurfaceOptions::default();
     let mut many = false;
-    for (k, v) in opts {
-        match k.as_str() {
-            "nu" => o.nu = numbers(v, "nu")?,
-            "mode" => o.mode = FringeMode::parse(&string(v, "mode")?).map_err(to_rhai)?,
-            "colormap" => o.colormap = Some(string(v, "colormap")?),
-            "property" => match v.clone().into_array() {
-                Ok(a) => {
-                    many = true;
-                    o.properties = a
-                        .iter()
-                        .map(|p| string(p, "property"))
-                        .collect::<RResult<_>>()?;
-                    if o.properties.is_empty() {
-                        return err("property", "expected at least one property name");
-                    }
+    if let Some(v) = given.value("nu")? {
+        o.nu = numbers(v, "nu")?;
+    }
+    if let Some(m) = given.string("mode")? {
+        o.mode = FringeMode::parse(&m).map_err(to_rhai)?;
+    }
+    o.colormap = given.string("colormap")?;
+    if let Some(v) = given.value("property")? {
+        match v.clone().into_array() {
+            Ok(a) => {
+                many = true;
+                o.properties = a
+                    .iter()
+                    .map(|p| string(p, "property"))
+                    .collect::<RResult<_>>()?;
+                if o.properties.is_empty() {
+                    return err("property", "expected at least one property name");
                 }
-                Err(_) => o.properties = vec![string(v, "property")?],
-            },
-            // Resolved after the loop: the view depends on `globe` too.
-            "view" | "globe" => {}
-            "width" => o.width = Some(int(v, "width")?.clamp(0, u32::MAX as i64) as u32),
-            "height" => o.height = Some(int(v, "height")?.clamp(0, u32::MAX as i64) as u32),
-            "modulation" => o.modulation = num(v, "modulation")?,
-            "absolute" => o.absolute = boolean(v, "absolute")?,
-            "log_color" => o.log_color = boolean(v, "log_color")?,
-            "exaggeration" => o.exaggeration = num(v, "exaggeration")?,
-            "relief" => o.relief = Some(string(v, "relief")?),
-            "phase" => o.phase = PhaseMethod::parse(&string(v, "phase")?).map_err(to_rhai)?,
-            "antialias" => o.antialias = boolean(v, "antialias")?,
-            "missing" => {
-                o.missing = MissingColour::parse(&string(v, "missing")?).map_err(to_rhai)?
             }
-            _ => unreachable!("checked keys"),
+            Err(_) => o.properties = vec![string(v, "property")?],
         }
     }
-    let globe = opts
-        .get("globe")
-        .map(|v| boolean(v, "globe"))
-        .transpose()?
-        .unwrap_or(false);
-    o.view = surface_view(grid, opts.get("view"), globe)?;
+    o.modulation = given.num("modulation")?.unwrap_or(o.modulation);
+    o.absolute = given.bool("absolute")?.unwrap_or(o.absolute);
+    o.log_color = given.bool("log_color")?.unwrap_or(o.log_color);
+    o.exaggeration = given.num("exaggeration")?.unwrap_or(o.exaggeration);
+    o.relief = given.string("relief")?;
+    if let Some(p) = given.string("phase")? {
+        o.phase = PhaseMethod::parse(&p).map_err(to_rhai)?;
+    }
+    o.antialias = given.bool("antialias")?.unwrap_or(o.antialias);
+    if let Some(m) = given.string("missing")? {
+        o.missing = MissingColour::parse(&m).map_err(to_rhai)?;
+    }
+    let globe = given.bool("globe")?.unwrap_or(false);
+    o.view = surface_view(grid, given.value("view")?, globe)?;
     // Relief defaults to the grid's elevation in 3-D views over the plane.
     if o.relief.is_none()
         && !matches!(o.view, SurfaceView::Map | SurfaceView::Globe(_))
@@ -98,6 +197,15 @@ pub(crate) fn parse_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions,
     {
         o.relief = Some("elevation".into());
     }
+    Ok((o, many))
+}
+
+/// `render_surface`'s options ([`RENDER_SURFACE`]): the surface options with the image's size.
+pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
+    let given = RENDER_SURFACE.read(opts)?;
+    let (mut o, many) = parse_options(grid, &given)?;
+    o.width = given.int("width")?.map(|w| w as u32);
+    o.height = given.int("height")?.map(|h| h as u32);
     Ok((o, many))
 }
 
@@ -202,8 +310,13 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "render_surface",
         move |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
-            let (o, many) = parse_options(grid, &opts)?;
-            let mut images = h.session.surface(grid, &o).map_err(to_rhai)?.to_vec();
+            let (o, many) = render_surface_options(grid, &opts)?;
+            let mut images = if h.plan_only {
+                let img = HdrImage::new(o.width.unwrap_or(1), o.height.unwrap_or(1));
+                vec![img; o.properties.len().max(1)]
+            } else {
+                h.session.surface(grid, &o).map_err(to_rhai)?.to_vec()
+            };
             if let Some(first) = images.first() {
                 h.note_image(&Arc::new(first.clone()));
             }
@@ -224,7 +337,7 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             "render_surface",
             format!(
                 "expected render_surface(grid, #{{...}}) with keys {}",
-                SURFACE_KEYS.join(", ")
+                RENDER_SURFACE.names().join(", ")
             ),
         )
     });
@@ -232,41 +345,21 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "surface_colorbar",
         |grid: &mut ScriptGrid, opts: Map| -> RResult<ScriptImage> {
-            let mut rest = opts.clone();
-            let w = rest
-                .remove("width")
-                .map(|v| int(&v, "width"))
-                .transpose()?
-                .unwrap_or(256);
-            let hgt = rest
-                .remove("height")
-                .map(|v| int(&v, "height"))
-                .transpose()?
-                .unwrap_or(16);
-            let (o, _) = parse_options(grid, &rest)?;
-            let img = colorbar(
-                grid,
-                &o,
-                w.clamp(0, 16384) as u32,
-                hgt.clamp(0, 16384) as u32,
-            )
-            .map_err(to_rhai)?;
-            Ok(Arc::new(img))
+            let given = SURFACE_COLORBAR.read(&opts)?;
+            let (o, _) = parse_options(grid, &given)?;
+            let w = given.int("width")?.unwrap_or(256) as u32;
+            let h = given.int("height")?.unwrap_or(16) as u32;
+            Ok(Arc::new(colorbar(grid, &o, w, h).map_err(to_rhai)?))
         },
     );
 
     engine.register_fn(
         "surface_legend",
         |grid: &mut ScriptGrid, opts: Map| -> RResult<ScriptImage> {
-            let mut rest = opts.clone();
-            let w = rest
-                .remove("width")
-                .map(|v| int(&v, "width"))
-                .transpose()?
-                .unwrap_or(384);
-            let (o, _) = parse_options(grid, &rest)?;
-            let img = legend(grid, &o, w.clamp(0, 16384) as u32).map_err(to_rhai)?;
-            Ok(Arc::new(img))
+            let given = SURFACE_LEGEND.read(&opts)?;
+            let (o, _) = parse_options(grid, &given)?;
+            let w = given.int("width")?.unwrap_or(384) as u32;
+            Ok(Arc::new(legend(grid, &o, w).map_err(to_rhai)?))
         },
     );
 }

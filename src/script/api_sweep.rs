@@ -1,20 +1,16 @@
 //! Script API for sweeps shared out over several processes: `shard(list)` returns the items this
 //! task owns (see [`super::shard`]), and the planning run behind `hdrvis sweep-status`, in which
-//! the script's own logic runs (parameters, loops, loads, `shard`) while renders return blank
-//! images of the requested size and every save records its path instead of writing. The plan is
-//! therefore the script's real list of outputs, found without rendering.
+//! the script's own logic runs (parameters, loops, loads, `shard`, every option check) while
+//! renders return blank images of the requested size and every save records its path instead
+//! of writing ([`super::ScriptHost::plan_only`]). The plan is therefore the script's real list
+//! of outputs, found without rendering.
 
-use super::api_bricks::ScriptBricked;
-use super::api_render::{render_options, ScriptImage, ScriptVolume};
-use super::api_surface::ScriptGrid;
-use super::convert::{check_keys, num, to_rhai, RResult};
+use super::convert::{err, RResult};
 use super::shard::Shard;
-use super::{run_script_file, ScriptHost, ScriptOptions};
+use super::{run_script_file, ScriptHost, ScriptOptions, MAX_ARRAY_SIZE};
 use crate::error::{Error, Result};
-use crate::model::HdrImage;
 use crate::render::session::RenderSession;
-use crate::render::VolumeSource;
-use rhai::{Array, Dynamic, Engine, Map};
+use rhai::{Array, Dynamic, Engine};
 use std::ops::{Range, RangeInclusive};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -27,120 +23,34 @@ pub(crate) fn register(engine: &mut Engine, host: &Arc<ScriptHost>) {
         items[r].to_vec()
     });
     let h = host.clone();
-    engine.register_fn("shard", move |items: Range<i64>| -> Array {
+    engine.register_fn("shard", move |items: Range<i64>| -> RResult<Array> {
         owned_numbers(h.shard, items.start, items.end.max(items.start))
     });
     let h = host.clone();
-    engine.register_fn("shard", move |items: RangeInclusive<i64>| -> Array {
-        let (start, end) = (*items.start(), *items.end());
-        owned_numbers(h.shard, start, end.saturating_add(1).max(start))
-    });
+    engine.register_fn(
+        "shard",
+        move |items: RangeInclusive<i64>| -> RResult<Array> {
+            let (start, end) = (*items.start(), *items.end());
+            owned_numbers(h.shard, start, end.saturating_add(1).max(start))
+        },
+    );
 }
 
-/// The numbers of `start..end` that `shard` owns, as a script array.
-fn owned_numbers(shard: Shard, start: i64, end: i64) -> Array {
-    let len = end.abs_diff(start) as usize;
-    shard
-        .range(len)
-        .map(|i| Dynamic::from(start + i as i64))
-        .collect()
-}
-
-/// A stand-in for a rendered image in a planning run: the size the real one would have, no
-/// pixels worth looking at.
-fn blank(width: u32, height: u32) -> ScriptImage {
-    Arc::new(HdrImage::new(width, height))
-}
-
-/// Replaces every function that renders or writes by its planning form (registering a function
-/// again under the same signature replaces it). Loads, generators, statistics and the rest run
-/// as they do in a real run, so a script's control flow is the real one.
-pub(crate) fn register_planning(engine: &mut Engine, host: &Arc<ScriptHost>) {
-    let h = host.clone();
-    engine.register_fn(
-        "render_volume",
-        move |v: &mut ScriptVolume, opts: Map| -> RResult<ScriptImage> {
-            let o = render_options(&h, &opts, &VolumeSource::Memory(v.clone()))?;
-            Ok(blank(o.width, o.height))
-        },
-    );
-    let h = host.clone();
-    engine.register_fn(
-        "render_volume",
-        move |v: &mut ScriptBricked, opts: Map| -> RResult<ScriptImage> {
-            let o = render_options(&h, &opts, &VolumeSource::Bricked(v.clone()))?;
-            Ok(blank(o.width, o.height))
-        },
-    );
-    engine.register_fn(
-        "render_surface",
-        |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
-            let (o, many) = super::api_surface::parse_options(grid, &opts)?;
-            let img = blank(o.width.unwrap_or(1), o.height.unwrap_or(1));
-            Ok(if many {
-                vec![Dynamic::from(img); o.properties.len()].into()
-            } else {
-                Dynamic::from(img)
-            })
-        },
-    );
-    engine.register_fn(
-        "exposure",
-        |img: &mut ScriptImage, ev: Dynamic| -> RResult<ScriptImage> {
-            num(&ev, "exposure")?;
-            Ok(img.clone())
-        },
-    );
-    engine.register_fn(
-        "bracket",
-        |img: &mut ScriptImage, evs: Array| -> RResult<Array> {
-            let evs = evs
-                .iter()
-                .map(|v| num(v, "bracket"))
-                .collect::<RResult<Vec<f64>>>()?;
-            crate::tonemap::check_bracket(&evs).map_err(to_rhai)?;
-            Ok(vec![Dynamic::from(img.clone()); evs.len()])
-        },
-    );
-    engine.register_fn("tonemap", |img: &mut ScriptImage, _: Map| img.clone());
-    engine.register_fn("tonemap", |img: &mut ScriptImage, _: &str| img.clone());
-    engine.register_fn("false_colour", |img: &mut ScriptImage| img.clone());
-    engine.register_fn("preview", |_: &mut ScriptImage| {});
-    register_planned_saves(engine, host);
-}
-
-/// `save_exr`, `save_png` and `save_animation` record the path they would write.
-fn register_planned_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
-    let plan = {
-        let h = host.clone();
-        move |path: &str| -> RResult<()> {
-            let p = h.sandbox.write_path(path).map_err(to_rhai)?;
-            h.written.lock().expect("written poisoned").push(p);
-            Ok(())
-        }
-    };
-    let p = plan.clone();
-    engine.register_fn("save_exr", move |_: &mut ScriptImage, path: &str| p(path));
-    let p = plan.clone();
-    engine.register_fn("save_png", move |_: &mut ScriptImage, path: &str| p(path));
-    let p = plan.clone();
-    engine.register_fn(
-        "save_png",
-        move |_: &mut ScriptImage, path: &str, _: Dynamic| p(path),
-    );
-    let p = plan.clone();
-    engine.register_fn("save_animation", move |_: Array, path: &str| {
-        crate::io::animation::MovieFormat::of(Path::new(path)).map_err(to_rhai)?;
-        p(path)
-    });
-    engine.register_fn(
-        "save_animation",
-        move |_: Array, path: &str, opts: Map| -> RResult<()> {
-            check_keys(&opts, &["fps", "exposure"], "save_animation")?;
-            crate::io::animation::MovieFormat::of(Path::new(path)).map_err(to_rhai)?;
-            plan(path)
-        },
-    );
+/// The numbers of `start..end` that `shard` owns, as a script array; a share longer than a
+/// script array may be is refused (a range is a loop's worth of work, not 2^63 items).
+fn owned_numbers(shard: Shard, start: i64, end: i64) -> RResult<Array> {
+    let len = usize::try_from(end.abs_diff(start)).unwrap_or(usize::MAX);
+    let owned = shard.range(len);
+    if owned.len() > MAX_ARRAY_SIZE {
+        return err(
+            "shard",
+            format!(
+                "{start}..{end} gives this task {} items; a script array holds at most {MAX_ARRAY_SIZE}",
+                owned.len()
+            ),
+        );
+    }
+    Ok(owned.map(|i| Dynamic::from(start + i as i64)).collect())
 }
 
 /// What `hdrvis sweep-status` reports.

@@ -1,8 +1,8 @@
 //! Conversions between Rhai values and hdrvis types: numbers that may be written as integers or
-//! floats, vectors as arrays, and option maps whose unknown keys are errors listing the known ones.
+//! floats, vectors as arrays; option maps are read through their tables (`options`).
 
 use crate::error::Error;
-use rhai::{Dynamic, EvalAltResult, Map, Position};
+use rhai::{Dynamic, EvalAltResult, Position};
 
 pub(crate) type RResult<T> = Result<T, Box<EvalAltResult>>;
 
@@ -85,39 +85,13 @@ pub(crate) fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
         .collect()
 }
 
-/// Rejects keys outside `known`, naming them and listing the known ones.
-pub(crate) fn check_keys(map: &Map, known: &[&str], what: &str) -> RResult<()> {
-    let mut unknown: Vec<&str> = map
-        .keys()
-        .map(|k| k.as_str())
-        .filter(|k| !known.contains(k))
-        .collect();
-    if unknown.is_empty() {
-        return Ok(());
-    }
-    unknown.sort();
-    err(
-        what,
-        format!(
-            "unknown option{} {}; known options: {}",
-            if unknown.len() > 1 { "s" } else { "" },
-            unknown.join(", "),
-            known.join(", ")
-        ),
-    )
-}
-
-/// The `variable` of a loader's options map merged with the one a `FILE:VARIABLE` path named;
-/// naming two different ones is an error.
+/// The `variable` of a loader's options (`given`) merged with the one a `FILE:VARIABLE` path
+/// named; naming two different ones is an error.
 pub(crate) fn variable_option(
-    opts: &Map,
+    given: Option<String>,
     from_path: Option<String>,
     what: &str,
 ) -> RResult<Option<String>> {
-    let given = opts
-        .get("variable")
-        .map(|v| string(v, "variable"))
-        .transpose()?;
     match (given, from_path) {
         (Some(a), Some(b)) if a != b => err(
             what,

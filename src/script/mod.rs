@@ -14,6 +14,7 @@ mod api_render;
 mod api_surface;
 mod api_sweep;
 mod convert;
+mod options;
 mod progress;
 mod sandbox;
 mod shard;
@@ -200,7 +201,10 @@ pub(crate) struct ScriptHost {
     on_written: Option<WrittenObserver>,
     /// [`ScriptOptions::shard`].
     pub shard: Shard,
-    plan_only: bool,
+    /// A planning run (`hdrvis sweep-status`): every function checks its arguments as in a real
+    /// run, then renders return blank images of the requested size, image operations return
+    /// their input, and saves record their path instead of writing.
+    pub plan_only: bool,
 }
 
 impl ScriptHost {
@@ -229,6 +233,18 @@ impl ScriptHost {
             let mut state = self.progress.lock().expect("progress poisoned");
             state.report(done, total, label);
         }
+    }
+
+    /// In a planning run, records the output `path` would be and returns true: the caller then
+    /// skips the writing.
+    pub(crate) fn planned(&self, path: &Path) -> bool {
+        if self.plan_only {
+            self.written
+                .lock()
+                .expect("written poisoned")
+                .push(path.to_path_buf());
+        }
+        self.plan_only
     }
 
     /// Records a finished output and tells the observer.
@@ -298,10 +314,6 @@ pub(crate) fn new_engine(
     api_grids::register(&mut engine);
     api_surface::register(&mut engine, host.clone());
     api_sweep::register(&mut engine, &host);
-    // Last: the planning forms replace the rendering and writing functions registered above.
-    if host.plan_only {
-        api_sweep::register_planning(&mut engine, &host);
-    }
     engine
 }
 
