@@ -162,16 +162,22 @@ fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
     if opts.bricking.brick.is_some() {
         return refuse("brick", "bricks are for regular boxes (leave brick out)");
     }
-    let pixels = opts.width as u64 * opts.height as u64;
-    if let Some(m) = opts.bricking.memory_budget {
-        if v.voxel_count() as u64 * 4 + pixels * 32 > m {
-            return refuse(
-                "memory_budget",
-                "it does not fit this budget (raise memory_budget, or resample it to a box with resample())",
-            );
-        }
+    if !fits_in_core(v, opts) {
+        return refuse(
+            "memory_budget",
+            "it does not fit this budget (raise memory_budget, or resample it to a box with resample())",
+        );
     }
     Ok(RenderPath::Mapped)
+}
+
+/// Whether `v` renders whole in GPU memory under the render's budget (none: always): its f32
+/// voxels and 32 bytes a pixel (the image, its read back and the ray state).
+fn fits_in_core(v: &Volume, opts: &VolumeRenderOptions) -> bool {
+    let pixels = opts.width as u64 * opts.height as u64;
+    opts.bricking
+        .memory_budget
+        .is_none_or(|m| v.voxel_count() as u64 * 4 + pixels * 32 <= m)
 }
 
 /// A GPU brick cache as a result-cache entry: renders through it take turns.
@@ -308,11 +314,7 @@ impl RenderSession {
                     }
                     .into());
                 }
-                let pixels = opts.width as u64 * opts.height as u64;
-                let fits = b
-                    .memory_budget
-                    .is_none_or(|m| v.voxel_count() as u64 * 4 + pixels * 32 <= m);
-                if fits && b.brick.is_none() {
+                if fits_in_core(v, opts) && b.brick.is_none() {
                     let skip_grid = self.paying_skip_grid(v, opts)?;
                     return Ok(Route {
                         path: RenderPath::InCore {

@@ -121,6 +121,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("parameters and sweeps", "progress", &["done: int", "total: int"], "()", "Progress bar with ETA on stderr (when it is a terminal)."),
     e("parameters and sweeps", "progress", &["done: int", "total: int", "label: string"], "()", "As above, with a label."),
     e("parameters and sweeps", "shard", &["items: array or range"], "array", "The items this task owns when a sweep is shared out: all of them when run alone; with `hdrvis run --shard I/N`, in a Slurm job array (SLURM_ARRAY_TASK_ID) or in srun tasks (SLURM_PROCID of SLURM_NTASKS), task I of N gets the contiguous block from floor(I·len/N) to floor((I+1)·len/N), so the tasks' shares are disjoint and cover the list. `for az in shard([0, 45, 90])`, `for i in shard(0..frames)`."),
+    e("parameters and sweeps", "sleep", &["seconds: number"], "()", "Waits; with --timeout a sleep ends at the deadline with the timeout's error, without one a run sleeps at most 1 s in all."),
     e("parameters and sweeps", "param", &["name: string", "default: any"], "any", "The value of `--set name=value`, parsed as the default's type; the default when not set. `hdrvis tui` lists every param and re-runs the script when one changes."),
 ];
 

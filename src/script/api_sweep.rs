@@ -141,13 +141,7 @@ pub fn check_sweep_script(script: &Path, sets: &[(String, String)], shared: bool
         return Ok(());
     }
     let mut calls_shard = false;
-    ast.walk(&mut |path: &[rhai::ASTNode]| {
-        use rhai::{ASTNode, Expr, Stmt};
-        calls_shard |= matches!(path.last(),
-            Some(ASTNode::Expr(Expr::FnCall(call, _))) | Some(ASTNode::Stmt(Stmt::FnCall(call, _)))
-                if call.name == "shard");
-        true
-    });
+    super::for_each_call(&ast, |call| calls_shard |= call.name == "shard");
     if calls_shard {
         Ok(())
     } else {

@@ -44,7 +44,7 @@ pub struct ScriptOptions {
     pub allowed_paths: Vec<PathBuf>,
     pub backend: BackendChoice,
     /// Operation budget of a run without a [`timeout`](Self::timeout): a runaway loop stops with
-    /// an error after this many operations (about half a second of a tight loop).
+    /// an error after this many operations (seconds of a tight loop: see docs/scripting.md).
     pub max_operations: u64,
     /// `--resume`: outputs that already exist are not written again, and `already_done(path)`
     /// tells the script so it can skip the work.
@@ -266,9 +266,9 @@ pub(crate) fn new_engine(
 ) -> Engine {
     let mut engine = Engine::new();
     engine.set_max_operations(max_operations);
-    if let Some(limit) = timeout {
+    let deadline = timeout.map(|limit| (Instant::now() + limit, limit));
+    if let Some((deadline, limit)) = deadline {
         engine.set_max_operations(0);
-        let deadline = Instant::now() + limit;
         // Rhai calls this before every operation; the clock is read every 1024th, which keeps
         // the cost out of tight loops and still stops within microseconds of the deadline.
         engine.on_progress(move |operations| {
@@ -276,6 +276,8 @@ pub(crate) fn new_engine(
                 .then(|| Dynamic::from(limit.as_secs_f64()))
         });
     }
+    register_sleep(&mut engine, deadline);
+    bound_maps_grown_by_index(&mut engine);
     engine
         .set_max_call_levels(64)
         .set_max_expr_depths(64, 32)
@@ -315,6 +317,80 @@ pub(crate) fn new_engine(
     api_surface::register(&mut engine, host.clone());
     api_sweep::register(&mut engine, &host);
     engine
+}
+
+/// Rhai checks the size of what an index assignment stores but not of the map it grows
+/// (`m[key] = v` with a new key), so a loop could grow a map without bound. Each access of a
+/// variable holding a map checks its length here instead.
+fn bound_maps_grown_by_index(engine: &mut Engine) {
+    // Every 61st access is checked (a prime, so that a loop body's accesses all take turns),
+    // which keeps the hook's cost out of tight loops; a growing map is caught within a loop
+    // round or two of passing the limit.
+    let accesses = std::sync::atomic::AtomicU32::new(0);
+    #[allow(deprecated)] // Volatile, not deprecated (Rhai's words): the one hook on every access.
+    engine.on_var(move |name, _, ctx| {
+        if accesses.fetch_add(1, std::sync::atomic::Ordering::Relaxed) % 61 != 0 {
+            return Ok(None);
+        }
+        let too_large = ctx
+            .scope()
+            .get(name)
+            .and_then(|v| v.read_lock::<rhai::Map>().map(|m| m.len() > MAX_MAP_SIZE))
+            .unwrap_or(false);
+        if too_large {
+            return Err(Box::new(rhai::EvalAltResult::ErrorDataTooLarge(
+                "Size of object map".into(),
+                rhai::Position::NONE,
+            )));
+        }
+        Ok(None)
+    });
+}
+
+/// Most seconds a run without `--timeout` may sleep in all: like its operation budget, a bound
+/// that ends a `loop { sleep(...) }` nobody asked to wait for.
+pub const MAX_SLEEP_WITHOUT_TIMEOUT_S: f64 = 1.0;
+
+/// `sleep(seconds)` in place of Rhai's own, which blocks past any limit: with `--timeout` a sleep
+/// ends at the deadline with the timeout's error; without, the run's sleeps add up to at most
+/// [`MAX_SLEEP_WITHOUT_TIMEOUT_S`].
+fn register_sleep(engine: &mut Engine, deadline: Option<(Instant, Duration)>) {
+    let slept = Arc::new(Mutex::new(0.0_f64));
+    let sleep = move |seconds: f64| -> convert::RResult<()> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return convert::err("sleep", format!("expected seconds >= 0, got {seconds}"));
+        }
+        match deadline {
+            Some((deadline, limit)) => {
+                let left = deadline.saturating_duration_since(Instant::now());
+                let wanted = Duration::from_secs_f64(seconds.min(1e9));
+                std::thread::sleep(wanted.min(left));
+                if wanted >= left {
+                    return Err(Box::new(rhai::EvalAltResult::ErrorTerminated(
+                        Dynamic::from(limit.as_secs_f64()),
+                        rhai::Position::NONE,
+                    )));
+                }
+            }
+            None => {
+                let mut total = slept.lock().expect("sleep total poisoned");
+                if *total + seconds > MAX_SLEEP_WITHOUT_TIMEOUT_S {
+                    return convert::err(
+                        "sleep",
+                        format!(
+                            "a run without --timeout sleeps at most {MAX_SLEEP_WITHOUT_TIMEOUT_S} s in all; give --timeout SECONDS to wait longer"
+                        ),
+                    );
+                }
+                *total += seconds;
+                std::thread::sleep(Duration::from_secs_f64(seconds));
+            }
+        }
+        Ok(())
+    };
+    let sleep_int = sleep.clone();
+    engine.register_fn("sleep", sleep);
+    engine.register_fn("sleep", move |seconds: i64| sleep_int(seconds as f64));
 }
 
 /// The API reference of the engine scripts run in.
@@ -431,30 +507,34 @@ pub fn run_script_source(
     })
 }
 
+/// Calls `visit` with every function call in the script's syntax tree, function bodies
+/// included (a call is an expression, or a statement of its own such as a function's last line).
+pub(crate) fn for_each_call(ast: &rhai::AST, mut visit: impl FnMut(&rhai::FnCallExpr)) {
+    use rhai::{ASTNode, Expr, Stmt};
+    ast.walk(&mut |path: &[ASTNode]| {
+        match path.last() {
+            Some(ASTNode::Expr(Expr::FnCall(call, _))) => visit(call),
+            Some(ASTNode::Stmt(Stmt::FnCall(call, _))) => visit(call),
+            _ => {}
+        }
+        true
+    });
+}
+
 /// The names the script's `param(NAME, default)` calls read, found in its syntax tree (function
 /// bodies included), sorted; `None` when some call computes its name, so the set is unknown.
 pub fn script_param_names(ast: &rhai::AST) -> Option<Vec<String>> {
-    use rhai::{ASTNode, Expr, Stmt};
     let mut names = std::collections::BTreeSet::new();
     let mut computed = false;
-    ast.walk(&mut |path: &[ASTNode]| {
-        // A call is an expression, or a statement of its own (a function's last line).
-        let call = match path.last() {
-            Some(ASTNode::Expr(Expr::FnCall(call, _))) => Some(call),
-            Some(ASTNode::Stmt(Stmt::FnCall(call, _))) => Some(call),
-            _ => None,
-        };
-        if let Some(call) = call {
-            if call.name == "param" && call.args.len() == 2 {
-                match &call.args[0] {
-                    Expr::StringConstant(s, _) => {
-                        names.insert(s.to_string());
-                    }
-                    _ => computed = true,
+    for_each_call(ast, |call| {
+        if call.name == "param" && call.args.len() == 2 {
+            match &call.args[0] {
+                rhai::Expr::StringConstant(s, _) => {
+                    names.insert(s.to_string());
                 }
+                _ => computed = true,
             }
         }
-        true
     });
     (!computed).then(|| names.into_iter().collect())
 }
@@ -616,5 +696,47 @@ mod tests {
             on_disk == api_reference(),
             "docs/api.md is stale: regenerate it with `cargo run -- api > docs/api.md`"
         );
+    }
+
+    fn run_for(source: &str, timeout: Option<Duration>) -> (Result<ScriptReport>, f64) {
+        let dir = tempfile::tempdir().unwrap();
+        let mut opts = ScriptOptions::new(dir.path().join("out"));
+        opts.progress = false;
+        opts.timeout = timeout;
+        let start = Instant::now();
+        let result = run_script_source(source, "s.rhai", dir.path(), &opts);
+        (result, start.elapsed().as_secs_f64())
+    }
+
+    #[test]
+    fn sleeps_end_at_the_timeout_and_are_bounded_without_one() {
+        let (r, took) = run_for("sleep(8);", Some(Duration::from_millis(300)));
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains("time limit of 0.3 s (--timeout)"), "{e}");
+        assert!(took < 2.0, "sleep(8) under --timeout 0.3 took {took:.2} s");
+        let (r, took) = run_for("loop { sleep(0.5); }", Some(Duration::from_millis(700)));
+        assert!(r.unwrap_err().to_string().contains("time limit"));
+        assert!(took < 2.0, "{took:.2} s");
+        let (r, took) = run_for("loop { sleep(0.25); }", None);
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains("sleeps at most 1 s in all"), "{e}");
+        assert!(took < 2.0, "{took:.2} s");
+        let (r, _) = run_for("sleep(0.1); sleep(0);", None);
+        r.unwrap();
+        let (r, _) = run_for("sleep(-1.0);", None);
+        assert!(r.unwrap_err().to_string().contains("expected seconds >= 0"));
+    }
+
+    #[test]
+    fn maps_grown_by_index_stop_at_the_map_limit() {
+        let (r, took) = run_for("let m = #{}; for i in 0..100000 { m[`k${i}`] = i; }", None);
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains("map"), "{e}");
+        assert!(took < 10.0, "{took:.2} s");
+        let (r, _) = run_for(
+            &format!("let m = #{{}}; for i in 0..{MAX_MAP_SIZE} {{ m[`k${{i}}`] = i; }}"),
+            None,
+        );
+        r.unwrap();
     }
 }

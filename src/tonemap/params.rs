@@ -170,6 +170,30 @@ impl Operator {
         Ok(op)
     }
 
+    /// The value of the parameter `param` (as [`Operator::parse`] names it); `None` when the
+    /// operator has no such parameter, or for Reinhard's `white` left to the image.
+    pub(crate) fn param(&self, param: &str) -> Option<f64> {
+        Some(match (*self, param) {
+            (Operator::Drago { bias, .. }, "bias") => bias,
+            (Operator::Drago { ld_max, .. }, "ld_max") => ld_max,
+            (Operator::Reinhard { key, .. }, "key") => key,
+            (Operator::Reinhard { white, .. }, "white") => return white,
+            (Operator::WardHistogram { ld_min, .. }, "ld_min") => ld_min,
+            (Operator::WardHistogram { ld_max, .. }, "ld_max") => ld_max,
+            (Operator::WardHistogram { bins, .. }, "bins") => bins as f64,
+            (Operator::ReinhardLocal { key, .. }, "key") => key,
+            (Operator::ReinhardLocal { alpha1, .. }, "alpha1") => alpha1,
+            (Operator::ReinhardLocal { ratio, .. }, "ratio") => ratio,
+            (Operator::ReinhardLocal { phi, .. }, "phi") => phi,
+            (Operator::ReinhardLocal { epsilon, .. }, "epsilon") => epsilon,
+            (Operator::ReinhardLocal { scales, .. }, "scales") => scales as f64,
+            (Operator::DurandBilateral { contrast, .. }, "contrast") => contrast,
+            (Operator::DurandBilateral { sigma_spatial, .. }, "sigma_spatial") => sigma_spatial,
+            (Operator::DurandBilateral { sigma_range, .. }, "sigma_range") => sigma_range,
+            _ => return None,
+        })
+    }
+
     fn set(&mut self, param: &str, value: f64) -> Result<()> {
         let name = self.name();
         let slot: Option<&mut f64> = match (self, param) {

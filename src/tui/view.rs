@@ -14,7 +14,8 @@ use crate::tonemap::{Operator, ToneMapSettings, DISPLAY_REFERRED};
 use std::path::{Path, PathBuf};
 
 /// The display operators the `o` key cycles through: the plain exposure view (scene × 2^EV,
-/// clipped, as `save_png(image, path, ev)`), then every tone-mapping operator.
+/// clipped, as `save_png(image, path, ev)`), then every tone-mapping operator of
+/// [`Operator::NAMES`] (a test holds the two lists to the same operators), global ones first.
 pub(crate) const VIEW_OPERATORS: [&str; 8] = [
     "exposure",
     "linear",
@@ -26,16 +27,18 @@ pub(crate) const VIEW_OPERATORS: [&str; 8] = [
     "durand",
 ];
 
-/// The main parameter of each entry of [`VIEW_OPERATORS`]: (name, default, step, min, max);
-/// `None` where the operator has none worth a key.
+/// The main parameter of each entry of [`VIEW_OPERATORS`]: (name, default, step, min, max), the
+/// default being the operator's own; `None` where the operator has none worth a key.
 pub(crate) fn main_parameter(op: &str) -> Option<(&'static str, f64, f64, f64, f64)> {
-    match op {
-        "reinhard" | "reinhard-local" => Some(("key", 0.18, 0.03, 0.01, 1.0)),
-        "drago" => Some(("bias", 0.85, 0.05, 0.05, 1.0)),
-        "ward" => Some(("ld_max", 100.0, 20.0, 10.0, 1000.0)),
-        "durand" => Some(("contrast", 5.0, 1.0, 2.0, 50.0)),
-        _ => None,
-    }
+    let (name, step, lo, hi) = match op {
+        "reinhard" | "reinhard-local" => ("key", 0.03, 0.01, 1.0),
+        "drago" => ("bias", 0.05, 0.05, 1.0),
+        "ward" => ("ld_max", 20.0, 10.0, 1000.0),
+        "durand" => ("contrast", 1.0, 2.0, 50.0),
+        _ => return None,
+    };
+    let default = Operator::parse(op, &[]).ok()?.param(name)?;
+    Some((name, default, step, lo, hi))
 }
 
 /// Which part of the image is shown: colour, one channel as grey, luminance, or an extra
@@ -425,5 +428,23 @@ mod tests {
             decoded.get_pixel(0, 0)[0],
             crate::model::colormap::encode_srgb8(0.25)
         );
+    }
+
+    #[test]
+    fn the_view_operators_are_the_tone_mapping_operators_with_their_defaults() {
+        let mut ops: Vec<&str> = VIEW_OPERATORS[1..].to_vec();
+        ops.sort();
+        let mut known = Operator::NAMES.to_vec();
+        known.sort();
+        assert_eq!(ops, known);
+        assert_eq!(main_parameter("reinhard").unwrap().1, 0.18);
+        assert_eq!(main_parameter("drago").unwrap().1, 0.85);
+        assert_eq!(main_parameter("ward").unwrap().1, 100.0);
+        assert_eq!(main_parameter("durand").unwrap().1, 5.0);
+        for op in &VIEW_OPERATORS[1..] {
+            if let Some((name, default, _, lo, hi)) = main_parameter(op) {
+                assert!((lo..=hi).contains(&default), "{op}.{name}");
+            }
+        }
     }
 }
