@@ -3,8 +3,8 @@
 //! must fall inside the output folder. Paths are compared after resolving `..` and symlinks of
 //! the existing part, so `../x` or a link cannot escape.
 
-use crate::error::{Error, Result};
 use crate::datasets::access::resolve;
+use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug)]

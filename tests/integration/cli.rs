@@ -241,11 +241,18 @@ fn nrrd_data_files_outside_the_sandbox_are_refused() {
             std::fs::write(d.join("s.rhai"), script).unwrap();
             let (code, stdout, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], &d);
             assert_one_line_error(code, &stderr, "data file");
-            assert!(stderr.contains("outside the folders"), "{name} {call}: {stderr}");
+            assert!(
+                stderr.contains("outside the folders"),
+                "{name} {call}: {stderr}"
+            );
             assert!(!stdout.contains("7.5"), "{stdout}");
         }
     }
-    std::fs::write(d.join("s.rhai"), "print(volume_stats(load_volume(\"ok.nhdr\")).max);").unwrap();
+    std::fs::write(
+        d.join("s.rhai"),
+        "print(volume_stats(load_volume(\"ok.nhdr\")).max);",
+    )
+    .unwrap();
     let (code, stdout, stderr) = hdrvis(&["run", "s.rhai", "--out", "o"], &d);
     assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("2.5"), "{stdout}");
