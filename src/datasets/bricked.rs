@@ -14,12 +14,7 @@ use std::sync::Arc;
 
 /// Opens `path` as a bricked volume with bricks of `brick` voxels, reading it in slabs.
 pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<BrickedVolume> {
-    if !path.exists() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        ));
-    }
+    crate::io::check_regular_file(path)?;
     let stem = path
         .file_stem()
         .and_then(|s| s.to_str())

@@ -65,12 +65,7 @@ pub struct LoadOptions {
 /// variable's `units` attribute.
 pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
     let var = opts.variable.as_deref();
-    if !path.exists() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        ));
-    }
+    crate::io::check_regular_file(path)?;
     match crate::io::extension(path).as_str() {
         "npy" => volume_from_npy(path),
         "npz" => volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None]),
@@ -417,12 +412,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
 /// coordinate. With `rank`, leading length-1 dimensions are dropped down to that rank and an
 /// array of another rank is refused (or, without `var`, skipped).
 pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
-    if !path.exists() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        ));
-    }
+    crate::io::check_regular_file(path)?;
     let ext = crate::io::extension(path);
     let mut array = match ext.as_str() {
         "npy" => {

@@ -446,6 +446,7 @@ fn read_samples(
     };
     let mut out = Vec::new();
     for file in &files {
+        crate::io::check_regular_file(file)?;
         let opened = std::fs::File::open(file).map_err(|e| Error::io(file, e))?;
         let piece = read_piece(&mut std::io::BufReader::new(opened), per_file, layout, skip)
             .map_err(|m| Error::format(file, m))?;

@@ -338,6 +338,7 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
 
 /// Runs a script file.
 pub fn run_script_file(path: &Path, opts: &ScriptOptions) -> Result<ScriptReport> {
+    crate::io::check_regular_file(path)?;
     let source = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let dir = path
         .parent()

@@ -978,3 +978,70 @@ fn bench_distributed_refuses_without_mpi_and_bad_rank_lists() {
         assert!(stdout.is_empty(), "{stdout}");
     }
 }
+
+/// `hdrvis ARGS` in `cwd`, killed after `limit` if it has not ended: `None` then.
+fn hdrvis_within(args: &[&str], cwd: &Path, limit: std::time::Duration) -> Option<(i32, String)> {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(args)
+        .current_dir(cwd)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run hdrvis");
+    let start = std::time::Instant::now();
+    while start.elapsed() < limit {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut stderr = String::new();
+            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+            return Some((status.code().unwrap_or(-1), stderr));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    None
+}
+
+#[test]
+fn fifos_and_devices_are_refused_before_they_are_opened() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for name in ["pipe.npy", "pipe.exr", "pipe.rhai", "pipe.nhdr", "pipe.raw"] {
+        let made = Command::new("mkfifo").arg(d.join(name)).status().unwrap();
+        assert!(made.success(), "mkfifo {name}");
+    }
+    std::fs::write(
+        d.join("v.nhdr"),
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nendian: little\ndata file: pipe.raw\n",
+    )
+    .unwrap();
+    let limit = std::time::Duration::from_secs(20);
+    for (args, file) in [
+        (&["info", "pipe.npy"][..], "pipe.npy"),
+        (&["info", "pipe.exr"], "pipe.exr"),
+        (&["info", "pipe.nhdr"], "pipe.nhdr"),
+        (&["info", "v.nhdr"], "pipe.raw"),
+        (&["info", "/dev/zero"], "/dev/zero"),
+        (&["tonemap", "pipe.exr", "-o", "t.png"], "pipe.exr"),
+        (&["run", "pipe.rhai", "--out", "o"], "pipe.rhai"),
+    ] {
+        let (code, stderr) = hdrvis_within(args, d, limit)
+            .unwrap_or_else(|| panic!("hdrvis {args:?} still blocked after {limit:?}"));
+        let what = if file == "/dev/zero" {
+            "a device"
+        } else {
+            "a FIFO (named pipe)"
+        };
+        assert_one_line_error(code, &stderr, &format!("is {what}, not a regular file"));
+        assert!(stderr.contains(file), "{args:?}: {stderr}");
+    }
+    let script = "print(volume_stats(load_volume(\"pipe.npy\")).max);";
+    std::fs::write(d.join("load.rhai"), script).unwrap();
+    let (code, stderr) = hdrvis_within(&["run", "load.rhai", "--out", "o"], d, limit)
+        .expect("load_volume of a FIFO blocked");
+    assert_one_line_error(
+        code,
+        &stderr,
+        "pipe.npy: is a FIFO (named pipe), not a regular file",
+    );
+}
