@@ -358,13 +358,9 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
             let mut listed = Vec::with_capacity(names.len());
             for name in names {
                 // Only the member's header is read: its shape and dtype.
-                let npy =
-                    npyz::NpyFile::new(npz_member(&mut archive, path, &name)?).map_err(|e| {
-                        Error::format(
-                            path,
-                            format!("array '{name}': not a valid .npy member: {e}"),
-                        )
-                    })?;
+                let npy = npy::open_npy(npz_member(&mut archive, path, &name)?).map_err(|e| {
+                    Error::format(path, format!("array '{name}': {}", npy::header_error(&e)))
+                })?;
                 listed.push(ArrayListing {
                     shape: npy.shape().iter().map(|&s| s as usize).collect(),
                     // "<f4" as the array's own report spells it (descr() quotes it as Python does).
