@@ -375,8 +375,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
             Ok(listed)
         }
         "nc" | "nc4" | "cdf" | "netcdf" => {
-            let file = netcdf_reader::NcFile::open(path)
-                .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+            let file = netcdf::open(path)?;
             let vars = file
                 .variables()
                 .map_err(|e| Error::format(path, e.to_string()))?;
@@ -510,8 +509,7 @@ fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Res
         .find(|a| a.name == name)
         .ok_or_else(|| missing_array(path, &name, &listed))?;
     let variable = netcdf::read_variable(path, &name)?;
-    let file = netcdf_reader::NcFile::open(path)
-        .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+    let file = netcdf::open(path)?;
     // Missing values become NaN when decoded; NaN already stored raw is not a fill.
     let raw_nan = file
         .read_variable_as_f64(&name)
