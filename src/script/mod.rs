@@ -250,9 +250,11 @@ pub(crate) fn new_engine(
 ) -> Engine {
     let mut engine = Engine::new();
     engine.set_max_operations(max_operations);
-    if let Some(limit) = timeout {
+    // A limit past what the clock can represent (centuries) never comes: no deadline.
+    if let Some((limit, deadline)) =
+        timeout.and_then(|limit| Some((limit, Instant::now().checked_add(limit)?)))
+    {
         engine.set_max_operations(0);
-        let deadline = Instant::now() + limit;
         // Rhai calls this before every operation; the clock is read every 1024th, which keeps
         // the cost out of tight loops and still stops within microseconds of the deadline.
         engine.on_progress(move |operations| {

@@ -874,6 +874,31 @@ fn timeout_ends_an_endless_loop_on_time() {
     );
     let (code, _, stderr) = hdrvis(&["run", "spin.rhai", "--timeout", "0"], dir.path());
     assert_one_line_error(code, &stderr, "--timeout: expected seconds > 0, got 0");
+    // Beyond what a Duration holds, NaN and negatives: one line, no panic.
+    for (value, needle) in [
+        (
+            "1e20",
+            "--timeout: expected seconds > 0 and below 1.8e19, got 100000000000000000000",
+        ),
+        (
+            "inf",
+            "--timeout: expected seconds > 0 and below 1.8e19, got inf",
+        ),
+        ("NaN", "--timeout: expected seconds > 0, got NaN"),
+        ("-3", "--timeout: expected seconds > 0, got -3"),
+    ] {
+        let flag = format!("--timeout={value}");
+        let (code, _, stderr) = hdrvis(&["run", "spin.rhai", &flag], dir.path());
+        assert_one_line_error(code, &stderr, needle);
+    }
+    // A limit the clock cannot reach (1e19 s) runs the script without a deadline.
+    std::fs::write(dir.path().join("quick.rhai"), "print(6 * 7);").unwrap();
+    let (code, stdout, stderr) = hdrvis(
+        &["run", "quick.rhai", "--out", "o", "--timeout", "1e19"],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.lines().any(|l| l.trim() == "42"), "{stdout}");
 }
 
 /// `hdrvis ARGS` in `cwd` with the cache chosen by the platform rules: no HDRVIS_CACHE, and
