@@ -75,6 +75,22 @@ pub fn closest_name<'a>(
         .map(|(_, c)| c)
 }
 
+/// `text` quoted for a one-line message: control characters and quotes escaped, and cut after
+/// `max_chars` characters with the length of the rest, so that a corrupt file's megabyte-long
+/// "line" cannot flood the terminal.
+pub(crate) fn excerpt(text: &str, max_chars: usize) -> String {
+    let mut out = String::from("\"");
+    let mut chars = text.char_indices();
+    for (_, c) in chars.by_ref().take(max_chars) {
+        out.extend(c.escape_debug());
+    }
+    out.push('"');
+    if let Some((at, _)) = chars.next() {
+        out.push_str(&format!("... ({} more bytes)", text.len() - at));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -84,5 +100,17 @@ mod tests {
         assert_eq!(super::closest_name("ouput", names), Some("output"));
         assert_eq!(super::closest_name("TONEMAPP", names), Some("tonemap"));
         assert_eq!(super::closest_name("xyz", names), None);
+    }
+
+    #[test]
+    fn excerpts_escape_control_characters_and_stop_after_the_limit() {
+        assert_eq!(super::excerpt("a\tb\"c", 60), r#""a\tb\"c""#);
+        let nuls = "\0".repeat(1 << 20);
+        let e = super::excerpt(&nuls, 60);
+        assert_eq!(
+            e,
+            format!("\"{}\"... (1048516 more bytes)", "\\0".repeat(60))
+        );
+        assert_eq!(super::excerpt("ab", 1), r#""a"... (1 more bytes)"#);
     }
 }

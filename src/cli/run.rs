@@ -137,7 +137,16 @@ pub(super) fn script_options(
     }
     opts.gpu_memory_mib = args.gpu_memory;
     opts.timeout = match args.timeout {
-        Some(s) if s.is_finite() && s > 0.0 => Some(std::time::Duration::from_secs_f64(s)),
+        // try_from refuses what a Duration cannot hold (beyond 2^64 s) instead of panicking.
+        Some(s) if s > 0.0 => match std::time::Duration::try_from_secs_f64(s) {
+            Ok(d) => Some(d),
+            Err(_) => {
+                return Err(Error::invalid(
+                    "--timeout",
+                    format!("expected seconds > 0 and below 1.8e19, got {s}"),
+                ))
+            }
+        },
         Some(s) => {
             return Err(Error::invalid(
                 "--timeout",

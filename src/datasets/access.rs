@@ -88,8 +88,9 @@ pub(crate) fn referenced_file(referrer: &Path, field: &str, name: &str) -> Resul
         Err(Error::format(
             referrer,
             format!(
-                "{field}: {name:?} lies outside the folders this script may read (its own folder, \
-                 the output folder and --allow-path folders)"
+                "{field}: {} lies outside the folders this script may read (its own folder, \
+                 the output folder and --allow-path folders)",
+                crate::error::excerpt(name, 60)
             ),
         ))
     }

@@ -1,25 +1,21 @@
-//! Voxel sources for bricked, out-of-core volumes: `.npy` files read through a memory map
-//! (`memmap2`; any plain numeric dtype, either byte order, converted to f32 row by row) and NetCDF
-//! variables read by hyperslabs (with the same decoding, coordinates and axis flips as
+//! Voxel sources for bricked, out-of-core volumes: `.npy` files read by positioned reads (any
+//! plain numeric dtype, either byte order, converted to f32 row by row) and NetCDF variables read
+//! by hyperslabs (with the same decoding, coordinates and axis flips as
 //! [`super::load_volume`]). Neither holds the whole volume: a read touches only the rows it
-//! needs, and the map's pages are handed back after each slab. [`open_bricked`] builds the brick
+//! needs. Neither maps the file, so a file truncated while it is read is an error, not a SIGBUS. [`open_bricked`] builds the brick
 //! index of a file this way; other formats are loaded whole and bricked in memory.
 
 use super::netcdf;
 use super::scalar::Scalar;
 use crate::error::{Error, Result};
 use crate::model::bricks::{BrickedVolume, VoxelSource};
+use std::os::unix::fs::FileExt as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// Opens `path` as a bricked volume with bricks of `brick` voxels, reading it in slabs.
 pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<BrickedVolume> {
-    if !path.exists() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        ));
-    }
+    crate::io::check_regular_file(path)?;
     let stem = path
         .file_stem()
         .and_then(|s| s.to_str())
@@ -31,7 +27,7 @@ pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<Bric
     };
     match crate::io::extension(path).as_str() {
         "npy" => {
-            let src = MappedNpy::open(path)?;
+            let src = NpyFileSource::open(path)?;
             BrickedVolume::build(stem, Arc::new(src), [1.0; 3], [0.0; 3], brick).map_err(at)
         }
         "nc" | "nc4" | "cdf" | "netcdf" => {
@@ -75,41 +71,46 @@ fn scalar_of_descr(d: &str) -> Option<(Scalar, bool)> {
     Some((e, big))
 }
 
-/// A C-ordered 3-D `.npy` array read through a memory map.
-pub(crate) struct MappedNpy {
+/// A C-ordered 3-D `.npy` array read by positioned reads (`pread`), one z slice's rows at a
+/// time. No memory map: a file that shrinks while it is open makes a read fail with an error
+/// instead of killing the process with SIGBUS, and nothing stays resident after a read.
+pub(crate) struct NpyFileSource {
     path: PathBuf,
-    map: memmap2::Mmap,
-    offset: usize,
+    file: std::fs::File,
+    offset: u64,
     dims: [usize; 3],
     element: Scalar,
     big_endian: bool,
 }
 
-impl MappedNpy {
-    pub(crate) fn open(path: &Path) -> Result<MappedNpy> {
+impl NpyFileSource {
+    pub(crate) fn open(path: &Path) -> Result<NpyFileSource> {
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        // SAFETY: the map is read-only; a file truncated by another process while mapped would
-        // fault on access, the usual caveat of memory-mapped reading, which is what the issue
-        // asks for (volumes larger than memory).
-        let map = unsafe { memmap2::Mmap::map(&file) }.map_err(|e| Error::io(path, e))?;
+        let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
         let bad = |m: String| Error::format(path, m);
-        if map.len() < 10 || &map[..6] != b"\x93NUMPY" {
+        let mut lead = [0u8; 12];
+        let got = read_at_most(&file, &mut lead, 0).map_err(|e| Error::io(path, e))?;
+        if got < 10 || &lead[..6] != b"\x93NUMPY" {
             return Err(bad("not a .npy file: missing the \\x93NUMPY magic".into()));
         }
-        let (header_len, start) = match map[6] {
-            1 => (u16::from_le_bytes([map[8], map[9]]) as usize, 10),
-            2 | 3 if map.len() >= 12 => (
-                u32::from_le_bytes([map[8], map[9], map[10], map[11]]) as usize,
+        let (header_len, start) = match lead[6] {
+            1 => (u64::from(u16::from_le_bytes([lead[8], lead[9]])), 10),
+            2 | 3 if got >= 12 => (
+                u64::from(u32::from_le_bytes([lead[8], lead[9], lead[10], lead[11]])),
                 12,
             ),
             v => return Err(bad(format!("unsupported .npy version {v}"))),
         };
         let offset = start + header_len;
-        if offset > map.len() {
+        if offset > len {
             return Err(bad("header runs past the end of the file".into()));
         }
+        // offset <= len < 4 GiB + 12 here (the header length is a u32).
+        let mut header = vec![0u8; offset as usize];
+        file.read_exact_at(&mut header, 0)
+            .map_err(|e| Error::io(path, e))?;
         let npy =
-            npyz::NpyFile::new(&map[..]).map_err(|e| bad(format!("not a valid .npy file: {e}")))?;
+            super::npy::open_npy(&header[..]).map_err(|e| bad(super::npy::header_error(&e)))?;
         if npy.order() == npyz::Order::Fortran {
             return Err(bad(
                 "array is in Fortran order; expected C order (save with np.ascontiguousarray)"
@@ -134,15 +135,15 @@ impl MappedNpy {
         let dims = [shape[2], shape[1], shape[0]];
         crate::model::volume::check_shape(&dims, "shape").map_err(|e| bad(e.to_string()))?;
         let need = dims.iter().map(|&d| d as u64).product::<u64>() * element.size() as u64;
-        if offset as u64 + need > map.len() as u64 {
+        if offset + need > len {
             return Err(bad(format!(
                 "header declares shape {shape:?} of {descr} ({need} bytes) but the file holds only {} bytes after the header",
-                map.len() - offset
+                len - offset
             )));
         }
-        Ok(MappedNpy {
+        Ok(NpyFileSource {
             path: path.to_path_buf(),
-            map,
+            file,
             offset,
             dims,
             element,
@@ -150,25 +151,60 @@ impl MappedNpy {
         })
     }
 
-    fn byte_of(&self, i: usize, j: usize, k: usize) -> usize {
-        self.offset + ((k * self.dims[1] + j) * self.dims[0] + i) * self.element.size()
+    fn byte_of(&self, i: usize, j: usize, k: usize) -> u64 {
+        self.offset + (((k * self.dims[1] + j) * self.dims[0] + i) * self.element.size()) as u64
     }
 }
 
-impl VoxelSource for MappedNpy {
+/// Reads into `buf` from `at` until it is full or the file ends; the count read.
+fn read_at_most(file: &std::fs::File, buf: &mut [u8], at: u64) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match file.read_at(&mut buf[got..], at + got as u64) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
+}
+
+impl VoxelSource for NpyFileSource {
     fn dims(&self) -> [usize; 3] {
         self.dims
     }
 
     fn read_box(&self, lo: [usize; 3], size: [usize; 3], out: &mut [f32]) -> Result<()> {
+        if size.contains(&0) {
+            return Ok(());
+        }
         let es = self.element.size();
+        let row = size[0] * es;
+        // The rows of one z slice lie `dims[0]` samples apart: one read spans them all (with
+        // the gaps between them when the box is narrower than the volume).
+        let pitch = self.dims[0] * es;
+        let mut span = vec![0u8; (size[1] - 1) * pitch + row];
         let mut o = 0;
         for k in lo[2]..lo[2] + size[2] {
-            for j in lo[1]..lo[1] + size[1] {
-                let b = self.byte_of(lo[0], j, k);
+            let at = self.byte_of(lo[0], lo[1], k);
+            self.file.read_exact_at(&mut span, at).map_err(|e| {
+                if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                    Error::format(
+                        &self.path,
+                        format!(
+                            "ends before byte {}: the file shrank after it was opened",
+                            at + span.len() as u64
+                        ),
+                    )
+                } else {
+                    Error::io(&self.path, e)
+                }
+            })?;
+            for j in 0..size[1] {
                 self.element.decode_into(
                     self.big_endian,
-                    &self.map[b..b + size[0] * es],
+                    &span[j * pitch..j * pitch + row],
                     &mut out[o..o + size[0]],
                 );
                 o += size[0];
@@ -177,26 +213,8 @@ impl VoxelSource for MappedNpy {
         Ok(())
     }
 
-    fn release(&self, z0: usize, z1: usize) {
-        if z1 <= z0 {
-            return;
-        }
-        // Whole pages only: the range is rounded inwards to the page size.
-        let page = 4096;
-        let a = self.byte_of(0, 0, z0).div_ceil(page) * page;
-        let b = (self.byte_of(0, 0, z1.min(self.dims[2])) / page) * page;
-        if b > a {
-            // SAFETY: the map is a read-only file mapping; dropped pages are read again from the
-            // file on the next access, so no data the map exposes can change.
-            let _ = unsafe {
-                self.map
-                    .unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, a, b - a)
-            };
-        }
-    }
-
     fn describe(&self) -> String {
-        format!("{} (memory-mapped)", self.path.display())
+        format!("{} (read by slices)", self.path.display())
     }
 }
 
@@ -254,8 +272,7 @@ impl NetcdfSource {
                 ),
             ));
         }
-        let file = netcdf_reader::NcFile::open(path)
-            .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+        let file = super::netcdf::open(path)?;
         let v = file
             .variable(&name)
             .map_err(|e| Error::format(path, e.to_string()))?;
@@ -443,7 +460,7 @@ mod tests {
         let d64: Vec<f64> = v.data.iter().map(|&x| x as f64).collect();
         crate::datasets::npy::write_npy(&p64, &shape, &d64).unwrap();
         for p in [&p32, &p64] {
-            let src = MappedNpy::open(p).unwrap();
+            let src = NpyFileSource::open(p).unwrap();
             assert_eq!(src.dims(), v.dims);
             let mut out = vec![0f32; 4 * 3 * 2];
             src.read_box([5, 2, 7], [4, 3, 2], &mut out).unwrap();
@@ -484,6 +501,61 @@ mod tests {
             .contains("magic"));
         let err = open_bricked(&flat, None, 12).unwrap_err().to_string();
         assert!(err.contains("3-D array") || err.contains("brick"), "{err}");
+    }
+
+    /// Truncates `path` to `len` bytes through another handle, as another process would.
+    fn shrink(path: &Path, len: u64) {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .unwrap()
+            .set_len(len)
+            .unwrap();
+    }
+
+    #[test]
+    fn files_truncated_while_open_are_errors_not_sigbus() {
+        let dir = tempfile::tempdir().unwrap();
+        let v = field();
+        let p = dir.path().join("t.npy");
+        crate::datasets::npy::write_npy(&p, &[v.dims[2], v.dims[1], v.dims[0]], &v.data).unwrap();
+        let b = open_bricked(&p, None, 8).unwrap();
+        let mut out = Vec::new();
+        b.read_brick(0, &mut out).unwrap();
+        // A memory map of the file would fault (SIGBUS) on the pages cut off here.
+        shrink(&p, 200);
+        let last = b.layout.count() - 1;
+        let err = b.read_brick(last, &mut out).unwrap_err().to_string();
+        assert!(
+            err.starts_with(&format!("{}: ends before byte", p.display()))
+                && err.ends_with("the file shrank after it was opened"),
+            "{err}"
+        );
+        // A classic NetCDF file, read by hyperslabs.
+        let nc = dir.path().join("t.nc");
+        crate::datasets::netcdf::write_volume(
+            &nc,
+            v.dims,
+            [1.0; 3],
+            [0.0; 3],
+            "m",
+            ("f", &v.data, "1", "field"),
+            &[],
+        )
+        .unwrap();
+        let src = NetcdfSource::open(&nc, None).unwrap();
+        let mut boxed = vec![0f32; v.dims.iter().product()];
+        src.read_box([0; 3], v.dims, &mut boxed).unwrap();
+        assert_eq!(boxed, v.data);
+        shrink(&nc, 400);
+        let err = src
+            .read_box([0; 3], v.dims, &mut boxed)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with(&nc.display().to_string()) && !err.contains('\n'),
+            "{err}"
+        );
     }
 
     #[test]

@@ -65,12 +65,7 @@ pub struct LoadOptions {
 /// variable's `units` attribute.
 pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
     let var = opts.variable.as_deref();
-    if !path.exists() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        ));
-    }
+    crate::io::check_regular_file(path)?;
     match crate::io::extension(path).as_str() {
         "npy" => volume_from_npy(path),
         "npz" => volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None]),
@@ -363,13 +358,9 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
             let mut listed = Vec::with_capacity(names.len());
             for name in names {
                 // Only the member's header is read: its shape and dtype.
-                let npy =
-                    npyz::NpyFile::new(npz_member(&mut archive, path, &name)?).map_err(|e| {
-                        Error::format(
-                            path,
-                            format!("array '{name}': not a valid .npy member: {e}"),
-                        )
-                    })?;
+                let npy = npy::open_npy(npz_member(&mut archive, path, &name)?).map_err(|e| {
+                    Error::format(path, format!("array '{name}': {}", npy::header_error(&e)))
+                })?;
                 listed.push(ArrayListing {
                     shape: npy.shape().iter().map(|&s| s as usize).collect(),
                     // "<f4" as the array's own report spells it (descr() quotes it as Python does).
@@ -384,8 +375,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
             Ok(listed)
         }
         "nc" | "nc4" | "cdf" | "netcdf" => {
-            let file = netcdf_reader::NcFile::open(path)
-                .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+            let file = netcdf::open(path)?;
             let vars = file
                 .variables()
                 .map_err(|e| Error::format(path, e.to_string()))?;
@@ -417,12 +407,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
 /// coordinate. With `rank`, leading length-1 dimensions are dropped down to that rank and an
 /// array of another rank is refused (or, without `var`, skipped).
 pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
-    if !path.exists() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        ));
-    }
+    crate::io::check_regular_file(path)?;
     let ext = crate::io::extension(path);
     let mut array = match ext.as_str() {
         "npy" => {
@@ -524,8 +509,7 @@ fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Res
         .find(|a| a.name == name)
         .ok_or_else(|| missing_array(path, &name, &listed))?;
     let variable = netcdf::read_variable(path, &name)?;
-    let file = netcdf_reader::NcFile::open(path)
-        .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+    let file = netcdf::open(path)?;
     // Missing values become NaN when decoded; NaN already stored raw is not a fill.
     let raw_nan = file
         .read_variable_as_f64(&name)

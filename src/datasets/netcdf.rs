@@ -336,11 +336,16 @@ pub(crate) fn write_atomically(
     crate::io::write_atomic(path, |out| write(out).map_err(|e| Error::io(path, e)))
 }
 
-fn open(path: &Path) -> Result<NcFile> {
+/// Opens a NetCDF file for reading. Every read is a positioned read through the reader's
+/// `FileStorage`, never a memory map (which `NcFile::open` makes of a classic file): a file
+/// truncated while it is read is then an error instead of a SIGBUS that kills the process.
+pub(crate) fn open(path: &Path) -> Result<NcFile> {
     // Distinguish "cannot open" (an I/O error) from "not a valid NetCDF file" (a format error).
     let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     check_hdf5_length(path, &mut file)?;
-    NcFile::open(path).map_err(|e| reader_error(path, e))
+    let storage = netcdf_reader::FileStorage::from_file(file)
+        .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
+    NcFile::from_storage(std::sync::Arc::new(storage)).map_err(|e| reader_error(path, e))
 }
 
 /// A truncated NetCDF-4 file can still decode when the lost tail held other objects, so, as the

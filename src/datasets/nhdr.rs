@@ -2,12 +2,25 @@
 //! attached `.nrrd` whose data follow the blank line after the header. Fields read: `type`,
 //! `dimension` (3), `sizes` (fastest axis first: x, y, z), `endian`, `encoding` (raw, gzip,
 //! bzip2 or ascii, decompressed by the pure-Rust flate2 and bzip2 crates), `spacings`
-//! or a diagonal `space directions`, `space origin`, `byte skip`. Voxels are treated as cells.
+//! or a diagonal `space directions`, `space origin`, `line skip` and `byte skip`. Voxels are
+//! treated as cells.
+//!
+//! `data file` names one file, a `LIST` of files (their names on the header's following lines)
+//! or a printf pattern (`slice.%03d 1 93 1 [subdim]`); the files hold consecutive slabs of
+//! `subdim` axes (default 2: one z slice each) and are read in order. Every name resolves
+//! through [`super::access::referenced_file`]. Per the NRRD specification `line skip` lines are
+//! skipped in each data file before decoding and `byte skip` bytes after it (of the
+//! decompressed data for gzip and bzip2); a `byte skip` of -1 (raw only) reads the data from
+//! the file's end.
 
 use super::scalar::Scalar;
-use crate::error::{Error, Result};
+use crate::error::{excerpt, Error, Result};
 use crate::model::Volume;
-use std::path::Path;
+use std::io::{BufRead, Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+/// How many characters of a header line or value an error message quotes.
+const QUOTED: usize = 60;
 
 /// The sample type of an NRRD `type` field.
 fn sample_type(s: &str) -> Option<Scalar> {
@@ -20,6 +33,16 @@ fn sample_type(s: &str) -> Option<Scalar> {
         "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => Scalar::U16,
         "int" | "signed int" | "int32" | "int32_t" => Scalar::I32,
         "uint" | "unsigned int" | "uint32" | "uint32_t" => Scalar::U32,
+        "longlong"
+        | "long long"
+        | "long long int"
+        | "signed long long"
+        | "signed long long int"
+        | "int64"
+        | "int64_t" => Scalar::I64,
+        "ulonglong" | "unsigned long long" | "unsigned long long int" | "uint64" | "uint64_t" => {
+            Scalar::U64
+        }
         "float" => Scalar::F32,
         "double" => Scalar::F64,
         _ => return None,
@@ -52,52 +75,55 @@ impl Encoding {
                 return Err(Error::format(
                     fields.path,
                     format!(
-                        "encoding {other:?} is not supported; expected raw, gzip, bzip2 or ascii \
-                         (re-save with `unu save -e gzip` or pynrrd)"
+                        "encoding {} is not supported; expected raw, gzip, bzip2 or ascii \
+                         (re-save with `unu save -e gzip` or pynrrd)",
+                        excerpt(other, QUOTED)
                     ),
                 ))
             }
         })
     }
 
-    /// `need` bytes after `skip` decompressed bytes of `stored`; at most `skip + need` bytes are
-    /// inflated, so a wrong size cannot exhaust memory.
+    /// `need` bytes after `skip` decompressed bytes of the stream `stored`. The skipped bytes
+    /// are discarded as they inflate and the output grows only with the data actually there,
+    /// so neither a huge `byte skip` nor a wrong size can exhaust memory.
     fn inflate(
         self,
-        stored: &[u8],
-        skip: usize,
+        stored: impl BufRead,
+        skip: u64,
         need: usize,
     ) -> std::result::Result<Vec<u8>, String> {
-        use std::io::Read as _;
-        let want = skip.saturating_add(need);
-        let mut out = Vec::with_capacity(want);
-        let (name, result) = match self {
-            Encoding::Gzip => (
-                "gzip",
-                flate2::read::MultiGzDecoder::new(stored)
-                    .take(want as u64)
-                    .read_to_end(&mut out),
-            ),
-            _ => (
-                "bzip2",
-                bzip2::read::MultiBzDecoder::new(stored)
-                    .take(want as u64)
-                    .read_to_end(&mut out),
-            ),
+        let name = if self == Encoding::Gzip {
+            "gzip"
+        } else {
+            "bzip2"
         };
-        result.map_err(|e| format!("corrupt {name} data: {e}"))?;
-        if out.len() < want {
-            return Err(format!(
-                "{name} data inflate to {} bytes but {need} are needed{}",
-                out.len(),
-                if skip > 0 {
-                    format!(" after {skip} skipped")
-                } else {
-                    String::new()
-                }
-            ));
+        let mut decoder: Box<dyn Read + '_> = match self {
+            Encoding::Gzip => Box::new(flate2::bufread::MultiGzDecoder::new(stored)),
+            _ => Box::new(bzip2::bufread::MultiBzDecoder::new(stored)),
+        };
+        let corrupt = |e: std::io::Error| format!("corrupt {name} data: {e}");
+        let skipped =
+            std::io::copy(&mut (&mut decoder).take(skip), &mut std::io::sink()).map_err(corrupt)?;
+        let mut out = Vec::new();
+        if skipped == skip {
+            decoder
+                .take(need as u64)
+                .read_to_end(&mut out)
+                .map_err(corrupt)?;
         }
-        out.drain(..skip);
+        if out.len() < need {
+            let total = u128::from(skipped) + out.len() as u128;
+            return Err(if skip > 0 {
+                format!(
+                    "{name} data inflate to {total} bytes but {} are needed (byte skip {skip} + \
+                     {need})",
+                    u128::from(skip) + need as u128
+                )
+            } else {
+                format!("{name} data inflate to {total} bytes but {need} are needed")
+            });
+        }
         Ok(out)
     }
 }
@@ -106,6 +132,8 @@ impl Encoding {
 struct Fields<'a> {
     path: &'a Path,
     map: std::collections::HashMap<String, String>,
+    /// The file names that follow a `data file: LIST` line.
+    list: Vec<String>,
 }
 
 impl Fields<'_> {
@@ -117,6 +145,14 @@ impl Fields<'_> {
         self.get(key)
             .ok_or_else(|| Error::format(self.path, format!("missing required field \"{key}\"")))
     }
+}
+
+/// How the samples are stored.
+#[derive(Clone, Copy, Debug)]
+struct Layout {
+    sample: Scalar,
+    encoding: Encoding,
+    big_endian: bool,
 }
 
 /// Reads a `.nhdr` or `.nrrd` volume (see the module documentation).
@@ -132,33 +168,8 @@ pub(crate) fn read_nrrd(path: &Path) -> Result<Volume> {
     let header = std::str::from_utf8(&bytes[..header_end])
         .map_err(|_| Error::format(path, "header is not text"))?;
     let fields = parse_fields(path, header)?;
-    let sample = sample_type(fields.need("type")?).ok_or_else(|| {
-        Error::format(
-            path,
-            format!(
-                "unsupported type {:?}; expected float, double, (u)char, (u)short or (u)int",
-                fields.get("type").unwrap_or("")
-            ),
-        )
-    })?;
+    let layout = parse_layout(&fields)?;
     let dims = parse_dims(&fields)?;
-    let encoding = Encoding::of(&fields)?;
-    let big = match fields.get("endian") {
-        None | Some("little") => false,
-        Some("big") => true,
-        Some(e) => {
-            return Err(Error::format(
-                path,
-                format!("endian: expected little or big, got {e:?}"),
-            ))
-        }
-    };
-    if sample.size() > 1 && encoding != Encoding::Ascii && fields.get("endian").is_none() {
-        return Err(Error::format(
-            path,
-            "missing required field \"endian\" for a multi-byte type",
-        ));
-    }
     let spacing = parse_spacing(&fields)?;
     let mut origin = [0.0; 3];
     if let Some(s) = fields.get("space origin") {
@@ -170,7 +181,7 @@ pub(crate) fn read_nrrd(path: &Path) -> Result<Volume> {
             origin[a] = v[a] - 0.5 * spacing[a];
         }
     }
-    let data = read_samples(&fields, &bytes, data_start, dims, (sample, encoding), big)?;
+    let data = read_samples(&fields, &bytes, data_start, dims, layout)?;
     let name = path
         .file_stem()
         .and_then(|s| s.to_str())
@@ -181,6 +192,43 @@ pub(crate) fn read_nrrd(path: &Path) -> Result<Volume> {
         v.units = u.trim_matches('"').to_string();
     }
     Ok(v)
+}
+
+/// `type`, `encoding` and `endian`.
+fn parse_layout(fields: &Fields) -> Result<Layout> {
+    let path = fields.path;
+    let sample = sample_type(fields.need("type")?).ok_or_else(|| {
+        Error::format(
+            path,
+            format!(
+                "unsupported type {}; expected float, double, (u)char, (u)short, (u)int or \
+                 (u)longlong",
+                excerpt(fields.get("type").unwrap_or(""), QUOTED)
+            ),
+        )
+    })?;
+    let encoding = Encoding::of(fields)?;
+    let big_endian = match fields.get("endian") {
+        None | Some("little") => false,
+        Some("big") => true,
+        Some(e) => {
+            return Err(Error::format(
+                path,
+                format!("endian: expected little or big, got {}", excerpt(e, QUOTED)),
+            ))
+        }
+    };
+    if sample.size() > 1 && encoding != Encoding::Ascii && fields.get("endian").is_none() {
+        return Err(Error::format(
+            path,
+            "missing required field \"endian\" for a multi-byte type",
+        ));
+    }
+    Ok(Layout {
+        sample,
+        encoding,
+        big_endian,
+    })
 }
 
 /// Where the header ends and attached data start: at the first empty line (attached data follow
@@ -202,10 +250,13 @@ fn header_extent(bytes: &[u8]) -> (usize, usize) {
     (bytes.len(), bytes.len())
 }
 
-/// The header's fields after the magic line; comments and `key:=value` pairs are skipped.
+/// The header's fields after the magic line; comments and `key:=value` pairs are skipped. The
+/// lines after `data file: LIST` are its file names, to the end of the header.
 fn parse_fields<'a>(path: &'a Path, header: &str) -> Result<Fields<'a>> {
     let mut map = std::collections::HashMap::new();
-    for (n, line) in header.lines().enumerate().skip(1) {
+    let mut list = Vec::new();
+    let mut lines = header.lines().enumerate().skip(1);
+    for (n, line) in lines.by_ref() {
         let line = line.trim_end_matches('\r');
         if line.starts_with('#') || line.trim().is_empty() {
             continue;
@@ -217,12 +268,28 @@ fn parse_fields<'a>(path: &'a Path, header: &str) -> Result<Fields<'a>> {
         let Some((k, v)) = line.split_once(": ") else {
             return Err(Error::format(
                 path,
-                format!("line {}: expected \"field: value\", got {line:?}", n + 1),
+                format!(
+                    "line {}: expected \"field: value\", got {}",
+                    n + 1,
+                    excerpt(line, QUOTED)
+                ),
             ));
         };
-        map.insert(k.trim().to_ascii_lowercase(), v.trim().to_string());
+        let key = k.trim().to_ascii_lowercase();
+        let is_list = matches!(key.as_str(), "data file" | "datafile")
+            && v.split_whitespace().next() == Some("LIST");
+        map.insert(key, v.trim().to_string());
+        if is_list {
+            break;
+        }
     }
-    Ok(Fields { path, map })
+    for (_, line) in lines {
+        let name = line.trim_end_matches('\r');
+        if !name.trim().is_empty() {
+            list.push(name.to_string());
+        }
+    }
+    Ok(Fields { path, map, list })
 }
 
 /// `dimension` (which must be 3) and `sizes`, checked as volume dimensions.
@@ -300,71 +367,300 @@ fn parse_spacing(fields: &Fields) -> Result<[f64; 3]> {
     Ok(spacing)
 }
 
-/// The voxels, from the `data file` the header names or from the data attached after the
-/// header (`bytes` from `data_start`), after `byte skip` bytes (of the decompressed data for
-/// gzip and bzip2).
+/// Where the samples of each data file begin: `lines` lines in, then `bytes` bytes into the
+/// decoded data.
+#[derive(Clone, Copy, Debug)]
+struct Skip {
+    lines: u64,
+    bytes: ByteSkip,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ByteSkip {
+    Start(u64),
+    /// `byte skip: -1`: the data end the file (raw encoding only).
+    FromEnd,
+}
+
+impl Skip {
+    fn of(fields: &Fields, encoding: Encoding) -> Result<Skip> {
+        let path = fields.path;
+        let get = |a: &str, b: &str| fields.get(a).or_else(|| fields.get(b));
+        let lines = match get("line skip", "lineskip") {
+            None => 0,
+            Some(s) => s.parse().map_err(|_| {
+                Error::format(
+                    path,
+                    format!(
+                        "line skip: expected a non-negative integer, got {}",
+                        excerpt(s, QUOTED)
+                    ),
+                )
+            })?,
+        };
+        let bytes = match get("byte skip", "byteskip") {
+            None => ByteSkip::Start(0),
+            Some("-1") if encoding == Encoding::Raw => ByteSkip::FromEnd,
+            Some("-1") => {
+                return Err(Error::format(
+                    path,
+                    "byte skip: -1 (data at the end of the file) needs raw encoding",
+                ))
+            }
+            Some(s) => ByteSkip::Start(s.parse().map_err(|_| {
+                Error::format(
+                    path,
+                    format!(
+                        "byte skip: expected a non-negative integer or -1, got {}",
+                        excerpt(s, QUOTED)
+                    ),
+                )
+            })?),
+        };
+        Ok(Skip { lines, bytes })
+    }
+}
+
+/// The voxels, from the data files the header names or from the data attached after the
+/// header (`bytes` from `data_start`).
 fn read_samples(
     fields: &Fields,
     bytes: &[u8],
     data_start: usize,
     dims: [usize; 3],
-    (sample, encoding): (Scalar, Encoding),
-    big: bool,
+    layout: Layout,
 ) -> Result<Vec<f32>> {
     let path = fields.path;
-    let skip: usize = match fields.get("byte skip") {
-        None => 0,
-        Some(s) => s.parse().map_err(|_| {
-            Error::format(
+    let skip = Skip::of(fields, layout.encoding)?;
+    let Some((files, per_file)) = data_files(fields, dims)? else {
+        if data_start > bytes.len() {
+            return Err(Error::format(
                 path,
-                "byte skip: expected a non-negative integer (-1 is not supported)",
-            )
-        })?,
-    };
-    let count = dims[0] * dims[1] * dims[2];
-    let need_bytes = count * sample.size();
-    let owned;
-    let (data_path, stored): (std::path::PathBuf, &[u8]) = match fields
-        .get("data file")
-        .or_else(|| fields.get("datafile"))
-    {
-        Some(name) => {
-            let p = super::access::referenced_file(path, "data file", name)?;
-            let len = std::fs::metadata(&p).map_err(|e| Error::io(&p, e))?.len() as usize;
-            if encoding == Encoding::Raw && len < skip + need_bytes {
-                return Err(Error::format(&p, format!("holds {len} bytes but the header {} needs {} ({}x{}x{} {:?} + {skip} skipped)", path.display(), skip + need_bytes, dims[0], dims[1], dims[2], sample)));
-            }
-            owned = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
-            (p, &owned[..])
+                "no data: expected a \"data file\" field or data after a blank line",
+            ));
         }
-        None => {
-            if data_start > bytes.len() {
-                return Err(Error::format(
+        let mut attached = std::io::Cursor::new(bytes);
+        attached.set_position(data_start as u64);
+        let count = dims.iter().product();
+        return read_piece(&mut attached, count, layout, skip).map_err(|m| Error::format(path, m));
+    };
+    let mut out = Vec::new();
+    for file in &files {
+        crate::io::check_regular_file(file)?;
+        let opened = std::fs::File::open(file).map_err(|e| Error::io(file, e))?;
+        let piece = read_piece(&mut std::io::BufReader::new(opened), per_file, layout, skip)
+            .map_err(|m| Error::format(file, m))?;
+        if files.len() == 1 {
+            return Ok(piece);
+        }
+        out.extend_from_slice(&piece);
+    }
+    Ok(out)
+}
+
+/// The files `data file` names, each resolved through the sandbox, and the samples in each;
+/// `None` for attached data.
+fn data_files(fields: &Fields, dims: [usize; 3]) -> Result<Option<(Vec<PathBuf>, usize)>> {
+    let path = fields.path;
+    let Some(value) = fields.get("data file").or_else(|| fields.get("datafile")) else {
+        return Ok(None);
+    };
+    let words: Vec<&str> = value.split_whitespace().collect();
+    let pattern = FilePattern::parse(&words);
+    let subdim_word = match (words.first(), &pattern) {
+        (Some(&"LIST"), _) if words.len() <= 2 => words.get(1).copied(),
+        (Some(&"LIST"), _) => {
+            return Err(Error::format(path, "data file: expected LIST [<subdim>]"))
+        }
+        (_, Some(p)) => p.subdim,
+        _ => Some("3"),
+    };
+    let subdim = match subdim_word {
+        None => 2,
+        Some(w) => w
+            .parse()
+            .ok()
+            .filter(|d| (1..=3).contains(d))
+            .ok_or_else(|| {
+                Error::format(
                     path,
-                    "no data: expected a \"data file\" field or data after a blank line",
+                    format!(
+                        "data file: subdim {}: expected 1, 2 or 3",
+                        excerpt(w, QUOTED)
+                    ),
+                )
+            })?,
+    };
+    let files_needed: usize = dims[subdim..].iter().product();
+    let names = if words.first() == Some(&"LIST") {
+        fields.list.clone()
+    } else if let Some(p) = pattern {
+        p.names(files_needed)
+            .map_err(|m| Error::format(path, format!("data file: {m}")))?
+    } else {
+        vec![value.to_string()]
+    };
+    if names.len() != files_needed {
+        return Err(Error::format(
+            path,
+            format!(
+                "data file: {} file names, but sizes {} {} {} in slabs of {subdim} axes need \
+                 {files_needed}",
+                names.len(),
+                dims[0],
+                dims[1],
+                dims[2]
+            ),
+        ));
+    }
+    let files = names
+        .iter()
+        .map(|n| super::access::referenced_file(path, "data file", n))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Some((files, dims[..subdim].iter().product())))
+}
+
+/// `data file: <printf pattern> <min> <max> <step> [<subdim>]`, the pattern holding one
+/// `%d` (with an optional zero flag and width, as in `slice.%03d`).
+struct FilePattern<'a> {
+    prefix: &'a str,
+    zero_pad: bool,
+    width: usize,
+    suffix: &'a str,
+    range: [i64; 3],
+    subdim: Option<&'a str>,
+}
+
+impl<'a> FilePattern<'a> {
+    /// The pattern form of the field's words, if they have it.
+    fn parse(words: &[&'a str]) -> Option<FilePattern<'a>> {
+        if !(4..=5).contains(&words.len()) {
+            return None;
+        }
+        let (prefix, rest) = words[0].split_once('%')?;
+        let digits = rest.find(|c: char| !c.is_ascii_digit())?;
+        let (spec, suffix) = (&rest[..digits], rest[digits..].strip_prefix('d')?);
+        if suffix.contains('%') {
+            return None;
+        }
+        let mut range = [0i64; 3];
+        for (r, w) in range.iter_mut().zip(&words[1..4]) {
+            *r = w.parse().ok()?;
+        }
+        Some(FilePattern {
+            prefix,
+            zero_pad: spec.starts_with('0'),
+            width: spec.parse().unwrap_or(0),
+            suffix,
+            range,
+            subdim: words.get(4).copied(),
+        })
+    }
+
+    /// The names from min to max by step, refused unless there are `expected` of them (checked
+    /// before any is made, so a huge range costs nothing).
+    fn names(&self, expected: usize) -> std::result::Result<Vec<String>, String> {
+        let [min, max, step] = self.range.map(i128::from);
+        if step == 0 || (max - min).signum() * step.signum() < 0 {
+            return Err(format!(
+                "pattern range {min} to {max} by {step} is empty; the step must be non-zero and \
+                 lead from min to max"
+            ));
+        }
+        let count = (max - min) / step + 1;
+        if count != expected as i128 {
+            return Err(format!(
+                "pattern range {min} to {max} by {step} names {count} files but the sizes need \
+                 {expected}"
+            ));
+        }
+        Ok((0..count)
+            .map(|i| {
+                let n = min + i * step;
+                let w = self.width;
+                let number = if self.zero_pad {
+                    format!("{n:0w$}")
+                } else {
+                    format!("{n:w$}")
+                };
+                format!("{}{number}{}", self.prefix, self.suffix)
+            })
+            .collect())
+    }
+}
+
+/// The `count` samples of one data file (or of the attached data), read from `r`'s position.
+fn read_piece<R: BufRead + Seek>(
+    r: &mut R,
+    count: usize,
+    layout: Layout,
+    skip: Skip,
+) -> std::result::Result<Vec<f32>, String> {
+    let io = |e: std::io::Error| e.to_string();
+    skip_lines(r, skip.lines)?;
+    let need = count
+        .checked_mul(layout.sample.size())
+        .ok_or_else(|| format!("{count} samples are more than memory can address"))?;
+    let start = r.stream_position().map_err(io)?;
+    let end = r.seek(SeekFrom::End(0)).map_err(io)?;
+    let available = end.saturating_sub(start);
+    let at = match (layout.encoding, skip.bytes) {
+        (Encoding::Raw, ByteSkip::FromEnd) => (available >= need as u64).then(|| end - need as u64),
+        (Encoding::Gzip | Encoding::Bzip2, _) => Some(start),
+        (_, ByteSkip::Start(b)) => (b <= available).then(|| start + b),
+        (_, ByteSkip::FromEnd) => None,
+    };
+    let skipped = match skip.bytes {
+        ByteSkip::Start(b) if b > 0 => format!(" after {b} skipped"),
+        _ => String::new(),
+    };
+    let Some(at) = at else {
+        return Err(format!(
+            "holds {available} data bytes but {need} are needed{skipped}"
+        ));
+    };
+    r.seek(SeekFrom::Start(at)).map_err(io)?;
+    match (layout.encoding, skip.bytes) {
+        (Encoding::Raw, _) => {
+            if end - at < need as u64 {
+                return Err(format!(
+                    "holds {available} data bytes but {need} are needed{skipped}"
                 ));
             }
-            (path.to_path_buf(), &bytes[data_start..])
+            let mut raw = vec![0u8; need];
+            r.read_exact(&mut raw).map_err(io)?;
+            Ok(layout.sample.decode(layout.big_endian, &raw))
         }
-    };
-    let fail = |msg: String| Error::format(&data_path, msg);
-    match encoding {
-        Encoding::Ascii => ascii_samples(stored, count, sample).map_err(fail),
-        Encoding::Raw => {
-            let raw = stored.get(skip..).unwrap_or_default();
-            if raw.len() < need_bytes {
-                return Err(fail(format!(
-                    "holds {} data bytes but {need_bytes} are needed",
-                    raw.len()
-                )));
+        (Encoding::Ascii, _) => {
+            let mut text = Vec::new();
+            r.read_to_end(&mut text).map_err(io)?;
+            ascii_samples(&text, count, layout.sample)
+        }
+        (encoding, ByteSkip::Start(b)) => {
+            let raw = encoding.inflate(r, b, need)?;
+            Ok(layout.sample.decode(layout.big_endian, &raw))
+        }
+        (_, ByteSkip::FromEnd) => Err("byte skip -1 needs raw encoding".into()),
+    }
+}
+
+/// Skips `n` lines (each ending in a newline) from `r`, without holding any of them.
+fn skip_lines(r: &mut impl BufRead, n: u64) -> std::result::Result<(), String> {
+    for i in 0..n {
+        loop {
+            let buf = r.fill_buf().map_err(|e| e.to_string())?;
+            if buf.is_empty() {
+                return Err(format!("ends after {i} lines but line skip is {n}"));
             }
-            Ok(sample.decode(big, &raw[..need_bytes]))
-        }
-        Encoding::Gzip | Encoding::Bzip2 => {
-            let raw = encoding.inflate(stored, skip, need_bytes).map_err(fail)?;
-            Ok(sample.decode(big, &raw))
+            if let Some(p) = buf.iter().position(|&b| b == b'\n') {
+                r.consume(p + 1);
+                break;
+            }
+            let len = buf.len();
+            r.consume(len);
         }
     }
+    Ok(())
 }
 
 /// `count` samples written as text numbers separated by white space.
@@ -375,7 +671,8 @@ fn ascii_samples(
 ) -> std::result::Result<Vec<f32>, String> {
     let text = std::str::from_utf8(text).map_err(|_| "ascii data is not text".to_string())?;
     let mut words = text.split_ascii_whitespace();
-    let mut out = Vec::with_capacity(count);
+    // Each value takes at least two bytes (digit and separator) but the last.
+    let mut out = Vec::with_capacity(count.min(text.len() / 2 + 1));
     for i in 0..count {
         let w = words
             .next()
@@ -530,5 +827,278 @@ mod encoding_tests {
             err.contains("encoding \"hex\" is not supported") && err.contains("unu save"),
             "{err}"
         );
+    }
+}
+
+#[cfg(test)]
+mod skip_and_list_tests {
+    use super::*;
+    use std::io::Write as _;
+
+    const FLOATS: &str = "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 3\nendian: little\n";
+
+    fn floats(values: &[f32]) -> Vec<u8> {
+        values.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    fn gzip(data: &[u8]) -> Vec<u8> {
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        gz.write_all(data).unwrap();
+        gz.finish().unwrap()
+    }
+
+    fn values() -> Vec<f32> {
+        (0..12).map(|i| -28.25 + 105.25 * i as f32).collect()
+    }
+
+    /// Writes `header` (after the magic and the float fields) as `name` in `dir` and reads it.
+    fn read(dir: &Path, name: &str, fields: &str, attached: &[u8]) -> Result<Volume> {
+        let mut bytes = format!("{FLOATS}{fields}").into_bytes();
+        bytes.extend_from_slice(attached);
+        std::fs::write(dir.join(name), bytes).unwrap();
+        read_nrrd(&dir.join(name))
+    }
+
+    #[test]
+    fn line_skip_comes_before_decoding_and_byte_skip_after() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut raw = b"P7\nWIDTH 2\n\n".to_vec();
+        raw.extend(floats(&values()));
+        std::fs::write(d.join("v.raw"), &raw).unwrap();
+        let v = read(d, "l.nhdr", "line skip: 3\ndata file: v.raw\n", b"").unwrap();
+        assert_eq!(v.data, values());
+        // Without the skip the text lines are read as floats: the values are wrong.
+        let wrong = read(d, "n.nhdr", "byte skip: 0\ndata file: v.raw\n", b"").unwrap();
+        assert_ne!(wrong.data, values());
+        // gzip: the lines precede the stream, the byte skip counts decompressed bytes.
+        let mut inflated = vec![7u8; 5];
+        inflated.extend(floats(&values()));
+        let mut attached = b"\nline one\nline two\n".to_vec();
+        attached.extend(gzip(&inflated));
+        let fields = "encoding: gzip\nline skip: 2\nbyte skip: 5\n";
+        assert_eq!(read(d, "g.nrrd", fields, &attached).unwrap().data, values());
+        // byte skip -1: the data end the file, whatever precedes them.
+        let mut tail = vec![1u8; 9];
+        tail.extend(floats(&values()));
+        std::fs::write(d.join("t.raw"), &tail).unwrap();
+        let v = read(d, "t.nhdr", "byte skip: -1\ndata file: t.raw\n", b"").unwrap();
+        assert_eq!(v.data, values());
+        let err = read(d, "x.nhdr", "line skip: 4\ndata file: v.raw\n", b"")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("v.raw: ends after 3 lines but line skip is 4"),
+            "{err}"
+        );
+        let err = read(d, "y.nrrd", "encoding: gzip\nbyte skip: -1\n", b"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(err.ends_with("byte skip: -1 (data at the end of the file) needs raw encoding"));
+    }
+
+    #[test]
+    fn huge_skips_and_sizes_are_one_line_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let data = floats(&values());
+        let skip = format!("byte skip: {}\n", 1u64 << 63);
+        let encoded = [
+            ("raw", data.clone()),
+            ("gzip", gzip(&data)),
+            ("bzip2", {
+                let mut bz = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::fast());
+                bz.write_all(&data).unwrap();
+                bz.finish().unwrap()
+            }),
+        ];
+        for (encoding, stored) in &encoded {
+            let mut attached = b"\n".to_vec();
+            attached.extend(stored);
+            let fields = format!("encoding: {encoding}\n{skip}");
+            let err = read(d, "s.nrrd", &fields, &attached)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                !err.contains('\n') && err.contains("9223372036854775808"),
+                "{encoding}: {err}"
+            );
+        }
+        assert!(
+            read(d, "o.nrrd", "byte skip: 18446744073709551616\n", b"\n")
+                .unwrap_err()
+                .to_string()
+                .contains("byte skip: expected a non-negative integer or -1")
+        );
+        // 3e10 voxels declared over 48 bytes of data: refused, whatever the memory.
+        for encoding in ["raw", "gzip", "ascii"] {
+            let mut bytes = "NRRD0004\ntype: float\ndimension: 3\nsizes: 30000 1000 1000\n\
+                             endian: little\n"
+                .to_string()
+                .into_bytes();
+            bytes.extend(format!("encoding: {encoding}\n\n").bytes());
+            bytes.extend(if encoding == "gzip" {
+                gzip(&data)
+            } else {
+                data.clone()
+            });
+            std::fs::write(d.join("h.nrrd"), bytes).unwrap();
+            let err = read_nrrd(&d.join("h.nrrd")).unwrap_err().to_string();
+            assert!(!err.contains('\n'), "{encoding}: {err}");
+        }
+    }
+
+    #[test]
+    fn header_errors_quote_a_short_escaped_excerpt() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut bytes = b"NRRD0004\ntype: float\n".to_vec();
+        bytes.extend(vec![0u8; 1 << 20]);
+        bytes.extend(b"\n");
+        std::fs::write(dir.path().join("z.nhdr"), bytes).unwrap();
+        let err = read_nrrd(&dir.path().join("z.nhdr"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 300, "{} bytes", err.len());
+        assert!(
+            err.contains(&format!(
+                "line 3: expected \"field: value\", got \"{}\"",
+                "\\0".repeat(60)
+            )) && err.ends_with("... (1048516 more bytes)"),
+            "{err}"
+        );
+        let long_type = format!("type: {}\n", "x".repeat(5000));
+        std::fs::write(dir.path().join("t.nhdr"), format!("NRRD0004\n{long_type}")).unwrap();
+        let err = read_nrrd(&dir.path().join("t.nhdr"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 300 && err.contains("unsupported type"), "{err}");
+    }
+
+    #[test]
+    fn list_and_pattern_data_files_concatenate_their_slabs() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let v = values();
+        for z in 0..3 {
+            std::fs::write(
+                d.join(format!("s{:02}.raw", z + 1)),
+                floats(&v[4 * z..4 * z + 4]),
+            )
+            .unwrap();
+            std::fs::write(
+                d.join(format!("p{}.raw", z + 7)),
+                floats(&v[4 * z..4 * z + 4]),
+            )
+            .unwrap();
+        }
+        let list = "data file: LIST\ns01.raw\ns02.raw\ns03.raw\n";
+        assert_eq!(read(d, "a.nhdr", list, b"").unwrap().data, v);
+        assert_eq!(
+            read(d, "b.nhdr", "data file: s%02d.raw 1 3 1\n", b"")
+                .unwrap()
+                .data,
+            v
+        );
+        assert_eq!(
+            read(d, "c.nhdr", "data file: p%d.raw 7 9 1 2\n", b"")
+                .unwrap()
+                .data,
+            v
+        );
+        // A falling range reads the slices in its order: z reversed.
+        let reversed: Vec<f32> = (0..3)
+            .rev()
+            .flat_map(|z| v[4 * z..4 * z + 4].to_vec())
+            .collect();
+        assert_eq!(
+            read(d, "r.nhdr", "data file: s%02d.raw 3 1 -1\n", b"")
+                .unwrap()
+                .data,
+            reversed
+        );
+        // Subdim 1: one row per file; subdim 3: one file holds everything.
+        for r in 0..6 {
+            std::fs::write(d.join(format!("row{r}.raw")), floats(&v[2 * r..2 * r + 2])).unwrap();
+        }
+        let rows: String = (0..6).map(|r| format!("row{r}.raw\n")).collect();
+        let header = format!("data file: LIST 1\n{rows}");
+        assert_eq!(read(d, "rows.nhdr", &header, b"").unwrap().data, v);
+        std::fs::write(d.join("all.raw"), floats(&v)).unwrap();
+        let whole = read(d, "w.nhdr", "data file: LIST 3\nall.raw\n", b"").unwrap();
+        assert_eq!(whole.data, v);
+        let errors = [
+            (
+                "data file: LIST\ns01.raw\ns02.raw\n",
+                "2 file names, but sizes 2 2 3 in slabs of 2 axes need 3",
+            ),
+            (
+                "data file: s%02d.raw 1 4 1\n",
+                "pattern range 1 to 4 by 1 names 4 files but the sizes need 3",
+            ),
+            (
+                "data file: s%d.raw 0 9223372036854775807 1\n",
+                "names 9223372036854775808 files",
+            ),
+            (
+                "data file: s%d.raw 3 1 1\n",
+                "the step must be non-zero and lead from min to max",
+            ),
+            ("data file: s%d.raw 1 3 0\n", "the step must be non-zero"),
+            (
+                "data file: s%02d.raw 1 3 1 4\n",
+                "subdim \"4\": expected 1, 2 or 3",
+            ),
+            (
+                "data file: LIST\ns01.raw\nmissing.raw\ns03.raw\n",
+                "missing.raw",
+            ),
+        ];
+        for (fields, expected) in errors {
+            let err = read(d, "e.nhdr", fields, b"").unwrap_err().to_string();
+            assert!(
+                err.contains(expected) && !err.contains('\n'),
+                "{fields}: {err}"
+            );
+        }
+    }
+
+    #[test]
+    fn every_listed_or_patterned_name_goes_through_the_sandbox() {
+        let root = tempfile::tempdir().unwrap();
+        let inside = root.path().join("in");
+        std::fs::create_dir(&inside).unwrap();
+        let v = values();
+        for z in 0..3 {
+            let slab = floats(&v[4 * z..4 * z + 4]);
+            std::fs::write(inside.join(format!("s{z}.raw")), &slab).unwrap();
+            std::fs::write(root.path().join(format!("s{z}.raw")), &slab).unwrap();
+        }
+        let _scope =
+            super::super::access::ReadScope::enter(&[
+                super::super::access::resolve(&inside).unwrap()
+            ]);
+        assert_eq!(
+            read(
+                &inside,
+                "ok.nhdr",
+                "data file: LIST\ns0.raw\ns1.raw\ns2.raw\n",
+                b""
+            )
+            .unwrap()
+            .data,
+            v
+        );
+        for fields in [
+            "data file: LIST\ns0.raw\n../s1.raw\ns2.raw\n",
+            "data file: ../s%d.raw 0 2 1\n",
+        ] {
+            let err = read(&inside, "out.nhdr", fields, b"")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.contains("outside the folders this script may read"),
+                "{fields}: {err}"
+            );
+        }
     }
 }

@@ -155,12 +155,7 @@ fn nul_after(bytes: &[u8], from: usize) -> std::result::Result<usize, String> {
 /// Reads the first layer's R, G, B (and A if present, else 1) as f32, plus every other channel
 /// as an extra channel, and the text attributes as metadata.
 pub fn read_exr(path: &Path) -> Result<HdrImage> {
-    if !path.exists() {
-        return Err(Error::io(
-            path,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        ));
-    }
+    crate::io::check_regular_file(path)?;
     let img = read()
         .no_deep_data()
         .largest_resolution_level()

@@ -58,6 +58,50 @@ pub(crate) fn temporary_beside(dir: &Path) -> Result<tempfile::NamedTempFile> {
     builder.tempfile_in(dir).map_err(|e| Error::io(dir, e))
 }
 
+/// Refuses anything but a regular file (symlinks followed) before a reader opens `path`: opening
+/// a FIFO that has no writer blocks forever, and a device or socket holds no data file. Every
+/// reader of input files checks here first; a missing file is the usual "no such file".
+pub fn check_regular_file(path: &Path) -> Result<()> {
+    let meta = match std::fs::metadata(path) {
+        Ok(meta) => meta,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(Error::io(
+                path,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            ))
+        }
+        Err(e) => return Err(Error::io(path, e)),
+    };
+    if meta.is_file() {
+        return Ok(());
+    }
+    let kind = meta.file_type();
+    #[cfg(unix)]
+    let special = {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() {
+            Some("a FIFO (named pipe)")
+        } else if kind.is_char_device() || kind.is_block_device() {
+            Some("a device")
+        } else if kind.is_socket() {
+            Some("a socket")
+        } else {
+            None
+        }
+    };
+    #[cfg(not(unix))]
+    let special: Option<&str> = None;
+    let what = special.unwrap_or(if kind.is_dir() {
+        "a folder"
+    } else {
+        "not a file"
+    });
+    Err(Error::format(
+        path,
+        format!("is {what}, not a regular file; expected a data file to read"),
+    ))
+}
+
 /// Lower-case extension of a path, or "" when it has none.
 pub fn extension(path: &Path) -> String {
     path.extension()

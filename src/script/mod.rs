@@ -266,7 +266,14 @@ pub(crate) fn new_engine(
 ) -> Engine {
     let mut engine = Engine::new();
     engine.set_max_operations(max_operations);
-    let deadline = timeout.map(|limit| (Instant::now() + limit, limit));
+    // A limit past what the clock can represent (centuries) is a deadline 136 years away.
+    let deadline = timeout.and_then(|limit| {
+        let now = Instant::now();
+        let at = now
+            .checked_add(limit)
+            .or_else(|| now.checked_add(Duration::from_secs(1 << 32)))?;
+        Some((at, limit))
+    });
     if let Some((deadline, limit)) = deadline {
         engine.set_max_operations(0);
         // Rhai calls this before every operation; the clock is read every 1024th, which keeps
@@ -426,6 +433,7 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
 
 /// Runs a script file.
 pub fn run_script_file(path: &Path, opts: &ScriptOptions) -> Result<ScriptReport> {
+    crate::io::check_regular_file(path)?;
     let source = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let dir = path
         .parent()

@@ -105,13 +105,24 @@ impl Shard {
             (None, None) => (Shard::ALL, ShardSource::Alone),
             (Some(a), None) => (a, ShardSource::SlurmArray),
             (None, Some(s)) => (s, ShardSource::SrunSteps),
-            (Some(a), Some(s)) => (
-                Shard {
-                    index: a.index * s.count + s.index,
-                    count: a.count * s.count,
-                },
-                ShardSource::SlurmArrayAndSteps,
-            ),
+            (Some(a), Some(s)) => {
+                // Each array task's share is shared again: a.count * s.count tasks in all,
+                // counted in u128 so that absurd variables are refused instead of wrapping.
+                let count = u128::from(a.count) * u128::from(s.count);
+                let index = u128::from(a.index) * u128::from(s.count) + u128::from(s.index);
+                let count = u64::try_from(count).map_err(|_| {
+                    Error::invalid(
+                        "SLURM_NTASKS",
+                        format!(
+                            "{} tasks in each of {} array tasks make more than 2^64 tasks",
+                            s.count, a.count
+                        ),
+                    )
+                })?;
+                // index < count, which fits.
+                let index = index as u64;
+                (Shard { index, count }, ShardSource::SlurmArrayAndSteps)
+            }
         })
     }
 
@@ -130,7 +141,25 @@ impl Shard {
 
     /// The items of a list of `len` this task owns: one contiguous block.
     pub fn range(&self, len: usize) -> Range<usize> {
-        let edge = |i: u64| (u128::from(i) * len as u128 / u128::from(self.count)) as usize;
+        let block = self.block(0, len as i128);
+        // Both edges lie in 0..=len.
+        block.start as usize..block.end as usize
+    }
+
+    /// The integers of `start..end` (none when `end <= start`) this task owns: one contiguous
+    /// block, as [`Shard::range`] gives of a list, for any `i64` bounds (`0..i64::MAX`,
+    /// `i64::MIN..i64::MAX`).
+    pub fn numbers(&self, start: i64, end: i64) -> Range<i64> {
+        let block = self.block(i128::from(start), i128::from(end.max(start)));
+        // Both edges lie between start and end.
+        block.start as i64..block.end as i64
+    }
+
+    /// `[start + ⌊i·len/n⌋, start + ⌊(i+1)·len/n⌋)` of `start..end`: the offsets in u128, as
+    /// i and len are below 2^64 and their product below 2^128; the edges in i128.
+    fn block(&self, start: i128, end: i128) -> Range<i128> {
+        let len = (end - start) as u128;
+        let edge = |i: u64| start + (u128::from(i) * len / u128::from(self.count)) as i128;
         edge(self.index)..edge(self.index + 1)
     }
 }
@@ -178,8 +207,9 @@ fn array_share(var: &impl Fn(&str) -> Option<String>) -> Result<Option<Shard>> {
             format!("SLURM_ARRAY_TASK_ID {id} is not SLURM_ARRAY_TASK_MIN {min} plus a multiple of {step}"),
         );
     }
-    let from_range = max.map(|max| (max - min) / step + 1);
-    let count = match (given_count, from_range) {
+    // u128: MIN 0, MAX 2^64 - 1, STEP 1 make 2^64 tasks, one more than a u64 holds.
+    let from_range = max.map(|max| u128::from((max - min) / step) + 1);
+    let count = match (given_count.map(u128::from), from_range) {
         (Some(c), Some(r)) if c != r => {
             return bad(
                 "SLURM_ARRAY_TASK_COUNT",
@@ -196,12 +226,21 @@ fn array_share(var: &impl Fn(&str) -> Option<String>) -> Result<Option<Shard>> {
         }
     };
     let index = (id - min) / step;
-    if index >= count {
+    if u128::from(index) >= count {
         return bad(
             "SLURM_ARRAY_TASK_COUNT",
             format!("{count}, but SLURM_ARRAY_TASK_ID {id} is task {index} of the array"),
         );
     }
+    let Ok(count) = u64::try_from(count) else {
+        return bad(
+            "SLURM_ARRAY_TASK_MAX",
+            format!(
+                "{} with MIN {min} and STEP {step} makes 2^64 tasks or more",
+                max.unwrap_or(0)
+            ),
+        );
+    };
     Ok(Some(Shard { index, count }))
 }
 
@@ -271,6 +310,99 @@ mod tests {
             .map(|i| Shard { index: i, count: 4 }.range(10))
             .collect();
         assert_eq!(blocks, [0..2, 2..5, 5..7, 7..10]);
+    }
+
+    #[test]
+    fn number_blocks_of_any_i64_range_cover_it_without_overflow() {
+        for (start, end) in [
+            (0, i64::MAX),
+            (i64::MIN, i64::MAX),
+            (-5, 5),
+            (i64::MAX - 3, i64::MAX),
+        ] {
+            for count in [1u64, 2, 3, 7, u64::MAX] {
+                let mut next = start;
+                for index in [0, 1, count / 2, count - 1] {
+                    let r = Shard {
+                        index: index.min(count - 1),
+                        count,
+                    }
+                    .numbers(start, end);
+                    assert!(r.start >= start && r.end <= end && r.start <= r.end);
+                    if index == 0 {
+                        assert_eq!(r.start, start);
+                    }
+                    if index == count - 1 {
+                        assert_eq!(r.end, end, "{start}..{end} over {count}");
+                    }
+                    next = next.max(r.end);
+                }
+                assert_eq!(next, end);
+            }
+        }
+        // i64::MIN..i64::MAX over 2 tasks: halves of 2^63 - 1 and 2^63 (floor at the middle).
+        let halves = [0, 1].map(|index| Shard { index, count: 2 }.numbers(i64::MIN, i64::MAX));
+        assert_eq!(halves, [i64::MIN..-1, -1..i64::MAX]);
+        let thirds: Vec<_> = (0..3)
+            .map(|index| Shard { index, count: 3 }.numbers(0, i64::MAX))
+            .collect();
+        assert_eq!(thirds[0], 0..3074457345618258602);
+        assert_eq!(thirds[1].end, 6148914691236517204);
+        assert_eq!(Shard::ALL.numbers(5, 2), 5..5);
+        assert_eq!(
+            Shard { index: 3, count: 4 }.range(usize::MAX).end,
+            usize::MAX
+        );
+    }
+
+    #[test]
+    fn absurd_slurm_counts_are_refused_not_wrapped() {
+        let max = u64::MAX.to_string();
+        let err = Shard::from_slurm(
+            env(&[("SLURM_ARRAY_TASK_ID", "0"), ("SLURM_ARRAY_TASK_MAX", &max)]),
+            1,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.starts_with("SLURM_ARRAY_TASK_MAX:") && err.contains("2^64"),
+            "{err}"
+        );
+        let big = (1u64 << 40).to_string();
+        let err = Shard::from_slurm(
+            env(&[
+                ("SLURM_ARRAY_TASK_ID", "1"),
+                ("SLURM_ARRAY_TASK_COUNT", &big),
+                ("SLURM_STEP_ID", "0"),
+                ("SLURM_PROCID", "2"),
+                ("SLURM_NTASKS", &big),
+            ]),
+            1,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.starts_with("SLURM_NTASKS:") && err.contains("more than 2^64"),
+            "{err}"
+        );
+        let (shard, _) = Shard::from_slurm(
+            env(&[
+                ("SLURM_ARRAY_TASK_ID", "1"),
+                ("SLURM_ARRAY_TASK_COUNT", "2"),
+                ("SLURM_STEP_ID", "0"),
+                ("SLURM_PROCID", "2"),
+                ("SLURM_NTASKS", &big),
+            ]),
+            1,
+        )
+        .unwrap();
+        assert_eq!(
+            shard,
+            Shard {
+                index: (1 << 40) + 2,
+                count: 1 << 41
+            }
+        );
     }
 
     #[test]

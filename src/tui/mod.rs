@@ -62,12 +62,7 @@ pub(crate) fn source_of(path: &Path) -> Source {
 /// Runs the TUI until `q`, Ctrl-C or a signal. Errors before the screen is taken (missing file,
 /// unreadable image, no terminal) are returned; script errors are shown inside the TUI.
 pub fn run_tui(opts: &TuiOptions) -> Result<()> {
-    if !opts.input.is_file() {
-        return Err(Error::io(
-            &opts.input,
-            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-        ));
-    }
+    crate::io::check_regular_file(&opts.input)?;
     let source = source_of(&opts.input);
     let first_image = match &source {
         Source::Image(p) => Some(Arc::new(crate::io::exr::read_exr(p)?)),

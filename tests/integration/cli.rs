@@ -874,6 +874,31 @@ fn timeout_ends_an_endless_loop_on_time() {
     );
     let (code, _, stderr) = hdrvis(&["run", "spin.rhai", "--timeout", "0"], dir.path());
     assert_one_line_error(code, &stderr, "--timeout: expected seconds > 0, got 0");
+    // Beyond what a Duration holds, NaN and negatives: one line, no panic.
+    for (value, needle) in [
+        (
+            "1e20",
+            "--timeout: expected seconds > 0 and below 1.8e19, got 100000000000000000000",
+        ),
+        (
+            "inf",
+            "--timeout: expected seconds > 0 and below 1.8e19, got inf",
+        ),
+        ("NaN", "--timeout: expected seconds > 0, got NaN"),
+        ("-3", "--timeout: expected seconds > 0, got -3"),
+    ] {
+        let flag = format!("--timeout={value}");
+        let (code, _, stderr) = hdrvis(&["run", "spin.rhai", &flag], dir.path());
+        assert_one_line_error(code, &stderr, needle);
+    }
+    // A limit the clock cannot reach (1e19 s) runs the script without a deadline.
+    std::fs::write(dir.path().join("quick.rhai"), "print(6 * 7);").unwrap();
+    let (code, stdout, stderr) = hdrvis(
+        &["run", "quick.rhai", "--out", "o", "--timeout", "1e19"],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.lines().any(|l| l.trim() == "42"), "{stdout}");
 }
 
 /// `hdrvis ARGS` in `cwd` with the cache chosen by the platform rules: no HDRVIS_CACHE, and
@@ -977,4 +1002,71 @@ fn bench_distributed_refuses_without_mpi_and_bad_rank_lists() {
         assert_one_line_error(code, &stderr, "--features mpi");
         assert!(stdout.is_empty(), "{stdout}");
     }
+}
+
+/// `hdrvis ARGS` in `cwd`, killed after `limit` if it has not ended: `None` then.
+fn hdrvis_within(args: &[&str], cwd: &Path, limit: std::time::Duration) -> Option<(i32, String)> {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(args)
+        .current_dir(cwd)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run hdrvis");
+    let start = std::time::Instant::now();
+    while start.elapsed() < limit {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut stderr = String::new();
+            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+            return Some((status.code().unwrap_or(-1), stderr));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    None
+}
+
+#[test]
+fn fifos_and_devices_are_refused_before_they_are_opened() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for name in ["pipe.npy", "pipe.exr", "pipe.rhai", "pipe.nhdr", "pipe.raw"] {
+        let made = Command::new("mkfifo").arg(d.join(name)).status().unwrap();
+        assert!(made.success(), "mkfifo {name}");
+    }
+    std::fs::write(
+        d.join("v.nhdr"),
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nendian: little\ndata file: pipe.raw\n",
+    )
+    .unwrap();
+    let limit = std::time::Duration::from_secs(20);
+    for (args, file) in [
+        (&["info", "pipe.npy"][..], "pipe.npy"),
+        (&["info", "pipe.exr"], "pipe.exr"),
+        (&["info", "pipe.nhdr"], "pipe.nhdr"),
+        (&["info", "v.nhdr"], "pipe.raw"),
+        (&["info", "/dev/zero"], "/dev/zero"),
+        (&["tonemap", "pipe.exr", "-o", "t.png"], "pipe.exr"),
+        (&["run", "pipe.rhai", "--out", "o"], "pipe.rhai"),
+    ] {
+        let (code, stderr) = hdrvis_within(args, d, limit)
+            .unwrap_or_else(|| panic!("hdrvis {args:?} still blocked after {limit:?}"));
+        let what = if file == "/dev/zero" {
+            "a device"
+        } else {
+            "a FIFO (named pipe)"
+        };
+        assert_one_line_error(code, &stderr, &format!("is {what}, not a regular file"));
+        assert!(stderr.contains(file), "{args:?}: {stderr}");
+    }
+    let script = "print(volume_stats(load_volume(\"pipe.npy\")).max);";
+    std::fs::write(d.join("load.rhai"), script).unwrap();
+    let (code, stderr) = hdrvis_within(&["run", "load.rhai", "--out", "o"], d, limit)
+        .expect("load_volume of a FIFO blocked");
+    assert_one_line_error(
+        code,
+        &stderr,
+        "pipe.npy: is a FIFO (named pipe), not a regular file",
+    );
 }

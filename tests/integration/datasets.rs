@@ -239,6 +239,30 @@ fn every_reference_format_loads_exactly_like_the_npy() {
     assert_eq!((axes[2].lo, axes[2].hi), (1.0, 4.0));
 }
 
+/// Data after a `line skip` or `byte skip`, as pynrrd reads them (tests/python/write_nrrd_skips.py
+/// checks each file with pynrrd before this test reads it).
+#[test]
+fn nrrd_line_and_byte_skips_read_like_pynrrd() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let Some(report) = python_check("write_nrrd_skips.py", &[d.to_str().unwrap()]) else {
+        return;
+    };
+    assert!(report.starts_with("exit 0"), "{report}");
+    let expect = load_volume(&d.join("expect.npy")).unwrap();
+    assert_eq!((expect.data[0], expect.data[23]), (-28.3, 1234.5));
+    for file in [
+        "lineskip.nhdr",
+        "lineskip_gzip.nrrd",
+        "byteskip.nhdr",
+        "byteskip_end.nhdr",
+    ] {
+        let v = load_volume(&d.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(v.dims, [4, 3, 2], "{file}");
+        assert_eq!(bits(&v.data), bits(&expect.data), "{file} values");
+    }
+}
+
 #[test]
 fn npz_from_numpy_savez_and_savez_compressed_loads_like_the_npy() {
     let Some(dir) = reference_files() else { return };
