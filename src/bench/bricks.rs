@@ -187,7 +187,7 @@ fn blob_slice(n: usize, k: usize, out: &mut [f32]) {
 }
 
 /// An n³ f32 volume written to the dataset cache as `.npy` (streamed, once), opened as bricks
-/// through a memory map and rendered at size² along z with `budget_mib` of GPU memory. The
+/// by positioned reads and rendered at size² along z with `budget_mib` of GPU memory. The
 /// transfer function is the volume benchmark's with the 1e-4 floor made transparent.
 pub fn bench_large(
     ctx: Arc<GpuContext>,
@@ -276,7 +276,7 @@ pub fn format_large_report(adapter: &str, r: &LargeReport) -> String {
     if let Some(g) = r.generated_s {
         s.push_str(&format!("written (streamed .npy):    {g:.1} s\n"));
     }
-    s.push_str(&format!("brick index (mmap, 1 pass): {:.1} s\n", r.index_s));
+    s.push_str(&format!("brick index (1 pass): {:.1} s\n", r.index_s));
     s.push_str(&format!(
         "render (median of {}):      {:.1} s\n",
         r.render_s.len(),

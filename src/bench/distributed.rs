@@ -1,7 +1,7 @@
 //! `hdrvis bench distributed`: strong scaling of a distributed render over the ranks of one
 //! world (MPI ranks with `--features mpi`, or threads joined by channels in the tests). Every
 //! rank runs [`bench_world`] in step, since each render and each compositing is a collective
-//! call: the mantle's fluctuation (a memory-mapped `.npy`, so each rank reads only its slab)
+//! call: the mantle's fluctuation (a `.npy` read in place, so each rank reads only its slab)
 //! rendered along z, then the compositing schemes alone on synthetic partial images of several
 //! sizes, then a ping-pong between ranks 0 and 1 that measures the transport's latency and
 //! bandwidth for the cost model of docs/performance.md. Rank 0 gets the [`WorldReport`]; the
@@ -293,7 +293,7 @@ pub fn format_scaling_table(machine: &str, reports: &[WorldReport]) -> String {
     };
     let base_ms = median(&base.render_ms);
     let mut s = format!(
-        "machine: {machine}\ndistributed benchmark: mantle fluctuation {n}^3 (memory-mapped .npy) -> {size}^2, axis view along the slabs, Fig. 5 TF, median of {runs} runs after one warm-up; rank 0's wall clock\n\n\
+        "machine: {machine}\ndistributed benchmark: mantle fluctuation {n}^3 (.npy read in place) -> {size}^2, axis view along the slabs, Fig. 5 TF, median of {runs} runs after one warm-up; rank 0's wall clock\n\n\
          | ranks | render ms | speed-up | efficiency | peak memory per rank (VmHWM, MiB) |\n|---|---|---|---|---|\n",
         n = base.n,
         size = base.size,

@@ -301,7 +301,7 @@ pub enum BenchCommand {
         brick: usize,
     },
     /// Out-of-core rendering: an N^3 f32 volume written to the dataset cache as .npy (once),
-    /// memory-mapped, rendered with a GPU memory budget; reports time and peak memory.
+    /// read in place, rendered with a GPU memory budget; reports time and peak memory.
     Large {
         #[arg(long, default_value_t = 1)]
         runs: usize,

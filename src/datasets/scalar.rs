@@ -1,8 +1,8 @@
-//! The binary sample types of raw volume files (NRRD, VTK ImageData, memory-mapped NumPy) and
+//! The binary sample types of raw volume files (NRRD, VTK ImageData, NumPy) and
 //! their one conversion to f32. Each format names the types its own way and maps the names here;
 //! the decoding is shared, so the same bytes give the same value whatever file they came in.
 //! Integers of 32 and 64 bits go through f64, as the in-memory `.npy` reader converts them, so a
-//! memory-mapped `.npy` and a loaded one hold the same values.
+//! `.npy` read in place and a loaded one hold the same values.
 
 /// One stored sample type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -3,7 +3,7 @@
 //! neighbour, plus per-brick value ranges over that apron-extended footprint. The index (ranges
 //! and statistics) is built by streaming the source in z-slabs, so a volume larger than memory is
 //! never held at once; brick data are read on demand from a [`VoxelSource`] (an in-memory volume,
-//! a memory-mapped file, NetCDF hyperslabs). Also here: which bricks a transfer function leaves
+//! a `.npy` read by positioned reads, NetCDF hyperslabs). Also here: which bricks a transfer function leaves
 //! empty, the front-to-back visibility order of bricks for a camera, and the 2× downsampled level.
 
 use super::transfer::ResolvedTransfer;
@@ -23,9 +23,6 @@ pub trait VoxelSource: Send + Sync {
     /// Voxel counts (nx, ny, nz).
     fn dims(&self) -> [usize; 3];
     fn read_box(&self, lo: [usize; 3], size: [usize; 3], out: &mut [f32]) -> Result<()>;
-    /// Hint that the z-slices `z0 .. z1` will not be needed again soon (a memory-mapped file
-    /// drops those pages from this process's resident set).
-    fn release(&self, _z0: usize, _z1: usize) {}
     /// What the source is, for messages.
     fn describe(&self) -> String;
 }
@@ -228,10 +225,7 @@ impl BrickedVolume {
             for (id, r) in layer {
                 ranges[id] = r;
             }
-            // The next layer needs the last two slices of this one (its apron), not the rest.
-            source.release(z_lo, (z_hi.saturating_sub(2)).max(z_lo));
         }
-        source.release(0, nz);
         Ok(BrickedVolume {
             name,
             units: String::new(),
@@ -357,7 +351,6 @@ impl BrickedVolume {
                     };
                 }
             });
-            self.source.release(z0, z0 + count);
         }
         let spacing = [0, 1, 2].map(|a| self.spacing[a] * self.dims[a] as f64 / cd[a] as f64);
         let mut v = Volume::new(

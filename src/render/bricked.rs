@@ -165,11 +165,10 @@ impl BrickCache {
             .copied()
             .filter(|&b| self.slot_of[b as usize] == NO_SLOT)
             .collect();
-        // File order (z, then y, then x) reads a memory-mapped file's pages once per brick layer.
+        // File order (z, then y, then x) reads each part of a file once per brick layer.
         missing.sort_unstable();
         let layout = self.volume.layout;
         let e = layout.stored_edge() as u32;
-        let mut layer_of_last = None;
         for chunk in missing.chunks(32) {
             let data: Vec<Result<Vec<f32>>> = chunk
                 .par_iter()
@@ -215,30 +214,12 @@ impl BrickCache {
                         depth_or_array_layers: e,
                     },
                 );
-                let layer = layout.coords(b as usize)[2];
-                if let Some(bz) = layer_of_last.filter(|&p| p != layer) {
-                    release_layer(&self.volume, bz);
-                }
-                layer_of_last = Some(layer);
             }
             // Hand the staged copies to the queue so staging memory stays one chunk.
             ctx.queue.submit([]);
         }
-        if let Some(bz) = layer_of_last {
-            release_layer(&self.volume, bz);
-        }
         Ok(missing.len())
     }
-}
-
-/// Hands back the source pages of brick layer `bz` (its slices and aprons): a memory-mapped file
-/// then keeps at most one brick layer resident while bricks are read.
-fn release_layer(volume: &BrickedVolume, bz: usize) {
-    let b = volume.layout.brick;
-    volume.source().release(
-        (bz * b).saturating_sub(1),
-        ((bz + 1) * b + 1).min(volume.dims[2]),
-    );
 }
 
 /// Slots per axis of an atlas holding as many of `capacity` slots as fit a box of at most

@@ -1,5 +1,5 @@
 //! Script API for large volumes: `open_volume` opens a file as bricks without loading it (a
-//! memory-mapped `.npy`, NetCDF read by hyperslabs); `render_volume` on such a volume goes to
+//! `.npy` read where needed, NetCDF read by hyperslabs); `render_volume` on such a volume goes to
 //! the render session's one entry point like every other render (see `render::route`).
 
 use super::api_render::{blank, render_and_note, render_options, ScriptImage};

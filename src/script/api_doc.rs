@@ -63,7 +63,7 @@ pub(crate) const AREAS: &[&str] = &[
 pub(crate) const API: &[ApiEntry] = &[
     e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x), .vti, legacy .vtk or an HDF5 dataset, relative to the script's folder; \"box.nc:T\" picks the variable T of a file with several, \"volume.h5:/group/name\" an HDF5 dataset."),
     with(e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with options:"), &[&LOAD_VOLUME]),
-    e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy memory-mapped, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
+    e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy read where needed, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
     with(e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with options (\"box.nc:T\" also picks the variable):"), &[&OPEN_VOLUME]),
     with(e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3; outside the shell is missing (NaN). Options:"), &[&GENERATE_MANTLE]),
     with(e("datasets", "generate", &["kind: string", "options: map"], "string", "Path of a cached NetCDF dataset, generated on a miss: \"okada\" (ux, uy, uz), \"tsunami\" (max_abs_eta, arrival_time, depth) or \"mantle\" (the field). Options of each kind:"), &[&GENERATE_OKADA, &GENERATE_TSUNAMI, &GENERATE_MANTLE_FILE]),

@@ -39,18 +39,17 @@ pub(crate) fn register(engine: &mut Engine, host: &Arc<ScriptHost>) {
 /// The numbers of `start..end` that `shard` owns, as a script array; a share longer than a
 /// script array may be is refused (a range is a loop's worth of work, not 2^63 items).
 fn owned_numbers(shard: Shard, start: i64, end: i64) -> RResult<Array> {
-    let len = usize::try_from(end.abs_diff(start)).unwrap_or(usize::MAX);
-    let owned = shard.range(len);
-    if owned.len() > MAX_ARRAY_SIZE {
+    let owned = shard.numbers(start, end);
+    let count = owned.end.abs_diff(owned.start);
+    if count > MAX_ARRAY_SIZE as u64 {
         return err(
             "shard",
             format!(
-                "{start}..{end} gives this task {} items; a script array holds at most {MAX_ARRAY_SIZE}",
-                owned.len()
+                "{start}..{end} gives this task {count} items; a script array holds at most {MAX_ARRAY_SIZE}"
             ),
         );
     }
-    Ok(owned.map(|i| Dynamic::from(start + i as i64)).collect())
+    Ok(owned.map(Dynamic::from).collect())
 }
 
 /// What `hdrvis sweep-status` reports.
@@ -205,6 +204,36 @@ mod tests {
             "{:?}",
             report.passes
         );
+    }
+
+    #[test]
+    fn a_share_larger_than_a_script_array_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut opts = ScriptOptions::new(dir.path().join("out"));
+        opts.progress = false;
+        for (source, count) in [
+            ("shard(0..9223372036854775807)", "9223372036854775807 items"),
+            (
+                "shard(-9223372036854775808..=9223372036854775807)",
+                "18446744073709551615 items",
+            ),
+        ] {
+            let e = run_script_source(source, "s.rhai", dir.path(), &opts)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(count) && e.contains("holds at most 32768"),
+                "{e}"
+            );
+        }
+        opts.shard = Shard { index: 2, count: 3 };
+        let r = run_script_source(
+            "let s = shard(0..30); if s != [20, 21, 22, 23, 24, 25, 26, 27, 28, 29] { throw s; }",
+            "s.rhai",
+            dir.path(),
+            &opts,
+        );
+        r.unwrap();
     }
 
     #[test]

@@ -336,7 +336,10 @@ fn bound_maps_grown_by_index(engine: &mut Engine) {
     let accesses = std::sync::atomic::AtomicU32::new(0);
     #[allow(deprecated)] // Volatile, not deprecated (Rhai's words): the one hook on every access.
     engine.on_var(move |name, _, ctx| {
-        if accesses.fetch_add(1, std::sync::atomic::Ordering::Relaxed) % 61 != 0 {
+        if !accesses
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+            .is_multiple_of(61)
+        {
             return Ok(None);
         }
         let too_large = ctx

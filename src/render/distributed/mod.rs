@@ -1,7 +1,7 @@
 //! Distributed volume rendering, sort-last: when a run is one of several ranks (`mpirun -n N
 //! hdrvis run SCRIPT`, `srun`), every volume render is split over the ranks. The volume is cut
 //! into N slabs of whole z-slices (the slowest axis, so a rank's part is one contiguous read of
-//! a memory-mapped `.npy`/raw file or one NetCDF hyperslab); rank r reads slab r and
+//! a `.npy`/raw file read in place or one NetCDF hyperslab); rank r reads slab r and
 //! [`GHOST`] slices on either side, ray-casts with the whole volume's rays and sample
 //! positions, and composites exactly the segments whose midpoints lie in its slab (the `SLAB`
 //! variant of shaders/volume.wgsl), so the split changes no sample. The partial images are
@@ -133,7 +133,6 @@ pub(crate) fn read_slab(
     crate::model::volume::check_allocation((nx * ny * count * 4) as u64, "slab")?;
     let mut data = vec![0f32; nx * ny * count];
     source.read_box([0, 0, slab.read_lo], [nx, ny, count], &mut data)?;
-    source.release(slab.read_lo, slab.read_hi);
     let mut origin = place.origin;
     origin[2] += slab.read_lo as f64 * place.spacing[2];
     Volume::new(
