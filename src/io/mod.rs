@@ -8,6 +8,7 @@ pub mod animation;
 pub mod exr;
 pub mod png;
 pub mod terminal;
+pub(crate) mod terminal_query;
 
 use crate::error::{Error, Result};
 use std::io::Write;

@@ -4,7 +4,8 @@
 //! `HDRVIS_TUI_PROTOCOL` names when one is given. Nothing here draws a live screen: the
 //! interactive TUI (`crate::tui`, the only user of ratatui) shares only [`ProtocolChoice`] and
 //! `srgb8_picture` with it. Every printer is a no-op returning `false` when stdout is not a
-//! terminal, so batch runs and pipes stay clean.
+//! terminal, so batch runs and pipes stay clean. A picture's rows come from the terminal's cell
+//! size (`terminal_query`), so it keeps its aspect whatever the font's cell shape.
 
 use crate::error::{Error, Result};
 use crate::model::HdrImage;
@@ -57,8 +58,9 @@ impl ProtocolChoice {
     }
 
     /// viuer's settings for this choice: which graphics protocols it may try (half blocks
-    /// always remain) and how wide the picture is, in cells; printed at the cursor.
-    fn viuer_config(self, width_cells: u32) -> viuer::Config {
+    /// always remain) and the picture's size in cells (the height from the aspect when `None`,
+    /// as viuer assumes cells twice as tall as wide); printed at the cursor.
+    fn viuer_config(self, width_cells: u32, height_cells: Option<u32>) -> viuer::Config {
         let (kitty, iterm, sixel) = match self {
             ProtocolChoice::Auto => (true, true, true),
             ProtocolChoice::Kitty => (true, false, false),
@@ -69,6 +71,7 @@ impl ProtocolChoice {
         viuer::Config {
             absolute_offset: false,
             width: Some(width_cells),
+            height: height_cells,
             use_kitty: kitty,
             use_iterm: iterm,
             use_sixel: sixel,
@@ -88,6 +91,23 @@ pub(crate) fn srgb8_picture(display: &HdrImage) -> image::RgbImage {
     .expect("a display image holds width * height pixels")
 }
 
+/// How long an inline preview waits for the terminal to tell its cell size (terminals answer
+/// in milliseconds, also over SSH; the wait is only spent on one that never answers).
+const CELL_QUERY_TIMEOUT: std::time::Duration = std::time::Duration::from_millis(1000);
+
+/// Rows of `cell` (width, height in pixels) that a `width` × `height` picture needs at
+/// `width_cells` columns to keep its aspect; `None` without a cell size.
+fn picture_rows(
+    width: u32,
+    height: u32,
+    width_cells: u32,
+    cell: Option<(u16, u16)>,
+) -> Option<u32> {
+    let (cw, ch) = cell.filter(|&(w, h)| w > 0 && h > 0)?;
+    let rows = width_cells as f64 * height as f64 / width.max(1) as f64 * cw as f64 / ch as f64;
+    Some(rows.round().max(1.0) as u32)
+}
+
 /// Prints `picture` inline at the cursor, `width_cells` columns wide. Returns `false`, printing
 /// nothing, when stdout is not a terminal. Errors are reported under `what` (the option or
 /// builtin that asked, e.g. `--preview`).
@@ -100,7 +120,9 @@ pub(crate) fn print_picture_inline(
     if !std::io::stdout().is_terminal() {
         return Ok(false);
     }
-    viuer::print(picture, &protocol.viuer_config(width_cells))
+    let cell = crate::io::terminal_query::cell_size(CELL_QUERY_TIMEOUT);
+    let height_cells = picture_rows(picture.width(), picture.height(), width_cells, cell);
+    viuer::print(picture, &protocol.viuer_config(width_cells, height_cells))
         .map_err(|e| Error::invalid(what, format!("terminal preview failed: {e}")))?;
     Ok(true)
 }
@@ -178,12 +200,12 @@ mod tests {
 
     #[test]
     fn a_forced_protocol_leaves_viuer_only_that_one() {
-        let c = ProtocolChoice::Sixel.viuer_config(60);
+        let c = ProtocolChoice::Sixel.viuer_config(60, None);
         assert!(c.use_sixel && !c.use_kitty && !c.use_iterm);
         assert_eq!(c.width, Some(60));
-        let c = ProtocolChoice::Halfblocks.viuer_config(80);
+        let c = ProtocolChoice::Halfblocks.viuer_config(80, None);
         assert!(!c.use_sixel && !c.use_kitty && !c.use_iterm);
-        let c = ProtocolChoice::Auto.viuer_config(80);
+        let c = ProtocolChoice::Auto.viuer_config(80, Some(20));
         assert!(c.use_sixel && c.use_kitty && c.use_iterm && !c.absolute_offset);
     }
 
@@ -193,5 +215,16 @@ mod tests {
         let rgb = srgb8_picture(&img);
         assert_eq!(rgb.get_pixel(0, 0).0, [118, 188, 0]);
         assert_eq!(rgb.get_pixel(1, 0).0, [255; 3]);
+    }
+
+    #[test]
+    fn pictures_keep_their_aspect_in_any_cell_shape() {
+        // A 3:2 picture 60 columns wide: 20 rows of 8 x 16 px cells (480 x 320 px), 25 rows of
+        // wider 10 x 16 px cells (600 x 400 px), where a 1:2 guess would give 600 x 320.
+        assert_eq!(picture_rows(768, 512, 60, Some((8, 16))), Some(20));
+        assert_eq!(picture_rows(768, 512, 60, Some((10, 16))), Some(25));
+        assert_eq!(picture_rows(768, 512, 60, None), None);
+        assert_eq!(picture_rows(768, 512, 60, Some((0, 16))), None);
+        assert_eq!(picture_rows(1000, 1, 10, Some((8, 16))), Some(1));
     }
 }

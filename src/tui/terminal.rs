@@ -27,7 +27,7 @@ pub(crate) fn restore() {
     let mut out = std::io::stdout();
     if KITTY_IMAGES.load(Ordering::SeqCst) {
         // Delete every image placement this client made (a=d, d=A).
-        let _ = if crate::tui::protocol::in_tmux() {
+        let _ = if crate::io::terminal_query::in_tmux() {
             out.write_all(b"\x1bPtmux;\x1b\x1b_Ga=d,d=A\x1b\x1b\\\x1b\\")
         } else {
             out.write_all(b"\x1b_Ga=d,d=A\x1b\\")

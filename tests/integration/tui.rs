@@ -626,8 +626,20 @@ fn xterm_vt340_shows_the_sixel_picture() {
 /// the picture in a screenshot and, with `expect_text`, that text on kitty's screen (read back
 /// through kitty's remote control), e.g. the protocol the TUI's status line names.
 fn kitty_shows_the_target(shell: &str, dir: &Path, what: &str, expect_text: Option<&str>) {
+    kitty_with_font_shows_the_target(shell, dir, what, expect_text, None);
+}
+
+/// [`kitty_shows_the_target`] with kitty's font set to `font` (fontconfig's default otherwise).
+fn kitty_with_font_shows_the_target(
+    shell: &str,
+    dir: &Path,
+    what: &str,
+    expect_text: Option<&str>,
+    font: Option<&str>,
+) {
     let (_xvfb, display) = start_xvfb();
     let socket = format!("unix:{}", dir.join("kitty.sock").display());
+    let font = format!("font_family={}", font.unwrap_or("monospace"));
     let _kitty = Child(
         Command::new("kitty")
             .args([
@@ -641,6 +653,8 @@ fn kitty_shows_the_target(shell: &str, dir: &Path, what: &str, expect_text: Opti
                 "remember_window_size=no",
                 "-o",
                 "font_size=10",
+                "-o",
+                &font,
                 "-o",
                 "allow_remote_control=yes",
                 "--listen-on",
@@ -713,6 +727,41 @@ fn kitty_shows_the_run_preview_picture() {
         dir.path().join("out").display()
     );
     kitty_shows_the_target(&shell, dir.path(), "kitty run --preview", None);
+}
+
+/// The inline preview asks the terminal for its cell size, so the picture keeps its aspect in
+/// fonts whose cells are not 1:2 (Noto Sans Mono's are wider; DejaVu Sans Mono's are close).
+#[test]
+fn kitty_run_preview_keeps_the_aspect_in_any_font() {
+    if !tools(&["Xvfb", "kitty", "xwd", "fc-list"]) {
+        return;
+    }
+    let fonts =
+        String::from_utf8_lossy(&Command::new("fc-list").output().unwrap().stdout).to_string();
+    for font in ["Noto Sans Mono", "DejaVu Sans Mono"] {
+        if !fonts.contains(font) {
+            assert!(
+                std::env::var("HDRVIS_REQUIRE_TUI_TOOLS").as_deref() != Ok("1"),
+                "HDRVIS_REQUIRE_TUI_TOOLS=1 but the font {font} is not installed (fonts-noto-mono, fonts-dejavu-core)"
+            );
+            continue;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        target_exr(dir.path());
+        std::fs::write(
+            dir.path().join("show.rhai"),
+            "preview(load_image(\"target.exr\"));\n",
+        )
+        .unwrap();
+        let shell = format!(
+            "{} run {} --out {} --preview; sleep 30",
+            env!("CARGO_BIN_EXE_hdrvis"),
+            dir.path().join("show.rhai").display(),
+            dir.path().join("out").display()
+        );
+        let what = format!("kitty run --preview in {font}");
+        kitty_with_font_shows_the_target(&shell, dir.path(), &what, None, Some(font));
+    }
 }
 
 #[test]
