@@ -509,14 +509,8 @@ fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Res
         .find(|a| a.name == name)
         .ok_or_else(|| missing_array(path, &name, &listed))?;
     let variable = netcdf::read_variable(path, &name)?;
-    let file = netcdf::open(path)?;
     // Missing values become NaN when decoded; NaN already stored raw is not a fill.
-    let raw_nan = file
-        .read_variable_as_f64(&name)
-        .map_err(|e| Error::format(path, e.to_string()))?
-        .iter()
-        .filter(|v| v.is_nan())
-        .count();
+    let raw_nan = variable.stored_nan;
     let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
     Ok(ArrayData {
         name,

@@ -34,6 +34,8 @@ pub struct NcVariable {
     pub long_name: Option<String>,
     /// Every attribute of the variable in file order, including the CF ones already applied.
     pub attributes: Vec<(String, NcAttribute)>,
+    /// Values stored as NaN (not fills: those are NaN in `data` too, but not counted here).
+    pub stored_nan: usize,
 }
 
 impl NcVariable {
@@ -120,13 +122,35 @@ pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {
         ));
     }
     let dims = dims_of(path, var)?;
-    let data = file
-        .read_variable_unpacked_masked(name)
+    let count = dims
+        .iter()
+        .try_fold(1u64, |acc, (_, n)| acc.checked_mul(*n as u64))
+        .unwrap_or(u64::MAX);
+    // The reader decodes into f64 beside the stored values (up to 8 bytes each): the peak.
+    crate::model::volume::check_allocation(
+        count.saturating_mul(16),
+        &format!("{}: variable '{name}'", path.display()),
+    )?;
+    let mut raw = file
+        .read_variable_as_f64(name)
         .map_err(|e| reader_error(path, e))?;
-    // Arrays come back in C order; the slice copy is a memcpy, unlike a per-element iteration.
-    let data: Vec<f64> = match data.as_slice() {
-        Some(contiguous) => contiguous.to_vec(),
-        None => data.iter().copied().collect(),
+    // NaN stored as data is not a fill value: counted before the CF decoding below marks fills
+    // (the reader's own masked read, in place, in the same order: sign, mask, unpack).
+    let stored_nan = raw.iter().filter(|v| v.is_nan()).count();
+    if let Some(sign) = netcdf_reader::unpack::SignParams::from_variable(var) {
+        sign.apply(&mut raw);
+    }
+    if let Some(mask) = netcdf_reader::masked::MaskParams::from_variable(var) {
+        mask.apply(&mut raw);
+    }
+    if let Some(unpack) = netcdf_reader::unpack::UnpackParams::from_variable(var) {
+        unpack.apply(&mut raw);
+    }
+    // Arrays come back in C order: the standard layout hands its buffer over without a copy.
+    let data: Vec<f64> = if raw.is_standard_layout() {
+        raw.into_raw_vec_and_offset().0
+    } else {
+        raw.iter().copied().collect()
     };
     let expected = dims
         .iter()
@@ -158,6 +182,7 @@ pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {
         dims,
         data,
         attributes,
+        stored_nan,
     })
 }
 

@@ -464,8 +464,11 @@ pub(crate) fn check_shape(dims: &[usize], field: &str) -> Result<()> {
     Ok(())
 }
 
-/// Refuses an allocation that would exceed the memory currently available (Linux
-/// `/proc/meminfo`); elsewhere it allows everything.
+/// Refuses an allocation that would exceed the memory currently available to this process: the
+/// least of the machine's available memory (`/proc/meminfo`), what its cgroup may still take
+/// (v2 `memory.max` less `memory.current`) and what its address-space and data limits leave
+/// (`ulimit -v`, `-d`, less what it holds); elsewhere than Linux it allows everything. A refusal
+/// is a one-line error instead of an abort part-way through the allocation.
 pub(crate) fn check_allocation(bytes: u64, what: &str) -> Result<()> {
     if let Some(avail) = available_memory_bytes() {
         if bytes > avail {
@@ -483,10 +486,46 @@ pub(crate) fn check_allocation(bytes: u64, what: &str) -> Result<()> {
 }
 
 fn available_memory_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    [meminfo_available(), cgroup_available(), rlimit_available()]
+        .into_iter()
+        .flatten()
+        .min()
+}
+
+/// The `key:` line of a `/proc` status-like file, in bytes (its value is in kB).
+fn proc_kib(file: &str, key: &str) -> Option<u64> {
+    let text = std::fs::read_to_string(file).ok()?;
+    let line = text.lines().find(|l| l.starts_with(key))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
+}
+
+fn meminfo_available() -> Option<u64> {
+    proc_kib("/proc/meminfo", "MemAvailable:")
+}
+
+/// What this process's cgroup (v2) may still take: `memory.max` less `memory.current`.
+fn cgroup_available() -> Option<u64> {
+    let cgroups = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let path = cgroups.lines().find_map(|l| l.strip_prefix("0::"))?;
+    let dir = std::path::Path::new("/sys/fs/cgroup").join(path.trim_start_matches('/'));
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
+    let max: u64 = read("memory.max")?.trim().parse().ok()?; // "max": no limit
+    let current: u64 = read("memory.current")?.trim().parse().ok()?;
+    Some(max.saturating_sub(current))
+}
+
+/// What the address-space and data-segment limits leave beside what the process holds.
+fn rlimit_available() -> Option<u64> {
+    use rustix::process::{getrlimit, Resource};
+    let left = |resource, held: Option<u64>| {
+        getrlimit(resource)
+            .current
+            .map(|limit| limit.saturating_sub(held.unwrap_or(0)))
+    };
+    let address_space = left(Resource::As, proc_kib("/proc/self/status", "VmSize:"));
+    let data = left(Resource::Data, proc_kib("/proc/self/status", "VmData:"));
+    [address_space, data].into_iter().flatten().min()
 }
 
 #[cfg(test)]

@@ -263,6 +263,38 @@ fn nrrd_line_and_byte_skips_read_like_pynrrd() {
     }
 }
 
+/// A few kilobytes that declare gigabytes (a never-written chunked NetCDF-4 variable): under a
+/// memory limit `info` refuses in one line before allocating, where it used to abort (SIGABRT)
+/// part-way through the allocation after seconds.
+#[test]
+fn a_small_file_declaring_more_than_the_memory_limit_is_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("unwritten.nc");
+    let Some(report) = python_check("write_unwritten_nc.py", &[file.to_str().unwrap()]) else {
+        return;
+    };
+    assert!(report.starts_with("exit 0"), "{report}");
+    assert!(std::fs::metadata(&file).unwrap().len() < 100_000);
+    let start = std::time::Instant::now();
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 4000000; exec {} info {}",
+            env!("CARGO_BIN_EXE_hdrvis"),
+            file.display()
+        ))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("unwritten.nc: variable 'v': needs 16.0 GiB but only"),
+        "{stderr}"
+    );
+    assert!(start.elapsed().as_secs_f64() < 10.0);
+}
+
 #[test]
 fn npz_from_numpy_savez_and_savez_compressed_loads_like_the_npy() {
     let Some(dir) = reference_files() else { return };
