@@ -3,7 +3,7 @@
 //! volume fluxes M and N (depth-integrated velocity, m^2/s) on the faces, half a time step
 //! apart. Coordinates are Cartesian metres; cells with depth <= 0 are land, kept dry, and act as
 //! reflective walls. The equations are linear unless advection and Manning bottom friction are
-//! asked for (TUNAMI-N2 style). The file also builds a synthetic South-China-Sea-like basin with
+//! asked for (TUNAMI-N2 style). The module also builds a synthetic South-China-Sea-like basin with
 //! a Manila-trench thrust source for demonstrations, and turns real elevation grids into
 //! bathymetry.
 
