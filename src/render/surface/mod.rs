@@ -27,8 +27,8 @@
 //! [`pixel_gradient`] are the f64 forms).
 //!
 //! Geographic grids (longitude along x, latitude along y): the map keeps the equirectangular
-//! aspect of [`Grid::map_aspect`], and [`SurfaceView::Globe`] drapes the field on the unit sphere
-//! of the Earth-centred frame ([`GlobeFrame`]) for any camera.
+//! aspect of [`crate::model::Grid::map_aspect`], and [`SurfaceView::Globe`] drapes the field on
+//! the unit sphere of the Earth-centred frame ([`GlobeFrame`]) for any camera.
 //!
 //! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 //!

@@ -12,7 +12,7 @@ use crate::tonemap::cpu::{false_colour_decades, legend_height, turbo_lut};
 impl GpuToneMapper {
     /// False-colour view of log10 luminance (after `exposure_ev`) through turbo, over the whole
     /// decades `decades` or those spanning the image, with the legend strip along the bottom;
-    /// the GPU twin of [`super::cpu::false_colour_log10`] (same metadata keys).
+    /// the GPU twin of [`crate::tonemap::cpu::false_colour_log10`] (same metadata keys).
     pub fn false_colour(
         &self,
         img: &HdrImage,
