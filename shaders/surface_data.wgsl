@@ -5,8 +5,8 @@
 // and writes up to four properties there into float targets in one pass: the f32 part `hi` of
 // (d − d_ref) and the f32 remainder `rest`, so the fringe pass can keep f64 precision through the
 // phase. Missing nodes never leak into neighbours: interpolation weights only valid corners, and a
-// pixel is missing when its nearest node is. Keep Params in sync with src/render/surface.rs
-// (DataParams).
+// pixel is missing when its nearest node is. Keep Params in sync with
+// src/render/surface/params.rs (DataParams).
 #include "shared/camera.wgsl"
 
 struct Params {

@@ -9,7 +9,7 @@
 // the data's gradient, is (1 + cos 2πν·d · exp(−2π²ν²σ²|∇d|²))/2 for a field linear across the
 // footprint; ∇d (data units per pixel) comes from central differences of the neighbouring
 // pixels (one-sided beside a missing pixel), so it is the screen-space derivative in 3-D views.
-// Keep Params in sync with src/render/surface.rs (FringeParams).
+// Keep Params in sync with src/render/surface/params.rs (FringeParams).
 
 struct Params {
     // ν split: x (12 bits) + y (12 bits) + z (rest) = ν; w = f32(ν)
@@ -47,7 +47,7 @@ override MODE: u32 = 0u;
 override ABSOLUTE: bool = false;
 override LOG_COLOR: bool = false;
 override WRITE_VALUE: bool = true;
-// The naive phase (src/render/surface.rs `PhaseMethod::Naive`): d as one f32 and cos(2π·ν·d)
+// The naive phase (src/render/surface/options.rs `PhaseMethod::Naive`): d as one f32 and cos(2π·ν·d)
 // evaluated directly, as a straightforward implementation would; only for measuring what the
 // reduction buys.
 override NAIVE_PHASE: bool = false;

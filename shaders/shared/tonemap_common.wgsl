@@ -15,7 +15,7 @@ struct ToneMapParams {
 
 struct LuminanceStats { mean_log: f32, max_log: f32, min_log: f32, count: u32 }
 
-// Specialisation (src/tonemap/gpu.rs `Specialisation`): the operator (ToneMapParams.op) and
+// Specialisation (src/tonemap/gpu/mod.rs `Specialisation`): the operator (ToneMapParams.op) and
 // whether saturation and 1 / gamma are exactly 1, as pipeline constants, so that no pass
 // branches on them at run time (Mesa's CPU rasterizers run both sides of such branches).
 override OP: u32 = 0u;

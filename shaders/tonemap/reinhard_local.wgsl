@@ -12,7 +12,7 @@
 // Host sequence (dispatches (X, Y, 1) workgroups of 256 with X * Y * 256 >= items,
 // item = global_id.x + global_id.y * X * 256), `stats` from luminance_stats.wgsl. Every pass
 // runs over bands of rows [band_first, band_first + band_rows) of its item grid (one band when
-// the buffers fit one binding each; src/tonemap/gpu.rs `record_reinhard`), with the large
+// the buffers fit one binding each; src/tonemap/gpu/reinhard_local.rs `record_reinhard`), with the large
 // buffers bound as windows that start at the band's first row unless said otherwise:
 //   prepare     one item per pixel           image, stats -> level 0 (pyramid)
 //   downsample  one item per cell of level k level k-1 (blur_in, window from row

@@ -2,6 +2,7 @@
 //! frames a bounding box exactly. A camera turns a pixel (i, j) of a W×H image into a world ray; the
 //! GPU ray caster and the CPU reference both use this definition, so they trace the same rays.
 
+use super::vec3::{add_scaled, cross, norm, normalize, sub};
 use super::volume::Aabb;
 use crate::error::{Error, Result};
 
@@ -43,27 +44,6 @@ pub struct Camera {
     pub right: [f64; 3],
     pub up: [f64; 3],
     pub projection: Projection,
-}
-
-pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn add_scaled(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
-fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let n = norm(a);
-    [a[0] / n, a[1] / n, a[2] / n]
 }
 
 fn check_finite(field: &str, v: &[f64]) -> Result<()> {

@@ -5,6 +5,7 @@
 //! (0°N, 90°E), +z toward the North Pole, lengths in the vertical axis's unit. Renderers map a
 //! world point to fractional voxel indices through these axes and interpolate in index space.
 
+use super::vec3::dot;
 use crate::error::{Error, Result};
 
 /// Voxel-centre coordinates along one axis of a volume, strictly monotonic, and the domain they
@@ -423,10 +424,6 @@ fn cone_hits(o: [f64; 3], d: [f64; 3], lat_deg: f64) -> Vec<f64> {
         return vec![0.0];
     }
     vec![q / a, cc / q]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// The radii and angles a shell spans, for reports.

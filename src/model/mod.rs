@@ -9,10 +9,12 @@ pub mod geometry;
 pub(crate) mod grid;
 pub(crate) mod image;
 pub(crate) mod map_frame;
+pub(crate) mod numeric;
 pub(crate) mod resample;
 pub(crate) mod stencil;
 pub mod text;
 pub mod transfer;
+pub(crate) mod vec3;
 pub(crate) mod volume;
 
 pub use camera::{Axis, Camera, Projection};

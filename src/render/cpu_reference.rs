@@ -5,8 +5,8 @@
 
 use super::{jitter_fraction, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
-use crate::model::camera::sub;
 use crate::model::transfer::ResolvedTransfer;
+use crate::model::vec3::sub;
 use crate::model::{Aabb, Geometry, HdrImage, Volume};
 use rayon::prelude::*;
 

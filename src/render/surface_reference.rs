@@ -17,6 +17,7 @@ use super::surface::{
     SurfaceOptions, SurfaceView, LIGHT_AMBIENT, LIGHT_DIRECTION, MAX_PROPERTIES,
 };
 use crate::error::{Error, Result};
+use crate::model::vec3::normalize;
 use crate::model::Grid;
 use crate::model::SphericalGrid;
 
@@ -214,11 +215,6 @@ impl Scene<'_> {
         }
         None
     }
-}
-
-fn normalize(a: [f64; 3]) -> [f64; 3] {
-    let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    [a[0] / n, a[1] / n, a[2] / n]
 }
 
 /// Entry and exit distances through the box [0, size], as the shader's `box_hit` (components

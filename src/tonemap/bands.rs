@@ -5,7 +5,7 @@
 //! offsets must be multiples of the adapter's `min_storage_buffer_offset_alignment`, so a band
 //! whose window starts at its own first row has a row count that keeps that alignment, and a
 //! window that must start earlier (a halo) starts at the nearest aligned row before it. Pure
-//! arithmetic, tested here; `gpu.rs` records the dispatches.
+//! arithmetic, tested here; `gpu/` records the dispatches.
 
 use crate::error::{Error, Result};
 

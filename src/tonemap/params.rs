@@ -667,7 +667,7 @@ pub(crate) struct ToneMapParams {
     pub level_step: f32,
     /// First row (of pixels, or of cells of the pass's grid) of the band of items this dispatch
     /// covers: images larger than one storage binding are processed in bands of rows, each
-    /// binding a window of the large buffers (see `gpu.rs`, "Bands and windows").
+    /// binding a window of the large buffers (see `bands.rs` and docs/tonemapping.md).
     pub band_first: u32,
     /// Offset (in elements) of the current pass's destination in a shared buffer.
     pub dst_offset: u32,

@@ -1,0 +1,402 @@
+//! What a surface render is asked for: [`SurfaceOptions`] with its validation, the option
+//! enums (view, colour mode, phase method, missing colour) and the image size a render gets.
+
+use super::globe::GlobeFrame;
+use super::MAX_PROPERTIES;
+use crate::error::{Error, Result};
+use crate::model::{Camera, Grid, Projection};
+
+/// How the surface is seen in step 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SurfaceView {
+    /// Top-down orthographic, north up; by default one pixel per grid node.
+    Map,
+    /// Perspective orbit around the relief (degrees; azimuth about +z from +x).
+    Orbit {
+        azimuth: f64,
+        elevation: f64,
+        fov: f64,
+    },
+    /// Any camera, in the surface's world space: x = (x − x₀), y = (y − y₀) in coordinate units,
+    /// z = (height − min height) × exaggeration.
+    Camera(Camera),
+    /// A geographic grid draped on the unit sphere (Earth-centred frame: +x toward 0°N 0°E, +y
+    /// toward 0°N 90°E, +z north), seen by this camera in that frame; no relief.
+    Globe(Camera),
+}
+
+impl SurfaceView {
+    pub(super) fn key(&self) -> Vec<u64> {
+        match self {
+            SurfaceView::Map => vec![0],
+            SurfaceView::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => vec![1, azimuth.to_bits(), elevation.to_bits(), fov.to_bits()],
+            SurfaceView::Camera(c) | SurfaceView::Globe(c) => {
+                let globe = matches!(self, SurfaceView::Globe(_));
+                let mut k = vec![2 + globe as u64];
+                for v in [c.eye, c.forward, c.right, c.up] {
+                    k.extend(v.iter().map(|x| x.to_bits()));
+                }
+                match c.projection {
+                    Projection::Perspective { fov_y_deg } => k.push(fov_y_deg.to_bits()),
+                    Projection::Orthographic {
+                        half_width,
+                        half_height,
+                    } => k.extend([half_width.to_bits(), half_height.to_bits()]),
+                }
+                k
+            }
+        }
+    }
+
+    pub fn describe(&self) -> String {
+        match self {
+            SurfaceView::Map => "map (top-down orthographic, north up)".into(),
+            SurfaceView::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => format!("orbit azimuth {azimuth} elevation {elevation} fov {fov}"),
+            SurfaceView::Camera(c) => c.describe(),
+            SurfaceView::Globe(c) => format!("globe (unit sphere), {}", c.describe()),
+        }
+    }
+
+    /// The globe seen from `distance` sphere radii above the centre of `grid`'s extent, north
+    /// up (+y up over a pole), with a `fov`-degree perspective.
+    pub fn globe_above(grid: &Grid, distance: f64, fov: f64) -> Result<SurfaceView> {
+        let frame = GlobeFrame::of(grid)?;
+        let (lat, lon) = frame.centre();
+        Ok(SurfaceView::Globe(Camera::geo(
+            [0.0; 3], lat, lon, distance, fov,
+        )?))
+    }
+
+    /// 0: perspective over the relief, 1: map, 2: globe (the data shader's `VIEW`).
+    pub(super) fn code(&self) -> u32 {
+        match self {
+            SurfaceView::Map => 1,
+            SurfaceView::Globe(_) => 2,
+            _ => 0,
+        }
+    }
+}
+
+/// The three colour modes of the paper's Fig. 3.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FringeMode {
+    /// (a) The wrapped phase frac(ν·d) through a cyclic colour map: one colour cycle per fringe.
+    Cyclic,
+    /// (b) A colour over the data range (optionally log-scaled), modulated by the fringes.
+    Modulated,
+    /// (c) A colour map without fringes (the `fringe` channel is still written).
+    Direct,
+}
+
+impl FringeMode {
+    pub(crate) const NAMES: &'static [&'static str] = &["cyclic", "modulated", "direct"];
+
+    pub fn parse(s: &str) -> Result<FringeMode> {
+        match s {
+            "cyclic" => Ok(FringeMode::Cyclic),
+            "modulated" => Ok(FringeMode::Modulated),
+            "direct" => Ok(FringeMode::Direct),
+            _ => Err(Error::invalid(
+                "mode",
+                format!("expected \"cyclic\", \"modulated\" or \"direct\", got {s:?}"),
+            )),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            FringeMode::Cyclic => "cyclic",
+            FringeMode::Modulated => "modulated",
+            FringeMode::Direct => "direct",
+        }
+    }
+
+    pub(super) fn code(self) -> u32 {
+        match self {
+            FringeMode::Cyclic => 0,
+            FringeMode::Modulated => 1,
+            FringeMode::Direct => 2,
+        }
+    }
+}
+
+/// How the fringe pass evaluates the phase 2π·ν·d.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PhaseMethod {
+    /// d kept as d_ref + hi + rest, ν split into short parts, fractions taken before the sums
+    /// (see the module notes): ~1e-6 of a period for ν·d up to ~1e10.
+    #[default]
+    Reduced,
+    /// What a straightforward implementation does: d as one f32, cos(2π·ν·d) evaluated directly
+    /// in f32 with no reference subtraction or range reduction. Kept to measure what the
+    /// reduction buys (`hdrvis bench accuracy`).
+    Naive,
+}
+
+impl PhaseMethod {
+    pub(crate) const NAMES: &'static [&'static str] = &["reduced", "naive"];
+
+    pub fn parse(s: &str) -> Result<PhaseMethod> {
+        match s {
+            "reduced" => Ok(PhaseMethod::Reduced),
+            "naive" => Ok(PhaseMethod::Naive),
+            _ => Err(Error::invalid(
+                "phase",
+                format!("expected \"reduced\" or \"naive\", got {s:?}"),
+            )),
+        }
+    }
+
+    /// What the image metadata says about the phase.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PhaseMethod::Reduced => "f64 via d_ref + hi + rest and exact 12-bit partial products",
+            PhaseMethod::Naive => "naive: cos(2 pi nu d) in f32 with d as one f32",
+        }
+    }
+}
+
+/// How pixels without data (NaN nodes such as land, or the background of a 3-D view) are drawn.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum MissingColour {
+    /// RGBA 0: transparent in a PNG (which then gets an alpha channel) and in the EXR.
+    #[default]
+    Transparent,
+    /// An opaque colour (linear RGB) by name or `#rrggbb`; no fringe is ever drawn in it, as
+    /// no fringe is opaque and flat over an area with no data.
+    Colour { name: String, linear: [f64; 3] },
+}
+
+impl MissingColour {
+    /// `"transparent"`, a colour name or `#rrggbb`.
+    pub fn parse(name: &str) -> Result<MissingColour> {
+        if name.trim().eq_ignore_ascii_case("transparent") {
+            return Ok(MissingColour::Transparent);
+        }
+        let linear = crate::model::colormap::named_colour("missing", name)
+            .map_err(|e| Error::invalid("missing", format!("{e} (or \"transparent\")")))?;
+        Ok(MissingColour::Colour {
+            name: name.trim().to_string(),
+            linear,
+        })
+    }
+
+    /// What the image metadata says: `transparent` or the colour's name.
+    pub fn describe(&self) -> &str {
+        match self {
+            MissingColour::Transparent => "transparent",
+            MissingColour::Colour { name, .. } => name,
+        }
+    }
+
+    /// Paints every missing pixel (the fringe channel NaN there) in this colour.
+    pub(super) fn paint(&self, pixels: &mut [[f32; 4]], fringe: &[f32]) {
+        if let MissingColour::Colour { linear, .. } = self {
+            let c = [linear[0] as f32, linear[1] as f32, linear[2] as f32, 1.0];
+            for (p, f) in pixels.iter_mut().zip(fringe) {
+                if f.is_nan() {
+                    *p = c;
+                }
+            }
+        }
+    }
+}
+
+/// Everything a surface render depends on besides the grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceOptions {
+    /// Properties to render (1 to 4), all from one data pass; empty means the grid's first.
+    pub properties: Vec<String>,
+    /// ν per property (one value applies to all).
+    pub nu: Vec<f64>,
+    pub mode: FringeMode,
+    /// Colour map name; `None` picks `sinebow` for cyclic mode and `viridis` otherwise.
+    pub colormap: Option<String>,
+    /// Modulation depth m in [0, 1]: colour × (1 − m + m·I).
+    pub modulation: f64,
+    /// Use |d| (for colour; the fringe intensity is symmetric in d).
+    pub absolute: bool,
+    /// Log-scaled colour over |d| in modulated/direct modes.
+    pub log_color: bool,
+    pub view: SurfaceView,
+    /// Image size; `None` is the grid's node count (map view) or 512 (other views).
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    /// Height for relief in 3-D views: `elevation`, a property name, or `None` (flat).
+    pub relief: Option<String>,
+    pub exaggeration: f64,
+    /// How the fringe pass evaluates the phase (reduced by default).
+    pub phase: PhaseMethod,
+    /// Colours from the fringe averaged over each pixel's footprint (on by default), so fringes
+    /// denser than the pixels fade to their mean instead of aliasing.
+    pub antialias: bool,
+    /// How pixels without data are drawn (transparent by default).
+    pub missing: MissingColour,
+}
+
+impl Default for SurfaceOptions {
+    fn default() -> Self {
+        SurfaceOptions {
+            properties: Vec::new(),
+            nu: vec![1.0],
+            mode: FringeMode::Cyclic,
+            colormap: None,
+            modulation: 1.0,
+            absolute: false,
+            log_color: false,
+            view: SurfaceView::Map,
+            width: None,
+            height: None,
+            relief: None,
+            exaggeration: 1.0,
+            phase: PhaseMethod::Reduced,
+            antialias: true,
+            missing: MissingColour::Transparent,
+        }
+    }
+}
+
+/// ν must be finite and positive.
+pub(crate) fn check_nu(nu: f64) -> Result<()> {
+    if nu.is_finite() && nu > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            "nu",
+            format!("expected a finite frequency > 0 (fringes per data unit), got {nu}"),
+        ))
+    }
+}
+
+impl SurfaceOptions {
+    pub fn validate(&self) -> Result<()> {
+        if self.properties.len() > MAX_PROPERTIES {
+            return Err(Error::invalid(
+                "property",
+                format!(
+                    "at most {MAX_PROPERTIES} properties per data pass, got {}",
+                    self.properties.len()
+                ),
+            ));
+        }
+        if self.nu.is_empty() {
+            return Err(Error::invalid("nu", "expected at least one value"));
+        }
+        for &nu in &self.nu {
+            check_nu(nu)?;
+        }
+        let n = self.properties.len().max(1);
+        if self.nu.len() != 1 && self.nu.len() != n {
+            return Err(Error::invalid(
+                "nu",
+                format!(
+                    "expected one ν or one per property ({n}), got {}",
+                    self.nu.len()
+                ),
+            ));
+        }
+        if !(self.modulation.is_finite() && (0.0..=1.0).contains(&self.modulation)) {
+            return Err(Error::invalid(
+                "modulation",
+                format!("expected a depth in [0, 1], got {}", self.modulation),
+            ));
+        }
+        if !(self.exaggeration.is_finite() && self.exaggeration >= 0.0) {
+            return Err(Error::invalid(
+                "exaggeration",
+                format!("expected a finite factor >= 0, got {}", self.exaggeration),
+            ));
+        }
+        for (f, v) in [("width", self.width), ("height", self.height)] {
+            if let Some(v) = v {
+                if v == 0 || v > crate::render::MAX_IMAGE_SIDE {
+                    return Err(Error::invalid(
+                        f,
+                        format!(
+                            "expected 1 to {} pixels, got {v}",
+                            crate::render::MAX_IMAGE_SIDE
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn nu_for(&self, i: usize) -> f64 {
+        if self.nu.len() == 1 {
+            self.nu[0]
+        } else {
+            self.nu[i]
+        }
+    }
+
+    pub(super) fn colormap_name(&self) -> &str {
+        match &self.colormap {
+            Some(c) => c,
+            None if self.mode == FringeMode::Cyclic => "sinebow",
+            None => "viridis",
+        }
+    }
+}
+
+/// The image size a render gets: the options' size, else the grid's node counts in map view and
+/// 512² in other views.
+pub(crate) fn default_size(grid: &Grid, opts: &SurfaceOptions) -> (u32, u32) {
+    match (&opts.view, grid.map_aspect()) {
+        (SurfaceView::Map, Some(aspect)) => {
+            geographic_map_size(grid.nx(), grid.ny(), aspect, opts.width, opts.height)
+        }
+        (SurfaceView::Map, None) => (
+            opts.width.unwrap_or(grid.nx() as u32),
+            opts.height.unwrap_or(grid.ny() as u32),
+        ),
+        _ => (opts.width.unwrap_or(512), opts.height.unwrap_or(512)),
+    }
+}
+
+/// The map size of a geographic grid whose map is `aspect` times as wide as high: both sides
+/// as given; one given, the other from the aspect; neither, the smallest image of that aspect
+/// with at least one pixel per node along both axes (at most 16384 a side).
+fn geographic_map_size(
+    nx: usize,
+    ny: usize,
+    aspect: f64,
+    width: Option<u32>,
+    height: Option<u32>,
+) -> (u32, u32) {
+    let side = |v: f64| v.round().clamp(1.0, 16384.0) as u32;
+    match (width, height) {
+        (Some(w), Some(h)) => (w, h),
+        (Some(w), None) => (w, side(w as f64 / aspect)),
+        (None, Some(h)) => (side(h as f64 * aspect), h),
+        (None, None) => {
+            let (w, h) = if nx as f64 >= ny as f64 * aspect {
+                (nx as f64, nx as f64 / aspect)
+            } else {
+                (ny as f64 * aspect, ny as f64)
+            };
+            let shrink = (16384.0 / w.max(h)).min(1.0);
+            (side(w * shrink), side(h * shrink))
+        }
+    }
+}
+
+/// Resolves the property list to grid indices (unknown names list the known ones).
+pub(super) fn property_indices(grid: &Grid, opts: &SurfaceOptions) -> Result<Vec<usize>> {
+    if opts.properties.is_empty() {
+        return Ok(vec![0]);
+    }
+    opts.properties
+        .iter()
+        .map(|p| grid.property_index(p))
+        .collect()
+}

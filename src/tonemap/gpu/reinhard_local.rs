@@ -1,0 +1,423 @@
+//! Reinhard's dodging and burning (`shaders/tonemap/reinhard_local.wgsl`): the plan of its
+//! scales on pyramid levels, and the passes: the pyramid, each scale's blurs, the scale
+//! selection.
+
+use super::buffers::BufferCache;
+use super::recording::Recording;
+use super::{bands, Band, GpuToneMapper, ToneMapCall, ToneMapParams};
+use crate::error::Result;
+use crate::tonemap::params::{blur_sigma, gaussian_radius, grid_sigma, reinhard_level};
+use wgpu::util::DeviceExt;
+
+impl GpuToneMapper {
+    /// Reinhard's dodging and burning after the statistics: the pyramid, the blurs, and per
+    /// pixel band the rows of every blurred scale that band reads, then the scale selection.
+    /// Pyramid levels alternate between two buffers (a downsample reads one and writes the
+    /// other), each scale's horizontal blur is kept whole, and the vertical blur writes only
+    /// the rows a band needs into a band-sized buffer (one band: the whole image, as before).
+    pub(super) fn record_reinhard(
+        &self,
+        rec: &mut Recording<'_>,
+        cache: &mut BufferCache,
+        r: &ReinhardPlan,
+        call: &ToneMapCall<'_>,
+    ) -> Result<()> {
+        let ctx = &*self.ctx;
+        let offsets = r.pyramid_offsets(self.align());
+        let parity_bytes = |p: u32| {
+            (0..=r.deepest)
+                .filter(|k| k % 2 == p)
+                .map(|k| offsets[k as usize] + r.level_bytes(k))
+                .max()
+                .unwrap_or(16)
+        };
+        let pyramid = [
+            cache.scratch(ctx, "reinhard pyramid even", parity_bytes(0)),
+            cache.scratch(ctx, "reinhard pyramid odd", parity_bytes(1)),
+        ];
+        let tmp: Vec<wgpu::Buffer> = r
+            .levels
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| cache.scratch(ctx, TMP_LABELS[i], r.level_bytes(k)))
+            .collect();
+        let buffers = ReinhardBuffers {
+            offsets,
+            pyramid,
+            tmp,
+        };
+        self.record_reinhard_pyramid(rec, r, call, &buffers)?;
+        self.record_reinhard_blur_x(rec, r, &call.base, &buffers)?;
+        self.record_reinhard_scales(rec, cache, r, call, &buffers)
+    }
+
+    /// Level 0 of the pyramid (the pixels' (L m, m)) per pixel band, then each deeper level
+    /// downsampled from the one above in bands that keep both windows within the limit.
+    fn record_reinhard_pyramid(
+        &self,
+        rec: &mut Recording<'_>,
+        r: &ReinhardPlan,
+        call: &ToneMapCall<'_>,
+        buffers: &ReinhardBuffers,
+    ) -> Result<()> {
+        let (plan, base, offsets) = (call.plan, &call.base, &buffers.offsets);
+        let align = self.align();
+        let limit = self.window_limit;
+        // Level 0: the pixels' (L m, m).
+        for &band in &plan.bands {
+            let u = self.band_uniform(base, band);
+            rec.window(1, plan.pixel_window(band, 16)).window(
+                10,
+                bands::window(
+                    offsets[0],
+                    r.width as u64 * 8,
+                    band.first,
+                    band.end(),
+                    align,
+                ),
+            );
+            rec.pixels(
+                band,
+                REINHARD_SHADER,
+                "prepare",
+                &[
+                    (0, &u),
+                    (1, &call.image),
+                    (3, &call.stats),
+                    (10, buffers.level(0)),
+                ],
+            )?;
+        }
+        for k in 1..=r.deepest {
+            let (gw, gh) = r.level_size(k);
+            let (sw, sh) = r.level_size(k - 1);
+            let (row, src_row) = (gw as u64 * 8, sw as u64 * 8);
+            let rows =
+                bands::band_rows(gh, bands::row_step(row, align), "reinhard pyramid", |n| {
+                    n as u64 * row <= limit
+                        && (2 * n as u64 + bands::row_step(src_row, align) as u64) * src_row
+                            <= limit
+                })?;
+            for band in bands::split(gh, rows) {
+                let src = bands::window(
+                    offsets[k as usize - 1],
+                    src_row,
+                    2 * band.first,
+                    (2 * band.end()).min(sh),
+                    align,
+                );
+                let u = self.uniform(&ToneMapParams {
+                    band_first: band.first,
+                    band_rows: band.rows,
+                    window_first: src.first_row,
+                    ..r.level_params(base, k)
+                });
+                rec.window(8, src).window(
+                    9,
+                    bands::window(offsets[k as usize], row, band.first, band.end(), align),
+                );
+                rec.items(
+                    gw * band.rows,
+                    REINHARD_SHADER,
+                    "downsample",
+                    &[(0, &u), (8, buffers.level(k - 1)), (9, buffers.level(k))],
+                )?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Each scale's horizontal blur, whole, on its level.
+    fn record_reinhard_blur_x(
+        &self,
+        rec: &mut Recording<'_>,
+        r: &ReinhardPlan,
+        base: &ToneMapParams,
+        buffers: &ReinhardBuffers,
+    ) -> Result<()> {
+        let align = self.align();
+        let limit = self.window_limit;
+        for (i, &k) in r.levels.iter().enumerate() {
+            let (gw, gh) = r.level_size(k);
+            let row = gw as u64 * 8;
+            let rows = bands::band_rows(gh, bands::row_step(row, align), "reinhard blur", |n| {
+                n as u64 * row <= limit
+            })?;
+            let blur = ToneMapParams {
+                sigma: r.sigma_cells[i] as f32,
+                radius: r.radius[i],
+                ..r.level_params(base, k)
+            };
+            for band in bands::split(gh, rows) {
+                let u = self.band_uniform(&blur, band);
+                rec.window(
+                    8,
+                    bands::window(
+                        buffers.offsets[k as usize],
+                        row,
+                        band.first,
+                        band.end(),
+                        align,
+                    ),
+                )
+                .window(9, bands::window(0, row, band.first, band.end(), align));
+                rec.items(
+                    gw * band.rows,
+                    REINHARD_SHADER,
+                    "blur_x",
+                    &[(0, &u), (8, buffers.level(k)), (9, &buffers.tmp[i])],
+                )?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Per pixel band: the vertical blur of the rows of every scale the band reads, into one
+    /// band-sized buffer, then the scale selection over them.
+    fn record_reinhard_scales(
+        &self,
+        rec: &mut Recording<'_>,
+        cache: &mut BufferCache,
+        r: &ReinhardPlan,
+        call: &ToneMapCall<'_>,
+        buffers: &ReinhardBuffers,
+    ) -> Result<()> {
+        let (plan, base) = (call.plan, &call.base);
+        let align = self.align();
+        let band_planes: Vec<Vec<Band>> = plan.bands.iter().map(|&b| r.planes_for(b)).collect();
+        let largest = band_planes
+            .iter()
+            .map(|planes| r.planes_bytes(planes))
+            .max()
+            .unwrap_or(16);
+        let blurred = cache.scratch(&self.ctx, "reinhard blurred", largest);
+        for (&band, planes) in plan.bands.iter().zip(&band_planes) {
+            let mut table = [[0u32; 4]; 17];
+            let mut at = 0u32;
+            for (i, (&k, rows)) in r.levels.iter().zip(planes).enumerate() {
+                let (gw, gh) = r.level_size(k);
+                let halo = bands::window(
+                    0,
+                    gw as u64 * 8,
+                    rows.first.saturating_sub(r.radius[i]),
+                    (rows.end() + r.radius[i]).min(gh),
+                    align,
+                );
+                let u = self.uniform(&ToneMapParams {
+                    sigma: r.sigma_cells[i] as f32,
+                    radius: r.radius[i],
+                    band_first: rows.first,
+                    band_rows: rows.rows,
+                    window_first: halo.first_row,
+                    dst_offset: at,
+                    ..r.level_params(base, k)
+                });
+                rec.window(8, halo);
+                rec.items(
+                    gw * rows.rows,
+                    REINHARD_SHADER,
+                    "blur_y",
+                    &[(0, &u), (8, &buffers.tmp[i]), (9, &blurred)],
+                )?;
+                let scale = r.ratio.powi(i as i32) as f32;
+                table[i] = [at, k, scale.to_bits(), rows.first];
+                at += gw * rows.rows;
+            }
+            let table_buffer =
+                self.ctx
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("reinhard scales"),
+                        contents: bytemuck::cast_slice(&table),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
+            let u = self.band_uniform(
+                &ToneMapParams {
+                    levels: r.levels.len() as u32,
+                    ..*base
+                },
+                band,
+            );
+            rec.window(1, plan.pixel_window(band, 16))
+                .window(2, plan.pixel_window(band, 16));
+            rec.pixels(
+                band,
+                REINHARD_SHADER,
+                "apply",
+                &[
+                    (0, &u),
+                    (1, &call.image),
+                    (2, &call.output),
+                    (3, &call.stats),
+                    (11, &blurred),
+                    (18, &table_buffer),
+                ],
+            )?;
+        }
+        Ok(())
+    }
+}
+/// The shader file of Reinhard's dodging and burning.
+const REINHARD_SHADER: &str = "tonemap/reinhard_local.wgsl";
+
+/// Reinhard's pyramid, its levels alternating between two buffers at `offsets`, and each
+/// scale's horizontal blur.
+struct ReinhardBuffers {
+    offsets: Vec<u64>,
+    pyramid: [wgpu::Buffer; 2],
+    tmp: Vec<wgpu::Buffer>,
+}
+
+impl ReinhardBuffers {
+    /// The buffer holding pyramid level k.
+    fn level(&self, k: u32) -> &wgpu::Buffer {
+        &self.pyramid[(k % 2) as usize]
+    }
+}
+
+/// Labels of the per-scale horizontal-blur buffers of Reinhard's operator (at most 17 scales).
+const TMP_LABELS: [&str; 17] = [
+    "reinhard blur 0",
+    "reinhard blur 1",
+    "reinhard blur 2",
+    "reinhard blur 3",
+    "reinhard blur 4",
+    "reinhard blur 5",
+    "reinhard blur 6",
+    "reinhard blur 7",
+    "reinhard blur 8",
+    "reinhard blur 9",
+    "reinhard blur 10",
+    "reinhard blur 11",
+    "reinhard blur 12",
+    "reinhard blur 13",
+    "reinhard blur 14",
+    "reinhard blur 15",
+    "reinhard blur 16",
+];
+
+/// Reinhard's scales on their pyramid levels (params.rs: `blur_sigma`, `reinhard_level`,
+/// `grid_sigma`) for one image size.
+pub(super) struct ReinhardPlan {
+    width: u32,
+    height: u32,
+    ratio: f64,
+    /// Pyramid level of each scale.
+    levels: Vec<u32>,
+    sigma_cells: Vec<f64>,
+    radius: Vec<u32>,
+    deepest: u32,
+}
+
+impl ReinhardPlan {
+    pub(super) fn new(width: u32, height: u32, alpha1: f64, ratio: f64, scales: u32) -> Self {
+        let sigmas: Vec<f64> = (0..=scales).map(|i| blur_sigma(alpha1, ratio, i)).collect();
+        let levels: Vec<u32> = sigmas.iter().map(|&s| reinhard_level(s)).collect();
+        let sigma_cells: Vec<f64> = sigmas
+            .iter()
+            .zip(&levels)
+            .map(|(&s, &k)| grid_sigma(s, 1 << k))
+            .collect();
+        ReinhardPlan {
+            width,
+            height,
+            ratio,
+            radius: sigma_cells.iter().map(|&s| gaussian_radius(s)).collect(),
+            deepest: levels.iter().copied().max().unwrap_or(0),
+            levels,
+            sigma_cells,
+        }
+    }
+
+    /// `base` on the cells of pyramid level k (2^k pixels a side).
+    fn level_params(&self, base: &ToneMapParams, k: u32) -> ToneMapParams {
+        let cell = 1u32 << k;
+        ToneMapParams {
+            cell,
+            grid_width: self.width.div_ceil(cell),
+            grid_height: self.height.div_ceil(cell),
+            ..*base
+        }
+    }
+
+    fn level_size(&self, k: u32) -> (u32, u32) {
+        (self.width.div_ceil(1 << k), self.height.div_ceil(1 << k))
+    }
+
+    fn level_bytes(&self, k: u32) -> u64 {
+        let (gw, gh) = self.level_size(k);
+        gw as u64 * gh as u64 * 8
+    }
+
+    /// Byte offset of each level in its parity's buffer (aligned, so windows can start there).
+    fn pyramid_offsets(&self, align: u64) -> Vec<u64> {
+        let mut next = [0u64; 2];
+        (0..=self.deepest)
+            .map(|k| {
+                let p = (k % 2) as usize;
+                let here = next[p];
+                next[p] = (here + self.level_bytes(k)).next_multiple_of(align);
+                here
+            })
+            .collect()
+    }
+
+    /// The cell rows of level k that the bilinear read of pixel row y touches (as the apply
+    /// pass: cell centres at (c + 0.5)·2^k − 0.5, clamped to the outermost).
+    fn cell_rows(&self, k: u32, y: u32) -> (u32, u32) {
+        if k == 0 {
+            return (y, y);
+        }
+        let gh = self.level_size(k).1;
+        let cell = (1u32 << k) as f64;
+        let v = ((y as f64 + 0.5) / cell - 0.5).clamp(0.0, (gh - 1) as f64);
+        let y0 = v.floor() as u32;
+        (y0, (y0 + 1).min(gh - 1))
+    }
+
+    /// Per scale, the rows of its level that pixel rows `band` read.
+    fn planes_for(&self, band: Band) -> Vec<Band> {
+        self.levels
+            .iter()
+            .map(|&k| {
+                let first = self.cell_rows(k, band.first).0;
+                let last = self.cell_rows(k, band.end() - 1).1;
+                Band {
+                    first,
+                    rows: last - first + 1,
+                }
+            })
+            .collect()
+    }
+
+    fn planes_bytes(&self, planes: &[Band]) -> u64 {
+        planes
+            .iter()
+            .zip(&self.levels)
+            .map(|(p, &k)| p.rows as u64 * self.level_size(k).0 as u64 * 8)
+            .sum()
+    }
+
+    /// Whether a band of `rows` pixel rows keeps Reinhard's windows within `limit`: level 0
+    /// of the pyramid, the band's blurred rows of every scale, and each vertical blur's input
+    /// (the band's rows plus the blur's radius on both sides).
+    pub(super) fn band_fits(&self, rows: u32, limit: u64, align: u64) -> bool {
+        let rows = rows.min(self.height);
+        let worst = Band {
+            first: (self.height - rows) / 2,
+            rows,
+        };
+        let planes = self.planes_for(worst);
+        let halo_fits = planes
+            .iter()
+            .zip(&self.levels)
+            .zip(&self.radius)
+            .all(|((p, &k), &r)| {
+                let row = self.level_size(k).0 as u64 * 8;
+                (p.rows as u64 + 2 * r as u64 + bands::row_step(row, align) as u64) * row <= limit
+            });
+        rows as u64 * self.width as u64 * 8 <= limit
+            && self.planes_bytes(&planes) <= limit
+            && halo_fits
+    }
+}
