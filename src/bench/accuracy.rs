@@ -151,7 +151,7 @@ pub(crate) fn tsunami_scene(n: usize) -> Result<AccuracyScene> {
         },
         ..Default::default()
     };
-    let path = Job::Tsunami(job).run_cached(OutputFormat::NetCdf, &mut |_| {})?;
+    let path = Job::Tsunami(job).run_cached(OutputFormat::NetCdf, &mut |_| Ok(()))?;
     let g = crate::datasets::load_grid(&path, None)?;
     let (eta, depth) = (g.property("max_abs_eta")?, g.property("depth")?);
     let column: Vec<f64> = eta
@@ -179,7 +179,7 @@ pub(crate) fn fault_scene(n: usize) -> Result<AccuracyScene> {
         n,
         ..Default::default()
     };
-    let path = Job::Okada(job).run_cached(OutputFormat::NetCdf, &mut |_| {})?;
+    let path = Job::Okada(job).run_cached(OutputFormat::NetCdf, &mut |_| Ok(()))?;
     let g = crate::datasets::load_grid(&path, None)?;
     let uz: Vec<f64> = g.property("uz")?.iter().map(|&v| 1.0e5 + v).collect();
     let grid = Grid::from_arrays("fault", g.nx(), g.ny(), vec![("uz".into(), uz)])?;

@@ -30,7 +30,7 @@ pub fn bench_generators(
         for r in 0..runs.max(1) {
             let path = dir.path().join(format!("{}-{r}.nc", job.kind()));
             let start = std::time::Instant::now();
-            job.run(&path, &mut |_| {})?;
+            job.run(&path, &mut |_| Ok(()))?;
             runs_s.push(start.elapsed().as_secs_f64());
             let _ = std::fs::remove_file(&path);
         }

@@ -161,7 +161,7 @@ pub(crate) fn mantle_fluctuation(n: usize, seed: u64) -> Result<Volume> {
             fields: MantleFields::only(MantleField::Fluctuation),
             ..Default::default()
         },
-        &mut |_| {},
+        &mut |_| Ok(()),
     )?;
     Volume::new(
         format!("mantle fluctuation {n}^3"),

@@ -23,7 +23,7 @@ pub(crate) fn native_mantle(n: usize) -> Result<Volume> {
             fields: MantleFields::only(field),
             ..Default::default()
         },
-        &mut |_| {},
+        &mut |_| Ok(()),
     )?;
     m.volume(field, 7)?
         .ok_or_else(|| Error::invalid("field", "the fluctuation was not generated"))

@@ -200,7 +200,10 @@ pub struct InfoArgs {
 pub fn run_gen(cmd: &GenCommand) -> Result<PathBuf> {
     let (job, output) = job_of(cmd)?;
     let mut bar = ProgressBar::new(job.kind());
-    let mut progress = |f: f64| bar.set(f);
+    let mut progress = |f: f64| {
+        bar.set(f);
+        Ok(())
+    };
     let path = match &output.output {
         Some(path) => {
             let format = OutputFormat::from_path(path)?;

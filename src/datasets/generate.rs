@@ -76,7 +76,7 @@ impl Job {
         }
     }
 
-    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64)) -> Result<()> {
+    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64) -> Result<()>) -> Result<()> {
         match self {
             Job::Okada(job) => job.run(out, progress),
             Job::Tsunami(job) => job.run(out, progress),
@@ -88,7 +88,7 @@ impl Job {
     pub fn run_cached(
         &self,
         format: OutputFormat,
-        progress: &mut dyn FnMut(f64),
+        progress: &mut dyn FnMut(f64) -> Result<()>,
     ) -> Result<PathBuf> {
         cache::cached(self.kind(), &self.cache_key(), format.extension(), |path| {
             self.run(path, progress)
@@ -147,7 +147,7 @@ impl OkadaJob {
     }
 
     /// Computes the field and writes it to `out` (`.nc` or `.npy`).
-    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64)) -> Result<()> {
+    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64) -> Result<()>) -> Result<()> {
         let format = OutputFormat::from_path(out)?;
         if !(self.observation_depth_m.is_finite() && self.observation_depth_m >= 0.0) {
             return Err(Error::invalid(
@@ -161,7 +161,7 @@ impl OkadaJob {
         if self.segments.is_empty() {
             return Err(Error::invalid("segments", "at least one fault is required"));
         }
-        progress(0.0);
+        progress(0.0)?;
         let mut field = okada::surface_field(&self.segments, &self.elastic, self.extent_m, self.n)?;
         if self.observation_depth_m > 0.0 {
             let z = -self.observation_depth_m;
@@ -240,7 +240,7 @@ impl OkadaJob {
                 super::npy::write_npy::<f64>(out, &[3, n, n], &stack)?;
             }
         }
-        progress(1.0);
+        progress(1.0)?;
         Ok(())
     }
 }
@@ -428,7 +428,7 @@ impl TsunamiJob {
         }]
     }
 
-    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64)) -> Result<()> {
+    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64) -> Result<()>) -> Result<()> {
         let format = OutputFormat::from_path(out)?;
         let bathy = self.load_bathymetry()?;
         let segments = self.source_segments(&bathy);
@@ -603,7 +603,7 @@ impl MantleJob {
         cache::key_of(&self.canonical())
     }
 
-    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64)) -> Result<()> {
+    pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64) -> Result<()>) -> Result<()> {
         let format = OutputFormat::from_path(out)?;
         let o = &self.options;
         let wanted: Vec<MantleField> = MantleField::ALL
@@ -705,7 +705,7 @@ impl MantleJob {
         &self,
         out: &Path,
         format: OutputFormat,
-        progress: &mut dyn FnMut(f64),
+        progress: &mut dyn FnMut(f64) -> Result<()>,
     ) -> Result<()> {
         if format != OutputFormat::NetCdf {
             return Err(Error::invalid(
@@ -793,7 +793,7 @@ mod tests {
             n: 21,
             ..OkadaJob::default()
         };
-        job.run(&out, &mut |_| {}).unwrap();
+        job.run(&out, &mut |_| Ok(())).unwrap();
         let names: Vec<String> = netcdf::list_variables(&out)
             .unwrap()
             .into_iter()
@@ -832,7 +832,7 @@ mod tests {
             n: 5,
             ..OkadaJob::default()
         };
-        job.run(&out, &mut |_| {}).unwrap();
+        job.run(&out, &mut |_| Ok(())).unwrap();
         let arr = super::super::npy::read_npy::<f64>(&out).unwrap();
         assert_eq!(arr.shape, [3, 5, 5]);
         let field = okada::surface_field(&job.segments, &job.elastic, 1.0e6, 5).unwrap();
@@ -843,11 +843,15 @@ mod tests {
     fn okada_refuses_bad_output_and_parameters() {
         let dir = tempfile::tempdir().unwrap();
         let job = OkadaJob::default();
-        let err = job.run(&dir.path().join("a.txt"), &mut |_| {}).unwrap_err();
+        let err = job
+            .run(&dir.path().join("a.txt"), &mut |_| Ok(()))
+            .unwrap_err();
         assert!(err.to_string().starts_with("output:"), "{err}");
         let mut bad = OkadaJob { n: 5, ..job };
         bad.segments[0].dip_deg = 95.0;
-        let err = bad.run(&dir.path().join("a.nc"), &mut |_| {}).unwrap_err();
+        let err = bad
+            .run(&dir.path().join("a.nc"), &mut |_| Ok(()))
+            .unwrap_err();
         assert!(err.to_string().contains("[-90, 90]"), "{err}");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
     }
@@ -868,7 +872,11 @@ mod tests {
             ..TsunamiJob::default()
         };
         let mut last = 0.0;
-        job.run(&out, &mut |f| last = f).unwrap();
+        job.run(&out, &mut |f| {
+            last = f;
+            Ok(())
+        })
+        .unwrap();
         assert_eq!(last, 1.0);
         let max = netcdf::read_variable(&out, "max_abs_eta").unwrap();
         let eta0 = netcdf::read_variable(&out, "initial_eta").unwrap();
@@ -935,13 +943,15 @@ mod tests {
             native: false,
         };
         let out = dir.path().join("m.nc");
-        job.run(&out, &mut |_| {}).unwrap();
+        job.run(&out, &mut |_| Ok(())).unwrap();
         let t = netcdf::read_variable(&out, "temperature").unwrap();
         assert_eq!(t.dims.iter().map(|d| d.1).collect::<Vec<_>>(), [17, 17, 17]);
         assert!(netcdf::read_variable(&out, "viscosity").is_ok());
         // Corner cells lie outside the shell and are missing.
         assert!(t.data[0].is_nan());
-        let err = job.run(&dir.path().join("m.npy"), &mut |_| {}).unwrap_err();
+        let err = job
+            .run(&dir.path().join("m.npy"), &mut |_| Ok(()))
+            .unwrap_err();
         assert!(err.to_string().starts_with("field:"), "{err}");
     }
 
@@ -966,7 +976,7 @@ mod tests {
             .cache_key()
         );
         let out = dir.path().join("m.nc");
-        job.run(&out, &mut |_| {}).unwrap();
+        job.run(&out, &mut |_| Ok(())).unwrap();
         let t = netcdf::read_variable(&out, "temperature").unwrap();
         let names: Vec<&str> = t.dims.iter().map(|d| d.0.as_str()).collect();
         assert_eq!(names, ["radius", "latitude", "longitude"]);
@@ -984,7 +994,9 @@ mod tests {
         let layer = nlat * nlon;
         assert!(v.data[..layer].iter().all(|&x| (x - 1.0).abs() < 1e-6));
         assert!(v.data[(nr - 1) * layer..].iter().all(|&x| x.abs() < 1e-6));
-        let err = job.run(&dir.path().join("m.npy"), &mut |_| {}).unwrap_err();
+        let err = job
+            .run(&dir.path().join("m.npy"), &mut |_| Ok(()))
+            .unwrap_err();
         assert!(err.to_string().contains("write .nc"), "{err}");
     }
 }

@@ -4,6 +4,7 @@
 
 use super::convert::{to_rhai, RResult};
 use super::options::{opt, Kind, OptionTable};
+use super::ScriptHost;
 use crate::datasets::generate::{
     BathymetrySource, Job, MantleJob, OkadaJob, OutputFormat, TsunamiJob, MAX_TSUNAMI_N,
 };
@@ -11,6 +12,7 @@ use crate::datasets::mantle::{MantleField, MantleFields, MantleOptions, MAX_FEAT
 use crate::datasets::okada::{DepthRef, MAX_GRID_SIDE};
 use crate::datasets::tsunami::Boundary;
 use rhai::{Engine, Map};
+use std::sync::Arc;
 
 const MANTLE_FIELDS: &[&str] = &["temperature", "fluctuation", "viscosity"];
 
@@ -209,12 +211,15 @@ fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
     }
 }
 
-pub(crate) fn register(engine: &mut Engine) {
-    engine.register_fn("generate", |kind: &str, opts: Map| -> RResult<String> {
-        let job = job_of(kind, &opts)?;
-        let path = job
-            .run_cached(OutputFormat::NetCdf, &mut |_| {})
-            .map_err(to_rhai)?;
-        Ok(path.display().to_string())
-    });
+pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+    engine.register_fn(
+        "generate",
+        move |kind: &str, opts: Map| -> RResult<String> {
+            let job = job_of(kind, &opts)?;
+            let path = job
+                .run_cached(OutputFormat::NetCdf, &mut |_| host.check_deadline())
+                .map_err(to_rhai)?;
+            Ok(path.display().to_string())
+        },
+    );
 }

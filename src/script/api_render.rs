@@ -228,7 +228,7 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
             // Generation takes seconds at 256³; a re-run of the script (TUI, sweep) reuses it.
             h.session
                 .generated_volume(&("mantle", &o, field.name()), || {
-                    let m = crate::datasets::mantle::generate(&o, &mut |_| {})?;
+                    let m = crate::datasets::mantle::generate(&o, &mut |_| h.check_deadline())?;
                     let n = m.n;
                     let data = m.field(field).map(|d| d.to_vec()).unwrap_or_default();
                     let mut v = Volume::new(

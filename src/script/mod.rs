@@ -201,6 +201,9 @@ pub(crate) struct ScriptHost {
     on_written: Option<WrittenObserver>,
     /// [`ScriptOptions::shard`].
     pub shard: Shard,
+    /// The run's `--timeout` deadline and limit, set by [`new_engine`]: long native calls
+    /// (generators) check it through [`ScriptHost::check_deadline`].
+    pub deadline: std::sync::OnceLock<(Instant, Duration)>,
     /// A planning run (`hdrvis sweep-status`): every function checks its arguments as in a real
     /// run, then renders return blank images of the requested size, image operations return
     /// their input, and saves record their path instead of writing.
@@ -247,6 +250,21 @@ impl ScriptHost {
         self.plan_only
     }
 
+    /// An error once the run's `--timeout` deadline has passed (a generator calls this between
+    /// its steps, so a long one stops within a step of the limit).
+    pub(crate) fn check_deadline(&self) -> Result<()> {
+        match self.deadline.get() {
+            Some((deadline, limit)) if Instant::now() >= *deadline => Err(Error::invalid(
+                "--timeout",
+                format!(
+                    "stopped at the time limit of {:?} s (--timeout) while generating",
+                    limit.as_secs_f64()
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// Records a finished output and tells the observer.
     pub(crate) fn note_written(&self, path: PathBuf) {
         if let Some(observer) = &self.on_written {
@@ -275,6 +293,7 @@ pub(crate) fn new_engine(
         Some((at, limit))
     });
     if let Some((deadline, limit)) = deadline {
+        let _ = host.deadline.set((deadline, limit));
         engine.set_max_operations(0);
         // Rhai calls this before every operation; the clock is read every 1024th, which keeps
         // the cost out of tight loops and still stops within microseconds of the deadline.
@@ -318,7 +337,7 @@ pub(crate) fn new_engine(
     api_output::register_params(&mut engine, host.clone());
     api_bricks::register(&mut engine, host.clone());
     api_post::register(&mut engine, host.clone());
-    api_datasets::register(&mut engine);
+    api_datasets::register(&mut engine, host.clone());
     api_fields::register(&mut engine);
     api_grids::register(&mut engine);
     api_surface::register(&mut engine, host.clone());
@@ -430,6 +449,7 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         gpu_memory_mib: None,
         on_written: None,
         shard: Shard::ALL,
+        deadline: std::sync::OnceLock::new(),
         plan_only: false,
     })
 }
@@ -490,6 +510,7 @@ pub fn run_script_source(
         gpu_memory_mib: opts.gpu_memory_mib,
         on_written: opts.on_written.clone(),
         shard: opts.shard,
+        deadline: std::sync::OnceLock::new(),
         plan_only: opts.plan_only,
     });
     let engine = new_engine(host.clone(), opts.max_operations, opts.timeout);
@@ -736,6 +757,25 @@ mod tests {
         r.unwrap();
         let (r, _) = run_for("sleep(-1.0);", None);
         assert!(r.unwrap_err().to_string().contains("expected seconds >= 0"));
+    }
+
+    #[test]
+    fn a_long_generator_stops_at_the_timeout() {
+        // At n = 1500 the tsunami takes tens of seconds; it checks the clock every 1 % of its
+        // steps.
+        let (r, took) = run_for(
+            "generate(\"tsunami\", #{ n: 1500 });",
+            Some(Duration::from_millis(1500)),
+        );
+        let e = r.unwrap_err().to_string();
+        assert!(
+            e.contains("time limit of 1.5 s (--timeout) while generating"),
+            "{e}"
+        );
+        assert!(
+            took < 6.0,
+            "the generator ran {took:.1} s past a 1.5 s limit"
+        );
     }
 
     #[test]

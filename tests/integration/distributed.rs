@@ -180,7 +180,7 @@ fn slabs_of_the_mantle_place_their_samples_where_one_process_does() {
             fields: MantleFields::only(MantleField::Fluctuation),
             ..Default::default()
         },
-        &mut |_| {},
+        &mut |_| Ok(()),
     )
     .unwrap();
     let h = 2.0 / n as f64;

@@ -161,7 +161,7 @@ fn eight_bit_compositing_loses_the_faint_structure_f32_keeps() {
             fields: MantleFields::only(MantleField::Fluctuation),
             ..Default::default()
         },
-        &mut |_| {},
+        &mut |_| Ok(()),
     )
     .unwrap();
     let vol = Volume::new(

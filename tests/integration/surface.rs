@@ -619,7 +619,7 @@ fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
         extent_m: 2.0e5,
         ..Default::default()
     };
-    job.run(&nc, &mut |_| {}).unwrap();
+    job.run(&nc, &mut |_| Ok(())).unwrap();
     let grid = hdrvis::datasets::load_grid(&nc, None).unwrap();
     assert_eq!(grid.property_names(), vec!["ux", "uy", "uz"]);
     assert_eq!(grid.units(2), "m");
@@ -935,7 +935,7 @@ fn antialiasing_removes_the_moire_from_the_tsunami_scene() {
         },
         ..Default::default()
     };
-    job.run(&nc, &mut |_| {}).unwrap();
+    job.run(&nc, &mut |_| Ok(())).unwrap();
     let grid = hdrvis::datasets::load_grid(&nc, Some("max_abs_eta")).unwrap();
     let nu = 10.0;
     for backend in crate::common::backends() {

@@ -87,10 +87,13 @@ impl MantleVolume {
 #[cfg(test)]
 pub(crate) fn spherical_field(opts: &MantleOptions) -> Result<SphericalGrid> {
     opts.validate()?;
-    build_spherical(opts, &mut |_| {})
+    build_spherical(opts, &mut |_| Ok(()))
 }
 
-fn build_spherical(opts: &MantleOptions, progress: &mut dyn FnMut(f64)) -> Result<SphericalGrid> {
+fn build_spherical(
+    opts: &MantleOptions,
+    progress: &mut dyn FnMut(f64) -> Result<()>,
+) -> Result<SphericalGrid> {
     let res = opts.spherical_resolution();
     let radii: Vec<f64> = (0..res.radial).map(|ir| node_radius(&res, ir)).collect();
     let convecting = opts.rayleigh > CRITICAL_RAYLEIGH;
@@ -162,7 +165,7 @@ fn build_spherical(opts: &MantleOptions, progress: &mut dyn FnMut(f64)) -> Resul
                 *total += weight * sum;
             }
         }
-        progress(((first_row + row_sums.len()) as f64 / res.theta as f64).min(1.0));
+        progress(((first_row + row_sums.len()) as f64 / res.theta as f64).min(1.0))?;
     }
     let weight_total: f64 = weights.iter().sum::<f64>() * res.phi as f64;
     let radial_mean = shell_sums.iter().map(|s| s / weight_total).collect();
@@ -221,9 +224,12 @@ fn slabs(values: &mut [f32], len: usize, wanted: bool, n: usize) -> Vec<Option<&
 /// receives fractions from 0 to 1 on the calling thread. Memory: 4 bytes per spherical node
 /// (`SphericalResolution::nodes`) plus 4 n^3 bytes per requested field; for n = 513 that is
 /// 612 MB + 540 MB per field.
-pub fn generate(opts: &MantleOptions, progress: &mut dyn FnMut(f64)) -> Result<MantleVolume> {
+pub fn generate(
+    opts: &MantleOptions,
+    progress: &mut dyn FnMut(f64) -> Result<()>,
+) -> Result<MantleVolume> {
     opts.validate()?;
-    progress(0.0);
+    progress(0.0)?;
     let grid = build_spherical(opts, &mut |f| progress(f * SPHERICAL_PROGRESS_SHARE))?;
     let n = opts.n;
     let cells = n * n * n;
@@ -273,7 +279,7 @@ pub fn generate(opts: &MantleOptions, progress: &mut dyn FnMut(f64)) -> Result<M
         progress(
             SPHERICAL_PROGRESS_SHARE
                 + (1.0 - SPHERICAL_PROGRESS_SHARE) * done as f64 / slab_count as f64,
-        );
+        )?;
     }
     drop(work);
     Ok(MantleVolume {
@@ -328,11 +334,11 @@ impl NativeMantle {
 /// grid and for each field.
 pub fn generate_native(
     opts: &MantleOptions,
-    progress: &mut dyn FnMut(f64),
+    progress: &mut dyn FnMut(f64) -> Result<()>,
 ) -> Result<NativeMantle> {
     use crate::model::{CoordAxis, SphericalGrid as Shell};
     opts.validate()?;
-    progress(0.0);
+    progress(0.0)?;
     let grid = build_spherical(opts, &mut |f| progress(0.8 * f))?;
     let res = grid.resolution;
     let km = super::cf::EARTH_RADIUS_KM;
@@ -380,7 +386,7 @@ pub fn generate_native(
             });
         fields.push((field, data));
     }
-    progress(1.0);
+    progress(1.0)?;
     Ok(NativeMantle {
         geometry,
         dims: [res.phi, res.theta, res.radial],

@@ -4,8 +4,8 @@
 use super::temperature::{conductive_temperature, BoundaryLayers};
 use super::*;
 
-fn quiet() -> impl FnMut(f64) {
-    |_| {}
+fn quiet() -> impl FnMut(f64) -> Result<()> {
+    |_| Ok(())
 }
 
 fn small(n: usize) -> MantleOptions {
@@ -322,7 +322,11 @@ fn only_the_requested_field_is_generated() {
 #[test]
 fn progress_rises_to_one() {
     let mut seen = Vec::new();
-    generate(&small(20), &mut |f| seen.push(f)).unwrap();
+    generate(&small(20), &mut |f| {
+        seen.push(f);
+        Ok(())
+    })
+    .unwrap();
     assert_eq!(seen.first(), Some(&0.0));
     assert!((seen.last().unwrap() - 1.0).abs() < 1e-12);
     assert!(seen.windows(2).all(|w| w[1] >= w[0]));

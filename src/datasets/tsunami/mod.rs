@@ -101,7 +101,7 @@ pub(crate) fn simulate(
     bathy: &Bathymetry,
     eta0: &[f64],
     opts: &TsunamiOptions,
-    progress: &mut dyn FnMut(f64),
+    progress: &mut dyn FnMut(f64) -> Result<()>,
 ) -> Result<TsunamiResult> {
     bathy.validate()?;
     validate_options(opts)?;
@@ -175,7 +175,7 @@ pub(crate) fn simulate(
         }
         model.continuity_and_record((step + 1) as f64 * dt, opts.arrival_threshold_m);
         if (step + 1) % report_every == 0 || step + 1 == steps {
-            progress((step + 1) as f64 / steps as f64);
+            progress((step + 1) as f64 / steps as f64)?;
         }
     }
     // Land has no sea surface: its maximum is missing (NaN), not a zero wave that would draw as

@@ -27,7 +27,7 @@ fn options(duration_s: f64, boundary: Boundary) -> TsunamiOptions {
 }
 
 fn run(bathy: &Bathymetry, eta0: &[f64], opts: &TsunamiOptions) -> TsunamiResult {
-    simulate(bathy, eta0, opts, &mut |_| {}).expect("valid run")
+    simulate(bathy, eta0, opts, &mut |_| Ok(())).expect("valid run")
 }
 
 /// Gaussian hump of amplitude `amplitude`, replicated over every row, centred at `centre_m`.
@@ -343,42 +343,42 @@ fn bad_input_is_rejected_with_the_field_named() {
         dt_s: Some(1.01 * limit),
         ..options(100.0, Boundary::Open)
     };
-    let (name, msg) = field(simulate(&bathy, &eta0, &too_long, &mut |_| {}));
+    let (name, msg) = field(simulate(&bathy, &eta0, &too_long, &mut |_| Ok(())));
     assert_eq!(name, "dt");
     assert!(msg.contains(&format!("{limit:.6}")), "{msg}");
     let at_limit = TsunamiOptions {
         dt_s: Some(limit),
         ..too_long.clone()
     };
-    assert!(simulate(&bathy, &eta0, &at_limit, &mut |_| {}).is_ok());
+    assert!(simulate(&bathy, &eta0, &at_limit, &mut |_| Ok(())).is_ok());
 
     let short = vec![0.0; 199];
     let opts = options(100.0, Boundary::Open);
     assert_eq!(
-        field(simulate(&bathy, &short, &opts, &mut |_| {})).0,
+        field(simulate(&bathy, &short, &opts, &mut |_| Ok(()))).0,
         "eta0"
     );
     let mut nan_eta = eta0.clone();
     nan_eta[3] = f64::INFINITY;
     assert_eq!(
-        field(simulate(&bathy, &nan_eta, &opts, &mut |_| {})).0,
+        field(simulate(&bathy, &nan_eta, &opts, &mut |_| Ok(()))).0,
         "eta0"
     );
     let mut holed = bathy.clone();
     holed.depth_m[7] = f64::NAN;
     assert_eq!(
-        field(simulate(&holed, &eta0, &opts, &mut |_| {})).0,
+        field(simulate(&holed, &eta0, &opts, &mut |_| Ok(()))).0,
         "depth_m"
     );
     let mut short_depth = bathy.clone();
     short_depth.depth_m.pop();
     assert_eq!(
-        field(simulate(&short_depth, &eta0, &opts, &mut |_| {})).0,
+        field(simulate(&short_depth, &eta0, &opts, &mut |_| Ok(()))).0,
         "depth_m"
     );
     let dry = flat(20, 10, 1000.0, -5.0);
     assert_eq!(
-        field(simulate(&dry, &eta0, &opts, &mut |_| {})).0,
+        field(simulate(&dry, &eta0, &opts, &mut |_| Ok(()))).0,
         "depth_m"
     );
     for (name, bad) in [
@@ -406,7 +406,10 @@ fn bad_input_is_rejected_with_the_field_named() {
             },
         ),
     ] {
-        assert_eq!(field(simulate(&bathy, &eta0, &bad, &mut |_| {})).0, name);
+        assert_eq!(
+            field(simulate(&bathy, &eta0, &bad, &mut |_| Ok(()))).0,
+            name
+        );
     }
 }
 
@@ -418,7 +421,11 @@ fn progress_reaches_one_and_the_step_ends_on_the_duration() {
         dt_s: Some(7.0),
         ..options(100.0, Boundary::Open)
     };
-    let result = simulate(&bathy, &[0.0; 100], &opts, &mut |f| reports.push(f)).unwrap();
+    let result = simulate(&bathy, &[0.0; 100], &opts, &mut |f| {
+        reports.push(f);
+        Ok(())
+    })
+    .unwrap();
     assert_eq!(result.steps, 15);
     assert!((result.dt_s * 15.0 - 100.0).abs() < 1e-12);
     assert_eq!(reports.last(), Some(&1.0));
