@@ -120,7 +120,9 @@ pub(crate) fn print_picture_inline(
     if !std::io::stdout().is_terminal() {
         return Ok(false);
     }
-    let cell = crate::io::terminal_query::cell_size(CELL_QUERY_TIMEOUT);
+    // Asked once per process: the cell size stays with the font, and a sweep previews often.
+    static CELL: std::sync::OnceLock<Option<(u16, u16)>> = std::sync::OnceLock::new();
+    let cell = *CELL.get_or_init(|| crate::io::terminal_query::cell_size(CELL_QUERY_TIMEOUT));
     let height_cells = picture_rows(picture.width(), picture.height(), width_cells, cell);
     viuer::print(picture, &protocol.viuer_config(width_cells, height_cells))
         .map_err(|e| Error::invalid(what, format!("terminal preview failed: {e}")))?;

@@ -492,16 +492,18 @@ fn available_memory_bytes() -> Option<u64> {
         .min()
 }
 
-/// The `key:` line of a `/proc` status-like file, in bytes (its value is in kB).
-fn proc_kib(file: &str, key: &str) -> Option<u64> {
-    let text = std::fs::read_to_string(file).ok()?;
+/// The `key:` line of a `/proc` status-like text, in bytes (its value is in kB).
+fn proc_kib(text: &str, key: &str) -> Option<u64> {
     let line = text.lines().find(|l| l.starts_with(key))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
 }
 
 fn meminfo_available() -> Option<u64> {
-    proc_kib("/proc/meminfo", "MemAvailable:")
+    proc_kib(
+        &std::fs::read_to_string("/proc/meminfo").ok()?,
+        "MemAvailable:",
+    )
 }
 
 /// What this process's cgroup (v2) may still take: `memory.max` less `memory.current`.
@@ -523,8 +525,9 @@ fn rlimit_available() -> Option<u64> {
             .current
             .map(|limit| limit.saturating_sub(held.unwrap_or(0)))
     };
-    let address_space = left(Resource::As, proc_kib("/proc/self/status", "VmSize:"));
-    let data = left(Resource::Data, proc_kib("/proc/self/status", "VmData:"));
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let address_space = left(Resource::As, proc_kib(&status, "VmSize:"));
+    let data = left(Resource::Data, proc_kib(&status, "VmData:"));
     [address_space, data].into_iter().flatten().min()
 }
 

@@ -2,11 +2,11 @@
 //! `.npy` read where needed, NetCDF read by hyperslabs); `render_volume` on such a volume goes to
 //! the render session's one entry point like every other render (see `render::route`).
 
-use super::api_render::{blank, render_and_note, render_options, ScriptImage};
+use super::api_render::{blank, render_and_note, render_options, ScriptImage, BRICK_EDGE};
 use super::convert::{to_rhai, variable_option, RResult};
 use super::options::{opt, Kind, OptionTable};
 use super::ScriptHost;
-use crate::model::bricks::{BrickedVolume, BRICK_SIZES, DEFAULT_BRICK};
+use crate::model::bricks::{BrickedVolume, DEFAULT_BRICK};
 use crate::render::VolumeSource;
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
@@ -25,10 +25,7 @@ pub(crate) const OPEN_VOLUME: OptionTable = OptionTable {
         ),
         opt(
             "brick",
-            Kind::Int(
-                BRICK_SIZES[0] as i64,
-                BRICK_SIZES[BRICK_SIZES.len() - 1] as i64,
-            ),
+            BRICK_EDGE,
             "32",
             "brick edge in voxels: 8, 16, 32, 64 or 128",
         ),

@@ -16,9 +16,10 @@ use std::sync::Arc;
 
 const MANTLE_FIELDS: &[&str] = &["temperature", "fluctuation", "viscosity"];
 
-/// The generator's options, shared by `generate_mantle` and `generate("mantle", ...)`.
+/// The generator's options, shared by `generate_mantle` and `generate("mantle", ...)`, followed
+/// by the caller's own.
 macro_rules! mantle_option_specs {
-    () => {
+    ($($own:expr),* $(,)?) => {
         [
             opt(
                 "n",
@@ -50,6 +51,7 @@ macro_rules! mantle_option_specs {
                 "8",
                 "cold slabs sinking from the surface",
             ),
+            $($own),*
         ]
     };
 }
@@ -63,17 +65,12 @@ pub(crate) const GENERATE_MANTLE: OptionTable = OptionTable {
 
 pub(crate) const GENERATE_MANTLE_FILE: OptionTable = OptionTable {
     function: "generate mantle",
-    options: &{
-        let [a, b, c, d, e] = mantle_option_specs!();
-        [
-            a,
-            b,
-            c,
-            d,
-            e,
-            opt("native", Kind::Bool, "false", "keep the spherical grid: CF on radius (km), latitude and longitude, loaded as a spherical volume"),
-        ]
-    },
+    options: &mantle_option_specs!(opt(
+        "native",
+        Kind::Bool,
+        "false",
+        "keep the spherical grid: CF on radius (km), latitude and longitude, loaded as a spherical volume"
+    )),
     call: "generate(\"mantle\", OPTS)",
     base: "#{ n: 4 }",
 };

@@ -44,9 +44,6 @@ pub(crate) const TONEMAP: OptionTable = OptionTable {
     base: "#{}",
 };
 
-/// The shared settings of [`TONEMAP`], read by name.
-const SHARED_SETTINGS: [&str; 6] = ["op", "exposure", "saturation", "gamma", "offset", "gamut"];
-
 /// Builds tone-mapping settings from a script's option map (defaults: Reinhard global, 0 EV).
 pub(crate) fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
     let given = TONEMAP.read(opts)?;
@@ -62,7 +59,7 @@ pub(crate) fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
     // The operator parameters, in the script's order (the operator refuses another's).
     let mut params: Vec<(&str, f64)> = Vec::new();
     for key in opts.keys().map(|k| k.as_str()) {
-        if !SHARED_SETTINGS.contains(&key) {
+        if Operator::is_param(key) {
             if let Some(v) = given.num(key)? {
                 params.push((key, v));
             }

@@ -81,6 +81,12 @@ impl ScriptCamera {
 pub(crate) type ScriptVolume = Arc<Volume>;
 pub(crate) type ScriptImage = Arc<HdrImage>;
 
+/// A brick edge as an option range (the bricking itself refuses edges other than its sizes).
+pub(crate) const BRICK_EDGE: Kind = Kind::Int(
+    BRICK_SIZES[0] as i64,
+    BRICK_SIZES[BRICK_SIZES.len() - 1] as i64,
+);
+
 /// The image side limit as an option range.
 const SIDE: Kind = Kind::Int(1, MAX_IMAGE_SIDE as i64);
 
@@ -113,7 +119,7 @@ pub(crate) const RENDER_VOLUME: OptionTable = OptionTable {
         opt("tf_sampling", Kind::Choice(TfSampling::NAMES), "\"point\"", "preintegrated: the transfer function's mean between the values at each segment's ends (not on the bricked path)"),
         opt("empty_space_skipping", Kind::Bool, "true", "jump over space the transfer function leaves empty (missing data, transparent values), with the same image"),
         opt("memory_budget", Kind::NumAbove(0.0, 1e9), "--gpu-memory, else unlimited", "MiB of GPU memory; larger volumes stream through a brick cache"),
-        opt("brick", Kind::Int(BRICK_SIZES[0] as i64, BRICK_SIZES[BRICK_SIZES.len() - 1] as i64), "none", "brick edge in voxels (8, 16, 32, 64 or 128): render bricked"),
+        opt("brick", BRICK_EDGE, "none", "brick edge in voxels (8, 16, 32, 64 or 128): render bricked"),
         opt("level", Kind::Int(0, MAX_LEVEL as i64), "0", "0 full resolution, 1 half, ... 4: quick look"),
     ],
     call: "render_volume(generate_mantle(#{ n: 4 }), OPTS)",

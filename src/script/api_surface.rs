@@ -21,10 +21,10 @@ use std::sync::Arc;
 
 pub(crate) type ScriptGrid = Arc<Grid>;
 
-/// The options `render_surface`, `surface_colorbar` and `surface_legend` share: what is drawn
-/// and how (the images' sizes are each function's own).
+/// The options `render_surface`, `surface_colorbar` and `surface_legend` share (what is drawn
+/// and how), followed by the function's own (the image's size).
 macro_rules! surface_option_specs {
-    () => {
+    ($($own:expr),* $(,)?) => {
         [
             opt("nu", Kind::Value("number > 0, or one per property", "[2.0]"), "1", "ν: fringes per data unit (one fringe per 1/ν)"),
             opt("mode", Kind::Choice(FringeMode::NAMES), "\"cyclic\"", "cyclic: the colour map over each fringe; modulated: the data's colour modulated by the fringes; direct: the data's colour"),
@@ -40,6 +40,7 @@ macro_rules! surface_option_specs {
             opt("phase", Kind::Choice(PhaseMethod::NAMES), "\"reduced\"", "reduced: f64-exact phase; naive: cos(2πνd) in f32, for comparison"),
             opt("antialias", Kind::Bool, "true", "colours from the fringe averaged over each pixel's footprint"),
             opt("missing", Kind::Text("\"grey\""), "\"transparent\"", "colour of missing data: \"transparent\", a colour name or #rrggbb"),
+            $($own),*
         ]
     };
 }
@@ -49,95 +50,42 @@ const SIDE: Kind = Kind::Int(1, MAX_IMAGE_SIDE as i64);
 
 pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
     function: "render_surface",
-    options: &{
-        let [a, b, c, d, e, f, g, h, i, j, k, l, m, n] = surface_option_specs!();
-        [
-            a,
-            b,
-            c,
-            d,
-            e,
-            f,
-            opt(
-                "width",
-                SIDE,
-                "from the view and the grid's aspect",
-                "pixels",
-            ),
-            opt(
-                "height",
-                SIDE,
-                "from the view and the grid's aspect",
-                "pixels",
-            ),
-            g,
-            h,
-            i,
-            j,
-            k,
-            l,
-            m,
-            n,
-        ]
-    },
+    options: &surface_option_specs!(
+        opt(
+            "width",
+            SIDE,
+            "from the view and the grid's aspect",
+            "pixels"
+        ),
+        opt(
+            "height",
+            SIDE,
+            "from the view and the grid's aspect",
+            "pixels"
+        ),
+    ),
     call: "render_surface(load_grid(\"geo.nc\"), OPTS)",
     base: "#{ width: 8, height: 8 }",
 };
 
 pub(crate) const SURFACE_COLORBAR: OptionTable = OptionTable {
     function: "surface_colorbar",
-    options: &{
-        let [a, b, c, d, e, f, g, h, i, j, k, l, m, n] = surface_option_specs!();
-        [
-            a,
-            b,
-            c,
-            d,
-            e,
-            f,
-            g,
-            h,
-            i,
-            j,
-            k,
-            l,
-            m,
-            n,
-            opt("width", SIDE, "256", "the bar's length in pixels"),
-            opt(
-                "height",
-                Kind::Int(1, MAX_COLORBAR_HEIGHT as i64),
-                "16",
-                "the bar's thickness in pixels",
-            ),
-        ]
-    },
+    options: &surface_option_specs!(
+        opt("width", SIDE, "256", "the bar's length in pixels"),
+        opt(
+            "height",
+            Kind::Int(1, MAX_COLORBAR_HEIGHT as i64),
+            "16",
+            "the bar's thickness in pixels"
+        ),
+    ),
     call: "surface_colorbar(load_grid(\"geo.nc\"), OPTS)",
     base: "#{}",
 };
 
 pub(crate) const SURFACE_LEGEND: OptionTable = OptionTable {
     function: "surface_legend",
-    options: &{
-        let [a, b, c, d, e, f, g, h, i, j, k, l, m, n] = surface_option_specs!();
-        [
-            a,
-            b,
-            c,
-            d,
-            e,
-            f,
-            g,
-            h,
-            i,
-            j,
-            k,
-            l,
-            m,
-            n,
-            opt("width", SIDE, "384", "the legend's width in pixels"),
-        ]
-    },
+    options: &surface_option_specs!(opt("width", SIDE, "384", "the legend's width in pixels"),),
     call: "surface_legend(load_grid(\"geo.nc\"), OPTS)",
     base: "#{}",
 };

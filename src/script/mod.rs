@@ -302,7 +302,7 @@ pub(crate) fn new_engine(
                 .then(|| Dynamic::from(limit.as_secs_f64()))
         });
     }
-    register_sleep(&mut engine, deadline);
+    register_sleep(&mut engine, host.clone());
     bound_maps_grown_by_index(&mut engine);
     engine
         .set_max_call_levels(64)
@@ -383,13 +383,13 @@ pub const MAX_SLEEP_WITHOUT_TIMEOUT_S: f64 = 1.0;
 /// `sleep(seconds)` in place of Rhai's own, which blocks past any limit: with `--timeout` a sleep
 /// ends at the deadline with the timeout's error; without, the run's sleeps add up to at most
 /// [`MAX_SLEEP_WITHOUT_TIMEOUT_S`].
-fn register_sleep(engine: &mut Engine, deadline: Option<(Instant, Duration)>) {
+fn register_sleep(engine: &mut Engine, host: Arc<ScriptHost>) {
     let slept = Arc::new(Mutex::new(0.0_f64));
     let sleep = move |seconds: f64| -> convert::RResult<()> {
         if !(seconds.is_finite() && seconds >= 0.0) {
             return convert::err("sleep", format!("expected seconds >= 0, got {seconds}"));
         }
-        match deadline {
+        match host.deadline.get().copied() {
             Some((deadline, limit)) => {
                 let left = deadline.saturating_duration_since(Instant::now());
                 let wanted = Duration::from_secs_f64(seconds.min(1e9));

@@ -253,6 +253,13 @@ impl Operator {
         }
     }
 
+    /// Whether some operator takes a parameter named `name`.
+    pub(crate) fn is_param(name: &str) -> bool {
+        Self::NAMES
+            .iter()
+            .any(|op| Self::param_names(op).contains(&name))
+    }
+
     /// Checks every parameter against its allowed range.
     pub fn validate(&self) -> Result<()> {
         match *self {
