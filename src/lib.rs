@@ -3,8 +3,9 @@
 //! on any wgpu adapter including Mesa's CPU rasterizers, driven from the command line and Rhai
 //! scripts. The library holds everything; the `hdrvis` binary is a thin client.
 //!
-//! Dependency direction: `model` and `datasets` know nothing of the GPU; `gpu` and `render` are
-//! the only users of wgpu; `script` is the only user of Rhai.
+//! Dependency direction: `model` and `datasets` know nothing of the GPU; `gpu`, `render` and
+//! `tonemap` are the only users of wgpu; `script` is the only user of Rhai; `tui` the only user
+//! of ratatui (`tools/modcycles.py --check` holds these).
 //!
 //! The optical model in one example — the f64 CPU reference renders a homogeneous slab, whose
 //! closed form is I = (e/a)(1 − exp(−a·L)):

@@ -2,7 +2,9 @@
 """The module-level import graph of hdrvis's src/: prints the cycles between modules (files) and
 the edges between top-level layers. With --check, exits 1 on a cycle or on an edge the
 architecture forbids (docs/architecture.md): model -> datasets/io/gpu, gpu -> datasets, and any
-edge from a lower layer up into render, tonemap, script, tui, bench or cli.
+edge from a lower layer up into render, tonemap, script, tui, bench or cli; or on a layer naming
+an external crate kept to others (wgpu to gpu/render/tonemap, rhai to script, ratatui,
+ratatui-image and crossterm to tui).
 
     python3 tools/modcycles.py src [--check]
 """
@@ -11,6 +13,7 @@ args = [a for a in sys.argv[1:] if not a.startswith('--')]
 check = '--check' in sys.argv
 root = args[0] if args else 'src'
 mods = {}
+crate_uses = {}
 for dp, _, fs in os.walk(root):
     for f in fs:
         if not f.endswith('.rs'): continue
@@ -40,6 +43,8 @@ pat = re.compile(r'\b((?:crate|super|self)(?:::[A-Za-z_][A-Za-z0-9_]*)+)')
 for m, p in mods.items():
     src = strip_tests(open(p).read())
     src = re.sub(r'//.*', '', src)
+    for c in re.findall(r'\b(wgpu|rhai|ratatui_image|ratatui|crossterm)::', src):
+        crate_uses.setdefault(c, set()).add(m.split('::')[0] or 'lib')
     # expand `use x::{a, b::c}` groups
     for g in re.finditer(r'use\s+((?:crate|super|self)(?:::\w+)*)::\{([^;]*)\};', src, re.S):
         for item in re.split(r'[,\s]+', g.group(2)):
@@ -90,4 +95,14 @@ FORBIDDEN = {
 }
 bad = [(a, b) for a in top for b in top[a] if b in FORBIDDEN.get(a, ())]
 for a, b in bad: print('forbidden layer edge:', a, '->', b)
-if check and (sccs or bad): sys.exit(1)
+CRATE_LAYERS = {
+    'wgpu': {'gpu', 'render', 'tonemap'},
+    'rhai': {'script'},
+    'ratatui': {'tui'},
+    'ratatui_image': {'tui'},
+    'crossterm': {'tui'},
+}
+for c in sorted(crate_uses): print('crate', c, 'used by', ', '.join(sorted(crate_uses[c])))
+bad_crates = [(layer, c) for c, layers in crate_uses.items() for layer in sorted(layers - CRATE_LAYERS[c])]
+for layer, c in bad_crates: print('forbidden crate use:', layer, 'uses', c)
+if check and (sccs or bad or bad_crates): sys.exit(1)

@@ -1,27 +1,22 @@
-//! `hdrvis bench tui`: key press to updated preview, measured through the same code the TUI
-//! runs, without a terminal. The scene is `scripts/tui_demo.rhai` (embedded) with a 256³
-//! mantle volume and, for ν, the Okada surface on a 513² grid; the preview is the quick
-//! `preview_scale` 0.25 render (96² of 384²) shown in the 48 × 21-cell picture area of an 80 × 24
-//! terminal at 8 × 16-pixel cells (384 × 336 pixels), encoded as sixel and as half blocks.
-//!
-//! Cases: exposure +0.5 EV and the next operator (no script run: tone-map, encode), ν × 1.25
-//! (script re-run in the kept session: only the fringe pass renders), and a 15° orbit (script
-//! re-run: the ray cast at preview size). Then exposure, operator and false colour on the
-//! full-resolution image the TUI holds after its full pass, rendered at 600² and 1200²
-//! ([`FULL_SIZES`]). Each is timed from applying the key's action to the encoded picture, after
-//! a warm-up, and reported as the median.
+//! `hdrvis bench tui`: key press to encoded picture, measured through the same code the TUI's
+//! workers run, without a terminal. The scene is `scripts/tui_demo.rhai` (embedded) with a
+//! mantle volume and, for ν, the Okada surface. Scene keys (exposure, next operator, a 15° orbit
+//! that re-renders, ν × 1.25 that re-runs the fringe pass) are timed on the quick
+//! `preview_scale` 0.25 render in a 160 × 50 terminal; view keys (exposure, operator, false
+//! colour, and a new image arriving) on a full-resolution 768² render in 80 × 24, 160 × 50 and
+//! 240 × 70 terminals. Every case runs for half blocks, sixel and kitty at 10 × 20-pixel cells,
+//! the picture area taken from the TUI's own layout; medians after a warm-up.
 
 use crate::error::Result;
 use crate::gpu::BackendChoice;
 use crate::render::session::RenderSession;
 use crate::script::ScriptOptions;
 use crate::tui::app::{Action, App, Effect, Source};
-use crate::tui::protocol::Display;
+use crate::tui::protocol::{Display, ProtocolChoice};
 use crate::tui::scene::SceneEdit;
-use crate::tui::worker::{prepare, render_scene};
+use crate::tui::ui::{picture_area, PictureArea as Rect};
+use crate::tui::worker::{prepare, render_scene, Downsampled};
 use crate::tui::worker::{LOW_RES_SCALE, PREVIEW_SCALE};
-use ratatui::layout::Rect;
-use ratatui_image::picker::ProtocolType;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -33,6 +28,8 @@ const DEMO: &str = include_str!("../../scripts/tui_demo.rhai");
 pub struct TuiBenchRow {
     pub case: String,
     pub protocol: String,
+    /// Columns and rows of the terminal.
+    pub terminal: (u16, u16),
     /// Milliseconds from key to encoded picture, every run.
     pub runs_ms: Vec<f64>,
     /// The budget the issue sets for this case.
@@ -45,7 +42,26 @@ impl TuiBenchRow {
     }
 }
 
-/// Runs every case `runs` times (after one warm-up) for each protocol.
+/// The terminal sizes (columns × rows) the view keys are timed at: a default terminal, a
+/// typical full-screen one and a large one.
+pub const TERMINALS: [(u16, u16); 3] = [(80, 24), (160, 50), (240, 70)];
+
+/// The terminal the scene keys (which re-run the script) are timed in.
+const SCENE_TERMINAL: (u16, u16) = (160, 50);
+
+/// The cell size in pixels assumed for sixel and kitty (ratatui-image's default; half blocks
+/// show one column and two rows a cell whatever the font).
+pub const CELL: (u16, u16) = (10, 20);
+
+/// The protocols timed, in the order of the table.
+const PROTOCOLS: [ProtocolChoice; 3] = [
+    ProtocolChoice::Halfblocks,
+    ProtocolChoice::Sixel,
+    ProtocolChoice::Kitty,
+];
+
+/// Runs every case `runs` times (after one warm-up) for each protocol: the scene keys at
+/// [`SCENE_TERMINAL`], the view keys on a full-resolution render at every size of [`TERMINALS`].
 pub fn bench_tui(
     backend: BackendChoice,
     n: usize,
@@ -62,155 +78,234 @@ pub fn bench_tui(
     let mut base = ScriptOptions::new(dir.path().join("out"));
     base.backend = backend;
     base.progress = false;
-    let area = Rect::new(1, 1, 48, 21);
+    let bench = Bench {
+        script: &script,
+        base: &base,
+        session: &session,
+        dir: dir.path(),
+        n,
+        runs,
+    };
     let mut rows = Vec::new();
-    for protocol in [ProtocolType::Sixel, ProtocolType::Halfblocks] {
-        let display = Display::fixed(protocol, (8, 16));
-        let pname = display.note.clone();
+    for protocol in PROTOCOLS {
+        rows.extend(bench.scene_keys(protocol, log)?);
+    }
+    rows.extend(bench.full_size_views(log)?);
+    let adapter = crate::tui::worker::adapter_of(&session).unwrap_or_default();
+    Ok((adapter, rows))
+}
+
+/// What every case shares: the demo script, its session and the run counts.
+struct Bench<'a> {
+    script: &'a Path,
+    base: &'a ScriptOptions,
+    session: &'a Arc<RenderSession>,
+    dir: &'a Path,
+    n: usize,
+    runs: usize,
+}
+
+impl Bench<'_> {
+    /// Exposure, operator and orbit on the volume scene, ν on the surface scene, at the quick
+    /// preview scale the TUI shows first.
+    fn scene_keys(
+        &self,
+        protocol: ProtocolChoice,
+        log: &mut dyn FnMut(&str),
+    ) -> Result<Vec<TuiBenchRow>> {
+        let display = Display::fixed(protocol, CELL);
+        let area = picture_area(SCENE_TERMINAL.0, SCENE_TERMINAL.1);
+        let n = self.n.to_string();
+        let mut rows = Vec::new();
         for (scene, sets) in [
-            ("volume", vec![("n".to_string(), n.to_string())]),
+            ("volume", vec![("n".to_string(), n.clone())]),
             (
                 "surface",
                 vec![
                     ("scene".to_string(), "surface".to_string()),
-                    ("n".to_string(), n.to_string()),
+                    ("n".to_string(), n),
                 ],
             ),
         ] {
-            let mut app = App::new(Source::Script(script.clone()), dir.path().into(), sets);
+            let mut app = App::new(Source::Script(self.script.into()), self.dir.into(), sets);
             log(&format!(
-                "{pname}: first {scene} run (data generation or cache read)"
+                "{}: first {scene} run (data generation or cache read)",
+                display.note
             ));
-            let first = run(&script, &base, &session, &app)?;
+            let first = self.preview(&app)?;
             app.set_params(first.params);
             app.hdr = Some(first.image);
             let cases: &[(&str, Action, f64)] = if scene == "volume" {
                 &[
                     ("exposure +0.5 EV", Action::ExposureUp, 100.0),
                     ("next operator", Action::NextOperator, 100.0),
-                    ("camera orbit 15°", Action::OrbitRight, 500.0),
+                    ("camera orbit 15°", Action::OrbitRight, 250.0),
                 ]
             } else {
                 &[("nu x1.25", Action::NuUp, 100.0)]
             };
+            let mut downsampled = Downsampled::default();
             for &(case, action, budget) in cases {
-                let mut times = Vec::new();
-                for i in 0..=runs {
-                    let t0 = Instant::now();
-                    let effect = app.apply(action);
-                    if effect == Effect::Rerender {
-                        let s = run(&script, &base, &session, &app)?;
-                        app.hdr = Some(s.image);
-                    }
-                    let hdr = app.hdr.clone().expect("a first run gave an image");
-                    let p = prepare(&display, &hdr, &app.view, area)?;
-                    std::hint::black_box(&p.protocol);
-                    if i > 0 {
-                        times.push(t0.elapsed().as_secs_f64() * 1e3);
-                    }
-                    // Cycling through every operator would time different work per run.
-                    if action == Action::NextOperator {
-                        app.view.operator = 1;
-                    }
-                }
-                let row = TuiBenchRow {
-                    case: format!("{case} ({scene} {})", size_label(scene, n)),
-                    protocol: pname.clone(),
-                    runs_ms: times,
-                    budget_ms: budget,
-                };
-                log(&format!(
-                    "{}: {} median {:.1} ms",
-                    row.protocol,
-                    row.case,
-                    row.median()
+                let times = self.time(
+                    &mut app,
+                    Key::Press(action),
+                    &display,
+                    area,
+                    &mut downsampled,
+                )?;
+                rows.push(self.row(
+                    format!("{case} ({scene} {}, preview)", size_label(scene, self.n)),
+                    &display,
+                    SCENE_TERMINAL,
+                    times,
+                    budget,
+                    log,
                 ));
-                rows.push(row);
             }
         }
+        Ok(rows)
     }
-    rows.extend(bench_full_size_views(
-        &script,
-        &base,
-        &session,
-        dir.path(),
-        n,
-        runs,
-        log,
-    )?);
-    let adapter = crate::tui::worker::adapter_of(&session).unwrap_or_default();
-    Ok((adapter, rows))
-}
 
-/// Side lengths of the full-size renders whose view keys are timed: the issue's 600² and a
-/// larger one.
-pub const FULL_SIZES: [u32; 2] = [600, 1200];
-
-/// The view keys (exposure, operator, false colour) on the full-resolution HDR image the TUI
-/// holds after its full pass, at each of [`FULL_SIZES`]: the image is downsampled to the
-/// picture's pixels first and tone-mapped there; only saving touches every pixel.
-fn bench_full_size_views(
-    script: &Path,
-    base: &ScriptOptions,
-    session: &Arc<RenderSession>,
-    dir: &Path,
-    n: usize,
-    runs: usize,
-    log: &mut dyn FnMut(&str),
-) -> Result<Vec<TuiBenchRow>> {
-    let area = Rect::new(1, 1, 48, 21);
-    let mut rows = Vec::new();
-    for size in FULL_SIZES {
+    /// Exposure, operator and false colour on the full-resolution image the TUI holds after its
+    /// full pass ([`FULL_SIZE`]²), at every terminal size and protocol: the image is downsampled
+    /// once to what the picture shows and then only tone-mapped and encoded.
+    fn full_size_views(&self, log: &mut dyn FnMut(&str)) -> Result<Vec<TuiBenchRow>> {
         let sets = vec![
-            ("n".to_string(), n.to_string()),
-            ("size".to_string(), size.to_string()),
+            ("n".to_string(), self.n.to_string()),
+            ("size".to_string(), FULL_SIZE.to_string()),
         ];
-        let mut app = App::new(Source::Script(script.into()), dir.into(), sets);
-        log(&format!("full-size {size}² render of the {n}³ volume"));
+        let mut app = App::new(Source::Script(self.script.into()), self.dir.into(), sets);
+        log(&format!(
+            "full-size {FULL_SIZE}² render of the {}³ volume",
+            self.n
+        ));
         let mut full = app.script_sets();
         full.push((PREVIEW_SCALE.into(), "1".into()));
-        let scene = render_scene(script, base, session, full, &SceneEdit::default())?.scene;
-        app.hdr = Some(scene.image);
-        for protocol in [ProtocolType::Sixel, ProtocolType::Halfblocks] {
-            let display = Display::fixed(protocol, (8, 16));
-            for (case, action) in [
-                ("exposure +0.5 EV", Action::ExposureUp),
-                ("next operator", Action::NextOperator),
-                ("false colour", Action::ToggleFalseColour),
-            ] {
-                let mut times = Vec::new();
-                for i in 0..=runs {
-                    let t0 = Instant::now();
-                    app.apply(action);
-                    let hdr = app.hdr.clone().expect("rendered above");
-                    let p = prepare(&display, &hdr, &app.view, area)?;
-                    std::hint::black_box(&p.protocol);
-                    if i > 0 {
-                        times.push(t0.elapsed().as_secs_f64() * 1e3);
-                    }
-                    // Every run times the same work: operator 1 (linear), false colour on.
-                    app.view.operator = 0;
-                    app.view.false_colour = false;
-                    app.view.exposure_ev = 0.0;
+        let scene = render_scene(
+            self.script,
+            self.base,
+            self.session,
+            full,
+            &SceneEdit::default(),
+        )?;
+        app.hdr = Some(scene.scene.image);
+        let mut rows = Vec::new();
+        for terminal in TERMINALS {
+            let area = picture_area(terminal.0, terminal.1);
+            for protocol in PROTOCOLS {
+                let display = Display::fixed(protocol, CELL);
+                let mut downsampled = Downsampled::default();
+                for (case, key) in [
+                    ("image arrives", Key::NewImage),
+                    ("exposure +0.5 EV", Key::Press(Action::ExposureUp)),
+                    ("next operator", Key::Press(Action::NextOperator)),
+                    ("false colour", Key::Press(Action::ToggleFalseColour)),
+                ] {
+                    let times = self.time(&mut app, key, &display, area, &mut downsampled)?;
+                    rows.push(self.row(
+                        format!("{case} (render {FULL_SIZE}²)"),
+                        &display,
+                        terminal,
+                        times,
+                        100.0,
+                        log,
+                    ));
                 }
-                let row = TuiBenchRow {
-                    case: format!("{case} (render {size}²)"),
-                    protocol: display.note.clone(),
-                    runs_ms: times,
-                    budget_ms: 100.0,
-                };
-                log(&format!(
-                    "{}: {} median {:.1} ms",
-                    row.protocol,
-                    row.case,
-                    row.median()
-                ));
-                rows.push(row);
             }
         }
+        Ok(rows)
     }
-    Ok(rows)
+
+    /// `runs` timings (after a warm-up) of `key` to the encoded picture, as the TUI's workers
+    /// do it: a re-render at the preview scale where the key needs one, then the view worker's
+    /// [`prepare`]. The view settings are restored after each run so every run does the same
+    /// work (the camera keeps turning).
+    fn time(
+        &self,
+        app: &mut App,
+        key: Key,
+        display: &Display,
+        area: Rect,
+        downsampled: &mut Downsampled,
+    ) -> Result<Vec<f64>> {
+        let mut times = Vec::new();
+        for i in 0..=self.runs {
+            let before = app.view.clone();
+            let t0 = Instant::now();
+            match key {
+                Key::Press(action) => {
+                    if app.apply(action) == Effect::Rerender {
+                        app.hdr = Some(self.preview(app)?.image);
+                    }
+                }
+                Key::NewImage => *downsampled = Downsampled::default(),
+            }
+            let hdr = app.hdr.clone().expect("a first run gave an image");
+            let p = prepare(display, &hdr, &app.view, area, downsampled)?;
+            std::hint::black_box(&p.protocol);
+            if i > 0 {
+                times.push(t0.elapsed().as_secs_f64() * 1e3);
+            }
+            app.view = before;
+        }
+        Ok(times)
+    }
+
+    /// One run at the preview scale, as the TUI's quick pass.
+    fn preview(&self, app: &App) -> Result<crate::tui::worker::Scene> {
+        let mut sets = app.script_sets();
+        sets.push((PREVIEW_SCALE.into(), format!("{LOW_RES_SCALE}")));
+        Ok(render_scene(
+            self.script,
+            self.base,
+            self.session,
+            sets,
+            &SceneEdit::default(),
+        )?
+        .scene)
+    }
+
+    /// A table row, logged as it is made.
+    fn row(
+        &self,
+        case: String,
+        display: &Display,
+        terminal: (u16, u16),
+        runs_ms: Vec<f64>,
+        budget_ms: f64,
+        log: &mut dyn FnMut(&str),
+    ) -> TuiBenchRow {
+        let row = TuiBenchRow {
+            case,
+            protocol: display.note.clone(),
+            terminal,
+            runs_ms,
+            budget_ms,
+        };
+        log(&format!(
+            "{}x{} {}: {} median {:.1} ms",
+            terminal.0,
+            terminal.1,
+            row.protocol,
+            row.case,
+            row.median()
+        ));
+        row
+    }
 }
+
+/// What a timed case does before the picture is prepared.
+#[derive(Clone, Copy)]
+enum Key {
+    /// A key the TUI maps to this action.
+    Press(Action),
+    /// A new image to show (the full pass arriving): downsampled afresh.
+    NewImage,
+}
+
+/// Side of the full-resolution render whose view keys are timed (a 768² image, the size of the
+/// EXR pictures users open).
+pub const FULL_SIZE: u32 = 768;
 
 fn size_label(scene: &str, n: usize) -> String {
     if scene == "volume" {
@@ -220,31 +315,24 @@ fn size_label(scene: &str, n: usize) -> String {
     }
 }
 
-/// One run at the preview scale, as the TUI's quick pass.
-fn run(
-    script: &Path,
-    base: &ScriptOptions,
-    session: &Arc<RenderSession>,
-    app: &App,
-) -> Result<crate::tui::worker::Scene> {
-    let mut sets = app.script_sets();
-    sets.push((PREVIEW_SCALE.into(), format!("{LOW_RES_SCALE}")));
-    Ok(render_scene(script, base, session, sets, &SceneEdit::default())?.scene)
-}
-
 /// The table `hdrvis bench tui` prints.
 pub fn format_tui_table(adapter: &str, rows: &[TuiBenchRow]) -> String {
     let mut s = format!(
-        "key press -> updated preview (adapter: {adapter}; picture 48x21 cells, 384x336 px; preview render 96x96, full renders as named)\n"
+        "key press -> encoded picture (adapter: {adapter}; cells {}x{} px for sixel and kitty; \
+         preview renders at preview_scale {LOW_RES_SCALE}, view keys on a {FULL_SIZE}² render)\n",
+        CELL.0, CELL.1
     );
     s.push_str(&format!(
-        "{:<44} {:<11} {:>10} {:>8} {:>8}\n",
-        "case", "protocol", "median ms", "budget", "within"
+        "{:<40} {:>8} {:>9} {:<11} {:>10} {:>8} {:>8}\n",
+        "case", "terminal", "picture", "protocol", "median ms", "budget", "within"
     ));
     for r in rows {
+        let area = picture_area(r.terminal.0, r.terminal.1);
         s.push_str(&format!(
-            "{:<44} {:<11} {:>10.1} {:>8.0} {:>8}\n",
+            "{:<40} {:>8} {:>9} {:<11} {:>10.1} {:>8.0} {:>8}\n",
             r.case,
+            format!("{}x{}", r.terminal.0, r.terminal.1),
+            format!("{}x{}", area.width, area.height),
             r.protocol,
             r.median(),
             r.budget_ms,

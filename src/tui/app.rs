@@ -829,8 +829,8 @@ fn format_float(v: f64) -> String {
 mod tests {
     use super::*;
     use crate::tui::protocol::Display;
+    use crate::tui::protocol::ProtocolChoice;
     use crate::tui::worker::{Prepared, Scene};
-    use ratatui_image::picker::ProtocolType;
 
     fn record(name: &str, kind: ParamKind, value: &str) -> ParamRecord {
         ParamRecord {
@@ -1018,7 +1018,7 @@ mod tests {
 
     fn view_done(id: u64, outcome: Result<(), String>) -> ViewDone {
         let outcome = outcome.map(|()| {
-            let display = Display::fixed(ProtocolType::Halfblocks, (8, 16));
+            let display = Display::fixed(ProtocolChoice::Halfblocks, (8, 16));
             let area = Rect::new(0, 0, 2, 1);
             Prepared {
                 protocol: display.encode(image::RgbImage::new(16, 16), area).unwrap(),

@@ -1,5 +1,5 @@
-//! Decoders for what the TUI sends to the terminal, so tests (and `hdrvis tui --check-payload`
-//! style checks) can compare the pixels a terminal would draw with the rendered image: DEC sixel
+//! Decoders for what the TUI sends to the terminal, so tests can compare the pixels a terminal
+//! would draw with the rendered image: DEC sixel
 //! (palette definitions in RGB or HLS percent, repeats, carriage returns and line feeds, raster
 //! attributes) and the kitty graphics protocol's direct transmission (`f=24`/`f=32` raw pixels,
 //! `o=z` zlib compression, chunked with `m=1`). Both accept the tmux passthrough wrapping

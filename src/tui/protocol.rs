@@ -22,9 +22,10 @@
 
 use crate::error::{Error, Result};
 use crate::io::terminal_query::{cell_from_winsize, in_tmux, probe};
-use ratatui::layout::Rect;
+use crate::tui::view::fit_within;
+use ratatui::layout::{Rect, Size};
 use ratatui_image::picker::{cap_parser::QueryStdioOptions, Picker, ProtocolType};
-use ratatui_image::protocol::Protocol;
+use ratatui_image::protocol::{halfblocks::Halfblocks, Protocol};
 use std::time::Duration;
 
 pub(crate) use crate::io::terminal::ProtocolChoice;
@@ -119,8 +120,10 @@ pub(crate) struct Display {
 }
 
 impl Display {
-    /// A display for tests and benchmarks: `protocol` at a fixed cell size, no terminal query.
-    pub(crate) fn fixed(protocol: ProtocolType, cell: (u16, u16)) -> Display {
+    /// A display for tests and benchmarks: `choice` (auto means half blocks) at a fixed cell
+    /// size, no terminal query.
+    pub(crate) fn fixed(choice: ProtocolChoice, cell: (u16, u16)) -> Display {
+        let protocol = forced(choice).unwrap_or(ProtocolType::Halfblocks);
         #[allow(deprecated)] // the only constructor that takes a cell size without a terminal
         let mut picker = Picker::from_fontsize(cell.into());
         picker.set_protocol_type(protocol);
@@ -132,19 +135,46 @@ impl Display {
         }
     }
 
-    /// The area's size in pixels at the terminal's cell size.
-    pub(crate) fn pixels(&self, area: Rect) -> (u32, u32) {
+    /// The size in pixels a `width` × `height` image is shown at inside `area`: the largest with
+    /// its aspect inside the area's pixels at the terminal's cell size, or, for half blocks,
+    /// that picture counted in half cells (one column and two rows a cell, whole cells). Half blocks show no
+    /// more than that, so the image is downsampled, tone-mapped and encoded at this size only.
+    pub(crate) fn picture_size(&self, width: u32, height: u32, area: Rect) -> (u32, u32) {
         let fs = self.picker.font_size();
+        let (cw, ch) = (u32::from(fs.width).max(1), u32::from(fs.height).max(1));
+        let (pw, ph) = fit_within(
+            width,
+            height,
+            u32::from(area.width) * cw,
+            u32::from(area.height) * ch,
+        );
+        if self.picker.protocol_type() != ProtocolType::Halfblocks {
+            return (pw, ph);
+        }
+        // Whole cells: the encoder fills both halves of every cell it draws.
+        let columns = (pw as f64 / cw as f64).round() as u32;
+        let rows = (ph as f64 / ch as f64).round() as u32;
         (
-            area.width as u32 * fs.width as u32,
-            area.height as u32 * fs.height as u32,
+            columns.clamp(1, u32::from(area.width).max(1)),
+            2 * rows.clamp(1, u32::from(area.height).max(1)),
         )
     }
 
-    /// Encodes `img` (already at most [`Display::pixels`] of `area`) for the terminal.
+    /// Encodes `img` (at [`Display::picture_size`] for `area`) for the terminal.
     pub(crate) fn encode(&self, img: image::RgbImage, area: Rect) -> Result<Picture> {
         if self.kitty_direct {
             return Ok(Picture::KittyDirect(kitty_direct_escape(&img)));
+        }
+        if self.picker.protocol_type() == ProtocolType::Halfblocks {
+            // The image is already one pixel per half cell: ratatui-image's own path would
+            // take it for pixels at the font size and shrink it again.
+            let cells = Size::new(
+                img.width().min(u32::from(area.width)) as u16,
+                img.height().div_ceil(2).min(u32::from(area.height)) as u16,
+            );
+            return Halfblocks::new(image::DynamicImage::ImageRgb8(img), cells)
+                .map(|h| Picture::Widget(Protocol::Halfblocks(h)))
+                .map_err(|e| Error::invalid("terminal image", e.to_string()));
         }
         self.picker
             .new_protocol(
@@ -290,6 +320,41 @@ mod tests {
         }
     }
 
+    /// Half blocks get one pixel per half cell with the image's aspect at the cell size, and
+    /// the encoded picture covers exactly those cells with the image's colours.
+    #[test]
+    fn half_blocks_are_prepared_at_one_pixel_per_half_cell() {
+        use ratatui::buffer::Buffer;
+        use ratatui::style::Color;
+        use ratatui::widgets::Widget;
+        let area = Rect::new(0, 0, 128, 47);
+        let display = Display::fixed(ProtocolChoice::Halfblocks, (10, 20));
+        // 768 x 512 fits 1280 x 853 pixels of the area: 128 columns, 43 rows of two half cells
+        // (1280 x 860 pixels on screen, aspect 1.49 for 1.5).
+        assert_eq!(display.picture_size(768, 512, area), (128, 86));
+        // A tall image keeps its aspect too: 100 x 400 fits 235 x 940 pixels, 24 columns.
+        assert_eq!(display.picture_size(100, 400, area), (24, 94));
+        let img = image::RgbImage::from_fn(128, 86, |x, y| image::Rgb([x as u8, (y * 3) as u8, 7]));
+        let Picture::Widget(encoded) = display.encode(img, area).unwrap() else {
+            panic!("a widget picture");
+        };
+        let mut buf = Buffer::empty(area);
+        ratatui_image::Image::new(&encoded).render(area, &mut buf);
+        for (x, y) in [(0u16, 0u16), (127, 0), (5, 42), (127, 42), (64, 20)] {
+            let cell = &buf[(x, y)];
+            let upper = Color::Rgb(x as u8, (2 * y * 3) as u8, 7);
+            let lower = Color::Rgb(x as u8, ((2 * y + 1) * 3) as u8, 7);
+            let (fg, bg) = (cell.fg, cell.bg);
+            assert!(
+                (fg, bg) == (upper, lower) || (fg, bg) == (lower, upper),
+                "cell ({x}, {y}): {fg:?} / {bg:?}"
+            );
+        }
+        // Nothing drawn below the picture's 43 rows.
+        assert_eq!(buf[(3, 44)].symbol(), " ");
+        assert_eq!(buf[(3, 44)].bg, Color::Reset);
+    }
+
     #[test]
     fn sixel_and_kitty_payloads_decode_to_the_picture() {
         use crate::tui::decode::{decode_kitty, decode_sixel};
@@ -305,15 +370,15 @@ mod tests {
         let blocks =
             |x: u32, y: u32| image::Rgb([(x / 20 % 6 * 51) as u8, (y / 50 % 2 * 255) as u8, 102]);
         type Pattern<'a> = &'a dyn Fn(u32, u32) -> image::Rgb<u8>;
-        let cases: [(ProtocolType, Pattern, bool); 4] = [
-            (ProtocolType::Sixel, &gradient, false),
-            (ProtocolType::Kitty, &gradient, true),
-            (ProtocolType::Sixel, &blocks, true),
-            (ProtocolType::Kitty, &blocks, true),
+        let cases: [(ProtocolChoice, Pattern, bool); 4] = [
+            (ProtocolChoice::Sixel, &gradient, false),
+            (ProtocolChoice::Kitty, &gradient, true),
+            (ProtocolChoice::Sixel, &blocks, true),
+            (ProtocolChoice::Kitty, &blocks, true),
         ];
         for (protocol, pattern, exact) in cases {
             let display = Display::fixed(protocol, (10, 20));
-            let (w, h) = display.pixels(area);
+            let (w, h) = display.picture_size(120, 100, area);
             assert_eq!((w, h), (120, 100));
             let img = image::RgbImage::from_fn(w, h, pattern);
             let Picture::Widget(encoded) = display.encode(img.clone(), area).unwrap() else {
@@ -322,7 +387,7 @@ mod tests {
             let mut buf = Buffer::empty(area);
             ratatui_image::Image::new(&encoded).render(area, &mut buf);
             let payload = buf[(0, 0)].symbol().to_string();
-            let decoded = if protocol == ProtocolType::Sixel {
+            let decoded = if protocol == ProtocolChoice::Sixel {
                 decode_sixel(&payload).unwrap()
             } else {
                 decode_kitty(&payload).unwrap()

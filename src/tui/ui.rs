@@ -60,6 +60,15 @@ pub(crate) fn layout(size: Rect) -> Areas {
     }
 }
 
+/// The cells a picture may cover on a `columns` × `rows` screen (for benchmarks, which have no
+/// terminal).
+pub(crate) fn picture_area(columns: u16, rows: u16) -> PictureArea {
+    layout(Rect::new(0, 0, columns, rows)).image
+}
+
+/// A rectangle of terminal cells.
+pub(crate) type PictureArea = Rect;
+
 /// Draws the whole screen. `image` is the picture already encoded for the terminal's protocol
 /// and sized for [`Areas::image`].
 pub(crate) fn draw(frame: &mut Frame, app: &App, image: Option<&Picture>) {

@@ -363,16 +363,43 @@ pub(crate) struct Prepared {
     pub histogram: Option<LogHistogram>,
 }
 
-/// HDR image -> resampled to the area's pixels -> tone-mapped view -> encoded for the
-/// terminal, plus the log-luminance histogram of the resampled image.
+/// The last downsampled image, kept because most keys (exposure, operator, false colour) change
+/// the view of the same image at the same size: only tone mapping and encoding run again.
+#[derive(Default)]
+pub(crate) struct Downsampled {
+    source: Option<Arc<HdrImage>>,
+    size: (u32, u32),
+    image: Option<Arc<HdrImage>>,
+}
+
+impl Downsampled {
+    /// `hdr` at `size`, resampled only when the image or the size changed.
+    fn get(&mut self, hdr: &Arc<HdrImage>, size: (u32, u32)) -> Arc<HdrImage> {
+        let same_source = self.source.as_ref().is_some_and(|s| Arc::ptr_eq(s, hdr));
+        match &self.image {
+            Some(image) if same_source && self.size == size => image.clone(),
+            _ => {
+                let image = Arc::new(resample(hdr, size.0, size.1));
+                self.source = Some(hdr.clone());
+                self.size = size;
+                self.image = Some(image.clone());
+                image
+            }
+        }
+    }
+}
+
+/// HDR image -> downsampled to what the picture shows ([`Display::picture_size`]) -> tone-mapped
+/// view -> encoded for the terminal, plus the log-luminance histogram of the downsampled image.
 pub(crate) fn prepare(
     display: &Display,
-    hdr: &HdrImage,
+    hdr: &Arc<HdrImage>,
     view: &ViewSettings,
     area: Rect,
+    downsampled: &mut Downsampled,
 ) -> Result<Prepared> {
-    let (pw, ph) = display.pixels(area);
-    let small = resample(hdr, pw.max(1), ph.max(1));
+    let (pw, ph) = display.picture_size(hdr.width, hdr.height, area);
+    let small = downsampled.get(hdr, (pw.max(1), ph.max(1)));
     let shown = display_image(&small, view)?;
     let histogram = LogHistogram::new(
         &crate::tui::view::select_channel(&small, &view.channel)?,
@@ -406,11 +433,12 @@ pub(crate) fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<
     std::thread::Builder::new()
         .name("hdrvis-view".into())
         .spawn(move || {
+            let mut downsampled = Downsampled::default();
             while let Ok(first) = job_rx.recv() {
                 let job = latest(first, &job_rx);
                 let t0 = Instant::now();
-                let outcome =
-                    prepare(&display, &job.hdr, &job.view, job.area).map_err(|e| e.to_string());
+                let outcome = prepare(&display, &job.hdr, &job.view, job.area, &mut downsampled)
+                    .map_err(|e| e.to_string());
                 let done = ViewDone {
                     id: job.id,
                     outcome,

@@ -52,7 +52,8 @@ fn check_table_case(case: &str, x: f64, y: f64, depth: f64, dip: f64, table: [[f
     }
 }
 
-/// Okada (1985) Table 2, case 2; /work/shared/reference/validation.md.
+/// Okada (1985), "Surface deformation due to shear and tensile faults in a half-space",
+/// Table 2, case 2.
 #[test]
 fn okada85_table2_case2() {
     check_table_case(

@@ -1,7 +1,6 @@
-//! Reference values come from `/work/shared/reference/validation.md` ("Linear shallow-water
-//! (tsunami) analytic cases"), which quotes closed forms: c = sqrt(g h), the Hankel-transform
-//! solution for a 2-D Gaussian, Lamb's step transmission T = 2 c1 / (c1 + c2), Green's law
-//! and Merian's seiche periods.
+//! Reference values are the closed forms of linear shallow-water theory: c = sqrt(g h), the
+//! Hankel-transform solution for a 2-D Gaussian, Lamb's step transmission T = 2 c1 / (c1 + c2),
+//! Green's law and Merian's seiche periods.
 
 use super::bathymetry::degree_spacing_to_metres;
 use super::*;
