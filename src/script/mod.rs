@@ -18,6 +18,7 @@ mod options;
 mod progress;
 mod sandbox;
 mod shard;
+mod slurm_job;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
@@ -34,6 +35,7 @@ use std::time::{Duration, Instant};
 pub use api_sweep::{check_sweep_script, sweep_status, SweepStatus};
 pub use sandbox::Sandbox;
 pub use shard::{Shard, ShardSource};
+pub use slurm_job::SlurmJob;
 
 /// How a script is run: where it writes, what `param()` returns, what else it may read.
 #[derive(Clone, Debug)]
