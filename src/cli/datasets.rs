@@ -3,6 +3,7 @@
 //! dataset cache (`$HDRVIS_CACHE` or `datasets/cache`), keyed by every parameter, so a second
 //! identical call returns the cached file at once. Long runs draw a progress bar on stderr.
 
+use hdrvis::io::progress::Progress;
 use std::path::{Path, PathBuf};
 
 use hdrvis::datasets::generate::{
@@ -199,9 +200,10 @@ pub struct InfoArgs {
 /// Runs a generator and returns the file it wrote (or found in the cache).
 pub fn run_gen(cmd: &GenCommand) -> Result<PathBuf> {
     let (job, output) = job_of(cmd)?;
-    let mut bar = ProgressBar::new(job.kind());
+    let mut bar = Progress::default();
+    let label = format!("gen {} (%)", job.kind());
     let mut progress = |f: f64| {
-        bar.set(f);
+        bar.fraction(f, &label);
         Ok(())
     };
     let path = match &output.output {
@@ -227,7 +229,7 @@ pub fn run_gen(cmd: &GenCommand) -> Result<PathBuf> {
             job.run_cached(format, &mut progress)?
         }
     };
-    bar.finish();
+    bar.clear();
     Ok(path)
 }
 
@@ -337,31 +339,6 @@ pub fn job_of(cmd: &GenCommand) -> Result<(Job, &OutputArgs)> {
             (Job::Mantle(job), &a.output)
         }
     })
-}
-
-/// An indicatif bar on stderr, drawn only when stderr is a terminal; positions are per mille.
-struct ProgressBar(indicatif::ProgressBar);
-
-impl ProgressBar {
-    fn new(kind: &str) -> Self {
-        let bar = indicatif::ProgressBar::new(1000);
-        if let Ok(style) = indicatif::ProgressStyle::with_template(
-            "{msg} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta}",
-        ) {
-            bar.set_style(style);
-        }
-        bar.set_message(format!("gen {kind}"));
-        ProgressBar(bar)
-    }
-
-    fn set(&mut self, fraction: f64) {
-        self.0
-            .set_position((fraction.clamp(0.0, 1.0) * 1000.0).round() as u64);
-    }
-
-    fn finish(self) {
-        self.0.finish_and_clear();
-    }
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@
 pub mod animation;
 pub mod exr;
 pub mod png;
+pub mod progress;
 pub mod terminal;
 pub(crate) mod terminal_query;
 

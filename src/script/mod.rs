@@ -15,7 +15,6 @@ mod api_surface;
 mod api_sweep;
 mod convert;
 mod options;
-mod progress;
 mod sandbox;
 mod shard;
 mod slurm_job;
@@ -197,7 +196,7 @@ pub(crate) struct ScriptHost {
     capture_prints: bool,
     pub resume: bool,
     progress_enabled: bool,
-    progress: Mutex<progress::ProgressState>,
+    progress: Mutex<crate::io::progress::Progress>,
     /// Default memory budget of renders (MiB), and the bricked path's caches.
     pub gpu_memory_mib: Option<f64>,
     on_written: Option<WrittenObserver>,
@@ -447,7 +446,7 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         capture_prints: false,
         resume: false,
         progress_enabled: false,
-        progress: Mutex::new(progress::ProgressState::default()),
+        progress: Mutex::new(crate::io::progress::Progress::default()),
         gpu_memory_mib: None,
         on_written: None,
         shard: Shard::ALL,
@@ -508,7 +507,7 @@ pub fn run_script_source(
         capture_prints: opts.capture_prints,
         resume: opts.resume,
         progress_enabled: opts.progress,
-        progress: Mutex::new(progress::ProgressState::default()),
+        progress: Mutex::new(crate::io::progress::Progress::default()),
         gpu_memory_mib: opts.gpu_memory_mib,
         on_written: opts.on_written.clone(),
         shard: opts.shard,

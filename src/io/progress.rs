@@ -1,21 +1,22 @@
-//! `progress(i, n)` on stderr: a bar with the time left estimated from the measured rate of the
-//! items done so far (elapsed / done × remaining). The count starts when the loop reports 0 done,
-//! else when the previous loop finished or the run began, so the first item's time is counted
-//! even when the script reports only after finishing it.
+//! The one progress bar on stderr, for a script's `progress(i, n)` and for `hdrvis gen`: the time
+//! left is estimated from the measured rate of the items done so far (elapsed / done ×
+//! remaining). The count starts when the loop reports 0 done, else when the previous loop
+//! finished or the run began, so the first item's time is counted even when the caller reports
+//! only after finishing it. indicatif draws it only when stderr is a terminal.
 
 use std::time::Instant;
 
-/// The progress bar of a run and the clock its estimate reads.
-pub(crate) struct ProgressState {
+/// A progress bar and the clock its estimate reads.
+pub struct Progress {
     epoch: Instant,
     /// Seconds since `epoch` at which the current loop (or the next one) started.
     started_s: f64,
     bar: Option<indicatif::ProgressBar>,
 }
 
-impl Default for ProgressState {
+impl Default for Progress {
     fn default() -> Self {
-        ProgressState {
+        Progress {
             epoch: Instant::now(),
             started_s: 0.0,
             bar: None,
@@ -23,9 +24,21 @@ impl Default for ProgressState {
     }
 }
 
-impl ProgressState {
+impl Progress {
+    /// Shows a fraction (0 to 1) of one job done, as a percentage.
+    pub fn fraction(&mut self, done: f64, label: &str) {
+        self.report((done.clamp(0.0, 1.0) * 100.0).floor() as u64, 100, label);
+    }
+
+    /// Clears the bar (a job that ended early, or one whose last line should not stay).
+    pub fn clear(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+
     /// Shows `done` of `total` items, now.
-    pub(crate) fn report(&mut self, done: u64, total: u64, label: &str) {
+    pub fn report(&mut self, done: u64, total: u64, label: &str) {
         let now_s = self.epoch.elapsed().as_secs_f64();
         let text = self.status_at(done, total, label, now_s);
         let bar = self.bar.get_or_insert_with(|| {
@@ -83,7 +96,7 @@ mod tests {
 
     #[test]
     fn eta_is_the_measured_rate_times_the_items_left() {
-        let mut state = ProgressState::default();
+        let mut state = Progress::default();
         // 24 items of ~3 s each; the script reports 0 at t = 10 s, then after each item.
         assert_eq!(
             state.status_at(0, 24, "sweep", 10.0),
@@ -101,7 +114,7 @@ mod tests {
 
     #[test]
     fn a_loop_that_reports_only_finished_items_counts_from_the_previous_loop() {
-        let mut state = ProgressState::default();
+        let mut state = Progress::default();
         state.status_at(2, 2, "first", 4.0);
         // The next loop's first report comes after its first item, 5 s after the first loop.
         assert_eq!(state.status_at(1, 4, "", 9.0), "elapsed 5s eta 15s");
