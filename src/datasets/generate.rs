@@ -405,7 +405,7 @@ impl TsunamiJob {
         let manila = tsunami::manila_trench_source();
         let (x_m, y_m) = match self.bathymetry {
             BathymetrySource::Synthetic { extent_m, .. } => {
-                let scaled = manila.scaled_to_extent(extent_m);
+                let scaled = tsunami::scaled_to_extent(manila, extent_m);
                 (scaled.x_m, scaled.y_m)
             }
             BathymetrySource::File { .. } => (
@@ -413,19 +413,7 @@ impl TsunamiJob {
                 0.5 * bathy.ny as f64 * bathy.dy_m,
             ),
         };
-        vec![FaultSegment {
-            strike_deg: manila.strike_deg,
-            dip_deg: manila.dip_deg,
-            rake_deg: manila.rake_deg,
-            slip_m: manila.slip_m,
-            length_m: manila.length_m,
-            width_m: manila.width_m,
-            depth_m: manila.depth_m,
-            depth_ref: okada::DepthRef::Centroid,
-            opening_m: 0.0,
-            x_m,
-            y_m,
-        }]
+        vec![FaultSegment { x_m, y_m, ..manila }]
     }
 
     pub fn run(&self, out: &Path, progress: &mut dyn FnMut(f64) -> Result<()>) -> Result<()> {

@@ -20,7 +20,7 @@ mod tests;
 
 use crate::error::{Error, Result};
 pub(crate) use bathymetry::{bathymetry_from_elevation, grid_spacing_from_lonlat, Bathymetry};
-pub(crate) use scenario::{manila_trench_source, synthetic_south_china_sea};
+pub(crate) use scenario::{manila_trench_source, scaled_to_extent, synthetic_south_china_sea};
 use solver::Model;
 /// Standard gravity used by default, m/s^2.
 pub(crate) const DEFAULT_GRAVITY: f64 = 9.81;

@@ -3,6 +3,7 @@
 
 use super::bathymetry::Bathymetry;
 use super::SOUTH_CHINA_SEA_EXTENT_M;
+use crate::datasets::okada::{DepthRef, FaultSegment};
 
 /// A synthetic basin shaped like the South China Sea on an `n x n` grid covering
 /// `extent_m x extent_m` (about `SOUTH_CHINA_SEA_EXTENT_M` is realistic): land along the north
@@ -83,51 +84,24 @@ fn manila_trench_coordinates(u: f64, v: f64) -> (f64, f64) {
     (across, along)
 }
 
-/// A rectangular thrust fault for Okada's solution, in the Aki-Richards convention (dip to the
-/// right of strike, rake +90 = pure thrust). Positions are metres in the synthetic basin's frame
-/// (origin at its south-west corner, x east, y north).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct FaultSource {
-    /// Degrees clockwise from north.
-    pub strike_deg: f64,
-    pub dip_deg: f64,
-    pub rake_deg: f64,
-    pub slip_m: f64,
-    /// Along strike.
-    pub length_m: f64,
-    /// Down dip.
-    pub width_m: f64,
-    /// Depth of the fault plane's centre below the sea floor.
-    pub depth_m: f64,
-    /// Surface projection of the fault plane's centre.
-    pub x_m: f64,
-    pub y_m: f64,
-}
-
-impl FaultSource {
-    /// Depth of the up-dip (top) edge.
-    #[cfg(test)]
-    pub(crate) fn top_edge_depth_m(&self) -> f64 {
-        self.depth_m - 0.5 * self.width_m * self.dip_deg.to_radians().sin()
-    }
-
-    /// The same fault placed in a synthetic basin of side `extent_m` instead of
-    /// `SOUTH_CHINA_SEA_EXTENT_M`: the position scales, the fault's size does not.
-    pub(crate) fn scaled_to_extent(self, extent_m: f64) -> FaultSource {
-        let scale = extent_m / SOUTH_CHINA_SEA_EXTENT_M;
-        FaultSource {
-            x_m: self.x_m * scale,
-            y_m: self.y_m * scale,
-            ..self
-        }
+/// `fault` placed in a synthetic basin of side `extent_m` instead of `SOUTH_CHINA_SEA_EXTENT_M`:
+/// the position scales, the fault's size does not.
+pub(crate) fn scaled_to_extent(fault: FaultSegment, extent_m: f64) -> FaultSegment {
+    let scale = extent_m / SOUTH_CHINA_SEA_EXTENT_M;
+    FaultSegment {
+        x_m: fault.x_m * scale,
+        y_m: fault.y_m * scale,
+        ..fault
     }
 }
 
 /// A Manila-trench megathrust for the synthetic basin of side `SOUTH_CHINA_SEA_EXTENT_M`:
 /// strike 350, dip 20, rake 90 degrees, 8 m of slip on a 200 km x 80 km plane whose top edge
 /// lies 5 km below the sea floor under the trench axis (so the centre is at 18.68 km depth),
-/// dipping east under Luzon. Magnitude about Mw 8.4 for a rigidity of 40 GPa.
-pub(crate) fn manila_trench_source() -> FaultSource {
+/// dipping east under Luzon. Magnitude about Mw 8.4 for a rigidity of 40 GPa. Positions are
+/// metres in the synthetic basin's frame (origin at its south-west corner, x east, y north), of
+/// the plane's centre.
+pub(crate) fn manila_trench_source() -> FaultSegment {
     let (strike_deg, dip_deg) = (MANILA_TRENCH_STRIKE_DEG, 20.0_f64);
     let (width_m, top_depth_m) = (80_000.0, 5_000.0);
     let dip = dip_deg.to_radians();
@@ -136,7 +110,7 @@ pub(crate) fn manila_trench_source() -> FaultSource {
     let dip_azimuth = (strike_deg + 90.0).to_radians();
     let offset = 0.5 * width_m * dip.cos();
     let (axis_u, axis_v) = MANILA_TRENCH_AXIS_UV;
-    FaultSource {
+    FaultSegment {
         strike_deg,
         dip_deg,
         rake_deg: 90.0,
@@ -144,6 +118,8 @@ pub(crate) fn manila_trench_source() -> FaultSource {
         length_m: 200_000.0,
         width_m,
         depth_m: top_depth_m + 0.5 * width_m * dip.sin(),
+        depth_ref: DepthRef::Centroid,
+        opening_m: 0.0,
         x_m: axis_u * SOUTH_CHINA_SEA_EXTENT_M + offset * dip_azimuth.sin(),
         y_m: axis_v * SOUTH_CHINA_SEA_EXTENT_M + offset * dip_azimuth.cos(),
     }

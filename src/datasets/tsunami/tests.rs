@@ -472,7 +472,7 @@ fn synthetic_basin_has_shelves_plain_trench_and_a_source_over_the_trench() {
         (source.strike_deg, source.dip_deg, source.rake_deg),
         (350.0, 20.0, 90.0)
     );
-    assert!((source.top_edge_depth_m() - 5000.0).abs() < 1e-9);
+    assert!((source.top_depth_m() - 5000.0).abs() < 1e-9);
     let cell = |x: f64, y: f64| {
         let d = SOUTH_CHINA_SEA_EXTENT_M / n as f64;
         bathy.depth_m[(y / d) as usize * n + (x / d) as usize]
