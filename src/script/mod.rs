@@ -780,6 +780,19 @@ mod tests {
     }
 
     #[test]
+    fn an_okada_grid_stops_at_the_timeout() {
+        // At n = 4001 the surface grid takes about 25 s on two cores; it checks the clock after
+        // each of 32 bands of rows.
+        let (r, took) = run_for(
+            "generate(\"okada\", #{ n: 4001 });",
+            Some(Duration::from_millis(1500)),
+        );
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains("time limit of 1.5 s (--timeout)"), "{e}");
+        assert!(took < 6.0, "the grid ran {took:.1} s past a 1.5 s limit");
+    }
+
+    #[test]
     fn maps_grown_by_index_stop_at_the_map_limit() {
         let (r, took) = run_for("let m = #{}; for i in 0..100000 { m[`k${i}`] = i; }", None);
         let e = r.unwrap_err().to_string();

@@ -25,6 +25,7 @@ fn okada_netcdf_reads_in_netcdf4_and_xarray() {
         &Elastic::default(),
         200000.0,
         41,
+        &mut |_| Ok(()),
     )
     .unwrap();
     let uz: Vec<f32> = field.uz.iter().map(|&v| v as f32).collect();

@@ -101,6 +101,9 @@ impl OkadaField {
     }
 }
 
+/// How many times a grid reports its progress.
+const PROGRESS_STEPS: usize = 32;
+
 /// Surface displacement of the segments on a square of side `extent_m` centred on the origin,
 /// `n` nodes per side (spacing `extent_m / (n - 1)`), computed in parallel over rows.
 pub fn surface_field(
@@ -108,6 +111,7 @@ pub fn surface_field(
     elastic: &Elastic,
     extent_m: f64,
     n: usize,
+    progress: &mut dyn FnMut(f64) -> Result<()>,
 ) -> Result<OkadaField> {
     if !(extent_m.is_finite() && extent_m > 0.0) {
         return Err(Error::invalid(
@@ -129,25 +133,35 @@ pub fn surface_field(
     let mut ux = vec![0.0; n * n];
     let mut uy = vec![0.0; n * n];
     let mut uz = vec![0.0; n * n];
-    ux.par_chunks_mut(n)
-        .zip(uy.par_chunks_mut(n))
-        .zip(uz.par_chunks_mut(n))
+    // Bands of rows, so a caller's progress (and its deadline) is heard during a long grid.
+    let band = n.div_ceil(PROGRESS_STEPS).max(1);
+    for (b, ((bx, by), bz)) in ux
+        .chunks_mut(band * n)
+        .zip(uy.chunks_mut(band * n))
+        .zip(uz.chunks_mut(band * n))
         .enumerate()
-        .for_each(|(j, ((row_x, row_y), row_z))| {
-            let north = axis[j];
-            for (i, &east) in axis.iter().enumerate() {
-                let mut u = [0.0; 3];
-                for segment in &prepared {
-                    let part = segment.surface(east, north);
-                    u[0] += part[0];
-                    u[1] += part[1];
-                    u[2] += part[2];
+    {
+        bx.par_chunks_mut(n)
+            .zip(by.par_chunks_mut(n))
+            .zip(bz.par_chunks_mut(n))
+            .enumerate()
+            .for_each(|(k, ((row_x, row_y), row_z))| {
+                let north = axis[b * band + k];
+                for (i, &east) in axis.iter().enumerate() {
+                    let mut u = [0.0; 3];
+                    for segment in &prepared {
+                        let part = segment.surface(east, north);
+                        u[0] += part[0];
+                        u[1] += part[1];
+                        u[2] += part[2];
+                    }
+                    row_x[i] = u[0];
+                    row_y[i] = u[1];
+                    row_z[i] = u[2];
                 }
-                row_x[i] = u[0];
-                row_y[i] = u[1];
-                row_z[i] = u[2];
-            }
-        });
+            });
+        progress(((b + 1) * band).min(n) as f64 / n as f64)?;
+    }
     Ok(OkadaField {
         x: axis.clone(),
         y: axis,

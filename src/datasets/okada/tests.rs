@@ -645,6 +645,7 @@ fn thrust_uplifts_and_normal_fault_subsides() {
         &Elastic::default(),
         1000e3,
         n,
+        &mut |_| Ok(()),
     )
     .unwrap();
     let extreme = |values: &[f64], lower: bool| {
@@ -699,7 +700,7 @@ fn surface_field_matches_pointwise_values() {
             ..FaultSegment::paper_case_ii()
         },
     ];
-    let field = surface_field(&segments, &Elastic::default(), 400e3, 9).unwrap();
+    let field = surface_field(&segments, &Elastic::default(), 400e3, 9, &mut |_| Ok(())).unwrap();
     assert_eq!((field.nx(), field.ny(), field.uz.len()), (9, 9, 81));
     assert_eq!((field.x[0], field.x[8], field.y[4]), (-200e3, 200e3, 0.0));
     for (j, &y) in field.y.iter().enumerate() {
@@ -709,8 +710,45 @@ fn surface_field_matches_pointwise_values() {
             assert_eq!([field.ux[index], field.uy[index], field.uz[index]], u);
         }
     }
-    assert!(surface_field(&segments, &Elastic::default(), 0.0, 9).is_err());
-    assert!(surface_field(&segments, &Elastic::default(), 1e3, 1).is_err());
+    assert!(surface_field(&segments, &Elastic::default(), 0.0, 9, &mut |_| Ok(())).is_err());
+    assert!(surface_field(&segments, &Elastic::default(), 1e3, 1, &mut |_| Ok(())).is_err());
+}
+
+/// The grid is computed in bands of rows with the progress reported after each: every node of
+/// a grid whose side is no multiple of the band still equals the point solution, the reported
+/// fractions rise to 1, and a progress that fails (a deadline) stops the grid there.
+#[test]
+fn a_grid_reports_progress_by_bands_and_stops_when_told() {
+    let segments = [FaultSegment::paper_case_ii()];
+    let n = 70;
+    let mut seen = Vec::new();
+    let field = surface_field(&segments, &Elastic::default(), 600e3, n, &mut |f| {
+        seen.push(f);
+        Ok(())
+    })
+    .unwrap();
+    for (j, &y) in field.y.iter().enumerate() {
+        for (i, &x) in field.x.iter().enumerate() {
+            assert_eq!(field.uz[j * n + i], at(&segments, x, y, 0.0)[2]);
+        }
+    }
+    assert_eq!(seen.len(), 24);
+    assert!(seen.windows(2).all(|w| w[0] < w[1]));
+    assert_eq!(seen.last(), Some(&1.0));
+    let mut calls = 0;
+    let stopped = surface_field(&segments, &Elastic::default(), 600e3, n, &mut |_| {
+        calls += 1;
+        if calls == 3 {
+            Err(crate::Error::invalid("timeout", "past the deadline"))
+        } else {
+            Ok(())
+        }
+    });
+    assert!(stopped
+        .unwrap_err()
+        .to_string()
+        .contains("past the deadline"));
+    assert_eq!(calls, 3);
 }
 
 #[test]
