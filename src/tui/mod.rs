@@ -12,6 +12,7 @@ pub(crate) mod app;
 #[cfg(test)]
 mod decode;
 pub(crate) mod histogram;
+pub(crate) mod keys;
 pub(crate) mod protocol;
 pub(crate) mod scene;
 pub(crate) mod terminal;
