@@ -202,8 +202,10 @@ pub(crate) fn nice_ticks(lo: f64, hi: f64, most: usize) -> Vec<f64> {
         .map(|m| m * power)
         .find(|s| *s >= raw)
         .unwrap_or(10.0 * power);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
+    // Within 1e-9 of a step counts as on it: ends computed through an offset may miss a round
+    // value by an ulp.
+    let first = (lo / step - 1e-9).ceil() as i64;
+    let last = (hi / step + 1e-9).floor() as i64;
     (first..=last)
         .map(|i| i as f64 * step)
         .map(|v| if v.abs() < step * 1e-9 { 0.0 } else { v })
@@ -393,7 +395,9 @@ impl ColourBar {
                 .map(|v| (v, typeset_number(v)))
                 .collect(),
         };
-        ticks.retain(|(v, _)| *v >= lo && *v <= hi);
+        // As in `nice_ticks`, a round value an ulp beyond an end still counts.
+        let tol = 1e-9 * (hi - lo).abs();
+        ticks.retain(|(v, _)| *v >= lo - tol && *v <= hi + tol);
         ticks
     }
 }

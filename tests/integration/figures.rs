@@ -94,6 +94,8 @@ fn centre_zero_puts_the_middle_colour_at_zero() {
     };
     let img = r.render(&g, &clipped).unwrap().remove(0);
     assert_eq!(img.meta("legend_extend"), Some("both"));
+    // The bar's ends are the domain itself (round, so its end ticks are drawn).
+    assert_eq!(img.meta("legend_domain"), Some("-2 2"));
 }
 
 /// The legend's colour bar (that of `surface_colorbar`) has a triangle at each end that clips, in

@@ -66,7 +66,11 @@ pub(super) fn surface_colour_bar(
         FringeMode::Cyclic => (BarScale::Linear, 0.0, 1.0 / nu),
         _ if opts.log_color => (BarScale::Log10, 10f64.powf(c_lo), 10f64.powf(c_lo + span)),
         _ if opts.absolute => (BarScale::Linear, c_lo, c_lo + span),
-        _ => (BarScale::Linear, c_lo + d_ref, c_lo + d_ref + span),
+        // The range itself, not through the offset from d_ref, so round ends stay round.
+        _ => {
+            let (lo, hi) = colours.unwrap_or((d_ref, d_ref));
+            (BarScale::Linear, lo, hi)
+        }
     };
     let extend = match (opts.mode, data) {
         (FringeMode::Cyclic, _) | (_, None) => [false; 2],
