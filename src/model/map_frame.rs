@@ -3,24 +3,19 @@
 //! and [`with_map_frame`] draws a figure from it for `save_png(img, path, #{frame: true})`: the
 //! map unscaled inside a white margin with a black outline, ticks and labels at round
 //! coordinates along the left and bottom (degrees with N/S/E/W on geographic axes, else numbers
-//! with the axis name and units) and the recorded colour bar upright beside the map. The text,
-//! the number format and the round tick values are those of [`super::text`].
+//! with the axis name and units), the recorded colour bar upright beside the map (with its
+//! extend triangles), an optional title above, lines of text below (the fringe legend) and, on
+//! longitude/latitude axes, a scale bar in km at the map's centre latitude. [`FrameLayout`]
+//! places every piece as a rectangle before anything is drawn, sized from the type (labels sit a
+//! gap from their ticks, the bar's top label clears its caption), so a test can hold the boxes
+//! apart. The text, the number format and the round tick values are those of [`super::text`].
 
 use super::grid::GridCoords;
-use super::text::{draw_text, format_number, nice_ticks, text_width, ColourBar, GLYPH};
+use super::text::{
+    draw_extend_triangles, draw_text, extend_length, format_number, nice_ticks, typeset_number,
+    ColourBar, Type,
+};
 use super::HdrImage;
-
-/// Blank space around the figure, in pixels.
-pub(crate) const FRAME_PAD: u32 = 6;
-/// Length of an axis tick outside the outline.
-pub(crate) const FRAME_TICK: u32 = 4;
-/// Space between a tick and its label, and between stacked lines of text.
-const GAP: u32 = 2;
-/// Space between the map's outline and the colour bar, and the bar's width.
-pub(crate) const FRAME_BAR_GAP: u32 = 12;
-pub(crate) const FRAME_BAR_WIDTH: u32 = 12;
-/// Length of a colour-bar tick.
-const BAR_TICK: u32 = 3;
 
 const WHITE: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
 const BLACK: [f32; 4] = [0.0, 0.0, 0.0, 1.0];
@@ -80,7 +75,7 @@ impl MapAxis {
     /// negative values), else the number.
     fn label(&self, v: f64, hemispheres: [char; 2]) -> String {
         if !self.geographic() {
-            return format_number(v);
+            return typeset_number(v);
         }
         let letter = match v {
             v if v > 0.0 => hemispheres[0].to_string(),
@@ -100,7 +95,7 @@ impl MapAxis {
     }
 
     /// Round coordinates within the axis with their labels, as many as fit `pixels` with
-    /// labels `label_extent(label)` long and a glyph apart.
+    /// labels and the space after them `label_extent(label)` long.
     fn ticks(
         &self,
         pixels: u32,
@@ -114,7 +109,7 @@ impl MapAxis {
                 .collect();
             let longest = ticks.iter().map(|(_, l)| label_extent(l)).max();
             let room = pixels as f64 / ticks.len().max(1) as f64;
-            if most == 2 || longest.is_some_and(|l| (l + GLYPH) as f64 <= room) {
+            if most == 2 || longest.is_some_and(|l| l as f64 <= room) {
                 return ticks;
             }
         }
@@ -169,91 +164,353 @@ impl MapAxes {
     }
 }
 
-/// Where things sit in a framed figure.
-struct FrameLayout {
-    /// Top-left corner of the map.
-    left: u32,
-    top: u32,
-    /// The map's size, and the figure's.
-    map_w: u32,
-    map_h: u32,
-    width: u32,
-    height: u32,
-    x_ticks: Vec<(f64, String)>,
-    y_ticks: Vec<(f64, String)>,
+/// What a framed figure shows besides the map and its axes: the type, a title, the colour bar,
+/// lines of text under the map (the fringe legend) and whether to draw a scale bar (geographic
+/// axes only).
+pub(crate) struct FrameExtras<'a> {
+    pub ty: Type,
+    pub title: Option<&'a str>,
+    pub bar: Option<&'a ColourBar>,
+    pub notes: Vec<String>,
+    pub scale_bar: bool,
+}
+
+/// A rectangle of the figure, [x, x + w) × [y, y + h).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Rect {
+    pub x: i64,
+    pub y: i64,
+    pub w: i64,
+    pub h: i64,
+}
+
+impl Rect {
+    fn new(x: i64, y: i64, w: u32, h: u32) -> Rect {
+        Rect {
+            x,
+            y,
+            w: w as i64,
+            h: h as i64,
+        }
+    }
+
+    pub(crate) fn overlaps(&self, o: &Rect) -> bool {
+        self.x < o.x + o.w && o.x < self.x + self.w && self.y < o.y + o.h && o.y < self.y + self.h
+    }
+}
+
+/// One thing a figure draws.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Piece {
+    /// The map's pixels, unscaled.
+    Map,
+    /// The colour bar, upright, with its extend triangles inside the rectangle.
+    Bar,
+    /// A black rectangle: a tick, the scale bar.
+    Ink,
+    /// A line of text in the figure's type (`title`: the title's larger type).
+    Text { text: String, title: bool },
+}
+
+/// Where everything of a framed figure sits: the pieces with their rectangles, in drawing order,
+/// and the figure's size. Nothing overlaps but ticks and the outline they leave from (the
+/// layout test holds every text box apart from every other piece).
+pub(crate) struct FrameLayout {
+    pub width: u32,
+    pub height: u32,
+    pub map: Rect,
+    pub pieces: Vec<(Piece, Rect)>,
+    /// The colour bar's ticks drawn, "value@row ...", and the scale bar, "km@pixels".
+    bar_ticks: Vec<String>,
+    scale: Option<(f64, u32)>,
+}
+
+/// Mean Earth radius (IUGG), in km: a degree of latitude is 111.195 km.
+const EARTH_RADIUS_KM: f64 = 6371.0088;
+
+/// Text rows above the map: the title, then the y axis's title at the left and the colour bar's
+/// caption over the bar (on two rows when they would meet).
+struct Header {
+    rows: Vec<(Piece, i64, u32)>,
+    bottom: u32,
 }
 
 impl FrameLayout {
-    /// The layout: the left margin holds the widest y label, a tick and the outline; the top one
-    /// a line of text (the y title and the bar's caption); the bottom one the x ticks, labels
-    /// and title; the right one the colour bar, its ticks, labels and caption.
-    fn new(img: &HdrImage, axes: &MapAxes, bar: Option<&ColourBar>) -> FrameLayout {
-        let x_ticks = axes.x.ticks(img.width, ['E', 'W'], |l| text_width(l, 1));
-        let y_ticks = axes.y.ticks(img.height, ['N', 'S'], |_| GLYPH);
-        let widest = y_ticks
-            .iter()
-            .map(|(_, l)| text_width(l, 1))
-            .max()
-            .unwrap_or(0);
-        let left = FRAME_PAD + widest + GAP + FRAME_TICK + 1;
-        let bottom_text = if axes.x.title().is_empty() { 1 } else { 2 };
-        let bar_part = bar.map_or(0, |b| {
-            let labels = b
-                .ticks(bar_most(img.height))
-                .iter()
-                .map(|(_, l)| text_width(l, 1))
-                .max()
-                .unwrap_or(0);
-            let caption = text_width(&b.caption(240), 1);
-            FRAME_BAR_GAP + (FRAME_BAR_WIDTH + BAR_TICK + GAP + labels).max(caption)
-        });
-        let right = 1 + bar_part + FRAME_PAD;
-        let bottom = 1 + FRAME_TICK + bottom_text * (GAP + GLYPH) + FRAME_PAD;
-        let top = FRAME_PAD + GLYPH + 2 * GAP + 1;
-        FrameLayout {
-            left,
-            top,
-            map_w: img.width,
-            map_h: img.height,
-            width: left + img.width + right,
-            height: top + img.height + bottom,
-            x_ticks,
-            y_ticks,
+    /// The layout of `img` framed with `axes` and `extras`; see the module notes.
+    pub(crate) fn new(img: &HdrImage, axes: &MapAxes, extras: &FrameExtras) -> FrameLayout {
+        let ty = extras.ty;
+        let (gap, line) = (ty.gap(), ty.line());
+        let (tick, pad) = (gap.max(3), 2 * gap);
+        let (map_w, map_h) = (img.width, img.height);
+        let digit = ty.width("0");
+        let x_ticks = axes.x.ticks(map_w, ['E', 'W'], |l| ty.width(l) + digit);
+        let y_ticks = axes.y.ticks(map_h, ['N', 'S'], |_| line + gap);
+        let widest_y = y_ticks.iter().map(|(_, l)| ty.width(l)).max().unwrap_or(0);
+        let left = pad + widest_y + gap + tick + 1;
+        let bar_x = left + map_w + 1 + line;
+        let header = Self::header(axes, extras, (left, map_w, bar_x), pad);
+        // The top bar and y labels stand half a line above the map's top edge.
+        let top = header.bottom + line / 2 + 1;
+        let map = Rect::new(left as i64, top as i64, map_w, map_h);
+        let mut l = FrameLayout {
+            width: 0,
+            height: 0,
+            map,
+            pieces: vec![(Piece::Map, map)],
+            bar_ticks: Vec::new(),
+            scale: None,
+        };
+        for (piece, y, x) in header.rows {
+            l.text(piece, x as i64, y, ty, extras.ty.times(1.25));
         }
+        l.x_axis(axes, &x_ticks, ty, tick);
+        l.y_axis(axes, &y_ticks, ty, tick);
+        let mut bottom = (map.y + map.h) as u32 + 1 + tick + gap + line;
+        if !axes.x.title().is_empty() {
+            let title = axes.x.title();
+            let x = map.x + (map.w - ty.width(&title) as i64) / 2;
+            l.text_at(&title, x, (bottom + gap) as i64, ty);
+            bottom += gap + line;
+        }
+        for note in &extras.notes {
+            l.text_at(note, map.x, (bottom + gap) as i64, ty);
+            bottom += gap + line;
+        }
+        if extras.scale_bar {
+            bottom = l.scale_bar(axes, ty, bottom + gap);
+        }
+        let mut right = (map.x + map.w) as u32 + 1;
+        if let Some(bar) = extras.bar {
+            right = right.max(l.colour_bar(bar, bar_x, ty, tick));
+        }
+        let widest = l.pieces.iter().map(|(_, r)| (r.x + r.w) as u32).max();
+        l.width = right.max(widest.unwrap_or(0)) + pad;
+        l.height = bottom + pad;
+        l
+    }
+
+    fn header(
+        axes: &MapAxes,
+        extras: &FrameExtras,
+        (left, map_w, bar_x): (u32, u32, u32),
+        pad: u32,
+    ) -> Header {
+        let ty = extras.ty;
+        let (gap, line) = (ty.gap(), ty.line());
+        let mut rows = Vec::new();
+        let mut y = pad;
+        if let Some(title) = extras.title.filter(|t| !t.is_empty()) {
+            let big = ty.times(1.25);
+            let map_mid = left as i64 + map_w as i64 / 2;
+            let x = (map_mid - big.width(title) as i64 / 2).max(pad as i64);
+            let piece = Piece::Text {
+                text: title.to_string(),
+                title: true,
+            };
+            rows.push((piece, y as i64, x as u32));
+            y += big.line() + gap;
+        }
+        let y_title = axes.y.title();
+        let caption = extras
+            .bar
+            .map(|b| b.caption(1 << 20, ty))
+            .unwrap_or_default();
+        let text = |t: &str| Piece::Text {
+            text: t.to_string(),
+            title: false,
+        };
+        if !y_title.is_empty() {
+            rows.push((text(&y_title), y as i64, pad));
+        }
+        if !caption.is_empty() {
+            let meets = !y_title.is_empty() && pad + ty.width(&y_title) + gap > bar_x;
+            if meets {
+                y += line + gap;
+            }
+            rows.push((text(&caption), y as i64, bar_x));
+        }
+        if !y_title.is_empty() || !caption.is_empty() {
+            y += line + gap;
+        }
+        Header { rows, bottom: y }
+    }
+
+    /// Places a header row: text in the figure's type or, for the title, in `big`.
+    fn text(&mut self, piece: Piece, x: i64, y: i64, ty: Type, big: Type) {
+        if let Piece::Text { text, title } = &piece {
+            let t = if *title { big } else { ty };
+            let r = Rect::new(x, y, t.width(text), t.line());
+            self.pieces.push((piece, r));
+        }
+    }
+
+    /// Places `text` at (x, y) unless it would overlap a text already placed; whether it did.
+    fn text_at(&mut self, text: &str, x: i64, y: i64, ty: Type) -> bool {
+        let r = Rect::new(x, y, ty.width(text), ty.line());
+        let clear = self
+            .pieces
+            .iter()
+            .all(|(p, o)| !matches!(p, Piece::Text { .. }) || !o.overlaps(&r));
+        if clear {
+            let piece = Piece::Text {
+                text: text.to_string(),
+                title: false,
+            };
+            self.pieces.push((piece, r));
+        }
+        clear
+    }
+
+    /// Ticks under the map's bottom edge and their labels a gap below them.
+    fn x_axis(&mut self, axes: &MapAxes, ticks: &[(f64, String)], ty: Type, tick: u32) {
+        let m = self.map;
+        let below = m.y + m.h + 1;
+        for (v, label) in ticks {
+            let x = m.x + axes.x.pixel(*v, m.w as u32, false) as i64;
+            self.pieces.push((Piece::Ink, Rect::new(x, below, 1, tick)));
+            let lx = x - ty.width(label) as i64 / 2;
+            self.text_at(label, lx, below + (tick + ty.gap()) as i64, ty);
+        }
+    }
+
+    /// Ticks left of the map's left edge and their labels a gap left of them, centred on the
+    /// tick.
+    fn y_axis(&mut self, axes: &MapAxes, ticks: &[(f64, String)], ty: Type, tick: u32) {
+        let m = self.map;
+        let outside = m.x - 1 - tick as i64;
+        for (v, label) in ticks {
+            let y = m.y + axes.y.pixel(*v, m.h as u32, true) as i64;
+            self.pieces
+                .push((Piece::Ink, Rect::new(outside, y, tick, 1)));
+            let lx = outside - (ty.gap() + ty.width(label)) as i64;
+            self.text_at(label, lx, y - ty.line() as i64 / 2, ty);
+        }
+    }
+
+    /// The colour bar upright from the map's top to its bottom at column `bar_x`, a line of
+    /// text wide, with ticks on its right and their labels a gap beyond (labels that would
+    /// overlap the one above are left out); the rightmost column used.
+    fn colour_bar(&mut self, bar: &ColourBar, bar_x: u32, ty: Type, tick: u32) -> u32 {
+        let m = self.map;
+        let thick = ty.line();
+        let r = Rect::new(bar_x as i64, m.y, thick, m.h as u32);
+        self.pieces.push((Piece::Bar, r));
+        let (r0, r1) = upright_rows(bar, m.h as u32, thick);
+        let tick_x = (bar_x + thick) as i64;
+        let mut right = bar_x + thick;
+        let most = (m.h as u32 / (3 * ty.line())).clamp(2, 10) as usize;
+        for (v, label) in bar.ticks(most).into_iter().rev() {
+            let row =
+                m.y + r0 as i64 + ((1.0 - bar.position(v)) * (r1 - r0 - 1) as f64).round() as i64;
+            let lx = tick_x + (tick + ty.gap()) as i64;
+            if self.text_at(&label, lx, row - ty.line() as i64 / 2, ty) {
+                self.pieces
+                    .push((Piece::Ink, Rect::new(tick_x, row, tick, 1)));
+                self.bar_ticks.push(format!("{v}@{row}"));
+                right = right.max((lx + ty.width(&label) as i64) as u32);
+            }
+        }
+        right
+    }
+
+    /// A scale bar in km at the map's centre latitude under the map's left end, about a quarter
+    /// of the map long at a round length, with its label right of it; the row below it. Nothing
+    /// for axes that are not longitude and latitude.
+    fn scale_bar(&mut self, axes: &MapAxes, ty: Type, y: u32) -> u32 {
+        if !(axes.x.geographic() && axes.y.geographic()) {
+            return y - ty.gap();
+        }
+        let m = self.map;
+        let lat = 0.5 * (axes.y.lo + axes.y.hi);
+        let km_per_degree = EARTH_RADIUS_KM * std::f64::consts::PI / 180.0;
+        let km_per_px =
+            (axes.x.hi - axes.x.lo) * km_per_degree * lat.to_radians().cos() / m.w as f64;
+        let target = km_per_px * m.w as f64 / 4.0;
+        if !(target.is_finite() && target > 0.0) {
+            return y - ty.gap();
+        }
+        // The longest 1, 2 or 5 × 10^k km within a quarter of the map.
+        let power = 10f64.powf(target.log10().floor());
+        let km = [5.0, 2.0, 1.0]
+            .into_iter()
+            .map(|m| m * power)
+            .find(|v| *v <= target)
+            .unwrap_or(power);
+        let px = (km / km_per_px).round() as u32;
+        let (gap, line) = (ty.gap(), ty.line());
+        let thick = gap.max(3);
+        let bar_y = y as i64 + (line as i64 - thick as i64) / 2;
+        self.pieces
+            .push((Piece::Ink, Rect::new(m.x, bar_y, px.max(1), thick)));
+        let label = format!("{} km", typeset_number(km));
+        self.text_at(&label, m.x + (px + gap) as i64, y as i64, ty);
+        self.scale = Some((km, px));
+        y + line
     }
 }
 
-/// How many colour-bar ticks an upright bar `height` pixels tall gets.
-fn bar_most(height: u32) -> usize {
-    (height / (GLYPH * 3)).clamp(2, 10) as usize
+/// The rows [r0, r1) of a map `h` tall over which an upright bar's colours run, short of the
+/// extend triangles at the ends that clip (the high end at the top).
+fn upright_rows(bar: &ColourBar, h: u32, thick: u32) -> (u32, u32) {
+    let (a, b) = bar.extent(h, extend_length(h, thick));
+    (h - b, h - a)
 }
 
 /// `img` (exposed for display) in a figure: see the module notes. The map's pixels are copied
-/// unscaled with their top-left corner at (`frame_left`, `frame_top`) of the metadata; `bar` is
-/// drawn beside it when given.
+/// unscaled with their top-left corner at (`frame_map_origin`) of the metadata; the colour bar's
+/// ticks drawn are recorded as `frame_bar_ticks` ("value@row ...") and the scale bar as
+/// `frame_scale_bar` ("km pixels").
 pub(crate) fn with_map_frame(
     img: &HdrImage,
     axes: &MapAxes,
-    bar: Option<&ColourBar>,
+    extras: &FrameExtras,
 ) -> crate::Result<HdrImage> {
-    let layout = FrameLayout::new(img, axes, bar);
-    let mut out = HdrImage::new(layout.width, layout.height);
+    let l = FrameLayout::new(img, axes, extras);
+    let mut out = HdrImage::new(l.width, l.height);
     out.metadata = img.metadata.clone();
     out.pixels.fill(WHITE);
-    let (w, h) = (img.width, img.height);
-    for row in 0..h {
-        let dst = ((layout.top + row) * layout.width + layout.left) as usize;
-        let src = (row * w) as usize;
-        out.pixels[dst..dst + w as usize].copy_from_slice(&img.pixels[src..src + w as usize]);
+    let m = l.map;
+    let (x0, y0) = (m.x as u32, m.y as u32);
+    let (x1, y1) = (x0 + img.width, y0 + img.height);
+    fill(&mut out, (x0 - 1, x1 + 1), (y0 - 1, y0), BLACK);
+    fill(&mut out, (x0 - 1, x1 + 1), (y1, y1 + 1), BLACK);
+    fill(&mut out, (x0 - 1, x0), (y0 - 1, y1 + 1), BLACK);
+    fill(&mut out, (x1, x1 + 1), (y0 - 1, y1 + 1), BLACK);
+    for (piece, r) in &l.pieces {
+        let (rx, ry) = (r.x.max(0) as u32, r.y.max(0) as u32);
+        let span = ((rx, rx + r.w as u32), (ry, ry + r.h as u32));
+        match piece {
+            Piece::Map => {
+                for row in 0..img.height {
+                    let dst = ((y0 + row) * l.width + x0) as usize;
+                    let src = (row * img.width) as usize;
+                    out.pixels[dst..dst + img.width as usize]
+                        .copy_from_slice(&img.pixels[src..src + img.width as usize]);
+                }
+            }
+            Piece::Ink => fill(&mut out, span.0, span.1, BLACK),
+            Piece::Bar => {
+                if let Some(bar) = extras.bar {
+                    draw_upright_bar(&mut out, bar, span, extras.ty)?;
+                }
+            }
+            Piece::Text { text, title } => {
+                let ty = if *title {
+                    extras.ty.times(1.25)
+                } else {
+                    extras.ty
+                };
+                draw_text(&mut out, r.x, r.y, text, ty, BLACK);
+            }
+        }
     }
-    draw_axes(&mut out, &layout, axes);
-    if let Some(bar) = bar {
-        draw_upright_bar(&mut out, &layout, bar)?;
+    out.set_meta("frame_map_origin", format!("{x0} {y0}"));
+    if extras.bar.is_some() {
+        out.set_meta("frame_bar_ticks", l.bar_ticks.join(" "));
     }
-    out.set_meta(
-        "frame_map_origin",
-        format!("{} {}", layout.left, layout.top),
-    );
+    if let Some((km, px)) = l.scale {
+        out.set_meta("frame_scale_bar", format!("{km} {px}"));
+    }
     Ok(out)
 }
 
@@ -266,82 +523,24 @@ fn fill(img: &mut HdrImage, (x0, x1): (u32, u32), (y0, y1): (u32, u32), colour: 
     }
 }
 
-/// The outline one pixel outside the map, the ticks outside it and their labels and titles.
-fn draw_axes(out: &mut HdrImage, l: &FrameLayout, axes: &MapAxes) {
-    let (w, h) = (l.map_w, l.map_h);
-    let (x0, y0, x1, y1) = (l.left - 1, l.top - 1, l.left + w, l.top + h);
-    fill(out, (x0, x1 + 1), (y0, y0 + 1), BLACK);
-    fill(out, (x0, x1 + 1), (y1, y1 + 1), BLACK);
-    fill(out, (x0, x0 + 1), (y0, y1 + 1), BLACK);
-    fill(out, (x1, x1 + 1), (y0, y1 + 1), BLACK);
-    let label_y = y1 + 1 + FRAME_TICK + GAP;
-    let mut free_from = 0i64;
-    for (v, label) in &l.x_ticks {
-        let x = l.left + axes.x.pixel(*v, w, false);
-        fill(out, (x, x + 1), (y1 + 1, y1 + 1 + FRAME_TICK), BLACK);
-        let lw = text_width(label, 1) as i64;
-        let lx = x as i64 - lw / 2;
-        if lx >= free_from {
-            draw_text(out, lx, label_y as i64, label, 1, BLACK);
-            free_from = lx + lw + GLYPH as i64;
-        }
-    }
-    let title = axes.x.title();
-    let tx = l.left as i64 + (w as i64 - text_width(&title, 1) as i64) / 2;
-    draw_text(out, tx, (label_y + GLYPH + GAP) as i64, &title, 1, BLACK);
-    for (v, label) in &l.y_ticks {
-        let y = l.top + axes.y.pixel(*v, h, true);
-        fill(out, (x0 - FRAME_TICK, x0), (y, y + 1), BLACK);
-        let lx = (x0 - FRAME_TICK - GAP) as i64 - text_width(label, 1) as i64;
-        draw_text(out, lx, y as i64 - GLYPH as i64 / 2, label, 1, BLACK);
-    }
-    draw_text(
-        out,
-        FRAME_PAD as i64,
-        FRAME_PAD as i64,
-        &axes.y.title(),
-        1,
-        BLACK,
-    );
-}
-
-/// The colour bar upright beside the map, as tall as the map (the high end at the top), with
-/// a tick and label at each of [`ColourBar::ticks`] (labels that would overlap the one above
-/// are left out) and the bar's caption above it. Records the ticks drawn (`frame_bar_ticks`,
-/// "value@row ...").
-fn draw_upright_bar(out: &mut HdrImage, l: &FrameLayout, bar: &ColourBar) -> crate::Result<()> {
+/// The colour bar's colours in the columns [x0, x1) and rows [y0, y1), the high end at the top,
+/// with its extend triangles.
+fn draw_upright_bar(
+    out: &mut HdrImage,
+    bar: &ColourBar,
+    ((x0, x1), (y0, y1)): ((u32, u32), (u32, u32)),
+    ty: Type,
+) -> crate::Result<()> {
     let cmap = super::colormap::Colormap::by_name(&bar.colormap)?;
-    let bx = l.left + l.map_w + 1 + FRAME_BAR_GAP;
-    let h = l.map_h;
-    for row in 0..h {
-        let t = 1.0 - (row as f64 + 0.5) / h as f64;
+    let (r0, r1) = upright_rows(bar, y1 - y0, ty.line());
+    let n = (r1 - r0) as f64;
+    for row in r0..r1 {
+        let t = 1.0 - ((row - r0) as f64 + 0.5) / n;
         let c = cmap.linear_rgb(t);
         let colour = [c[0] as f32, c[1] as f32, c[2] as f32, 1.0];
-        fill(
-            out,
-            (bx, bx + FRAME_BAR_WIDTH),
-            (l.top + row, l.top + row + 1),
-            colour,
-        );
+        fill(out, (x0, x1), (y0 + row, y0 + row + 1), colour);
     }
-    let tick_x = bx + FRAME_BAR_WIDTH;
-    let mut drawn = Vec::new();
-    let mut free_from = 0i64;
-    for (v, label) in bar.ticks(bar_most(h)).into_iter().rev() {
-        let row = l.top + ((1.0 - bar.position(v)) * (h - 1) as f64).round() as u32;
-        fill(out, (tick_x, tick_x + BAR_TICK), (row, row + 1), BLACK);
-        let ly = row as i64 - GLYPH as i64 / 2;
-        if ly >= free_from {
-            let lx = (tick_x + BAR_TICK + GAP) as i64;
-            draw_text(out, lx, ly, &label, 1, BLACK);
-            free_from = ly + (GLYPH + GAP) as i64;
-            drawn.push(format!("{v}@{row}"));
-        }
-    }
-    let caption = bar.caption(240);
-    let cy = l.top as i64 - (GLYPH + 2 * GAP) as i64;
-    draw_text(out, bx as i64, cy, &caption, 1, BLACK);
-    out.set_meta("frame_bar_ticks", drawn.join(" "));
+    draw_extend_triangles(out, bar, &cmap, (x0, x1), (y0, y1), true);
     Ok(())
 }
 
@@ -395,12 +594,30 @@ mod tests {
         assert_eq!(lon.label(0.0, ['E', 'W']), "0°");
         assert_eq!(axis("phi", "degrees_north").label(15.0, ['N', 'S']), "15°N");
         assert_eq!(lon.title(), "");
-        assert_eq!(axis("x", "m").label(2.5e6, ['E', 'W']), "2.5e6");
+        assert_eq!(axis("x", "m").label(2.5e6, ['E', 'W']), "2.5×10⁶");
+        assert_eq!(axis("x", "m").label(-0.5, ['E', 'W']), "−0.5");
         assert_eq!(axis("x", "m").title(), "x (m)");
-        assert_ne!(
-            crate::model::text::glyph('°'),
-            crate::model::text::glyph('?')
-        );
+    }
+
+    fn bar(extend: [bool; 2]) -> ColourBar {
+        ColourBar {
+            colormap: "viridis".into(),
+            scale: BarScale::Linear,
+            lo: 0.0,
+            hi: 1.0,
+            units: "m".into(),
+            extend,
+        }
+    }
+
+    fn extras<'a>(ty: Type, bar: Option<&'a ColourBar>, title: Option<&'a str>) -> FrameExtras<'a> {
+        FrameExtras {
+            ty,
+            title,
+            bar,
+            notes: vec!["1 fringe = 0.25 m (ν = 4 per m)".into()],
+            scale_bar: true,
+        }
     }
 
     #[test]
@@ -411,42 +628,213 @@ mod tests {
         };
         let mut img = HdrImage::new(40, 30);
         img.pixels.fill([0.25, 0.5, 0.75, 1.0]);
-        let bar = ColourBar {
-            colormap: "viridis".into(),
-            scale: BarScale::Linear,
-            lo: 0.0,
-            hi: 1.0,
-            units: "m".into(),
-        };
-        let out = with_map_frame(&img, &axes, Some(&bar)).unwrap();
-        // 40 × 30 px leave room for two labels a side (a label and a glyph per tick): steps of
-        // 20, ticks at 0 and 20; the widest y label, "20", is 16 px, so the map starts at
-        // 6 + 16 + 2 + 4 + 1.
-        let (left, top) = (29u32, 19u32);
-        assert_eq!(out.meta("frame_map_origin"), Some("29 19"));
+        let b = bar([false; 2]);
+        let ty = Type::new(11.0);
+        let out = with_map_frame(&img, &axes, &extras(ty, Some(&b), None)).unwrap();
+        let layout = FrameLayout::new(&img, &axes, &extras(ty, Some(&b), None));
+        let (left, top) = (layout.map.x as u32, layout.map.y as u32);
+        assert_eq!(
+            out.meta("frame_map_origin"),
+            Some(format!("{left} {top}").as_str())
+        );
         let at = |x: u32, y: u32| out.pixels[(y * out.width + x) as usize];
         assert_eq!(at(left, top), [0.25, 0.5, 0.75, 1.0]);
         assert_eq!(at(left + 39, top + 29), [0.25, 0.5, 0.75, 1.0]);
         assert_eq!(at(left - 1, top), BLACK);
         // Ticks in the columns of nodes 0 and 20 (x = node index here) and the rows of nodes 0
-        // and 20 counted from the north; no tick at node 10.
+        // and 20 counted from the north; no tick at node 10. No scale bar on axes in metres.
         for v in [0u32, 20] {
             assert_eq!(at(left + v, top + 30 + 2), BLACK, "x tick {v}");
             assert_eq!(at(left - 3, top + 29 - v), BLACK, "y tick {v}");
         }
         assert_eq!(at(left + 10, top + 30 + 2), WHITE);
         assert_eq!(at(left - 3, top + 19), WHITE);
+        assert_eq!(out.meta("frame_scale_bar"), None);
         // Bar ticks at rows top + round((1 − t) · 29), drawn right of the bar.
+        let (bar_rect, _) = layout
+            .pieces
+            .iter()
+            .find(|(p, _)| *p == Piece::Bar)
+            .map(|(p, r)| (*r, p))
+            .unwrap();
         let ticks = out.meta("frame_bar_ticks").unwrap().to_string();
         assert!(ticks.split(' ').count() >= 2, "{ticks}");
         for t in ticks.split(' ') {
             let (v, row) = t.split_once('@').unwrap();
             let (v, row): (f64, u32) = (v.parse().unwrap(), row.parse().unwrap());
             assert_eq!(row, top + ((1.0 - v) * 29.0).round() as u32);
-            assert_eq!(
-                at(left + 40 + 1 + FRAME_BAR_GAP + FRAME_BAR_WIDTH, row),
-                BLACK
-            );
+            assert_eq!(at((bar_rect.x + bar_rect.w) as u32, row), BLACK);
         }
+        // With both ends clipped the bar's end rows narrow to triangles in the end colours.
+        let clipped = bar([true, true]);
+        let out = with_map_frame(&img, &axes, &extras(ty, Some(&clipped), None)).unwrap();
+        let at = |x: i64, y: i64| out.pixels[(y as u32 * out.width + x as u32) as usize];
+        let (x0, mid) = (bar_rect.x, bar_rect.x + bar_rect.w / 2);
+        let (top_row, bottom_row) = (bar_rect.y, bar_rect.y + bar_rect.h - 1);
+        assert_eq!(at(x0, top_row), WHITE);
+        assert_eq!(at(x0, bottom_row), WHITE);
+        let cmap = crate::model::colormap::Colormap::by_name("viridis").unwrap();
+        let end = |t: f64| cmap.linear_rgb(t).map(|v| v as f32);
+        let (hi, lo) = (at(mid, top_row + 1), at(mid, bottom_row - 1));
+        assert_eq!([hi[0], hi[1], hi[2]], end(1.0));
+        assert_eq!([lo[0], lo[1], lo[2]], end(0.0));
+    }
+
+    /// Every text box of a framed figure — tick labels, axis and bar captions, the title, the
+    /// legend line, the scale bar's label — lies inside the figure and overlaps no other piece
+    /// (map, bar, ticks, scale bar, other text), at small and large type, with extend triangles
+    /// and without; and each tick label keeps at least a gap from its tick.
+    #[test]
+    fn framed_figure_pieces_never_overlap() {
+        let geo = |name: &str, units: &str, from: f64, n: usize, step: f64| {
+            MapAxis::of_coords(&coords(
+                name,
+                units,
+                (0..n).map(|i| from + step * i as f64).collect(),
+            ))
+            .unwrap()
+        };
+        let cases = [
+            (
+                geo("lon", "degrees_east", 120.0, 512, 0.02),
+                geo("lat", "degrees_north", -10.0, 256, 0.02),
+                (512, 256),
+            ),
+            (
+                geo("x", "km", -300.0, 400, 1.5),
+                geo("depth", "km", -2900.0, 300, 10.0),
+                (400, 300),
+            ),
+        ];
+        for (x, y, (w, h)) in cases {
+            let axes = MapAxes { x, y };
+            let img = HdrImage::new(w, h);
+            for ty in [Type::for_figure(img.width, img.height), Type::new(30.0)] {
+                for extend in [[false; 2], [true, true]] {
+                    let b = bar(extend);
+                    let e = extras(ty, Some(&b), Some("Sea-surface height, 2011 Tōhoku"));
+                    let l = FrameLayout::new(&img, &axes, &e);
+                    let texts: Vec<&Rect> = l
+                        .pieces
+                        .iter()
+                        .filter(|(p, _)| matches!(p, Piece::Text { .. }))
+                        .map(|(_, r)| r)
+                        .collect();
+                    assert!(texts.len() >= 8, "{}", texts.len());
+                    for (i, (p, r)) in l.pieces.iter().enumerate() {
+                        assert!(
+                            r.x >= 0
+                                && r.y >= 0
+                                && r.x + r.w <= l.width as i64
+                                && r.y + r.h <= l.height as i64,
+                            "{p:?} {r:?} outside {}×{}",
+                            l.width,
+                            l.height
+                        );
+                        for (q, o) in &l.pieces[i + 1..] {
+                            let text =
+                                matches!(p, Piece::Text { .. }) || matches!(q, Piece::Text { .. });
+                            let solid = matches!(p, Piece::Map | Piece::Bar)
+                                || matches!(q, Piece::Map | Piece::Bar);
+                            if text || solid {
+                                assert!(!r.overlaps(o), "{p:?} {r:?} overlaps {q:?} {o:?}");
+                            }
+                        }
+                    }
+                    // A gap between each tick and the nearest text box.
+                    let g = ty.gap() as i64;
+                    for (_, t) in l.pieces.iter().filter(|(p, _)| *p == Piece::Ink) {
+                        let grown = Rect {
+                            x: t.x - g + 1,
+                            y: t.y - g + 1,
+                            w: t.w + 2 * g - 2,
+                            h: t.h + 2 * g - 2,
+                        };
+                        assert!(
+                            texts.iter().all(|r| !r.overlaps(&grown)),
+                            "a label touches the tick at {t:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The scale bar at the map's centre latitude: a round length in km drawn as many pixels as
+    /// the map's scale there makes it (edges lon 119.99–130.23°, lat −10.01…−4.89°: 2.2051 km
+    /// per pixel).
+    #[test]
+    fn scale_bar_is_in_km_at_the_centre_latitude() {
+        let axes = MapAxes {
+            x: MapAxis::of_coords(&coords(
+                "lon",
+                "degrees_east",
+                (0..512).map(|i| 120.0 + 0.02 * i as f64).collect(),
+            ))
+            .unwrap(),
+            y: MapAxis::of_coords(&coords(
+                "lat",
+                "degrees_north",
+                (0..256).map(|i| -10.0 + 0.02 * i as f64).collect(),
+            ))
+            .unwrap(),
+        };
+        let img = HdrImage::new(512, 256);
+        let out = with_map_frame(&img, &axes, &extras(Type::new(12.0), None, None)).unwrap();
+        let lat = (-10.01f64 + -4.89) / 2.0;
+        let km_per_px =
+            10.24 * 6371.0088 * std::f64::consts::PI / 180.0 * lat.to_radians().cos() / 512.0;
+        assert!((km_per_px - 2.2051).abs() < 1e-3, "{km_per_px}");
+        // A quarter of the map is 282 km: the bar is 200 km, 91 pixels.
+        let scale = out.meta("frame_scale_bar").unwrap();
+        assert_eq!(scale, "200 91");
+        assert_eq!((200.0 / km_per_px).round(), 91.0);
+    }
+
+    /// The default type grows with the figure: the ink of the x labels is four times as tall
+    /// under a map four times as large.
+    #[test]
+    fn label_height_scales_with_the_figure() {
+        let ink_height = |w: u32, h: u32| {
+            let axes = MapAxes {
+                x: MapAxis::of_coords(&coords(
+                    "lon",
+                    "degrees_east",
+                    (0..w).map(|i| 120.0 + 10.0 * i as f64 / w as f64).collect(),
+                ))
+                .unwrap(),
+                y: MapAxis::of_coords(&coords(
+                    "lat",
+                    "degrees_north",
+                    (0..h).map(|i| 10.0 * i as f64 / h as f64).collect(),
+                ))
+                .unwrap(),
+            };
+            let img = HdrImage::new(w, h);
+            let e = FrameExtras {
+                ty: Type::for_figure(w, h),
+                title: None,
+                bar: None,
+                notes: Vec::new(),
+                scale_bar: false,
+            };
+            let l = FrameLayout::new(&img, &axes, &e);
+            let out = with_map_frame(&img, &axes, &e).unwrap();
+            let below = l.map.y + l.map.h + 1 + e.ty.gap().max(3) as i64;
+            let (_, r) = l
+                .pieces
+                .iter()
+                .find(|(p, r)| matches!(p, Piece::Text { .. }) && r.y > below)
+                .unwrap();
+            (r.y..r.y + r.h)
+                .filter(|y| {
+                    (r.x..r.x + r.w)
+                        .any(|x| out.pixels[(*y as u32 * out.width + x as u32) as usize][0] < 0.5)
+                })
+                .count() as f64
+        };
+        let (small, large) = (ink_height(512, 512), ink_height(2048, 2048));
+        assert!(small >= 10.0, "{small}");
+        assert!((large / small - 4.0).abs() < 0.4, "{large} / {small}");
     }
 }

@@ -1,63 +1,165 @@
-//! Text drawn into HDR images for legends: the 8×8 bitmap glyphs of the `font8x8` crate (Basic
-//! Latin, Latin-1 and Greek, so "ν" and "°" print), scaled by whole pixels, and the number format
-//! legends use.
-//! Pixels are written as linear values, so text stays crisp in the EXR and in any PNG view.
+//! Text drawn into HDR images for legends and figures, and the number format and ticks they use.
+//! Type is the Hack typeface (a DejaVu Sans Mono derivative; MIT and Bitstream Vera licences, see
+//! docs/surfaces.md) that the `epaint_default_fonts` crate ships, rasterised by `ab_glyph` into
+//! anti-aliased coverage, so labels scale to any size and carry ν, °, the minus sign U+2212, µ and
+//! superscript powers of ten (10⁻³). [`Type`] is a text size with the line metrics layouts use.
+//! Pixels are blended in linear light, so text stays crisp in the EXR and in any PNG view.
 //! [`ColourBar`] is the colour bar a render records in its metadata (colour map, scale, domain,
-//! units) and [`with_colour_bar`] draws it under an image with labelled ticks — every decade on
-//! log10 and symlog scales — for `save_png(img, path, #{legend: true})`.
+//! units, which ends clip) and [`with_colour_bar`] draws it under an image with labelled ticks —
+//! every decade on log10 and symlog scales — for `save_png(img, path, #{legend: true})`.
 
 use super::HdrImage;
-use font8x8::{UnicodeFonts, BASIC_FONTS, GREEK_FONTS, LATIN_FONTS};
+use ab_glyph::{Font, FontRef, PxScale, ScaleFont};
+use std::sync::OnceLock;
 
-/// Glyph cell size in font pixels.
-pub(crate) const GLYPH: u32 = 8;
-
-/// The 8×8 bitmap of `c` (row 0 at the top, bit 0 the leftmost pixel); `?` for characters the
-/// font lacks.
-pub fn glyph(c: char) -> [u8; 8] {
-    BASIC_FONTS
-        .get(c)
-        .or_else(|| GREEK_FONTS.get(c))
-        .or_else(|| LATIN_FONTS.get(c))
-        .or_else(|| BASIC_FONTS.get('?'))
-        .unwrap_or([0; 8])
+/// The embedded typeface, parsed once.
+fn face() -> &'static FontRef<'static> {
+    static FACE: OnceLock<FontRef<'static>> = OnceLock::new();
+    FACE.get_or_init(|| {
+        FontRef::try_from_slice(epaint_default_fonts::HACK_REGULAR)
+            .expect("the embedded Hack typeface parses")
+    })
 }
 
-/// Width in image pixels of `text` drawn at `scale`.
-pub(crate) fn text_width(text: &str, scale: u32) -> u32 {
-    text.chars().count() as u32 * GLYPH * scale
+/// A text size: the font's em in pixels, with the metrics layouts need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Type {
+    pub px: f32,
 }
 
-/// Draws `text` with its top-left corner at (x, y), each font pixel a `scale` × `scale` block
-/// of `colour`; parts outside the image are clipped. Background pixels are left alone.
+/// The smallest and largest text sizes, in pixels per em: below 6 glyphs blur into each other,
+/// and the limit above keeps a mistyped size from allocating a poster.
+pub(crate) const TYPE_MIN: f64 = 6.0;
+pub(crate) const TYPE_MAX: f64 = 400.0;
+
+impl Type {
+    pub(crate) fn new(px: f64) -> Type {
+        Type {
+            px: px.clamp(TYPE_MIN, TYPE_MAX) as f32,
+        }
+    }
+
+    /// The default size for a figure around a picture `width × height`: 2.8 % of the shorter
+    /// side (matplotlib's 10 pt on its 6.4 × 4.8 inch figure at 100 dpi is 2.9 %), at least 11
+    /// pixels, so labels read alike at 512² and at 4096².
+    pub(crate) fn for_figure(width: u32, height: u32) -> Type {
+        Type::new((0.028 * width.min(height) as f64).max(11.0))
+    }
+
+    /// The face at this size: `px` is the em (ab_glyph's own scale is the line height).
+    fn scaled(self) -> ab_glyph::PxScaleFont<&'static FontRef<'static>> {
+        let f = face();
+        let per_em = f.height_unscaled() / f.units_per_em().unwrap_or(f.height_unscaled());
+        f.as_scaled(PxScale::from(self.px * per_em))
+    }
+
+    /// Height of a line of text: ascent + descent and a pixel above and below, which
+    /// anti-aliased edges of the tallest glyphs reach.
+    pub(crate) fn line(self) -> u32 {
+        let f = self.scaled();
+        (f.ascent() - f.descent()).ceil() as u32 + 2
+    }
+
+    /// Space between a tick and its label, between lines and around a figure: a third of an em,
+    /// at least 2 pixels.
+    pub(crate) fn gap(self) -> u32 {
+        ((self.px / 3.0).round() as u32).max(2)
+    }
+
+    /// Width of `text` in pixels (advances and kerning).
+    pub(crate) fn width(self, text: &str) -> u32 {
+        let f = self.scaled();
+        let mut w = 0.0f32;
+        let mut last = None;
+        for c in text.chars() {
+            let id = f.glyph_id(c);
+            if let Some(prev) = last {
+                w += f.kern(prev, id);
+            }
+            w += f.h_advance(id);
+            last = Some(id);
+        }
+        w.ceil() as u32
+    }
+
+    /// The size `scale` times larger (a title).
+    pub(crate) fn times(self, scale: f64) -> Type {
+        Type::new(self.px as f64 * scale)
+    }
+}
+
+/// Draws `text` with the top-left corner of its line box ([`Type::line`]: a pixel, the ascent
+/// above the baseline, the descent below, a pixel) at (x, y), blending `colour` over the image by each pixel's coverage; parts outside
+/// the image are clipped.
 pub(crate) fn draw_text(
     img: &mut HdrImage,
     x: i64,
     y: i64,
     text: &str,
-    scale: u32,
+    ty: Type,
     colour: [f32; 4],
 ) {
-    let s = scale.max(1) as i64;
-    for (i, c) in text.chars().enumerate() {
-        let rows = glyph(c);
-        let x0 = x + i as i64 * GLYPH as i64 * s;
-        for (gy, bits) in rows.iter().enumerate() {
-            for gx in 0..GLYPH as i64 {
-                if bits & (1 << gx) == 0 {
-                    continue;
-                }
-                for dy in 0..s {
-                    for dx in 0..s {
-                        let (px, py) = (x0 + gx * s + dx, y + gy as i64 * s + dy);
-                        if px >= 0 && py >= 0 && px < img.width as i64 && py < img.height as i64 {
-                            img.pixels[(py as u64 * img.width as u64 + px as u64) as usize] =
-                                colour;
-                        }
-                    }
-                }
-            }
+    let f = ty.scaled();
+    let baseline = y as f32 + 1.0 + f.ascent();
+    let mut pen = x as f32;
+    let mut last = None;
+    let (w, h) = (img.width as i64, img.height as i64);
+    for c in text.chars() {
+        let id = f.glyph_id(c);
+        if let Some(prev) = last {
+            pen += f.kern(prev, id);
         }
+        let glyph = id.with_scale_and_position(f.scale(), ab_glyph::point(pen, baseline));
+        pen += f.h_advance(id);
+        last = Some(id);
+        let Some(outline) = face().outline_glyph(glyph) else {
+            continue;
+        };
+        let bounds = outline.px_bounds();
+        outline.draw(|gx, gy, coverage| {
+            let px = bounds.min.x as i64 + gx as i64;
+            let py = bounds.min.y as i64 + gy as i64;
+            if coverage <= 0.0 || px < 0 || py < 0 || px >= w || py >= h {
+                return;
+            }
+            let a = coverage.min(1.0);
+            let p = &mut img.pixels[(py * w + px) as usize];
+            for k in 0..4 {
+                p[k] = p[k] * (1.0 - a) + colour[k] * a;
+            }
+        });
+    }
+}
+
+/// Superscript forms of the characters of an exponent.
+fn superscript(exponent: &str) -> String {
+    exponent
+        .chars()
+        .filter_map(|c| match c {
+            '-' | '\u{2212}' => Some('\u{207b}'),
+            '0' => Some('\u{2070}'),
+            '1' => Some('\u{b9}'),
+            '2' => Some('\u{b2}'),
+            '3' => Some('\u{b3}'),
+            '4'..='9' => char::from_u32(0x2074 + (c as u32 - '4' as u32)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A number as typeset on a figure: [`format_number`] with the minus sign U+2212 and powers of
+/// ten in superscript (−2.5×10⁻⁷; 10⁻³ for a bare power).
+pub(crate) fn typeset_number(v: f64) -> String {
+    let plain = format_number(v);
+    let (mantissa, exponent) = match plain.split_once('e') {
+        Some((m, e)) => (m.replace('-', "\u{2212}"), Some(e)),
+        None => (plain.replace('-', "\u{2212}"), None),
+    };
+    match exponent {
+        None => mantissa,
+        Some(e) if mantissa == "1" => format!("10{}", superscript(e)),
+        Some(e) if mantissa == "\u{2212}1" => format!("\u{2212}10{}", superscript(e)),
+        Some(e) => format!("{mantissa}×10{}", superscript(e)),
     }
 }
 
@@ -100,8 +202,10 @@ pub(crate) fn nice_ticks(lo: f64, hi: f64, most: usize) -> Vec<f64> {
         .map(|m| m * power)
         .find(|s| *s >= raw)
         .unwrap_or(10.0 * power);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
+    // Within 1e-9 of a step counts as on it: ends computed through an offset may miss a round
+    // value by an ulp.
+    let first = (lo / step - 1e-9).ceil() as i64;
+    let last = (hi / step + 1e-9).floor() as i64;
     (first..=last)
         .map(|i| i as f64 * step)
         .map(|v| if v.abs() < step * 1e-9 { 0.0 } else { v })
@@ -156,15 +260,22 @@ pub(crate) struct ColourBar {
     pub lo: f64,
     pub hi: f64,
     pub units: String,
+    /// Whether data lie below `lo` and above `hi` (drawn in the end colours): a triangle is
+    /// drawn at that end of the bar, as matplotlib's `extend`.
+    pub extend: [bool; 2],
 }
 
 /// Metadata keys a render records its colour bar under.
-const BAR_KEYS: [&str; 4] = [
+const BAR_KEYS: [&str; 5] = [
     "legend_colormap",
     "legend_scale",
     "legend_domain",
     "legend_units",
+    "legend_extend",
 ];
+
+/// The `extend` words of matplotlib, indexed by [low, high] clipping.
+const EXTEND_WORDS: [&str; 4] = ["neither", "min", "max", "both"];
 
 impl ColourBar {
     /// Records the bar in `img`'s metadata.
@@ -173,6 +284,8 @@ impl ColourBar {
         img.set_meta(BAR_KEYS[1], self.scale.describe());
         img.set_meta(BAR_KEYS[2], format!("{} {}", self.lo, self.hi));
         img.set_meta(BAR_KEYS[3], self.units.as_str());
+        let word = EXTEND_WORDS[self.extend[0] as usize + 2 * self.extend[1] as usize];
+        img.set_meta(BAR_KEYS[4], word);
     }
 
     /// The bar `img` records, if it records one.
@@ -190,7 +303,21 @@ impl ColourBar {
             lo,
             hi,
             units: img.meta(BAR_KEYS[3]).unwrap_or("").to_string(),
+            extend: match img.meta(BAR_KEYS[4]) {
+                Some("min") => [true, false],
+                Some("max") => [false, true],
+                Some("both") => [true, true],
+                _ => [false, false],
+            },
         })
+    }
+
+    /// Where the colours run along a bar `len` pixels long whose extend triangles are `tri`
+    /// long: `[start, end)`, short of each end that has a triangle.
+    pub(crate) fn extent(&self, len: u32, tri: u32) -> (u32, u32) {
+        let start = if self.extend[0] { tri } else { 0 };
+        let end = len.saturating_sub(if self.extend[1] { tri } else { 0 });
+        (start.min(end.saturating_sub(1)), end.max(1))
     }
 
     /// Where `v` sits along the bar, 0 at `lo` and 1 at `hi`.
@@ -205,7 +332,7 @@ impl ColourBar {
 
     /// The bar's units and scale as one line of at most `width` pixels ("m, log10 scale", then
     /// shorter forms; empty when even the units do not fit).
-    pub(crate) fn caption(&self, width: u32) -> String {
+    pub(crate) fn caption(&self, width: u32, ty: Type) -> String {
         let units = match self.units.as_str() {
             "" => "data units".to_string(),
             "1" => "dimensionless".to_string(),
@@ -217,7 +344,7 @@ impl ColourBar {
             units,
         ]
         .into_iter()
-        .find(|c| text_width(c, 1) <= width)
+        .find(|c| ty.width(c) <= width)
         .unwrap_or_default()
     }
 
@@ -230,7 +357,7 @@ impl ColourBar {
             if (-2..=3).contains(&k) {
                 format_number(10f64.powi(k))
             } else {
-                format!("1e{k}")
+                format!("10{}", superscript(&k.to_string()))
             }
         };
         let decades = |from: f64, to: f64| -> Vec<i32> {
@@ -251,7 +378,7 @@ impl ColourBar {
                 let mut t: Vec<(f64, String)> = decades(linthresh, -lo)
                     .into_iter()
                     .rev()
-                    .map(|k| (-(10f64.powi(k)), format!("-{}", decade_label(k))))
+                    .map(|k| (-(10f64.powi(k)), format!("\u{2212}{}", decade_label(k))))
                     .collect();
                 if lo <= 0.0 && hi >= 0.0 {
                     t.push((0.0, "0".into()));
@@ -265,67 +392,150 @@ impl ColourBar {
             }
             BarScale::Linear => nice_ticks(lo, hi, most)
                 .into_iter()
-                .map(|v| (v, format_number(v)))
+                .map(|v| (v, typeset_number(v)))
                 .collect(),
         };
-        ticks.retain(|(v, _)| *v >= lo && *v <= hi);
+        // As in `nice_ticks`, a round value an ulp beyond an end still counts.
+        let tol = 1e-9 * (hi - lo).abs();
+        ticks.retain(|(v, _)| *v >= lo - tol && *v <= hi + tol);
         ticks
     }
 }
 
-/// Height of the colour bar itself in a [`with_colour_bar`] strip.
-pub(crate) const STRIP_BAR: u32 = 12;
+/// The length of an extend triangle on a bar `len` long and `thickness` across: as long as the
+/// bar is thick (matplotlib's default), at most a quarter of the bar.
+pub(crate) fn extend_length(len: u32, thickness: u32) -> u32 {
+    thickness.min(len / 4)
+}
 
-/// `img` with `bar` drawn beneath it on black: the colour bar across the full width (colours in
-/// linear light, as the image's), a white tick at each of [`ColourBar::ticks`] with its label
-/// under it (labels that would overlap the previous one are left out), and the units at the
-/// right. The metadata records the ticks drawn (`legend_ticks`, "value@x ...").
-pub(crate) fn with_colour_bar(img: &HdrImage, bar: &ColourBar) -> crate::Result<HdrImage> {
+/// Paints the pixels whose centres lie inside (or on) the triangle `corners`, clipped to the
+/// image.
+pub(crate) fn fill_triangle(img: &mut HdrImage, corners: [(f64, f64); 3], colour: [f32; 4]) {
+    let [a, b, c] = corners;
+    let edge = |p: (f64, f64), q: (f64, f64), x: f64, y: f64| {
+        (q.0 - p.0) * (y - p.1) - (q.1 - p.1) * (x - p.0)
+    };
+    let area = edge(a, b, c.0, c.1);
+    if area == 0.0 {
+        return;
+    }
+    let lo = |i: fn(&(f64, f64)) -> f64| corners.iter().map(i).fold(f64::INFINITY, f64::min);
+    let hi = |i: fn(&(f64, f64)) -> f64| corners.iter().map(i).fold(f64::NEG_INFINITY, f64::max);
+    let (x0, x1) = (lo(|p| p.0).floor().max(0.0), hi(|p| p.0).ceil());
+    let (y0, y1) = (lo(|p| p.1).floor().max(0.0), hi(|p| p.1).ceil());
+    for y in y0 as u32..(y1.min(img.height as f64)) as u32 {
+        for x in x0 as u32..(x1.min(img.width as f64)) as u32 {
+            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+            let inside = [(a, b), (b, c), (c, a)]
+                .iter()
+                .all(|(p, q)| edge(*p, *q, px, py) * area.signum() >= -1e-9);
+            if inside {
+                img.pixels[(y * img.width + x) as usize] = colour;
+            }
+        }
+    }
+}
+
+/// The extend triangles of `bar` in the rectangle [x0, x1) × [y0, y1) that holds the bar and its
+/// triangles, in the colours of the map's ends: pointing left and right along a horizontal bar,
+/// down and up along an `upright` one (the high end at the top).
+pub(crate) fn draw_extend_triangles(
+    img: &mut HdrImage,
+    bar: &ColourBar,
+    cmap: &super::colormap::Colormap,
+    (x0, x1): (u32, u32),
+    (y0, y1): (u32, u32),
+    upright: bool,
+) {
+    let (x0, x1, y0, y1) = (x0 as f64, x1 as f64, y0 as f64, y1 as f64);
+    let along = if upright { y1 - y0 } else { x1 - x0 };
+    let across = if upright { x1 - x0 } else { y1 - y0 };
+    let tri = extend_length(along as u32, across as u32) as f64;
+    let colour = |t: f64| {
+        let c = cmap.linear_rgb(t);
+        [c[0] as f32, c[1] as f32, c[2] as f32, 1.0]
+    };
+    let (mx, my) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    let ends = if upright {
+        [
+            [(mx, y1), (x0, y1 - tri), (x1, y1 - tri)],
+            [(mx, y0), (x0, y0 + tri), (x1, y0 + tri)],
+        ]
+    } else {
+        [
+            [(x0, my), (x0 + tri, y0), (x0 + tri, y1)],
+            [(x1, my), (x1 - tri, y0), (x1 - tri, y1)],
+        ]
+    };
+    for (k, corners) in ends.into_iter().enumerate() {
+        if bar.extend[k] {
+            fill_triangle(img, corners, colour(k as f64));
+        }
+    }
+}
+
+/// `img` with `bar` drawn beneath it on black in type `ty`: the colour bar across the full width
+/// (colours in linear light, as the image's; a line of text thick, extend triangles at the ends
+/// that clip), a white tick at each of [`ColourBar::ticks`] with its label a gap below it
+/// (labels that would overlap the previous one are left out), and the units at the right. The
+/// metadata records the bar's rows (`legend_bar_rows`, "top bottom") and the ticks drawn
+/// (`legend_ticks`, "value@x ...").
+pub(crate) fn with_colour_bar(
+    img: &HdrImage,
+    bar: &ColourBar,
+    ty: Type,
+) -> crate::Result<HdrImage> {
     let cmap = super::colormap::Colormap::by_name(&bar.colormap)?;
     let (w, h) = (img.width, img.height);
-    let line = GLYPH + 4;
-    let strip = 4 + STRIP_BAR + 3 + line + line;
+    let (gap, line) = (ty.gap(), ty.line());
+    let thick = line;
+    let strip = gap + thick + gap + gap + line + gap + line + gap;
     let mut out = HdrImage::new(w, h + strip);
     out.metadata = img.metadata.clone();
     out.pixels[..img.pixels.len()].copy_from_slice(&img.pixels);
     for p in out.pixels[img.pixels.len()..].iter_mut() {
         *p = [0.0, 0.0, 0.0, 1.0];
     }
-    let top = h + 4;
-    for x in 0..w {
-        let t = (x as f64 + 0.5) / w as f64;
+    let top = h + gap;
+    let (x0, x1) = bar.extent(w, extend_length(w, thick));
+    for x in x0..x1 {
+        let t = (x as f64 - x0 as f64 + 0.5) / (x1 - x0) as f64;
         let c = cmap.linear_rgb(t);
-        for y in top..top + STRIP_BAR {
+        for y in top..top + thick {
             out.pixels[(y * w + x) as usize] = [c[0] as f32, c[1] as f32, c[2] as f32, 1.0];
         }
     }
+    draw_extend_triangles(&mut out, bar, &cmap, (0, w), (top, top + thick), false);
     let white = [1.0, 1.0, 1.0, 1.0];
-    let most = (w / (GLYPH * 6)).clamp(2, 10) as usize;
+    let tick_end = top + thick + gap;
+    let label_top = tick_end + gap;
+    let most = (w / (ty.width("0") * 6).max(1)).clamp(2, 10) as usize;
     let mut drawn = Vec::new();
     let mut free_from = 0i64;
     for (v, label) in bar.ticks(most) {
-        let x = (bar.position(v) * (w - 1) as f64).round() as u32;
-        for y in top + STRIP_BAR..top + STRIP_BAR + 3 {
+        let x = x0 + (bar.position(v) * (x1 - x0 - 1) as f64).round() as u32;
+        for y in top + thick..tick_end {
             out.pixels[(y * w + x) as usize] = white;
         }
-        let lw = text_width(&label, 1) as i64;
+        let lw = ty.width(&label) as i64;
         let lx = (x as i64 - lw / 2).clamp(0, (w as i64 - lw).max(0));
         if lx >= free_from {
-            draw_text(&mut out, lx, (top + STRIP_BAR + 4) as i64, &label, 1, white);
-            free_from = lx + lw + GLYPH as i64;
+            draw_text(&mut out, lx, label_top as i64, &label, ty, white);
+            free_from = lx + lw + ty.width("0") as i64;
             drawn.push(format!("{v}@{x}"));
         }
     }
-    let caption = bar.caption(w.saturating_sub(4));
-    let cx = (w as i64 - text_width(&caption, 1) as i64 - 2).max(0);
+    let caption = bar.caption(w.saturating_sub(2 * gap), ty);
+    let cx = (w as i64 - ty.width(&caption) as i64 - gap as i64).max(0);
     draw_text(
         &mut out,
         cx,
-        (top + STRIP_BAR + 4 + line) as i64,
+        (label_top + line + gap) as i64,
         &caption,
-        1,
+        ty,
         white,
     );
+    out.set_meta("legend_bar_rows", format!("{top} {}", top + thick));
     out.set_meta("legend_ticks", drawn.join(" "));
     Ok(out)
 }
@@ -341,6 +551,7 @@ mod tests {
             lo,
             hi,
             units: "m".into(),
+            extend: [false; 2],
         }
     }
 
@@ -348,36 +559,47 @@ mod tests {
     fn colour_bar_ticks_label_decades() {
         let log = bar(BarScale::Log10, 1e-3, 5.0).ticks(10);
         let labels: Vec<&str> = log.iter().map(|(_, l)| l.as_str()).collect();
-        assert_eq!(labels, ["1e-3", "0.01", "0.1", "1"]);
+        assert_eq!(labels, ["10⁻³", "0.01", "0.1", "1"]);
         assert!((bar(BarScale::Log10, 1e-3, 5.0).position(0.01) - 1.0 / 3.69897).abs() < 1e-5);
         let wide = bar(BarScale::Log10, 1e-12, 1e6).ticks(6);
         assert!(
-            wide.len() <= 6 && wide.iter().any(|(_, l)| l == "1e-12"),
+            wide.len() <= 6 && wide.iter().any(|(_, l)| l == "10⁻¹²"),
             "{wide:?}"
         );
         let sym = bar(BarScale::Symlog { linthresh: 1e-3 }, -0.3, 0.45).ticks(10);
         let labels: Vec<&str> = sym.iter().map(|(_, l)| l.as_str()).collect();
         assert_eq!(
             labels,
-            ["-0.1", "-0.01", "-1e-3", "0", "1e-3", "0.01", "0.1"]
+            ["−0.1", "−0.01", "−10⁻³", "0", "10⁻³", "0.01", "0.1"]
         );
         let lin = bar(BarScale::Linear, -0.7, 2.3).ticks(10);
         let labels: Vec<&str> = lin.iter().map(|(_, l)| l.as_str()).collect();
-        assert_eq!(labels, ["-0.5", "0", "0.5", "1", "1.5", "2"]);
+        assert_eq!(labels, ["−0.5", "0", "0.5", "1", "1.5", "2"]);
     }
 
     #[test]
     fn colour_bar_round_trips_through_metadata_and_draws_under_the_image() {
-        let b = bar(BarScale::Symlog { linthresh: 0.01 }, -1.0, 2.0);
+        let mut b = bar(BarScale::Symlog { linthresh: 0.01 }, -1.0, 2.0);
         let mut img = HdrImage::new(200, 10);
         b.record(&mut img);
         assert_eq!(ColourBar::of(&img), Some(b.clone()));
-        let out = with_colour_bar(&img, &b).unwrap();
-        assert_eq!((out.width, out.height), (200, 10 + 4 + STRIP_BAR + 3 + 24));
+        b.extend = [false, true];
+        b.record(&mut img);
+        assert_eq!(img.meta("legend_extend"), Some("max"));
+        assert_eq!(ColourBar::of(&img), Some(b.clone()));
+        b.extend = [false; 2];
+        let ty = Type::new(11.0);
+        let out = with_colour_bar(&img, &b, ty).unwrap();
+        let (gap, line) = (ty.gap(), ty.line());
+        assert_eq!((out.width, out.height), (200, 10 + 5 * gap + 3 * line));
         // The bar's first row is the colour map from end to end; each drawn tick sits where
-        // `position` puts its value.
+        // `position` puts its value, in the gap under the bar.
         let cmap = super::super::colormap::Colormap::by_name("viridis").unwrap();
-        let row = 14usize;
+        let row = (10 + gap) as usize;
+        assert_eq!(
+            out.meta("legend_bar_rows"),
+            Some(format!("{row} {}", row as u32 + line).as_str())
+        );
         let c = cmap.linear_rgb(0.5 / 200.0);
         assert!((out.pixels[row * 200][0] as f64 - c[0]).abs() < 1e-6);
         let ticks = out.meta("legend_ticks").unwrap().to_string();
@@ -386,49 +608,81 @@ mod tests {
             let (v, x) = t.split_once('@').unwrap();
             let (v, x): (f64, u32) = (v.parse().unwrap(), x.parse().unwrap());
             assert_eq!(x, (b.position(v) * 199.0).round() as u32);
-            assert_eq!(
-                out.pixels[((14 + STRIP_BAR as usize) * 200) + x as usize],
-                [1.0; 4]
-            );
+            let below = row + line as usize;
+            assert_eq!(out.pixels[below * 200 + x as usize], [1.0; 4]);
+            // The tick stops a gap above the labels: the row under it is black there.
+            let after = below + gap as usize;
+            assert_eq!(out.pixels[after * 200 + x as usize], [0.0, 0.0, 0.0, 1.0]);
         }
     }
 
     #[test]
-    fn numbers_read_as_written() {
+    fn numbers_read_as_written_and_as_typeset() {
         assert_eq!(format_number(1.0 / 8.0), "0.125");
         assert_eq!(format_number(12.5), "12.5");
         assert_eq!(format_number(1.0 / 3.0), "0.3333");
         assert_eq!(format_number(2000.0), "2000");
         assert_eq!(format_number(2.5e-7), "2.5e-7");
         assert_eq!(format_number(-1.25e9), "-1.25e9");
+        assert_eq!(typeset_number(-0.5), "−0.5");
+        assert_eq!(typeset_number(2.5e-7), "2.5×10⁻⁷");
+        assert_eq!(typeset_number(-1.25e9), "−1.25×10⁹");
+        assert_eq!(typeset_number(1e-4), "10⁻⁴");
+        assert_eq!(typeset_number(1e-3), "0.001");
+    }
+
+    /// The coverage of `text` drawn white on black at `px`, as a bitmap with its ink rows.
+    fn ink(text: &str, px: f64) -> (HdrImage, Vec<u32>) {
+        let ty = Type::new(px);
+        let mut img = HdrImage::new(ty.width(text) + 4, ty.line() + 4);
+        draw_text(&mut img, 2, 2, text, ty, [1.0; 4]);
+        let w = img.width as usize;
+        let rows = (0..img.height)
+            .filter(|y| (0..w).any(|x| img.pixels[*y as usize * w + x][0] > 0.5))
+            .collect();
+        (img, rows)
     }
 
     #[test]
-    fn glyphs_land_pixel_for_pixel() {
-        let mut img = HdrImage::new(40, 20);
-        let white = [1.0, 1.0, 1.0, 1.0];
-        draw_text(&mut img, 3, 2, "1=", 2, white);
-        let one = glyph('1');
-        assert!(one.iter().any(|r| *r != 0));
-        for (gy, bits) in one.iter().enumerate() {
-            for gx in 0..8 {
-                let lit = bits & (1 << gx) != 0;
-                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                    let p = img.pixels[(2 + gy * 2 + dy) * 40 + 3 + gx * 2 + dx];
-                    assert_eq!(p == white, lit, "glyph pixel ({gx}, {gy})");
-                }
-            }
+    fn glyph_height_scales_with_the_type_and_ink_stays_in_the_line_box() {
+        let (_, small) = ink("H", 12.0);
+        let (_, large) = ink("H", 96.0);
+        let (hs, hl) = (small.len() as f64, large.len() as f64);
+        // Hack's cap height is 0.73 em.
+        assert!((hs - 0.73 * 12.0).abs() <= 1.5, "{hs}");
+        assert!((hl / hs - 8.0).abs() < 0.8, "{hl} / {hs}");
+        for (text, px) in [("Hgjy°ν10⁻³", 12.0), ("Hgjy°ν10⁻³", 40.0)] {
+            let ty = Type::new(px);
+            let (img, rows) = ink(text, px);
+            assert!(
+                rows[0] >= 2 && *rows.last().unwrap() < 2 + ty.line(),
+                "{rows:?}"
+            );
+            assert!(img.width <= ty.width(text) + 4);
         }
-        // Nothing outside the two glyph cells (3..35 x 2..18).
-        for (i, p) in img.pixels.iter().enumerate() {
-            let (x, y) = (i % 40, i / 40);
-            if !(3..35).contains(&x) || !(2..18).contains(&y) {
-                assert_eq!(*p, [0.0; 4]);
-            }
+        // The figure's default size: 11 px at 300², 2.8 % of the shorter side at 4096 × 2048.
+        assert_eq!(Type::for_figure(300, 300).px, 11.0);
+        assert!((Type::for_figure(4096, 2048).px - 57.344).abs() < 1e-3);
+    }
+
+    #[test]
+    fn greek_minus_degree_and_superscripts_have_their_own_glyphs() {
+        for c in "ν°−µ⁻⁰¹²³⁴⁵⁶⁷⁸⁹×".chars() {
+            assert_ne!(face().glyph_id(c).0, 0, "{c} is in the typeface");
         }
-        assert_ne!(glyph('ν'), glyph('?'), "Greek nu is in the font");
-        assert_eq!(text_width("ν = 8", 2), 80);
+        let differs = |a: &str, b: &str| {
+            let (x, _) = ink(a, 24.0);
+            let (y, _) = ink(b, 24.0);
+            x.width != y.width || x.pixels != y.pixels
+        };
+        assert!(differs("ν", "v"));
+        assert!(differs("−", "-"));
+        assert!(differs("°", "o"));
+        assert!(differs("10⁻³", "10-3"));
+        let (deg, rows) = ink("°", 24.0);
+        assert!(!rows.is_empty() && deg.pixels.iter().any(|p| p[0] > 0.9));
         // Clipping: drawing off the edges is harmless.
-        draw_text(&mut img, -5, 15, "xyz", 3, white);
+        let mut img = HdrImage::new(8, 8);
+        draw_text(&mut img, -5, 5, "xyz", Type::new(30.0), [1.0; 4]);
     }
 }

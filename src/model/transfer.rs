@@ -226,6 +226,7 @@ impl TransferFunction {
             lo,
             hi,
             units: units.to_string(),
+            extend: [false; 2],
         })
     }
 

@@ -265,9 +265,15 @@ mod tests {
             );
             assert!(e.contains(&expected), "{}: {e}", table.function);
             for spec in table.options {
-                // An operator parameter needs an operator that takes it.
+                // An operator parameter needs an operator that takes it, relief a view that
+                // has it.
                 let base = match operators_taking(spec.name).first() {
                     Some(op) if table.function == "tonemap" => format!("#{{ op: {op:?} }}"),
+                    _ if table.function == "render_surface"
+                        && ["relief", "exaggeration"].contains(&spec.name) =>
+                    {
+                        table.base.replace(" }", ", view: \"perspective\" }")
+                    }
                     _ => table.base.to_string(),
                 };
                 let source = format!(

@@ -4,13 +4,15 @@
 //! `save_png` writes an HDR image exposed by 2^EV then sRGB, and a display-referred image
 //! (`display_referred = 1`: tone-mapped, false colour) as it is; `save_png(img, path, #{legend:
 //! true, exposure})` adds the colour bar the render recorded, with labelled ticks and units, and
-//! `frame: true` draws a map-view surface with its coordinate axes and the colour bar beside it.
+//! `frame: true` draws a map-view surface with its coordinate axes, the colour bar and fringe
+//! legend, a scale bar on lon/lat axes and an optional `title`, in type of `font_size`.
 
 use super::api_render::ScriptImage;
 use super::convert::{err, num, to_rhai, RResult};
 use super::options::{opt, Kind, OptionTable};
 use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::io::animation::RgbFrame;
+use crate::model::text::{TYPE_MAX, TYPE_MIN};
 use crate::model::HdrImage;
 use crate::tonemap::MAX_EV;
 use rhai::{Array, Dynamic, Engine, Map};
@@ -29,21 +31,77 @@ pub(crate) const SAVE_PNG: OptionTable = OptionTable {
     function: "save_png",
     options: &[
         opt("exposure", Kind::Num(-MAX_EV, MAX_EV), "0", "stops"),
-        opt("legend", Kind::Bool, "false", "the colour bar the render recorded drawn beneath, with labelled decades and units"),
-        opt("frame", Kind::Bool, "false", "a map-view surface with lat/lon or x/y axes and the colour bar beside it"),
+        opt("legend", Kind::Bool, "false; true with frame", "the colour bar the render recorded, with labelled ticks and units: beneath the picture, or with frame beside the map together with the fringe legend (\"1 fringe = 0.25 m (ν = 4 per m)\")"),
+        opt("frame", Kind::Bool, "false", "a map-view surface with lat/lon or x/y axes, the colour bar and fringe legend (unless legend: false) and, on lon/lat axes, a scale bar in km"),
+        opt("title", Kind::Text("\"Uplift\""), "none", "with frame: a title above the map"),
+        opt("font_size", Kind::Num(TYPE_MIN, TYPE_MAX), "2.8 % of the picture's shorter side, at least 11", "with legend or frame: the text's size in pixels per em"),
     ],
     call: "save_png(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), \"x.png\", OPTS)",
-    base: "#{}",
+    base: "#{ frame: true }",
 };
 
 /// What `save_png` draws around the picture.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, PartialEq)]
 enum PngDecoration {
     None,
-    /// The recorded colour bar beneath (`legend: true`).
-    Legend,
-    /// Axes along the left and bottom and the colour bar beside the map (`frame: true`).
-    Frame,
+    /// The recorded colour bar beneath (`legend: true`), in type of this size.
+    Legend {
+        font_size: Option<f64>,
+    },
+    /// Axes along the left and bottom, with the colour bar and fringe legend beside and under
+    /// the map when `legend`, and a title (`frame: true`).
+    Frame {
+        legend: bool,
+        title: Option<String>,
+        font_size: Option<f64>,
+    },
+}
+
+impl PngDecoration {
+    /// The decoration `save_png`'s options ask for; options that would draw nothing are
+    /// refused.
+    fn of(given: &super::options::Given) -> RResult<PngDecoration> {
+        let font_size = given.num("font_size")?;
+        let title = given.string("title")?;
+        let legend = given.bool("legend")?;
+        if given.bool("frame")? == Some(true) {
+            return Ok(PngDecoration::Frame {
+                legend: legend.unwrap_or(true),
+                title,
+                font_size,
+            });
+        }
+        if title.is_some() {
+            return err("title", "a title is drawn on framed maps: add frame: true");
+        }
+        if legend == Some(true) {
+            return Ok(PngDecoration::Legend { font_size });
+        }
+        if font_size.is_some() {
+            return err(
+                "font_size",
+                "no text is drawn without legend: true or frame: true",
+            );
+        }
+        Ok(PngDecoration::None)
+    }
+}
+
+/// The fringe legend a render records ("1 fringe = 0.25 m (ν = 4 per m)"), for modes that draw
+/// fringes.
+fn fringe_note(img: &HdrImage) -> Option<String> {
+    use crate::model::text::typeset_number;
+    let nu: f64 = img.meta("nu")?.parse().ok()?;
+    if img.meta("mode")? == "direct" {
+        return None;
+    }
+    let units = img.meta("legend_units").unwrap_or("");
+    let per = if units.is_empty() { "data unit" } else { units };
+    Some(format!(
+        "{} (ν = {} per {per})",
+        crate::render::surface::resolution_label(nu, units),
+        typeset_number(nu)
+    ))
 }
 
 /// The picture `save_png` writes for `decoration`: the image (exposed by 2^`ev` unless
@@ -53,37 +111,50 @@ fn decorated(
     img: &HdrImage,
     ev: f64,
     display: bool,
-    decoration: PngDecoration,
+    decoration: &PngDecoration,
 ) -> crate::Result<Option<HdrImage>> {
-    use crate::model::map_frame::{with_map_frame, MapAxes};
-    use crate::model::text::{with_colour_bar, ColourBar};
+    use crate::model::map_frame::{with_map_frame, FrameExtras, MapAxes};
+    use crate::model::text::{with_colour_bar, ColourBar, Type};
     let bar = ColourBar::of(img);
-    let axes = match decoration {
-        PngDecoration::None => return Ok(None),
-        PngDecoration::Legend => None,
-        PngDecoration::Frame => Some(MapAxes::of(img).ok_or_else(|| {
-            crate::Error::invalid(
-                "frame",
-                "this image records no map axes (render_surface in map view of a grid with evenly spaced coordinates does)",
-            )
-        })?),
+    let type_of =
+        |size: Option<f64>| size.map_or(Type::for_figure(img.width, img.height), Type::new);
+    let view = || -> crate::Result<HdrImage> {
+        if display {
+            Ok(img.clone())
+        } else {
+            crate::tonemap::exposure(img, ev)
+        }
     };
-    if decoration == PngDecoration::Legend && bar.is_none() {
-        return Err(crate::Error::invalid(
-            "legend",
-            "this image records no colour bar (render_surface and render_volume with a tf_lut transfer function do)",
-        ));
+    match decoration {
+        PngDecoration::None => Ok(None),
+        PngDecoration::Legend { font_size } => {
+            let bar = bar.ok_or_else(|| crate::Error::invalid(
+                "legend",
+                "this image records no colour bar (render_surface and render_volume with a tf_lut transfer function do)",
+            ))?;
+            Ok(Some(with_colour_bar(&view()?, &bar, type_of(*font_size))?))
+        }
+        PngDecoration::Frame {
+            legend,
+            title,
+            font_size,
+        } => {
+            let axes = MapAxes::of(img).ok_or_else(|| {
+                crate::Error::invalid(
+                    "frame",
+                    "this image records no map axes (render_surface in map view of a grid with evenly spaced coordinates does)",
+                )
+            })?;
+            let extras = FrameExtras {
+                ty: type_of(*font_size),
+                title: title.as_deref(),
+                bar: bar.as_ref().filter(|_| *legend),
+                notes: fringe_note(img).filter(|_| *legend).into_iter().collect(),
+                scale_bar: true,
+            };
+            Ok(Some(with_map_frame(&view()?, &axes, &extras)?))
+        }
     }
-    let view = if display {
-        img.clone()
-    } else {
-        crate::tonemap::exposure(img, ev)?
-    };
-    Ok(Some(match (axes, bar) {
-        (Some(axes), bar) => with_map_frame(&view, &axes, bar.as_ref())?,
-        (None, Some(bar)) => with_colour_bar(&view, &bar)?,
-        (None, None) => view,
-    }))
 }
 
 /// `save_exr` and `save_png` (with and without an exposure or options).
@@ -112,7 +183,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let save_png = move |img: &mut ScriptImage,
                          path: &str,
                          ev: f64,
-                         decoration: PngDecoration|
+                         decoration: &PngDecoration|
           -> RResult<()> {
         let display = crate::tonemap::is_display_referred(img);
         if display && ev != 0.0 {
@@ -140,7 +211,7 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     };
     let save_png2 = save_png.clone();
     engine.register_fn("save_png", move |img: &mut ScriptImage, path: &str| {
-        save_png2(img, path, 0.0, PngDecoration::None)
+        save_png2(img, path, 0.0, &PngDecoration::None)
     });
     engine.register_fn(
         "save_png",
@@ -149,16 +220,10 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             if let Some(opts) = ev.clone().try_cast::<rhai::Map>() {
                 let given = SAVE_PNG.read(&opts)?;
                 let exposure = given.num("exposure")?.unwrap_or(0.0);
-                let decoration = if given.bool("frame")? == Some(true) {
-                    PngDecoration::Frame
-                } else if given.bool("legend")? == Some(true) {
-                    PngDecoration::Legend
-                } else {
-                    PngDecoration::None
-                };
-                return save_png(img, path, exposure, decoration);
+                let decoration = PngDecoration::of(&given)?;
+                return save_png(img, path, exposure, &decoration);
             }
-            save_png(img, path, num(&ev, "exposure")?, PngDecoration::None)
+            save_png(img, path, num(&ev, "exposure")?, &PngDecoration::None)
         },
     );
 }

@@ -7,13 +7,14 @@
 //! sphere.
 
 use super::api_render::{ScriptCamera, ScriptImage};
-use super::convert::{err, num, string, to_rhai, RResult};
+use super::convert::{err, num, pair, string, to_rhai, RResult};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
+use crate::model::text::{TYPE_MAX, TYPE_MIN};
 use crate::model::{Aabb, Axis, Grid, HdrImage};
 use crate::render::surface::{
-    colorbar, legend, FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView,
-    MAX_COLORBAR_HEIGHT,
+    colorbar, legend_in, legend_type, FringeMode, MissingColour, PhaseMethod, SurfaceOptions,
+    SurfaceView, MAX_COLORBAR_HEIGHT,
 };
 use crate::render::MAX_IMAGE_SIDE;
 use rhai::{Dynamic, Engine, Map};
@@ -21,25 +22,20 @@ use std::sync::Arc;
 
 pub(crate) type ScriptGrid = Arc<Grid>;
 
-/// The options `render_surface`, `surface_colorbar` and `surface_legend` share (what is drawn
-/// and how), followed by the function's own (the image's size).
+/// The options `render_surface`, `surface_colorbar` and `surface_legend` share (what sets the
+/// colours), followed by the function's own (`render_surface`'s view, all three's sizes).
 macro_rules! surface_option_specs {
     ($($own:expr),* $(,)?) => {
         [
             opt("nu", Kind::Value("number > 0, or one per property", "[2.0]"), "1", "ν: fringes per data unit (one fringe per 1/ν)"),
             opt("mode", Kind::Choice(FringeMode::NAMES), "\"cyclic\"", "cyclic: the colour map over each fringe; modulated: the data's colour modulated by the fringes; direct: the data's colour"),
             opt("colormap", Kind::Text("\"viridis\""), "sinebow (cyclic), else viridis", "a colour map name"),
-            opt("property", Kind::Value("string, or an array of up to four", "\"uz\""), "the grid's first property", "what is drawn; an array renders each from one data pass and returns an array"),
-            opt("view", Kind::Value("\"map\" | \"perspective\" | \"globe\" | Camera", "\"perspective\""), "\"map\"", "map (a geographic grid keeps the cos-latitude aspect), perspective, globe (a lon/lat grid draped on the unit sphere, seen from 3 radii above its centre) or a camera"),
-            opt("globe", Kind::Bool, "false", "a camera view looks at the grid on the sphere, in the Earth-centred frame"),
-            opt("modulation", Kind::Num(0.0, 1.0), "1", "depth of the fringes' modulation"),
+            opt("property", Kind::Value("string, or an array of up to four", "\"uz\""), "the grid's first property", "what is drawn; an array renders each from one data pass and returns an array (render_surface only)"),
+            opt("modulation", Kind::Num(0.0, 1.0), "1", "cyclic and modulated modes: depth of the fringes' modulation"),
             opt("absolute", Kind::Bool, "false", "fringes of |d|"),
-            opt("log_color", Kind::Bool, "false", "colours over log10 of the data"),
-            opt("exaggeration", Kind::Num(0.0, f64::INFINITY), "1", "vertical exaggeration of the relief in 3-D views"),
-            opt("relief", Kind::Text("\"uz\""), "the grid's elevation in 3-D views", "the property that lifts the surface"),
-            opt("phase", Kind::Choice(PhaseMethod::NAMES), "\"reduced\"", "reduced: f64-exact phase; naive: cos(2πνd) in f32, for comparison"),
-            opt("antialias", Kind::Bool, "true", "colours from the fringe averaged over each pixel's footprint"),
-            opt("missing", Kind::Text("\"grey\""), "\"transparent\"", "colour of missing data: \"transparent\", a colour name or #rrggbb"),
+            opt("log_color", Kind::Bool, "false", "modulated and direct modes: colours over log10 of the data"),
+            opt("domain", Kind::Value("[lo, hi]", "[-1.0, 1.0]"), "the data's range", "modulated and direct modes: the values the colours span (magnitudes with absolute or log_color); values beyond take the end colours and the colour bar gets a triangle at that end"),
+            opt("centre", Kind::Finite, "none", "modulated and direct modes: the colour range made symmetric about this value (the middle colour of a diverging map); without a domain, half-width max |d − centre| over the data"),
             $($own),*
         ]
     };
@@ -51,6 +47,13 @@ const SIDE: Kind = Kind::Int(1, MAX_IMAGE_SIDE as i64);
 pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
     function: "render_surface",
     options: &surface_option_specs!(
+        opt("view", Kind::Value("\"map\" | \"perspective\" | \"globe\" | Camera", "\"perspective\""), "\"map\"", "map (a geographic grid keeps the cos-latitude aspect), perspective, globe (a lon/lat grid draped on the unit sphere, seen from 3 radii above its centre) or a camera"),
+        opt("globe", Kind::Bool, "false", "a camera view looks at the grid on the sphere, in the Earth-centred frame"),
+        opt("exaggeration", Kind::Num(0.0, f64::INFINITY), "1", "perspective views: vertical exaggeration of the relief"),
+        opt("relief", Kind::Text("\"uz\""), "the grid's elevation", "perspective views: the property that lifts the surface"),
+        opt("phase", Kind::Choice(PhaseMethod::NAMES), "\"reduced\"", "reduced: f64-exact phase; naive: cos(2πνd) in f32, for comparison"),
+        opt("antialias", Kind::Bool, "true", "colours from the fringe averaged over each pixel's footprint"),
+        opt("missing", Kind::Text("\"grey\""), "\"transparent\"", "colour of missing data: \"transparent\", a colour name or #rrggbb"),
         opt(
             "width",
             SIDE,
@@ -65,7 +68,7 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
         ),
     ),
     call: "render_surface(load_grid(\"geo.nc\"), OPTS)",
-    base: "#{ width: 8, height: 8 }",
+    base: "#{ width: 8, height: 8, mode: \"modulated\" }",
 };
 
 pub(crate) const SURFACE_COLORBAR: OptionTable = OptionTable {
@@ -80,14 +83,22 @@ pub(crate) const SURFACE_COLORBAR: OptionTable = OptionTable {
         ),
     ),
     call: "surface_colorbar(load_grid(\"geo.nc\"), OPTS)",
-    base: "#{}",
+    base: "#{ mode: \"modulated\" }",
 };
 
 pub(crate) const SURFACE_LEGEND: OptionTable = OptionTable {
     function: "surface_legend",
-    options: &surface_option_specs!(opt("width", SIDE, "384", "the legend's width in pixels"),),
+    options: &surface_option_specs!(
+        opt("width", SIDE, "384", "the legend's width in pixels"),
+        opt(
+            "font_size",
+            Kind::Num(TYPE_MIN, TYPE_MAX),
+            "3.5 % of the width, at least 11",
+            "the text's size in pixels per em"
+        ),
+    ),
     call: "surface_legend(load_grid(\"geo.nc\"), OPTS)",
-    base: "#{}",
+    base: "#{ mode: \"modulated\" }",
 };
 
 fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
@@ -97,9 +108,10 @@ fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
     }
 }
 
-/// The surface options of `table` the script gave; the boolean says whether `property` was an
-/// array.
-pub(crate) fn parse_options(grid: &Grid, given: &Given) -> RResult<(SurfaceOptions, bool)> {
+/// The colour options every surface table has (see [`surface_option_specs`]); the boolean says
+/// whether `property` was an array. Options that would change nothing in the mode given are
+/// refused.
+fn parse_options(given: &Given) -> RResult<(SurfaceOptions, bool)> {
     let mut o = SurfaceOptions::default();
     let mut many = false;
     if let Some(v) = given.value("nu")? {
@@ -127,6 +139,32 @@ pub(crate) fn parse_options(grid: &Grid, given: &Given) -> RResult<(SurfaceOptio
     o.modulation = given.num("modulation")?.unwrap_or(o.modulation);
     o.absolute = given.bool("absolute")?.unwrap_or(o.absolute);
     o.log_color = given.bool("log_color")?.unwrap_or(o.log_color);
+    if let Some(d) = given.value("domain")? {
+        let [lo, hi] = pair(d, "domain")?;
+        o.domain = Some((lo, hi));
+    }
+    o.centre = given.num("centre")?;
+    o.validate_colour_range().map_err(to_rhai)?;
+    // A value other than the default would be ignored: refused. (The default itself changes
+    // nothing, so a loop over modes may pass it.)
+    if o.mode == FringeMode::Direct && o.modulation != 1.0 {
+        return err(
+            "modulation",
+            "direct mode draws no fringes; modulation applies to the cyclic and modulated modes",
+        );
+    }
+    if o.mode == FringeMode::Cyclic && o.log_color {
+        return err("log_color", "cyclic colours follow the fringe phase; log_color applies to the modulated and direct modes");
+    }
+    Ok((o, many))
+}
+
+/// `render_surface`'s options ([`RENDER_SURFACE`]): the colour options, the view and the
+/// image's size. A relief, or an exaggeration other than 1, on a map or the globe (which are
+/// flat) is refused.
+pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
+    let given = RENDER_SURFACE.read(opts)?;
+    let (mut o, many) = parse_options(&given)?;
     o.exaggeration = given.num("exaggeration")?.unwrap_or(o.exaggeration);
     o.relief = given.string("relief")?;
     if let Some(p) = given.string("phase")? {
@@ -138,23 +176,35 @@ pub(crate) fn parse_options(grid: &Grid, given: &Given) -> RResult<(SurfaceOptio
     }
     let globe = given.bool("globe")?.unwrap_or(false);
     o.view = surface_view(grid, given.value("view")?, globe)?;
-    // Relief defaults to the grid's elevation in 3-D views over the plane.
-    if o.relief.is_none()
-        && !matches!(o.view, SurfaceView::Map | SurfaceView::Globe(_))
-        && grid.elevation().is_some()
-    {
+    if matches!(o.view, SurfaceView::Map | SurfaceView::Globe(_)) {
+        let flat =
+            "a map or globe view is flat; relief and exaggeration apply to perspective views";
+        if o.relief.is_some() {
+            return err("relief", flat);
+        }
+        if o.exaggeration != 1.0 {
+            return err("exaggeration", flat);
+        }
+    } else if o.relief.is_none() && grid.elevation().is_some() {
+        // Relief defaults to the grid's elevation in 3-D views over the plane.
         o.relief = Some("elevation".into());
     }
-    Ok((o, many))
-}
-
-/// `render_surface`'s options ([`RENDER_SURFACE`]): the surface options with the image's size.
-pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(SurfaceOptions, bool)> {
-    let given = RENDER_SURFACE.read(opts)?;
-    let (mut o, many) = parse_options(grid, &given)?;
     o.width = given.int("width")?.map(|w| w as u32);
     o.height = given.int("height")?.map(|h| h as u32);
     Ok((o, many))
+}
+
+/// The colour options of `surface_colorbar` and `surface_legend`, which draw one property at one
+/// ν: an array of properties or of several ν is refused rather than cut to its first.
+fn bar_options(given: &Given) -> RResult<SurfaceOptions> {
+    let (o, many) = parse_options(given)?;
+    if many && o.properties.len() > 1 {
+        return err("property", "a colour bar shows one property; give one name");
+    }
+    if o.nu.len() > 1 {
+        return err("nu", "a colour bar shows one ν; give one number");
+    }
+    Ok(o)
 }
 
 /// Distance of the default globe camera from the planet's centre, in sphere radii, and its
@@ -294,7 +344,7 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "surface_colorbar",
         |grid: &mut ScriptGrid, opts: Map| -> RResult<ScriptImage> {
             let given = SURFACE_COLORBAR.read(&opts)?;
-            let (o, _) = parse_options(grid, &given)?;
+            let o = bar_options(&given)?;
             let w = given.int("width")?.unwrap_or(256) as u32;
             let h = given.int("height")?.unwrap_or(16) as u32;
             Ok(Arc::new(colorbar(grid, &o, w, h).map_err(to_rhai)?))
@@ -305,9 +355,10 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "surface_legend",
         |grid: &mut ScriptGrid, opts: Map| -> RResult<ScriptImage> {
             let given = SURFACE_LEGEND.read(&opts)?;
-            let (o, _) = parse_options(grid, &given)?;
+            let o = bar_options(&given)?;
             let w = given.int("width")?.unwrap_or(384) as u32;
-            Ok(Arc::new(legend(grid, &o, w).map_err(to_rhai)?))
+            let ty = legend_type(w, given.num("font_size")?);
+            Ok(Arc::new(legend_in(grid, &o, w, ty).map_err(to_rhai)?))
         },
     );
 }

@@ -63,6 +63,18 @@ pub(crate) fn vec3(v: &Dynamic, field: &str) -> RResult<[f64; 3]> {
     ])
 }
 
+/// Two numbers [a, b] (a range such as a colour domain).
+pub(crate) fn pair(v: &Dynamic, field: &str) -> RResult<[f64; 2]> {
+    match v.clone().into_array() {
+        Ok(arr) if arr.len() == 2 => Ok([num(&arr[0], field)?, num(&arr[1], field)?]),
+        Ok(arr) => err(
+            field,
+            format!("expected [lo, hi], got {} values", arr.len()),
+        ),
+        Err(t) => err(field, format!("expected [lo, hi], got {t}")),
+    }
+}
+
 /// Control points [[t, value], ...].
 pub(crate) fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
     let arr = v.clone().into_array().or_else(|t| {

@@ -12,6 +12,7 @@ mod common;
 mod datasets;
 mod distributed;
 mod doc_examples;
+mod figures;
 mod mpi;
 mod passes;
 mod scripts;

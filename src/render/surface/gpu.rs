@@ -385,7 +385,7 @@ impl SurfaceRenderer {
         check_nu(nu)?;
         let (name, units, _, range) = data.props[slot].clone();
         let lut = colormap_table(colormap);
-        let params = fringe_params(data, slot, nu, opts, &lut);
+        let params = fringe_params(data, slot, nu, opts, &lut)?;
         let FringeReadback {
             mut pixels,
             values,
@@ -410,6 +410,7 @@ impl SurfaceRenderer {
             .extra_channels
             .push(("fringe_filtered".to_string(), filtered));
         let units_for_bar = units.clone();
+        let property = name.clone();
         let u = if units.is_empty() {
             "data units".to_string()
         } else {
@@ -442,7 +443,15 @@ impl SurfaceRenderer {
             },
         );
         image.set_meta("missing", opts.missing.describe());
-        surface_colour_bar(opts, &params, nu, colormap.name(), &units_for_bar).record(&mut image);
+        let d_ref = data.props[slot].2;
+        surface_colour_bar(
+            opts,
+            nu,
+            colormap.name(),
+            &units_for_bar,
+            (&property, d_ref, range),
+        )?
+        .record(&mut image);
         image.set_meta("adapter", self.ctx.describe());
         Ok(image)
     }
@@ -612,7 +621,7 @@ fn fringe_params(
     nu: f64,
     opts: &SurfaceOptions,
     lut: &[[f32; 4]],
-) -> FringeParams {
+) -> Result<FringeParams> {
     // The table's mean by the trapezoid rule (its entries are samples at both ends of [0, 1]).
     let mut mean = [0f32; 3];
     let last = lut.len() - 1;
@@ -622,11 +631,12 @@ fn fringe_params(
             mean[k] += c[k] * w;
         }
     }
-    let (_, _, d_ref, range) = &data.props[slot];
+    let (name, _, d_ref, range) = &data.props[slot];
     let d_ref = *d_ref;
-    let (c_lo, c_inv, floor) = colour_domain(opts, range.unwrap_or((d_ref, d_ref)), d_ref);
+    let colours = opts.colour_range(*range, name)?;
+    let (c_lo, c_inv, floor) = colour_domain(opts, colours.unwrap_or((d_ref, d_ref)), d_ref);
     let [na, nb, nc] = split_nu(nu);
-    FringeParams {
+    Ok(FringeParams {
         nu: [na, nb, nc, nu as f32],
         refs: [
             (nu * d_ref).rem_euclid(1.0) as f32,
@@ -643,7 +653,7 @@ fn fringe_params(
         ],
         dims: [data.width, data.height, LUT_SIZE as u32, 0],
         footprint: [mean[0], mean[1], mean[2], (nu * FOOTPRINT_SIGMA) as f32],
-    }
+    })
 }
 
 /// Takes the fringe out of alpha, where the pass leaves it: a negative alpha marks a missing

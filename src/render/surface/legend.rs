@@ -2,10 +2,10 @@
 //! recorded with an image, the separate colour-bar image and the legend.
 
 use super::options::{property_indices, FringeMode, SurfaceOptions};
-use super::params::FringeParams;
 use super::phase::fringe_f64;
 use crate::error::{Error, Result};
 use crate::model::colormap::Colormap;
+use crate::model::text::{draw_extend_triangles, draw_text, extend_length, typeset_number, Type};
 use crate::model::{Grid, HdrImage};
 
 /// Where colour starts, 1 / its span, and the floor of log colour, for data in [lo, hi]:
@@ -48,30 +48,48 @@ pub(super) fn colour_domain(
 }
 
 /// The colour bar of a fringe pass: one fringe period (0 to 1/ν) in cyclic mode, otherwise the
-/// colour domain the pass used (log10 of magnitudes for log colour, magnitudes for absolute).
+/// colour range of [`SurfaceOptions::colour_range`] on the pass's scale (log10 of magnitudes for
+/// log colour, magnitudes for absolute), with an `extend` triangle at each end where the data
+/// `data` (finite range, `None` all missing) go beyond it and take the end colour.
 pub(super) fn surface_colour_bar(
     opts: &SurfaceOptions,
-    params: &FringeParams,
     nu: f64,
     colormap: &str,
     units: &str,
-) -> crate::model::text::ColourBar {
+    (property, d_ref, data): (&str, f64, Option<(f64, f64)>),
+) -> Result<crate::model::text::ColourBar> {
     use crate::model::text::{BarScale, ColourBar};
-    let [_, d_ref, c_lo, c_inv] = params.refs.map(|v| v as f64);
+    let colours = opts.colour_range(data, property)?;
+    let (c_lo, c_inv, _) = colour_domain(opts, colours.unwrap_or((d_ref, d_ref)), d_ref);
     let span = if c_inv > 0.0 { 1.0 / c_inv } else { 0.0 };
     let (scale, lo, hi) = match opts.mode {
         FringeMode::Cyclic => (BarScale::Linear, 0.0, 1.0 / nu),
         _ if opts.log_color => (BarScale::Log10, 10f64.powf(c_lo), 10f64.powf(c_lo + span)),
         _ if opts.absolute => (BarScale::Linear, c_lo, c_lo + span),
-        _ => (BarScale::Linear, c_lo + d_ref, c_lo + d_ref + span),
+        // The range itself, not through the offset from d_ref, so round ends stay round.
+        _ => {
+            let (lo, hi) = colours.unwrap_or((d_ref, d_ref));
+            (BarScale::Linear, lo, hi)
+        }
     };
-    ColourBar {
+    let extend = match (opts.mode, data) {
+        (FringeMode::Cyclic, _) | (_, None) => [false; 2],
+        (_, Some(range)) => {
+            // The data's own colour domain on the same scale, against the one drawn.
+            let (d_lo, d_inv, _) = colour_domain(opts, range, d_ref);
+            let d_span = if d_inv > 0.0 { 1.0 / d_inv } else { 0.0 };
+            let tol = 1e-9 * span.max(d_span).max(f64::MIN_POSITIVE);
+            [d_lo < c_lo - tol, d_lo + d_span > c_lo + span + tol]
+        }
+    };
+    Ok(ColourBar {
         colormap: colormap.to_string(),
         scale,
         lo,
         hi,
         units: units.to_string(),
-    }
+        extend,
+    })
 }
 
 /// The tallest colour bar, in pixels: a bar is a strip, and the limit keeps a mistyped size from
@@ -104,58 +122,35 @@ pub(crate) fn colorbar(
     let p = property_indices(grid, opts)?[0];
     let nu = opts.nu_for(0);
     let cmap = Colormap::by_name(opts.colormap_name())?;
-    let (lo, hi) = match opts.mode {
-        FringeMode::Cyclic => (0.0, 1.0 / nu),
-        _ => grid.range(p).unwrap_or((0.0, 1.0)),
-    };
-    let (lo, hi) = if opts.absolute && opts.mode != FringeMode::Cyclic {
-        (
-            if lo < 0.0 && hi > 0.0 {
-                0.0
-            } else {
-                lo.abs().min(hi.abs())
-            },
-            lo.abs().max(hi.abs()),
-        )
-    } else {
-        (lo, hi)
-    };
+    let (name, _) = grid.property_at(p);
+    let units = grid.units(p);
+    let data = grid.range(p);
+    let d_ref = data.map_or(0.0, |(a, b)| 0.5 * (a + b));
+    let bar = surface_colour_bar(opts, nu, cmap.name(), units, (name, d_ref, data))?;
+    let (lo, hi) = (bar.lo, bar.hi);
     let mut img = HdrImage::new(width, height);
-    for x in 0..width {
-        let d = lo + (hi - lo) * (x as f64 + 0.5) / width as f64;
+    let tri = extend_length(width, height);
+    let (x0, x1) = bar.extent(width, tri);
+    let colour_at = |x: u32| {
+        let d = lo + (hi - lo) * (x as f64 - x0 as f64 + 0.5) / (x1 - x0) as f64;
         let t = match opts.mode {
             FringeMode::Cyclic => (nu * d).rem_euclid(1.0),
-            _ if opts.log_color => {
-                let floor = if lo > 0.0 { lo } else { hi.abs() * 1e-6 };
-                let (a, b) = (
-                    floor.max(f64::MIN_POSITIVE).log10(),
-                    hi.abs().max(floor).log10(),
-                );
-                if b > a {
-                    (d.abs().max(floor).log10() - a) / (b - a)
-                } else {
-                    0.0
-                }
-            }
-            _ => {
-                if hi > lo {
-                    (d - lo) / (hi - lo)
-                } else {
-                    0.0
-                }
-            }
+            _ => bar.position(d),
         };
         let mut c = cmap.linear_rgb(t);
         if opts.mode != FringeMode::Direct {
             let k = (1.0 - opts.modulation) + opts.modulation * fringe_f64(nu, d);
             c = c.map(|v| v * k);
         }
+        [c[0] as f32, c[1] as f32, c[2] as f32, 1.0]
+    };
+    for x in x0..x1 {
+        let c = colour_at(x);
         for y in 0..height {
-            img.pixels[(y * width + x) as usize] = [c[0] as f32, c[1] as f32, c[2] as f32, 1.0];
+            img.pixels[(y * width + x) as usize] = c;
         }
     }
-    let (name, _) = grid.property_at(p);
-    let units = grid.units(p);
+    draw_extend_triangles(&mut img, &bar, &cmap, (0, width), (0, height), false);
     let u = if units.is_empty() {
         "data units"
     } else {
@@ -166,21 +161,19 @@ pub(crate) fn colorbar(
     img.set_meta("colorbar_domain", format!("{lo} {hi} {u}"));
     img.set_meta("mode", opts.mode.name());
     img.set_meta("colormap", cmap.name());
+    bar.record(&mut img);
     Ok(img)
 }
 
 /// The legend's statement of the resolution: "1 fringe = 0.125 m" (1/ν in the property's
-/// units, "data units" when it has none).
+/// units, "data units" when it has none; typeset, so 2.5×10⁻⁷ m).
 pub fn resolution_label(nu: f64, units: &str) -> String {
     let u = if units.is_empty() {
         "data units"
     } else {
         units
     };
-    format!(
-        "1 fringe = {} {u}",
-        crate::model::text::format_number(1.0 / nu)
-    )
+    format!("1 fringe = {} {u}", typeset_number(1.0 / nu))
 }
 
 /// Height in pixels of the colour bar at the top of a [`legend`].
@@ -188,47 +181,54 @@ pub const LEGEND_BAR_HEIGHT: u32 = 16;
 
 /// A legend for a surface render, `width` pixels wide: the colour bar of [`colorbar`] on top,
 /// then in white text on black the resolution ("1 fringe = 0.125 m"), ν and the mode, and the
-/// bar's domain (its ends, left and right). Text is drawn twice as large when it fits.
+/// bar's domain (its ends, left and right), in the default type for its width.
 pub fn legend(grid: &Grid, opts: &SurfaceOptions, width: u32) -> Result<HdrImage> {
-    use crate::model::text::{draw_text, format_number, text_width, GLYPH};
+    legend_in(grid, opts, width, legend_type(width, None))
+}
+
+/// The legend's type: `font_size` pixels an em, else 3.5 % of its width (at least 11).
+pub(crate) fn legend_type(width: u32, font_size: Option<f64>) -> Type {
+    Type::new(font_size.unwrap_or((0.035 * width as f64).max(11.0)))
+}
+
+/// [`legend`] in type `ty`.
+pub(crate) fn legend_in(
+    grid: &Grid,
+    opts: &SurfaceOptions,
+    width: u32,
+    ty: Type,
+) -> Result<HdrImage> {
     let bar = colorbar(grid, opts, width, LEGEND_BAR_HEIGHT)?;
     let p = property_indices(grid, opts)?[0];
     let nu = opts.nu_for(0);
-    let units = grid.units(p);
-    let label = resolution_label(nu, units);
-    let detail = format!("ν = {} ({})", format_number(nu), opts.mode.name());
-    let domain: Vec<f64> = bar
-        .meta("colorbar_domain")
-        .unwrap_or("")
-        .split_whitespace()
-        .take(2)
-        .filter_map(|v| v.parse().ok())
-        .collect();
-    let (left, right) = match domain[..] {
-        [lo, hi] => (format_number(lo), format_number(hi)),
-        _ => (String::new(), String::new()),
+    let label = resolution_label(nu, grid.units(p));
+    let detail = format!("ν = {} ({})", typeset_number(nu), opts.mode.name());
+    let ends = crate::model::text::ColourBar::of(&bar).map(|b| (b.lo, b.hi));
+    let (left, right) = match ends {
+        Some((lo, hi)) => (typeset_number(lo), typeset_number(hi)),
+        None => (String::new(), String::new()),
     };
-    let widest = [label.as_str(), detail.as_str()]
-        .iter()
-        .map(|t| text_width(t, 1))
-        .max()
-        .unwrap_or(0)
-        .max(text_width(&left, 1) + text_width(&right, 1) + GLYPH);
-    let scale = if 2 * widest + 4 <= width { 2 } else { 1 };
-    let line = GLYPH * scale + 4;
-    let height = LEGEND_BAR_HEIGHT + 4 + 3 * line;
+    let (gap, line) = (ty.gap(), ty.line());
+    let height = LEGEND_BAR_HEIGHT + gap + 3 * (line + gap);
     let mut img = HdrImage::new(width, height);
     for px in img.pixels.iter_mut() {
         *px = [0.0, 0.0, 0.0, 1.0];
     }
-    img.pixels[..bar.pixels.len()].copy_from_slice(&bar.pixels);
+    // The bar's pixels over the black, but not the clear corners beside its extend triangles.
+    for (dst, src) in img.pixels.iter_mut().zip(&bar.pixels) {
+        if src[3] > 0.0 {
+            *dst = *src;
+        }
+    }
     let white = [1.0, 1.0, 1.0, 1.0];
-    let top = (LEGEND_BAR_HEIGHT + 4) as i64;
-    let right_x = width as i64 - text_width(&right, scale) as i64 - 2;
-    draw_text(&mut img, 2, top, &left, scale, white);
-    draw_text(&mut img, right_x.max(2), top, &right, scale, white);
-    draw_text(&mut img, 2, top + line as i64, &label, scale, white);
-    draw_text(&mut img, 2, top + 2 * line as i64, &detail, scale, white);
+    let top = (LEGEND_BAR_HEIGHT + gap) as i64;
+    let step = (line + gap) as i64;
+    let x = gap as i64;
+    let right_x = width as i64 - ty.width(&right) as i64 - x;
+    draw_text(&mut img, x, top, &left, ty, white);
+    draw_text(&mut img, right_x.max(x), top, &right, ty, white);
+    draw_text(&mut img, x, top + step, &label, ty, white);
+    draw_text(&mut img, x, top + 2 * step, &detail, ty, white);
     img.metadata = bar.metadata.clone();
     img.set_meta("legend", label.as_str());
     Ok(img)

@@ -47,7 +47,7 @@ mod phase;
 pub(crate) use geometry::SurfaceGeometry;
 pub(crate) use globe::GlobeFrame;
 pub use gpu::{SurfaceCounters, SurfaceRenderer};
-pub(crate) use legend::{colorbar, MAX_COLORBAR_HEIGHT};
+pub(crate) use legend::{colorbar, legend_in, legend_type, MAX_COLORBAR_HEIGHT};
 pub use legend::{legend, resolution_label, LEGEND_BAR_HEIGHT};
 pub(crate) use options::default_size;
 pub use options::{FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView};

@@ -240,6 +240,13 @@ pub struct SurfaceOptions {
     pub antialias: bool,
     /// How pixels without data are drawn (transparent by default).
     pub missing: MissingColour,
+    /// The data values the colours span in modulated and direct modes (magnitudes with
+    /// `absolute` or `log_color`) instead of the data's range; values outside take the end
+    /// colours, so renders with one domain give one value one colour.
+    pub domain: Option<(f64, f64)>,
+    /// The colour range made symmetric about this value, for diverging maps: about the domain
+    /// when one is given, else with half-width max |d − c| over the data.
+    pub centre: Option<f64>,
 }
 
 impl Default for SurfaceOptions {
@@ -260,6 +267,8 @@ impl Default for SurfaceOptions {
             phase: PhaseMethod::Reduced,
             antialias: true,
             missing: MissingColour::Transparent,
+            domain: None,
+            centre: None,
         }
     }
 }
@@ -315,6 +324,7 @@ impl SurfaceOptions {
                 format!("expected a finite factor >= 0, got {}", self.exaggeration),
             ));
         }
+        self.validate_colour_range()?;
         for (f, v) in [("width", self.width), ("height", self.height)] {
             if let Some(v) = v {
                 if v == 0 || v > crate::render::MAX_IMAGE_SIDE {
@@ -329,6 +339,86 @@ impl SurfaceOptions {
             }
         }
         Ok(())
+    }
+
+    /// `domain` and `centre` alone: finite, a domain increasing (positive under log colour), a
+    /// centre inside the domain, and neither in cyclic mode, whose colours follow the phase.
+    pub(crate) fn validate_colour_range(&self) -> Result<()> {
+        let given = |f: &str| {
+            Error::invalid(
+                f,
+                "cyclic colours follow the fringe phase, not the data; use mode \"modulated\" or \"direct\" for a colour range",
+            )
+        };
+        if self.mode == FringeMode::Cyclic {
+            if self.domain.is_some() {
+                return Err(given("domain"));
+            }
+            if self.centre.is_some() {
+                return Err(given("centre"));
+            }
+        }
+        if let Some((lo, hi)) = self.domain {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(Error::invalid(
+                    "domain",
+                    format!("expected [lo, hi] with finite lo < hi, got [{lo}, {hi}]"),
+                ));
+            }
+            if self.log_color && lo <= 0.0 {
+                return Err(Error::invalid(
+                    "domain",
+                    format!("log colour spans magnitudes: expected 0 < lo < hi, got [{lo}, {hi}]"),
+                ));
+            }
+        }
+        if let Some(c) = self.centre {
+            if !c.is_finite() {
+                return Err(Error::invalid(
+                    "centre",
+                    format!("expected a finite value, got {c}"),
+                ));
+            }
+            if self.log_color {
+                return Err(Error::invalid(
+                    "centre",
+                    "a log colour scale has no centre; drop centre or log_color",
+                ));
+            }
+            if let Some((lo, hi)) = self.domain.filter(|(lo, hi)| c < *lo || c > *hi) {
+                return Err(Error::invalid(
+                    "centre",
+                    format!("{c} lies outside the domain [{lo}, {hi}]"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The data values the colours span for a property whose finite values lie in `data`
+    /// (`None`: all missing): the domain, else the data's range, made symmetric about the centre
+    /// when one is given. A centre outside the data with no domain is an error naming `property`.
+    pub(crate) fn colour_range(
+        &self,
+        data: Option<(f64, f64)>,
+        property: &str,
+    ) -> Result<Option<(f64, f64)>> {
+        let Some((lo, hi)) = self.domain.or(data) else {
+            return Ok(None);
+        };
+        let Some(c) = self.centre else {
+            return Ok(Some((lo, hi)));
+        };
+        if self.domain.is_none() && (c < lo || c > hi) {
+            return Err(Error::invalid(
+                "centre",
+                format!(
+                    "{c} lies outside the data of {property:?} ([{lo}, {hi}]); give a domain to centre beyond the data"
+                ),
+            ));
+        }
+        let half = (lo - c).abs().max((hi - c).abs());
+        Ok(Some((c - half, c + half)))
     }
 
     pub(super) fn nu_for(&self, i: usize) -> f64 {
