@@ -63,6 +63,18 @@ pub(crate) fn vec3(v: &Dynamic, field: &str) -> RResult<[f64; 3]> {
     ])
 }
 
+/// A pair of numbers `[a, b]` (a range, a latitude and longitude).
+pub(crate) fn pair(v: &Dynamic, field: &str) -> RResult<[f64; 2]> {
+    let a = v
+        .clone()
+        .into_array()
+        .or_else(|t| err(field, format!("expected [a, b], got {t}")))?;
+    if a.len() != 2 {
+        return err(field, format!("expected 2 numbers, got {}", a.len()));
+    }
+    Ok([num(&a[0], field)?, num(&a[1], field)?])
+}
+
 /// Control points [[t, value], ...].
 pub(crate) fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
     let arr = v.clone().into_array().or_else(|t| {

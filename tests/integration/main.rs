@@ -15,6 +15,7 @@ mod doc_examples;
 mod mpi;
 mod passes;
 mod scripts;
+mod sections;
 mod skipping;
 mod spherical;
 mod stability;
