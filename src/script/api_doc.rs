@@ -10,7 +10,7 @@ use super::api_fields::RESAMPLE;
 use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
 use super::api_post::TONEMAP;
 use super::api_render::{CUT, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
-use super::api_sections::{SECTION, SLICE};
+use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
 use super::api_surface::{RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
 use super::options::OptionTable;
 #[cfg(test)]
@@ -108,6 +108,7 @@ pub(crate) const API: &[ApiEntry] = &[
     with(e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for render_surface's options: the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text. Options:"), &[&SURFACE_LEGEND]),
     with(e("sections and slices", "section", &["volume: Volume", "options: map"], "Grid", "A great-circle section of a spherical volume: columns evenly spaced along the short arc from `from` to `to`, rows evenly spaced in depth, each node trilinear in the volume's (radius, latitude, longitude) grid. x is the distance along the arc at the surface and y the depth, both in the volume's length unit; the properties are the volume's values and each column's `latitude` and `longitude`. Columns outside a wedge are missing. render_surface draws it (fringes, frame: true). Options:"), &[&SECTION]),
     with(e("sections and slices", "slice", &["volume: Volume", "options: map"], "Grid", "The plane of a box volume (regular or rectilinear) at a world coordinate along x, y or z: a grid on the voxel centres of the two other axes, trilinear across the plane. Options:"), &[&SLICE]),
+    with(e("sections and slices", "slice_plane", &["volume: Volume", "options: map"], "Grid", "An oblique plane of a box volume: n nodes evenly spaced over the plane's part of the box's bounding box, on in-plane axes u and v measured from origin in world units; nodes outside the box are missing. Options:"), &[&SLICE_PLANE]),
     e("sections and slices", "save_grid", &["grid: Grid", "path: string"], "()", "Writes any grid as CF NetCDF (.nc) under the output folder: the y and x axes as coordinate variables (degrees_north/east on a geographic grid), every property as a variable with its units, a section's per-column latitude and longitude as auxiliary coordinates on its distance axis; xarray and load_grid read it back."),
     e("exposure and tone mapping", "load_image", &["path: string"], "Image", "Reads an RGB(A) OpenEXR (float or half, from any producer) as an HDR image."),
     e("exposure and tone mapping", "exposure", &["image: Image", "ev: number"], "Image", "The HDR image times 2^ev (no re-render)."),

@@ -1,15 +1,17 @@
 //! Script API for looking inside volumes: `section(volume, #{...})` (a great-circle section of a
-//! spherical volume), `slice(volume, #{...})` (an axis slice of a box) and `save_grid(grid,
-//! path)`, which writes any grid as CF NetCDF under the output folder. Sections and slices are
-//! grids, so `render_surface` draws them with interference fringes and framed axes.
+//! spherical volume), `slice(volume, #{...})` (an axis slice of a box), `slice_plane(volume,
+//! #{...})` (an oblique plane of a box) and `save_grid(grid, path)`, which writes any grid as CF
+//! NetCDF under the output folder. Sections and slices are grids, so `render_surface` draws them
+//! with interference fringes and framed axes.
 
 use super::api_render::ScriptVolume;
 use super::api_surface::ScriptGrid;
-use super::convert::{err, int, pair, to_rhai, RResult};
+use super::convert::{err, int, pair, to_rhai, vec3, RResult};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
 use crate::model::section::{
-    axis_slice, great_circle_section, SectionSpec, SliceSpec, MAX_SECTION_SIDE,
+    axis_slice, great_circle_section, plane_slice, PlaneSpec, SectionSpec, SliceSpec,
+    MAX_SECTION_SIDE,
 };
 use crate::model::{Geometry, Missing};
 use rhai::{Dynamic, Engine, Map};
@@ -38,6 +40,18 @@ pub(crate) const SECTION: OptionTable = OptionTable {
     ],
     call: "section(load_volume(generate(\"mantle\", #{ n: 4, native: true })), OPTS)",
     base: "#{ from: [0.0, 0.0], to: [10.0, 20.0] }",
+};
+
+pub(crate) const SLICE_PLANE: OptionTable = OptionTable {
+    function: "slice_plane",
+    options: &[
+        opt("origin", Kind::Value("[x, y, z]", "[0.0, 0.0, 0.0]"), "required", "a point of the plane (world coordinates)"),
+        opt("normal", Kind::Value("[x, y, z], not zero", "[1.0, 1.0, 0.0]"), "required", "the plane's normal"),
+        opt("n", Kind::Value("[nodes along u, nodes along v], integers 2..=16384", "[3, 2]"), "[256, 256]", "nodes over the plane's part of the box (u: the world axis least aligned with the normal, made perpendicular to it; v = normal × u)"),
+        missing_option!(),
+    ],
+    call: "slice_plane(generate_mantle(#{ n: 4 }), OPTS)",
+    base: "#{ origin: [0.0, 0.0, 0.0], normal: [0.0, 0.0, 1.0] }",
 };
 
 pub(crate) const SLICE: OptionTable = OptionTable {
@@ -90,23 +104,7 @@ fn section_spec(v: &crate::model::Volume, opts: &Map) -> RResult<SectionSpec> {
         (None, _) => [0.0, 1.0],
     };
     let n = match given.value("n")? {
-        Some(x) => {
-            let a = x
-                .clone()
-                .into_array()
-                .or_else(|t| err("section n", format!("expected [columns, rows], got {t}")))?;
-            if a.len() != 2 {
-                return err(
-                    "section n",
-                    format!("expected [columns, rows], got {} numbers", a.len()),
-                );
-            }
-            let count = |d: &Dynamic| -> RResult<usize> {
-                let k = int(d, "section n")?;
-                Ok(k.clamp(0, MAX_SECTION_SIDE as i64 + 1) as usize)
-            };
-            [count(&a[0])?, count(&a[1])?]
-        }
+        Some(x) => counts(x, "section n")?,
         None => [256, 128],
     };
     Ok(SectionSpec {
@@ -116,6 +114,22 @@ fn section_spec(v: &crate::model::Volume, opts: &Map) -> RResult<SectionSpec> {
         n,
         missing: missing(&given)?,
     })
+}
+
+/// An `[a, b]` pair of node counts, each clamped to just past the largest allowed (the model
+/// refuses it, quoting it).
+fn counts(v: &Dynamic, field: &str) -> RResult<[usize; 2]> {
+    let a = v
+        .clone()
+        .into_array()
+        .or_else(|t| err(field, format!("expected [a, b], got {t}")))?;
+    if a.len() != 2 {
+        return err(field, format!("expected 2 integers, got {}", a.len()));
+    }
+    let count = |d: &Dynamic| -> RResult<usize> {
+        Ok(int(d, field)?.clamp(0, MAX_SECTION_SIDE as i64 + 1) as usize)
+    };
+    Ok([count(&a[0])?, count(&a[1])?])
 }
 
 fn slice_spec(opts: &Map) -> RResult<SliceSpec> {
@@ -133,6 +147,25 @@ fn slice_spec(opts: &Map) -> RResult<SliceSpec> {
     })
 }
 
+fn plane_spec(opts: &Map) -> RResult<PlaneSpec> {
+    let given = SLICE_PLANE.read(opts)?;
+    let (Some(origin), Some(normal)) = (given.value("origin")?, given.value("normal")?) else {
+        return err(
+            "slice_plane",
+            "expected #{ origin: [x, y, z], normal: [x, y, z] }",
+        );
+    };
+    Ok(PlaneSpec {
+        origin: vec3(origin, "slice_plane origin")?,
+        normal: vec3(normal, "slice_plane normal")?,
+        n: match given.value("n")? {
+            Some(n) => counts(n, "slice n")?,
+            None => [256, 256],
+        },
+        missing: missing(&given)?,
+    })
+}
+
 pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_fn(
         "section",
@@ -146,6 +179,13 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         |v: &mut ScriptVolume, opts: Map| -> RResult<ScriptGrid> {
             let spec = slice_spec(&opts)?;
             Ok(Arc::new(axis_slice(v, &spec).map_err(to_rhai)?))
+        },
+    );
+    engine.register_fn(
+        "slice_plane",
+        |v: &mut ScriptVolume, opts: Map| -> RResult<ScriptGrid> {
+            let spec = plane_spec(&opts)?;
+            Ok(Arc::new(plane_slice(v, &spec).map_err(to_rhai)?))
         },
     );
     engine.register_fn(
