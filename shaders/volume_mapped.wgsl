@@ -39,6 +39,13 @@ struct Mapped {
     seam: vec4<f32>,
     // 1 / the texture's size along x, y and z.
     inv_dims: vec4<f32>,
+    // The cut-away of a SPHERICAL volume (model::cut::Cut): x, y its latitudes, z its first
+    // longitude, w its longitude span (degrees).
+    cut: vec4<f32>,
+    // x, y the inner and outer radius of its depths.
+    cut_r: vec4<f32>,
+    // 1 where the cut has a latitude (x), longitude (y) or depth (z) range; w 1 when it exists.
+    cut_on: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -159,6 +166,19 @@ fn inside(p: vec3<f32>) -> bool {
     return s.x >= G.domain_lo.x && s.x <= G.domain_lo.y && s.y >= G.domain_lo.z
         && s.y <= G.domain_lo.w && (G.domain_hi.z > 0.5 || s.z <= G.domain_hi.y);
 }
+
+// Whether the cut-away removes world point p: every range it has holds there.
+fn in_cut(p: vec3<f32>) -> bool {
+    if (G.cut_on.w == 0u) {
+        return false;
+    }
+    let s = spherical(p);
+    let lat_in = G.cut_on.x == 0u || (s.y >= G.cut.x && s.y <= G.cut.y);
+    let east = s.z - G.cut.z;
+    let lon_in = G.cut_on.y == 0u || east - 360.0 * floor(east / 360.0) <= G.cut.w;
+    let r_in = G.cut_on.z == 0u || (s.x >= G.cut_r.x && s.x <= G.cut_r.y);
+    return lat_in && lon_in && r_in;
+}
 #endif
 
 // The value at world point p (relative to the box's corner for boxes, to the planet's centre
@@ -269,6 +289,57 @@ fn cone_hits(o: vec3<f32>, d: vec3<f32>, lat: f32) -> vec2<f32> {
     return vec2<f32>(q / a, cc / q);
 }
 
+// The crossings of a cut's latitude cone: the equator's is the plane z = 0 (whose double root
+// rounding can lose), a pole's none (NaN).
+fn cut_cone(o: vec3<f32>, d: vec3<f32>, lat: f32) -> vec2<f32> {
+    let none = bitcast<f32>(0x7fc00000u);
+    if (lat == 0.0) {
+        return vec2<f32>(-o.z / d.z, none);
+    }
+    if (abs(lat) < 90.0) {
+        return cone_hits(o, d, lat);
+    }
+    return vec2<f32>(none);
+}
+
+// The crossings of the cut-away's cones, longitude planes and spheres, into extra[8..18]
+// (Cut::crossings).
+fn cut_crossings(extra: ptr<function, array<f32, 18>>, o: vec3<f32>, d: vec3<f32>) {
+    if (G.cut_on.w == 0u) {
+        return;
+    }
+    if (G.cut_on.x != 0u) {
+        (*extra)[8] = cut_cone(o, d, G.cut.x).x;
+        (*extra)[9] = cut_cone(o, d, G.cut.x).y;
+        (*extra)[10] = cut_cone(o, d, G.cut.y).x;
+        (*extra)[11] = cut_cone(o, d, G.cut.y).y;
+    }
+    if (G.cut_on.y != 0u) {
+        for (var j = 0u; j < 2u; j++) {
+            let lon = (G.cut.z + select(0.0, G.cut.w, j == 1u)) / DEG;
+            let no = -sin(lon) * o.x + cos(lon) * o.y;
+            let nd = -sin(lon) * d.x + cos(lon) * d.y;
+            if (nd != 0.0) {
+                (*extra)[12u + j] = -no / nd;
+            }
+        }
+    }
+    if (G.cut_on.z != 0u) {
+        if (G.cut_r.x > 0.0) {
+            let s = sphere_hit(o, d, G.cut_r.x);
+            if (s.y > s.x) {
+                (*extra)[14] = s.x;
+                (*extra)[15] = s.y;
+            }
+        }
+        let s = sphere_hit(o, d, G.cut_r.y);
+        if (s.y > s.x) {
+            (*extra)[16] = s.x;
+            (*extra)[17] = s.y;
+        }
+    }
+}
+
 // The ray's chord through the outer sphere from the eye on (empty where it misses).
 fn outer_chord(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
     let outer = sphere_hit(o, d, G.domain_lo.y);
@@ -316,13 +387,13 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
     if (!(t1 > t0)) {
         return out;
     }
-    var cuts = array<f32, 10>();
+    var cuts = array<f32, 20>();
     cuts[0] = t0;
     cuts[1] = t1;
     var n = 2u;
-    var extra = array<f32, 8>();
+    var extra = array<f32, 18>();
     let none = bitcast<f32>(0x7fc00000u);
-    for (var i = 0u; i < 8u; i++) {
+    for (var i = 0u; i < 18u; i++) {
         extra[i] = none;
     }
     if (G.domain_lo.x > 0.0) {
@@ -352,8 +423,9 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
             }
         }
     }
+    cut_crossings(&extra, o, d);
     // Insertion of the crossings within [t0, t1] into the sorted list.
-    for (var i = 0u; i < 8u; i++) {
+    for (var i = 0u; i < 18u; i++) {
         let t = extra[i];
         if (!(t > t0 && t < t1)) {
             continue;
@@ -369,7 +441,8 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
     for (var i = 0u; i + 1u < n; i++) {
         let a = cuts[i];
         let b = cuts[i + 1u];
-        if (!(b > a) || !inside(o + d * (0.5 * (a + b)))) {
+        let middle = o + d * (0.5 * (a + b));
+        if (!(b > a) || !inside(middle) || in_cut(middle)) {
             continue;
         }
         if (out.n > 0u && out.span[out.n - 1u].y == a) {

@@ -7,6 +7,7 @@ pub mod bricked;
 pub mod cache;
 pub mod cf;
 pub mod generate;
+pub mod grid_out;
 pub(crate) mod hdf5;
 pub mod info;
 pub mod mantle;

@@ -68,6 +68,9 @@ mod sealed {
 pub type GridVar<'a, T> = (&'a str, &'a [T], &'a str, &'a str);
 /// A coordinate axis to write: `(dimension name, coordinate values, units)`.
 pub type GridCoord<'a> = (&'a str, &'a [f64], &'a str);
+/// An auxiliary coordinate along one dimension, not necessarily monotonic (the latitudes of a
+/// section's columns): `(name, index of its dimension in the coordinates, values, units)`.
+pub type AuxCoord<'a> = (&'a str, usize, &'a [f64], &'a str);
 
 /// Every variable of the root group with its dimensions, in file order.
 pub fn list_variables(path: impl AsRef<Path>) -> Result<Vec<(String, Dims)>> {
@@ -227,7 +230,19 @@ pub fn write_grid<T: GridValue>(
     vars: &[GridVar<'_, T>],
     global_attrs: &[(&str, &str)],
 ) -> Result<()> {
-    let path = path.as_ref();
+    write_grid_with_aux(path.as_ref(), coords, &[], vars, global_attrs)
+}
+
+/// [`write_grid`] with auxiliary coordinates, each a 1-D variable on one of the dimensions that
+/// every data variable names in its CF `coordinates` attribute (so xarray reads them as
+/// coordinates).
+pub fn write_grid_with_aux<T: GridValue>(
+    path: &Path,
+    coords: &[GridCoord<'_>],
+    aux: &[AuxCoord<'_>],
+    vars: &[GridVar<'_, T>],
+    global_attrs: &[(&str, &str)],
+) -> Result<()> {
     if coords.is_empty() {
         return Err(Error::invalid(
             "coords",
@@ -261,6 +276,8 @@ pub fn write_grid<T: GridValue>(
             .map_err(|e| Error::invalid(format!("coords.{name}"), e.to_string()))?;
         dim_ids.push(dim);
     }
+    add_aux_coords(&mut builder, coords, aux, &dim_ids)?;
+    let aux_names: Vec<&str> = aux.iter().map(|a| a.0).collect();
     let cells = coords
         .iter()
         .try_fold(1usize, |acc, c| acc.checked_mul(c.1.len()))
@@ -287,6 +304,9 @@ pub fn write_grid<T: GridValue>(
         if !long_name.is_empty() {
             add_text_attr(&mut builder, var, "long_name", long_name)?;
         }
+        if !aux_names.is_empty() {
+            add_text_attr(&mut builder, var, "coordinates", &aux_names.join(" "))?;
+        }
         builder
             .write_variable(var, values)
             .map_err(|e| Error::invalid(format!("vars.{name}"), e.to_string()))?;
@@ -312,6 +332,39 @@ pub fn write_grid<T: GridValue>(
                 other => std::io::Error::other(other.to_string()),
             })
     })
+}
+
+/// The auxiliary coordinates `aux` as 1-D variables on their dimensions (`dim_ids`, in the order
+/// of `coords`), with the CF attributes of their names less the axis, which the dimension's own
+/// coordinate carries.
+fn add_aux_coords(
+    builder: &mut NcFileBuilder,
+    coords: &[GridCoord<'_>],
+    aux: &[AuxCoord<'_>],
+    dim_ids: &[netcdf_writer::DimensionId],
+) -> Result<()> {
+    for &(name, dim, values, units) in aux {
+        check_name("aux", name)?;
+        let field = format!("aux.{name}");
+        if coords.get(dim).map(|c| c.1.len()) != Some(values.len()) {
+            return Err(Error::invalid(
+                field,
+                "needs one value per node of its dimension",
+            ));
+        }
+        let var = builder
+            .add_variable::<f64>(name, &[dim_ids[dim]])
+            .map_err(|e| Error::invalid(field.clone(), e.to_string()))?;
+        for (key, value) in coordinate_attributes(name, units) {
+            if key != "axis" {
+                add_text_attr(builder, var, key, &value)?;
+            }
+        }
+        builder
+            .write_variable(var, values)
+            .map_err(|e| Error::invalid(field, e.to_string()))?;
+    }
+    Ok(())
 }
 
 /// Writes a cell-centred volume of `dims = [nx, ny, nz]` cells as one variable on dimensions

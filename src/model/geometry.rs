@@ -5,6 +5,7 @@
 //! (0°N, 90°E), +z toward the North Pole, lengths in the vertical axis's unit. Renderers map a
 //! world point to fractional voxel indices through these axes and interpolate in index space.
 
+use super::cut::Cut;
 use super::vec3::dot;
 use crate::error::{Error, Result};
 
@@ -338,6 +339,17 @@ impl SphericalGrid {
     /// clipped by the inner one and by the latitude cones and longitude planes of a wedge. The
     /// ends are the exact crossings; the parts between them are told apart by their midpoints.
     pub fn ray_intervals(&self, o: [f64; 3], d: [f64; 3]) -> Vec<(f64, f64)> {
+        self.ray_intervals_cut(o, d, None)
+    }
+
+    /// [`Self::ray_intervals`] less the region `cut` removes: its boundaries are more crossings,
+    /// and a piece whose middle it removes is left out.
+    pub fn ray_intervals_cut(
+        &self,
+        o: [f64; 3],
+        d: [f64; 3],
+        cut: Option<&Cut>,
+    ) -> Vec<(f64, f64)> {
         let Some((t0, t1)) = sphere_hit(o, d, self.radius.hi) else {
             return Vec::new();
         };
@@ -365,6 +377,9 @@ impl SphericalGrid {
                 }
             }
         }
+        if let Some(c) = cut {
+            cuts.extend(c.crossings(self.planet_radius, o, d));
+        }
         cuts.retain(|t| t.is_finite() && *t >= t0 && *t <= t1);
         cuts.sort_by(f64::total_cmp);
         let mut parts: Vec<(f64, f64)> = Vec::new();
@@ -374,7 +389,8 @@ impl SphericalGrid {
                 continue;
             }
             let m = 0.5 * (a + b);
-            if !self.contains([o[0] + m * d[0], o[1] + m * d[1], o[2] + m * d[2]]) {
+            let p = [o[0] + m * d[0], o[1] + m * d[1], o[2] + m * d[2]];
+            if !self.contains(p) || cut.is_some_and(|c| c.removes(self.planet_radius, p)) {
                 continue;
             }
             match parts.last_mut() {
@@ -402,7 +418,7 @@ pub(crate) fn sphere_hit(o: [f64; 3], d: [f64; 3], r: f64) -> Option<(f64, f64)>
 }
 
 /// Crossings of the ray with the cone (both nappes) of latitude `lat_deg`.
-fn cone_hits(o: [f64; 3], d: [f64; 3], lat_deg: f64) -> Vec<f64> {
+pub(crate) fn cone_hits(o: [f64; 3], d: [f64; 3], lat_deg: f64) -> Vec<f64> {
     let (s, c) = lat_deg.to_radians().sin_cos();
     let (s2, c2) = (s * s, c * c);
     let a = c2 * d[2] * d[2] - s2 * (d[0] * d[0] + d[1] * d[1]);

@@ -5,12 +5,14 @@
 pub mod bricks;
 pub(crate) mod camera;
 pub mod colormap;
+pub mod cut;
 pub mod geometry;
 pub(crate) mod grid;
 pub(crate) mod image;
 pub(crate) mod map_frame;
 pub(crate) mod numeric;
 pub(crate) mod resample;
+pub mod section;
 pub(crate) mod stencil;
 pub mod text;
 pub mod transfer;
@@ -18,9 +20,10 @@ pub(crate) mod vec3;
 pub(crate) mod volume;
 
 pub use camera::{Axis, Camera, Projection};
+pub use cut::Cut;
 pub use geometry::{CoordAxis, Geometry, SphericalGrid};
 pub use grid::{CoordKind, Grid, GridCoords};
 pub use image::HdrImage;
 pub use resample::resample_to_box;
 pub use transfer::{Lens, LutTransfer, Scale, TransferFunction};
-pub use volume::{Aabb, Volume, VolumeStats};
+pub use volume::{Aabb, Missing, Volume, VolumeStats};

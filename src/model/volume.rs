@@ -134,6 +134,34 @@ fn min_opt(a: Option<f64>, b: Option<f64>) -> Option<f64> {
     }
 }
 
+/// How trilinear sampling treats missing (non-finite) voxels among a sample's eight neighbours.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Missing {
+    /// Any missing neighbour makes the sample missing.
+    #[default]
+    Strict,
+    /// The weights of the finite neighbours are renormalised to sum to one, so a missing voxel
+    /// removes only its own share of each sample of the cells around it; a sample whose every
+    /// weighted neighbour is missing is missing.
+    Renormalise,
+}
+
+impl Missing {
+    pub const NAMES: &'static [&'static str] = &["strict", "renormalise"];
+
+    /// The rule named `name` (one of [`Missing::NAMES`]).
+    pub fn parse(name: &str) -> Result<Missing> {
+        match name {
+            "strict" => Ok(Missing::Strict),
+            "renormalise" => Ok(Missing::Renormalise),
+            other => Err(Error::invalid(
+                "missing",
+                format!("unknown rule {other:?}; expected \"strict\" or \"renormalise\""),
+            )),
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Volume {
     pub name: String,
@@ -339,16 +367,23 @@ impl Volume {
     /// trilinear in index space, clamp-to-edge, the longitude of a full circle periodic.
     /// Non-finite like [`Self::sample_trilinear`].
     pub(crate) fn sample_world(&self, p: [f64; 3]) -> f64 {
+        self.sample_world_with(p, Missing::Strict)
+    }
+
+    /// [`Self::sample_world`] with missing voxels treated as `missing` says.
+    pub(crate) fn sample_world_with(&self, p: [f64; 3], missing: Missing) -> f64 {
         let g = self.fractional_indices(p);
         let wrap_axis = match &self.geometry {
             Geometry::Spherical(s) if s.lon_wraps => Some(s.axis_of[2]),
             _ => None,
         };
-        self.interpolate(g, wrap_axis)
+        self.interpolate(g, wrap_axis, missing)
     }
 
-    /// Trilinear interpolation at fractional indices `g`, periodic along `wrap_axis`.
-    fn interpolate(&self, g: [f64; 3], wrap_axis: Option<usize>) -> f64 {
+    /// Trilinear interpolation at fractional indices `g`, periodic along `wrap_axis`. With
+    /// [`Missing::Renormalise`] the weights of the finite corners are divided by their sum; a
+    /// missing corner of weight zero (a sample on the far face of its cell) changes nothing.
+    fn interpolate(&self, g: [f64; 3], wrap_axis: Option<usize>, missing: Missing) -> f64 {
         let mut base = [0i64; 3];
         let mut frac = [0f64; 3];
         for a in 0..3 {
@@ -364,7 +399,7 @@ impl Volume {
                 i.clamp(0, n - 1) as usize
             }
         };
-        let mut acc = 0.0;
+        let (mut acc, mut finite_weight, mut any_missing) = (0.0, 0.0, false);
         for corner in 0..8 {
             let di = corner & 1;
             let dj = (corner >> 1) & 1;
@@ -378,11 +413,23 @@ impl Volume {
                 index(2, base[2] + dk as i64),
             )] as f64;
             if !v.is_finite() {
-                return f64::NAN;
+                match missing {
+                    Missing::Strict => return f64::NAN,
+                    Missing::Renormalise => {
+                        any_missing |= w > 0.0;
+                        continue;
+                    }
+                }
             }
             acc += w * v;
+            finite_weight += w;
         }
-        acc
+        match (any_missing, finite_weight > 0.0) {
+            // All finite: the plain sum, bit for bit the strict value.
+            (false, _) => acc,
+            (true, true) => acc / finite_weight,
+            (true, false) => f64::NAN,
+        }
     }
 
     /// Gradient in world space by central differences one voxel length apart along each
@@ -403,7 +450,7 @@ impl Volume {
     }
 
     pub(crate) fn sample_trilinear(&self, p: [f64; 3]) -> f64 {
-        self.interpolate(self.fractional_indices(p), None)
+        self.interpolate(self.fractional_indices(p), None, Missing::Strict)
     }
 }
 

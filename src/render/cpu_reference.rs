@@ -99,7 +99,7 @@ impl Tracer<'_> {
                 }
                 _ => ([0.0; 3], 0.0),
             },
-            Geometry::Spherical(g) => match g.ray_intervals(o, d) {
+            Geometry::Spherical(g) => match g.ray_intervals_cut(o, d, self.opts.cut.as_ref()) {
                 parts if parts.is_empty() => ([0.0; 3], 0.0),
                 parts => self.march(px, py, o, d, &parts),
             },
@@ -153,7 +153,7 @@ impl Tracer<'_> {
             };
             // Pre-integration reads the value at segment ends, the front one carried.
             let mut front = if self.preintegrated {
-                self.volume.sample_world(at(u))
+                self.volume.sample_world_with(at(u), opts.missing)
             } else {
                 f64::NAN
             };
@@ -168,12 +168,12 @@ impl Tracer<'_> {
                 let mut len = (tb - ta) / voxel;
                 let p = at(mid);
                 let sample = if self.preintegrated {
-                    let back = self.volume.sample_world(at(tb));
+                    let back = self.volume.sample_world_with(at(tb), opts.missing);
                     let pair = (front, back);
                     front = back;
                     self.segment(pair, &mut len)
                 } else {
-                    let v = self.volume.sample_world(p);
+                    let v = self.volume.sample_world_with(p, opts.missing);
                     v.is_finite().then(|| self.tf.eval(v))
                 };
                 let Some((mut e, a)) = sample else {

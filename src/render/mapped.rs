@@ -10,7 +10,7 @@ use super::volume::{
 };
 use super::VolumeRenderOptions;
 use crate::error::{Error, Result};
-use crate::model::{CoordAxis, Geometry, HdrImage, Volume};
+use crate::model::{CoordAxis, Cut, Geometry, HdrImage, Volume};
 
 /// Host mirror of `Mapped` in shaders/volume_mapped.wgsl — keep in sync.
 #[repr(C)]
@@ -29,6 +29,9 @@ struct MappedParams {
     dir: [f32; 4],
     seam: [f32; 4],
     inv_dims: [f32; 4],
+    cut: [f32; 4],
+    cut_r: [f32; 4],
+    cut_on: [u32; 4],
 }
 
 impl MappedParams {
@@ -66,13 +69,32 @@ impl MappedParams {
             }
         }
     }
+
+    /// The cut-away `cut` of a shell of planet radius `planet`.
+    fn set_cut(&mut self, cut: &Cut, planet: f64) {
+        let on = |b: bool| u32::from(b);
+        let [la, lb] = cut.lat.unwrap_or([-90.0, 90.0]);
+        let [oa, ob] = cut.lon.unwrap_or([0.0, 360.0]);
+        let [ra, rb] = cut.radii(planet).unwrap_or([0.0, 0.0]);
+        self.cut = [la as f32, lb as f32, oa as f32, (ob - oa) as f32];
+        self.cut_r = [ra as f32, rb as f32, 0.0, 0.0];
+        self.cut_on = [
+            on(cut.lat.is_some()),
+            on(cut.lon.is_some()),
+            on(cut.depth.is_some()),
+            1,
+        ];
+    }
 }
 
 /// The shader's view of `volume`'s geometry: the pipeline variant (bits above), the uniform
 /// block, the uneven axes' centres, and the frame geometry the
 /// shared parameters are built from (the eye relative to the box's corner, or to the planet's
-/// centre for a shell).
-fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 3])> {
+/// centre for a shell). A cut-away takes the general spherical variant, which clips to it.
+fn mapped_params(
+    volume: &Volume,
+    cut: Option<&Cut>,
+) -> Result<(u32, MappedParams, Vec<f32>, [f64; 3])> {
     let mut p = MappedParams {
         inv_dims: [0, 1, 2, 2].map(|a| 1.0 / volume.dims[a] as f32),
         ..Default::default()
@@ -140,7 +162,11 @@ fn mapped_params(volume: &Volume) -> Result<(u32, MappedParams, Vec<f32>, [f64; 
             let uneven = if coords.is_empty() { 0 } else { UNEVEN };
             coords.resize(coords.len().max(4), 0.0);
             let cf_axes = if g.axis_of == [2, 1, 0] { CF_AXES } else { 0 };
-            let whole = g.lon_wraps && g.latitude.lo <= -90.0 && g.latitude.hi >= 90.0;
+            if let Some(c) = cut {
+                p.set_cut(c, g.planet_radius);
+            }
+            let whole =
+                g.lon_wraps && g.latitude.lo <= -90.0 && g.latitude.hi >= 90.0 && cut.is_none();
             let shell = if whole { SHELL } else { 0 };
             Ok((
                 SPHERICAL | uneven | seam | cf_axes | shell,
@@ -160,7 +186,7 @@ impl VolumeRenderer {
         gpu: &GpuVolume,
         opts: &VolumeRenderOptions,
     ) -> Result<(HdrImage, RenderTiming)> {
-        let (kind, params, coords, origin) = mapped_params(volume)?;
+        let (kind, params, coords, origin) = mapped_params(volume, opts.cut.as_ref())?;
         let size = volume.bounds().size();
         let geometry = FrameGeometry {
             name: &gpu.name,

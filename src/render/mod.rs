@@ -16,7 +16,7 @@ pub mod volume;
 pub mod volume_f64;
 
 use crate::error::{Error, Result};
-use crate::model::{Camera, TransferFunction};
+use crate::model::{Camera, Cut, Missing, TransferFunction};
 pub use route::{Bricking, RenderPath, VolumeRender, VolumeSource};
 
 /// How the volume is interpolated between voxel centres.
@@ -74,6 +74,11 @@ pub struct VolumeRenderOptions {
     pub empty_space_skipping: bool,
     /// Whether and how the volume may be cut into bricks (bricked and out-of-core paths).
     pub bricking: Bricking,
+    /// How a sample with missing voxels among its eight neighbours is taken; renormalised
+    /// sampling runs on the f64 CPU reference only.
+    pub missing: Missing,
+    /// The region removed from a spherical volume (mapped ray caster and f64 CPU reference).
+    pub cut: Option<Cut>,
 }
 
 /// How each ray segment reads the transfer function.
@@ -246,6 +251,8 @@ impl VolumeRenderOptions {
             tf_sampling: TfSampling::Point,
             empty_space_skipping: true,
             bricking: Bricking::default(),
+            missing: Missing::Strict,
+            cut: None,
         }
     }
 

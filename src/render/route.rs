@@ -28,7 +28,7 @@ use super::volume::{Geometry, RenderTiming};
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::model::bricks::{BrickedVolume, MemorySource, DEFAULT_BRICK};
-use crate::model::{Aabb, HdrImage, Volume};
+use crate::model::{Aabb, Cut, HdrImage, Missing, Volume};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -171,6 +171,38 @@ fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
     Ok(RenderPath::Mapped)
 }
 
+/// A cut-away is for spherical volumes in memory, and must leave part of the volume.
+fn check_cut(source: &VolumeSource, cut: &Cut) -> Result<()> {
+    let what = match source {
+        VolumeSource::Memory(v) => match &v.geometry {
+            crate::model::Geometry::Spherical(g) => return cut.check(g),
+            other => format!("{} is a {} volume", v.name, other.name()),
+        },
+        VolumeSource::Bricked(b) => format!("{} is an opened (bricked) box", b.name),
+    };
+    Err(Error::invalid(
+        "cut",
+        format!("{what}; cut-aways remove latitude, longitude and depth ranges of spherical volumes (a box's plane: slice(volume, #{{ axis, at }}))"),
+    ))
+}
+
+/// The path of `missing: "renormalise"`: the f64 CPU reference, the one ray caster that
+/// renormalises trilinear weights over finite voxels (the GPU ray casters make a sample missing
+/// when any of its eight voxels is).
+fn renormalised_path(source: &VolumeSource, opts: &VolumeRenderOptions) -> Result<RenderPath> {
+    match source {
+        VolumeSource::Memory(_) if opts.precision == Precision::F64 => Ok(RenderPath::F64Cpu),
+        VolumeSource::Memory(_) => Err(Error::invalid(
+            "missing",
+            "\"renormalise\" runs on the f64 CPU reference: add precision: \"f64\" (the GPU ray casters make a sample missing when any of its 8 voxels is)",
+        )),
+        VolumeSource::Bricked(_) => Err(Error::invalid(
+            "missing",
+            "\"renormalise\" runs on the f64 CPU reference, which needs the volume in memory: use load_volume and precision: \"f64\"",
+        )),
+    }
+}
+
 /// Whether `v` renders whole in GPU memory under the render's budget (none: always): its f32
 /// voxels and 32 bytes a pixel (the image, its read back and the ray state).
 fn fits_in_core(v: &Volume, opts: &VolumeRenderOptions) -> bool {
@@ -274,6 +306,9 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<Route> {
         let b = &opts.bricking;
+        if let Some(cut) = &opts.cut {
+            check_cut(source, cut)?;
+        }
         if let Some(world) = self.cluster().filter(|w| w.size() > 1) {
             if let VolumeSource::Memory(v) = source {
                 if !v.is_regular() {
@@ -296,6 +331,9 @@ impl RenderSession {
                 ranks: world.size(),
             }
             .into());
+        }
+        if opts.missing == Missing::Renormalise {
+            return renormalised_path(source, opts).map(Route::from);
         }
         let path = match source {
             VolumeSource::Memory(v) if !v.is_regular() => {

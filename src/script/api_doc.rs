@@ -9,7 +9,8 @@ use super::api_datasets::{
 use super::api_fields::RESAMPLE;
 use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
 use super::api_post::TONEMAP;
-use super::api_render::{LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
+use super::api_render::{CUT, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
+use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
 use super::api_surface::{RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
 use super::options::OptionTable;
 #[cfg(test)]
@@ -55,6 +56,7 @@ pub(crate) const AREAS: &[&str] = &[
     "cameras",
     "rendering",
     "surfaces",
+    "sections and slices",
     "exposure and tone mapping",
     "output",
     "parameters and sweeps",
@@ -87,8 +89,8 @@ pub(crate) const API: &[ApiEntry] = &[
     e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number"], "Camera", "Perspective camera above latitude, longitude (degrees) at distance times the shell's outer radius from the planet's centre (a box: times half its diagonal from its centre), looking at the centre with north up (fov 35)."),
     e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
     e("cameras", "camera_look_at", &["eye: array", "target: array", "up: array", "fov: number"], "Camera", "Free perspective camera."),
-    with(e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast. Results of the plain path are cached: an identical call returns the earlier image without a ray cast. Options:"), &[&RENDER_VOLUME, &SHADING]),
-    with(e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping empty bricks unless empty_space_skipping: false, out of core beyond memory_budget; the same options."), &[&RENDER_VOLUME, &SHADING]),
+    with(e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast. Results of the plain path are cached: an identical call returns the earlier image without a ray cast. Options:"), &[&RENDER_VOLUME, &SHADING, &CUT]),
+    with(e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping empty bricks unless empty_space_skipping: false, out of core beyond memory_budget; the same options."), &[&RENDER_VOLUME, &SHADING, &CUT]),
     e("rendering", "get$width", &["image: Image"], "int", "image.width"),
     e("rendering", "get$height", &["image: Image"], "int", "image.height"),
     e("surfaces", "load_grid", &["path: string"], "Grid", "A 2-D field from .npy, .npz or .nc; every same-shape array becomes a property (elevation-like names become the relief); \"f.nc:eta\" keeps only that variable, as below."),
@@ -104,6 +106,10 @@ pub(crate) const API: &[ApiEntry] = &[
     e("surfaces", "render_surface", &["grid: Grid"], "Image", "An error naming the options render_surface needs."),
     with(e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for render_surface's options, with the resolution 1/nu in its metadata. Options:"), &[&SURFACE_COLORBAR]),
     with(e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for render_surface's options: the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text. Options:"), &[&SURFACE_LEGEND]),
+    with(e("sections and slices", "section", &["volume: Volume", "options: map"], "Grid", "A great-circle section of a spherical volume: columns evenly spaced along the short arc from `from` to `to`, rows evenly spaced in depth, each node trilinear in the volume's (radius, latitude, longitude) grid. x is the distance along the arc at the surface and y the depth, both in the volume's length unit; the properties are the volume's values and each column's `latitude` and `longitude`. Columns outside a wedge are missing. render_surface draws it (fringes, frame: true). Options:"), &[&SECTION]),
+    with(e("sections and slices", "slice", &["volume: Volume", "options: map"], "Grid", "The plane of a box volume (regular or rectilinear) at a world coordinate along x, y or z: a grid on the voxel centres of the two other axes, trilinear across the plane. Options:"), &[&SLICE]),
+    with(e("sections and slices", "slice_plane", &["volume: Volume", "options: map"], "Grid", "An oblique plane of a box volume: n nodes evenly spaced over the plane's part of the box's bounding box, on in-plane axes u and v measured from origin in world units; nodes outside the box are missing. Options:"), &[&SLICE_PLANE]),
+    e("sections and slices", "save_grid", &["grid: Grid", "path: string"], "()", "Writes any grid as CF NetCDF (.nc) under the output folder: the y and x axes as coordinate variables (degrees_north/east on a geographic grid), every property as a variable with its units, a section's per-column latitude and longitude as auxiliary coordinates on its distance axis; xarray and load_grid read it back."),
     e("exposure and tone mapping", "load_image", &["path: string"], "Image", "Reads an RGB(A) OpenEXR (float or half, from any producer) as an HDR image."),
     e("exposure and tone mapping", "exposure", &["image: Image", "ev: number"], "Image", "The HDR image times 2^ev (no re-render)."),
     e("exposure and tone mapping", "bracket", &["image: Image", "evs: array"], "array", "One exposed HDR image per EV, all from the same render."),

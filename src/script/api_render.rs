@@ -2,14 +2,14 @@
 //! issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`. Saving,
 //! previews, progress and `param` live in `api_output`.
 
-use super::convert::{boolean, err, num, points, to_rhai, variable_option, vec3, RResult};
+use super::convert::{boolean, err, num, pair, points, to_rhai, variable_option, vec3, RResult};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
 use crate::datasets::LoadOptions;
 use crate::model::bricks::BRICK_SIZES;
 use crate::model::{
-    Aabb, Axis, Camera, Geometry, HdrImage, Lens, LutTransfer, Scale, TransferFunction, Volume,
-    VolumeStats,
+    Aabb, Axis, Camera, Cut, Geometry, HdrImage, Lens, LutTransfer, Missing, Scale,
+    TransferFunction, Volume, VolumeStats,
 };
 use crate::render::route::MAX_LEVEL;
 use crate::render::{
@@ -117,6 +117,8 @@ pub(crate) const RENDER_VOLUME: OptionTable = OptionTable {
         opt("precision", Kind::Choice(Precision::NAMES), "\"f32\"", "compositing precision (f64 on the GPU where the adapter has shader f64, else the CPU)"),
         opt("shading", Kind::Value("true | false | #{ambient, diffuse, specular, shininess}", "true"), "false", "Blinn–Phong headlight on the data gradient (absent: no shading code; not on the bricked path)"),
         opt("tf_sampling", Kind::Choice(TfSampling::NAMES), "\"point\"", "preintegrated: the transfer function's mean between the values at each segment's ends (not on the bricked path)"),
+        opt("cut", Kind::Value("#{lat, lon, depth}", "#{ lon: [0.0, 180.0] }"), "none", "a spherical volume's cut-away: the region where every given range holds is removed, rays clipped analytically (mapped ray caster and f64 CPU reference)"),
+        opt("missing", Kind::Choice(Missing::NAMES), "\"strict\"", "strict: a missing voxel among a sample's 8 neighbours makes it missing; renormalise (with precision: \"f64\", on the CPU): the finite neighbours' weights renormalised"),
         opt("empty_space_skipping", Kind::Bool, "true", "jump over space the transfer function leaves empty (missing data, transparent values), with the same image"),
         opt("memory_budget", Kind::NumAbove(0.0, 1e9), "--gpu-memory, else unlimited", "MiB of GPU memory; larger volumes stream through a brick cache"),
         opt("brick", BRICK_EDGE, "none", "brick edge in voxels (8, 16, 32, 64 or 128): render bricked"),
@@ -136,6 +138,17 @@ pub(crate) const SHADING: OptionTable = OptionTable {
     ],
     call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, shading: OPTS })",
     base: "#{}",
+};
+
+pub(crate) const CUT: OptionTable = OptionTable {
+    function: "render_volume cut",
+    options: &[
+        opt("lat", Kind::Value("[south, north] in degrees", "[0.0, 90.0]"), "all latitudes", "the latitudes removed"),
+        opt("lon", Kind::Value("[west, east] in degrees", "[0.0, 180.0]"), "all longitudes", "the longitudes removed, eastward from west to east"),
+        opt("depth", Kind::Value("[top, bottom] in the volume's length unit", "[0.0, 100.0]"), "all depths", "the depths removed (planet radius − radius)"),
+    ],
+    call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, cut: OPTS })",
+    base: "#{ lon: [0.0, 180.0] }",
 };
 
 pub(crate) const TF_LUT: OptionTable = OptionTable {
@@ -438,6 +451,29 @@ fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
     Ok(Some(s))
 }
 
+/// `cut: #{ lat, lon, depth }` ([`CUT`]); the ranges are checked against the volume when it
+/// renders.
+fn cut(v: &Dynamic) -> RResult<Cut> {
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+        to_rhai(crate::Error::invalid(
+            "cut",
+            "expected a map #{ lat: [a, b], lon: [a, b], depth: [a, b] }",
+        ))
+    })?;
+    let given = CUT.read(&m)?;
+    let range = |name: &str| -> RResult<Option<[f64; 2]>> {
+        given
+            .value(name)?
+            .map(|x| pair(x, &format!("cut {name}")))
+            .transpose()
+    };
+    Ok(Cut {
+        lat: range("lat")?,
+        lon: range("lon")?,
+        depth: range("depth")?,
+    })
+}
+
 /// A planning run's stand-in for a rendered image: the size the real one would have, no pixels
 /// worth looking at.
 pub(crate) fn blank(width: u32, height: u32) -> ScriptImage {
@@ -553,6 +589,12 @@ fn take_render_options(o: &mut VolumeRenderOptions, given: &Given) -> RResult<()
     }
     if let Some(t) = given.string("tf_sampling")? {
         o.tf_sampling = TfSampling::parse(&t).map_err(to_rhai)?;
+    }
+    if let Some(m) = given.string("missing")? {
+        o.missing = Missing::parse(&m).map_err(to_rhai)?;
+    }
+    if let Some(c) = given.value("cut")? {
+        o.cut = Some(cut(c)?);
     }
     o.empty_space_skipping = given
         .bool("empty_space_skipping")?

@@ -63,16 +63,16 @@ pub(crate) fn vec3(v: &Dynamic, field: &str) -> RResult<[f64; 3]> {
     ])
 }
 
-/// Two numbers [a, b] (a range such as a colour domain).
+/// A pair of numbers `[a, b]` (a range, a latitude and longitude).
 pub(crate) fn pair(v: &Dynamic, field: &str) -> RResult<[f64; 2]> {
-    match v.clone().into_array() {
-        Ok(arr) if arr.len() == 2 => Ok([num(&arr[0], field)?, num(&arr[1], field)?]),
-        Ok(arr) => err(
-            field,
-            format!("expected [lo, hi], got {} values", arr.len()),
-        ),
-        Err(t) => err(field, format!("expected [lo, hi], got {t}")),
+    let a = v
+        .clone()
+        .into_array()
+        .or_else(|t| err(field, format!("expected [a, b], got {t}")))?;
+    if a.len() != 2 {
+        return err(field, format!("expected 2 numbers, got {}", a.len()));
     }
+    Ok([num(&a[0], field)?, num(&a[1], field)?])
 }
 
 /// Control points [[t, value], ...].

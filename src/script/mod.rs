@@ -11,6 +11,7 @@ mod api_grids;
 mod api_output;
 mod api_post;
 mod api_render;
+mod api_sections;
 mod api_surface;
 mod api_sweep;
 mod convert;
@@ -342,6 +343,7 @@ pub(crate) fn new_engine(
     api_fields::register(&mut engine);
     api_grids::register(&mut engine);
     api_surface::register(&mut engine, host.clone());
+    api_sections::register(&mut engine, host.clone());
     api_sweep::register(&mut engine, &host);
     engine
 }

@@ -16,6 +16,7 @@ mod figures;
 mod mpi;
 mod passes;
 mod scripts;
+mod sections;
 mod skipping;
 mod spherical;
 mod stability;

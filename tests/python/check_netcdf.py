@@ -2,13 +2,15 @@
 """Check a NetCDF file written by hdrvis with the reference readers (netCDF4-python and xarray).
 
     python3 tests/python/check_netcdf.py FILE.nc --var NAME --expect EXPECTED.npy
-        [--units UNITS] [--long-name TEXT] [--coord DIM=EXPECTED.npy ...] [--rtol R] [--atol A]
+        [--units UNITS] [--long-name TEXT] [--coord DIM=EXPECTED.npy ...]
+        [--aux NAME:DIM=EXPECTED.npy ...] [--rtol R] [--atol A]
 
 Both readers must decode the variable (CF masking and unpacking on) to the values in EXPECTED.npy,
 which has the variable's shape (C order) and marks missing cells as NaN; NaNs must sit in the same
 places. The file must declare Conventions CF-*, the variable its units/long_name when given, and
 every dimension of the variable a strictly monotonic coordinate variable, compared with the given
-.npy when --coord names it.
+.npy when --coord names it. --aux names a 1-D auxiliary coordinate on dimension DIM (listed in the
+variable's `coordinates` attribute): xarray must read it as a coordinate on DIM with the values given.
 
 Exit status: 0 when every check passes, 1 with one line per failure on stderr, 2 on bad arguments,
 77 (the automake "skipped" code) when numpy, netCDF4 or xarray is not installed, so a Rust test can
@@ -57,6 +59,7 @@ def main():
     parser.add_argument("--units")
     parser.add_argument("--long-name")
     parser.add_argument("--coord", action="append", default=[], metavar="DIM=EXPECTED.npy")
+    parser.add_argument("--aux", action="append", default=[], metavar="NAME:DIM=EXPECTED.npy")
     parser.add_argument("--rtol", type=float, default=1e-6)
     parser.add_argument("--atol", type=float, default=0.0)
     args = parser.parse_args()
@@ -68,6 +71,13 @@ def main():
         if not sep:
             parser.error(f"--coord {item!r} is not DIM=EXPECTED.npy")
         coord_expect[dim] = np.load(npy)
+    aux_expect = {}
+    for item in args.aux:
+        head, sep, npy = item.partition("=")
+        name, colon, dim = head.partition(":")
+        if not (sep and colon):
+            parser.error(f"--aux {item!r} is not NAME:DIM=EXPECTED.npy")
+        aux_expect[name] = (dim, np.load(npy))
     failures = []
 
     with netCDF4.Dataset(args.file) as ds:
@@ -106,6 +116,14 @@ def main():
                             args.atol, failures)
                 else:
                     failures.append(f"xarray: {dim!r} is not a coordinate")
+            for name, (dim, want) in aux_expect.items():
+                if name not in ds[args.var].coords:
+                    failures.append(f"xarray: {name!r} is not a coordinate of {args.var!r}")
+                    continue
+                if ds.coords[name].dims != (dim,):
+                    failures.append(f"xarray: {name!r} lies on {ds.coords[name].dims}, expected ({dim!r},)")
+                compare(f"xarray coordinate {name}", ds.coords[name].values, want, args.rtol,
+                        args.atol, failures)
 
     for failure in failures:
         print(f"{args.file}: {failure}", file=sys.stderr)

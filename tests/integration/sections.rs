@@ -1,0 +1,404 @@
+//! Looking inside volumes: a great-circle section of a CF model written by xarray against its
+//! closed form, drawn with interference fringes (the fringe at each node against
+//! (1 + cos 2πν·value)/2), saved by `save_grid` and read back by xarray, netCDF4 and `load_grid`;
+//! and the one-line errors of bad sections, slices and grid files.
+
+use crate::cli::{hdrvis, python_check};
+use crate::common::renderer;
+use hdrvis::datasets::load_volume;
+use hdrvis::model::section::{great_circle_section, SectionSpec};
+use hdrvis::model::{Grid, Missing};
+use hdrvis::render::surface::{fringe_f64, SurfaceOptions, SurfaceRenderer};
+use std::path::{Path, PathBuf};
+
+/// Writes a CF file with tests/python/write_cf_sphere.py; `None` (skip) without xarray.
+fn cf_file(dir: &Path, name: &str, args: &[&str]) -> Option<PathBuf> {
+    let path = dir.join(name);
+    let mut all = vec![path.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let out = python_check("write_cf_sphere.py", &all)?;
+    assert!(out.starts_with("exit 0"), "{out}");
+    Some(path)
+}
+
+const SECTION: &str =
+    "#{ from: [10.0, -40.0], to: [50.0, 60.0], depth: [100.0, 2800.0], n: [41, 28] }";
+
+fn spec() -> SectionSpec {
+    SectionSpec {
+        from: [10.0, -40.0],
+        to: [50.0, 60.0],
+        depth: [100.0, 2800.0],
+        n: [41, 28],
+        missing: Missing::Strict,
+    }
+}
+
+/// The section's fringes on every backend: in map view pixel (i, r) shows node (i, ny − 1 − r),
+/// whose fringe is (1 + cos 2πν·value)/2.
+fn check_fringes(g: &Grid, nu: f64) {
+    let values = g.property("dvs").unwrap();
+    for backend in crate::common::backends() {
+        let r = SurfaceRenderer::new(renderer(backend).context().clone());
+        let o = SurfaceOptions {
+            nu: vec![nu],
+            ..Default::default()
+        };
+        let img = r.render(g, &o).unwrap().remove(0);
+        let fringe = &img
+            .extra_channels
+            .iter()
+            .find(|(n, _)| n == "fringe")
+            .expect("a fringe channel")
+            .1;
+        for row in 0..g.ny() {
+            for i in 0..g.nx() {
+                let node = (g.ny() - 1 - row) * g.nx() + i;
+                let want = fringe_f64(nu, values[node]);
+                let got = fringe[row * g.nx() + i] as f64;
+                assert!(
+                    (got - want).abs() < 1e-5,
+                    "{backend:?} node {node}: {got} vs {want}"
+                );
+            }
+        }
+    }
+}
+
+fn write_f64(path: &Path, shape: &[usize], data: &[f64]) -> String {
+    hdrvis::datasets::npy::write_npy::<f64>(path, shape, data).unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn a_section_with_fringes_saves_as_cf_netcdf_that_xarray_and_load_grid_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // value = 6371 − depth (km): linear in depth, so every node has a closed form.
+    let Some(model) = cf_file(d, "model.nc", &["radial"]) else {
+        return;
+    };
+    let script = format!(
+        "let s = section(load_volume(\"model.nc\"), {SECTION});\nsave_grid(s, \"section.nc\");\nprint(s.nx);"
+    );
+    std::fs::write(d.join("s.rhai"), script).unwrap();
+    let (code, out, err) = hdrvis(&["run", "s.rhai", "-o", "out"], d);
+    assert_eq!(code, 0, "{out}{err}");
+    let g = great_circle_section(&load_volume(&model).unwrap(), &spec()).unwrap();
+    let (values, depth) = (g.property("dvs").unwrap(), &g.y().values);
+    for (k, v) in values.iter().enumerate() {
+        let want = 6371.0 - depth[k / g.nx()];
+        assert!(((v - want) / want).abs() < 1e-5, "node {k}: {v} vs {want}");
+    }
+    check_fringes(&g, 0.01);
+
+    let saved = d.join("out/section.nc");
+    let back = hdrvis::datasets::load_grid(&saved, None).unwrap();
+    assert_eq!(back.property("dvs").unwrap(), values);
+    assert_eq!(back.x().values, g.x().values);
+    assert_eq!(back.y().values, g.y().values);
+    assert_eq!(
+        (back.x().name.as_str(), back.y().name.as_str()),
+        ("distance", "depth")
+    );
+    assert_eq!((back.x().units.as_str(), back.units(0)), ("km", "percent"));
+
+    let (nx, ny) = (g.nx(), g.ny());
+    let expect = write_f64(&d.join("v.npy"), &[ny, nx], values);
+    let coord = |name: &str, c: &[f64]| {
+        format!(
+            "{name}={}",
+            write_f64(&d.join(format!("{name}.npy")), &[c.len()], c)
+        )
+    };
+    let aux = |name: &str| {
+        let column: Vec<f64> = g.property(name).unwrap()[..nx].to_vec();
+        format!(
+            "{name}:distance={}",
+            write_f64(&d.join(format!("{name}.npy")), &[nx], &column)
+        )
+    };
+    let (c_depth, c_dist) = (
+        coord("depth", &g.y().values),
+        coord("distance", &g.x().values),
+    );
+    let (lat, lon) = (aux("latitude"), aux("longitude"));
+    let args = [
+        saved.to_str().unwrap(),
+        "--var",
+        "dvs",
+        "--expect",
+        &expect,
+        "--units",
+        "percent",
+        "--coord",
+        &c_depth,
+        "--coord",
+        &c_dist,
+        "--aux",
+        &lat,
+        "--aux",
+        &lon,
+        "--rtol",
+        "0",
+        "--atol",
+        "0",
+    ];
+    if let Some(report) = python_check("check_netcdf.py", &args) {
+        assert!(report.starts_with("exit 0"), "{report}");
+    }
+}
+
+#[test]
+fn bad_sections_slices_and_grid_files_are_one_line_errors_writing_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let small = ["shell", "--nlat", "6", "--nlon", "12", "--ndepth", "3"];
+    let Some(_) = cf_file(d, "shell.nc", &small) else {
+        return;
+    };
+    let shell = "load_volume(\"shell.nc\")";
+    let cases = [
+        (
+            format!("section({shell}, #{{ from: [10.0, 20.0], to: [10.0, 20.0] }})"),
+            "the same point",
+        ),
+        (
+            format!("section({shell}, #{{ from: [10.0, 20.0], to: [-10.0, -160.0] }})"),
+            "antipodal",
+        ),
+        (
+            format!("section({shell}, #{{ from: [0, 0], to: [0, 90], depth: [0, 3000] }})"),
+            "section depth: [0, 3000] km reaches outside the volume",
+        ),
+        (
+            format!("section({shell}, #{{ from: [0, 0], to: [0, 90], n: [0, 5] }})"),
+            "section n: [0, 5]",
+        ),
+        (
+            format!("section({shell}, #{{ from: [0, 0], to: [0, 90], colour: 1 }})"),
+            "unknown option colour",
+        ),
+        (
+            "section(generate_mantle(#{ n: 4 }), #{ from: [0, 0], to: [0, 90] })".into(),
+            "cartesian volume (a box)",
+        ),
+        (
+            format!("slice({shell}, #{{ axis: \"x\", at: 0.0 }})"),
+            "spherical volume; slices are planes of boxes",
+        ),
+        (
+            "slice(generate_mantle(#{ n: 4 }), #{ axis: \"z\", at: 2.0 })".into(),
+            "slice at: 2 lies outside the volume",
+        ),
+        (
+            "save_grid(slice(generate_mantle(#{ n: 4 }), #{ axis: \"z\", at: 0.0 }), \"g.png\")"
+                .into(),
+            "expected a NetCDF file name",
+        ),
+    ];
+    for (call, needle) in cases {
+        let script = format!("let g = {call};\nsave_grid(g, \"g.nc\");\n");
+        std::fs::write(d.join("bad.rhai"), &script).unwrap();
+        let (code, _, err) = hdrvis(&["run", "bad.rhai", "-o", "out"], d);
+        assert_ne!(code, 0, "{call}");
+        let first = err.lines().next().unwrap_or("");
+        assert!(first.contains(needle), "{call}: {err}");
+        assert!(
+            !d.join("out/g.nc").exists() && !d.join("out/g.png").exists(),
+            "{call}"
+        );
+    }
+}
+
+/// `missing: "renormalise"` in a render: the f64 CPU reference (the only path that takes it) of
+/// a constant field with one missing voxel sees the constant everywhere, so its image equals
+/// the whole field's; the strict rule loses the hole's 2×2×2 neighbourhood. The GPU paths refuse
+/// it in one line.
+#[test]
+fn a_renormalised_render_of_a_constant_field_with_a_hole_is_the_whole_field() {
+    use hdrvis::model::{Axis, Camera, TransferFunction, Volume};
+    use hdrvis::render::{Precision, RenderPath, VolumeRenderOptions, VolumeSource};
+    use std::sync::Arc;
+    let clean = Volume::from_fn("c", [12, 12, 24], |_, _, _| 1.0).unwrap();
+    let mut holed = clean.clone();
+    let hole = holed.index(5, 6, 10);
+    holed.data[hole] = f32::NAN;
+    let tf = TransferFunction::emission_absorption(1.0, 0.0).unwrap();
+    let mut o = VolumeRenderOptions::new(Camera::axis(Axis::Z, &clean.bounds()), tf);
+    // Pixel centres off the voxel centres: no sample has all its weight on the hole.
+    (o.width, o.height, o.early_exit) = (25, 25, 0.0);
+    o.precision = Precision::F64;
+    let session = crate::common::session(hdrvis::gpu::BackendChoice::Vulkan);
+    let render = |v: &Volume, o: &VolumeRenderOptions| {
+        let r = session
+            .render_volume_detailed(&VolumeSource::Memory(Arc::new(v.clone())), o)
+            .unwrap_or_else(|e| panic!("{e}"));
+        (r.image.pixels.clone(), r.path)
+    };
+    let (whole, _) = render(&clean, &o);
+    let (strict, _) = render(&holed, &o);
+    o.missing = Missing::Renormalise;
+    let (renorm, path) = render(&holed, &o);
+    assert_eq!(path, RenderPath::F64Cpu);
+    let mut lost = 0;
+    for k in 0..whole.len() {
+        assert!(
+            (renorm[k][0] - whole[k][0]).abs() < 1e-6 * whole[k][0],
+            "pixel {k}"
+        );
+        if (strict[k][0] - whole[k][0]).abs() > 0.5 {
+            lost += 1;
+        }
+    }
+    // The rays through the hole's neighbourhood (two voxels wide: about 4 pixels a side).
+    assert!((4..=36).contains(&lost), "{lost} pixels lost emission");
+    o.precision = Precision::F32;
+    let e = session
+        .render_volume(&VolumeSource::Memory(Arc::new(holed)), &o)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("missing: \"renormalise\" runs on the f64 CPU reference"),
+        "{e}"
+    );
+}
+
+/// A constant global shell (radii 3480–6371 km, 4° cells), value 1.
+fn constant_shell() -> hdrvis::model::Volume {
+    use hdrvis::model::{CoordAxis, Geometry, SphericalGrid, Volume};
+    let g = SphericalGrid {
+        axis_of: [2, 1, 0],
+        radius: CoordAxis::uniform_cells(3480.0, (6371.0 - 3480.0) / 8.0, 8),
+        latitude: CoordAxis::uniform_cells(-90.0, 4.0, 45),
+        longitude: CoordAxis::uniform_cells(-180.0, 4.0, 90),
+        lon_wraps: true,
+        planet_radius: 6371.0,
+        length_unit: "km".into(),
+        vertical: "depth".into(),
+    };
+    Volume::new(
+        "shell",
+        [90, 45, 8],
+        [1.0; 3],
+        [0.0; 3],
+        vec![1.0; 90 * 45 * 8],
+    )
+    .unwrap()
+    .with_geometry(Geometry::Spherical(Box::new(g)))
+    .unwrap()
+}
+
+/// The pixel a cut-away leaves at (x, y) in the view from above the pole.
+type Expected<'a> = &'a dyn Fn(f64, f64) -> f64;
+
+/// Cut-aways seen from above the North Pole (emission only, so a pixel is the length of its ray
+/// inside what is left, in radial cells): `lon: [0, 180]` empties the half y > 0 and leaves the
+/// chord elsewhere; the wedge `lat: [0, 90], lon: [0, 90]` leaves half the chord (the southern
+/// half) where x, y > 0. GPU (mapped) within 1e-3, the f64 CPU reference within 1e-9.
+#[test]
+fn cut_away_shells_leave_the_chord_outside_the_cut() {
+    use hdrvis::model::{Axis, Camera, Cut, TransferFunction};
+    use hdrvis::render::cpu_reference::render_volume_f64;
+    use hdrvis::render::{Precision, RenderPath, VolumeRenderOptions, VolumeSource};
+    use std::sync::Arc;
+    let v = constant_shell();
+    let (r0, r1, dr) = (3480.0, 6371.0, (6371.0 - 3480.0) / 8.0);
+    let n = 48u32;
+    let chord = |b: f64| {
+        let half = |r: f64| if b < r { (r * r - b * b).sqrt() } else { 0.0 };
+        2.0 * (half(r1) - half(r0)) / dr
+    };
+    let half_plane = Cut {
+        lon: Some([0.0, 180.0]),
+        ..Default::default()
+    };
+    let wedge = Cut {
+        lat: Some([0.0, 90.0]),
+        lon: Some([0.0, 90.0]),
+        ..Default::default()
+    };
+    let cases: [(Cut, Expected); 2] = [
+        (half_plane, &|x, y| {
+            if y > 0.0 {
+                0.0
+            } else {
+                chord(x.hypot(y))
+            }
+        }),
+        (wedge, &|x, y| {
+            let c = chord(x.hypot(y));
+            if x > 0.0 && y > 0.0 {
+                0.5 * c
+            } else {
+                c
+            }
+        }),
+    ];
+    let session = crate::common::session(hdrvis::gpu::BackendChoice::Vulkan);
+    let source = VolumeSource::Memory(Arc::new(v.clone()));
+    for (cut, expect) in cases {
+        let mut o = VolumeRenderOptions::new(
+            Camera::axis(Axis::Z, &v.bounds()),
+            TransferFunction::emission_absorption(1.0, 0.0).unwrap(),
+        );
+        (o.width, o.height, o.step, o.early_exit) = (n, n, 0.5, 0.0);
+        o.cut = Some(cut);
+        let r = session
+            .render_volume_detailed(&source, &o)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(r.path, RenderPath::Mapped);
+        o.precision = Precision::F64;
+        let cpu = render_volume_f64(&v, &o).unwrap();
+        let (mut gpu_worst, mut cpu_worst) = (0.0f64, 0.0f64);
+        for py in 0..n {
+            for px in 0..n {
+                let x = (2.0 * (px as f64 + 0.5) / n as f64 - 1.0) * r1;
+                let y = (1.0 - 2.0 * (py as f64 + 0.5) / n as f64) * r1;
+                let want = expect(x, y);
+                let k = (py * n + px) as usize;
+                let (g, c) = (r.image.pixels[k][0] as f64, cpu[k][0]);
+                if want == 0.0 {
+                    assert_eq!(
+                        (g, c),
+                        (0.0, 0.0),
+                        "{cut:?}: pixel {px},{py} should be empty"
+                    );
+                    continue;
+                }
+                gpu_worst = gpu_worst.max((g - want).abs() / want);
+                cpu_worst = cpu_worst.max((c - want).abs() / want);
+            }
+        }
+        assert!(
+            gpu_worst < 1e-3,
+            "{cut:?}: GPU relative error {gpu_worst:.2e}"
+        );
+        assert!(
+            cpu_worst < 1e-9,
+            "{cut:?}: CPU f64 relative error {cpu_worst:.2e}"
+        );
+        eprintln!("{cut:?}: GPU {gpu_worst:.2e}, CPU f64 {cpu_worst:.2e}");
+    }
+    // A cut that removes everything, and one of a box, are one-line errors.
+    let mut o = VolumeRenderOptions::new(
+        Camera::axis(Axis::Z, &v.bounds()),
+        TransferFunction::emission_absorption(1.0, 0.0).unwrap(),
+    );
+    o.cut = Some(Cut {
+        lat: Some([-90.0, 90.0]),
+        ..Default::default()
+    });
+    let e = session.render_volume(&source, &o).unwrap_err().to_string();
+    assert!(e.starts_with("cut: removes the whole volume"), "{e}");
+    let boxed = hdrvis::model::Volume::from_fn("b", [4, 4, 4], |x, _, _| x).unwrap();
+    o.cut = Some(Cut {
+        lon: Some([0.0, 180.0]),
+        ..Default::default()
+    });
+    let e = session
+        .render_volume(&VolumeSource::Memory(Arc::new(boxed)), &o)
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("cut: b is a cartesian volume"), "{e}");
+}
