@@ -188,12 +188,41 @@ pub(crate) fn linear_to_srgb(linear: f64) -> f64 {
 }
 
 /// Display-referred linear light (clamped to [0, 1]) as 8-bit sRGB, rounded to nearest.
-/// Non-finite values (missing data) show as 0, so +inf is black too.
+/// Non-finite values (missing data) show as 0, so +inf is black too. The code is found among
+/// the 255 linear values where it steps ([`srgb8_steps`]) instead of through a power per value:
+/// the same codes as [`srgb8_by_formula`] for every input, several times faster (a terminal
+/// preview encodes a million pixels a key).
 pub fn encode_srgb8(linear: f64) -> u8 {
     if !linear.is_finite() {
         return 0;
     }
+    srgb8_steps().partition_point(|&step| step <= linear) as u8
+}
+
+/// The sRGB curve and rounding that define [`encode_srgb8`].
+fn srgb8_by_formula(linear: f64) -> u8 {
     (linear_to_srgb(linear) * 255.0 + 0.5).floor() as u8
+}
+
+/// `steps[k]`: the least f64 whose 8-bit code by [`srgb8_by_formula`] exceeds k, found by
+/// bisection on the ordered bit patterns of positive doubles (the formula is monotonic), once.
+fn srgb8_steps() -> &'static [f64; 255] {
+    static STEPS: std::sync::OnceLock<[f64; 255]> = std::sync::OnceLock::new();
+    STEPS.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let (mut lo, mut hi) = (0u64, 1f64.to_bits());
+            // Invariant: code(lo) <= k < code(hi); positive doubles order as their bits.
+            while hi - lo > 1 {
+                let mid = lo + (hi - lo) / 2;
+                if usize::from(srgb8_by_formula(f64::from_bits(mid))) > k {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            f64::from_bits(hi)
+        })
+    })
 }
 
 /// As [`encode_srgb8`], 16 bits deep (16-bit PNG).
@@ -207,6 +236,28 @@ pub(crate) fn encode_srgb16(linear: f64) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The stepped 8-bit encoder gives the formula's code for every input: at each step and the
+    /// doubles either side of it, a million random values in [0, 1], and out-of-range ones.
+    #[test]
+    fn srgb8_by_steps_equals_the_formula() {
+        let mut values = vec![0.0, -0.0, 1.0, -1e-300, 1.0 + 1e-12, 7.5, f64::MIN_POSITIVE];
+        for &step in srgb8_steps() {
+            let bits = step.to_bits();
+            values.extend([step, f64::from_bits(bits - 1), f64::from_bits(bits + 1)]);
+        }
+        let mut rng = crate::model::numeric::SplitMix64(7);
+        values.extend((0..1_000_000).map(|_| (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64));
+        for v in values {
+            assert_eq!(encode_srgb8(v), srgb8_by_formula(v), "{v:e}");
+        }
+        assert_eq!(encode_srgb8(f64::NAN), 0);
+        assert_eq!(encode_srgb8(f64::INFINITY), 0);
+        assert_eq!(
+            (encode_srgb8(0.0), encode_srgb8(1.0), encode_srgb8(0.5)),
+            (0, 255, 188)
+        );
+    }
 
     /// Colour maps that wrap around (the colour at 0 equals the colour at 1).
     const CYCLIC_COLORMAPS: &[&str] = &["sinebow", "rainbow"];
