@@ -672,4 +672,61 @@ mod tests {
             assert_eq!(a, c, "brick {id}");
         }
     }
+
+    #[test]
+    fn a_step_of_a_series_opens_like_the_loaded_step_and_time_is_refused() {
+        use crate::datasets::select::{At, Selection};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.nc");
+        let (t, z, y, x) = (
+            [0.0, 1.0, 2.0],
+            [0.0, 1.0],
+            [0.0, 1.0, 2.0],
+            [0.0, 1.0, 2.0, 3.0],
+        );
+        let data: Vec<f64> = (0..3 * 2 * 3 * 4).map(f64::from).collect();
+        netcdf::write_grid::<f64>(
+            &path,
+            &[
+                ("time", &t, "days since 2000-01-01"),
+                ("z", &z, "m"),
+                ("y", &y, "m"),
+                ("x", &x, "m"),
+            ],
+            &[("v", &data, "K", "")],
+            &[],
+        )
+        .unwrap();
+        let err = open_bricked(&path, None, 8).unwrap_err().to_string();
+        assert!(
+            err.contains("dimension 'time' is time (3 steps, 2000-01-01T00:00:00 to 2000-01-03T00:00:00 (standard calendar))"),
+            "{err}"
+        );
+        let sel = Selection {
+            at: vec![("time".into(), At::Date("2000-01-02T10:00".into()))],
+            ..Selection::default()
+        };
+        let b = open_bricked_with(&path, None, &sel, 8).unwrap();
+        let opts = crate::datasets::LoadOptions {
+            select: sel.clone(),
+            ..Default::default()
+        };
+        let loaded = crate::datasets::load_volume_with(&path, &opts).unwrap();
+        // The nearest step is index 1: values 24 ..= 47.
+        let want: Vec<f32> = (24..48).map(|v| v as f32).collect();
+        assert_eq!(loaded.data, want);
+        let mem = BrickedVolume::from_volume(Arc::new(loaded), 8).unwrap();
+        let (mut a, mut c) = (Vec::new(), Vec::new());
+        b.read_brick(0, &mut a).unwrap();
+        mem.read_brick(0, &mut c).unwrap();
+        assert_eq!(a, c);
+        let sel = Selection {
+            at: vec![("z".into(), At::Value(0.5))],
+            index: vec![("time".into(), 0)],
+        };
+        let err = open_bricked_with(&path, None, &sel, 8)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("interpolates"), "{err}");
+    }
 }

@@ -216,15 +216,13 @@ pub(crate) fn selection(given: &Given) -> RResult<Selection> {
     let map = |name: &str, v: Option<&Dynamic>| -> RResult<Map> {
         match v {
             None => Ok(Map::new()),
-            Some(v) => v.clone().try_cast::<Map>().map_or_else(
-                || {
-                    err(
-                        name,
-                        format!("expected a map of dimension names, got {}", v.type_name()),
-                    )
-                },
-                Ok,
-            ),
+            Some(v) => match v.clone().try_cast::<Map>() {
+                Some(m) => Ok(m),
+                None => err(
+                    name,
+                    format!("expected a map of dimension names, got {}", v.type_name()),
+                ),
+            },
         }
     };
     for (dim, v) in map("index", given.value("index")?)? {

@@ -209,7 +209,7 @@ fn selections_give_xarrays_isel_sel_and_interp() {
         opts.variable = Some("tas".into());
         let g = hdrvis::datasets::load_grid_with(&path, &opts).unwrap();
         assert_values(
-            &g.property("tas").unwrap().to_vec(),
+            g.property("tas").unwrap(),
             &want("sel_near_tas"),
             0.0,
             "sel_near_tas",
