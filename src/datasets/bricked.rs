@@ -367,15 +367,24 @@ fn variable_to_brick(
             .map(|(_, d)| d.clone())
             .unwrap_or_default()
     };
+    // Data variables with the selected dimensions; of those, one that fits, else one with more
+    // dimensions (whose opening then says which are left to fix).
+    let candidates: Vec<&super::ArrayListing> = listed
+        .iter()
+        .filter(|a| {
+            let dims = dims_of(&a.name);
+            a.is_data() && sel.dims().all(|s| dims.iter().any(|(d, _)| d == s))
+        })
+        .collect();
     let name = match var {
         Some(v) => v.to_string(),
-        None => listed
+        None => candidates
             .iter()
-            .find(|a| {
-                let dims = dims_of(&a.name);
-                a.is_data()
-                    && sel.dims().all(|s| dims.iter().any(|(d, _)| d == s))
-                    && fits_brick(&dims, sel)
+            .find(|a| fits_brick(&dims_of(&a.name), sel))
+            .or_else(|| {
+                candidates
+                    .iter()
+                    .find(|a| dims_of(&a.name).len() > 3 + sel.dims().count())
             })
             .map(|a| a.name.clone())
             .ok_or_else(|| {
@@ -724,7 +733,8 @@ mod tests {
             at: vec![("z".into(), At::Value(0.5))],
             index: vec![("time".into(), 0)],
         };
-        let err = open_bricked_with(&path, None, &sel, 8)
+        // Named, so that the interpolation is refused before the rank it leaves.
+        let err = open_bricked_with(&path, Some("v"), &sel, 8)
             .unwrap_err()
             .to_string();
         assert!(err.contains("interpolates"), "{err}");
