@@ -195,6 +195,13 @@ pub struct InfoArgs {
     /// array); for an .exr, one channel (default: all)
     #[arg(long = "variable", visible_alias = "var")]
     pub var: Option<String>,
+    /// Fix a dimension at a position, as xarray's isel: `--index time=5` (repeatable; NetCDF)
+    #[arg(long = "index", value_name = "DIM=I")]
+    pub index: Vec<String>,
+    /// Fix a dimension at a coordinate value, as xarray's sel: `--at depth=600`,
+    /// `--at time=2011-03-11T06:00` (nearest time; between two levels, linear) (repeatable)
+    #[arg(long = "at", value_name = "DIM=VALUE")]
+    pub at: Vec<String>,
 }
 
 /// Runs a generator and returns the file it wrote (or found in the cache).
@@ -235,7 +242,36 @@ pub fn run_gen(cmd: &GenCommand) -> Result<PathBuf> {
 
 /// The text `hdrvis info` prints.
 pub fn run_info(args: &InfoArgs) -> Result<String> {
-    hdrvis::datasets::info::info_report(&args.file, args.var.as_deref())
+    let mut sel = hdrvis::datasets::select::Selection::default();
+    for text in &args.index {
+        let (dim, i) = split_pair("--index", text)?;
+        let i = i
+            .parse()
+            .map_err(|_| Error::invalid("--index", format!("'{text}': expected DIM=INTEGER")))?;
+        sel.index.push((dim, i));
+    }
+    for text in &args.at {
+        let (dim, v) = split_pair("--at", text)?;
+        let at = match v.parse::<f64>() {
+            Ok(x) if x.is_finite() => hdrvis::datasets::select::At::Value(x),
+            _ => hdrvis::datasets::select::At::Date(v),
+        };
+        sel.at.push((dim, at));
+    }
+    hdrvis::datasets::info::info_report_with(&args.file, args.var.as_deref(), &sel)
+}
+
+/// `DIM=VALUE` as its two sides.
+fn split_pair(flag: &str, text: &str) -> Result<(String, String)> {
+    match text.split_once('=') {
+        Some((d, v)) if !d.trim().is_empty() && !v.trim().is_empty() => {
+            Ok((d.trim().to_string(), v.trim().to_string()))
+        }
+        _ => Err(Error::invalid(
+            flag,
+            format!("'{text}': expected DIM=VALUE"),
+        )),
+    }
 }
 
 fn format_of(arg: FormatArg) -> OutputFormat {
@@ -422,6 +458,8 @@ mod tests {
         let report = run_info(&InfoArgs {
             file: out,
             var: None,
+            index: Vec::new(),
+            at: Vec::new(),
         })
         .unwrap();
         assert!(report.contains("variable: max_abs_eta"), "{report}");

@@ -15,6 +15,17 @@ use std::sync::Arc;
 
 /// Opens `path` as a bricked volume with bricks of `brick` voxels, reading it in slabs.
 pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<BrickedVolume> {
+    open_bricked_with(path, var, &super::select::Selection::default(), brick)
+}
+
+/// [`open_bricked`] with the dimensions `sel` fixes (NetCDF, read by hyperslabs; an `at`
+/// between two levels, which would interpolate, is refused).
+pub fn open_bricked_with(
+    path: &Path,
+    var: Option<&str>,
+    sel: &super::select::Selection,
+    brick: usize,
+) -> Result<BrickedVolume> {
     crate::io::check_regular_file(path)?;
     let stem = path
         .file_stem()
@@ -31,7 +42,7 @@ pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<Bric
             BrickedVolume::build(stem, Arc::new(src), [1.0; 3], [0.0; 3], brick).map_err(at)
         }
         "nc" | "nc4" | "cdf" | "netcdf" => {
-            let src = NetcdfSource::open(path, var)?;
+            let src = NetcdfSource::open(path, var, sel)?;
             let (spacing, origin, units, name) =
                 (src.spacing, src.origin, src.units.clone(), src.var.clone());
             let mut b =
@@ -39,6 +50,10 @@ pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<Bric
             b.units = units;
             Ok(b)
         }
+        _ if !sel.is_empty() => Err(Error::format(
+            path,
+            "selecting by dimension (index, at) needs a NetCDF file",
+        )),
         _ => {
             let v = Arc::new(super::load_volume_var(path, var)?);
             BrickedVolume::from_volume(v, brick).map_err(at)
@@ -225,8 +240,9 @@ pub(crate) struct NetcdfSource {
     path: PathBuf,
     file: netcdf_reader::NcFile,
     pub var: String,
-    /// Leading length-1 dimensions (a single time step) before (z, y, x).
-    lead: usize,
+    /// Per dimension of the variable: the index a selection fixed or a leading length-1
+    /// dimension takes (`Some`), or `None` for the three volume axes (z, y, x).
+    fixed: Vec<Option<usize>>,
     dims: [usize; 3],
     flip: [bool; 3],
     pub spacing: [f64; 3],
@@ -235,64 +251,59 @@ pub(crate) struct NetcdfSource {
 }
 
 impl NetcdfSource {
-    pub(crate) fn open(path: &Path, var: Option<&str>) -> Result<NetcdfSource> {
-        let listed = super::list_arrays(path)?;
-        let fits =
-            |shape: &[usize]| shape.len() >= 3 && shape[..shape.len() - 3].iter().all(|&s| s == 1);
-        let name = match var {
-            Some(v) => v.to_string(),
-            None => listed
+    pub(crate) fn open(
+        path: &Path,
+        var: Option<&str>,
+        sel: &super::select::Selection,
+    ) -> Result<NetcdfSource> {
+        let (name, dims) = variable_to_brick(path, var, sel)?;
+        let plan = super::select::plan(path, &name, &dims, sel)?;
+        let mut fixed = plan.positions(path, &name)?;
+        let kept: Vec<usize> = (0..dims.len()).filter(|&a| fixed[a].is_none()).collect();
+        super::select::refuse_time(path, &name, &plan.kept(&dims))?;
+        if !fits_brick(&dims, sel) {
+            let shape: Vec<String> = kept
                 .iter()
-                .filter(|a| a.dtype != "char" && a.dtype != "string")
-                .find(|a| !a.is_coordinate && fits(&a.shape))
-                .map(|a| a.name.clone())
-                .ok_or_else(|| {
-                    Error::format(path, "no 3-D data variable to pick; name one with variable")
-                })?,
-        };
-        let listing = listed.iter().find(|a| a.name == name).ok_or_else(|| {
-            Error::format(
-                path,
-                format!(
-                    "no variable '{name}'; the file has: {}",
-                    listed
-                        .iter()
-                        .map(|a| a.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            )
-        })?;
-        if !fits(&listing.shape) {
+                .map(|&a| format!("{}={}", dims[a].0, dims[a].1))
+                .collect();
             return Err(Error::format(
                 path,
                 format!(
-                    "'{name}' has shape {:?}; expected a 3-D array",
-                    listing.shape
+                    "'{name}' has dimensions ({}){}; expected a 3-D array",
+                    shape.join(", "),
+                    if sel.is_empty() {
+                        ""
+                    } else {
+                        " after the selection"
+                    }
                 ),
             ));
+        }
+        // The leading kept dimensions are of length 1: read at their index 0.
+        let axes = &kept[kept.len() - 3..];
+        for &a in &kept[..kept.len() - 3] {
+            fixed[a] = Some(0);
         }
         let file = super::netcdf::open(path)?;
         let v = file
             .variable(&name)
             .map_err(|e| Error::format(path, e.to_string()))?;
-        let lead = v.dimensions.len() - 3;
-        let dim_names: Vec<String> = v.dimensions.iter().map(|d| d.name.clone()).collect();
+        let dim_names: Vec<String> = axes.iter().map(|&a| dims[a].0.clone()).collect();
+        let s: Vec<usize> = axes.iter().map(|&a| dims[a].1).collect();
         let units = v
             .attribute("units")
             .and_then(|a| a.value.as_string())
             .unwrap_or_default();
-        let s = &listing.shape[lead..];
         let dims = [s[2], s[1], s[0]];
         crate::model::volume::check_shape(&dims, "shape")
             .map_err(|e| Error::format(path, e.to_string()))?;
-        refuse_geographic(path, &name, &dim_names[lead..], s)?;
+        refuse_geographic(path, &name, &dim_names, &s)?;
         let mut spacing = [1.0; 3];
         let mut origin = [0.0; 3];
         let mut flip = [false; 3];
         for a in 0..3 {
-            let dim = &dim_names[lead + 2 - a];
-            let Some(values) = netcdf::read_coordinate(path, dim)? else {
+            let dim = &dim_names[2 - a];
+            let Some(values) = super::cf::read_coordinate(path, dim)?.map(|v| v.data) else {
                 continue;
             };
             match values.as_slice() {
@@ -319,7 +330,7 @@ impl NetcdfSource {
             path: path.to_path_buf(),
             file,
             var: name,
-            lead,
+            fixed,
             dims,
             flip,
             spacing,
@@ -327,6 +338,64 @@ impl NetcdfSource {
             units,
         })
     }
+}
+
+/// Whether a variable of `dims` has three dimensions that `sel` leaves, any before them of
+/// length 1.
+fn fits_brick(dims: &[(String, usize)], sel: &super::select::Selection) -> bool {
+    let kept: Vec<usize> = dims
+        .iter()
+        .filter(|(d, _)| !sel.dims().any(|s| s == d))
+        .map(|(_, n)| *n)
+        .collect();
+    kept.len() >= 3 && kept[..kept.len() - 3].iter().all(|&s| s == 1)
+}
+
+/// The variable `open_volume` bricks, with its dimensions: `var`, else the first data variable
+/// that has the dimensions `sel` fixes and three more.
+fn variable_to_brick(
+    path: &Path,
+    var: Option<&str>,
+    sel: &super::select::Selection,
+) -> Result<(String, netcdf::Dims)> {
+    let listed = super::list_arrays(path)?;
+    let all_dims = netcdf::list_variables(path)?;
+    let dims_of = |name: &str| {
+        all_dims
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, d)| d.clone())
+            .unwrap_or_default()
+    };
+    // Data variables with the selected dimensions; of those, one that fits, else one with more
+    // dimensions (whose opening then says which are left to fix).
+    let candidates: Vec<&super::ArrayListing> = listed
+        .iter()
+        .filter(|a| {
+            let dims = dims_of(&a.name);
+            a.is_data() && sel.dims().all(|s| dims.iter().any(|(d, _)| d == s))
+        })
+        .collect();
+    let name = match var {
+        Some(v) => v.to_string(),
+        None => candidates
+            .iter()
+            .find(|a| fits_brick(&dims_of(&a.name), sel))
+            .or_else(|| {
+                candidates
+                    .iter()
+                    .find(|a| dims_of(&a.name).len() > 3 + sel.dims().count())
+            })
+            .map(|a| a.name.clone())
+            .ok_or_else(|| {
+                Error::format(path, "no 3-D data variable to pick; name one with variable")
+            })?,
+    };
+    if !listed.iter().any(|a| a.name == name) {
+        return Err(super::missing_array(path, &name, &listed));
+    }
+    let dims = dims_of(&name);
+    Ok((name, dims))
 }
 
 /// Bricks and out-of-core rendering work on regular boxes: a variable on latitude and
@@ -363,20 +432,26 @@ impl VoxelSource for NetcdfSource {
                 lo[a]
             }
         };
-        let mut selections = vec![NcSliceInfoElem::Index(0); self.lead];
-        for a in [2, 1, 0] {
-            let start = file_lo(a) as u64;
-            selections.push(NcSliceInfoElem::Slice {
-                start,
-                end: start + size[a] as u64,
-                step: 1,
-            });
-        }
-        let data = self
-            .file
-            .read_variable_slice_unpacked_masked(&self.var, &NcSliceInfo { selections })
+        // Volume axes z, y, x are the kept dimensions in file order.
+        let mut axes = [2, 1, 0].into_iter();
+        let selections = self
+            .fixed
+            .iter()
+            .map(|f| match f {
+                Some(i) => NcSliceInfoElem::Index(*i as u64),
+                None => {
+                    let a = axes.next().expect("three kept dimensions");
+                    let start = file_lo(a) as u64;
+                    NcSliceInfoElem::Slice {
+                        start,
+                        end: start + size[a] as u64,
+                        step: 1,
+                    }
+                }
+            })
+            .collect();
+        let flat = netcdf::read_slice(&self.file, &self.var, &NcSliceInfo { selections })
             .map_err(|e| Error::format(&self.path, format!("{}: {e}", self.var)))?;
-        let flat: Vec<f64> = data.iter().copied().collect();
         if flat.len() != out.len() {
             return Err(Error::format(
                 &self.path,
@@ -543,7 +618,7 @@ mod tests {
             &[],
         )
         .unwrap();
-        let src = NetcdfSource::open(&nc, None).unwrap();
+        let src = NetcdfSource::open(&nc, None, &Default::default()).unwrap();
         let mut boxed = vec![0f32; v.dims.iter().product()];
         src.read_box([0; 3], v.dims, &mut boxed).unwrap();
         assert_eq!(boxed, v.data);
@@ -605,5 +680,63 @@ mod tests {
             mem.read_brick(id, &mut c).unwrap();
             assert_eq!(a, c, "brick {id}");
         }
+    }
+
+    #[test]
+    fn a_step_of_a_series_opens_like_the_loaded_step_and_time_is_refused() {
+        use crate::datasets::select::{At, Selection};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.nc");
+        let (t, z, y, x) = (
+            [0.0, 1.0, 2.0],
+            [0.0, 1.0],
+            [0.0, 1.0, 2.0],
+            [0.0, 1.0, 2.0, 3.0],
+        );
+        let data: Vec<f64> = (0..3 * 2 * 3 * 4).map(f64::from).collect();
+        netcdf::write_grid::<f64>(
+            &path,
+            &[
+                ("time", &t, "days since 2000-01-01"),
+                ("z", &z, "m"),
+                ("y", &y, "m"),
+                ("x", &x, "m"),
+            ],
+            &[("v", &data, "K", "")],
+            &[],
+        )
+        .unwrap();
+        let err = open_bricked(&path, None, 8).unwrap_err().to_string();
+        assert!(
+            err.contains("dimension 'time' is time (3 steps, 2000-01-01T00:00:00 to 2000-01-03T00:00:00 (standard calendar))"),
+            "{err}"
+        );
+        let sel = Selection {
+            at: vec![("time".into(), At::Date("2000-01-02T10:00".into()))],
+            ..Selection::default()
+        };
+        let b = open_bricked_with(&path, None, &sel, 8).unwrap();
+        let opts = crate::datasets::LoadOptions {
+            select: sel.clone(),
+            ..Default::default()
+        };
+        let loaded = crate::datasets::load_volume_with(&path, &opts).unwrap();
+        // The nearest step is index 1: values 24 ..= 47.
+        let want: Vec<f32> = (24..48).map(|v| v as f32).collect();
+        assert_eq!(loaded.data, want);
+        let mem = BrickedVolume::from_volume(Arc::new(loaded), 8).unwrap();
+        let (mut a, mut c) = (Vec::new(), Vec::new());
+        b.read_brick(0, &mut a).unwrap();
+        mem.read_brick(0, &mut c).unwrap();
+        assert_eq!(a, c);
+        let sel = Selection {
+            at: vec![("z".into(), At::Value(0.5))],
+            index: vec![("time".into(), 0)],
+        };
+        // Named, so that the interpolation is refused before the rank it leaves.
+        let err = open_bricked_with(&path, Some("v"), &sel, 8)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("interpolates"), "{err}");
     }
 }

@@ -7,6 +7,7 @@
 
 use std::path::Path;
 
+use super::cf_time::TimeUnits;
 use super::netcdf::{self, NcAttribute, NcVariable};
 use crate::error::{Error, Result};
 use crate::model::{CoordAxis, SphericalGrid};
@@ -17,6 +18,8 @@ pub const EARTH_RADIUS_KM: f64 = 6371.0;
 /// What a coordinate variable is under CF.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum AxisRole {
+    /// CF time: `<unit> since <date>` units, `axis: T` or `standard_name: time`.
+    Time,
     Latitude,
     Longitude,
     /// A vertical coordinate; `to_unit` converts its values to `unit` (m or km).
@@ -90,6 +93,9 @@ pub(crate) fn axis_role(path: &Path, v: &NcVariable) -> Result<AxisRole> {
         "degreee",
         "degreese",
     ];
+    if units.contains(" since ") || standard == "time" || text(v, "axis") == Some("T") {
+        return Ok(AxisRole::Time);
+    }
     if standard == "latitude" || lat_units.contains(&units.as_str()) {
         return Ok(AxisRole::Latitude);
     }
@@ -138,6 +144,41 @@ pub(crate) fn axis_role(path: &Path, v: &NcVariable) -> Result<AxisRole> {
     }
 }
 
+impl AxisRole {
+    /// The role as `hdrvis info` names it.
+    pub(crate) fn name(&self) -> &'static str {
+        match self {
+            AxisRole::Time => "time",
+            AxisRole::Latitude => "latitude",
+            AxisRole::Longitude => "longitude",
+            AxisRole::Vertical { .. } => "vertical",
+            AxisRole::Other => "other",
+        }
+    }
+}
+
+/// The CF time units and calendar of a time coordinate, or `None` when its units are not
+/// `<unit> since <date>`; units or a calendar that cannot be read are an error naming the file
+/// and the coordinate.
+pub(crate) fn time_units(path: &Path, v: &NcVariable) -> Result<Option<TimeUnits>> {
+    let Some(units) = v
+        .units
+        .as_deref()
+        .filter(|u| u.to_ascii_lowercase().contains(" since "))
+    else {
+        return Ok(None);
+    };
+    TimeUnits::parse(units, text(v, "calendar"))
+        .map(Some)
+        .map_err(|e| match e {
+            Error::Invalid { field, msg } => Error::format(
+                path,
+                format!("time coordinate '{}': {field}: {msg}", v.name),
+            ),
+            other => other,
+        })
+}
+
 /// The domain `[lo, hi]` from the CF `bounds` variable of a coordinate, when it names one.
 fn cf_bounds(path: &Path, v: &NcVariable) -> Result<Option<(f64, f64)>> {
     let Some(name) = text(v, "bounds") else {
@@ -154,16 +195,57 @@ fn cf_bounds(path: &Path, v: &NcVariable) -> Result<Option<(f64, f64)>> {
 pub(crate) fn dim_coords(path: &Path, dims: &[(String, usize)]) -> Result<Vec<DimCoord>> {
     let mut out = Vec::new();
     for (name, _) in dims {
-        let coord = match netcdf::read_coordinate(path, name)? {
-            Some(_) => Some(netcdf::read_variable(path, name)?),
-            None => None,
-        };
         out.push(DimCoord {
             name: name.clone(),
-            coord,
+            coord: read_coordinate(path, name)?,
         });
     }
     Ok(out)
+}
+
+/// The coordinate variable of dimension `dim` (see [`netcdf::coordinate_variable`]), checked to
+/// be finite and strictly monotonic, since cell positions are derived from it. Longitudes are
+/// first unwrapped by whole turns in storage order ([`unwrap_longitudes`]): a region across the
+/// prime meridian stored 322.5 … 357.5, 2.5 reads 322.5 … 362.5.
+pub(crate) fn read_coordinate(path: &Path, dim: &str) -> Result<Option<NcVariable>> {
+    let Some(mut v) = netcdf::coordinate_variable(path, dim)? else {
+        return Ok(None);
+    };
+    if matches!(axis_role(path, &v), Ok(AxisRole::Longitude)) {
+        if let Some(unwrapped) = unwrap_longitudes(&v.data) {
+            v.data = unwrapped;
+        }
+    }
+    netcdf::check_monotonic(&v.data)
+        .map_err(|msg| Error::format(path, format!("coordinate '{dim}' {msg}")))?;
+    Ok(Some(v))
+}
+
+/// Longitudes made monotonic by whole turns in storage order, or `None` when they are monotonic
+/// already or cannot be made so. The first step, taken the short way round, gives the direction:
+/// increasing values that drop continue one turn on (357.5, 2.5 → 357.5, 362.5), decreasing ones
+/// that rise one turn back. The result must be strictly monotonic and span less than a turn.
+pub(crate) fn unwrap_longitudes(values: &[f64]) -> Option<Vec<f64>> {
+    let [first, second, ..] = values else {
+        return None;
+    };
+    if values.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let increasing = (second - first).rem_euclid(360.0) < 180.0;
+    let sign = if increasing { 1.0 } else { -1.0 };
+    let mut turns = 0.0;
+    let mut out = Vec::with_capacity(values.len());
+    out.push(*first);
+    for w in values.windows(2) {
+        if sign * (w[1] - w[0]) < 0.0 {
+            turns += sign * 360.0;
+        }
+        out.push(w[1] + turns);
+    }
+    let monotonic = out.windows(2).all(|w| sign * (w[1] - w[0]) > 0.0);
+    let span = (out[out.len() - 1] - out[0]).abs();
+    (turns != 0.0 && monotonic && span < 360.0).then_some(out)
 }
 
 /// Options that shape a spherical volume: a planet radius in the vertical axis's unit that
@@ -282,9 +364,12 @@ fn latitude_axis(path: &Path, v: &NcVariable, field: &str) -> Result<CoordAxis> 
     Ok(axis)
 }
 
-/// Longitudes in degrees, and whether they cover the whole circle: the gap across the seam is
-/// no wider than 1.5 of the axis's widest spacing. A circle's domain is one turn from its
-/// lowest cell edge, so values stored from −180 or from 0 describe the same domain.
+/// Longitudes in degrees (unwrapped by [`read_coordinate`]), and whether they cover the whole
+/// circle: the gap across the seam is no wider than 1.5 of the axis's widest spacing, and no
+/// spacing is wider than four times the median one (a region stored in numeric order across
+/// the meridian, 0.5, 325.5 … 355.5, has such a hole: it is not the circle). A circle's domain
+/// is one turn from its lowest cell edge, so values stored from −180 or from 0 describe the
+/// same domain.
 fn longitude_axis(path: &Path, v: &NcVariable, field: &str) -> Result<(CoordAxis, bool)> {
     let axis = CoordAxis::new(v.data.clone(), cf_bounds(path, v)?, field)?;
     let n = axis.len();
@@ -300,13 +385,20 @@ fn longitude_axis(path: &Path, v: &NcVariable, field: &str) -> Result<(CoordAxis
         .map(|w| (w[1] - w[0]).abs())
         .fold(0.0, f64::max);
     let gap = 360.0 - span;
+    let mut steps: Vec<f64> = axis
+        .centres
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .collect();
+    steps.sort_by(f64::total_cmp);
+    let median = steps[steps.len() / 2];
     if span > 360.0 {
         return Err(Error::invalid(
             field,
             format!("longitudes span {span} degrees; expected at most 360"),
         ));
     }
-    if gap > 0.0 && gap <= 1.5 * widest {
+    if gap > 0.0 && gap <= 1.5 * widest && widest <= 4.0 * median {
         let lo = first.min(last) - 0.5 * gap;
         let wrapped = CoordAxis {
             centres: axis.centres,
@@ -349,4 +441,56 @@ pub(crate) fn declared_radius(
         }
     }
     Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn longitudes_unwrap_by_whole_turns_in_storage_order() {
+        let across = [322.5, 327.5, 352.5, 357.5, 2.5, 7.5];
+        assert_eq!(
+            unwrap_longitudes(&across).unwrap(),
+            [322.5, 327.5, 352.5, 357.5, 362.5, 367.5]
+        );
+        // Decreasing across the seam: one turn back.
+        assert_eq!(
+            unwrap_longitudes(&[10.0, 5.0, 0.0, 355.0]).unwrap(),
+            [10.0, 5.0, 0.0, -5.0]
+        );
+        // Monotonic already, or not monotonic even unwrapped, or more than a turn: unchanged.
+        assert_eq!(unwrap_longitudes(&[0.5, 325.5, 330.5]), None);
+        assert_eq!(unwrap_longitudes(&[350.0, 10.0, 5.0]), None);
+        assert_eq!(unwrap_longitudes(&[0.0, 120.0, 240.0, 0.0, 120.0]), None);
+    }
+
+    fn lon(values: &[f64]) -> NcVariable {
+        NcVariable {
+            name: "lon".into(),
+            dims: vec![("lon".into(), values.len())],
+            data: values.to_vec(),
+            units: Some("degrees_east".into()),
+            long_name: None,
+            attributes: Vec::new(),
+            stored_nan: 0,
+        }
+    }
+
+    #[test]
+    fn only_an_evenly_sampled_circle_wraps() {
+        let path = Path::new("l.nc");
+        let global: Vec<f64> = (0..36).map(|i| 5.0 + 10.0 * f64::from(i)).collect();
+        let (axis, wraps) = longitude_axis(path, &lon(&global), "lon").unwrap();
+        assert!(wraps);
+        assert_eq!((axis.lo, axis.hi), (0.0, 360.0));
+        // A region stored in numeric order across the meridian has a 325 degree hole.
+        let sorted = [0.5, 325.5, 330.5, 335.5, 340.5, 345.5, 350.5, 355.5];
+        let (_, wraps) = longitude_axis(path, &lon(&sorted), "lon").unwrap();
+        assert!(!wraps);
+        let unwrapped = unwrap_longitudes(&[345.5, 350.5, 355.5, 0.5, 5.5]).unwrap();
+        let (axis, wraps) = longitude_axis(path, &lon(&unwrapped), "lon").unwrap();
+        assert!(!wraps);
+        assert_eq!((axis.lo, axis.hi), (345.5, 365.5));
+    }
 }

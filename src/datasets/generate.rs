@@ -814,8 +814,14 @@ mod tests {
             .map(|(n, _)| n)
             .collect();
         assert_eq!(names, ["y", "x", "ux", "uy", "uz"]);
-        let x = netcdf::read_coordinate(&out, "x").unwrap().unwrap();
-        let y = netcdf::read_coordinate(&out, "y").unwrap().unwrap();
+        let x = crate::datasets::cf::read_coordinate(&out, "x")
+            .unwrap()
+            .unwrap()
+            .data;
+        let y = crate::datasets::cf::read_coordinate(&out, "y")
+            .unwrap()
+            .unwrap()
+            .data;
         assert_eq!((x[0], x[20], y[10]), (-5.0e5, 5.0e5, 0.0));
         let components = ["ux", "uy", "uz"].map(|c| netcdf::read_variable(&out, c).unwrap());
         assert_eq!(components[2].units.as_deref(), Some("m"));

@@ -93,6 +93,7 @@ pub(crate) fn list_datasets(path: &Path) -> Result<Vec<ArrayListing>> {
                 shape: d.shape().iter().map(|&n| n as usize).collect(),
                 dtype: type_name(d.dtype()),
                 is_coordinate: false,
+                is_auxiliary: false,
             });
         }
         // Reversed so that the stack visits groups in listing order.

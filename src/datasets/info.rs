@@ -15,7 +15,8 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::{list_arrays, read_array, ArrayData};
+use super::select::Selection;
+use super::{cf, list_arrays, read_array_sel, ArrayData};
 use crate::error::Result;
 
 /// Widest histogram bar, in columns.
@@ -88,17 +89,30 @@ impl ValueStats {
 /// OpenEXR image is described by its channels (`var` names one) and metadata. A `FILE:NAME`
 /// path that is not itself a file names the variable after the last colon (`volume.h5:/a/b`).
 pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
+    info_report_with(path, var, &Selection::default())
+}
+
+/// [`info_report`] of the variable with the dimensions `sel` fixes (NetCDF): the statistics
+/// are those of the selected part. A NetCDF report also gives each dimension of the variable
+/// with its CF role (time, vertical, latitude, longitude, other) and a time axis's dates.
+pub fn info_report_with(path: &Path, var: Option<&str>, sel: &Selection) -> Result<String> {
     let shorthand = (!path.exists() && var.is_none())
         .then(|| path.to_str()?.rsplit_once(':'))
         .flatten()
         .filter(|(file, name)| !name.is_empty() && Path::new(file).is_file());
     if let Some((file, name)) = shorthand {
-        return info_report(Path::new(file), Some(name));
+        return info_report_with(Path::new(file), Some(name), sel);
     }
     if crate::io::extension(path) == "exr" {
+        if !sel.is_empty() {
+            return Err(crate::error::Error::format(
+                path,
+                "selecting by dimension (index, at) needs a NetCDF file",
+            ));
+        }
         return exr_report(path, var);
     }
-    let array = read_array(path, var, None)?;
+    let array = read_array_sel(path, var, None, sel)?;
     let mut out = String::new();
     let _ = writeln!(out, "file: {}", path.display());
     let ext = crate::io::extension(path);
@@ -109,15 +123,70 @@ pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
         let _ = writeln!(out, "arrays ({}):", listed.len());
         for a in &listed {
             let mark = if a.name == array.name { "*" } else { " " };
-            let role = if a.is_coordinate { " (coordinate)" } else { "" };
+            let role = if a.is_coordinate {
+                " (coordinate)"
+            } else if a.is_auxiliary {
+                " (auxiliary)"
+            } else {
+                ""
+            };
             let _ = writeln!(out, "  {mark} {} {:?} {}{role}", a.name, a.shape, a.dtype);
         }
     }
     describe_array(&mut out, &array);
-    if matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") && array.shape.len() >= 3 {
-        let _ = writeln!(out, "geometry: {}", super::netcdf_geometry(path, &array)?);
+    if matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") {
+        dimension_lines(&mut out, path, &array)?;
+        if array.shape.len() >= 3 {
+            let _ = writeln!(out, "geometry: {}", super::netcdf_geometry(path, &array)?);
+        }
     }
     Ok(out)
+}
+
+/// Each dimension of a NetCDF variable with its length and CF role (a time axis with its first
+/// and last dates and calendar), then how the selected ones were chosen.
+fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<()> {
+    let dims = super::netcdf::list_variables(path)?
+        .into_iter()
+        .find(|(n, _)| *n == array.name)
+        .map(|(_, d)| d)
+        .unwrap_or_default();
+    let _ = writeln!(out, "dimensions:");
+    for (dim, n) in &dims {
+        // A coordinate the readers refuse (not monotonic, say) is reported, not fatal here.
+        let coord = match cf::read_coordinate(path, dim) {
+            Ok(Some(c)) => c,
+            Ok(None) => {
+                let _ = writeln!(out, "  {dim} = {n}: other (no coordinate variable)");
+                continue;
+            }
+            Err(e) => {
+                let _ = writeln!(out, "  {dim} = {n}: other ({e})");
+                continue;
+            }
+        };
+        let role = cf::axis_role(path, &coord).unwrap_or(cf::AxisRole::Other);
+        let units = coord.units.as_deref().unwrap_or("no units");
+        let detail = match (&role, cf::time_units(path, &coord)?) {
+            (_, Some(t)) => format!(
+                "{} to {} ({} calendar)",
+                t.date(coord.data[0]),
+                t.date(coord.data[n.saturating_sub(1)]),
+                t.calendar.name()
+            ),
+            _ if coord.data.is_empty() => units.to_string(),
+            _ => format!(
+                "{} to {} {units}",
+                coord.data[0],
+                coord.data[coord.data.len() - 1]
+            ),
+        };
+        let _ = writeln!(out, "  {dim} = {n}: {}, {detail}", role.name());
+    }
+    for note in &array.notes {
+        let _ = writeln!(out, "selected: {note}");
+    }
+    Ok(())
 }
 
 /// The report of an OpenEXR image: size, channels with their finite range and missing counts

@@ -6,6 +6,7 @@ pub mod access;
 pub mod bricked;
 pub mod cache;
 pub mod cf;
+pub mod cf_time;
 pub mod generate;
 pub mod grid_out;
 pub(crate) mod hdf5;
@@ -16,6 +17,7 @@ pub(crate) mod nhdr;
 pub mod npy;
 pub mod okada;
 mod scalar;
+pub mod select;
 pub mod tsunami;
 pub(crate) mod vti;
 pub(crate) mod vtk_legacy;
@@ -51,6 +53,9 @@ pub struct LoadOptions {
     pub cartesian: bool,
     /// The planet's radius in the vertical axis's unit, over the file's (default 6371 km).
     pub planet_radius: Option<f64>,
+    /// Dimensions fixed by position or coordinate value (NetCDF): the variable read has the
+    /// others.
+    pub select: select::Selection,
 }
 
 /// Loads a scalar volume, choosing the reader by extension: `.npy` (shape (nz, ny, nx)),
@@ -67,6 +72,13 @@ pub struct LoadOptions {
 pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
     let var = opts.variable.as_deref();
     crate::io::check_regular_file(path)?;
+    let ext = crate::io::extension(path);
+    if !opts.select.is_empty() && !matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") {
+        return Err(Error::format(
+            path,
+            "selecting by dimension (index, at) needs a NetCDF file",
+        ));
+    }
     match crate::io::extension(path).as_str() {
         "npy" => volume_from_npy(path),
         "npz" => volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None]),
@@ -145,6 +157,8 @@ pub struct GridAxis {
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridFile {
     pub name: String,
+    /// How the selection was made, one description per fixed dimension.
+    pub selected: Vec<String>,
     pub units: Option<String>,
     /// `[ny, nx]`, x fastest.
     pub shape: [usize; 2],
@@ -160,7 +174,12 @@ pub struct GridFile {
 /// coordinate variables. Leading length-1 dimensions are dropped. Coordinates are returned as
 /// stored (they may decrease). NaN marks missing values.
 pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
-    let array = read_array(path, var, Some(2))?;
+    read_grid_with(path, var, &select::Selection::default())
+}
+
+/// [`read_grid`] of the variable with the dimensions `sel` fixes (NetCDF).
+pub fn read_grid_with(path: &Path, var: Option<&str>, sel: &select::Selection) -> Result<GridFile> {
+    let array = read_array_sel(path, var, Some(2), sel)?;
     let [ny, nx] = [array.shape[0], array.shape[1]];
     let (x, y) = match crate::io::extension(path).as_str() {
         "npz" => {
@@ -186,25 +205,21 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
         }
         "nc" | "nc4" | "cdf" | "netcdf" => {
             let axis = |dim: &str| -> Result<Option<GridAxis>> {
-                Ok(match netcdf::read_coordinate(path, dim)? {
-                    Some(values) => Some({
-                        let var = netcdf::read_variable(path, dim)?;
-                        // Only longitude and latitude matter to a grid; a vertical axis's unit
-                        // check is the volume reader's concern, so its error is not raised here.
-                        let kind = match cf::axis_role(path, &var) {
-                            Ok(cf::AxisRole::Longitude) => CoordKind::Longitude,
-                            Ok(cf::AxisRole::Latitude) => CoordKind::Latitude,
-                            _ => CoordKind::Plain,
-                        };
-                        GridAxis {
-                            name: dim.to_string(),
-                            units: var.units,
-                            values,
-                            kind,
-                        }
-                    }),
-                    None => None,
-                })
+                Ok(cf::read_coordinate(path, dim)?.map(|var| {
+                    // Only longitude and latitude matter to a grid; a vertical axis's unit
+                    // check is the volume reader's concern, so its error is not raised here.
+                    let kind = match cf::axis_role(path, &var) {
+                        Ok(cf::AxisRole::Longitude) => CoordKind::Longitude,
+                        Ok(cf::AxisRole::Latitude) => CoordKind::Latitude,
+                        _ => CoordKind::Plain,
+                    };
+                    GridAxis {
+                        name: dim.to_string(),
+                        units: var.units,
+                        values: var.data,
+                        kind,
+                    }
+                }))
             };
             (axis(&array.dims[1])?, axis(&array.dims[0])?)
         }
@@ -212,6 +227,7 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
     };
     Ok(GridFile {
         name: array.name,
+        selected: array.notes,
         units: array.units,
         shape: [ny, nx],
         data: array.data,
@@ -229,7 +245,19 @@ const ELEVATION_NAMES: [&str; 5] = ["elevation", "topo", "topography", "height",
 /// `elevation`, `topo`, `topography`, `height` or `z` of that shape is the elevation). `var` picks
 /// one array; with it only that array is a property (plus the elevation).
 pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
-    let file = read_grid(path, var)?;
+    let opts = LoadOptions {
+        variable: var.map(str::to_string),
+        ..LoadOptions::default()
+    };
+    load_grid_with(path, &opts)
+}
+
+/// [`load_grid`] of `opts.variable` with the dimensions `opts.select` fixes; the grid's name
+/// then says how each was chosen ("… at time 2011-03-11T06:00:00 (index 5)"), and further
+/// properties are only those of the same selection's shape that have the selected dimensions.
+pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
+    let var = opts.variable.as_deref();
+    let file = read_grid_with(path, var, &opts.select)?;
     let [ny, nx] = file.shape;
     let x = grid_coords(file.x, "x", nx);
     let y = grid_coords(file.y, "y", ny);
@@ -240,16 +268,21 @@ pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
         "npz" | "nc" | "nc4" | "cdf" | "netcdf"
     ) {
         let coord_names = [x.name.as_str(), y.name.as_str()];
-        let found = same_shape_arrays(path, &file.name, &coord_names, [ny, nx], var.is_some())?;
+        // With a selection, only the named variable: others may lack the selected dimensions.
+        let only_elevation = var.is_some() || !opts.select.is_empty();
+        let found = same_shape_arrays(path, &file.name, &coord_names, [ny, nx], only_elevation)?;
         props.extend(found.properties);
         elevation = found.elevation;
         props.sort_by(|a, b| a.0.cmp(&b.0));
     }
-    let name = path
+    let mut name = path
         .file_stem()
         .and_then(|s| s.to_str())
         .unwrap_or("grid")
         .to_string();
+    if !file.selected.is_empty() {
+        name = format!("{name} at {}", file.selected.join(", "));
+    }
     let units: Vec<(String, String)> = props.iter().map(|p| (p.0.clone(), p.2.clone())).collect();
     let props = props.into_iter().map(|(n, v, _)| (n, v)).collect();
     let mut grid = Grid::with_coords(&name, x, y, props, elevation)
@@ -299,7 +332,7 @@ fn same_shape_arrays(
     for a in list_arrays(path)? {
         let name = a.name.as_str();
         if name == main
-            || a.is_coordinate
+            || !a.is_data()
             || coord_names.contains(&name)
             || COORDINATE_NAMES.contains(&name)
         {
@@ -330,6 +363,17 @@ pub(crate) struct ArrayListing {
     pub dtype: String,
     /// A NetCDF coordinate variable (1-D, named like its dimension).
     pub is_coordinate: bool,
+    /// A NetCDF variable that describes others rather than being data: named in another
+    /// variable's `coordinates`, `bounds`, `grid_mapping`, `ancillary_variables`, `climatology`
+    /// or `cell_measures`, or a grid mapping (`grid_mapping_name`).
+    pub is_auxiliary: bool,
+}
+
+impl ArrayListing {
+    /// Data a reader may pick by default: numeric, neither a coordinate nor auxiliary.
+    pub(crate) fn is_data(&self) -> bool {
+        !self.is_coordinate && !self.is_auxiliary && self.dtype != "char" && self.dtype != "string"
+    }
 }
 
 /// One array read in full, values converted to f64 (C order), NaN for missing values.
@@ -347,6 +391,8 @@ pub(crate) struct ArrayData {
     pub fill_count: usize,
     /// The variable's attributes (NetCDF), for the CF metadata that places it in the world.
     pub attributes: Vec<(String, netcdf::NcAttribute)>,
+    /// How each dimension a selection fixed was chosen.
+    pub notes: Vec<String>,
 }
 
 /// The arrays a file holds: every variable of a NetCDF file, every member of an `.npz`, the one
@@ -370,6 +416,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
                         other => other.descr(),
                     },
                     is_coordinate: false,
+                    is_auxiliary: false,
                     name,
                 });
             }
@@ -380,6 +427,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
             let vars = file
                 .variables()
                 .map_err(|e| Error::format(path, e.to_string()))?;
+            let auxiliary = netcdf::auxiliary_names(vars);
             Ok(vars
                 .iter()
                 .map(|v| ArrayListing {
@@ -387,6 +435,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
                     shape: v.shape().iter().map(|&s| s as usize).collect(),
                     dtype: format!("{:?}", v.dtype()).to_lowercase(),
                     is_coordinate: v.is_coordinate_variable(),
+                    is_auxiliary: auxiliary.iter().any(|a| a == v.name()),
                 })
                 .collect())
         }
@@ -398,6 +447,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
                 shape: array.shape,
                 dtype: array.dtype,
                 is_coordinate: false,
+                is_auxiliary: false,
             }])
         }
     }
@@ -408,8 +458,27 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
 /// coordinate. With `rank`, leading length-1 dimensions are dropped down to that rank and an
 /// array of another rank is refused (or, without `var`, skipped).
 pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+    read_array_sel(path, var, rank, &select::Selection::default())
+}
+
+/// [`read_array`] with the dimensions `sel` fixes (NetCDF only), which the array then lacks;
+/// without one, a NetCDF time axis of several steps among the array's dimensions is refused
+/// when a `rank` is asked for (it would be read as space).
+pub(crate) fn read_array_sel(
+    path: &Path,
+    var: Option<&str>,
+    rank: Option<usize>,
+    sel: &select::Selection,
+) -> Result<ArrayData> {
     crate::io::check_regular_file(path)?;
     let ext = crate::io::extension(path);
+    let netcdf = matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf");
+    if !netcdf && !sel.is_empty() {
+        return Err(Error::format(
+            path,
+            "selecting by dimension (index, at) needs a NetCDF file",
+        ));
+    }
     let mut array = match ext.as_str() {
         "npy" => {
             let npy = npy::read_npy::<f64>(path)?;
@@ -417,7 +486,7 @@ pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) ->
             plain_array(name, npy.shape, npy.dtype, npy.data)
         }
         "npz" => read_npz_array(path, var, rank)?,
-        "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank)?,
+        "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank, sel)?,
         "vti" | "vtk" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
         ext if hdf5::EXTENSIONS.contains(&ext) => hdf5::read_dataset(path, var)?,
         other => {
@@ -430,11 +499,29 @@ pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) ->
     if let Some(r) = rank {
         let kept = squeezed(&array.shape, r).len();
         if kept != r {
+            let dims: Vec<String> = array
+                .dims
+                .iter()
+                .zip(&array.shape)
+                .map(|(d, n)| format!("{d}={n}"))
+                .collect();
+            let selected = if sel.is_empty() {
+                ""
+            } else {
+                " after the selection"
+            };
+            let hint = if kept > r && netcdf {
+                format!("; fix {} more dimension(s) with index or at", kept - r)
+            } else {
+                String::new()
+            };
             return Err(Error::format(
                 path,
                 format!(
-                    "'{}' has shape {:?}; expected a {r}-D array",
-                    array.name, array.shape
+                    "'{}' has shape {:?} ({}){selected}; expected a {r}-D array{hint}",
+                    array.name,
+                    array.shape,
+                    dims.join(", ")
                 ),
             ));
         }
@@ -491,25 +578,85 @@ fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
     Ok(plain_array(&name, npy.shape, npy.dtype, npy.data))
 }
 
-/// [`read_array`] of a NetCDF variable: `var`, else the first numeric non-coordinate variable
-/// of the rank; values the file marks as missing are counted.
-fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+/// The variable a NetCDF file is read for when none is named: of its data variables (not
+/// coordinates, not auxiliary) that have every dimension `sel` fixes, the first of `rank` once
+/// those are fixed (leading length-1 dimensions dropped), else the first of a higher rank (whose
+/// read then says which dimensions are left to fix); without a rank the first of the highest
+/// rank.
+fn default_netcdf_variable(
+    path: &Path,
+    listed: &[ArrayListing],
+    rank: Option<usize>,
+    sel: &select::Selection,
+) -> Result<String> {
+    let all_dims = netcdf::list_variables(path)?;
+    let dims_of = |name: &str| {
+        all_dims
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, d)| d.clone())
+            .unwrap_or_default()
+    };
+    let candidates: Vec<(&ArrayListing, Vec<usize>)> = listed
+        .iter()
+        .filter(|a| a.is_data())
+        .filter_map(|a| {
+            let dims = dims_of(&a.name);
+            sel.dims()
+                .all(|s| dims.iter().any(|(d, _)| d == s))
+                .then(|| {
+                    let kept = dims
+                        .iter()
+                        .filter(|(d, _)| !sel.dims().any(|s| s == d))
+                        .map(|(_, n)| *n)
+                        .collect();
+                    (a, kept)
+                })
+        })
+        .collect();
+    let found = match rank {
+        Some(r) => candidates
+            .iter()
+            .find(|(_, kept)| squeezed(kept, r).len() == r)
+            .or_else(|| {
+                candidates
+                    .iter()
+                    .find(|(_, kept)| squeezed(kept, r).len() > r)
+            }),
+        None => candidates.iter().rev().max_by_key(|(_, kept)| kept.len()),
+    };
+    found
+        .map(|(a, _)| a.name.clone())
+        .ok_or_else(|| no_array(path, &rank_name(rank), listed))
+}
+
+/// [`read_array`] of a NetCDF variable: `var`, else [`default_netcdf_variable`], with the
+/// dimensions `sel` fixes; values the file marks as missing are counted.
+fn read_netcdf_array(
+    path: &Path,
+    var: Option<&str>,
+    rank: Option<usize>,
+    sel: &select::Selection,
+) -> Result<ArrayData> {
     let listed = list_arrays(path)?;
-    let numeric = |a: &&ArrayListing| a.dtype != "char" && a.dtype != "string";
     let name = match var {
         Some(v) => v.to_string(),
-        None => listed
-            .iter()
-            .filter(numeric)
-            .find(|a| !a.is_coordinate && fits_rank(&a.shape, rank))
-            .map(|a| a.name.clone())
-            .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
+        None => default_netcdf_variable(path, &listed, rank, sel)?,
     };
     let listing = listed
         .iter()
         .find(|a| a.name == name)
         .ok_or_else(|| missing_array(path, &name, &listed))?;
-    let variable = netcdf::read_variable(path, &name)?;
+    let dims = netcdf::list_variables(path)?
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, d)| d)
+        .unwrap_or_default();
+    let plan = select::plan(path, &name, &dims, sel)?;
+    if rank.is_some() {
+        select::refuse_time(path, &name, &plan.kept(&dims))?;
+    }
+    let variable = select::read(path, &name, &plan)?;
     // Missing values become NaN when decoded; NaN already stored raw is not a fill.
     let raw_nan = variable.stored_nan;
     let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
@@ -522,6 +669,7 @@ fn read_netcdf_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Res
         fill_count: decoded_nan.saturating_sub(raw_nan),
         data: variable.data,
         attributes: variable.attributes,
+        notes: plan.notes,
     })
 }
 
@@ -574,6 +722,7 @@ fn plain_array(name: &str, shape: Vec<usize>, dtype: String, data: Vec<f64>) -> 
         data,
         fill_count: 0,
         attributes: Vec::new(),
+        notes: Vec::new(),
     }
 }
 
@@ -652,7 +801,20 @@ fn no_array(path: &Path, rank_name: &str, listed: &[ArrayListing]) -> Error {
 }
 
 fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volume> {
-    let array = read_array(path, opts.variable.as_deref(), Some(3))?;
+    let array = read_array_sel(path, opts.variable.as_deref(), Some(3), &opts.select)?;
+    // The volume's name says how a selection was made ("temp at time 2000-01-16T00:00:00 (index 2)").
+    let name = if array.notes.is_empty() {
+        array.name.clone()
+    } else {
+        format!("{} at {}", array.name, array.notes.join(", "))
+    };
+    let mut volume = volume_from_netcdf_array(path, array, opts)?;
+    volume.name = name;
+    Ok(volume)
+}
+
+/// [`volume_from_netcdf`] of the array read.
+fn volume_from_netcdf_array(path: &Path, array: ArrayData, opts: &LoadOptions) -> Result<Volume> {
     // The volume's three dimensions: the last three (leading length-1 ones were squeezed).
     let dims: Vec<(String, usize)> = array.dims[array.dims.len() - 3..]
         .iter()

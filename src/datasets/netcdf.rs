@@ -98,33 +98,30 @@ pub(crate) fn global_attributes(path: impl AsRef<Path>) -> Result<Vec<(String, N
 /// Reads one variable with CF masking and unpacking applied. A name the file lacks gives an
 /// error that lists the variables it has.
 pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {
-    let path = path.as_ref();
+    read_variable_picked(path.as_ref(), name, &[])
+}
+
+/// [`read_variable`] of a hyperslab: `picks` (one per dimension, or empty for all) takes index
+/// `i` of a dimension (`Some(i)`, which drops the dimension) or all of it (`None`).
+pub(crate) fn read_variable_picked(
+    path: &Path,
+    name: &str,
+    picks: &[Option<usize>],
+) -> Result<NcVariable> {
     let file = open(path)?;
-    let vars = file.variables().map_err(|e| reader_error(path, e))?;
-    let Some(var) = vars.iter().find(|v| v.name() == name) else {
-        let available: Vec<&str> = vars.iter().map(|v| v.name()).collect();
-        return Err(Error::format(
-            path,
-            format!(
-                "no variable '{name}'; the file has: {}",
-                if available.is_empty() {
-                    "no variables".to_string()
-                } else {
-                    available.join(", ")
-                }
-            ),
-        ));
+    let var = numeric_variable(path, &file, name)?;
+    let all_dims = dims_of(path, var)?;
+    let picks: Vec<Option<usize>> = if picks.is_empty() {
+        vec![None; all_dims.len()]
+    } else {
+        picks.to_vec()
     };
-    if !var.dtype().is_primitive() || matches!(var.dtype(), netcdf_reader::NcType::Char) {
-        return Err(Error::format(
-            path,
-            format!(
-                "variable '{name}' has type {:?}; only numeric variables can be read",
-                var.dtype()
-            ),
-        ));
-    }
-    let dims = dims_of(path, var)?;
+    let dims: Dims = all_dims
+        .iter()
+        .zip(&picks)
+        .filter(|(_, p)| p.is_none())
+        .map(|(d, _)| d.clone())
+        .collect();
     let count = dims
         .iter()
         .try_fold(1u64, |acc, (_, n)| acc.checked_mul(*n as u64))
@@ -134,19 +131,35 @@ pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {
         count.saturating_mul(16),
         &format!("{}: variable '{name}'", path.display()),
     )?;
-    let mut raw = file
-        .read_variable_as_f64(name)
-        .map_err(|e| reader_error(path, e))?;
+    let mut raw = if picks.iter().all(Option::is_none) {
+        file.read_variable_as_f64(name)
+    } else {
+        let selections = picks
+            .iter()
+            .zip(&all_dims)
+            .map(|(p, (_, n))| match p {
+                Some(i) => netcdf_reader::NcSliceInfoElem::Index(*i as u64),
+                None => netcdf_reader::NcSliceInfoElem::Slice {
+                    start: 0,
+                    end: *n as u64,
+                    step: 1,
+                },
+            })
+            .collect();
+        file.read_variable_slice_as_f64(name, &netcdf_reader::NcSliceInfo { selections })
+    }
+    .map_err(|e| reader_error(path, e))?;
     // NaN stored as data is not a fill value: counted before the CF decoding below marks fills
     // (the reader's own masked read, in place, in the same order: sign, mask, unpack).
     let stored_nan = raw.iter().filter(|v| v.is_nan()).count();
-    if let Some(sign) = netcdf_reader::unpack::SignParams::from_variable(var) {
+    let (sign, mask, unpack) = decoders(var);
+    if let Some(sign) = sign {
         sign.apply(&mut raw);
     }
-    if let Some(mask) = netcdf_reader::masked::MaskParams::from_variable(var) {
+    if let Some(mask) = mask {
         mask.apply(&mut raw);
     }
-    if let Some(unpack) = netcdf_reader::unpack::UnpackParams::from_variable(var) {
+    if let Some(unpack) = unpack {
         unpack.apply(&mut raw);
     }
     // Arrays come back in C order: the standard layout hands its buffer over without a copy.
@@ -189,11 +202,168 @@ pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {
     })
 }
 
+/// Variable `name` of an open file, which must be numeric; a name the file lacks gives an error
+/// that lists the variables it has.
+fn numeric_variable<'f>(
+    path: &Path,
+    file: &'f NcFile,
+    name: &str,
+) -> Result<&'f netcdf_reader::NcVariable> {
+    let vars = file.variables().map_err(|e| reader_error(path, e))?;
+    let Some(var) = vars.iter().find(|v| v.name() == name) else {
+        let available: Vec<&str> = vars.iter().map(|v| v.name()).collect();
+        return Err(Error::format(
+            path,
+            format!(
+                "no variable '{name}'; the file has: {}",
+                if available.is_empty() {
+                    "no variables".to_string()
+                } else {
+                    available.join(", ")
+                }
+            ),
+        ));
+    };
+    if !var.dtype().is_primitive() || matches!(var.dtype(), netcdf_reader::NcType::Char) {
+        return Err(Error::format(
+            path,
+            format!(
+                "variable '{name}' has type {:?}; only numeric variables can be read",
+                var.dtype()
+            ),
+        ));
+    }
+    Ok(var)
+}
+
+/// A hyperslab of variable `name` of an open file, CF-decoded as [`read_variable`] decodes, in C
+/// order.
+pub(crate) fn read_slice(
+    file: &NcFile,
+    name: &str,
+    selection: &netcdf_reader::NcSliceInfo,
+) -> std::result::Result<Vec<f64>, netcdf_reader::Error> {
+    let var = file.variable(name)?;
+    let mut raw = file.read_variable_slice_as_f64(name, selection)?;
+    let (sign, mask, unpack) = decoders(var);
+    if let Some(sign) = sign {
+        sign.apply(&mut raw);
+    }
+    if let Some(mask) = mask {
+        mask.apply(&mut raw);
+    }
+    if let Some(unpack) = unpack {
+        unpack.apply(&mut raw);
+    }
+    Ok(raw.iter().copied().collect())
+}
+
+/// The CF decoding of a variable, applied in this order: signedness (`_Unsigned`), masking,
+/// unpacking (`scale_factor`, `add_offset`). Masking is the reader's (`_FillValue`,
+/// `missing_value`, `valid_*`), with netCDF's default fill value of the stored type standing in
+/// for an absent `_FillValue`: unwritten parts of a file hold it, and netCDF4-python and ncdump
+/// treat it as missing.
+#[allow(clippy::type_complexity)]
+fn decoders(
+    var: &netcdf_reader::NcVariable,
+) -> (
+    Option<netcdf_reader::unpack::SignParams>,
+    Option<netcdf_reader::masked::MaskParams>,
+    Option<netcdf_reader::unpack::UnpackParams>,
+) {
+    let mut mask = netcdf_reader::masked::MaskParams::from_variable(var);
+    if var.attribute("_FillValue").is_none() {
+        if let Some(fill) = default_fill(var) {
+            let m = mask.get_or_insert(netcdf_reader::masked::MaskParams {
+                fill_value: None,
+                missing_values: Vec::new(),
+                valid_min: None,
+                valid_max: None,
+            });
+            m.fill_value = Some(fill);
+        }
+    }
+    (
+        netcdf_reader::unpack::SignParams::from_variable(var),
+        mask,
+        netcdf_reader::unpack::UnpackParams::from_variable(var),
+    )
+}
+
+/// netCDF's default fill value (netcdf.h's `NC_FILL_*`) of the type a variable's values have
+/// once its `_Unsigned` attribute is applied, as f64 (the int64 ones rounded, as every value of
+/// those types is when read as f64).
+fn default_fill(var: &netcdf_reader::NcVariable) -> Option<f64> {
+    use netcdf_reader::NcType;
+    let unsigned = var
+        .attribute("_Unsigned")
+        .and_then(|a| a.value.as_string())
+        .and_then(|s| match s.trim().to_ascii_lowercase().as_str() {
+            "true" => Some(true),
+            "false" => Some(false),
+            _ => None,
+        });
+    let as_unsigned = |signed: bool| unsigned.unwrap_or(!signed);
+    Some(match var.dtype() {
+        NcType::Float | NcType::Double => 9.969_209_968_386_869e36,
+        NcType::Byte | NcType::UByte if as_unsigned(matches!(var.dtype(), NcType::Byte)) => 255.0,
+        NcType::Byte | NcType::UByte => -127.0,
+        NcType::Short | NcType::UShort if as_unsigned(matches!(var.dtype(), NcType::Short)) => {
+            65535.0
+        }
+        NcType::Short | NcType::UShort => -32767.0,
+        NcType::Int | NcType::UInt if as_unsigned(matches!(var.dtype(), NcType::Int)) => {
+            4_294_967_295.0
+        }
+        NcType::Int | NcType::UInt => -2_147_483_647.0,
+        NcType::Int64 | NcType::UInt64 if as_unsigned(matches!(var.dtype(), NcType::Int64)) => {
+            18_446_744_073_709_551_614_u64 as f64
+        }
+        NcType::Int64 | NcType::UInt64 => -9_223_372_036_854_775_806_i64 as f64,
+        _ => return None,
+    })
+}
+
+/// The variables that other variables name as their auxiliary coordinates, bounds, grid
+/// mappings, ancillary variables, climatology bounds or cell measures (CF 1.11 sections 5, 7.1,
+/// 7.2, 7.4, 3.4), and the grid-mapping variables themselves.
+pub(crate) fn auxiliary_names(vars: &[netcdf_reader::NcVariable]) -> Vec<String> {
+    let mut names = Vec::new();
+    for v in vars {
+        if v.attribute("grid_mapping_name").is_some() {
+            names.push(v.name().to_string());
+        }
+        for key in [
+            "coordinates",
+            "bounds",
+            "grid_mapping",
+            "ancillary_variables",
+            "climatology",
+            "cell_measures",
+        ] {
+            let Some(text) = v.attribute(key).and_then(|a| a.value.as_string()) else {
+                continue;
+            };
+            // `grid_mapping` and `cell_measures` may read "crs: lat lon" or "area: cell_area":
+            // the words ending in ':' are a mapping's name or a measure, the others variables.
+            for word in text.split_whitespace() {
+                let name = match (key, word.strip_suffix(':')) {
+                    ("cell_measures", Some(_)) => continue,
+                    (_, Some(name)) => name,
+                    (_, None) => word,
+                };
+                names.push(name.to_string());
+            }
+        }
+    }
+    names
+}
+
 /// The coordinate variable of a dimension (a 1-D variable named like it), CF-decoded, or `None`
-/// when the dimension has no coordinate variable. Coordinates must be finite and strictly
-/// monotonic, since cell positions are derived from them.
-pub(crate) fn read_coordinate(path: impl AsRef<Path>, dim_name: &str) -> Result<Option<Vec<f64>>> {
-    let path = path.as_ref();
+/// when the dimension has no coordinate variable; an unknown dimension is an error listing the
+/// file's. Its values are as stored: `cf::read_coordinate` unwraps longitudes and checks that
+/// coordinates are monotonic.
+pub(crate) fn coordinate_variable(path: &Path, dim_name: &str) -> Result<Option<NcVariable>> {
     let file = open(path)?;
     let dims = file.dimensions().map_err(|e| reader_error(path, e))?;
     if !dims.iter().any(|d| d.name == dim_name) {
@@ -214,10 +384,7 @@ pub(crate) fn read_coordinate(path: impl AsRef<Path>, dim_name: &str) -> Result<
         return Ok(None);
     }
     drop(file);
-    let values = read_variable(path, dim_name)?.data;
-    check_monotonic(&values)
-        .map_err(|msg| Error::format(path, format!("coordinate '{dim_name}' {msg}")))?;
-    Ok(Some(values))
+    read_variable(path, dim_name).map(Some)
 }
 
 /// Writes a CF-1.8 classic NetCDF file (64-bit offset, or CDF-5 when a variable is too large for
@@ -506,7 +673,7 @@ fn convert_attribute(value: &NcAttrValue) -> Option<NcAttribute> {
         .or_else(|| value.as_f64_vec().map(NcAttribute::Numbers))
 }
 
-fn check_monotonic(values: &[f64]) -> std::result::Result<(), String> {
+pub(crate) fn check_monotonic(values: &[f64]) -> std::result::Result<(), String> {
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
         return Err(format!(
             "value {i} is {}; coordinates must be finite",
@@ -585,6 +752,10 @@ fn add_text_attr(
 mod tests {
     use super::*;
     use std::path::PathBuf;
+
+    fn read_coordinate(path: impl AsRef<Path>, dim: &str) -> Result<Option<Vec<f64>>> {
+        Ok(crate::datasets::cf::read_coordinate(path.as_ref(), dim)?.map(|v| v.data))
+    }
 
     fn fixture(name: &str) -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -235,15 +235,16 @@ impl RenderSession {
         )
     }
 
-    /// Reads a 2-D grid file (optionally one named array) once per session.
-    pub fn load_grid(&self, path: &Path, name: Option<&str>) -> Result<Arc<Grid>> {
-        let key = file_key("load grid", path, name)?;
+    /// Reads a 2-D grid file (optionally one named array, a selection of its dimensions) once
+    /// per session.
+    pub fn load_grid(&self, path: &Path, opts: &crate::datasets::LoadOptions) -> Result<Arc<Grid>> {
+        let key = file_key("load grid", path, Some(&format!("{opts:?}")))?;
         self.stage(
             "load",
             key,
             |g: &Grid| g.bytes(),
             |_, _| {},
-            || Ok((crate::datasets::load_grid(path, name)?, String::new())),
+            || Ok((crate::datasets::load_grid_with(path, opts)?, String::new())),
         )
     }
 

@@ -29,6 +29,8 @@ pub(crate) const OPEN_VOLUME: OptionTable = OptionTable {
             "32",
             "brick edge in voxels: 8, 16, 32, 64 or 128",
         ),
+        super::api_datasets::SELECT_INDEX,
+        super::api_datasets::SELECT_AT,
     ],
     call: "open_volume(generate(\"mantle\", #{ n: 4 }), OPTS)",
     base: "#{}",
@@ -59,8 +61,9 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
             let variable = variable_option(given.string("variable")?, from_path, "open_volume")?;
             let brick = given.count("brick")?.unwrap_or(DEFAULT_BRICK);
+            let sel = super::api_datasets::selection(&given)?;
             Ok(Arc::new(
-                crate::datasets::bricked::open_bricked(&p, variable.as_deref(), brick)
+                crate::datasets::bricked::open_bricked_with(&p, variable.as_deref(), &sel, brick)
                     .map_err(to_rhai)?,
             ))
         },

@@ -1,17 +1,20 @@
 //! Script API: dataset generation through the cache. `generate(kind, options)` returns the path
 //! of the cached NetCDF file (generated on a miss), which `load_grid` / `load_volume` then read;
-//! the cache folder is readable by every script.
+//! the cache folder is readable by every script. The selection options that `load_volume`,
+//! `load_grid` and `open_volume` share (`index`, `at`) are read here, and `times(path)` lists a
+//! file's time steps.
 
-use super::convert::{to_rhai, RResult};
-use super::options::{opt, Kind, OptionTable};
+use super::convert::{err, int, to_rhai, RResult};
+use super::options::{opt, Given, Kind, OptionSpec, OptionTable};
 use super::ScriptHost;
 use crate::datasets::generate::{
     BathymetrySource, Job, MantleJob, OkadaJob, OutputFormat, TsunamiJob, MAX_TSUNAMI_N,
 };
 use crate::datasets::mantle::{MantleField, MantleFields, MantleOptions, MAX_FEATURES, MAX_N};
 use crate::datasets::okada::{DepthRef, MAX_GRID_SIDE};
+use crate::datasets::select::{At, Selection};
 use crate::datasets::tsunami::Boundary;
-use rhai::{Engine, Map};
+use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
 const MANTLE_FIELDS: &[&str] = &["temperature", "fluctuation", "viscosity"];
@@ -193,6 +196,54 @@ fn tsunami_job(opts: &Map) -> RResult<Job> {
     Ok(Job::Tsunami(job))
 }
 
+/// The selection options of the loading functions, as their tables list them.
+pub(crate) const SELECT_INDEX: OptionSpec = opt(
+    "index",
+    Kind::Value("map of dimension: integer", "#{}"),
+    "none",
+    "fix dimensions at positions, as xarray's isel: #{ time: 5 } (NetCDF)",
+);
+pub(crate) const SELECT_AT: OptionSpec = opt(
+    "at",
+    Kind::Value("map of dimension: number or ISO 8601 date", "#{}"),
+    "none",
+    "fix dimensions at coordinate values, as xarray's sel: #{ depth: 600.0, time: \"2011-03-11T06:00\" } (the nearest time; between two levels, linear interpolation)",
+);
+
+/// The `index` and `at` options of a loading function.
+pub(crate) fn selection(given: &Given) -> RResult<Selection> {
+    let mut sel = Selection::default();
+    let map = |name: &str, v: Option<&Dynamic>| -> RResult<Map> {
+        match v {
+            None => Ok(Map::new()),
+            Some(v) => match v.clone().try_cast::<Map>() {
+                Some(m) => Ok(m),
+                None => err(
+                    name,
+                    format!("expected a map of dimension names, got {}", v.type_name()),
+                ),
+            },
+        }
+    };
+    for (dim, v) in map("index", given.value("index")?)? {
+        sel.index
+            .push((dim.to_string(), int(&v, &format!("index.{dim}"))?));
+    }
+    for (dim, v) in map("at", given.value("at")?)? {
+        let at = if let Ok(s) = v.clone().into_string() {
+            At::Date(s)
+        } else {
+            let x = super::convert::num(&v, &format!("at.{dim}"))?;
+            if !x.is_finite() {
+                return err(&format!("at.{dim}"), "expected a finite number or a date");
+            }
+            At::Value(x)
+        };
+        sel.at.push((dim.to_string(), at));
+    }
+    Ok(sel)
+}
+
 fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
     match kind {
         "okada" => okada_job(opts),
@@ -208,7 +259,37 @@ fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
     }
 }
 
+/// `times(path[, variable])`: the steps of the CF time axis of a variable (the named one, the one
+/// a `"file.nc:var"` path names, else the file's first data variable that has one), as
+/// `[#{ index, date }]` with ISO 8601 dates.
+fn times(host: &ScriptHost, path: &str, variable: Option<&str>) -> RResult<rhai::Array> {
+    let (p, from_path) = host.sandbox.read_data_path(path).map_err(to_rhai)?;
+    let variable = variable.map(str::to_string).or(from_path);
+    let steps = crate::datasets::select::time_steps(&p, variable.as_deref()).map_err(to_rhai)?;
+    Ok(steps
+        .into_iter()
+        .enumerate()
+        .map(|(i, date)| {
+            let mut m = Map::new();
+            m.insert("index".into(), Dynamic::from(i as i64));
+            m.insert("date".into(), Dynamic::from(date));
+            Dynamic::from(m)
+        })
+        .collect())
+}
+
 pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+    let h = host.clone();
+    engine.register_fn("times", move |path: &str| -> RResult<rhai::Array> {
+        times(&h, path, None)
+    });
+    let h = host.clone();
+    engine.register_fn(
+        "times",
+        move |path: &str, variable: &str| -> RResult<rhai::Array> {
+            times(&h, path, Some(variable))
+        },
+    );
     engine.register_fn(
         "generate",
         move |kind: &str, opts: Map| -> RResult<String> {

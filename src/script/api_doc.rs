@@ -11,7 +11,7 @@ use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
 use super::api_post::TONEMAP;
 use super::api_render::{CUT, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
-use super::api_surface::{RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
+use super::api_surface::{LOAD_GRID, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
 use super::options::OptionTable;
 #[cfg(test)]
 use std::collections::BTreeSet;
@@ -64,9 +64,11 @@ pub(crate) const AREAS: &[&str] = &[
 
 pub(crate) const API: &[ApiEntry] = &[
     e("datasets", "load_volume", &["path: string"], "Volume", "Reads .npy (nz, ny, nx), .npz, .nhdr/.nrrd, .nc (a 3-D variable on z, y, x), .vti, legacy .vtk or an HDF5 dataset, relative to the script's folder; \"box.nc:T\" picks the variable T of a file with several, \"volume.h5:/group/name\" an HDF5 dataset."),
-    with(e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with options:"), &[&LOAD_VOLUME]),
+    with(e("datasets", "load_volume", &["path: string", "options: map"], "Volume", "As above with options (a NetCDF variable of more dimensions is read with index/at fixing the rest; a CF time axis is never read as space):"), &[&LOAD_VOLUME]),
     e("datasets", "open_volume", &["path: string"], "BrickedVolume", "Opens a volume as 32³ bricks without loading it: .npy read where needed, .nc read by hyperslabs (other formats are loaded, then bricked); for volumes larger than memory."),
     with(e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with options (\"box.nc:T\" also picks the variable):"), &[&OPEN_VOLUME]),
+    e("datasets", "times", &["path: string"], "array", "The steps of a NetCDF file's CF time axis (of its first data variable that has one) as [#{ index, date }], dates in ISO 8601 in the file's calendar; for sweeps over index: #{ time: i }."),
+    e("datasets", "times", &["path: string", "variable: string"], "array", "As above for the named variable."),
     with(e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3; outside the shell is missing (NaN). Options:"), &[&GENERATE_MANTLE]),
     with(e("datasets", "generate", &["kind: string", "options: map"], "string", "Path of a cached NetCDF dataset, generated on a miss: \"okada\" (ux, uy, uz), \"tsunami\" (max_abs_eta, arrival_time, depth) or \"mantle\" (the field). Options of each kind:"), &[&GENERATE_OKADA, &GENERATE_TSUNAMI, &GENERATE_MANTLE_FILE]),
     e("datasets", "volume_log10", &["volume: Volume"], "Volume", "log10 of every voxel; zeros and negatives become missing (NaN)."),
@@ -95,6 +97,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("rendering", "get$height", &["image: Image"], "int", "image.height"),
     e("surfaces", "load_grid", &["path: string"], "Grid", "A 2-D field from .npy, .npz or .nc; every same-shape array becomes a property (elevation-like names become the relief); \"f.nc:eta\" keeps only that variable, as below."),
     e("surfaces", "load_grid", &["path: string", "name: string"], "Grid", "As above, keeping only the named array as the property."),
+    with(e("surfaces", "load_grid", &["path: string", "options: map"], "Grid", "A 2-D field of a variable of any rank, the other dimensions fixed by index or at (a depth slice of a (depth, lat, lon) volume is a (lat, lon) grid with its geography); the grid's name says how each was chosen. Options:"), &[&LOAD_GRID]),
     e("surfaces", "grid_stats", &["grid: Grid", "property: string"], "map", "#{min, max, min_positive, finite, missing} of one property."),
     e("surfaces", "grid_derive", &["grid: Grid", "property: string", "op: string", "name: string"], "Grid", "A copy with a derived property: op \"log10\" (zeros and negatives missing) or \"abs\"."),
     e("surfaces", "grid_magnitude", &["grid: Grid", "properties: array", "name: string"], "Grid", "A copy with the magnitude of the named components, e.g. [\"ux\", \"uy\", \"uz\"]."),

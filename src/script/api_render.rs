@@ -96,6 +96,8 @@ pub(crate) const LOAD_VOLUME: OptionTable = OptionTable {
         opt("variable", Kind::Text("\"fluctuation\""), "the file's first 3-D variable", "the array or variable to read (an unknown one lists the file's)"),
         opt("geometry", Kind::Choice(&["auto", "cartesian"]), "\"auto\"", "auto: CF latitude, longitude and depth/radius/height make a spherical volume; cartesian: coordinates as box lengths"),
         opt("planet_radius", Kind::NumAbove(0.0, f64::INFINITY), "the file's, else 6371 km", "the planet's radius in the vertical axis's unit"),
+        super::api_datasets::SELECT_INDEX,
+        super::api_datasets::SELECT_AT,
     ],
     call: "load_volume(generate(\"mantle\", #{ n: 4, native: true }), OPTS)",
     base: "#{}",
@@ -233,6 +235,7 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
                 variable: variable_option(given.string("variable")?, from_path, "load_volume")?,
                 cartesian: given.string("geometry")?.as_deref() == Some("cartesian"),
                 planet_radius: given.num("planet_radius")?,
+                select: super::api_datasets::selection(&given)?,
             };
             h.session.load_volume(&p, &load).map_err(to_rhai)
         },

@@ -1,4 +1,5 @@
 //! Script API for interference surfaces: `load_grid(path)`, `load_grid(path, name)`,
+//! `load_grid(path, #{ variable, index, at })`,
 //! `render_surface(grid, options)` and `surface_colorbar(grid, options)`. One `SurfaceRenderer`
 //! per script run caches the data pass, so rendering the same grid and view again with another
 //! ν, mode or colour map runs only the fringe pass. `property` may be one name (the result is one
@@ -7,9 +8,10 @@
 //! sphere.
 
 use super::api_render::{ScriptCamera, ScriptImage};
-use super::convert::{err, num, pair, string, to_rhai, RResult};
+use super::convert::{err, num, pair, string, to_rhai, variable_option, RResult};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
+use crate::datasets::LoadOptions;
 use crate::model::text::{TYPE_MAX, TYPE_MIN};
 use crate::model::{Aabb, Axis, Grid, HdrImage};
 use crate::render::surface::{
@@ -40,6 +42,22 @@ macro_rules! surface_option_specs {
         ]
     };
 }
+
+pub(crate) const LOAD_GRID: OptionTable = OptionTable {
+    function: "load_grid",
+    options: &[
+        opt(
+            "variable",
+            Kind::Text("\"uz\""),
+            "the file's first 2-D data variable",
+            "the array or variable to read (an unknown one lists the file's)",
+        ),
+        super::api_datasets::SELECT_INDEX,
+        super::api_datasets::SELECT_AT,
+    ],
+    call: "load_grid(\"geo.nc\", OPTS)",
+    base: "#{}",
+};
 
 /// The side limit of images as an option range.
 const SIDE: Kind = Kind::Int(1, MAX_IMAGE_SIDE as i64);
@@ -288,21 +306,7 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             .collect()
     });
 
-    let h = host.clone();
-    engine.register_fn("load_grid", move |path: &str| -> RResult<ScriptGrid> {
-        let (p, variable) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
-        h.session
-            .load_grid(&p, variable.as_deref())
-            .map_err(to_rhai)
-    });
-    let h = host.clone();
-    engine.register_fn(
-        "load_grid",
-        move |path: &str, name: &str| -> RResult<ScriptGrid> {
-            let p = h.sandbox.read_path(path).map_err(to_rhai)?;
-            h.session.load_grid(&p, Some(name)).map_err(to_rhai)
-        },
-    );
+    register_load_grid(engine, &host);
 
     let h = host;
     engine.register_fn(
@@ -359,6 +363,45 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             let w = given.int("width")?.unwrap_or(384) as u32;
             let ty = legend_type(w, given.num("font_size")?);
             Ok(Arc::new(legend_in(grid, &o, w, ty).map_err(to_rhai)?))
+        },
+    );
+}
+
+/// The three forms of `load_grid`.
+fn register_load_grid(engine: &mut Engine, host: &Arc<ScriptHost>) {
+    let h = host.clone();
+    engine.register_fn("load_grid", move |path: &str| -> RResult<ScriptGrid> {
+        let (p, variable) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+        let opts = LoadOptions {
+            variable,
+            ..LoadOptions::default()
+        };
+        h.session.load_grid(&p, &opts).map_err(to_rhai)
+    });
+    let h = host.clone();
+    engine.register_fn(
+        "load_grid",
+        move |path: &str, name: &str| -> RResult<ScriptGrid> {
+            let p = h.sandbox.read_path(path).map_err(to_rhai)?;
+            let opts = LoadOptions {
+                variable: Some(name.to_string()),
+                ..LoadOptions::default()
+            };
+            h.session.load_grid(&p, &opts).map_err(to_rhai)
+        },
+    );
+    let h = host.clone();
+    engine.register_fn(
+        "load_grid",
+        move |path: &str, opts: Map| -> RResult<ScriptGrid> {
+            let given = LOAD_GRID.read(&opts)?;
+            let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+            let opts = LoadOptions {
+                variable: variable_option(given.string("variable")?, from_path, "load_grid")?,
+                select: super::api_datasets::selection(&given)?,
+                ..LoadOptions::default()
+            };
+            h.session.load_grid(&p, &opts).map_err(to_rhai)
         },
     );
 }

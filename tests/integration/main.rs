@@ -6,6 +6,7 @@
 #![allow(clippy::too_many_lines)]
 
 mod bricks;
+mod cf_data;
 mod cli;
 mod cluster;
 mod common;

@@ -1,0 +1,331 @@
+//! Selection by dimension, as xarray's `isel` and `sel`: a NetCDF variable read with some of its
+//! dimensions fixed, by position (`index: #{ time: 5 }`) or by coordinate value
+//! (`at: #{ depth: 600.0, time: "2011-03-11T06:00" }`), has those dimensions no more. A date
+//! picks the nearest step of a CF time axis; a number the level it names, or, between two
+//! levels of a numeric axis, their linear interpolation (as xarray's `interp`, and the loaded
+//! variable's description says so). A value more than half a step beyond the axis's ends is an
+//! error, as are an unknown dimension, an index out of range and a date that is not ISO 8601.
+//! Only the picked hyperslabs are read.
+
+use std::path::Path;
+
+use super::cf;
+use super::netcdf::{self, NcVariable};
+use crate::error::{Error, Result};
+
+/// A coordinate value to select at.
+#[derive(Clone, Debug, PartialEq)]
+pub enum At {
+    /// A value in the coordinate's units.
+    Value(f64),
+    /// An ISO 8601 date on a CF time axis.
+    Date(String),
+}
+
+/// Dimensions fixed by position (`index`) or coordinate value (`at`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Selection {
+    pub index: Vec<(String, i64)>,
+    pub at: Vec<(String, At)>,
+}
+
+impl Selection {
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty() && self.at.is_empty()
+    }
+
+    /// The dimensions the selection fixes.
+    pub(crate) fn dims(&self) -> impl Iterator<Item = &str> {
+        self.index
+            .iter()
+            .map(|(d, _)| d.as_str())
+            .chain(self.at.iter().map(|(d, _)| d.as_str()))
+    }
+}
+
+/// What a read takes from one dimension.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Pick {
+    All,
+    One(usize),
+    /// Linear interpolation: `(1 - w) * [lo] + w * [hi]`.
+    Between(usize, usize, f64),
+}
+
+/// How a variable is read under a selection: one pick per dimension and a description of each
+/// selected one.
+#[derive(Clone, Debug)]
+pub(crate) struct Plan {
+    picks: Vec<Pick>,
+    pub notes: Vec<String>,
+}
+
+impl Plan {
+    /// The dimensions the read keeps.
+    pub(crate) fn kept<'a>(&self, dims: &'a [(String, usize)]) -> Vec<&'a (String, usize)> {
+        dims.iter()
+            .zip(&self.picks)
+            .filter(|(_, p)| **p == Pick::All)
+            .map(|(d, _)| d)
+            .collect()
+    }
+
+    /// The plan of a selection that fixes only positions (`open_volume`'s hyperslabs):
+    /// `Some(i)` per fixed dimension, `None` for a kept one, or an error naming the
+    /// interpolated dimension.
+    pub(crate) fn positions(&self, path: &Path, var: &str) -> Result<Vec<Option<usize>>> {
+        self.picks
+            .iter()
+            .map(|p| match p {
+                Pick::All => Ok(None),
+                Pick::One(i) => Ok(Some(*i)),
+                Pick::Between(..) => Err(Error::format(
+                    path,
+                    format!("variable '{var}': an `at` between two levels interpolates, which only load_volume and load_grid do; choose a level"),
+                )),
+            })
+            .collect()
+    }
+}
+
+/// The plan of `sel` on variable `var` of dimensions `dims`.
+pub(crate) fn plan(
+    path: &Path,
+    var: &str,
+    dims: &[(String, usize)],
+    sel: &Selection,
+) -> Result<Plan> {
+    let mut picks = vec![Pick::All; dims.len()];
+    let mut notes = Vec::new();
+    let field = |dim: &str| format!("{}: variable '{var}', dimension '{dim}'", path.display());
+    for dim in sel.dims() {
+        if !dims.iter().any(|(d, _)| d == dim) {
+            let names: Vec<&str> = dims.iter().map(|(d, _)| d.as_str()).collect();
+            return Err(Error::format(
+                path,
+                format!(
+                    "variable '{var}' has no dimension '{dim}'; its dimensions are {}",
+                    names.join(", ")
+                ),
+            ));
+        }
+        if sel.dims().filter(|d| d == &dim).count() > 1 {
+            return Err(Error::invalid(field(dim), "selected twice"));
+        }
+    }
+    for (dim, i) in &sel.index {
+        let a = dims.iter().position(|(d, _)| d == dim).expect("checked");
+        let n = dims[a].1;
+        if *i < 0 || *i as usize >= n {
+            return Err(Error::invalid(
+                field(dim),
+                format!("index {i} is out of range; expected 0..={}", n as i64 - 1),
+            ));
+        }
+        picks[a] = Pick::One(*i as usize);
+        notes.push(format!(
+            "{dim} index {i}{}",
+            date_note(path, dim, *i as usize)?
+        ));
+    }
+    for (dim, at) in &sel.at {
+        let a = dims.iter().position(|(d, _)| d == dim).expect("checked");
+        let (pick, note) = locate(path, dim, at).map_err(|e| match e {
+            Error::Invalid { msg, .. } => Error::invalid(field(dim), msg),
+            other => other,
+        })?;
+        picks[a] = pick;
+        notes.push(note);
+    }
+    Ok(Plan { picks, notes })
+}
+
+/// " (2011-03-11T06:00:00)" when `dim` is a CF time axis, else "".
+fn date_note(path: &Path, dim: &str, i: usize) -> Result<String> {
+    let Some(coord) = cf::read_coordinate(path, dim)? else {
+        return Ok(String::new());
+    };
+    Ok(match cf::time_units(path, &coord)? {
+        Some(t) => format!(" ({})", t.date(coord.data[i])),
+        None => String::new(),
+    })
+}
+
+/// The pick of coordinate value `at` on dimension `dim`, and its description.
+fn locate(path: &Path, dim: &str, at: &At) -> Result<(Pick, String)> {
+    let Some(coord) = cf::read_coordinate(path, dim)? else {
+        return Err(Error::invalid(
+            dim,
+            "has no coordinate variable to select a value on; choose a position with index",
+        ));
+    };
+    let time = cf::time_units(path, &coord)?;
+    let units = coord.units.clone().unwrap_or_default();
+    let c = &coord.data;
+    let (target, shown) = match (at, &time) {
+        (At::Date(date), Some(t)) => (t.value(date)?, date.clone()),
+        (At::Date(date), None) => {
+            return Err(Error::invalid(
+                dim,
+                format!("'{date}' is a date but the axis is not CF time (units '{units}')"),
+            ))
+        }
+        (At::Value(v), _) => (*v, format!("{v} {units}").trim_end().to_string()),
+    };
+    let n = c.len();
+    let half = |i: usize, j: usize| 0.5 * (c[i] - c[j]).abs();
+    let (lo, hi) = (c[0].min(c[n - 1]), c[0].max(c[n - 1]));
+    let reach = if n > 1 {
+        half(0, 1).max(half(n - 1, n - 2))
+    } else {
+        0.0
+    };
+    let show = |i: usize| match &time {
+        Some(t) => t.date(c[i]),
+        None => format!("{}", c[i]),
+    };
+    if target < lo - reach || target > hi + reach || !target.is_finite() {
+        return Err(Error::invalid(
+            dim,
+            format!(
+                "{shown} is outside the axis ({} to {}, half a step beyond allowed)",
+                show(0),
+                show(n - 1)
+            ),
+        ));
+    }
+    let nearest = (0..n)
+        .min_by(|&i, &j| (c[i] - target).abs().total_cmp(&(c[j] - target).abs()))
+        .expect("an axis has a value");
+    let exact = (c[nearest] - target).abs() <= 1e-9 * c[nearest].abs().max(1.0);
+    if time.is_some() || exact || target <= lo || target >= hi {
+        return Ok((
+            Pick::One(nearest),
+            format!("{dim} {} (index {nearest})", show(nearest)),
+        ));
+    }
+    // Strictly between two levels of a numeric axis: the pair that brackets the value.
+    let k = (0..n - 1)
+        .find(|&k| (c[k] - target) * (c[k + 1] - target) < 0.0)
+        .expect("inside the axis and on no level");
+    let w = (target - c[k]) / (c[k + 1] - c[k]);
+    Ok((
+        Pick::Between(k, k + 1, w),
+        format!(
+            "{dim} {shown}, interpolated linearly between {} (index {k}) and {} (index {})",
+            show(k),
+            show(k + 1),
+            k + 1
+        ),
+    ))
+}
+
+/// Reads variable `var` under `plan`: the picked hyperslab, or for interpolated dimensions the
+/// weighted sum of the hyperslabs on each side.
+pub(crate) fn read(path: &Path, var: &str, plan: &Plan) -> Result<NcVariable> {
+    let between: Vec<usize> = (0..plan.picks.len())
+        .filter(|&a| matches!(plan.picks[a], Pick::Between(..)))
+        .collect();
+    let mut total: Option<NcVariable> = None;
+    for corner in 0..1usize << between.len() {
+        let mut weight = 1.0;
+        let picks: Vec<Option<usize>> = plan
+            .picks
+            .iter()
+            .enumerate()
+            .map(|(a, p)| match *p {
+                Pick::All => None,
+                Pick::One(i) => Some(i),
+                Pick::Between(lo, hi, w) => {
+                    let upper = (corner >> between.iter().position(|&b| b == a).unwrap_or(0)) & 1;
+                    weight *= if upper == 1 { w } else { 1.0 - w };
+                    Some(if upper == 1 { hi } else { lo })
+                }
+            })
+            .collect();
+        let part = netcdf::read_variable_picked(path, var, &picks)?;
+        total = Some(match total {
+            None => NcVariable {
+                data: part.data.iter().map(|v| weight * v).collect(),
+                ..part
+            },
+            Some(mut sum) => {
+                sum.data
+                    .iter_mut()
+                    .zip(&part.data)
+                    .for_each(|(s, v)| *s += weight * v);
+                sum.stored_nan = sum.stored_nan.max(part.stored_nan);
+                sum
+            }
+        });
+    }
+    Ok(total.expect("at least one corner"))
+}
+
+/// Refuses to read a variable whose kept dimensions include a CF time axis of more than one
+/// step as space: the error names the axis, its length and dates and how to choose a step.
+pub(crate) fn refuse_time(path: &Path, var: &str, kept: &[&(String, usize)]) -> Result<()> {
+    for (dim, n) in kept {
+        if *n < 2 {
+            continue;
+        }
+        let Some(coord) = cf::read_coordinate(path, dim)? else {
+            continue;
+        };
+        if !matches!(cf::axis_role(path, &coord), Ok(cf::AxisRole::Time)) {
+            continue;
+        }
+        let span = match cf::time_units(path, &coord)? {
+            Some(t) => format!(
+                ", {} to {} ({} calendar)",
+                t.date(coord.data[0]),
+                t.date(coord.data[n - 1]),
+                t.calendar.name()
+            ),
+            None => String::new(),
+        };
+        return Err(Error::format(
+            path,
+            format!(
+                "variable '{var}': dimension '{dim}' is time ({n} steps{span}), not space; choose a step with index: #{{ {dim}: 0 }} or at: #{{ {dim}: \"DATE\" }} (hdrvis info --index {dim}=0)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The dates of the CF time axis of variable `var` (else of the first data variable that has
+/// one), in ISO 8601: what `times(path)` returns.
+pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+    let listed = super::list_arrays(path)?;
+    let vars = netcdf::list_variables(path)?;
+    let wanted: Vec<&(String, netcdf::Dims)> = match var {
+        Some(name) => {
+            let found = vars.iter().find(|(n, _)| n == name);
+            vec![found.ok_or_else(|| super::missing_array(path, name, &listed))?]
+        }
+        None => vars
+            .iter()
+            .filter(|(n, _)| listed.iter().any(|a| &a.name == n && a.is_data()))
+            .collect(),
+    };
+    for (_, dims) in &wanted {
+        for (dim, _) in dims {
+            let Some(coord) = cf::read_coordinate(path, dim)? else {
+                continue;
+            };
+            if let Some(t) = cf::time_units(path, &coord)? {
+                return Ok(coord.data.iter().map(|&v| t.date(v)).collect());
+            }
+        }
+    }
+    Err(Error::format(
+        path,
+        match var {
+            Some(name) => format!(
+                "variable '{name}' has no CF time axis (a coordinate with units '<unit> since <date>')"
+            ),
+            None => "no data variable has a CF time axis (a coordinate with units '<unit> since <date>')".to_string(),
+        },
+    ))
+}

@@ -1,0 +1,315 @@
+//! NetCDF as real files come, against what the reference tools make of the same files
+//! (tests/python/write_cf_cases.py): netCDF's default fill values, auxiliary variables, longitudes
+//! across the prime meridian, CF time in two calendars and selection by dimension.
+
+use crate::cli::{hdrvis, python_check};
+use hdrvis::datasets::select::{At, Selection};
+use hdrvis::datasets::LoadOptions;
+use hdrvis::model::CoordKind;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// The files of `case` written into `dir` and the reference values the script printed, by key;
+/// `None` when the Python modules are missing.
+fn reference(dir: &Path, case: &str) -> Option<HashMap<String, Vec<String>>> {
+    let report = python_check("write_cf_cases.py", &[dir.to_str().unwrap(), case])?;
+    assert!(report.starts_with("exit 0\n"), "{report}");
+    Some(
+        report
+            .lines()
+            .skip(1)
+            .filter_map(|l| {
+                let mut words = l.split_whitespace();
+                let key = words.next()?.to_string();
+                Some((key, words.map(str::to_string).collect()))
+            })
+            .collect(),
+    )
+}
+
+fn numbers(r: &HashMap<String, Vec<String>>, key: &str) -> Vec<f64> {
+    r.get(key)
+        .unwrap_or_else(|| panic!("no {key} in the reference"))
+        .iter()
+        .map(|w| w.parse().unwrap())
+        .collect()
+}
+
+/// Equal values, NaN where the reference is masked, within `tol` relative.
+fn assert_values(got: &[f64], want: &[f64], tol: f64, what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: lengths");
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        if w.is_nan() {
+            assert!(g.is_nan(), "{what}[{i}]: {g}, expected missing");
+        } else {
+            assert!(
+                (g - w).abs() <= tol * w.abs().max(1.0),
+                "{what}[{i}]: {g}, expected {w}"
+            );
+        }
+    }
+}
+
+#[test]
+fn default_fill_values_are_missing_as_netcdf4_python_masks_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "fills") else {
+        return;
+    };
+    let path = dir.path().join("fills.nc");
+    for var in ["t", "n", "s", "u"] {
+        let want = numbers(&r, &format!("{var}.values"));
+        let got: Vec<f64> = if var == "t" {
+            let v = hdrvis::datasets::load_volume_var(&path, Some(var)).unwrap();
+            v.data.iter().map(|&x| f64::from(x)).collect()
+        } else {
+            hdrvis::datasets::read_grid(&path, Some(var)).unwrap().data
+        };
+        assert_values(&got, &want, 0.0, var);
+        let (code, out, err) = hdrvis(
+            &["info", path.to_str().unwrap(), "--variable", var],
+            dir.path(),
+        );
+        assert_eq!(code, 0, "{err}");
+        let masked = numbers(&r, &format!("{var}.masked"))[0];
+        let max = numbers(&r, &format!("{var}.max"))[0];
+        assert!(
+            out.contains(&format!(
+                "missing: {masked} NaN (of which {masked} fill values)"
+            )),
+            "{var}: {out}"
+        );
+        assert!(out.contains(&format!("max: {max:.6e}")), "{var}: {out}");
+    }
+}
+
+#[test]
+fn auxiliary_variables_are_not_chosen_as_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "aux") else {
+        return;
+    };
+    let path = dir.path().join("aux.nc");
+    // xarray wrote the ancillary `qc` (3-D too) first: the default is still `temp`.
+    assert_eq!(r["order"][..2], ["qc", "temp"]);
+    let v = hdrvis::datasets::load_volume(&path).unwrap();
+    assert_eq!(v.name, "temp");
+    let got: Vec<f64> = v.data.iter().map(|&x| f64::from(x)).collect();
+    assert_values(&got, &numbers(&r, "temp"), 0.0, "temp");
+    let (code, out, err) = hdrvis(&["info", path.to_str().unwrap()], dir.path());
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("variable: temp"), "{out}");
+    for aux in ["qc", "crs", "z_bnds", "latitude", "longitude"] {
+        assert!(
+            out.lines()
+                .any(|l| l.contains(&format!(" {aux} [")) && l.ends_with("(auxiliary)")),
+            "{aux}: {out}"
+        );
+    }
+    // No 2-D data variable: the 2-D latitude is not one; the 3-D field needs a selection.
+    let err = hdrvis::datasets::read_grid(&path, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("'temp' has shape [3, 4, 5] (z=3, y=4, x=5); expected a 2-D array"),
+        "{err}"
+    );
+}
+
+#[test]
+fn longitudes_across_the_meridian_are_unwrapped_not_all_round() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "wrapped") else {
+        return;
+    };
+    let path = dir.path().join("wrapped.nc");
+    let grid = hdrvis::datasets::read_grid(&path, Some("eta")).unwrap();
+    assert_eq!(grid.x.as_ref().unwrap().values, numbers(&r, "unwrapped"));
+    assert_values(&grid.data, &numbers(&r, "eta"), 0.0, "eta");
+    let (code, out, err) = hdrvis(&["info", path.to_str().unwrap()], dir.path());
+    assert_eq!(code, 0, "{err}");
+    // 322.5 .. 362.5 by 5: a 40 degree region, not the circle.
+    assert!(out.contains("longitude 322.5° to 362.5°"), "{out}");
+    assert!(
+        out.contains("lon = 9: longitude, 322.5 to 362.5 degrees_east"),
+        "{out}"
+    );
+    assert!(!out.contains("all round"), "{out}");
+    let v = hdrvis::datasets::load_volume(&path).unwrap();
+    assert_eq!(v.dims, [9, 4, 3]);
+}
+
+fn selection(index: &[(&str, i64)], at: &[(&str, At)]) -> LoadOptions {
+    LoadOptions {
+        variable: Some("temp".into()),
+        select: Selection {
+            index: index.iter().map(|(d, i)| (d.to_string(), *i)).collect(),
+            at: at.iter().map(|(d, a)| (d.to_string(), a.clone())).collect(),
+        },
+        ..LoadOptions::default()
+    }
+}
+
+#[test]
+fn cf_time_decodes_as_cftime_does_and_is_never_space() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "series") else {
+        return;
+    };
+    for case in ["series360", "series_gregorian"] {
+        let path = dir.path().join(format!("{case}.nc"));
+        let key = |k: &str| r[&format!("{case}.{k}")].clone();
+        let steps = hdrvis::datasets::select::time_steps(&path, Some("temp")).unwrap();
+        assert_eq!(steps, key("dates"), "{case}");
+        let (first, last, calendar) = (&key("first")[0], &key("last")[0], &key("calendar")[0]);
+        let (code, out, err) = hdrvis(&["info", path.to_str().unwrap()], dir.path());
+        assert_eq!(code, 0, "{err}");
+        for line in [
+            format!("time = 6: time, {first} to {last} ({calendar} calendar)"),
+            "depth = 4: vertical, 0 to 600 m".to_string(),
+            "lat = 3: latitude".to_string(),
+            "lon = 5: longitude".to_string(),
+        ] {
+            assert!(out.contains(&line), "{case}: {line}\n{out}");
+        }
+        // (time, lat, lon) is not a volume, nor (time, depth, lat, lon) a grid.
+        let volume_err = hdrvis::datasets::load_volume_var(&path, Some("tas"))
+            .unwrap_err()
+            .to_string();
+        let grid_err = hdrvis::datasets::read_grid(&path, None)
+            .unwrap_err()
+            .to_string();
+        for (what, e) in [("tas", volume_err), ("temp", grid_err)] {
+            let want = format!(
+                "variable '{what}': dimension 'time' is time (6 steps, {first} to {last} ({calendar} calendar)), not space; choose a step with index: #{{ time: 0 }}"
+            );
+            assert!(e.contains(&want) && !e.contains('\n'), "{e}");
+        }
+    }
+}
+
+#[test]
+fn selections_give_xarrays_isel_sel_and_interp() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "series") else {
+        return;
+    };
+    for case in ["series360", "series_gregorian"] {
+        let path = dir.path().join(format!("{case}.nc"));
+        let want = |k: &str| numbers(&r, &format!("{case}.{k}"));
+        // isel(time=2): a spherical (depth, lat, lon) volume.
+        let v = hdrvis::datasets::load_volume_with(&path, &selection(&[("time", 2)], &[])).unwrap();
+        assert_eq!(v.geometry.name(), "spherical", "{case}");
+        let got: Vec<f64> = v.data.iter().map(|&x| f64::from(x)).collect();
+        assert_values(&got, &want("isel_time2"), 0.0, "isel_time2");
+        assert!(v.name.starts_with("temp at time index 2 ("), "{}", v.name);
+        // sel(time=near, method="nearest") of tas: a (lat, lon) grid.
+        let near = r[&format!("{case}.near")][0].clone();
+        let mut opts = selection(&[], &[("time", At::Date(near.clone()))]);
+        opts.variable = Some("tas".into());
+        let g = hdrvis::datasets::load_grid_with(&path, &opts).unwrap();
+        assert_values(
+            g.property("tas").unwrap(),
+            &want("sel_near_tas"),
+            0.0,
+            "sel_near_tas",
+        );
+        // A depth level of one step: a (lat, lon) grid with its geography.
+        let opts = selection(&[("time", 1)], &[("depth", At::Value(600.0))]);
+        let g = hdrvis::datasets::read_grid_with(&path, Some("temp"), &opts.select).unwrap();
+        assert_values(&g.data, &want("isel_time1_depth600"), 0.0, "depth600");
+        let x = g.x.unwrap();
+        assert_eq!((x.kind, x.values.len()), (CoordKind::Longitude, 5));
+        assert_eq!(g.y.unwrap().kind, CoordKind::Latitude);
+        // Between two levels: xarray's interp (linear), and the grid says so.
+        let opts = selection(&[("time", 1)], &[("depth", At::Value(200.0))]);
+        let g = hdrvis::datasets::read_grid_with(&path, Some("temp"), &opts.select).unwrap();
+        assert_values(&g.data, &want("interp_time1_depth200"), 1e-12, "interp");
+        assert!(
+            g.selected.iter().any(|s| s
+                == "depth 200 m, interpolated linearly between 100 (index 1) and 300 (index 2)"),
+            "{:?}",
+            g.selected
+        );
+        let (code, out, err) = hdrvis(
+            &[
+                "info",
+                path.to_str().unwrap(),
+                "--var",
+                "temp",
+                "--index",
+                "time=1",
+                "--at",
+                "depth=200",
+            ],
+            dir.path(),
+        );
+        assert_eq!(code, 0, "{err}");
+        assert!(out.contains("shape: [3, 5] (lat=3, lon=5)"), "{out}");
+        assert!(
+            out.contains("selected: depth 200 m, interpolated linearly"),
+            "{out}"
+        );
+        let second = &r[&format!("{case}.dates")][1];
+        assert!(
+            out.contains(&format!("selected: time index 1 ({second})")),
+            "{out}"
+        );
+    }
+}
+
+#[test]
+fn bad_selections_are_one_line_errors_naming_file_variable_and_dimension() {
+    let dir = tempfile::tempdir().unwrap();
+    if reference(dir.path(), "series").is_none() {
+        return;
+    }
+    let file = "series360.nc";
+    let cases: [(&[&str], &str); 6] = [
+        (&["--index", "time=6"], "series360.nc: variable 'temp', dimension 'time': index 6 is out of range; expected 0..=5"),
+        (&["--at", "depth=1000"], "series360.nc: variable 'temp', dimension 'depth': 1000 m is outside the axis (0 to 600, half a step beyond allowed)"),
+        (&["--at", "time=1999-10-01"], "dimension 'time': 1999-10-01 is outside the axis (1999-11-16T00:00:00 to 2000-04-16T06:00:00"),
+        (&["--index", "level=0"], "series360.nc: variable 'temp' has no dimension 'level'; its dimensions are time, depth, lat, lon"),
+        (&["--at", "time=16/01/2000"], "series360.nc: variable 'temp', dimension 'time': '16/01/2000' is not an ISO 8601 date"),
+        (&["--at", "time=2000-02-31"], "dimension 'time': 2000-02-31 is not a day of the 360_day calendar"),
+    ];
+    for (args, want) in cases {
+        let mut all = vec!["info", file, "--variable", "temp"];
+        all.extend_from_slice(args);
+        let (code, out, err) = hdrvis(&all, dir.path());
+        assert_ne!(code, 0, "{args:?}: {out}");
+        assert!(
+            err.contains(want) && err.trim().lines().count() == 1,
+            "{args:?}: {err}"
+        );
+    }
+    let (code, _, err) = hdrvis(&["info", "series_badcal.nc"], dir.path());
+    assert_ne!(code, 0);
+    assert!(
+        err.contains(
+            "series_badcal.nc: time coordinate 'time': calendar: unknown calendar 'lunar'"
+        ),
+        "{err}"
+    );
+    // A selection that leaves the wrong rank, from a script: nothing is written.
+    std::fs::write(
+        dir.path().join("s.rhai"),
+        "let g = load_grid(\"series360.nc\", #{ variable: \"temp\", index: #{ time: 1 } });\nsave_exr(render_surface(g, #{}), \"g.exr\");\n",
+    )
+    .unwrap();
+    let (code, _, err) = hdrvis(&["run", "s.rhai", "--out", "o"], dir.path());
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("series360.nc: 'temp' has shape [4, 3, 5] (depth=4, lat=3, lon=5) after the selection; expected a 2-D array; fix 1 more dimension(s) with index or at"),
+        "{err}"
+    );
+    assert!(!dir.path().join("o/g.exr").exists());
+    // times() in a script.
+    std::fs::write(
+        dir.path().join("t.rhai"),
+        "let t = times(\"series360.nc\"); if t.len() != 6 || t[5].date != \"2000-04-16T06:00:00\" || t[5].index != 5 { throw `times: ${t}`; }\n",
+    )
+    .unwrap();
+    let (code, _, err) = hdrvis(&["run", "t.rhai", "--out", "o"], dir.path());
+    assert_eq!(code, 0, "{err}");
+}

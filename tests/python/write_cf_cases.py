@@ -1,0 +1,231 @@
+#!/usr/bin/env python3
+"""Write NetCDF files as real data comes (netCDF4 and xarray as users call them) and print, as
+text, what netCDF4-python, cftime and xarray make of them: the reference values of hdrvis's
+tests of default fill values, auxiliary variables, wrapped longitudes, CF time and selection.
+
+    python3 tests/python/write_cf_cases.py OUT_DIR CASE
+
+CASE is one of:
+  fills     fills.nc: netCDF4 variables without _FillValue, partly unwritten or holding netCDF's
+            default fill values; masked counts, maxima and values as netCDF4-python masks them
+  aux       aux.nc: xarray, a 3-D field `temp` with 2-D auxiliary latitude/longitude, a grid
+            mapping, bounds and an ancillary variable written before it
+  wrapped   wrapped.nc: xarray, (depth, lat, lon) and (lat, lon) fields on a 40 degree region
+            across the prime meridian, longitudes stored 322.5 .. 357.5, 2.5
+  series    series360.nc (360_day, negative times) and series_gregorian.nc (standard calendar
+            across the 1582 reform): (time, depth, lat, lon) and (time, lat, lon) fields, with
+            cftime's dates and xarray's isel/sel/interp values; series_badcal.nc with the
+            calendar "lunar"
+Each result is one line, `KEY VALUE VALUE ...`, nested keys joined by dots, arrays in C order
+with `nan` for masked values. Exit status 77 (skipped) when a module is missing.
+"""
+
+import os
+import sys
+
+try:
+    import cftime
+    import netCDF4
+    import numpy as np
+    import xarray as xr
+    import scipy  # noqa: F401  (xarray's interp uses it)
+except ImportError as exc:  # pragma: no cover - depends on the machine
+    print(f"SKIP: {exc} (pip install -r tests/python/requirements.txt)", file=sys.stderr)
+    sys.exit(77)
+
+
+def values(a):
+    """Masked or NaN values as None, the rest as floats, in C order."""
+    a = np.ma.masked_invalid(np.ma.asarray(a, dtype=np.float64))
+    return [float("nan") if m else float(v) for v, m in zip(a.ravel().data, np.ma.getmaskarray(a).ravel())]
+
+
+def emit(prefix, value):
+    """Prints a nested result as `KEY VALUE ...` lines."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            emit(f"{prefix}.{k}" if prefix else k, v)
+        return
+    items = value if isinstance(value, list) else [value]
+    print(prefix, *(repr(v) if isinstance(v, float) else str(v) for v in items))
+
+
+def fills(out):
+    path = os.path.join(out, "fills.nc")
+    with netCDF4.Dataset(path, "w", format="NETCDF4") as d:
+        for name, n in (("z", 2), ("y", 3), ("x", 4)):
+            d.createDimension(name, n)
+        t = d.createVariable("t", "f4", ("z", "y", "x"))
+        t.units = "K"
+        # Only the first level is written: the second reads as the default fill everywhere.
+        t[0, :, :] = np.arange(12, dtype=np.float32).reshape(3, 4) + 0.5
+        n = d.createVariable("n", "i4", ("y", "x"))
+        counts = np.arange(12, dtype=np.int32).reshape(3, 4) * 100
+        counts[1, 2] = netCDF4.default_fillvals["i4"]
+        n[:] = counts
+        s = d.createVariable("s", "i2", ("y", "x"))
+        s.missing_value = np.int16(-1)
+        levels = np.arange(12, dtype=np.int16).reshape(3, 4)
+        levels[0, 1] = -1
+        levels[2, 3] = netCDF4.default_fillvals["i2"]
+        s[:] = levels
+        u = d.createVariable("u", "u1", ("y", "x"))
+        u[:] = np.array([[1, 2, 255, 4], [5, 6, 7, 8], [9, 10, 11, 12]], dtype=np.uint8)
+    result = {}
+    with netCDF4.Dataset(path) as d:
+        for name in ("t", "n", "s", "u"):
+            a = d[name][:]
+            result[name] = {
+                "masked": int(np.ma.count_masked(a)),
+                "max": float(a.max()),
+                "values": values(a),
+            }
+    return result
+
+
+def aux(out):
+    path = os.path.join(out, "aux.nc")
+    nz, ny, nx = 3, 4, 5
+    j, i = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+    lat = 40.0 + 0.5 * j + 0.1 * i
+    lon = 10.0 + 0.6 * i - 0.05 * j
+    temp = (np.arange(nz * ny * nx, dtype=np.float32).reshape(nz, ny, nx) * 0.25)
+    qc = np.ones((nz, ny, nx), dtype=np.int8)
+    ds = xr.Dataset(
+        {
+            "qc": (("z", "y", "x"), qc, {"long_name": "quality flag"}),
+            "temp": (
+                ("z", "y", "x"),
+                temp,
+                {"units": "degC", "grid_mapping": "crs", "ancillary_variables": "qc"},
+            ),
+            "crs": ((), np.int32(0), {"grid_mapping_name": "latitude_longitude"}),
+            "z_bnds": (("z", "nv"), np.array([[0, 10], [10, 20], [20, 30]], dtype=np.float64)),
+        },
+        coords={
+            "latitude": (("y", "x"), lat, {"units": "degrees_north", "standard_name": "latitude"}),
+            "longitude": (("y", "x"), lon, {"units": "degrees_east", "standard_name": "longitude"}),
+            "z": ("z", [5.0, 15.0, 25.0], {"units": "m", "bounds": "z_bnds", "positive": "up"}),
+        },
+    )
+    ds.to_netcdf(path, format="NETCDF4")
+    with netCDF4.Dataset(path) as d:
+        order = list(d.variables)
+        coordinates = d["temp"].coordinates
+    return {"order": order, "coordinates": coordinates, "temp": values(temp)}
+
+
+def wrapped(out):
+    path = os.path.join(out, "wrapped.nc")
+    lon = (322.5 + 5.0 * np.arange(9)) % 360.0
+    lat = np.array([40.0, 45.0, 50.0, 55.0])
+    depth = np.array([10.0, 20.0, 40.0])
+    unwrapped = lon + 360.0 * np.concatenate([[0], np.cumsum(np.diff(lon) < 0)])
+    d3, la3, lo3 = np.meshgrid(depth, lat, unwrapped, indexing="ij")
+    field = (d3 + 0.5 * la3 + 0.01 * lo3).astype(np.float32)
+    ds = xr.Dataset(
+        {
+            "rho": (("depth", "lat", "lon"), field, {"units": "kg m-3"}),
+            "eta": (("lat", "lon"), field[0] * 2.0, {"units": "m"}),
+        },
+        coords={
+            "depth": ("depth", depth, {"units": "km", "positive": "down"}),
+            "lat": ("lat", lat, {"units": "degrees_north", "standard_name": "latitude"}),
+            "lon": ("lon", lon, {"units": "degrees_east", "standard_name": "longitude"}),
+        },
+    )
+    ds.to_netcdf(path, format="NETCDF4")
+    with xr.open_dataset(path) as x:
+        return {
+            "lon": [float(v) for v in x.lon.values],
+            "unwrapped": [float(v) for v in unwrapped],
+            "eta": values(x.eta.values),
+            "rho": values(x.rho.values),
+        }
+
+
+def iso(date):
+    return date.strftime("%Y-%m-%dT%H:%M:%S")
+
+
+def series_file(path, units, calendar, times, depth, lat, lon):
+    """A (time, depth, lat, lon) field `temp` and a (time, lat, lon) field `tas`, by netCDF4."""
+    nt, nz, ny, nx = len(times), len(depth), len(lat), len(lon)
+    with netCDF4.Dataset(path, "w", format="NETCDF4") as d:
+        for name, n in (("time", None), ("depth", nz), ("lat", ny), ("lon", nx)):
+            d.createDimension(name, n)
+        t = d.createVariable("time", "f8", ("time",))
+        t.units, t.calendar, t.standard_name, t.axis = units, calendar, "time", "T"
+        t[:] = times
+        for name, vals, attrs in (
+            ("depth", depth, {"units": "m", "positive": "down"}),
+            ("lat", lat, {"units": "degrees_north", "standard_name": "latitude"}),
+            ("lon", lon, {"units": "degrees_east", "standard_name": "longitude"}),
+        ):
+            v = d.createVariable(name, "f8", (name,))
+            v.setncatts(attrs)
+            v[:] = vals
+        ti, zi, yi, xi = np.meshgrid(
+            np.arange(nt), np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij"
+        )
+        temp = d.createVariable("temp", "f4", ("time", "depth", "lat", "lon"))
+        temp.units = "degC"
+        temp[:] = 1000.0 * ti + 100.0 * zi + 10.0 * yi + xi
+        tas = d.createVariable("tas", "f4", ("time", "lat", "lon"))
+        tas.units = "K"
+        tas[:] = 250.0 + ti[:, 0] + 0.5 * yi[:, 0] + 0.25 * xi[:, 0]
+    with netCDF4.Dataset(path) as d:
+        t = d["time"]
+        dates = netCDF4.num2date(t[:], t.units, t.calendar)
+    return [iso(x) for x in dates]
+
+
+def series(out):
+    depth = np.array([0.0, 100.0, 300.0, 600.0])
+    lat = np.array([-10.0, 0.0, 10.0])
+    lon = np.array([100.0, 110.0, 120.0, 130.0, 140.0])
+    result = {}
+    cases = (
+        ("series360", "days since 2000-01-01 00:00:00", "360_day",
+         [-45.0, -15.0, 15.0, 45.5, 75.0, 105.25], cftime.Datetime360Day(1999, 12, 3, 6)),
+        ("series_gregorian", "hours since 1582-10-15 00:00", "standard",
+         [-48.0, -24.0, 0.0, 24.0, 8772.0, 8790.0], cftime.DatetimeGregorian(1583, 10, 15, 7)),
+    )
+    for name, units, calendar, times, near in cases:
+        path = os.path.join(out, name + ".nc")
+        dates = series_file(path, units, calendar, times, depth, lat, lon)
+        coder = xr.coders.CFDatetimeCoder(use_cftime=True)
+        with xr.open_dataset(path, decode_times=coder) as x:
+            result[name] = {
+                "first": dates[0],
+                "last": dates[-1],
+                "dates": dates,
+                "calendar": calendar,
+                "near": iso(near),
+                "near_index": int(
+                    np.argmin(np.abs(np.asarray(times) - cftime.date2num(near, units, calendar)))
+                ),
+                "isel_time2": values(x.temp.isel(time=2).values),
+                "sel_near_tas": values(x.tas.sel(time=near, method="nearest").values),
+                "isel_time1_depth600": values(x.temp.isel(time=1).sel(depth=600.0).values),
+                "interp_time1_depth200": values(x.temp.isel(time=1).interp(depth=200.0).values),
+            }
+    # The 360_day file with a calendar CF does not define.
+    bad = os.path.join(out, "series_badcal.nc")
+    with netCDF4.Dataset(bad, "w", format="NETCDF4") as d:
+        d.createDimension("time", 2)
+        d.createDimension("x", 3)
+        t = d.createVariable("time", "f8", ("time",))
+        t.units, t.calendar = "days since 2000-01-01", "lunar"
+        t[:] = [0.0, 1.0]
+        d.createVariable("v", "f4", ("time", "x"))[:] = np.zeros((2, 3))
+    return result
+
+
+def main():
+    out, case = sys.argv[1], sys.argv[2]
+    run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series}[case]
+    emit("", run(out))
+
+
+main()
