@@ -8,8 +8,6 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use rayon::prelude::*;
-
 use super::mantle::{self, MantleField, MantleOptions};
 use super::okada::{self, Elastic, FaultSegment};
 use super::tsunami::{self, TsunamiOptions};
@@ -236,36 +234,18 @@ impl OkadaJob {
         field: &mut okada::OkadaField,
         progress: &mut dyn FnMut(f64) -> Result<()>,
     ) -> Result<()> {
-        let z = -self.observation_depth_m;
-        let n = self.n;
-        let band = n.div_ceil(32).max(1);
-        let mut rows: Vec<Vec<[f64; 3]>> = Vec::with_capacity(n);
-        for start in (0..n).step_by(band) {
-            let part: Vec<Vec<[f64; 3]>> = (start..(start + band).min(n))
-                .into_par_iter()
-                .map(|j| {
-                    (0..n)
-                        .map(|i| {
-                            okada::displacement_at(
-                                &self.segments,
-                                &self.elastic,
-                                field.x[i],
-                                field.y[j],
-                                z,
-                            )
-                        })
-                        .collect::<Result<Vec<_>>>()
-                })
-                .collect::<Result<Vec<_>>>()?;
-            rows.extend(part);
-            progress(0.5 + 0.5 * rows.len() as f64 / n as f64)?;
-        }
-        for (j, row) in rows.iter().enumerate() {
-            for (i, u) in row.iter().enumerate() {
-                field.ux[j * n + i] = u[0];
-                field.uy[j * n + i] = u[1];
-                field.uz[j * n + i] = u[2];
-            }
+        let at_depth = okada::displacement_grid(
+            &self.segments,
+            &self.elastic,
+            &field.x,
+            &field.y,
+            -self.observation_depth_m,
+            &mut |f| progress(0.5 + 0.5 * f),
+        )?;
+        for (k, u) in at_depth.iter().enumerate() {
+            field.ux[k] = u[0];
+            field.uy[k] = u[1];
+            field.uz[k] = u[2];
         }
         Ok(())
     }
@@ -449,19 +429,11 @@ impl TsunamiJob {
         let (nx, ny) = (bathy.nx, bathy.ny);
         let x: Vec<f64> = (0..nx).map(|i| (i as f64 + 0.5) * bathy.dx_m).collect();
         let y: Vec<f64> = (0..ny).map(|j| (j as f64 + 0.5) * bathy.dy_m).collect();
-        // Validates the segments once, so the parallel loop below cannot fail half-way.
-        okada::displacement_at(&segments, &self.elastic, 0.0, 0.0, 0.0)?;
-        let rows: Vec<Vec<f64>> = y
-            .par_iter()
-            .map(|&yj| {
-                x.iter()
-                    .map(|&xi| {
-                        okada::displacement_at(&segments, &self.elastic, xi, yj, 0.0).map(|u| u[2])
-                    })
-                    .collect::<Result<Vec<f64>>>()
-            })
-            .collect::<Result<Vec<_>>>()?;
-        let eta0: Vec<f64> = rows.concat();
+        // The sea floor's uplift: the bar stays at 0 while it is computed, the deadline is heard.
+        let uplift = okada::displacement_grid(&segments, &self.elastic, &x, &y, 0.0, &mut |_| {
+            progress(0.0)
+        })?;
+        let eta0: Vec<f64> = uplift.iter().map(|u| u[2]).collect();
         let result = tsunami::simulate(&bathy, &eta0, &self.options, progress)?;
         match format {
             OutputFormat::Npy => super::npy::write_npy::<f64>(out, &[ny, nx], &result.max_abs_eta),

@@ -101,6 +101,34 @@ impl OkadaField {
     }
 }
 
+/// Displacements at every (x[i], y[j], z), row by row (`result[j * x.len() + i]`), computed in
+/// parallel in bands of rows with `progress` told the fraction done after each band, so a long
+/// grid can be stopped (a script's deadline) and shows how far it is.
+pub(crate) fn displacement_grid(
+    segments: &[FaultSegment],
+    elastic: &Elastic,
+    x: &[f64],
+    y: &[f64],
+    z: f64,
+    progress: &mut dyn FnMut(f64) -> Result<()>,
+) -> Result<Vec<[f64; 3]>> {
+    let band = y.len().div_ceil(PROGRESS_STEPS).max(1);
+    let mut out = Vec::with_capacity(x.len() * y.len());
+    for rows in y.chunks(band) {
+        let part: Vec<Vec<[f64; 3]>> = rows
+            .par_iter()
+            .map(|&yj| {
+                x.iter()
+                    .map(|&xi| displacement_at(segments, elastic, xi, yj, z))
+                    .collect::<Result<Vec<_>>>()
+            })
+            .collect::<Result<Vec<_>>>()?;
+        out.extend(part.into_iter().flatten());
+        progress(out.len() as f64 / (x.len() * y.len()).max(1) as f64)?;
+    }
+    Ok(out)
+}
+
 /// How many times a grid reports its progress.
 const PROGRESS_STEPS: usize = 32;
 
