@@ -6,6 +6,7 @@ pub mod access;
 pub mod bricked;
 pub mod cache;
 pub mod cf;
+pub mod coastlines;
 pub mod generate;
 pub mod grid_out;
 pub(crate) mod hdf5;
