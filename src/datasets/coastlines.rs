@@ -67,7 +67,9 @@ pub fn coastlines(res: CoastResolution) -> &'static [Polyline] {
 /// Decodes one coastline file; `None` when it is not one (the embedded files always are).
 fn decode(bytes: &[u8]) -> Option<Vec<Polyline>> {
     let word = |i: usize| -> Option<u32> {
-        Some(u32::from_le_bytes(bytes.get(4 * i..4 * i + 4)?.try_into().ok()?))
+        Some(u32::from_le_bytes(
+            bytes.get(4 * i..4 * i + 4)?.try_into().ok()?,
+        ))
     };
     if bytes.get(..4)? != b"HDCL" || word(1)? != 1 {
         return None;
@@ -80,7 +82,10 @@ fn decode(bytes: &[u8]) -> Option<Vec<Polyline>> {
         let line = (0..n)
             .map(|k| {
                 let at = next + 2 * k;
-                Some([word(at)? as i32 as f64 * 1e-6, word(at + 1)? as i32 as f64 * 1e-6])
+                Some([
+                    word(at)? as i32 as f64 * 1e-6,
+                    word(at + 1)? as i32 as f64 * 1e-6,
+                ])
             })
             .collect::<Option<Polyline>>()?;
         next += 2 * n;
@@ -125,7 +130,10 @@ mod tests {
     #[test]
     fn bad_names_and_files_are_refused() {
         let e = CoastResolution::parse("10m").unwrap_err().to_string();
-        assert!(e.starts_with("coastlines.resolution:") && e.contains("110m"), "{e}");
+        assert!(
+            e.starts_with("coastlines.resolution:") && e.contains("110m"),
+            "{e}"
+        );
         assert!(decode(b"HDCL").is_none());
         assert!(decode(&[0; 16]).is_none());
     }

@@ -8,6 +8,7 @@
 mod bricks;
 mod cli;
 mod cluster;
+mod coastlines;
 mod common;
 mod datasets;
 mod distributed;
