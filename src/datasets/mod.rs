@@ -7,6 +7,7 @@ pub mod bricked;
 pub mod cache;
 pub mod cf;
 pub mod cf_time;
+pub mod coastlines;
 pub mod generate;
 pub mod grid_out;
 pub(crate) mod hdf5;

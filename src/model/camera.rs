@@ -2,7 +2,7 @@
 //! frames a bounding box exactly. A camera turns a pixel (i, j) of a W×H image into a world ray; the
 //! GPU ray caster and the CPU reference both use this definition, so they trace the same rays.
 
-use super::vec3::{add_scaled, cross, norm, normalize, sub};
+use super::vec3::{add_scaled, cross, dot, norm, normalize, sub};
 use super::volume::Aabb;
 use crate::error::{Error, Result};
 
@@ -302,6 +302,29 @@ impl Camera {
         }
     }
 
+    /// Where world point `p` appears in a `width × height` image: continuous pixel coordinates
+    /// (x right, y down, pixel (i, j) covering [i, i + 1] × [j, j + 1]), the inverse of
+    /// [`Camera::ray`]; `None` for a point behind a perspective eye.
+    pub(crate) fn project(&self, p: [f64; 3], width: u32, height: u32) -> Option<[f64; 2]> {
+        let v = sub(p, self.eye);
+        let (x, y) = (dot(v, self.right), dot(v, self.up));
+        let [_, hx, hy, _] = self.shader_projection(width, height);
+        let (sx, sy) = match self.projection {
+            Projection::Orthographic { .. } => (x / hx, y / hy),
+            Projection::Perspective { .. } => {
+                let z = dot(v, self.forward);
+                if z <= 1e-12 {
+                    return None;
+                }
+                (x / (z * hx), y / (z * hy))
+            }
+        };
+        Some([
+            0.5 * (sx + 1.0) * width as f64,
+            0.5 * (1.0 - sy) * height as f64,
+        ])
+    }
+
     /// One-line description for image metadata.
     pub fn describe(&self) -> String {
         let p = match self.projection {
@@ -344,6 +367,24 @@ fn frame(eye: [f64; 3], target: [f64; 3], up: [f64; 3]) -> Result<([f64; 3], [f6
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn project_inverts_ray() {
+        let b = Aabb {
+            lo: [0.0, 0.0, 0.0],
+            hi: [20.0, 25.0, 5.0],
+        };
+        let persp = Camera::geo([0.0; 3], 30.0, 40.0, 3.0, 35.0).unwrap();
+        for cam in [persp, Camera::axis(Axis::Z, &b)] {
+            let (o, d) = cam.ray(3, 5, 16, 12);
+            let p = add_scaled(o, d, 2.0);
+            let [x, y] = cam.project(p, 16, 12).unwrap();
+            assert!((x - 3.5).abs() < 1e-9 && (y - 5.5).abs() < 1e-9, "{x} {y}");
+        }
+        assert!(persp
+            .project(add_scaled(persp.eye, persp.forward, -1.0), 16, 12)
+            .is_none());
+    }
 
     #[test]
     fn axis_views_keep_the_aspect_of_the_box() {

@@ -11,7 +11,7 @@ use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
 use super::api_post::TONEMAP;
 use super::api_render::{CUT, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
-use super::api_surface::{LOAD_GRID, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
+use super::api_surface::{COASTLINES, LOAD_GRID, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
 use super::options::OptionTable;
 #[cfg(test)]
 use std::collections::BTreeSet;
@@ -105,7 +105,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("surfaces", "get$nx", &["grid: Grid"], "int", "grid.nx"),
     e("surfaces", "get$ny", &["grid: Grid"], "int", "grid.ny"),
     e("surfaces", "get$properties", &["grid: Grid"], "array", "grid.properties: the property names"),
-    with(e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2. The EXR gets the data value, `fringe` and `fringe_filtered` channels. Options:"), &[&RENDER_SURFACE]),
+    with(e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2. The EXR gets the data value, `fringe` and `fringe_filtered` channels. Options:"), &[&RENDER_SURFACE, &COASTLINES]),
     e("surfaces", "render_surface", &["grid: Grid"], "Image", "An error naming the options render_surface needs."),
     with(e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for render_surface's options, with the resolution 1/nu in its metadata. Options:"), &[&SURFACE_COLORBAR]),
     with(e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for render_surface's options: the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text. Options:"), &[&SURFACE_LEGEND]),

@@ -8,15 +8,16 @@
 //! sphere.
 
 use super::api_render::{ScriptCamera, ScriptImage};
-use super::convert::{err, num, pair, string, to_rhai, variable_option, RResult};
+use super::convert::{boolean, err, num, pair, string, to_rhai, variable_option, RResult};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
+use crate::datasets::coastlines::CoastResolution;
 use crate::datasets::LoadOptions;
 use crate::model::text::{TYPE_MAX, TYPE_MIN};
 use crate::model::{Aabb, Axis, Grid, HdrImage};
 use crate::render::surface::{
-    colorbar, legend_in, legend_type, FringeMode, MissingColour, PhaseMethod, SurfaceOptions,
-    SurfaceView, MAX_COLORBAR_HEIGHT,
+    check_graticule, colorbar, legend_in, legend_type, CoastlineStyle, FringeMode, MissingColour,
+    PhaseMethod, SurfaceOptions, SurfaceView, MAX_COLORBAR_HEIGHT,
 };
 use crate::render::MAX_IMAGE_SIDE;
 use rhai::{Dynamic, Engine, Map};
@@ -72,6 +73,8 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
         opt("phase", Kind::Choice(PhaseMethod::NAMES), "\"reduced\"", "reduced: f64-exact phase; naive: cos(2πνd) in f32, for comparison"),
         opt("antialias", Kind::Bool, "true", "colours from the fringe averaged over each pixel's footprint"),
         opt("missing", Kind::Text("\"grey\""), "\"transparent\"", "colour of missing data: \"transparent\", a colour name or #rrggbb"),
+        opt("coastlines", Kind::Value("true | #{ colour, width, resolution }", "true"), "false", "map and globe views of longitude/latitude grids: Natural Earth coastlines (public domain) drawn into the HDR image, hidden on the globe's far side"),
+        opt("graticule", Kind::Value("true | degrees", "30.0"), "false", "map and globe views of longitude/latitude grids: meridians and parallels at the multiples of this step (true: 10), in linear grey 0.2"),
         opt(
             "width",
             SIDE,
@@ -87,6 +90,17 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
     ),
     call: "render_surface(load_grid(\"geo.nc\"), OPTS)",
     base: "#{ width: 8, height: 8, mode: \"modulated\" }",
+};
+
+pub(crate) const COASTLINES: OptionTable = OptionTable {
+    function: "render_surface coastlines",
+    options: &[
+        opt("colour", Kind::Text("\"white\""), "\"black\"", "a colour name or #rrggbb (drawn as its linear RGB)"),
+        opt("width", Kind::Finite, "1", "line width in pixels, > 0 and at most 64 (antialiased)"),
+        opt("resolution", Kind::Text("\"50m\""), "50m for maps spanning under 60°, else 110m", "the Natural Earth scale: \"110m\" or \"50m\""),
+    ],
+    call: "render_surface(load_grid(\"geo.nc\"), #{ width: 8, height: 8, mode: \"modulated\", coastlines: OPTS })",
+    base: "#{}",
 };
 
 pub(crate) const SURFACE_COLORBAR: OptionTable = OptionTable {
@@ -192,6 +206,12 @@ pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(Surfac
     if let Some(m) = given.string("missing")? {
         o.missing = MissingColour::parse(&m).map_err(to_rhai)?;
     }
+    if let Some(v) = given.value("coastlines")? {
+        o.coastlines = coastline_style(v)?;
+    }
+    if let Some(v) = given.value("graticule")? {
+        o.graticule = graticule_step(v)?;
+    }
     let globe = given.bool("globe")?.unwrap_or(false);
     o.view = surface_view(grid, given.value("view")?, globe)?;
     if matches!(o.view, SurfaceView::Map | SurfaceView::Globe(_)) {
@@ -210,6 +230,45 @@ pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(Surfac
     o.width = given.int("width")?.map(|w| w as u32);
     o.height = given.int("height")?.map(|h| h as u32);
     Ok((o, many))
+}
+
+/// `coastlines: true` (black, 1 pixel, the scale by the extent), `false`, or a map
+/// ([`COASTLINES`]).
+fn coastline_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
+    if v.is_bool() {
+        return Ok(boolean(v, "coastlines")?.then(CoastlineStyle::default));
+    }
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+        to_rhai(crate::Error::invalid(
+            "coastlines",
+            "expected true, false or a map #{ colour, width, resolution }",
+        ))
+    })?;
+    let given = COASTLINES.read(&m)?;
+    let mut style = CoastlineStyle::default();
+    if let Some(c) = given.string("colour")? {
+        style = style.with_colour(&c).map_err(to_rhai)?;
+    }
+    style.width = given.num("width")?.unwrap_or(style.width);
+    if let Some(r) = given.string("resolution")? {
+        style.resolution = Some(CoastResolution::parse(&r).map_err(to_rhai)?);
+    }
+    style.validate().map_err(to_rhai)?;
+    Ok(Some(style))
+}
+
+/// `graticule: true` (every 10°), `false`, or a step in degrees.
+fn graticule_step(v: &Dynamic) -> RResult<Option<f64>> {
+    let step = if v.is_bool() {
+        if !boolean(v, "graticule")? {
+            return Ok(None);
+        }
+        10.0
+    } else {
+        num(v, "graticule")?
+    };
+    check_graticule(step).map_err(to_rhai)?;
+    Ok(Some(step))
 }
 
 /// The colour options of `surface_colorbar` and `surface_legend`, which draw one property at one

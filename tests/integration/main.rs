@@ -9,6 +9,7 @@ mod bricks;
 mod cf_data;
 mod cli;
 mod cluster;
+mod coastlines;
 mod common;
 mod datasets;
 mod distributed;

@@ -6,6 +6,7 @@ use super::legend::{colour_domain, surface_colour_bar};
 use super::options::{
     check_nu, default_size, property_indices, PhaseMethod, SurfaceOptions, SurfaceView,
 };
+use super::overlay::Overlay;
 use super::params::{colormap_table, data_params, FringeParams, NodeValues, PropMeta};
 use super::phase::{split_nu, FOOTPRINT_SIGMA};
 use super::LUT_SIZE;
@@ -357,15 +358,19 @@ impl SurfaceRenderer {
         opts.validate()?;
         let props = property_indices(grid, opts)?;
         let colormap = Colormap::by_name(opts.colormap_name())?;
+        let overlay = Overlay::plan(grid, opts)?;
         let t0 = std::time::Instant::now();
         let passes_before = self.data_passes.load(Ordering::Relaxed);
         let data = self.data_pass(grid, opts, &props)?;
         let data_ms = (self.data_passes.load(Ordering::Relaxed) > passes_before)
             .then(|| t0.elapsed().as_secs_f64() * 1e3);
         let t1 = std::time::Instant::now();
-        let images = (0..props.len())
+        let mut images = (0..props.len())
             .map(|slot| self.fringe_pass(&data, slot, opts.nu_for(slot), opts, &colormap))
             .collect::<Result<Vec<_>>>()?;
+        if let Some(overlay) = &overlay {
+            images.iter_mut().for_each(|img| overlay.draw(img));
+        }
         let timing = SurfaceTiming {
             data_ms,
             fringe_ms: t1.elapsed().as_secs_f64() * 1e3,

@@ -30,17 +30,22 @@
 //! aspect of [`crate::model::Grid::map_aspect`], and [`SurfaceView::Globe`] drapes the field on
 //! the unit sphere of the Earth-centred frame ([`GlobeFrame`]) for any camera.
 //!
+//! Map and globe views of longitude/latitude grids can carry Natural Earth coastlines and a
+//! graticule (`overlay`), drawn into the HDR image after the fringe pass.
+//!
 //! With `HDRVIS_SURFACE_PROFILE` set, each fringe pass prints its stage times to stderr.
 //!
 //! The rooms: `options` (what a render is asked for), `phase` (the f64
 //! fringe maths), `globe` and `geometry` (where the surface lies), `params` (what the passes
-//! are given), `gpu` (the renderer) and `legend` (colour domain, colour bar and legend).
+//! are given), `gpu` (the renderer), `legend` (colour domain, colour bar and legend) and
+//! `overlay` (coastlines and graticules).
 
 mod geometry;
 mod globe;
 mod gpu;
 mod legend;
 mod options;
+mod overlay;
 mod params;
 mod phase;
 
@@ -51,6 +56,8 @@ pub(crate) use legend::{colorbar, legend_in, legend_type, MAX_COLORBAR_HEIGHT};
 pub use legend::{legend, resolution_label, LEGEND_BAR_HEIGHT};
 pub(crate) use options::default_size;
 pub use options::{FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView};
+pub(crate) use overlay::check_graticule;
+pub use overlay::CoastlineStyle;
 pub use phase::{fringe_f64, fringe_filtered_f64, pixel_gradient, FOOTPRINT_SIGMA};
 
 /// Most properties one data pass writes (one RGBA32F target component each).

@@ -2,6 +2,7 @@
 //! enums (view, colour mode, phase method, missing colour) and the image size a render gets.
 
 use super::globe::GlobeFrame;
+use super::overlay::{check_graticule, CoastlineStyle};
 use super::MAX_PROPERTIES;
 use crate::error::{Error, Result};
 use crate::model::{Camera, Grid, Projection};
@@ -247,6 +248,10 @@ pub struct SurfaceOptions {
     /// The colour range made symmetric about this value, for diverging maps: about the domain
     /// when one is given, else with half-width max |d − c| over the data.
     pub centre: Option<f64>,
+    /// Natural Earth coastlines over a map or globe view of a longitude/latitude grid.
+    pub coastlines: Option<CoastlineStyle>,
+    /// Meridians and parallels every this many degrees over a map or globe view.
+    pub graticule: Option<f64>,
 }
 
 impl Default for SurfaceOptions {
@@ -269,6 +274,8 @@ impl Default for SurfaceOptions {
             missing: MissingColour::Transparent,
             domain: None,
             centre: None,
+            coastlines: None,
+            graticule: None,
         }
     }
 }
@@ -325,6 +332,12 @@ impl SurfaceOptions {
             ));
         }
         self.validate_colour_range()?;
+        if let Some(c) = &self.coastlines {
+            c.validate()?;
+        }
+        if let Some(step) = self.graticule {
+            check_graticule(step)?;
+        }
         for (f, v) in [("width", self.width), ("height", self.height)] {
             if let Some(v) = v {
                 if v == 0 || v > crate::render::MAX_IMAGE_SIDE {

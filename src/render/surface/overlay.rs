@@ -1,0 +1,536 @@
+//! Coastlines and graticules over map and globe renders, drawn into the HDR image after the
+//! fringe pass, so exposure and tone mapping treat them like the field: lines of a linear RGB
+//! colour, antialiased by their coverage of each pixel (a pixel's centre within width/2 of the
+//! line is covered, with a one-pixel ramp outside), clipped to the image. On a map the lines
+//! follow the map's equirectangular axes (repeated 360° either side, so 0–360° grids get them
+//! too); on the globe they are projected by the view's camera and drawn only where the sphere
+//! faces the eye, so the far hemisphere stays hidden. The coastlines are Natural Earth's
+//! ([`crate::datasets::coastlines`]).
+
+use super::options::{SurfaceOptions, SurfaceView};
+use crate::datasets::coastlines::{coastlines, CoastResolution};
+use crate::error::{Error, Result};
+use crate::model::map_frame::MapAxes;
+use crate::model::{Camera, Grid, HdrImage};
+
+/// How coastlines are drawn: colour (linear RGB, with the name it was given), line width in
+/// pixels and the Natural Earth scale (`None`: chosen by the map's extent).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoastlineStyle {
+    pub colour: String,
+    pub linear: [f64; 3],
+    pub width: f64,
+    pub resolution: Option<CoastResolution>,
+}
+
+impl Default for CoastlineStyle {
+    fn default() -> Self {
+        CoastlineStyle {
+            colour: "black".into(),
+            linear: [0.0; 3],
+            width: 1.0,
+            resolution: None,
+        }
+    }
+}
+
+/// The graticule's colour (linear mid grey) and width in pixels.
+const GRATICULE_COLOUR: [f64; 3] = [0.2; 3];
+const GRATICULE_WIDTH: f64 = 1.0;
+/// Widest line, in pixels.
+pub(crate) const MAX_LINE_WIDTH: f64 = 64.0;
+/// Longest piece of a line drawn straight on the globe, in degrees.
+const GLOBE_STEP: f64 = 0.5;
+
+impl CoastlineStyle {
+    /// A colour by name or `#rrggbb`, as the `colour` option gives it.
+    pub fn with_colour(mut self, name: &str) -> Result<Self> {
+        self.linear = crate::model::colormap::named_colour("coastlines.colour", name)?;
+        self.colour = name.trim().to_string();
+        Ok(self)
+    }
+
+    pub(crate) fn validate(&self) -> Result<()> {
+        check_width("coastlines.width", self.width)
+    }
+}
+
+fn check_width(field: &str, w: f64) -> Result<()> {
+    if w.is_finite() && w > 0.0 && w <= MAX_LINE_WIDTH {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            field,
+            format!("expected a line width > 0 and at most {MAX_LINE_WIDTH} pixels, got {w}"),
+        ))
+    }
+}
+
+/// A graticule step must be a finite number of degrees in (0, 90].
+pub(crate) fn check_graticule(step: f64) -> Result<()> {
+    if step.is_finite() && step > 0.0 && step <= 90.0 {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            "graticule",
+            format!("expected a step in degrees > 0 and at most 90, got {step}"),
+        ))
+    }
+}
+
+/// Where a (longitude, latitude) lands in the image.
+enum Projector {
+    Map(MapAxes),
+    Globe(Camera),
+}
+
+/// One layer of lines in (longitude, latitude) degrees, with its colour and width.
+struct Layer<'a> {
+    lines: Vec<&'a [[f64; 2]]>,
+    owned: Vec<Vec<[f64; 2]>>,
+    linear: [f64; 3],
+    width: f64,
+}
+
+/// What a surface render draws over its images: checked against the grid and view before any
+/// GPU work, drawn on each image after the fringe pass.
+pub(crate) struct Overlay {
+    projector: Projector,
+    coast: Option<(CoastlineStyle, CoastResolution)>,
+    graticule: Option<f64>,
+}
+
+impl Overlay {
+    /// The overlay `opts` asks for on `grid`, or `None`; an error naming the option when the
+    /// grid or view cannot carry one (lines need longitude and latitude in a map or globe view).
+    pub(crate) fn plan(grid: &Grid, opts: &SurfaceOptions) -> Result<Option<Overlay>> {
+        let field = match (&opts.coastlines, opts.graticule) {
+            (None, None) => return Ok(None),
+            (Some(_), _) => "coastlines",
+            (None, Some(_)) => "graticule",
+        };
+        let axes = MapAxes::of_grid(grid).filter(|_| grid.is_geographic());
+        let projector = match (&opts.view, axes) {
+            (SurfaceView::Map, Some(axes)) => Projector::Map(axes),
+            (SurfaceView::Globe(c), _) => Projector::Globe(*c),
+            _ => {
+                return Err(Error::invalid(
+                    field,
+                    format!(
+                        "lines are drawn on map and globe views of evenly spaced longitude/latitude grids; grid {:?} in {} has none",
+                        grid.name(),
+                        opts.view.describe()
+                    ),
+                ))
+            }
+        };
+        let coast = opts.coastlines.clone().map(|style| {
+            let res = style.resolution.unwrap_or(match &projector {
+                Projector::Map(a) => {
+                    CoastResolution::for_extent((a.x.hi - a.x.lo).max(a.y.hi - a.y.lo))
+                }
+                Projector::Globe(_) => CoastResolution::Coarse,
+            });
+            (style, res)
+        });
+        Ok(Some(Overlay {
+            projector,
+            coast,
+            graticule: opts.graticule,
+        }))
+    }
+
+    /// Draws the graticule, then the coastlines, into `img`, and records them in its metadata.
+    pub(crate) fn draw(&self, img: &mut HdrImage) {
+        if let Some(step) = self.graticule {
+            let layer = Layer {
+                lines: Vec::new(),
+                owned: graticule_lines(step),
+                linear: GRATICULE_COLOUR,
+                width: GRATICULE_WIDTH,
+            };
+            self.draw_layer(img, &layer);
+            img.set_meta("graticule", format!("every {step} degrees"));
+        }
+        if let Some((style, res)) = &self.coast {
+            let layer = Layer {
+                lines: coastlines(*res).iter().map(Vec::as_slice).collect(),
+                owned: Vec::new(),
+                linear: style.linear,
+                width: style.width,
+            };
+            self.draw_layer(img, &layer);
+            img.set_meta(
+                "coastlines",
+                format!(
+                    "Natural Earth {} (public domain), {}, {} px",
+                    res.name(),
+                    style.colour,
+                    style.width
+                ),
+            );
+        }
+    }
+
+    fn draw_layer(&self, img: &mut HdrImage, layer: &Layer) {
+        let (w, h) = (img.width, img.height);
+        let mut cover = vec![0f32; (w as usize) * (h as usize)];
+        let lines = layer
+            .lines
+            .iter()
+            .copied()
+            .chain(layer.owned.iter().map(Vec::as_slice));
+        for line in lines {
+            for seg in line.windows(2) {
+                if (seg[1][0] - seg[0][0]).abs() > 180.0 {
+                    continue;
+                }
+                for [a, b] in self.segment_pixels(seg[0], seg[1], w, h) {
+                    stroke(&mut cover, w, h, a, b, layer.width);
+                }
+            }
+        }
+        let c = layer.linear.map(|v| v as f32);
+        for (p, &a) in img.pixels.iter_mut().zip(&cover) {
+            if a > 0.0 {
+                let alpha = a + p[3] * (1.0 - a);
+                for k in 0..3 {
+                    p[k] = (c[k] * a + p[k] * p[3] * (1.0 - a)) / alpha;
+                }
+                p[3] = alpha;
+            }
+        }
+    }
+
+    /// The pieces, in pixel coordinates, that the segment a–b (degrees) is drawn as: on a map
+    /// the straight segment and its copies 360° east and west; on the globe the segment cut
+    /// into pieces of at most [`GLOBE_STEP`], each kept when both its ends face the eye.
+    fn segment_pixels(&self, a: [f64; 2], b: [f64; 2], w: u32, h: u32) -> Vec<[[f64; 2]; 2]> {
+        match &self.projector {
+            Projector::Map(axes) => {
+                let px = |p: [f64; 2], shift: f64| {
+                    [
+                        (p[0] + shift - axes.x.lo) / (axes.x.hi - axes.x.lo) * w as f64,
+                        (axes.y.hi - p[1]) / (axes.y.hi - axes.y.lo) * h as f64,
+                    ]
+                };
+                [-360.0, 0.0, 360.0]
+                    .iter()
+                    .map(|&s| [px(a, s), px(b, s)])
+                    .collect()
+            }
+            Projector::Globe(cam) => {
+                let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()) / GLOBE_STEP).ceil();
+                let n = (n as usize).max(1);
+                let at = |k: usize| {
+                    let t = k as f64 / n as f64;
+                    globe_pixel(
+                        cam,
+                        [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])],
+                        w,
+                        h,
+                    )
+                };
+                (0..n).filter_map(|k| Some([at(k)?, at(k + 1)?])).collect()
+            }
+        }
+    }
+}
+
+/// Where a point on the unit sphere at (longitude, latitude) degrees shows in a globe image,
+/// or `None` when the sphere there faces away from the eye (the far hemisphere).
+pub(crate) fn globe_pixel(cam: &Camera, lonlat: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
+    let (so, co) = lonlat[0].to_radians().sin_cos();
+    let (sl, cl) = lonlat[1].to_radians().sin_cos();
+    let p = [cl * co, cl * so, sl];
+    let towards_eye = match cam.projection {
+        crate::model::Projection::Orthographic { .. } => cam.forward.map(|v| -v),
+        crate::model::Projection::Perspective { .. } => {
+            [cam.eye[0] - p[0], cam.eye[1] - p[1], cam.eye[2] - p[2]]
+        }
+    };
+    let facing = p[0] * towards_eye[0] + p[1] * towards_eye[1] + p[2] * towards_eye[2];
+    if facing <= 0.0 {
+        return None;
+    }
+    cam.project(p, w, h)
+}
+
+/// Meridians and parallels at the multiples of `step` degrees, as polylines of 1° pieces (so
+/// they curve on the globe); parallels stop short of the poles.
+fn graticule_lines(step: f64) -> Vec<Vec<[f64; 2]>> {
+    let multiples = |lo: f64, hi: f64| {
+        let k0 = (lo / step).ceil() as i64;
+        let k1 = (hi / step).floor() as i64;
+        (k0..=k1).map(|k| k as f64 * step).collect::<Vec<_>>()
+    };
+    let run = |lo: f64, hi: f64| {
+        let n = (hi - lo).ceil() as usize;
+        (0..=n).map(move |i| lo + (hi - lo) * i as f64 / n as f64)
+    };
+    let mut lines = Vec::new();
+    for lon in multiples(-180.0, 180.0 - 1e-9) {
+        lines.push(run(-90.0, 90.0).map(|lat| [lon, lat]).collect());
+    }
+    for lat in multiples(-90.0 + 1e-9, 90.0 - 1e-9) {
+        lines.push(run(-180.0, 180.0).map(|lon| [lon, lat]).collect());
+    }
+    lines
+}
+
+/// Adds the coverage of the segment a–b (pixel coordinates) of `width` pixels to `cover`: for
+/// each pixel centre at distance d, clamp(width/2 + 1/2 − d, 0, 1), the largest over segments,
+/// so joints are not covered twice.
+fn stroke(cover: &mut [f32], w: u32, h: u32, a: [f64; 2], b: [f64; 2], width: f64) {
+    let reach = 0.5 * width + 0.5;
+    let lo = |u: f64, v: f64| (u.min(v) - reach).floor().max(0.0);
+    let hi = |u: f64, v: f64, n: u32| (u.max(v) + reach).ceil().min(n as f64);
+    let (x0, x1) = (lo(a[0], b[0]), hi(a[0], b[0], w));
+    let (y0, y1) = (lo(a[1], b[1]), hi(a[1], b[1], h));
+    if x0 >= x1 || y0 >= y1 {
+        return;
+    }
+    for j in y0 as usize..y1 as usize {
+        for i in x0 as usize..x1 as usize {
+            let d = segment_distance([i as f64 + 0.5, j as f64 + 0.5], a, b);
+            let c = (reach - d).clamp(0.0, 1.0) as f32;
+            let slot = &mut cover[j * w as usize + i];
+            *slot = slot.max(c);
+        }
+    }
+}
+
+/// Distance from p to the segment a–b.
+pub(crate) fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::map_frame::MapAxis;
+
+    fn axis(lo: f64, hi: f64) -> MapAxis {
+        MapAxis {
+            name: String::new(),
+            units: "degrees".into(),
+            lo,
+            hi,
+        }
+    }
+
+    fn white(w: u32, h: u32) -> HdrImage {
+        HdrImage::from_pixels(w, h, vec![[1.0; 4]; (w * h) as usize])
+    }
+
+    fn coast(projector: Projector, res: CoastResolution) -> Overlay {
+        Overlay {
+            projector,
+            coast: Some((CoastlineStyle::default(), res)),
+            graticule: None,
+        }
+    }
+
+    /// Pixels the lines darkened, as (column, row).
+    fn lines(img: &HdrImage) -> Vec<(usize, usize)> {
+        let w = img.width as usize;
+        (0..img.pixels.len())
+            .filter(|&k| img.pixels[k][0] < 1.0)
+            .map(|k| (k % w, k / w))
+            .collect()
+    }
+
+    fn near(lines: &[(usize, usize)], x: f64, y: f64, r: f64) -> bool {
+        lines
+            .iter()
+            .any(|&(i, j)| (i as f64 + 0.5 - x).hypot(j as f64 + 0.5 - y) <= r)
+    }
+
+    #[test]
+    fn map_coast_pixels_lie_on_the_projected_coast_and_miss_land_and_sea() {
+        // 2 pixels per degree over the world: lon → (lon + 180)·2, lat → (90 − lat)·2.
+        let (w, h) = (720u32, 360u32);
+        let map = Projector::Map(MapAxes {
+            x: axis(-180.0, 180.0),
+            y: axis(-90.0, 90.0),
+        });
+        let mut img = white(w, h);
+        coast(map, CoastResolution::Coarse).draw(&mut img);
+        assert!(img.meta("coastlines").unwrap().contains("110m"));
+        let px = |p: &[f64; 2]| [(p[0] + 180.0) * 2.0, (90.0 - p[1]) * 2.0];
+        // The coast and its copies 360° either side (a line at −180° is also one at 180°).
+        let segs: Vec<[[f64; 2]; 2]> = coastlines(CoastResolution::Coarse)
+            .iter()
+            .flat_map(|l| l.windows(2).map(|s| [px(&s[0]), px(&s[1])]))
+            .flat_map(|[a, b]| {
+                [-720.0, 0.0, 720.0].map(|dx| [[a[0] + dx, a[1]], [b[0] + dx, b[1]]])
+            })
+            .collect();
+        let drawn = lines(&img);
+        assert!(drawn.len() > 5000, "{}", drawn.len());
+        for &(i, j) in &drawn {
+            let c = [i as f64 + 0.5, j as f64 + 0.5];
+            let d = segs
+                .iter()
+                .map(|s| segment_distance(c, s[0], s[1]))
+                .fold(f64::INFINITY, f64::min);
+            assert!(d <= 1.0, "pixel ({i}, {j}) is {d} px from the coast");
+        }
+        // Every vertex's own pixel is drawn.
+        for p in coastlines(CoastResolution::Coarse).iter().flatten() {
+            let [x, y] = px(p);
+            let (i, j) = ((x as u32).min(w - 1), (y as u32).min(h - 1));
+            assert!(img.pixels[(j * w + i) as usize][0] < 1.0, "{p:?}");
+        }
+        // Cape of Good Hope on the line; the Sahara and the mid-Atlantic 10 pixels from any.
+        assert!(near(
+            &drawn,
+            (18.47 + 180.0) * 2.0,
+            (90.0 + 34.36) * 2.0,
+            1.5
+        ));
+        assert!(!near(&drawn, 200.0 * 2.0, 67.0 * 2.0, 10.0));
+        assert!(!near(&drawn, 150.0 * 2.0, 90.0 * 2.0, 10.0));
+    }
+
+    #[test]
+    fn regional_maps_take_the_fine_scale_and_a_0_to_360_map_gets_the_lines() {
+        assert_eq!(CoastResolution::for_extent(10.0), CoastResolution::Fine);
+        assert_eq!(CoastResolution::for_extent(360.0), CoastResolution::Coarse);
+        // 16–26°E, 30–40°S at 40 px per degree with the 50m outline: the cape within 2 px.
+        let map = Projector::Map(MapAxes {
+            x: axis(16.0, 26.0),
+            y: axis(-40.0, -30.0),
+        });
+        let mut img = white(400, 400);
+        coast(map, CoastResolution::Fine).draw(&mut img);
+        let drawn = lines(&img);
+        assert!(near(&drawn, 2.47 * 40.0, 4.36 * 40.0, 2.0));
+        // A 0–360° map draws the Americas (west of 0°) shifted by 360°: 70°W 0°N → 290°E,
+        // the coast of Ecuador at 80°W lies at 280°E.
+        let map = Projector::Map(MapAxes {
+            x: axis(0.0, 360.0),
+            y: axis(-90.0, 90.0),
+        });
+        let mut img = white(360, 180);
+        coast(map, CoastResolution::Coarse).draw(&mut img);
+        assert!(near(&lines(&img), 280.0, 90.0, 2.0));
+    }
+
+    #[test]
+    fn globe_hides_the_far_hemisphere() {
+        let cam = Camera::geo([0.0; 3], 0.0, 0.0, 3.0, 35.0).unwrap();
+        let (w, h) = (256u32, 256u32);
+        let mut img = white(w, h);
+        coast(Projector::Globe(cam), CoastResolution::Coarse).draw(&mut img);
+        let drawn = lines(&img);
+        let unit = |p: &[f64; 2]| {
+            let (lo, la) = (p[0].to_radians(), p[1].to_radians());
+            [la.cos() * lo.cos(), la.cos() * lo.sin(), la.sin()]
+        };
+        // The eye at (3, 0, 0): a point faces it where 3x > 1.
+        let all: Vec<&[f64; 2]> = coastlines(CoastResolution::Coarse)
+            .iter()
+            .flatten()
+            .collect();
+        let front: Vec<[f64; 2]> = all
+            .iter()
+            .filter(|p| 3.0 * unit(p)[0] > 1.0)
+            .filter_map(|p| cam.project(unit(p), w, h))
+            .collect();
+        let mut checked = 0;
+        for p in all.iter().filter(|p| 3.0 * unit(p)[0] < 0.9) {
+            let [x, y] = cam.project(unit(p), w, h).unwrap();
+            if front.iter().all(|f| (f[0] - x).hypot(f[1] - y) > 6.0) {
+                checked += 1;
+                assert!(
+                    !near(&drawn, x, y, 2.0),
+                    "far-side {p:?} drawn at ({x}, {y})"
+                );
+            }
+        }
+        assert!(checked > 100, "{checked}");
+        let cape = cam.project(unit(&[18.47, -34.36]), w, h).unwrap();
+        assert!(near(&drawn, cape[0], cape[1], 2.0));
+    }
+
+    #[test]
+    fn graticule_lines_lie_on_multiples_of_the_step() {
+        let map = Projector::Map(MapAxes {
+            x: axis(-180.0, 180.0),
+            y: axis(-90.0, 90.0),
+        });
+        let overlay = Overlay {
+            projector: map,
+            coast: None,
+            graticule: Some(30.0),
+        };
+        let mut img = white(360, 180);
+        overlay.draw(&mut img);
+        // One pixel per degree: pixel centres at lon −180 + i + 0.5, lat 90 − j − 0.5.
+        let off = |v: f64| (v - 30.0 * (v / 30.0).round()).abs();
+        let drawn = lines(&img);
+        for &(i, j) in &drawn {
+            let (lon, lat) = (-179.5 + i as f64, 89.5 - j as f64);
+            assert!(off(lon) <= 1.0 || off(lat) <= 1.0, "({i}, {j})");
+        }
+        for k in -5..=5 {
+            let col = (180 + 30 * k) as usize;
+            assert!(drawn.contains(&(col, 100)) && drawn.contains(&(col - 1, 100)));
+        }
+        // The meridian at 30°E runs along the edge of column 210, whose centre it covers half:
+        // 0.5·0.2 + 0.5·1 over white.
+        let p = img.pixels[100 * 360 + 210];
+        assert!((p[0] - 0.6).abs() < 1e-6 && p[3] == 1.0, "{p:?}");
+    }
+
+    #[test]
+    fn lines_over_transparent_pixels_take_their_coverage_as_alpha() {
+        let mut img = HdrImage::from_pixels(8, 8, vec![[0.0; 4]; 64]);
+        let overlay = Overlay {
+            projector: Projector::Map(MapAxes {
+                x: axis(0.0, 8.0),
+                y: axis(0.0, 8.0),
+            }),
+            coast: None,
+            graticule: Some(4.0),
+        };
+        overlay.draw(&mut img);
+        // The meridian at 4° runs between columns 3 and 4, half covering both: the line's own
+        // colour at alpha 0.5.
+        let p = img.pixels[2 * 8 + 4];
+        assert!((p[0] - 0.2).abs() < 1e-6 && p[3] == 0.5, "{p:?}");
+        // Column 2 is 1.5 px away: untouched.
+        assert_eq!(img.pixels[2 * 8 + 2], [0.0; 4]);
+    }
+
+    #[test]
+    fn bad_styles_name_their_option() {
+        let e = CoastlineStyle::default().with_colour("mauve").unwrap_err();
+        assert!(e.to_string().starts_with("coastlines.colour:"), "{e}");
+        for w in [0.0, -1.0, f64::NAN, 65.0] {
+            let s = CoastlineStyle {
+                width: w,
+                ..Default::default()
+            };
+            assert!(s
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .starts_with("coastlines.width:"));
+        }
+        for step in [0.0, -10.0, f64::INFINITY, 91.0] {
+            assert!(check_graticule(step)
+                .unwrap_err()
+                .to_string()
+                .starts_with("graticule:"));
+        }
+    }
+}
