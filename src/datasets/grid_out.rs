@@ -21,7 +21,7 @@ pub fn save_grid(grid: &Grid, path: &Path) -> Result<()> {
     let units = |c: &GridCoords| match c.kind {
         CoordKind::Longitude => "degrees_east".to_string(),
         CoordKind::Latitude => "degrees_north".to_string(),
-        CoordKind::Plain => c.units.clone(),
+        CoordKind::Plain | CoordKind::Depth => c.units.clone(),
     };
     let (ux, uy) = (units(grid.x()), units(grid.y()));
     if grid.x().name == grid.y().name {

@@ -189,11 +189,16 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
                 Ok(match netcdf::read_coordinate(path, dim)? {
                     Some(values) => Some({
                         let var = netcdf::read_variable(path, dim)?;
-                        // Only longitude and latitude matter to a grid; a vertical axis's unit
-                        // check is the volume reader's concern, so its error is not raised here.
+                        // Longitude, latitude and depth (drawn downward) matter to a grid; a
+                        // vertical axis's unit check is the volume reader's concern, so its error
+                        // is not raised here.
                         let kind = match cf::axis_role(path, &var) {
                             Ok(cf::AxisRole::Longitude) => CoordKind::Longitude,
                             Ok(cf::AxisRole::Latitude) => CoordKind::Latitude,
+                            Ok(cf::AxisRole::Vertical {
+                                kind: cf::Vertical::Depth,
+                                ..
+                            }) => CoordKind::Depth,
                             _ => CoordKind::Plain,
                         };
                         GridAxis {

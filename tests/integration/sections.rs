@@ -34,8 +34,9 @@ fn spec() -> SectionSpec {
     }
 }
 
-/// The section's fringes on every backend: in map view pixel (i, r) shows node (i, ny − 1 − r),
-/// whose fringe is (1 + cos 2πν·value)/2.
+/// The section's fringes on every backend: depth runs downward, so in map view pixel (i, r)
+/// shows node (i, r) — the top row is the shallowest depth — whose fringe is
+/// (1 + cos 2πν·value)/2.
 fn check_fringes(g: &Grid, nu: f64) {
     let values = g.property("dvs").unwrap();
     for backend in crate::common::backends() {
@@ -45,6 +46,7 @@ fn check_fringes(g: &Grid, nu: f64) {
             ..Default::default()
         };
         let img = r.render(g, &o).unwrap().remove(0);
+        assert_eq!(img.meta("map_y_direction"), Some("down"));
         let fringe = &img
             .extra_channels
             .iter()
@@ -53,7 +55,7 @@ fn check_fringes(g: &Grid, nu: f64) {
             .1;
         for row in 0..g.ny() {
             for i in 0..g.nx() {
-                let node = (g.ny() - 1 - row) * g.nx() + i;
+                let node = row * g.nx() + i;
                 let want = fringe_f64(nu, values[node]);
                 let got = fringe[row * g.nx() + i] as f64;
                 assert!(
