@@ -248,6 +248,12 @@ pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
         let found = same_shape_arrays(path, &file.name, &coord_names, [ny, nx], var.is_some())?;
         props.extend(found.properties);
         elevation = found.elevation;
+        // A saved section's per-column latitude and longitude come back as its properties.
+        if crate::io::extension(path) != "npz" && x.kind != CoordKind::Longitude {
+            let present: Vec<String> = props.iter().map(|p| p.0.clone()).collect();
+            let columns = grid_out::column_properties(path, &x.name, [ny, nx])?;
+            props.extend(columns.into_iter().filter(|c| !present.contains(&c.0)));
+        }
         props.sort_by(|a, b| a.0.cmp(&b.0));
     }
     let name = path

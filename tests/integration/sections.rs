@@ -104,6 +104,17 @@ fn a_section_with_fringes_saves_as_cf_netcdf_that_xarray_and_load_grid_read() {
         ("distance", "depth")
     );
     assert_eq!((back.x().units.as_str(), back.units(0)), ("km", "percent"));
+    // The depth axis comes back as a depth (drawn downward), the columns' latitude and longitude
+    // as properties, exactly.
+    assert!(back.y_down() && g.y_down());
+    assert_eq!(back.y().units, "km");
+    for name in ["latitude", "longitude"] {
+        assert_eq!(
+            back.property(name).unwrap(),
+            g.property(name).unwrap(),
+            "{name}"
+        );
+    }
 
     let (nx, ny) = (g.nx(), g.ny());
     let expect = write_f64(&d.join("v.npy"), &[ny, nx], values);
@@ -141,6 +152,10 @@ fn a_section_with_fringes_saves_as_cf_netcdf_that_xarray_and_load_grid_read() {
         &lat,
         "--aux",
         &lon,
+        "--coord-attr",
+        "depth:positive=down",
+        "--coord-attr",
+        "depth:units=km",
         "--rtol",
         "0",
         "--atol",
