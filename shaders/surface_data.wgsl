@@ -25,7 +25,8 @@ struct Params {
     globe: vec4<f32>,
     // x: nx, y: ny, z: width, w: height
     dims: vec4<u32>,
-    // x: number of properties written; y: 1 when the longitudes close the circle (globe view)
+    // x: number of properties written; y: 1 when the longitudes close the circle (globe view);
+    // z: 1 when y runs downward in map view (a depth axis: row 0 is the first node)
     counts: vec4<u32>,
 }
 
@@ -178,11 +179,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var hit = true;
     if (VIEW == 1u) {
         // Pixel centres spread evenly over the node range; at the default size (one pixel per
-        // node) u and v are exact integers. Row 0 is the northern (largest y) row.
+        // node) u and v are exact integers. Row 0 is the northern (largest y) row, or the first
+        // node on a depth axis (SurfaceGeometry::map_v).
         let scale = vec2<f32>(f32(params.dims.x), f32(params.dims.y)) / vec2<f32>(f32(w), f32(h));
         u = (f32(gid.x) + 0.5) * scale.x - 0.5;
         let row = (f32(gid.y) + 0.5) * scale.y - 0.5;
-        v = f32(params.dims.y - 1u) - row;
+        v = select(f32(params.dims.y - 1u) - row, row, params.counts.z == 1u);
     } else if (VIEW == 2u) {
         let ray = camera_ray(gid.x, gid.y, w, h, params.eye.xyz, params.forward.xyz,
                              params.right.xyz, params.up.xyz, params.proj);

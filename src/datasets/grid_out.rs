@@ -4,7 +4,9 @@
 //! degrees_east on a geographic grid); every property is a data variable with its units, the
 //! elevation one named `elevation`. A section's per-column `latitude` and `longitude` (properties
 //! constant down each column) become 1-D auxiliary coordinates on the x dimension instead, named
-//! in every data variable's `coordinates` attribute. The file is written atomically.
+//! in every data variable's `coordinates` attribute; [`column_properties`] turns them back into
+//! properties when the file is loaded. A depth axis carries `positive: "down"`. The file is
+//! written atomically.
 
 use super::netcdf::{self, AuxCoord, GridCoord, GridVar};
 use crate::error::{Error, Result};
@@ -21,7 +23,7 @@ pub fn save_grid(grid: &Grid, path: &Path) -> Result<()> {
     let units = |c: &GridCoords| match c.kind {
         CoordKind::Longitude => "degrees_east".to_string(),
         CoordKind::Latitude => "degrees_north".to_string(),
-        CoordKind::Plain => c.units.clone(),
+        CoordKind::Plain | CoordKind::Depth => c.units.clone(),
     };
     let (ux, uy) = (units(grid.x()), units(grid.y()));
     if grid.x().name == grid.y().name {
@@ -71,13 +73,44 @@ pub fn save_grid(grid: &Grid, path: &Path) -> Result<()> {
         .map(|(name, values, units)| (name.as_str(), *values, units.as_str(), ""))
         .collect();
     debug_assert!(data.iter().all(|v| v.1.len() == nx * ny));
+    // A depth axis says it grows downward, so CF readers (and load_grid) draw it that way.
+    let positive: Vec<(&str, &str, &str)> = [grid.x(), grid.y()]
+        .into_iter()
+        .filter(|c| c.kind == CoordKind::Depth)
+        .map(|c| (c.name.as_str(), "positive", "down"))
+        .collect();
+    let extra = netcdf::GridAux {
+        aux: &aux,
+        coord_attrs: &positive,
+    };
     netcdf::write_grid_with_aux(
         path,
         &coords,
-        &aux,
+        &extra,
         &data,
         &[("title", grid.name()), ("source", "hdrvis save_grid")],
     )
+}
+
+/// The per-column auxiliary coordinates (`latitude`, `longitude`) of a grid file whose x
+/// dimension is `x_dim` (`nx` long), each repeated down the `ny` rows as a property
+/// `(name, values, units)`, as a section holds them.
+pub(crate) fn column_properties(
+    path: &Path,
+    x_dim: &str,
+    [ny, nx]: [usize; 2],
+) -> Result<Vec<(String, Vec<f64>, String)>> {
+    let mut out = Vec::new();
+    for (name, dims) in netcdf::list_variables(path)? {
+        let on_x = dims.len() == 1 && dims[0].0 == x_dim && dims[0].1 == nx;
+        if !on_x || name == x_dim || !COLUMN_COORDINATES.iter().any(|(n, _)| *n == name) {
+            continue;
+        }
+        let column = super::read_array(path, Some(&name), Some(1))?;
+        let values = (0..ny).flat_map(|_| column.data.iter().copied()).collect();
+        out.push((name, values, column.units.unwrap_or_default()));
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -207,11 +207,16 @@ pub fn read_grid_with(path: &Path, var: Option<&str>, sel: &select::Selection) -
         "nc" | "nc4" | "cdf" | "netcdf" => {
             let axis = |dim: &str| -> Result<Option<GridAxis>> {
                 Ok(cf::read_coordinate(path, dim)?.map(|var| {
-                    // Only longitude and latitude matter to a grid; a vertical axis's unit
-                    // check is the volume reader's concern, so its error is not raised here.
+                    // Longitude, latitude and depth (drawn downward) matter to a grid; a
+                    // vertical axis's unit check is the volume reader's concern, so its error is
+                    // not raised here.
                     let kind = match cf::axis_role(path, &var) {
                         Ok(cf::AxisRole::Longitude) => CoordKind::Longitude,
                         Ok(cf::AxisRole::Latitude) => CoordKind::Latitude,
+                        Ok(cf::AxisRole::Vertical {
+                            kind: cf::Vertical::Depth,
+                            ..
+                        }) => CoordKind::Depth,
                         _ => CoordKind::Plain,
                     };
                     GridAxis {
@@ -274,6 +279,12 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
         let found = same_shape_arrays(path, &file.name, &coord_names, [ny, nx], only_elevation)?;
         props.extend(found.properties);
         elevation = found.elevation;
+        // A saved section's per-column latitude and longitude come back as its properties.
+        if crate::io::extension(path) != "npz" && x.kind != CoordKind::Longitude {
+            let present: Vec<String> = props.iter().map(|p| p.0.clone()).collect();
+            let columns = grid_out::column_properties(path, &x.name, [ny, nx])?;
+            props.extend(columns.into_iter().filter(|c| !present.contains(&c.0)));
+        }
         props.sort_by(|a, b| a.0.cmp(&b.0));
     }
     let mut name = path

@@ -397,19 +397,32 @@ pub fn write_grid<T: GridValue>(
     vars: &[GridVar<'_, T>],
     global_attrs: &[(&str, &str)],
 ) -> Result<()> {
-    write_grid_with_aux(path.as_ref(), coords, &[], vars, global_attrs)
+    let no_aux = GridAux {
+        aux: &[],
+        coord_attrs: &[],
+    };
+    write_grid_with_aux(path.as_ref(), coords, &no_aux, vars, global_attrs)
+}
+
+/// What a grid file carries besides its axes and data: auxiliary coordinates, and further
+/// attributes of the axes' coordinate variables as `(dimension name, key, value)` (a depth
+/// axis's `positive: "down"`).
+pub struct GridAux<'a> {
+    pub aux: &'a [AuxCoord<'a>],
+    pub coord_attrs: &'a [(&'a str, &'a str, &'a str)],
 }
 
 /// [`write_grid`] with auxiliary coordinates, each a 1-D variable on one of the dimensions that
 /// every data variable names in its CF `coordinates` attribute (so xarray reads them as
-/// coordinates).
+/// coordinates), and further attributes of the coordinate variables.
 pub fn write_grid_with_aux<T: GridValue>(
     path: &Path,
     coords: &[GridCoord<'_>],
-    aux: &[AuxCoord<'_>],
+    extra: &GridAux<'_>,
     vars: &[GridVar<'_, T>],
     global_attrs: &[(&str, &str)],
 ) -> Result<()> {
+    let aux = extra.aux;
     if coords.is_empty() {
         return Err(Error::invalid(
             "coords",
@@ -437,6 +450,9 @@ pub fn write_grid_with_aux<T: GridValue>(
             .map_err(|e| Error::invalid(format!("coords.{name}"), e.to_string()))?;
         for (key, value) in coordinate_attributes(name, units) {
             add_text_attr(&mut builder, var, key, &value)?;
+        }
+        for (_, key, value) in extra.coord_attrs.iter().filter(|a| a.0 == name) {
+            add_text_attr(&mut builder, var, key, value)?;
         }
         builder
             .write_variable(var, values)

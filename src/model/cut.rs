@@ -3,15 +3,23 @@
 //! three: a wedge). Rays are clipped analytically: the cut's boundaries — latitude cones,
 //! longitude half-planes and depth spheres — are more crossings of the ray, and a piece between
 //! crossings is drawn when its middle lies in the domain and outside the cut, as
-//! [`SphericalGrid::ray_intervals`] does for the domain alone.
+//! [`SphericalGrid::ray_intervals`] does for the domain alone. Boxes (regular and rectilinear)
+//! take world ranges of x, y and z instead: the removed region is a box, and a ray's piece inside
+//! it (the slab method) is taken out of the ray's piece inside the volume ([`Cut::clip_box`]).
 
 use super::geometry::{cone_hits, sphere_hit, SphericalGrid};
+use super::Aabb;
 use crate::error::{Error, Result};
 
-/// The removed region: the points whose latitude, longitude and depth lie in every given range
-/// (absent ranges hold everywhere; at least one is given).
+/// The removed region: the points whose latitude, longitude and depth (spherical volumes), or
+/// world x, y and z (boxes), lie in every given range (absent ranges hold everywhere; at least
+/// one is given).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Cut {
+    /// World x, y and z ranges `lo < hi` of a box's cut.
+    pub x: Option<[f64; 2]>,
+    pub y: Option<[f64; 2]>,
+    pub z: Option<[f64; 2]>,
     /// Degrees north, `lo < hi` within ±90.
     pub lat: Option<[f64; 2]>,
     /// Degrees east, from `lo` eastward to `hi` (`lo < hi`, at most a turn apart).
@@ -31,6 +39,14 @@ impl Cut {
             ))
         };
         let ordered = |r: [f64; 2]| r[0].is_finite() && r[1].is_finite() && r[0] < r[1];
+        if self.x.is_some() || self.y.is_some() || self.z.is_some() {
+            return Err(Error::invalid(
+                "cut",
+                format!(
+                    "x, y and z cut boxes; the spherical volume ({g}) takes lat, lon and depth"
+                ),
+            ));
+        }
         if self.lat.is_none() && self.lon.is_none() && self.depth.is_none() {
             return Err(Error::invalid(
                 "cut",
@@ -74,6 +90,80 @@ impl Cut {
             ));
         }
         Ok(())
+    }
+
+    /// The world ranges of a box's cut, absent ones unbounded.
+    fn box_ranges(&self) -> [[f64; 2]; 3] {
+        let all = [f64::NEG_INFINITY, f64::INFINITY];
+        [self.x, self.y, self.z].map(|r| r.unwrap_or(all))
+    }
+
+    /// Checks a box's cut against the box `bounds`: x, y, z only, each ordered, and leaving part
+    /// of the box.
+    pub fn check_box(&self, name: &str, bounds: &Aabb) -> Result<()> {
+        if self.lat.is_some() || self.lon.is_some() || self.depth.is_some() {
+            return Err(Error::invalid(
+                "cut",
+                format!("{name} is a box; its cut takes world ranges x, y, z (lat, lon and depth cut spherical volumes)"),
+            ));
+        }
+        if self.x.is_none() && self.y.is_none() && self.z.is_none() {
+            return Err(Error::invalid("cut", "expected at least one of x, y, z"));
+        }
+        for (axis, r) in ["x", "y", "z"].into_iter().zip([self.x, self.y, self.z]) {
+            if let Some(r) = r.filter(|r| !(r[0].is_finite() && r[1].is_finite() && r[0] < r[1])) {
+                return Err(Error::invalid(
+                    format!("cut {axis}"),
+                    format!(
+                        "[{}, {}]; expected [lo, hi] in world units, lo < hi",
+                        r[0], r[1]
+                    ),
+                ));
+            }
+        }
+        let ranges = self.box_ranges();
+        if (0..3).all(|a| ranges[a][0] <= bounds.lo[a] && ranges[a][1] >= bounds.hi[a]) {
+            return Err(Error::invalid(
+                "cut",
+                format!(
+                    "removes the whole volume ({name}: x {}..{}, y {}..{}, z {}..{}); expected ranges that leave part of it",
+                    bounds.lo[0], bounds.hi[0], bounds.lo[1], bounds.hi[1], bounds.lo[2], bounds.hi[2]
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The pieces of the ray `o + t·d` over `[t0, t1]` (its piece inside a box) that lie outside
+    /// the cut's box: the piece less the ray's piece inside the cut (slab method; a ray parallel
+    /// to a slab is inside it or misses it), so none, one or two pieces.
+    pub(crate) fn clip_box(
+        &self,
+        o: [f64; 3],
+        d: [f64; 3],
+        (t0, t1): (f64, f64),
+    ) -> Vec<(f64, f64)> {
+        let ranges = self.box_ranges();
+        let (mut c0, mut c1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            let [lo, hi] = ranges[a];
+            if d[a] == 0.0 {
+                if o[a] < lo || o[a] > hi {
+                    return vec![(t0, t1)];
+                }
+                continue;
+            }
+            let (ta, tb) = ((lo - o[a]) / d[a], (hi - o[a]) / d[a]);
+            c0 = c0.max(ta.min(tb));
+            c1 = c1.min(ta.max(tb));
+        }
+        if c1 <= c0 {
+            return vec![(t0, t1)];
+        }
+        [(t0, c0.min(t1)), (c1.max(t0), t1)]
+            .into_iter()
+            .filter(|(a, b)| b > a)
+            .collect()
     }
 
     /// The radii of the depth range, `[inner, outer]`.
@@ -121,5 +211,50 @@ impl Cut {
             }
         }
         t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ray along z through a box [0, 2]³ with the half x < 1 cut: the whole chord where x > 1,
+    /// nothing where x < 1; a cut inside the chord splits it in two; a whole-box cut is refused.
+    #[test]
+    fn box_cuts_take_the_cut_piece_out_of_the_chord() {
+        let b = Aabb {
+            lo: [0.0; 3],
+            hi: [2.0; 3],
+        };
+        let half = Cut {
+            x: Some([-1.0, 1.0]),
+            ..Default::default()
+        };
+        half.check_box("b", &b).unwrap();
+        let d = [0.0, 0.0, 1.0];
+        assert_eq!(
+            half.clip_box([1.5, 1.0, -5.0], d, (5.0, 7.0)),
+            vec![(5.0, 7.0)]
+        );
+        assert!(half.clip_box([0.5, 1.0, -5.0], d, (5.0, 7.0)).is_empty());
+        let slab = Cut {
+            z: Some([0.5, 1.5]),
+            ..Default::default()
+        };
+        assert_eq!(
+            slab.clip_box([1.0, 1.0, -5.0], d, (5.0, 7.0)),
+            vec![(5.0, 5.5), (6.5, 7.0)]
+        );
+        let all = Cut {
+            x: Some([-1.0, 3.0]),
+            ..Default::default()
+        };
+        let e = all.check_box("b", &b).unwrap_err().to_string();
+        assert!(e.starts_with("cut: removes the whole volume (b:"), "{e}");
+        let wrong = Cut {
+            lat: Some([0.0, 90.0]),
+            ..Default::default()
+        };
+        assert!(wrong.check_box("b", &b).is_err());
     }
 }

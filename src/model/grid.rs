@@ -2,9 +2,11 @@
 //! their units, one or more named properties of the same shape and an optional elevation for
 //! relief. Coordinates are stored increasing (rows and columns of a file stored north-to-south or
 //! east-to-west are flipped on construction), so image rows map to grid rows the same way for every
-//! source. NaN marks a missing value. An axis knows whether it is a longitude or a latitude
-//! ([`CoordKind`], from the file's CF attributes); a grid with longitude along x and latitude along
-//! y is geographic, and its map keeps the equirectangular aspect of [`Grid::map_aspect`]. Each
+//! source. NaN marks a missing value. An axis knows whether it is a longitude, a latitude or a
+//! depth ([`CoordKind`], from the file's CF attributes); a grid with longitude along x and latitude
+//! along y is geographic, and its map keeps the equirectangular aspect of [`Grid::map_aspect`]. A
+//! grid whose y is a depth is drawn with y increasing downward ([`Grid::y_down`]), the one place
+//! every drawer of a grid's axes takes the vertical direction from. Each
 //! grid gets a unique identity on construction, which the
 //! surface renderer uses to key its cached data passes; the fields are private so that identity
 //! cannot go stale.
@@ -14,13 +16,15 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
-/// What a grid axis measures: plain coordinates, or degrees of longitude or latitude.
+/// What a grid axis measures: plain coordinates, degrees of longitude or latitude, or a depth (a
+/// vertical coordinate positive downward, CF's `positive: "down"`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum CoordKind {
     #[default]
     Plain,
     Longitude,
     Latitude,
+    Depth,
 }
 
 /// One grid axis: node coordinates (increasing), the axis name, its units and what it measures.
@@ -301,6 +305,13 @@ impl Grid {
     pub fn y(&self) -> &GridCoords {
         &self.y
     }
+    /// Whether the y axis is drawn increasing downward (its first node at the top of a map): a
+    /// depth axis is, every other axis increases upward. Every view that draws the grid's axes
+    /// takes the direction from here.
+    pub fn y_down(&self) -> bool {
+        self.y.kind == CoordKind::Depth
+    }
+
     /// Whether x is a longitude and y a latitude (from the file's CF attributes).
     pub fn is_geographic(&self) -> bool {
         self.x.kind == CoordKind::Longitude && self.y.kind == CoordKind::Latitude

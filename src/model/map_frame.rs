@@ -21,8 +21,9 @@ const WHITE: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
 const BLACK: [f32; 4] = [0.0, 0.0, 0.0, 1.0];
 
 /// One axis of a map image: its name and units and the coordinates at the image's two edges
-/// (`lo` at the left or bottom edge, `hi` at the right or top), half a node spacing beyond the
-/// first and last nodes, as the map view puts pixel centres on nodes.
+/// (`lo` at the left edge, or the bottom — the top on a downward y axis —, `hi` at the other),
+/// half a node spacing beyond the first and last nodes, as the map view puts pixel centres on
+/// nodes.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct MapAxis {
     pub name: String,
@@ -31,11 +32,13 @@ pub(crate) struct MapAxis {
     pub hi: f64,
 }
 
-/// The two axes of a map image: x runs east (left to right), y north (bottom to top).
+/// The two axes of a map image: x runs east (left to right), y north (bottom to top) or, when
+/// `y_down` (a depth axis, [`super::Grid::y_down`]), downward (top to bottom).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct MapAxes {
     pub x: MapAxis,
     pub y: MapAxis,
+    pub y_down: bool,
 }
 
 /// Metadata keys the axes are recorded under (x, then y: name, units, edge coordinates).
@@ -43,6 +46,9 @@ const AXIS_KEYS: [[&str; 3]; 2] = [
     ["map_x_axis", "map_x_units", "map_x_extent"],
     ["map_y_axis", "map_y_units", "map_y_extent"],
 ];
+
+/// Metadata key of the y axis's direction: "down" or "up".
+const Y_DIRECTION_KEY: &str = "map_y_direction";
 
 impl MapAxis {
     /// The axis of evenly spaced grid coordinates (within 1e-3 of a spacing); `None` for uneven
@@ -131,6 +137,7 @@ impl MapAxes {
         Some(MapAxes {
             x: MapAxis::of_coords(grid.x())?,
             y: MapAxis::of_coords(grid.y())?,
+            y_down: grid.y_down(),
         })
     }
 
@@ -141,6 +148,7 @@ impl MapAxes {
             img.set_meta(keys[1], axis.units.as_str());
             img.set_meta(keys[2], format!("{} {}", axis.lo, axis.hi));
         }
+        img.set_meta(Y_DIRECTION_KEY, if self.y_down { "down" } else { "up" });
     }
 
     /// The axes `img` records, if it records them.
@@ -160,6 +168,7 @@ impl MapAxes {
         Some(MapAxes {
             x: axis(AXIS_KEYS[0])?,
             y: axis(AXIS_KEYS[1])?,
+            y_down: img.meta(Y_DIRECTION_KEY) == Some("down"),
         })
     }
 }
@@ -379,7 +388,7 @@ impl FrameLayout {
         let m = self.map;
         let outside = m.x - 1 - tick as i64;
         for (v, label) in ticks {
-            let y = m.y + axes.y.pixel(*v, m.h as u32, true) as i64;
+            let y = m.y + axes.y.pixel(*v, m.h as u32, !axes.y_down) as i64;
             self.pieces
                 .push((Piece::Ink, Rect::new(outside, y, tick, 1)));
             let lx = outside - (ty.gap() + ty.width(label)) as i64;
@@ -566,7 +575,11 @@ mod tests {
         let uneven = coords("depth", "m", vec![0.0, 1.0, 3.0]);
         assert_eq!(MapAxis::of_coords(&uneven), None);
         let y = MapAxis::of_coords(&coords("y", "km", vec![0.0, 2.0])).unwrap();
-        let axes = MapAxes { x: lon, y };
+        let axes = MapAxes {
+            x: lon,
+            y,
+            y_down: false,
+        };
         let mut img = HdrImage::new(3, 2);
         assert_eq!(MapAxes::of(&img), None);
         axes.record(&mut img);
@@ -625,6 +638,7 @@ mod tests {
         let axes = MapAxes {
             x: MapAxis::of_coords(&coords("x", "m", (0..40).map(f64::from).collect())).unwrap(),
             y: MapAxis::of_coords(&coords("y", "m", (0..30).map(f64::from).collect())).unwrap(),
+            y_down: false,
         };
         let mut img = HdrImage::new(40, 30);
         img.pixels.fill([0.25, 0.5, 0.75, 1.0]);
@@ -680,6 +694,56 @@ mod tests {
         assert_eq!([lo[0], lo[1], lo[2]], end(0.0));
     }
 
+    /// A section's depth axis runs downward: the tick of the shallowest depth is on the map's top
+    /// row, deeper ticks lower, the labels increase down the figure and the axis is titled
+    /// "depth (km)".
+    #[test]
+    fn a_downward_depth_axis_puts_depth_labels_increasing_down_the_figure() {
+        let axes = MapAxes {
+            x: MapAxis::of_coords(&coords("distance", "km", (0..40).map(f64::from).collect()))
+                .unwrap(),
+            y: MapAxis::of_coords(&coords("depth", "km", (0..30).map(f64::from).collect()))
+                .unwrap(),
+            y_down: true,
+        };
+        let mut img = HdrImage::new(40, 30);
+        axes.record(&mut img);
+        assert_eq!(MapAxes::of(&img), Some(axes.clone()));
+        let ty = Type::new(11.0);
+        let out = with_map_frame(&img, &axes, &extras(ty, None, None)).unwrap();
+        let layout = FrameLayout::new(&img, &axes, &extras(ty, None, None));
+        let (left, top) = (layout.map.x as u32, layout.map.y as u32);
+        let at = |x: u32, y: u32| out.pixels[(y * out.width + x) as usize];
+        for v in [0u32, 20] {
+            assert_eq!(at(left - 3, top + v), BLACK, "depth tick {v}");
+        }
+        assert_eq!(at(left - 3, top + 29), WHITE);
+        let labels: Vec<(f64, i64)> = layout
+            .pieces
+            .iter()
+            .filter_map(|(p, r)| match p {
+                Piece::Text { text, .. } if r.x + r.w < layout.map.x => {
+                    text.parse::<f64>().ok().map(|v| (v, r.y))
+                }
+                _ => None,
+            })
+            .collect();
+        assert!(labels.len() >= 2, "{labels:?}");
+        assert!(
+            labels
+                .windows(2)
+                .all(|w| w[1].0 > w[0].0 && w[1].1 > w[0].1),
+            "{labels:?}"
+        );
+        let titles = |want: &str| {
+            layout
+                .pieces
+                .iter()
+                .any(|(p, _)| matches!(p, Piece::Text { text, .. } if text == want))
+        };
+        assert!(titles("depth (km)") && titles("distance (km)"));
+    }
+
     /// Every text box of a framed figure — tick labels, axis and bar captions, the title, the
     /// legend line, the scale bar's label — lies inside the figure and overlaps no other piece
     /// (map, bar, ticks, scale bar, other text), at small and large type, with extend triangles
@@ -707,7 +771,11 @@ mod tests {
             ),
         ];
         for (x, y, (w, h)) in cases {
-            let axes = MapAxes { x, y };
+            let axes = MapAxes {
+                x,
+                y,
+                y_down: false,
+            };
             let img = HdrImage::new(w, h);
             for ty in [Type::for_figure(img.width, img.height), Type::new(30.0)] {
                 for extend in [[false; 2], [true, true]] {
@@ -778,6 +846,7 @@ mod tests {
                 (0..256).map(|i| -10.0 + 0.02 * i as f64).collect(),
             ))
             .unwrap(),
+            y_down: false,
         };
         let img = HdrImage::new(512, 256);
         let out = with_map_frame(&img, &axes, &extras(Type::new(12.0), None, None)).unwrap();
@@ -809,6 +878,7 @@ mod tests {
                     (0..h).map(|i| 10.0 * i as f64 / h as f64).collect(),
                 ))
                 .unwrap(),
+                y_down: false,
             };
             let img = HdrImage::new(w, h);
             let e = FrameExtras {

@@ -156,7 +156,7 @@ pub fn great_circle_section(v: &Volume, spec: &SectionSpec) -> Result<Grid> {
             name: "depth".into(),
             units: unit,
             values: depths,
-            kind: CoordKind::Plain,
+            kind: CoordKind::Depth,
         },
         vec![
             (property_name(v), values),

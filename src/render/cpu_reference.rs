@@ -84,18 +84,19 @@ impl Tracer<'_> {
         let (o, d) = self.opts.camera.ray(px, py, w, h);
         let (color, tau) = match &self.volume.geometry {
             Geometry::Regular => {
-                // In the box's frame, as the shader marches.
-                let o = sub(o, self.bounds.lo);
-                match self.local.intersect(o, d) {
+                // In the box's frame, as the shader marches (the cut is in world coordinates,
+                // the ray's parameter the same in both).
+                let local = sub(o, self.bounds.lo);
+                match self.local.intersect(local, d) {
                     Some((t0, t1)) if t1 > t0.max(0.0) => {
-                        self.march(px, py, o, d, &[(t0.max(0.0), t1)])
+                        self.march_box(px, py, (o, local), d, (t0.max(0.0), t1))
                     }
                     _ => ([0.0; 3], 0.0),
                 }
             }
             Geometry::Rectilinear(_) => match self.bounds.intersect(o, d) {
                 Some((t0, t1)) if t1 > t0.max(0.0) => {
-                    self.march(px, py, o, d, &[(t0.max(0.0), t1)])
+                    self.march_box(px, py, (o, o), d, (t0.max(0.0), t1))
                 }
                 _ => ([0.0; 3], 0.0),
             },
@@ -112,6 +113,26 @@ impl Tracer<'_> {
             color[2] + t * bg[2],
             -(-tau).exp_m1(),
         ]
+    }
+
+    /// [`Self::march`] over a box's piece `[t0, t1]` of the ray, less the cut's box if there is
+    /// one; `o` is the ray's origin in world coordinates (the cut's) and in the march's frame.
+    fn march_box(
+        &self,
+        px: u32,
+        py: u32,
+        (world, o): ([f64; 3], [f64; 3]),
+        d: [f64; 3],
+        piece: (f64, f64),
+    ) -> ([f64; 3], f64) {
+        let parts = match &self.opts.cut {
+            Some(c) => c.clip_box(world, d, piece),
+            None => vec![piece],
+        };
+        if parts.is_empty() {
+            return ([0.0; 3], 0.0);
+        }
+        self.march(px, py, o, d, &parts)
     }
 
     /// Colour and optical depth along the ray through the parts `parts` of it inside the

@@ -171,19 +171,35 @@ fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
     Ok(RenderPath::Mapped)
 }
 
-/// A cut-away is for spherical volumes in memory, and must leave part of the volume.
-fn check_cut(source: &VolumeSource, cut: &Cut) -> Result<()> {
-    let what = match source {
-        VolumeSource::Memory(v) => match &v.geometry {
-            crate::model::Geometry::Spherical(g) => return cut.check(g),
-            other => format!("{} is a {} volume", v.name, other.name()),
-        },
-        VolumeSource::Bricked(b) => format!("{} is an opened (bricked) box", b.name),
+/// A cut-away is for volumes in memory, and must leave part of the volume: latitude, longitude
+/// and depth ranges of a spherical volume (its path is chosen as without a cut), world x, y, z
+/// ranges of a box, which only the f64 CPU reference clips (`Some` of that path).
+fn check_cut(
+    source: &VolumeSource,
+    cut: &Cut,
+    opts: &VolumeRenderOptions,
+) -> Result<Option<RenderPath>> {
+    let v = match source {
+        VolumeSource::Memory(v) => v,
+        VolumeSource::Bricked(b) => {
+            let what = format!("{} is an opened (bricked) box", b.name);
+            return Err(Error::invalid(
+                "cut",
+                format!("{what}; cut-aways need the volume in memory (load_volume)"),
+            ));
+        }
     };
-    Err(Error::invalid(
-        "cut",
-        format!("{what}; cut-aways remove latitude, longitude and depth ranges of spherical volumes (a box's plane: slice(volume, #{{ axis, at }}))"),
-    ))
+    if let crate::model::Geometry::Spherical(g) = &v.geometry {
+        return cut.check(g).map(|_| None);
+    }
+    cut.check_box(&v.name, &v.bounds())?;
+    if opts.precision != Precision::F64 {
+        return Err(Error::invalid(
+            "cut",
+            "a box's cut-away runs on the f64 CPU reference: add precision: \"f64\" (the GPU box ray casters do not clip yet)",
+        ));
+    }
+    Ok(Some(RenderPath::F64Cpu))
 }
 
 /// The path of `missing: "renormalise"`: the f64 CPU reference, the one ray caster that
@@ -307,7 +323,9 @@ impl RenderSession {
     ) -> Result<Route> {
         let b = &opts.bricking;
         if let Some(cut) = &opts.cut {
-            check_cut(source, cut)?;
+            if let Some(path) = check_cut(source, cut, opts)? {
+                return Ok(path.into());
+            }
         }
         if let Some(world) = self.cluster().filter(|w| w.size() > 1) {
             if let VolumeSource::Memory(v) = source {

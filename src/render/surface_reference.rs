@@ -276,7 +276,7 @@ pub fn surface_reference(grid: &Grid, opts: &SurfaceOptions) -> Result<SurfaceRe
                     ];
                     let u = (px as f64 + 0.5) * scale[0] - 0.5;
                     let row = (py as f64 + 0.5) * scale[1] - 0.5;
-                    Some((0.0, u, (scene.ny - 1) as f64 - row, 1.0))
+                    Some((0.0, u, scene.geo.map_v(row, scene.ny), 1.0))
                 }
                 (_, Some(camera)) => {
                     let (o, d) = camera.ray(px, py, width, height);

@@ -119,7 +119,7 @@ pub(crate) const RENDER_VOLUME: OptionTable = OptionTable {
         opt("precision", Kind::Choice(Precision::NAMES), "\"f32\"", "compositing precision (f64 on the GPU where the adapter has shader f64, else the CPU)"),
         opt("shading", Kind::Value("true | false | #{ambient, diffuse, specular, shininess}", "true"), "false", "Blinn–Phong headlight on the data gradient (absent: no shading code; not on the bricked path)"),
         opt("tf_sampling", Kind::Choice(TfSampling::NAMES), "\"point\"", "preintegrated: the transfer function's mean between the values at each segment's ends (not on the bricked path)"),
-        opt("cut", Kind::Value("#{lat, lon, depth}", "#{ lon: [0.0, 180.0] }"), "none", "a spherical volume's cut-away: the region where every given range holds is removed, rays clipped analytically (mapped ray caster and f64 CPU reference)"),
+        opt("cut", Kind::Value("#{lat, lon, depth} | #{x, y, z}", "#{ lon: [0.0, 180.0] }"), "none", "a cut-away: the region where every given range holds is removed, rays clipped analytically (spherical volumes: lat, lon, depth on the mapped ray caster and the f64 CPU reference; boxes: world x, y, z with precision: \"f64\", on the f64 CPU reference)"),
         opt("missing", Kind::Choice(Missing::NAMES), "\"strict\"", "strict: a missing voxel among a sample's 8 neighbours makes it missing; renormalise (with precision: \"f64\", on the CPU): the finite neighbours' weights renormalised"),
         opt("empty_space_skipping", Kind::Bool, "true", "jump over space the transfer function leaves empty (missing data, transparent values), with the same image"),
         opt("memory_budget", Kind::NumAbove(0.0, 1e9), "--gpu-memory, else unlimited", "MiB of GPU memory; larger volumes stream through a brick cache"),
@@ -148,6 +148,9 @@ pub(crate) const CUT: OptionTable = OptionTable {
         opt("lat", Kind::Value("[south, north] in degrees", "[0.0, 90.0]"), "all latitudes", "the latitudes removed"),
         opt("lon", Kind::Value("[west, east] in degrees", "[0.0, 180.0]"), "all longitudes", "the longitudes removed, eastward from west to east"),
         opt("depth", Kind::Value("[top, bottom] in the volume's length unit", "[0.0, 100.0]"), "all depths", "the depths removed (planet radius − radius)"),
+        opt("x", Kind::Value("[lo, hi] in world units", "[0.0, 1.0]"), "all x", "a box's cut: the world x removed"),
+        opt("y", Kind::Value("[lo, hi] in world units", "[0.0, 1.0]"), "all y", "a box's cut: the world y removed"),
+        opt("z", Kind::Value("[lo, hi] in world units", "[0.0, 1.0]"), "all z", "a box's cut: the world z removed"),
     ],
     call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, cut: OPTS })",
     base: "#{ lon: [0.0, 180.0] }",
@@ -454,13 +457,13 @@ fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
     Ok(Some(s))
 }
 
-/// `cut: #{ lat, lon, depth }` ([`CUT`]); the ranges are checked against the volume when it
-/// renders.
+/// `cut: #{ lat, lon, depth }` or `#{ x, y, z }` ([`CUT`]); the ranges are checked against the
+/// volume when it renders.
 fn cut(v: &Dynamic) -> RResult<Cut> {
     let m = v.clone().try_cast::<Map>().ok_or_else(|| {
         to_rhai(crate::Error::invalid(
             "cut",
-            "expected a map #{ lat: [a, b], lon: [a, b], depth: [a, b] }",
+            "expected a map #{ lat: [a, b], lon: [a, b], depth: [a, b] } or #{ x: [a, b], y: [a, b], z: [a, b] }",
         ))
     })?;
     let given = CUT.read(&m)?;
@@ -471,6 +474,9 @@ fn cut(v: &Dynamic) -> RResult<Cut> {
             .transpose()
     };
     Ok(Cut {
+        x: range("x")?,
+        y: range("y")?,
+        z: range("z")?,
         lat: range("lat")?,
         lon: range("lon")?,
         depth: range("depth")?,

@@ -34,8 +34,9 @@ fn spec() -> SectionSpec {
     }
 }
 
-/// The section's fringes on every backend: in map view pixel (i, r) shows node (i, ny − 1 − r),
-/// whose fringe is (1 + cos 2πν·value)/2.
+/// The section's fringes on every backend: depth runs downward, so in map view pixel (i, r)
+/// shows node (i, r) — the top row is the shallowest depth — whose fringe is
+/// (1 + cos 2πν·value)/2.
 fn check_fringes(g: &Grid, nu: f64) {
     let values = g.property("dvs").unwrap();
     for backend in crate::common::backends() {
@@ -45,6 +46,7 @@ fn check_fringes(g: &Grid, nu: f64) {
             ..Default::default()
         };
         let img = r.render(g, &o).unwrap().remove(0);
+        assert_eq!(img.meta("map_y_direction"), Some("down"));
         let fringe = &img
             .extra_channels
             .iter()
@@ -53,7 +55,7 @@ fn check_fringes(g: &Grid, nu: f64) {
             .1;
         for row in 0..g.ny() {
             for i in 0..g.nx() {
-                let node = (g.ny() - 1 - row) * g.nx() + i;
+                let node = row * g.nx() + i;
                 let want = fringe_f64(nu, values[node]);
                 let got = fringe[row * g.nx() + i] as f64;
                 assert!(
@@ -102,6 +104,17 @@ fn a_section_with_fringes_saves_as_cf_netcdf_that_xarray_and_load_grid_read() {
         ("distance", "depth")
     );
     assert_eq!((back.x().units.as_str(), back.units(0)), ("km", "percent"));
+    // The depth axis comes back as a depth (drawn downward), the columns' latitude and longitude
+    // as properties, exactly.
+    assert!(back.y_down() && g.y_down());
+    assert_eq!(back.y().units, "km");
+    for name in ["latitude", "longitude"] {
+        assert_eq!(
+            back.property(name).unwrap(),
+            g.property(name).unwrap(),
+            "{name}"
+        );
+    }
 
     let (nx, ny) = (g.nx(), g.ny());
     let expect = write_f64(&d.join("v.npy"), &[ny, nx], values);
@@ -139,6 +152,10 @@ fn a_section_with_fringes_saves_as_cf_netcdf_that_xarray_and_load_grid_read() {
         &lat,
         "--aux",
         &lon,
+        "--coord-attr",
+        "depth:positive=down",
+        "--coord-attr",
+        "depth:units=km",
         "--rtol",
         "0",
         "--atol",
@@ -400,5 +417,83 @@ fn cut_away_shells_leave_the_chord_outside_the_cut() {
         .render_volume(&VolumeSource::Memory(Arc::new(boxed)), &o)
         .unwrap_err()
         .to_string();
-    assert!(e.starts_with("cut: b is a cartesian volume"), "{e}");
+    assert!(
+        e.starts_with("cut: b is a box; its cut takes world ranges x, y, z"),
+        "{e}"
+    );
+}
+
+/// A constant box (regular, and rectilinear with the same cells) with the half x < mid cut away,
+/// seen along z (emission only, so a pixel is its ray's length inside what is left, in voxels):
+/// pixels over the removed half are 0, the rest the chord, on the f64 CPU reference within 1e-9.
+/// The GPU box ray casters refuse the cut in one line, and a cut removing everything is refused.
+#[test]
+fn cut_away_boxes_leave_the_chord_outside_the_cut() {
+    use hdrvis::model::{Axis, Camera, CoordAxis, Cut, Geometry, TransferFunction, Volume};
+    use hdrvis::render::cpu_reference::render_volume_f64;
+    use hdrvis::render::{Precision, VolumeRenderOptions, VolumeSource};
+    use std::sync::Arc;
+    let regular = Volume::new("box", [8, 8, 6], [1.0; 3], [0.0; 3], vec![1.0; 384]).unwrap();
+    let axes = [8, 8, 6].map(|n| CoordAxis::uniform_cells(0.0, 1.0, n));
+    let rectilinear = Volume::new("rbox", [8, 8, 6], [1.0; 3], [0.0; 3], vec![1.0; 384])
+        .unwrap()
+        .with_geometry(Geometry::Rectilinear(Box::new(axes)))
+        .unwrap();
+    let session = crate::common::session(hdrvis::gpu::BackendChoice::Vulkan);
+    let n = 16u32;
+    for v in [regular, rectilinear] {
+        let b = v.bounds();
+        let mid = 0.5 * (b.lo[0] + b.hi[0]);
+        let chord = b.hi[2] - b.lo[2];
+        let mut o = VolumeRenderOptions::new(
+            Camera::axis(Axis::Z, &b),
+            TransferFunction::emission_absorption(1.0, 0.0).unwrap(),
+        );
+        (o.width, o.height, o.step, o.early_exit) = (n, n, 0.5, 0.0);
+        o.cut = Some(Cut {
+            x: Some([b.lo[0] - 1.0, mid]),
+            ..Default::default()
+        });
+        o.precision = Precision::F64;
+        let source = VolumeSource::Memory(Arc::new(v.clone()));
+        let img = session
+            .render_volume(&source, &o)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let cpu = render_volume_f64(&v, &o).unwrap();
+        let mut worst = 0.0f64;
+        for py in 0..n {
+            for px in 0..n {
+                let k = (py * n + px) as usize;
+                let (got, reference) = (img.pixels[k][0] as f64, cpu[k][0]);
+                if px < n / 2 {
+                    assert_eq!((got, reference), (0.0, 0.0), "{}: pixel {px},{py}", v.name);
+                } else {
+                    worst = worst.max((reference - chord).abs() / chord);
+                    assert!(
+                        (got - chord).abs() / chord < 1e-6,
+                        "{}: {got} vs {chord}",
+                        v.name
+                    );
+                }
+            }
+        }
+        assert!(
+            worst < 1e-9,
+            "{}: CPU f64 relative error {worst:.2e}",
+            v.name
+        );
+        o.precision = Precision::F32;
+        let e = session.render_volume(&source, &o).unwrap_err().to_string();
+        assert!(
+            e.starts_with("cut: a box's cut-away runs on the f64 CPU reference"),
+            "{e}"
+        );
+        o.precision = Precision::F64;
+        o.cut = Some(Cut {
+            x: Some([b.lo[0], b.hi[0]]),
+            ..Default::default()
+        });
+        let e = session.render_volume(&source, &o).unwrap_err().to_string();
+        assert!(e.starts_with("cut: removes the whole volume"), "{e}");
+    }
 }

@@ -60,6 +60,8 @@ def main():
     parser.add_argument("--long-name")
     parser.add_argument("--coord", action="append", default=[], metavar="DIM=EXPECTED.npy")
     parser.add_argument("--aux", action="append", default=[], metavar="NAME:DIM=EXPECTED.npy")
+    parser.add_argument("--coord-attr", action="append", default=[], metavar="DIM:KEY=VALUE",
+                        help="an attribute xarray must read on a coordinate")
     parser.add_argument("--rtol", type=float, default=1e-6)
     parser.add_argument("--atol", type=float, default=0.0)
     args = parser.parse_args()
@@ -116,6 +118,12 @@ def main():
                             args.atol, failures)
                 else:
                     failures.append(f"xarray: {dim!r} is not a coordinate")
+            for item in args.coord_attr:
+                head, _, want = item.partition("=")
+                dim, _, key = head.partition(":")
+                got = ds.coords[dim].attrs.get(key) if dim in ds.coords else None
+                if got != want:
+                    failures.append(f"xarray: {dim}.{key} is {got!r}, expected {want!r}")
             for name, (dim, want) in aux_expect.items():
                 if name not in ds[args.var].coords:
                     failures.append(f"xarray: {name!r} is not a coordinate of {args.var!r}")

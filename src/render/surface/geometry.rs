@@ -28,6 +28,9 @@ pub(crate) struct SurfaceGeometry {
     pub camera: Option<Camera>,
     /// How the grid lies on the sphere in the globe view.
     pub globe: Option<GlobeFrame>,
+    /// The map view's first row shows the first y node ([`Grid::y_down`]: a depth axis) rather
+    /// than the last.
+    pub y_down: bool,
 }
 
 impl SurfaceGeometry {
@@ -128,11 +131,23 @@ impl SurfaceGeometry {
             box_size: size,
             camera,
             globe,
+            y_down: grid.y_down(),
         })
     }
 
     /// The height whose world z is 0 (the box floor): hmin + z_lo / exaggeration.
     pub(crate) fn height_at_floor(&self) -> f64 {
         self.height_min + self.z_lo / self.exaggeration
+    }
+
+    /// The node row (continuous v along y) that the map view shows at continuous pixel row
+    /// `row` (both measured from the first node's end): the top row is the last y node, or the
+    /// first when y runs downward. The data shader mirrors it (`counts.z`).
+    pub(crate) fn map_v(&self, row: f64, ny: usize) -> f64 {
+        if self.y_down {
+            row
+        } else {
+            (ny - 1) as f64 - row
+        }
     }
 }

@@ -360,6 +360,7 @@ mod tests {
         let map = Projector::Map(MapAxes {
             x: axis(-180.0, 180.0),
             y: axis(-90.0, 90.0),
+            y_down: false,
         });
         let mut img = white(w, h);
         coast(map, CoastResolution::Coarse).draw(&mut img);
@@ -408,6 +409,7 @@ mod tests {
         let map = Projector::Map(MapAxes {
             x: axis(16.0, 26.0),
             y: axis(-40.0, -30.0),
+            y_down: false,
         });
         let mut img = white(400, 400);
         coast(map, CoastResolution::Fine).draw(&mut img);
@@ -418,6 +420,7 @@ mod tests {
         let map = Projector::Map(MapAxes {
             x: axis(0.0, 360.0),
             y: axis(-90.0, 90.0),
+            y_down: false,
         });
         let mut img = white(360, 180);
         coast(map, CoastResolution::Coarse).draw(&mut img);
@@ -466,6 +469,7 @@ mod tests {
         let map = Projector::Map(MapAxes {
             x: axis(-180.0, 180.0),
             y: axis(-90.0, 90.0),
+            y_down: false,
         });
         let overlay = Overlay {
             projector: map,
@@ -498,6 +502,7 @@ mod tests {
             projector: Projector::Map(MapAxes {
                 x: axis(0.0, 8.0),
                 y: axis(0.0, 8.0),
+                y_down: false,
             }),
             coast: None,
             graticule: Some(4.0),

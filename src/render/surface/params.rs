@@ -109,7 +109,7 @@ pub(super) fn data_params(
         box_size: v4(geo.box_size, 0.0),
         globe: [0.0; 4],
         dims: [nx as u32, ny as u32, width, height],
-        counts: [properties as u32, 0, 0, 0],
+        counts: [properties as u32, 0, geo.y_down as u32, 0],
     };
     if let Some(g) = &geo.globe {
         params.globe = [g.lon0 as f32, g.dlon as f32, g.lat0 as f32, g.dlat as f32];
