@@ -7,6 +7,18 @@ use hdrvis::render::volume::VolumeRenderer;
 use hdrvis::render::{RenderPath, VolumeRenderOptions, VolumeSource};
 use std::sync::{Arc, OnceLock};
 
+/// Something a test needs from outside (a tool, Python modules, a font, root) is missing: the
+/// test is skipped with `why` printed, or fails when the environment variable `require` (an
+/// `HDRVIS_REQUIRE_*` that `.ci/run` sets) is 1. Returns `None`, so callers can return it.
+pub fn missing<T>(require: &str, why: &str) -> Option<T> {
+    assert!(
+        std::env::var(require).as_deref() != Ok("1"),
+        "{require}=1 but {why}"
+    );
+    eprintln!("skipped: {why}");
+    None
+}
+
 /// The backends GPU tests run on: Vulkan and the GL fallback, or those `HDRVIS_TEST_BACKENDS`
 /// names ("vulkan", "gl", comma-separated) on a machine whose GL cannot run headless (NVIDIA's
 /// EGL without a display, on the lent GPU machines).

@@ -10,12 +10,7 @@ use std::process::{Command, Output};
 
 /// The MPI-enabled hdrvis, when it and mpirun are here.
 pub(crate) fn mpi_binary() -> Option<PathBuf> {
-    let require = std::env::var("HDRVIS_REQUIRE_MPI").is_ok_and(|v| v == "1");
-    let missing = |why: String| {
-        assert!(!require, "HDRVIS_REQUIRE_MPI=1 but {why}");
-        eprintln!("skipped: {why}");
-        None
-    };
+    let missing = |why: String| crate::common::missing("HDRVIS_REQUIRE_MPI", &why);
     if Command::new("mpirun").arg("--version").output().is_err() {
         return missing(
             "mpirun is not installed (apt-get install openmpi-bin libopenmpi-dev)".into(),
@@ -252,12 +247,10 @@ fn a_missing_mpi_library_is_one_line_and_writes_nothing() {
         .output()
         .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
     if !root {
-        let require = std::env::var("HDRVIS_REQUIRE_MPI").is_ok_and(|v| v == "1");
-        assert!(
-            !require,
-            "HDRVIS_REQUIRE_MPI=1 but hiding libmpi needs root"
+        crate::common::missing::<()>(
+            "HDRVIS_REQUIRE_MPI",
+            "hiding libmpi needs root (unshare --mount)",
         );
-        eprintln!("skipped: hiding libmpi needs root (unshare --mount)");
         return;
     }
     let lib = Path::new("/usr/lib/x86_64-linux-gnu");

@@ -26,11 +26,9 @@ fn tools(list: &[&str]) -> bool {
     if missing.is_empty() {
         return true;
     }
-    if std::env::var("HDRVIS_REQUIRE_TUI_TOOLS").as_deref() == Ok("1") {
-        panic!("HDRVIS_REQUIRE_TUI_TOOLS=1 but {missing:?} not installed");
-    }
-    eprintln!(
-        "skipped: {missing:?} not installed (apt-get install tmux xterm kitty xvfb x11-apps)"
+    crate::common::missing::<()>(
+        "HDRVIS_REQUIRE_TUI_TOOLS",
+        &format!("{missing:?} not installed (apt-get install tmux xterm kitty xvfb x11-apps)"),
     );
     false
 }
@@ -740,9 +738,9 @@ fn kitty_run_preview_keeps_the_aspect_in_any_font() {
         String::from_utf8_lossy(&Command::new("fc-list").output().unwrap().stdout).to_string();
     for font in ["Noto Sans Mono", "DejaVu Sans Mono"] {
         if !fonts.contains(font) {
-            assert!(
-                std::env::var("HDRVIS_REQUIRE_TUI_TOOLS").as_deref() != Ok("1"),
-                "HDRVIS_REQUIRE_TUI_TOOLS=1 but the font {font} is not installed (fonts-noto-mono, fonts-dejavu-core)"
+            crate::common::missing::<()>(
+                "HDRVIS_REQUIRE_TUI_TOOLS",
+                &format!("the font {font} is not installed (fonts-noto-mono, fonts-dejavu-core)"),
             );
             continue;
         }
