@@ -360,13 +360,7 @@ fn variable_to_brick(
 ) -> Result<(String, netcdf::Dims)> {
     let listed = super::list_arrays(path)?;
     let all_dims = netcdf::list_variables(path)?;
-    let dims_of = |name: &str| {
-        all_dims
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, d)| d.clone())
-            .unwrap_or_default()
-    };
+    let dims_of = |name: &str| netcdf::dims_in(&all_dims, name);
     // Data variables with the selected dimensions; of those, one that fits, else one with more
     // dimensions (whose opening then says which are left to fix).
     let candidates: Vec<&super::ArrayListing> = listed

@@ -602,13 +602,7 @@ fn default_netcdf_variable(
     sel: &select::Selection,
 ) -> Result<String> {
     let all_dims = netcdf::list_variables(path)?;
-    let dims_of = |name: &str| {
-        all_dims
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, d)| d.clone())
-            .unwrap_or_default()
-    };
+    let dims_of = |name: &str| netcdf::dims_in(&all_dims, name);
     let candidates: Vec<(&ArrayListing, Vec<usize>)> = listed
         .iter()
         .filter(|a| a.is_data())

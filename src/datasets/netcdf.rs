@@ -72,6 +72,15 @@ pub type GridCoord<'a> = (&'a str, &'a [f64], &'a str);
 /// section's columns): `(name, index of its dimension in the coordinates, values, units)`.
 pub type AuxCoord<'a> = (&'a str, usize, &'a [f64], &'a str);
 
+/// The dimensions of `name` in what [`list_variables`] gave; none for a name it lacks.
+pub(crate) fn dims_in(listed: &[(String, Dims)], name: &str) -> Dims {
+    listed
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, d)| d.clone())
+        .unwrap_or_default()
+}
+
 /// Every variable of the root group with its dimensions, in file order.
 pub fn list_variables(path: impl AsRef<Path>) -> Result<Vec<(String, Dims)>> {
     let path = path.as_ref();
