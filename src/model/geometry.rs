@@ -5,7 +5,6 @@
 //! (0°N, 90°E), +z toward the North Pole, lengths in the vertical axis's unit. Renderers map a
 //! world point to fractional voxel indices through these axes and interpolate in index space.
 
-use super::cut::Cut;
 use super::vec3::dot;
 use crate::error::{Error, Result};
 
@@ -340,65 +339,6 @@ impl SphericalGrid {
     /// ends are the exact crossings; the parts between them are told apart by their midpoints.
     pub fn ray_intervals(&self, o: [f64; 3], d: [f64; 3]) -> Vec<(f64, f64)> {
         self.ray_intervals_cut(o, d, None)
-    }
-
-    /// [`Self::ray_intervals`] less the region `cut` removes: its boundaries are more crossings,
-    /// and a piece whose middle it removes is left out.
-    pub fn ray_intervals_cut(
-        &self,
-        o: [f64; 3],
-        d: [f64; 3],
-        cut: Option<&Cut>,
-    ) -> Vec<(f64, f64)> {
-        let Some((t0, t1)) = sphere_hit(o, d, self.radius.hi) else {
-            return Vec::new();
-        };
-        let (t0, t1) = (t0.max(0.0), t1);
-        if t1 <= t0 {
-            return Vec::new();
-        }
-        let mut cuts = vec![t0, t1];
-        if self.radius.lo > 0.0 {
-            if let Some((a, b)) = sphere_hit(o, d, self.radius.lo) {
-                cuts.extend([a, b]);
-            }
-        }
-        for lat in [self.latitude.lo, self.latitude.hi] {
-            if lat.abs() < 90.0 {
-                cuts.extend(cone_hits(o, d, lat));
-            }
-        }
-        if !self.lon_wraps {
-            for lon in [self.longitude.lo, self.longitude.hi] {
-                let (s, c) = lon.to_radians().sin_cos();
-                let (no, nd) = (-s * o[0] + c * o[1], -s * d[0] + c * d[1]);
-                if nd != 0.0 {
-                    cuts.push(-no / nd);
-                }
-            }
-        }
-        if let Some(c) = cut {
-            cuts.extend(c.crossings(self.planet_radius, o, d));
-        }
-        cuts.retain(|t| t.is_finite() && *t >= t0 && *t <= t1);
-        cuts.sort_by(f64::total_cmp);
-        let mut parts: Vec<(f64, f64)> = Vec::new();
-        for w in cuts.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            if b <= a {
-                continue;
-            }
-            let m = 0.5 * (a + b);
-            let p = [o[0] + m * d[0], o[1] + m * d[1], o[2] + m * d[2]];
-            if !self.contains(p) || cut.is_some_and(|c| c.removes(self.planet_radius, p)) {
-                continue;
-            }
-            match parts.last_mut() {
-                Some(last) if last.1 == a => last.1 = b,
-                _ => parts.push((a, b)),
-            }
-        }
-        parts
     }
 }
 

@@ -2,8 +2,8 @@
 //! enums (view, colour mode, phase method, missing colour) and the image size a render gets.
 
 use super::globe::GlobeFrame;
-use super::overlay::{check_graticule, CoastlineStyle};
 use super::MAX_PROPERTIES;
+use crate::datasets::coastlines::CoastResolution;
 use crate::error::{Error, Result};
 use crate::model::{Camera, Grid, Projection};
 
@@ -502,4 +502,37 @@ pub(super) fn property_indices(grid: &Grid, opts: &SurfaceOptions) -> Result<Vec
         .iter()
         .map(|p| grid.property_index(p))
         .collect()
+}
+
+/// How coastlines are drawn: colour (linear RGB, with the name it was given), line width in
+/// pixels and the Natural Earth scale (`None`: chosen by the map's extent).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoastlineStyle {
+    pub colour: String,
+    pub linear: [f64; 3],
+    pub width: f64,
+    pub resolution: Option<CoastResolution>,
+}
+
+impl Default for CoastlineStyle {
+    fn default() -> Self {
+        CoastlineStyle {
+            colour: "black".into(),
+            linear: [0.0; 3],
+            width: 1.0,
+            resolution: None,
+        }
+    }
+}
+
+/// A graticule step must be a finite number of degrees in (0, 90].
+pub(crate) fn check_graticule(step: f64) -> Result<()> {
+    if step.is_finite() && step > 0.0 && step <= 90.0 {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            "graticule",
+            format!("expected a step in degrees > 0 and at most 90, got {step}"),
+        ))
+    }
 }

@@ -7,32 +7,11 @@
 //! faces the eye, so the far hemisphere stays hidden. The coastlines are Natural Earth's
 //! ([`crate::datasets::coastlines`]).
 
-use super::options::{SurfaceOptions, SurfaceView};
+use super::options::{CoastlineStyle, SurfaceOptions, SurfaceView};
 use crate::datasets::coastlines::{coastlines, CoastResolution};
 use crate::error::{Error, Result};
 use crate::model::map_frame::MapAxes;
 use crate::model::{Camera, Grid, HdrImage};
-
-/// How coastlines are drawn: colour (linear RGB, with the name it was given), line width in
-/// pixels and the Natural Earth scale (`None`: chosen by the map's extent).
-#[derive(Clone, Debug, PartialEq)]
-pub struct CoastlineStyle {
-    pub colour: String,
-    pub linear: [f64; 3],
-    pub width: f64,
-    pub resolution: Option<CoastResolution>,
-}
-
-impl Default for CoastlineStyle {
-    fn default() -> Self {
-        CoastlineStyle {
-            colour: "black".into(),
-            linear: [0.0; 3],
-            width: 1.0,
-            resolution: None,
-        }
-    }
-}
 
 /// The graticule's colour (linear mid grey) and width in pixels.
 const GRATICULE_COLOUR: [f64; 3] = [0.2; 3];
@@ -62,18 +41,6 @@ fn check_width(field: &str, w: f64) -> Result<()> {
         Err(Error::invalid(
             field,
             format!("expected a line width > 0 and at most {MAX_LINE_WIDTH} pixels, got {w}"),
-        ))
-    }
-}
-
-/// A graticule step must be a finite number of degrees in (0, 90].
-pub(crate) fn check_graticule(step: f64) -> Result<()> {
-    if step.is_finite() && step > 0.0 && step <= 90.0 {
-        Ok(())
-    } else {
-        Err(Error::invalid(
-            "graticule",
-            format!("expected a step in degrees > 0 and at most 90, got {step}"),
         ))
     }
 }
@@ -532,7 +499,7 @@ mod tests {
                 .starts_with("coastlines.width:"));
         }
         for step in [0.0, -10.0, f64::INFINITY, 91.0] {
-            assert!(check_graticule(step)
+            assert!(super::super::options::check_graticule(step)
                 .unwrap_err()
                 .to_string()
                 .starts_with("graticule:"));
