@@ -46,6 +46,10 @@ struct Mapped {
     cut_r: vec4<f32>,
     // 1 where the cut has a latitude (x), longitude (y) or depth (z) range; w 1 when it exists.
     cut_on: vec4<u32>,
+    // The cut-away of a box (model::cut::Cut's x, y, z): the removed box's corners relative to
+    // the volume's corner (an absent range spans far beyond the volume); w 1 when it exists.
+    box_cut_lo: vec4<f32>,
+    box_cut_hi: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -456,14 +460,50 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
 }
 #endif
 #else
+// Where the ray crosses the cut-away's box (Cut::clip_box's slab method): [enter, leave], empty
+// where it misses; a ray parallel to a slab is inside it or misses it.
+fn box_cut_hit(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    var c = vec2<f32>(-3.0e38, 3.0e38);
+    for (var a = 0u; a < 3u; a++) {
+        let lo = G.box_cut_lo[a];
+        let hi = G.box_cut_hi[a];
+        if (d[a] == 0.0) {
+            if (o[a] < lo || o[a] > hi) {
+                return vec2<f32>(1.0, -1.0);
+            }
+            continue;
+        }
+        let ta = (lo - o[a]) / d[a];
+        let tb = (hi - o[a]) / d[a];
+        c = vec2<f32>(max(c.x, min(ta, tb)), min(c.y, max(ta, tb)));
+    }
+    return c;
+}
+
+// The ray's piece inside the box, less its piece inside the cut-away: none, one or two parts.
 fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
     var out = Parts(array<vec2<f32>, 6>(), 0u);
     let hit = box_hit(o, d, P.box_size.xyz);
     let t0 = max(hit.x, 0.0);
-    if (hit.y > t0) {
-        out.span[0] = vec2<f32>(t0, hit.y);
-        out.n = 1u;
+    let t1 = hit.y;
+    if (!(t1 > t0)) {
+        return out;
     }
+    var c = vec2<f32>(1.0, -1.0);
+    if (G.box_cut_lo.w > 0.5) {
+        c = box_cut_hit(o, d);
+    }
+    if (!(c.y > c.x)) {
+        out.span[0] = vec2<f32>(t0, t1);
+        out.n = 1u;
+        return out;
+    }
+    let front = vec2<f32>(t0, min(c.x, t1));
+    let back = vec2<f32>(max(c.y, t0), t1);
+    let has_front = front.y > front.x;
+    out.span[0] = select(back, front, has_front);
+    out.span[1] = back;
+    out.n = select(0u, 1u, has_front) + select(0u, 1u, back.y > back.x);
     return out;
 }
 #endif

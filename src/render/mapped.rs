@@ -9,7 +9,7 @@ use super::volume::{
     SHELL, SPHERICAL, UNEVEN,
 };
 use super::VolumeRenderOptions;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::model::{CoordAxis, Cut, Geometry, HdrImage, Volume};
 
 /// Host mirror of `Mapped` in shaders/volume_mapped.wgsl — keep in sync.
@@ -32,6 +32,8 @@ struct MappedParams {
     cut: [f32; 4],
     cut_r: [f32; 4],
     cut_on: [u32; 4],
+    box_cut_lo: [f32; 4],
+    box_cut_hi: [f32; 4],
 }
 
 impl MappedParams {
@@ -85,12 +87,26 @@ impl MappedParams {
             1,
         ];
     }
+
+    /// The cut-away `cut` of a box whose lower corner is `corner` (the shader's frame): an
+    /// absent range spans far beyond any volume (finite, so the slab method's quotients are).
+    fn set_box_cut(&mut self, cut: &Cut, corner: [f64; 3]) {
+        let ranges = [cut.x, cut.y, cut.z];
+        for a in 0..3 {
+            let [lo, hi] = ranges[a]
+                .map(|[lo, hi]| [(lo - corner[a]) as f32, (hi - corner[a]) as f32])
+                .unwrap_or([-1.0e30, 1.0e30]);
+            (self.box_cut_lo[a], self.box_cut_hi[a]) = (lo, hi);
+        }
+        self.box_cut_lo[3] = 1.0;
+    }
 }
 
 /// The shader's view of `volume`'s geometry: the pipeline variant (bits above), the uniform
 /// block, the uneven axes' centres, and the frame geometry the
 /// shared parameters are built from (the eye relative to the box's corner, or to the planet's
-/// centre for a shell). A cut-away takes the general spherical variant, which clips to it.
+/// centre for a shell). A shell's cut-away takes the general spherical variant, which clips to
+/// it; a box's is clipped by the box variant, which is how a regular box with a cut renders.
 fn mapped_params(
     volume: &Volume,
     cut: Option<&Cut>,
@@ -102,11 +118,23 @@ fn mapped_params(
     let mut coords = Vec::new();
     let bounds = volume.bounds();
     match &volume.geometry {
-        Geometry::Regular => Err(Error::invalid(
-            "geometry",
-            "a regular volume renders in the in-core ray caster",
-        )),
-        Geometry::Rectilinear(axes) => {
+        Geometry::Regular | Geometry::Rectilinear(_) => {
+            // A regular box comes here only with a cut-away: its axes are even, the shader's
+            // fast case.
+            let regular;
+            let axes: &[CoordAxis; 3] = match &volume.geometry {
+                Geometry::Rectilinear(axes) => axes,
+                _ => {
+                    regular = [0, 1, 2].map(|a| {
+                        CoordAxis::uniform_cells(
+                            volume.origin[a],
+                            volume.spacing[a],
+                            volume.dims[a],
+                        )
+                    });
+                    &regular
+                }
+            };
             p.domain_lo = [
                 bounds.lo[0] as f32,
                 bounds.lo[1] as f32,
@@ -121,6 +149,9 @@ fn mapped_params(
             ];
             for (a, axis) in axes.iter().enumerate() {
                 p.set_axis(a, axis, a, &mut coords);
+            }
+            if let Some(c) = cut {
+                p.set_box_cut(c, bounds.lo);
             }
             let uneven = if coords.is_empty() { 0 } else { UNEVEN };
             coords.resize(coords.len().max(4), 0.0);

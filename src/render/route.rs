@@ -149,13 +149,17 @@ fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
     if opts.precision == Precision::F64 {
         return Ok(RenderPath::F64Cpu);
     }
+    let placed = if v.is_regular() {
+        "a box with a cut-away".to_string()
+    } else {
+        format!("a {} volume placed by coordinate axes", v.geometry.name())
+    };
     let refuse = |field: &str, what: &str| {
         Err(Error::invalid(
             field,
             format!(
-                "{} is a {} volume placed by coordinate axes, which renders whole in GPU memory; {what}",
-                v.name,
-                v.geometry.name()
+                "{} is {placed}, which renders whole in GPU memory; {what}",
+                v.name
             ),
         ))
     };
@@ -173,7 +177,8 @@ fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
 
 /// A cut-away is for volumes in memory, and must leave part of the volume: latitude, longitude
 /// and depth ranges of a spherical volume (its path is chosen as without a cut), world x, y, z
-/// ranges of a box, which only the f64 CPU reference clips (`Some` of that path).
+/// ranges of a box, which the mapped ray caster clips (regular boxes too: the in-core and
+/// bricked ray casters march one piece a ray) and the f64 CPU reference (`Some` of that path).
 fn check_cut(
     source: &VolumeSource,
     cut: &Cut,
@@ -193,13 +198,7 @@ fn check_cut(
         return cut.check(g).map(|_| None);
     }
     cut.check_box(&v.name, &v.bounds())?;
-    if opts.precision != Precision::F64 {
-        return Err(Error::invalid(
-            "cut",
-            "a box's cut-away runs on the f64 CPU reference: add precision: \"f64\" (the GPU box ray casters do not clip yet)",
-        ));
-    }
-    Ok(Some(RenderPath::F64Cpu))
+    mapped_path(v, opts).map(Some)
 }
 
 /// The path of `missing: "renormalise"`: the f64 CPU reference, the one ray caster that
