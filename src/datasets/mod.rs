@@ -19,6 +19,7 @@ pub mod npy;
 pub mod okada;
 mod scalar;
 pub mod select;
+pub mod series;
 pub mod tsunami;
 pub(crate) mod vti;
 pub(crate) mod vtk_legacy;

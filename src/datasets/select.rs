@@ -297,6 +297,18 @@ pub(crate) fn refuse_time(path: &Path, var: &str, kept: &[&(String, usize)]) -> 
 /// The dates of the CF time axis of variable `var` (else of the first data variable that has
 /// one), in ISO 8601: what `times(path)` returns.
 pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+    Ok(time_axis(path, var)?.dates)
+}
+
+/// A variable's CF time axis: the variable, its time dimension and the dates of its steps.
+pub(crate) struct TimeAxis {
+    pub variable: String,
+    pub dim: String,
+    pub dates: Vec<String>,
+}
+
+/// The CF time axis of variable `var`, else of the first data variable that has one.
+pub(crate) fn time_axis(path: &Path, var: Option<&str>) -> Result<TimeAxis> {
     let listed = super::list_arrays(path)?;
     let vars = netcdf::list_variables(path)?;
     let wanted: Vec<&(String, netcdf::Dims)> = match var {
@@ -309,13 +321,17 @@ pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
             .filter(|(n, _)| listed.iter().any(|a| &a.name == n && a.is_data()))
             .collect(),
     };
-    for (_, dims) in &wanted {
+    for (name, dims) in &wanted {
         for (dim, _) in dims {
             let Some(coord) = cf::read_coordinate(path, dim)? else {
                 continue;
             };
             if let Some(t) = cf::time_units(path, &coord)? {
-                return Ok(coord.data.iter().map(|&v| t.date(v)).collect());
+                return Ok(TimeAxis {
+                    variable: name.clone(),
+                    dim: dim.clone(),
+                    dates: coord.data.iter().map(|&v| t.date(v)).collect(),
+                });
             }
         }
     }

@@ -262,6 +262,49 @@ fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
 /// `times(path[, variable])`: the steps of the CF time axis of a variable (the named one, the one
 /// a `"file.nc:var"` path names, else the file's first data variable that has one), as
 /// `[#{ index, date }]` with ISO 8601 dates.
+pub(crate) const SERIES_RANGE: OptionTable = OptionTable {
+    function: "series_range",
+    options: &[
+        opt("variable", Kind::Text("\"eta\""), "the first data variable with a time axis", "the variable (\"f.nc:eta\" also picks it)"),
+        opt("steps", Kind::Value("array of integers", "[0, 2]"), "every step", "positions along the time axis, as times() numbers them"),
+        opt("robust", Kind::Bool, "false", "the 2nd and 98th percentiles instead of the minimum and maximum (as xarray's robust plots)"),
+        opt("centre", Kind::Finite, "none", "widen the range to be symmetric about this value (a diverging map's middle)"),
+    ],
+    call: "series_range(\"series.nc\", OPTS)",
+    base: "#{}",
+};
+
+/// `series_range(path[, options])`: the value range over the steps of a time series.
+fn series_range(host: &ScriptHost, path: &str, opts: &Map) -> RResult<rhai::Array> {
+    let given = SERIES_RANGE.read(opts)?;
+    let (p, from_path) = host.sandbox.read_data_path(path).map_err(to_rhai)?;
+    let steps = match given.value("steps")? {
+        None => None,
+        Some(v) => {
+            let items = v.clone().into_array().map_err(|_| {
+                to_rhai(crate::Error::invalid(
+                    "series_range.steps",
+                    format!("expected an array of integers, got {}", v.type_name()),
+                ))
+            })?;
+            Some(
+                items
+                    .iter()
+                    .map(|d| int(d, "series_range.steps"))
+                    .collect::<RResult<Vec<i64>>>()?,
+            )
+        }
+    };
+    let o = crate::datasets::series::SeriesOptions {
+        variable: given.string("variable")?.or(from_path),
+        steps,
+        robust: given.bool("robust")?.unwrap_or(false),
+        centre: given.num("centre")?,
+    };
+    let [lo, hi] = crate::datasets::series::series_range(&p, &o).map_err(to_rhai)?;
+    Ok(vec![Dynamic::from(lo), Dynamic::from(hi)])
+}
+
 fn times(host: &ScriptHost, path: &str, variable: Option<&str>) -> RResult<rhai::Array> {
     let (p, from_path) = host.sandbox.read_data_path(path).map_err(to_rhai)?;
     let variable = variable.map(str::to_string).or(from_path);
@@ -279,6 +322,15 @@ fn times(host: &ScriptHost, path: &str, variable: Option<&str>) -> RResult<rhai:
 }
 
 pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
+    let h = host.clone();
+    engine.register_fn("series_range", move |path: &str| -> RResult<rhai::Array> {
+        series_range(&h, path, &Map::new())
+    });
+    let h = host.clone();
+    engine.register_fn(
+        "series_range",
+        move |path: &str, opts: Map| -> RResult<rhai::Array> { series_range(&h, path, &opts) },
+    );
     let h = host.clone();
     engine.register_fn("times", move |path: &str| -> RResult<rhai::Array> {
         times(&h, path, None)

@@ -4,7 +4,7 @@
 
 use super::api_bricks::OPEN_VOLUME;
 use super::api_datasets::{
-    GENERATE_MANTLE, GENERATE_MANTLE_FILE, GENERATE_OKADA, GENERATE_TSUNAMI,
+    GENERATE_MANTLE, GENERATE_MANTLE_FILE, GENERATE_OKADA, GENERATE_TSUNAMI, SERIES_RANGE,
 };
 use super::api_fields::RESAMPLE;
 use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
@@ -69,6 +69,8 @@ pub(crate) const API: &[ApiEntry] = &[
     with(e("datasets", "open_volume", &["path: string", "options: map"], "BrickedVolume", "As above with options (\"box.nc:T\" also picks the variable):"), &[&OPEN_VOLUME]),
     e("datasets", "times", &["path: string"], "array", "The steps of a NetCDF file's CF time axis (of its first data variable that has one) as [#{ index, date }], dates in ISO 8601 in the file's calendar; for sweeps over index: #{ time: i }."),
     e("datasets", "times", &["path: string", "variable: string"], "array", "As above for the named variable."),
+    e("datasets", "series_range", &["path: string"], "array", "[lo, hi]: the range of a NetCDF variable over every step of its CF time axis, read a step at a time, missing values left out: one colour range (domain) for every frame of a movie."),
+    with(e("datasets", "series_range", &["path: string", "options: map"], "array", "As above with options:"), &[&SERIES_RANGE]),
     with(e("datasets", "generate_mantle", &["options: map"], "Volume", "Synthetic mantle shell on [-1, 1]^3; outside the shell is missing (NaN). Options:"), &[&GENERATE_MANTLE]),
     with(e("datasets", "generate", &["kind: string", "options: map"], "string", "Path of a cached NetCDF dataset, generated on a miss: \"okada\" (ux, uy, uz), \"tsunami\" (max_abs_eta, arrival_time, depth) or \"mantle\" (the field). Options of each kind:"), &[&GENERATE_OKADA, &GENERATE_TSUNAMI, &GENERATE_MANTLE_FILE]),
     e("datasets", "volume_log10", &["volume: Volume"], "Volume", "log10 of every voxel; zeros and negatives become missing (NaN)."),

@@ -313,3 +313,92 @@ fn bad_selections_are_one_line_errors_naming_file_variable_and_dimension() {
     let (code, _, err) = hdrvis(&["run", "t.rhai", "--out", "o"], dir.path());
     assert_eq!(code, 0, "{err}");
 }
+
+/// One colour range for a movie (tests/python/write_cf_cases.py `movie`, the fixture's writer):
+/// series_range over every step is xarray's minimum and maximum, over steps 1, 3 and 5 with
+/// robust numpy's 2nd and 98th percentiles, with a centre symmetric about it; the example script
+/// renders every step with that range as its colour bar's domain (read back from the frames'
+/// EXR), a rerun with --resume renders none again, and a step out of range is a one-line error.
+#[test]
+fn a_series_movie_has_one_colour_range_over_its_steps() {
+    use hdrvis::datasets::series::{series_range, SeriesOptions};
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "movie") else {
+        return;
+    };
+    let path = dir.path().join("tsunami_series.nc");
+    let (lo, hi) = (numbers(&r, "min")[0], numbers(&r, "max")[0]);
+    let all = series_range(&path, &SeriesOptions::default()).unwrap();
+    assert_values(&all, &[lo, hi], 1e-12, "range");
+    let robust = SeriesOptions {
+        steps: Some(vec![1, 3, 5]),
+        robust: true,
+        ..Default::default()
+    };
+    let got = series_range(&path, &robust).unwrap();
+    assert_values(&got, &numbers(&r, "robust"), 1e-12, "robust range");
+    let centred = SeriesOptions {
+        centre: Some(0.0),
+        ..Default::default()
+    };
+    let half = lo.abs().max(hi.abs());
+    let got = series_range(&path, &centred).unwrap();
+    assert_values(&got, &[-half, half], 1e-12, "centred range");
+    assert_eq!(
+        hdrvis::datasets::select::time_steps(&path, None).unwrap(),
+        r["dates"]
+    );
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/tsunami_series.rhai");
+    let out = dir.path().join("out");
+    let set = format!("file={}", path.display());
+    let args = [
+        "run",
+        script.to_str().unwrap(),
+        "--allow-path",
+        dir.path().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        &set,
+    ];
+    let (code, stdout, stderr) = hdrvis(&args, dir.path());
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    for i in 0..6 {
+        let frame = out.join(format!("series/eta_0{i}.exr"));
+        let img = hdrvis::io::exr::read_exr(&frame).unwrap();
+        let domain: Vec<f64> = img
+            .meta("legend_domain")
+            .unwrap_or_else(|| panic!("{}: no legend_domain", frame.display()))
+            .split_whitespace()
+            .map(|w| w.parse().unwrap())
+            .collect();
+        assert_values(&domain, &[-half, half], 1e-12, "frame's colour bar");
+    }
+    assert!(out.join("series/eta.gif").is_file());
+    let written = |name: &str| {
+        std::fs::metadata(out.join(name))
+            .unwrap()
+            .modified()
+            .unwrap()
+    };
+    let before = written("series/eta_00.exr");
+    let resumed = [&args[..], &["--resume"]].concat();
+    let (code, stdout, stderr) = hdrvis(&resumed, dir.path());
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    assert_eq!(
+        written("series/eta_00.exr"),
+        before,
+        "a finished frame was rendered again"
+    );
+    let bad = SeriesOptions {
+        steps: Some(vec![6]),
+        ..Default::default()
+    };
+    let e = series_range(&path, &bad).unwrap_err().to_string();
+    assert!(
+        e.contains("variable 'eta', dimension 'time'")
+            && e.contains("step 6 is out of range; expected 0..=5")
+            && !e.contains('\n'),
+        "{e}"
+    );
+}

@@ -16,6 +16,9 @@ CASE is one of:
             across the 1582 reform): (time, depth, lat, lon) and (time, lat, lon) fields, with
             cftime's dates and xarray's isel/sel/interp values; series_badcal.nc with the
             calendar "lunar"
+  movie     tsunami_series.nc by datasets/fixtures/make_series.py (xarray): eta's range over every
+            step, its 2nd and 98th percentiles (numpy's nanpercentile, as xarray's robust plots)
+            over steps 1, 3 and 5, and the time axis's dates
 Each result is one line, `KEY VALUE VALUE ...`, nested keys joined by dots, arrays in C order
 with `nan` for masked values. Exit status 77 (skipped) when a module is missing.
 """
@@ -222,9 +225,26 @@ def series(out):
     return result
 
 
+def movie(out):
+    here = os.path.dirname(os.path.abspath(__file__))
+    sys.path.insert(0, os.path.join(here, "..", "..", "datasets", "fixtures"))
+    import make_series
+
+    path = os.path.join(out, "tsunami_series.nc")
+    make_series.main(path)
+    eta = xr.open_dataset(path).eta
+    some = eta.isel(time=[1, 3, 5]).values
+    return {
+        "min": float(eta.min()),
+        "max": float(eta.max()),
+        "robust": [float(v) for v in np.nanpercentile(some, [2.0, 98.0])],
+        "dates": [str(d)[:19] for d in eta.time.values],
+    }
+
+
 def main():
     out, case = sys.argv[1], sys.argv[2]
-    run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series}[case]
+    run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series, "movie": movie}[case]
     emit("", run(out))
 
 

@@ -1,0 +1,122 @@
+//! One colour range for a time series: the range of a NetCDF variable over the steps of its CF
+//! time axis that a movie shows, computed once before its frames are drawn, so that every frame
+//! maps the same value to the same colour. The steps are read one at a time (only their
+//! hyperslabs); missing values are left out. As xarray's plots do with `robust=True`, the range
+//! may be the 2nd and 98th percentiles instead of the extremes (numpy's linear interpolation
+//! between order statistics), and it may be made symmetric about a centre for diverging maps.
+
+use std::path::Path;
+
+use super::netcdf;
+use super::select::time_axis;
+use crate::error::{Error, Result};
+
+/// What [`series_range`] computes over.
+#[derive(Clone, Debug, Default)]
+pub struct SeriesOptions {
+    /// The variable (default: the first data variable with a CF time axis).
+    pub variable: Option<String>,
+    /// Positions along the time axis (default: every step).
+    pub steps: Option<Vec<i64>>,
+    /// The 2nd and 98th percentiles instead of the minimum and maximum.
+    pub robust: bool,
+    /// Widen the range to be symmetric about this value.
+    pub centre: Option<f64>,
+}
+
+/// The range `[lo, hi]` of the variable over the chosen steps (see the module documentation).
+pub fn series_range(path: &Path, opts: &SeriesOptions) -> Result<[f64; 2]> {
+    let axis = time_axis(path, opts.variable.as_deref())?;
+    let n = axis.dates.len();
+    let field = format!(
+        "{}: variable '{}', dimension '{}'",
+        path.display(),
+        axis.variable,
+        axis.dim
+    );
+    let steps: Vec<usize> = match &opts.steps {
+        None => (0..n).collect(),
+        Some(s) if s.is_empty() => return Err(Error::invalid(field, "steps is empty")),
+        Some(s) => s
+            .iter()
+            .map(|&i| {
+                usize::try_from(i).ok().filter(|&i| i < n).ok_or_else(|| {
+                    Error::invalid(
+                        field.clone(),
+                        format!("step {i} is out of range; expected 0..={}", n as i64 - 1),
+                    )
+                })
+            })
+            .collect::<Result<_>>()?,
+    };
+    let dims = netcdf::dims_in(&netcdf::list_variables(path)?, &axis.variable);
+    let t = dims
+        .iter()
+        .position(|(d, _)| *d == axis.dim)
+        .expect("the time axis is one of the variable's dimensions");
+    let mut values = Vec::new();
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &step in &steps {
+        let mut picks = vec![None; dims.len()];
+        picks[t] = Some(step);
+        let slab = netcdf::read_variable_picked(path, &axis.variable, &picks)?;
+        for &v in slab.data.iter().filter(|v| v.is_finite()) {
+            (lo, hi) = (lo.min(v), hi.max(v));
+            if opts.robust {
+                values.push(v);
+            }
+        }
+    }
+    if lo > hi {
+        return Err(Error::format(
+            path,
+            format!(
+                "variable '{}' is missing everywhere in the {} chosen steps",
+                axis.variable,
+                steps.len()
+            ),
+        ));
+    }
+    if opts.robust {
+        values.sort_by(f64::total_cmp);
+        (lo, hi) = (percentile(&values, 2.0), percentile(&values, 98.0));
+    }
+    Ok(match opts.centre {
+        Some(c) => {
+            let h = (lo - c).abs().max((hi - c).abs());
+            [c - h, c + h]
+        }
+        None => [lo, hi],
+    })
+}
+
+/// The `p`th percentile of sorted `v`, linear between the order statistics around
+/// `p / 100 · (len − 1)` (numpy's default).
+fn percentile(v: &[f64], p: f64) -> f64 {
+    let x = p / 100.0 * (v.len() - 1) as f64;
+    let (i, w) = (x.floor() as usize, x - x.floor());
+    match v.get(i + 1) {
+        Some(&next) => v[i] + w * (next - v[i]),
+        None => v[i],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::percentile;
+
+    /// numpy.percentile([1, 2, 3, 4], [2, 50, 98]) = [1.06, 2.5, 3.94].
+    #[test]
+    fn percentiles_interpolate_as_numpy() {
+        let v = [1.0, 2.0, 3.0, 4.0];
+        for (p, want) in [
+            (2.0, 1.06),
+            (50.0, 2.5),
+            (98.0, 3.94),
+            (100.0, 4.0),
+            (0.0, 1.0),
+        ] {
+            assert!((percentile(&v, p) - want).abs() < 1e-12, "{p}");
+        }
+    }
+}
