@@ -202,6 +202,9 @@ pub struct InfoArgs {
     /// `--at time=2011-03-11T06:00` (nearest time; between two levels, linear) (repeatable)
     #[arg(long = "at", value_name = "DIM=VALUE")]
     pub at: Vec<String>,
+    /// The band of a multi-band GeoTIFF, counted from 1 as GDAL does
+    #[arg(long = "band", value_name = "N")]
+    pub band: Option<usize>,
 }
 
 /// Runs a generator and returns the file it wrote (or found in the cache).
@@ -258,7 +261,7 @@ pub fn run_info(args: &InfoArgs) -> Result<String> {
         };
         sel.at.push((dim, at));
     }
-    hdrvis::datasets::info::info_report_with(&args.file, args.var.as_deref(), &sel)
+    hdrvis::datasets::info::info_report_band(&args.file, args.var.as_deref(), &sel, args.band)
 }
 
 /// `DIM=VALUE` as its two sides.
