@@ -455,3 +455,110 @@ fn check_crs(path: &Path, keys: &[(u16, u16)]) -> Result<String> {
         )),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tiff::encoder::{colortype, TiffEncoder};
+
+    /// A 3x2 float32 GeoTIFF with the given georeferencing tags, GeoKeys and nodata text.
+    fn write(path: &Path, scale: &[f64], tie: &[f64], keys: &[u16], nodata: Option<&str>) {
+        let file = std::fs::File::create(path).unwrap();
+        let mut enc = TiffEncoder::new(file).unwrap();
+        let mut image = enc.new_image::<colortype::Gray32Float>(3, 2).unwrap();
+        let dir = image.encoder();
+        dir.write_tag(Tag::ModelPixelScaleTag, scale).unwrap();
+        dir.write_tag(Tag::ModelTiepointTag, tie).unwrap();
+        let mut directory = vec![1, 1, 0, (keys.len() / 2) as u16];
+        for k in keys.chunks(2) {
+            directory.extend([k[0], 0, 1, k[1]]);
+        }
+        dir.write_tag(Tag::GeoKeyDirectoryTag, &directory[..])
+            .unwrap();
+        if let Some(n) = nodata {
+            dir.write_tag(Tag::GdalNodata, n).unwrap();
+        }
+        image
+            .write_data(&[1.0, f32::NAN, 3.0, 4.0, 5.0, 6.0])
+            .unwrap();
+    }
+
+    #[test]
+    fn a_negative_y_scale_runs_rows_south_to_north_and_user_defined_wgs84_is_accepted() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.tif");
+        // Tiepoint at raster (1, 0) = (10.5, -20); y scale -0.5: rows go north.
+        let keys = [
+            GT_MODEL_TYPE,
+            MODEL_GEOGRAPHIC,
+            GEOGRAPHIC_TYPE,
+            USER_DEFINED,
+            GEOG_GEODETIC_DATUM,
+            DATUM_WGS84,
+        ];
+        write(
+            &path,
+            &[0.5, -0.5, 0.0],
+            &[1.0, 0.0, 0.0, 10.5, -20.0, 0.0],
+            &keys,
+            Some("nan"),
+        );
+        let r = read(&path, None).unwrap();
+        assert_eq!(r.lon, vec![10.25, 10.75, 11.25]);
+        assert_eq!(r.lat, vec![-19.75, -19.25]);
+        assert_eq!(r.fill_count, 1);
+        assert!(r.data[1].is_nan() && r.data[5] == 6.0);
+        assert!(r.notes[0].contains("WGS 84 datum"), "{:?}", r.notes);
+    }
+
+    #[test]
+    fn other_crss_and_bad_tags_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.tif");
+        let cases: [(&[u16], Option<&str>, &str); 4] = [
+            (
+                &[GT_MODEL_TYPE, MODEL_GEOGRAPHIC, GEOGRAPHIC_TYPE, 4269],
+                None,
+                "geographic CRS EPSG:4269, not WGS 84",
+            ),
+            (
+                &[
+                    GT_MODEL_TYPE,
+                    MODEL_PROJECTED,
+                    PROJECTED_CS_TYPE,
+                    USER_DEFINED,
+                ],
+                None,
+                "a user-defined projected CRS",
+            ),
+            (
+                &[
+                    GT_MODEL_TYPE,
+                    MODEL_GEOGRAPHIC,
+                    GEOGRAPHIC_TYPE,
+                    EPSG_WGS84,
+                    GEOG_ANGULAR_UNITS,
+                    9101,
+                ],
+                None,
+                "EPSG:9101 is not degrees",
+            ),
+            (
+                &[GT_MODEL_TYPE, MODEL_GEOGRAPHIC, GEOGRAPHIC_TYPE, EPSG_WGS84],
+                Some("none"),
+                "GDAL_NODATA (tag 42113) is 'none'",
+            ),
+        ];
+        for (keys, nodata, want) in cases {
+            write(
+                &path,
+                &[1.0, 1.0, 0.0],
+                &[0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                keys,
+                nodata,
+            );
+            let e = read(&path, None).unwrap_err().to_string();
+            assert!(e.contains(want) && !e.contains('\n'), "{want}: {e}");
+        }
+    }
+}

@@ -201,7 +201,7 @@ pub(crate) const SELECT_INDEX: OptionSpec = opt(
     "index",
     Kind::Value("map of dimension: integer", "#{}"),
     "none",
-    "fix dimensions at positions, as xarray's isel: #{ time: 5 } (NetCDF)",
+    "fix dimensions at positions, as xarray's isel: #{ time: 5 } (NetCDF; the time of a MintPy time series)",
 );
 pub(crate) const SELECT_AT: OptionSpec = opt(
     "at",

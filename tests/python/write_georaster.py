@@ -5,13 +5,14 @@ tools read back: the reference values of hdrvis's GeoTIFF and MintPy tests.
     python3 tests/python/write_georaster.py OUT_DIR CASE
 
 CASE is one of:
-  geotiff   rasterio (GDAL) GeoTIFFs in EPSG:4326: north.tif (float32, north up, deflate, tiled,
-            nodata -9999), south.tif (float64, south up: positive y pixel size, strips),
-            point.tif (int16, AREA_OR_POINT=Point, LZW), bands.tif (3 float32 bands, pixel
-            interleaved), planar.tif (the same bands, band interleaved), utm.tif (EPSG:32654),
-            rotated.tif (a rotated affine), plain.tif (no georeferencing), truncated.tif
-            (north.tif cut short); values as rasterio reads them (nodata masked) and the pixel
-            centres' longitudes and latitudes from rasterio's xy()
+  geotiff   rasterio (GDAL) GeoTIFFs in EPSG:4326: north.tif (float32, north up, deflate with
+            the floating-point predictor, tiled, nodata -9999), south.tif (float64, south up:
+            positive y pixel size, strips), point.tif (int16, AREA_OR_POINT=Point, LZW with the
+            horizontal predictor), bands.tif (3 float32 bands, pixel interleaved), planar.tif
+            (the same bands, band interleaved), utm.tif (EPSG:32654), rotated.tif (a rotated
+            affine), plain.tif (no georeferencing), truncated.tif (north.tif cut short); values
+            as rasterio reads them (nodata masked) and the pixel centres' longitudes and
+            latitudes from rasterio's xy()
   mintpy    h5py files in MintPy's layout (root attributes as strings): velocity.h5 (geocoded,
             Y_STEP < 0), timeseries.h5 ((date, row, col) with its `date` list), radar.h5
             (radar coordinates, no X_FIRST); values by numpy and pixel centres by rasterio's xy()
@@ -52,13 +53,15 @@ def centres(transform, height, width):
     return lon, lat
 
 
-def write_tif(path, data, transform, crs="EPSG:4326", **kw):
+def write_tif(path, data, transform, crs="EPSG:4326", tags=None, **kw):
     bands = data if data.ndim == 3 else data[None]
     profile = dict(driver="GTiff", height=bands.shape[1], width=bands.shape[2], count=bands.shape[0],
                    dtype=bands.dtype, transform=transform, **kw)
     if crs is not None:
         profile["crs"] = CRS.from_string(crs)
     with rasterio.open(path, "w", **profile) as d:
+        if tags:
+            d.update_tags(**tags)
         d.write(bands)
 
 
@@ -80,7 +83,7 @@ def geotiff(out):
     north[1, 2] = -9999
     north[4, 6] = -9999
     t = Affine(0.25, 0, 139.0, 0, -0.5, 36.0)  # west edge 139, north edge 36
-    write_tif(os.path.join(out, "north.tif"), north, t, nodata=-9999, compress="deflate",
+    write_tif(os.path.join(out, "north.tif"), north, t, nodata=-9999, compress="deflate", predictor=3,
               tiled=True, blockxsize=16, blockysize=16)
     report_tif("north", os.path.join(out, "north.tif"))
 
@@ -91,7 +94,7 @@ def geotiff(out):
 
     point = rng.integers(-30000, 30000, size=(3, 4)).astype(np.int16)
     t = Affine(1.0, 0, 10.0, 0, -1.0, 50.0)
-    write_tif(os.path.join(out, "point.tif"), point, t, compress="lzw", AREA_OR_POINT="Point")
+    write_tif(os.path.join(out, "point.tif"), point, t, compress="lzw", predictor=2, tags={"AREA_OR_POINT": "Point"})
     report_tif("point", os.path.join(out, "point.tif"))
 
     bands = (rng.normal(size=(3, 4, 5)) * 10).astype(np.float32)
