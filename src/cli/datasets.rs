@@ -463,6 +463,7 @@ mod tests {
             var: None,
             index: Vec::new(),
             at: Vec::new(),
+            band: None,
         })
         .unwrap();
         assert!(report.contains("variable: max_abs_eta"), "{report}");

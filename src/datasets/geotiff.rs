@@ -109,22 +109,7 @@ pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
             .map_err(|e| tiff_error(path, &e))?
             .num_samples(),
     );
-    let band = match (band, samples) {
-        (None, 1) => 1,
-        (None, n) => {
-            return Err(fail(
-                path,
-                format!("has {n} bands; choose one with band: N (1 to {n}, as GDAL counts)"),
-            ))
-        }
-        (Some(b), n) if b < 1 || b > n => {
-            return Err(fail(
-                path,
-                format!("band {b} is out of range; the file has {n} band(s), 1 to {n}"),
-            ))
-        }
-        (Some(b), _) => b,
-    };
+    let band = choose_band(path, band, samples)?;
     let geo = georeferencing(path, &mut dec)?;
     let lon: Vec<f64> = (0..nx).map(|i| geo.x(i as f64 + geo.offset)).collect();
     let lat: Vec<f64> = (0..ny).map(|j| geo.y(j as f64 + geo.offset)).collect();
@@ -201,6 +186,22 @@ pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
         notes,
         fill_count,
     })
+}
+
+/// The band to read, 1-based: `band`, else the only one.
+fn choose_band(path: &Path, band: Option<usize>, samples: usize) -> Result<usize> {
+    match (band, samples) {
+        (None, 1) => Ok(1),
+        (None, n) => Err(fail(
+            path,
+            format!("has {n} bands; choose one with band: N (hdrvis info --band N; 1 to {n}, as GDAL counts)"),
+        )),
+        (Some(b), n) if b < 1 || b > n => Err(fail(
+            path,
+            format!("band {b} is out of range; the file has {n} band(s), 1 to {n}"),
+        )),
+        (Some(b), _) => Ok(b),
+    }
 }
 
 /// The decoded samples as f64 and their stored type.

@@ -78,8 +78,8 @@ impl Product {
         Ok([dim("LENGTH")?, dim("WIDTH")?])
     }
 
-    /// The geocoding `(x_first, x_step, y_first, y_step, degrees)` when all four are given.
-    fn geocoding(&self, path: &Path) -> Result<Option<(f64, f64, f64, f64, bool)>> {
+    /// The geocoding when all four of X_FIRST, X_STEP, Y_FIRST and Y_STEP are given.
+    fn geocoding(&self, path: &Path) -> Result<Option<Geocoding>> {
         let keys = ["X_FIRST", "X_STEP", "Y_FIRST", "Y_STEP"];
         let given: Vec<Option<f64>> = keys
             .iter()
@@ -98,7 +98,13 @@ impl Product {
                     self.get(k)
                         .is_none_or(|u| u.to_ascii_lowercase().starts_with("deg"))
                 });
-                Ok(Some((x0, dx, y0, dy, degrees)))
+                Ok(Some(Geocoding {
+                    x_first: x0,
+                    x_step: dx,
+                    y_first: y0,
+                    y_step: dy,
+                    degrees,
+                }))
             }
             _ => {
                 let missing: Vec<&str> = keys
@@ -135,6 +141,16 @@ impl Product {
             .collect::<Result<Vec<f64>>>()?;
         Ok((!values.is_empty()).then_some((values, time)))
     }
+}
+
+/// MintPy's geocoding: the outer corner of the first pixel, the pixel steps (degrees unless
+/// `X_UNIT`/`Y_UNIT` say otherwise).
+struct Geocoding {
+    x_first: f64,
+    x_step: f64,
+    y_first: f64,
+    y_step: f64,
+    degrees: bool,
 }
 
 /// The dataset read by default: the one named like the file type (`velocity`, `timeseries`),
@@ -240,7 +256,14 @@ pub(crate) fn axes(
     product: &Product,
     [ny, nx]: [usize; 2],
 ) -> Result<Option<(GridAxis, GridAxis)>> {
-    let Some((x0, dx, y0, dy, degrees)) = product.geocoding(path)? else {
+    let Some(Geocoding {
+        x_first: x0,
+        x_step: dx,
+        y_first: y0,
+        y_step: dy,
+        degrees,
+    }) = product.geocoding(path)?
+    else {
         return Ok(None);
     };
     let axis = |name: &str, units: &str, first: f64, step: f64, n: usize, kind| GridAxis {

@@ -158,6 +158,18 @@ pub(crate) fn load_grid_arrays(
     Ok((grid.shape.to_vec(), grid.data, coords))
 }
 
+/// The dates of the time axis of variable `var` (else of the file's first data variable that
+/// has one), in ISO 8601: a NetCDF file's CF time axis or a MintPy time series' `date` list.
+/// What `times(path)` returns.
+pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+    if hdf5::EXTENSIONS.contains(&crate::io::extension(path).as_str()) {
+        if let Some(product) = mintpy::open(path)? {
+            return mintpy::time_steps(path, &product, var);
+        }
+    }
+    select::time_steps(path, var)
+}
+
 /// One coordinate axis of a grid file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridAxis {

@@ -358,14 +358,9 @@ pub(crate) fn time_step(
     }
 }
 
-/// The dates of the CF time axis of variable `var` (else of the first data variable that has
-/// one; a MintPy time series' `date` list), in ISO 8601: what `times(path)` returns.
+/// The dates of the CF time axis of variable `var` of a NetCDF file (else of the first data
+/// variable that has one), in ISO 8601 ([`super::time_steps`] serves every format).
 pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
-    if super::hdf5::EXTENSIONS.contains(&crate::io::extension(path).as_str()) {
-        if let Some(product) = super::mintpy::open(path)? {
-            return super::mintpy::time_steps(path, &product, var);
-        }
-    }
     let listed = super::list_arrays(path)?;
     let vars = netcdf::list_variables(path)?;
     let wanted: Vec<&(String, netcdf::Dims)> = match var {

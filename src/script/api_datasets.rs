@@ -265,7 +265,7 @@ fn job_of(kind: &str, opts: &Map) -> RResult<Job> {
 fn times(host: &ScriptHost, path: &str, variable: Option<&str>) -> RResult<rhai::Array> {
     let (p, from_path) = host.sandbox.read_data_path(path).map_err(to_rhai)?;
     let variable = variable.map(str::to_string).or(from_path);
-    let steps = crate::datasets::select::time_steps(&p, variable.as_deref()).map_err(to_rhai)?;
+    let steps = crate::datasets::time_steps(&p, variable.as_deref()).map_err(to_rhai)?;
     Ok(steps
         .into_iter()
         .enumerate()

@@ -242,10 +242,7 @@ fn mintpy_products_load_north_up_with_their_units_and_dates() {
         .iter()
         .map(|d| format!("{}-{}-{}T00:00:00", &d[..4], &d[4..6], &d[6..]))
         .collect();
-    assert_eq!(
-        hdrvis::datasets::select::time_steps(&ts, None).unwrap(),
-        dates
-    );
+    assert_eq!(hdrvis::datasets::time_steps(&ts, None).unwrap(), dates);
     let g = load(&ts, &time_opts(Some(3), None)).unwrap();
     assert_north_up(&g, &numbers(&r, "timeseries.index3"), &lon, &lat, "index 3");
     assert!(
