@@ -57,6 +57,11 @@ impl Product {
             .transpose()
     }
 
+    /// The radar wavelength in metres (`WAVELENGTH`).
+    pub(crate) fn wavelength(&self, path: &Path) -> Result<Option<f64>> {
+        self.number(path, "WAVELENGTH")
+    }
+
     fn file_type(&self) -> &str {
         self.get("FILE_TYPE").unwrap_or("")
     }
@@ -338,7 +343,7 @@ pub(crate) fn describe(path: &Path, product: &Product, shape: [usize; 2]) -> Res
     if let Some(u) = product.get("UNIT") {
         lines.push(format!("UNIT: {u}"));
     }
-    if let Some(w) = product.number(path, "WAVELENGTH")? {
+    if let Some(w) = product.wavelength(path)? {
         lines.push(format!(
             "WAVELENGTH: {w} m (one fringe of interferometric phase, 2π, is λ/2 = {} m of line-of-sight motion)",
             w / 2.0

@@ -192,6 +192,8 @@ pub struct GridFile {
     pub data: Vec<f64>,
     pub x: Option<GridAxis>,
     pub y: Option<GridAxis>,
+    /// The radar wavelength (m) of an InSAR product (MintPy's `WAVELENGTH`).
+    pub wavelength: Option<f64>,
 }
 
 /// A 2-D field for the surface renderer, with the names and units of the variable and its
@@ -247,6 +249,7 @@ fn geotiff_grid(
         data: r.data,
         x: axis("lon", "degrees_east", r.lon, CoordKind::Longitude),
         y: axis("lat", "degrees_north", r.lat, CoordKind::Latitude),
+        wavelength: None,
     })
 }
 
@@ -269,6 +272,7 @@ fn read_grid_file(
     }
     let array = read_array_sel(path, var, Some(2), sel)?;
     let [ny, nx] = [array.shape[0], array.shape[1]];
+    let mut wavelength = None;
     let (x, y) = match ext.as_str() {
         "npz" => {
             let find = |names: [&str; 3], len: usize| -> Result<Option<GridAxis>> {
@@ -317,10 +321,13 @@ fn read_grid_file(
             (axis(&array.dims[1])?, axis(&array.dims[0])?)
         }
         ext if hdf5::EXTENSIONS.contains(&ext) => match mintpy::open(path)? {
-            Some(product) => match mintpy::axes(path, &product, [ny, nx])? {
-                Some((x, y)) => (Some(x), Some(y)),
-                None => (None, None),
-            },
+            Some(product) => {
+                wavelength = product.wavelength(path)?;
+                match mintpy::axes(path, &product, [ny, nx])? {
+                    Some((x, y)) => (Some(x), Some(y)),
+                    None => (None, None),
+                }
+            }
             None => (None, None),
         },
         _ => (None, None),
@@ -333,6 +340,7 @@ fn read_grid_file(
         data: array.data,
         x,
         y,
+        wavelength,
     })
 }
 
@@ -396,6 +404,7 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     for (property, units) in &units {
         grid.set_units(property, units)?;
     }
+    grid.set_wavelength(file.wavelength);
     Ok(grid)
 }
 

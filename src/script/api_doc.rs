@@ -105,6 +105,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("surfaces", "get$nx", &["grid: Grid"], "int", "grid.nx"),
     e("surfaces", "get$ny", &["grid: Grid"], "int", "grid.ny"),
     e("surfaces", "get$properties", &["grid: Grid"], "array", "grid.properties: the property names"),
+    e("surfaces", "get$wavelength", &["grid: Grid"], "float or ()", "grid.wavelength: the radar wavelength in m of a MintPy product (WAVELENGTH), else (); nu: 2.0 / g.wavelength on a displacement in m draws one fringe per λ/2, which the legend then says (\"1 fringe = 0.02773 m = λ/2\")"),
     with(e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2. The EXR gets the data value, `fringe` and `fringe_filtered` channels. Options:"), &[&RENDER_SURFACE, &COASTLINES]),
     e("surfaces", "render_surface", &["grid: Grid"], "Image", "An error naming the options render_surface needs."),
     with(e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for render_surface's options, with the resolution 1/nu in its metadata. Options:"), &[&SURFACE_COLORBAR]),

@@ -364,6 +364,9 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_get("nx", |g: &mut ScriptGrid| g.nx() as i64);
     engine.register_get("ny", |g: &mut ScriptGrid| g.ny() as i64);
     engine.register_get("name", |g: &mut ScriptGrid| g.name().to_string());
+    engine.register_get("wavelength", |g: &mut ScriptGrid| {
+        g.wavelength().map_or(Dynamic::UNIT, Dynamic::from)
+    });
     engine.register_get("properties", |g: &mut ScriptGrid| -> rhai::Array {
         g.property_names()
             .into_iter()

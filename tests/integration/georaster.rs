@@ -346,3 +346,38 @@ fn scripts_choose_bands_and_dates() {
     assert_ne!(code, 0);
     assert!(err.contains("band"), "{err}");
 }
+
+#[test]
+fn mintpy_wavelength_reaches_grids_scripts_and_the_fringe_legend() {
+    use hdrvis::render::surface::{legend, FringeMode, SurfaceOptions};
+    let dir = tempfile::tempdir().unwrap();
+    if reference(dir.path(), "mintpy").is_none() {
+        return;
+    }
+    let ts = dir.path().join("timeseries.h5");
+    let g = load(&ts, &time_opts(Some(2), None)).unwrap();
+    let w = 0.05546576;
+    assert_eq!(g.wavelength(), Some(w));
+    // One fringe per half wavelength of line-of-sight displacement (m): the legend says so.
+    let at = |nu: f64| {
+        let o = SurfaceOptions {
+            nu: vec![nu],
+            mode: FringeMode::Cyclic,
+            ..Default::default()
+        };
+        legend(&g, &o, 400).unwrap()
+    };
+    let half = at(2.0 / w);
+    assert_eq!(half.meta("legend"), Some("1 fringe = 0.02773 m = λ/2"));
+    assert_eq!(at(100.0).meta("legend"), Some("1 fringe = 0.01 m"));
+    // Scripts see it as grid.wavelength (a product in radar coordinates has one too).
+    let script = r#"
+        let g = load_grid("timeseries.h5", #{ index: #{ time: 0 } });
+        if g.wavelength != 0.05546576 { throw `wavelength ${g.wavelength}`; }
+        let v = load_grid("radar.h5");
+        if type_of(v.wavelength) != "f64" { throw "radar wavelength"; }
+    "#;
+    std::fs::write(dir.path().join("w.rhai"), script).unwrap();
+    let (code, out, err) = hdrvis(&["run", "w.rhai", "--out", "out"], dir.path());
+    assert_eq!(code, 0, "{out}\n{err}");
+}
