@@ -188,14 +188,15 @@ pub struct MantleArgs {
 
 #[derive(clap::Args, Debug)]
 pub struct InfoArgs {
-    /// A data file: .nc, .npy, .npz, .vti, .vtk, .nhdr, .nrrd, .h5 (FILE.h5:/group/name) or an
-    /// OpenEXR image (.exr)
+    /// A data file: .nc, .npy, .npz, .vti, .vtk, .nhdr, .nrrd, .h5 (FILE.h5:/group/name; MintPy
+    /// products), a GeoTIFF (.tif) or an OpenEXR image (.exr)
     pub file: PathBuf,
     /// The variable or array to describe (default: the first data variable, or the largest
     /// array); for an .exr, one channel (default: all)
     #[arg(long = "variable", visible_alias = "var")]
     pub var: Option<String>,
-    /// Fix a dimension at a position, as xarray's isel: `--index time=5` (repeatable; NetCDF)
+    /// Fix a dimension at a position, as xarray's isel: `--index time=5` (repeatable; NetCDF,
+    /// a MintPy time series)
     #[arg(long = "index", value_name = "DIM=I")]
     pub index: Vec<String>,
     /// Fix a dimension at a coordinate value, as xarray's sel: `--at depth=600`,

@@ -550,6 +550,12 @@ mod tests {
                 "GDAL_NODATA (tag 42113) is 'none'",
             ),
         ];
+        // A plain TIFF: no georeferencing at all.
+        let file = std::fs::File::create(&path).unwrap();
+        let mut enc = TiffEncoder::new(file).unwrap();
+        enc.write_image::<colortype::Gray8>(2, 1, &[1, 2]).unwrap();
+        let e = read(&path, None).unwrap_err().to_string();
+        assert!(e.contains("has no GeoTIFF georeferencing"), "{e}");
         for (keys, nodata, want) in cases {
             write(
                 &path,

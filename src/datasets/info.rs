@@ -158,12 +158,7 @@ pub fn info_report_band(
     describe_array(&mut out, &array);
     if super::hdf5::EXTENSIONS.contains(&ext.as_str()) {
         if let Some(product) = super::mintpy::open(path)? {
-            let n = array.shape.len();
-            let plane = [
-                array.shape[n.saturating_sub(2)],
-                array.shape[n.saturating_sub(1)],
-            ];
-            for line in super::mintpy::describe(path, &product, plane)? {
+            for line in super::mintpy::describe(path, &product)? {
                 let _ = writeln!(out, "{line}");
             }
             for note in &array.notes {

@@ -324,9 +324,9 @@ pub(crate) fn time_steps(path: &Path, product: &Product, var: Option<&str>) -> R
 
 /// What `hdrvis info` adds for a MintPy product: its type, geography, units, wavelength,
 /// reference point and dates.
-pub(crate) fn describe(path: &Path, product: &Product, shape: [usize; 2]) -> Result<Vec<String>> {
+pub(crate) fn describe(path: &Path, product: &Product) -> Result<Vec<String>> {
     let mut lines = vec![format!("MintPy product: FILE_TYPE {}", product.file_type())];
-    lines.push(match axes(path, product, shape)? {
+    lines.push(match axes(path, product, product.size(path)?)? {
         Some((x, y)) => format!(
             "geography: {} {} to {} {}, {} {} to {} {} (pixel centres; X_FIRST/Y_FIRST are the first pixel's corner); drawn north up",
             x.name,
