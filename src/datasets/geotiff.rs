@@ -88,6 +88,17 @@ impl Raster {
     }
 }
 
+/// Refuses a variable name: a GeoTIFF has bands, not variables.
+pub(crate) fn no_variable(path: &Path, var: Option<&str>) -> Result<()> {
+    match var {
+        Some(v) => Err(fail(
+            path,
+            format!("a GeoTIFF has no variables (asked for '{v}'); choose a band with band: N"),
+        )),
+        None => Ok(()),
+    }
+}
+
 fn fail(path: &Path, msg: impl Into<String>) -> Error {
     Error::format(path, msg.into())
 }
@@ -98,6 +109,7 @@ fn tiff_error(path: &Path, e: &tiff::TiffError) -> Error {
 
 /// Reads band `band` (1-based, as GDAL counts; without it the file must have one band).
 pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
+    crate::io::check_regular_file(path)?;
     let file = std::fs::File::open(path).map_err(|e| fail(path, e.to_string()))?;
     let mut dec = Decoder::new(std::io::BufReader::new(file))
         .map_err(|e| tiff_error(path, &e))?
@@ -124,8 +136,9 @@ pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
         .find_tag_unsigned::<u16>(Tag::PlanarConfiguration)
         .map_err(|e| tiff_error(path, &e))?
         == Some(2);
+    // At the peak: the decoded samples (up to 8 bytes each), their f64 copies and the band's.
     crate::model::volume::check_allocation(
-        (nx as u64 * ny as u64 * samples as u64).saturating_mul(16),
+        (nx as u64 * ny as u64 * samples as u64).saturating_mul(24),
         &format!("{}: {nx}x{ny} pixels, {samples} band(s)", path.display()),
     )?;
     let mut buffer = DecodingResult::U8(Vec::new());

@@ -56,8 +56,8 @@ pub struct LoadOptions {
     pub cartesian: bool,
     /// The planet's radius in the vertical axis's unit, over the file's (default 6371 km).
     pub planet_radius: Option<f64>,
-    /// Dimensions fixed by position or coordinate value (NetCDF): the variable read has the
-    /// others.
+    /// Dimensions fixed by position or coordinate value (NetCDF, a MintPy time series' time):
+    /// the variable read has the others.
     pub select: select::Selection,
     /// The band of a multi-band GeoTIFF, counted from 1 as GDAL does.
     pub band: Option<usize>,
@@ -200,7 +200,8 @@ pub struct GridFile {
 /// coordinates. `.npy`: the array; `.npz`: the array `var`, else the largest 2-D one, with
 /// coordinates from arrays named `x`/`lon`/`longitude` and `y`/`lat`/`latitude` of matching
 /// lengths; `.nc`: the variable `var`, else the first 2-D data variable, with its dimensions'
-/// coordinate variables. Leading length-1 dimensions are dropped. Coordinates are returned as
+/// coordinate variables; a MintPy `.h5`: its main dataset on the pixel centres of its
+/// geocoding; a GeoTIFF: its one band on its pixel centres. Leading length-1 dimensions are dropped. Coordinates are returned as
 /// stored (they may decrease). NaN marks missing values.
 pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
     read_grid_with(path, var, &select::Selection::default())
@@ -220,12 +221,7 @@ fn geotiff_grid(
     sel: &select::Selection,
     band: Option<usize>,
 ) -> Result<GridFile> {
-    if let Some(v) = var {
-        return Err(Error::format(
-            path,
-            format!("a GeoTIFF has no variables (asked for '{v}'); choose a band with band: N"),
-        ));
-    }
+    geotiff::no_variable(path, var)?;
     if !sel.is_empty() {
         return Err(Error::format(
             path,
@@ -613,14 +609,7 @@ pub(crate) fn read_array_sel(
             None => hdf5::read_dataset(path, var)?,
         },
         ext if geotiff::EXTENSIONS.contains(&ext) => {
-            if let Some(v) = var {
-                return Err(Error::format(
-                    path,
-                    format!(
-                        "a GeoTIFF has no variables (asked for '{v}'); choose a band with band: N"
-                    ),
-                ));
-            }
+            geotiff::no_variable(path, var)?;
             geotiff::read(path, None)?.array()
         }
         other => {

@@ -310,6 +310,17 @@ fn mintpy_time_series_selections_are_checked() {
         ..LoadOptions::default()
     };
     one_line_error(load(&ts, &depth), &["no dimension 'depth'", "time, y, x"]);
+    // Incomplete geocoding and a truncated file.
+    let partial = dir.path().join("partial.h5");
+    one_line_error(
+        load(&partial, &LoadOptions::default()),
+        &[
+            "partial.h5",
+            "MintPy geocoding is incomplete: Y_FIRST, Y_STEP missing",
+        ],
+    );
+    let truncated = dir.path().join("truncated.h5");
+    one_line_error(load(&truncated, &LoadOptions::default()), &["truncated.h5"]);
     // Not a volume: time is never a vertical axis.
     let e = hdrvis::datasets::load_volume(&ts).unwrap_err().to_string();
     assert!(e.contains("MintPy") && e.contains("load_grid"), "{e}");

@@ -15,7 +15,8 @@ CASE is one of:
             latitudes from rasterio's xy()
   mintpy    h5py files in MintPy's layout (root attributes as strings): velocity.h5 (geocoded,
             Y_STEP < 0), timeseries.h5 ((date, row, col) with its `date` list), radar.h5
-            (radar coordinates, no X_FIRST); values by numpy and pixel centres by rasterio's xy()
+            (radar coordinates, no X_FIRST), partial.h5 (X_FIRST without Y_FIRST and
+            Y_STEP), truncated.h5 (velocity.h5 cut short); values by numpy and pixel centres by rasterio's xy()
             of MintPy's geotransform (X_FIRST, X_STEP, 0, Y_FIRST, 0, Y_STEP), as MintPy's
             save_gdal writes it
 Each result is one line, `KEY VALUE VALUE ...`, arrays in C order with `nan` for masked values.
@@ -172,6 +173,13 @@ def mintpy(out):
     ra = {k: v for k, v in a.items() if not k.startswith(("X_", "Y_"))}
     write_h5(os.path.join(out, "radar.h5"), dict(ra, FILE_TYPE="velocity", UNIT="m/year"), {"velocity": radar})
     emit("radar.values", floats(radar))
+
+    partial = {k: v for k, v in a.items() if k not in ("Y_FIRST", "Y_STEP")}
+    write_h5(os.path.join(out, "partial.h5"), dict(partial, FILE_TYPE="velocity"), {"velocity": vel})
+    with open(os.path.join(out, "velocity.h5"), "rb") as f:
+        whole = f.read()
+    with open(os.path.join(out, "truncated.h5"), "wb") as f:
+        f.write(whole[: len(whole) // 3])
 
 
 def main():
