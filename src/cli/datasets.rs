@@ -188,20 +188,24 @@ pub struct MantleArgs {
 
 #[derive(clap::Args, Debug)]
 pub struct InfoArgs {
-    /// A data file: .nc, .npy, .npz, .vti, .vtk, .nhdr, .nrrd, .h5 (FILE.h5:/group/name) or an
-    /// OpenEXR image (.exr)
+    /// A data file: .nc, .npy, .npz, .vti, .vtk, .nhdr, .nrrd, .h5 (FILE.h5:/group/name; MintPy
+    /// products), a GeoTIFF (.tif) or an OpenEXR image (.exr)
     pub file: PathBuf,
     /// The variable or array to describe (default: the first data variable, or the largest
     /// array); for an .exr, one channel (default: all)
     #[arg(long = "variable", visible_alias = "var")]
     pub var: Option<String>,
-    /// Fix a dimension at a position, as xarray's isel: `--index time=5` (repeatable; NetCDF)
+    /// Fix a dimension at a position, as xarray's isel: `--index time=5` (repeatable; NetCDF,
+    /// a MintPy time series)
     #[arg(long = "index", value_name = "DIM=I")]
     pub index: Vec<String>,
     /// Fix a dimension at a coordinate value, as xarray's sel: `--at depth=600`,
     /// `--at time=2011-03-11T06:00` (nearest time; between two levels, linear) (repeatable)
     #[arg(long = "at", value_name = "DIM=VALUE")]
     pub at: Vec<String>,
+    /// The band of a multi-band GeoTIFF, counted from 1 as GDAL does
+    #[arg(long = "band", value_name = "N")]
+    pub band: Option<usize>,
 }
 
 /// Runs a generator and returns the file it wrote (or found in the cache).
@@ -258,7 +262,7 @@ pub fn run_info(args: &InfoArgs) -> Result<String> {
         };
         sel.at.push((dim, at));
     }
-    hdrvis::datasets::info::info_report_with(&args.file, args.var.as_deref(), &sel)
+    hdrvis::datasets::info::info_report_band(&args.file, args.var.as_deref(), &sel, args.band)
 }
 
 /// `DIM=VALUE` as its two sides.
@@ -460,6 +464,7 @@ mod tests {
             var: None,
             index: Vec::new(),
             at: Vec::new(),
+            band: None,
         })
         .unwrap();
         assert!(report.contains("variable: max_abs_eta"), "{report}");

@@ -56,23 +56,9 @@ fn sample_type(dtype: &Datatype) -> Option<(Scalar, bool)> {
 
 /// A short name of a datatype for listings: `float32`, `int16`, … or `other`.
 fn type_name(dtype: &Datatype) -> String {
-    let name = match sample_type(dtype) {
-        Some((s, _)) => match s {
-            Scalar::F16 => "float16",
-            Scalar::F32 => "float32",
-            Scalar::F64 => "float64",
-            Scalar::I8 => "int8",
-            Scalar::I16 => "int16",
-            Scalar::I32 => "int32",
-            Scalar::I64 => "int64",
-            Scalar::U8 => "uint8",
-            Scalar::U16 => "uint16",
-            Scalar::U32 => "uint32",
-            Scalar::U64 => "uint64",
-        },
-        None => "other",
-    };
-    name.to_string()
+    sample_type(dtype)
+        .map_or("other", |(s, _)| s.name())
+        .to_string()
 }
 
 /// Every dataset in the file, by full path (`/group/name`), in listing order.
@@ -180,5 +166,102 @@ pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData>
         .collect();
     let mut array = super::plain_array(&full, listing.shape.clone(), listing.dtype.clone(), values);
     array.units = units;
+    Ok(array)
+}
+
+/// The root group's attributes as text: strings as stored (fixed or variable length, trailing
+/// NULs dropped), numeric scalars formatted; others are left out. MintPy keeps its metadata
+/// there, every value a string.
+pub(crate) fn root_attributes(path: &Path) -> Result<Vec<(String, String)>> {
+    let file = open(path)?;
+    let root = file
+        .root_group()
+        .map_err(|e| Error::format(path, e.to_string()))?;
+    let attrs = root
+        .attributes()
+        .map_err(|e| Error::format(path, format!("root attributes: {e}")))?;
+    Ok(attrs
+        .into_iter()
+        .filter_map(|a| {
+            let text = match a.read_string() {
+                Ok(s) => s.trim_end_matches('\0').to_string(),
+                Err(_) => a.read_as_f64().ok()?.to_string(),
+            };
+            Some((a.name.clone(), text))
+        })
+        .collect())
+}
+
+/// The strings of a 1-D string dataset (MintPy's `date` list of `YYYYMMDD` byte strings).
+pub(crate) fn read_strings(path: &Path, name: &str) -> Result<Vec<String>> {
+    let file = open(path)?;
+    let full = format!("/{}", name.trim_start_matches('/'));
+    let fail = |msg: String| Error::format(path, format!("dataset '{full}': {msg}"));
+    let dataset = file.dataset(&full).map_err(|e| fail(e.to_string()))?;
+    let strings = dataset.read_strings().map_err(|e| fail(e.to_string()))?;
+    Ok(strings
+        .into_iter()
+        .map(|s| s.trim_end_matches('\0').trim().to_string())
+        .collect())
+}
+
+/// One plane `[first, ..]` of a numeric dataset of rank 2 or more (only that plane is read),
+/// or the whole dataset without `first`; values in C order as f64 and the shape read.
+pub(crate) fn read_plane(path: &Path, name: &str, first: Option<usize>) -> Result<ArrayData> {
+    let Some(first) = first else {
+        return read_dataset(path, Some(name));
+    };
+    use hdf5_reader::{SliceInfo, SliceInfoElem};
+    let file = open(path)?;
+    let full = format!("/{}", name.trim_start_matches('/'));
+    let fail = |msg: String| Error::format(path, format!("dataset '{full}': {msg}"));
+    let dataset = file.dataset(&full).map_err(|e| fail(e.to_string()))?;
+    let shape: Vec<usize> = dataset.shape().iter().map(|&n| n as usize).collect();
+    let mut selections = vec![SliceInfoElem::Index(first as u64)];
+    selections.extend((1..shape.len()).map(|_| SliceInfoElem::Slice {
+        start: 0,
+        end: u64::MAX,
+        step: 1,
+    }));
+    let slice = SliceInfo { selections };
+    let (sample, _) = sample_type(dataset.dtype()).ok_or_else(|| {
+        fail(format!(
+            "type {:?} is not an integer or float type",
+            dataset.dtype()
+        ))
+    })?;
+    macro_rules! plane {
+        ($t:ty) => {
+            dataset
+                .read_slice::<$t>(&slice)
+                .map(|a| a.iter().map(|&v| v as f64).collect::<Vec<f64>>())
+        };
+    }
+    let values = match sample {
+        Scalar::F32 => plane!(f32),
+        Scalar::F64 => plane!(f64),
+        Scalar::I8 => plane!(i8),
+        Scalar::I16 => plane!(i16),
+        Scalar::I32 => plane!(i32),
+        Scalar::I64 => plane!(i64),
+        Scalar::U8 => plane!(u8),
+        Scalar::U16 => plane!(u16),
+        Scalar::U32 => plane!(u32),
+        Scalar::U64 => plane!(u64),
+        Scalar::F16 => return Err(fail("float16 planes are not read one at a time".into())),
+    }
+    .map_err(|e| fail(e.to_string()))?;
+    let mut array = super::plain_array(
+        &full,
+        shape[1..].to_vec(),
+        sample.name().to_string(),
+        values,
+    );
+    array.units = dataset
+        .attribute("units")
+        .ok()
+        .and_then(|a| a.read_string().ok())
+        .map(|u| u.trim_end_matches('\0').to_string())
+        .filter(|u| !u.is_empty());
     Ok(array)
 }

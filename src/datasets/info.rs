@@ -96,12 +96,34 @@ pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
 /// are those of the selected part. A NetCDF report also gives each dimension of the variable
 /// with its CF role (time, vertical, latitude, longitude, other) and a time axis's dates.
 pub fn info_report_with(path: &Path, var: Option<&str>, sel: &Selection) -> Result<String> {
+    info_report_band(path, var, sel, None)
+}
+
+/// [`info_report_with`] of band `band` (counted from 1) of a GeoTIFF. A GeoTIFF's report adds
+/// its CRS, georeferencing and nodata value; a MintPy product's its type, geography, `UNIT`,
+/// `WAVELENGTH`, reference point and dates.
+pub fn info_report_band(
+    path: &Path,
+    var: Option<&str>,
+    sel: &Selection,
+    band: Option<usize>,
+) -> Result<String> {
     let shorthand = (!path.exists() && var.is_none())
         .then(|| path.to_str()?.rsplit_once(':'))
         .flatten()
         .filter(|(file, name)| !name.is_empty() && Path::new(file).is_file());
     if let Some((file, name)) = shorthand {
-        return info_report_with(Path::new(file), Some(name), sel);
+        return info_report_band(Path::new(file), Some(name), sel, band);
+    }
+    let ext = crate::io::extension(path);
+    if super::geotiff::EXTENSIONS.contains(&ext.as_str()) {
+        return geotiff_report(path, var, sel, band);
+    }
+    if let Some(b) = band.filter(|&b| b != 1) {
+        return Err(crate::error::Error::format(
+            path,
+            format!("band {b}: only GeoTIFF files (.tif, .tiff) have several bands"),
+        ));
     }
     if crate::io::extension(path) == "exr" {
         if !sel.is_empty() {
@@ -134,11 +156,44 @@ pub fn info_report_with(path: &Path, var: Option<&str>, sel: &Selection) -> Resu
         }
     }
     describe_array(&mut out, &array);
+    if super::hdf5::EXTENSIONS.contains(&ext.as_str()) {
+        if let Some(product) = super::mintpy::open(path)? {
+            for line in super::mintpy::describe(path, &product)? {
+                let _ = writeln!(out, "{line}");
+            }
+            for note in &array.notes {
+                let _ = writeln!(out, "selected: {note}");
+            }
+        }
+    }
     if matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") {
         dimension_lines(&mut out, path, &array)?;
         if array.shape.len() >= 3 {
             let _ = writeln!(out, "geometry: {}", super::netcdf_geometry(path, &array)?);
         }
+    }
+    Ok(out)
+}
+
+/// The report of one band of a GeoTIFF.
+fn geotiff_report(
+    path: &Path,
+    var: Option<&str>,
+    sel: &Selection,
+    band: Option<usize>,
+) -> Result<String> {
+    if var.is_some() || !sel.is_empty() {
+        return Err(crate::error::Error::format(
+            path,
+            "a GeoTIFF has no variables or dimensions to select; choose a band with --band N",
+        ));
+    }
+    let raster = super::geotiff::read(path, band)?;
+    let mut out = String::new();
+    let _ = writeln!(out, "file: {}", path.display());
+    describe_array(&mut out, &raster.array());
+    for line in raster.describe() {
+        let _ = writeln!(out, "{line}");
     }
     Ok(out)
 }

@@ -9,10 +9,12 @@ pub mod cf;
 pub mod cf_time;
 pub mod coastlines;
 pub mod generate;
+pub(crate) mod geotiff;
 pub mod grid_out;
 pub(crate) mod hdf5;
 pub mod info;
 pub mod mantle;
+pub(crate) mod mintpy;
 pub mod netcdf;
 pub(crate) mod nhdr;
 pub mod npy;
@@ -55,9 +57,11 @@ pub struct LoadOptions {
     pub cartesian: bool,
     /// The planet's radius in the vertical axis's unit, over the file's (default 6371 km).
     pub planet_radius: Option<f64>,
-    /// Dimensions fixed by position or coordinate value (NetCDF): the variable read has the
-    /// others.
+    /// Dimensions fixed by position or coordinate value (NetCDF, a MintPy time series' time):
+    /// the variable read has the others.
     pub select: select::Selection,
+    /// The band of a multi-band GeoTIFF, counted from 1 as GDAL does.
+    pub band: Option<usize>,
 }
 
 /// Loads a scalar volume, choosing the reader by extension: `.npy` (shape (nz, ny, nx)),
@@ -99,8 +103,18 @@ pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
         "nhdr" | "nrrd" => nhdr::read_nrrd(path),
         "vtk" => vtk_legacy::read_vtk(path, var),
         ext if hdf5::EXTENSIONS.contains(&ext) => {
+            if mintpy::open(path)?.is_some() {
+                return Err(Error::format(
+                    path,
+                    "is a MintPy product, a 2-D raster (a time series: one per date); load it with load_grid (index or at choose a date)",
+                ));
+            }
             volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None])
         }
+        ext if geotiff::EXTENSIONS.contains(&ext) => Err(Error::format(
+            path,
+            "is a GeoTIFF, a 2-D raster; load it with load_grid",
+        )),
         other => Err(Error::format(
             path,
             format!("unknown volume format {other:?}; expected {VOLUME_EXTENSIONS}"),
@@ -145,6 +159,18 @@ pub(crate) fn load_grid_arrays(
     Ok((grid.shape.to_vec(), grid.data, coords))
 }
 
+/// The dates of the time axis of variable `var` (else of the file's first data variable that
+/// has one), in ISO 8601: a NetCDF file's CF time axis or a MintPy time series' `date` list.
+/// What `times(path)` returns.
+pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+    if hdf5::EXTENSIONS.contains(&crate::io::extension(path).as_str()) {
+        if let Some(product) = mintpy::open(path)? {
+            return mintpy::time_steps(path, &product, var);
+        }
+    }
+    select::time_steps(path, var)
+}
+
 /// One coordinate axis of a grid file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridAxis {
@@ -167,23 +193,84 @@ pub struct GridFile {
     pub data: Vec<f64>,
     pub x: Option<GridAxis>,
     pub y: Option<GridAxis>,
+    /// The radar wavelength (m) of an InSAR product (MintPy's `WAVELENGTH`).
+    pub wavelength: Option<f64>,
 }
 
 /// A 2-D field for the surface renderer, with the names and units of the variable and its
 /// coordinates. `.npy`: the array; `.npz`: the array `var`, else the largest 2-D one, with
 /// coordinates from arrays named `x`/`lon`/`longitude` and `y`/`lat`/`latitude` of matching
 /// lengths; `.nc`: the variable `var`, else the first 2-D data variable, with its dimensions'
-/// coordinate variables. Leading length-1 dimensions are dropped. Coordinates are returned as
+/// coordinate variables; a MintPy `.h5`: its main dataset on the pixel centres of its
+/// geocoding; a GeoTIFF: its one band on its pixel centres. Leading length-1 dimensions are dropped. Coordinates are returned as
 /// stored (they may decrease). NaN marks missing values.
 pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
     read_grid_with(path, var, &select::Selection::default())
 }
 
-/// [`read_grid`] of the variable with the dimensions `sel` fixes (NetCDF).
+/// [`read_grid`] of the variable with the dimensions `sel` fixes (NetCDF, a MintPy time
+/// series).
 pub fn read_grid_with(path: &Path, var: Option<&str>, sel: &select::Selection) -> Result<GridFile> {
+    read_grid_file(path, var, sel, None)
+}
+
+/// A GeoTIFF's band as a grid file; a variable or selection is refused (a GeoTIFF has
+/// neither).
+fn geotiff_grid(
+    path: &Path,
+    var: Option<&str>,
+    sel: &select::Selection,
+    band: Option<usize>,
+) -> Result<GridFile> {
+    geotiff::no_variable(path, var)?;
+    if !sel.is_empty() {
+        return Err(Error::format(
+            path,
+            "selecting by dimension (index, at) needs a NetCDF file or a MintPy time series; a GeoTIFF's bands are chosen with band: N",
+        ));
+    }
+    let r = geotiff::read(path, band)?;
+    let axis = |name: &str, units: &str, values, kind| {
+        Some(GridAxis {
+            name: name.to_string(),
+            units: Some(units.to_string()),
+            values,
+            kind,
+        })
+    };
+    Ok(GridFile {
+        name: r.name,
+        selected: Vec::new(),
+        units: None,
+        shape: r.shape,
+        data: r.data,
+        x: axis("lon", "degrees_east", r.lon, CoordKind::Longitude),
+        y: axis("lat", "degrees_north", r.lat, CoordKind::Latitude),
+        wavelength: None,
+    })
+}
+
+/// [`read_grid_with`] with the band of a GeoTIFF.
+fn read_grid_file(
+    path: &Path,
+    var: Option<&str>,
+    sel: &select::Selection,
+    band: Option<usize>,
+) -> Result<GridFile> {
+    let ext = crate::io::extension(path);
+    if geotiff::EXTENSIONS.contains(&ext.as_str()) {
+        return geotiff_grid(path, var, sel, band);
+    }
+    if let Some(b) = band.filter(|&b| b != 1) {
+        return Err(Error::format(
+            path,
+            format!("band {b}: only GeoTIFF files (.tif, .tiff) have several bands"),
+        ));
+    }
     let array = read_array_sel(path, var, Some(2), sel)?;
     let [ny, nx] = [array.shape[0], array.shape[1]];
-    let (x, y) = match crate::io::extension(path).as_str() {
+    let mut wavelength = None;
+    let (x, y) = match ext.as_str() {
         "npz" => {
             let find = |names: [&str; 3], len: usize| -> Result<Option<GridAxis>> {
                 let listed = list_arrays(path)?;
@@ -230,6 +317,16 @@ pub fn read_grid_with(path: &Path, var: Option<&str>, sel: &select::Selection) -
             };
             (axis(&array.dims[1])?, axis(&array.dims[0])?)
         }
+        ext if hdf5::EXTENSIONS.contains(&ext) => match mintpy::open(path)? {
+            Some(product) => {
+                wavelength = product.wavelength(path)?;
+                match mintpy::axes(path, &product, [ny, nx])? {
+                    Some((x, y)) => (Some(x), Some(y)),
+                    None => (None, None),
+                }
+            }
+            None => (None, None),
+        },
         _ => (None, None),
     };
     Ok(GridFile {
@@ -240,6 +337,7 @@ pub fn read_grid_with(path: &Path, var: Option<&str>, sel: &select::Selection) -
         data: array.data,
         x,
         y,
+        wavelength,
     })
 }
 
@@ -264,7 +362,7 @@ pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
 /// properties are only those of the same selection's shape that have the selected dimensions.
 pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     let var = opts.variable.as_deref();
-    let file = read_grid_with(path, var, &opts.select)?;
+    let file = read_grid_file(path, var, &opts.select, opts.band)?;
     let [ny, nx] = file.shape;
     let x = grid_coords(file.x, "x", nx);
     let y = grid_coords(file.y, "y", ny);
@@ -303,6 +401,7 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     for (property, units) in &units {
         grid.set_units(property, units)?;
     }
+    grid.set_wavelength(file.wavelength);
     Ok(grid)
 }
 
@@ -486,10 +585,15 @@ pub(crate) fn read_array_sel(
     crate::io::check_regular_file(path)?;
     let ext = crate::io::extension(path);
     let netcdf = matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf");
-    if !netcdf && !sel.is_empty() {
+    let mintpy = if hdf5::EXTENSIONS.contains(&ext.as_str()) {
+        mintpy::open(path)?
+    } else {
+        None
+    };
+    if !netcdf && mintpy.is_none() && !sel.is_empty() {
         return Err(Error::format(
             path,
-            "selecting by dimension (index, at) needs a NetCDF file",
+            "selecting by dimension (index, at) needs a NetCDF file or a MintPy time series",
         ));
     }
     let mut array = match ext.as_str() {
@@ -501,7 +605,14 @@ pub(crate) fn read_array_sel(
         "npz" => read_npz_array(path, var, rank)?,
         "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank, sel)?,
         "vti" | "vtk" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
-        ext if hdf5::EXTENSIONS.contains(&ext) => hdf5::read_dataset(path, var)?,
+        ext if hdf5::EXTENSIONS.contains(&ext) => match &mintpy {
+            Some(product) => mintpy::read_array(path, product, var, sel, rank.is_some())?,
+            None => hdf5::read_dataset(path, var)?,
+        },
+        ext if geotiff::EXTENSIONS.contains(&ext) => {
+            geotiff::no_variable(path, var)?;
+            geotiff::read(path, None)?.array()
+        }
         other => {
             return Err(Error::format(
                 path,

@@ -31,6 +31,23 @@ impl Scalar {
         }
     }
 
+    /// NumPy's name of the type (`float32`, `int16`, ...), as listings show it.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Scalar::F16 => "float16",
+            Scalar::F32 => "float32",
+            Scalar::F64 => "float64",
+            Scalar::I8 => "int8",
+            Scalar::I16 => "int16",
+            Scalar::I32 => "int32",
+            Scalar::I64 => "int64",
+            Scalar::U8 => "uint8",
+            Scalar::U16 => "uint16",
+            Scalar::U32 => "uint32",
+            Scalar::U64 => "uint64",
+        }
+    }
+
     /// Converts `bytes` (a whole number of samples) into `out`, big- or little-endian.
     pub(crate) fn decode_into(self, big: bool, bytes: &[u8], out: &mut [f32]) {
         macro_rules! conv {

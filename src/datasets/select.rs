@@ -10,6 +10,7 @@
 use std::path::Path;
 
 use super::cf;
+use super::cf_time::TimeUnits;
 use super::netcdf::{self, NcVariable};
 use crate::error::{Error, Result};
 
@@ -160,9 +161,25 @@ fn locate(path: &Path, dim: &str, at: &At) -> Result<(Pick, String)> {
         ));
     };
     let time = cf::time_units(path, &coord)?;
-    let units = coord.units.clone().unwrap_or_default();
-    let c = &coord.data;
-    let (target, shown) = match (at, &time) {
+    locate_on(
+        dim,
+        at,
+        &coord.data,
+        coord.units.as_deref().unwrap_or(""),
+        time.as_ref(),
+    )
+}
+
+/// The pick of coordinate value `at` on an axis of coordinates `c` (in `units`; a time axis
+/// with `time`), and its description.
+fn locate_on(
+    dim: &str,
+    at: &At,
+    c: &[f64],
+    units: &str,
+    time: Option<&TimeUnits>,
+) -> Result<(Pick, String)> {
+    let (target, shown) = match (at, time) {
         (At::Date(date), Some(t)) => (t.value(date)?, date.clone()),
         (At::Date(date), None) => {
             return Err(Error::invalid(
@@ -180,7 +197,7 @@ fn locate(path: &Path, dim: &str, at: &At) -> Result<(Pick, String)> {
     } else {
         0.0
     };
-    let show = |i: usize| match &time {
+    let show = |i: usize| match time {
         Some(t) => t.date(c[i]),
         None => format!("{}", c[i]),
     };
@@ -284,18 +301,65 @@ pub(crate) fn refuse_time(path: &Path, var: &str, kept: &[&(String, usize)]) -> 
             ),
             None => String::new(),
         };
-        return Err(Error::format(
-            path,
-            format!(
-                "variable '{var}': dimension '{dim}' is time ({n} steps{span}), not space; choose a step with index: #{{ {dim}: 0 }} or at: #{{ {dim}: \"DATE\" }} (hdrvis info --index {dim}=0)"
-            ),
-        ));
+        return Err(time_is_not_space(path, var, dim, *n, &span));
     }
     Ok(())
 }
 
-/// The dates of the CF time axis of variable `var` (else of the first data variable that has
-/// one), in ISO 8601: what `times(path)` returns.
+/// The error for a time axis of `n` steps (`span`: ", FIRST to LAST (CALENDAR calendar)") read
+/// without a step chosen: it names the axis and how to choose.
+pub(crate) fn time_is_not_space(path: &Path, var: &str, dim: &str, n: usize, span: &str) -> Error {
+    Error::format(
+        path,
+        format!(
+            "variable '{var}': dimension '{dim}' is time ({n} steps{span}), not space; choose a step with index: #{{ {dim}: 0 }} or at: #{{ {dim}: \"DATE\" }} (hdrvis info --index {dim}=0)"
+        ),
+    )
+}
+
+/// The step that `sel` fixes on the time axis `dim` of variable `var` (coordinates `values` in
+/// `time`'s units), for files whose time axis is not a NetCDF coordinate (MintPy's `date`
+/// list), with its description; `None` when `sel` leaves the axis alone. Checks as [`plan`]
+/// does: an index in range, a date within half a step of the axis.
+pub(crate) fn time_step(
+    path: &Path,
+    var: &str,
+    dim: &str,
+    values: &[f64],
+    time: &TimeUnits,
+    sel: &Selection,
+) -> Result<Option<(usize, String)>> {
+    let field = format!("{}: variable '{var}', dimension '{dim}'", path.display());
+    if sel.dims().filter(|d| *d == dim).count() > 1 {
+        return Err(Error::invalid(field, "selected twice"));
+    }
+    if let Some((_, i)) = sel.index.iter().find(|(d, _)| d == dim) {
+        let n = values.len();
+        if *i < 0 || *i as usize >= n {
+            return Err(Error::invalid(
+                field,
+                format!("index {i} is out of range; expected 0..={}", n as i64 - 1),
+            ));
+        }
+        let i = *i as usize;
+        return Ok(Some((
+            i,
+            format!("{dim} index {i} ({})", time.date(values[i])),
+        )));
+    }
+    let Some((_, at)) = sel.at.iter().find(|(d, _)| d == dim) else {
+        return Ok(None);
+    };
+    match locate_on(dim, at, values, "", Some(time)) {
+        Ok((Pick::One(i), note)) => Ok(Some((i, note))),
+        Ok(_) => unreachable!("a time axis picks its nearest step"),
+        Err(Error::Invalid { msg, .. }) => Err(Error::invalid(field, msg)),
+        Err(other) => Err(other),
+    }
+}
+
+/// The dates of the CF time axis of variable `var` of a NetCDF file (else of the first data
+/// variable that has one), in ISO 8601 ([`super::time_steps`] serves every format).
 pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
     Ok(time_axis(path, var)?.dates)
 }

@@ -71,6 +71,8 @@ pub struct Grid {
     properties: Vec<(String, Vec<f64>)>,
     units: Vec<String>,
     elevation: Option<Vec<f64>>,
+    /// The radar wavelength (m) of an InSAR product, so a fringe legend can say λ/2.
+    wavelength: Option<f64>,
 }
 
 impl PartialEq for Grid {
@@ -206,6 +208,7 @@ impl Grid {
             properties,
             units,
             elevation,
+            wavelength: None,
         };
         g.make_increasing();
         Ok(g)
@@ -382,6 +385,16 @@ impl Grid {
         let i = self.property_index(name)?;
         self.units[i] = units.to_string();
         Ok(())
+    }
+
+    /// The radar wavelength in metres of an InSAR product (MintPy's `WAVELENGTH`), if known.
+    pub fn wavelength(&self) -> Option<f64> {
+        self.wavelength
+    }
+
+    /// Sets the radar wavelength (m); like units, it changes no pixel, so the identity stays.
+    pub fn set_wavelength(&mut self, metres: Option<f64>) {
+        self.wavelength = metres.filter(|w| w.is_finite() && *w > 0.0);
     }
 
     /// Adds (or replaces) the elevation; the grid gets a new identity.

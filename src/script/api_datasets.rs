@@ -201,7 +201,7 @@ pub(crate) const SELECT_INDEX: OptionSpec = opt(
     "index",
     Kind::Value("map of dimension: integer", "#{}"),
     "none",
-    "fix dimensions at positions, as xarray's isel: #{ time: 5 } (NetCDF)",
+    "fix dimensions at positions, as xarray's isel: #{ time: 5 } (NetCDF; the time of a MintPy time series)",
 );
 pub(crate) const SELECT_AT: OptionSpec = opt(
     "at",
@@ -308,7 +308,7 @@ fn series_range(host: &ScriptHost, path: &str, opts: &Map) -> RResult<rhai::Arra
 fn times(host: &ScriptHost, path: &str, variable: Option<&str>) -> RResult<rhai::Array> {
     let (p, from_path) = host.sandbox.read_data_path(path).map_err(to_rhai)?;
     let variable = variable.map(str::to_string).or(from_path);
-    let steps = crate::datasets::select::time_steps(&p, variable.as_deref()).map_err(to_rhai)?;
+    let steps = crate::datasets::time_steps(&p, variable.as_deref()).map_err(to_rhai)?;
     Ok(steps
         .into_iter()
         .enumerate()

@@ -239,6 +239,7 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
                 cartesian: given.string("geometry")?.as_deref() == Some("cartesian"),
                 planet_radius: given.num("planet_radius")?,
                 select: super::api_datasets::selection(&given)?,
+                band: None,
             };
             h.session.load_volume(&p, &load).map_err(to_rhai)
         },

@@ -55,6 +55,12 @@ pub(crate) const LOAD_GRID: OptionTable = OptionTable {
         ),
         super::api_datasets::SELECT_INDEX,
         super::api_datasets::SELECT_AT,
+        opt(
+            "band",
+            Kind::Int(1, 65535),
+            "none (a one-band file)",
+            "the band of a multi-band GeoTIFF, counted from 1 as GDAL does",
+        ),
     ],
     call: "load_grid(\"geo.nc\", OPTS)",
     base: "#{}",
@@ -358,6 +364,9 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     engine.register_get("nx", |g: &mut ScriptGrid| g.nx() as i64);
     engine.register_get("ny", |g: &mut ScriptGrid| g.ny() as i64);
     engine.register_get("name", |g: &mut ScriptGrid| g.name().to_string());
+    engine.register_get("wavelength", |g: &mut ScriptGrid| {
+        g.wavelength().map_or(Dynamic::UNIT, Dynamic::from)
+    });
     engine.register_get("properties", |g: &mut ScriptGrid| -> rhai::Array {
         g.property_names()
             .into_iter()
@@ -458,6 +467,7 @@ fn register_load_grid(engine: &mut Engine, host: &Arc<ScriptHost>) {
             let opts = LoadOptions {
                 variable: variable_option(given.string("variable")?, from_path, "load_grid")?,
                 select: super::api_datasets::selection(&given)?,
+                band: given.int("band")?.map(|b| b as usize),
                 ..LoadOptions::default()
             };
             h.session.load_grid(&p, &opts).map_err(to_rhai)

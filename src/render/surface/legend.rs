@@ -201,7 +201,14 @@ pub(crate) fn legend_in(
     let bar = colorbar(grid, opts, width, LEGEND_BAR_HEIGHT)?;
     let p = property_indices(grid, opts)?[0];
     let nu = opts.nu_for(0);
-    let label = resolution_label(nu, grid.units(p));
+    let mut label = resolution_label(nu, grid.units(p));
+    // A displacement in metres whose fringe is half the radar wavelength: the interferogram's
+    // own fringe, which InSAR users read as such.
+    if let Some(w) = grid.wavelength().filter(|_| grid.units(p) == "m") {
+        if (nu * w / 2.0 - 1.0).abs() < 1e-6 {
+            label.push_str(" = λ/2");
+        }
+    }
     let detail = format!("ν = {} ({})", typeset_number(nu), opts.mode.name());
     let ends = crate::model::text::ColourBar::of(&bar).map(|b| (b.lo, b.hi));
     let (left, right) = match ends {
