@@ -25,6 +25,9 @@ struct Params64 {
     image: vec4<u32>,
     // x: 0 table, 1 emission–absorption; y: 0 linear, 1 log10, 2 symlog; z: lens on
     flags: vec4<u32>,
+    // A box cut-away (model::cut::Cut's x, y, z) in the box's frame; w 1 when there is one.
+    cut_lo: vec4<f64>,
+    cut_hi: vec4<f64>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params64;
@@ -256,21 +259,16 @@ fn box_hit64(o: vec3<f64>, d: vec3<f64>, size: vec3<f64>) -> vec3<f64> {
 struct State64 {
     color: vec3<f64>,
     tau: f64,
-    ta: f64,
     stopped: bool,
 }
 
-fn step64(s: ptr<function, State64>, k: u32, n: u32, t_enter: f64, first: f64, t1: f64,
-          o: vec3<f64>, d: vec3<f64>) {
-    if ((*s).stopped || k >= n) {
+// Composites piece [ta, tb] of the ray, sampled at its middle (nothing where it is empty).
+fn piece64(s: ptr<function, State64>, ta: f64, tb: f64, o: vec3<f64>, d: vec3<f64>) {
+    if ((*s).stopped || !(tb > ta)) {
         return;
     }
-    let ds = P.march.x;
-    let tb = min(t_enter + first + f64(k) * ds, t1);
-    let mid = 0.5lf * ((*s).ta + tb);
-    let len = (tb - (*s).ta) / P.march.y;
-    (*s).ta = tb;
-    let v = sample64(o + d * mid);
+    let len = (tb - ta) / P.march.y;
+    let v = sample64(o + d * (0.5lf * (ta + tb)));
     if (!v.finite) {
         return;
     }
@@ -282,6 +280,48 @@ fn step64(s: ptr<function, State64>, k: u32, n: u32, t_enter: f64, first: f64, t
     if ((*s).tau > P.march.z) {
         (*s).stopped = true;
     }
+}
+
+// Segment k of the ray's grid from t_enter, cut to the ray's parts: [t_enter, a1] and
+// [b0, t1] (one part where a1 = t1), each piece sampled at its middle, as the CPU reference's
+// march does.
+fn step64(s: ptr<function, State64>, k: u32, n: u32, t_enter: f64, first: f64, parts: vec4<f64>,
+          o: vec3<f64>, d: vec3<f64>) {
+    if ((*s).stopped || k >= n) {
+        return;
+    }
+    let ds = P.march.x;
+    let ta = select(t_enter + first + f64(k - 1u) * ds, t_enter, k == 0u);
+    let tb = t_enter + first + f64(k) * ds;
+    piece64(s, max(ta, parts.x), min(tb, parts.y), o, d);
+    piece64(s, max(ta, parts.z), min(tb, parts.w), o, d);
+}
+
+// The ray's pieces inside the box [t0, t1] less its piece inside the cut-away's box (the slab
+// method, as Cut::clip_box): (a0, a1, b0, b1), an empty piece where a part is missing.
+fn ray_parts64(o: vec3<f64>, d: vec3<f64>, t0: f64, t1: f64) -> vec4<f64> {
+    let none = vec4<f64>(t0, t1, 1.0lf, 0.0lf);
+    if (P.cut_lo.w < 0.5lf) {
+        return none;
+    }
+    var c0 = -1.0e308lf;
+    var c1 = 1.0e308lf;
+    for (var a = 0; a < 3; a++) {
+        if (d[a] == 0.0lf) {
+            if (o[a] < P.cut_lo[a] || o[a] > P.cut_hi[a]) {
+                return none;
+            }
+            continue;
+        }
+        let ta = (P.cut_lo[a] - o[a]) / d[a];
+        let tb = (P.cut_hi[a] - o[a]) / d[a];
+        c0 = max(c0, min(ta, tb));
+        c1 = min(c1, max(ta, tb));
+    }
+    if (c1 <= c0) {
+        return none;
+    }
+    return vec4<f64>(t0, min(c0, t1), max(c1, t0), t1);
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -301,10 +341,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     } else {
         o = P.eye.xyz + (sx * P.proj.y) * P.right.xyz + (sy * P.proj.z) * P.up.xyz;
     }
-    var s = State64(vec3<f64>(0.0lf), 0.0lf, 0.0lf, false);
+    var s = State64(vec3<f64>(0.0lf), 0.0lf, false);
     let hit = box_hit64(o, d, P.box_size.xyz);
-    let t_enter = max(hit.x, 0.0lf);
-    let t1 = hit.y;
+    var parts = ray_parts64(o, d, max(hit.x, 0.0lf), hit.y);
+    // The march starts where the first non-empty part does and ends where the last one ends.
+    if (!(parts.y > parts.x)) {
+        parts = vec4<f64>(parts.z, parts.w, 1.0lf, 0.0lf);
+    }
+    let t_enter = parts.x;
+    let t1 = max(parts.y, select(parts.y, parts.w, parts.w > parts.z));
     if (hit.z > 0.5lf && t1 > t_enter) {
         let ds = P.march.x;
         var first = ds;
@@ -317,13 +362,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (span > first) {
             n = u32(ceil((span - first) / ds)) + 1u;
         }
-        s.ta = t_enter;
         // Four steps per iteration: llvmpipe ends any loop after 65535 iterations.
         for (var k = 0u; k < n; k += 4u) {
-            step64(&s, k, n, t_enter, first, t1, o, d);
-            step64(&s, k + 1u, n, t_enter, first, t1, o, d);
-            step64(&s, k + 2u, n, t_enter, first, t1, o, d);
-            step64(&s, k + 3u, n, t_enter, first, t1, o, d);
+            step64(&s, k, n, t_enter, first, parts, o, d);
+            step64(&s, k + 1u, n, t_enter, first, parts, o, d);
+            step64(&s, k + 2u, n, t_enter, first, parts, o, d);
+            step64(&s, k + 3u, n, t_enter, first, parts, o, d);
             if (s.stopped) {
                 break;
             }

@@ -178,7 +178,8 @@ fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
 /// A cut-away is for volumes in memory, and must leave part of the volume: latitude, longitude
 /// and depth ranges of a spherical volume (its path is chosen as without a cut), world x, y, z
 /// ranges of a box, which the mapped ray caster clips (regular boxes too: the in-core and
-/// bricked ray casters march one piece a ray) and the f64 CPU reference (`Some` of that path).
+/// bricked ray casters march one piece a ray) and the f64 ones (`Some` of that path: the f64
+/// CPU reference, or for a regular box the f64 GPU shader where it runs).
 fn check_cut(
     source: &VolumeSource,
     cut: &Cut,
@@ -199,6 +200,10 @@ fn check_cut(
     }
     cut.check_box(&v.name, &v.bounds())?;
     mapped_path(v, opts).map(Some)
+}
+
+fn source_is_regular(source: &VolumeSource) -> bool {
+    matches!(source, VolumeSource::Memory(v) if v.is_regular())
 }
 
 /// The path of `missing: "renormalise"`: the f64 CPU reference, the one ray caster that
@@ -323,7 +328,12 @@ impl RenderSession {
         let b = &opts.bricking;
         if let Some(cut) = &opts.cut {
             if let Some(path) = check_cut(source, cut, opts)? {
-                return Ok(path.into());
+                // A regular box's f64 cut runs where its uncut render would.
+                return match path {
+                    RenderPath::F64Cpu if source_is_regular(source) => self.f64_path(opts),
+                    path => Ok(path),
+                }
+                .map(Route::from);
             }
         }
         if let Some(world) = self.cluster().filter(|w| w.size() > 1) {
@@ -356,19 +366,10 @@ impl RenderSession {
             VolumeSource::Memory(v) if !v.is_regular() => {
                 return mapped_path(v, opts).map(Route::from)
             }
+            VolumeSource::Memory(_) if opts.precision == Precision::F64 => {
+                return self.f64_path(opts).map(Route::from)
+            }
             VolumeSource::Memory(v) => {
-                if opts.precision == Precision::F64 {
-                    // f64 has no bricked variant and no budget: the GPU shader where it runs.
-                    let gpu = opts.shading.is_none()
-                        && opts.tf_sampling == TfSampling::Point
-                        && self.f64_gpu_available()?;
-                    return Ok(if gpu {
-                        RenderPath::F64Gpu
-                    } else {
-                        RenderPath::F64Cpu
-                    }
-                    .into());
-                }
                 if fits_in_core(v, opts) && b.brick.is_none() {
                     let skip_grid = self.paying_skip_grid(v, opts)?;
                     return Ok(Route {
@@ -407,6 +408,19 @@ impl RenderSession {
         };
         check_bricked_options(source.name(), opts)?;
         Ok(path.into())
+    }
+
+    /// Where a regular box renders in f64 (no bricked variant, no budget): the GPU shader where
+    /// the adapter has shader f64 and the options need nothing it lacks, else the CPU reference.
+    fn f64_path(&self, opts: &VolumeRenderOptions) -> Result<RenderPath> {
+        let gpu = opts.shading.is_none()
+            && opts.tf_sampling == TfSampling::Point
+            && self.f64_gpu_available()?;
+        Ok(if gpu {
+            RenderPath::F64Gpu
+        } else {
+            RenderPath::F64Cpu
+        })
     }
 
     /// The skip grid the in-core render of `volume` skips with, or `None` when it does not

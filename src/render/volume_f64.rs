@@ -28,6 +28,8 @@ struct Params64 {
     march: [f64; 4],
     image: [u32; 4],
     flags: [u32; 4],
+    cut_lo: [f64; 4],
+    cut_hi: [f64; 4],
 }
 
 /// Renders in f64 on the GPU; one per GPU context.
@@ -215,6 +217,7 @@ fn params64(
 ) -> Params64 {
     let cam = &opts.camera;
     let lo = volume.origin;
+    let cut = cut_corners(opts, lo);
     let v4 = |v: [f64; 3]| [v[0], v[1], v[2], 0.0];
     let proj = cam.shader_projection(opts.width, opts.height);
     let (tf_kind, tf_consts) = match tf.kind {
@@ -253,5 +256,21 @@ fn params64(
             tf.mapping.lens.is_some() as u32,
             0,
         ],
+        cut_lo: cut[0],
+        cut_hi: cut[1],
     }
+}
+
+/// A box cut-away's lower and upper corners in the box's frame (an absent range: far beyond the
+/// volume), w 1 when there is one; all zero without.
+fn cut_corners(opts: &VolumeRenderOptions, lo: [f64; 3]) -> [[f64; 4]; 2] {
+    let Some(c) = &opts.cut else {
+        return [[0.0; 4]; 2];
+    };
+    let mut out = [[0.0, 0.0, 0.0, 1.0]; 2];
+    for (a, r) in [c.x, c.y, c.z].into_iter().enumerate() {
+        let [l, h] = r.map_or([-1e300, 1e300], |[l, h]| [l - lo[a], h - lo[a]]);
+        (out[0][a], out[1][a]) = (l, h);
+    }
+    out
 }

@@ -577,5 +577,20 @@ fn cut_away_boxes_on_the_gpu_match_the_f64_reference_from_an_oblique_view() {
             "{}: the cut changed the image by {change:.2e}",
             v.name
         );
+        // In f64 a regular box's cut runs where its uncut render would: the f64 GPU shader on
+        // adapters with shader f64 (lavapipe has it), equal to the CPU reference to the f32
+        // the image is stored in.
+        o.precision = Precision::F64;
+        let r = session.render_volume_detailed(&source, &o).unwrap();
+        if v.is_regular() {
+            assert_eq!(r.path, hdrvis::render::RenderPath::F64Gpu, "{}", v.name);
+        }
+        let f64s: Vec<[f64; 4]> = r.image.pixels.iter().map(|p| p.map(f64::from)).collect();
+        let err = relative_rms(&f64s, &reference);
+        eprintln!(
+            "{}: {:?} {err:.2e} from the f64 CPU reference",
+            v.name, r.path
+        );
+        assert!(err < 1e-7, "{}: f64 relative RMS {err:.2e}", v.name);
     }
 }
