@@ -231,7 +231,7 @@ mod tests {
 
     /// Runs `source` as a planning run (options checked, nothing rendered or written) in a
     /// folder holding `geo.nc`, a small grid `uz` on CF latitude and longitude (the surface
-    /// tables' calls load it).
+    /// tables' calls load it) and `series.nc`, a time series (series_range's).
     fn plan(source: &str) -> crate::Result<()> {
         let dir = tempfile::tempdir().unwrap();
         let uz: Vec<f64> = (0..12).map(|i| i as f64 * 0.25 - 1.0).collect();
@@ -245,6 +245,10 @@ mod tests {
             &[],
         )
         .unwrap();
+        // A time series for series_range: the example script's fixture (xarray-written).
+        let series = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("datasets/fixtures/tsunami_series.nc");
+        std::fs::copy(series, dir.path().join("series.nc")).unwrap();
         let mut opts = ScriptOptions::new(dir.path().join("out"));
         opts.progress = false;
         opts.plan_only = true;
