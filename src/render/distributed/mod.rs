@@ -16,6 +16,7 @@ pub mod composite;
 pub mod exchange;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+mod session;
 
 pub use composite::{Partial, Scheme};
 pub use exchange::{ChannelExchange, Exchange};
