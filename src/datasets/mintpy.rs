@@ -184,16 +184,13 @@ fn default_dataset(path: &Path, product: &Product) -> Result<String> {
         })
 }
 
-/// The dataset `var` (else the default one) with the step `sel` chooses on a time series'
-/// `time` axis. Without a step, a time series is refused when `refuse_time` (a grid is being
-/// read) and read whole otherwise (`hdrvis info`).
-pub(crate) fn read_array(
+/// The dataset `var` names (else the product's main one) and its shape; an unknown name is the
+/// one-line error listing the file's datasets.
+fn named_dataset(
     path: &Path,
     product: &Product,
     var: Option<&str>,
-    sel: &Selection,
-    refuse_time: bool,
-) -> Result<ArrayData> {
+) -> Result<(String, Vec<usize>)> {
     let name = match var {
         Some(v) => v.trim_start_matches('/').to_string(),
         None => default_dataset(path, product)?,
@@ -205,6 +202,20 @@ pub(crate) fn read_array(
         .find(|a| a.name == full)
         .map(|a| a.shape.clone())
         .ok_or_else(|| super::missing_array(path, &full, &listed))?;
+    Ok((name, shape))
+}
+
+/// The dataset `var` (else the default one) with the step `sel` chooses on a time series'
+/// `time` axis. Without a step, a time series is refused when `refuse_time` (a grid is being
+/// read) and read whole otherwise (`hdrvis info`).
+pub(crate) fn read_array(
+    path: &Path,
+    product: &Product,
+    var: Option<&str>,
+    sel: &Selection,
+    refuse_time: bool,
+) -> Result<ArrayData> {
+    let (name, shape) = named_dataset(path, product, var)?;
     let dates = if shape.len() == 3 {
         product.dates(path)?
     } else {
@@ -300,17 +311,7 @@ pub(crate) fn axes(
 
 /// The dates of the time series `var` (else the file's), in ISO 8601: what `times(path)` gives.
 pub(crate) fn time_steps(path: &Path, product: &Product, var: Option<&str>) -> Result<Vec<String>> {
-    let name = match var {
-        Some(v) => v.trim_start_matches('/').to_string(),
-        None => default_dataset(path, product)?,
-    };
-    let listed = hdf5::list_datasets(path)?;
-    let full = format!("/{name}");
-    let shape = listed
-        .iter()
-        .find(|a| a.name == full)
-        .map(|a| a.shape.clone())
-        .ok_or_else(|| super::missing_array(path, &full, &listed))?;
+    let (name, shape) = named_dataset(path, product, var)?;
     match product.dates(path)? {
         Some((values, time)) if shape.len() == 3 && shape[0] == values.len() => {
             Ok(values.iter().map(|&v| time.date(v)).collect())

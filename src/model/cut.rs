@@ -134,6 +134,19 @@ impl Cut {
         Ok(())
     }
 
+    /// The removed box's lower and upper corners relative to `corner` (a box's frame in the
+    /// shaders), an absent range spanning 1e30 each way: far beyond any volume, and finite, so
+    /// the slab method's quotients are.
+    pub(crate) fn box_in_frame(&self, corner: [f64; 3]) -> [[f64; 3]; 2] {
+        let mut out = [[-1e30; 3], [1e30; 3]];
+        for (a, r) in [self.x, self.y, self.z].into_iter().enumerate() {
+            if let Some([lo, hi]) = r {
+                (out[0][a], out[1][a]) = (lo - corner[a], hi - corner[a]);
+            }
+        }
+        out
+    }
+
     /// The pieces of the ray `o + t·d` over `[t0, t1]` (its piece inside a box) that lie outside
     /// the cut's box: the piece less the ray's piece inside the cut (slab method; a ray parallel
     /// to a slab is inside it or misses it), so none, one or two pieces.

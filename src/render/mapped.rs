@@ -88,15 +88,11 @@ impl MappedParams {
         ];
     }
 
-    /// The cut-away `cut` of a box whose lower corner is `corner` (the shader's frame): an
-    /// absent range spans far beyond any volume (finite, so the slab method's quotients are).
+    /// The cut-away `cut` of a box whose lower corner is `corner` (the shader's frame).
     fn set_box_cut(&mut self, cut: &Cut, corner: [f64; 3]) {
-        let ranges = [cut.x, cut.y, cut.z];
+        let [lo, hi] = cut.box_in_frame(corner);
         for a in 0..3 {
-            let [lo, hi] = ranges[a]
-                .map(|[lo, hi]| [(lo - corner[a]) as f32, (hi - corner[a]) as f32])
-                .unwrap_or([-1.0e30, 1.0e30]);
-            (self.box_cut_lo[a], self.box_cut_hi[a]) = (lo, hi);
+            (self.box_cut_lo[a], self.box_cut_hi[a]) = (lo[a] as f32, hi[a] as f32);
         }
         self.box_cut_lo[3] = 1.0;
     }

@@ -261,16 +261,10 @@ fn params64(
     }
 }
 
-/// A box cut-away's lower and upper corners in the box's frame (an absent range: far beyond the
-/// volume), w 1 when there is one; all zero without.
+/// A box cut-away's lower and upper corners in the box's frame ([`crate::model::Cut::box_in_frame`]), w 1
+/// when there is one; all zero without.
 fn cut_corners(opts: &VolumeRenderOptions, lo: [f64; 3]) -> [[f64; 4]; 2] {
-    let Some(c) = &opts.cut else {
-        return [[0.0; 4]; 2];
-    };
-    let mut out = [[0.0, 0.0, 0.0, 1.0]; 2];
-    for (a, r) in [c.x, c.y, c.z].into_iter().enumerate() {
-        let [l, h] = r.map_or([-1e300, 1e300], |[l, h]| [l - lo[a], h - lo[a]]);
-        (out[0][a], out[1][a]) = (l, h);
-    }
-    out
+    opts.cut.as_ref().map_or([[0.0; 4]; 2], |c| {
+        c.box_in_frame(lo).map(|[x, y, z]| [x, y, z, 1.0])
+    })
 }

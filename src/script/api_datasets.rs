@@ -4,7 +4,7 @@
 //! `load_grid` and `open_volume` share (`index`, `at`) are read here, and `times(path)` lists a
 //! file's time steps.
 
-use super::convert::{err, int, to_rhai, RResult};
+use super::convert::{err, int, ints, to_rhai, RResult};
 use super::options::{opt, Given, Kind, OptionSpec, OptionTable};
 use super::ScriptHost;
 use crate::datasets::generate::{
@@ -278,23 +278,10 @@ pub(crate) const SERIES_RANGE: OptionTable = OptionTable {
 fn series_range(host: &ScriptHost, path: &str, opts: &Map) -> RResult<rhai::Array> {
     let given = SERIES_RANGE.read(opts)?;
     let (p, from_path) = host.sandbox.read_data_path(path).map_err(to_rhai)?;
-    let steps = match given.value("steps")? {
-        None => None,
-        Some(v) => {
-            let items = v.clone().into_array().map_err(|_| {
-                to_rhai(crate::Error::invalid(
-                    "series_range.steps",
-                    format!("expected an array of integers, got {}", v.type_name()),
-                ))
-            })?;
-            Some(
-                items
-                    .iter()
-                    .map(|d| int(d, "series_range.steps"))
-                    .collect::<RResult<Vec<i64>>>()?,
-            )
-        }
-    };
+    let steps = given
+        .value("steps")?
+        .map(|v| ints(v, "series_range.steps"))
+        .transpose()?;
     let o = crate::datasets::series::SeriesOptions {
         variable: given.string("variable")?.or(from_path),
         steps,

@@ -75,6 +75,15 @@ pub(crate) fn pair(v: &Dynamic, field: &str) -> RResult<[f64; 2]> {
     Ok([num(&a[0], field)?, num(&a[1], field)?])
 }
 
+/// An array of integers (positions along an axis).
+pub(crate) fn ints(v: &Dynamic, field: &str) -> RResult<Vec<i64>> {
+    let arr = v
+        .clone()
+        .into_array()
+        .or_else(|t| err(field, format!("expected an array of integers, got {t}")))?;
+    arr.iter().map(|d| int(d, field)).collect()
+}
+
 /// Control points [[t, value], ...].
 pub(crate) fn points(v: &Dynamic, field: &str) -> RResult<Vec<[f64; 2]>> {
     let arr = v.clone().into_array().or_else(|t| {

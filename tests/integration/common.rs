@@ -5,6 +5,8 @@ use hdrvis::model::{HdrImage, Volume};
 use hdrvis::render::session::RenderSession;
 use hdrvis::render::volume::VolumeRenderer;
 use hdrvis::render::{RenderPath, VolumeRenderOptions, VolumeSource};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 /// Something a test needs from outside (a tool, Python modules, a font, root) is missing: the
@@ -103,4 +105,47 @@ pub fn max_rel(a: &[f64], b: &[f64], floor: f64) -> f64 {
         .zip(b)
         .map(|(x, y)| (x - y).abs() / y.abs().max(floor))
         .fold(0.0, f64::max)
+}
+
+/// The report of the tests/python writer `script` run as `SCRIPT DIR CASE` (it writes case
+/// `case`'s files into `dir`): one `KEY VALUE ...` line per reference value, by key; `None`
+/// when the Python modules are missing.
+pub fn python_reference(
+    script: &str,
+    dir: &Path,
+    case: &str,
+) -> Option<HashMap<String, Vec<String>>> {
+    let report = crate::cli::python_check(script, &[dir.to_str().unwrap(), case])?;
+    assert!(report.starts_with("exit 0\n"), "{report}");
+    Some(
+        report
+            .lines()
+            .skip(1)
+            .filter_map(|l| {
+                let mut words = l.split_whitespace();
+                let key = words.next()?.to_string();
+                Some((key, words.map(str::to_string).collect()))
+            })
+            .collect(),
+    )
+}
+
+/// The values of `key` in a [`python_reference`] report, as numbers.
+pub fn reference_numbers(r: &HashMap<String, Vec<String>>, key: &str) -> Vec<f64> {
+    r.get(key)
+        .unwrap_or_else(|| panic!("no {key} in the reference"))
+        .iter()
+        .map(|w| w.parse().unwrap())
+        .collect()
+}
+
+/// Writes the CF file `name` in `dir` with tests/python/write_cf_sphere.py and `args`; `None`
+/// (skip) without xarray.
+pub fn cf_sphere_file(dir: &Path, name: &str, args: &[&str]) -> Option<PathBuf> {
+    let path = dir.join(name);
+    let mut all = vec![path.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let out = crate::cli::python_check("write_cf_sphere.py", &all)?;
+    assert!(out.starts_with("exit 0"), "{out}");
+    Some(path)
 }

@@ -3,37 +3,18 @@
 //! products written by h5py in MintPy's layout. Grids come out north up, their nodes at the
 //! pixel centres rasterio's xy() gives, their values those rasterio and numpy read.
 
-use crate::cli::{hdrvis, python_check};
+use crate::cli::hdrvis;
+use crate::common::{python_reference, reference_numbers as numbers};
 use hdrvis::datasets::select::{At, Selection};
 use hdrvis::datasets::LoadOptions;
 use hdrvis::model::{CoordKind, Grid};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// The files of `case` written into `dir` and the reference values, by key; `None` when the
-/// Python modules are missing.
+/// The files of `case` written into `dir` and the reference values, by key (write_georaster.py);
+/// `None` when the Python modules are missing.
 fn reference(dir: &Path, case: &str) -> Option<HashMap<String, Vec<String>>> {
-    let report = python_check("write_georaster.py", &[dir.to_str().unwrap(), case])?;
-    assert!(report.starts_with("exit 0\n"), "{report}");
-    Some(
-        report
-            .lines()
-            .skip(1)
-            .filter_map(|l| {
-                let mut words = l.split_whitespace();
-                let key = words.next()?.to_string();
-                Some((key, words.map(str::to_string).collect()))
-            })
-            .collect(),
-    )
-}
-
-fn numbers(r: &HashMap<String, Vec<String>>, key: &str) -> Vec<f64> {
-    r.get(key)
-        .unwrap_or_else(|| panic!("no {key} in the reference"))
-        .iter()
-        .map(|w| w.parse().unwrap())
-        .collect()
+    python_reference("write_georaster.py", dir, case)
 }
 
 /// Exactly equal values (NaN where the reference is masked).

@@ -4,22 +4,13 @@
 //! and the one-line errors of bad sections, slices and grid files.
 
 use crate::cli::{hdrvis, python_check};
+use crate::common::cf_sphere_file;
 use crate::common::renderer;
 use hdrvis::datasets::load_volume;
 use hdrvis::model::section::{great_circle_section, SectionSpec};
 use hdrvis::model::{Grid, Missing};
 use hdrvis::render::surface::{fringe_f64, SurfaceOptions, SurfaceRenderer};
-use std::path::{Path, PathBuf};
-
-/// Writes a CF file with tests/python/write_cf_sphere.py; `None` (skip) without xarray.
-fn cf_file(dir: &Path, name: &str, args: &[&str]) -> Option<PathBuf> {
-    let path = dir.join(name);
-    let mut all = vec![path.to_str().unwrap()];
-    all.extend_from_slice(args);
-    let out = python_check("write_cf_sphere.py", &all)?;
-    assert!(out.starts_with("exit 0"), "{out}");
-    Some(path)
-}
+use std::path::Path;
 
 const SECTION: &str =
     "#{ from: [10.0, -40.0], to: [50.0, 60.0], depth: [100.0, 2800.0], n: [41, 28] }";
@@ -77,7 +68,7 @@ fn a_section_with_fringes_saves_as_cf_netcdf_that_xarray_and_load_grid_read() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // value = 6371 − depth (km): linear in depth, so every node has a closed form.
-    let Some(model) = cf_file(d, "model.nc", &["radial"]) else {
+    let Some(model) = cf_sphere_file(d, "model.nc", &["radial"]) else {
         return;
     };
     let script = format!(
@@ -171,7 +162,7 @@ fn bad_sections_slices_and_grid_files_are_one_line_errors_writing_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let small = ["shell", "--nlat", "6", "--nlon", "12", "--ndepth", "3"];
-    let Some(_) = cf_file(d, "shell.nc", &small) else {
+    let Some(_) = cf_sphere_file(d, "shell.nc", &small) else {
         return;
     };
     let shell = "load_volume(\"shell.nc\")";

@@ -3,24 +3,13 @@
 //! quadrature along each ray, no seam whichever turn the longitudes are stored from, a regional
 //! wedge against its chord, an uneven depth axis, and the one-line errors of bad coordinates.
 
-use crate::cli::python_check;
+use crate::common::cf_sphere_file;
 use crate::common::session;
 use hdrvis::datasets::{load_volume, load_volume_with, LoadOptions};
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::{Axis, Camera, Geometry, TransferFunction, Volume};
 use hdrvis::render::{FilterMode, Precision, RenderPath, VolumeRenderOptions, VolumeSource};
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
-
-/// Writes a CF file with tests/python/write_cf_sphere.py; `None` (skip) without xarray.
-fn cf_file(dir: &Path, name: &str, args: &[&str]) -> Option<PathBuf> {
-    let path = dir.join(name);
-    let mut all = vec![path.to_str().unwrap()];
-    all.extend_from_slice(args);
-    let out = python_check("write_cf_sphere.py", &all)?;
-    assert!(out.starts_with("exit 0"), "{out}");
-    Some(path)
-}
 
 fn render(v: &Volume, opts: &VolumeRenderOptions) -> (Vec<[f32; 4]>, RenderPath) {
     let r = session(BackendChoice::Vulkan)
@@ -64,7 +53,7 @@ fn chord(b: f64, r0: f64, r1: f64) -> f64 {
 #[test]
 fn constant_shell_integrates_to_the_chord_on_gpu_and_cpu() {
     let dir = tempfile::tempdir().unwrap();
-    let Some(path) = cf_file(dir.path(), "shell.nc", &["shell"]) else {
+    let Some(path) = cf_sphere_file(dir.path(), "shell.nc", &["shell"]) else {
         return;
     };
     let v = load_volume(&path).unwrap();
@@ -116,10 +105,10 @@ fn constant_shell_integrates_to_the_chord_on_gpu_and_cpu() {
 #[test]
 fn longitudes_from_minus_180_and_from_0_give_one_image() {
     let dir = tempfile::tempdir().unwrap();
-    let Some(a) = cf_file(dir.path(), "a.nc", &["lonfield", "--lon0", "-180"]) else {
+    let Some(a) = cf_sphere_file(dir.path(), "a.nc", &["lonfield", "--lon0", "-180"]) else {
         return;
     };
-    let b = cf_file(dir.path(), "b.nc", &["lonfield", "--lon0", "0"]).unwrap();
+    let b = cf_sphere_file(dir.path(), "b.nc", &["lonfield", "--lon0", "0"]).unwrap();
     let (va, vb) = (load_volume(&a).unwrap(), load_volume(&b).unwrap());
     for cam in [
         Camera::axis(Axis::Z, &va.bounds()),
@@ -160,7 +149,7 @@ fn regional_wedge_and_uneven_depths_match_their_chords() {
     let dir = tempfile::tempdir().unwrap();
     // A wedge of latitudes 0..60 and longitudes 0..90 seen from above the pole: the rays
     // along z at (x, y) with x, y > 0 cross latitudes from 0 up to the outer sphere or to 60°.
-    let Some(path) = cf_file(
+    let Some(path) = cf_sphere_file(
         dir.path(),
         "wedge.nc",
         &[
@@ -227,7 +216,7 @@ fn regional_wedge_and_uneven_depths_match_their_chords() {
 #[test]
 fn radial_field_matches_a_quadrature_along_each_ray() {
     let dir = tempfile::tempdir().unwrap();
-    let Some(path) = cf_file(dir.path(), "radial.nc", &["radial", "--ndepth", "12"]) else {
+    let Some(path) = cf_sphere_file(dir.path(), "radial.nc", &["radial", "--ndepth", "12"]) else {
         return;
     };
     let v = load_volume(&path).unwrap();
@@ -271,7 +260,7 @@ fn radial_field_matches_a_quadrature_along_each_ray() {
 #[test]
 fn cartesian_option_keeps_the_coordinate_box() {
     let dir = tempfile::tempdir().unwrap();
-    let Some(path) = cf_file(
+    let Some(path) = cf_sphere_file(
         dir.path(),
         "box.nc",
         &["shell", "--nlat", "6", "--nlon", "12", "--ndepth", "4"],
@@ -297,7 +286,7 @@ fn cartesian_option_keeps_the_coordinate_box() {
 #[test]
 fn bad_coordinates_are_one_line_errors_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
-    let Some(no_units) = cf_file(
+    let Some(no_units) = cf_sphere_file(
         dir.path(),
         "nounits.nc",
         &[
@@ -319,7 +308,7 @@ fn bad_coordinates_are_one_line_errors_naming_the_file() {
         "{e}"
     );
     assert_eq!(e.lines().count(), 1);
-    let deep = cf_file(
+    let deep = cf_sphere_file(
         dir.path(),
         "deep.nc",
         &[
@@ -351,7 +340,7 @@ fn bad_coordinates_are_one_line_errors_naming_the_file() {
 #[test]
 fn stretched_ocean_levels_render_in_their_true_geometry() {
     let dir = tempfile::tempdir().unwrap();
-    let Some(path) = cf_file(
+    let Some(path) = cf_sphere_file(
         dir.path(),
         "ocean.nc",
         &["ocean", "--ndepth", "9", "--nlat", "2"],
@@ -408,7 +397,7 @@ fn stretched_ocean_levels_render_in_their_true_geometry() {
 fn scripts_print_render_and_info_reports_a_shell() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let Some(_) = cf_file(
+    let Some(_) = cf_sphere_file(
         d,
         "shell.nc",
         &["shell", "--nlat", "18", "--nlon", "36", "--ndepth", "6"],
@@ -479,7 +468,7 @@ fn preintegrated_shaded_lut_renders_match_the_f64_reference() {
     use hdrvis::model::{LutTransfer, Scale};
     use hdrvis::render::{Shading, TfSampling};
     let dir = tempfile::tempdir().unwrap();
-    let Some(path) = cf_file(
+    let Some(path) = cf_sphere_file(
         dir.path(),
         "f.nc",
         &["lonfield", "--nlat", "18", "--nlon", "36", "--ndepth", "6"],
@@ -549,7 +538,7 @@ fn bad_geographic_files_fail_in_one_line_and_write_nothing() {
         let mut args = vec!["shell"];
         args.extend_from_slice(&small);
         args.extend_from_slice(extra);
-        let Some(_) = cf_file(d, name, &args) else {
+        let Some(_) = cf_sphere_file(d, name, &args) else {
             return;
         };
         let script = format!(
