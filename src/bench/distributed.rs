@@ -193,7 +193,7 @@ fn measure_link(world: &dyn Exchange) -> Result<(f64, f64)> {
 /// The cost model of docs/performance.md for an image of `side`² RGBA f32 pixels over `ranks`:
 /// binary-swap α·log₂N + (S/β)(1 − 1/N) and the gather onto rank 0 (N − 1)·α + (S/β)(1 − 1/N),
 /// in seconds, for latency `alpha` (s) and bandwidth `beta` (bytes/s).
-pub fn model_seconds(side: u32, ranks: usize, alpha: f64, beta: f64) -> (f64, f64) {
+pub(crate) fn model_seconds(side: u32, ranks: usize, alpha: f64, beta: f64) -> (f64, f64) {
     let bytes = 16.0 * f64::from(side) * f64::from(side);
     let n = ranks as f64;
     let moved = bytes / beta * (1.0 - 1.0 / n);

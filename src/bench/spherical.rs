@@ -112,13 +112,13 @@ pub struct SphericalRow {
 }
 
 impl SphericalRow {
-    pub fn ns_per_sample(&self) -> f64 {
+    pub(crate) fn ns_per_sample(&self) -> f64 {
         self.median_ms * 1e6 / self.samples.max(1.0)
     }
 
     /// Nanoseconds per sample on the GPU's own clock: on a real GPU the wall clock is mostly
     /// readback, and only this measures the samples.
-    pub fn gpu_ns_per_sample(&self) -> Option<f64> {
+    pub(crate) fn gpu_ns_per_sample(&self) -> Option<f64> {
         self.gpu_median_ms
             .map(|ms| ms * 1e6 / self.samples.max(1.0))
     }

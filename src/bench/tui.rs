@@ -44,14 +44,14 @@ impl TuiBenchRow {
 
 /// The terminal sizes (columns × rows) the view keys are timed at: a default terminal, a
 /// typical full-screen one and a large one.
-pub const TERMINALS: [(u16, u16); 3] = [(80, 24), (160, 50), (240, 70)];
+pub(crate) const TERMINALS: [(u16, u16); 3] = [(80, 24), (160, 50), (240, 70)];
 
 /// The terminal the scene keys (which re-run the script) are timed in.
 const SCENE_TERMINAL: (u16, u16) = (160, 50);
 
 /// The cell size in pixels assumed for sixel and kitty (ratatui-image's default; half blocks
 /// show one column and two rows a cell whatever the font).
-pub const CELL: (u16, u16) = (10, 20);
+pub(crate) const CELL: (u16, u16) = (10, 20);
 
 /// The protocols timed, in the order of the table.
 const PROTOCOLS: [ProtocolChoice; 3] = [
@@ -305,7 +305,7 @@ enum Key {
 
 /// Side of the full-resolution render whose view keys are timed (a 768² image, the size of the
 /// EXR pictures users open).
-pub const FULL_SIZE: u32 = 768;
+pub(crate) const FULL_SIZE: u32 = 768;
 
 fn size_label(scene: &str, n: usize) -> String {
     if scene == "volume" {

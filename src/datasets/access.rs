@@ -53,13 +53,13 @@ pub(crate) fn resolve(path: &Path) -> Result<PathBuf> {
 
 /// While alive, files named by other files must resolve inside `folders` (already resolved with
 /// [`resolve`]) on this thread; dropping it restores the scope that was active before.
-pub struct ReadScope {
+pub(crate) struct ReadScope {
     previous: Option<Vec<PathBuf>>,
 }
 
 impl ReadScope {
     /// Limits the references of data files read on this thread to `folders`.
-    pub fn enter(folders: &[PathBuf]) -> ReadScope {
+    pub(crate) fn enter(folders: &[PathBuf]) -> ReadScope {
         let previous = SCOPE.with(|s| s.borrow_mut().replace(folders.to_vec()));
         ReadScope { previous }
     }

@@ -20,7 +20,7 @@ pub fn open_bricked(path: &Path, var: Option<&str>, brick: usize) -> Result<Bric
 
 /// [`open_bricked`] with the dimensions `sel` fixes (NetCDF, read by hyperslabs; an `at`
 /// between two levels, which would interpolate, is refused).
-pub fn open_bricked_with(
+pub(crate) fn open_bricked_with(
     path: &Path,
     var: Option<&str>,
     sel: &super::select::Selection,

@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 use crate::model::{CoordAxis, SphericalGrid};
 
 /// Earth's mean radius, used when neither the file nor the script gives one.
-pub const EARTH_RADIUS_KM: f64 = 6371.0;
+pub(crate) const EARTH_RADIUS_KM: f64 = 6371.0;
 
 /// What a coordinate variable is under CF.
 #[derive(Clone, Debug, PartialEq)]
@@ -251,7 +251,7 @@ pub(crate) fn unwrap_longitudes(values: &[f64]) -> Option<Vec<f64>> {
 /// Options that shape a spherical volume: a planet radius in the vertical axis's unit that
 /// overrides the file's.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SphereOptions {
+pub(crate) struct SphereOptions {
     pub planet_radius: Option<f64>,
 }
 

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 
 /// A CF calendar.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Calendar {
+pub(crate) enum Calendar {
     Standard,
     ProlepticGregorian,
     NoLeap,
@@ -178,7 +178,7 @@ fn format_ymd(year: i64, month: i64, day: i64) -> String {
 
 /// A time axis: `<unit> since <epoch>` in a calendar.
 #[derive(Clone, Debug, PartialEq)]
-pub struct TimeUnits {
+pub(crate) struct TimeUnits {
     pub calendar: Calendar,
     /// Seconds per unit.
     unit: f64,

@@ -47,7 +47,7 @@ impl CoastResolution {
 }
 
 /// A polyline of (longitude, latitude) in degrees.
-pub type Polyline = Vec<[f64; 2]>;
+pub(crate) type Polyline = Vec<[f64; 2]>;
 
 static COARSE: OnceLock<Vec<Polyline>> = OnceLock::new();
 static FINE: OnceLock<Vec<Polyline>> = OnceLock::new();

@@ -95,7 +95,7 @@ pub fn info_report(path: &Path, var: Option<&str>) -> Result<String> {
 /// [`info_report`] of the variable with the dimensions `sel` fixes (NetCDF): the statistics
 /// are those of the selected part. A NetCDF report also gives each dimension of the variable
 /// with its CF role (time, vertical, latitude, longitude, other) and a time axis's dates.
-pub fn info_report_with(path: &Path, var: Option<&str>, sel: &Selection) -> Result<String> {
+pub(crate) fn info_report_with(path: &Path, var: Option<&str>, sel: &Selection) -> Result<String> {
     info_report_band(path, var, sel, None)
 }
 

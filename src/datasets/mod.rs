@@ -2,15 +2,15 @@
 //! datasets work lands, the generators of the paper's case studies. `load_volume` picks the
 //! reader from the file name.
 
-pub mod access;
+pub(crate) mod access;
 pub mod bricked;
 pub mod cache;
-pub mod cf;
-pub mod cf_time;
+pub(crate) mod cf;
+pub(crate) mod cf_time;
 pub mod coastlines;
 pub mod generate;
 pub(crate) mod geotiff;
-pub mod grid_out;
+pub(crate) mod grid_out;
 pub(crate) mod hdf5;
 pub mod info;
 pub mod mantle;

@@ -65,12 +65,12 @@ mod sealed {
 }
 
 /// A data variable to write: `(name, values in C order, units, long_name)`.
-pub type GridVar<'a, T> = (&'a str, &'a [T], &'a str, &'a str);
+pub(crate) type GridVar<'a, T> = (&'a str, &'a [T], &'a str, &'a str);
 /// A coordinate axis to write: `(dimension name, coordinate values, units)`.
-pub type GridCoord<'a> = (&'a str, &'a [f64], &'a str);
+pub(crate) type GridCoord<'a> = (&'a str, &'a [f64], &'a str);
 /// An auxiliary coordinate along one dimension, not necessarily monotonic (the latitudes of a
 /// section's columns): `(name, index of its dimension in the coordinates, values, units)`.
-pub type AuxCoord<'a> = (&'a str, usize, &'a [f64], &'a str);
+pub(crate) type AuxCoord<'a> = (&'a str, usize, &'a [f64], &'a str);
 
 /// The dimensions of `name` in what [`list_variables`] gave; none for a name it lacks.
 pub(crate) fn dims_in(listed: &[(String, Dims)], name: &str) -> Dims {
@@ -82,7 +82,7 @@ pub(crate) fn dims_in(listed: &[(String, Dims)], name: &str) -> Dims {
 }
 
 /// Every variable of the root group with its dimensions, in file order.
-pub fn list_variables(path: impl AsRef<Path>) -> Result<Vec<(String, Dims)>> {
+pub(crate) fn list_variables(path: impl AsRef<Path>) -> Result<Vec<(String, Dims)>> {
     let path = path.as_ref();
     let file = open(path)?;
     let vars = file.variables().map_err(|e| reader_error(path, e))?;
@@ -416,7 +416,7 @@ pub fn write_grid<T: GridValue>(
 /// What a grid file carries besides its axes and data: auxiliary coordinates, and further
 /// attributes of the axes' coordinate variables as `(dimension name, key, value)` (a depth
 /// axis's `positive: "down"`).
-pub struct GridAux<'a> {
+pub(crate) struct GridAux<'a> {
     pub aux: &'a [AuxCoord<'a>],
     pub coord_attrs: &'a [(&'a str, &'a str, &'a str)],
 }
@@ -424,7 +424,7 @@ pub struct GridAux<'a> {
 /// [`write_grid`] with auxiliary coordinates, each a 1-D variable on one of the dimensions that
 /// every data variable names in its CF `coordinates` attribute (so xarray reads them as
 /// coordinates), and further attributes of the coordinate variables.
-pub fn write_grid_with_aux<T: GridValue>(
+pub(crate) fn write_grid_with_aux<T: GridValue>(
     path: &Path,
     coords: &[GridCoord<'_>],
     extra: &GridAux<'_>,

@@ -212,7 +212,7 @@ pub fn write_npy<T: npyz::AutoSerialize + Copy>(
 }
 
 /// One named array of an `.npz` archive: name, shape (C order) and values.
-pub type NpzArray<'a, T> = (&'a str, &'a [usize], &'a [T]);
+pub(crate) type NpzArray<'a, T> = (&'a str, &'a [usize], &'a [T]);
 
 /// Writes named C-ordered arrays as an `.npz` archive atomically, one `NAME.npy` member each:
 /// stored as `np.savez` writes them or, with `compressed`, deflated as `np.savez_compressed` does.

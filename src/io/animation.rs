@@ -20,7 +20,7 @@ pub struct RgbFrame {
 
 /// The containers [`write_animation`] writes, chosen by the output's extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MovieFormat {
+pub(crate) enum MovieFormat {
     Mp4,
     WebM,
     Gif,
@@ -53,7 +53,7 @@ impl MovieFormat {
 }
 
 /// Whether an `ffmpeg` that runs is on the `PATH`.
-pub fn ffmpeg_available() -> bool {
+pub(crate) fn ffmpeg_available() -> bool {
     Command::new("ffmpeg")
         .arg("-version")
         .stdout(Stdio::null())

@@ -63,7 +63,7 @@ pub(crate) fn temporary_beside(dir: &Path) -> Result<tempfile::NamedTempFile> {
 /// Refuses anything but a regular file (symlinks followed) before a reader opens `path`: opening
 /// a FIFO that has no writer blocks forever, and a device or socket holds no data file. Every
 /// reader of input files checks here first; a missing file is the usual "no such file".
-pub fn check_regular_file(path: &Path) -> Result<()> {
+pub(crate) fn check_regular_file(path: &Path) -> Result<()> {
     let meta = match std::fs::metadata(path) {
         Ok(meta) => meta,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {

@@ -71,7 +71,7 @@ fn quantise(alpha: f32, top: f32) -> f32 {
 }
 
 /// The plain view: linear values × 2^EV, then sRGB.
-pub fn write_exposed_png(image: &HdrImage, path: &Path, exposure_ev: f64) -> Result<()> {
+pub(crate) fn write_exposed_png(image: &HdrImage, path: &Path, exposure_ev: f64) -> Result<()> {
     write_display_png(&exposed(image, exposure_ev)?, path, false)
 }
 

@@ -100,7 +100,7 @@ impl Cut {
 
     /// Checks a box's cut against the box `bounds`: x, y, z only, each ordered, and leaving part
     /// of the box.
-    pub fn check_box(&self, name: &str, bounds: &Aabb) -> Result<()> {
+    pub(crate) fn check_box(&self, name: &str, bounds: &Aabb) -> Result<()> {
         if self.lat.is_some() || self.lon.is_some() || self.depth.is_some() {
             return Err(Error::invalid(
                 "cut",
@@ -231,7 +231,7 @@ impl Cut {
 impl SphericalGrid {
     /// [`Self::ray_intervals`] less the region `cut` removes: its boundaries are more crossings,
     /// and a piece whose middle it removes is left out.
-    pub fn ray_intervals_cut(
+    pub(crate) fn ray_intervals_cut(
         &self,
         o: [f64; 3],
         d: [f64; 3],

@@ -105,7 +105,7 @@ impl CoordAxis {
     }
 
     /// The smallest distance between neighbouring centres (the domain's width for one centre).
-    pub fn min_spacing(&self) -> f64 {
+    pub(crate) fn min_spacing(&self) -> f64 {
         self.centres.windows(2).map(|w| (w[1] - w[0]).abs()).fold(
             if self.centres.len() < 2 {
                 self.hi - self.lo
@@ -118,7 +118,7 @@ impl CoordAxis {
 
     /// The fractional index of coordinate `c`: `i` at centre `i`, linear between centres, and
     /// linear with the end spacing beyond the first and last centres (clamped by the caller).
-    pub fn fractional_index(&self, c: f64) -> f64 {
+    pub(crate) fn fractional_index(&self, c: f64) -> f64 {
         let n = self.centres.len();
         if n < 2 {
             return 0.0;
@@ -219,7 +219,7 @@ impl SphericalGrid {
     }
 
     /// The outer radius of the domain.
-    pub fn outer_radius(&self) -> f64 {
+    pub(crate) fn outer_radius(&self) -> f64 {
         self.radius.hi
     }
 
@@ -236,7 +236,7 @@ impl SphericalGrid {
     }
 
     /// (radius, latitude°, longitude°) of a world position; longitude in (−180, 180].
-    pub fn from_world(p: [f64; 3]) -> (f64, f64, f64) {
+    pub(crate) fn from_world(p: [f64; 3]) -> (f64, f64, f64) {
         let rho = (p[0] * p[0] + p[1] * p[1]).sqrt();
         let r = (rho * rho + p[2] * p[2]).sqrt();
         (
@@ -247,7 +247,7 @@ impl SphericalGrid {
     }
 
     /// Longitude `lon` moved by whole turns into `[lo, lo + 360)`.
-    pub fn wrap_longitude(&self, lon: f64) -> f64 {
+    pub(crate) fn wrap_longitude(&self, lon: f64) -> f64 {
         self.longitude.lo + (lon - self.longitude.lo).rem_euclid(360.0)
     }
 
@@ -294,7 +294,7 @@ impl SphericalGrid {
 
     /// Fractional voxel indices (per volume axis) of a world point inside the domain; the
     /// longitude index is taken modulo the axis length when it wraps.
-    pub fn fractional_indices(&self, p: [f64; 3]) -> [f64; 3] {
+    pub(crate) fn fractional_indices(&self, p: [f64; 3]) -> [f64; 3] {
         let (r, lat, lon) = Self::from_world(p);
         let lon = self.wrap_longitude(lon);
         let mut lon_index = self.longitude.fractional_index(lon);

@@ -393,7 +393,7 @@ impl Grid {
     }
 
     /// Sets the radar wavelength (m); like units, it changes no pixel, so the identity stays.
-    pub fn set_wavelength(&mut self, metres: Option<f64>) {
+    pub(crate) fn set_wavelength(&mut self, metres: Option<f64>) {
         self.wavelength = metres.filter(|w| w.is_finite() && *w > 0.0);
     }
 

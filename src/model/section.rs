@@ -13,7 +13,7 @@ use super::volume::{check_allocation, Missing, Volume};
 use crate::error::{Error, Result};
 
 /// Most nodes along either side of a section or slice: the grid's own limit.
-pub const MAX_SECTION_SIDE: usize = 16384;
+pub(crate) const MAX_SECTION_SIDE: usize = 16384;
 
 /// What `section(volume, #{...})` asks for.
 #[derive(Clone, Debug, PartialEq)]
@@ -236,7 +236,7 @@ fn check_depths(g: &SphericalGrid, depth: [f64; 2]) -> Result<[f64; 2]> {
 /// What `slice(volume, #{ axis, at })` asks for: the plane where world coordinate `axis`
 /// (0 = x, 1 = y, 2 = z) equals `at`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SliceSpec {
+pub(crate) struct SliceSpec {
     pub axis: usize,
     pub at: f64,
     pub missing: Missing,
@@ -245,7 +245,7 @@ pub struct SliceSpec {
 /// The axis slice `spec` of the box volume `v`: a grid on the voxel centres of the two other
 /// axes (x then y, x then z, or y then z), each node trilinear at coordinate `at` along the
 /// sliced axis (exactly the voxels when `at` is a voxel centre).
-pub fn axis_slice(v: &Volume, spec: &SliceSpec) -> Result<Grid> {
+pub(crate) fn axis_slice(v: &Volume, spec: &SliceSpec) -> Result<Grid> {
     let axes = ["x", "y", "z"];
     if matches!(v.geometry, Geometry::Spherical(_)) {
         return Err(Error::invalid(
@@ -310,7 +310,7 @@ pub fn axis_slice(v: &Volume, spec: &SliceSpec) -> Result<Grid> {
 
 /// What `slice(volume, #{ origin, normal, n })` asks for: a plane of any orientation.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PlaneSpec {
+pub(crate) struct PlaneSpec {
     pub origin: [f64; 3],
     pub normal: [f64; 3],
     /// Nodes along u and along v.
@@ -322,7 +322,7 @@ pub struct PlaneSpec {
 /// plane's part within the box's bounding box, on in-plane axes u (the world axis least aligned
 /// with the normal, made perpendicular to it) and v = normal × u, measured from `origin` in
 /// world units. Nodes outside the box are missing.
-pub fn plane_slice(v: &Volume, spec: &PlaneSpec) -> Result<Grid> {
+pub(crate) fn plane_slice(v: &Volume, spec: &PlaneSpec) -> Result<Grid> {
     if matches!(v.geometry, Geometry::Spherical(_)) {
         return axis_slice(
             v,

@@ -30,7 +30,7 @@ pub enum Scale {
 impl Scale {
     /// Every name [`Scale::parse`] accepts, case ignored: the scale's own name first, then its
     /// aliases.
-    pub const NAMES: &'static [&'static [&'static str]] = &[
+    pub(crate) const NAMES: &'static [&'static [&'static str]] = &[
         &["linear", "lin"],
         &["log10", "log", "logarithmic"],
         &["symlog", "symmetric-log"],

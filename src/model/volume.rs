@@ -147,7 +147,7 @@ pub enum Missing {
 }
 
 impl Missing {
-    pub const NAMES: &'static [&'static str] = &["strict", "renormalise"];
+    pub(crate) const NAMES: &'static [&'static str] = &["strict", "renormalise"];
 
     /// The rule named `name` (one of [`Missing::NAMES`]).
     pub fn parse(name: &str) -> Result<Missing> {

@@ -33,8 +33,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 pub use api_sweep::{check_sweep_script, sweep_status, SweepStatus};
-pub use sandbox::Sandbox;
-pub use shard::{Shard, ShardSource};
+pub(crate) use sandbox::Sandbox;
+pub use shard::Shard;
 pub use slurm_job::SlurmJob;
 
 /// How a script is run: where it writes, what `param()` returns, what else it may read.
@@ -96,18 +96,18 @@ impl std::fmt::Debug for WrittenObserver {
 
 /// The wall-clock limit interactive front ends (the TUI) give each re-run of a script, so a
 /// parameter change can never hang the session.
-pub const INTERACTIVE_TIMEOUT: Duration = Duration::from_secs(60);
+pub(crate) const INTERACTIVE_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Largest number of array elements a script may hold in one value, nested arrays counted.
 /// Rhai re-measures a container after every call that may change it (`push`, `+=`, ...), so
 /// growing one in a loop costs time quadratic in its size: 2^15 elements keep the worst case
 /// under a second, where 2^20 took minutes, and are far more than scripts need (control points,
 /// frame lists).
-pub const MAX_ARRAY_SIZE: usize = 1 << 15;
+pub(crate) const MAX_ARRAY_SIZE: usize = 1 << 15;
 /// Largest number of map entries in one value, nested maps counted (same quadratic re-measure).
-pub const MAX_MAP_SIZE: usize = 1 << 14;
+pub(crate) const MAX_MAP_SIZE: usize = 1 << 14;
 /// Longest string a script may build, in bytes.
-pub const MAX_STRING_SIZE: usize = 1 << 20;
+pub(crate) const MAX_STRING_SIZE: usize = 1 << 20;
 
 impl ScriptOptions {
     pub fn new(out_dir: impl Into<PathBuf>) -> Self {
@@ -381,7 +381,7 @@ fn bound_maps_grown_by_index(engine: &mut Engine) {
 
 /// Most seconds a run without `--timeout` may sleep in all: like its operation budget, a bound
 /// that ends a `loop { sleep(...) }` nobody asked to wait for.
-pub const MAX_SLEEP_WITHOUT_TIMEOUT_S: f64 = 1.0;
+pub(crate) const MAX_SLEEP_WITHOUT_TIMEOUT_S: f64 = 1.0;
 
 /// `sleep(seconds)` in place of Rhai's own, which blocks past any limit: with `--timeout` a sleep
 /// ends at the deadline with the timeout's error; without, the run's sleeps add up to at most
@@ -558,7 +558,7 @@ pub(crate) fn for_each_call(ast: &rhai::AST, mut visit: impl FnMut(&rhai::FnCall
 
 /// The names the script's `param(NAME, default)` calls read, found in its syntax tree (function
 /// bodies included), sorted; `None` when some call computes its name, so the set is unknown.
-pub fn script_param_names(ast: &rhai::AST) -> Option<Vec<String>> {
+pub(crate) fn script_param_names(ast: &rhai::AST) -> Option<Vec<String>> {
     let mut names = std::collections::BTreeSet::new();
     let mut computed = false;
     for_each_call(ast, |call| {

@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug)]
-pub struct Sandbox {
+pub(crate) struct Sandbox {
     script_dir: PathBuf,
     out_dir: PathBuf,
     readable: Vec<PathBuf>,

@@ -91,7 +91,7 @@ impl Shard {
     /// collective call they make together, so the step variables share nothing out (each rank
     /// owning a different share would hang the ranks or mix their volumes). The job array
     /// still shares: every rank of one array task owns that task's share.
-    pub fn from_slurm(
+    pub(crate) fn from_slurm(
         var: impl Fn(&str) -> Option<String>,
         mpi_ranks: usize,
     ) -> Result<(Shard, ShardSource)> {

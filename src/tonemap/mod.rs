@@ -11,7 +11,8 @@ pub mod params;
 use crate::error::{Error, Result};
 use crate::model::HdrImage;
 
-pub use gpu::{GpuToneMapper, DISPLAY_REFERRED};
+pub use gpu::GpuToneMapper;
+pub(crate) use gpu::DISPLAY_REFERRED;
 pub use params::{Gamut, Operator, ToneMapSettings};
 
 /// Largest exposure magnitude accepted, in stops (as [`ToneMapSettings::validate`]).

@@ -523,7 +523,7 @@ pub enum Gamut {
 
 impl Gamut {
     /// The gamut names `parse` accepts.
-    pub const NAMES: &'static [&'static str] = &["scale", "clip"];
+    pub(crate) const NAMES: &'static [&'static str] = &["scale", "clip"];
 
     pub fn parse(name: &str) -> Result<Gamut> {
         match name.to_ascii_lowercase().as_str() {

@@ -297,7 +297,7 @@ pub fn generate(
 /// that grid, longitude fastest, then latitude, then radius (the C order of a NetCDF variable on
 /// (radius, latitude, longitude)).
 #[derive(Clone, Debug)]
-pub struct NativeMantle {
+pub(crate) struct NativeMantle {
     pub geometry: crate::model::SphericalGrid,
     /// Voxel counts (longitudes, latitudes, radii).
     pub dims: [usize; 3],
@@ -332,7 +332,7 @@ impl NativeMantle {
 /// Builds the spherical grid and returns the requested fields on it, with no Cartesian
 /// resampling (`opts.n` only picks the default resolution). Memory: 4 bytes per node for the
 /// grid and for each field.
-pub fn generate_native(
+pub(crate) fn generate_native(
     opts: &MantleOptions,
     progress: &mut dyn FnMut(f64) -> Result<()>,
 ) -> Result<NativeMantle> {

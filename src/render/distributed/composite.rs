@@ -18,7 +18,7 @@ use crate::error::{Error, Result};
 use std::ops::Range;
 
 /// A partial or composited pixel: premultiplied colour and signed optical depth.
-pub type Partial = [f32; 4];
+pub(crate) type Partial = [f32; 4];
 
 /// How the partial images are composited.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,7 +29,7 @@ pub enum Scheme {
 
 impl Scheme {
     /// Binary-swap for powers of two, direct-send for other rank counts.
-    pub fn for_ranks(n: usize) -> Scheme {
+    pub(crate) fn for_ranks(n: usize) -> Scheme {
         if n.is_power_of_two() {
             Scheme::BinarySwap
         } else {
@@ -74,7 +74,7 @@ pub fn join(lower: Partial, upper: Partial) -> Partial {
 
 /// The finished pixel of a composited ray: colour over `background` and alpha 1 - e^-tau, as
 /// the single-process ray caster leaves it.
-pub fn finish(p: Partial, background: [f64; 3]) -> [f32; 4] {
+pub(crate) fn finish(p: Partial, background: [f64; 3]) -> [f32; 4] {
     let tau = f64::from(p[3].abs());
     let through = (-tau).exp();
     let c = |i: usize| (f64::from(p[i]) + through * background[i]) as f32;

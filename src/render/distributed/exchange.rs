@@ -74,7 +74,7 @@ pub fn gather_u64(ex: &dyn Exchange, value: u64) -> Result<Vec<u64>> {
 
 /// Returns on every rank once every rank has called it (a gather onto rank 0, then its
 /// broadcast).
-pub fn barrier(ex: &dyn Exchange) -> Result<()> {
+pub(crate) fn barrier(ex: &dyn Exchange) -> Result<()> {
     gather_u64(ex, 0)?;
     broadcast(ex, 0, Vec::new()).map(drop)
 }

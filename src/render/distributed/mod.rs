@@ -18,7 +18,7 @@ pub mod exchange;
 pub mod mpi;
 mod session;
 
-pub use composite::{Partial, Scheme};
+pub(crate) use composite::Scheme;
 pub use exchange::{ChannelExchange, Exchange};
 
 use super::{Precision, TfSampling, VolumeRenderOptions};
@@ -28,12 +28,12 @@ use crate::model::Volume;
 
 /// Slices read past each side of a slab: the trilinear samples of midpoints in the slab reach
 /// one slice beyond it, the central differences of shading one more.
-pub const GHOST: usize = 2;
+pub(crate) const GHOST: usize = 2;
 
 /// The part of a volume one rank renders: it composites the segments whose midpoints lie in
 /// the slices `z0 .. z1` and reads `read_lo .. read_hi` (its slab plus the ghost slices).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Slab {
+pub(crate) struct Slab {
     pub rank: usize,
     pub count: usize,
     pub z0: usize,
@@ -71,7 +71,7 @@ impl Slab {
     /// volume's faces, so rounding cannot lose a segment), the first slice read, the slice
     /// count. Neighbours compute their shared boundary from the same slice index, so every
     /// midpoint falls in exactly one slab.
-    pub fn shader_params(&self, nz: usize, spacing_z: f64) -> [f32; 4] {
+    pub(crate) fn shader_params(&self, nz: usize, spacing_z: f64) -> [f32; 4] {
         let lo = if self.rank == 0 {
             -f32::MAX
         } else {

@@ -75,7 +75,7 @@ impl GlobeFrame {
     /// Fractional node coordinates (u along x, v along y) of a point at `lat`, `lon` degrees,
     /// or `None` outside the grid's cells. With `wrap`, u lies in [0, nx); otherwise it is
     /// clamped to the nodes.
-    pub fn node_coords(&self, lat: f64, lon: f64) -> Option<(f64, f64)> {
+    pub(crate) fn node_coords(&self, lat: f64, lon: f64) -> Option<(f64, f64)> {
         let (nx, ny) = (self.nx as f64, self.ny as f64);
         let v = (lat - self.lat0) / self.dlat;
         if !(-0.5..=ny - 0.5).contains(&v) {

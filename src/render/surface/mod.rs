@@ -51,14 +51,14 @@ mod phase;
 
 pub(crate) use geometry::SurfaceGeometry;
 pub(crate) use globe::GlobeFrame;
-pub use gpu::{SurfaceCounters, SurfaceRenderer};
+pub use gpu::SurfaceRenderer;
 pub(crate) use legend::{colorbar, legend_in, legend_type, MAX_COLORBAR_HEIGHT};
 pub use legend::{legend, resolution_label, LEGEND_BAR_HEIGHT};
 pub(crate) use options::check_graticule;
 pub(crate) use options::default_size;
 pub use options::CoastlineStyle;
 pub use options::{FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView};
-pub use phase::{fringe_f64, fringe_filtered_f64, pixel_gradient, FOOTPRINT_SIGMA};
+pub use phase::{fringe_f64, fringe_filtered_f64, pixel_gradient};
 
 /// Most properties one data pass writes (one RGBA32F target component each).
 pub(crate) const MAX_PROPERTIES: usize = 4;

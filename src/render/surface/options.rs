@@ -68,7 +68,7 @@ impl SurfaceView {
 
     /// The globe seen from `distance` sphere radii above the centre of `grid`'s extent, north
     /// up (+y up over a pole), with a `fov`-degree perspective.
-    pub fn globe_above(grid: &Grid, distance: f64, fov: f64) -> Result<SurfaceView> {
+    pub(crate) fn globe_above(grid: &Grid, distance: f64, fov: f64) -> Result<SurfaceView> {
         let frame = GlobeFrame::of(grid)?;
         let (lat, lon) = frame.centre();
         Ok(SurfaceView::Globe(Camera::geo(

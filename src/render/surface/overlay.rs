@@ -23,7 +23,7 @@ const GLOBE_STEP: f64 = 0.5;
 
 impl CoastlineStyle {
     /// A colour by name or `#rrggbb`, as the `colour` option gives it.
-    pub fn with_colour(mut self, name: &str) -> Result<Self> {
+    pub(crate) fn with_colour(mut self, name: &str) -> Result<Self> {
         self.linear = crate::model::colormap::named_colour("coastlines.colour", name)?;
         self.colour = name.trim().to_string();
         Ok(self)

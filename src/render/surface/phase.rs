@@ -18,7 +18,7 @@ pub fn fringe_f64(nu: f64, d: f64) -> f64 {
 
 /// Width of the pixel footprint the antialiased fringe averages over: a Gaussian of this σ, in
 /// pixels, along the data's gradient.
-pub const FOOTPRINT_SIGMA: f64 = 0.5;
+pub(crate) const FOOTPRINT_SIGMA: f64 = 0.5;
 
 /// The f64 reference of the antialiased fringe: the point fringe's contrast scaled by
 /// exp(−2π²ν²σ²|∇d|²), the average of (1 + cos 2πν·d)/2 over a Gaussian footprint of σ =

@@ -45,7 +45,7 @@ const MAX_REDUCE_GROUPS: u32 = 64;
 
 /// Metadata key marking an image whose values are display-referred linear in [0, 1] (written
 /// by tone mapping and the false-colour view): PNG writers then apply only the sRGB curve.
-pub const DISPLAY_REFERRED: &str = "display_referred";
+pub(crate) const DISPLAY_REFERRED: &str = "display_referred";
 
 /// Builds and caches the tone-mapping pipelines of one GPU context and runs them.
 pub struct GpuToneMapper {
