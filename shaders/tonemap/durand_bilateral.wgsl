@@ -7,7 +7,7 @@
 // levels around its own l, each read bilinearly from the grid as (sum w mean) / (sum w).
 // Missing and black pixels have weight 0. The base B is compressed by
 // c = min(log10(contrast) / (max B - min B), 1) with max B mapped to 1, the detail l - B kept:
-// L_d = 10^((B - max B) c + l - B). CPU reference: src/tonemap/cpu.rs `durand`.
+// L_d = 10^((B - max B) c + l - B). CPU reference: src/tonemap/cpu/local.rs `durand`.
 //
 // Host sequence (dispatches (X, Y, 1) workgroups of 256, X * Y * 256 >= items,
 // item = global_id.x + global_id.y * X * 256). The splat and the per-pixel passes run over
@@ -151,7 +151,7 @@ fn grid_blur_y(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
 }
 
 // Bilinear interpolation of one level at pixel (x, y): cell c's centre is at pixel
-// (c + 0.5) cell - 0.5, clamped to the outermost centres. As cpu.rs `bilinear_on`.
+// (c + 0.5) cell - 0.5, clamped to the outermost centres. As cpu/local.rs `bilinear_on`.
 fn grid_axis(p: u32, n: u32) -> vec3<f32> {
     let u = clamp((f32(p) + 0.5) / f32(params.cell) - 0.5, 0.0, f32(n - 1u));
     let i0 = floor(u);

@@ -1,6 +1,6 @@
 // False-colour view of log10 luminance through a colour-map table, with the legend strip along
 // the bottom (colour bar plus a black-over-white tick at every decade), as
-// src/tonemap/cpu.rs `false_colour_log10` draws it. The table is `turbo_lut()` (256 linear RGB
+// src/tonemap/cpu/mod.rs `false_colour_log10` draws it. The table is `turbo_lut()` (256 linear RGB
 // entries sampled from colorgrad's turbo), interpolated linearly. Missing pixels are grey
 // (0.2), black pixels take the low end. Output is display-referred linear RGBA, alpha 1.
 //
@@ -10,7 +10,7 @@
 // Bindings (group 0):
 //   @binding(0)  params   uniform    ToneMapParams: width, height, exposure_ev, and
 //                         ld_min / ld_max = low / high decade (log10 units), radius = legend
-//                         strip height in pixels (0: no legend; cpu.rs `legend_height`)
+//                         strip height in pixels (0: no legend; cpu/mod.rs `legend_height`)
 //   @binding(1)  image    storage, read        array<vec4<f32>>
 //   @binding(2)  output   storage, read_write  array<vec4<f32>>
 //   @binding(14) lut      storage, read        array<vec4<f32>>  (>= 2 entries)

@@ -3,7 +3,7 @@
 // Luminance is handled as ln(L_w) throughout so that 1e-30 and 1e30 stay in f32 range. Output
 // is display-referred linear RGBA in [0, 1]: C_d = (C / L_w)^saturation * L_d, + offset,
 // clamped, ^(1 / gamma). Missing pixels (any NaN/Inf component) come out (0, 0, 0, 0); black
-// pixels come out black with their alpha. CPU reference: src/tonemap/cpu.rs `tonemap_cpu`.
+// pixels come out black with their alpha. CPU reference: src/tonemap/cpu/mod.rs `tonemap_cpu`.
 //
 // Needs `stats` from luminance_stats.wgsl (all operators but linear and ACES; count == 0 gives
 // a black image) and, for Ward, the `cdf` from ward_histogram.wgsl (bind any buffer of >= 1

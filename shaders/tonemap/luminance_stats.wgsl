@@ -2,7 +2,7 @@
 // exposed Rec. 709 luminance L_w is finite and > 0 (missing NaN/Inf pixels and black pixels are
 // left out). Keeping logs means an image near 1e-30 or 1e30 never under- or overflows; the
 // summands are O(10), so f32 partial sums (Kahan per thread, a tree per workgroup) are stable.
-// CPU reference: src/tonemap/cpu.rs `luminance_log_stats`.
+// CPU reference: src/tonemap/cpu/mod.rs `luminance_log_stats`.
 //
 // Two passes, both in this file:
 //   partial_stats  dispatch (G, 1, 1) workgroups of 256 per band of rows (G >= 1 and <= 64);

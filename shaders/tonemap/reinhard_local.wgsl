@@ -7,7 +7,7 @@
 // sampled Gaussian of `sigma` cells (params.rs `grid_sigma`) over radius = ceil(3 sigma), and
 // read back bilinearly. Per pixel, the scale is the last one, scanning up from s = 1, whose
 // activity |V_i - V_i+1| / (2^phi key / s^2 + V_i) < epsilon; L_d = L / (1 + V_chosen).
-// CPU reference: src/tonemap/cpu.rs `reinhard_local` / `reinhard_blurs`.
+// CPU reference: src/tonemap/cpu/local.rs `reinhard_local` / `reinhard_blurs`.
 //
 // Host sequence (dispatches (X, Y, 1) workgroups of 256 with X * Y * 256 >= items,
 // item = global_id.x + global_id.y * X * 256), `stats` from luminance_stats.wgsl. Every pass

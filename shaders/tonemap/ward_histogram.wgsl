@@ -5,7 +5,7 @@
 // normalised cumulative distribution. cdf[0] = -1 tells global.wgsl to fall back to the
 // paper's linear mapping (scene range within the display's). Where the paper gives up (total
 // trimmed under the tolerance) the last trimmed histogram is used instead.
-// CPU reference: src/tonemap/cpu.rs `WardMapping`.
+// CPU reference: src/tonemap/cpu/mod.rs `WardMapping`.
 //
 // Entry points:
 //   histogram    dispatch (G, 1, 1) workgroups of 256, G = min(ceil(n / 256), 64); threads

@@ -1,0 +1,320 @@
+//! The local operators' f64 references: Reinhard's dodging-and-burning and Durand & Dorsey's
+//! bilateral base/detail split, each as the accelerated algorithm the GPU runs.
+
+use rayon::prelude::*;
+
+use super::{LogLuminanceStats, Scene};
+use crate::tonemap::params::{
+    blur_sigma, gaussian_radius, grid_sigma, reinhard_level, DurandGrid, DURAND_MIN_LOG_WEIGHT,
+};
+
+/// Reinhard's Gaussians by normalised convolution, sum(w L m) / sum(w m) with m = 0 at missing
+/// pixels and outside the image, on a pyramid of (L m, m) pairs: level k has cells of 2^k
+/// pixels, each the mean of four cells of level k - 1. Scale i's Gaussian (sigma_i pixels) is
+/// blurred separably on level [`reinhard_level`] with [`grid_sigma`] cells and read back
+/// bilinearly (level 0: the image itself, exactly the full-resolution blur). Returns V_i per
+/// pixel for i in 0..=scales.
+fn reinhard_blurs(
+    scaled: &[f64],
+    mask: &[f64],
+    width: usize,
+    height: usize,
+    sigmas: &[f64],
+) -> Vec<Vec<f64>> {
+    let levels: Vec<u32> = sigmas.iter().map(|&s| reinhard_level(s)).collect();
+    let deepest = levels.iter().copied().max().unwrap_or(0);
+    let mut pyramid: Vec<(usize, usize, Vec<[f64; 2]>)> = vec![(
+        width,
+        height,
+        scaled
+            .iter()
+            .zip(mask)
+            .map(|(v, m)| if *m > 0.0 { [v * m, *m] } else { [0.0, 0.0] })
+            .collect(),
+    )];
+    for _ in 0..deepest {
+        let (pw, ph, prev) = pyramid.last().expect("level 0");
+        let (w, h) = (pw.div_ceil(2), ph.div_ceil(2));
+        let next = (0..w * h)
+            .map(|c| {
+                let (cx, cy) = (c % w, c / w);
+                let mut acc = [0.0, 0.0];
+                for (sx, sy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (x, y) = (2 * cx + sx, 2 * cy + sy);
+                    if x < *pw && y < *ph {
+                        let v = prev[y * pw + x];
+                        acc[0] += 0.25 * v[0];
+                        acc[1] += 0.25 * v[1];
+                    }
+                }
+                acc
+            })
+            .collect();
+        pyramid.push((w, h, next));
+    }
+    sigmas
+        .par_iter()
+        .zip(&levels)
+        .map(|(&sigma, &k)| {
+            let (w, h, plane) = &pyramid[k as usize];
+            let cell = 1u32 << k;
+            let sigma_cells = grid_sigma(sigma, cell);
+            let radius = gaussian_radius(sigma_cells) as isize;
+            let weights: Vec<f64> = (-radius..=radius)
+                .map(|t| (-((t * t) as f64) / (2.0 * sigma_cells * sigma_cells)).exp())
+                .collect();
+            let blurred = blur_pairs(
+                &blur_pairs(plane, *w, *h, &weights, true),
+                *w,
+                *h,
+                &weights,
+                false,
+            );
+            (0..width * height)
+                .map(|p| {
+                    let [num, den] =
+                        bilinear_on(&blurred, cell, *w as u32, *h as u32, p % width, p / width);
+                    if den > 0.0 {
+                        num / den
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Reinhard 2002 automatic dodging-and-burning: per pixel, the largest scale s_m at which the
+/// centre-surround activity |V1 - V2| / (2^phi a / s^2 + V1) stays below epsilon (scanning up
+/// from s = 1 and stopping at the first failure), then L_d = L / (1 + V1(s_m)).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn reinhard_local(
+    scene: &Scene,
+    stats: &LogLuminanceStats,
+    key: f64,
+    alpha1: f64,
+    ratio: f64,
+    phi: f64,
+    epsilon: f64,
+    scales: u32,
+) -> Vec<f64> {
+    let scaled: Vec<f64> = scene
+        .lum
+        .iter()
+        .map(|&l| {
+            if l.is_finite() && l > 0.0 {
+                key * (l.ln() - stats.mean_log).exp()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let mask: Vec<f64> = scene
+        .lum
+        .iter()
+        .map(|l| if l.is_nan() { 0.0 } else { 1.0 })
+        .collect();
+    let sigmas: Vec<f64> = (0..=scales).map(|i| blur_sigma(alpha1, ratio, i)).collect();
+    let blurs = reinhard_blurs(&scaled, &mask, scene.width, scene.height, &sigmas);
+    let sharpness = phi.exp2() * key;
+    (0..scaled.len())
+        .map(|p| {
+            if mask[p] == 0.0 {
+                return f64::NAN;
+            }
+            let mut chosen = blurs[0][p];
+            for i in 0..scales as usize {
+                let s = ratio.powi(i as i32);
+                let (v1, v2) = (blurs[i][p], blurs[i + 1][p]);
+                let activity = (v1 - v2) / (sharpness / (s * s) + v1);
+                if activity.abs() >= epsilon {
+                    break;
+                }
+                chosen = v1;
+            }
+            scaled[p] / (1.0 + chosen)
+        })
+        .collect()
+}
+
+/// Durand & Dorsey 2002 with their piecewise-linear acceleration ([`DurandGrid`]): log10
+/// luminance l (missing and black pixels have weight 0) is box-averaged onto the grid; per
+/// intensity level, range-weighted pairs are blurred on the grid; each pixel interpolates its
+/// two levels (bilinear on the grid, linear in l). The base is compressed so that its range
+/// becomes log10(contrast) (never expanded) with its maximum at 1; the detail layer is kept.
+pub(super) fn durand(
+    scene: &Scene,
+    contrast: f64,
+    sigma_spatial: f64,
+    sigma_range: f64,
+) -> Vec<f64> {
+    let (width, height) = (scene.width, scene.height);
+    let log_l: Vec<f64> = scene
+        .lum
+        .iter()
+        .map(|&l| {
+            if l.is_finite() && l > 0.0 {
+                l.log10()
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    let finite_l = log_l.iter().copied().filter(|l| l.is_finite());
+    let l_max = finite_l.clone().fold(f64::NEG_INFINITY, f64::max);
+    let l_min = finite_l.fold(f64::INFINITY, f64::min);
+    let grid = DurandGrid::new(
+        width as u32,
+        height as u32,
+        sigma_spatial,
+        sigma_range,
+        l_min,
+        l_max,
+    );
+    let levels = durand_levels(&log_l, width, height, &grid, sigma_range);
+    let base: Vec<f64> = (0..width * height)
+        .into_par_iter()
+        .map(|p| {
+            let l = log_l[p];
+            if l.is_nan() {
+                return f64::NAN;
+            }
+            let (j, f) = grid.bracket(l);
+            let at = |level: u32| {
+                let plane = &levels[level as usize];
+                let [num, den] = bilinear_pair(plane, &grid, p % width, p / width);
+                num / den
+            };
+            (1.0 - f) * at(j) + f * at(j + 1)
+        })
+        .collect();
+    let finite = base.iter().copied().filter(|b| b.is_finite());
+    let base_max = finite.clone().fold(f64::NEG_INFINITY, f64::max);
+    let base_min = finite.fold(f64::INFINITY, f64::min);
+    let range = base_max - base_min;
+    let compression = if range > 0.0 {
+        (contrast.log10() / range).min(1.0)
+    } else {
+        1.0
+    };
+    scene
+        .lum
+        .iter()
+        .zip(base.iter().zip(&log_l))
+        .map(|(&l, (&b, &ll))| {
+            if l.is_nan() {
+                f64::NAN
+            } else if b.is_finite() {
+                10f64.powf((b - base_max) * compression + (ll - b))
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Durand's grid, blurred per level: `levels[j][cell]` = (sum w mean, sum w) of level j.
+fn durand_levels(
+    log_l: &[f64],
+    width: usize,
+    height: usize,
+    grid: &DurandGrid,
+    sigma_range: f64,
+) -> Vec<Vec<[f64; 2]>> {
+    let z = grid.cell as usize;
+    let (gw, gh) = (grid.grid_width as usize, grid.grid_height as usize);
+    // Box average of l over each cell's valid pixels: (mean, count).
+    let cells: Vec<[f64; 2]> = (0..gw * gh)
+        .map(|c| {
+            let (cx, cy) = (c % gw, c / gw);
+            let (mut sum, mut count) = (0.0, 0.0);
+            for y in cy * z..((cy + 1) * z).min(height) {
+                for x in cx * z..((cx + 1) * z).min(width) {
+                    let l = log_l[y * width + x];
+                    if !l.is_nan() {
+                        sum += l;
+                        count += 1.0;
+                    }
+                }
+            }
+            [if count > 0.0 { sum / count } else { 0.0 }, count]
+        })
+        .collect();
+    let radius = grid.radius as isize;
+    let spatial: Vec<f64> = (-radius..=radius)
+        .map(|k| (-((k * k) as f64) / (2.0 * grid.sigma_cells * grid.sigma_cells)).exp())
+        .collect();
+    (0..grid.levels)
+        .into_par_iter()
+        .map(|j| {
+            let level = grid.first_level + j as f64 * grid.level_step;
+            let weighted: Vec<[f64; 2]> = cells
+                .iter()
+                .map(|&[mean, count]| {
+                    if count == 0.0 {
+                        return [0.0, 0.0];
+                    }
+                    let d = (mean - level) / sigma_range;
+                    let w = count * (-0.5 * d * d).max(DURAND_MIN_LOG_WEIGHT).exp();
+                    [w * mean, w]
+                })
+                .collect();
+            let across = blur_pairs(&weighted, gw, gh, &spatial, true);
+            blur_pairs(&across, gw, gh, &spatial, false)
+        })
+        .collect()
+}
+
+/// One direction of a separable blur of (value, weight) pairs on a `width` x `height` grid with
+/// the taps `weights` (offsets -r..=r); taps outside the grid are left out.
+fn blur_pairs(
+    src: &[[f64; 2]],
+    width: usize,
+    height: usize,
+    weights: &[f64],
+    horizontal: bool,
+) -> Vec<[f64; 2]> {
+    let radius = (weights.len() / 2) as isize;
+    (0..width * height)
+        .map(|i| {
+            let (x, y) = ((i % width) as isize, (i / width) as isize);
+            let mut acc = [0.0, 0.0];
+            for (k, w) in (-radius..=radius).zip(weights) {
+                let (sx, sy) = if horizontal { (x + k, y) } else { (x, y + k) };
+                if sx < 0 || sy < 0 || sx >= width as isize || sy >= height as isize {
+                    continue;
+                }
+                let s = src[sy as usize * width + sx as usize];
+                acc[0] += w * s[0];
+                acc[1] += w * s[1];
+            }
+            acc
+        })
+        .collect()
+}
+
+/// Bilinear interpolation at full-resolution pixel (x, y) of pairs stored on a grid of
+/// `cell`-pixel cells (`grid_width` x `grid_height`): cell c's centre is pixel
+/// (c + 0.5) cell - 0.5; outside the outermost centres the edge cells are used.
+fn bilinear_pair(plane: &[[f64; 2]], grid: &DurandGrid, x: usize, y: usize) -> [f64; 2] {
+    bilinear_on(plane, grid.cell, grid.grid_width, grid.grid_height, x, y)
+}
+
+fn bilinear_on(plane: &[[f64; 2]], cell: u32, gw: u32, gh: u32, x: usize, y: usize) -> [f64; 2] {
+    let axis = |p: usize, n: u32| -> (usize, usize, f64) {
+        let u = ((p as f64 + 0.5) / cell as f64 - 0.5).clamp(0.0, (n - 1) as f64);
+        let i0 = u.floor() as usize;
+        let i1 = (i0 + 1).min(n as usize - 1);
+        (i0, i1, u - i0 as f64)
+    };
+    let (x0, x1, fx) = axis(x, gw);
+    let (y0, y1, fy) = axis(y, gh);
+    let gw = gw as usize;
+    let at = |cx: usize, cy: usize| plane[cy * gw + cx];
+    [0, 1].map(|k| {
+        let top = at(x0, y0)[k] * (1.0 - fx) + at(x1, y0)[k] * fx;
+        let bottom = at(x0, y1)[k] * (1.0 - fx) + at(x1, y1)[k] * fx;
+        top * (1.0 - fy) + bottom * fy
+    })
+}

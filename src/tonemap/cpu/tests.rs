@@ -1,0 +1,466 @@
+//! Closed forms, hard images and the local operators' invariants of the f64 CPU references.
+
+use super::*;
+
+fn grey(values: &[f32], width: u32) -> HdrImage {
+    let pixels = values.iter().map(|&v| [v, v, v, 1.0]).collect::<Vec<_>>();
+    HdrImage::from_pixels(width, values.len() as u32 / width, pixels)
+}
+
+fn settings(op: Operator) -> ToneMapSettings {
+    ToneMapSettings {
+        op,
+        ..Default::default()
+    }
+}
+
+fn out_lum(img: &HdrImage) -> Vec<f64> {
+    img.pixels
+        .iter()
+        .map(|p| REC709[0] * p[0] as f64 + REC709[1] * p[1] as f64 + REC709[2] * p[2] as f64)
+        .collect()
+}
+
+#[test]
+fn reinhard_global_matches_closed_form() {
+    // Grey pixels: Rec. 709 weights sum to 1, so L_w is the grey value.
+    // Lbar = (0.01 * 0.1 * 1 * 10)^(1/4) = 10^-0.5; L = 0.18 / Lbar * L_w (Reinhard 2002 eq. 2).
+    let values = [0.01f32, 0.1, 1.0, 10.0];
+    let img = grey(&values, 4);
+    let lbar = 10f64.powf(-0.5);
+    let l_max = 0.18 / lbar * 10.0;
+    for white in [None, Some(2.0)] {
+        let out = tonemap_cpu(&img, &settings(Operator::Reinhard { key: 0.18, white })).unwrap();
+        let w = white.unwrap_or(l_max);
+        for (i, &v) in values.iter().enumerate() {
+            let l = 0.18 / lbar * v as f64;
+            let expected = (l * (1.0 + l / (w * w)) / (1.0 + l)).min(1.0);
+            assert!(
+                (out.pixels[i][0] as f64 - expected).abs() < 1e-6,
+                "white {white:?} L_w {v}: {} vs {expected}",
+                out.pixels[i][0]
+            );
+        }
+    }
+    // With L_white = max L the brightest pixel maps to exactly 1.
+    let out = tonemap_cpu(&img, &settings(Operator::REINHARD)).unwrap();
+    assert!((out.pixels[3][1] - 1.0).abs() < 1e-6);
+    // Spot values: L_w = 1 -> L = 0.569, L_d = 0.569 (1 + 0.569 / 5.692^2) / 1.569 = 0.36911.
+    assert!(
+        (out.pixels[2][0] - 0.369_110).abs() < 1e-5,
+        "{}",
+        out.pixels[2][0]
+    );
+}
+
+#[test]
+fn drago_matches_closed_form() {
+    // L_w = 1 and 100: L_wa = 10, so x = 0.1 and x_max = 10. Drago 2003 eq. 4 with b = 0.85,
+    // Ld_max = 100: L_d = 1 / log10(11) * ln(1.1) / ln(2 + 8 * 0.01^(ln 0.85 / ln 0.5))
+    // = 0.0589982; the maximum maps to Ld_max / 100 = 1.
+    let out = tonemap_cpu(&grey(&[1.0, 100.0], 2), &settings(Operator::DRAGO)).unwrap();
+    assert!(
+        (out.pixels[0][0] as f64 - 0.058_998_18).abs() < 1e-6,
+        "{}",
+        out.pixels[0][0]
+    );
+    assert!((out.pixels[1][0] - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn ward_equalises_a_log_uniform_histogram() {
+    // Ward 1997: a flat histogram of ln L over 4 decades is under the linear ceiling
+    // (T * bin width / ln(100) is twice each count), so P(ln L) is linear and
+    // L_d = Ld_min (Ld_max / Ld_min)^P: 10^-2..10^2 -> 1..100 cd/m2, L_w = 1 -> 10 -> 0.1.
+    let n = 2001;
+    let values: Vec<f32> = (0..n)
+        .map(|i| 10f64.powf(-2.0 + 4.0 * i as f64 / (n - 1) as f64) as f32)
+        .collect();
+    let out = out_lum(&tonemap_cpu(&grey(&values, n as u32), &settings(Operator::WARD)).unwrap());
+    for (i, expected) in [(0, 0.01), (500, 10f64.powf(-1.5)), (1000, 0.1), (2000, 1.0)] {
+        assert!(
+            (out[i] / expected - 1.0).abs() < 0.01,
+            "{i}: {} vs {expected}",
+            out[i]
+        );
+    }
+}
+
+#[test]
+fn ward_ceiling_never_exaggerates_contrast() {
+    // 90 % of the pixels crowd into L_w in [1, 1.1]; plain histogram equalisation would
+    // stretch that 10 % step over most of the display. The linear ceiling limits
+    // dL_d / dL_w to L_d / L_w (Ward 1997 eq. 7), so the step stays at most 1.1 (plus the
+    // 2.5 % trimming tolerance and one bin of interpolation).
+    let mut values: Vec<f32> = (0..900).map(|i| 1.0 + 0.1 * i as f32 / 899.0).collect();
+    values.extend((0..100).map(|i| 10f32.powf(-3.0 + 6.0 * i as f32 / 99.0)));
+    let out = out_lum(&tonemap_cpu(&grey(&values, 1000), &settings(Operator::WARD)).unwrap());
+    let ratio = out[899] / out[0];
+    assert!(
+        ratio > 1.0 && ratio < 1.1 * 1.05,
+        "display contrast {ratio} for 1.1 in the scene"
+    );
+}
+
+#[test]
+fn one_stop_doubles_linear_values() {
+    let values = [0.001f32, 0.01, 0.1, 0.2, 0.45];
+    let img = grey(&values, 5);
+    let base = tonemap_cpu(&img, &settings(Operator::Linear)).unwrap();
+    let brighter = tonemap_cpu(
+        &img,
+        &ToneMapSettings {
+            exposure_ev: 1.0,
+            ..settings(Operator::Linear)
+        },
+    )
+    .unwrap();
+    for (a, b) in base.pixels.iter().zip(&brighter.pixels) {
+        for k in 0..3 {
+            assert!((b[k] as f64 - 2.0 * a[k] as f64).abs() < 1e-7 * b[k] as f64);
+        }
+    }
+}
+
+#[test]
+fn global_operators_are_monotonic_over_twelve_decades() {
+    let n = 1201;
+    let values: Vec<f32> = (0..n)
+        .map(|i| 10f64.powf(-6.0 + 12.0 * i as f64 / (n - 1) as f64) as f32)
+        .collect();
+    let img = grey(&values, n as u32);
+    for op in Operator::ALL.iter().filter(|op| !op.is_local()) {
+        let out = out_lum(&tonemap_cpu(&img, &settings(*op)).unwrap());
+        for i in 1..n {
+            assert!(
+                out[i] >= out[i - 1] - 1e-7,
+                "{} not monotonic at {}: {} < {}",
+                op.name(),
+                values[i],
+                out[i],
+                out[i - 1]
+            );
+        }
+        assert!(out[n - 1] > out[0], "{} is flat", op.name());
+    }
+}
+
+fn hard_images() -> Vec<(&'static str, HdrImage)> {
+    let mut outlier = vec![1e-3f32; 64];
+    for (i, v) in outlier.iter_mut().enumerate() {
+        *v *= 1.0 + (i % 7) as f32 * 0.1;
+    }
+    outlier[27] = 1e30;
+    vec![
+        ("all zeros", grey(&[0.0; 48], 8)),
+        ("outlier", grey(&outlier, 8)),
+        (
+            "denormals",
+            grey(&[1e-40, 3e-41, 1e-44, 0.0, 2e-39, 1e-42], 3),
+        ),
+        ("1x1", grey(&[0.5], 1)),
+        ("0x0", HdrImage::new(0, 0)),
+        ("1xN", grey(&[0.1, 10.0, 1e3, 0.0, 1e-4, 2.0, f32::NAN], 7)),
+        (
+            "Nx1",
+            grey(&[0.1, 10.0, 1e3, 0.0, 1e-4, f32::INFINITY, 2.0], 1),
+        ),
+    ]
+}
+
+#[test]
+fn hard_images_stay_finite_and_in_range() {
+    for (name, img) in hard_images() {
+        for op in Operator::ALL {
+            for ev in [0.0, 40.0, -40.0] {
+                let s = ToneMapSettings {
+                    exposure_ev: ev,
+                    ..settings(op)
+                };
+                let out = tonemap_cpu(&img, &s).unwrap();
+                for (p, q) in out.pixels.iter().zip(&img.pixels) {
+                    assert!(
+                        p.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
+                        "{name} {} ev {ev}: {p:?}",
+                        op.name()
+                    );
+                    if !q.iter().all(|v| v.is_finite()) {
+                        assert_eq!(*p, [0.0; 4], "missing pixel must map to 0, alpha 0");
+                    }
+                }
+            }
+        }
+    }
+    // Among values near 1e-3 the 1e30 pixel maps to white and the rest stay visible.
+    let (_, img) = &hard_images()[1];
+    for op in [Operator::REINHARD, Operator::DRAGO, Operator::WARD] {
+        let out = out_lum(&tonemap_cpu(img, &settings(op)).unwrap());
+        assert!(out[27] > 0.99, "{}: {}", op.name(), out[27]);
+        assert!(out[0] > 0.005, "{}: {}", op.name(), out[0]);
+    }
+    // Reinhard: the outlier lifts mean ln L by about (ln 1e30 - ln 1.3e-3) / 64 = 1.18, so
+    // a 1e-3 pixel gets L = 0.18 e^-1.18 (1e-3 / 1.3e-3), about 0.04, and L_white is huge.
+    let out = out_lum(&tonemap_cpu(img, &settings(Operator::REINHARD)).unwrap());
+    let stats = luminance_log_stats(img, 0.0).unwrap();
+    let l = 0.18 * ((1e-3f32 as f64).ln() - stats.mean_log).exp();
+    assert!(
+        (out[0] - l / (1.0 + l)).abs() < 1e-6,
+        "{} vs {}",
+        out[0],
+        l / (1.0 + l)
+    );
+}
+
+#[test]
+fn log_average_of_tiny_values_is_exact() {
+    // Alternating 4e-30 and 0.25e-30 (powers of two times f32(1e-30)): the geometric mean
+    // is f32(1e-30) exactly. 2^18 pixels exercise the pairwise sum.
+    let tiny = 1e-30f32;
+    let values: Vec<f32> = (0..1 << 18)
+        .map(|i| if i % 2 == 0 { tiny * 4.0 } else { tiny * 0.25 })
+        .collect();
+    let img = grey(&values, 512);
+    let stats = luminance_log_stats(&img, 0.0).unwrap();
+    let expected = (tiny as f64).ln();
+    assert!(
+        (stats.mean_log - expected).abs() < 1e-12 * expected.abs(),
+        "{} vs {expected}",
+        stats.mean_log
+    );
+    // The same holds for f32 denormals (1e-42 < f32's smallest normal 1.2e-38).
+    let denormal = grey(&[1e-42, 4e-42, 1e-42, 4e-42], 2);
+    let stats = luminance_log_stats(&denormal, 0.0).unwrap();
+    let expected = ((1e-42f32 as f64) * (4e-42f32 as f64)).sqrt().ln();
+    assert!((stats.mean_log - expected).abs() < 1e-12 * expected.abs());
+    // And Reinhard is then independent of the data's units.
+    let scaled: Vec<f32> = values.iter().map(|v| v * 1e30).collect();
+    let a = tonemap_cpu(&img, &settings(Operator::REINHARD)).unwrap();
+    let b = tonemap_cpu(&grey(&scaled, 512), &settings(Operator::REINHARD)).unwrap();
+    assert!((a.pixels[0][0] - b.pixels[0][0]).abs() < 1e-6);
+    assert!((a.pixels[1][0] - b.pixels[1][0]).abs() < 1e-6);
+}
+
+#[test]
+fn missing_pixels_do_not_spread_through_local_blurs() {
+    let (w, h) = (64usize, 64usize);
+    let mut values: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            10f64.powf(2.0 * (x / 7.0).sin() * (y / 9.0).cos()) as f32
+        })
+        .collect();
+    let hole = 3 * w + 3;
+    // Without the NaN, the hole holds the others' geometric mean, so Lbar is unchanged.
+    let others: Vec<f64> = (0..w * h)
+        .filter(|&i| i != hole)
+        .map(|i| (values[i] as f64).ln())
+        .collect();
+    values[hole] = (others.iter().sum::<f64>() / others.len() as f64).exp() as f32;
+    let clean = grey(&values, w as u32);
+    values[hole] = f32::NAN;
+    let holed = grey(&values, w as u32);
+    for op in [Operator::REINHARD_LOCAL, Operator::DURAND] {
+        let a = tonemap_cpu(&clean, &settings(op)).unwrap();
+        let b = tonemap_cpu(&holed, &settings(op)).unwrap();
+        assert_eq!(b.pixels[hole], [0.0; 4]);
+        for (i, p) in b.pixels.iter().enumerate() {
+            assert!(p.iter().all(|v| v.is_finite()), "{} spread NaN", op.name());
+            let (x, y) = (i % w, i / w);
+            if x > 40 || y > 40 {
+                // Reinhard's widest surround: sigma 10.6 px, window 32 px; Durand's 3 px.
+                for (got, want) in p.iter().zip(&a.pixels[i]) {
+                    assert!(
+                        (got - want).abs() < 1e-5,
+                        "{} at ({x}, {y}): {got} vs {want}",
+                        op.name()
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn local_operators_reduce_to_sensible_values() {
+    // A uniform image: every surround equals the centre, so Reinhard local selects the
+    // largest scale and L_d = L / (1 + L) with L = key = 0.18 -> 0.152542.
+    let img = grey(&[3.0; 100], 10);
+    let out = tonemap_cpu(&img, &settings(Operator::REINHARD_LOCAL)).unwrap();
+    assert!((out.pixels[55][0] as f64 - 0.18 / 1.18).abs() < 1e-6);
+    // Durand on a uniform image: base = log10 3, no detail, base max maps to 1.
+    let out = tonemap_cpu(&img, &settings(Operator::DURAND)).unwrap();
+    assert!((out.pixels[55][0] - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn durand_compresses_the_base_to_the_target_contrast() {
+    // Two flat halves 10^4 apart: the bilateral base keeps the step (range weight at
+    // 4 / 0.4 = 10 sigma is e^-50), so the halves come out log10(5) apart: 1 and 0.2.
+    let (w, h) = (40u32, 8u32);
+    let values: Vec<f32> = (0..w * h)
+        .map(|i| if i % w < w / 2 { 1e-2 } else { 1e2 })
+        .collect();
+    let out = tonemap_cpu(&grey(&values, w), &settings(Operator::DURAND)).unwrap();
+    assert!((out.pixels[(w + w - 1) as usize][0] - 1.0).abs() < 1e-5);
+    assert!(
+        (out.pixels[w as usize][0] - 0.2).abs() < 1e-5,
+        "{}",
+        out.pixels[w as usize][0]
+    );
+}
+
+#[test]
+fn saturation_and_colour_ratio() {
+    // C_d = (C / L_w)^s L_d: with s = 0 every channel equals L_d.
+    let img = HdrImage::from_pixels(1, 1, vec![[0.3, 0.1, 0.05, 1.0]]);
+    let lw = 0.2126 * 0.3 + 0.7152 * 0.1 + 0.0722 * 0.05;
+    let s = ToneMapSettings {
+        saturation: 0.0,
+        ..settings(Operator::Linear)
+    };
+    let out = tonemap_cpu(&img, &s).unwrap();
+    for k in 0..3 {
+        assert!((out.pixels[0][k] as f64 - lw).abs() < 1e-7);
+    }
+    let out = tonemap_cpu(&img, &settings(Operator::Linear)).unwrap();
+    assert!((out.pixels[0][0] - 0.3).abs() < 1e-7);
+    // Offset then gamma on the display side: (0.3 - 0.1)^(1 / 2) = 0.4472136.
+    let s = ToneMapSettings {
+        offset: -0.1,
+        gamma: 2.0,
+        ..settings(Operator::Linear)
+    };
+    let out = tonemap_cpu(&img, &s).unwrap();
+    assert!((out.pixels[0][0] - 0.447_213_6).abs() < 1e-6);
+    assert_eq!(out.pixels[0][2], 0.0); // 0.05 - 0.1 clamps to 0
+}
+
+#[test]
+fn auto_exposure_hits_key_and_percentile() {
+    let img = grey(&[0.01, 0.1, 1.0, 10.0], 4);
+    // Lbar = 10^-0.5 -> EV = log2(0.18 / 10^-0.5).
+    let ev = auto_exposure_key(&img, 0.18).unwrap();
+    assert!((ev - (0.18f64 / 10f64.powf(-0.5)).log2()).abs() < 1e-6);
+    // The 50th percentile by nearest rank is the 2nd of 4 values, 0.1.
+    let ev = auto_exposure_percentile(&img, 50.0, 0.5).unwrap();
+    assert!((ev - (0.5f64 / 0.1).log2()).abs() < 1e-6);
+    assert_eq!(auto_exposure_key(&grey(&[0.0], 1), 0.18).unwrap(), 0.0);
+    assert!(auto_exposure_key(&img, 0.0).is_err());
+}
+
+#[test]
+fn false_colour_maps_decades_and_draws_a_legend() {
+    let values: Vec<f32> = (0..32 * 32)
+        .map(|i| 10f32.powf(-2.0 + 4.0 * (i % 32) as f32 / 31.0))
+        .collect();
+    let mut img = grey(&values, 32);
+    img.pixels[0] = [f32::NAN; 4];
+    let out = false_colour_log10(&img, 0.0, None).unwrap();
+    assert_eq!(out.meta("false_colour.log10_min"), Some("-2"));
+    assert_eq!(out.meta("false_colour.log10_max"), Some("2"));
+    // Its colour bar labels the decades 0.01 to 100.
+    let bar = crate::model::text::ColourBar::of(&out).unwrap();
+    let labels: Vec<String> = bar.ticks(10).into_iter().map(|(_, l)| l).collect();
+    assert_eq!(labels, ["0.01", "0.1", "1", "10", "100"]);
+    assert_eq!(
+        out.pixels[0],
+        [MISSING_GREY, MISSING_GREY, MISSING_GREY, 1.0]
+    );
+    // Pixel (31, 0) is at 10^2, the top of the map.
+    let top = turbo_linear(1.0);
+    assert!((0..3).all(|k| (out.pixels[31][k] - top[k]).abs() < 1e-6));
+    // The legend's bottom row has white ticks at the 5 decades, including both ends.
+    let last = &out.pixels[31 * 32..];
+    let ticks = last.iter().filter(|p| p[..3] == [1.0, 1.0, 1.0]).count();
+    assert_eq!(ticks, 5);
+    assert!(out.pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
+}
+
+#[test]
+fn invalid_parameters_name_the_field_and_range() {
+    let err = |r: Result<Operator>| r.unwrap_err().to_string();
+    assert!(err(Operator::parse("reinhard", &[("key", 0.0)])).starts_with("reinhard.key:"));
+    assert!(err(Operator::parse("reinhard", &[("white", -1.0)])).starts_with("reinhard.white:"));
+    assert!(err(Operator::parse("drago", &[("bias", 1.5)])).contains("(0, 1]"));
+    assert!(err(Operator::parse("drago", &[("bias", 0.0)])).contains("(0, 1]"));
+    let unknown = err(Operator::parse("mantiuk", &[]));
+    for name in Operator::NAMES {
+        assert!(unknown.contains(name), "{unknown}");
+    }
+    assert!(err(Operator::parse("ward", &[("key", 1.0)])).contains("ld_min, ld_max, bins"));
+    let bad = |s: ToneMapSettings| s.validate().unwrap_err().to_string();
+    let ok = ToneMapSettings::default();
+    assert!(bad(ToneMapSettings {
+        exposure_ev: f64::NAN,
+        ..ok
+    })
+    .starts_with("exposure_ev:"));
+    assert!(bad(ToneMapSettings {
+        saturation: -0.1,
+        ..ok
+    })
+    .starts_with("saturation:"));
+    let img = grey(&[1.0], 1);
+    assert!(tonemap_cpu(
+        &img,
+        &ToneMapSettings {
+            exposure_ev: f64::INFINITY,
+            ..ok
+        }
+    )
+    .is_err());
+    for name in Operator::NAMES {
+        assert_eq!(Operator::parse(name, &[]).unwrap().name(), name);
+    }
+}
+
+#[test]
+fn every_tonemap_shader_parses_and_validates() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/tonemap");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().and_then(|e| e.to_str()) != Some("wgsl") {
+            continue;
+        }
+        // Through the project's loader, which resolves `#include "shared/..."`.
+        let name = format!("tonemap/{}", path.file_name().unwrap().to_string_lossy());
+        let source = crate::gpu::shader::load(&name, &[]).unwrap();
+        let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| {
+            panic!(
+                "{}",
+                e.emit_to_string_with_path(&source, &path.display().to_string())
+            )
+        });
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+        // The Rust mirrors must keep the WGSL structs' sizes and member counts.
+        for ty in module.types.iter().map(|(_, ty)| ty) {
+            let expected = match ty.name.as_deref() {
+                Some("ToneMapParams") => {
+                    Some((size_of::<crate::tonemap::params::ToneMapParams>(), 36))
+                }
+                Some("LuminanceStats") => {
+                    Some((size_of::<crate::tonemap::params::LuminanceStats>(), 4))
+                }
+                _ => None,
+            };
+            if let (Some((size, count)), naga::TypeInner::Struct { members, span }) =
+                (expected, &ty.inner)
+            {
+                assert_eq!(
+                    (*span as usize, members.len()),
+                    (size, count),
+                    "{}",
+                    path.display()
+                );
+            }
+        }
+        checked += 1;
+    }
+    assert!(checked >= 6, "only {checked} shaders in {}", dir.display());
+}
