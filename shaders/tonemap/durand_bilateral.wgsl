@@ -1,10 +1,10 @@
 // Durand & Dorsey 2002 fast bilateral tone mapping with their own acceleration (section 5.1):
 // the bilateral filter of log10 luminance l as a piecewise-linear function of intensity,
 // computed on a downsampled grid (params.rs `DurandGrid`). Levels i_j = first_level +
-// j level_step; the grid's cells hold the mean l of their cell x cell pixels and how many were
-// valid; per level, pairs (w mean, w) with w = count exp(max(-(mean - i_j)^2 / 2 sigma_r^2, -80))
-// are blurred by a Gaussian of `sigma` cells within `radius` cells; a pixel interpolates the two
-// levels around its own l, each read bilinearly from the grid as (sum w mean) / (sum w).
+// j level_step; per level, a cell holds (sum w l, sum w) over its cell x cell valid pixels, each
+// with its own w = exp(max(-(l - i_j)^2 / 2 sigma_r^2, -80)); the pairs are blurred by a Gaussian
+// of `sigma` cells within `radius` cells; a pixel interpolates the two levels around its own l,
+// each read bilinearly from the grid as (sum w l) / (sum w).
 // Missing and black pixels have weight 0. The base B is compressed by
 // c = min(log10(contrast) / (max B - min B), 1) with max B mapped to 1, the detail l - B kept:
 // L_d = 10^((B - max B) c + l - B). CPU reference: src/tonemap/cpu/local.rs `durand`.
@@ -14,8 +14,8 @@
 // bands of rows [band_first, band_first + band_rows) (grid rows for the splat, pixel rows
 // otherwise; one band when every buffer fits one binding), with image, output and layers bound
 // as windows from the band's first row (the splat's image window from row window_first):
-//   grid_splat     one item per cell            image -> cells
-//   grid_blur_x    one item per (level, cell)   cells -> tmp
+//   grid_splat     one item per (level, cell)   image -> grid_levels
+//   grid_blur_x    one item per (level, cell)   grid_levels -> tmp
 //   grid_blur_y    one item per (level, cell)   tmp -> levels
 //   base           one item per pixel           image, levels -> layers
 //   range_partial  (G, 1, 1), G = min(ceil(n / 256), 64): layers -> partials (G elements)
@@ -32,7 +32,6 @@
 //   @binding(12) layers      storage, read_write  array<vec4<f32>>  (B, l, kind, 0), kind:
 //                                       0 missing, 1 black, 2 positive luminance
 //   @binding(13) base_range  storage, read_write  vec4<f32>         (min B, max B, count, 0)
-//   @binding(15) cells       storage, read_write  array<vec2<f32>>  (mean l, count) per cell
 //   @binding(16) tmp         storage, read_write  array<vec2<f32>>  levels x cells
 //   @binding(17) grid_levels storage, read_write  array<vec2<f32>>  levels x cells
 
@@ -51,7 +50,6 @@ const MIN_LOG_WEIGHT: f32 = -80.0;
 @group(0) @binding(6) var<storage, read_write> partials: array<vec4<f32>>;
 @group(0) @binding(12) var<storage, read_write> layers: array<vec4<f32>>;
 @group(0) @binding(13) var<storage, read_write> base_range: vec4<f32>;
-@group(0) @binding(15) var<storage, read_write> cells: array<vec2<f32>>;
 @group(0) @binding(16) var<storage, read_write> tmp: array<vec2<f32>>;
 @group(0) @binding(17) var<storage, read_write> grid_levels: array<vec2<f32>>;
 
@@ -71,27 +69,34 @@ fn log_luminance(p: vec4<f32>) -> vec2<f32> {
 
 @compute @workgroup_size(256)
 fn grid_splat(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    // Bands of grid rows; the image window starts at pixel row window_first.
-    let c = pixel_index(id, groups);
-    if c >= params.grid_width * params.band_rows {
+    // One item per (level, cell of the band); the image window starts at pixel row
+    // window_first. Each valid pixel weighs by its own l, so a highlight smaller than a cell
+    // keeps its intensity at its own level.
+    let item = pixel_index(id, groups);
+    let band_cells = params.grid_width * params.band_rows;
+    if item >= band_cells * params.levels {
         return;
     }
+    let level_index = item / band_cells;
+    let c = item % band_cells;
+    let level = params.first_level + f32(level_index) * params.level_step;
     let x0 = (c % params.grid_width) * params.cell;
     let y0 = (params.band_first + c / params.grid_width) * params.cell;
     let x1 = min(x0 + params.cell, params.width);
     let y1 = min(y0 + params.cell, params.height);
-    var sum = 0.0;
-    var count = 0.0;
+    var acc = vec2<f32>(0.0);
     for (var y = y0; y < y1; y = y + 1u) {
         for (var x = x0; x < x1; x = x + 1u) {
             let l = log_luminance(image[(y - params.window_first) * params.width + x]);
             if l.y == 2.0 {
-                sum = sum + l.x;
-                count = count + 1.0;
+                let d = (l.x - level) / params.sigma_range;
+                let w = exp(max(-0.5 * d * d, MIN_LOG_WEIGHT));
+                acc = acc + vec2<f32>(w * l.x, w);
             }
         }
     }
-    cells[params.band_first * params.grid_width + c] = vec2<f32>(select(0.0, sum / count, count > 0.0), count);
+    let n_cells = params.grid_width * params.grid_height;
+    grid_levels[level_index * n_cells + params.band_first * params.grid_width + c] = acc;
 }
 
 fn spatial_weight(k: i32) -> f32 {
@@ -105,10 +110,9 @@ fn grid_blur_x(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
     if item >= n_cells * params.levels {
         return;
     }
-    let level = params.first_level + f32(item / n_cells) * params.level_step;
     let c = item % n_cells;
     let x = i32(c % params.grid_width);
-    let row = c - u32(x);
+    let row = item - u32(x);
     let r = i32(params.radius);
     var acc = vec2<f32>(0.0);
     for (var k = -r; k <= r; k = k + 1) {
@@ -116,13 +120,7 @@ fn grid_blur_x(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgr
         if sx < 0 || sx >= i32(params.grid_width) {
             continue;
         }
-        let cell = cells[row + u32(sx)];
-        if cell.y == 0.0 {
-            continue;
-        }
-        let d = (cell.x - level) / params.sigma_range;
-        let w = spatial_weight(k) * cell.y * exp(max(-0.5 * d * d, MIN_LOG_WEIGHT));
-        acc = acc + vec2<f32>(w * cell.x, w);
+        acc = acc + spatial_weight(k) * grid_levels[row + u32(sx)];
     }
     tmp[item] = acc;
 }

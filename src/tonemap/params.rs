@@ -388,7 +388,7 @@ pub(crate) fn grid_sigma(sigma_px: f64, cell: u32) -> f64 {
 /// Reinhard's blurs at reduced resolution: scale `index` is blurred on pyramid level
 /// [`reinhard_level`] (level k halves the image k times by 2x2 averaging of the (L m, m) pairs),
 /// where its sigma still spans at least this many cells.
-pub(crate) const REINHARD_MIN_LEVEL_SIGMA: f64 = 0.8;
+pub(crate) const REINHARD_MIN_LEVEL_SIGMA: f64 = 1.6;
 
 /// Deepest pyramid level of Reinhard's blurs.
 pub(crate) const REINHARD_MAX_LEVEL: u32 = 6;

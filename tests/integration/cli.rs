@@ -586,6 +586,53 @@ fn accuracy_report_writes_table_files_and_chart() {
     );
 }
 
+/// The accuracy report's tone-mapping scenes: the local operators as the GPU runs them (the
+/// piecewise-linear grid, the Gaussian pyramid) against their exact definitions (brute-force
+/// bilateral filter, full-resolution Gaussians) on lights of 1, 2 and 16 pixels and on noise.
+#[test]
+fn accuracy_report_scores_local_tone_mapping_against_exact_operators() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("acc");
+    let (code, stdout, stderr) = hdrvis(
+        &[
+            "bench",
+            "accuracy",
+            "--runs",
+            "1",
+            "--scene",
+            "tonemap",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 16, "{csv}");
+    let rel = |scene: &str, variant: &str| -> f64 {
+        let row = rows.iter().find(|r| r[0] == scene && r[1] == variant);
+        row.unwrap_or_else(|| panic!("{scene} {variant} missing:\n{stdout}"))[4]
+            .parse()
+            .unwrap()
+    };
+    for scene in ["lights1", "lights2", "lights16"] {
+        for op in ["durand", "reinhard-local"] {
+            let r = rel(scene, &format!("{op} (GPU)"));
+            assert!(r < 1e-3, "{scene} {op}: relative RMS {r:.2e}\n{stdout}");
+            assert_eq!(rel(scene, &format!("{op} exact (CPU)")), 0.0);
+        }
+    }
+    // Four decades of noise: Durand's levels interpolate linearly in l, Reinhard's scale
+    // choice flips on a few pixels.
+    assert!(rel("noise", "durand (GPU)") < 2e-2, "{stdout}");
+    assert!(rel("noise", "reinhard-local (GPU)") < 1e-2, "{stdout}");
+}
+
 /// The accuracy report's shell scene: native steps and resampled boxes scored against the native
 /// f64 integral, with the boxes' memory (n³ · 4 bytes) and resampling time; the finer box is the
 /// more accurate. And `bench spherical` counts the samples both renders take.

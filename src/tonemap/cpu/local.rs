@@ -3,9 +3,11 @@
 
 use rayon::prelude::*;
 
-use super::{LogLuminanceStats, Scene};
+use super::exact::bilateral_base;
+use super::{Filters, LogLuminanceStats, Scene};
 use crate::tonemap::params::{
-    blur_sigma, gaussian_radius, grid_sigma, reinhard_level, DurandGrid, DURAND_MIN_LOG_WEIGHT,
+    blur_sigma, durand_sigma_pixels, gaussian_radius, grid_sigma, reinhard_level, DurandGrid,
+    DURAND_MIN_LOG_WEIGHT,
 };
 
 /// Reinhard's Gaussians by normalised convolution, sum(w L m) / sum(w m) with m = 0 at missing
@@ -20,8 +22,9 @@ fn reinhard_blurs(
     width: usize,
     height: usize,
     sigmas: &[f64],
+    level_of: fn(f64) -> u32,
 ) -> Vec<Vec<f64>> {
-    let levels: Vec<u32> = sigmas.iter().map(|&s| reinhard_level(s)).collect();
+    let levels: Vec<u32> = sigmas.iter().map(|&s| level_of(s)).collect();
     let deepest = levels.iter().copied().max().unwrap_or(0);
     let mut pyramid: Vec<(usize, usize, Vec<[f64; 2]>)> = vec![(
         width,
@@ -85,26 +88,32 @@ fn reinhard_blurs(
         .collect()
 }
 
+/// Reinhard's local operator's parameters (`Operator::ReinhardLocal`).
+pub(super) struct ReinhardLocal {
+    pub key: f64,
+    pub alpha1: f64,
+    pub ratio: f64,
+    pub phi: f64,
+    pub epsilon: f64,
+    pub scales: u32,
+}
+
 /// Reinhard 2002 automatic dodging-and-burning: per pixel, the largest scale s_m at which the
 /// centre-surround activity |V1 - V2| / (2^phi a / s^2 + V1) stays below epsilon (scanning up
-/// from s = 1 and stopping at the first failure), then L_d = L / (1 + V1(s_m)).
-#[allow(clippy::too_many_arguments)]
+/// from s = 1 and stopping at the first failure), then L_d = L / (1 + V1(s_m)). The Gaussians
+/// are blurred on the pyramid ([`reinhard_blurs`]) or at full resolution (`Filters::Exact`).
 pub(super) fn reinhard_local(
     scene: &Scene,
     stats: &LogLuminanceStats,
-    key: f64,
-    alpha1: f64,
-    ratio: f64,
-    phi: f64,
-    epsilon: f64,
-    scales: u32,
+    p: &ReinhardLocal,
+    filters: Filters,
 ) -> Vec<f64> {
     let scaled: Vec<f64> = scene
         .lum
         .iter()
         .map(|&l| {
             if l.is_finite() && l > 0.0 {
-                key * (l.ln() - stats.mean_log).exp()
+                p.key * (l.ln() - stats.mean_log).exp()
             } else {
                 0.0
             }
@@ -115,39 +124,46 @@ pub(super) fn reinhard_local(
         .iter()
         .map(|l| if l.is_nan() { 0.0 } else { 1.0 })
         .collect();
-    let sigmas: Vec<f64> = (0..=scales).map(|i| blur_sigma(alpha1, ratio, i)).collect();
-    let blurs = reinhard_blurs(&scaled, &mask, scene.width, scene.height, &sigmas);
-    let sharpness = phi.exp2() * key;
+    let sigmas: Vec<f64> = (0..=p.scales)
+        .map(|i| blur_sigma(p.alpha1, p.ratio, i))
+        .collect();
+    let level_of = match filters {
+        Filters::Accelerated => reinhard_level,
+        Filters::Exact => |_| 0,
+    };
+    let blurs = reinhard_blurs(&scaled, &mask, scene.width, scene.height, &sigmas, level_of);
+    let sharpness = p.phi.exp2() * p.key;
     (0..scaled.len())
-        .map(|p| {
-            if mask[p] == 0.0 {
+        .map(|i| {
+            if mask[i] == 0.0 {
                 return f64::NAN;
             }
-            let mut chosen = blurs[0][p];
-            for i in 0..scales as usize {
-                let s = ratio.powi(i as i32);
-                let (v1, v2) = (blurs[i][p], blurs[i + 1][p]);
+            let mut chosen = blurs[0][i];
+            for k in 0..p.scales as usize {
+                let s = p.ratio.powi(k as i32);
+                let (v1, v2) = (blurs[k][i], blurs[k + 1][i]);
                 let activity = (v1 - v2) / (sharpness / (s * s) + v1);
-                if activity.abs() >= epsilon {
+                if activity.abs() >= p.epsilon {
                     break;
                 }
                 chosen = v1;
             }
-            scaled[p] / (1.0 + chosen)
+            scaled[i] / (1.0 + chosen)
         })
         .collect()
 }
 
-/// Durand & Dorsey 2002 with their piecewise-linear acceleration ([`DurandGrid`]): log10
-/// luminance l (missing and black pixels have weight 0) is box-averaged onto the grid; per
-/// intensity level, range-weighted pairs are blurred on the grid; each pixel interpolates its
-/// two levels (bilinear on the grid, linear in l). The base is compressed so that its range
-/// becomes log10(contrast) (never expanded) with its maximum at 1; the detail layer is kept.
+/// Durand & Dorsey 2002: log10 luminance l (missing and black pixels have weight 0) is split
+/// into a base, its bilateral filter, and the detail l - base. The base is compressed so that
+/// its range becomes log10(contrast) (never expanded) with its maximum at 1; the detail is kept.
+/// The bilateral filter is their piecewise-linear acceleration ([`grid_base`]) or the
+/// brute-force sum (`Filters::Exact`).
 pub(super) fn durand(
     scene: &Scene,
     contrast: f64,
     sigma_spatial: f64,
     sigma_range: f64,
+    filters: Filters,
 ) -> Vec<f64> {
     let (width, height) = (scene.width, scene.height);
     let log_l: Vec<f64> = scene
@@ -161,34 +177,13 @@ pub(super) fn durand(
             }
         })
         .collect();
-    let finite_l = log_l.iter().copied().filter(|l| l.is_finite());
-    let l_max = finite_l.clone().fold(f64::NEG_INFINITY, f64::max);
-    let l_min = finite_l.fold(f64::INFINITY, f64::min);
-    let grid = DurandGrid::new(
-        width as u32,
-        height as u32,
-        sigma_spatial,
-        sigma_range,
-        l_min,
-        l_max,
-    );
-    let levels = durand_levels(&log_l, width, height, &grid, sigma_range);
-    let base: Vec<f64> = (0..width * height)
-        .into_par_iter()
-        .map(|p| {
-            let l = log_l[p];
-            if l.is_nan() {
-                return f64::NAN;
-            }
-            let (j, f) = grid.bracket(l);
-            let at = |level: u32| {
-                let plane = &levels[level as usize];
-                let [num, den] = bilinear_pair(plane, &grid, p % width, p / width);
-                num / den
-            };
-            (1.0 - f) * at(j) + f * at(j + 1)
-        })
-        .collect();
+    let base = match filters {
+        Filters::Accelerated => grid_base(&log_l, width, height, sigma_spatial, sigma_range),
+        Filters::Exact => {
+            let sigma_px = durand_sigma_pixels(sigma_spatial, width as u32, height as u32);
+            bilateral_base(&log_l, width, height, sigma_px, sigma_range)
+        }
+    };
     let finite = base.iter().copied().filter(|b| b.is_finite());
     let base_max = finite.clone().fold(f64::NEG_INFINITY, f64::max);
     let base_min = finite.fold(f64::INFINITY, f64::min);
@@ -214,7 +209,52 @@ pub(super) fn durand(
         .collect()
 }
 
-/// Durand's grid, blurred per level: `levels[j][cell]` = (sum w mean, sum w) of level j.
+/// Durand & Dorsey's piecewise-linear acceleration of the bilateral filter ([`DurandGrid`]):
+/// per intensity level, every pixel's range weight (from its own l) and weighted l are summed
+/// onto the grid's cells and blurred there; each pixel interpolates its two levels (bilinear on
+/// the grid, linear in l). NaN where l is NaN.
+fn grid_base(
+    log_l: &[f64],
+    width: usize,
+    height: usize,
+    sigma_spatial: f64,
+    sigma_range: f64,
+) -> Vec<f64> {
+    let finite_l = log_l.iter().copied().filter(|l| l.is_finite());
+    let l_max = finite_l.clone().fold(f64::NEG_INFINITY, f64::max);
+    let l_min = finite_l.fold(f64::INFINITY, f64::min);
+    let grid = DurandGrid::new(
+        width as u32,
+        height as u32,
+        sigma_spatial,
+        sigma_range,
+        l_min,
+        l_max,
+    );
+    let levels = durand_levels(log_l, width, height, &grid, sigma_range);
+    (0..width * height)
+        .into_par_iter()
+        .map(|p| {
+            let l = log_l[p];
+            if l.is_nan() {
+                return f64::NAN;
+            }
+            let (j, f) = grid.bracket(l);
+            let at = |level: u32| {
+                let plane = &levels[level as usize];
+                let [num, den] = bilinear_pair(plane, &grid, p % width, p / width);
+                num / den
+            };
+            (1.0 - f) * at(j) + f * at(j + 1)
+        })
+        .collect()
+}
+
+/// Durand's grid, blurred per level: `levels[j][cell]` = (sum w l, sum w) over the cell's valid
+/// pixels, each with its own range weight w = exp(-(l - i_j)^2 / 2 sigma_r^2) (floored at
+/// e^[`DURAND_MIN_LOG_WEIGHT`]), then blurred by the grid's Gaussian. Weighting each pixel by
+/// its own l (rather than the cell's mean) keeps a highlight smaller than a cell at its own
+/// intensity, so the base does not depend on where the highlight falls in its cell.
 fn durand_levels(
     log_l: &[f64],
     width: usize,
@@ -224,23 +264,6 @@ fn durand_levels(
 ) -> Vec<Vec<[f64; 2]>> {
     let z = grid.cell as usize;
     let (gw, gh) = (grid.grid_width as usize, grid.grid_height as usize);
-    // Box average of l over each cell's valid pixels: (mean, count).
-    let cells: Vec<[f64; 2]> = (0..gw * gh)
-        .map(|c| {
-            let (cx, cy) = (c % gw, c / gw);
-            let (mut sum, mut count) = (0.0, 0.0);
-            for y in cy * z..((cy + 1) * z).min(height) {
-                for x in cx * z..((cx + 1) * z).min(width) {
-                    let l = log_l[y * width + x];
-                    if !l.is_nan() {
-                        sum += l;
-                        count += 1.0;
-                    }
-                }
-            }
-            [if count > 0.0 { sum / count } else { 0.0 }, count]
-        })
-        .collect();
     let radius = grid.radius as isize;
     let spatial: Vec<f64> = (-radius..=radius)
         .map(|k| (-((k * k) as f64) / (2.0 * grid.sigma_cells * grid.sigma_cells)).exp())
@@ -249,15 +272,22 @@ fn durand_levels(
         .into_par_iter()
         .map(|j| {
             let level = grid.first_level + j as f64 * grid.level_step;
-            let weighted: Vec<[f64; 2]> = cells
-                .iter()
-                .map(|&[mean, count]| {
-                    if count == 0.0 {
-                        return [0.0, 0.0];
+            let weighted: Vec<[f64; 2]> = (0..gw * gh)
+                .map(|c| {
+                    let (cx, cy) = (c % gw, c / gw);
+                    let mut acc = [0.0, 0.0];
+                    for y in cy * z..((cy + 1) * z).min(height) {
+                        for x in cx * z..((cx + 1) * z).min(width) {
+                            let l = log_l[y * width + x];
+                            if !l.is_nan() {
+                                let d = (l - level) / sigma_range;
+                                let w = (-0.5 * d * d).max(DURAND_MIN_LOG_WEIGHT).exp();
+                                acc[0] += w * l;
+                                acc[1] += w;
+                            }
+                        }
                     }
-                    let d = (mean - level) / sigma_range;
-                    let w = count * (-0.5 * d * d).max(DURAND_MIN_LOG_WEIGHT).exp();
-                    [w * mean, w]
+                    acc
                 })
                 .collect();
             let across = blur_pairs(&weighted, gw, gh, &spatial, true);

@@ -10,7 +10,9 @@
 
 mod local;
 
-use local::{durand, reinhard_local};
+pub(crate) mod exact;
+
+use local::{durand, reinhard_local, ReinhardLocal};
 
 use super::params::{Gamut, Operator, ToneMapSettings};
 use crate::error::{Error, Result};
@@ -123,10 +125,30 @@ pub(crate) fn luminance_log_stats(img: &HdrImage, exposure_ev: f64) -> Option<Lo
 /// [0, 1] (apply `HdrImage::to_srgb8` or `HdrImage::to_srgb16` for a display image); missing pixels are
 /// [0, 0, 0, 0]. Extra channels and metadata are carried over.
 pub fn tonemap_cpu(img: &HdrImage, s: &ToneMapSettings) -> Result<HdrImage> {
+    tonemap_cpu_with(img, s, Filters::Accelerated)
+}
+
+/// How the local operators filter: as the GPU does, or by the definitions they accelerate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Filters {
+    /// Durand's piecewise-linear grid, Reinhard's Gaussians on a pyramid (what the GPU runs).
+    Accelerated,
+    /// A brute-force bilateral filter and full-resolution Gaussians (`exact.rs`): slow, the
+    /// yardstick the accelerations are measured against.
+    Exact,
+}
+
+/// [`tonemap_cpu`] with the local operators' filters chosen; the global operators are the same
+/// either way.
+pub(crate) fn tonemap_cpu_with(
+    img: &HdrImage,
+    s: &ToneMapSettings,
+    filters: Filters,
+) -> Result<HdrImage> {
     s.validate()?;
     check_size(img)?;
     let scene = Scene::new(img, s.exposure_ev);
-    let display_lum = display_luminance(&scene, &s.op);
+    let display_lum = display_luminance(&scene, &s.op, filters);
     let inv_gamma = 1.0 / s.gamma;
     let pixels = img
         .pixels
@@ -190,7 +212,7 @@ fn check_size(img: &HdrImage) -> Result<()> {
 }
 
 /// Display luminance L_d per pixel (NaN where missing; may exceed 1 before the final clamp).
-fn display_luminance(scene: &Scene, op: &Operator) -> Vec<f64> {
+fn display_luminance(scene: &Scene, op: &Operator, filters: Filters) -> Vec<f64> {
     let Some(stats) = scene.stats() else {
         // Nothing positive: every valid pixel is black.
         return scene
@@ -237,12 +259,22 @@ fn display_luminance(scene: &Scene, op: &Operator) -> Vec<f64> {
             phi,
             epsilon,
             scales,
-        } => reinhard_local(scene, &stats, key, alpha1, ratio, phi, epsilon, scales),
+        } => {
+            let params = ReinhardLocal {
+                key,
+                alpha1,
+                ratio,
+                phi,
+                epsilon,
+                scales,
+            };
+            reinhard_local(scene, &stats, &params, filters)
+        }
         Operator::DurandBilateral {
             contrast,
             sigma_spatial,
             sigma_range,
-        } => durand(scene, contrast, sigma_spatial, sigma_range),
+        } => durand(scene, contrast, sigma_spatial, sigma_range, filters),
     }
 }
 

@@ -464,3 +464,88 @@ fn every_tonemap_shader_parses_and_validates() {
     }
     assert!(checked >= 6, "only {checked} shaders in {}", dir.display());
 }
+
+/// Relative errors of `got` against `exact` display luminance (exact values below 1e-3 count
+/// as 1e-3): (RMS, largest, fraction above 1 %).
+fn relative_errors(got: &[f64], exact: &[f64]) -> (f64, f64, f64) {
+    let rel: Vec<f64> = got
+        .iter()
+        .zip(exact)
+        .map(|(g, e)| (g - e).abs() / e.max(1e-3))
+        .collect();
+    let rms = (rel.iter().map(|r| r * r).sum::<f64>() / rel.len() as f64).sqrt();
+    let max = rel.iter().copied().fold(0.0, f64::max);
+    let beyond = rel.iter().filter(|r| **r > 0.01).count() as f64 / rel.len() as f64;
+    (rms, max, beyond)
+}
+
+/// Durand with sigma_s 5 % of a 128-pixel side: 6.4 px, so the grid's cells are 3 pixels and
+/// lights of 1 and 2 pixels are smaller than a cell.
+const DURAND_ON_CELLS: Operator = Operator::DurandBilateral {
+    contrast: 5.0,
+    sigma_spatial: 0.05,
+    sigma_range: 0.4,
+};
+
+#[test]
+fn local_operators_stay_near_their_exact_definitions_on_lights_from_one_pixel() {
+    use super::exact::lit_scene;
+    for n in [1u32, 2, 4, 16] {
+        let img = lit_scene(128, n, 0);
+        for (op, rms_bound, max_bound) in [
+            (DURAND_ON_CELLS, 3e-3, 1e-2),
+            (Operator::REINHARD_LOCAL, 1e-3, 1e-2),
+        ] {
+            let fast = out_lum(&tonemap_cpu(&img, &settings(op)).unwrap());
+            let exact = tonemap_cpu_with(&img, &settings(op), Filters::Exact).unwrap();
+            let (rms, max, beyond) = relative_errors(&fast, &out_lum(&exact));
+            assert!(
+                rms < rms_bound && max < max_bound,
+                "{} on {n}-pixel lights: relative RMS {rms:.2e}, largest {max:.2e}",
+                op.name()
+            );
+        }
+    }
+}
+
+#[test]
+fn reinhard_local_scale_choice_stays_near_full_resolution_gaussians_on_noise() {
+    // Four decades of white noise put some pixels' activity at epsilon for every scale: the
+    // pyramid may flip their choice, on few pixels.
+    let img = super::exact::noise_scene(128, 7);
+    let op = Operator::REINHARD_LOCAL;
+    let fast = out_lum(&tonemap_cpu(&img, &settings(op)).unwrap());
+    let exact = out_lum(&tonemap_cpu_with(&img, &settings(op), Filters::Exact).unwrap());
+    let (rms, max, beyond) = relative_errors(&fast, &exact);
+    assert!(
+        rms < 6e-3 && beyond < 0.02,
+        "rms {rms:.2e}, beyond 1 % {beyond:.2e}"
+    );
+}
+
+#[test]
+fn a_light_moving_by_one_pixel_leaves_the_background_alone() {
+    use super::exact::{is_background, lit_scene};
+    for n in [1u32, 2, 4] {
+        for op in [DURAND_ON_CELLS, Operator::REINHARD_LOCAL] {
+            let background_mean = |shift: u32| {
+                let img = lit_scene(128, n, shift);
+                let out = out_lum(&tonemap_cpu(&img, &settings(op)).unwrap());
+                let far: Vec<f64> = (0..out.len())
+                    .filter(|&p| is_background(&img, p) && p % 128 < 16)
+                    .map(|p| out[p])
+                    .collect();
+                far.iter().sum::<f64>() / far.len() as f64
+            };
+            let still = background_mean(0);
+            for shift in 1..=3 {
+                let change = (background_mean(shift) / still - 1.0).abs();
+                assert!(
+                    change < 1e-3,
+                    "{} with {n}-pixel lights moved {shift} px: background changes by {change:.2e}",
+                    op.name()
+                );
+            }
+        }
+    }
+}

@@ -30,11 +30,9 @@ impl GpuToneMapper {
             ..call.base
         };
         let px_bytes = (rec.width * rec.height) as u64 * 16;
-        let cells = grid.cells();
-        let planes = cells as u64 * grid.levels as u64 * 8;
+        let planes = grid.cells() as u64 * grid.levels as u64 * 8;
         let buffers = DurandBuffers {
             layers: cache.scratch(ctx, "durand layers", px_bytes),
-            cells: cache.scratch(ctx, "durand cells", cells as u64 * 8),
             tmp: cache.scratch(ctx, "durand tmp", planes),
             levels: cache.scratch(ctx, "durand levels", planes),
             range: cache.scratch(ctx, "durand base range", 16),
@@ -80,10 +78,10 @@ impl GpuToneMapper {
             });
             rec.window(1, rows);
             rec.items(
-                grid.grid_width * band.rows,
+                grid.grid_width * band.rows * grid.levels,
                 DURAND_SHADER,
                 "grid_splat",
-                &[(0, &u), (1, image), (15, &buffers.cells)],
+                &[(0, &u), (1, image), (17, &buffers.levels)],
             )?;
         }
         let items = grid.cells() * grid.levels;
@@ -91,7 +89,7 @@ impl GpuToneMapper {
             items,
             DURAND_SHADER,
             "grid_blur_x",
-            &[(0, &u), (15, &buffers.cells), (16, &buffers.tmp)],
+            &[(0, &u), (17, &buffers.levels), (16, &buffers.tmp)],
         )?;
         rec.items(
             items,
@@ -160,11 +158,10 @@ impl GpuToneMapper {
 /// The shader file of Durand and Dorsey's bilateral operator.
 const DURAND_SHADER: &str = "tonemap/durand_bilateral.wgsl";
 
-/// The scratch buffers of Durand's operator: base and detail layers, the grid as splatted,
-/// blurred along x, and blurred (its levels), and the base layer's range.
+/// The scratch buffers of Durand's operator: base and detail layers, the grid blurred along x
+/// (`tmp`), the grid as splatted and then blurred (its levels), and the base layer's range.
 struct DurandBuffers {
     layers: wgpu::Buffer,
-    cells: wgpu::Buffer,
     tmp: wgpu::Buffer,
     levels: wgpu::Buffer,
     range: wgpu::Buffer,

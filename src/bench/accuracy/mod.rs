@@ -8,14 +8,20 @@
 //! The `shell` scene sets the mantle rendered natively on its spherical grid against the paper's
 //! way, the shell resampled onto boxes of 128³, 256³ and 513³ voxels (`super::spherical`).
 
+mod shell;
+mod surface;
+mod tonemap;
+
+use shell::{shell_rows, shell_summary};
+use surface::bench_surface_scene;
+use tonemap::tonemap_rows;
+
 use super::{bench_tf, bench_volume, mantle_fig5_tf, median};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::{Camera, Grid, Scale, TransferFunction, Volume};
 use crate::render::session::RenderSession;
-use crate::render::surface::{
-    fringe_f64, FringeMode, PhaseMethod, SurfaceOptions, SurfaceRenderer,
-};
+use crate::render::surface::{FringeMode, SurfaceOptions};
 use crate::render::volume::GpuVolume;
 use crate::render::VolumeRenderOptions;
 use crate::render::VolumeSource;
@@ -75,10 +81,15 @@ pub enum SceneKind {
         options: VolumeRenderOptions,
         boxes: Vec<usize>,
     },
+    /// The local tone-mapping operators on the GPU against their exact definitions on the
+    /// CPU, on lights of 1, 2 and 16 pixels and on noise (`tonemap.rs`; scenes of its own size).
+    ToneMap,
 }
 
 /// Names of the built-in scenes, in report order.
-pub(crate) const SCENE_NAMES: &[&str] = &["mantle", "blobs", "band", "tsunami", "fault", "shell"];
+pub(crate) const SCENE_NAMES: &[&str] = &[
+    "mantle", "blobs", "band", "tsunami", "fault", "shell", "tonemap",
+];
 
 /// Sides of the resampled boxes of the shell scene: the paper's 513³ and two coarser; `quick`,
 /// two small ones for tests.
@@ -133,6 +144,12 @@ pub fn accuracy_scenes(
                 options,
                 boxes: boxes.to_vec(),
             },
+        });
+    }
+    if wants("tonemap") {
+        scenes.push(AccuracyScene {
+            name: "tonemap".into(),
+            kind: SceneKind::ToneMap,
         });
     }
     Ok(scenes)
@@ -298,18 +315,22 @@ fn accuracy_metrics(
     let settings = crate::tonemap::params::ToneMapSettings::default();
     let a = crate::tonemap::cpu::tonemap_cpu(&to_image(got), &settings)?.to_srgb8();
     let b = crate::tonemap::cpu::tonemap_cpu(&to_image(reference), &settings)?.to_srgb8();
+    Ok((rel_rms, max_rel, psnr_8bit(&a, &b), lost))
+}
+
+/// PSNR of one 8-bit picture against another, dB (infinite when they are equal).
+pub(crate) fn psnr_8bit(a: &[[u8; 3]], b: &[[u8; 3]]) -> f64 {
     let mse = a
         .iter()
-        .zip(&b)
-        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2)))
+        .zip(b)
+        .flat_map(|(x, y)| (0..3).map(move |c| (f64::from(x[c]) - f64::from(y[c])).powi(2)))
         .sum::<f64>()
         / (3 * a.len()) as f64;
-    let psnr = if mse == 0.0 {
+    if mse == 0.0 {
         f64::INFINITY
     } else {
         10.0 * (255.0f64 * 255.0 / mse).log10()
-    };
-    Ok((rel_rms, max_rel, psnr, lost))
+    }
 }
 
 /// Times every variant on each scene and measures its error against the f64 CPU reference
@@ -352,22 +373,10 @@ pub fn bench_accuracy(
                 runs,
                 log,
             )?),
+            SceneKind::ToneMap => rows.extend(tonemap_rows(ctx.clone(), runs, log)?),
         }
     }
     Ok(rows)
-}
-
-/// The fringe intensity of a map-view image as an opaque grey image (missing pixels 0).
-fn grey(fringe: impl Iterator<Item = f64>) -> Vec<[f64; 4]> {
-    fringe
-        .map(|f| {
-            if f.is_finite() {
-                [f, f, f, 1.0]
-            } else {
-                [0.0; 4]
-            }
-        })
-        .collect()
 }
 
 /// A row scored against `reference`: the median of `ms` and the error metrics of `got`.
@@ -412,101 +421,8 @@ pub(crate) fn reference_row(scene: &str, f64_ms: &[f64], against: &'static str) 
     }
 }
 
-/// The phase methods on one surface scene: each fringe pass timed (the data pass is cached)
-/// and its fringe intensity compared with (1 + cos 2πν·d)/2 evaluated in f64 at the node each
-/// pixel shows (map view, one pixel per node); the f64 evaluation on the CPU is timed too.
-fn bench_surface_scene(
-    ctx: Arc<GpuContext>,
-    name: &str,
-    grid: &Grid,
-    options: &SurfaceOptions,
-    runs: usize,
-    log: &mut dyn FnMut(&str),
-) -> Result<Vec<AccuracyRow>> {
-    let renderer = SurfaceRenderer::new(ctx);
-    let (nx, ny) = (grid.nx(), grid.ny());
-    log(&format!("{name}: f64 fringes on the CPU ..."));
-    let (reference, f64_ms) = surface_reference(grid, options.nu[0], runs);
-    let mut rows = Vec::new();
-    for (phase, variant) in [
-        (PhaseMethod::Naive, "naive f32"),
-        (PhaseMethod::Reduced, "reduced"),
-    ] {
-        let o = SurfaceOptions {
-            phase,
-            ..options.clone()
-        };
-        let (ms, got) = time_fringe_pass(&renderer, grid, &o, runs)?;
-        let r = scored_row(
-            name,
-            variant.into(),
-            &ms,
-            &got,
-            &reference,
-            (nx as u32, ny as u32),
-            PER_NODE,
-        )?;
-        log(&format!(
-            "{name} {variant}: {:.1} ms, rel RMS {:.2e}",
-            r.median_ms, r.rel_rms
-        ));
-        rows.push(r);
-    }
-    rows.push(reference_row(name, &f64_ms, PER_NODE));
-    Ok(rows)
-}
-
-/// The fringe intensity evaluated in f64 at the node each pixel of the map view shows, and the
-/// milliseconds of each of `runs` evaluations.
-fn surface_reference(grid: &Grid, nu: f64, runs: usize) -> (Vec<[f64; 4]>, Vec<f64>) {
-    use rayon::prelude::*;
-    let (nx, ny) = (grid.nx(), grid.ny());
-    let d = grid.property_at(0).1;
-    let mut f64_ms = Vec::new();
-    let mut reference = Vec::new();
-    for _ in 0..runs.max(1) {
-        let t = std::time::Instant::now();
-        // Pixel (i, r) shows node (i, ny − 1 − r) in map view.
-        reference = grey(
-            (0..nx * ny)
-                .into_par_iter()
-                .map(|k| fringe_f64(nu, d[(ny - 1 - k / nx) * nx + k % nx]))
-                .collect::<Vec<_>>()
-                .into_iter(),
-        );
-        f64_ms.push(t.elapsed().as_secs_f64() * 1e3);
-    }
-    (reference, f64_ms)
-}
-
 /// The milliseconds of each timed run, and the last run's image.
 type TimedImage = (Vec<f64>, Vec<[f64; 4]>);
-
-/// One warm-up render, then `runs` timed ones: the fringe pass's milliseconds of each, and the
-/// last one's fringe intensity as a grey image.
-fn time_fringe_pass(
-    renderer: &SurfaceRenderer,
-    grid: &Grid,
-    o: &SurfaceOptions,
-    runs: usize,
-) -> Result<TimedImage> {
-    renderer.render(grid, o)?;
-    let mut ms = Vec::new();
-    let mut last = None;
-    for _ in 0..runs.max(1) {
-        let (mut images, timing) = renderer.render_timed(grid, o)?;
-        ms.push(timing.fringe_ms);
-        last = Some(images.remove(0));
-    }
-    let img = last.expect("at least one run");
-    let fringe = img
-        .extra_channels
-        .iter()
-        .find(|(n, _)| n == "fringe")
-        .map(|(_, v)| v)
-        .ok_or_else(|| Error::Gpu("surface image without a fringe channel".into()))?;
-    Ok((ms, grey(fringe.iter().map(|&v| v as f64))))
-}
 
 /// The f64 CPU references of one volume scene.
 pub(crate) struct VolumeReferences {
@@ -680,109 +596,10 @@ fn bench_volume_scene(
     Ok(rows)
 }
 
-/// The accuracy report's `shell` scene: the native shell at steps of 0.5, 1 and 2 radial
-/// spacings and its resampled boxes of `boxes` voxels a side at 0.5 of their own voxel, in f32
-/// on the GPU, each against the native integral (f64, pre-integrated at 1/8 of the step), with
-/// the voxels' memory and the resampling's time; and the f64 reference's own time.
-pub(crate) fn shell_rows(
-    ctx: Arc<GpuContext>,
-    name: &str,
-    shell: &Volume,
-    options: &VolumeRenderOptions,
-    boxes: &[usize],
-    runs: usize,
-    log: &mut dyn FnMut(&str),
-) -> Result<Vec<AccuracyRow>> {
-    use crate::render::Precision;
-    let refs = volume_references(name, shell, options, runs, log)?;
-    let session = super::timing_session(ctx);
-    let size = (options.width, options.height);
-    let bytes = |v: &Volume| v.voxel_count() as f64 * 4.0 / (1u64 << 20) as f64;
-    let mut rows = Vec::new();
-    let shared = Arc::new(shell.clone());
-    let source = VolumeSource::Memory(shared);
-    let mut o = options.clone();
-    o.precision = Precision::F32;
-    for factor in [1.0, 2.0, 4.0] {
-        o.step = options.step * factor;
-        let (ms, got) = time_volume(&session, &source, &o, runs)?;
-        let variant = format!("native step {}", o.step);
-        let mut r = scored_row(name, variant, &ms, &got, &refs.converged, size, CONVERGED)?;
-        r.memory_mib = bytes(shell);
-        r.prepare_ms = 0.0;
-        log(&format!(
-            "{name} {}: {:.1} ms, rel RMS {:.2e}",
-            r.variant, r.median_ms, r.rel_rms
-        ));
-        rows.push(r);
-    }
-    for &n in boxes {
-        log(&format!("{name}: resampling onto {n}^3 ..."));
-        let t = std::time::Instant::now();
-        let boxed = crate::model::resample_to_box(shell, n)?;
-        let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
-        let step_world = options.step * boxed.voxel_length();
-        let ob = super::spherical::box_options(&o, &boxed, shell.voxel_length(), step_world);
-        let memory = bytes(&boxed);
-        let source = VolumeSource::Memory(Arc::new(boxed));
-        let (ms, got) = time_volume(&session, &source, &ob, runs)?;
-        drop(source);
-        let mut r = scored_row(
-            name,
-            format!("box {n}^3"),
-            &ms,
-            &got,
-            &refs.converged,
-            size,
-            CONVERGED,
-        )?;
-        r.memory_mib = memory;
-        r.prepare_ms = prepare_ms;
-        log(&format!(
-            "{name} {}: {:.1} ms (+{:.0} ms resampling), rel RMS {:.2e}",
-            r.variant, r.median_ms, prepare_ms, r.rel_rms
-        ));
-        rows.push(r);
-    }
-    let mut reference = reference_row(name, &refs.same_step_ms, CONVERGED);
-    reference.variant = "native f64 (CPU)".into();
-    reference.memory_mib = bytes(shell);
-    rows.push(reference);
-    Ok(rows)
-}
-
-/// Per box of the shell scene: the fastest native render at least as accurate, and its time
-/// against the box's.
-pub(crate) fn shell_summary(rows: &[AccuracyRow]) -> Vec<String> {
-    let native: Vec<&AccuracyRow> = rows
-        .iter()
-        .filter(|r| r.variant.starts_with("native step"))
-        .collect();
-    rows.iter()
-        .filter(|r| r.variant.starts_with("box "))
-        .map(|b| {
-            match native
-                .iter()
-                .filter(|r| r.rel_rms <= b.rel_rms)
-                .min_by(|x, y| x.median_ms.total_cmp(&y.median_ms))
-            {
-                Some(s) => format!(
-                    "{}: {} (rel RMS {:.1e}, {:.0} MiB) at least as accurate as the {} (rel RMS {:.1e}, {:.0} MiB + {:.0} ms resampling) in {:.2}x its render time",
-                    b.scene, s.variant, s.rel_rms, s.memory_mib, b.variant, b.rel_rms, b.memory_mib, b.prepare_ms, s.median_ms / b.median_ms
-                ),
-                None => format!(
-                    "{}: the {} (rel RMS {:.1e}) is more accurate than every native step",
-                    b.scene, b.variant, b.rel_rms
-                ),
-            }
-        })
-        .collect()
-}
-
 pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
     let mut s = format!("adapter: {adapter}\naccuracy against f64 CPU references: the same rays, steps and table ({SAME_STEP}), the integral, pre-integrated at 1/8 of the step ({CONVERGED}), the fringe at each node ({PER_NODE})\n");
     s.push_str(&format!(
-        "{:<8} {:<17} {:<15} {:>10} {:>11} {:>11} {:>12} {:>12}\n",
+        "{:<8} {:<26} {:<15} {:>10} {:>11} {:>11} {:>12} {:>12}\n",
         "scene",
         "variant",
         "reference",
@@ -794,7 +611,7 @@ pub fn format_accuracy_table(adapter: &str, rows: &[AccuracyRow]) -> String {
     ));
     for r in rows {
         s.push_str(&format!(
-            "{:<8} {:<17} {:<15} {:>10.1} {:>11.2e} {:>11.2e} {:>12} {:>11.2}%\n",
+            "{:<8} {:<26} {:<15} {:>10.1} {:>11.2e} {:>11.2e} {:>12} {:>11.2}%\n",
             r.scene,
             r.variant,
             r.reference,
