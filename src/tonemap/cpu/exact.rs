@@ -91,11 +91,6 @@ pub(crate) fn noise_scene(size: u32, seed: u64) -> HdrImage {
     grey_scene(size, |x, y| values[(y * size + x) as usize])
 }
 
-/// Whether a pixel of a [`lit_scene`] is background (at most 2) rather than light (500 up).
-pub(crate) fn is_background(img: &HdrImage, pixel: usize) -> bool {
-    img.pixels[pixel][0] < 10.0
-}
-
 fn grey_scene(size: u32, value: impl Fn(u32, u32) -> f64) -> HdrImage {
     let pixels = (0..size * size)
         .map(|i| {

@@ -500,8 +500,9 @@ fn local_operators_stay_near_their_exact_definitions_on_lights_from_one_pixel() 
             let exact = tonemap_cpu_with(&img, &settings(op), Filters::Exact).unwrap();
             let (rms, max, beyond) = relative_errors(&fast, &out_lum(&exact));
             assert!(
-                rms < rms_bound && max < max_bound,
-                "{} on {n}-pixel lights: relative RMS {rms:.2e}, largest {max:.2e}",
+                rms < rms_bound && max < max_bound && beyond == 0.0,
+                "{} on {n}-pixel lights: relative RMS {rms:.2e}, largest {max:.2e}, \
+                 beyond 1 %: {beyond:.2e}",
                 op.name()
             );
         }
@@ -518,14 +519,16 @@ fn reinhard_local_scale_choice_stays_near_full_resolution_gaussians_on_noise() {
     let exact = out_lum(&tonemap_cpu_with(&img, &settings(op), Filters::Exact).unwrap());
     let (rms, max, beyond) = relative_errors(&fast, &exact);
     assert!(
-        rms < 6e-3 && beyond < 0.02,
-        "rms {rms:.2e}, beyond 1 % {beyond:.2e}"
+        rms < 6e-3 && max < 0.2 && beyond < 0.02,
+        "rms {rms:.2e}, largest {max:.2e}, beyond 1 % {beyond:.2e}"
     );
 }
 
 #[test]
 fn a_light_moving_by_one_pixel_leaves_the_background_alone() {
-    use super::exact::{is_background, lit_scene};
+    use super::exact::lit_scene;
+    // Background is at most 2, lights 500 and up.
+    let is_background = |img: &HdrImage, p: usize| img.pixels[p][0] < 10.0;
     for n in [1u32, 2, 4] {
         for op in [DURAND_ON_CELLS, Operator::REINHARD_LOCAL] {
             let background_mean = |shift: u32| {
