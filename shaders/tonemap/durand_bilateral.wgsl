@@ -14,7 +14,7 @@
 // bands of rows [band_first, band_first + band_rows) (grid rows for the splat, pixel rows
 // otherwise; one band when every buffer fits one binding), with image, output and layers bound
 // as windows from the band's first row (the splat's image window from row window_first):
-//   grid_splat     one item per (level, cell)   image -> grid_levels
+//   grid_splat     one item per cell            image -> grid_levels
 //   grid_blur_x    one item per (level, cell)   grid_levels -> tmp
 //   grid_blur_y    one item per (level, cell)   tmp -> levels
 //   base           one item per pixel           image, levels -> layers
@@ -43,6 +43,8 @@ const LN10: f32 = 2.302585092994046;
 const LOW: f32 = -3.0e38;
 const HIGH: f32 = 3.0e38;
 const MIN_LOG_WEIGHT: f32 = -80.0;
+// params.rs DURAND_MAX_LEVELS: the splat keeps one (sum w l, sum w) per level of its cell.
+const MAX_LEVELS: u32 = 64u;
 
 @group(0) @binding(0) var<uniform> params: ToneMapParams;
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
@@ -69,34 +71,37 @@ fn log_luminance(p: vec4<f32>) -> vec2<f32> {
 
 @compute @workgroup_size(256)
 fn grid_splat(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    // One item per (level, cell of the band); the image window starts at pixel row
-    // window_first. Each valid pixel weighs by its own l, so a highlight smaller than a cell
-    // keeps its intensity at its own level.
-    let item = pixel_index(id, groups);
-    let band_cells = params.grid_width * params.band_rows;
-    if item >= band_cells * params.levels {
+    // One item per cell of the band; the image window starts at pixel row window_first. Each
+    // valid pixel's log luminance is computed once and weighs into every level by its own l,
+    // so a highlight smaller than a cell keeps its intensity at its own level.
+    let c = pixel_index(id, groups);
+    if c >= params.grid_width * params.band_rows {
         return;
     }
-    let level_index = item / band_cells;
-    let c = item % band_cells;
-    let level = params.first_level + f32(level_index) * params.level_step;
+    var acc: array<vec2<f32>, MAX_LEVELS>;
     let x0 = (c % params.grid_width) * params.cell;
     let y0 = (params.band_first + c / params.grid_width) * params.cell;
     let x1 = min(x0 + params.cell, params.width);
     let y1 = min(y0 + params.cell, params.height);
-    var acc = vec2<f32>(0.0);
     for (var y = y0; y < y1; y = y + 1u) {
         for (var x = x0; x < x1; x = x + 1u) {
             let l = log_luminance(image[(y - params.window_first) * params.width + x]);
             if l.y == 2.0 {
-                let d = (l.x - level) / params.sigma_range;
-                let w = exp(max(-0.5 * d * d, MIN_LOG_WEIGHT));
-                acc = acc + vec2<f32>(w * l.x, w);
+                let d0 = (l.x - params.first_level) / params.sigma_range;
+                let dd = params.level_step / params.sigma_range;
+                for (var j = 0u; j < params.levels; j = j + 1u) {
+                    let d = d0 - f32(j) * dd;
+                    let w = exp(max(-0.5 * d * d, MIN_LOG_WEIGHT));
+                    acc[j] = acc[j] + vec2<f32>(w * l.x, w);
+                }
             }
         }
     }
     let n_cells = params.grid_width * params.grid_height;
-    grid_levels[level_index * n_cells + params.band_first * params.grid_width + c] = acc;
+    let cell = params.band_first * params.grid_width + c;
+    for (var j = 0u; j < params.levels; j = j + 1u) {
+        grid_levels[j * n_cells + cell] = acc[j];
+    }
 }
 
 fn spatial_weight(k: i32) -> f32 {

@@ -552,3 +552,13 @@ fn a_light_moving_by_one_pixel_leaves_the_background_alone() {
         }
     }
 }
+
+#[test]
+fn durand_splat_holds_every_level_the_grid_may_have() {
+    let source = crate::gpu::shader::load("tonemap/durand_bilateral.wgsl", &[]).unwrap();
+    let declared = format!(
+        "const MAX_LEVELS: u32 = {}u;",
+        crate::tonemap::params::DURAND_MAX_LEVELS
+    );
+    assert!(source.contains(&declared), "{declared} missing");
+}

@@ -78,7 +78,7 @@ impl GpuToneMapper {
             });
             rec.window(1, rows);
             rec.items(
-                grid.grid_width * band.rows * grid.levels,
+                grid.grid_width * band.rows,
                 DURAND_SHADER,
                 "grid_splat",
                 &[(0, &u), (1, image), (17, &buffers.levels)],
