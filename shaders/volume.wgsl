@@ -299,7 +299,7 @@ fn march_slab(m: March, origin_z: f32, dir_z: f32) -> RayState {
 #endif
 
 // UNROLL (shared/march.wgsl) steps per loop iteration. llvmpipe ends any loop after 65535
-// iterations, so a ray can take at most 4 * 65535 steps (src/render/volume.rs refuses renders
+// iterations, so a ray can take at most 4 * 65535 steps (src/render/volume/params.rs refuses renders
 // that would need more).
 
 @compute @workgroup_size(8, 8, 1)

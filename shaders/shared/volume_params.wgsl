@@ -1,5 +1,5 @@
 // The uniform parameters and pipeline constants of the f32 ray casters (volume.wgsl and
-// volume_bricked.wgsl). Keep Params in sync with src/render/volume.rs (VolumeParams).
+// volume_bricked.wgsl). Keep Params in sync with src/render/volume/params.rs (VolumeParams).
 
 struct Params {
     eye: vec4<f32>,
@@ -42,7 +42,7 @@ override USE_LENS: bool = false;
 override JITTER: bool = false;
 // 0: f32, 1: 8-bit framebuffer emulation, 2: binary16 emulation, 3: f32 with compensated sums.
 override PRECISION: u32 = 0u;
-// How much of the per-sample work point samples do (SampleWork in src/render/volume.rs, for the
+// How much of the per-sample work point samples do (SampleWork in src/render/volume/mod.rs, for the
 // cost breakdown of `hdrvis bench volume --breakdown`): 0 no volume read, 1 the sample, 2 its
 // scale, 3 the table index, 4 everything (images).
 override WORK: u32 = 4u;

@@ -3,55 +3,22 @@
 //! needed specialisation — hardware or exact filtering, transfer-function kind, data scale,
 //! lens, jitter — and renders HDR images of any camera.
 
+mod params;
+
 use super::skipping::SkipGrid;
 use super::{FilterMode, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
 use crate::gpu::timestamps::PassTimestamps;
 use crate::gpu::{pipeline, readback, shader, GpuContext};
-use crate::model::transfer::{ResolvedTransfer, TfKind, LUT_SIZE};
+use crate::model::transfer::{ResolvedTransfer, TfKind};
 use crate::model::{HdrImage, Volume, VolumeStats};
+use params::{check_steps_per_ray, volume_params};
+pub(crate) use params::{
+    min_spacing, Frame, Geometry, CF_AXES, MAX_STEPS_PER_RAY, RECTILINEAR, SEAM, SHELL, SPHERICAL,
+    UNEVEN,
+};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
-
-/// Host mirror of `Params` in shaders/volume.wgsl — keep in sync.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub(crate) struct VolumeParams {
-    eye: [f32; 4],
-    forward: [f32; 4],
-    right: [f32; 4],
-    up: [f32; 4],
-    proj: [f32; 4],
-    box_size: [f32; 4],
-    background: [f32; 4],
-    scale: [f32; 4],
-    lens: [f32; 4],
-    tf: [f32; 4],
-    march: [f32; 4],
-    image: [u32; 4],
-    shading: [f32; 4],
-    skip: [f32; 4],
-    slab: [f32; 4],
-    hull: [[f32; 4]; 7],
-}
-
-/// Pipeline variants of the mapped ray caster, as bits of `PipelineKey::mapped`.
-pub(crate) const RECTILINEAR: u32 = 1;
-pub(crate) const SPHERICAL: u32 = 2;
-/// Some axis is uneven: its centres are bisected.
-pub(crate) const UNEVEN: u32 = 4;
-/// The longitude closes the circle across a gap other than its step.
-pub(crate) const SEAM: u32 = 8;
-/// Radius, latitude and longitude on texture axes z, y and x: a CF variable stored (level,
-/// latitude, longitude), compiled to a swizzle instead of the general axis rows.
-pub(crate) const CF_AXES: u32 = 16;
-/// A whole shell: every latitude and a longitude that closes the circle, so a ray's parts are
-/// the outer sphere's chord less the inner sphere's, in closed form.
-pub(crate) const SHELL: u32 = 32;
-
-/// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
-/// (lavapipe, and GL on Mesa) ends any loop after 65535 iterations.
-pub(crate) const MAX_STEPS_PER_RAY: u64 = 4 * 65535;
 
 /// A volume resident on the GPU, with what the renderer needs to know about it.
 pub struct GpuVolume {
@@ -726,109 +693,6 @@ impl VolumeRenderer {
         image.set_meta("adapter", self.ctx.describe());
         image
     }
-}
-
-/// Rejects a step so small that a ray across the volume's diagonal would take more than
-/// [`MAX_STEPS_PER_RAY`] steps.
-fn check_steps_per_ray(opts: &VolumeRenderOptions, voxel: f64, size: [f64; 3]) -> Result<()> {
-    let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
-    let steps = diagonal / (opts.step * voxel) + 2.0;
-    if steps > MAX_STEPS_PER_RAY as f64 {
-        return Err(Error::invalid(
-            "step",
-            format!(
-                "a ray through this volume would take up to {steps:.0} steps at step {}; at most {MAX_STEPS_PER_RAY} are supported, so use a step of at least {:.2e} voxels",
-                opts.step,
-                diagonal / voxel / (MAX_STEPS_PER_RAY as f64 - 2.0)
-            ),
-        ));
-    }
-    Ok(())
-}
-
-/// The shader parameters of one render: camera relative to the volume's corner, projection,
-/// scale mapping, lens, transfer-function constants, marching and shading.
-fn volume_params(
-    volume: &Geometry,
-    opts: &VolumeRenderOptions,
-    tf: &ResolvedTransfer,
-    tf_consts: [f32; 4],
-    voxel: f64,
-    size: [f64; 3],
-) -> VolumeParams {
-    let cam = &opts.camera;
-    let lo = volume.origin;
-    let eye = [cam.eye[0] - lo[0], cam.eye[1] - lo[1], cam.eye[2] - lo[2]];
-    let v4 = |v: [f64; 3], w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
-    let proj = cam
-        .shader_projection(opts.width, opts.height)
-        .map(|v| v as f32);
-    let lens = tf.mapping.lens.unwrap_or([0.0, 1.0, 0.0, 1.0]);
-    VolumeParams {
-        eye: v4(eye, 0.0),
-        forward: v4(cam.forward, 0.0),
-        right: v4(cam.right, 0.0),
-        up: v4(cam.up, 0.0),
-        proj,
-        box_size: v4(size, 0.0),
-        background: v4(opts.background, 0.0),
-        scale: [
-            tf.mapping.s_lo as f32,
-            tf.mapping.inv_range as f32,
-            tf.mapping.linthresh() as f32,
-            (LUT_SIZE - 1) as f32,
-        ],
-        lens: lens.map(|v| v as f32),
-        tf: tf_consts,
-        march: [
-            (opts.step * voxel) as f32,
-            (1.0 / voxel) as f32,
-            opts.stop_optical_depth().min(f32::MAX as f64) as f32,
-            // The shader's opaque 1.0 (see composite in shaders/shared/march.wgsl).
-            1.0,
-        ],
-        image: [opts.width, opts.height, opts.seed, 0],
-        shading: opts.shading.map_or([0.0; 4], |s| {
-            [
-                s.ambient as f32,
-                s.diffuse as f32,
-                s.specular as f32,
-                s.shininess as f32,
-            ]
-        }),
-        skip: [0.0; 4],
-        slab: [0.0; 4],
-        hull: [[0.0; 4]; 7],
-    }
-}
-
-/// The smallest of three spacings: a regular box's voxel length.
-pub(crate) fn min_spacing(spacing: [f64; 3]) -> f64 {
-    spacing.iter().cloned().fold(f64::INFINITY, f64::min)
-}
-
-/// What a render needs to know of a volume's geometry, resident or bricked.
-pub(crate) struct Geometry<'a> {
-    pub name: &'a str,
-    pub dims: [usize; 3],
-    pub spacing: [f64; 3],
-    pub origin: [f64; 3],
-    pub stats: &'a VolumeStats,
-    /// The length `step`, emission and extinction count in (the smallest spacing of a box).
-    pub voxel: f64,
-}
-
-impl Geometry<'_> {
-    fn size(&self) -> [f64; 3] {
-        [0, 1, 2].map(|a| self.dims[a] as f64 * self.spacing[a])
-    }
-}
-
-/// One render's fixed quantities (see [`VolumeRenderer::frame`]).
-pub(crate) struct Frame {
-    pub key: PipelineKey,
-    pub tf: ResolvedTransfer,
-    pub params: VolumeParams,
 }
 
 /// A trilinear sampler clamped to the edges, except texture axis `repeat` (0 x, 1 y, 2 z), which
