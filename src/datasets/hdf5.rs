@@ -6,7 +6,8 @@
 
 use std::path::Path;
 
-use hdf5_reader::{ByteOrder, Datatype, Hdf5File};
+use hdf5_reader::filters::FILTER_LZ4;
+use hdf5_reader::{ByteOrder, Datatype, FilterRegistry, Hdf5File};
 
 use super::scalar::Scalar;
 use super::{ArrayData, ArrayListing};
@@ -16,7 +17,75 @@ use crate::error::{Error, Result};
 pub(crate) const EXTENSIONS: [&str; 3] = ["h5", "hdf5", "he5"];
 
 fn open(path: &Path) -> Result<Hdf5File> {
-    Hdf5File::open(path).map_err(|e| Error::format(path, format!("not a readable HDF5 file: {e}")))
+    let options = hdf5_reader::OpenOptions::default().with_filter_registry(filters());
+    Hdf5File::open_with_options(path, options)
+        .map_err(|e| Error::format(path, format!("not a readable HDF5 file: {e}")))
+}
+
+/// The reader's filters with its LZ4 decoder replaced by [`decode_lz4`]: `hdf5-reader` 0.12 reads
+/// a block size before every block, which holds only when a chunk is one block.
+pub(crate) fn filters() -> FilterRegistry {
+    let mut registry = FilterRegistry::new();
+    registry.register(
+        FILTER_LZ4,
+        Box::new(|_, data, _| {
+            decode_lz4(data)
+                .map_err(|e| hdf5_reader::error::Error::DecompressionError(format!("LZ4: {e}")))
+        }),
+    );
+    registry
+}
+
+/// LZ4 expands by at most 255:1, so a declared size past this multiple of the input is corrupt
+/// and refused before anything is allocated for it.
+const LZ4_MAX_EXPANSION: usize = 256;
+
+/// One chunk of the HDF5 LZ4 filter (id 32004, the HDF Group's `H5Zlz4.c`): the original size
+/// (8 bytes, big-endian), the block size (4 bytes), then per block its compressed size (4 bytes)
+/// and the block, stored raw where that size equals the block's original size (the last block
+/// holds what remains).
+pub(crate) fn decode_lz4(data: &[u8]) -> std::result::Result<Vec<u8>, String> {
+    let word = |at: usize, n: usize| -> std::result::Result<u64, String> {
+        let bytes = data
+            .get(at..at + n)
+            .ok_or_else(|| format!("truncated header at byte {at} of {}", data.len()))?;
+        Ok(bytes.iter().fold(0u64, |acc, &b| acc << 8 | u64::from(b)))
+    };
+    let total = usize::try_from(word(0, 8)?).map_err(|_| "declared size too large".to_string())?;
+    let block = word(8, 4)? as usize;
+    if total > data.len().saturating_mul(LZ4_MAX_EXPANSION) {
+        return Err(format!(
+            "declares {total} bytes from {} compressed bytes",
+            data.len()
+        ));
+    }
+    if block == 0 && total > 0 {
+        return Err("block size 0".into());
+    }
+    let mut out = Vec::with_capacity(total);
+    let mut at = 12;
+    while out.len() < total {
+        let want = block.min(total - out.len());
+        let size = word(at, 4)? as usize;
+        at += 4;
+        let bytes = data
+            .get(at..at.saturating_add(size))
+            .ok_or_else(|| format!("block of {size} bytes past the end of the chunk"))?;
+        if size == want {
+            out.extend_from_slice(bytes);
+        } else {
+            let decoded = lz4_flex::decompress(bytes, want).map_err(|e| e.to_string())?;
+            if decoded.len() != want {
+                return Err(format!(
+                    "a block decodes to {} bytes, not {want}",
+                    decoded.len()
+                ));
+            }
+            out.extend_from_slice(&decoded);
+        }
+        at += size;
+    }
+    Ok(out)
 }
 
 /// The stored sample type and byte order (`true`: big-endian) of a numeric datatype.

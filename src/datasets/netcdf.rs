@@ -615,7 +615,12 @@ pub(crate) fn open(path: &Path) -> Result<NcFile> {
     check_hdf5_length(path, &mut file)?;
     let storage = netcdf_reader::FileStorage::from_file(file)
         .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
-    NcFile::from_storage(std::sync::Arc::new(storage)).map_err(|e| reader_error(path, e))
+    let options = netcdf_reader::NcOpenOptions {
+        filter_registry: Some(super::hdf5::filters()),
+        ..Default::default()
+    };
+    NcFile::from_storage_with_options(std::sync::Arc::new(storage), options)
+        .map_err(|e| reader_error(path, e))
 }
 
 /// A truncated NetCDF-4 file can still decode when the lost tail held other objects, so, as the

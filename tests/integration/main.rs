@@ -18,6 +18,7 @@ mod figures;
 mod georaster;
 mod mpi;
 mod passes;
+mod readers;
 mod scripts;
 mod sections;
 mod skipping;
