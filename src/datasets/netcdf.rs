@@ -610,6 +610,32 @@ pub(crate) fn write_atomically(
 /// `FileStorage`, never a memory map (which `NcFile::open` makes of a classic file): a file
 /// truncated while it is read is then an error instead of a SIGBUS that kills the process.
 pub(crate) fn open(path: &Path) -> Result<NcFile> {
+    open_noting(path).map(|(file, _)| file)
+}
+
+/// [`open`], and why part of a NetCDF-4 file's metadata was skipped: where the strict reading
+/// fails on one object (an attribute that is not UTF-8, a dataset in a committed datatype without
+/// NetCDF's dimension list), the file is read again leniently, which drops that attribute or
+/// places that dataset by its sizes, so the other variables still read.
+pub(crate) fn open_noting(path: &Path) -> Result<(NcFile, Option<String>)> {
+    let strict = open_mode(path, netcdf_reader::NcMetadataMode::Strict)?;
+    use netcdf_reader::NcFormat;
+    if matches!(
+        strict.format(),
+        NcFormat::Classic | NcFormat::Offset64 | NcFormat::Cdf5
+    ) {
+        return Ok((strict, None));
+    }
+    let Err(why) = strict.root_group() else {
+        return Ok((strict, None));
+    };
+    let why = why.to_string().replace(['\n', '\r'], " ");
+    let lenient = open_mode(path, netcdf_reader::NcMetadataMode::Lossy)?;
+    lenient.root_group().map_err(|e| reader_error(path, e))?;
+    Ok((lenient, Some(why)))
+}
+
+fn open_mode(path: &Path, mode: netcdf_reader::NcMetadataMode) -> Result<NcFile> {
     // Distinguish "cannot open" (an I/O error) from "not a valid NetCDF file" (a format error).
     let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     check_hdf5_length(path, &mut file)?;
@@ -617,6 +643,7 @@ pub(crate) fn open(path: &Path) -> Result<NcFile> {
         .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
     let options = netcdf_reader::NcOpenOptions {
         filter_registry: Some(super::hdf5::filters()),
+        metadata_mode: mode,
         ..Default::default()
     };
     NcFile::from_storage_with_options(std::sync::Arc::new(storage), options)

@@ -2,6 +2,7 @@
 //! (h5py with hdf5plugin), each checked value for value against what the writing tool reads back
 //! (tests/python/write_reader_cases.py).
 
+use crate::cli::hdrvis;
 use crate::common::{python_reference, reference_numbers};
 use hdrvis::datasets::load_volume_var;
 
@@ -23,4 +24,68 @@ fn hdf5_lz4_blocks_smaller_than_the_chunk_read_like_h5py() {
             .collect();
         assert_eq!(v.data, expect, "{name}");
     }
+}
+
+/// One object hdrvis cannot read (a virtual dataset), a committed datatype and an attribute that
+/// is not UTF-8 leave the rest of an HDF5 file readable: `info` lists the virtual dataset with
+/// the reason, and naming it is a one-line error.
+#[test]
+fn hdf5_with_a_virtual_dataset_reads_its_other_datasets() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let Some(r) = python_reference("write_reader_cases.py", d, "partial") else {
+        return;
+    };
+    let file = d.join("odd.h5");
+    for (name, key) in [
+        ("/good", "good"),
+        ("/typed", "typed"),
+        ("/g/inner", "inner"),
+    ] {
+        let v = load_volume_var(&file, Some(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let expect: Vec<f32> = reference_numbers(&r, key)
+            .iter()
+            .map(|&x| x as f32)
+            .collect();
+        assert_eq!(v.data, expect, "{name}");
+    }
+    let (code, stdout, stderr) = hdrvis(&["info", "odd.h5:/good"], d);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("/vds (not read: a virtual dataset (VDS)")
+            && stdout.contains("/typed [3, 4, 5] float32")
+            && stdout.contains("/g/inner [3, 4, 5] float32")
+            && stdout.contains("units: m"),
+        "{stdout}"
+    );
+    let (code, stdout, stderr) = hdrvis(&["info", "odd.h5:/vds"], d);
+    assert_eq!(code, 1, "{stdout}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("odd.h5: dataset '/vds': not read: a virtual dataset"),
+        "{stderr}"
+    );
+}
+
+/// A NetCDF-4 file with a root attribute that is not UTF-8 and a dataset in a committed datatype
+/// (added by h5py) still reads: `info` says what the strict reading stopped at.
+#[test]
+fn netcdf4_with_an_odd_attribute_and_a_committed_type_reads_its_variables() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let Some(r) = python_reference("write_reader_cases.py", d, "partial") else {
+        return;
+    };
+    let v = load_volume_var(&d.join("odd.nc"), Some("other")).unwrap();
+    let expect: Vec<f32> = reference_numbers(&r, "other")
+        .iter()
+        .map(|&x| x as f32)
+        .collect();
+    assert_eq!(v.data, expect);
+    let (code, stdout, stderr) = hdrvis(&["info", "odd.nc", "--variable", "other"], d);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("(read leniently, the strict reading stopped at: "),
+        "{stdout}"
+    );
 }

@@ -11,6 +11,11 @@ read back with the writing tool itself:
              compressed), /noise (f64,
              100-byte blocks, a short last block, stored raw) and /counts (int16, one block per
              chunk). Keys: the dataset names, values in C order.
+  partial    odd.h5 (h5py): /good (f32, units "m", an attribute of invalid UTF-8), /vds (a
+             virtual dataset of src.h5's /a), /t (a committed datatype) and /typed (f32 in it), and
+             /g/inner; odd.nc: a NetCDF-4 file from netCDF4 with variables good and other, to
+             which h5py adds a root attribute of invalid UTF-8, a committed datatype /t and a
+             dataset /typed of it. Keys: good, typed, inner, other (values in C order).
 
 Exit status 77 (skipped) when a module a case needs is not installed.
 """
@@ -49,7 +54,40 @@ def hdf5_lz4(out):
             report(name, f[name][()].ravel())
 
 
-CASES = {"hdf5_lz4": hdf5_lz4}
+def partial(out):
+    np, h5py, netCDF4 = need("numpy", "h5py", "netCDF4")
+    a = np.linspace(-1.5, 4.0, 60, dtype="f4").reshape(3, 4, 5)
+    with h5py.File(os.path.join(out, "src.h5"), "w") as f:
+        f["a"] = a
+    with h5py.File(os.path.join(out, "odd.h5"), "w") as f:
+        f["good"] = a
+        f["good"].attrs["units"] = "m"
+        f["good"].attrs["note"] = np.bytes_(b"caf\xe9 \xff")
+        layout = h5py.VirtualLayout(shape=a.shape, dtype="f4")
+        layout[:] = h5py.VirtualSource("src.h5", "a", shape=a.shape)
+        f.create_virtual_dataset("vds", layout)
+        f["t"] = np.dtype("f4")
+        f.create_dataset("typed", data=a * 2, dtype=f["t"])
+        f.create_group("g")["inner"] = a * 3
+    with h5py.File(os.path.join(out, "odd.h5"), "r") as f:
+        assert np.array_equal(f["vds"][()], a)
+        for name in ("good", "typed", "g/inner"):
+            report(name.split("/")[-1], f[name][()].ravel())
+    nc = os.path.join(out, "odd.nc")
+    with netCDF4.Dataset(nc, "w") as d:
+        for name, n in zip("zyx", a.shape):
+            d.createDimension(name, n)
+        d.createVariable("good", "f4", ("z", "y", "x"))[:] = a
+        d.createVariable("other", "f4", ("z", "y", "x"))[:] = a * 5
+    with h5py.File(nc, "a") as f:
+        f.attrs["title"] = np.bytes_(b"\xff\xfe")
+        f["t"] = np.dtype("f4")
+        f.create_dataset("typed", data=a * 2, dtype=f["t"])
+    with h5py.File(nc, "r") as f:
+        report("other", f["other"][()].ravel())
+
+
+CASES = {"hdf5_lz4": hdf5_lz4, "partial": partial}
 
 
 def main():
