@@ -233,7 +233,16 @@ fn numeric_variable<'f>(
             ),
         ));
     };
-    if !var.dtype().is_primitive() || matches!(var.dtype(), netcdf_reader::NcType::Char) {
+    if matches!(
+        var.dtype(),
+        netcdf_reader::NcType::Char | netcdf_reader::NcType::String
+    ) {
+        return Err(Error::format(
+            path,
+            format!("variable '{name}' holds strings; expected numbers"),
+        ));
+    }
+    if !var.dtype().is_primitive() {
         return Err(Error::format(
             path,
             format!(

@@ -89,3 +89,37 @@ fn netcdf4_with_an_odd_attribute_and_a_committed_type_reads_its_variables() {
         "{stdout}"
     );
 }
+
+/// String variables (NC_STRING and char arrays) are listed but never picked by default, and
+/// naming one is a one-line error, in NetCDF-4 and classic files.
+#[test]
+fn netcdf_string_variables_are_passed_over_and_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let Some(r) = python_reference("write_reader_cases.py", d, "strings") else {
+        return;
+    };
+    let expect: Vec<f32> = reference_numbers(&r, "temp")
+        .iter()
+        .map(|&x| x as f32)
+        .collect();
+    for file in ["strings.nc", "strings3.nc"] {
+        let v = hdrvis::datasets::load_volume(&d.join(file)).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(v.data, expect, "{file}");
+        let (code, stdout, stderr) = hdrvis(&["info", file], d);
+        assert_eq!(code, 0, "{stderr}");
+        assert!(stdout.contains("variable: temp"), "{stdout}");
+        let names: &[&str] = if file == "strings.nc" {
+            &["station_name", "label"]
+        } else {
+            &["label"]
+        };
+        for name in names {
+            let (code, _, stderr) = hdrvis(&["info", file, "--variable", name], d);
+            assert_eq!(code, 1, "{stderr}");
+            assert_eq!(stderr.lines().count(), 1, "{stderr}");
+            let want = format!("{file}: variable '{name}' holds strings; expected numbers");
+            assert!(stderr.contains(&want), "{stderr}");
+        }
+    }
+}

@@ -16,6 +16,8 @@ read back with the writing tool itself:
              /g/inner; odd.nc: a NetCDF-4 file from netCDF4 with variables good and other, to
              which h5py adds a root attribute of invalid UTF-8, a committed datatype /t and a
              dataset /typed of it. Keys: good, typed, inner, other (values in C order).
+  strings    strings.nc (NetCDF-4) and strings3.nc (classic) from netCDF4: station_name (NC_STRING,
+             NetCDF-4 only), label (a char array) and temp (f4, 2x3x4). Key: temp.
 
 Exit status 77 (skipped) when a module a case needs is not installed.
 """
@@ -87,7 +89,24 @@ def partial(out):
         report("other", f["other"][()].ravel())
 
 
-CASES = {"hdf5_lz4": hdf5_lz4, "partial": partial}
+def strings(out):
+    np, netCDF4 = need("numpy", "netCDF4")
+    temp = np.linspace(250.0, 300.0, 24, dtype="f4").reshape(2, 3, 4)
+    for name, fmt in (("strings.nc", "NETCDF4"), ("strings3.nc", "NETCDF3_CLASSIC")):
+        with netCDF4.Dataset(os.path.join(out, name), "w", format=fmt) as d:
+            for dim, n in (("station", 3), ("strlen", 8), ("z", 2), ("y", 3), ("x", 4)):
+                d.createDimension(dim, n)
+            if fmt == "NETCDF4":
+                names = d.createVariable("station_name", str, ("station",))
+                names[:] = np.array(["Aberdeen", "Bergen", "Cork"], dtype=object)
+            label = d.createVariable("label", "S1", ("station", "strlen"))
+            label[:] = netCDF4.stringtochar(np.array(["one", "two", "three"], dtype="S8"))
+            d.createVariable("temp", "f4", ("z", "y", "x"))[:] = temp
+        with netCDF4.Dataset(os.path.join(out, name)) as d:
+            report("temp", d["temp"][:].ravel())
+
+
+CASES = {"hdf5_lz4": hdf5_lz4, "partial": partial, "strings": strings}
 
 
 def main():
