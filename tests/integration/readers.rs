@@ -3,8 +3,9 @@
 //! (tests/python/write_reader_cases.py).
 
 use crate::cli::hdrvis;
-use crate::common::{python_reference, reference_numbers};
+use crate::common::{max_rel, python_reference, reference_numbers};
 use hdrvis::datasets::load_volume_var;
+use hdrvis::io::exr::read_exr;
 
 /// LZ4 chunks cut into blocks smaller than the chunk (compressed blocks, raw blocks, a short last
 /// block) and one block per chunk all read as h5py reads them.
@@ -122,4 +123,51 @@ fn netcdf_string_variables_are_passed_over_and_refused_by_name() {
             assert!(stderr.contains(&want), "{stderr}");
         }
     }
+}
+
+/// OpenEXR images with only some colour channels: Y or a lone channel as grey, missing colour
+/// channels 0 with a note, luminance-chroma converted to RGB with the file's primaries, and a
+/// ZSTD-compressed file refused in one line naming the compression.
+#[test]
+fn exr_channel_subsets_and_luminance_chroma_read_as_documented() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let Some(r) = python_reference("write_reader_cases.py", d, "exr") else {
+        return;
+    };
+    let plane = |file: &str, c: usize| -> Vec<f64> {
+        let img = read_exr(&d.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        img.pixels.iter().map(|p| f64::from(p[c])).collect()
+    };
+    let zero = vec![0.0; 24];
+    let cases: [(&str, [&str; 3]); 5] = [
+        ("y.exr", ["y_Y", "y_Y", "y_Y"]),
+        ("r.exr", ["r_R", "r_R", "r_R"]),
+        ("rg.exr", ["rg_R", "rg_G", ""]),
+        ("yc.exr", ["yc_R", "yc_G", "yc_B"]),
+        ("yc_p3.exr", ["yc_p3_R", "yc_p3_G", "yc_p3_B"]),
+    ];
+    for (file, keys) in cases {
+        for (c, key) in keys.iter().enumerate() {
+            let expect = if key.is_empty() {
+                zero.clone()
+            } else {
+                reference_numbers(&r, key)
+            };
+            let rel = max_rel(&plane(file, c), &expect, 1e-3);
+            assert!(rel < 2e-6, "{file} channel {c}: {rel}");
+        }
+    }
+    let rg = read_exr(&d.join("rg.exr")).unwrap();
+    assert!(rg
+        .metadata
+        .contains(&("read".into(), "no B channel: read as 0".into())));
+    assert_eq!(rg.extra_channels[0].0, "Z");
+    let (code, stdout, stderr) = hdrvis(&["info", "zstd.exr"], d);
+    assert_eq!(code, 1, "{stdout}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("zstd.exr: ZSTD compression (method 13) is not read"),
+        "{stderr}"
+    );
 }

@@ -18,6 +18,14 @@ read back with the writing tool itself:
              dataset /typed of it. Keys: good, typed, inner, other (values in C order).
   strings    strings.nc (NetCDF-4) and strings3.nc (classic) from netCDF4: station_name (NC_STRING,
              NetCDF-4 only), label (a char array) and temp (f4, 2x3x4). Key: temp.
+  exr        OpenEXR images (OpenEXR module), 6x4 pixels, values from a fixed random generator:
+             y.exr (Y only, half), r.exr (R only), rg.exr (R and G, and an extra channel Z),
+             yc.exr (Y, RY, BY at full resolution), yc_p3.exr (the same with P3-D65
+             chromaticities) and zstd.exr (R, G, B, ZSTD-compressed). Keys: FILE_CHANNEL for
+             each stored channel as OpenEXR reads it, and yc_R/G/B, yc_p3_R/G/B: the RGB of the
+             luminance-chroma files (R = (RY+1) Y, B = (BY+1) Y, G from Y with the luminance
+             weights of the primaries (Rec. 709's, OpenEXR's default, without the
+             attribute), computed here by inverting the RGB-to-XYZ matrix).
 
 Exit status 77 (skipped) when a module a case needs is not installed.
 """
@@ -106,7 +114,47 @@ def strings(out):
             report("temp", d["temp"][:].ravel())
 
 
-CASES = {"hdf5_lz4": hdf5_lz4, "partial": partial, "strings": strings}
+def luminance_weights(np, primaries):
+    """Y of R, G, B = 1 each: the middle row of the RGB-to-XYZ matrix, summing to 1."""
+    (rx, ry), (gx, gy), (bx, by), (wx, wy) = primaries
+    m = np.array([[rx / ry, gx / gy, bx / by], [1.0, 1.0, 1.0],
+                  [(1 - rx - ry) / ry, (1 - gx - gy) / gy, (1 - bx - by) / by]])
+    scale = np.linalg.solve(m, [wx / wy, 1.0, (1 - wx - wy) / wy])
+    return scale / scale.sum()
+
+
+def exr(out):
+    np, OpenEXR = need("numpy", "OpenEXR")
+    rng = np.random.default_rng(11)
+    plane = lambda lo, hi: rng.uniform(lo, hi, size=(4, 6)).astype("f4")
+    zip_ = {"compression": OpenEXR.ZIP_COMPRESSION}
+    y, ry, by = plane(0.5, 40.0), plane(-0.4, 0.6), plane(-0.5, 0.3)
+    p3 = ((0.68, 0.32), (0.265, 0.69), (0.15, 0.06), (0.3127, 0.329))
+    files = {
+        "y.exr": (zip_, {"Y": y.astype("f2")}),
+        "r.exr": (zip_, {"R": plane(0.0, 5.0)}),
+        "rg.exr": (zip_, {"R": plane(0.0, 5.0), "G": plane(1.0, 2.0), "Z": plane(10.0, 20.0)}),
+        "yc.exr": (zip_, {"Y": y, "RY": ry, "BY": by}),
+        "yc_p3.exr": (dict(zip_, chromaticities=sum(p3, ())), {"Y": y, "RY": ry, "BY": by}),
+        "zstd.exr": ({"compression": OpenEXR.ZSTD_COMPRESSION},
+                     {"R": plane(0, 1), "G": plane(0, 1), "B": plane(0, 1)}),
+    }
+    for name, (header, channels) in files.items():
+        OpenEXR.File(header, channels).write(os.path.join(out, name))
+    for name in files:
+        with OpenEXR.File(os.path.join(out, name)) as f:
+            for channel, c in f.channels().items():
+                report(f"{name[:-4]}_{channel}", c.pixels.astype("f8").ravel())
+    rec709 = ((0.64, 0.33), (0.30, 0.60), (0.15, 0.06), (0.3127, 0.329))
+    for name, primaries in (("yc", rec709), ("yc_p3", p3)):
+        weights = luminance_weights(np, primaries)
+        r, b = (ry + 1.0) * y, (by + 1.0) * y
+        g = (y - weights[0] * r - weights[2] * b) / weights[1]
+        for channel, v in zip("RGB", (r, g, b)):
+            report(f"{name}_{channel}", v.astype("f8").ravel())
+
+
+CASES = {"hdf5_lz4": hdf5_lz4, "partial": partial, "strings": strings, "exr": exr}
 
 
 def main():
