@@ -15,6 +15,7 @@ mod datasets;
 mod distributed;
 mod doc_examples;
 mod figures;
+mod fuzz_corpus;
 mod georaster;
 mod mpi;
 mod passes;
