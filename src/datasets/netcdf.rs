@@ -158,19 +158,9 @@ pub(crate) fn read_variable_picked(
         file.read_variable_slice_as_f64(name, &netcdf_reader::NcSliceInfo { selections })
     }
     .map_err(|e| reader_error(path, e))?;
-    // NaN stored as data is not a fill value: counted before the CF decoding below marks fills
-    // (the reader's own masked read, in place, in the same order: sign, mask, unpack).
+    // NaN stored as data is not a fill value: counted before the CF decoding marks fills.
     let stored_nan = raw.iter().filter(|v| v.is_nan()).count();
-    let (sign, mask, unpack) = decoders(var);
-    if let Some(sign) = sign {
-        sign.apply(&mut raw);
-    }
-    if let Some(mask) = mask {
-        mask.apply(&mut raw);
-    }
-    if let Some(unpack) = unpack {
-        unpack.apply(&mut raw);
-    }
+    decode_cf(var, &mut raw);
     // Arrays come back in C order: the standard layout hands its buffer over without a copy.
     let data: Vec<f64> = if raw.is_standard_layout() {
         raw.into_raw_vec_and_offset().0
@@ -263,36 +253,25 @@ pub(crate) fn read_slice(
 ) -> std::result::Result<Vec<f64>, netcdf_reader::Error> {
     let var = file.variable(name)?;
     let mut raw = file.read_variable_slice_as_f64(name, selection)?;
-    let (sign, mask, unpack) = decoders(var);
-    if let Some(sign) = sign {
-        sign.apply(&mut raw);
-    }
-    if let Some(mask) = mask {
-        mask.apply(&mut raw);
-    }
-    if let Some(unpack) = unpack {
-        unpack.apply(&mut raw);
-    }
+    decode_cf(var, &mut raw);
     Ok(raw.iter().copied().collect())
 }
 
-/// The CF decoding of a variable, applied in this order: signedness (`_Unsigned`), masking,
-/// unpacking (`scale_factor`, `add_offset`). Masking is the reader's (`_FillValue`,
+/// The CF decoding of a variable's values, in place, in this order: signedness (`_Unsigned`),
+/// masking, unpacking (`scale_factor`, `add_offset`). Masking is the reader's (`_FillValue`,
 /// `missing_value`, `valid_*`), with netCDF's default fill value of the stored type standing in
 /// for an absent `_FillValue`: unwritten parts of a file hold it, and netCDF4-python and ncdump
 /// treat it as missing.
-#[allow(clippy::type_complexity)]
-fn decoders(
-    var: &netcdf_reader::NcVariable,
-) -> (
-    Option<netcdf_reader::unpack::SignParams>,
-    Option<netcdf_reader::masked::MaskParams>,
-    Option<netcdf_reader::unpack::UnpackParams>,
-) {
-    let mut mask = netcdf_reader::masked::MaskParams::from_variable(var);
+fn decode_cf(var: &netcdf_reader::NcVariable, values: &mut ndarray::ArrayD<f64>) {
+    use netcdf_reader::masked::MaskParams;
+    use netcdf_reader::unpack::{SignParams, UnpackParams};
+    if let Some(sign) = SignParams::from_variable(var) {
+        sign.apply(values);
+    }
+    let mut mask = MaskParams::from_variable(var);
     if var.attribute("_FillValue").is_none() {
         if let Some(fill) = default_fill(var) {
-            let m = mask.get_or_insert(netcdf_reader::masked::MaskParams {
+            let m = mask.get_or_insert(MaskParams {
                 fill_value: None,
                 missing_values: Vec::new(),
                 valid_min: None,
@@ -301,11 +280,12 @@ fn decoders(
             m.fill_value = Some(fill);
         }
     }
-    (
-        netcdf_reader::unpack::SignParams::from_variable(var),
-        mask,
-        netcdf_reader::unpack::UnpackParams::from_variable(var),
-    )
+    if let Some(mask) = mask {
+        mask.apply(values);
+    }
+    if let Some(unpack) = UnpackParams::from_variable(var) {
+        unpack.apply(values);
+    }
 }
 
 /// netCDF's default fill value (netcdf.h's `NC_FILL_*`) of the type a variable's values have
