@@ -1,8 +1,10 @@
 //! Plain HDF5 datasets (`.h5`, `.hdf5`, `.he5`), read by `hdf5-reader`, the pure-Rust reader
 //! that `netcdf-reader` uses for NetCDF-4: any layout (contiguous, compact, chunked with deflate,
-//! shuffle, Fletcher-32 or LZ4), integers and floats of either byte order. A dataset is named by
-//! its path inside the file (`file.h5:/group/name`); a 3-D one of shape (nz, ny, nx) loads like a
-//! `.npy` (spacing 1, origin 0), with units from a `units` attribute.
+//! shuffle, Fletcher-32 or LZ4, whose filter hdrvis decodes itself), integers and floats of either
+//! byte order. A dataset is named by its path inside the file (`file.h5:/group/name`); a 3-D one
+//! of shape (nz, ny, nx) loads like a `.npy` (spacing 1, origin 0), with units from a `units`
+//! attribute. A dataset the reader cannot open (a virtual dataset) is listed with the reason and
+//! leaves the rest of the file readable.
 
 use std::path::Path;
 

@@ -171,17 +171,9 @@ pub fn read_exr(path: &Path) -> Result<HdrImage> {
     let layer = img.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     let n = w * h;
-    let find = |name: &str| {
-        layer.channel_data.list.iter().find(|c| {
-            c.name.to_string() == name || c.name.to_string().ends_with(&format!(".{name}"))
-        })
-    };
-    let (rgb, note) = colour(
-        path,
-        &layer.channel_data.list,
-        img.attributes.chromaticities,
-    )?;
-    let a = find("A")
+    let list = &layer.channel_data.list;
+    let (rgb, note) = colour(path, list, img.attributes.chromaticities)?;
+    let a = channel(list, "A")
         .map(|c| samples(&c.sample_data))
         .unwrap_or_else(|| vec![1.0; n]);
     let pixels = (0..n)
@@ -214,6 +206,17 @@ pub fn read_exr(path: &Path) -> Result<HdrImage> {
 /// The channels that make the colour and alpha, not kept as extra channels.
 const COLOUR_CHANNELS: [&str; 7] = ["R", "G", "B", "A", "Y", "RY", "BY"];
 
+/// The channel `name` of a layer, bare or after a layer prefix (`diffuse.R`).
+fn channel<'a>(
+    list: &'a [AnyChannel<FlatSamples>],
+    name: &str,
+) -> Option<&'a AnyChannel<FlatSamples>> {
+    list.iter().find(|c| {
+        let full = c.name.to_string();
+        full == name || full.ends_with(&format!(".{name}"))
+    })
+}
+
 fn samples(s: &FlatSamples) -> Vec<f32> {
     match s {
         FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
@@ -234,13 +237,7 @@ fn colour(
     list: &[AnyChannel<FlatSamples>],
     chromaticities: Option<Chromaticities>,
 ) -> Result<([Vec<f32>; 3], Option<String>)> {
-    let find = |name: &str| {
-        list.iter()
-            .find(|c| {
-                c.name.to_string() == name || c.name.to_string().ends_with(&format!(".{name}"))
-            })
-            .map(|c| samples(&c.sample_data))
-    };
+    let find = |name: &str| channel(list, name).map(|c| samples(&c.sample_data));
     let n = list.first().map_or(0, |c| c.sample_data.len());
     let (r, g, b) = (find("R"), find("G"), find("B"));
     if let (Some(r), Some(g), Some(b)) = (&r, &g, &b) {

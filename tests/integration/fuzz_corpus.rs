@@ -120,7 +120,7 @@ fn mutate(seed: &[u8], rng: &mut SplitMix64) -> Vec<u8> {
             3 => {
                 let value = BOUNDARY[below(BOUNDARY.len(), rng)];
                 let width = [1, 2, 4, 8][below(4, rng)];
-                let big = rng.next_u64() % 2 == 0;
+                let big = rng.next_u64() & 1 == 0;
                 let all = if big {
                     value.to_be_bytes()
                 } else {
