@@ -230,8 +230,10 @@ fn samples(s: &FlatSamples) -> Vec<f32> {
 /// - Y with RY and BY (OpenEXR's luminance-chroma images): R = (RY + 1) Y, B = (BY + 1) Y and
 ///   G = (Y − wr R − wb B) / wg, with the luminance weights of the file's chromaticities,
 ///   as OpenEXR's RGBA interface converts them;
-/// - Y alone, or a file of one channel of any name: grey, that channel in R, G and B;
-/// - one or two of R, G, B beside other channels: the missing ones 0, said in the note.
+/// - Y alone, or one of R, G, B alone: grey, that channel in R, G and B;
+/// - two of R, G, B: the missing one 0, said in the note.
+///
+/// A file with none of R, G, B and Y (depth alone) is refused.
 fn colour(
     path: &Path,
     list: &[AnyChannel<FlatSamples>],
@@ -261,12 +263,15 @@ fn colour(
             Some("luminance Y read as grey".into()),
         ));
     }
-    if let [only] = list {
-        let v = samples(&only.sample_data);
-        let note = format!("the one channel '{}' read as grey", only.name);
-        return Ok(([v.clone(), v.clone(), v], Some(note)));
+    let present: Vec<(&str, Vec<f32>)> = [("R", &r), ("G", &g), ("B", &b)]
+        .into_iter()
+        .filter_map(|(name, c)| Some((name, c.clone()?)))
+        .collect();
+    if let [(name, v)] = present.as_slice() {
+        let note = format!("the one colour channel {name} read as grey");
+        return Ok(([v.clone(), v.clone(), v.clone()], Some(note)));
     }
-    if r.is_some() || g.is_some() || b.is_some() {
+    if !present.is_empty() {
         let missing: Vec<&str> = [("R", &r), ("G", &g), ("B", &b)]
             .iter()
             .filter(|(_, c)| c.is_none())

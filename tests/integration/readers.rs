@@ -125,8 +125,8 @@ fn netcdf_string_variables_are_passed_over_and_refused_by_name() {
     }
 }
 
-/// OpenEXR images with only some colour channels: Y or a lone channel as grey, missing colour
-/// channels 0 with a note, luminance-chroma converted to RGB with the file's primaries, and a
+/// OpenEXR images with only some colour channels: Y or one of R, G, B alone as grey, a missing
+/// colour channel 0 with a note, luminance-chroma converted to RGB with the file's primaries, and a
 /// ZSTD-compressed file refused in one line naming the compression.
 #[test]
 fn exr_channel_subsets_and_luminance_chroma_read_as_documented() {
