@@ -107,13 +107,26 @@ fn tiff_error(path: &Path, e: &tiff::TiffError) -> Error {
     fail(path, format!("not a readable TIFF file: {e}"))
 }
 
+/// The decoder's limits: half the memory available, so that a corrupt value count in a tag (which
+/// the decoder allocates for before reading) is an error instead of an abort; the image itself
+/// is checked against the memory before it is decoded.
+fn memory_limits() -> Limits {
+    let half = crate::model::volume::available_memory_bytes()
+        .map_or(usize::MAX, |b| usize::try_from(b / 2).unwrap_or(usize::MAX));
+    let mut limits = Limits::unlimited();
+    limits.decoding_buffer_size = half;
+    limits.ifd_value_size = half;
+    limits.intermediate_buffer_size = half;
+    limits
+}
+
 /// Reads band `band` (1-based, as GDAL counts; without it the file must have one band).
 pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
     crate::io::check_regular_file(path)?;
     let file = std::fs::File::open(path).map_err(|e| fail(path, e.to_string()))?;
     let mut dec = Decoder::new(std::io::BufReader::new(file))
         .map_err(|e| tiff_error(path, &e))?
-        .with_limits(Limits::unlimited());
+        .with_limits(memory_limits());
     let (nx, ny) = dec.dimensions().map_err(|e| tiff_error(path, &e))?;
     let (nx, ny) = (nx as usize, ny as usize);
     let samples = usize::from(

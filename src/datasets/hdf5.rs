@@ -1,12 +1,16 @@
 //! Plain HDF5 datasets (`.h5`, `.hdf5`, `.he5`), read by `hdf5-reader`, the pure-Rust reader
 //! that `netcdf-reader` uses for NetCDF-4: any layout (contiguous, compact, chunked with deflate,
-//! shuffle, Fletcher-32 or LZ4), integers and floats of either byte order. A dataset is named by
-//! its path inside the file (`file.h5:/group/name`); a 3-D one of shape (nz, ny, nx) loads like a
-//! `.npy` (spacing 1, origin 0), with units from a `units` attribute.
+//! shuffle, Fletcher-32 or LZ4, whose filter hdrvis decodes itself), integers and floats of either
+//! byte order. A dataset is named by its path inside the file (`file.h5:/group/name`); a 3-D one
+//! of shape (nz, ny, nx) loads like a `.npy` (spacing 1, origin 0), with units from a `units`
+//! attribute. A dataset the reader cannot open (a virtual dataset) is listed with the reason and
+//! leaves the rest of the file readable.
 
 use std::path::Path;
 
-use hdf5_reader::{ByteOrder, Datatype, Hdf5File};
+use hdf5_reader::filters::FILTER_LZ4;
+use hdf5_reader::group::Group;
+use hdf5_reader::{ByteOrder, Dataset, Datatype, FilterRegistry, Hdf5File};
 
 use super::scalar::Scalar;
 use super::{ArrayData, ArrayListing};
@@ -16,7 +20,75 @@ use crate::error::{Error, Result};
 pub(crate) const EXTENSIONS: [&str; 3] = ["h5", "hdf5", "he5"];
 
 fn open(path: &Path) -> Result<Hdf5File> {
-    Hdf5File::open(path).map_err(|e| Error::format(path, format!("not a readable HDF5 file: {e}")))
+    let options = hdf5_reader::OpenOptions::default().with_filter_registry(filters());
+    Hdf5File::open_with_options(path, options)
+        .map_err(|e| Error::format(path, format!("not a readable HDF5 file: {e}")))
+}
+
+/// The reader's filters with its LZ4 decoder replaced by [`decode_lz4`]: `hdf5-reader` 0.12 reads
+/// a block size before every block, which holds only when a chunk is one block.
+pub(crate) fn filters() -> FilterRegistry {
+    let mut registry = FilterRegistry::new();
+    registry.register(
+        FILTER_LZ4,
+        Box::new(|_, data, _| {
+            decode_lz4(data)
+                .map_err(|e| hdf5_reader::error::Error::DecompressionError(format!("LZ4: {e}")))
+        }),
+    );
+    registry
+}
+
+/// LZ4 expands by at most 255:1, so a declared size past this multiple of the input is corrupt
+/// and refused before anything is allocated for it.
+const LZ4_MAX_EXPANSION: usize = 256;
+
+/// One chunk of the HDF5 LZ4 filter (id 32004, the HDF Group's `H5Zlz4.c`): the original size
+/// (8 bytes, big-endian), the block size (4 bytes), then per block its compressed size (4 bytes)
+/// and the block, stored raw where that size equals the block's original size (the last block
+/// holds what remains).
+pub(crate) fn decode_lz4(data: &[u8]) -> std::result::Result<Vec<u8>, String> {
+    let word = |at: usize, n: usize| -> std::result::Result<u64, String> {
+        let bytes = data
+            .get(at..at + n)
+            .ok_or_else(|| format!("truncated header at byte {at} of {}", data.len()))?;
+        Ok(bytes.iter().fold(0u64, |acc, &b| acc << 8 | u64::from(b)))
+    };
+    let total = usize::try_from(word(0, 8)?).map_err(|_| "declared size too large".to_string())?;
+    let block = word(8, 4)? as usize;
+    if total > data.len().saturating_mul(LZ4_MAX_EXPANSION) {
+        return Err(format!(
+            "declares {total} bytes from {} compressed bytes",
+            data.len()
+        ));
+    }
+    if block == 0 && total > 0 {
+        return Err("block size 0".into());
+    }
+    let mut out = Vec::with_capacity(total);
+    let mut at = 12;
+    while out.len() < total {
+        let want = block.min(total - out.len());
+        let size = word(at, 4)? as usize;
+        at += 4;
+        let bytes = data
+            .get(at..at.saturating_add(size))
+            .ok_or_else(|| format!("block of {size} bytes past the end of the chunk"))?;
+        if size == want {
+            out.extend_from_slice(bytes);
+        } else {
+            let decoded = lz4_flex::decompress(bytes, want).map_err(|e| e.to_string())?;
+            if decoded.len() != want {
+                return Err(format!(
+                    "a block decodes to {} bytes, not {want}",
+                    decoded.len()
+                ));
+            }
+            out.extend_from_slice(&decoded);
+        }
+        at += size;
+    }
+    Ok(out)
 }
 
 /// The stored sample type and byte order (`true`: big-endian) of a numeric datatype.
@@ -61,7 +133,8 @@ fn type_name(dtype: &Datatype) -> String {
         .to_string()
 }
 
-/// Every dataset in the file, by full path (`/group/name`), in listing order.
+/// Every dataset in the file, by full path (`/group/name`), in listing order. A dataset that
+/// cannot be opened (a virtual dataset) is listed with the reason instead of failing the file.
 pub(crate) fn list_datasets(path: &Path) -> Result<Vec<ArrayListing>> {
     let file = open(path)?;
     let root = file
@@ -70,9 +143,11 @@ pub(crate) fn list_datasets(path: &Path) -> Result<Vec<ArrayListing>> {
     let mut listed = Vec::new();
     let mut pending = vec![(String::new(), root)];
     while let Some((prefix, group)) = pending.pop() {
-        let (groups, datasets) = group
-            .members()
-            .map_err(|e| Error::format(path, format!("group '{prefix}/': {e}")))?;
+        let (groups, datasets) = match group.members() {
+            Ok(members) => members,
+            Err(whole) => members_one_by_one(&file, &group, &prefix, &mut listed)
+                .map_err(|_| Error::format(path, format!("group '{prefix}/': {whole}")))?,
+        };
         for d in datasets {
             listed.push(ArrayListing {
                 name: format!("{prefix}/{}", d.name()),
@@ -80,6 +155,7 @@ pub(crate) fn list_datasets(path: &Path) -> Result<Vec<ArrayListing>> {
                 dtype: type_name(d.dtype()),
                 is_coordinate: false,
                 is_auxiliary: false,
+                unreadable: None,
             });
         }
         // Reversed so that the stack visits groups in listing order.
@@ -88,6 +164,104 @@ pub(crate) fn list_datasets(path: &Path) -> Result<Vec<ArrayListing>> {
         }
     }
     Ok(listed)
+}
+
+/// A group's members opened one at a time, for a group where opening them all at once fails:
+/// `hdf5-reader` 0.12 fails the whole of `Group::members` on one child it cannot parse (a
+/// virtual dataset's layout, class 3). Each child that opens as neither a group nor a dataset is
+/// pushed onto `listed` as unreadable, with the reason.
+fn members_one_by_one(
+    file: &Hdf5File,
+    group: &Group,
+    prefix: &str,
+    listed: &mut Vec<ArrayListing>,
+) -> std::result::Result<(Vec<Group>, Vec<Dataset>), hdf5_reader::error::Error> {
+    use hdf5_reader::error::Error as H5Error;
+    let (mut groups, mut datasets) = (Vec::new(), Vec::new());
+    for name in link_names(file, group)? {
+        if let Ok(g) = group.group(&name) {
+            groups.push(g);
+            continue;
+        }
+        match group.dataset(&name) {
+            Ok(d) => datasets.push(d),
+            // Neither a group nor a dataset: a committed datatype, as the reader skips it too.
+            Err(H5Error::DatasetNotFound(_)) => {}
+            Err(e) => {
+                let text = e.to_string();
+                let why = if text.contains("layout class 3") {
+                    "a virtual dataset (VDS), which hdrvis's HDF5 reader does not read".to_string()
+                } else {
+                    text.replace(['\n', '\r'], " ")
+                };
+                listed.push(ArrayListing {
+                    name: format!("{prefix}/{name}"),
+                    shape: Vec::new(),
+                    dtype: "other".into(),
+                    is_coordinate: false,
+                    is_auxiliary: false,
+                    unreadable: Some(why),
+                });
+            }
+        }
+    }
+    Ok((groups, datasets))
+}
+
+/// The names of a group's links, read from the group's own header and name heap without opening
+/// the objects they name: compact links, or an old-style group's symbol table (h5py's default).
+/// Links in dense storage (a fractal heap) are not walked here.
+fn link_names(
+    file: &Hdf5File,
+    group: &Group,
+) -> std::result::Result<Vec<String>, hdf5_reader::error::Error> {
+    use hdf5_reader::btree_v1::collect_btree_v1_leaves_storage;
+    use hdf5_reader::io::Cursor;
+    use hdf5_reader::local_heap::LocalHeap;
+    use hdf5_reader::messages::HdfMessage;
+    use hdf5_reader::symbol_table::SymbolTableNode;
+    let storage = group.storage();
+    let (offsets, lengths) = (group.offset_size(), group.length_size());
+    let mut names = Vec::new();
+    for message in &file.get_or_parse_header(group.address())?.messages {
+        match message {
+            HdfMessage::Link(link) => names.push(link.name.clone()),
+            HdfMessage::LinkInfo(info)
+                if !Cursor::is_undefined_offset(info.fractal_heap_address, offsets) =>
+            {
+                return Err(hdf5_reader::error::Error::Other(
+                    "links in dense storage".into(),
+                ));
+            }
+            HdfMessage::SymbolTable(table) => {
+                let heap =
+                    LocalHeap::parse_at_storage(storage, table.heap_address, offsets, lengths)?;
+                let leaves = collect_btree_v1_leaves_storage(
+                    storage,
+                    table.btree_address,
+                    offsets,
+                    lengths,
+                    None,
+                    &[],
+                    None,
+                )?;
+                for (_, node) in leaves {
+                    // A symbol table node: "SNOD", version, reserved, the entry count (u16 LE),
+                    // then entries of two addresses, two u32 and a 16-byte scratch pad each.
+                    let head = storage.read_range(node, 8)?;
+                    let count = usize::from(u16::from_le_bytes([head[6], head[7]]));
+                    let len = 8 + count * (2 * usize::from(offsets) + 24);
+                    let bytes = storage.read_range(node, len)?;
+                    let node = SymbolTableNode::parse(&mut Cursor::new(&bytes), offsets, lengths)?;
+                    for entry in &node.entries {
+                        names.push(heap.get_string_storage(entry.link_name_offset, storage)?);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(names)
 }
 
 /// The numeric dataset `name` (a path inside the file, with or without the leading '/'): its
@@ -127,6 +301,9 @@ pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData>
         ));
     };
     let fail = |msg: String| Error::format(path, format!("dataset '{full}': {msg}"));
+    if let Some(why) = &listing.unreadable {
+        return Err(fail(format!("not read: {why}")));
+    }
     let file = open(path)?;
     let dataset = file.dataset(&full).map_err(|e| fail(e.to_string()))?;
     let (sample, big) = sample_type(dataset.dtype()).ok_or_else(|| {

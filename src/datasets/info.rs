@@ -152,7 +152,22 @@ pub fn info_report_band(
             } else {
                 ""
             };
-            let _ = writeln!(out, "  {mark} {} {:?} {}{role}", a.name, a.shape, a.dtype);
+            match &a.unreadable {
+                Some(why) => {
+                    let _ = writeln!(out, "  {mark} {} (not read: {why})", a.name);
+                }
+                None => {
+                    let _ = writeln!(out, "  {mark} {} {:?} {}{role}", a.name, a.shape, a.dtype);
+                }
+            }
+        }
+        if matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") {
+            if let (_, Some(why)) = super::netcdf::open_noting(path)? {
+                let _ = writeln!(
+                    out,
+                    "  (read leniently, the strict reading stopped at: {why})"
+                );
+            }
         }
     }
     describe_array(&mut out, &array);

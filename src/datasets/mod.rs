@@ -479,12 +479,19 @@ pub(crate) struct ArrayListing {
     /// variable's `coordinates`, `bounds`, `grid_mapping`, `ancillary_variables`, `climatology`
     /// or `cell_measures`, or a grid mapping (`grid_mapping_name`).
     pub is_auxiliary: bool,
+    /// Why an object the file lists cannot be read (an HDF5 virtual dataset), so that the rest of
+    /// the file still reads; `None` for every readable array.
+    pub unreadable: Option<String>,
 }
 
 impl ArrayListing {
     /// Data a reader may pick by default: numeric, neither a coordinate nor auxiliary.
     pub(crate) fn is_data(&self) -> bool {
-        !self.is_coordinate && !self.is_auxiliary && self.dtype != "char" && self.dtype != "string"
+        !self.is_coordinate
+            && !self.is_auxiliary
+            && self.dtype != "char"
+            && self.dtype != "string"
+            && self.unreadable.is_none()
     }
 }
 
@@ -529,6 +536,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
                     },
                     is_coordinate: false,
                     is_auxiliary: false,
+                    unreadable: None,
                     name,
                 });
             }
@@ -548,6 +556,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
                     dtype: format!("{:?}", v.dtype()).to_lowercase(),
                     is_coordinate: v.is_coordinate_variable(),
                     is_auxiliary: auxiliary.iter().any(|a| a == v.name()),
+                    unreadable: None,
                 })
                 .collect())
         }
@@ -560,6 +569,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
                 dtype: array.dtype,
                 is_coordinate: false,
                 is_auxiliary: false,
+                unreadable: None,
             }])
         }
     }

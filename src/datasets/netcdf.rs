@@ -158,19 +158,9 @@ pub(crate) fn read_variable_picked(
         file.read_variable_slice_as_f64(name, &netcdf_reader::NcSliceInfo { selections })
     }
     .map_err(|e| reader_error(path, e))?;
-    // NaN stored as data is not a fill value: counted before the CF decoding below marks fills
-    // (the reader's own masked read, in place, in the same order: sign, mask, unpack).
+    // NaN stored as data is not a fill value: counted before the CF decoding marks fills.
     let stored_nan = raw.iter().filter(|v| v.is_nan()).count();
-    let (sign, mask, unpack) = decoders(var);
-    if let Some(sign) = sign {
-        sign.apply(&mut raw);
-    }
-    if let Some(mask) = mask {
-        mask.apply(&mut raw);
-    }
-    if let Some(unpack) = unpack {
-        unpack.apply(&mut raw);
-    }
+    decode_cf(var, &mut raw);
     // Arrays come back in C order: the standard layout hands its buffer over without a copy.
     let data: Vec<f64> = if raw.is_standard_layout() {
         raw.into_raw_vec_and_offset().0
@@ -233,7 +223,16 @@ fn numeric_variable<'f>(
             ),
         ));
     };
-    if !var.dtype().is_primitive() || matches!(var.dtype(), netcdf_reader::NcType::Char) {
+    if matches!(
+        var.dtype(),
+        netcdf_reader::NcType::Char | netcdf_reader::NcType::String
+    ) {
+        return Err(Error::format(
+            path,
+            format!("variable '{name}' holds strings; expected numbers"),
+        ));
+    }
+    if !var.dtype().is_primitive() {
         return Err(Error::format(
             path,
             format!(
@@ -254,36 +253,25 @@ pub(crate) fn read_slice(
 ) -> std::result::Result<Vec<f64>, netcdf_reader::Error> {
     let var = file.variable(name)?;
     let mut raw = file.read_variable_slice_as_f64(name, selection)?;
-    let (sign, mask, unpack) = decoders(var);
-    if let Some(sign) = sign {
-        sign.apply(&mut raw);
-    }
-    if let Some(mask) = mask {
-        mask.apply(&mut raw);
-    }
-    if let Some(unpack) = unpack {
-        unpack.apply(&mut raw);
-    }
+    decode_cf(var, &mut raw);
     Ok(raw.iter().copied().collect())
 }
 
-/// The CF decoding of a variable, applied in this order: signedness (`_Unsigned`), masking,
-/// unpacking (`scale_factor`, `add_offset`). Masking is the reader's (`_FillValue`,
+/// The CF decoding of a variable's values, in place, in this order: signedness (`_Unsigned`),
+/// masking, unpacking (`scale_factor`, `add_offset`). Masking is the reader's (`_FillValue`,
 /// `missing_value`, `valid_*`), with netCDF's default fill value of the stored type standing in
 /// for an absent `_FillValue`: unwritten parts of a file hold it, and netCDF4-python and ncdump
 /// treat it as missing.
-#[allow(clippy::type_complexity)]
-fn decoders(
-    var: &netcdf_reader::NcVariable,
-) -> (
-    Option<netcdf_reader::unpack::SignParams>,
-    Option<netcdf_reader::masked::MaskParams>,
-    Option<netcdf_reader::unpack::UnpackParams>,
-) {
-    let mut mask = netcdf_reader::masked::MaskParams::from_variable(var);
+fn decode_cf(var: &netcdf_reader::NcVariable, values: &mut ndarray::ArrayD<f64>) {
+    use netcdf_reader::masked::MaskParams;
+    use netcdf_reader::unpack::{SignParams, UnpackParams};
+    if let Some(sign) = SignParams::from_variable(var) {
+        sign.apply(values);
+    }
+    let mut mask = MaskParams::from_variable(var);
     if var.attribute("_FillValue").is_none() {
         if let Some(fill) = default_fill(var) {
-            let m = mask.get_or_insert(netcdf_reader::masked::MaskParams {
+            let m = mask.get_or_insert(MaskParams {
                 fill_value: None,
                 missing_values: Vec::new(),
                 valid_min: None,
@@ -292,11 +280,12 @@ fn decoders(
             m.fill_value = Some(fill);
         }
     }
-    (
-        netcdf_reader::unpack::SignParams::from_variable(var),
-        mask,
-        netcdf_reader::unpack::UnpackParams::from_variable(var),
-    )
+    if let Some(mask) = mask {
+        mask.apply(values);
+    }
+    if let Some(unpack) = UnpackParams::from_variable(var) {
+        unpack.apply(values);
+    }
 }
 
 /// netCDF's default fill value (netcdf.h's `NC_FILL_*`) of the type a variable's values have
@@ -610,12 +599,44 @@ pub(crate) fn write_atomically(
 /// `FileStorage`, never a memory map (which `NcFile::open` makes of a classic file): a file
 /// truncated while it is read is then an error instead of a SIGBUS that kills the process.
 pub(crate) fn open(path: &Path) -> Result<NcFile> {
+    open_noting(path).map(|(file, _)| file)
+}
+
+/// [`open`], and why part of a NetCDF-4 file's metadata was skipped: where the strict reading
+/// fails on one object (an attribute that is not UTF-8, a dataset in a committed datatype without
+/// NetCDF's dimension list), the file is read again leniently, which drops that attribute or
+/// places that dataset by its sizes, so the other variables still read.
+pub(crate) fn open_noting(path: &Path) -> Result<(NcFile, Option<String>)> {
+    let strict = open_mode(path, netcdf_reader::NcMetadataMode::Strict)?;
+    use netcdf_reader::NcFormat;
+    if matches!(
+        strict.format(),
+        NcFormat::Classic | NcFormat::Offset64 | NcFormat::Cdf5
+    ) {
+        return Ok((strict, None));
+    }
+    let Err(why) = strict.root_group() else {
+        return Ok((strict, None));
+    };
+    let why = why.to_string().replace(['\n', '\r'], " ");
+    let lenient = open_mode(path, netcdf_reader::NcMetadataMode::Lossy)?;
+    lenient.root_group().map_err(|e| reader_error(path, e))?;
+    Ok((lenient, Some(why)))
+}
+
+fn open_mode(path: &Path, mode: netcdf_reader::NcMetadataMode) -> Result<NcFile> {
     // Distinguish "cannot open" (an I/O error) from "not a valid NetCDF file" (a format error).
     let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     check_hdf5_length(path, &mut file)?;
     let storage = netcdf_reader::FileStorage::from_file(file)
         .map_err(|e| Error::format(path, format!("not a readable NetCDF file: {e}")))?;
-    NcFile::from_storage(std::sync::Arc::new(storage)).map_err(|e| reader_error(path, e))
+    let options = netcdf_reader::NcOpenOptions {
+        filter_registry: Some(super::hdf5::filters()),
+        metadata_mode: mode,
+        ..Default::default()
+    };
+    NcFile::from_storage_with_options(std::sync::Arc::new(storage), options)
+        .map_err(|e| reader_error(path, e))
 }
 
 /// A truncated NetCDF-4 file can still decode when the lost tail held other objects, so, as the

@@ -428,8 +428,10 @@ fn parse_document(bytes: &[u8]) -> std::result::Result<Document, String> {
     loop {
         let event = reader.read_event_into(&mut buf).map_err(|e| {
             format!(
-                "not valid VTK XML near byte {}: {e}",
-                reader.error_position()
+                "not valid VTK XML near byte {}: {}",
+                reader.error_position(),
+                // quick-xml quotes the document around the fault, newlines and all.
+                crate::error::excerpt(&e.to_string(), 120)
             )
         })?;
         match event {

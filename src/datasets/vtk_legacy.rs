@@ -353,11 +353,11 @@ fn find_array(
         let key = word.to_ascii_uppercase();
         let n_of = |on_points: Option<bool>| -> std::result::Result<usize, String> {
             let p = on_points.ok_or(format!("{key} before POINT_DATA or CELL_DATA"))?;
-            Ok(if p {
-                grid.points.iter().product()
-            } else {
-                grid.points.iter().map(|&n| (n - 1).max(1)).product()
-            })
+            let per_axis = grid.points.map(|n| if p { n } else { (n - 1).max(1) });
+            per_axis
+                .iter()
+                .try_fold(1usize, |acc, &n| acc.checked_mul(n))
+                .ok_or(format!("DIMENSIONS {:?} are too large", grid.points))
         };
         match key.as_str() {
             "POINT_DATA" | "CELL_DATA" => {

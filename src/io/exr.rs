@@ -1,10 +1,12 @@
 //! OpenEXR through the `exr` crate: the linear master of every render. Images are written with
 //! 32-bit float channels R, G, B, A plus any extra named channels, and text attributes recording
 //! provenance (dataset, camera, transfer function, precision, adapter). Reading accepts RGB(A)
-//! in half or float from any producer and refuses truncated files.
+//! in half or float from any producer, luminance (Y) and luminance-chroma (Y, RY, BY) images and
+//! files with only some colour channels, and refuses truncated files.
 
 use crate::error::{Error, Result};
 use crate::model::HdrImage;
+use exr::meta::attribute::Chromaticities;
 use exr::prelude::*;
 use std::path::Path;
 
@@ -152,8 +154,9 @@ fn nul_after(bytes: &[u8], from: usize) -> std::result::Result<usize, String> {
         .ok_or_else(|| "header ends inside a name".into())
 }
 
-/// Reads the first layer's R, G, B (and A if present, else 1) as f32, plus every other channel
-/// as an extra channel, and the text attributes as metadata.
+/// Reads the first layer's colour as R, G, B (see [`colour`] for files without all three), A if
+/// present (else 1), every other channel as an extra channel, and the text attributes as
+/// metadata.
 pub fn read_exr(path: &Path) -> Result<HdrImage> {
     crate::io::check_regular_file(path)?;
     let img = read()
@@ -164,59 +167,23 @@ pub fn read_exr(path: &Path) -> Result<HdrImage> {
         .all_attributes()
         .pedantic()
         .from_file(path)
-        .map_err(|e| Error::format(path, format!("not a readable OpenEXR file: {e}")))?;
+        .map_err(|e| read_error(path, &e.to_string()))?;
     let layer = img.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     let n = w * h;
-    let as_f32 = |s: &FlatSamples| -> Vec<f32> {
-        match s {
-            FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
-            FlatSamples::F32(v) => v.clone(),
-            FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
-        }
-    };
-    let find = |name: &str| {
-        layer.channel_data.list.iter().find(|c| {
-            c.name.to_string() == name || c.name.to_string().ends_with(&format!(".{name}"))
-        })
-    };
-    let (r, g, b) = match (find("R"), find("G"), find("B")) {
-        (Some(r), Some(g), Some(b)) => (
-            as_f32(&r.sample_data),
-            as_f32(&g.sample_data),
-            as_f32(&b.sample_data),
-        ),
-        (_, _, _) => match find("Y") {
-            Some(y) => {
-                let y = as_f32(&y.sample_data);
-                (y.clone(), y.clone(), y)
-            }
-            None => {
-                let names: Vec<String> = layer
-                    .channel_data
-                    .list
-                    .iter()
-                    .map(|c| c.name.to_string())
-                    .collect();
-                return Err(Error::format(
-                    path,
-                    format!(
-                        "no R, G, B (or Y) channels; the file has: {}",
-                        names.join(", ")
-                    ),
-                ));
-            }
-        },
-    };
-    let a = find("A")
-        .map(|c| as_f32(&c.sample_data))
+    let list = &layer.channel_data.list;
+    let (rgb, note) = colour(path, list, img.attributes.chromaticities)?;
+    let a = channel(list, "A")
+        .map(|c| samples(&c.sample_data))
         .unwrap_or_else(|| vec![1.0; n]);
-    let pixels = (0..n).map(|i| [r[i], g[i], b[i], a[i]]).collect();
+    let pixels = (0..n)
+        .map(|i| [rgb[0][i], rgb[1][i], rgb[2][i], a[i]])
+        .collect();
     let mut out = HdrImage::from_pixels(w as u32, h as u32, pixels);
     for c in &layer.channel_data.list {
         let name = c.name.to_string();
-        if !["R", "G", "B", "A", "Y"].contains(&name.as_str()) {
-            out.extra_channels.push((name, as_f32(&c.sample_data)));
+        if !COLOUR_CHANNELS.contains(&name.as_str()) {
+            out.extra_channels.push((name, samples(&c.sample_data)));
         }
     }
     for (k, v) in &layer.attributes.other {
@@ -228,9 +195,153 @@ pub fn read_exr(path: &Path) -> Result<HdrImage> {
             ));
         }
     }
+    if let Some(note) = note {
+        out.metadata.push(("read".into(), note));
+    }
     // The attributes come out of a HashMap; name order is the one files are written in.
     out.metadata.sort();
     Ok(out)
+}
+
+/// The channels that make the colour and alpha, not kept as extra channels.
+const COLOUR_CHANNELS: [&str; 7] = ["R", "G", "B", "A", "Y", "RY", "BY"];
+
+/// The channel `name` of a layer, bare or after a layer prefix (`diffuse.R`).
+fn channel<'a>(
+    list: &'a [AnyChannel<FlatSamples>],
+    name: &str,
+) -> Option<&'a AnyChannel<FlatSamples>> {
+    list.iter().find(|c| {
+        let full = c.name.to_string();
+        full == name || full.ends_with(&format!(".{name}"))
+    })
+}
+
+fn samples(s: &FlatSamples) -> Vec<f32> {
+    match s {
+        FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
+        FlatSamples::F32(v) => v.clone(),
+        FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
+    }
+}
+
+/// The R, G, B planes of an image, and a note where they are not the file's own R, G, B:
+/// - R, G and B: as stored;
+/// - Y with RY and BY (OpenEXR's luminance-chroma images): R = (RY + 1) Y, B = (BY + 1) Y and
+///   G = (Y − wr R − wb B) / wg, with the luminance weights of the file's chromaticities,
+///   as OpenEXR's RGBA interface converts them;
+/// - Y alone, or one of R, G, B alone: grey, that channel in R, G and B;
+/// - two of R, G, B: the missing one 0, said in the note.
+///
+/// A file with none of R, G, B and Y (depth alone) is refused.
+fn colour(
+    path: &Path,
+    list: &[AnyChannel<FlatSamples>],
+    chromaticities: Option<Chromaticities>,
+) -> Result<([Vec<f32>; 3], Option<String>)> {
+    let find = |name: &str| channel(list, name).map(|c| samples(&c.sample_data));
+    let n = list.first().map_or(0, |c| c.sample_data.len());
+    let (r, g, b) = (find("R"), find("G"), find("B"));
+    if let (Some(r), Some(g), Some(b)) = (&r, &g, &b) {
+        return Ok(([r.clone(), g.clone(), b.clone()], None));
+    }
+    if let Some(y) = find("Y") {
+        if let (Some(ry), Some(by)) = (find("RY"), find("BY")) {
+            let [wr, wg, wb] = luminance_weights(chromaticities);
+            let r: Vec<f32> = y.iter().zip(&ry).map(|(y, c)| (c + 1.0) * y).collect();
+            let b: Vec<f32> = y.iter().zip(&by).map(|(y, c)| (c + 1.0) * y).collect();
+            let g = (0..n)
+                .map(|i| (y[i] - wr * r[i] - wb * b[i]) / wg)
+                .collect();
+            let note = format!(
+                "luminance-chroma (Y, RY, BY) converted with weights {wr:.4} {wg:.4} {wb:.4}"
+            );
+            return Ok(([r, g, b], Some(note)));
+        }
+        return Ok((
+            [y.clone(), y.clone(), y],
+            Some("luminance Y read as grey".into()),
+        ));
+    }
+    let present: Vec<(&str, Vec<f32>)> = [("R", &r), ("G", &g), ("B", &b)]
+        .into_iter()
+        .filter_map(|(name, c)| Some((name, c.clone()?)))
+        .collect();
+    if let [(name, v)] = present.as_slice() {
+        let note = format!("the one colour channel {name} read as grey");
+        return Ok(([v.clone(), v.clone(), v.clone()], Some(note)));
+    }
+    if !present.is_empty() {
+        let missing: Vec<&str> = [("R", &r), ("G", &g), ("B", &b)]
+            .iter()
+            .filter(|(_, c)| c.is_none())
+            .map(|(name, _)| *name)
+            .collect();
+        let note = format!("no {} channel: read as 0", missing.join(", "));
+        let or_zero = |c: Option<Vec<f32>>| c.unwrap_or_else(|| vec![0.0; n]);
+        return Ok(([or_zero(r), or_zero(g), or_zero(b)], Some(note)));
+    }
+    let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+    Err(Error::format(
+        path,
+        format!(
+            "no R, G, B (or Y) channels; the file has: {}",
+            names.join(", ")
+        ),
+    ))
+}
+
+/// The weights of R, G, B in luminance Y for the file's primaries and white point (OpenEXR's
+/// `computeYw`: the Y row of the RGB-to-XYZ matrix, normalised to sum 1); without a
+/// chromaticities attribute, those of OpenEXR's default, Rec. 709 with a D65 white
+/// (0.2126, 0.7152, 0.0722 to four places).
+fn luminance_weights(chromaticities: Option<Chromaticities>) -> [f32; 3] {
+    let c = chromaticities.unwrap_or(Chromaticities {
+        red: Vec2(0.64, 0.33),
+        green: Vec2(0.30, 0.60),
+        blue: Vec2(0.15, 0.06),
+        white: Vec2(0.3127, 0.3290),
+    });
+    let xy = |v: Vec2<f32>| (f64::from(v.0), f64::from(v.1));
+    let ((rx, ry), (gx, gy), (bx, by), (wx, wy)) =
+        (xy(c.red), xy(c.green), xy(c.blue), xy(c.white));
+    // The primaries' scales S that make white (X, 1, Z) from R = G = B = 1 (Cramer's rule).
+    let (x, z) = (wx / wy, (1.0 - wx - wy) / wy);
+    let d = rx * (by - gy) + bx * (gy - ry) + gx * (ry - by);
+    let sr = (x * (by - gy) - gx * (by - 1.0 + by * (x + z)) + bx * (gy - 1.0 + gy * (x + z))) / d;
+    let sg = (x * (ry - by) + rx * (by - 1.0 + by * (x + z)) - bx * (ry - 1.0 + ry * (x + z))) / d;
+    let sb = (x * (gy - ry) - rx * (gy - 1.0 + gy * (x + z)) + gx * (ry - 1.0 + ry * (x + z))) / d;
+    let (yr, yg, yb) = (sr * ry, sg * gy, sb * by);
+    let sum = yr + yg + yb;
+    [(yr / sum) as f32, (yg / sum) as f32, (yb / sum) as f32]
+}
+
+/// The reader's error in one line; a compression method the `exr` crate does not know (ZSTD,
+/// 13, in OpenEXR 3.4) is named from the header, which the crate only calls invalid.
+fn read_error(path: &Path, message: &str) -> Error {
+    let head = std::fs::File::open(path).ok().and_then(|f| {
+        use std::io::Read;
+        let mut bytes = Vec::new();
+        // The header's attributes come first; 64 KiB holds any a producer writes before it.
+        f.take(1 << 16).read_to_end(&mut bytes).ok()?;
+        Some(bytes)
+    });
+    let named = head.and_then(|bytes| {
+        let key = b"compression\0compression\0";
+        let at = bytes.windows(key.len()).position(|w| w == key)? + key.len() + 4;
+        let id = *bytes.get(at)?;
+        let name = match id {
+            12 => "LJ2K",
+            13 => "ZSTD",
+            _ => return None,
+        };
+        Some(format!(
+            "{name} compression (method {id}) is not read by hdrvis's OpenEXR reader (the exr \
+             crate); save the file with ZIP, PIZ or no compression"
+        ))
+    });
+    let message = named.unwrap_or_else(|| format!("not a readable OpenEXR file: {message}"));
+    Error::format(path, message.replace(['\n', '\r'], " "))
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ pub mod geometry;
 pub(crate) mod grid;
 pub(crate) mod image;
 pub(crate) mod map_frame;
-pub(crate) mod numeric;
+pub mod numeric;
 pub(crate) mod resample;
 pub mod section;
 pub(crate) mod stencil;

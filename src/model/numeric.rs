@@ -82,11 +82,11 @@ fn erfc_continued_fraction(x: f64) -> f64 {
 }
 
 /// Small deterministic generator (SplitMix64, Steele, Lea & Flood 2014): enough quality for
-/// placing a few dozen features and identical on every platform.
-pub(crate) struct SplitMix64(pub(crate) u64);
+/// placing a few dozen features and the fuzz corpus's mutations, and identical on every platform.
+pub struct SplitMix64(pub u64);
 
 impl SplitMix64 {
-    pub(crate) fn next_u64(&mut self) -> u64 {
+    pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

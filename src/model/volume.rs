@@ -532,7 +532,8 @@ pub(crate) fn check_allocation(bytes: u64, what: &str) -> Result<()> {
     Ok(())
 }
 
-fn available_memory_bytes() -> Option<u64> {
+/// The memory this process may still allocate (see [`check_allocation`]); `None` where unknown.
+pub(crate) fn available_memory_bytes() -> Option<u64> {
     [meminfo_available(), cgroup_available(), rlimit_available()]
         .into_iter()
         .flatten()
