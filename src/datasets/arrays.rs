@@ -1,0 +1,476 @@
+//! Arrays by name across the formats: what a file holds (`list_arrays`: name, shape, on-disk
+//! type) and one array read as f64 with its axes and CF metadata (`read_array`, with a
+//! selection: `read_array_sel`), for NumPy `.npy`/`.npz`, NetCDF, HDF5 and MintPy, GeoTIFF,
+//! NRRD and VTK files; and the one-line errors that list what a file has when a name is wrong.
+
+use super::{
+    geotiff, hdf5, mintpy, netcdf, nhdr, npy, select, vti, vtk_legacy, Volume, VOLUME_EXTENSIONS,
+};
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// Name, shape and on-disk type of one array or variable in a file.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct ArrayListing {
+    pub name: String,
+    pub shape: Vec<usize>,
+    pub dtype: String,
+    /// A NetCDF coordinate variable (1-D, named like its dimension).
+    pub is_coordinate: bool,
+    /// A NetCDF variable that describes others rather than being data: named in another
+    /// variable's `coordinates`, `bounds`, `grid_mapping`, `ancillary_variables`, `climatology`
+    /// or `cell_measures`, or a grid mapping (`grid_mapping_name`).
+    pub is_auxiliary: bool,
+    /// Why an object the file lists cannot be read (an HDF5 virtual dataset), so that the rest of
+    /// the file still reads; `None` for every readable array.
+    pub unreadable: Option<String>,
+}
+
+impl ArrayListing {
+    /// Data a reader may pick by default: numeric, neither a coordinate nor auxiliary.
+    pub(crate) fn is_data(&self) -> bool {
+        !self.is_coordinate
+            && !self.is_auxiliary
+            && self.dtype != "char"
+            && self.dtype != "string"
+            && self.unreadable.is_none()
+    }
+}
+
+/// One array read in full, values converted to f64 (C order), NaN for missing values.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct ArrayData {
+    pub name: String,
+    /// Dimension names (NetCDF); `dim0`, `dim1`, ... elsewhere.
+    pub dims: Vec<String>,
+    pub shape: Vec<usize>,
+    pub dtype: String,
+    pub units: Option<String>,
+    pub data: Vec<f64>,
+    /// Values the file marks as missing (`_FillValue`, `missing_value`, outside `valid_range`),
+    /// already turned into NaN; 0 for formats without such a convention.
+    pub fill_count: usize,
+    /// The variable's attributes (NetCDF), for the CF metadata that places it in the world.
+    pub attributes: Vec<(String, netcdf::NcAttribute)>,
+    /// How each dimension a selection fixed was chosen.
+    pub notes: Vec<String>,
+}
+
+/// The arrays a file holds: every variable of a NetCDF file, every member of an `.npz`, the one
+/// array of `.npy`, `.vti`, `.nhdr`/`.nrrd` files.
+pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
+    match crate::io::extension(path).as_str() {
+        "npz" => {
+            let mut archive = open_npz(path)?;
+            let names = npz_array_names(&archive, path)?;
+            let mut listed = Vec::with_capacity(names.len());
+            for name in names {
+                // Only the member's header is read: its shape and dtype.
+                let npy = npy::open_npy(npz_member(&mut archive, path, &name)?).map_err(|e| {
+                    Error::format(path, format!("array '{name}': {}", npy::header_error(&e)))
+                })?;
+                listed.push(ArrayListing {
+                    shape: npy.shape().iter().map(|&s| s as usize).collect(),
+                    // "<f4" as the array's own report spells it (descr() quotes it as Python does).
+                    dtype: match npy.dtype() {
+                        npyz::DType::Plain(ts) => ts.to_string(),
+                        other => other.descr(),
+                    },
+                    is_coordinate: false,
+                    is_auxiliary: false,
+                    unreadable: None,
+                    name,
+                });
+            }
+            Ok(listed)
+        }
+        "nc" | "nc4" | "cdf" | "netcdf" => {
+            let file = netcdf::open(path)?;
+            let vars = file
+                .variables()
+                .map_err(|e| Error::format(path, e.to_string()))?;
+            let auxiliary = netcdf::auxiliary_names(vars);
+            Ok(vars
+                .iter()
+                .map(|v| ArrayListing {
+                    name: v.name().to_string(),
+                    shape: v.shape().iter().map(|&s| s as usize).collect(),
+                    dtype: format!("{:?}", v.dtype()).to_lowercase(),
+                    is_coordinate: v.is_coordinate_variable(),
+                    is_auxiliary: auxiliary.iter().any(|a| a == v.name()),
+                    unreadable: None,
+                })
+                .collect())
+        }
+        ext if hdf5::EXTENSIONS.contains(&ext) => hdf5::list_datasets(path),
+        _ => {
+            let array = read_array(path, None, None)?;
+            Ok(vec![ArrayListing {
+                name: array.name,
+                shape: array.shape,
+                dtype: array.dtype,
+                is_coordinate: false,
+                is_auxiliary: false,
+                unreadable: None,
+            }])
+        }
+    }
+}
+
+/// Reads one array. `var` picks it by name (an error lists the available ones); without it an
+/// `.npz` gives its largest array and a NetCDF file its first numeric variable that is not a
+/// coordinate. With `rank`, leading length-1 dimensions are dropped down to that rank and an
+/// array of another rank is refused (or, without `var`, skipped).
+pub(crate) fn read_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+    read_array_sel(path, var, rank, &select::Selection::default())
+}
+
+/// [`read_array`] with the dimensions `sel` fixes (NetCDF only), which the array then lacks;
+/// without one, a NetCDF time axis of several steps among the array's dimensions is refused
+/// when a `rank` is asked for (it would be read as space).
+pub(crate) fn read_array_sel(
+    path: &Path,
+    var: Option<&str>,
+    rank: Option<usize>,
+    sel: &select::Selection,
+) -> Result<ArrayData> {
+    crate::io::check_regular_file(path)?;
+    let ext = crate::io::extension(path);
+    let netcdf = matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf");
+    let mintpy = if hdf5::EXTENSIONS.contains(&ext.as_str()) {
+        mintpy::open(path)?
+    } else {
+        None
+    };
+    if !netcdf && mintpy.is_none() && !sel.is_empty() {
+        return Err(Error::format(
+            path,
+            "selecting by dimension (index, at) needs a NetCDF file or a MintPy time series",
+        ));
+    }
+    let mut array = match ext.as_str() {
+        "npy" => {
+            let npy = npy::read_npy::<f64>(path)?;
+            let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("array");
+            plain_array(name, npy.shape, npy.dtype, npy.data)
+        }
+        "npz" => read_npz_array(path, var, rank)?,
+        "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank, sel)?,
+        "vti" | "vtk" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
+        ext if hdf5::EXTENSIONS.contains(&ext) => match &mintpy {
+            Some(product) => mintpy::read_array(path, product, var, sel, rank.is_some())?,
+            None => hdf5::read_dataset(path, var)?,
+        },
+        ext if geotiff::EXTENSIONS.contains(&ext) => {
+            geotiff::no_variable(path, var)?;
+            geotiff::read(path, None)?.array()
+        }
+        other => {
+            return Err(Error::format(
+                path,
+                format!("unknown array format {other:?}; expected {VOLUME_EXTENSIONS}"),
+            ))
+        }
+    };
+    if let Some(r) = rank {
+        let kept = squeezed(&array.shape, r).len();
+        if kept != r {
+            let dims: Vec<String> = array
+                .dims
+                .iter()
+                .zip(&array.shape)
+                .map(|(d, n)| format!("{d}={n}"))
+                .collect();
+            let selected = if sel.is_empty() {
+                ""
+            } else {
+                " after the selection"
+            };
+            let hint = if kept > r && netcdf {
+                format!("; fix {} more dimension(s) with index or at", kept - r)
+            } else {
+                String::new()
+            };
+            return Err(Error::format(
+                path,
+                format!(
+                    "'{}' has shape {:?} ({}){selected}; expected a {r}-D array{hint}",
+                    array.name,
+                    array.shape,
+                    dims.join(", ")
+                ),
+            ));
+        }
+        let dropped = array.shape.len() - kept;
+        array.shape.drain(..dropped);
+        array.dims.drain(..dropped);
+    }
+    Ok(array)
+}
+
+/// Whether an array of `shape` has `rank` dimensions once leading length-1 ones are dropped
+/// (any shape fits no rank).
+fn fits_rank(shape: &[usize], rank: Option<usize>) -> bool {
+    rank.is_none_or(|r| squeezed(shape, r).len() == r)
+}
+
+/// "2-D " for rank 2, "" for none: how "no array" errors name what was looked for.
+fn rank_name(rank: Option<usize>) -> String {
+    rank.map(|r| format!("{r}-D ")).unwrap_or_default()
+}
+
+/// [`read_array`] of an `.npz` member: `var`, else the largest array of the rank (the first of
+/// equally large ones).
+fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
+    let listed = list_arrays(path)?;
+    let name = match var {
+        Some(v) => v.to_string(),
+        None => listed
+            .iter()
+            .filter(|a| fits_rank(&a.shape, rank))
+            // Reversed so that of equally large arrays the first in the archive wins.
+            .rev()
+            .max_by_key(|a| a.shape.iter().product::<usize>())
+            .map(|a| a.name.clone())
+            .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
+    };
+    if !listed.iter().any(|a| a.name == name) {
+        return Err(missing_array(path, &name, &listed));
+    }
+    let mut archive = open_npz(path)?;
+    let mut entry = npz_member(&mut archive, path, &name)?;
+    let size = entry.size();
+    let npy = npy::read_npy_from::<f64, _>(&mut entry, size, path).map_err(|e| match e {
+        Error::Format { path, msg } => Error::Format {
+            path,
+            msg: format!("array '{name}': {msg}"),
+        },
+        other => other,
+    })?;
+    // Reading on to the member's end makes zip compare its CRC-32: a damaged stored member is
+    // then an error rather than wrong values.
+    std::io::copy(&mut entry, &mut std::io::sink())
+        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
+    Ok(plain_array(&name, npy.shape, npy.dtype, npy.data))
+}
+
+/// The variable a NetCDF file is read for when none is named: of its data variables (not
+/// coordinates, not auxiliary) that have every dimension `sel` fixes, the first of `rank` once
+/// those are fixed (leading length-1 dimensions dropped), else the first of a higher rank (whose
+/// read then says which dimensions are left to fix); without a rank the first of the highest
+/// rank.
+fn default_netcdf_variable(
+    path: &Path,
+    listed: &[ArrayListing],
+    rank: Option<usize>,
+    sel: &select::Selection,
+) -> Result<String> {
+    let all_dims = netcdf::list_variables(path)?;
+    let dims_of = |name: &str| netcdf::dims_in(&all_dims, name);
+    let candidates: Vec<(&ArrayListing, Vec<usize>)> = listed
+        .iter()
+        .filter(|a| a.is_data())
+        .filter_map(|a| {
+            let dims = dims_of(&a.name);
+            sel.dims()
+                .all(|s| dims.iter().any(|(d, _)| d == s))
+                .then(|| {
+                    let kept = dims
+                        .iter()
+                        .filter(|(d, _)| !sel.dims().any(|s| s == d))
+                        .map(|(_, n)| *n)
+                        .collect();
+                    (a, kept)
+                })
+        })
+        .collect();
+    let found = match rank {
+        Some(r) => candidates
+            .iter()
+            .find(|(_, kept)| squeezed(kept, r).len() == r)
+            .or_else(|| {
+                candidates
+                    .iter()
+                    .find(|(_, kept)| squeezed(kept, r).len() > r)
+            }),
+        None => candidates.iter().rev().max_by_key(|(_, kept)| kept.len()),
+    };
+    found
+        .map(|(a, _)| a.name.clone())
+        .ok_or_else(|| no_array(path, &rank_name(rank), listed))
+}
+
+/// [`read_array`] of a NetCDF variable: `var`, else [`default_netcdf_variable`], with the
+/// dimensions `sel` fixes; values the file marks as missing are counted.
+fn read_netcdf_array(
+    path: &Path,
+    var: Option<&str>,
+    rank: Option<usize>,
+    sel: &select::Selection,
+) -> Result<ArrayData> {
+    let listed = list_arrays(path)?;
+    let name = match var {
+        Some(v) => v.to_string(),
+        None => default_netcdf_variable(path, &listed, rank, sel)?,
+    };
+    let listing = listed
+        .iter()
+        .find(|a| a.name == name)
+        .ok_or_else(|| missing_array(path, &name, &listed))?;
+    let dims = netcdf::list_variables(path)?
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, d)| d)
+        .unwrap_or_default();
+    let plan = select::plan(path, &name, &dims, sel)?;
+    if rank.is_some() {
+        select::refuse_time(path, &name, &plan.kept(&dims))?;
+    }
+    let variable = select::read(path, &name, &plan)?;
+    // Missing values become NaN when decoded; NaN already stored raw is not a fill.
+    let raw_nan = variable.stored_nan;
+    let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
+    Ok(ArrayData {
+        name,
+        dims: variable.dims.iter().map(|(d, _)| d.clone()).collect(),
+        shape: variable.dims.iter().map(|(_, n)| *n).collect(),
+        dtype: listing.dtype.clone(),
+        units: variable.units,
+        fill_count: decoded_nan.saturating_sub(raw_nan),
+        data: variable.data,
+        attributes: variable.attributes,
+        notes: plan.notes,
+    })
+}
+
+/// [`read_array`] of the one volume of a `.vti`, `.vtk` or `.nhdr`/`.nrrd` file (`ext`), as
+/// (z, y, x).
+fn read_volume_array(path: &Path, ext: &str, var: Option<&str>) -> Result<ArrayData> {
+    let volume = match ext {
+        "vti" => {
+            let v = vti::read_vti(path)?;
+            Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
+                .map_err(|e| Error::format(path, e.to_string()))?
+        }
+        "vtk" => vtk_legacy::read_vtk(path, var)?,
+        _ => nhdr::read_nrrd(path)?,
+    };
+    if let Some(wanted) = var.filter(|w| *w != volume.name) {
+        return Err(Error::format(
+            path,
+            format!("no array '{wanted}'; the file has: {}", volume.name),
+        ));
+    }
+    let [nx, ny, nz] = volume.dims;
+    let mut array = plain_array(
+        &volume.name,
+        vec![nz, ny, nx],
+        "float32 (as loaded)".to_string(),
+        volume.data.iter().map(|&v| v as f64).collect(),
+    );
+    array.dims = vec!["z".into(), "y".into(), "x".into()];
+    array.units = (!volume.units.is_empty()).then_some(volume.units);
+    Ok(array)
+}
+
+/// The shape without leading length-1 dimensions beyond `rank` (a single time step, say).
+fn squeezed(shape: &[usize], rank: usize) -> &[usize] {
+    let mut start = 0;
+    while shape.len() - start > rank && shape[start] == 1 {
+        start += 1;
+    }
+    &shape[start..]
+}
+
+pub(super) fn plain_array(
+    name: &str,
+    shape: Vec<usize>,
+    dtype: String,
+    data: Vec<f64>,
+) -> ArrayData {
+    ArrayData {
+        name: name.to_string(),
+        dims: (0..shape.len()).map(|a| format!("dim{a}")).collect(),
+        shape,
+        dtype,
+        units: None,
+        data,
+        fill_count: 0,
+        attributes: Vec::new(),
+        notes: Vec::new(),
+    }
+}
+
+/// An `.npz` file opened as the zip archive it is (members stored or deflated, as `np.savez`
+/// and `np.savez_compressed` write them).
+type NpzArchive = zip::ZipArchive<std::io::BufReader<std::fs::File>>;
+
+fn open_npz(path: &Path) -> Result<NpzArchive> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    zip::ZipArchive::new(std::io::BufReader::new(file))
+        .map_err(|e| Error::format(path, format!("not a readable .npz archive: {e}")))
+}
+
+/// The arrays of an `.npz` in archive order: its `NAME.npy` members, named without the suffix
+/// (other members are not arrays and are passed over, as NumPy's `load` does).
+fn npz_array_names(archive: &NpzArchive, path: &Path) -> Result<Vec<String>> {
+    let mut names = Vec::with_capacity(archive.len());
+    for member in archive.file_names() {
+        let member =
+            member.map_err(|e| Error::format(path, format!("unreadable .npz member name: {e}")))?;
+        if let Some(name) = npyz::npz::array_name_from_file_name(&member) {
+            names.push(name.to_string());
+        }
+    }
+    Ok(names)
+}
+
+/// The member holding array `name`, decompressed as it is read.
+fn npz_member<'a>(
+    archive: &'a mut NpzArchive,
+    path: &Path,
+    name: &str,
+) -> Result<zip::read::ZipFile<'a, std::io::BufReader<std::fs::File>>> {
+    let entry = archive
+        .by_name(&npyz::npz::file_name_from_array_name(name))
+        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
+    // NumPy writes only these two, and zip is built with no other decoder.
+    match entry.compression() {
+        zip::CompressionMethod::Stored | zip::CompressionMethod::Deflated => Ok(entry),
+        other => Err(Error::format(
+            path,
+            format!(
+                "array '{name}' is compressed with {other}; expected a stored or deflated member \
+                 (np.savez, np.savez_compressed)"
+            ),
+        )),
+    }
+}
+
+fn describe(listed: &[ArrayListing]) -> String {
+    if listed.is_empty() {
+        return "no arrays".to_string();
+    }
+    listed
+        .iter()
+        .map(|a| format!("{} {:?}", a.name, a.shape))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+pub(super) fn missing_array(path: &Path, name: &str, listed: &[ArrayListing]) -> Error {
+    Error::format(
+        path,
+        format!("no variable '{name}'; the file has: {}", describe(listed)),
+    )
+}
+
+fn no_array(path: &Path, rank_name: &str, listed: &[ArrayListing]) -> Error {
+    Error::format(
+        path,
+        format!(
+            "no {rank_name}data array to pick; name one with variable (--variable); the file has: {}",
+            describe(listed)
+        ),
+    )
+}
