@@ -9,7 +9,9 @@
 //! does it with the user's choice of resampling). GTRasterType decides where a pixel's
 //! coordinates are: PixelIsArea (the default) puts the tiepoint at a pixel's corner, PixelIsPoint
 //! at its centre; the grid's nodes are always pixel centres. GDAL's nodata tag (42113) marks
-//! missing values. Rows keep their storage order here; the grid built from them runs in
+//! missing values (in stored units); GDAL's metadata tag (42112) gives a band's scale, offset
+//! and unit (values = stored × scale + offset, as GDAL's `-unscale` and rasterio's
+//! `scales`/`offsets` mean them). Rows keep their storage order here; the grid built from them runs in
 //! increasing latitude, so a map shows north up whatever the sign of the y scale.
 
 use std::path::Path;
@@ -56,6 +58,8 @@ pub(crate) struct Raster {
     /// How the georeferencing was read, for `hdrvis info`.
     pub notes: Vec<String>,
     pub fill_count: usize,
+    /// The band's unit (GDAL's UNITTYPE), if the file names one.
+    pub units: Option<String>,
 }
 
 impl Raster {
@@ -69,6 +73,7 @@ impl Raster {
         );
         array.dims = vec!["y".into(), "x".into()];
         array.fill_count = self.fill_count;
+        array.units = self.units.clone();
         array
     }
 
@@ -145,6 +150,7 @@ pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
         ));
     }
     let nodata = nodata(path, &mut dec)?;
+    let meta = band_metadata(path, &mut dec, band)?;
     let planar = dec
         .find_tag_unsigned::<u16>(Tag::PlanarConfiguration)
         .map_err(|e| tiff_error(path, &e))?
@@ -186,7 +192,7 @@ pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
             if missing {
                 f64::NAN
             } else {
-                v
+                v * meta.scale + meta.offset
             }
         })
         .collect();
@@ -197,6 +203,12 @@ pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
     let mut notes = geo.notes;
     if let Some(n) = nodata {
         notes.push(format!("nodata (GDAL_NODATA): {n}"));
+    }
+    if meta.scale != 1.0 || meta.offset != 0.0 {
+        notes.push(format!(
+            "values = stored x {} + {} (GDAL scale and offset, GDAL_METADATA)",
+            meta.scale, meta.offset
+        ));
     }
     Ok(Raster {
         name: if samples > 1 {
@@ -211,6 +223,7 @@ pub(crate) fn read(path: &Path, band: Option<usize>) -> Result<Raster> {
         lat,
         notes,
         fill_count,
+        units: meta.units,
     })
 }
 
@@ -281,6 +294,107 @@ fn nodata<R: std::io::Read + std::io::Seek>(
             format!("GDAL_NODATA (tag 42113) is '{text}'; expected a number or nan"),
         )
     })
+}
+
+/// What GDAL's metadata tag says of one band: value = stored * scale + offset, and its unit.
+#[derive(Debug, PartialEq)]
+struct BandMetadata {
+    scale: f64,
+    offset: f64,
+    units: Option<String>,
+}
+
+/// GDAL's metadata tag (42112, ASCII XML: `<GDALMetadata><Item name="SCALE" sample="0"
+/// role="scale">0.01</Item>...`) for band `band` (1-based; the tag's `sample` counts from 0).
+/// Scale 1 and offset 0 where the tag or its items are absent; dataset items (no `sample`) are
+/// not the band's.
+fn band_metadata<R: std::io::Read + std::io::Seek>(
+    path: &Path,
+    dec: &mut Decoder<R>,
+    band: usize,
+) -> Result<BandMetadata> {
+    let mut meta = BandMetadata {
+        scale: 1.0,
+        offset: 0.0,
+        units: None,
+    };
+    let Some(value) = dec
+        .find_tag(Tag::Unknown(GDAL_METADATA))
+        .map_err(|e| tiff_error(path, &e))?
+    else {
+        return Ok(meta);
+    };
+    let bad = |msg: String| fail(path, format!("GDAL_METADATA (tag 42112): {msg}"));
+    let text = value.into_string().map_err(|e| bad(e.to_string()))?;
+    for (role, sample, item) in gdal_items(text.trim_end_matches('\0')).map_err(bad)? {
+        if sample != Some(band - 1) {
+            continue;
+        }
+        let number = || {
+            item.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    bad(format!(
+                        "the {role} of band {band} is '{item}'; expected a finite number"
+                    ))
+                })
+        };
+        match role.as_str() {
+            "scale" => meta.scale = number()?,
+            "offset" => meta.offset = number()?,
+            "unittype" if !item.trim().is_empty() => meta.units = Some(item.trim().to_string()),
+            _ => {}
+        }
+    }
+    Ok(meta)
+}
+
+/// GDAL's metadata tag.
+const GDAL_METADATA: u16 = 42112;
+
+/// The `Item`s of GDAL's metadata XML as (role, sample, text); items without a role are
+/// dataset or domain metadata and are left out.
+fn gdal_items(xml: &str) -> std::result::Result<Vec<(String, Option<usize>, String)>, String> {
+    use quick_xml::events::Event;
+    let mut reader = quick_xml::Reader::from_str(xml);
+    let mut items = Vec::new();
+    let mut open: Option<(String, Option<usize>)> = None;
+    loop {
+        let event = reader.read_event().map_err(|e| {
+            format!(
+                "not valid XML near byte {}: {}",
+                reader.error_position(),
+                crate::error::excerpt(&e.to_string(), 80)
+            )
+        })?;
+        match event {
+            Event::Start(tag) if tag.local_name().as_ref() == "Item" => {
+                let attr = |key: &str| -> Option<String> {
+                    let a = tag.try_get_attribute(key).ok()??;
+                    Some(
+                        a.normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                            .ok()?
+                            .into_owned(),
+                    )
+                };
+                open = attr("role").map(|role| {
+                    let sample = attr("sample").and_then(|s| s.trim().parse().ok());
+                    (role.to_ascii_lowercase(), sample)
+                });
+            }
+            Event::Text(text) => {
+                if let Some((role, sample)) = open.take() {
+                    let value = String::from_utf8_lossy(text.as_bytes()).into_owned();
+                    items.push((role, sample, value));
+                }
+            }
+            Event::End(_) => open = None,
+            Event::Eof => return Ok(items),
+            _ => {}
+        }
+    }
 }
 
 /// Raster space to model space (x: longitude, y: latitude) along each axis, and where a pixel's
@@ -593,5 +707,28 @@ mod tests {
             let e = read(&path, None).unwrap_err().to_string();
             assert!(e.contains(want) && !e.contains('\n'), "{want}: {e}");
         }
+    }
+
+    #[test]
+    fn gdal_metadata_items_are_read_by_role_and_band() {
+        let xml = r#"<GDALMetadata>
+  <Item name="AREA_OR_POINT">Area</Item>
+  <Item name="OFFSET" sample="0" role="offset">-5</Item>
+  <Item name="SCALE" sample="0" role="scale">0.01</Item>
+  <Item name="SCALE" sample="1" role="scale">2</Item>
+  <Item name="UNITTYPE" sample="1" role="unittype">mm</Item>
+</GDALMetadata>"#;
+        let items = gdal_items(xml).unwrap();
+        assert_eq!(
+            items,
+            vec![
+                ("offset".to_string(), Some(0), "-5".to_string()),
+                ("scale".to_string(), Some(0), "0.01".to_string()),
+                ("scale".to_string(), Some(1), "2".to_string()),
+                ("unittype".to_string(), Some(1), "mm".to_string()),
+            ]
+        );
+        let e = gdal_items("<GDALMetadata><Item role=\"scale\">1</Itm>").unwrap_err();
+        assert!(e.starts_with("not valid XML") && !e.contains('\n'), "{e}");
     }
 }

@@ -244,7 +244,7 @@ fn geotiff_grid(
     Ok(GridFile {
         name: r.name,
         selected: Vec::new(),
-        units: None,
+        units: r.units,
         shape: r.shape,
         data: r.data,
         x: axis("lon", "degrees_east", r.lon, CoordKind::Longitude),

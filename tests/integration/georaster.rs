@@ -83,6 +83,7 @@ fn geotiffs_load_north_up_at_rasterios_pixel_centres() {
         ("point", "point.tif", None),
         ("bands2", "bands.tif", Some(2)),
         ("planar3", "planar.tif", Some(3)),
+        ("packed", "packed.tif", None),
     ] {
         let opts = LoadOptions {
             band,
@@ -118,6 +119,18 @@ fn geotiffs_load_north_up_at_rasterios_pixel_centres() {
     );
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("variable: bands band 2"), "{out}");
+    // GDAL's scale, offset and unit (GDAL_METADATA): the values above are stored x 0.01 - 5 as
+    // rasterio computes them, nodata matched in stored units, the unit reaches the grid.
+    assert_eq!(numbers(&r, "packed.scale"), vec![0.01, -5.0]);
+    let packed = dir.path().join("packed.tif");
+    let grid = load(&packed, &LoadOptions::default()).unwrap();
+    assert_eq!(grid.units(0), r["packed.units"][0]);
+    let (code, out, err) = hdrvis(&["info", packed.to_str().unwrap()], dir.path());
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("values = stored x 0.01 + -5 (GDAL scale and offset, GDAL_METADATA)"),
+        "{out}"
+    );
 }
 
 #[test]

@@ -105,6 +105,27 @@ def geotiff(out):
     report_tif("bands2", os.path.join(out, "bands.tif"), band=2)
     report_tif("planar3", os.path.join(out, "planar.tif"), band=3)
 
+    # Packed: int16 with GDAL's scale, offset and unit (GDAL_METADATA), nodata in stored units.
+    packed = rng.integers(-3000, 3000, size=(4, 5)).astype(np.int16)
+    packed[2, 3] = -32768
+    t = Affine(0.5, 0, 100.0, 0, -0.5, 10.0)
+    with rasterio.open(os.path.join(out, "packed.tif"), "w", driver="GTiff", height=4, width=5,
+                       count=1, dtype="int16", transform=t, crs=CRS.from_string("EPSG:4326"),
+                       nodata=-32768) as d:
+        d.scales = (0.01,)
+        d.offsets = (-5.0,)
+        d.units = ("m",)
+        d.write(packed[None])
+    with rasterio.open(os.path.join(out, "packed.tif")) as d:
+        a = d.read(1, masked=True).astype(np.float64) * d.scales[0] + d.offsets[0]
+        lon, lat = centres(d.transform, d.height, d.width)
+        emit("packed.values", floats(a))
+        emit("packed.lon", lon)
+        emit("packed.lat", lat)
+        emit("packed.masked", int(np.ma.count_masked(a)))
+        emit("packed.scale", [d.scales[0], d.offsets[0]])
+        print("packed.units", d.units[0])
+
     write_tif(os.path.join(out, "utm.tif"), north, Affine(30, 0, 500000, 0, -30, 4000000), crs="EPSG:32654")
     write_tif(os.path.join(out, "rotated.tif"), north, Affine(0.25, 0.1, 139.0, 0.1, -0.5, 36.0))
     import warnings
