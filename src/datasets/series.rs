@@ -1,5 +1,5 @@
 //! One colour range for a time series: the range of a NetCDF variable over the steps of its CF
-//! time axis that a movie shows, computed once before its frames are drawn, so that every frame
+//! time axis (or of a MintPy time series over its dates) that a movie shows, computed once before its frames are drawn, so that every frame
 //! maps the same value to the same colour. The steps are read one at a time (only their
 //! hyperslabs); missing values are left out. As xarray's plots do with `robust=True`, the range
 //! may be the 2nd and 98th percentiles instead of the extremes (numpy's linear interpolation
@@ -7,8 +7,8 @@
 
 use std::path::Path;
 
-use super::netcdf;
-use super::select::time_axis;
+use super::select::{time_axis, Selection};
+use super::{hdf5, mintpy, netcdf};
 use crate::error::{Error, Result};
 
 /// What [`series_range`] computes over.
@@ -26,13 +26,13 @@ pub struct SeriesOptions {
 
 /// The range `[lo, hi]` of the variable over the chosen steps (see the module documentation).
 pub fn series_range(path: &Path, opts: &SeriesOptions) -> Result<[f64; 2]> {
-    let axis = time_axis(path, opts.variable.as_deref())?;
-    let n = axis.dates.len();
+    let series = Series::open(path, opts.variable.as_deref())?;
+    let n = series.steps;
     let field = format!(
         "{}: variable '{}', dimension '{}'",
         path.display(),
-        axis.variable,
-        axis.dim
+        series.variable,
+        series.dim
     );
     let steps: Vec<usize> = match &opts.steps {
         None => (0..n).collect(),
@@ -49,18 +49,14 @@ pub fn series_range(path: &Path, opts: &SeriesOptions) -> Result<[f64; 2]> {
             })
             .collect::<Result<_>>()?,
     };
-    let dims = netcdf::dims_in(&netcdf::list_variables(path)?, &axis.variable);
-    let t = dims
-        .iter()
-        .position(|(d, _)| *d == axis.dim)
-        .expect("the time axis is one of the variable's dimensions");
     let mut values = Vec::new();
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for &step in &steps {
-        let mut picks = vec![None; dims.len()];
-        picks[t] = Some(step);
-        let slab = netcdf::read_variable_picked(path, &axis.variable, &picks)?;
-        for &v in slab.data.iter().filter(|v| v.is_finite()) {
+        for &v in series
+            .read_step(path, step)?
+            .iter()
+            .filter(|v| v.is_finite())
+        {
             (lo, hi) = (lo.min(v), hi.max(v));
             if opts.robust {
                 values.push(v);
@@ -72,7 +68,7 @@ pub fn series_range(path: &Path, opts: &SeriesOptions) -> Result<[f64; 2]> {
             path,
             format!(
                 "variable '{}' is missing everywhere in the {} chosen steps",
-                axis.variable,
+                series.variable,
                 steps.len()
             ),
         ));
@@ -88,6 +84,63 @@ pub fn series_range(path: &Path, opts: &SeriesOptions) -> Result<[f64; 2]> {
         }
         None => [lo, hi],
     })
+}
+
+/// A variable with a time axis, whichever file holds it: a NetCDF variable's CF time axis, or a
+/// MintPy time series' `date` list.
+struct Series {
+    variable: String,
+    dim: String,
+    steps: usize,
+    /// NetCDF: the variable's dimensions and the time axis' position among them; `None` for
+    /// MintPy, whose steps are read by selection.
+    netcdf: Option<(usize, usize)>,
+    /// The variable as named by the caller (MintPy's default dataset when `None`).
+    requested: Option<String>,
+}
+
+impl Series {
+    fn open(path: &Path, var: Option<&str>) -> Result<Series> {
+        if hdf5::EXTENSIONS.contains(&crate::io::extension(path).as_str()) {
+            if let Some(product) = mintpy::open(path)? {
+                let steps = mintpy::time_steps(path, &product, var)?.len();
+                return Ok(Series {
+                    variable: var.unwrap_or("timeseries").to_string(),
+                    dim: "time".into(),
+                    steps,
+                    netcdf: None,
+                    requested: var.map(str::to_string),
+                });
+            }
+        }
+        let axis = time_axis(path, var)?;
+        let dims = netcdf::dims_in(&netcdf::list_variables(path)?, &axis.variable);
+        let t = dims
+            .iter()
+            .position(|(d, _)| *d == axis.dim)
+            .expect("the time axis is one of the variable's dimensions");
+        Ok(Series {
+            steps: axis.dates.len(),
+            netcdf: Some((dims.len(), t)),
+            requested: Some(axis.variable.clone()),
+            variable: axis.variable,
+            dim: axis.dim,
+        })
+    }
+
+    /// The values of one step (only its hyperslab is read).
+    fn read_step(&self, path: &Path, step: usize) -> Result<Vec<f64>> {
+        if let Some((rank, t)) = self.netcdf {
+            let mut picks = vec![None; rank];
+            picks[t] = Some(step);
+            return Ok(netcdf::read_variable_picked(path, &self.variable, &picks)?.data);
+        }
+        let sel = Selection {
+            index: vec![(self.dim.clone(), step as i64)],
+            at: Vec::new(),
+        };
+        Ok(super::read_array_sel(path, self.requested.as_deref(), None, &sel)?.data)
+    }
 }
 
 /// The `p`th percentile of sorted `v`, linear between the order statistics around

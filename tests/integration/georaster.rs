@@ -260,6 +260,36 @@ fn mintpy_products_load_north_up_with_their_units_and_dates() {
     );
     assert_eq!(g.units(0), "m");
 
+    // One colour range over the series' dates: numpy's extremes, and its 2nd/98th percentiles
+    // over dates 1 and 3.
+    use hdrvis::datasets::series::{series_range, SeriesOptions};
+    let series = dir.path().join("timeseries.h5");
+    let all = series_range(&series, &SeriesOptions::default()).unwrap();
+    assert_eq!(all.to_vec(), numbers(&r, "timeseries.range"));
+    let robust = SeriesOptions {
+        steps: Some(vec![1, 3]),
+        robust: true,
+        ..SeriesOptions::default()
+    };
+    let got = series_range(&series, &robust).unwrap();
+    let want = numbers(&r, "timeseries.robust13");
+    for k in 0..2 {
+        assert!(
+            (got[k] - want[k]).abs() <= 1e-12 * want[k].abs(),
+            "{got:?} vs {want:?}"
+        );
+    }
+    let e = series_range(
+        &series,
+        &SeriesOptions {
+            steps: Some(vec![5]),
+            ..SeriesOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("step 5 is out of range; expected 0..=4"), "{e}");
+
     // Radar coordinates keep storage order: row 0 is the grid's first (bottom) row.
     let radar = load(&dir.path().join("radar.h5"), &LoadOptions::default()).unwrap();
     assert_eq!(radar.x().kind, CoordKind::Plain);

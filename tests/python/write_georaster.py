@@ -183,6 +183,10 @@ def mintpy(out):
               "bperp": np.linspace(-50, 50, len(dates)).astype(np.float32)})
     emit("timeseries.dates", dates)
     emit("timeseries.index3", floats(ts[3]))
+    # One colour range over the series, as numpy finds it (float32 values widened to float64).
+    wide = ts.astype(np.float64)
+    emit("timeseries.range", [wide.min(), wide.max()])
+    emit("timeseries.robust13", list(np.percentile(wide[[1, 3]], [2, 98])))
     # The nearest acquisition to 2020-01-15, as numpy finds it.
     target = np.datetime64("2020-01-15")
     days = np.array([np.datetime64(f"{d[:4]}-{d[4:6]}-{d[6:]}") for d in dates])
