@@ -265,7 +265,7 @@ fn link_names(
 }
 
 /// The numeric dataset `name` (a path inside the file, with or without the leading '/'): its
-/// shape, values (C order, as f32 volumes hold them) and `units` attribute. Without `name`, an
+/// shape, values (C order, in f64: float64 data keep their precision) and `units` attribute. Without `name`, an
 /// error lists the 3-D numeric datasets.
 pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData> {
     let listed = list_datasets(path)?;
@@ -318,7 +318,7 @@ pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData>
         .try_fold(1usize, |acc, &n| acc.checked_mul(n))
         .ok_or_else(|| fail(format!("shape {:?} is too large", listing.shape)))?;
     crate::model::volume::check_allocation(
-        (count as u64).saturating_mul(4 + sample.size() as u64),
+        (count as u64).saturating_mul(8 + sample.size() as u64),
         &format!("{}: dataset '{full}'", path.display()),
     )?;
     let raw = dataset.read_raw_bytes().map_err(|e| fail(e.to_string()))?;
@@ -336,11 +336,7 @@ pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData>
         .and_then(|a| a.read_string().ok())
         .map(|u| u.trim_end_matches('\0').to_string())
         .filter(|u| !u.is_empty());
-    let values = sample
-        .decode(big, &raw)
-        .into_iter()
-        .map(f64::from)
-        .collect();
+    let values = sample.decode_f64(big, &raw);
     let mut array = super::plain_array(&full, listing.shape.clone(), listing.dtype.clone(), values);
     array.units = units;
     Ok(array)

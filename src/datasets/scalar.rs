@@ -50,6 +50,33 @@ impl Scalar {
 
     /// Converts `bytes` (a whole number of samples) into `out`, big- or little-endian.
     pub(crate) fn decode_into(self, big: bool, bytes: &[u8], out: &mut [f32]) {
+        if self == Scalar::F32 && !big {
+            for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+                *o = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            }
+            return;
+        }
+        self.decode_as(big, bytes, out, |v| v, |v| v as f32);
+    }
+
+    /// [`Scalar::decode_into`] for f64 values: every type but 64-bit integers beyond 2^53 exactly
+    /// (float64 data keep their precision).
+    pub(crate) fn decode_f64(self, big: bool, bytes: &[u8]) -> Vec<f64> {
+        let mut out = vec![0.0; bytes.len() / self.size()];
+        self.decode_as(big, bytes, &mut out, f64::from, |v| v);
+        out
+    }
+
+    /// The one conversion of samples: floats of 32 bits or less through `from_f32`, every other
+    /// type through `from_f64` (which holds integers up to 2^53 exactly).
+    fn decode_as<T>(
+        self,
+        big: bool,
+        bytes: &[u8],
+        out: &mut [T],
+        from_f32: impl Fn(f32) -> T,
+        from_f64: impl Fn(f64) -> T,
+    ) {
         macro_rules! conv {
             ($t:ty, $n:literal, $f:expr) => {{
                 for (o, c) in out.iter_mut().zip(bytes.chunks_exact($n)) {
@@ -64,22 +91,17 @@ impl Scalar {
             }};
         }
         match self {
-            Scalar::F32 if !big => {
-                for (o, c) in out.iter_mut().zip(bytes.chunks_exact(4)) {
-                    *o = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-                }
-            }
-            Scalar::F32 => conv!(f32, 4, |v| v),
-            Scalar::F64 => conv!(f64, 8, |v: f64| v as f32),
-            Scalar::F16 => conv!(u16, 2, |v| half::f16::from_bits(v).to_f32()),
-            Scalar::I8 => conv!(i8, 1, |v| v as f32),
-            Scalar::U8 => conv!(u8, 1, |v| v as f32),
-            Scalar::I16 => conv!(i16, 2, |v| v as f32),
-            Scalar::U16 => conv!(u16, 2, |v| v as f32),
-            Scalar::I32 => conv!(i32, 4, |v: i32| v as f64 as f32),
-            Scalar::U32 => conv!(u32, 4, |v: u32| v as f64 as f32),
-            Scalar::I64 => conv!(i64, 8, |v: i64| v as f64 as f32),
-            Scalar::U64 => conv!(u64, 8, |v: u64| v as f64 as f32),
+            Scalar::F32 => conv!(f32, 4, &from_f32),
+            Scalar::F64 => conv!(f64, 8, &from_f64),
+            Scalar::F16 => conv!(u16, 2, |v| from_f32(half::f16::from_bits(v).to_f32())),
+            Scalar::I8 => conv!(i8, 1, |v| from_f64(f64::from(v))),
+            Scalar::U8 => conv!(u8, 1, |v| from_f64(f64::from(v))),
+            Scalar::I16 => conv!(i16, 2, |v| from_f64(f64::from(v))),
+            Scalar::U16 => conv!(u16, 2, |v| from_f64(f64::from(v))),
+            Scalar::I32 => conv!(i32, 4, |v| from_f64(f64::from(v))),
+            Scalar::U32 => conv!(u32, 4, |v| from_f64(f64::from(v))),
+            Scalar::I64 => conv!(i64, 8, |v| from_f64(v as f64)),
+            Scalar::U64 => conv!(u64, 8, |v| from_f64(v as f64)),
         }
     }
 
@@ -137,5 +159,20 @@ mod tests {
             let be: Vec<u8> = le.iter().rev().copied().collect();
             assert_eq!(s.decode(true, &be), [want], "{s:?} big-endian");
         }
+    }
+
+    #[test]
+    fn f64_decoding_keeps_float64_and_integer_precision() {
+        let values: [f64; 3] = [1.0 + 1e-12, -3.3e-300, 123_456_789.123_456_78];
+        let le: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let be: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+        assert_eq!(Scalar::F64.decode_f64(false, &le), values);
+        assert_eq!(Scalar::F64.decode_f64(true, &be), values);
+        let ints = [i32::MIN, 16_777_217, i32::MAX];
+        let bytes: Vec<u8> = ints.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let want: Vec<f64> = ints.iter().map(|&v| f64::from(v)).collect();
+        assert_eq!(Scalar::I32.decode_f64(false, &bytes), want);
+        // The f32 decoding of the same samples rounds once, as before.
+        assert_eq!(Scalar::I32.decode(false, &bytes)[1], 16_777_216.0);
     }
 }

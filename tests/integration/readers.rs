@@ -27,6 +27,27 @@ fn hdf5_lz4_blocks_smaller_than_the_chunk_read_like_h5py() {
     }
 }
 
+/// A float64 HDF5 grid keeps every bit: values 1e-12 apart, 1e8 and 1e-300 as h5py wrote them.
+#[test]
+fn hdf5_float64_grids_keep_their_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = python_reference("write_reader_cases.py", dir.path(), "float64") else {
+        return;
+    };
+    let opts = hdrvis::datasets::LoadOptions {
+        variable: Some("z".into()),
+        ..Default::default()
+    };
+    let grid = hdrvis::datasets::load_grid_with(&dir.path().join("float64.h5"), &opts).unwrap();
+    let mut got = grid.property_at(0).1.to_vec();
+    // Plain HDF5 grids keep storage order with row 0 at the bottom: the values as stored.
+    let want = reference_numbers(&r, "z");
+    got.sort_by(f64::total_cmp);
+    let mut sorted = want.clone();
+    sorted.sort_by(f64::total_cmp);
+    assert_eq!(got, sorted);
+}
+
 /// One object hdrvis cannot read (a virtual dataset), a committed datatype and an attribute that
 /// is not UTF-8 leave the rest of an HDF5 file readable: `info` lists the virtual dataset with
 /// the reason, and naming it is a one-line error.

@@ -154,7 +154,15 @@ def exr(out):
             report(f"{name}_{channel}", v.astype("f8").ravel())
 
 
-CASES = {"hdf5_lz4": hdf5_lz4, "partial": partial, "strings": strings, "exr": exr}
+def float64(out):
+    np, h5py = need("numpy", "h5py")
+    z = 1.0 + np.arange(12).reshape(3, 4) * 1e-12 + np.array([0.0, 1e8, -1e-300, 0.0])
+    with h5py.File(os.path.join(out, "float64.h5"), "w") as f:
+        f.create_dataset("z", data=z)
+    report("z", z.ravel())
+
+
+CASES = {"float64": float64, "hdf5_lz4": hdf5_lz4, "partial": partial, "strings": strings, "exr": exr}
 
 
 def main():
