@@ -358,13 +358,18 @@ impl RenderSession {
     }
 
     /// The false-colour view of log luminance.
-    pub fn false_colour(&self, img: &Arc<HdrImage>) -> Result<Arc<HdrImage>> {
+    pub fn false_colour(
+        &self,
+        img: &Arc<HdrImage>,
+        decades: Option<(f64, f64)>,
+    ) -> Result<Arc<HdrImage>> {
         let key = KeyBuilder::new("false colour")
             .u64(self.image_key(img))
+            .debug(&decades)
             .finish();
         self.stage("false-colour", key, image_bytes, append_pass, || {
             Ok((
-                self.tonemapper()?.false_colour(img, 0.0, None)?,
+                self.tonemapper()?.false_colour(img, 0.0, decades)?,
                 String::new(),
             ))
         })

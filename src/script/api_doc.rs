@@ -8,7 +8,7 @@ use super::api_datasets::{
 };
 use super::api_fields::RESAMPLE;
 use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
-use super::api_post::TONEMAP;
+use super::api_post::{FALSE_COLOUR, TONEMAP};
 use super::api_render::{CUT, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
 use super::api_surface::{COASTLINES, LOAD_GRID, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
@@ -122,6 +122,7 @@ pub(crate) const API: &[ApiEntry] = &[
     with(e("exposure and tone mapping", "tonemap", &["image: Image", "options: map"], "Image", "Display-referred image in [0, 1] (GPU, with an f64 CPU reference); each operator takes only its own parameters. Options:"), &[&TONEMAP]),
     e("exposure and tone mapping", "tonemap", &["image: Image", "op: string"], "Image", "As above with the operator's defaults."),
     e("exposure and tone mapping", "false_colour", &["image: Image"], "Image", "False-colour view of log10 luminance with a decade legend."),
+    with(e("exposure and tone mapping", "false_colour", &["image: Image", "options: map"], "Image", "As above over a given range of luminance (the same colours for every image of a sweep). Options:"), &[&FALSE_COLOUR]),
     e("output", "preview", &["image: Image"], "()", "Shows the image inline when stdout is a terminal (kitty, iTerm2, sixel or half blocks); a no-op otherwise. Under `hdrvis tui` the last previewed image is what the TUI shows; under `hdrvis run --preview` previews are printed once after the run."),
     e("output", "save_exr", &["image: Image", "path: string"], "()", "Linear OpenEXR (float R, G, B, A plus extra channels and provenance), under the output folder."),
     e("output", "save_png", &["image: Image", "path: string"], "()", "8-bit sRGB view of the image at 0 EV, under the output folder."),

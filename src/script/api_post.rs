@@ -5,7 +5,7 @@
 //! `save_png` (registered with the render API) writes those with the sRGB curve only.
 
 use super::api_render::ScriptImage;
-use super::convert::{err, num, to_rhai, RResult};
+use super::convert::{err, num, pair, to_rhai, RResult};
 use super::options::{opt, Kind, OptionTable};
 use super::ScriptHost;
 use crate::tonemap::{Gamut, Operator, ToneMapSettings, MAX_EV};
@@ -43,6 +43,32 @@ pub(crate) const TONEMAP: OptionTable = OptionTable {
     call: "tonemap(exposure(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), 0.0), OPTS)",
     base: "#{}",
 };
+
+/// Options of `false_colour(image, #{...})`.
+pub(crate) const FALSE_COLOUR: OptionTable = OptionTable {
+    function: "false_colour",
+    options: &[
+        opt("domain", Kind::Value("[lo, hi]", "[0.001, 10.0]"), "the image's whole decades", "the luminances turbo spans, lo > 0 (on a log10 scale): one colour per value across a sweep or movie; values beyond take the end colours"),
+    ],
+    call: "false_colour(exposure(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), 0.0), OPTS)",
+    base: "#{}",
+};
+
+/// The decades `false_colour`'s options choose (none: the image's own).
+fn false_colour_decades(opts: &Map) -> RResult<Option<(f64, f64)>> {
+    let given = FALSE_COLOUR.read(opts)?;
+    let Some(d) = given.value("domain")? else {
+        return Ok(None);
+    };
+    let [lo, hi] = pair(d, "false_colour.domain")?;
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return err(
+            "false_colour.domain",
+            format!("[{lo}, {hi}]; expected luminances 0 < lo < hi"),
+        );
+    }
+    Ok(Some((lo.log10(), hi.log10())))
+}
 
 /// Builds tone-mapping settings from a script's option map (defaults: Reinhard global, 0 EV).
 pub(crate) fn settings_from_map(opts: &Map) -> RResult<ToneMapSettings> {
@@ -136,14 +162,25 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         },
     );
 
-    let h = host;
+    let h = host.clone();
     engine.register_fn(
         "false_colour",
         move |img: &mut ScriptImage| -> RResult<ScriptImage> {
             if h.plan_only {
                 return Ok(planned_display_image(img));
             }
-            h.session.false_colour(img).map_err(to_rhai)
+            h.session.false_colour(img, None).map_err(to_rhai)
+        },
+    );
+    let h = host;
+    engine.register_fn(
+        "false_colour",
+        move |img: &mut ScriptImage, opts: Map| -> RResult<ScriptImage> {
+            let decades = false_colour_decades(&opts)?;
+            if h.plan_only {
+                return Ok(planned_display_image(img));
+            }
+            h.session.false_colour(img, decades).map_err(to_rhai)
         },
     );
 }

@@ -603,6 +603,7 @@ save_png(ldr, "reinhard.png");
 save_exr(ldr, "reinhard.exr");
 save_png(tonemap(exposure(hdr, 1.0), "durand"), "durand.png");
 save_png(false_colour(hdr), "fc.png");
+save_exr(false_colour(hdr, #{ domain: [0.1, 1000.0] }), "fc_domain.exr");
 "#,
     )
     .unwrap();
@@ -617,6 +618,13 @@ save_png(false_colour(hdr), "fc.png");
     for f in ["ev0.png", "ev1.png", "ev2.png", "durand.png", "fc.png"] {
         assert!(d.join("out").join(f).exists(), "{f}");
     }
+    // A given domain: luminance 0.1 … 1000 is decades -1 … 3, as the CPU reference draws them
+    // (the image's own range, 0.01 … 100, would be -2 … 2).
+    let fc = hdrvis::io::exr::read_exr(&d.join("out/fc_domain.exr")).unwrap();
+    let cpu = false_colour_log10(&img, 0.0, Some((-1.0, 3.0))).unwrap();
+    assert_eq!(fc.meta("false_colour.log10_min"), Some("-1"));
+    let (worst, _) = max_diff(&cpu, &fc);
+    assert!(worst < 1e-2, "false colour with a domain: {worst}");
 
     for (script, needle) in [
         (
@@ -632,6 +640,14 @@ save_png(false_colour(hdr), "fc.png");
             "reinhard.key",
         ),
         (r#"exposure(load_image("in.exr"), 1.0 / 0.0);"#, "finite"),
+        (
+            r#"false_colour(load_image("in.exr"), #{domain: [0.0, 1.0]});"#,
+            "false_colour.domain: [0, 1]; expected luminances 0 < lo < hi",
+        ),
+        (
+            r#"false_colour(load_image("in.exr"), #{domian: [1.0, 2.0]});"#,
+            "unknown option domian; known options: domain",
+        ),
     ] {
         std::fs::write(d.join("bad.rhai"), script).unwrap();
         let (rc, _, err) = hdrvis(&["run", "bad.rhai", "--out", "bad"], d);
