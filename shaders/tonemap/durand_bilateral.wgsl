@@ -79,6 +79,7 @@ fn grid_splat(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
         return;
     }
     var acc: array<vec2<f32>, MAX_LEVELS>;
+    let dd = params.level_step / params.sigma_range;
     let x0 = (c % params.grid_width) * params.cell;
     let y0 = (params.band_first + c / params.grid_width) * params.cell;
     let x1 = min(x0 + params.cell, params.width);
@@ -88,7 +89,6 @@ fn grid_splat(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
             let l = log_luminance(image[(y - params.window_first) * params.width + x]);
             if l.y == 2.0 {
                 let d0 = (l.x - params.first_level) / params.sigma_range;
-                let dd = params.level_step / params.sigma_range;
                 for (var j = 0u; j < params.levels; j = j + 1u) {
                     let d = d0 - f32(j) * dd;
                     let w = exp(max(-0.5 * d * d, MIN_LOG_WEIGHT));

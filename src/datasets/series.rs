@@ -89,14 +89,19 @@ pub fn series_range(path: &Path, opts: &SeriesOptions) -> Result<[f64; 2]> {
 /// A variable with a time axis, whichever file holds it: a NetCDF variable's CF time axis, or a
 /// MintPy time series' `date` list.
 struct Series {
+    /// The variable's name, for messages.
     variable: String,
     dim: String,
     steps: usize,
-    /// NetCDF: the variable's dimensions and the time axis' position among them; `None` for
-    /// MintPy, whose steps are read by selection.
-    netcdf: Option<(usize, usize)>,
-    /// The variable as named by the caller (MintPy's default dataset when `None`).
-    requested: Option<String>,
+    reader: StepReader,
+}
+
+/// How one step is read.
+enum StepReader {
+    /// A hyperslab: the variable's rank and the time axis' position among its dimensions.
+    NetCdf { rank: usize, t: usize },
+    /// A selection on the `time` axis of the dataset named by the caller (else the default).
+    MintPy { dataset: Option<String> },
 }
 
 impl Series {
@@ -108,8 +113,9 @@ impl Series {
                     variable: var.unwrap_or("timeseries").to_string(),
                     dim: "time".into(),
                     steps,
-                    netcdf: None,
-                    requested: var.map(str::to_string),
+                    reader: StepReader::MintPy {
+                        dataset: var.map(str::to_string),
+                    },
                 });
             }
         }
@@ -121,8 +127,10 @@ impl Series {
             .expect("the time axis is one of the variable's dimensions");
         Ok(Series {
             steps: axis.dates.len(),
-            netcdf: Some((dims.len(), t)),
-            requested: Some(axis.variable.clone()),
+            reader: StepReader::NetCdf {
+                rank: dims.len(),
+                t,
+            },
             variable: axis.variable,
             dim: axis.dim,
         })
@@ -130,16 +138,20 @@ impl Series {
 
     /// The values of one step (only its hyperslab is read).
     fn read_step(&self, path: &Path, step: usize) -> Result<Vec<f64>> {
-        if let Some((rank, t)) = self.netcdf {
-            let mut picks = vec![None; rank];
-            picks[t] = Some(step);
-            return Ok(netcdf::read_variable_picked(path, &self.variable, &picks)?.data);
+        match &self.reader {
+            StepReader::NetCdf { rank, t } => {
+                let mut picks = vec![None; *rank];
+                picks[*t] = Some(step);
+                Ok(netcdf::read_variable_picked(path, &self.variable, &picks)?.data)
+            }
+            StepReader::MintPy { dataset } => {
+                let sel = Selection {
+                    index: vec![(self.dim.clone(), step as i64)],
+                    at: Vec::new(),
+                };
+                Ok(super::read_array_sel(path, dataset.as_deref(), None, &sel)?.data)
+            }
         }
-        let sel = Selection {
-            index: vec![(self.dim.clone(), step as i64)],
-            at: Vec::new(),
-        };
-        Ok(super::read_array_sel(path, self.requested.as_deref(), None, &sel)?.data)
     }
 }
 

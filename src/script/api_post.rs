@@ -162,25 +162,23 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         },
     );
 
-    let h = host.clone();
+    let h = host;
+    let false_colour = move |img: &mut ScriptImage, opts: &Map| -> RResult<ScriptImage> {
+        let decades = false_colour_decades(opts)?;
+        if h.plan_only {
+            return Ok(planned_display_image(img));
+        }
+        h.session.false_colour(img, decades).map_err(to_rhai)
+    };
+    let false_colour2 = false_colour.clone();
     engine.register_fn(
         "false_colour",
-        move |img: &mut ScriptImage| -> RResult<ScriptImage> {
-            if h.plan_only {
-                return Ok(planned_display_image(img));
-            }
-            h.session.false_colour(img, None).map_err(to_rhai)
-        },
+        move |img: &mut ScriptImage| -> RResult<ScriptImage> { false_colour2(img, &Map::new()) },
     );
-    let h = host;
     engine.register_fn(
         "false_colour",
         move |img: &mut ScriptImage, opts: Map| -> RResult<ScriptImage> {
-            let decades = false_colour_decades(&opts)?;
-            if h.plan_only {
-                return Ok(planned_display_image(img));
-            }
-            h.session.false_colour(img, decades).map_err(to_rhai)
+            false_colour(img, &opts)
         },
     );
 }

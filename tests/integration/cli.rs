@@ -517,6 +517,17 @@ fn grid_statistics_derived_properties_and_subsets() {
     assert_eq!((img.width, img.height), (20, 20));
 }
 
+/// The accuracy report's CSV in `out`: its text, and its rows (after the header) split at commas.
+fn accuracy_csv(out: &Path) -> (String, Vec<Vec<String>>) {
+    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
+    let rows = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    (csv, rows)
+}
+
 #[test]
 fn accuracy_report_writes_table_files_and_chart() {
     let dir = tempfile::tempdir().unwrap();
@@ -559,12 +570,7 @@ fn accuracy_report_writes_table_files_and_chart() {
             "{variant} missing:\n{stdout}"
         );
     }
-    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
-    let rows: Vec<Vec<&str>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
+    let (csv, rows) = accuracy_csv(&out);
     // f64 (GPU) joins where the adapter has shader f64 (lavapipe does), within 1e-12 of the CPU.
     let has_gpu_f64 = rows.iter().any(|r| r[1] == "f64 (GPU)");
     assert_eq!(rows.len(), 12 + has_gpu_f64 as usize, "{csv}");
@@ -607,12 +613,7 @@ fn accuracy_report_scores_local_tone_mapping_against_exact_operators() {
         dir.path(),
     );
     assert_eq!(code, 0, "{stderr}");
-    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
-    let rows: Vec<Vec<&str>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
+    let (csv, rows) = accuracy_csv(&out);
     assert_eq!(rows.len(), 16, "{csv}");
     let rel = |scene: &str, variant: &str| -> f64 {
         let row = rows.iter().find(|r| r[0] == scene && r[1] == variant);
@@ -659,18 +660,13 @@ fn shell_scene_compares_native_sampling_with_resampled_boxes() {
         dir.path(),
     );
     assert_eq!(code, 0, "{stderr}");
-    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
-    let rows: Vec<Vec<&str>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
+    let (csv, rows) = accuracy_csv(&out);
     let row = |v: &str| {
         rows.iter()
             .find(|r| r[1] == v)
             .unwrap_or_else(|| panic!("{v}: {csv}"))
     };
-    let num = |r: &Vec<&str>, c: usize| -> f64 { r[c].parse().unwrap() };
+    let num = |r: &Vec<String>, c: usize| -> f64 { r[c].parse().unwrap() };
     assert_eq!(rows.len(), 6, "{csv}");
     assert_eq!(num(row("box 32^3"), 8), 0.125);
     assert_eq!(num(row("box 64^3"), 8), 1.0);
@@ -754,12 +750,7 @@ fn accuracy_report_compares_naive_and_reduced_interference_phase() {
             stdout.contains(&format!("{scene}: the reduced phase has rel RMS")),
             "{stdout}"
         );
-        let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
-        let rows: Vec<Vec<&str>> = csv
-            .lines()
-            .skip(1)
-            .map(|l| l.split(',').collect())
-            .collect();
+        let (csv, rows) = accuracy_csv(&out);
         assert_eq!(rows.len(), 3, "{csv}");
         let field = |v: &str, k: usize| -> f64 {
             rows.iter().find(|r| r[1] == v).unwrap()[k].parse().unwrap()

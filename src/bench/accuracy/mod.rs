@@ -301,11 +301,7 @@ fn accuracy_metrics(
         .iter()
         .map(|p| p[0].max(p[1]).max(p[2]))
         .fold(0.0, f64::max);
-    let max_rel = got
-        .iter()
-        .zip(reference)
-        .flat_map(|(g, r)| (0..3).map(move |c| (g[c] - r[c]).abs() / r[c].abs().max(1e-3 * peak)))
-        .fold(0.0f64, f64::max);
+    let max_rel = max_relative(got, reference, 1e-3 * peak);
     let (rel_rms, lost) = (relative_rms(got, reference), lost_detail(got, reference));
     // The same display transform for both: Reinhard global with the reference's statistics is
     // not available per image, so each is tone-mapped on its own, as a user would see it.
@@ -316,6 +312,14 @@ fn accuracy_metrics(
     let a = crate::tonemap::cpu::tonemap_cpu(&to_image(got), &settings)?.to_srgb8();
     let b = crate::tonemap::cpu::tonemap_cpu(&to_image(reference), &settings)?.to_srgb8();
     Ok((rel_rms, max_rel, psnr_8bit(&a, &b), lost))
+}
+
+/// Largest |x − ref| / max(|ref|, floor) over the colour channels.
+pub(crate) fn max_relative(got: &[[f64; 4]], reference: &[[f64; 4]], floor: f64) -> f64 {
+    got.iter()
+        .zip(reference)
+        .flat_map(|(g, r)| (0..3).map(move |c| (g[c] - r[c]).abs() / r[c].abs().max(floor)))
+        .fold(0.0f64, f64::max)
 }
 
 /// PSNR of one 8-bit picture against another, dB (infinite when they are equal).

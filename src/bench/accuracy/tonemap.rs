@@ -7,7 +7,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::{lost_detail, median, psnr_8bit, relative_rms, AccuracyRow};
+use super::{lost_detail, max_relative, median, psnr_8bit, relative_rms, AccuracyRow};
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::model::HdrImage;
@@ -99,17 +99,12 @@ fn display_row(
     let as_f64 =
         |img: &HdrImage| -> Vec<[f64; 4]> { img.pixels.iter().map(|p| p.map(f64::from)).collect() };
     let (g, e) = (as_f64(got), as_f64(exact));
-    let max_rel = g
-        .iter()
-        .zip(&e)
-        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].max(1e-3)))
-        .fold(0.0, f64::max);
     AccuracyRow {
         scene: scene.to_string(),
         variant,
         median_ms: median(ms),
         rel_rms: relative_rms(&g, &e),
-        max_rel,
+        max_rel: max_relative(&g, &e, 1e-3),
         psnr_8bit: psnr_8bit(&got.to_srgb8(), &exact.to_srgb8()),
         lost_detail: lost_detail(&g, &e),
         reference: EXACT,
