@@ -50,6 +50,10 @@ struct Mapped {
     // the volume's corner (an absent range spans far beyond the volume); w 1 when it exists.
     box_cut_lo: vec4<f32>,
     box_cut_hi: vec4<f32>,
+    // The skip grid's world cells (render::mapped_skipping): xyz its lower corner in this frame
+    // and cells per unit length.
+    skip_lo: vec4<f32>,
+    skip_cells: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -62,6 +66,12 @@ struct Mapped {
 #endif
 @group(0) @binding(5) var<uniform> G: Mapped;
 @group(0) @binding(6) var<storage, read> coords: array<f32>;
+#if SKIPPING
+// Per octant of ray directions, the edge of the cube of empty world cells from each cell
+// (render::skipping::octant_extents), read through a nearest-texel sampler.
+@group(0) @binding(7) var skip_grid: texture_3d<f32>;
+@group(0) @binding(8) var skip_sampler: sampler;
+#endif
 
 const DEG: f32 = 57.295779513;
 
@@ -606,6 +616,49 @@ fn walk_after(w: Walk, r: Ray2, parts: Parts, second: u32) -> Walk {
 #endif
 }
 
+#if SKIPPING
+// The ray in skip-grid cells: the origin at q0, dq cells per unit of t, its inverse (huge along
+// an axis the ray does not move on, whose exit then never comes first), the cube's exit faces
+// (`up`), the last cell, the first z of the ray's octant in the grid, the grid's texel size and
+// a step of t that moves the ray about 1e-3 of a cell (`nudge`).
+struct SkipRay {
+    q0: vec3<f32>,
+    dq: vec3<f32>,
+    inv_dq: vec3<f32>,
+    up: vec3<bool>,
+    top: vec3<i32>,
+    layer: i32,
+    inv_cells: vec3<f32>,
+    nudge: f32,
+}
+
+fn skip_ray(r: Ray2) -> SkipRay {
+    let dq = r.d * G.skip_cells.xyz;
+    let moves = abs(dq) > vec3<f32>(1e-20);
+    let inv_dq = select(vec3<f32>(1.0e30), 1.0 / dq, moves);
+    let up = select(vec3<bool>(true), dq >= vec3<f32>(0.0), moves);
+    let cells = vec3<i32>(textureDimensions(skip_grid)) / vec3<i32>(1, 1, 8);
+    let octant = select(1, 0, up.x) + select(2, 0, up.y) + select(4, 0, up.z);
+    let fastest = max(abs(dq.x), max(abs(dq.y), abs(dq.z)));
+    return SkipRay((r.o - G.skip_lo.xyz) * G.skip_cells.xyz, dq, inv_dq, up, cells - vec3<i32>(1), octant * cells.z, 1.0 / vec3<f32>(textureDimensions(skip_grid)), 1e-3 / fastest);
+}
+
+// From t, where the ray leaves its cell, or, where that cell is empty, the cube of empty cells
+// around it (render::skipping::octant_extents); w 1 where the cell is empty. The cell is the one
+// a nudge ahead of t, so that a point on a face counts in the cell it moves into.
+fn skip_step(sr: SkipRay, t: f32) -> vec2<f32> {
+    let tp = t + sr.nudge;
+    let q = sr.q0 + sr.dq * tp;
+    let cell = clamp(vec3<i32>(floor(q)), vec3<i32>(0), sr.top);
+    let d = round(255.0 * textureSampleLevel(skip_grid, skip_sampler, (vec3<f32>(cell + vec3<i32>(0, 0, sr.layer)) + 0.5) * sr.inv_cells, 0.0).r);
+    let c = vec3<f32>(cell);
+    let reach = max(d, 1.0);
+    let exits = (select(c - (reach - 1.0), c + reach, sr.up) - q) * sr.inv_dq;
+    return vec2<f32>(tp + max(min(exits.x, min(exits.y, exits.z)), 0.0), select(0.0, 1.0, d > 0.0));
+}
+
+#endif
+
 // Steps one loop may take: llvmpipe ends any loop after 65535 iterations, so the march is a loop
 // of such loops.
 const LOOP_STEPS: u32 = 65000u;
@@ -666,6 +719,98 @@ fn march_parts(s: ptr<function, RayState>, r: Ray2, parts: Parts) {
     }
 }
 
+#if SKIPPING
+// What one run hands the next: the pre-integration's front value (nothing otherwise).
+#if PREINTEGRATED
+alias Carried = Front;
+#else
+alias Carried = f32;
+#endif
+
+// Marches segments k.. of part `span` up to segment k_end (its pieces: the plain march's), the
+// first from `front` when it continues the last run and from the value at its start otherwise;
+// returns the segment after the last one marched.
+fn march_run(s: ptr<function, RayState>, front: ptr<function, Carried>, r: Ray2, span: vec2<f32>, k0: u32, k_end: u32, continues: bool) -> u32 {
+    var k = k0;
+    var ab = vec2<f32>(max(seg_start(r, k), span.x), min(seg_end(r, k), span.y));
+#if PREINTEGRATED
+    var f = front_at(sample_at(r.o + r.d * ab.x));
+    if (continues) {
+        f = *front;
+    }
+#else
+    var value = sample_at(piece_point(r, ab));
+#endif
+    loop {
+        var j = 0u;
+        loop {
+            if ((*s).stopped || k > k_end || ab.x >= span.y || j >= LOOP_STEPS) {
+                break;
+            }
+            j += 1u;
+            k += 1u;
+            let ab_next = vec2<f32>(max(seg_start(r, k), span.x), min(seg_end(r, k), span.y));
+#if PREINTEGRATED
+            piece_pre(s, &f, r, ab);
+#else
+            let value_next = sample_at(piece_point(r, ab_next));
+            piece(s, r, ab, value);
+            value = value_next;
+#endif
+            ab = ab_next;
+        }
+        if ((*s).stopped || k > k_end || ab.x >= span.y) {
+            break;
+        }
+    }
+#if PREINTEGRATED
+    *front = f;
+#endif
+    return k;
+}
+
+// Marches the ray's parts over the runs of skip-grid cells that are not empty, found as the
+// march goes (a walk over the grid that jumps cubes of empty cells): each run widened to whole
+// segments of the ray's grid, and one more each side (its ends are found to a nudge), so that
+// its pieces are the plain march's and the pieces left out lie in empty cells, where they would
+// composite exactly nothing.
+fn march_skipping(s: ptr<function, RayState>, r: Ray2, parts: Parts) {
+    let sr = skip_ray(r);
+    var front: Carried;
+    for (var i = 0u; i < parts.n; i += 1u) {
+        let span = parts.span[i];
+        var t = span.x;
+        // The next segment to march, and whether the last run ended just before it.
+        var k_next = first_piece(r, span.x);
+        var marched = false;
+        for (var runs = 0u; runs < 4096u; runs += 1u) {
+            if ((*s).stopped || t >= span.y) {
+                break;
+            }
+            var step = skip_step(sr, t);
+            for (var j = 0u; j < 1024u && step.y > 0.5 && step.x < span.y; j += 1u) {
+                t = step.x;
+                step = skip_step(sr, t);
+            }
+            if (step.y > 0.5) {
+                break;
+            }
+            let a = t;
+            for (var j = 0u; j < 1024u && step.y < 0.5 && t < span.y; j += 1u) {
+                t = step.x;
+                step = skip_step(sr, t);
+            }
+            let ka = first_piece(r, a);
+            let k0 = max(select(ka, ka - 1u, ka > 0u), k_next);
+            let k_end = u32(max(floor((t - r.t_enter - r.first) * r.inv_ds), 0.0)) + 2u;
+            let continues = marched && k0 == k_next;
+            k_next = march_run(s, &front, r, span, k0, k_end, continues);
+            marched = true;
+        }
+    }
+}
+#endif
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = P.image.x;
@@ -679,7 +824,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (parts.n > 0u) {
         let ds = P.march.x;
         let r = Ray2(ray.origin, ray.dir, parts.span[0].x, first_segment(gid.xy, w, h, ds), ds, 1.0 / ds);
+#if SKIPPING
+        march_skipping(&s, r, parts);
+#else
         march_parts(&s, r, parts);
+#endif
     }
     textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));
 }

@@ -25,7 +25,7 @@ pub struct BrickBenchRow {
 
 /// The mantle's Fig. 5 transfer function (symlog of the temperature fluctuation), and the same
 /// with everything below the hot anomalies transparent.
-fn mantle_tfs() -> Vec<(&'static str, TransferFunction)> {
+pub fn mantle_tfs() -> Vec<(&'static str, TransferFunction)> {
     let fig5 = mantle_fig5_tf();
     let plumes = LutTransfer {
         transparent_below: 0.62,

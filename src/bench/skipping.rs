@@ -1,8 +1,8 @@
 //! The empty-space skipping benchmark (`hdrvis bench skipping`): the in-core ray caster with
 //! and without skipping, side by side in one run (pairs of runs back to back, each side first
 //! in turn), on the paper's mantle under its Fig. 5 transfer function (missing data outside the
-//! shell and in the core) and on the HDR blobs (nothing to skip), with the largest difference
-//! between the two images.
+//! shell and in the core) and on the HDR blobs (nothing to skip), and the mapped ray caster on
+//! the mantle's native spherical shell, with the largest difference between the two images.
 
 use super::volume::VolumeScene;
 use super::{max_diff, median, process_cpu_ms, timing_session};
@@ -101,6 +101,39 @@ pub fn bench_skipping(
         log(&format!("{name} ..."));
         rows.push(time_pair(ctx.clone(), &name, &vol, &o, runs)?);
     }
+    // The mapped ray caster on the mantle's native shell: under the Fig. 5 transfer function
+    // (nothing inside the shell is empty: its core and corners are clipped analytically) and
+    // with all but the hot plumes transparent; and on a tomography-like model showing only its
+    // slabs.
+    let (n, px) = if quick { (64, 256) } else { (128, 512) };
+    log(&format!(
+        "generating the mantle's native shell for {n}^3 ..."
+    ));
+    let shell = Arc::new(super::spherical::native_mantle(n)?);
+    let tomography = Arc::new(super::spherical::tomography_shell(n)?);
+    let mut shells = super::bricks::mantle_tfs()
+        .into_iter()
+        .map(|(name, tf)| {
+            (
+                format!("shell {n}: {}", name.trim_start_matches("mantle ")),
+                &shell,
+                tf,
+            )
+        })
+        .collect::<Vec<_>>();
+    shells.push((
+        format!("tomography {n}: slabs only"),
+        &tomography,
+        super::spherical::tomography_slabs_tf(),
+    ));
+    for (name, v, tf) in shells {
+        let mut o = super::spherical::shell_options(v, px)?;
+        o.camera = view.camera(v)?;
+        o.tf = tf;
+        let name = format!("{name} -> {px}^2");
+        log(&format!("{name} ..."));
+        rows.push(time_pair(ctx.clone(), &name, v, &o, runs)?);
+    }
     Ok(rows)
 }
 
@@ -186,11 +219,11 @@ pub(crate) fn paired_speed_up(plain: &[f64], skipping: &[f64]) -> f64 {
 
 pub fn format_skipping_table(adapter: &str, view: SkippingView, rows: &[SkippingRow]) -> String {
     let mut s = format!(
-        "adapter: {adapter}\nempty-space skipping in the in-core ray caster: {}, 1 sample/voxel, f32, auto filter, pairs of runs back to back, plain or skipping first in turn\n",
+        "adapter: {adapter}\nempty-space skipping in the in-core ray caster (boxes: 1 sample/voxel) and the mapped one (spherical shells: 2 samples per radial spacing): {}, f32, auto filter, pairs of runs back to back, plain or skipping first in turn\n",
         view.name()
     );
     s.push_str(&format!(
-        "{:<28} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8} {:>8} {:>9} {:>10}  {}\n",
+        "{:<36} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>8} {:>8} {:>9} {:>10}  {}\n",
         "scene",
         "plain ms",
         "skip ms",
@@ -235,10 +268,12 @@ pub fn format_skipping_table(adapter: &str, view: SkippingView, rows: &[Skipping
         let path = match r.path {
             RenderPath::InCore { skipping: true } => "in-core, skipping",
             RenderPath::InCore { skipping: false } => "in-core, too little empty to skip",
+            RenderPath::Mapped { skipping: true } => "mapped, skipping",
+            RenderPath::Mapped { skipping: false } => "mapped, too little empty to skip",
             _ => "other",
         };
         s.push_str(&format!(
-            "{:<28} {:>9.1} {:>9.1} {:>8.2}x {:>8.0} {:>8.0} {:>9} {:>8} {:>8} {:>9} {:>10.1e}  {path}\n",
+            "{:<36} {:>9.1} {:>9.1} {:>8.2}x {:>8.0} {:>8.0} {:>9} {:>8} {:>8} {:>9} {:>10.1e}  {path}\n",
             r.scene,
             p,
             k,

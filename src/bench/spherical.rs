@@ -7,13 +7,15 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
-use crate::model::{Camera, Geometry, TransferFunction, Volume};
+use crate::model::{
+    Camera, CoordAxis, Geometry, LutTransfer, SphericalGrid, TransferFunction, Volume,
+};
 use crate::render::{VolumeRenderOptions, VolumeSource};
 use std::sync::Arc;
 
 /// The mantle's temperature fluctuation on its own spherical grid, fine enough for an `n`³ box
 /// (seed 7, as the other mantle scenes).
-pub(crate) fn native_mantle(n: usize) -> Result<Volume> {
+pub fn native_mantle(n: usize) -> Result<Volume> {
     use crate::datasets::mantle::{generate_native, MantleField, MantleFields, MantleOptions};
     let field = MantleField::Fluctuation;
     let m = generate_native(
@@ -29,9 +31,102 @@ pub(crate) fn native_mantle(n: usize) -> Result<Volume> {
         .ok_or_else(|| Error::invalid("field", "the fluctuation was not generated"))
 }
 
+/// A global tomography-like model on its own (depth, latitude, longitude) grid: `n` levels from
+/// the core–mantle boundary (2891 km) to the surface, 180/2n° in latitude and longitude, dVs in
+/// %: a ring of fast slabs dipping under the Pacific's rim to 1200 km, four slow plumes through
+/// the whole mantle, two slow provinces above the core and a weak smooth background, so that a
+/// transfer function showing the slabs leaves most of the mantle transparent.
+pub fn tomography_shell(n: usize) -> Result<Volume> {
+    const R: f64 = 6371.0;
+    let radius = CoordAxis::uniform_cells(R - 2891.0, 2891.0 / n as f64, n);
+    let step = 90.0 / n as f64;
+    let (lat, lon) = (
+        CoordAxis::uniform_cells(-90.0, step, 2 * n),
+        CoordAxis::uniform_cells(-180.0, step, 4 * n),
+    );
+    // Angular distance (degrees) and bearing (degrees from north) from a to b.
+    let arc = |a: [f64; 2], b: [f64; 2]| {
+        let (p1, p2, dl) = (
+            a[0].to_radians(),
+            b[0].to_radians(),
+            (b[1] - a[1]).to_radians(),
+        );
+        let c = p1.sin() * p2.sin() + p1.cos() * p2.cos() * dl.cos();
+        let az = (dl.sin() * p2.cos()).atan2(p1.cos() * p2.sin() - p1.sin() * p2.cos() * dl.cos());
+        (
+            c.clamp(-1.0, 1.0).acos().to_degrees(),
+            az.to_degrees().rem_euclid(360.0),
+        )
+    };
+    let pacific = [5.0, -160.0];
+    let segments = [[0.0, 70.0], [100.0, 160.0], [200.0, 250.0], [280.0, 340.0]];
+    let plumes = [
+        [-20.0, 20.0],
+        [-15.0, -150.0],
+        [20.0, -155.0],
+        [64.0, -17.0],
+    ];
+    let provinces = [[-10.0, 20.0], [-10.0, -160.0]];
+    let field = |depth: f64, la: f64, lo: f64| {
+        let p = [la, lo];
+        let mut v = 0.3
+            * (3.0 * la.to_radians()).sin()
+            * (2.0 * lo.to_radians()).cos()
+            * (std::f64::consts::PI * depth / 2891.0).cos();
+        let (theta, az) = arc(pacific, p);
+        if depth < 1200.0 && segments.iter().any(|s| az >= s[0] && az <= s[1]) {
+            // The slab's surface moves outward from the trench at 62° as it dips at 50°.
+            let at = 62.0 + (depth / 50f64.to_radians().tan() / R).to_degrees();
+            let across = (theta - at).to_radians() * R;
+            v += 2.5 * (-(across / 60.0).powi(2)).exp();
+        }
+        for c in plumes {
+            v -= 2.0 * (-(arc(c, p).0 / 2.5).powi(2)).exp();
+        }
+        for c in provinces {
+            v -= 1.8
+                * (-(arc(c, p).0 / 22.0).powi(2)).exp()
+                * ((depth - 2000.0) / 600.0).clamp(0.0, 1.0);
+        }
+        v
+    };
+    let mut data = Vec::with_capacity(n * 8 * n * n);
+    for r in &radius.centres {
+        for la in &lat.centres {
+            for lo in &lon.centres {
+                data.push(field(R - r, *la, *lo) as f32);
+            }
+        }
+    }
+    let g = SphericalGrid {
+        axis_of: [2, 1, 0],
+        radius,
+        latitude: lat,
+        longitude: lon,
+        lon_wraps: true,
+        planet_radius: R,
+        length_unit: "km".into(),
+        vertical: "depth".into(),
+    };
+    Volume::new("dvs", [4 * n, 2 * n, n], [1.0; 3], [0.0; 3], data)?
+        .with_geometry(Geometry::Spherical(Box::new(g)))
+}
+
+/// Only [`tomography_shell`]'s fast anomalies above +0.8 % (its slabs), red to blue.
+pub fn tomography_slabs_tf() -> TransferFunction {
+    TransferFunction::Lut(LutTransfer {
+        domain: Some([-3.0, 3.0]),
+        colormap: "rd_bu".into(),
+        emission: vec![[0.0, -0.5], [0.5, -2.0], [1.0, -0.5]],
+        opacity: vec![[0.0, -1.0], [0.5, -2.5], [1.0, -1.0]],
+        transparent_below: 3.8 / 6.0,
+        ..Default::default()
+    })
+}
+
 /// The shell's view: the Fig. 5 transfer function, an orbit view of the planet, `size`² pixels,
 /// a step of half the smallest radial spacing.
-pub(crate) fn shell_options(shell: &Volume, size: u32) -> Result<VolumeRenderOptions> {
+pub fn shell_options(shell: &Volume, size: u32) -> Result<VolumeRenderOptions> {
     let tf = TransferFunction::Lut(super::mantle_fig5_tf());
     let mut o = VolumeRenderOptions::new(Camera::orbit(&shell.bounds(), 35.0, 20.0, 25.0)?, tf);
     o.width = size;

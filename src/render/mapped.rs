@@ -4,6 +4,8 @@
 //! even axis as its first centre and step, an uneven one as its centres in a storage buffer
 //! that the shader bisects.
 
+use super::mapped_skipping::cell_size;
+use super::skipping::SkipGrid;
 use super::volume::{
     Geometry as FrameGeometry, GpuVolume, RenderTiming, VolumeRenderer, CF_AXES, RECTILINEAR, SEAM,
     SHELL, SPHERICAL, UNEVEN,
@@ -34,6 +36,8 @@ struct MappedParams {
     cut_on: [u32; 4],
     box_cut_lo: [f32; 4],
     box_cut_hi: [f32; 4],
+    skip_lo: [f32; 4],
+    skip_cells: [f32; 4],
 }
 
 impl MappedParams {
@@ -212,8 +216,18 @@ impl VolumeRenderer {
         volume: &Volume,
         gpu: &GpuVolume,
         opts: &VolumeRenderOptions,
+        skip: Option<&SkipGrid>,
     ) -> Result<(HdrImage, RenderTiming)> {
-        let (kind, params, coords, origin) = mapped_params(volume, opts.cut.as_ref())?;
+        let (kind, mut params, coords, origin) = mapped_params(volume, opts.cut.as_ref())?;
+        if let Some(g) = skip {
+            // The world cells' corner in the shader's frame, and cells per unit length.
+            let size = cell_size(volume, g.grid);
+            let lo = volume.bounds().lo;
+            for a in 0..3 {
+                params.skip_lo[a] = (lo[a] - origin[a]) as f32;
+                params.skip_cells[a] = (1.0 / size[a]) as f32;
+            }
+        }
         let size = volume.bounds().size();
         let geometry = FrameGeometry {
             name: &gpu.name,
@@ -226,6 +240,7 @@ impl VolumeRenderer {
         let frame = {
             let mut f = self.frame(&geometry, opts, false)?;
             f.key.mapped = kind;
+            f.key.skipping = skip.is_some();
             f
         };
         let (pipeline, compiled) = self.pipeline(frame.key)?;
@@ -277,6 +292,16 @@ impl VolumeRenderer {
             binding: 6,
             resource: coords_buf.as_entire_binding(),
         });
+        if let Some(grid) = skip {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 7,
+                resource: wgpu::BindingResource::TextureView(grid.view()),
+            });
+            entries.push(wgpu::BindGroupEntry {
+                binding: 8,
+                resource: wgpu::BindingResource::Sampler(self.nearest_sampler()),
+            });
+        }
         let (pixels, mut timing) = self.dispatch(pipeline, layout, &entries, &out, opts)?;
         let mut image = self.finish_image(&geometry, opts, frame.key.hw_filter, pixels);
         image.set_meta("geometry", volume.geometry.name());

@@ -6,6 +6,7 @@ pub mod cache;
 pub mod cpu_reference;
 pub mod distributed;
 pub(crate) mod mapped;
+pub(crate) mod mapped_skipping;
 pub mod passes;
 pub(crate) mod route;
 pub mod session;

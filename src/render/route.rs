@@ -101,9 +101,10 @@ pub enum RenderPath {
     /// Bricks in a GPU atlas with a page table; streamed front to back through the atlas when
     /// the bricks the transfer function needs exceed it (out of core).
     Bricked { brick: usize, skip: bool },
-    /// Voxels placed by coordinate axes (spherical shells and wedges, rectilinear boxes): each
-    /// ray cut analytically to the domain, each sample mapped through the axes.
-    Mapped,
+    /// Voxels placed by coordinate axes (spherical shells and wedges, rectilinear boxes, boxes
+    /// with a cut-away): each ray cut analytically to the domain, each sample mapped through
+    /// the axes, jumping over empty world-space cells when `skipping`.
+    Mapped { skipping: bool },
     /// One slab of the volume per rank of the session's group (MPI), partial images
     /// composited sort-last onto rank 0 and handed to every rank.
     Distributed { ranks: usize },
@@ -172,7 +173,7 @@ fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
             "it does not fit this budget (raise memory_budget, or resample it to a box with resample())",
         );
     }
-    Ok(RenderPath::Mapped)
+    Ok(RenderPath::Mapped { skipping: false })
 }
 
 /// A cut-away is for volumes in memory, and must leave part of the volume: latitude, longitude
@@ -272,7 +273,7 @@ impl RenderSession {
             path,
             RenderPath::InCore { .. }
                 | RenderPath::Bricked { .. }
-                | RenderPath::Mapped
+                | RenderPath::Mapped { .. }
                 | RenderPath::Distributed { .. }
         ) {
             super::check_output_fits(&self.context()?.caps, opts.width, opts.height)?;
@@ -304,7 +305,7 @@ impl RenderSession {
                 if let Some(b) = &r.bricks {
                     detail.push(bricked_detail(path, b));
                 }
-                if path == (RenderPath::InCore { skipping: true }) {
+                if route.skip_grid.is_some() {
                     detail.push("empty-space skipping".into());
                 }
                 if let (RenderPath::Distributed { ranks }, Some(world)) = (path, self.cluster()) {
@@ -328,12 +329,17 @@ impl RenderSession {
         let b = &opts.bricking;
         if let Some(cut) = &opts.cut {
             if let Some(path) = check_cut(source, cut, opts)? {
-                // A regular box's f64 cut runs where its uncut render would.
-                return match path {
-                    RenderPath::F64Cpu if source_is_regular(source) => self.f64_path(opts),
-                    path => Ok(path),
-                }
-                .map(Route::from);
+                // A regular box's f64 cut runs where its uncut render would; the mapped ray
+                // caster skips empty space as without a cut.
+                return match (path, source) {
+                    (RenderPath::F64Cpu, _) if source_is_regular(source) => {
+                        self.f64_path(opts).map(Route::from)
+                    }
+                    (RenderPath::Mapped { .. }, VolumeSource::Memory(v)) => {
+                        self.mapped_route(v, opts)
+                    }
+                    (path, _) => Ok(path.into()),
+                };
             }
         }
         if let Some(world) = self.cluster().filter(|w| w.size() > 1) {
@@ -363,9 +369,7 @@ impl RenderSession {
             return renormalised_path(source, opts).map(Route::from);
         }
         let path = match source {
-            VolumeSource::Memory(v) if !v.is_regular() => {
-                return mapped_path(v, opts).map(Route::from)
-            }
+            VolumeSource::Memory(v) if !v.is_regular() => return self.mapped_route(v, opts),
             VolumeSource::Memory(_) if opts.precision == Precision::F64 => {
                 return self.f64_path(opts).map(Route::from)
             }
@@ -423,6 +427,26 @@ impl RenderSession {
         })
     }
 
+    /// The route of a volume the mapped ray caster renders (or, in f64, the CPU reference),
+    /// skipping where [`Self::paying_skip_grid`]'s conditions hold for its world-space cells.
+    fn mapped_route(&self, v: &Arc<Volume>, opts: &VolumeRenderOptions) -> Result<Route> {
+        let path = mapped_path(v, opts)?;
+        // Pre-integrated segments skip as well: one left out lies in empty cells, and the
+        // field runs continuously along it through values whose every transfer is zero.
+        if !matches!(path, RenderPath::Mapped { .. }) || !opts.empty_space_skipping {
+            return Ok(path.into());
+        }
+        let grid = self.mapped_skip_grid(v, opts)?;
+        let skip_grid =
+            (grid.empty_fraction() >= super::mapped_skipping::MIN_EMPTY_FRACTION).then_some(grid);
+        Ok(Route {
+            path: RenderPath::Mapped {
+                skipping: skip_grid.is_some(),
+            },
+            skip_grid,
+        })
+    }
+
     /// The skip grid the in-core render of `volume` skips with, or `None` when it does not
     /// skip: skipping is when asked (the default), for point-sampled transfer functions
     /// (pre-integration carries each segment's value into the next), and when enough cells are
@@ -475,9 +499,10 @@ impl RenderSession {
                 img.set_meta("tf_sampling", opts.tf_sampling.name());
                 (img, wall_seconds(t.elapsed().as_secs_f64()), None)
             }
-            (RenderPath::Mapped, VolumeSource::Memory(v)) => {
+            (RenderPath::Mapped { .. }, VolumeSource::Memory(v)) => {
                 let gv = self.upload(v)?;
-                let (img, timing) = self.volume_renderer()?.render_mapped(v, &gv, opts)?;
+                let grid = route.skip_grid.as_deref();
+                let (img, timing) = self.volume_renderer()?.render_mapped(v, &gv, opts, grid)?;
                 (img, timing, None)
             }
             (RenderPath::Bricked { brick, skip }, _) => {

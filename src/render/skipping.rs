@@ -81,6 +81,9 @@ pub(crate) struct SkipGrid {
     /// Voxels per cell edge.
     pub edge: usize,
     pub empty: usize,
+    /// Empty cells outside the mapped ray caster's domain, which it clips analytically already,
+    /// so that skipping them gains nothing (none for a box).
+    pub outside: usize,
     /// The cells that are not empty, bounded by the slabs of [`HULL_DIRECTIONS`].
     hull: [[f32; 2]; 13],
     view: wgpu::TextureView,
@@ -134,9 +137,21 @@ fn hull(empty: &[bool], grid: [usize; 3], edge: usize, dims: [usize; 3]) -> [[f3
 
 impl SkipGrid {
     pub(crate) fn new(ctx: &GpuContext, cells: &CellRanges, tf: &ResolvedTransfer) -> SkipGrid {
-        let grid = cells.layout.grid;
         let empty = cells.empty_cells(tf);
-        let extents = octant_extents(&empty, grid);
+        let (grid, edge) = (cells.layout.grid, cells.edge());
+        Self::from_empty(ctx, &empty, grid, edge, cells.layout.dims)
+    }
+
+    /// The grid of `grid` cells marked `empty`, of `edge` voxels of a volume of `dims` (the
+    /// mapped ray caster's world cells: edge 1 and `dims` the grid, for a hull it does not use).
+    pub(crate) fn from_empty(
+        ctx: &GpuContext,
+        empty: &[bool],
+        grid: [usize; 3],
+        edge: usize,
+        dims: [usize; 3],
+    ) -> SkipGrid {
+        let extents = octant_extents(empty, grid);
         let stacked = [grid[0], grid[1], grid[2] * 8];
         let texture = ctx.texture_3d(
             "skip grid",
@@ -159,9 +174,10 @@ impl SkipGrid {
         );
         SkipGrid {
             grid,
-            edge: cells.edge(),
-            hull: hull(&empty, grid, cells.edge(), cells.layout.dims),
+            edge,
+            hull: hull(empty, grid, edge, dims),
             empty: empty.iter().filter(|&&e| e).count(),
+            outside: 0,
             view: texture.create_view(&Default::default()),
         }
     }
@@ -185,8 +201,9 @@ impl SkipGrid {
         self.grid.iter().product()
     }
 
+    /// The share of empty cells among those rays can reach.
     pub(crate) fn empty_fraction(&self) -> f64 {
-        self.empty as f64 / self.cells().max(1) as f64
+        (self.empty - self.outside) as f64 / (self.cells() - self.outside).max(1) as f64
     }
 
     pub(crate) fn bytes(&self) -> u64 {

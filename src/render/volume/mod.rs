@@ -226,6 +226,11 @@ impl VolumeRenderer {
         &self.ctx
     }
 
+    /// The nearest-texel sampler the skip grids are read through.
+    pub(crate) fn nearest_sampler(&self) -> &wgpu::Sampler {
+        &self.nearest
+    }
+
     pub(crate) fn pipeline(
         &self,
         key: PipelineKey,
@@ -284,9 +289,11 @@ impl VolumeRenderer {
             entries.push(layout::filtering_sampler(4));
         }
         if key.skipping {
+            // The mapped ray caster's geometry takes 5 and 6.
+            let at = if key.mapped > 0 { 7 } else { 5 };
             entries.extend([
-                layout::texture(5, wgpu::TextureViewDimension::D3, false),
-                layout::nearest_sampler(6),
+                layout::texture(at, wgpu::TextureViewDimension::D3, false),
+                layout::nearest_sampler(at + 1),
             ]);
         }
         if key.mapped > 0 {
