@@ -28,6 +28,9 @@ pub(crate) enum AxisRole {
         unit: &'static str,
         to_unit: f64,
     },
+    /// A vertical coordinate in units that are not a length (model levels, pressure, sigma):
+    /// placed by index, since it says nothing of where its levels are.
+    Levels,
     Other,
 }
 
@@ -134,14 +137,48 @@ pub(crate) fn axis_role(path: &Path, v: &NcVariable) -> Result<AxisRole> {
             unit,
             to_unit,
         }),
-        None => Err(Error::format(
-            path,
-            format!(
-                "vertical coordinate '{}' is in '{units}'; expected units of length (m or km)",
-                v.name
-            ),
-        )),
+        None => Ok(AxisRole::Levels),
     }
+}
+
+/// The auxiliary coordinate named by `vertical:` (a hybrid level's `level_height`, say) in place
+/// of the coordinate of the dimension it lies on, which must be one of `dims`: one-dimensional,
+/// strictly monotonic, in units of length; without `positive` or a vertical `standard_name` it
+/// is a height (positive up).
+pub(crate) fn use_vertical(path: &Path, name: &str, dims: &mut [DimCoord]) -> Result<()> {
+    let fail = |msg: String| {
+        Err(Error::invalid(
+            "vertical",
+            format!("{}: {msg}", path.display()),
+        ))
+    };
+    let mut v = match netcdf::read_variable(path, name) {
+        Ok(v) => v,
+        Err(_) => return fail(format!("no variable '{name}' in the file")),
+    };
+    let Some(d) = dims
+        .iter_mut()
+        .find(|d| v.dims.len() == 1 && v.dims[0].0 == d.name)
+    else {
+        let along: Vec<&str> = dims.iter().map(|d| d.name.as_str()).collect();
+        return fail(format!(
+            "'{name}' lies on {:?}; expected one of the variable's dimensions {along:?}",
+            v.dims.iter().map(|d| d.0.as_str()).collect::<Vec<_>>()
+        ));
+    };
+    let units = v.units.clone().unwrap_or_default();
+    if length_unit(&units).is_none() {
+        return fail(format!(
+            "'{name}' is in '{units}'; expected units of length (m or km)"
+        ));
+    }
+    netcdf::check_monotonic(&v.data).or_else(|msg| fail(format!("'{name}' {msg}")))?;
+    if !matches!(axis_role(path, &v)?, AxisRole::Vertical { .. }) {
+        v.attributes
+            .push(("positive".into(), NcAttribute::Text("up".into())));
+    }
+    d.coord = Some(v);
+    Ok(())
 }
 
 impl AxisRole {
@@ -152,6 +189,7 @@ impl AxisRole {
             AxisRole::Latitude => "latitude",
             AxisRole::Longitude => "longitude",
             AxisRole::Vertical { .. } => "vertical",
+            AxisRole::Levels => "vertical levels (not a length: placed by index)",
             AxisRole::Other => "other",
         }
     }

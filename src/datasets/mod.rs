@@ -65,6 +65,9 @@ pub struct LoadOptions {
     pub select: select::Selection,
     /// The band of a multi-band GeoTIFF, counted from 1 as GDAL does.
     pub band: Option<usize>,
+    /// A NetCDF variable on one of the volume's dimensions, in units of length, to place it by
+    /// instead of that dimension's coordinate (a model level's height, say).
+    pub vertical: Option<String>,
 }
 
 /// Loads a scalar volume, choosing the reader by extension: `.npy` (shape (nz, ny, nx)),
@@ -478,36 +481,57 @@ fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volume> {
     } else {
         format!("{} at {}", array.name, array.notes.join(", "))
     };
-    let mut volume = volume_from_netcdf_array(path, array, opts)?;
-    volume.name = name;
+    let (mut volume, level_note) = volume_from_netcdf_array(path, array, opts)?;
+    volume.name = match level_note {
+        Some(note) => format!("{name} ({note})"),
+        None => name,
+    };
     Ok(volume)
 }
 
-/// [`volume_from_netcdf`] of the array read.
-fn volume_from_netcdf_array(path: &Path, array: ArrayData, opts: &LoadOptions) -> Result<Volume> {
+/// [`volume_from_netcdf`] of the array read, and a note when a vertical axis in levels (not a
+/// length) was placed by index.
+fn volume_from_netcdf_array(
+    path: &Path,
+    array: ArrayData,
+    opts: &LoadOptions,
+) -> Result<(Volume, Option<String>)> {
     // The volume's three dimensions: the last three (leading length-1 ones were squeezed).
     let dims: Vec<(String, usize)> = array.dims[array.dims.len() - 3..]
         .iter()
         .cloned()
         .zip(array.shape.iter().copied())
         .collect();
-    let coords = cf::dim_coords(path, &dims)?;
+    let mut coords = cf::dim_coords(path, &dims)?;
+    if let Some(name) = &opts.vertical {
+        cf::use_vertical(path, name, &mut coords)?;
+    }
     if !opts.cartesian {
         if let Some(grid) = spherical_grid_of(path, &array, &coords, opts)? {
             let volume = volume_from_array(path, array, [None, None, None])?;
             return volume
                 .with_geometry(Geometry::Spherical(Box::new(grid)))
+                .map(|v| (v, None))
                 .map_err(|e| Error::format(path, e.to_string()));
         }
     }
-    // Volume axes are x, y, z; the array's dimensions run z, y, x.
-    let axes: Vec<Option<Vec<f64>>> = coords
-        .iter()
-        .rev()
-        .map(|d| d.coord.as_ref().map(|c| c.data.clone()))
-        .collect();
-    let axes = [axes[0].clone(), axes[1].clone(), axes[2].clone()];
-    volume_from_array(path, array, axes)
+    // Volume axes are x, y, z; the array's dimensions run z, y, x. Levels that are not lengths
+    // (model levels, pressure) are placed by index, as an axis without coordinates.
+    let mut note = None;
+    let mut axes: [Option<Vec<f64>>; 3] = [None, None, None];
+    for (a, d) in coords.iter().rev().enumerate() {
+        let Some(c) = &d.coord else { continue };
+        if matches!(cf::axis_role(path, c)?, cf::AxisRole::Levels) {
+            let units = c.units.as_deref().unwrap_or("");
+            note = Some(format!(
+                "{} in '{units}' placed by index: name a length coordinate with vertical",
+                d.name
+            ));
+        } else {
+            axes[a] = Some(c.data.clone());
+        }
+    }
+    volume_from_array(path, array, axes).map(|v| (v, note))
 }
 
 /// The spherical grid of a NetCDF variable whose last three dimensions CF marks as latitude,

@@ -383,3 +383,90 @@ fn a_series_movie_has_one_colour_range_over_its_steps() {
         "{e}"
     );
 }
+
+/// A vertical axis in units that are not a length (model levels, pressure) is placed by index
+/// with a note instead of refusing the file; `vertical:` names an auxiliary height in metres that
+/// places the same field on the sphere; selections take levels as xarray's isel/sel do; a
+/// `vertical` that is not a length along one of the dimensions is a one-line error.
+#[test]
+fn vertical_levels_that_are_not_lengths_load_by_index_or_by_a_named_height() {
+    use hdrvis::model::Geometry;
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "levels") else {
+        return;
+    };
+    let model = dir.path().join("model_levels.nc");
+    let v = hdrvis::datasets::load_volume(&model).unwrap();
+    assert_eq!(v.dims, [12, 7, 5]);
+    assert!(
+        v.name.contains("level in '1' placed by index"),
+        "{}",
+        v.name
+    );
+    // z is the level's index: five unit cells from 0.
+    let b = v.bounds();
+    assert_eq!((b.lo[2], b.hi[2]), (0.0, 5.0));
+    let got: Vec<f64> = v.data.iter().map(|&x| f64::from(x)).collect();
+    assert_values(&got, &numbers(&r, "ta"), 0.0, "ta");
+    let placed = LoadOptions {
+        vertical: Some("level_height".into()),
+        ..LoadOptions::default()
+    };
+    let s = hdrvis::datasets::load_volume_with(&model, &placed).unwrap();
+    let Geometry::Spherical(g) = &s.geometry else {
+        panic!("{s}: expected a spherical volume")
+    };
+    let radii: Vec<f64> = numbers(&r, "height").iter().map(|h| 6.371e6 + h).collect();
+    assert_values(&g.radius.centres, &radii, 1e-12, "radii");
+    assert_eq!(
+        (g.length_unit.as_str(), g.vertical.as_str()),
+        ("m", "height")
+    );
+    let isel = Selection {
+        index: vec![("level".into(), 3)],
+        at: vec![],
+    };
+    let level3 = hdrvis::datasets::read_grid_with(&model, None, &isel).unwrap();
+    assert_values(&level3.data, &numbers(&r, "ta_level3"), 0.0, "isel level 3");
+    // Pressure levels stored 1000 .. 100 hPa: placed by index in storage order; sel by value.
+    let pressure = dir.path().join("pressure_levels.nc");
+    let u = hdrvis::datasets::load_volume(&pressure).unwrap();
+    assert!(
+        u.name.contains("plev in 'hPa' placed by index"),
+        "{}",
+        u.name
+    );
+    let got: Vec<f64> = u.data.iter().map(|&x| f64::from(x)).collect();
+    assert_values(&got, &numbers(&r, "u"), 0.0, "u");
+    let sel = Selection {
+        index: vec![],
+        at: vec![("plev".into(), At::Value(500.0))],
+    };
+    let g500 = hdrvis::datasets::read_grid_with(&pressure, None, &sel).unwrap();
+    assert_values(&g500.data, &numbers(&r, "u_500"), 0.0, "sel plev 500");
+    let (code, out, err) = hdrvis(&["info", pressure.to_str().unwrap()], dir.path());
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("plev = 5: vertical levels (not a length: placed by index), 1000 to 100 hPa"),
+        "{out}"
+    );
+    for (name, want) in [
+        ("plev", "'plev' is in 'hPa'; expected units of length"),
+        (
+            "lat",
+            "'lat' is in 'degrees_north'; expected units of length",
+        ),
+        ("nothing", "no variable 'nothing' in the file"),
+    ] {
+        let opts = LoadOptions {
+            vertical: Some(name.into()),
+            ..LoadOptions::default()
+        };
+        let file = if name == "plev" { &pressure } else { &model };
+        let e = hdrvis::datasets::load_volume_with(file, &opts)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want) && e.contains(".nc"), "{name}: {e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}

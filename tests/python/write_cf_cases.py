@@ -16,6 +16,9 @@ CASE is one of:
             across the 1582 reform): (time, depth, lat, lon) and (time, lat, lon) fields, with
             cftime's dates and xarray's isel/sel/interp values; series_badcal.nc with the
             calendar "lunar"
+  levels    levels.nc: xarray, a (level, lat, lon) field on model levels (units "1") with an
+            auxiliary level_height in metres, and a (plev, lat, lon) one on pressure levels (hPa,
+            positive down, stored 1000 .. 100); xarray's values and isel/sel of each
   movie     tsunami_series.nc by datasets/fixtures/make_series.py (xarray): eta's range over every
             step, its 2nd and 98th percentiles (numpy's nanpercentile, as xarray's robust plots)
             over steps 1, 3 and 5, and the time axis's dates
@@ -242,9 +245,32 @@ def movie(out):
     }
 
 
+def levels(out):
+    rng = np.random.default_rng(5)
+    lat = np.linspace(-87.0, 87.0, 7)
+    lon = np.arange(12) * 30.0
+    geo = {"lat": ("lat", lat, {"units": "degrees_north"}), "lon": ("lon", lon, {"units": "degrees_east"})}
+    level = xr.DataArray(np.arange(1, 6), dims="level", attrs={"units": "1", "axis": "Z", "positive": "up", "long_name": "model level number"})
+    height = xr.DataArray([20.0, 500.0, 2000.0, 8000.0, 20000.0], dims="level", attrs={"units": "m", "long_name": "height of the level above the surface"})
+    ta = xr.DataArray(rng.random((5, 7, 12)).astype("f4"), dims=("level", "lat", "lon"), name="ta")
+    model = xr.Dataset({"ta": ta}, coords={"level": level, "level_height": height, **geo})
+    model.to_netcdf(os.path.join(out, "model_levels.nc"))
+    plev = xr.DataArray([1000.0, 850.0, 500.0, 250.0, 100.0], dims="plev", attrs={"units": "hPa", "positive": "down", "standard_name": "air_pressure"})
+    u = xr.DataArray(rng.random((5, 7, 12)).astype("f4"), dims=("plev", "lat", "lon"), name="u")
+    pressure = xr.Dataset({"u": u}, coords={"plev": plev, **geo})
+    pressure.to_netcdf(os.path.join(out, "pressure_levels.nc"))
+    return {
+        "ta": values(model.ta.values),
+        "height": [float(h) for h in height.values],
+        "ta_level3": values(model.ta.isel(level=3).values),
+        "u": values(pressure.u.values),
+        "u_500": values(pressure.u.sel(plev=500.0).values),
+    }
+
+
 def main():
     out, case = sys.argv[1], sys.argv[2]
-    run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series, "movie": movie}[case]
+    run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series, "movie": movie, "levels": levels}[case]
     emit("", run(out))
 
 
