@@ -54,6 +54,9 @@ struct Mapped {
     // and cells per unit length.
     skip_lo: vec4<f32>,
     skip_cells: vec4<f32>,
+    // The cut's faces (model::cut::CutFaces): x 1 when drawn, y fringes per unit of the value
+    // (0: none), z how far before a part's start the removed region is probed (world units).
+    faces: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -192,6 +195,16 @@ fn in_cut(p: vec3<f32>) -> bool {
     let lon_in = G.cut_on.y == 0u || east - 360.0 * floor(east / 360.0) <= G.cut.w;
     let r_in = G.cut_on.z == 0u || (s.x >= G.cut_r.x && s.x <= G.cut_r.y);
     return lat_in && lon_in && r_in;
+}
+
+// Whether world point p lies in the domain and in the region the cut removes.
+fn removed_in_domain(p: vec3<f32>) -> bool {
+    return inside(p) && in_cut(p);
+}
+#else
+fn removed_in_domain(p: vec3<f32>) -> bool {
+    return G.box_cut_lo.w > 0.5 && all(p >= vec3<f32>(0.0)) && all(p <= P.box_size.xyz)
+        && all(p >= G.box_cut_lo.xyz) && all(p <= G.box_cut_hi.xyz);
 }
 #endif
 
@@ -811,6 +824,49 @@ fn march_skipping(s: ptr<function, RayState>, r: Ray2, parts: Parts) {
 }
 #endif
 
+// The first face of the cut that is drawn (model::cut::CutFaces): a part that starts where the
+// point just before it is in the domain and removed, whose value absorbs; its part's index
+// (parts.n for none) and radiance, emission over extinction times the fringes. A loop, not a
+// branch: with faces off no lane enters it.
+struct Face {
+    i: u32,
+    radiance: vec3<f32>,
+}
+
+fn first_face(r: Ray2, parts: Parts) -> Face {
+    var face = Face(parts.n, vec3<f32>(0.0));
+    let checks = select(0u, parts.n, G.faces.x > 0.5);
+    for (var i = 0u; i < checks; i += 1u) {
+        let u = parts.span[i].x;
+        if (!removed_in_domain(r.o + r.d * (u - G.faces.z))) {
+            continue;
+        }
+        let v = sample_at(r.o + r.d * u);
+        let ea = transfer(v);
+        if (is_finite_f32(v) && ea.a > 0.0) {
+            let fringe = select(1.0, 1.0 + cos(6.2831853 * G.faces.y * v), G.faces.y > 0.0);
+            face = Face(i, ea.rgb / ea.a * fringe);
+            break;
+        }
+    }
+    return face;
+}
+
+// Closes the ray on an opaque face of radiance `radiance`, in the arithmetic PRECISION selects.
+fn composite_face(s: ptr<function, RayState>, radiance: vec3<f32>) {
+    let c = (*s).color + (*s).transmittance * radiance;
+    if (PRECISION == 1u) {
+        (*s).color = vec3<f32>(quantize8(c.x), quantize8(c.y), quantize8(c.z));
+    } else if (PRECISION == 2u) {
+        (*s).color = vec3<f32>(round16(c.x), round16(c.y), round16(c.z));
+    } else {
+        (*s).color = c;
+    }
+    (*s).transmittance = 0.0;
+    (*s).tau = 1e30;
+    (*s).stopped = true;
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = P.image.x;
@@ -824,11 +880,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (parts.n > 0u) {
         let ds = P.march.x;
         let r = Ray2(ray.origin, ray.dir, parts.span[0].x, first_segment(gid.xy, w, h, ds), ds, 1.0 / ds);
+        // The parts in front of the first face drawn, if any.
+        let face = first_face(r, parts);
+        var marched = parts;
+        marched.n = face.i;
 #if SKIPPING
-        march_skipping(&s, r, parts);
+        march_skipping(&s, r, marched);
 #else
-        march_parts(&s, r, parts);
+        march_parts(&s, r, marched);
 #endif
+        if (face.i < parts.n && !s.stopped) {
+            composite_face(&s, face.radiance);
+        }
     }
     textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));
 }

@@ -6,6 +6,7 @@
 //! [`SphericalGrid::ray_intervals`] does for the domain alone. Boxes (regular and rectilinear)
 //! take world ranges of x, y and z instead: the removed region is a box, and a ray's piece inside
 //! it (the slab method) is taken out of the ray's piece inside the volume ([`Cut::clip_box`]).
+//! The faces a cut opens may show the field as an opaque surface ([`CutFaces`]).
 
 use super::geometry::{cone_hits, sphere_hit, SphericalGrid};
 use super::Aabb;
@@ -28,7 +29,44 @@ pub struct Cut {
     pub depth: Option<[f64; 2]>,
 }
 
+/// How the faces a cut-away opens are drawn (`cut_faces`): where a ray enters the kept volume
+/// from the removed region, the field there as an opaque surface whose radiance is that of a
+/// thick layer of its value under the transfer function, emission over extinction (e / σ: the
+/// colour the volume itself takes where it is thick), times the interference intensity
+/// 1 + cos(2πν·value) with `nu`. A face whose value absorbs nothing (σ = 0, or missing) is not
+/// drawn: the ray goes on through it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CutFaces {
+    /// Fringes per unit of the value.
+    pub nu: Option<f64>,
+}
+
+/// How far before a part's start, in voxel lengths, a point is tested for lying in the removed
+/// region (whether the part starts on a face of the cut): far beyond f32 rounding of a ray's
+/// parameter, well within a voxel.
+pub(crate) const FACE_PROBE: f64 = 1e-2;
+
+impl CutFaces {
+    /// The radiance of a face of value `v` whose transfer is emission `e` and extinction `a`
+    /// (per voxel length), or `None` where it is not drawn.
+    pub(crate) fn radiance(&self, v: f64, e: [f64; 3], a: f64) -> Option<[f64; 3]> {
+        if !(v.is_finite() && a > 0.0) {
+            return None;
+        }
+        let fringe = self
+            .nu
+            .map_or(1.0, |nu| 1.0 + (std::f64::consts::TAU * nu * v).cos());
+        Some(e.map(|c| c / a * fringe))
+    }
+}
+
 impl Cut {
+    /// Whether the world point `p` lies in a box's removed region.
+    pub(crate) fn removes_box(&self, p: [f64; 3]) -> bool {
+        let r = self.box_ranges();
+        (0..3).all(|a| p[a] >= r[a][0] && p[a] <= r[a][1])
+    }
+
     /// Checks the ranges on their own and against the shell `g`: a cut that removes the whole
     /// volume is refused.
     pub fn check(&self, g: &SphericalGrid) -> Result<()> {

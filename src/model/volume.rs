@@ -14,6 +14,11 @@ pub struct Aabb {
 }
 
 impl Aabb {
+    /// Whether `p` lies in the box (its faces included).
+    pub(crate) fn contains(&self, p: [f64; 3]) -> bool {
+        (0..3).all(|a| p[a] >= self.lo[a] && p[a] <= self.hi[a])
+    }
+
     pub fn size(&self) -> [f64; 3] {
         [
             self.hi[0] - self.lo[0],

@@ -5,6 +5,7 @@
 
 use super::{jitter_fraction, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
+use crate::model::cut::FACE_PROBE;
 use crate::model::transfer::ResolvedTransfer;
 use crate::model::vec3::sub;
 use crate::model::{Aabb, Geometry, HdrImage, Volume};
@@ -102,7 +103,7 @@ impl Tracer<'_> {
             },
             Geometry::Spherical(g) => match g.ray_intervals_cut(o, d, self.opts.cut.as_ref()) {
                 parts if parts.is_empty() => ([0.0; 3], 0.0),
-                parts => self.march(px, py, o, d, &parts),
+                parts => self.march_to_face(px, py, (o, o), d, &parts),
             },
         };
         let t = (-tau).exp();
@@ -132,7 +133,60 @@ impl Tracer<'_> {
         if parts.is_empty() {
             return ([0.0; 3], 0.0);
         }
-        self.march(px, py, o, d, &parts)
+        self.march_to_face(px, py, (world, o), d, &parts)
+    }
+
+    /// [`Self::march`] over `parts` up to the first face of the cut that is drawn
+    /// ([`crate::model::CutFaces`]), which then closes the ray: a part starts on a face where the point just
+    /// before it lies in the domain and in the removed region. `o` as for [`Self::march_box`].
+    fn march_to_face(
+        &self,
+        px: u32,
+        py: u32,
+        (world, o): ([f64; 3], [f64; 3]),
+        d: [f64; 3],
+        parts: &[(f64, f64)],
+    ) -> ([f64; 3], f64) {
+        let face = self
+            .opts
+            .cut_faces
+            .zip(self.opts.cut)
+            .and_then(|(faces, cut)| {
+                let at = |t: f64| [0, 1, 2].map(|a| world[a] + d[a] * t);
+                parts.iter().enumerate().find_map(|(i, &(u, _))| {
+                    let before = at(u - FACE_PROBE * self.voxel);
+                    let removed = match &self.volume.geometry {
+                        Geometry::Spherical(g) => {
+                            g.contains(before) && cut.removes(g.planet_radius, before)
+                        }
+                        _ => self.bounds.contains(before) && cut.removes_box(before),
+                    };
+                    if !removed {
+                        return None;
+                    }
+                    let v = self.volume.sample_world_with(at(u), self.opts.missing);
+                    let (e, a) = if v.is_finite() {
+                        self.tf.eval(v)
+                    } else {
+                        ([0.0; 3], 0.0)
+                    };
+                    faces.radiance(v, e, a).map(|r| (i, r))
+                })
+            });
+        let drawn = face.map_or(parts.len(), |(i, _)| i);
+        let (mut color, mut tau) = if drawn > 0 {
+            self.march(px, py, o, d, &parts[..drawn])
+        } else {
+            ([0.0; 3], 0.0)
+        };
+        if let Some((_, radiance)) = face.filter(|_| tau <= self.stop_tau) {
+            let t = (-tau).exp();
+            for c in 0..3 {
+                color[c] += t * radiance[c];
+            }
+            tau = f64::INFINITY;
+        }
+        (color, tau)
     }
 
     /// Colour and optical depth along the ray through the parts `parts` of it inside the

@@ -38,6 +38,7 @@ struct MappedParams {
     box_cut_hi: [f32; 4],
     skip_lo: [f32; 4],
     skip_cells: [f32; 4],
+    faces: [f32; 4],
 }
 
 impl MappedParams {
@@ -219,6 +220,11 @@ impl VolumeRenderer {
         skip: Option<&SkipGrid>,
     ) -> Result<(HdrImage, RenderTiming)> {
         let (kind, mut params, coords, origin) = mapped_params(volume, opts.cut.as_ref())?;
+        if let Some(f) = opts.cut_faces {
+            // On; fringes per unit of the value (0: none); the probe before a part's start.
+            let probe = crate::model::cut::FACE_PROBE * volume.voxel_length();
+            params.faces = [1.0, f.nu.unwrap_or(0.0) as f32, probe as f32, 0.0];
+        }
         if let Some(g) = skip {
             // The world cells' corner in the shader's frame, and cells per unit length.
             let size = cell_size(volume, g.grid);

@@ -17,7 +17,7 @@ pub mod volume;
 pub mod volume_f64;
 
 use crate::error::{Error, Result};
-use crate::model::{Camera, Cut, Missing, TransferFunction};
+use crate::model::{Camera, Cut, CutFaces, Missing, TransferFunction};
 pub use route::{Bricking, RenderPath, VolumeRender, VolumeSource};
 
 /// How the volume is interpolated between voxel centres.
@@ -80,6 +80,8 @@ pub struct VolumeRenderOptions {
     pub missing: Missing,
     /// The region removed from a spherical volume (mapped ray caster and f64 CPU reference).
     pub cut: Option<Cut>,
+    /// The cut's faces drawn as opaque surfaces of the field (with `cut` only).
+    pub cut_faces: Option<CutFaces>,
 }
 
 /// How each ray segment reads the transfer function.
@@ -254,6 +256,7 @@ impl VolumeRenderOptions {
             bricking: Bricking::default(),
             missing: Missing::Strict,
             cut: None,
+            cut_faces: None,
         }
     }
 
@@ -286,6 +289,20 @@ impl VolumeRenderOptions {
         }
         if let Some(s) = &self.shading {
             s.validate()?;
+        }
+        if self.cut_faces.is_some() && self.cut.is_none() {
+            return Err(Error::invalid(
+                "cut_faces",
+                "draws the faces a cut-away opens; give cut too",
+            ));
+        }
+        if let Some(nu) = self.cut_faces.and_then(|f| f.nu) {
+            if !(nu.is_finite() && nu > 0.0) {
+                return Err(Error::invalid(
+                    "cut_faces nu",
+                    format!("expected fringes per unit of the value > 0, got {nu}"),
+                ));
+            }
         }
         if self.background.iter().any(|c| !c.is_finite()) {
             return Err(Error::invalid(

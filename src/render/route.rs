@@ -329,10 +329,13 @@ impl RenderSession {
         let b = &opts.bricking;
         if let Some(cut) = &opts.cut {
             if let Some(path) = check_cut(source, cut, opts)? {
-                // A regular box's f64 cut runs where its uncut render would; the mapped ray
-                // caster skips empty space as without a cut.
+                // A regular box's f64 cut runs where its uncut render would (the f64 GPU
+                // shader draws no cut faces); the mapped ray caster skips empty space as
+                // without a cut.
                 return match (path, source) {
-                    (RenderPath::F64Cpu, _) if source_is_regular(source) => {
+                    (RenderPath::F64Cpu, _)
+                        if source_is_regular(source) && opts.cut_faces.is_none() =>
+                    {
                         self.f64_path(opts).map(Route::from)
                     }
                     (RenderPath::Mapped { .. }, VolumeSource::Memory(v)) => {

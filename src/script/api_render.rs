@@ -8,7 +8,7 @@ use super::ScriptHost;
 use crate::datasets::LoadOptions;
 use crate::model::bricks::BRICK_SIZES;
 use crate::model::{
-    Aabb, Axis, Camera, Cut, Geometry, HdrImage, Lens, LutTransfer, Missing, Scale,
+    Aabb, Axis, Camera, Cut, CutFaces, Geometry, HdrImage, Lens, LutTransfer, Missing, Scale,
     TransferFunction, Volume, VolumeStats,
 };
 use crate::render::route::MAX_LEVEL;
@@ -121,6 +121,7 @@ pub(crate) const RENDER_VOLUME: OptionTable = OptionTable {
         opt("shading", Kind::Value("true | false | #{ambient, diffuse, specular, shininess}", "true"), "false", "Blinn–Phong headlight on the data gradient (absent: no shading code; not on the bricked path)"),
         opt("tf_sampling", Kind::Choice(TfSampling::NAMES), "\"point\"", "preintegrated: the transfer function's mean between the values at each segment's ends (not on the bricked path)"),
         opt("cut", Kind::Value("#{lat, lon, depth} | #{x, y, z}", "#{ lon: [0.0, 180.0] }"), "none", "a cut-away: the region where every given range holds is removed, rays clipped analytically (spherical volumes: lat, lon, depth; boxes: world x, y, z; on the mapped GPU ray caster, whole in GPU memory; in f64 on the f64 CPU reference, a regular box's on the f64 GPU shader where it runs)"),
+        opt("cut_faces", Kind::Value("true | false | #{nu}", "true"), "false", "with cut: the faces it opens drawn as opaque surfaces of the field, the radiance of a thick layer of their value (emission / extinction of the transfer function; values that absorb nothing are not drawn), with nu: times the fringes 1 + cos(2π nu value)"),
         opt("missing", Kind::Choice(Missing::NAMES), "\"strict\"", "strict: a missing voxel among a sample's 8 neighbours makes it missing; renormalise (with precision: \"f64\", on the CPU): the finite neighbours' weights renormalised"),
         opt("empty_space_skipping", Kind::Bool, "true", "jump over space the transfer function leaves empty (missing data, transparent values), with the same image"),
         opt("memory_budget", Kind::NumAbove(0.0, 1e9), "--gpu-memory, else unlimited", "MiB of GPU memory; larger volumes stream through a brick cache"),
@@ -155,6 +156,15 @@ pub(crate) const CUT: OptionTable = OptionTable {
     ],
     call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, cut: OPTS })",
     base: "#{ lon: [0.0, 180.0] }",
+};
+
+pub(crate) const CUT_FACES: OptionTable = OptionTable {
+    function: "render_volume cut_faces",
+    options: &[
+        opt("nu", Kind::NumAbove(0.0, f64::INFINITY), "none", "fringes per unit of the value over the faces (the interference method's 1 + cos(2π nu value))"),
+    ],
+    call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, cut: #{ x: [0.0, 0.5] }, cut_faces: OPTS })",
+    base: "#{}",
 };
 
 pub(crate) const TF_LUT: OptionTable = OptionTable {
@@ -434,6 +444,23 @@ fn register_render(engine: &mut Engine, host: &Arc<ScriptHost>) {
 }
 
 /// `shading: true` (the default coefficients), `false`, or a map of coefficients ([`SHADING`]).
+/// `cut_faces: true | false | #{ nu }` ([`CUT_FACES`]).
+fn cut_faces(v: &Dynamic) -> RResult<Option<CutFaces>> {
+    if v.is_bool() {
+        return Ok(boolean(v, "cut_faces")?.then(CutFaces::default));
+    }
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+        to_rhai(crate::Error::invalid(
+            "cut_faces",
+            "expected true, false or a map #{nu}",
+        ))
+    })?;
+    let given = CUT_FACES.read(&m)?;
+    Ok(Some(CutFaces {
+        nu: given.num("nu")?,
+    }))
+}
+
 fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
     if v.is_bool() {
         return Ok(boolean(v, "shading")?.then(Shading::default));
@@ -607,6 +634,9 @@ fn take_render_options(o: &mut VolumeRenderOptions, given: &Given) -> RResult<()
     }
     if let Some(c) = given.value("cut")? {
         o.cut = Some(cut(c)?);
+    }
+    if let Some(f) = given.value("cut_faces")? {
+        o.cut_faces = cut_faces(f)?;
     }
     o.empty_space_skipping = given
         .bool("empty_space_skipping")?
