@@ -305,7 +305,7 @@ impl Camera {
     /// Where world point `p` appears in a `width × height` image: continuous pixel coordinates
     /// (x right, y down, pixel (i, j) covering [i, i + 1] × [j, j + 1]), the inverse of
     /// [`Camera::ray`]; `None` for a point behind a perspective eye.
-    pub(crate) fn project(&self, p: [f64; 3], width: u32, height: u32) -> Option<[f64; 2]> {
+    pub fn project(&self, p: [f64; 3], width: u32, height: u32) -> Option<[f64; 2]> {
         let v = sub(p, self.eye);
         let (x, y) = (dot(v, self.right), dot(v, self.up));
         let [_, hx, hy, _] = self.shader_projection(width, height);

@@ -82,6 +82,10 @@ pub struct VolumeRenderOptions {
     pub cut: Option<Cut>,
     /// The cut's faces drawn as opaque surfaces of the field (with `cut` only).
     pub cut_faces: Option<CutFaces>,
+    /// Natural Earth coastlines on a spherical volume's outer surface.
+    pub coastlines: Option<surface::CoastlineStyle>,
+    /// Meridians and parallels every this many degrees on a spherical volume's outer surface.
+    pub graticule: Option<f64>,
 }
 
 /// How each ray segment reads the transfer function.
@@ -257,6 +261,8 @@ impl VolumeRenderOptions {
             missing: Missing::Strict,
             cut: None,
             cut_faces: None,
+            coastlines: None,
+            graticule: None,
         }
     }
 
@@ -289,6 +295,12 @@ impl VolumeRenderOptions {
         }
         if let Some(s) = &self.shading {
             s.validate()?;
+        }
+        if let Some(c) = &self.coastlines {
+            c.validate()?;
+        }
+        if let Some(step) = self.graticule {
+            surface::check_graticule(step)?;
         }
         if self.cut_faces.is_some() && self.cut.is_none() {
             return Err(Error::invalid(

@@ -233,6 +233,32 @@ fn fits_in_core(v: &Volume, opts: &VolumeRenderOptions) -> bool {
         .is_none_or(|m| v.voxel_count() as u64 * 4 + pixels * 32 <= m)
 }
 
+/// The coastlines and graticule `opts` ask for over a render of `source` (spherical volumes in
+/// memory), planned before any GPU work; `None` when none are asked for.
+fn volume_overlay(
+    source: &VolumeSource,
+    opts: &VolumeRenderOptions,
+) -> Result<Option<super::surface::overlay::Overlay>> {
+    let (coast, graticule) = (opts.coastlines.as_ref(), opts.graticule);
+    match source {
+        VolumeSource::Memory(v) => super::surface::overlay::Overlay::for_volume(
+            v,
+            &opts.camera,
+            opts.cut.as_ref(),
+            coast,
+            graticule,
+        ),
+        VolumeSource::Bricked(b) if coast.is_some() || graticule.is_some() => Err(Error::invalid(
+            if coast.is_some() { "coastlines" } else { "graticule" },
+            format!(
+                "lines are drawn on the outer surface of spherical volumes; {} is an opened (bricked) box",
+                b.name
+            ),
+        )),
+        VolumeSource::Bricked(_) => Ok(None),
+    }
+}
+
 /// A GPU brick cache as a result-cache entry: renders through it take turns.
 pub(crate) struct SharedBrickCache(Mutex<BrickCache>);
 
@@ -269,6 +295,7 @@ impl RenderSession {
         };
         let route = self.choose_path(&source, opts)?;
         let path = route.path;
+        let overlay = volume_overlay(&source, opts)?;
         if matches!(
             path,
             RenderPath::InCore { .. }
@@ -300,7 +327,10 @@ impl RenderSession {
                 }
             },
             || {
-                let r = self.run_path(&source, &route, opts)?;
+                let mut r = self.run_path(&source, &route, opts)?;
+                if let Some(o) = &overlay {
+                    o.draw(Arc::make_mut(&mut r.image));
+                }
                 let mut detail = raycast_effects(opts);
                 if let Some(b) = &r.bricks {
                     detail.push(bricked_detail(path, b));

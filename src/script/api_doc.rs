@@ -297,6 +297,17 @@ mod tests {
                     }
                     _ => table.base.to_string(),
                 };
+                // Lines over a volume need a spherical one.
+                let call = if table.function == "render_volume"
+                    && ["coastlines", "graticule"].contains(&spec.name)
+                {
+                    call.replace(
+                        "generate_mantle(#{ n: 4 })",
+                        "load_volume(generate(\"mantle\", #{ n: 4, native: true }))",
+                    )
+                } else {
+                    call.clone()
+                };
                 let source = format!(
                     "let o = {base}; o[{:?}] = {}; {call};",
                     spec.name,

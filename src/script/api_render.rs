@@ -122,6 +122,8 @@ pub(crate) const RENDER_VOLUME: OptionTable = OptionTable {
         opt("tf_sampling", Kind::Choice(TfSampling::NAMES), "\"point\"", "preintegrated: the transfer function's mean between the values at each segment's ends (not on the bricked path)"),
         opt("cut", Kind::Value("#{lat, lon, depth} | #{x, y, z}", "#{ lon: [0.0, 180.0] }"), "none", "a cut-away: the region where every given range holds is removed, rays clipped analytically (spherical volumes: lat, lon, depth; boxes: world x, y, z; on the mapped GPU ray caster, whole in GPU memory; in f64 on the f64 CPU reference, a regular box's on the f64 GPU shader where it runs)"),
         opt("cut_faces", Kind::Value("true | false | #{nu}", "true"), "false", "with cut: the faces it opens drawn as opaque surfaces of the field, the radiance of a thick layer of their value (emission / extinction of the transfer function; values that absorb nothing are not drawn), with nu: times the fringes 1 + cos(2π nu value)"),
+        opt("coastlines", Kind::Value("true | #{ colour, width, resolution }", "true"), "false", "spherical volumes: Natural Earth coastlines (public domain) on the outer surface, drawn into the HDR image in linear RGB, hidden on the far side and where a wedge or cut leaves no outer surface (the scale by the domain's extent)"),
+        opt("graticule", Kind::Value("true | degrees", "30.0"), "false", "spherical volumes: meridians and parallels on the outer surface at the multiples of this step (true: 10), in linear grey 0.2"),
         opt("missing", Kind::Choice(Missing::NAMES), "\"strict\"", "strict: a missing voxel among a sample's 8 neighbours makes it missing; renormalise (with precision: \"f64\", on the CPU): the finite neighbours' weights renormalised"),
         opt("empty_space_skipping", Kind::Bool, "true", "jump over space the transfer function leaves empty (missing data, transparent values), with the same image"),
         opt("memory_budget", Kind::NumAbove(0.0, 1e9), "--gpu-memory, else unlimited", "MiB of GPU memory; larger volumes stream through a brick cache"),
@@ -637,6 +639,12 @@ fn take_render_options(o: &mut VolumeRenderOptions, given: &Given) -> RResult<()
     }
     if let Some(f) = given.value("cut_faces")? {
         o.cut_faces = cut_faces(f)?;
+    }
+    if let Some(v) = given.value("coastlines")? {
+        o.coastlines = super::api_surface::coastline_style(v)?;
+    }
+    if let Some(v) = given.value("graticule")? {
+        o.graticule = super::api_surface::graticule_step(v)?;
     }
     o.empty_space_skipping = given
         .bool("empty_space_skipping")?

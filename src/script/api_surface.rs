@@ -240,7 +240,7 @@ pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(Surfac
 
 /// `coastlines: true` (black, 1 pixel, the scale by the extent), `false`, or a map
 /// ([`COASTLINES`]).
-fn coastline_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
+pub(crate) fn coastline_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
     if v.is_bool() {
         return Ok(boolean(v, "coastlines")?.then(CoastlineStyle::default));
     }
@@ -264,7 +264,7 @@ fn coastline_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
 }
 
 /// `graticule: true` (every 10°), `false`, or a step in degrees.
-fn graticule_step(v: &Dynamic) -> RResult<Option<f64>> {
+pub(crate) fn graticule_step(v: &Dynamic) -> RResult<Option<f64>> {
     let step = if v.is_bool() {
         if !boolean(v, "graticule")? {
             return Ok(None);

@@ -686,3 +686,126 @@ fn cut_faces_show_the_field_as_an_opaque_surface() {
     assert!(e.starts_with("cut_faces nu: expected fringes"), "{e}");
     assert_eq!(e.lines().count(), 1);
 }
+
+/// Coastlines on a spherical volume's render: every pixel they change lies within a line width of
+/// a coast point on the near hemisphere (projected by the render's camera at the outer radius),
+/// coast points on the far side far from any near one are untouched, the Cape of Good Hope is
+/// drawn in exactly the line's colour (its pixel fully covered); where a wedge is cut away the
+/// outer surface is gone and so are its coasts (India), while the rest stay; a box refuses them
+/// in one line.
+#[test]
+fn coastlines_lie_on_the_outer_surface_of_a_spherical_render() {
+    use hdrvis::datasets::coastlines::{coastlines, CoastResolution};
+    use hdrvis::model::{Camera, Cut, SphericalGrid, TransferFunction};
+    use hdrvis::render::surface::CoastlineStyle;
+    use hdrvis::render::{VolumeRenderOptions, VolumeSource};
+    use std::sync::Arc;
+    let session = crate::common::session(hdrvis::gpu::BackendChoice::Vulkan);
+    let shell = Arc::new(constant_shell());
+    let r1 = 6371.0;
+    let camera = Camera::geo([0.0; 3], 0.0, 40.0, 3.0 * r1, 40.0).unwrap();
+    let (w, h) = (160u32, 160u32);
+    let mut o = VolumeRenderOptions::new(
+        camera,
+        TransferFunction::emission_absorption(0.2, 0.05).unwrap(),
+    );
+    (o.width, o.height) = (w, h);
+    let source = VolumeSource::Memory(shell.clone());
+    let plain = session.render_volume(&source, &o).unwrap();
+    let style = CoastlineStyle {
+        colour: "red".into(),
+        linear: [1.0, 0.0, 0.0],
+        width: 3.0,
+        resolution: Some(CoastResolution::Coarse),
+    };
+    o.coastlines = Some(style);
+    let lined = session.render_volume(&source, &o).unwrap();
+    assert!(lined
+        .meta("coastlines")
+        .is_some_and(|m| m.contains("Natural Earth")));
+    let changed = |img: &hdrvis::model::HdrImage| -> Vec<(f64, f64)> {
+        (0..(w * h) as usize)
+            .filter(|&k| img.pixels[k] != plain.pixels[k])
+            .map(|k| ((k as u32 % w) as f64 + 0.5, (k as u32 / w) as f64 + 0.5))
+            .collect()
+    };
+    let eye = camera.eye;
+    let points: Vec<[f64; 2]> = coastlines(CoastResolution::Coarse)
+        .iter()
+        .flatten()
+        .copied()
+        .collect();
+    let world = |p: &[f64; 2]| SphericalGrid::to_world(r1, p[1], p[0]);
+    let faces = |p: &[f64; 2]| {
+        let q = world(p);
+        (0..3).map(|a| q[a] * (eye[a] - q[a])).sum::<f64>() > 0.0
+    };
+    let near: Vec<[f64; 2]> = points
+        .iter()
+        .filter(|p| faces(p))
+        .filter_map(|p| camera.project(world(p), w, h))
+        .collect();
+    let close = |set: &[(f64, f64)], x: f64, y: f64, r: f64| {
+        set.iter().any(|&(a, b)| (a - x).hypot(b - y) <= r)
+    };
+    let drawn = changed(&lined);
+    assert!(drawn.len() > 200, "{} pixels drawn", drawn.len());
+    // Pieces of 0.5° between the points: a pixel may lie between two of them.
+    let near_pixels: Vec<(f64, f64)> = near.iter().map(|p| (p[0], p[1])).collect();
+    for &(x, y) in &drawn {
+        assert!(
+            close(&near_pixels, x, y, 6.0),
+            "pixel ({x}, {y}) is not on a near-side coast"
+        );
+    }
+    let mut far_checked = 0;
+    for p in points.iter().filter(|p| !faces(p)) {
+        let Some([x, y]) = camera.project(world(p), w, h) else {
+            continue;
+        };
+        if !close(&near_pixels, x, y, 8.0) {
+            far_checked += 1;
+            assert!(!close(&drawn, x, y, 1.0), "far-side {p:?} drawn");
+        }
+    }
+    assert!(far_checked > 20, "{far_checked} far-side points checked");
+    let cape = camera.project(world(&[18.47, -34.36]), w, h).unwrap();
+    let k = (cape[1] as u32 * w + cape[0] as u32) as usize;
+    assert_eq!(&lined.pixels[k][..3], &[1.0, 0.0, 0.0], "the Cape's pixel");
+    // A wedge cut away over India: its coast goes with the surface, Africa's stays.
+    o.cut = Some(Cut {
+        lat: Some([0.0, 90.0]),
+        lon: Some([60.0, 100.0]),
+        ..Default::default()
+    });
+    let cut = session.render_volume(&source, &o).unwrap();
+    let cut_plain = {
+        let mut p = o.clone();
+        p.coastlines = None;
+        session.render_volume(&source, &p).unwrap()
+    };
+    let india = camera.project(world(&[77.5, 8.1]), w, h).unwrap();
+    let drawn_cut: Vec<(f64, f64)> = (0..(w * h) as usize)
+        .filter(|&k| cut.pixels[k] != cut_plain.pixels[k])
+        .map(|k| ((k as u32 % w) as f64 + 0.5, (k as u32 / w) as f64 + 0.5))
+        .collect();
+    assert!(close(&drawn, india[0], india[1], 2.0), "India drawn uncut");
+    assert!(
+        !close(&drawn_cut, india[0], india[1], 3.0),
+        "India drawn on the cut"
+    );
+    assert!(close(&drawn_cut, cape[0], cape[1], 1.0), "the Cape lost");
+    // A box has no outer sphere.
+    let boxed = hdrvis::model::Volume::from_fn("b", [4, 4, 4], |x, _, _| x).unwrap();
+    o.cut = None;
+    let e = session
+        .render_volume(&VolumeSource::Memory(Arc::new(boxed)), &o)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with(
+            "coastlines: lines are drawn on the outer surface of spherical volumes; b is a box"
+        ),
+        "{e}"
+    );
+}

@@ -45,7 +45,7 @@ mod globe;
 mod gpu;
 mod legend;
 mod options;
-mod overlay;
+pub(crate) mod overlay;
 mod params;
 mod phase;
 

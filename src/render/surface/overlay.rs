@@ -4,14 +4,17 @@
 //! line is covered, with a one-pixel ramp outside), clipped to the image. On a map the lines
 //! follow the map's equirectangular axes (repeated 360° either side, so 0–360° grids get them
 //! too); on the globe they are projected by the view's camera and drawn only where the sphere
-//! faces the eye, so the far hemisphere stays hidden. The coastlines are Natural Earth's
+//! faces the eye, so the far hemisphere stays hidden. Renders of spherical volumes get them too
+//! ([`Overlay::for_volume`]): on the volume's outer sphere, hidden on its far side and where the
+//! domain has no outer surface (outside a regional wedge, or where a cut removes it), and
+//! composited over the render's premultiplied colour. The coastlines are Natural Earth's
 //! ([`crate::datasets::coastlines`]).
 
 use super::options::{CoastlineStyle, SurfaceOptions, SurfaceView};
 use crate::datasets::coastlines::{coastlines, CoastResolution};
 use crate::error::{Error, Result};
 use crate::model::map_frame::MapAxes;
-use crate::model::{Camera, Grid, HdrImage};
+use crate::model::{Camera, Cut, Grid, HdrImage, SphericalGrid, Volume};
 
 /// The graticule's colour (linear mid grey) and width in pixels.
 const GRATICULE_COLOUR: [f64; 3] = [0.2; 3];
@@ -49,6 +52,32 @@ fn check_width(field: &str, w: f64) -> Result<()> {
 enum Projector {
     Map(MapAxes),
     Globe(Camera),
+    /// A spherical volume's outer surface.
+    Shell(Box<ShellSurface>),
+}
+
+/// The outer surface of a spherical volume a render shows: its grid (radius, extent) and cut.
+struct ShellSurface {
+    camera: Camera,
+    grid: SphericalGrid,
+    cut: Option<Cut>,
+}
+
+impl ShellSurface {
+    /// The pixel of (longitude, latitude) on the outer sphere, where the sphere there faces the
+    /// eye and the domain has its outer surface (just inside it is in the domain and kept).
+    fn pixel(&self, lonlat: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
+        let r = self.grid.radius.hi;
+        let inside = SphericalGrid::to_world(r * (1.0 - 1e-9), lonlat[1], lonlat[0]);
+        let kept = self.grid.contains(inside)
+            && !self
+                .cut
+                .is_some_and(|c| c.removes(self.grid.planet_radius, inside));
+        if !kept {
+            return None;
+        }
+        sphere_pixel(&self.camera, r, lonlat, w, h)
+    }
 }
 
 /// One layer of lines in (longitude, latitude) degrees, with its colour and width.
@@ -68,6 +97,52 @@ pub(crate) struct Overlay {
 }
 
 impl Overlay {
+    /// The lines `coastlines` and `graticule` ask for over renders of `volume` by `camera` with
+    /// the cut `cut`, or `None`; an error naming the option when the volume is not spherical.
+    /// The coastlines' scale is by the domain's extent, as on a map.
+    pub(crate) fn for_volume(
+        volume: &Volume,
+        camera: &Camera,
+        cut: Option<&Cut>,
+        coastlines: Option<&CoastlineStyle>,
+        graticule: Option<f64>,
+    ) -> Result<Option<Overlay>> {
+        let field = match (coastlines, graticule) {
+            (None, None) => return Ok(None),
+            (Some(_), _) => "coastlines",
+            (None, Some(_)) => "graticule",
+        };
+        let crate::model::Geometry::Spherical(g) = &volume.geometry else {
+            return Err(Error::invalid(
+                field,
+                format!(
+                    "lines are drawn on the outer surface of spherical volumes; {} is a box",
+                    volume.name
+                ),
+            ));
+        };
+        let extent = if g.lon_wraps {
+            360.0
+        } else {
+            (g.longitude.hi - g.longitude.lo).max(g.latitude.hi - g.latitude.lo)
+        };
+        let coast = coastlines.map(|style| {
+            let res = style
+                .resolution
+                .unwrap_or(CoastResolution::for_extent(extent));
+            (style.clone(), res)
+        });
+        Ok(Some(Overlay {
+            projector: Projector::Shell(Box::new(ShellSurface {
+                camera: *camera,
+                grid: (**g).clone(),
+                cut: cut.copied(),
+            })),
+            coast,
+            graticule,
+        }))
+    }
+
     /// The overlay `opts` asks for on `grid`, or `None`; an error naming the option when the
     /// grid or view cannot carry one (lines need longitude and latitude in a map or globe view).
     pub(crate) fn plan(grid: &Grid, opts: &SurfaceOptions) -> Result<Option<Overlay>> {
@@ -96,7 +171,7 @@ impl Overlay {
                 Projector::Map(a) => {
                     CoastResolution::for_extent((a.x.hi - a.x.lo).max(a.y.hi - a.y.lo))
                 }
-                Projector::Globe(_) => CoastResolution::Coarse,
+                Projector::Globe(_) | Projector::Shell(_) => CoastResolution::Coarse,
             });
             (style, res)
         });
@@ -158,6 +233,19 @@ impl Overlay {
             }
         }
         let c = layer.linear.map(|v| v as f32);
+        if matches!(self.projector, Projector::Shell(_)) {
+            // A volume render's colour is premultiplied (over its background): the line goes
+            // over it.
+            for (p, &a) in img.pixels.iter_mut().zip(&cover) {
+                if a > 0.0 {
+                    for k in 0..3 {
+                        p[k] = c[k] * a + p[k] * (1.0 - a);
+                    }
+                    p[3] = a + p[3] * (1.0 - a);
+                }
+            }
+            return;
+        }
         for (p, &a) in img.pixels.iter_mut().zip(&cover) {
             if a > 0.0 {
                 let alpha = a + p[3] * (1.0 - a);
@@ -186,17 +274,17 @@ impl Overlay {
                     .map(|&s| [px(a, s), px(b, s)])
                     .collect()
             }
-            Projector::Globe(cam) => {
+            Projector::Globe(_) | Projector::Shell(_) => {
                 let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()) / GLOBE_STEP).ceil();
                 let n = (n as usize).max(1);
                 let at = |k: usize| {
                     let t = k as f64 / n as f64;
-                    globe_pixel(
-                        cam,
-                        [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])],
-                        w,
-                        h,
-                    )
+                    let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+                    match &self.projector {
+                        Projector::Shell(shell) => shell.pixel(p, w, h),
+                        Projector::Globe(cam) => globe_pixel(cam, p, w, h),
+                        Projector::Map(_) => None,
+                    }
                 };
                 (0..n).filter_map(|k| Some([at(k)?, at(k + 1)?])).collect()
             }
@@ -207,9 +295,12 @@ impl Overlay {
 /// Where a point on the unit sphere at (longitude, latitude) degrees shows in a globe image,
 /// or `None` when the sphere there faces away from the eye (the far hemisphere).
 pub(crate) fn globe_pixel(cam: &Camera, lonlat: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
-    let (so, co) = lonlat[0].to_radians().sin_cos();
-    let (sl, cl) = lonlat[1].to_radians().sin_cos();
-    let p = [cl * co, cl * so, sl];
+    sphere_pixel(cam, 1.0, lonlat, w, h)
+}
+
+/// [`globe_pixel`] on the sphere of radius `r` about the origin.
+fn sphere_pixel(cam: &Camera, r: f64, lonlat: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
+    let p = SphericalGrid::to_world(r, lonlat[1], lonlat[0]);
     let towards_eye = match cam.projection {
         crate::model::Projection::Orthographic { .. } => cam.forward.map(|v| -v),
         crate::model::Projection::Perspective { .. } => {
