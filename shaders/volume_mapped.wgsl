@@ -55,8 +55,11 @@ struct Mapped {
     skip_lo: vec4<f32>,
     skip_cells: vec4<f32>,
     // The cut's faces (model::cut::CutFaces): x 1 when drawn, y fringes per unit of the value
-    // (0: none), z how far before a part's start the removed region is probed (world units).
+    // (0: none), z how far before a part's start the removed region is probed, w half the
+    // width of the depth rings' lines (world units).
     faces: vec4<f32>,
+    // The depth rings' radii (0: none).
+    rings: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -845,7 +848,9 @@ fn first_face(r: Ray2, parts: Parts) -> Face {
         let ea = transfer(v);
         if (is_finite_f32(v) && ea.a > 0.0) {
             let fringe = select(1.0, 1.0 + cos(6.2831853 * G.faces.y * v), G.faces.y > 0.0);
-            face = Face(i, ea.rgb / ea.a * fringe);
+            let ring = abs(vec4<f32>(length(r.o + r.d * u)) - G.rings) < vec4<f32>(G.faces.w);
+            let on_ring = any(ring & (G.rings > vec4<f32>(0.0)));
+            face = Face(i, select(ea.rgb / ea.a * fringe, vec3<f32>(0.0), on_ring));
             break;
         }
     }

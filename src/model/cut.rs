@@ -35,11 +35,27 @@ pub struct Cut {
 /// colour the volume itself takes where it is thick), times the interference intensity
 /// 1 + cos(2πν·value) with `nu`. A face whose value absorbs nothing (σ = 0, or missing) is not
 /// drawn: the ray goes on through it.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct CutFaces {
     /// Fringes per unit of the value.
     pub nu: Option<f64>,
+    /// Lines on the faces of a spherical volume where they meet these depths.
+    pub depth_rings: Option<DepthRings>,
 }
+
+/// The depths of the rings on a spherical volume's cut faces, drawn as dark lines.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DepthRings {
+    /// The mantle's discontinuities at 410 and 660 km and the core–mantle boundary at 2891 km.
+    Earth,
+    /// Depths in the volume's length unit (at most [`MAX_RINGS`]).
+    Depths(Vec<f64>),
+}
+
+/// Rings one render draws at most.
+pub const MAX_RINGS: usize = 4;
+/// A ring's line, in pixels at the volume's centre.
+const RING_WIDTH_PX: f64 = 1.5;
 
 /// How far before a part's start, in voxel lengths, a point is tested for lying in the removed
 /// region (whether the part starts on a face of the cut): far beyond f32 rounding of a ray's
@@ -47,6 +63,81 @@ pub struct CutFaces {
 pub(crate) const FACE_PROBE: f64 = 1e-2;
 
 impl CutFaces {
+    /// The radii of the depth rings on `volume` (spherical) and the half width of their lines
+    /// in world units: half of [`RING_WIDTH_PX`] pixels at the volume's centre in the view of
+    /// `camera` `height` pixels high. An error naming the option for a box, a depth outside the
+    /// volume's planet or too many rings.
+    pub(crate) fn rings(
+        &self,
+        volume: &super::Volume,
+        camera: &super::Camera,
+        height: u32,
+    ) -> Result<(Vec<f64>, f64)> {
+        let field = "cut_faces depth_rings";
+        let Some(rings) = &self.depth_rings else {
+            return Ok((Vec::new(), 0.0));
+        };
+        let super::Geometry::Spherical(g) = &volume.geometry else {
+            return Err(Error::invalid(
+                field,
+                format!(
+                    "rings are drawn at depths of spherical volumes; {} is a box",
+                    volume.name
+                ),
+            ));
+        };
+        let depths = match rings {
+            DepthRings::Depths(d) => d.clone(),
+            DepthRings::Earth => {
+                let per_km = match g.length_unit.as_str() {
+                    "km" => 1.0,
+                    "m" => 1e3,
+                    other => {
+                        return Err(Error::invalid(
+                            field,
+                            format!("the Earth's rings need a volume in km or m, not {other:?}; give the depths"),
+                        ))
+                    }
+                };
+                [410.0, 660.0, 2891.0].map(|d| d * per_km).to_vec()
+            }
+        };
+        if depths.is_empty() || depths.len() > MAX_RINGS {
+            return Err(Error::invalid(
+                field,
+                format!("expected 1 to {MAX_RINGS} depths, got {}", depths.len()),
+            ));
+        }
+        let r = g.planet_radius;
+        if let Some(d) = depths
+            .iter()
+            .find(|d| !(d.is_finite() && **d > 0.0 && **d < r))
+        {
+            return Err(Error::invalid(
+                field,
+                format!(
+                    "depth {d} is not inside the planet (0 to {r} {})",
+                    g.length_unit
+                ),
+            ));
+        }
+        let pixel = match camera.projection {
+            super::Projection::Orthographic { half_height, .. } => 2.0 * half_height,
+            super::Projection::Perspective { fov_y_deg } => {
+                let c = volume.bounds().center();
+                let d = (0..3)
+                    .map(|a| (c[a] - camera.eye[a]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                2.0 * d * (0.5 * fov_y_deg).to_radians().tan()
+            }
+        } / f64::from(height);
+        Ok((
+            depths.iter().map(|d| r - d).collect(),
+            0.5 * RING_WIDTH_PX * pixel,
+        ))
+    }
+
     /// The radiance of a face of value `v` whose transfer is emission `e` and extinction `a`
     /// (per voxel length), or `None` where it is not drawn.
     pub(crate) fn radiance(&self, v: f64, e: [f64; 3], a: f64) -> Option<[f64; 3]> {

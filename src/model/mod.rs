@@ -20,7 +20,7 @@ pub(crate) mod vec3;
 pub(crate) mod volume;
 
 pub use camera::{Axis, Camera, Projection};
-pub use cut::{Cut, CutFaces};
+pub use cut::{Cut, CutFaces, DepthRings};
 pub use geometry::{CoordAxis, Geometry, SphericalGrid};
 pub use grid::{CoordKind, Grid, GridCoords};
 pub use image::HdrImage;

@@ -33,7 +33,12 @@ pub fn render_volume_f64(volume: &Volume, opts: &VolumeRenderOptions) -> Result<
     let tf = opts.tf.resolve(&volume.stats())?;
     let bounds = volume.bounds();
     let preintegrated = opts.tf_sampling == TfSampling::PreIntegrated;
+    let rings = match &opts.cut_faces {
+        Some(f) => f.rings(volume, &opts.camera, opts.height)?,
+        None => (Vec::new(), 0.0),
+    };
     let tracer = Tracer {
+        rings,
         volume,
         opts,
         integral: if preintegrated {
@@ -76,6 +81,8 @@ struct Tracer<'a> {
     ds: f64,
     stop_tau: f64,
     preintegrated: bool,
+    /// The radii of the depth rings on cut faces and the half width of their lines.
+    rings: (Vec<f64>, f64),
 }
 
 impl Tracer<'_> {
@@ -150,6 +157,7 @@ impl Tracer<'_> {
         let face = self
             .opts
             .cut_faces
+            .as_ref()
             .zip(self.opts.cut)
             .and_then(|(faces, cut)| {
                 let at = |t: f64| [0, 1, 2].map(|a| world[a] + d[a] * t);
@@ -170,7 +178,14 @@ impl Tracer<'_> {
                     } else {
                         ([0.0; 3], 0.0)
                     };
-                    faces.radiance(v, e, a).map(|r| (i, r))
+                    // The face's distance from the planet's centre, against the rings.
+                    let p = at(u);
+                    let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+                    let (radii, half) = &self.rings;
+                    let on_ring = radii.iter().any(|ring| (r - ring).abs() < *half);
+                    faces
+                        .radiance(v, e, a)
+                        .map(|c| (i, if on_ring { [0.0; 3] } else { c }))
                 })
             });
         let drawn = face.map_or(parts.len(), |(i, _)| i);

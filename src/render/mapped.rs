@@ -39,6 +39,7 @@ struct MappedParams {
     skip_lo: [f32; 4],
     skip_cells: [f32; 4],
     faces: [f32; 4],
+    rings: [f32; 4],
 }
 
 impl MappedParams {
@@ -220,10 +221,15 @@ impl VolumeRenderer {
         skip: Option<&SkipGrid>,
     ) -> Result<(HdrImage, RenderTiming)> {
         let (kind, mut params, coords, origin) = mapped_params(volume, opts.cut.as_ref())?;
-        if let Some(f) = opts.cut_faces {
-            // On; fringes per unit of the value (0: none); the probe before a part's start.
+        if let Some(f) = &opts.cut_faces {
+            // On; fringes per unit of the value (0: none); the probe before a part's start;
+            // the rings' half width and radii (0: none).
             let probe = crate::model::cut::FACE_PROBE * volume.voxel_length();
-            params.faces = [1.0, f.nu.unwrap_or(0.0) as f32, probe as f32, 0.0];
+            let (radii, half) = f.rings(volume, &opts.camera, opts.height)?;
+            params.faces = [1.0, f.nu.unwrap_or(0.0) as f32, probe as f32, half as f32];
+            for (slot, r) in params.rings.iter_mut().zip(&radii) {
+                *slot = *r as f32;
+            }
         }
         if let Some(g) = skip {
             // The world cells' corner in the shader's frame, and cells per unit length.

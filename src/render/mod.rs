@@ -308,7 +308,7 @@ impl VolumeRenderOptions {
                 "draws the faces a cut-away opens; give cut too",
             ));
         }
-        if let Some(nu) = self.cut_faces.and_then(|f| f.nu) {
+        if let Some(nu) = self.cut_faces.as_ref().and_then(|f| f.nu) {
             if !(nu.is_finite() && nu > 0.0) {
                 return Err(Error::invalid(
                     "cut_faces nu",

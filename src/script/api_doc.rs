@@ -11,7 +11,8 @@ use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
 use super::api_post::{FALSE_COLOUR, TONEMAP};
 use super::api_render::{CUT, CUT_FACES, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
-use super::api_surface::{COASTLINES, LOAD_GRID, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
+use super::api_surface::{LOAD_GRID, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
+use super::lines::COASTLINES;
 use super::options::OptionTable;
 #[cfg(test)]
 use std::collections::BTreeSet;

@@ -8,8 +8,8 @@ use super::ScriptHost;
 use crate::datasets::LoadOptions;
 use crate::model::bricks::BRICK_SIZES;
 use crate::model::{
-    Aabb, Axis, Camera, Cut, CutFaces, Geometry, HdrImage, Lens, LutTransfer, Missing, Scale,
-    TransferFunction, Volume, VolumeStats,
+    Aabb, Axis, Camera, Cut, CutFaces, DepthRings, Geometry, HdrImage, Lens, LutTransfer, Missing,
+    Scale, TransferFunction, Volume, VolumeStats,
 };
 use crate::render::route::MAX_LEVEL;
 use crate::render::{
@@ -164,8 +164,9 @@ pub(crate) const CUT_FACES: OptionTable = OptionTable {
     function: "render_volume cut_faces",
     options: &[
         opt("nu", Kind::NumAbove(0.0, f64::INFINITY), "none", "fringes per unit of the value over the faces (the interference method's 1 + cos(2π nu value))"),
+        opt("depth_rings", Kind::Value("true | [depth, ...]", "true"), "none", "spherical volumes: dark lines 1.5 px wide where the faces meet these depths (the volume's length unit, at most 4); true: 410 km, 660 km and the core–mantle boundary at 2891 km"),
     ],
-    call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, cut: #{ x: [0.0, 0.5] }, cut_faces: OPTS })",
+    call: "render_volume(load_volume(generate(\"mantle\", #{ n: 4, native: true })), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, cut: #{ lon: [0.0, 90.0] }, cut_faces: OPTS })",
     base: "#{}",
 };
 
@@ -458,8 +459,17 @@ fn cut_faces(v: &Dynamic) -> RResult<Option<CutFaces>> {
         ))
     })?;
     let given = CUT_FACES.read(&m)?;
+    let depth_rings = match given.value("depth_rings")? {
+        None => None,
+        Some(v) if v.is_bool() => boolean(v, "cut_faces.depth_rings")?.then_some(DepthRings::Earth),
+        Some(v) => Some(DepthRings::Depths(super::convert::numbers(
+            v,
+            "cut_faces.depth_rings",
+        )?)),
+    };
     Ok(Some(CutFaces {
         nu: given.num("nu")?,
+        depth_rings,
     }))
 }
 
@@ -641,10 +651,10 @@ fn take_render_options(o: &mut VolumeRenderOptions, given: &Given) -> RResult<()
         o.cut_faces = cut_faces(f)?;
     }
     if let Some(v) = given.value("coastlines")? {
-        o.coastlines = super::api_surface::coastline_style(v)?;
+        o.coastlines = super::lines::coastline_style(v)?;
     }
     if let Some(v) = given.value("graticule")? {
-        o.graticule = super::api_surface::graticule_step(v)?;
+        o.graticule = super::lines::graticule_step(v)?;
     }
     o.empty_space_skipping = given
         .bool("empty_space_skipping")?

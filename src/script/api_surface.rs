@@ -8,16 +8,16 @@
 //! sphere.
 
 use super::api_render::{ScriptCamera, ScriptImage};
-use super::convert::{boolean, err, num, pair, string, to_rhai, variable_option, RResult};
+use super::convert::{err, numbers, pair, string, to_rhai, variable_option, RResult};
+use super::lines::{coastline_style, graticule_step};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
-use crate::datasets::coastlines::CoastResolution;
 use crate::datasets::LoadOptions;
 use crate::model::text::{TYPE_MAX, TYPE_MIN};
 use crate::model::{Aabb, Axis, Grid, HdrImage};
 use crate::render::surface::{
-    check_graticule, colorbar, legend_in, legend_type, CoastlineStyle, FringeMode, MissingColour,
-    PhaseMethod, SurfaceOptions, SurfaceView, MAX_COLORBAR_HEIGHT,
+    colorbar, legend_in, legend_type, FringeMode, MissingColour, PhaseMethod, SurfaceOptions,
+    SurfaceView, MAX_COLORBAR_HEIGHT,
 };
 use crate::render::MAX_IMAGE_SIDE;
 use rhai::{Dynamic, Engine, Map};
@@ -98,17 +98,6 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
     base: "#{ width: 8, height: 8, mode: \"modulated\" }",
 };
 
-pub(crate) const COASTLINES: OptionTable = OptionTable {
-    function: "render_surface coastlines",
-    options: &[
-        opt("colour", Kind::Text("\"white\""), "\"black\"", "a colour name or #rrggbb (drawn as its linear RGB)"),
-        opt("width", Kind::Finite, "1", "line width in pixels, > 0 and at most 64 (antialiased)"),
-        opt("resolution", Kind::Text("\"50m\""), "50m for maps spanning under 60°, else 110m", "the Natural Earth scale: \"110m\" or \"50m\""),
-    ],
-    call: "render_surface(load_grid(\"geo.nc\"), #{ width: 8, height: 8, mode: \"modulated\", coastlines: OPTS })",
-    base: "#{}",
-};
-
 pub(crate) const SURFACE_COLORBAR: OptionTable = OptionTable {
     function: "surface_colorbar",
     options: &surface_option_specs!(
@@ -138,13 +127,6 @@ pub(crate) const SURFACE_LEGEND: OptionTable = OptionTable {
     call: "surface_legend(load_grid(\"geo.nc\"), OPTS)",
     base: "#{ mode: \"modulated\" }",
 };
-
-fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
-    match v.clone().into_array() {
-        Ok(a) => a.iter().map(|x| num(x, field)).collect(),
-        Err(_) => Ok(vec![num(v, field)?]),
-    }
-}
 
 /// The colour options every surface table has (see [`surface_option_specs`]); the boolean says
 /// whether `property` was an array. Options that would change nothing in the mode given are
@@ -236,45 +218,6 @@ pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(Surfac
     o.width = given.int("width")?.map(|w| w as u32);
     o.height = given.int("height")?.map(|h| h as u32);
     Ok((o, many))
-}
-
-/// `coastlines: true` (black, 1 pixel, the scale by the extent), `false`, or a map
-/// ([`COASTLINES`]).
-pub(crate) fn coastline_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
-    if v.is_bool() {
-        return Ok(boolean(v, "coastlines")?.then(CoastlineStyle::default));
-    }
-    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
-        to_rhai(crate::Error::invalid(
-            "coastlines",
-            "expected true, false or a map #{ colour, width, resolution }",
-        ))
-    })?;
-    let given = COASTLINES.read(&m)?;
-    let mut style = CoastlineStyle::default();
-    if let Some(c) = given.string("colour")? {
-        style = style.with_colour(&c).map_err(to_rhai)?;
-    }
-    style.width = given.num("width")?.unwrap_or(style.width);
-    if let Some(r) = given.string("resolution")? {
-        style.resolution = Some(CoastResolution::parse(&r).map_err(to_rhai)?);
-    }
-    style.validate().map_err(to_rhai)?;
-    Ok(Some(style))
-}
-
-/// `graticule: true` (every 10°), `false`, or a step in degrees.
-pub(crate) fn graticule_step(v: &Dynamic) -> RResult<Option<f64>> {
-    let step = if v.is_bool() {
-        if !boolean(v, "graticule")? {
-            return Ok(None);
-        }
-        10.0
-    } else {
-        num(v, "graticule")?
-    };
-    check_graticule(step).map_err(to_rhai)?;
-    Ok(Some(step))
 }
 
 /// The colour options of `surface_colorbar` and `surface_legend`, which draw one property at one

@@ -121,3 +121,11 @@ pub(crate) fn variable_option(
         (a, b) => Ok(a.or(b)),
     }
 }
+
+/// A number or an array of numbers, as a list.
+pub(crate) fn numbers(v: &Dynamic, field: &str) -> RResult<Vec<f64>> {
+    match v.clone().into_array() {
+        Ok(a) => a.iter().map(|x| num(x, field)).collect(),
+        Err(_) => Ok(vec![num(v, field)?]),
+    }
+}

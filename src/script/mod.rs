@@ -15,6 +15,7 @@ mod api_sections;
 mod api_surface;
 mod api_sweep;
 mod convert;
+mod lines;
 mod options;
 mod sandbox;
 mod shard;

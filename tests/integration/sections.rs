@@ -595,7 +595,7 @@ fn cut_away_boxes_on_the_gpu_match_the_f64_reference_from_an_oblique_view() {
 /// faces without a cut, ν ≤ 0, one-line errors.
 #[test]
 fn cut_faces_show_the_field_as_an_opaque_surface() {
-    use hdrvis::model::{Axis, Camera, Cut, CutFaces, TransferFunction, Volume};
+    use hdrvis::model::{Axis, Camera, Cut, CutFaces, DepthRings, TransferFunction, Volume};
     use hdrvis::render::cpu_reference::render_volume_f64;
     use hdrvis::render::{Precision, VolumeRenderOptions, VolumeSource};
     use std::sync::Arc;
@@ -626,6 +626,7 @@ fn cut_faces_show_the_field_as_an_opaque_surface() {
     };
     // The shell: faces on the plane y = 0 where the shell is, the far half's chord in the core.
     let shell = constant_shell();
+    let shell_bounds = shell.bounds();
     let (r0, r1, dr) = (3480.0, 6371.0, (6371.0 - 3480.0) / 8.0);
     let n = 48u32;
     let mut o = VolumeRenderOptions::new(Camera::axis(Axis::Y, &shell.bounds()), tf.clone());
@@ -634,13 +635,28 @@ fn cut_faces_show_the_field_as_an_opaque_surface() {
         lon: Some([180.0, 360.0]),
         ..Default::default()
     });
-    o.cut_faces = Some(CutFaces::default());
+    // Rings at 1000 and 2000 km depth: black lines 1.5 px wide on the face.
+    o.cut_faces = Some(CutFaces {
+        nu: None,
+        depth_rings: Some(DepthRings::Depths(vec![1000.0, 2000.0])),
+    });
+    let pixel = 2.0 * r1 / n as f64;
     check(&shell, &o, &|px, py| {
         let x = (2.0 * (px as f64 + 0.5) / n as f64 - 1.0) * r1;
         let z = (1.0 - 2.0 * (py as f64 + 0.5) / n as f64) * r1;
         let rho = x.hypot(z);
         if rho > r1 * (1.0 - 1e-3) || (rho - r0).abs() < 1e-3 * r1 {
             return None;
+        }
+        let ring = [r1 - 1000.0, r1 - 2000.0]
+            .iter()
+            .map(|r| (rho - r).abs() / pixel)
+            .fold(f64::INFINITY, f64::min);
+        if (ring - 0.75).abs() < 0.05 {
+            return None;
+        }
+        if ring < 0.75 {
+            return Some(0.0);
         }
         if rho > r0 {
             return Some(ke / ka);
@@ -659,7 +675,10 @@ fn cut_faces_show_the_field_as_an_opaque_surface() {
         x: Some([8.0, 20.0]),
         ..Default::default()
     });
-    o.cut_faces = Some(CutFaces { nu: Some(nu) });
+    o.cut_faces = Some(CutFaces {
+        nu: Some(nu),
+        depth_rings: None,
+    });
     check(&boxed, &o, &|px, py| {
         let y = 16.0 * (px as f64 + 0.5) / 64.0;
         let z = 16.0 * (1.0 - (py as f64 + 0.5) / 64.0);
@@ -681,10 +700,51 @@ fn cut_faces_show_the_field_as_an_opaque_surface() {
         x: Some([8.0, 20.0]),
         ..Default::default()
     });
-    o.cut_faces = Some(CutFaces { nu: Some(0.0) });
+    o.cut_faces = Some(CutFaces {
+        nu: Some(0.0),
+        depth_rings: None,
+    });
     let e = session.render_volume(&source, &o).unwrap_err().to_string();
     assert!(e.starts_with("cut_faces nu: expected fringes"), "{e}");
     assert_eq!(e.lines().count(), 1);
+    // Rings are at depths of spherical volumes, inside the planet, four at most.
+    o.cut_faces = Some(CutFaces {
+        nu: None,
+        depth_rings: Some(DepthRings::Earth),
+    });
+    let e = session.render_volume(&source, &o).unwrap_err().to_string();
+    assert!(
+        e.starts_with(
+            "cut_faces depth_rings: rings are drawn at depths of spherical volumes; ramp is a box"
+        ),
+        "{e}"
+    );
+    let shell_source = VolumeSource::Memory(Arc::new(shell));
+    let mut so = VolumeRenderOptions::new(Camera::axis(Axis::Y, &shell_bounds), tf.clone());
+    so.cut = Some(Cut {
+        lon: Some([180.0, 360.0]),
+        ..Default::default()
+    });
+    for (depths, want) in [
+        (
+            vec![7000.0],
+            "depth 7000 is not inside the planet (0 to 6371 km)",
+        ),
+        (vec![1.0; 5], "expected 1 to 4 depths, got 5"),
+    ] {
+        so.cut_faces = Some(CutFaces {
+            nu: None,
+            depth_rings: Some(DepthRings::Depths(depths)),
+        });
+        let e = session
+            .render_volume(&shell_source, &so)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with(&format!("cut_faces depth_rings: {want}")),
+            "{e}"
+        );
+    }
 }
 
 /// Coastlines on a spherical volume's render: every pixel they change lies within a line width of

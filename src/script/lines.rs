@@ -1,0 +1,58 @@
+//! The coastline and graticule options that surfaces and spherical volume renders share: one
+//! table for the coastlines' style and one reading of each option.
+
+use super::convert::{boolean, num, to_rhai, RResult};
+use super::options::{opt, Kind, OptionTable};
+use crate::datasets::coastlines::CoastResolution;
+use crate::render::surface::{check_graticule, CoastlineStyle};
+use rhai::{Dynamic, Map};
+
+pub(crate) const COASTLINES: OptionTable = OptionTable {
+    function: "render_surface coastlines",
+    options: &[
+        opt("colour", Kind::Text("\"white\""), "\"black\"", "a colour name or #rrggbb (drawn as its linear RGB)"),
+        opt("width", Kind::Finite, "1", "line width in pixels, > 0 and at most 64 (antialiased)"),
+        opt("resolution", Kind::Text("\"50m\""), "50m for maps spanning under 60°, else 110m", "the Natural Earth scale: \"110m\" or \"50m\""),
+    ],
+    call: "render_surface(load_grid(\"geo.nc\"), #{ width: 8, height: 8, mode: \"modulated\", coastlines: OPTS })",
+    base: "#{}",
+};
+
+/// `coastlines: true` (black, 1 pixel, the scale by the extent), `false`, or a map
+/// ([`COASTLINES`]).
+pub(crate) fn coastline_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
+    if v.is_bool() {
+        return Ok(boolean(v, "coastlines")?.then(CoastlineStyle::default));
+    }
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+        to_rhai(crate::Error::invalid(
+            "coastlines",
+            "expected true, false or a map #{ colour, width, resolution }",
+        ))
+    })?;
+    let given = COASTLINES.read(&m)?;
+    let mut style = CoastlineStyle::default();
+    if let Some(c) = given.string("colour")? {
+        style = style.with_colour(&c).map_err(to_rhai)?;
+    }
+    style.width = given.num("width")?.unwrap_or(style.width);
+    if let Some(r) = given.string("resolution")? {
+        style.resolution = Some(CoastResolution::parse(&r).map_err(to_rhai)?);
+    }
+    style.validate().map_err(to_rhai)?;
+    Ok(Some(style))
+}
+
+/// `graticule: true` (every 10°), `false`, or a step in degrees.
+pub(crate) fn graticule_step(v: &Dynamic) -> RResult<Option<f64>> {
+    let step = if v.is_bool() {
+        if !boolean(v, "graticule")? {
+            return Ok(None);
+        }
+        10.0
+    } else {
+        num(v, "graticule")?
+    };
+    check_graticule(step).map_err(to_rhai)?;
+    Ok(Some(step))
+}
