@@ -298,7 +298,15 @@ mod tests {
                     }
                     _ => table.base.to_string(),
                 };
-                // Lines over a volume need a spherical one.
+                // Lines over a volume need a spherical one, depth rings on a surface a section.
+                let call = if table.function == "render_surface" && spec.name == "depth_rings" {
+                    call.replace(
+                        "load_grid(\"geo.nc\")",
+                        "section(load_volume(generate(\"mantle\", #{ n: 4, native: true })), #{ from: [0.0, 0.0], to: [0.0, 90.0] })",
+                    )
+                } else {
+                    call.clone()
+                };
                 let call = if table.function == "render_volume"
                     && ["coastlines", "graticule"].contains(&spec.name)
                 {

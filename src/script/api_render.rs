@@ -8,8 +8,8 @@ use super::ScriptHost;
 use crate::datasets::LoadOptions;
 use crate::model::bricks::BRICK_SIZES;
 use crate::model::{
-    Aabb, Axis, Camera, Cut, CutFaces, DepthRings, Geometry, HdrImage, Lens, LutTransfer, Missing,
-    Scale, TransferFunction, Volume, VolumeStats,
+    Aabb, Axis, Camera, Cut, CutFaces, Geometry, HdrImage, Lens, LutTransfer, Missing, Scale,
+    TransferFunction, Volume, VolumeStats,
 };
 use crate::render::route::MAX_LEVEL;
 use crate::render::{
@@ -460,12 +460,8 @@ fn cut_faces(v: &Dynamic) -> RResult<Option<CutFaces>> {
     })?;
     let given = CUT_FACES.read(&m)?;
     let depth_rings = match given.value("depth_rings")? {
+        Some(v) => super::lines::depth_rings(v, "cut_faces.depth_rings")?,
         None => None,
-        Some(v) if v.is_bool() => boolean(v, "cut_faces.depth_rings")?.then_some(DepthRings::Earth),
-        Some(v) => Some(DepthRings::Depths(super::convert::numbers(
-            v,
-            "cut_faces.depth_rings",
-        )?)),
     };
     Ok(Some(CutFaces {
         nu: given.num("nu")?,

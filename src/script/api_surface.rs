@@ -81,6 +81,7 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
         opt("missing", Kind::Text("\"grey\""), "\"transparent\"", "colour of missing data: \"transparent\", a colour name or #rrggbb"),
         opt("coastlines", Kind::Value("true | #{ colour, width, resolution }", "true"), "false", "map and globe views of longitude/latitude grids: Natural Earth coastlines (public domain) drawn into the HDR image, hidden on the globe's far side"),
         opt("graticule", Kind::Value("true | degrees", "30.0"), "false", "map and globe views of longitude/latitude grids: meridians and parallels at the multiples of this step (true: 10), in linear grey 0.2"),
+        opt("depth_rings", Kind::Value("true | [depth, ...]", "true"), "none", "map views of sections (a grid on depth): black lines 1.5 px wide across the section at these depths (its depth unit); true: 410 km, 660 km and the core–mantle boundary at 2891 km where the section reaches them"),
         opt(
             "width",
             SIDE,
@@ -199,6 +200,9 @@ pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(Surfac
     }
     if let Some(v) = given.value("graticule")? {
         o.graticule = graticule_step(v)?;
+    }
+    if let Some(v) = given.value("depth_rings")? {
+        o.depth_rings = super::lines::depth_rings(v, "depth_rings")?;
     }
     let globe = given.bool("globe")?.unwrap_or(false);
     o.view = surface_view(grid, given.value("view")?, globe)?;

@@ -1,9 +1,10 @@
-//! The coastline and graticule options that surfaces and spherical volume renders share: one
-//! table for the coastlines' style and one reading of each option.
+//! The line options that surfaces and spherical volume renders share (coastlines, graticules,
+//! depth rings): one table for the coastlines' style and one reading of each option.
 
 use super::convert::{boolean, num, to_rhai, RResult};
 use super::options::{opt, Kind, OptionTable};
 use crate::datasets::coastlines::CoastResolution;
+use crate::model::DepthRings;
 use crate::render::surface::{check_graticule, CoastlineStyle};
 use rhai::{Dynamic, Map};
 
@@ -55,4 +56,13 @@ pub(crate) fn graticule_step(v: &Dynamic) -> RResult<Option<f64>> {
     };
     check_graticule(step).map_err(to_rhai)?;
     Ok(Some(step))
+}
+
+/// `depth_rings: true` (the Earth's 410 km, 660 km and core–mantle boundary), `false`, or a
+/// list of depths, for the option `field`.
+pub(crate) fn depth_rings(v: &Dynamic, field: &str) -> RResult<Option<DepthRings>> {
+    if v.is_bool() {
+        return Ok(boolean(v, field)?.then_some(DepthRings::Earth));
+    }
+    Ok(Some(DepthRings::Depths(super::convert::numbers(v, field)?)))
 }

@@ -869,3 +869,72 @@ fn coastlines_lie_on_the_outer_surface_of_a_spherical_render() {
         "{e}"
     );
 }
+
+/// Depth rings across a section's map: a ring at a node's depth blackens that row exactly (its
+/// centre on the line: coverage 1), the rows beside it a quarter (centres 1 px from a 1.5-px
+/// line), and leaves every other row as it was; the Earth's rings keep those within the
+/// section's depths; a depth outside it and rings with coastlines
+/// are one-line errors.
+#[test]
+fn depth_rings_cross_a_section_at_their_depths() {
+    use hdrvis::model::DepthRings;
+    let g = great_circle_section(&constant_shell(), &spec()).unwrap();
+    let r = SurfaceRenderer::new(
+        renderer(hdrvis::gpu::BackendChoice::Vulkan)
+            .context()
+            .clone(),
+    );
+    let plain = r.render(&g, &SurfaceOptions::default()).unwrap().remove(0);
+    let (w, h) = (plain.width as usize, plain.height as usize);
+    assert_eq!((w, h), (41, 28));
+    let ringed = |rings: DepthRings| {
+        let o = SurfaceOptions {
+            depth_rings: Some(rings),
+            ..Default::default()
+        };
+        r.render(&g, &o)
+    };
+    // Node row k lies at depth 100 + 100 k km.
+    let img = ringed(DepthRings::Depths(vec![1000.0, 2000.0]))
+        .unwrap()
+        .remove(0);
+    assert_eq!(img.meta("depth_rings"), Some("1000, 2000 km"));
+    for row in 0..h {
+        let cover = match row {
+            9 | 19 => 1.0,
+            8 | 10 | 18 | 20 => 0.25,
+            _ => 0.0,
+        };
+        for x in 0..w {
+            let (p, q) = (img.pixels[row * w + x], plain.pixels[row * w + x]);
+            for c in 0..3 {
+                let want = q[c] * (1.0 - cover);
+                assert!(
+                    (p[c] - want).abs() <= 1e-6 * q[c].abs().max(1e-3),
+                    "row {row} x {x} channel {c}: {} vs {want}",
+                    p[c]
+                );
+            }
+        }
+    }
+    let earth = ringed(DepthRings::Earth).unwrap().remove(0);
+    assert_eq!(earth.meta("depth_rings"), Some("410, 660 km"));
+    let e = ringed(DepthRings::Depths(vec![3000.0]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("depth_rings: depth 3000 is outside the section's depths 50 to 2850"),
+        "{e}"
+    );
+    let o = SurfaceOptions {
+        depth_rings: Some(DepthRings::Earth),
+        coastlines: Some(Default::default()),
+        ..Default::default()
+    };
+    let e = r.render(&g, &o).unwrap_err().to_string();
+    assert!(
+        e.starts_with("coastlines:") || e.starts_with("depth_rings:"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1);
+}

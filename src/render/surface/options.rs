@@ -252,6 +252,8 @@ pub struct SurfaceOptions {
     pub coastlines: Option<CoastlineStyle>,
     /// Meridians and parallels every this many degrees over a map or globe view.
     pub graticule: Option<f64>,
+    /// Lines across a section's map at these depths.
+    pub depth_rings: Option<crate::model::DepthRings>,
 }
 
 impl Default for SurfaceOptions {
@@ -276,6 +278,7 @@ impl Default for SurfaceOptions {
             centre: None,
             coastlines: None,
             graticule: None,
+            depth_rings: None,
         }
     }
 }

@@ -14,11 +14,13 @@ use super::options::{CoastlineStyle, SurfaceOptions, SurfaceView};
 use crate::datasets::coastlines::{coastlines, CoastResolution};
 use crate::error::{Error, Result};
 use crate::model::map_frame::MapAxes;
-use crate::model::{Camera, Cut, Grid, HdrImage, SphericalGrid, Volume};
+use crate::model::{Camera, Cut, DepthRings, Grid, HdrImage, SphericalGrid, Volume};
 
 /// The graticule's colour (linear mid grey) and width in pixels.
 const GRATICULE_COLOUR: [f64; 3] = [0.2; 3];
 const GRATICULE_WIDTH: f64 = 1.0;
+/// The depth rings' width in pixels (black).
+const RING_WIDTH: f64 = 1.5;
 /// Widest line, in pixels.
 pub(crate) const MAX_LINE_WIDTH: f64 = 64.0;
 /// Longest piece of a line drawn straight on the globe, in degrees.
@@ -94,6 +96,8 @@ pub(crate) struct Overlay {
     projector: Projector,
     coast: Option<(CoastlineStyle, CoastResolution)>,
     graticule: Option<f64>,
+    /// Depths of lines across a section's map (its y axis's unit).
+    rings: Vec<f64>,
 }
 
 impl Overlay {
@@ -140,14 +144,72 @@ impl Overlay {
             })),
             coast,
             graticule,
+            rings: Vec::new(),
         }))
+    }
+
+    /// The depth rings `rings` across the map of the section `grid` (a grid whose y is depth),
+    /// in its depth unit: the Earth's within its depths, given ones each inside them.
+    fn section_rings(grid: &Grid, rings: &DepthRings, view: &SurfaceView) -> Result<Overlay> {
+        let field = "depth_rings";
+        let axes = MapAxes::of_grid(grid).filter(|_| grid.y_down());
+        let (Some(axes), SurfaceView::Map) = (axes, view) else {
+            return Err(Error::invalid(
+                field,
+                format!(
+                    "rings are drawn across map views of sections (a grid on depth); grid {:?} in {} has no depth axis",
+                    grid.name(),
+                    view.describe()
+                ),
+            ));
+        };
+        let (lo, hi) = (axes.y.lo, axes.y.hi);
+        let depths = match rings {
+            DepthRings::Depths(d) => {
+                if let Some(bad) = d.iter().find(|d| !(**d >= lo && **d <= hi)) {
+                    return Err(Error::invalid(
+                        field,
+                        format!("depth {bad} is outside the section's depths {lo} to {hi}"),
+                    ));
+                }
+                d.clone()
+            }
+            DepthRings::Earth => {
+                let per_km = match axes.y.units.as_str() {
+                    "km" => 1.0,
+                    "m" => 1e3,
+                    other => {
+                        return Err(Error::invalid(
+                            field,
+                            format!("the Earth's rings need depths in km or m, not {other:?}; give the depths"),
+                        ))
+                    }
+                };
+                [410.0, 660.0, 2891.0]
+                    .map(|d| d * per_km)
+                    .into_iter()
+                    .filter(|d| *d >= lo && *d <= hi)
+                    .collect()
+            }
+        };
+        Ok(Overlay {
+            projector: Projector::Map(axes),
+            coast: None,
+            graticule: None,
+            rings: depths,
+        })
     }
 
     /// The overlay `opts` asks for on `grid`, or `None`; an error naming the option when the
     /// grid or view cannot carry one (lines need longitude and latitude in a map or globe view).
     pub(crate) fn plan(grid: &Grid, opts: &SurfaceOptions) -> Result<Option<Overlay>> {
         let field = match (&opts.coastlines, opts.graticule) {
-            (None, None) => return Ok(None),
+            (None, None) => {
+                return match &opts.depth_rings {
+                    Some(r) => Self::section_rings(grid, r, &opts.view).map(Some),
+                    None => Ok(None),
+                }
+            }
             (Some(_), _) => "coastlines",
             (None, Some(_)) => "graticule",
         };
@@ -175,15 +237,41 @@ impl Overlay {
             });
             (style, res)
         });
+        if opts.depth_rings.is_some() {
+            return Err(Error::invalid(
+                "depth_rings",
+                "rings are drawn across sections, which have no coastlines or graticule",
+            ));
+        }
         Ok(Some(Overlay {
             projector,
             coast,
             graticule: opts.graticule,
+            rings: Vec::new(),
         }))
     }
 
-    /// Draws the graticule, then the coastlines, into `img`, and records them in its metadata.
+    /// Draws the graticule, then the coastlines, then the depth rings into `img`, and records
+    /// them in its metadata.
     pub(crate) fn draw(&self, img: &mut HdrImage) {
+        if let (Projector::Map(axes), false) = (&self.projector, self.rings.is_empty()) {
+            let layer = Layer {
+                lines: Vec::new(),
+                owned: self
+                    .rings
+                    .iter()
+                    .map(|&d| vec![[axes.x.lo, d], [axes.x.hi, d]])
+                    .collect(),
+                linear: [0.0; 3],
+                width: RING_WIDTH,
+            };
+            self.draw_layer(img, &layer);
+            let list: Vec<String> = self.rings.iter().map(|d| format!("{d}")).collect();
+            img.set_meta(
+                "depth_rings",
+                format!("{} {}", list.join(", "), axes.y.units),
+            );
+        }
         if let Some(step) = self.graticule {
             let layer = Layer {
                 lines: Vec::new(),
@@ -222,9 +310,11 @@ impl Overlay {
             .iter()
             .copied()
             .chain(layer.owned.iter().map(Vec::as_slice));
+        // Longitudes jump by a turn at the dateline; a section's distance does not wrap.
+        let wraps = self.rings.is_empty();
         for line in lines {
             for seg in line.windows(2) {
-                if (seg[1][0] - seg[0][0]).abs() > 180.0 {
+                if wraps && (seg[1][0] - seg[0][0]).abs() > 180.0 {
                     continue;
                 }
                 for [a, b] in self.segment_pixels(seg[0], seg[1], w, h) {
@@ -264,15 +354,22 @@ impl Overlay {
         match &self.projector {
             Projector::Map(axes) => {
                 let px = |p: [f64; 2], shift: f64| {
+                    let down = if axes.y_down {
+                        p[1] - axes.y.lo
+                    } else {
+                        axes.y.hi - p[1]
+                    };
                     [
                         (p[0] + shift - axes.x.lo) / (axes.x.hi - axes.x.lo) * w as f64,
-                        (axes.y.hi - p[1]) / (axes.y.hi - axes.y.lo) * h as f64,
+                        down / (axes.y.hi - axes.y.lo) * h as f64,
                     ]
                 };
-                [-360.0, 0.0, 360.0]
-                    .iter()
-                    .map(|&s| [px(a, s), px(b, s)])
-                    .collect()
+                let shifts: &[f64] = if self.rings.is_empty() {
+                    &[-360.0, 0.0, 360.0]
+                } else {
+                    &[0.0]
+                };
+                shifts.iter().map(|&s| [px(a, s), px(b, s)]).collect()
             }
             Projector::Globe(_) | Projector::Shell(_) => {
                 let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()) / GLOBE_STEP).ceil();
@@ -393,6 +490,7 @@ mod tests {
             projector,
             coast: Some((CoastlineStyle::default(), res)),
             graticule: None,
+            rings: Vec::new(),
         }
     }
 
@@ -533,6 +631,7 @@ mod tests {
             projector: map,
             coast: None,
             graticule: Some(30.0),
+            rings: Vec::new(),
         };
         let mut img = white(360, 180);
         overlay.draw(&mut img);
@@ -564,6 +663,7 @@ mod tests {
             }),
             coast: None,
             graticule: Some(4.0),
+            rings: Vec::new(),
         };
         overlay.draw(&mut img);
         // The meridian at 4° runs between columns 3 and 4, half covering both: the line's own
