@@ -271,13 +271,14 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 512)]
         size: u32,
     },
-    /// Empty-space skipping in the in-core ray caster, off against on in one run: the mantle
+    /// Empty-space skipping, off against on in one run: the in-core ray caster on the mantle
     /// under its Fig. 5 transfer function (257^3 and 513^3 -> 512^2 and 1024^2) and the HDR
-    /// blobs (nothing to skip).
+    /// blobs (nothing to skip); the mapped one on the mantle's native shell and a
+    /// tomography-like shell showing its slabs (128 levels -> 512^2).
     Skipping {
         #[arg(long, default_value_t = 3)]
         runs: usize,
-        /// Only the 257^3 mantle and the 256^3 blobs.
+        /// Only the 257^3 mantle, the 256^3 blobs and shells of 64 levels -> 256^2.
         #[arg(long)]
         quick: bool,
         /// `orbit` (rays at every angle to the grid) or `axis` (bench volume's view, along z).
