@@ -172,8 +172,9 @@ fn native_mantle(n: usize) -> Volume {
 
 /// The mapped ray caster skips empty world cells with the plain image: a tomography-like shell
 /// showing only its slabs, from three cameras (jitter in one), bit for bit in f32, u8 and f16,
-/// point-sampled and pre-integrated, and within 1e-5 with compensated sums; a wedge of it; a
-/// regular box with a cut-away (which renders there) and a rectilinear one. It turns itself off
+/// point-sampled and pre-integrated, and within 1e-5 with compensated sums; a wedge of it, with
+/// and without its faces drawn; a regular box with a cut-away (which renders there) and a
+/// rectilinear one. It turns itself off
 /// where too little of the domain is empty: a box where nothing is, and the mantle's native shell
 /// under its Fig. 5 transfer function, whose empty core and corners the march clips already.
 #[test]
@@ -218,6 +219,15 @@ fn the_mapped_ray_caster_skips_empty_world_cells_with_the_plain_image() {
     });
     cases.push((
         "shell with a wedge cut away".into(),
+        tomography.clone(),
+        wedge.clone(),
+    ));
+    wedge.cut_faces = Some(hdrvis::model::CutFaces {
+        nu: Some(2.0),
+        depth_rings: Some(hdrvis::model::DepthRings::Earth),
+    });
+    cases.push((
+        "shell with a wedge cut away and its faces drawn".into(),
         tomography.clone(),
         wedge,
     ));
