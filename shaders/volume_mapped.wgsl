@@ -748,7 +748,7 @@ alias Carried = f32;
 // returns the segment after the last one marched.
 fn march_run(s: ptr<function, RayState>, front: ptr<function, Carried>, r: Ray2, span: vec2<f32>, k0: u32, k_end: u32, continues: bool) -> u32 {
     var k = k0;
-    var ab = vec2<f32>(max(seg_start(r, k), span.x), min(seg_end(r, k), span.y));
+    var ab = walk_piece(Walk(0u, k, span.x, span.y), r);
 #if PREINTEGRATED
     var f = front_at(sample_at(r.o + r.d * ab.x));
     if (continues) {
@@ -765,7 +765,7 @@ fn march_run(s: ptr<function, RayState>, front: ptr<function, Carried>, r: Ray2,
             }
             j += 1u;
             k += 1u;
-            let ab_next = vec2<f32>(max(seg_start(r, k), span.x), min(seg_end(r, k), span.y));
+            let ab_next = walk_piece(Walk(0u, k, span.x, span.y), r);
 #if PREINTEGRATED
             piece_pre(s, &f, r, ab);
 #else

@@ -107,30 +107,17 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<Arc<SkipGrid>> {
         let cells = self.world_cells(volume)?;
-        let key = KeyBuilder::new("mapped skip grid")
-            .u64(self.volume_key(volume))
-            .debug(&opts.tf)
-            .finish();
-        let ctx = self.context()?;
-        self.stage_with(
-            "skip-grid",
-            key,
-            false,
-            |g: &SkipGrid| g.bytes(),
-            |_, _| {},
-            || {
-                let tf = opts.tf.resolve(&cells.stats)?;
-                let empty = empty_ranges(&cells.ranges, &tf);
-                let mut g = SkipGrid::from_empty(&ctx, &empty, cells.grid, 1, cells.grid);
-                g.outside = cells.outside;
-                let detail = format!(
-                    "{} of {} world cells in the domain empty",
-                    g.empty - g.outside,
-                    g.cells() - g.outside
-                );
-                Ok((g, detail))
-            },
-        )
+        self.skip_grid_stage("mapped skip grid", volume, opts, &cells.stats, |ctx, tf| {
+            let empty = empty_ranges(&cells.ranges, tf);
+            let mut g = SkipGrid::from_empty(ctx, &empty, cells.grid, 1, cells.grid);
+            g.outside = cells.outside;
+            let detail = format!(
+                "{} of {} world cells in the domain empty",
+                g.empty - g.outside,
+                g.cells() - g.outside
+            );
+            (g, detail)
+        })
     }
 }
 

@@ -27,8 +27,10 @@ use super::skipping::{CellRanges, SkipGrid};
 use super::volume::RenderTiming;
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
 use crate::model::bricks::{BrickedVolume, DEFAULT_BRICK};
-use crate::model::{Aabb, Cut, HdrImage, Missing, Volume};
+use crate::model::transfer::ResolvedTransfer;
+use crate::model::{Aabb, Cut, HdrImage, Missing, Volume, VolumeStats};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -707,7 +709,25 @@ impl RenderSession {
         opts: &VolumeRenderOptions,
     ) -> Result<Arc<SkipGrid>> {
         let cells = self.cell_ranges(volume)?;
-        let key = KeyBuilder::new("skip grid")
+        self.skip_grid_stage("skip grid", volume, opts, cells.stats(), |ctx, tf| {
+            let g = SkipGrid::new(ctx, &cells, tf);
+            let detail = format!("{} of {} cells empty", g.empty, g.cells());
+            (g, detail)
+        })
+    }
+
+    /// The `skip-grid` stage: the grid `build` classifies under the options' transfer function
+    /// (resolved on `stats`), cached per volume, function and kind of grid (`kind`: the box's
+    /// cells or the mapped ray caster's world cells).
+    pub(crate) fn skip_grid_stage(
+        &self,
+        kind: &str,
+        volume: &Arc<Volume>,
+        opts: &VolumeRenderOptions,
+        stats: &VolumeStats,
+        build: impl FnOnce(&GpuContext, &ResolvedTransfer) -> (SkipGrid, String),
+    ) -> Result<Arc<SkipGrid>> {
+        let key = KeyBuilder::new(kind)
             .u64(self.volume_key(volume))
             .debug(&opts.tf)
             .finish();
@@ -718,12 +738,7 @@ impl RenderSession {
             false,
             |g: &SkipGrid| g.bytes(),
             |_, _| {},
-            || {
-                let tf = opts.tf.resolve(cells.stats())?;
-                let g = SkipGrid::new(&ctx, &cells, &tf);
-                let detail = format!("{} of {} cells empty", g.empty, g.cells());
-                Ok((g, detail))
-            },
+            || Ok(build(&ctx, &opts.tf.resolve(stats)?)),
         )
     }
 }

@@ -2,7 +2,7 @@
 //! issues: `load_volume`, `tf_emission_absorption`, `camera_axis`, `render_volume`. Saving,
 //! previews, progress and `param` live in `api_output`.
 
-use super::convert::{boolean, err, num, pair, points, to_rhai, variable_option, vec3, RResult};
+use super::convert::{err, num, pair, points, to_rhai, variable_option, vec3, RResult};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
 use crate::datasets::LoadOptions;
@@ -446,53 +446,37 @@ fn register_render(engine: &mut Engine, host: &Arc<ScriptHost>) {
     );
 }
 
-/// `shading: true` (the default coefficients), `false`, or a map of coefficients ([`SHADING`]).
-/// `cut_faces: true | false | #{ nu }` ([`CUT_FACES`]).
+/// `cut_faces: true | false | #{ nu, depth_rings }` ([`CUT_FACES`]).
 fn cut_faces(v: &Dynamic) -> RResult<Option<CutFaces>> {
-    if v.is_bool() {
-        return Ok(boolean(v, "cut_faces")?.then(CutFaces::default));
-    }
-    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
-        to_rhai(crate::Error::invalid(
-            "cut_faces",
-            "expected true, false or a map #{nu}",
-        ))
-    })?;
-    let given = CUT_FACES.read(&m)?;
-    let depth_rings = match given.value("depth_rings")? {
-        Some(v) => super::lines::depth_rings(v, "cut_faces.depth_rings")?,
-        None => None,
-    };
-    Ok(Some(CutFaces {
-        nu: given.num("nu")?,
-        depth_rings,
-    }))
+    CUT_FACES.switch_or_map(v, "cut_faces", |given| {
+        let depth_rings = match given.value("depth_rings")? {
+            Some(v) => super::lines::depth_rings(v, "cut_faces.depth_rings")?,
+            None => None,
+        };
+        Ok(CutFaces {
+            nu: given.num("nu")?,
+            depth_rings,
+        })
+    })
 }
 
+/// `shading: true` (the default coefficients), `false`, or a map of coefficients ([`SHADING`]).
 fn shading(v: &Dynamic) -> RResult<Option<Shading>> {
-    if v.is_bool() {
-        return Ok(boolean(v, "shading")?.then(Shading::default));
-    }
-    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
-        to_rhai(crate::Error::invalid(
-            "shading",
-            "expected true, false or a map #{ambient, diffuse, specular, shininess}",
-        ))
-    })?;
-    let given = SHADING.read(&m)?;
-    let mut s = Shading::default();
-    for (target, name) in [
-        (&mut s.ambient, "ambient"),
-        (&mut s.diffuse, "diffuse"),
-        (&mut s.specular, "specular"),
-        (&mut s.shininess, "shininess"),
-    ] {
-        if let Some(x) = given.num(name)? {
-            *target = x;
+    SHADING.switch_or_map(v, "shading", |given| {
+        let mut s = Shading::default();
+        for (target, name) in [
+            (&mut s.ambient, "ambient"),
+            (&mut s.diffuse, "diffuse"),
+            (&mut s.specular, "specular"),
+            (&mut s.shininess, "shininess"),
+        ] {
+            if let Some(x) = given.num(name)? {
+                *target = x;
+            }
         }
-    }
-    s.validate().map_err(to_rhai)?;
-    Ok(Some(s))
+        s.validate().map_err(to_rhai)?;
+        Ok(s)
+    })
 }
 
 /// `cut: #{ lat, lon, depth }` or `#{ x, y, z }` ([`CUT`]); the ranges are checked against the

@@ -6,7 +6,7 @@ use super::options::{opt, Kind, OptionTable};
 use crate::datasets::coastlines::CoastResolution;
 use crate::model::DepthRings;
 use crate::render::surface::{check_graticule, CoastlineStyle};
-use rhai::{Dynamic, Map};
+use rhai::Dynamic;
 
 pub(crate) const COASTLINES: OptionTable = OptionTable {
     function: "render_surface coastlines",
@@ -22,26 +22,18 @@ pub(crate) const COASTLINES: OptionTable = OptionTable {
 /// `coastlines: true` (black, 1 pixel, the scale by the extent), `false`, or a map
 /// ([`COASTLINES`]).
 pub(crate) fn coastline_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
-    if v.is_bool() {
-        return Ok(boolean(v, "coastlines")?.then(CoastlineStyle::default));
-    }
-    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
-        to_rhai(crate::Error::invalid(
-            "coastlines",
-            "expected true, false or a map #{ colour, width, resolution }",
-        ))
-    })?;
-    let given = COASTLINES.read(&m)?;
-    let mut style = CoastlineStyle::default();
-    if let Some(c) = given.string("colour")? {
-        style = style.with_colour(&c).map_err(to_rhai)?;
-    }
-    style.width = given.num("width")?.unwrap_or(style.width);
-    if let Some(r) = given.string("resolution")? {
-        style.resolution = Some(CoastResolution::parse(&r).map_err(to_rhai)?);
-    }
-    style.validate().map_err(to_rhai)?;
-    Ok(Some(style))
+    COASTLINES.switch_or_map(v, "coastlines", |given| {
+        let mut style = CoastlineStyle::default();
+        if let Some(c) = given.string("colour")? {
+            style = style.with_colour(&c).map_err(to_rhai)?;
+        }
+        style.width = given.num("width")?.unwrap_or(style.width);
+        if let Some(r) = given.string("resolution")? {
+            style.resolution = Some(CoastResolution::parse(&r).map_err(to_rhai)?);
+        }
+        style.validate().map_err(to_rhai)?;
+        Ok(style)
+    })
 }
 
 /// `graticule: true` (every 10°), `false`, or a step in degrees.

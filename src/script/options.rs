@@ -130,6 +130,35 @@ fn as_written(v: &Dynamic) -> String {
 }
 
 impl OptionTable {
+    /// An option that is a switch or a map of this table's options (`shading`, `cut_faces`,
+    /// `coastlines`): `false` is `None`, `true` builds from an empty map (every default), a map
+    /// is read against the table; anything else is refused naming `field` and the options.
+    pub(crate) fn switch_or_map<T>(
+        &'static self,
+        v: &Dynamic,
+        field: &str,
+        build: impl FnOnce(Given<'_>) -> RResult<T>,
+    ) -> RResult<Option<T>> {
+        let empty = Map::new();
+        let m = if v.is_bool() {
+            if !super::convert::boolean(v, field)? {
+                return Ok(None);
+            }
+            empty
+        } else {
+            v.clone().try_cast::<Map>().ok_or_else(|| {
+                to_rhai(crate::Error::invalid(
+                    field,
+                    format!(
+                        "expected true, false or a map #{{ {} }}",
+                        self.names().join(", ")
+                    ),
+                ))
+            })?
+        };
+        build(self.read(&m)?).map(Some)
+    }
+
     /// Checks the map's keys against the table: an unknown key is refused naming the known ones.
     pub(crate) fn read<'m>(&'static self, map: &'m Map) -> RResult<Given<'m>> {
         let mut unknown: Vec<&str> = map
