@@ -39,12 +39,19 @@
 //   @binding(18) scales    uniform    array<vec4<u32>, 17>  per scale i: (offset in
 //                                     blurred, k, bits of f32 s_i = ratio^i, first row of
 //                                     level k held in blurred)
+//   @binding(19) taps      uniform    array<vec4<f32>, 32>  the blur's Gaussian taps
+//                                     exp(-k^2 / (2 sigma^2)), k = 0..=radius, from the host
+//                                     (blur_x, blur_y): no exp per lane, and no workgroup
+//                                     memory, whose barrier costs Mesa's CPU rasterizers a
+//                                     switch of every lane's coroutine
 
 #include "shared/tonemap_common.wgsl"
 
 const LN2: f32 = 0.6931471805599453;
 const MAX_LOG: f32 = 88.0;
-const MAX_TAPS: u32 = 256u;
+// Taps 0..=radius of a blur's Gaussian, four to a vector (uniform arrays stride 16 bytes).
+const MAX_TAPS: u32 = 128u;
+const TAP_VECTORS: u32 = 32u;
 // Scales + 1 blurs at most (params.rs: scales <= 16).
 const MAX_SCALES: u32 = 17u;
 
@@ -57,8 +64,8 @@ const MAX_SCALES: u32 = 17u;
 @group(0) @binding(10) var<storage, read_write> pyramid: array<vec2<f32>>;
 @group(0) @binding(11) var<storage, read> blurred: array<vec2<f32>>;
 @group(0) @binding(18) var<uniform> scales: array<vec4<u32>, MAX_SCALES>;
+@group(0) @binding(19) var<uniform> taps: array<vec4<f32>, TAP_VECTORS>;
 
-var<workgroup> taps: array<f32, MAX_TAPS>;
 
 // Scaled luminance L = key / Lbar * L_w (0 for black pixels), as prepare and apply need it.
 fn scaled_luminance(p: vec4<f32>) -> f32 {
@@ -107,15 +114,14 @@ fn downsample(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     blur_out[c] = acc;
 }
 
-// The pass's Gaussian taps, once per workgroup (radius <= 127 by validation); returns the radius.
-fn load_taps(local: u32) -> i32 {
-    let r = i32(min(params.radius, MAX_TAPS / 2u - 1u));
-    if local <= u32(r) {
-        let k = f32(local);
-        taps[local] = exp(-k * k / (2.0 * params.sigma * params.sigma));
-    }
-    workgroupBarrier();
-    return r;
+// Tap k of the pass's Gaussian (|k| <= radius).
+fn tap(k: i32) -> f32 {
+    let a = u32(abs(k));
+    return taps[a / 4u][a % 4u];
+}
+
+fn blur_radius() -> i32 {
+    return i32(min(params.radius, MAX_TAPS - 1u));
 }
 
 // Two entry points rather than a branch on a uniform: Mesa's CPU rasterizers would run both.
@@ -123,9 +129,8 @@ fn load_taps(local: u32) -> i32 {
 fn blur_x(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
 ) {
-    let r = load_taps(local);
+    let r = blur_radius();
     let c = pixel_index(id, groups);
     if c >= params.grid_width * params.band_rows {
         return;
@@ -139,7 +144,7 @@ fn blur_x(
     // Mesa's CPU rasterizers run far faster than per-lane loop bounds.
     for (var k = -r; k <= r; k = k + 1) {
         let sx = x + k;
-        let weight = select(0.0, taps[abs(k)], sx >= 0 && sx <= last);
+        let weight = select(0.0, tap(k), sx >= 0 && sx <= last);
         acc = acc + weight * blur_in[row + u32(clamp(sx, 0, last))];
     }
     blur_out[c] = acc;
@@ -149,9 +154,8 @@ fn blur_x(
 fn blur_y(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
 ) {
-    let r = load_taps(local);
+    let r = blur_radius();
     let c = pixel_index(id, groups);
     if c >= params.grid_width * params.band_rows {
         return;
@@ -163,7 +167,7 @@ fn blur_y(
     var acc = vec2<f32>(0.0);
     for (var k = -r; k <= r; k = k + 1) {
         let sy = y + k;
-        let weight = select(0.0, taps[abs(k)], sy >= 0 && sy <= last);
+        let weight = select(0.0, tap(k), sy >= 0 && sy <= last);
         acc = acc + weight * blur_in[(u32(clamp(sy, 0, last)) - params.window_first) * params.grid_width + x];
     }
     blur_out[params.dst_offset + c] = acc;

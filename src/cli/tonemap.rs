@@ -5,6 +5,8 @@
 //! written atomically, so bad input leaves no file behind.
 
 use hdrvis::gpu::{BackendChoice, GpuContext};
+use hdrvis::io::exr::ExrWrite;
+use hdrvis::io::png::PngCompression;
 use hdrvis::tonemap::cpu::{auto_exposure_key, auto_exposure_percentile};
 use hdrvis::tonemap::{check_ev, Gamut, GpuToneMapper, Operator, ToneMapSettings};
 use hdrvis::{Error, Result};
@@ -55,6 +57,14 @@ pub struct ToneMapArgs {
     /// Write a 16-bit PNG.
     #[arg(long)]
     pub sixteen_bit: bool,
+    /// Write EXR output as 32-bit float instead of half (display values need no more than
+    /// half's 11 bits; EXR output only).
+    #[arg(long)]
+    pub float32: bool,
+    /// Compression of the output. EXR: none, rle, zips, zip, piz (lossless) or pxr24, b44,
+    /// b44a (lossy); default zip. PNG: fast (the default), default or best.
+    #[arg(long)]
+    pub compression: Option<String>,
     /// Choose the exposure from the image: `key` (log-average to 0.18, or --key) or
     /// `percentile` (the 99th percentile of luminance to 1).
     #[arg(long, value_name = "key|percentile")]
@@ -69,16 +79,54 @@ enum Format {
     Exr,
 }
 
+/// How the output is stored, from `--compression`, `--float32` and `--sixteen-bit`.
+enum Store {
+    Png(PngCompression),
+    Exr(ExrWrite),
+}
+
+/// The output's storage, checked against its format before anything is read.
+fn output_store(args: &ToneMapArgs, format: &Format) -> Result<Store> {
+    let named = args.compression.as_deref();
+    match format {
+        Format::Png => {
+            if args.float32 {
+                return Err(Error::invalid(
+                    "--float32",
+                    "applies to EXR output only (PNG is 8- or 16-bit)",
+                ));
+            }
+            let compression = match named {
+                Some(n) => PngCompression::parse(n).map_err(as_compression_flag)?,
+                None => PngCompression::Fast,
+            };
+            Ok(Store::Png(compression))
+        }
+        Format::Exr => {
+            if args.sixteen_bit {
+                return Err(Error::invalid(
+                    "--sixteen-bit",
+                    "applies to PNG output only (EXR output is half or, with --float32, float)",
+                ));
+            }
+            let compression = match named {
+                Some(n) => ExrWrite::compression_named(n).map_err(as_compression_flag)?,
+                None => ExrWrite::default().compression,
+            };
+            Ok(Store::Exr(ExrWrite {
+                compression,
+                half: !args.float32,
+                keep_opaque_alpha: false,
+            }))
+        }
+    }
+}
+
 /// Checks the options, reads the input, tone-maps it on `backend` and writes the output.
 pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     let input = args.input.display().to_string();
     let format = output_format(args)?;
-    if args.sixteen_bit && matches!(format, Format::Exr) {
-        return Err(Error::invalid(
-            "--sixteen-bit",
-            "applies to PNG output only (EXR output is 32-bit float)",
-        ));
-    }
+    let store = output_store(args, &format)?;
     check_ev("--exposure", args.exposure)?;
     let pairs = operator_params(args)?;
     let borrowed: Vec<(&str, f64)> = pairs.iter().map(|(k, v)| (k.as_str(), *v)).collect();
@@ -94,7 +142,9 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     settings.validate()?;
     let auto = auto_exposure_mode(args)?;
 
+    let clock = StageClock::start();
     let img = hdrvis::io::exr::read_exr(&args.input).map_err(one_line)?;
+    clock.mark("read");
     if let Some(mode) = auto {
         let key = args.key.unwrap_or(0.18);
         let ev = match mode {
@@ -112,10 +162,17 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     } else {
         mapper.tonemap(&img, &settings)?
     };
-    match format {
-        Format::Png => hdrvis::io::png::write_display_png(&out, &args.output, args.sixteen_bit)?,
-        Format::Exr => hdrvis::io::exr::write_exr(&out, &args.output)?,
+    clock.mark("map");
+    match store {
+        Store::Png(compression) => hdrvis::io::png::write_display_png_with(
+            &out,
+            &args.output,
+            args.sixteen_bit,
+            compression,
+        )?,
+        Store::Exr(how) => hdrvis::io::exr::write_exr_with(&out, &args.output, &how)?,
     }
+    clock.mark("write");
     let view = if args.false_colour {
         "false colour".to_string()
     } else {
@@ -128,6 +185,28 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         out.height
     );
     Ok(())
+}
+
+/// Whole-process stage times (read, map, write) on stderr when `HDRVIS_TONEMAP_PROFILE` is set,
+/// each counted from the previous mark.
+struct StageClock(Option<std::cell::Cell<std::time::Instant>>);
+
+impl StageClock {
+    fn start() -> StageClock {
+        StageClock(
+            std::env::var_os("HDRVIS_TONEMAP_PROFILE")
+                .map(|_| std::cell::Cell::new(std::time::Instant::now())),
+        )
+    }
+
+    fn mark(&self, stage: &str) {
+        if let Some(t) = &self.0 {
+            let now = std::time::Instant::now();
+            let ms = (now - t.get()).as_secs_f64() * 1e3;
+            eprintln!("tonemap {stage} (whole): {ms:.1} ms");
+            t.set(now);
+        }
+    }
 }
 
 /// The output's format, from its file name's extension.
@@ -190,6 +269,14 @@ fn auto_exposure_mode(args: &ToneMapArgs) -> Result<Option<&str>> {
             "--auto-exposure",
             format!("unknown mode {other:?}; known: key, percentile"),
         )),
+    }
+}
+
+/// A compression name's error, said of the flag that carried it.
+fn as_compression_flag(e: Error) -> Error {
+    match e {
+        Error::Invalid { msg, .. } => Error::invalid("--compression", msg),
+        other => other,
     }
 }
 

@@ -8,6 +8,7 @@ use crate::error::{Error, Result};
 use crate::model::HdrImage;
 use exr::meta::attribute::Chromaticities;
 use exr::prelude::*;
+use std::borrow::Cow;
 use std::path::Path;
 
 /// EXR text attributes are Latin-1; anything else becomes '?' rather than failing the write.
@@ -30,18 +31,94 @@ fn attribute_name(key: &str) -> Text {
     text(&format!("hdrvis:{key}"))
 }
 
+/// How [`write_exr_with`] stores an image. The default is what renders are kept as: 32-bit
+/// float R, G, B, A, ZIP-compressed (lossless, the usual size-for-speed balance).
+#[derive(Clone, Copy, Debug)]
+pub struct ExrWrite {
+    pub compression: Compression,
+    /// R, G, B (and A) as 16-bit half floats: a relative step of 2⁻¹¹, ample for
+    /// display-referred values in [0, 1], and half the bytes to compress.
+    pub half: bool,
+    /// Write A even where every pixel is opaque (readers take a missing A as 1).
+    pub keep_opaque_alpha: bool,
+}
+
+impl Default for ExrWrite {
+    fn default() -> Self {
+        ExrWrite {
+            compression: Compression::ZIP16,
+            half: false,
+            keep_opaque_alpha: true,
+        }
+    }
+}
+
+/// EXR compression methods by the names OpenEXR's tools use, with whether they are lossless.
+pub const EXR_COMPRESSIONS: [(&str, bool); 8] = [
+    ("none", true),
+    ("rle", true),
+    ("zips", true),
+    ("zip", true),
+    ("piz", true),
+    ("pxr24", false),
+    ("b44", false),
+    ("b44a", false),
+];
+
+impl ExrWrite {
+    /// The compression method named `name` (one of [`EXR_COMPRESSIONS`]).
+    pub fn compression_named(name: &str) -> Result<Compression> {
+        Ok(match name.to_ascii_lowercase().as_str() {
+            "none" => Compression::Uncompressed,
+            "rle" => Compression::RLE,
+            "zips" => Compression::ZIP1,
+            "zip" => Compression::ZIP16,
+            "piz" => Compression::PIZ,
+            "pxr24" => Compression::PXR24,
+            "b44" => Compression::B44,
+            "b44a" => Compression::B44A,
+            _ => {
+                let names: Vec<&str> = EXR_COMPRESSIONS.iter().map(|c| c.0).collect();
+                return Err(Error::invalid(
+                    "compression",
+                    format!(
+                        "unknown EXR compression {name:?}; known: {}",
+                        names.join(", ")
+                    ),
+                ));
+            }
+        })
+    }
+}
+
+/// Writes `image` as 32-bit float RGBA, ZIP-compressed, with its extra channels and provenance.
 pub fn write_exr(image: &HdrImage, path: &Path) -> Result<()> {
+    write_exr_with(image, path, &ExrWrite::default())
+}
+
+/// Writes `image` as `how` says; extra channels (data, not colour) stay 32-bit float.
+pub fn write_exr_with(image: &HdrImage, path: &Path, how: &ExrWrite) -> Result<()> {
+    use rayon::prelude::*;
     let (w, h) = (image.width as usize, image.height as usize);
     if w == 0 || h == 0 {
         return Err(Error::invalid("image", "cannot write an empty image"));
     }
-    let plane = |c: usize| FlatSamples::F32(image.pixels.iter().map(|p| p[c]).collect());
+    let plane = |c: usize| {
+        let values = image.pixels.par_iter().map(|p| p[c]);
+        if how.half {
+            FlatSamples::F16(values.map(f16::from_f32).collect())
+        } else {
+            FlatSamples::F32(values.collect())
+        }
+    };
     let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::from_vec(vec![
         AnyChannel::new("R", plane(0)),
         AnyChannel::new("G", plane(1)),
         AnyChannel::new("B", plane(2)),
-        AnyChannel::new("A", plane(3)),
     ]);
+    if how.keep_opaque_alpha || image.pixels.par_iter().any(|p| p[3] != 1.0) {
+        list.push(AnyChannel::new("A", plane(3)));
+    }
     for (name, data) in &image.extra_channels {
         if data.len() != w * h {
             return Err(Error::invalid(
@@ -66,7 +143,11 @@ pub fn write_exr(image: &HdrImage, path: &Path) -> Result<()> {
     let layer = Layer::new(
         (w, h),
         attributes,
-        Encoding::SMALL_LOSSLESS,
+        Encoding {
+            compression: how.compression,
+            blocks: Blocks::ScanLines,
+            line_order: LineOrder::Increasing,
+        },
         AnyChannels::sort(list),
     );
     let exr_image = Image::from_layer(layer);
@@ -173,17 +254,22 @@ pub fn read_exr(path: &Path) -> Result<HdrImage> {
     let n = w * h;
     let list = &layer.channel_data.list;
     let (rgb, note) = colour(path, list, img.attributes.chromaticities)?;
-    let a = channel(list, "A")
-        .map(|c| samples(&c.sample_data))
-        .unwrap_or_else(|| vec![1.0; n]);
-    let pixels = (0..n)
-        .map(|i| [rgb[0][i], rgb[1][i], rgb[2][i], a[i]])
-        .collect();
+    let a = channel(list, "A").map(|c| samples(&c.sample_data));
+    let pixels = {
+        use rayon::prelude::*;
+        let [r, g, b] = &rgb;
+        let alpha = |i: usize| a.as_ref().map_or(1.0, |a| a[i]);
+        (0..n)
+            .into_par_iter()
+            .map(|i| [r[i], g[i], b[i], alpha(i)])
+            .collect()
+    };
     let mut out = HdrImage::from_pixels(w as u32, h as u32, pixels);
     for c in &layer.channel_data.list {
         let name = c.name.to_string();
         if !COLOUR_CHANNELS.contains(&name.as_str()) {
-            out.extra_channels.push((name, samples(&c.sample_data)));
+            out.extra_channels
+                .push((name, samples(&c.sample_data).into_owned()));
         }
     }
     for (k, v) in &layer.attributes.other {
@@ -217,11 +303,12 @@ fn channel<'a>(
     })
 }
 
-fn samples(s: &FlatSamples) -> Vec<f32> {
+/// A channel's samples as f32: float channels borrowed, the others converted.
+fn samples(s: &FlatSamples) -> Cow<'_, [f32]> {
     match s {
-        FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
-        FlatSamples::F32(v) => v.clone(),
-        FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
+        FlatSamples::F16(v) => Cow::Owned(v.iter().map(|x| x.to_f32()).collect()),
+        FlatSamples::F32(v) => Cow::Borrowed(v),
+        FlatSamples::U32(v) => Cow::Owned(v.iter().map(|&x| x as f32).collect()),
     }
 }
 
@@ -234,11 +321,11 @@ fn samples(s: &FlatSamples) -> Vec<f32> {
 /// - two of R, G, B: the missing one 0, said in the note.
 ///
 /// A file with none of R, G, B and Y (depth alone) is refused.
-fn colour(
+fn colour<'a>(
     path: &Path,
-    list: &[AnyChannel<FlatSamples>],
+    list: &'a [AnyChannel<FlatSamples>],
     chromaticities: Option<Chromaticities>,
-) -> Result<([Vec<f32>; 3], Option<String>)> {
+) -> Result<([Cow<'a, [f32]>; 3], Option<String>)> {
     let find = |name: &str| channel(list, name).map(|c| samples(&c.sample_data));
     let n = list.first().map_or(0, |c| c.sample_data.len());
     let (r, g, b) = (find("R"), find("G"), find("B"));
@@ -248,22 +335,30 @@ fn colour(
     if let Some(y) = find("Y") {
         if let (Some(ry), Some(by)) = (find("RY"), find("BY")) {
             let [wr, wg, wb] = luminance_weights(chromaticities);
-            let r: Vec<f32> = y.iter().zip(&ry).map(|(y, c)| (c + 1.0) * y).collect();
-            let b: Vec<f32> = y.iter().zip(&by).map(|(y, c)| (c + 1.0) * y).collect();
-            let g = (0..n)
+            let r: Vec<f32> = y
+                .iter()
+                .zip(ry.iter())
+                .map(|(y, c)| (c + 1.0) * y)
+                .collect();
+            let b: Vec<f32> = y
+                .iter()
+                .zip(by.iter())
+                .map(|(y, c)| (c + 1.0) * y)
+                .collect();
+            let g: Vec<f32> = (0..n)
                 .map(|i| (y[i] - wr * r[i] - wb * b[i]) / wg)
                 .collect();
             let note = format!(
                 "luminance-chroma (Y, RY, BY) converted with weights {wr:.4} {wg:.4} {wb:.4}"
             );
-            return Ok(([r, g, b], Some(note)));
+            return Ok(([r.into(), g.into(), b.into()], Some(note)));
         }
         return Ok((
             [y.clone(), y.clone(), y],
             Some("luminance Y read as grey".into()),
         ));
     }
-    let present: Vec<(&str, Vec<f32>)> = [("R", &r), ("G", &g), ("B", &b)]
+    let present: Vec<(&str, Cow<[f32]>)> = [("R", &r), ("G", &g), ("B", &b)]
         .into_iter()
         .filter_map(|(name, c)| Some((name, c.clone()?)))
         .collect();
@@ -278,7 +373,7 @@ fn colour(
             .map(|(name, _)| *name)
             .collect();
         let note = format!("no {} channel: read as 0", missing.join(", "));
-        let or_zero = |c: Option<Vec<f32>>| c.unwrap_or_else(|| vec![0.0; n]);
+        let or_zero = |c: Option<Cow<'a, [f32]>>| c.unwrap_or_else(|| vec![0.0; n].into());
         return Ok(([or_zero(r), or_zero(g), or_zero(b)], Some(note)));
     }
     let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();

@@ -41,10 +41,14 @@ impl GpuToneMapper {
             .enumerate()
             .map(|(i, &k)| cache.scratch(ctx, TMP_LABELS[i], r.level_bytes(k)))
             .collect();
+        let taps = (0..r.levels.len())
+            .map(|i| self.blur_taps(r.sigma_cells[i], r.radius[i]))
+            .collect();
         let buffers = ReinhardBuffers {
             offsets,
             pyramid,
             tmp,
+            taps,
         };
         self.record_reinhard_pyramid(rec, r, call, &buffers)?;
         self.record_reinhard_blur_x(rec, r, &call.base, &buffers)?;
@@ -165,7 +169,12 @@ impl GpuToneMapper {
                     gw * band.rows,
                     REINHARD_SHADER,
                     "blur_x",
-                    &[(0, &u), (8, buffers.level(k)), (9, &buffers.tmp[i])],
+                    &[
+                        (0, &u),
+                        (8, buffers.level(k)),
+                        (9, &buffers.tmp[i]),
+                        (19, &buffers.taps[i]),
+                    ],
                 )?;
             }
         }
@@ -217,7 +226,12 @@ impl GpuToneMapper {
                     gw * rows.rows,
                     REINHARD_SHADER,
                     "blur_y",
-                    &[(0, &u), (8, &buffers.tmp[i]), (9, &blurred)],
+                    &[
+                        (0, &u),
+                        (8, &buffers.tmp[i]),
+                        (9, &blurred),
+                        (19, &buffers.taps[i]),
+                    ],
                 )?;
                 let scale = r.ratio.powi(i as i32) as f32;
                 table[i] = [at, k, scale.to_bits(), rows.first];
@@ -257,6 +271,28 @@ impl GpuToneMapper {
         Ok(())
     }
 }
+impl GpuToneMapper {
+    /// A blur's Gaussian taps exp(−k² / 2σ²) for k = 0..=radius (at most [`MAX_TAPS`]), computed
+    /// once in f64 as the CPU reference computes them, as the shader's uniform array.
+    fn blur_taps(&self, sigma: f64, radius: u32) -> wgpu::Buffer {
+        let mut taps = [0f32; MAX_TAPS];
+        for (k, tap) in taps.iter_mut().enumerate().take(radius as usize + 1) {
+            let k = k as f64;
+            *tap = (-k * k / (2.0 * sigma * sigma)).exp() as f32;
+        }
+        self.ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("reinhard taps"),
+                contents: bytemuck::cast_slice(&taps),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+    }
+}
+
+/// Taps a blur's uniform holds (`MAX_TAPS` in the shader): radius at most 127.
+const MAX_TAPS: usize = 128;
+
 /// The shader file of Reinhard's dodging and burning.
 const REINHARD_SHADER: &str = "tonemap/reinhard_local.wgsl";
 
@@ -266,6 +302,8 @@ struct ReinhardBuffers {
     offsets: Vec<u64>,
     pyramid: [wgpu::Buffer; 2],
     tmp: Vec<wgpu::Buffer>,
+    /// Each scale's Gaussian taps (binding 19 of its blurs).
+    taps: Vec<wgpu::Buffer>,
 }
 
 impl ReinhardBuffers {
