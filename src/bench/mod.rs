@@ -22,6 +22,7 @@ pub mod skipping;
 pub mod spherical;
 pub mod surface;
 pub mod tonemap;
+pub mod tonemap_peer;
 pub mod tui;
 pub mod volume;
 

@@ -7,7 +7,7 @@ use hdrvis::bench::{
     accuracy, bricks, datasets, effects, skipping, spherical, surface, tonemap, tui, volume,
 };
 use hdrvis::gpu::{BackendChoice, GpuContext};
-use hdrvis::Result;
+use hdrvis::{Error, Result};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -93,12 +93,7 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             print!("{}", datasets::format_generator_table(&rows));
             Ok(())
         }
-        BenchCommand::Tonemap { runs, quick } => {
-            let (ctx, adapter) = gpu(backend)?;
-            let rows = tonemap::bench_tonemap(ctx, tonemap::sizes(quick), runs, &mut progress)?;
-            print!("{}", tonemap::format_tonemap_table(&adapter, &rows));
-            Ok(())
-        }
+        cmd @ BenchCommand::Tonemap { .. } => bench_tonemap_command(cmd, backend, &mut progress),
         BenchCommand::Tui { runs, n } => {
             let (adapter, rows) = tui::bench_tui(backend, n, runs, &mut progress)?;
             print!("{}", tui::format_tui_table(&adapter, &rows));
@@ -121,6 +116,67 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `hdrvis bench tonemap`: the GPU tone mapper on its own, or with `--peer` whole processes.
+fn bench_tonemap_command(
+    cmd: BenchCommand,
+    backend: BackendChoice,
+    progress: &mut dyn FnMut(&str),
+) -> Result<()> {
+    let BenchCommand::Tonemap {
+        runs,
+        quick,
+        peer,
+        rounds,
+        format,
+    } = cmd
+    else {
+        unreachable!("called for bench tonemap only")
+    };
+    match peer {
+        Some(peer) => bench_tonemap_peer((&peer, backend), quick, rounds.max(1), &format, progress),
+        None => {
+            let (ctx, adapter) = gpu(backend)?;
+            let rows = tonemap::bench_tonemap(ctx, tonemap::sizes(quick), runs, progress)?;
+            print!("{}", tonemap::format_tonemap_table(&adapter, &rows));
+            Ok(())
+        }
+    }
+}
+
+/// `hdrvis bench tonemap --peer pfstools`: this binary as a whole process against pfstools,
+/// with the `--backend` this run was given.
+fn bench_tonemap_peer(
+    (peer, backend): (&str, BackendChoice),
+    quick: bool,
+    rounds: usize,
+    format: &str,
+    progress: &mut dyn FnMut(&str),
+) -> Result<()> {
+    use hdrvis::bench::tonemap_peer;
+    if peer != "pfstools" {
+        return Err(Error::invalid(
+            "--peer",
+            format!("unknown peer {peer:?}; known: pfstools"),
+        ));
+    }
+    let hdrvis = std::env::current_exe().map_err(|e| Error::io("hdrvis", e))?;
+    let backend = match backend {
+        BackendChoice::Auto => None,
+        BackendChoice::Vulkan => Some("vulkan"),
+        BackendChoice::Gl => Some("gl"),
+    };
+    let setup = tonemap_peer::PeerToneMapSetup {
+        hdrvis: &hdrvis,
+        backend,
+        format,
+        rounds,
+    };
+    let sizes: &[u32] = if quick { &[1024] } else { &[1024, 4096] };
+    let rows = tonemap_peer::bench_tonemap_peer(&setup, sizes, progress)?;
+    print!("{}", tonemap_peer::format_tonemap_peer_table(&setup, &rows));
+    Ok(())
 }
 
 /// `hdrvis bench distributed`, its lists as typed.

@@ -336,6 +336,17 @@ pub enum BenchCommand {
         /// Only the 1024^2 size (quick check).
         #[arg(long)]
         quick: bool,
+        /// Whole processes side by side with a peer: `pfstools` (Debian's pfstools: pfsin |
+        /// pfstmo_… | pfsout) for every operator both have, at 1024^2 and 4096^2 (--quick:
+        /// 1024^2), end to end: read, tone map, write.
+        #[arg(long)]
+        peer: Option<String>,
+        /// With --peer: alternating rounds of one run of each tool (after one untimed run).
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+        /// With --peer: the output format both tools write, exr or png.
+        #[arg(long, default_value = "exr")]
+        format: String,
     },
     /// TUI responsiveness: key press to updated preview (exposure, operator, ν, camera) on a
     /// 256^3 volume and a 513^2 surface at preview size, medians.

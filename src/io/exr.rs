@@ -312,6 +312,9 @@ fn samples(s: &FlatSamples) -> Cow<'_, [f32]> {
     }
 }
 
+/// R, G, B planes, borrowed from the file's channels where they are stored as 32-bit floats.
+type Planes<'a> = [Cow<'a, [f32]>; 3];
+
 /// The R, G, B planes of an image, and a note where they are not the file's own R, G, B:
 /// - R, G and B: as stored;
 /// - Y with RY and BY (OpenEXR's luminance-chroma images): R = (RY + 1) Y, B = (BY + 1) Y and
@@ -325,7 +328,7 @@ fn colour<'a>(
     path: &Path,
     list: &'a [AnyChannel<FlatSamples>],
     chromaticities: Option<Chromaticities>,
-) -> Result<([Cow<'a, [f32]>; 3], Option<String>)> {
+) -> Result<(Planes<'a>, Option<String>)> {
     let find = |name: &str| channel(list, name).map(|c| samples(&c.sample_data));
     let n = list.first().map_or(0, |c| c.sample_data.len());
     let (r, g, b) = (find("R"), find("G"), find("B"));

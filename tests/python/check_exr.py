@@ -1,7 +1,8 @@
 """Reads an EXR written by hdrvis with the OpenEXR reference library and checks its channels.
 
 Usage: check_exr.py FILE.exr CHANNEL[=TYPE] ... [--pixel X,Y,CHANNEL,VALUE]...
-TYPE is FLOAT or HALF (default FLOAT). Exit 0 when every check passes, 1 with one line per
+       [--absent CHANNEL]... [--compression NAME]
+TYPE is FLOAT or HALF (default FLOAT); NAME as OpenEXR's enum without _COMPRESSION (ZIP, PIZ). Exit 0 when every check passes, 1 with one line per
 failure, 77 when the OpenEXR module is missing (the Rust test turns that into a skip or, under
 HDRVIS_REQUIRE_PYTHON=1, a failure).
 """
@@ -19,11 +20,17 @@ def main(argv):
     path = argv[0]
     expected = {}
     pixels = []
+    absent = []
+    compression = None
     args = iter(argv[1:])
     for a in args:
         if a == "--pixel":
             x, y, ch, v = next(args).split(",")
             pixels.append((int(x), int(y), ch, float(v)))
+        elif a == "--absent":
+            absent.append(next(args))
+        elif a == "--compression":
+            compression = next(args)
         else:
             name, _, typ = a.partition("=")
             expected[name] = typ or "FLOAT"
@@ -48,6 +55,13 @@ def main(argv):
             got = kind.get(dtypes.get(name), str(dtypes.get(name)))
             if got != typ:
                 failures.append(f"channel {name}: expected {typ}, got {got}")
+        for name in absent:
+            if name in listed:
+                failures.append(f"channel {name} present; expected it left out")
+        if compression is not None:
+            got = str(header["compression"]).split(".")[-1].split(":")[0]
+            if got != f"{compression}_COMPRESSION":
+                failures.append(f"compression: expected {compression}, got {got}")
         for x, y, ch, v in pixels:
             arr = None
             if ch in channels:
