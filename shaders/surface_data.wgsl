@@ -42,7 +42,8 @@ override VIEW: u32 = 1u;
 @group(0) @binding(3) var<storage, read> node_valid: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> node_height: array<f32>;
 // Outputs are planes, one per property (index slot · width · height + pixel), so the fringe
-// pass reads only the property it shows; the mask holds (valid bits, shading) per pixel.
+// pass reads only the property it shows; the mask holds (valid bits, shading) per pixel,
+// shading −1 where the ray meets no surface.
 @group(0) @binding(5) var<storage, read_write> out_hi: array<f32>;
 @group(0) @binding(6) var<storage, read_write> out_rest: array<f32>;
 @group(0) @binding(7) var<storage, read_write> out_mask: array<vec2<f32>>;
@@ -251,7 +252,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             out_hi[p * w * h + px] = 0.0;
             out_rest[p * w * h + px] = 0.0;
         }
-        out_mask[px] = vec2<f32>(0.0);
+        // Shading −1: no surface here (the background), not a hole in it; a missing colour
+        // paints holes only.
+        out_mask[px] = vec2<f32>(0.0, -1.0);
         return;
     }
     let s = sample_props(u, v);

@@ -133,8 +133,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = data_mask[px];
     let bits = u32(m.x);
     if ((bits & (1u << slot)) == 0u) {
-        // Missing (a hole or no surface): fringe −1 tells the host; nothing else is touched.
-        out_color[px] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+        // Missing (a hole or no surface): fringe −1 tells the host, red the surface's shading
+        // there (−1: no surface, the background), for the host's missing colour.
+        out_color[px] = vec4<f32>(m.y, 0.0, 0.0, -1.0);
         if (WRITE_VALUE) {
             out_value[px] = 0.0;
         }

@@ -235,7 +235,7 @@ pub(crate) struct FrameLayout {
 }
 
 /// Mean Earth radius (IUGG), in km: a degree of latitude is 111.195 km.
-const EARTH_RADIUS_KM: f64 = 6371.0088;
+pub(crate) const EARTH_RADIUS_KM: f64 = 6371.0088;
 
 /// Text rows above the map: the title, then the y axis's title at the left and the colour bar's
 /// caption over the bar (on two rows when they would meet).

@@ -981,6 +981,66 @@ fn antialiasing_removes_the_moire_from_the_tsunami_scene() {
     }
 }
 
+/// In a 3-D view the missing colour paints the holes in the surface, shaded like the surface
+/// around them, and leaves the background clear: a flat grid with a square hole, seen obliquely,
+/// against the same grid without the hole (the pixels where that one meets no surface are the
+/// background).
+#[test]
+fn holes_in_a_3d_view_take_the_missing_colour_and_the_background_stays_clear() {
+    use hdrvis::render::surface::{MissingColour, SurfaceView};
+    let (nx, ny) = (48, 32);
+    let hole = |i: usize, j: usize| (16..32).contains(&i) && (8..24).contains(&j);
+    let value = |i: usize, j: usize| 0.05 * i as f64 + 0.02 * j as f64;
+    let filled = Grid::from_fn("eta", nx, ny, value).unwrap();
+    let holed = Grid::from_fn("eta", nx, ny, |i, j| {
+        if hole(i, j) {
+            f64::NAN
+        } else {
+            value(i, j)
+        }
+    })
+    .unwrap();
+    let r = surface_renderer(BackendChoice::Vulkan);
+    let mut o = opts(4.0);
+    o.view = SurfaceView::Orbit {
+        azimuth: 30.0,
+        elevation: 35.0,
+        fov: 30.0,
+    };
+    o.width = Some(96);
+    o.height = Some(72);
+    o.missing = MissingColour::parse("tan").unwrap();
+    let whole = r.render(&filled, &o).unwrap().remove(0);
+    let img = r.render(&holed, &o).unwrap().remove(0);
+    let fringe = channel(&img, "fringe");
+    let tan = [210.0f32, 180.0, 140.0].map(|c| {
+        let c = c / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    });
+    let (mut background, mut painted) = (0, 0);
+    for (i, (p, w)) in img.pixels.iter().zip(&whole.pixels).enumerate() {
+        if w[3] == 0.0 {
+            background += 1;
+            assert_eq!(*p, [0.0; 4], "background pixel {i}");
+        } else if fringe[i].is_nan() {
+            painted += 1;
+            assert_eq!(p[3], 1.0, "hole pixel {i}");
+            let shade = p[0] / tan[0];
+            assert!(shade > 0.1 && shade <= 1.0 + 1e-6, "{i}: shade {shade}");
+            for c in 1..3 {
+                assert!((p[c] - tan[c] * shade).abs() < 1e-5, "{i}: {p:?}");
+            }
+        } else {
+            assert_eq!(p[3], 1.0, "surface pixel {i}");
+        }
+    }
+    assert!(background > 500 && painted > 200, "{background} {painted}");
+}
+
 /// Issue #21, "Must show": "a surface with missing land distinct from dark fringes". Land (NaN)
 /// beside a sea whose fringes reach I = 0 (black in the modulated mode): in the default PNG
 /// land has alpha 0 and every sea pixel, the darkest fringes included, alpha 255; with

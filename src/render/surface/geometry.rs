@@ -4,12 +4,16 @@
 use super::globe::GlobeFrame;
 use super::options::{SurfaceOptions, SurfaceView};
 use crate::error::{Error, Result};
+use crate::model::map_frame::EARTH_RADIUS_KM;
 use crate::model::{Aabb, Camera, Grid};
 
 /// Where the surface sits in world space and how it is seen, as both the data pass and its f64
-/// CPU reference ([`crate::render::surface_reference`]) use it. World: x = i·sx, y = j·sy in
-/// coordinate units from the first node, z = (height − hmin)·exaggeration − z_lo, so that the
-/// relief box is [0, box_size] (a flat surface gets a thin box around z = −z_lo).
+/// CPU reference ([`crate::render::surface_reference`]) use it. World: x = i·sx, y = j·sy from
+/// the first node, z = (height − hmin)·exaggeration − z_lo, so that the relief box is
+/// [0, box_size] (a flat surface gets a thin box around z = −z_lo). All three in one length
+/// unit wherever the units are known ([`WorldUnits`]): a geographic grid's degrees become metres
+/// on the sphere, and a relief in m over axes in km is scaled to km, so `exaggeration` is a
+/// pure factor.
 #[derive(Clone, Debug)]
 pub(crate) struct SurfaceGeometry {
     /// Relief height per node before exaggeration (holes at the lowest height; 0 when flat).
@@ -31,6 +35,68 @@ pub(crate) struct SurfaceGeometry {
     /// The map view's first row shows the first y node ([`Grid::y_down`]: a depth axis) rather
     /// than the last.
     pub y_down: bool,
+}
+
+/// The length unit of a surface's world: its node spacing in that unit, and how many world units
+/// one unit of the relief is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct WorldUnits {
+    pub spacing: [f64; 2],
+    /// World units per relief unit (1 where either unit is unknown: as stored).
+    pub relief_scale: f64,
+}
+
+impl WorldUnits {
+    /// Geographic grids: metres on the sphere, longitude at the cosine of the grid's central
+    /// latitude (the map's equirectangular scale). Axes in a length unit: the x axis's unit. Other
+    /// axes (node indices, unknown units): coordinates as stored and the relief unscaled. The
+    /// elevation is in metres; a relief property in the units it declares.
+    pub(crate) fn of(grid: &Grid, relief: Option<&str>) -> WorldUnits {
+        let step = |c: &crate::model::GridCoords| c.spacing().abs().max(f64::MIN_POSITIVE);
+        let (sx, sy) = (step(grid.x()), step(grid.y()));
+        let relief_metres = match relief {
+            None | Some("none") | Some("elevation") => Some(1.0),
+            Some(name) => grid
+                .property_index(name)
+                .ok()
+                .and_then(|i| metres_per_unit(grid.units(i))),
+        };
+        if grid.is_geographic() {
+            let per_degree = EARTH_RADIUS_KM * 1e3 * std::f64::consts::PI / 180.0;
+            let ys = &grid.y().values;
+            let lat_c = (0.5 * (ys[0] + ys[ys.len() - 1])).to_radians();
+            return WorldUnits {
+                spacing: [sx * per_degree * lat_c.cos().max(1e-6), sy * per_degree],
+                relief_scale: relief_metres.unwrap_or(1.0),
+            };
+        }
+        let (x_m, y_m) = (
+            metres_per_unit(&grid.x().units),
+            metres_per_unit(&grid.y().units),
+        );
+        match (x_m, y_m) {
+            (Some(x_m), Some(y_m)) => WorldUnits {
+                spacing: [sx, sy * y_m / x_m],
+                relief_scale: relief_metres.map_or(1.0, |r| r / x_m),
+            },
+            _ => WorldUnits {
+                spacing: [sx, sy],
+                relief_scale: 1.0,
+            },
+        }
+    }
+}
+
+/// Metres per unit of a length unit as files write it (m, km, cm, mm, and their spellings);
+/// `None` for anything else.
+pub(crate) fn metres_per_unit(units: &str) -> Option<f64> {
+    match units.trim().to_ascii_lowercase().as_str() {
+        "m" | "meter" | "meters" | "metre" | "metres" => Some(1.0),
+        "km" | "kilometer" | "kilometers" | "kilometre" | "kilometres" => Some(1e3),
+        "cm" | "centimeter" | "centimeters" | "centimetre" | "centimetres" => Some(1e-2),
+        "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1e-3),
+        _ => None,
+    }
 }
 
 impl SurfaceGeometry {
@@ -88,8 +154,9 @@ impl SurfaceGeometry {
                 .collect(),
             None => vec![0.0; nx * ny],
         };
-        let sx = grid.x().spacing().abs().max(f64::MIN_POSITIVE);
-        let sy = grid.y().spacing().abs().max(f64::MIN_POSITIVE);
+        let units = WorldUnits::of(grid, opts.relief.as_deref());
+        let [sx, sy] = units.spacing;
+        let exag = exag * units.relief_scale;
         let mut size = [
             (nx.max(2) - 1) as f64 * sx,
             (ny.max(2) - 1) as f64 * sy,
@@ -149,5 +216,81 @@ impl SurfaceGeometry {
         } else {
             (ny - 1) as f64 - row
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::grid::{CoordKind, GridCoords};
+
+    /// A 101 × 51 grid whose relief `h` rises to `top` at one node, over the given axes.
+    fn grid(x: GridCoords, y: GridCoords, units: &str, top: f64) -> Grid {
+        let n = x.values.len() * y.values.len();
+        let mut h = vec![0.0; n];
+        h[n / 2] = top;
+        let mut g = Grid::with_coords("g", x, y, vec![("h".into(), h)], None).unwrap();
+        g.set_units("h", units).unwrap();
+        g
+    }
+
+    fn axis(units: &str, kind: CoordKind, first: f64, step: f64, n: usize) -> GridCoords {
+        GridCoords {
+            name: "a".into(),
+            units: units.into(),
+            values: (0..n).map(|i| first + step * i as f64).collect(),
+            kind,
+        }
+    }
+
+    fn box_of(g: &Grid, exaggeration: f64) -> [f64; 3] {
+        let opts = SurfaceOptions {
+            view: SurfaceView::Orbit {
+                azimuth: 30.0,
+                elevation: 40.0,
+                fov: 30.0,
+            },
+            relief: Some("h".into()),
+            exaggeration,
+            ..Default::default()
+        };
+        SurfaceGeometry::new(g, &opts).unwrap().box_size
+    }
+
+    #[test]
+    fn degrees_become_metres_on_the_sphere_so_exaggeration_is_a_pure_factor() {
+        // 2° of longitude by 1° of latitude centred on 60° N, a 1000 m summit.
+        let g = grid(
+            axis("degrees_east", CoordKind::Longitude, 10.0, 0.02, 101),
+            axis("degrees_north", CoordKind::Latitude, 59.5, 0.02, 51),
+            "m",
+            1000.0,
+        );
+        let per_degree = 6371.0088e3 * std::f64::consts::PI / 180.0;
+        let [x, y, z] = box_of(&g, 30.0);
+        assert!((x / (2.0 * per_degree * 0.5) - 1.0).abs() < 1e-12, "{x}");
+        assert!((y / per_degree - 1.0).abs() < 1e-12, "{y}");
+        assert!((z / 30_000.0 - 1.0).abs() < 1e-12, "{z}");
+    }
+
+    #[test]
+    fn a_relief_in_metres_over_kilometre_axes_is_scaled_to_kilometres() {
+        let g = grid(
+            axis("km", CoordKind::Plain, 0.0, 0.5, 101),
+            axis("kilometres", CoordKind::Plain, 0.0, 0.5, 51),
+            "m",
+            250.0,
+        );
+        let [x, y, z] = box_of(&g, 4.0);
+        assert_eq!((x, y), (50.0, 25.0));
+        assert!((z - 1.0).abs() < 1e-12, "{z}");
+        // Axes without a length unit keep the relief as stored.
+        let plain = grid(
+            axis("node", CoordKind::Plain, 0.0, 1.0, 101),
+            axis("node", CoordKind::Plain, 0.0, 1.0, 51),
+            "m",
+            250.0,
+        );
+        assert_eq!(box_of(&plain, 4.0), [100.0, 50.0, 1000.0]);
     }
 }

@@ -4,7 +4,8 @@
 use super::geometry::SurfaceGeometry;
 use super::legend::{colour_domain, surface_colour_bar};
 use super::options::{
-    check_nu, default_size, property_indices, PhaseMethod, SurfaceOptions, SurfaceView,
+    check_nu, default_size, property_indices, MissingColour, PhaseMethod, SurfaceOptions,
+    SurfaceView,
 };
 use super::overlay::Overlay;
 use super::params::{colormap_table, data_params, FringeParams, NodeValues, PropMeta};
@@ -392,12 +393,11 @@ impl SurfaceRenderer {
         let lut = colormap_table(colormap);
         let params = fringe_params(data, slot, nu, opts, &lut)?;
         let FringeReadback {
-            mut pixels,
+            pixels,
             values,
             fringe,
             filtered,
         } = self.run_fringe(data, slot, opts, &params, &lut)?;
-        opts.missing.paint(&mut pixels, &fringe);
         let mut image = HdrImage::from_pixels(data.width, data.height, pixels);
         let channel = if name.is_empty() {
             "value".to_string()
@@ -528,7 +528,7 @@ impl SurfaceRenderer {
         };
         drop(outputs);
         profile.mark("+ value readback");
-        let fringe = take_fringe(&mut pixels);
+        let fringe = take_fringe(&mut pixels, &opts.missing);
         profile.mark("+ host");
         Ok(FringeReadback {
             pixels,
@@ -661,15 +661,23 @@ fn fringe_params(
     })
 }
 
-/// Takes the fringe out of alpha, where the pass leaves it: a negative alpha marks a missing
-/// pixel, which becomes (0, 0, 0, 0) with fringe NaN; every other alpha becomes 1.
-fn take_fringe(pixels: &mut [[f32; 4]]) -> Vec<f32> {
+/// Takes the fringe out of alpha, where the pass leaves it: every alpha ≥ 0 becomes 1. A
+/// negative alpha marks a missing pixel (fringe NaN), whose red holds the surface's shading
+/// there: a hole in the surface (shading ≥ 0) is painted in the missing colour times that
+/// shading, so holes read as a shaded flat surface in 3-D; the background (shading −1) and,
+/// with `missing: "transparent"`, every missing pixel become (0, 0, 0, 0).
+fn take_fringe(pixels: &mut [[f32; 4]], missing: &MissingColour) -> Vec<f32> {
     use rayon::prelude::*;
+    let paint = missing.linear();
     pixels
         .par_iter_mut()
         .map(|p| {
             if p[3] < 0.0 {
-                *p = [0.0; 4];
+                let shade = p[0];
+                *p = match paint {
+                    Some(c) if shade >= 0.0 => [c[0] * shade, c[1] * shade, c[2] * shade, 1.0],
+                    _ => [0.0; 4],
+                };
                 f32::NAN
             } else {
                 let f = p[3];

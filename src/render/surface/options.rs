@@ -198,14 +198,12 @@ impl MissingColour {
         }
     }
 
-    /// Paints every missing pixel (the fringe channel NaN there) in this colour.
-    pub(super) fn paint(&self, pixels: &mut [[f32; 4]], fringe: &[f32]) {
-        if let MissingColour::Colour { linear, .. } = self {
-            let c = [linear[0] as f32, linear[1] as f32, linear[2] as f32, 1.0];
-            for (p, f) in pixels.iter_mut().zip(fringe) {
-                if f.is_nan() {
-                    *p = c;
-                }
+    /// The colour holes are painted in, linear RGB; `None` for transparent.
+    pub(super) fn linear(&self) -> Option<[f32; 3]> {
+        match self {
+            MissingColour::Transparent => None,
+            MissingColour::Colour { linear, .. } => {
+                Some([linear[0] as f32, linear[1] as f32, linear[2] as f32])
             }
         }
     }
