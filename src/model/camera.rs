@@ -128,6 +128,24 @@ impl Camera {
         elevation_deg: f64,
         fov_y_deg: f64,
     ) -> Result<Camera> {
+        Camera::orbit_sphere(
+            bounds.center(),
+            0.5 * bounds.diagonal(),
+            azimuth_deg,
+            elevation_deg,
+            fov_y_deg,
+        )
+    }
+
+    /// A perspective camera orbiting `center` at azimuth/elevation (degrees, z up), far enough
+    /// that a sphere of `radius` about it fills the vertical field of view with a 5 % margin.
+    pub fn orbit_sphere(
+        center: [f64; 3],
+        radius: f64,
+        azimuth_deg: f64,
+        elevation_deg: f64,
+        fov_y_deg: f64,
+    ) -> Result<Camera> {
         check_finite("camera.azimuth", &[azimuth_deg])?;
         check_finite("camera.elevation", &[elevation_deg])?;
         if !(fov_y_deg.is_finite() && fov_y_deg > 0.0 && fov_y_deg < 180.0) {
@@ -136,14 +154,12 @@ impl Camera {
                 format!("expected degrees in (0, 180), got {fov_y_deg}"),
             ));
         }
-        let radius = 0.5 * bounds.diagonal();
         let distance = radius / (0.5 * fov_y_deg.to_radians()).sin() * 1.05;
         let (az, el) = (
             azimuth_deg.to_radians(),
             elevation_deg.clamp(-89.9, 89.9).to_radians(),
         );
         let dir = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
-        let center = bounds.center();
         Camera::look_at(
             add_scaled(center, dir, distance),
             center,

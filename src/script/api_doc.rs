@@ -7,7 +7,7 @@ use super::api_datasets::{
     GENERATE_MANTLE, GENERATE_MANTLE_FILE, GENERATE_OKADA, GENERATE_TSUNAMI, SERIES_RANGE,
 };
 use super::api_fields::RESAMPLE;
-use super::api_output::{SAVE_ANIMATION, SAVE_PNG};
+use super::api_output::{SAVE_ANIMATION, SAVE_EXR, SAVE_PNG};
 use super::api_post::{FALSE_COLOUR, TONEMAP};
 use super::api_render::{CUT, CUT_FACES, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
@@ -89,7 +89,7 @@ pub(crate) const API: &[ApiEntry] = &[
     with(e("transfer functions", "tf_lut", &["options: map"], "TransferFunction", "HDR table from a scale, a colour map and log10 emission and extinction curves over t in [0, 1]. Options:"), &[&TF_LUT, &LENS]),
     e("transfer functions", "tf_preset", &["name: string"], "TransferFunction", "A ready-made HDR transfer function: log-inferno, log-viridis, symlog-diverging, linear-grey."),
     e("cameras", "camera_axis", &["axis: string"], "Camera", "Orthographic view along \"x\", \"y\" or \"z\" framing the volume exactly."),
-    e("cameras", "camera_orbit", &["azimuth: number", "elevation: number"], "Camera", "Perspective camera orbiting the volume's centre (degrees; fov 35)."),
+    e("cameras", "camera_orbit", &["azimuth: number", "elevation: number"], "Camera", "Perspective camera orbiting the scene's centre (degrees; fov 35), far enough that what is drawn fills the frame: the box's bounding sphere, or a spherical volume's or globe's sphere where that is smaller."),
     e("cameras", "camera_orbit", &["azimuth: number", "elevation: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
     e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number"], "Camera", "Perspective camera above latitude, longitude (degrees) at distance times the shell's outer radius from the planet's centre (a box: times half its diagonal from its centre), looking at the centre with north up (fov 35)."),
     e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
@@ -126,6 +126,7 @@ pub(crate) const API: &[ApiEntry] = &[
     with(e("exposure and tone mapping", "false_colour", &["image: Image", "options: map"], "Image", "As above over a given range of luminance (the same colours for every image of a sweep). Options:"), &[&FALSE_COLOUR]),
     e("output", "preview", &["image: Image"], "()", "Shows the image inline when stdout is a terminal (kitty, iTerm2, sixel or half blocks); a no-op otherwise. Under `hdrvis tui` the last previewed image is what the TUI shows; under `hdrvis run --preview` previews are printed once after the run."),
     e("output", "save_exr", &["image: Image", "path: string"], "()", "Linear OpenEXR (float R, G, B, A plus extra channels and provenance), under the output folder."),
+    with(e("output", "save_exr", &["image: Image", "path: string", "options: map"], "()", "As above with options:"), &[&SAVE_EXR]),
     e("output", "save_png", &["image: Image", "path: string"], "()", "8-bit sRGB view of the image at 0 EV, under the output folder."),
     e("output", "save_png", &["image: Image", "path: string", "exposure: number"], "()", "8-bit sRGB view at the given exposure in stops."),
     with(e("output", "save_png", &["image: Image", "path: string", "options: map"], "()", "As above with options:"), &[&SAVE_PNG]),

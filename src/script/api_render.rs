@@ -72,7 +72,18 @@ impl ScriptCamera {
                 azimuth,
                 elevation,
                 fov,
-            } => Camera::orbit(bounds, *azimuth, *elevation, *fov),
+            } => {
+                // What is drawn lies in the box and within the sphere: about the box's centre,
+                // no farther than the box's corners nor than the sphere's far side (a globe's
+                // box circumscribes it by √3, and would leave it at 58 % of the frame).
+                let c = bounds.center();
+                let off = (0..3)
+                    .map(|i| (c[i] - sphere.0[i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                let radius = (0.5 * bounds.diagonal()).min(off + sphere.1);
+                Camera::orbit_sphere(c, radius, *azimuth, *elevation, *fov)
+            }
             ScriptCamera::Fixed(c) => Ok(*c),
         }
     }

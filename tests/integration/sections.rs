@@ -938,3 +938,38 @@ fn depth_rings_cross_a_section_at_their_depths() {
     );
     assert_eq!(e.lines().count(), 1);
 }
+
+/// `camera_orbit` frames what is drawn: a whole globe fills the frame (its silhouette spans
+/// sin(fov/2) / 1.05 of the view's half-angle sine, 94.8 % of the height at fov 35°), where
+/// framing its box (which circumscribes it by √3) left it at 53 %.
+#[test]
+fn camera_orbit_frames_a_whole_globe() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = r#"
+        let v = load_volume(generate("mantle", #{ n: 16, native: true }));
+        let img = render_volume(v, #{ tf: tf_emission_absorption(1.0, 1.0),
+                                      camera: camera_orbit(30.0, 20.0), width: 129, height: 129 });
+        save_exr(img, "globe.exr");
+    "#;
+    std::fs::write(dir.path().join("g.rhai"), script).unwrap();
+    let (rc, out, err) = hdrvis(&["run", "g.rhai", "--out", "o"], dir.path());
+    assert_eq!(rc, 0, "{out} {err}");
+    let img = hdrvis::io::exr::read_exr(&dir.path().join("o/globe.exr")).unwrap();
+    let lit = |x: u32, y: u32| img.pixel(x, y).iter().take(3).any(|&c| c > 0.0);
+    let rows: Vec<u32> = (0..img.height)
+        .filter(|&y| (0..img.width).any(|x| lit(x, y)))
+        .collect();
+    let cols: Vec<u32> = (0..img.width)
+        .filter(|&x| (0..img.height).any(|y| lit(x, y)))
+        .collect();
+    let half = 17.5f64.to_radians();
+    let angle = (half.sin() / 1.05).asin();
+    let expected = angle.tan() / half.tan() * img.height as f64;
+    for (what, span) in [("rows", &rows), ("columns", &cols)] {
+        let across = (span[span.len() - 1] - span[0] + 1) as f64;
+        assert!(
+            (across - expected).abs() <= 3.0,
+            "{what}: the globe spans {across} px, expected {expected:.1}"
+        );
+    }
+}
