@@ -53,20 +53,13 @@ impl Default for ExrWrite {
     }
 }
 
-/// EXR compression methods by the names OpenEXR's tools use, with whether they are lossless.
-pub const EXR_COMPRESSIONS: [(&str, bool); 8] = [
-    ("none", true),
-    ("rle", true),
-    ("zips", true),
-    ("zip", true),
-    ("piz", true),
-    ("pxr24", false),
-    ("b44", false),
-    ("b44a", false),
-];
+/// EXR compression methods by the names OpenEXR's tools use: none, rle, zips, zip and piz are
+/// lossless; pxr24, b44 and b44a lossy.
+pub const EXR_COMPRESSION_NAMES: [&str; 8] =
+    ["none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a"];
 
 impl ExrWrite {
-    /// The compression method named `name` (one of [`EXR_COMPRESSIONS`]).
+    /// The compression method named `name` (one of [`EXR_COMPRESSION_NAMES`]).
     pub fn compression_named(name: &str) -> Result<Compression> {
         Ok(match name.to_ascii_lowercase().as_str() {
             "none" => Compression::Uncompressed,
@@ -78,12 +71,11 @@ impl ExrWrite {
             "b44" => Compression::B44,
             "b44a" => Compression::B44A,
             _ => {
-                let names: Vec<&str> = EXR_COMPRESSIONS.iter().map(|c| c.0).collect();
                 return Err(Error::invalid(
                     "compression",
                     format!(
                         "unknown EXR compression {name:?}; known: {}",
-                        names.join(", ")
+                        EXR_COMPRESSION_NAMES.join(", ")
                     ),
                 ));
             }

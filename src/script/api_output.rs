@@ -12,6 +12,7 @@ use super::convert::{err, num, to_rhai, RResult};
 use super::options::{opt, Kind, OptionTable};
 use super::{ParamKind, ParamRecord, ScriptHost};
 use crate::io::animation::RgbFrame;
+use crate::io::exr::{ExrWrite, EXR_COMPRESSION_NAMES};
 use crate::model::text::{TYPE_MAX, TYPE_MIN};
 use crate::model::HdrImage;
 use crate::tonemap::MAX_EV;
@@ -27,6 +28,16 @@ pub(crate) fn register_output(engine: &mut Engine, host: &Arc<ScriptHost>) {
 }
 
 /// Keys of `save_png(img, path, #{...})`.
+pub(crate) const SAVE_EXR: OptionTable = OptionTable {
+    function: "save_exr",
+    options: &[
+        opt("compression", Kind::Choice(&EXR_COMPRESSION_NAMES), "\"zip\"", "none, rle, zips, zip, piz: lossless; pxr24, b44, b44a: lossy (rle and none write fastest, zip smallest among the fast ones)"),
+        opt("half", Kind::Bool, "false", "R, G, B, A as 16-bit half floats (11 significant bits: enough for a display image, not for data); extra channels stay 32-bit"),
+    ],
+    call: "save_exr(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), \"x.exr\", OPTS)",
+    base: "#{}",
+};
+
 pub(crate) const SAVE_PNG: OptionTable = OptionTable {
     function: "save_png",
     options: &[
@@ -160,20 +171,33 @@ fn decorated(
 /// `save_exr` and `save_png` (with and without an exposure or options).
 fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
+    let save_exr = move |img: &mut ScriptImage, path: &str, how: &ExrWrite| -> RResult<()> {
+        let p = h.sandbox.write_path(path).map_err(to_rhai)?;
+        h.note_image(img);
+        if h.planned(&p) || h.already_done(&p) || !h.write_outputs {
+            return Ok(());
+        }
+        let t = std::time::Instant::now();
+        crate::io::exr::write_exr_with(img, &p, how).map_err(to_rhai)?;
+        h.session
+            .record_sink("save-exr", t.elapsed().as_secs_f64() * 1e3);
+        h.note_written(p);
+        Ok(())
+    };
+    let plain = save_exr.clone();
+    engine.register_fn("save_exr", move |img: &mut ScriptImage, path: &str| {
+        plain(img, path, &ExrWrite::default())
+    });
     engine.register_fn(
         "save_exr",
-        move |img: &mut ScriptImage, path: &str| -> RResult<()> {
-            let p = h.sandbox.write_path(path).map_err(to_rhai)?;
-            h.note_image(img);
-            if h.planned(&p) || h.already_done(&p) || !h.write_outputs {
-                return Ok(());
+        move |img: &mut ScriptImage, path: &str, opts: rhai::Map| -> RResult<()> {
+            let given = SAVE_EXR.read(&opts)?;
+            let mut how = ExrWrite::default();
+            if let Some(name) = given.string("compression")? {
+                how.compression = ExrWrite::compression_named(&name).map_err(to_rhai)?;
             }
-            let t = std::time::Instant::now();
-            crate::io::exr::write_exr(img, &p).map_err(to_rhai)?;
-            h.session
-                .record_sink("save-exr", t.elapsed().as_secs_f64() * 1e3);
-            h.note_written(p);
-            Ok(())
+            how.half = given.bool("half")?.unwrap_or(false);
+            save_exr(img, path, &how)
         },
     );
     let h = host.clone();

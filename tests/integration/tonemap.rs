@@ -670,6 +670,51 @@ fn tonemap_cli_stores_exr_as_half_in_the_chosen_compression_and_png_at_any_effor
 }
 
 #[test]
+fn save_exr_stores_half_floats_in_the_chosen_compression() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let img = grey(16, 8, |i| 10f32.powf(-2.0 + 4.0 * i as f32 / 127.0));
+    hdrvis::io::exr::write_exr(&img, &d.join("in.exr")).unwrap();
+    std::fs::write(
+        d.join("s.rhai"),
+        r#"
+let hdr = load_image("in.exr");
+save_exr(hdr, "f.exr");
+save_exr(hdr, "h.exr", #{ compression: "rle", half: true });
+"#,
+    )
+    .unwrap();
+    let (rc, out, err) = hdrvis(&["run", "s.rhai", "--out", "o"], d);
+    assert_eq!(rc, 0, "{out} {err}");
+    let full = hdrvis::io::exr::read_exr(&d.join("o/f.exr")).unwrap();
+    let half = hdrvis::io::exr::read_exr(&d.join("o/h.exr")).unwrap();
+    for (h, f) in half.pixels.iter().zip(&full.pixels) {
+        for c in 0..4 {
+            assert!(
+                (h[c] - f[c]).abs() <= f[c].abs() * 2f32.powi(-11),
+                "{h:?} {f:?}"
+            );
+        }
+    }
+    for (name, typ, compression) in [("f.exr", "R", "ZIP"), ("h.exr", "R=HALF", "RLE")] {
+        let path = d.join("o").join(name);
+        let args = [path.to_str().unwrap(), typ, "--compression", compression];
+        if let Some(report) = crate::cli::python_check("check_exr.py", &args) {
+            assert!(report.starts_with("exit 0"), "{name}: {report}");
+        }
+    }
+    std::fs::write(
+        d.join("bad.rhai"),
+        r#"save_exr(load_image("in.exr"), "x.exr", #{ compression: "lzw" });"#,
+    )
+    .unwrap();
+    let (rc, _, err) = hdrvis(&["run", "bad.rhai", "--out", "b"], d);
+    assert_ne!(rc, 0);
+    assert!(err.contains("compression") && err.contains("piz"), "{err}");
+    assert!(!d.join("b/x.exr").exists());
+}
+
+#[test]
 fn tonemap_script_api_brackets_tonemaps_and_saves_display_values() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
