@@ -16,6 +16,7 @@ mod distributed;
 mod doc_examples;
 mod figures;
 mod fuzz_corpus;
+mod gallery;
 mod georaster;
 mod mpi;
 mod passes;
