@@ -30,15 +30,18 @@ pub struct PeerToneMapRow {
 }
 
 impl PeerToneMapRow {
-    /// The median of the rounds' ratios, pfstools' time over hdrvis's (> 1: hdrvis faster).
-    pub(crate) fn ratio(&self) -> f64 {
-        let ratios: Vec<f64> = self
-            .peer_ms
+    /// Each round's ratio, pfstools' time over hdrvis's (> 1: hdrvis faster).
+    pub(crate) fn ratios(&self) -> Vec<f64> {
+        self.peer_ms
             .iter()
             .zip(&self.hdrvis_ms)
             .map(|(p, h)| p / h)
-            .collect();
-        median(&ratios)
+            .collect()
+    }
+
+    /// The median of the rounds' ratios.
+    pub(crate) fn ratio(&self) -> f64 {
+        median(&self.ratios())
     }
 }
 
@@ -173,12 +176,7 @@ pub fn format_tonemap_peer_table(setup: &PeerToneMapSetup<'_>, rows: &[PeerToneM
         "operator", "image", "hdrvis ms", "pfstools", "pfs ms", "×", "rounds ×"
     );
     for r in rows {
-        let ratios: Vec<f64> = r
-            .peer_ms
-            .iter()
-            .zip(&r.hdrvis_ms)
-            .map(|(p, h)| p / h)
-            .collect();
+        let ratios = r.ratios();
         let lo = ratios.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = ratios.iter().cloned().fold(0.0, f64::max);
         s += &format!(

@@ -286,11 +286,16 @@ impl GpuToneMapper {
     }
 
     fn uniform(&self, p: &ToneMapParams) -> wgpu::Buffer {
+        self.uniform_bytes("tonemap params", bytemuck::bytes_of(p))
+    }
+
+    /// A uniform buffer holding `bytes`.
+    fn uniform_bytes(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
         self.ctx
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("tonemap params"),
-                contents: bytemuck::bytes_of(p),
+                label: Some(label),
+                contents: bytes,
                 usage: wgpu::BufferUsages::UNIFORM,
             })
     }

@@ -7,7 +7,6 @@ use super::recording::Recording;
 use super::{bands, Band, GpuToneMapper, ToneMapCall, ToneMapParams};
 use crate::error::Result;
 use crate::tonemap::params::{blur_sigma, gaussian_radius, grid_sigma, reinhard_level};
-use wgpu::util::DeviceExt;
 
 impl GpuToneMapper {
     /// Reinhard's dodging and burning after the statistics: the pyramid, the blurs, and per
@@ -237,14 +236,7 @@ impl GpuToneMapper {
                 table[i] = [at, k, scale.to_bits(), rows.first];
                 at += gw * rows.rows;
             }
-            let table_buffer =
-                self.ctx
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some("reinhard scales"),
-                        contents: bytemuck::cast_slice(&table),
-                        usage: wgpu::BufferUsages::UNIFORM,
-                    });
+            let table_buffer = self.uniform_bytes("reinhard scales", bytemuck::cast_slice(&table));
             let u = self.band_uniform(
                 &ToneMapParams {
                     levels: r.levels.len() as u32,
@@ -280,13 +272,7 @@ impl GpuToneMapper {
             let k = k as f64;
             *tap = (-k * k / (2.0 * sigma * sigma)).exp() as f32;
         }
-        self.ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("reinhard taps"),
-                contents: bytemuck::cast_slice(&taps),
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
+        self.uniform_bytes("reinhard taps", bytemuck::cast_slice(&taps))
     }
 }
 
