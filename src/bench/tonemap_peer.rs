@@ -49,8 +49,8 @@ impl PeerToneMapRow {
 pub struct PeerToneMapSetup<'a> {
     /// The hdrvis binary to time (the running one).
     pub hdrvis: &'a Path,
-    /// `--backend` for hdrvis's runs, where the bench was given one.
-    pub backend: Option<&'a str>,
+    /// `--backend` for hdrvis's runs: the bench's own, resolved.
+    pub backend: &'a str,
     /// Output extension: `exr` (both tools' defaults: hdrvis half ZIP, pfsoutexr half PIZ) or
     /// `png` (hdrvis's own encoder; pfsout through ImageMagick).
     pub format: &'a str,
@@ -126,9 +126,7 @@ pub fn bench_tonemap_peer(
 
 fn time_hdrvis(setup: &PeerToneMapSetup<'_>, op: &str, input: &Path, out: &Path) -> Result<f64> {
     let mut cmd = Command::new(setup.hdrvis);
-    if let Some(b) = setup.backend {
-        cmd.args(["--backend", b]);
-    }
+    cmd.args(["--backend", setup.backend]);
     cmd.arg("tonemap").arg(input).arg("-o").arg(out);
     cmd.args(["--op", op]);
     timed(&mut cmd, &format!("hdrvis tonemap --op {op}"))

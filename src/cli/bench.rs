@@ -162,14 +162,9 @@ fn bench_tonemap_peer(
         ));
     }
     let hdrvis = std::env::current_exe().map_err(|e| Error::io("hdrvis", e))?;
-    let backend = match backend {
-        BackendChoice::Auto => None,
-        BackendChoice::Vulkan => Some("vulkan"),
-        BackendChoice::Gl => Some("gl"),
-    };
     let setup = tonemap_peer::PeerToneMapSetup {
         hdrvis: &hdrvis,
-        backend,
+        backend: backend.name(),
         format,
         rounds,
     };

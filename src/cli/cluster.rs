@@ -120,7 +120,7 @@ fn bench_worlds(backend: BackendChoice, bench: &DistributedBench, ranks: &[usize
         let sides: Vec<String> = bench.sides.iter().map(u32::to_string).collect();
         cmd.args(["-n", &r.to_string()])
             .arg(&exe)
-            .arg(format!("--backend={}", backend_name(backend)))
+            .arg(format!("--backend={}", backend.name()))
             .args(["bench", "distributed", "--runs", &bench.runs.to_string()])
             .args([
                 "--n",
@@ -146,15 +146,6 @@ fn bench_worlds(backend: BackendChoice, bench: &DistributedBench, ranks: &[usize
     }
     print!("{}", format_scaling_table(&machine, &reports));
     Ok(())
-}
-
-#[cfg(feature = "mpi")]
-fn backend_name(backend: BackendChoice) -> &'static str {
-    match backend {
-        BackendChoice::Auto => "auto",
-        BackendChoice::Vulkan => "vulkan",
-        BackendChoice::Gl => "gl",
-    }
 }
 
 /// Whether this process runs as root, whom mpirun refuses without `--allow-run-as-root`: the

@@ -8,7 +8,7 @@ use hdrvis::gpu::{BackendChoice, GpuContext};
 use hdrvis::io::exr::ExrWrite;
 use hdrvis::io::png::PngCompression;
 use hdrvis::tonemap::cpu::{auto_exposure_key, auto_exposure_percentile};
-use hdrvis::tonemap::{check_ev, Gamut, GpuToneMapper, Operator, ToneMapSettings};
+use hdrvis::tonemap::{check_ev, Gamut, GpuToneMapper, Operator, StageClock, ToneMapSettings};
 use hdrvis::{Error, Result};
 use std::path::PathBuf;
 
@@ -144,7 +144,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
 
     let clock = StageClock::start();
     let img = hdrvis::io::exr::read_exr(&args.input).map_err(one_line)?;
-    clock.mark("read");
+    clock.mark("read (whole file)");
     if let Some(mode) = auto {
         let key = args.key.unwrap_or(0.18);
         let ev = match mode {
@@ -162,7 +162,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     } else {
         mapper.tonemap(&img, &settings)?
     };
-    clock.mark("map");
+    clock.mark("GPU set-up + map");
     match store {
         Store::Png(compression) => hdrvis::io::png::write_display_png_with(
             &out,
@@ -172,7 +172,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         )?,
         Store::Exr(how) => hdrvis::io::exr::write_exr_with(&out, &args.output, &how)?,
     }
-    clock.mark("write");
+    clock.mark("write (whole file)");
     let view = if args.false_colour {
         "false colour".to_string()
     } else {
@@ -185,28 +185,6 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         out.height
     );
     Ok(())
-}
-
-/// Whole-process stage times (read, map, write) on stderr when `HDRVIS_TONEMAP_PROFILE` is set,
-/// each counted from the previous mark.
-struct StageClock(Option<std::cell::Cell<std::time::Instant>>);
-
-impl StageClock {
-    fn start() -> StageClock {
-        StageClock(
-            std::env::var_os("HDRVIS_TONEMAP_PROFILE")
-                .map(|_| std::cell::Cell::new(std::time::Instant::now())),
-        )
-    }
-
-    fn mark(&self, stage: &str) {
-        if let Some(t) = &self.0 {
-            let now = std::time::Instant::now();
-            let ms = (now - t.get()).as_secs_f64() * 1e3;
-            eprintln!("tonemap {stage} (whole): {ms:.1} ms");
-            t.set(now);
-        }
-    }
 }
 
 /// The output's format, from its file name's extension.

@@ -66,10 +66,15 @@ fn text<'a>(v: &'a NcVariable, key: &str) -> Option<&'a str> {
 
 /// The length unit of `units` as (canonical name, factor to it), or `None` for a non-length.
 fn length_unit(units: &str) -> Option<(&'static str, f64)> {
-    match units.trim().to_ascii_lowercase().as_str() {
-        "m" | "meter" | "meters" | "metre" | "metres" => Some(("m", 1.0)),
-        "km" | "kilometer" | "kilometers" | "kilometre" | "kilometres" => Some(("km", 1.0)),
-        _ => None,
+    // Vertical axes are placed in metres or kilometres; centimetres and millimetres are not
+    // what a planet's depth is given in.
+    let metres = crate::model::grid::metres_per_unit(units)?;
+    if metres == 1.0 {
+        Some(("m", 1.0))
+    } else if metres == 1e3 {
+        Some(("km", 1.0))
+    } else {
+        None
     }
 }
 

@@ -57,7 +57,8 @@ impl BackendChoice {
         }
     }
 
-    fn name(self) -> &'static str {
+    /// The name `--backend` takes for this choice.
+    pub fn name(self) -> &'static str {
         match self {
             BackendChoice::Auto => "auto",
             BackendChoice::Vulkan => "vulkan",

@@ -52,6 +52,19 @@ pub enum DepthRings {
     Depths(Vec<f64>),
 }
 
+impl DepthRings {
+    /// The Earth's ring depths (410, 660 and 2891 km) in a length unit written `km` or `m`;
+    /// `None` for any other unit.
+    pub(crate) fn earth_in(unit: &str) -> Option<[f64; 3]> {
+        let per_km = match unit {
+            "km" => 1.0,
+            "m" => 1e3,
+            _ => return None,
+        };
+        Some([410.0, 660.0, 2891.0].map(|d| d * per_km))
+    }
+}
+
 /// Rings one render draws at most.
 pub const MAX_RINGS: usize = 4;
 /// A ring's line, in pixels at the volume's centre.
@@ -88,19 +101,17 @@ impl CutFaces {
         };
         let depths = match rings {
             DepthRings::Depths(d) => d.clone(),
-            DepthRings::Earth => {
-                let per_km = match g.length_unit.as_str() {
-                    "km" => 1.0,
-                    "m" => 1e3,
-                    other => {
-                        return Err(Error::invalid(
-                            field,
-                            format!("the Earth's rings need a volume in km or m, not {other:?}; give the depths"),
-                        ))
-                    }
-                };
-                [410.0, 660.0, 2891.0].map(|d| d * per_km).to_vec()
-            }
+            DepthRings::Earth => DepthRings::earth_in(&g.length_unit)
+                .ok_or_else(|| {
+                    Error::invalid(
+                        field,
+                        format!(
+                            "the Earth's rings need a volume in km or m, not {:?}; give the depths",
+                            g.length_unit
+                        ),
+                    )
+                })?
+                .to_vec(),
         };
         if depths.is_empty() || depths.len() > MAX_RINGS {
             return Err(Error::invalid(

@@ -36,6 +36,18 @@ pub struct GridCoords {
     pub kind: CoordKind,
 }
 
+/// Metres per unit of a length unit as files write it (m, km, cm, mm, and their spellings);
+/// `None` for anything else.
+pub(crate) fn metres_per_unit(units: &str) -> Option<f64> {
+    match units.trim().to_ascii_lowercase().as_str() {
+        "m" | "meter" | "meters" | "metre" | "metres" => Some(1.0),
+        "km" | "kilometer" | "kilometers" | "kilometre" | "kilometres" => Some(1e3),
+        "cm" | "centimeter" | "centimeters" | "centimetre" | "centimetres" => Some(1e-2),
+        "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1e-3),
+        _ => None,
+    }
+}
+
 impl GridCoords {
     /// Node indices 0, 1, ... as coordinates (for files without coordinate arrays).
     pub fn index(name: &str, n: usize) -> GridCoords {

@@ -12,6 +12,36 @@ use crate::error::{Error, Result};
 use crate::model::HdrImage;
 
 pub use gpu::GpuToneMapper;
+
+/// Stage times on stderr when `HDRVIS_TONEMAP_PROFILE` is set, each counted from the previous
+/// mark (for finding where the time goes: the tone mapper's upload, passes and readback, the
+/// `tonemap` command's read, map and write; the benchmark measures whole calls).
+pub struct StageClock(Option<std::cell::Cell<std::time::Instant>>);
+
+impl StageClock {
+    pub fn start() -> StageClock {
+        StageClock(
+            std::env::var_os("HDRVIS_TONEMAP_PROFILE")
+                .map(|_| std::cell::Cell::new(std::time::Instant::now())),
+        )
+    }
+
+    /// Whether stage times are printed (callers wait for the GPU only then).
+    pub fn on(&self) -> bool {
+        self.0.is_some()
+    }
+
+    pub fn mark(&self, stage: &str) {
+        if let Some(t) = &self.0 {
+            let now = std::time::Instant::now();
+            eprintln!(
+                "tonemap {stage}: {:.1} ms",
+                (now - t.get()).as_secs_f64() * 1e3
+            );
+            t.set(now);
+        }
+    }
+}
 pub(crate) use gpu::DISPLAY_REFERRED;
 pub use params::{Gamut, Operator, ToneMapSettings};
 

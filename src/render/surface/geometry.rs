@@ -4,6 +4,7 @@
 use super::globe::GlobeFrame;
 use super::options::{SurfaceOptions, SurfaceView};
 use crate::error::{Error, Result};
+use crate::model::grid::metres_per_unit;
 use crate::model::map_frame::EARTH_RADIUS_KM;
 use crate::model::{Aabb, Camera, Grid};
 
@@ -84,18 +85,6 @@ impl WorldUnits {
                 relief_scale: 1.0,
             },
         }
-    }
-}
-
-/// Metres per unit of a length unit as files write it (m, km, cm, mm, and their spellings);
-/// `None` for anything else.
-pub(crate) fn metres_per_unit(units: &str) -> Option<f64> {
-    match units.trim().to_ascii_lowercase().as_str() {
-        "m" | "meter" | "meters" | "metre" | "metres" => Some(1.0),
-        "km" | "kilometer" | "kilometers" | "kilometre" | "kilometres" => Some(1e3),
-        "cm" | "centimeter" | "centimeters" | "centimetre" | "centimetres" => Some(1e-2),
-        "mm" | "millimeter" | "millimeters" | "millimetre" | "millimetres" => Some(1e-3),
-        _ => None,
     }
 }
 

@@ -174,23 +174,19 @@ impl Overlay {
                 }
                 d.clone()
             }
-            DepthRings::Earth => {
-                let per_km = match axes.y.units.as_str() {
-                    "km" => 1.0,
-                    "m" => 1e3,
-                    other => {
-                        return Err(Error::invalid(
-                            field,
-                            format!("the Earth's rings need depths in km or m, not {other:?}; give the depths"),
-                        ))
-                    }
-                };
-                [410.0, 660.0, 2891.0]
-                    .map(|d| d * per_km)
-                    .into_iter()
-                    .filter(|d| *d >= lo && *d <= hi)
-                    .collect()
-            }
+            DepthRings::Earth => DepthRings::earth_in(&axes.y.units)
+                .ok_or_else(|| {
+                    Error::invalid(
+                        field,
+                        format!(
+                            "the Earth's rings need depths in km or m, not {:?}; give the depths",
+                            axes.y.units
+                        ),
+                    )
+                })?
+                .into_iter()
+                .filter(|d| *d >= lo && *d <= hi)
+                .collect(),
         };
         Ok(Overlay {
             projector: Projector::Map(axes),

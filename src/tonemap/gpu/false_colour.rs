@@ -2,12 +2,12 @@
 //! (`shaders/tonemap/false_colour.wgsl`), the GPU twin of
 //! [`crate::tonemap::cpu::false_colour_log10`].
 
-use super::recording::Profile;
 use super::upload::upload_image;
 use super::{GpuToneMapper, Specialisation, ToneMapParams, DISPLAY_REFERRED};
 use crate::error::{Error, Result};
 use crate::model::HdrImage;
 use crate::tonemap::cpu::{false_colour_decades, legend_height, turbo_lut};
+use crate::tonemap::StageClock;
 
 impl GpuToneMapper {
     /// False-colour view of log10 luminance (after `exposure_ev`) through turbo, over the whole
@@ -64,7 +64,7 @@ impl GpuToneMapper {
             cache.output(ctx, px_bytes),
             validation,
             oom,
-            &Profile::start(),
+            &StageClock::start(),
         )?;
         drop(cache);
         let mut out = HdrImage::from_pixels(w, h, pixels);

@@ -6,6 +6,7 @@ use super::bands::{Band, Window};
 use super::{pixel_groups, GpuToneMapper, Specialisation};
 use crate::error::{Error, Result};
 use crate::gpu::transfer::ReadbackBuffer;
+use crate::tonemap::StageClock;
 
 /// One tone-mapping call being recorded: the context, its encoder and the uploaded image.
 pub(super) struct Recording<'a> {
@@ -108,7 +109,7 @@ impl Recording<'_> {
         output: &ReadbackBuffer,
         validation: wgpu::ErrorScopeGuard,
         oom: wgpu::ErrorScopeGuard,
-        profile: &Profile,
+        profile: &StageClock,
     ) -> Result<Vec<[f32; 4]>> {
         let ctx = &self.mapper.ctx;
         let bytes = self.width as u64 * self.height as u64 * 16;
@@ -132,25 +133,5 @@ impl Recording<'_> {
         let pixels = output.read(ctx, bytes);
         profile.mark("readback");
         pixels
-    }
-}
-
-/// Stage times on stderr when `HDRVIS_TONEMAP_PROFILE` is set (for finding where a call's time
-/// goes; the benchmark measures whole calls).
-pub(super) struct Profile(Option<std::time::Instant>);
-
-impl Profile {
-    pub(super) fn start() -> Profile {
-        Profile(std::env::var_os("HDRVIS_TONEMAP_PROFILE").map(|_| std::time::Instant::now()))
-    }
-
-    pub(super) fn on(&self) -> bool {
-        self.0.is_some()
-    }
-
-    pub(super) fn mark(&self, stage: &str) {
-        if let Some(t) = self.0 {
-            eprintln!("tonemap {stage}: {:.2} ms", t.elapsed().as_secs_f64() * 1e3);
-        }
     }
 }
