@@ -18,6 +18,7 @@ pub(crate) mod chart;
 pub mod datasets;
 pub mod distributed;
 pub mod effects;
+pub mod equal_error;
 pub mod skipping;
 pub mod spherical;
 pub mod surface;

@@ -139,23 +139,7 @@ pub fn shell_options(shell: &Volume, size: u32) -> Result<VolumeRenderOptions> {
 /// written for one voxel length gives for another, so a resampled box (whose voxel is its own
 /// side, not the shell's radial spacing) renders the same picture.
 pub(crate) fn per_longer_voxel(tf: &TransferFunction, k: f64) -> TransferFunction {
-    match tf {
-        TransferFunction::EmissionAbsorption {
-            emission,
-            absorption,
-        } => TransferFunction::EmissionAbsorption {
-            emission: emission * k,
-            absorption: absorption * k,
-        },
-        TransferFunction::Lut(l) => {
-            let mut l = l.clone();
-            let shift = k.log10();
-            for p in l.emission.iter_mut().chain(l.opacity.iter_mut()) {
-                p[1] += shift;
-            }
-            TransferFunction::Lut(l)
-        }
-    }
+    tf.with_factors(k, k)
 }
 
 /// `options` for `boxed`, the resampling of a shell whose voxel length is `shell_voxel`: the

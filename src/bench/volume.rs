@@ -5,13 +5,14 @@
 //! llvmpipe, and the fixed-point CPU ray caster on two threads) and the cost of each stage of a
 //! sample (`--breakdown`).
 
+use super::equal_error::{self, EqualError, PeerNode};
 use super::{bench_tf, bench_volume, mantle_fig5_tf, mantle_fluctuation, median, RenderRuns};
 use super::{time_renders, timing_session};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::model::transfer::ResolvedTransfer;
-use crate::model::TransferFunction;
 use crate::model::{Axis, Camera, Volume};
+use crate::model::{Scale, TransferFunction};
 use crate::render::volume::{GpuVolume, SampleWork, VolumeRenderer};
 use crate::render::{VolumeRenderOptions, VolumeSource};
 use std::path::{Path, PathBuf};
@@ -30,6 +31,8 @@ pub struct BenchRow {
     pub stages: Vec<(SampleWork, Vec<f64>)>,
     /// The ray-casting pass of each run on the GPU's own clock (empty without timestamps).
     pub gpu_ms: Vec<f64>,
+    /// With `--peer`: the peers at equal error.
+    pub equal_error: Option<EqualError>,
 }
 
 #[derive(Clone, Debug)]
@@ -151,6 +154,9 @@ pub fn bench_volume_render(
                 run_vtk_round(inputs, px, runs, ours, &mut peers, log);
             }
         }
+        let equal_error = peer
+            .as_ref()
+            .map(|inputs| compare_at_equal_error(&session, inputs, &opts, runs, &peers, log));
         let mut stages: Vec<(SampleWork, Vec<f64>)> = Vec::new();
         if breakdown {
             log(&format!("{name}: timing the stages of a sample ..."));
@@ -166,6 +172,7 @@ pub fn bench_volume_render(
             gpu_ms: times.gpu_ms,
             peers: peers.into_iter().map(PeerRounds::result).collect(),
             stages,
+            equal_error,
         });
     }
     Ok(rows)
@@ -201,25 +208,78 @@ const VTK_MAPPERS: [&str; 2] = ["gpu", "fixedpoint"];
 const VTK_CPU_THREADS: usize = 2;
 
 /// The peer's script and its inputs, written once per scene into a directory that lives as long
-/// as this does (or why they could not be written).
+/// as this does (or why they could not be written); the volume it reads (missing values replaced
+/// by a stand-in below the transfer function's domain, which it maps to nothing), the nodes of
+/// its transfer functions and the scale they were sampled on.
 struct PeerInputs {
     script: PathBuf,
     files: std::result::Result<(tempfile::TempDir, PathBuf, PathBuf), String>,
+    volume: Arc<Volume>,
+    nodes: Vec<PeerNode>,
+    scale: Scale,
 }
 
 impl PeerInputs {
     fn write(script: &Path, vol: &Volume, tf: &ResolvedTransfer) -> PeerInputs {
+        let samples = tf.scaled_samples(129);
+        let (lo, hi) = (samples[0], samples[samples.len() - 1]);
+        let missing = (vol.data.iter().any(|v| !v.is_finite())).then_some(lo - (hi - lo).abs());
+        let mut volume = vol.clone();
+        if let Some(m) = missing {
+            for v in volume.data.iter_mut().filter(|v| !v.is_finite()) {
+                *v = m as f32;
+            }
+        }
+        let nodes = equal_error::peer_nodes(tf, &samples, missing);
         let files = tempfile::tempdir()
             .map_err(|e| e.to_string())
             .and_then(|dir| {
-                let (npy, tf) = write_peer_inputs(dir.path(), vol, tf)?;
+                let (npy, tf) = write_peer_inputs(dir.path(), &volume, &nodes)?;
                 Ok((dir, npy, tf))
             });
         PeerInputs {
             script: script.to_path_buf(),
             files,
+            volume: Arc::new(volume),
+            nodes,
+            scale: tf.mapping.scale,
         }
     }
+
+    /// Where the mapper's last frame is saved, in the inputs' directory.
+    fn image_path(&self, mapper: &str) -> Option<PathBuf> {
+        let (dir, _, _) = self.files.as_ref().ok()?;
+        Some(dir.path().join(format!("{mapper}.png")))
+    }
+}
+
+/// The peers' images of the scene scored against the integral of their optical model, beside
+/// every hdrvis setting on the same scene (see [`equal_error`]).
+fn compare_at_equal_error(
+    session: &crate::render::session::RenderSession,
+    inputs: &PeerInputs,
+    opts: &VolumeRenderOptions,
+    runs: usize,
+    peers: &[PeerRounds],
+    log: &mut dyn FnMut(&str),
+) -> EqualError {
+    let images: Vec<(String, f64, PathBuf)> = peers
+        .iter()
+        .filter(|p| !p.medians.is_empty())
+        .filter_map(|p| {
+            let png = inputs.image_path(p.mapper).filter(|png| png.exists())?;
+            Some((format!("vtk {}", p.mapper), median(&p.medians), png))
+        })
+        .collect();
+    let images: Vec<(String, f64, &Path)> = images
+        .iter()
+        .map(|(n, m, p)| (n.clone(), *m, p.as_path()))
+        .collect();
+    let scene = (inputs.volume.clone(), inputs.nodes.as_slice(), inputs.scale);
+    equal_error::measure(session, scene, opts, runs, &images, log).unwrap_or_else(|e| EqualError {
+        error: Some(e.to_string()),
+        ..Default::default()
+    })
 }
 
 /// One peer mapper over the rounds so far: its median of each round, its ratio to hdrvis's
@@ -286,8 +346,13 @@ fn run_vtk_mapper(
     runs: usize,
 ) -> std::result::Result<(f64, String), String> {
     let (_, npy, tf_path) = inputs.files.as_ref().map_err(Clone::clone)?;
-    let out = std::process::Command::new("python3")
-        .arg(&inputs.script)
+    let mut command = std::process::Command::new("python3");
+    command.arg(&inputs.script);
+    if let Some(png) = inputs.image_path(mapper) {
+        // Its last frame, for the comparison at equal error.
+        command.arg("--save-png").arg(png);
+    }
+    let out = command
         .args(["--npy", &npy.display().to_string()])
         .args(["--width", &px.to_string(), "--height", &px.to_string()])
         .args(["--sample-distance", "1.0"])
@@ -307,53 +372,35 @@ fn run_vtk_mapper(
     parse_peer_output(&String::from_utf8_lossy(&out.stdout))
 }
 
-/// Writes the peer's inputs into `dir`: the volume as `volume.npy` (missing values replaced by
-/// a value below the transfer function's domain, which it maps to nothing) and the transfer
-/// function as `tf.json`; returns their paths, or the error's text.
+/// Writes the peer's inputs into `dir`: the volume as `volume.npy` and the transfer function's
+/// nodes as `tf.json`; returns their paths, or the error's text.
 fn write_peer_inputs(
     dir: &Path,
     vol: &Volume,
-    tf: &ResolvedTransfer,
+    nodes: &[PeerNode],
 ) -> std::result::Result<(PathBuf, PathBuf), String> {
-    let samples = tf.scaled_samples(129);
-    let (lo, hi) = (samples[0], samples[samples.len() - 1]);
-    let missing = (vol.data.iter().any(|v| !v.is_finite())).then_some(lo - (hi - lo).abs());
     let npy = dir.join("volume.npy");
-    let data: Vec<f32> = match missing {
-        Some(m) => vol
-            .data
-            .iter()
-            .map(|&v| if v.is_finite() { v } else { m as f32 })
-            .collect(),
-        None => vol.data.clone(),
-    };
-    crate::datasets::npy::write_npy_f32(&npy, &[vol.dims[2], vol.dims[1], vol.dims[0]], &data)
+    crate::datasets::npy::write_npy_f32(&npy, &[vol.dims[2], vol.dims[1], vol.dims[0]], &vol.data)
         .map_err(|e| e.to_string())?;
     let tf_path = dir.join("tf.json");
-    std::fs::write(&tf_path, peer_tf_json(tf, &samples, missing)).map_err(|e| e.to_string())?;
+    std::fs::write(&tf_path, peer_tf_json(nodes)).map_err(|e| e.to_string())?;
     Ok((npy, tf_path))
 }
 
-/// The transfer function as the peer reads it. VTK's transfer functions are piecewise linear in
-/// the value, so ours is sampled at values evenly spaced in its own scale; a stand-in for missing
-/// data below the domain emits and absorbs nothing.
-fn peer_tf_json(tf: &ResolvedTransfer, samples: &[f64], missing: Option<f64>) -> String {
-    let mut color = Vec::new();
-    let mut opacity = Vec::new();
-    if let Some(m) = missing {
-        color.push(format!("[{m:e}, 0, 0, 0]"));
-        opacity.push(format!("[{m:e}, 0]"));
-    }
-    for &v in samples {
-        let (e, s) = tf.eval(v);
-        color.push(format!(
-            "[{v:e}, {}, {}, {}]",
-            e[0].min(1.0),
-            e[1].min(1.0),
-            e[2].min(1.0)
-        ));
-        opacity.push(format!("[{v:e}, {}]", -(-s).exp_m1()));
-    }
+/// The transfer function as the peer reads it: VTK's transfer functions are piecewise linear in
+/// the value, so ours is given as nodes sampled evenly in its own scale.
+fn peer_tf_json(nodes: &[PeerNode]) -> String {
+    let color: Vec<String> = nodes
+        .iter()
+        .map(|n| {
+            let [r, g, b] = n.colour;
+            format!("[{:e}, {r}, {g}, {b}]", n.value)
+        })
+        .collect();
+    let opacity: Vec<String> = nodes
+        .iter()
+        .map(|n| format!("[{:e}, {}]", n.value, n.alpha))
+        .collect();
     format!(
         "{{\"color\": [{}], \"opacity\": [{}], \"scalar_opacity_unit_distance\": 1.0}}",
         color.join(", "),
@@ -521,6 +568,7 @@ mod tests {
             }],
             stages: Vec::new(),
             gpu_ms: Vec::new(),
+            equal_error: None,
         }
     }
 

@@ -244,6 +244,14 @@ fn bench_volume(
     )?;
     print!("{}", volume::format_volume_table(&adapter, &rows));
     print!("{}", volume::format_breakdown_table(&rows));
+    let compared: Vec<_> = rows
+        .iter()
+        .filter_map(|r| Some((r.name.clone(), r.equal_error.as_ref()?)))
+        .collect();
+    print!(
+        "{}",
+        hdrvis::bench::equal_error::format_equal_error(&compared)
+    );
     Ok(())
 }
 

@@ -220,7 +220,10 @@ pub enum BenchCommand {
         #[arg(long)]
         quick: bool,
         /// Run a peer on the same data side by side: `vtk` (pip's vtk: its GPU ray caster on the
-        /// same llvmpipe, and its fixed-point CPU ray caster on two threads).
+        /// same llvmpipe, and its fixed-point CPU ray caster on two threads); then compare at
+        /// equal error: each peer's image and every hdrvis setting (precision, step,
+        /// pre-integration) scored against the f64 integral of the peer's optical model, and the
+        /// fastest setting at least as accurate as each peer.
         #[arg(long)]
         peer: Option<String>,
         /// With --peer: rounds of timing, hdrvis's runs then each peer's, back to back; a peer's

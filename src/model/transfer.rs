@@ -149,6 +149,9 @@ pub enum TransferFunction {
         absorption: f64,
     },
     Lut(LutTransfer),
+    /// A baked table used as it is: another tool's transfer functions resampled onto hdrvis's
+    /// table (built by [`ResolvedTransfer::from_functions`]), whatever the volume's range.
+    Table(std::sync::Arc<ResolvedTransfer>),
 }
 
 /// Numbers as a reader writes them, for metadata: `[0.001, 3]`.
@@ -199,6 +202,11 @@ impl TransferFunction {
                 plain_points(&l.opacity),
                 l.transparent_below
             ),
+            TransferFunction::Table(t) => format!(
+                "table scale={} of {} entries",
+                t.mapping.scale.name(),
+                t.lut.len()
+            ),
         }
     }
 
@@ -245,6 +253,44 @@ impl TransferFunction {
                 lut: Vec::new(),
             }),
             TransferFunction::Lut(l) => l.resolve(stats),
+            TransferFunction::Table(t) => Ok((**t).clone()),
+        }
+    }
+
+    /// The same function with emission per length times `emission` and extinction per length
+    /// times `extinction` (both > 0).
+    pub(crate) fn with_factors(&self, emission: f64, extinction: f64) -> TransferFunction {
+        match self {
+            TransferFunction::EmissionAbsorption {
+                emission: e,
+                absorption: a,
+            } => TransferFunction::EmissionAbsorption {
+                emission: e * emission,
+                absorption: a * extinction,
+            },
+            TransferFunction::Lut(l) => {
+                let mut l = l.clone();
+                let (de, ds) = (emission.log10(), extinction.log10());
+                for p in &mut l.emission {
+                    p[1] = (p[1] + de).clamp(-30.0, 30.0);
+                }
+                for p in &mut l.opacity {
+                    p[1] = (p[1] + ds).clamp(-30.0, 30.0);
+                }
+                TransferFunction::Lut(l)
+            }
+            TransferFunction::Table(t) => {
+                let mut t = (**t).clone();
+                for e in &mut t.lut {
+                    *e = [
+                        e[0] * emission,
+                        e[1] * emission,
+                        e[2] * emission,
+                        e[3] * extinction,
+                    ];
+                }
+                TransferFunction::Table(std::sync::Arc::new(t))
+            }
         }
     }
 }
@@ -545,6 +591,44 @@ impl Transparency<'_> {
 }
 
 impl ResolvedTransfer {
+    /// A table over the data range `domain` on `scale` (a symlog threshold <= 0 becomes a
+    /// thousandth of the largest magnitude) whose entries are `f(value)` = (emission in linear
+    /// RGB, extinction), both per voxel length, at each entry's value; values beyond the domain
+    /// take the end entries.
+    pub fn from_functions(
+        scale: Scale,
+        domain: [f64; 2],
+        f: impl Fn(f64) -> ([f64; 3], f64),
+    ) -> Result<ResolvedTransfer> {
+        let l = LutTransfer {
+            scale,
+            domain: Some(domain),
+            ..Default::default()
+        };
+        let [lo, hi] = domain;
+        let positive = !matches!(scale, Scale::Log10) || lo > 0.0;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi && positive) {
+            return Err(Error::invalid(
+                "tf.domain",
+                format!("expected finite lo < hi (above 0 for log10), got [{lo}, {hi}]"),
+            ));
+        }
+        let mapping = l.scale_mapping(lo, hi);
+        let lut = (0..LUT_SIZE)
+            .map(|i| {
+                let t = i as f64 / (LUT_SIZE - 1) as f64;
+                let v = mapping.scale.invert(mapping.s_lo + t / mapping.inv_range);
+                let (e, s) = f(v.clamp(lo, hi));
+                [e[0], e[1], e[2], s]
+            })
+            .collect();
+        Ok(ResolvedTransfer {
+            kind: TfKind::Lut,
+            mapping,
+            lut,
+        })
+    }
+
     /// `count` values evenly spaced in the function's own scale across its domain (log-spaced
     /// for log10): where to sample it for a peer whose functions are piecewise linear in value.
     pub(crate) fn scaled_samples(&self, count: usize) -> Vec<f64> {

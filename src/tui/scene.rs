@@ -123,22 +123,7 @@ pub(crate) fn zoom_camera(c: &Camera, zoom: f64) -> Camera {
 
 /// `tf` with its extinction multiplied by 10^`decades` (log10 opacity points kept in [-30, 30]).
 pub(crate) fn add_opacity_decades(tf: &TransferFunction, decades: f64) -> TransferFunction {
-    match tf {
-        TransferFunction::EmissionAbsorption {
-            emission,
-            absorption,
-        } => TransferFunction::EmissionAbsorption {
-            emission: *emission,
-            absorption: absorption * 10f64.powf(decades),
-        },
-        TransferFunction::Lut(l) => {
-            let mut l = l.clone();
-            for p in &mut l.opacity {
-                p[1] = (p[1] + decades).clamp(-30.0, 30.0);
-            }
-            TransferFunction::Lut(l)
-        }
-    }
+    tf.with_factors(1.0, 10f64.powf(decades))
 }
 
 /// Where a transfer function's magnification window lives: its scale (a symlog threshold
