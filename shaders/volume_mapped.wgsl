@@ -211,9 +211,22 @@ fn removed_in_domain(p: vec3<f32>) -> bool {
 }
 #endif
 
-// The value at world point p (relative to the box's corner for boxes, to the planet's centre
-// for shells): trilinear in index space, clamped at the edges, periodic in a full longitude.
+#if RENORMALISE
+const FINITE_ONLY: bool = true;
+#else
+const FINITE_ONLY: bool = false;
+#endif
+
+// The value at world point p under the render's missing-data rule (RENORMALISE: the finite
+// voxels' weights renormalised; else strict).
 fn sample_at(p: vec3<f32>) -> f32 {
+    return sample_with(p, FINITE_ONLY);
+}
+
+// The value at world point p (relative to the box's corner for boxes, to the planet's centre
+// for shells): trilinear in index space, clamped at the edges, periodic in a full longitude;
+// with finite_only over the finite voxels alone (never with the texture unit's filter).
+fn sample_with(p: vec3<f32>, finite_only: bool) -> f32 {
 #if SPHERICAL
     let s = spherical(p);
     let f = vec3<f32>(axis_index(0u, s.x), axis_index(1u, s.y), lon_index(s.z));
@@ -249,18 +262,25 @@ fn sample_at(p: vec3<f32>) -> f32 {
         b = select(b, wb, on);
     }
 #endif
+    if (finite_only) {
+        return trilinear_finite(volume_tex, a, b, t);
+    }
     return trilinear_texels(volume_tex, a, b, t);
 #endif
 }
 
 #if SHADING
 // Blinn–Phong factor under a headlight from the world-space gradient by central differences
-// one length unit (P.march.y⁻¹) apart (Volume::gradient_world).
+// one length unit (P.march.y⁻¹) apart (Volume::gradient_world), sampled strictly under either
+// missing-data rule, as the f64 reference does.
 fn shading_factor(p: vec3<f32>, dir: vec3<f32>) -> f32 {
     let h = 1.0 / P.march.y;
-    let gx = sample_at(p + vec3<f32>(h, 0.0, 0.0)) - sample_at(p - vec3<f32>(h, 0.0, 0.0));
-    let gy = sample_at(p + vec3<f32>(0.0, h, 0.0)) - sample_at(p - vec3<f32>(0.0, h, 0.0));
-    let gz = sample_at(p + vec3<f32>(0.0, 0.0, h)) - sample_at(p - vec3<f32>(0.0, 0.0, h));
+    let x = vec3<f32>(h, 0.0, 0.0);
+    let y = vec3<f32>(0.0, h, 0.0);
+    let z = vec3<f32>(0.0, 0.0, h);
+    let gx = sample_with(p + x, false) - sample_with(p - x, false);
+    let gy = sample_with(p + y, false) - sample_with(p - y, false);
+    let gz = sample_with(p + z, false) - sample_with(p - z, false);
     return headlight(vec3<f32>(gx, gy, gz) / (2.0 * h), dir);
 }
 #endif

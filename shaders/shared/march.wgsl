@@ -32,6 +32,38 @@ fn trilinear_texels(tex: texture_3d<f32>, a: vec3<i32>, b: vec3<i32>, f: vec3<f3
     return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
 }
 
+// As trilinear_texels over the finite texels only, their weights renormalised to sum to one
+// (Volume::interpolate with Missing::Renormalise): all eight finite give trilinear_texels' value
+// bit for bit, a missing texel of weight zero changes nothing (the finite ones' plain sum), and
+// none finite of non-zero weight gives NaN.
+fn trilinear_finite(tex: texture_3d<f32>, a: vec3<i32>, b: vec3<i32>, f: vec3<f32>) -> f32 {
+    var acc = 0.0;
+    var weight = 0.0;
+    var any_missing = false;
+    var weighted_missing = false;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let high = vec3<u32>(corner, corner >> 1u, corner >> 2u) & vec3<u32>(1u);
+        let on = high == vec3<u32>(1u);
+        let v = textureLoad(tex, select(a, b, on), 0).r;
+        let w3 = select(vec3<f32>(1.0) - f, f, on);
+        let w = w3.x * w3.y * w3.z;
+        if (is_finite_f32(v)) {
+            acc += w * v;
+            weight += w;
+        } else {
+            any_missing = true;
+            weighted_missing = weighted_missing || w > 0.0;
+        }
+    }
+    if (!any_missing) {
+        return trilinear_texels(tex, a, b, f);
+    }
+    if (!weighted_missing) {
+        return acc;
+    }
+    return select(bitcast<f32>(0x7fc00000u), acc / weight, weight > 0.0);
+}
+
 // Blinn–Phong factor for data gradient g under a headlight along -dir (light and eye together,
 // so the half vector is the light vector), two-sided; 1 (unshaded) where the gradient vanishes
 // or touches a missing value.

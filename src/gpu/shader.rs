@@ -121,6 +121,8 @@ pub(crate) const PIPELINES: &[(&str, &[&[&str]])] = &[
             &["SPHERICAL", "SHELL", "SKIPPING", "PREINTEGRATED"],
             &["SPHERICAL", "UNEVEN", "SEAM", "SKIPPING", "SHADING"],
             &["SKIPPING", "UNEVEN"],
+            &["RENORMALISE", "PREINTEGRATED"],
+            &["SPHERICAL", "SHELL", "CF_AXES", "RENORMALISE", "SHADING"],
         ],
     ),
     ("surface_data.wgsl", &[&[]]),

@@ -7,8 +7,8 @@
 use super::mapped_skipping::cell_size;
 use super::skipping::SkipGrid;
 use super::volume::{
-    Geometry as FrameGeometry, GpuVolume, RenderTiming, VolumeRenderer, CF_AXES, RECTILINEAR, SEAM,
-    SHELL, SPHERICAL, UNEVEN,
+    Geometry as FrameGeometry, GpuVolume, RenderTiming, VolumeRenderer, CF_AXES, RECTILINEAR,
+    RENORMALISE, SEAM, SHELL, SPHERICAL, UNEVEN,
 };
 use super::VolumeRenderOptions;
 use crate::error::Result;
@@ -121,8 +121,8 @@ fn mapped_params(
     let bounds = volume.bounds();
     match &volume.geometry {
         Geometry::Regular | Geometry::Rectilinear(_) => {
-            // A regular box comes here only with a cut-away: its axes are even, the shader's
-            // fast case.
+            // A regular box comes here only with a cut-away or missing: "renormalise": its axes
+            // are even, the shader's fast case.
             let regular;
             let axes: &[CoordAxis; 3] = match &volume.geometry {
                 Geometry::Rectilinear(axes) => axes,
@@ -253,6 +253,11 @@ impl VolumeRenderer {
             let mut f = self.frame(&geometry, opts, false)?;
             f.key.mapped = kind;
             f.key.skipping = skip.is_some();
+            if opts.missing == crate::model::Missing::Renormalise {
+                // Which texels are missing is the shader's to see: no texture-unit filter.
+                f.key.mapped |= RENORMALISE;
+                f.key.hw_filter = false;
+            }
             f
         };
         let (pipeline, compiled) = self.pipeline(frame.key)?;

@@ -152,10 +152,12 @@ fn mapped_path(v: &Volume, opts: &VolumeRenderOptions) -> Result<RenderPath> {
     if opts.precision == Precision::F64 {
         return Ok(RenderPath::F64Cpu);
     }
-    let placed = if v.is_regular() {
+    let placed = if !v.is_regular() {
+        format!("a {} volume placed by coordinate axes", v.geometry.name())
+    } else if opts.cut.is_some() {
         "a box with a cut-away".to_string()
     } else {
-        format!("a {} volume placed by coordinate axes", v.geometry.name())
+        "a box with missing: \"renormalise\"".to_string()
     };
     let refuse = |field: &str, what: &str| {
         Err(Error::invalid(
@@ -209,19 +211,16 @@ fn source_is_regular(source: &VolumeSource) -> bool {
     matches!(source, VolumeSource::Memory(v) if v.is_regular())
 }
 
-/// The path of `missing: "renormalise"`: the f64 CPU reference, the one ray caster that
-/// renormalises trilinear weights over finite voxels (the GPU ray casters make a sample missing
-/// when any of its eight voxels is).
+/// The path of `missing: "renormalise"`: the f64 CPU reference with `precision: "f64"`, else the
+/// mapped GPU ray caster, the one GPU ray caster that renormalises (in its exact filter), whole
+/// and without skipping; the bricked and in-core ray casters sample strictly.
 fn renormalised_path(source: &VolumeSource, opts: &VolumeRenderOptions) -> Result<RenderPath> {
     match source {
         VolumeSource::Memory(_) if opts.precision == Precision::F64 => Ok(RenderPath::F64Cpu),
-        VolumeSource::Memory(_) => Err(Error::invalid(
-            "missing",
-            "\"renormalise\" runs on the f64 CPU reference: add precision: \"f64\" (the GPU ray casters make a sample missing when any of its 8 voxels is)",
-        )),
+        VolumeSource::Memory(v) => mapped_path(v, opts),
         VolumeSource::Bricked(_) => Err(Error::invalid(
             "missing",
-            "\"renormalise\" runs on the f64 CPU reference, which needs the volume in memory: use load_volume and precision: \"f64\"",
+            "\"renormalise\" needs the volume in memory (bricks are sampled strictly): use load_volume",
         )),
     }
 }

@@ -112,6 +112,15 @@ pub(crate) fn check_options(
             ),
         ));
     }
+    if opts.missing == crate::model::Missing::Renormalise {
+        return Err(Error::invalid(
+            "missing",
+            format!(
+                "a render split over {ranks} ranks samples missing data strictly; use missing \
+                 \"strict\", or run on one rank"
+            ),
+        ));
+    }
     Slab::new(nz, 0, ranks, name).map(|_| ())
 }
 
@@ -158,6 +167,25 @@ pub fn peak_memory_bytes() -> Option<u64> {
 mod tests {
     use super::*;
     use std::sync::Arc;
+
+    #[test]
+    fn options_a_split_render_cannot_honour_are_refused_in_one_line() {
+        use crate::model::{Aabb, Camera, Missing, TransferFunction};
+        let bounds = Aabb {
+            lo: [0.0; 3],
+            hi: [8.0; 3],
+        };
+        let tf = TransferFunction::emission_absorption(1.0, 0.1).unwrap();
+        let mut o = VolumeRenderOptions::new(Camera::axis(crate::model::Axis::Z, &bounds), tf);
+        assert!(check_options("v", 8, &o, 2).is_ok());
+        o.missing = Missing::Renormalise;
+        let e = check_options("v", 8, &o, 2).unwrap_err().to_string();
+        assert!(e.starts_with("missing: a render split over 2 ranks"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+        (o.missing, o.precision) = (Missing::Strict, Precision::F16);
+        let e = check_options("v", 8, &o, 2).unwrap_err().to_string();
+        assert!(e.starts_with("precision: "), "{e}");
+    }
 
     #[test]
     fn slabs_cover_the_slices_once_and_their_boundaries_agree() {

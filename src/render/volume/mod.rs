@@ -14,8 +14,8 @@ use crate::model::transfer::{ResolvedTransfer, TfKind};
 use crate::model::{HdrImage, Volume, VolumeStats};
 use params::{check_steps_per_ray, volume_params};
 pub(crate) use params::{
-    min_spacing, Frame, Geometry, CF_AXES, MAX_STEPS_PER_RAY, RECTILINEAR, SEAM, SHELL, SPHERICAL,
-    UNEVEN,
+    min_spacing, Frame, Geometry, CF_AXES, MAX_STEPS_PER_RAY, RECTILINEAR, RENORMALISE, SEAM,
+    SHELL, SPHERICAL, UNEVEN,
 };
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -128,7 +128,7 @@ pub(crate) struct PipelineKey {
     /// Empty-space skipping through a skip grid (plain ray caster, point sampling).
     pub skipping: bool,
     /// Voxels placed by coordinate axes (volume_mapped.wgsl): bits of `mapped::RECTILINEAR`,
-    /// `SPHERICAL`, `UNEVEN`, `SEAM`, `CF_AXES`, `SHELL`.
+    /// `SPHERICAL`, `UNEVEN`, `SEAM`, `CF_AXES`, `SHELL`, `RENORMALISE`.
     pub mapped: u32,
     /// One slab of a distributed render (plain ray caster): partial images.
     pub slab: bool,
@@ -267,6 +267,9 @@ impl VolumeRenderer {
         }
         if key.mapped & SEAM != 0 {
             defines.push("SEAM");
+        }
+        if key.mapped & RENORMALISE != 0 {
+            defines.push("RENORMALISE");
         }
         if key.slab {
             defines.push("SLAB");

@@ -43,6 +43,8 @@ pub(crate) const CF_AXES: u32 = 16;
 /// A whole shell: every latitude and a longitude that closes the circle, so a ray's parts are
 /// the outer sphere's chord less the inner sphere's, in closed form.
 pub(crate) const SHELL: u32 = 32;
+/// `missing: "renormalise"`: values over the finite voxels alone, with the shader's exact filter.
+pub(crate) const RENORMALISE: u32 = 64;
 
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
 /// (lavapipe, and GL on Mesa) ends any loop after 65535 iterations.
