@@ -28,6 +28,9 @@ struct Params {
     // x: number of properties written; y: 1 when the longitudes close the circle (globe view);
     // z: 1 when y runs downward in map view (a depth axis: row 0 is the first node)
     counts: vec4<u32>,
+    // globe view: rows of the rotation from true to the grid's longitude–latitude frame (the
+    // identity unless the grid is on a rotated pole)
+    globe_rotation: array<vec4<f32>, 3>,
 }
 
 // 1: map view (top-down orthographic, pixel centres spread evenly over the nodes); 0: perspective
@@ -139,8 +142,10 @@ fn globe_hit(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
 
 // Fractional node coordinates of a sphere point (GlobeFrame::node_coords); z < 0 when the point
 // lies outside the grid's cells.
-fn globe_nodes(p: vec3<f32>) -> vec3<f32> {
+fn globe_nodes(p_true: vec3<f32>) -> vec3<f32> {
     let deg = 57.29577951308232;
+    let r = params.globe_rotation;
+    let p = vec3<f32>(dot(r[0].xyz, p_true), dot(r[1].xyz, p_true), dot(r[2].xyz, p_true));
     let lat = atan2(p.z, length(p.xy)) * deg;
     let lon = atan2(p.y, p.x) * deg;
     let g = params.globe;

@@ -10,7 +10,7 @@ use std::path::Path;
 use super::cf_time::TimeUnits;
 use super::netcdf::{self, NcAttribute, NcVariable};
 use crate::error::{Error, Result};
-use crate::model::{CoordAxis, SphericalGrid};
+use crate::model::{CoordAxis, RotatedPole, SphericalGrid};
 
 /// Earth's mean radius, used when neither the file nor the script gives one.
 pub(crate) const EARTH_RADIUS_KM: f64 = 6371.0;
@@ -484,6 +484,54 @@ pub(crate) fn declared_radius(
         }
     }
     Ok(None)
+}
+
+/// The rotated pole of `variable`'s CF grid mapping: its `grid_mapping` names a variable whose
+/// `grid_mapping_name` is `rotated_latitude_longitude`; `None` for another mapping or none. A
+/// rotated mapping without its pole, or with one out of range, is an error naming the file, the
+/// mapping and the attribute.
+pub(crate) fn rotated_pole(path: &Path, variable: &str) -> Result<Option<RotatedPole>> {
+    let attrs = netcdf::variable_attributes(path, variable)?;
+    let text_of = |attrs: &[(String, NcAttribute)], key: &str| {
+        attrs.iter().find_map(|(k, v)| match v {
+            NcAttribute::Text(t) if k == key => Some(t.trim().to_string()),
+            _ => None,
+        })
+    };
+    // "crs" or CF's extended "crs: lat lon" form: the mapping variable is the first name.
+    let Some(mapping) = text_of(&attrs, "grid_mapping")
+        .and_then(|m| m.split([':', ' ']).next().map(str::to_string))
+        .filter(|m| !m.is_empty())
+    else {
+        return Ok(None);
+    };
+    let Ok(m) = netcdf::variable_attributes(path, &mapping) else {
+        return Ok(None);
+    };
+    if text_of(&m, "grid_mapping_name").as_deref() != Some("rotated_latitude_longitude") {
+        return Ok(None);
+    }
+    let number = |key: &str| {
+        m.iter().find_map(|(k, v)| match v {
+            NcAttribute::Numbers(n) if k == key => n.first().copied(),
+            _ => None,
+        })
+    };
+    let required = |key: &str| {
+        number(key).ok_or_else(|| {
+            Error::format(
+                path,
+                format!("grid mapping {mapping:?} (rotated_latitude_longitude) has no {key}"),
+            )
+        })
+    };
+    RotatedPole::new(
+        required("grid_north_pole_latitude")?,
+        required("grid_north_pole_longitude")?,
+        number("north_pole_grid_longitude").unwrap_or(0.0),
+    )
+    .map(Some)
+    .map_err(|e| Error::format(path, format!("grid mapping {mapping:?}: {e}")))
 }
 
 #[cfg(test)]

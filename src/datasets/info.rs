@@ -222,6 +222,7 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
         .map(|(_, d)| d)
         .unwrap_or_default();
     let _ = writeln!(out, "dimensions:");
+    let pole = cf::rotated_pole(path, &array.name)?;
     for (dim, n) in &dims {
         // A coordinate the readers refuse (not monotonic, say) is reported, not fatal here.
         let coord = match cf::read_coordinate(path, dim) {
@@ -251,7 +252,23 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
                 coord.data[coord.data.len() - 1]
             ),
         };
-        let _ = writeln!(out, "  {dim} = {n}: {}, {detail}", role.name());
+        let standard = coord.attribute("standard_name").and_then(|a| match a {
+            super::netcdf::NcAttribute::Text(t) => Some(t.trim()),
+            _ => None,
+        });
+        let role = match (standard, &pole) {
+            (Some("grid_latitude"), Some(_)) => "rotated latitude",
+            (Some("grid_longitude"), Some(_)) => "rotated longitude",
+            _ => role.name(),
+        };
+        let _ = writeln!(out, "  {dim} = {n}: {role}, {detail}");
+    }
+    if let Some(p) = pole {
+        let _ = writeln!(
+            out,
+            "grid mapping: rotated_latitude_longitude, {} (maps in rotated coordinates, globes at true positions)",
+            p.describe()
+        );
     }
     for note in &array.notes {
         let _ = writeln!(out, "selected: {note}");

@@ -201,6 +201,9 @@ pub struct GridFile {
     pub y: Option<GridAxis>,
     /// The radar wavelength (m) of an InSAR product (MintPy's `WAVELENGTH`).
     pub wavelength: Option<f64>,
+    /// The rotated pole of a CF `rotated_latitude_longitude` grid, whose x and y are then its
+    /// rotated longitudes and latitudes.
+    pub rotated_pole: Option<crate::model::RotatedPole>,
 }
 
 /// A 2-D field for the surface renderer, with the names and units of the variable and its
@@ -253,6 +256,7 @@ fn geotiff_grid(
         x: axis("lon", "degrees_east", r.lon, CoordKind::Longitude),
         y: axis("lat", "degrees_north", r.lat, CoordKind::Latitude),
         wavelength: None,
+        rotated_pole: None,
     })
 }
 
@@ -276,6 +280,7 @@ fn read_grid_file(
     let array = read_array_sel(path, var, Some(2), sel)?;
     let [ny, nx] = [array.shape[0], array.shape[1]];
     let mut wavelength = None;
+    let mut rotated_pole = None;
     let (x, y) = match ext.as_str() {
         "npz" => {
             let find = |names: [&str; 3], len: usize| -> Result<Option<GridAxis>> {
@@ -321,7 +326,20 @@ fn read_grid_file(
                     }
                 }))
             };
-            (axis(&array.dims[1])?, axis(&array.dims[0])?)
+            let (mut x, mut y) = (axis(&array.dims[1])?, axis(&array.dims[0])?);
+            rotated_pole = cf::rotated_pole(path, &array.name)?;
+            if rotated_pole.is_some() {
+                // Rotated longitudes and latitudes (CF grid_longitude, grid_latitude).
+                for (a, kind) in [
+                    (&mut x, CoordKind::Longitude),
+                    (&mut y, CoordKind::Latitude),
+                ] {
+                    if let Some(a) = a {
+                        a.kind = kind;
+                    }
+                }
+            }
+            (x, y)
         }
         ext if hdf5::EXTENSIONS.contains(&ext) => match mintpy::open(path)? {
             Some(product) => {
@@ -344,6 +362,7 @@ fn read_grid_file(
         x,
         y,
         wavelength,
+        rotated_pole,
     })
 }
 
@@ -408,6 +427,7 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
         grid.set_units(property, units)?;
     }
     grid.set_wavelength(file.wavelength);
+    grid.set_rotated_pole(file.rotated_pole);
     Ok(grid)
 }
 

@@ -104,6 +104,17 @@ pub(crate) fn global_attributes(path: impl AsRef<Path>) -> Result<Vec<(String, N
         .collect())
 }
 
+/// The attributes of variable `name` (of any type), without its data.
+pub(crate) fn variable_attributes(path: &Path, name: &str) -> Result<Vec<(String, NcAttribute)>> {
+    let file = open(path)?;
+    let var = file.variable(name).map_err(|e| reader_error(path, e))?;
+    Ok(var
+        .attributes()
+        .iter()
+        .filter_map(|a| convert_attribute(&a.value).map(|v| (a.name.clone(), v)))
+        .collect())
+}
+
 /// Reads one variable with CF masking and unpacking applied. A name the file lacks gives an
 /// error that lists the variables it has.
 pub fn read_variable(path: impl AsRef<Path>, name: &str) -> Result<NcVariable> {

@@ -85,6 +85,9 @@ pub struct Grid {
     elevation: Option<Vec<f64>>,
     /// The radar wavelength (m) of an InSAR product, so a fringe legend can say λ/2.
     wavelength: Option<f64>,
+    /// Longitude and latitude along x and y are on a rotated sphere (CF
+    /// `rotated_latitude_longitude`): the globe and coastlines place them at their true positions.
+    rotated_pole: Option<super::RotatedPole>,
 }
 
 impl PartialEq for Grid {
@@ -221,6 +224,7 @@ impl Grid {
             units,
             elevation,
             wavelength: None,
+            rotated_pole: None,
         };
         g.make_increasing();
         Ok(g)
@@ -407,6 +411,27 @@ impl Grid {
     /// Sets the radar wavelength (m); like units, it changes no pixel, so the identity stays.
     pub(crate) fn set_wavelength(&mut self, metres: Option<f64>) {
         self.wavelength = metres.filter(|w| w.is_finite() && *w > 0.0);
+    }
+
+    /// The rotated pole of a grid whose longitudes and latitudes are on a rotated sphere.
+    pub fn rotated_pole(&self) -> Option<&super::RotatedPole> {
+        self.rotated_pole.as_ref()
+    }
+
+    /// Places the grid's longitudes and latitudes on the sphere rotated by `pole` (`None`: true
+    /// ones); the grid gets a new identity, since a globe shows it elsewhere.
+    pub(crate) fn set_rotated_pole(&mut self, pole: Option<super::RotatedPole>) {
+        if self.rotated_pole != pole {
+            self.rotated_pole = pole;
+            self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Takes over what places `other` and its values without being a coordinate or a property
+    /// (its rotated pole, its radar wavelength): for a grid derived from `other`.
+    pub(crate) fn keep_placement_of(&mut self, other: &Grid) {
+        self.set_rotated_pole(other.rotated_pole);
+        self.wavelength = other.wavelength;
     }
 
     /// Adds (or replaces) the elevation; the grid gets a new identity.

@@ -39,6 +39,9 @@ pub(crate) struct MapAxes {
     pub x: MapAxis,
     pub y: MapAxis,
     pub y_down: bool,
+    /// Longitudes and latitudes of a rotated pole (CF `rotated_latitude_longitude`): labelled
+    /// in degrees without hemispheres, titled as rotated.
+    pub rotated: bool,
 }
 
 /// Metadata keys the axes are recorded under (x, then y: name, units, edge coordinates).
@@ -49,6 +52,9 @@ const AXIS_KEYS: [[&str; 3]; 2] = [
 
 /// Metadata key of the y axis's direction: "down" or "up".
 const Y_DIRECTION_KEY: &str = "map_y_direction";
+
+/// Metadata key of a rotated pole's description, present on maps of rotated-pole grids.
+const ROTATED_KEY: &str = "map_rotated_pole";
 
 impl MapAxis {
     /// The axis of evenly spaced grid coordinates (within 1e-3 of a spacing); `None` for uneven
@@ -78,11 +84,14 @@ impl MapAxis {
     }
 
     /// A tick label: "120.5°E" on a geographic axis (`hemispheres` = the letters for positive and
-    /// negative values), else the number.
-    fn label(&self, v: f64, hemispheres: [char; 2]) -> String {
+    /// negative values; `None`, a rotated pole's axis: "−20°"), else the number.
+    fn label(&self, v: f64, hemispheres: Option<[char; 2]>) -> String {
         if !self.geographic() {
             return typeset_number(v);
         }
+        let Some(hemispheres) = hemispheres else {
+            return format!("{}°", typeset_number(v));
+        };
         let letter = match v {
             v if v > 0.0 => hemispheres[0].to_string(),
             v if v < 0.0 => hemispheres[1].to_string(),
@@ -105,7 +114,7 @@ impl MapAxis {
     fn ticks(
         &self,
         pixels: u32,
-        hemispheres: [char; 2],
+        hemispheres: Option<[char; 2]>,
         label_extent: impl Fn(&str) -> u32,
     ) -> Vec<(f64, String)> {
         for most in (2..=10).rev() {
@@ -132,12 +141,23 @@ impl MapAxis {
 }
 
 impl MapAxes {
+    /// The axis titles: a rotated pole's "rotated longitude" and "rotated latitude", else each
+    /// axis's own ([`MapAxis::title`]).
+    fn titles(&self) -> (String, String) {
+        if self.rotated {
+            ("rotated longitude".into(), "rotated latitude".into())
+        } else {
+            (self.x.title(), self.y.title())
+        }
+    }
+
     /// The axes of a grid in map view, when both are evenly spaced.
     pub(crate) fn of_grid(grid: &super::Grid) -> Option<MapAxes> {
         Some(MapAxes {
             x: MapAxis::of_coords(grid.x())?,
             y: MapAxis::of_coords(grid.y())?,
             y_down: grid.y_down(),
+            rotated: grid.rotated_pole().is_some(),
         })
     }
 
@@ -149,6 +169,9 @@ impl MapAxes {
             img.set_meta(keys[2], format!("{} {}", axis.lo, axis.hi));
         }
         img.set_meta(Y_DIRECTION_KEY, if self.y_down { "down" } else { "up" });
+        if self.rotated {
+            img.set_meta(ROTATED_KEY, "yes");
+        }
     }
 
     /// The axes `img` records, if it records them.
@@ -169,6 +192,7 @@ impl MapAxes {
             x: axis(AXIS_KEYS[0])?,
             y: axis(AXIS_KEYS[1])?,
             y_down: img.meta(Y_DIRECTION_KEY) == Some("down"),
+            rotated: img.meta(ROTATED_KEY).is_some(),
         })
     }
 }
@@ -252,8 +276,11 @@ impl FrameLayout {
         let (tick, pad) = (gap.max(3), 2 * gap);
         let (map_w, map_h) = (img.width, img.height);
         let digit = ty.width("0");
-        let x_ticks = axes.x.ticks(map_w, ['E', 'W'], |l| ty.width(l) + digit);
-        let y_ticks = axes.y.ticks(map_h, ['N', 'S'], |_| line + gap);
+        let letters = |l: [char; 2]| (!axes.rotated).then_some(l);
+        let x_ticks = axes
+            .x
+            .ticks(map_w, letters(['E', 'W']), |l| ty.width(l) + digit);
+        let y_ticks = axes.y.ticks(map_h, letters(['N', 'S']), |_| line + gap);
         let widest_y = y_ticks.iter().map(|(_, l)| ty.width(l)).max().unwrap_or(0);
         let left = pad + widest_y + gap + tick + 1;
         let bar_x = left + map_w + 1 + line;
@@ -275,8 +302,9 @@ impl FrameLayout {
         l.x_axis(axes, &x_ticks, ty, tick);
         l.y_axis(axes, &y_ticks, ty, tick);
         let mut bottom = (map.y + map.h) as u32 + 1 + tick + gap + line;
-        if !axes.x.title().is_empty() {
-            let title = axes.x.title();
+        let (x_title, _) = axes.titles();
+        if !x_title.is_empty() {
+            let title = x_title;
             let x = map.x + (map.w - ty.width(&title) as i64) / 2;
             l.text_at(&title, x, (bottom + gap) as i64, ty);
             bottom += gap + line;
@@ -319,7 +347,7 @@ impl FrameLayout {
             rows.push((piece, y as i64, x as u32));
             y += big.line() + gap;
         }
-        let y_title = axes.y.title();
+        let (_, y_title) = axes.titles();
         let caption = extras
             .bar
             .map(|b| b.caption(1 << 20, ty))
@@ -579,6 +607,7 @@ mod tests {
             x: lon,
             y,
             y_down: false,
+            rotated: false,
         };
         let mut img = HdrImage::new(3, 2);
         assert_eq!(MapAxes::of(&img), None);
@@ -603,12 +632,17 @@ mod tests {
             hi: 1.0,
         };
         let lon = axis("longitude", "");
-        assert_eq!(lon.label(-120.5, ['E', 'W']), "120.5°W");
-        assert_eq!(lon.label(0.0, ['E', 'W']), "0°");
-        assert_eq!(axis("phi", "degrees_north").label(15.0, ['N', 'S']), "15°N");
+        assert_eq!(lon.label(-120.5, Some(['E', 'W'])), "120.5°W");
+        assert_eq!(lon.label(0.0, Some(['E', 'W'])), "0°");
+        // A rotated pole's axis: degrees with a sign, no hemisphere.
+        assert_eq!(lon.label(-20.0, None), "−20°");
+        assert_eq!(
+            axis("phi", "degrees_north").label(15.0, Some(['N', 'S'])),
+            "15°N"
+        );
         assert_eq!(lon.title(), "");
-        assert_eq!(axis("x", "m").label(2.5e6, ['E', 'W']), "2.5×10⁶");
-        assert_eq!(axis("x", "m").label(-0.5, ['E', 'W']), "−0.5");
+        assert_eq!(axis("x", "m").label(2.5e6, Some(['E', 'W'])), "2.5×10⁶");
+        assert_eq!(axis("x", "m").label(-0.5, Some(['E', 'W'])), "−0.5");
         assert_eq!(axis("x", "m").title(), "x (m)");
     }
 
@@ -639,6 +673,7 @@ mod tests {
             x: MapAxis::of_coords(&coords("x", "m", (0..40).map(f64::from).collect())).unwrap(),
             y: MapAxis::of_coords(&coords("y", "m", (0..30).map(f64::from).collect())).unwrap(),
             y_down: false,
+            rotated: false,
         };
         let mut img = HdrImage::new(40, 30);
         img.pixels.fill([0.25, 0.5, 0.75, 1.0]);
@@ -705,6 +740,7 @@ mod tests {
             y: MapAxis::of_coords(&coords("depth", "km", (0..30).map(f64::from).collect()))
                 .unwrap(),
             y_down: true,
+            rotated: false,
         };
         let mut img = HdrImage::new(40, 30);
         axes.record(&mut img);
@@ -775,6 +811,7 @@ mod tests {
                 x,
                 y,
                 y_down: false,
+                rotated: false,
             };
             let img = HdrImage::new(w, h);
             for ty in [Type::for_figure(img.width, img.height), Type::new(30.0)] {
@@ -847,6 +884,7 @@ mod tests {
             ))
             .unwrap(),
             y_down: false,
+            rotated: false,
         };
         let img = HdrImage::new(512, 256);
         let out = with_map_frame(&img, &axes, &extras(Type::new(12.0), None, None)).unwrap();
@@ -879,6 +917,7 @@ mod tests {
                 ))
                 .unwrap(),
                 y_down: false,
+                rotated: false,
             };
             let img = HdrImage::new(w, h);
             let e = FrameExtras {

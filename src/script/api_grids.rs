@@ -31,6 +31,7 @@ fn with_properties(g: &Grid, extra: Vec<(String, Vec<f64>, String)>) -> crate::R
     for (n, u) in units {
         out.set_units(&n, &u)?;
     }
+    out.keep_placement_of(g);
     Ok(out)
 }
 
@@ -186,5 +187,6 @@ fn grid_subset(g: &mut ScriptGrid, lo: Array, hi: Array) -> RResult<ScriptGrid> 
         out.set_units(g.property_at(i).0, g.units(i))
             .map_err(to_rhai)?;
     }
+    out.keep_placement_of(g);
     Ok(Arc::new(out))
 }

@@ -19,6 +19,10 @@ CASE is one of:
   levels    levels.nc: xarray, a (level, lat, lon) field on model levels (units "1") with an
             auxiliary level_height in metres, and a (plev, lat, lon) one on pressure levels (hPa,
             positive down, stored 1000 .. 100); xarray's values and isel/sel of each
+  rotated   rotated.nc: xarray, a EURO-CORDEX-like rotated-pole grid (rotated_latitude_longitude,
+            pole 39.25N 162W) with CORDEX's 2-D auxiliary lat/lon and a field `tlat` holding each
+            node's true latitude; the rotated axes and each node's true latitude and longitude as
+            pyproj (PROJ's ob_tran, CRS.from_cf) computes them
   movie     tsunami_series.nc by datasets/fixtures/make_series.py (xarray): eta's range over every
             step, its 2nd and 98th percentiles (numpy's nanpercentile, as xarray's robust plots)
             over steps 1, 3 and 5, and the time axis's dates
@@ -268,9 +272,43 @@ def levels(out):
     }
 
 
+def rotated(out):
+    import pyproj
+
+    path = os.path.join(out, "rotated.nc")
+    mapping = {
+        "grid_mapping_name": "rotated_latitude_longitude",
+        "grid_north_pole_latitude": 39.25,
+        "grid_north_pole_longitude": -162.0,
+    }
+    rlat = np.arange(-12.0, 12.01, 0.5)
+    rlon = np.arange(-16.0, 16.01, 0.5)
+    rlon2, rlat2 = np.meshgrid(rlon, rlat)
+    to_true = pyproj.Transformer.from_crs(pyproj.CRS.from_cf(mapping), "EPSG:4326", always_xy=True)
+    tlon, tlat = to_true.transform(rlon2, rlat2)
+    field = {"grid_mapping": "rotated_pole", "coordinates": "lat lon"}
+    ds = xr.Dataset(
+        {
+            "tas": (("rlat", "rlon"), (280.0 + 0.1 * rlat2).astype(np.float32), dict(field, units="K")),
+            "tlat": (("rlat", "rlon"), tlat, dict(field, units="degrees")),
+            "rotated_pole": ((), np.int32(0), mapping),
+        },
+        coords={
+            "rlat": ("rlat", rlat, {"standard_name": "grid_latitude", "units": "degrees", "axis": "Y"}),
+            "rlon": ("rlon", rlon, {"standard_name": "grid_longitude", "units": "degrees", "axis": "X"}),
+            "lat": (("rlat", "rlon"), tlat, {"standard_name": "latitude", "units": "degrees_north"}),
+            "lon": (("rlat", "rlon"), tlon, {"standard_name": "longitude", "units": "degrees_east"}),
+        },
+    )
+    ds.to_netcdf(path, format="NETCDF4")
+    return {"rlat": [float(v) for v in rlat], "rlon": [float(v) for v in rlon],
+            "tlat": values(tlat), "tlon": values(tlon)}
+
+
 def main():
     out, case = sys.argv[1], sys.argv[2]
-    run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series, "movie": movie, "levels": levels}[case]
+    run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series, "movie": movie, "levels": levels,
+           "rotated": rotated}[case]
     emit("", run(out))
 
 

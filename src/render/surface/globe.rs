@@ -20,6 +20,8 @@ pub(crate) struct GlobeFrame {
     pub nx: usize,
     pub ny: usize,
     pub wrap: bool,
+    /// The grid's rotated pole: its longitudes and latitudes are on the rotated sphere.
+    pub rotation: Option<crate::model::RotatedPole>,
 }
 
 impl GlobeFrame {
@@ -61,21 +63,39 @@ impl GlobeFrame {
             nx,
             ny,
             wrap: (nx as f64 * dlon - 360.0).abs() <= 1e-3 * dlon,
+            rotation: grid.rotated_pole().copied(),
         })
     }
 
-    /// (latitude, longitude) of the middle of the grid's extent.
+    /// True (latitude, longitude) of the middle of the grid's extent.
     pub fn centre(&self) -> (f64, f64) {
-        (
+        let (lat, lon) = (
             self.lat0 + 0.5 * (self.ny - 1) as f64 * self.dlat,
             self.lon0 + 0.5 * (self.nx - 1) as f64 * self.dlon,
-        )
+        );
+        match &self.rotation {
+            Some(r) => r.to_true(lat, lon),
+            None => (lat, lon),
+        }
     }
 
-    /// Fractional node coordinates (u along x, v along y) of a point at `lat`, `lon` degrees,
-    /// or `None` outside the grid's cells. With `wrap`, u lies in [0, nx); otherwise it is
-    /// clamped to the nodes.
+    /// The rows of the rotation from true to the grid's longitude–latitude frame (the identity
+    /// for a grid on true coordinates), for the shader.
+    pub(crate) fn rotation_rows(&self) -> [[f64; 3]; 3] {
+        self.rotation
+            .map_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], |r| {
+                r.matrix()
+            })
+    }
+
+    /// Fractional node coordinates (u along x, v along y) of a point at true `lat`, `lon`
+    /// degrees, or `None` outside the grid's cells. With `wrap`, u lies in [0, nx); otherwise it
+    /// is clamped to the nodes.
     pub(crate) fn node_coords(&self, lat: f64, lon: f64) -> Option<(f64, f64)> {
+        let (lat, lon) = match &self.rotation {
+            Some(r) => r.to_rotated(lat, lon),
+            None => (lat, lon),
+        };
         let (nx, ny) = (self.nx as f64, self.ny as f64);
         let v = (lat - self.lat0) / self.dlat;
         if !(-0.5..=ny - 0.5).contains(&v) {

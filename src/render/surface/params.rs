@@ -23,6 +23,7 @@ pub(super) struct DataParams {
     globe: [f32; 4],
     dims: [u32; 4],
     counts: [u32; 4],
+    globe_rotation: [[f32; 4]; 3],
 }
 
 /// Host mirror of `Params` in shaders/surface_fringe.wgsl — keep in sync.
@@ -110,10 +111,16 @@ pub(super) fn data_params(
         globe: [0.0; 4],
         dims: [nx as u32, ny as u32, width, height],
         counts: [properties as u32, 0, geo.y_down as u32, 0],
+        globe_rotation: [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ],
     };
     if let Some(g) = &geo.globe {
         params.globe = [g.lon0 as f32, g.dlon as f32, g.lat0 as f32, g.dlat as f32];
         params.counts[1] = g.wrap as u32;
+        params.globe_rotation = g.rotation_rows().map(|row| v4(row, 0.0));
     }
     if let Some(cam) = &geo.camera {
         params.eye = v4(cam.eye, 0.0);
