@@ -289,6 +289,17 @@ pub(crate) fn measure(
     })
 }
 
+/// One row of the equal-error table: what ran, its median ms, display share and HDR percentiles.
+fn score_line(name: &str, median_ms: f64, display: f64, hdr: [f64; 3]) -> String {
+    format!(
+        "{name:<24} {median_ms:>9.1} {:>8.2}% {:>9.1e} {:>9.1e} {:>9.1e}\n",
+        100.0 * display,
+        hdr[0],
+        hdr[1],
+        hdr[2]
+    )
+}
+
 /// The equal-error tables of `hdrvis bench volume --peer`: each scene's settings, then each
 /// peer's error and hdrvis's fastest settings at the same error.
 pub fn format_equal_error(scenes: &[(String, &EqualError)]) -> String {
@@ -312,26 +323,10 @@ pub fn format_equal_error(scenes: &[(String, &EqualError)]) -> String {
             eq.reference_ms, "setting", "median ms", "display", "HDR p50", "HDR p90", "HDR p99"
         ));
         for r in &eq.sweep {
-            out.push_str(&format!(
-                "{:<24} {:>9.1} {:>8.2}% {:>9.1e} {:>9.1e} {:>9.1e}\n",
-                r.setting,
-                r.median_ms,
-                100.0 * r.display,
-                r.hdr[0],
-                r.hdr[1],
-                r.hdr[2]
-            ));
+            out.push_str(&score_line(&r.setting, r.median_ms, r.display, r.hdr));
         }
         for p in &eq.peers {
-            out.push_str(&format!(
-                "{:<24} {:>9.1} {:>8.2}% {:>9.1e} {:>9.1e} {:>9.1e}\n",
-                p.name,
-                p.median_ms,
-                100.0 * p.display,
-                p.hdr[0],
-                p.hdr[1],
-                p.hdr[2]
-            ));
+            out.push_str(&score_line(&p.name, p.median_ms, p.display, p.hdr));
         }
         for p in &eq.peers {
             let verdict = |s: Option<&SettingRow>| match s {
@@ -406,6 +401,57 @@ mod tests {
             codes.iter().filter(|(r, g)| r.abs_diff(*g) <= 1).count() as f64 / codes.len() as f64;
         assert_eq!(score, exact);
         assert!(score > 0.3 && score < 0.9, "{score}");
+    }
+
+    #[test]
+    fn the_equal_error_setting_is_the_fastest_at_least_as_good_and_never_a_failing_one() {
+        let row = |setting: &str, median_ms, display, p90| SettingRow {
+            setting: setting.into(),
+            median_ms,
+            display,
+            hdr: [0.0, p90, 1.0],
+        };
+        let eq = EqualError {
+            sweep: vec![
+                row("u8 step 4", 100.0, 0.3, 1.0),
+                row("f32 step 4", 200.0, 0.6, 0.5),
+                row("f32 step 1", 800.0, 1.0, 1e-4),
+            ],
+            ..Default::default()
+        };
+        let peer = |display, p90| PeerScore {
+            name: "peer".into(),
+            median_ms: 1000.0,
+            display,
+            hdr: [0.0, p90, 1.0],
+        };
+        let pick = |s: Option<&SettingRow>| s.map(|r| r.setting.clone());
+        // A peer that fails the HDR measure is matched by the fastest setting that does not.
+        let failing = peer(0.2, 1.0);
+        assert_eq!(
+            pick(eq.fastest_at_display(&failing)),
+            Some("u8 step 4".into())
+        );
+        assert_eq!(pick(eq.fastest_at_hdr(&failing)), Some("f32 step 4".into()));
+        let good = peer(0.9, 1e-3);
+        assert_eq!(
+            pick(eq.fastest_at_display(&good)),
+            Some("f32 step 1".into())
+        );
+        assert_eq!(pick(eq.fastest_at_hdr(&good)), Some("f32 step 1".into()));
+        assert_eq!(pick(eq.fastest_at_hdr(&peer(1.0, 1e-6))), None);
+        let table = format_equal_error(&[(
+            "scene".into(),
+            &EqualError {
+                peers: vec![failing],
+                ..eq.clone()
+            },
+        )]);
+        assert!(
+            table.contains("peer: equal display error: u8 step 4 (10.00x)"),
+            "{table}"
+        );
+        assert!(table.contains("f32 step 4 (5.00x)"), "{table}");
     }
 
     #[test]
