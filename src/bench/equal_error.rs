@@ -16,7 +16,7 @@ use crate::model::transfer::ResolvedTransfer;
 use crate::model::{Scale, TransferFunction, Volume};
 use crate::render::session::RenderSession;
 use crate::render::{Precision, TfSampling, VolumeRenderOptions, VolumeSource};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// One node of the piecewise-linear functions a peer is given: at `value`, `colour` (linear RGB
@@ -222,13 +222,6 @@ fn settings(step: f64) -> Vec<(Precision, f64, TfSampling)> {
     v
 }
 
-fn setting_name(precision: Precision, step: f64, sampling: TfSampling) -> String {
-    match sampling {
-        TfSampling::Point => format!("{} step {step}", precision.name()),
-        TfSampling::PreIntegrated => format!("{} pre step {step}", precision.name()),
-    }
-}
-
 /// The peer's scene (its volume, stand-ins for missing values included, and the optical model
 /// of its nodes under `options`' camera, size and step) rendered as the integral and with every
 /// hdrvis setting (`runs` timed each), and each peer image (name, median ms, PNG) scored.
@@ -237,7 +230,7 @@ pub(crate) fn measure(
     (volume, nodes, scale): (Arc<Volume>, &[PeerNode], Scale),
     options: &VolumeRenderOptions,
     runs: usize,
-    peers: &[(String, f64, &Path)],
+    peers: &[(String, f64, PathBuf)],
     log: &mut dyn FnMut(&str),
 ) -> Result<EqualError> {
     let mut o = options.clone();
@@ -254,7 +247,7 @@ pub(crate) fn measure(
     let mut sweep = Vec::new();
     for (precision, step, sampling) in settings(options.step) {
         (o.precision, o.step, o.tf_sampling) = (precision, step, sampling);
-        let setting = setting_name(precision, step, sampling);
+        let setting = super::accuracy::setting_name(precision, step, sampling);
         let (ms, got) = super::accuracy::time_volume(session, &source, &o, runs)?;
         let row = SettingRow {
             setting,

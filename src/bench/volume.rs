@@ -271,10 +271,6 @@ fn compare_at_equal_error(
             Some((format!("vtk {}", p.mapper), median(&p.medians), png))
         })
         .collect();
-    let images: Vec<(String, f64, &Path)> = images
-        .iter()
-        .map(|(n, m, p)| (n.clone(), *m, p.as_path()))
-        .collect();
     let scene = (inputs.volume.clone(), inputs.nodes.as_slice(), inputs.scale);
     equal_error::measure(session, scene, opts, runs, &images, log).unwrap_or_else(|e| EqualError {
         error: Some(e.to_string()),

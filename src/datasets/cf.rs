@@ -57,11 +57,25 @@ pub(crate) struct DimCoord {
     pub coord: Option<NcVariable>,
 }
 
-fn text<'a>(v: &'a NcVariable, key: &str) -> Option<&'a str> {
-    match v.attribute(key) {
-        Some(NcAttribute::Text(s)) => Some(s.trim()),
+/// The text attribute `key` of `v`, trimmed.
+pub(crate) fn text<'a>(v: &'a NcVariable, key: &str) -> Option<&'a str> {
+    attr_text(&v.attributes, key)
+}
+
+/// The text attribute `key` among `attrs`, trimmed.
+fn attr_text<'a>(attrs: &'a [(String, NcAttribute)], key: &str) -> Option<&'a str> {
+    attrs.iter().find_map(|(k, v)| match v {
+        NcAttribute::Text(t) if k == key => Some(t.trim()),
         _ => None,
-    }
+    })
+}
+
+/// The first number of the attribute `key` among `attrs`.
+fn attr_number(attrs: &[(String, NcAttribute)], key: &str) -> Option<f64> {
+    attrs.iter().find_map(|(k, v)| match v {
+        NcAttribute::Numbers(n) if k == key => n.first().copied(),
+        _ => None,
+    })
 }
 
 /// The length unit of `units` as (canonical name, factor to it), or `None` for a non-length.
@@ -461,25 +475,15 @@ pub(crate) fn declared_radius(
     path: &Path,
     attributes: &[(String, NcAttribute)],
 ) -> Result<Option<(f64, Option<&'static str>)>> {
-    let number = |attrs: &[(String, NcAttribute)], key: &str| {
-        attrs.iter().find_map(|(k, v)| match v {
-            NcAttribute::Numbers(n) if k == key => n.first().copied(),
-            _ => None,
-        })
-    };
-    if let Some(r) = number(attributes, "planet_radius") {
+    if let Some(r) = attr_number(attributes, "planet_radius") {
         return Ok(Some((r, None)));
     }
-    if let Some(r) = number(&netcdf::global_attributes(path)?, "planet_radius") {
+    if let Some(r) = attr_number(&netcdf::global_attributes(path)?, "planet_radius") {
         return Ok(Some((r, None)));
     }
-    let mapping = attributes.iter().find_map(|(k, v)| match v {
-        NcAttribute::Text(name) if k == "grid_mapping" => Some(name.trim()),
-        _ => None,
-    });
-    if let Some(mapping) = mapping {
+    if let Some(mapping) = attr_text(attributes, "grid_mapping") {
         let m = netcdf::read_variable(path, mapping)?;
-        if let Some(r) = number(&m.attributes, "earth_radius") {
+        if let Some(r) = attr_number(&m.attributes, "earth_radius") {
             return Ok(Some((r, Some("m"))));
         }
     }
@@ -492,33 +496,21 @@ pub(crate) fn declared_radius(
 /// mapping and the attribute.
 pub(crate) fn rotated_pole(path: &Path, variable: &str) -> Result<Option<RotatedPole>> {
     let attrs = netcdf::variable_attributes(path, variable)?;
-    let text_of = |attrs: &[(String, NcAttribute)], key: &str| {
-        attrs.iter().find_map(|(k, v)| match v {
-            NcAttribute::Text(t) if k == key => Some(t.trim().to_string()),
-            _ => None,
-        })
-    };
     // "crs" or CF's extended "crs: lat lon" form: the mapping variable is the first name.
-    let Some(mapping) = text_of(&attrs, "grid_mapping")
-        .and_then(|m| m.split([':', ' ']).next().map(str::to_string))
+    let Some(mapping) = attr_text(&attrs, "grid_mapping")
+        .and_then(|m| m.split([':', ' ']).next())
         .filter(|m| !m.is_empty())
     else {
         return Ok(None);
     };
-    let Ok(m) = netcdf::variable_attributes(path, &mapping) else {
+    let Ok(m) = netcdf::variable_attributes(path, mapping) else {
         return Ok(None);
     };
-    if text_of(&m, "grid_mapping_name").as_deref() != Some("rotated_latitude_longitude") {
+    if attr_text(&m, "grid_mapping_name") != Some("rotated_latitude_longitude") {
         return Ok(None);
     }
-    let number = |key: &str| {
-        m.iter().find_map(|(k, v)| match v {
-            NcAttribute::Numbers(n) if k == key => n.first().copied(),
-            _ => None,
-        })
-    };
     let required = |key: &str| {
-        number(key).ok_or_else(|| {
+        attr_number(&m, key).ok_or_else(|| {
             Error::format(
                 path,
                 format!("grid mapping {mapping:?} (rotated_latitude_longitude) has no {key}"),
@@ -528,7 +520,7 @@ pub(crate) fn rotated_pole(path: &Path, variable: &str) -> Result<Option<Rotated
     RotatedPole::new(
         required("grid_north_pole_latitude")?,
         required("grid_north_pole_longitude")?,
-        number("north_pole_grid_longitude").unwrap_or(0.0),
+        attr_number(&m, "north_pole_grid_longitude").unwrap_or(0.0),
     )
     .map(Some)
     .map_err(|e| Error::format(path, format!("grid mapping {mapping:?}: {e}")))

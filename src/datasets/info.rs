@@ -252,11 +252,7 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
                 coord.data[coord.data.len() - 1]
             ),
         };
-        let standard = coord.attribute("standard_name").and_then(|a| match a {
-            super::netcdf::NcAttribute::Text(t) => Some(t.trim()),
-            _ => None,
-        });
-        let role = match (standard, &pole) {
+        let role = match (cf::text(&coord, "standard_name"), &pole) {
             (Some("grid_latitude"), Some(_)) => "rotated latitude",
             (Some("grid_longitude"), Some(_)) => "rotated longitude",
             _ => role.name(),

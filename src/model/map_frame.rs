@@ -53,7 +53,7 @@ const AXIS_KEYS: [[&str; 3]; 2] = [
 /// Metadata key of the y axis's direction: "down" or "up".
 const Y_DIRECTION_KEY: &str = "map_y_direction";
 
-/// Metadata key of a rotated pole's description, present on maps of rotated-pole grids.
+/// Metadata key present ("yes") on maps of rotated-pole grids.
 const ROTATED_KEY: &str = "map_rotated_pole";
 
 impl MapAxis {

@@ -9,8 +9,8 @@
 use super::vec3::{cross, dot};
 use crate::error::{Error, Result};
 
-/// A rotated pole: the rows of the rotation from true to rotated Cartesian coordinates on the
-/// unit sphere, and the rotated longitude of the rotated origin's meridian.
+/// A rotated pole as CF gives it, and the rows of the rotation from true to rotated Cartesian
+/// coordinates on the unit sphere (`north_pole_grid_longitude` folded in about the rotated z).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RotatedPole {
     pub pole_latitude: f64,
@@ -30,16 +30,6 @@ fn angles(p: [f64; 3]) -> (f64, f64) {
     let lat = p[2].clamp(-1.0, 1.0).asin().to_degrees();
     let lon = p[1].atan2(p[0]).to_degrees();
     (lat, lon)
-}
-
-/// `lon` brought into (−180°, 180°].
-fn wrap180(lon: f64) -> f64 {
-    let w = (lon + 180.0).rem_euclid(360.0) - 180.0;
-    if w == -180.0 {
-        180.0
-    } else {
-        w
-    }
 }
 
 impl RotatedPole {
@@ -65,19 +55,25 @@ impl RotatedPole {
                 format!("expected degrees in [-90, 90], got {pole_latitude}"),
             ));
         }
+        // The rotated pole (z), the rotated origin 90° from it across the true north pole (x),
+        // then the rotated longitudes turned by north_pole_grid_longitude about z.
         let z = unit(pole_latitude, pole_longitude);
         let x = unit(90.0 - pole_latitude, pole_longitude + 180.0);
+        let y = cross(z, x);
+        let (s, c) = north_pole_grid_longitude.to_radians().sin_cos();
+        let x_turned = [0, 1, 2].map(|k| c * x[k] - s * y[k]);
+        let y_turned = [0, 1, 2].map(|k| s * x[k] + c * y[k]);
         Ok(RotatedPole {
             pole_latitude,
             pole_longitude,
             north_pole_grid_longitude,
-            rows: [x, cross(z, x), z],
+            rows: [x_turned, y_turned, z],
         })
     }
 
     /// The true (latitude, longitude) of the rotated point (`rlat`, `rlon`), degrees.
     pub fn to_true(&self, rlat: f64, rlon: f64) -> (f64, f64) {
-        let q = unit(rlat, rlon - self.north_pole_grid_longitude);
+        let q = unit(rlat, rlon);
         let r = &self.rows;
         angles([0, 1, 2].map(|a| r[0][a] * q[0] + r[1][a] * q[1] + r[2][a] * q[2]))
     }
@@ -85,19 +81,12 @@ impl RotatedPole {
     /// The rotated (latitude, longitude) of the true point (`lat`, `lon`), degrees; longitude
     /// in (−180°, 180°].
     pub fn to_rotated(&self, lat: f64, lon: f64) -> (f64, f64) {
-        let p = unit(lat, lon);
-        let (rlat, rlon) = angles(self.rows.map(|row| dot(row, p)));
-        (rlat, wrap180(rlon + self.north_pole_grid_longitude))
+        angles(self.rows.map(|row| dot(row, unit(lat, lon))))
     }
 
-    /// The rotation from true to rotated Cartesian coordinates about the grid's longitude 0,
-    /// for shaders: rows x, y, z (with `north_pole_grid_longitude` folded in about z).
+    /// The rotation from true to rotated Cartesian coordinates, rows x, y, z, for shaders.
     pub(crate) fn matrix(&self) -> [[f64; 3]; 3] {
-        let (s, c) = self.north_pole_grid_longitude.to_radians().sin_cos();
-        let [x, y, z] = self.rows;
-        let turned = |a: [f64; 3], b: [f64; 3]| [0, 1, 2].map(|k| c * a[k] - s * b[k]);
-        let turned_y = |a: [f64; 3], b: [f64; 3]| [0, 1, 2].map(|k| s * a[k] + c * b[k]);
-        [turned(x, y), turned_y(x, y), z]
+        self.rows
     }
 
     /// One line for metadata and `info`: the pole's true position.
@@ -119,6 +108,16 @@ impl RotatedPole {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `lon` brought into (−180°, 180°].
+    fn wrap180(lon: f64) -> f64 {
+        let w = (lon + 180.0).rem_euclid(360.0) - 180.0;
+        if w == -180.0 {
+            180.0
+        } else {
+            w
+        }
+    }
 
     /// EURO-CORDEX's pole; true positions from pyproj 3 (PROJ's ob_tran, `CRS.from_cf`).
     #[test]

@@ -27,7 +27,7 @@ pub(crate) fn register_output(engine: &mut Engine, host: &Arc<ScriptHost>) {
     register_feedback(engine, host);
 }
 
-/// Keys of `save_png(img, path, #{...})`.
+/// Keys of `save_exr(img, path, #{...})`.
 pub(crate) const SAVE_EXR: OptionTable = OptionTable {
     function: "save_exr",
     options: &[
@@ -38,6 +38,7 @@ pub(crate) const SAVE_EXR: OptionTable = OptionTable {
     base: "#{}",
 };
 
+/// Keys of `save_png(img, path, #{...})`.
 pub(crate) const SAVE_PNG: OptionTable = OptionTable {
     function: "save_png",
     options: &[

@@ -13,6 +13,9 @@ use crate::model::HdrImage;
 
 pub use gpu::GpuToneMapper;
 
+pub(crate) use gpu::DISPLAY_REFERRED;
+pub use params::{Gamut, Operator, ToneMapSettings};
+
 /// Stage times on stderr when `HDRVIS_TONEMAP_PROFILE` is set, each counted from the previous
 /// mark (for finding where the time goes: the tone mapper's upload, passes and readback, the
 /// `tonemap` command's read, map and write; the benchmark measures whole calls).
@@ -42,8 +45,6 @@ impl StageClock {
         }
     }
 }
-pub(crate) use gpu::DISPLAY_REFERRED;
-pub use params::{Gamut, Operator, ToneMapSettings};
 
 /// Largest exposure magnitude accepted, in stops (as [`ToneMapSettings::validate`]).
 pub(crate) const MAX_EV: f64 = 200.0;

@@ -526,6 +526,19 @@ fn time_volume_f64_gpu(
     Ok(Some((ms, got)))
 }
 
+/// A setting as the accuracy and equal-error tables name it: "f32 step 2", "f16 pre step 1".
+pub(crate) fn setting_name(
+    precision: crate::render::Precision,
+    step: f64,
+    sampling: crate::render::TfSampling,
+) -> String {
+    use crate::render::TfSampling;
+    match sampling {
+        TfSampling::Point => format!("{} step {step}", precision.name()),
+        TfSampling::PreIntegrated => format!("{} pre step {step}", precision.name()),
+    }
+}
+
 /// The compositing precisions and coarser steps on one volume scene.
 fn bench_volume_scene(
     ctx: Arc<GpuContext>,
@@ -589,10 +602,7 @@ fn bench_volume_scene(
         for sampling in [TfSampling::Point, TfSampling::PreIntegrated] {
             o.tf_sampling = sampling;
             let (ms, got) = time_volume(&session, &source, &o, runs)?;
-            let variant = match sampling {
-                TfSampling::Point => format!("f32 step {}", o.step),
-                TfSampling::PreIntegrated => format!("f32 pre step {}", o.step),
-            };
+            let variant = setting_name(o.precision, o.step, sampling);
             rows.push(row(variant, &ms, &got, CONVERGED)?);
         }
     }

@@ -310,31 +310,23 @@ impl Overlay {
     fn draw_layer(&self, img: &mut HdrImage, layer: &Layer) {
         let (w, h) = (img.width, img.height);
         let mut cover = vec![0f32; (w as usize) * (h as usize)];
-        let lines = layer
+        // On a rotated-pole map the true lines are drawn where they lie on the rotated sphere.
+        let lines: Vec<std::borrow::Cow<[[f64; 2]]>> = layer
             .lines
             .iter()
             .copied()
-            .chain(layer.owned.iter().map(Vec::as_slice));
-        // On a rotated-pole map the true lines are drawn where they lie on the rotated sphere.
-        let rotated: Vec<Vec<[f64; 2]>> = match &self.rotation {
-            Some(r) => lines
-                .clone()
-                .map(|line| {
-                    line.iter()
-                        .map(|&[lon, lat]| {
-                            let (rlat, rlon) = r.to_rotated(lat, lon);
-                            [rlon, rlat]
-                        })
-                        .collect()
-                })
-                .collect(),
-            None => Vec::new(),
-        };
-        let lines: Vec<&[[f64; 2]]> = if self.rotation.is_some() {
-            rotated.iter().map(Vec::as_slice).collect()
-        } else {
-            lines.collect()
-        };
+            .chain(layer.owned.iter().map(Vec::as_slice))
+            .map(|line| match &self.rotation {
+                Some(r) => line
+                    .iter()
+                    .map(|&[lon, lat]| {
+                        let (rlat, rlon) = r.to_rotated(lat, lon);
+                        [rlon, rlat]
+                    })
+                    .collect(),
+                None => std::borrow::Cow::Borrowed(line),
+            })
+            .collect();
         // Longitudes jump by a turn at the dateline; a section's distance does not wrap.
         let wraps = self.rings.is_empty();
         for line in lines {
