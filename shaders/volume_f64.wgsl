@@ -28,6 +28,9 @@ struct Params64 {
     // A box cut-away (model::cut::Cut's x, y, z) in the box's frame; w 1 when there is one.
     cut_lo: vec4<f64>,
     cut_hi: vec4<f64>,
+    // Its planes (Cut::planes_in_frame): the removed half-space n·p >= c as (n, c); unused
+    // slots (0, 0, 0, -1) hold everywhere.
+    cut_planes: array<vec4<f64>, 3>,
 }
 
 @group(0) @binding(0) var<uniform> P: Params64;
@@ -297,8 +300,8 @@ fn step64(s: ptr<function, State64>, k: u32, n: u32, t_enter: f64, first: f64, p
     piece64(s, max(ta, parts.z), min(tb, parts.w), o, d);
 }
 
-// The ray's pieces inside the box [t0, t1] less its piece inside the cut-away's box (the slab
-// method, as Cut::clip_box): (a0, a1, b0, b1), an empty piece where a part is missing.
+// The ray's pieces inside the box [t0, t1] less its piece inside the cut-away's box and planes
+// (the slab method, as Cut::clip_box): (a0, a1, b0, b1), an empty piece where a part is missing.
 fn ray_parts64(o: vec3<f64>, d: vec3<f64>, t0: f64, t1: f64) -> vec4<f64> {
     let none = vec4<f64>(t0, t1, 1.0lf, 0.0lf);
     if (P.cut_lo.w < 0.5lf) {
@@ -317,6 +320,20 @@ fn ray_parts64(o: vec3<f64>, d: vec3<f64>, t0: f64, t1: f64) -> vec4<f64> {
         let tb = (P.cut_hi[a] - o[a]) / d[a];
         c0 = max(c0, min(ta, tb));
         c1 = min(c1, max(ta, tb));
+    }
+    for (var i = 0; i < 3; i++) {
+        let pl = P.cut_planes[i];
+        let no = pl.x * o.x + pl.y * o.y + pl.z * o.z;
+        let nd = pl.x * d.x + pl.y * d.y + pl.z * d.z;
+        if (nd == 0.0lf) {
+            if (no < pl.w) {
+                return none;
+            }
+        } else if (nd > 0.0lf) {
+            c0 = max(c0, (pl.w - no) / nd);
+        } else {
+            c1 = min(c1, (pl.w - no) / nd);
+        }
     }
     if (c1 <= c0) {
         return none;

@@ -50,6 +50,9 @@ struct Mapped {
     // the volume's corner (an absent range spans far beyond the volume); w 1 when it exists.
     box_cut_lo: vec4<f32>,
     box_cut_hi: vec4<f32>,
+    // Its planes (Cut::planes_in_frame): the removed half-space n·p >= c as (n, c); unused
+    // slots (0, 0, 0, -1) hold everywhere.
+    box_cut_planes: array<vec4<f32>, 3>,
     // The skip grid's world cells (render::mapped_skipping): xyz its lower corner in this frame
     // and cells per unit length.
     skip_lo: vec4<f32>,
@@ -206,8 +209,12 @@ fn removed_in_domain(p: vec3<f32>) -> bool {
 }
 #else
 fn removed_in_domain(p: vec3<f32>) -> bool {
-    return G.box_cut_lo.w > 0.5 && all(p >= vec3<f32>(0.0)) && all(p <= P.box_size.xyz)
+    var removed = G.box_cut_lo.w > 0.5 && all(p >= vec3<f32>(0.0)) && all(p <= P.box_size.xyz)
         && all(p >= G.box_cut_lo.xyz) && all(p <= G.box_cut_hi.xyz);
+    for (var i = 0u; i < 3u; i++) {
+        removed = removed && dot(G.box_cut_planes[i].xyz, p) >= G.box_cut_planes[i].w;
+    }
+    return removed;
 }
 #endif
 
@@ -506,8 +513,8 @@ fn ray_parts(o: vec3<f32>, d: vec3<f32>) -> Parts {
 }
 #endif
 #else
-// Where the ray crosses the cut-away's box (Cut::clip_box's slab method): [enter, leave], empty
-// where it misses; a ray parallel to a slab is inside it or misses it.
+// Where the ray crosses the cut-away's box and planes (Cut::clip_box's slab method): [enter,
+// leave], empty where it misses; a ray parallel to a slab is inside it or misses it.
 fn box_cut_hit(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
     var c = vec2<f32>(-3.0e38, 3.0e38);
     for (var a = 0u; a < 3u; a++) {
@@ -522,6 +529,21 @@ fn box_cut_hit(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
         let ta = (lo - o[a]) / d[a];
         let tb = (hi - o[a]) / d[a];
         c = vec2<f32>(max(c.x, min(ta, tb)), min(c.y, max(ta, tb)));
+    }
+    // Each plane is a slab open on one side (Cut::clip_box).
+    for (var i = 0u; i < 3u; i++) {
+        let pl = G.box_cut_planes[i];
+        let no = dot(pl.xyz, o);
+        let nd = dot(pl.xyz, d);
+        if (nd == 0.0) {
+            if (no < pl.w) {
+                return vec2<f32>(1.0, -1.0);
+            }
+        } else if (nd > 0.0) {
+            c.x = max(c.x, (pl.w - no) / nd);
+        } else {
+            c.y = min(c.y, (pl.w - no) / nd);
+        }
     }
     return c;
 }

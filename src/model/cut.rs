@@ -4,8 +4,10 @@
 //! longitude half-planes and depth spheres — are more crossings of the ray, and a piece between
 //! crossings is drawn when its middle lies in the domain and outside the cut, as
 //! [`SphericalGrid::ray_intervals`] does for the domain alone. Boxes (regular and rectilinear)
-//! take world ranges of x, y and z instead: the removed region is a box, and a ray's piece inside
-//! it (the slab method) is taken out of the ray's piece inside the volume ([`Cut::clip_box`]).
+//! take world ranges of x, y and z and half-spaces bounded by planes instead: the removed region
+//! is their intersection, convex, so a ray crosses it in one piece (the slab method, a plane being
+//! one more slab open on one side), taken out of the ray's piece inside the volume
+//! ([`Cut::clip_box`]).
 //! The faces a cut opens may show the field as an opaque surface ([`CutFaces`]).
 
 use super::geometry::{cone_hits, sphere_hit, SphericalGrid};
@@ -13,20 +15,45 @@ use super::Aabb;
 use crate::error::{Error, Result};
 
 /// The removed region: the points whose latitude, longitude and depth (spherical volumes), or
-/// world x, y and z (boxes), lie in every given range (absent ranges hold everywhere; at least
-/// one is given).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// world x, y and z (boxes), lie in every given range and, on boxes, on the removed side of
+/// every plane (absent ranges hold everywhere; at least one range or plane is given).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Cut {
     /// World x, y and z ranges `lo < hi` of a box's cut.
     pub x: Option<[f64; 2]>,
     pub y: Option<[f64; 2]>,
     pub z: Option<[f64; 2]>,
+    /// Half-spaces of a box's cut (at most [`MAX_CUT_PLANES`]).
+    pub planes: Vec<CutPlane>,
     /// Degrees north, `lo < hi` within ±90.
     pub lat: Option<[f64; 2]>,
     /// Degrees east, from `lo` eastward to `hi` (`lo < hi`, at most a turn apart).
     pub lon: Option<[f64; 2]>,
     /// Depths below the surface (planet radius − radius), in the volume's length unit, `lo < hi`.
     pub depth: Option<[f64; 2]>,
+}
+
+/// A plane of a box's cut: the side its normal points to (boundary included) is removed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutPlane {
+    /// A point on the plane, in world coordinates.
+    pub point: [f64; 3],
+    /// The plane's normal, towards the removed side (any non-zero length).
+    pub normal: [f64; 3],
+}
+
+/// The most planes one cut takes (the shaders' fixed uniform slots).
+pub const MAX_CUT_PLANES: usize = 3;
+
+impl CutPlane {
+    /// The unit normal `n` and offset `c` of the removed half-space `n·p ≥ c`, for points `p`
+    /// relative to `corner`.
+    pub(crate) fn in_frame(&self, corner: [f64; 3]) -> ([f64; 3], f64) {
+        let len = self.normal.iter().map(|c| c * c).sum::<f64>().sqrt();
+        let n = self.normal.map(|c| c / len);
+        let c = (0..3).map(|a| n[a] * (self.point[a] - corner[a])).sum();
+        (n, c)
+    }
 }
 
 /// How the faces a cut-away opens are drawn (`cut_faces`): where a ray enters the kept volume
@@ -167,6 +194,10 @@ impl Cut {
     pub(crate) fn removes_box(&self, p: [f64; 3]) -> bool {
         let r = self.box_ranges();
         (0..3).all(|a| p[a] >= r[a][0] && p[a] <= r[a][1])
+            && self.planes.iter().all(|plane| {
+                let (n, c) = plane.in_frame([0.0; 3]);
+                n[0] * p[0] + n[1] * p[1] + n[2] * p[2] >= c
+            })
     }
 
     /// Checks the ranges on their own and against the shell `g`: a cut that removes the whole
@@ -179,11 +210,11 @@ impl Cut {
             ))
         };
         let ordered = |r: [f64; 2]| r[0].is_finite() && r[1].is_finite() && r[0] < r[1];
-        if self.x.is_some() || self.y.is_some() || self.z.is_some() {
+        if self.x.is_some() || self.y.is_some() || self.z.is_some() || !self.planes.is_empty() {
             return Err(Error::invalid(
                 "cut",
                 format!(
-                    "x, y and z cut boxes; the spherical volume ({g}) takes lat, lon and depth"
+                    "x, y, z and planes cut boxes; the spherical volume ({g}) takes lat, lon and depth"
                 ),
             ));
         }
@@ -247,8 +278,11 @@ impl Cut {
                 format!("{name} is a box; its cut takes world ranges x, y, z (lat, lon and depth cut spherical volumes)"),
             ));
         }
-        if self.x.is_none() && self.y.is_none() && self.z.is_none() {
-            return Err(Error::invalid("cut", "expected at least one of x, y, z"));
+        if self.x.is_none() && self.y.is_none() && self.z.is_none() && self.planes.is_empty() {
+            return Err(Error::invalid(
+                "cut",
+                "expected at least one of x, y, z, plane",
+            ));
         }
         for (axis, r) in ["x", "y", "z"].into_iter().zip([self.x, self.y, self.z]) {
             if let Some(r) = r.filter(|r| !(r[0].is_finite() && r[1].is_finite() && r[0] < r[1])) {
@@ -261,8 +295,18 @@ impl Cut {
                 ));
             }
         }
-        let ranges = self.box_ranges();
-        if (0..3).all(|a| ranges[a][0] <= bounds.lo[a] && ranges[a][1] >= bounds.hi[a]) {
+        self.check_planes()?;
+        // The removed region is convex: it holds the box when it holds the box's corners.
+        let corners = (0..8).map(|i| {
+            [0, 1, 2].map(|a| {
+                if i >> a & 1 == 0 {
+                    bounds.lo[a]
+                } else {
+                    bounds.hi[a]
+                }
+            })
+        });
+        if corners.into_iter().all(|p| self.removes_box(p)) {
             return Err(Error::invalid(
                 "cut",
                 format!(
@@ -272,6 +316,43 @@ impl Cut {
             ));
         }
         Ok(())
+    }
+
+    /// Checks the planes: at most [`MAX_CUT_PLANES`], finite points and finite non-zero normals.
+    fn check_planes(&self) -> Result<()> {
+        if self.planes.len() > MAX_CUT_PLANES {
+            return Err(Error::invalid(
+                "cut plane",
+                format!(
+                    "{} planes; expected at most {MAX_CUT_PLANES}",
+                    self.planes.len()
+                ),
+            ));
+        }
+        for p in &self.planes {
+            let finite = p.point.iter().chain(&p.normal).all(|c| c.is_finite());
+            if !finite || p.normal.iter().all(|c| *c == 0.0) {
+                return Err(Error::invalid(
+                    "cut plane",
+                    format!(
+                        "point {:?}, normal {:?}; expected a finite point and a finite non-zero normal",
+                        p.point, p.normal
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The planes' removed half-spaces `n·p ≥ c` for points relative to `corner`, as `[n, c]`
+    /// rows, the unused of [`MAX_CUT_PLANES`] slots `[0, 0, 0, −1]` (which every point satisfies).
+    pub(crate) fn planes_in_frame(&self, corner: [f64; 3]) -> [[f64; 4]; MAX_CUT_PLANES] {
+        let mut out = [[0.0, 0.0, 0.0, -1.0]; MAX_CUT_PLANES];
+        for (row, plane) in out.iter_mut().zip(&self.planes) {
+            let (n, c) = plane.in_frame(corner);
+            *row = [n[0], n[1], n[2], c];
+        }
+        out
     }
 
     /// The removed box's lower and upper corners relative to `corner` (a box's frame in the
@@ -288,8 +369,9 @@ impl Cut {
     }
 
     /// The pieces of the ray `o + t·d` over `[t0, t1]` (its piece inside a box) that lie outside
-    /// the cut's box: the piece less the ray's piece inside the cut (slab method; a ray parallel
-    /// to a slab is inside it or misses it), so none, one or two pieces.
+    /// a box's cut: the piece less the ray's piece inside the cut (slab method, each plane a slab
+    /// open on one side; a ray parallel to a slab is inside it or misses it), so none, one or two
+    /// pieces.
     pub(crate) fn clip_box(
         &self,
         o: [f64; 3],
@@ -309,6 +391,21 @@ impl Cut {
             let (ta, tb) = ((lo - o[a]) / d[a], (hi - o[a]) / d[a]);
             c0 = c0.max(ta.min(tb));
             c1 = c1.min(ta.max(tb));
+        }
+        for plane in &self.planes {
+            // n·(o + t·d) ≥ c: from a crossing on when the ray heads into the removed side,
+            // up to it when it heads out, always or never when it runs along the plane.
+            let (n, c) = plane.in_frame([0.0; 3]);
+            let (no, nd) = (dot(n, o), dot(n, d));
+            if nd == 0.0 {
+                if no < c {
+                    return vec![(t0, t1)];
+                }
+            } else if nd > 0.0 {
+                c0 = c0.max((c - no) / nd);
+            } else {
+                c1 = c1.min((c - no) / nd);
+            }
         }
         if c1 <= c0 {
             return vec![(t0, t1)];
@@ -365,6 +462,10 @@ impl Cut {
         }
         t
     }
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Rays through a shell less what a cut removes, beside the shell's own crossings.
@@ -471,5 +572,89 @@ mod tests {
             ..Default::default()
         };
         assert!(wrong.check_box("b", &b).is_err());
+    }
+
+    /// A plane is a slab open on one side: a ray heading into the removed side loses the rest of
+    /// its piece from the crossing on, one heading out keeps it from there, one along the plane
+    /// all or nothing; with a range the removed region is their intersection. A box whose eight
+    /// corners a plane removes is refused, one with a corner kept is not.
+    #[test]
+    fn planes_clip_rays_at_their_crossings() {
+        let b = Aabb {
+            lo: [0.0; 3],
+            hi: [2.0; 3],
+        };
+        // Removed: x + z ≥ 2 (the normal's length does not matter).
+        let diagonal = Cut {
+            planes: vec![CutPlane {
+                point: [1.0, 0.0, 1.0],
+                normal: [3.0, 0.0, 3.0],
+            }],
+            ..Default::default()
+        };
+        diagonal.check_box("b", &b).unwrap();
+        let up = [0.0, 0.0, 1.0];
+        let close = |got: Vec<(f64, f64)>, want: (f64, f64)| {
+            assert!(
+                got.len() == 1
+                    && (got[0].0 - want.0).abs() < 1e-12
+                    && (got[0].1 - want.1).abs() < 1e-12,
+                "{got:?} against {want:?}"
+            )
+        };
+        // Along +z at x = 0.5: removed from z = 1.5, i.e. t = 6.5 from z = −5.
+        close(
+            diagonal.clip_box([0.5, 1.0, -5.0], up, (5.0, 7.0)),
+            (5.0, 6.5),
+        );
+        // Along −z from z = 7: in the removed side until z = 1.5 (t = 5.5).
+        close(
+            diagonal.clip_box([0.5, 1.0, 7.0], [0.0, 0.0, -1.0], (5.0, 7.0)),
+            (5.5, 7.0),
+        );
+        // Parallel to the plane: kept below it, gone above it.
+        let along = [0.5f64.sqrt(), 0.0, -(0.5f64.sqrt())];
+        assert_eq!(
+            diagonal.clip_box([0.0, 1.0, 1.0], along, (0.0, 1.0)),
+            vec![(0.0, 1.0)]
+        );
+        assert!(diagonal
+            .clip_box([1.0, 1.0, 1.5], along, (0.0, 1.0))
+            .is_empty());
+        assert!(diagonal.removes_box([1.0, 0.0, 1.0]) && !diagonal.removes_box([0.9, 0.0, 1.0]));
+        // With y ≥ 1 as well: a ray at y = 0.5 keeps everything.
+        let corner = Cut {
+            y: Some([1.0, 5.0]),
+            ..diagonal.clone()
+        };
+        assert_eq!(
+            corner.clip_box([0.5, 0.5, -5.0], up, (5.0, 7.0)),
+            vec![(5.0, 7.0)]
+        );
+        // x + z ≥ 0 holds on every corner of the box: refused; x + z ≥ 0.1 leaves the origin.
+        let all = |c: f64| Cut {
+            planes: vec![CutPlane {
+                point: [c, 0.0, 0.0],
+                normal: [1.0, 0.0, 1.0],
+            }],
+            ..Default::default()
+        };
+        let e = all(0.0).check_box("b", &b).unwrap_err().to_string();
+        assert!(e.starts_with("cut: removes the whole volume (b:"), "{e}");
+        all(0.1).check_box("b", &b).unwrap();
+        // Planes cut boxes, not shells.
+        let axis = crate::model::CoordAxis::uniform_cells;
+        let shell = SphericalGrid {
+            axis_of: [0, 1, 2],
+            radius: axis(0.5, 0.1, 5),
+            latitude: axis(-90.0, 10.0, 18),
+            longitude: axis(0.0, 10.0, 36),
+            lon_wraps: true,
+            planet_radius: 1.0,
+            length_unit: "m".into(),
+            vertical: "radius".into(),
+        };
+        let e = diagonal.check(&shell).unwrap_err().to_string();
+        assert!(e.starts_with("cut: x, y, z and planes cut boxes"), "{e}");
     }
 }

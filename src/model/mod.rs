@@ -21,7 +21,7 @@ pub(crate) mod vec3;
 pub(crate) mod volume;
 
 pub use camera::{Axis, Camera, Projection};
-pub use cut::{Cut, CutFaces, DepthRings};
+pub use cut::{Cut, CutFaces, CutPlane, DepthRings, MAX_CUT_PLANES};
 pub use geometry::{CoordAxis, Geometry, SphericalGrid};
 pub use grid::{CoordKind, Grid, GridCoords};
 pub use image::HdrImage;

@@ -158,7 +158,7 @@ impl Tracer<'_> {
             .opts
             .cut_faces
             .as_ref()
-            .zip(self.opts.cut)
+            .zip(self.opts.cut.as_ref())
             .and_then(|(faces, cut)| {
                 let at = |t: f64| [0, 1, 2].map(|a| world[a] + d[a] * t);
                 parts.iter().enumerate().find_map(|(i, &(u, _))| {

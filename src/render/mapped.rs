@@ -12,7 +12,7 @@ use super::volume::{
 };
 use super::VolumeRenderOptions;
 use crate::error::Result;
-use crate::model::{CoordAxis, Cut, Geometry, HdrImage, Volume};
+use crate::model::{CoordAxis, Cut, Geometry, HdrImage, Volume, MAX_CUT_PLANES};
 
 /// Host mirror of `Mapped` in shaders/volume_mapped.wgsl — keep in sync.
 #[repr(C)]
@@ -36,6 +36,7 @@ struct MappedParams {
     cut_on: [u32; 4],
     box_cut_lo: [f32; 4],
     box_cut_hi: [f32; 4],
+    box_cut_planes: [[f32; 4]; MAX_CUT_PLANES],
     skip_lo: [f32; 4],
     skip_cells: [f32; 4],
     faces: [f32; 4],
@@ -101,6 +102,7 @@ impl MappedParams {
             (self.box_cut_lo[a], self.box_cut_hi[a]) = (lo[a] as f32, hi[a] as f32);
         }
         self.box_cut_lo[3] = 1.0;
+        self.box_cut_planes = cut.planes_in_frame(corner).map(|row| row.map(|c| c as f32));
     }
 }
 

@@ -9,6 +9,7 @@ use super::VolumeRenderOptions;
 use crate::error::{Error, Result};
 use crate::gpu::{pipeline, readback, shader, GpuContext};
 use crate::model::transfer::{ResolvedTransfer, TfKind};
+use crate::model::{Cut, MAX_CUT_PLANES};
 use std::sync::{Arc, OnceLock};
 
 /// Keep in sync with Params64 in shaders/volume_f64.wgsl.
@@ -30,6 +31,7 @@ struct Params64 {
     flags: [u32; 4],
     cut_lo: [f64; 4],
     cut_hi: [f64; 4],
+    cut_planes: [[f64; 4]; MAX_CUT_PLANES],
 }
 
 /// Renders in f64 on the GPU; one per GPU context.
@@ -258,6 +260,12 @@ fn params64(
         ],
         cut_lo: cut[0],
         cut_hi: cut[1],
+        cut_planes: opts
+            .cut
+            .as_ref()
+            .map_or(Cut::default().planes_in_frame(lo), |c| {
+                c.planes_in_frame(lo)
+            }),
     }
 }
 

@@ -9,7 +9,9 @@ use super::api_datasets::{
 use super::api_fields::RESAMPLE;
 use super::api_output::{SAVE_ANIMATION, SAVE_EXR, SAVE_PNG};
 use super::api_post::{FALSE_COLOUR, TONEMAP};
-use super::api_render::{CUT, CUT_FACES, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT};
+use super::api_render::{
+    CUT, CUT_FACES, CUT_PLANE, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT,
+};
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
 use super::api_surface::{LOAD_GRID, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
 use super::lines::COASTLINES;
@@ -94,8 +96,8 @@ pub(crate) const API: &[ApiEntry] = &[
     e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number"], "Camera", "Perspective camera above latitude, longitude (degrees) at distance times the shell's outer radius from the planet's centre (a box: times half its diagonal from its centre), looking at the centre with north up (fov 35)."),
     e("cameras", "camera_geo", &["lat: number", "lon: number", "distance: number", "fov: number"], "Camera", "As above with a vertical field of view in degrees."),
     e("cameras", "camera_look_at", &["eye: array", "target: array", "up: array", "fov: number"], "Camera", "Free perspective camera."),
-    with(e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast. Results of the plain path are cached: an identical call returns the earlier image without a ray cast. Options:"), &[&RENDER_VOLUME, &SHADING, &CUT, &CUT_FACES]),
-    with(e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping empty bricks unless empty_space_skipping: false, out of core beyond memory_budget; the same options."), &[&RENDER_VOLUME, &SHADING, &CUT, &CUT_FACES]),
+    with(e("rendering", "render_volume", &["volume: Volume", "options: map"], "Image", "HDR ray cast. Results of the plain path are cached: an identical call returns the earlier image without a ray cast. Options:"), &[&RENDER_VOLUME, &SHADING, &CUT, &CUT_PLANE, &CUT_FACES]),
+    with(e("rendering", "render_volume", &["volume: BrickedVolume", "options: map"], "Image", "As above for an opened volume: always bricked, skipping empty bricks unless empty_space_skipping: false, out of core beyond memory_budget; the same options."), &[&RENDER_VOLUME, &SHADING, &CUT, &CUT_PLANE, &CUT_FACES]),
     e("rendering", "get$width", &["image: Image"], "int", "image.width"),
     e("rendering", "get$height", &["image: Image"], "int", "image.height"),
     e("surfaces", "load_grid", &["path: string"], "Grid", "A 2-D field from .npy, .npz, .nc, .h5 (MintPy products placed by X_FIRST/Y_FIRST) or a GeoTIFF (.tif, EPSG:4326), north up where the file is georeferenced; every same-shape array becomes a property (elevation-like names become the relief); \"f.nc:eta\" keeps only that variable, as below."),

@@ -8,8 +8,8 @@ use super::ScriptHost;
 use crate::datasets::LoadOptions;
 use crate::model::bricks::BRICK_SIZES;
 use crate::model::{
-    Aabb, Axis, Camera, Cut, CutFaces, Geometry, HdrImage, Lens, LutTransfer, Missing, Scale,
-    TransferFunction, Volume, VolumeStats,
+    Aabb, Axis, Camera, Cut, CutFaces, CutPlane, Geometry, HdrImage, Lens, LutTransfer, Missing,
+    Scale, TransferFunction, Volume, VolumeStats,
 };
 use crate::render::route::MAX_LEVEL;
 use crate::render::{
@@ -131,7 +131,7 @@ pub(crate) const RENDER_VOLUME: OptionTable = OptionTable {
         opt("precision", Kind::Choice(Precision::NAMES), "\"f32\"", "compositing precision (f64 on the GPU where the adapter has shader f64, else the CPU)"),
         opt("shading", Kind::Value("true | false | #{ambient, diffuse, specular, shininess}", "true"), "false", "Blinn–Phong headlight on the data gradient (absent: no shading code; not on the bricked path)"),
         opt("tf_sampling", Kind::Choice(TfSampling::NAMES), "\"point\"", "preintegrated: the transfer function's mean between the values at each segment's ends (not on the bricked path)"),
-        opt("cut", Kind::Value("#{lat, lon, depth} | #{x, y, z}", "#{ lon: [0.0, 180.0] }"), "none", "a cut-away: the region where every given range holds is removed, rays clipped analytically (spherical volumes: lat, lon, depth; boxes: world x, y, z; on the mapped GPU ray caster, whole in GPU memory; in f64 on the f64 CPU reference, a regular box's on the f64 GPU shader where it runs)"),
+        opt("cut", Kind::Value("#{lat, lon, depth} | #{x, y, z, plane}", "#{ lon: [0.0, 180.0] }"), "none", "a cut-away: the region where every given range holds is removed, rays clipped analytically (spherical volumes: lat, lon, depth; boxes: world x, y, z and planes; on the mapped GPU ray caster, whole in GPU memory; in f64 on the f64 CPU reference, a regular box's on the f64 GPU shader where it runs)"),
         opt("cut_faces", Kind::Value("true | false | #{nu}", "true"), "false", "with cut: the faces it opens drawn as opaque surfaces of the field, the radiance of a thick layer of their value (emission / extinction of the transfer function; values that absorb nothing are not drawn), with nu: times the fringes 1 + cos(2π nu value)"),
         opt("coastlines", Kind::Value("true | #{ colour, width, resolution }", "true"), "false", "spherical volumes: Natural Earth coastlines (public domain) on the outer surface, drawn into the HDR image in linear RGB, hidden on the far side and where a wedge or cut leaves no outer surface (the scale by the domain's extent)"),
         opt("graticule", Kind::Value("true | degrees", "30.0"), "false", "spherical volumes: meridians and parallels on the outer surface at the multiples of this step (true: 10), in linear grey 0.2"),
@@ -166,9 +166,20 @@ pub(crate) const CUT: OptionTable = OptionTable {
         opt("x", Kind::Value("[lo, hi] in world units", "[0.0, 1.0]"), "all x", "a box's cut: the world x removed"),
         opt("y", Kind::Value("[lo, hi] in world units", "[0.0, 1.0]"), "all y", "a box's cut: the world y removed"),
         opt("z", Kind::Value("[lo, hi] in world units", "[0.0, 1.0]"), "all z", "a box's cut: the world z removed"),
+        opt("plane", Kind::Value("#{point, normal} | [#{point, normal}, ...]", "#{ point: [0.5, 0.5, 0.5], normal: [1.0, 1.0, 0.0] }"), "none", "a box's cut: the side of the plane through point that normal points to (world units); up to 3 planes as an array, their half-spaces and the ranges all holding where the volume is removed"),
     ],
     call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, cut: OPTS })",
     base: "#{ lon: [0.0, 180.0] }",
+};
+
+pub(crate) const CUT_PLANE: OptionTable = OptionTable {
+    function: "render_volume cut plane",
+    options: &[
+        opt("point", Kind::Value("[x, y, z] in world units", "[0.5, 0.5, 0.5]"), "required", "a point on the plane"),
+        opt("normal", Kind::Value("[x, y, z], not zero", "[0.0, 0.0, 1.0]"), "required", "the plane's normal, pointing into the removed side"),
+    ],
+    call: "render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4, cut: #{ plane: OPTS } })",
+    base: "#{ point: [0.5, 0.5, 0.5], normal: [1.0, 0.0, 0.0] }",
 };
 
 pub(crate) const CUT_FACES: OptionTable = OptionTable {
@@ -496,7 +507,7 @@ fn cut(v: &Dynamic) -> RResult<Cut> {
     let m = v.clone().try_cast::<Map>().ok_or_else(|| {
         to_rhai(crate::Error::invalid(
             "cut",
-            "expected a map #{ lat: [a, b], lon: [a, b], depth: [a, b] } or #{ x: [a, b], y: [a, b], z: [a, b] }",
+            "expected a map #{ lat: [a, b], lon: [a, b], depth: [a, b] } or #{ x: [a, b], y: [a, b], z: [a, b], plane: #{ point, normal } }",
         ))
     })?;
     let given = CUT.read(&m)?;
@@ -506,13 +517,43 @@ fn cut(v: &Dynamic) -> RResult<Cut> {
             .map(|x| pair(x, &format!("cut {name}")))
             .transpose()
     };
+    let planes = match given.value("plane")? {
+        None => Vec::new(),
+        Some(v) => match v.clone().into_array() {
+            Ok(list) => list.iter().map(cut_plane).collect::<RResult<_>>()?,
+            Err(_) => vec![cut_plane(v)?],
+        },
+    };
     Ok(Cut {
         x: range("x")?,
         y: range("y")?,
         z: range("z")?,
+        planes,
         lat: range("lat")?,
         lon: range("lon")?,
         depth: range("depth")?,
+    })
+}
+
+/// One plane of a box's cut: `#{ point, normal }` ([`CUT_PLANE`]), both required.
+fn cut_plane(v: &Dynamic) -> RResult<CutPlane> {
+    let m = v.clone().try_cast::<Map>().ok_or_else(|| {
+        to_rhai(crate::Error::invalid(
+            "cut plane",
+            "expected a map #{ point: [x, y, z], normal: [x, y, z] } or an array of them",
+        ))
+    })?;
+    let given = CUT_PLANE.read(&m)?;
+    let field = |key: &str| -> RResult<[f64; 3]> {
+        let name = format!("cut plane {key}");
+        let v = given
+            .value(key)?
+            .ok_or_else(|| to_rhai(crate::Error::invalid(&name, "missing; expected [x, y, z]")))?;
+        vec3(v, &name)
+    };
+    Ok(CutPlane {
+        point: field("point")?,
+        normal: field("normal")?,
     })
 }
 

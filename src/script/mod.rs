@@ -744,6 +744,46 @@ mod tests {
         (result, start.elapsed().as_secs_f64())
     }
 
+    /// `cut: #{ plane }` takes one map or an array of them; a plane without its normal, a zero
+    /// normal, four planes and a plane that is not a map are one-line errors naming the field.
+    #[test]
+    fn cut_planes_are_read_as_a_map_or_an_array() {
+        let render = |cut: &str| {
+            let source = format!(
+                "let v = generate_mantle(#{{ n: 8 }}); let img = render_volume(v, #{{ tf: tf_emission_absorption(1.0, 1.0), width: 8, height: 8, cut: {cut} }}); save_exr(img, \"c.exr\");"
+            );
+            run_for(&source, None)
+                .0
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        };
+        let p = "#{ point: [0.0, 0.0, 0.0], normal: [1.0, 0.0, 1.0] }";
+        render(&format!("#{{ plane: {p} }}")).unwrap();
+        render(&format!("#{{ plane: [{p}, {p}], z: [-2.0, 0.0] }}")).unwrap();
+        for (cut, want) in [
+            (
+                "#{ plane: #{ point: [0.0, 0.0, 0.0] } }".to_string(),
+                "cut plane normal: missing; expected [x, y, z]",
+            ),
+            (
+                "#{ plane: #{ point: [0.0, 0.0, 0.0], normal: [0.0, 0.0, 0.0] } }".to_string(),
+                "cut plane: point [0.0, 0.0, 0.0], normal [0.0, 0.0, 0.0]; expected a finite point and a finite non-zero normal",
+            ),
+            (
+                format!("#{{ plane: [{p}, {p}, {p}, {p}] }}"),
+                "cut plane: 4 planes; expected at most 3",
+            ),
+            (
+                "#{ plane: 1.0 }".to_string(),
+                "cut plane: expected a map #{ point: [x, y, z], normal: [x, y, z] } or an array of them",
+            ),
+        ] {
+            let e = render(&cut).unwrap_err();
+            let first = e.lines().next().unwrap_or_default();
+            assert!(first.ends_with(want), "{cut}: {e}");
+        }
+    }
+
     #[test]
     fn sleeps_end_at_the_timeout_and_are_bounded_without_one() {
         let (r, took) = run_for("sleep(8);", Some(Duration::from_millis(300)));

@@ -414,7 +414,7 @@ fn cut_away_shells_leave_the_chord_outside_the_cut() {
             TransferFunction::emission_absorption(1.0, 0.0).unwrap(),
         );
         (o.width, o.height, o.step, o.early_exit) = (n, n, 0.5, 0.0);
-        o.cut = Some(cut);
+        o.cut = Some(cut.clone());
         let r = session
             .render_volume_detailed(&source, &o)
             .unwrap_or_else(|e| panic!("{e}"));
@@ -565,13 +565,123 @@ fn cut_away_boxes_leave_the_chord_outside_the_cut() {
     }
 }
 
+/// A constant 8 × 8 × 6 box seen along z (emission only: a pixel is its ray's length in what is
+/// left) cut by planes through its centre (4, 4, 3): the plane with normal (1, 0, 1) removes
+/// z ≥ 7 − x, leaving clamp(7 − x, 0, 6) of each ray; two planes with normals (±1, 0, 1) remove
+/// the wedge z ≥ 3 + |x − 4|, leaving min(6, 3 + |x − 4|). The f64 CPU reference within 1e-9 of
+/// these, the GPU (f32 mapped ray caster, and the f64 shader for the regular box) within 1e-5; a
+/// plane that removes the whole box, a zero normal and four planes are one-line errors.
+#[test]
+fn plane_cuts_of_boxes_leave_the_chord_on_the_kept_side() {
+    use hdrvis::model::{
+        Axis, Camera, CoordAxis, Cut, CutPlane, Geometry, TransferFunction, Volume,
+    };
+    use hdrvis::render::cpu_reference::render_volume_f64;
+    use hdrvis::render::{Precision, VolumeRenderOptions, VolumeSource};
+    use std::sync::Arc;
+    let regular = Volume::new("box", [8, 8, 6], [1.0; 3], [0.0; 3], vec![1.0; 384]).unwrap();
+    let axes = [8, 8, 6].map(|n| CoordAxis::uniform_cells(0.0, 1.0, n));
+    let rectilinear = Volume::new("rbox", [8, 8, 6], [1.0; 3], [0.0; 3], vec![1.0; 384])
+        .unwrap()
+        .with_geometry(Geometry::Rectilinear(Box::new(axes)))
+        .unwrap();
+    let session = crate::common::session(hdrvis::gpu::BackendChoice::Vulkan);
+    let n = 16u32;
+    let plane = |normal: [f64; 3]| CutPlane {
+        point: [4.0, 4.0, 3.0],
+        normal,
+    };
+    // Each cut with the length of the ray it keeps at x.
+    type Kept = fn(f64) -> f64;
+    let cases: [(Cut, Kept); 2] = [
+        (
+            Cut {
+                planes: vec![plane([1.0, 0.0, 1.0])],
+                ..Default::default()
+            },
+            |x| (7.0 - x).clamp(0.0, 6.0),
+        ),
+        (
+            Cut {
+                planes: vec![plane([1.0, 0.0, 1.0]), plane([-1.0, 0.0, 1.0])],
+                ..Default::default()
+            },
+            |x| (3.0 + (x - 4.0).abs()).min(6.0),
+        ),
+    ];
+    for v in [regular, rectilinear] {
+        let source = VolumeSource::Memory(Arc::new(v.clone()));
+        for (cut, kept) in &cases {
+            let mut o = VolumeRenderOptions::new(
+                Camera::axis(Axis::Z, &v.bounds()),
+                TransferFunction::emission_absorption(1.0, 0.0).unwrap(),
+            );
+            (o.width, o.height, o.step, o.early_exit) = (n, n, 0.5, 0.0);
+            o.cut = Some(cut.clone());
+            o.precision = Precision::F64;
+            let cpu = render_volume_f64(&v, &o).unwrap();
+            let expected = |k: usize| kept((k % n as usize) as f64 * 8.0 / n as f64 + 0.25);
+            let worst = (0..cpu.len())
+                .map(|k| (cpu[k][0] - expected(k)).abs() / 6.0)
+                .fold(0.0, f64::max);
+            eprintln!(
+                "{} {} planes: CPU f64 {worst:.2e}",
+                v.name,
+                cut.planes.len()
+            );
+            assert!(worst < 1e-9, "{}: CPU f64 error {worst:.2e}", v.name);
+            for precision in [Precision::F32, Precision::F64] {
+                o.precision = precision;
+                let r = session
+                    .render_volume_detailed(&source, &o)
+                    .unwrap_or_else(|e| panic!("{e}"));
+                let worst = r
+                    .image
+                    .pixels
+                    .iter()
+                    .enumerate()
+                    .map(|(k, p)| (p[0] as f64 - expected(k)).abs() / 6.0)
+                    .fold(0.0, f64::max);
+                eprintln!("  {:?}: {worst:.2e}", r.path);
+                assert!(worst < 1e-5, "{} {:?}: error {worst:.2e}", v.name, r.path);
+            }
+        }
+        let refused = |cut: Cut| {
+            let mut o = VolumeRenderOptions::new(
+                Camera::axis(Axis::Z, &v.bounds()),
+                TransferFunction::emission_absorption(1.0, 0.0).unwrap(),
+            );
+            o.cut = Some(cut);
+            session.render_volume(&source, &o).unwrap_err().to_string()
+        };
+        let e = refused(Cut {
+            planes: vec![CutPlane {
+                point: [0.0, 0.0, -1.0],
+                normal: [0.0, 0.0, 1.0],
+            }],
+            ..Default::default()
+        });
+        assert!(e.starts_with("cut: removes the whole volume"), "{e}");
+        let e = refused(Cut {
+            planes: vec![plane([0.0; 3])],
+            ..Default::default()
+        });
+        assert!(e.starts_with("cut plane: point [4.0, 4.0, 3.0], normal [0.0, 0.0, 0.0]; expected a finite point and a finite non-zero normal"), "{e}");
+        let e = refused(Cut {
+            planes: vec![plane([1.0, 0.0, 0.0]); 4],
+            ..Default::default()
+        });
+        assert_eq!(e, "cut plane: 4 planes; expected at most 3");
+    }
+}
+
 /// A varying field in a box — regular, and rectilinear on uneven axes — seen from an oblique
-/// orbit with a quarter (two ranges) cut away: the GPU's clipped render equals the f64 CPU
+/// orbit with a quarter (two ranges) or a corner (an oblique plane and a range) cut away: the GPU's clipped render equals the f64 CPU
 /// reference's within 1e-5 relative RMS, and the cut changes the image by far more than that.
 #[test]
 fn cut_away_boxes_on_the_gpu_match_the_f64_reference_from_an_oblique_view() {
     use hdrvis::bench::relative_rms;
-    use hdrvis::model::{Camera, CoordAxis, Cut, Geometry, TransferFunction, Volume};
+    use hdrvis::model::{Camera, CoordAxis, Cut, CutPlane, Geometry, TransferFunction, Volume};
     use hdrvis::render::cpu_reference::render_volume_f64;
     use hdrvis::render::{Precision, VolumeRenderOptions, VolumeSource};
     use std::sync::Arc;
@@ -606,46 +716,59 @@ fn cut_away_boxes_on_the_gpu_match_the_f64_reference_from_an_oblique_view() {
         (o.width, o.height, o.step, o.early_exit) = (48, 40, 0.25, 0.0);
         let source = VolumeSource::Memory(Arc::new(v.clone()));
         let uncut = render_volume_f64(&v, &o).unwrap();
-        o.cut = Some(Cut {
+        // A quarter by two ranges, and a corner by an oblique plane with one range.
+        let quarter = Cut {
             x: Some([mid[0], b.hi[0] + 1.0]),
             y: Some([b.lo[1] - 1.0, mid[1]]),
             ..Default::default()
-        });
-        let reference = render_volume_f64(&v, &o).unwrap();
-        o.precision = Precision::F32;
-        let gpu = session
-            .render_volume(&source, &o)
-            .unwrap_or_else(|e| panic!("{e}"));
-        let gpu: Vec<[f64; 4]> = gpu.pixels.iter().map(|p| p.map(f64::from)).collect();
-        let (err, change) = (
-            relative_rms(&gpu, &reference),
-            relative_rms(&uncut, &reference),
-        );
-        eprintln!(
-            "{}: GPU {err:.2e} from the f64 cut render, cut against uncut {change:.2e}",
-            v.name
-        );
-        assert!(err < 1e-5, "{}: GPU relative RMS {err:.2e}", v.name);
-        assert!(
-            change > 0.05,
-            "{}: the cut changed the image by {change:.2e}",
-            v.name
-        );
-        // In f64 a regular box's cut runs where its uncut render would: the f64 GPU shader on
-        // adapters with shader f64 (lavapipe has it), equal to the CPU reference to the f32
-        // the image is stored in.
-        o.precision = Precision::F64;
-        let r = session.render_volume_detailed(&source, &o).unwrap();
-        if v.is_regular() {
-            assert_eq!(r.path, hdrvis::render::RenderPath::F64Gpu, "{}", v.name);
+        };
+        let corner = Cut {
+            z: Some([b.lo[2] - 1.0, mid[2]]),
+            planes: vec![CutPlane {
+                point: mid,
+                normal: [1.0, -0.6, 0.3],
+            }],
+            ..Default::default()
+        };
+        for cut in [quarter, corner] {
+            o.cut = Some(cut);
+            o.precision = Precision::F64;
+            let reference = render_volume_f64(&v, &o).unwrap();
+            o.precision = Precision::F32;
+            let gpu = session
+                .render_volume(&source, &o)
+                .unwrap_or_else(|e| panic!("{e}"));
+            let gpu: Vec<[f64; 4]> = gpu.pixels.iter().map(|p| p.map(f64::from)).collect();
+            let (err, change) = (
+                relative_rms(&gpu, &reference),
+                relative_rms(&uncut, &reference),
+            );
+            eprintln!(
+                "{}: GPU {err:.2e} from the f64 cut render, cut against uncut {change:.2e}",
+                v.name
+            );
+            assert!(err < 1e-5, "{}: GPU relative RMS {err:.2e}", v.name);
+            assert!(
+                change > 0.05,
+                "{}: the cut changed the image by {change:.2e}",
+                v.name
+            );
+            // In f64 a regular box's cut runs where its uncut render would: the f64 GPU shader on
+            // adapters with shader f64 (lavapipe has it), equal to the CPU reference to the f32
+            // the image is stored in.
+            o.precision = Precision::F64;
+            let r = session.render_volume_detailed(&source, &o).unwrap();
+            if v.is_regular() {
+                assert_eq!(r.path, hdrvis::render::RenderPath::F64Gpu, "{}", v.name);
+            }
+            let f64s: Vec<[f64; 4]> = r.image.pixels.iter().map(|p| p.map(f64::from)).collect();
+            let err = relative_rms(&f64s, &reference);
+            eprintln!(
+                "{}: {:?} {err:.2e} from the f64 CPU reference",
+                v.name, r.path
+            );
+            assert!(err < 1e-7, "{}: f64 relative RMS {err:.2e}", v.name);
         }
-        let f64s: Vec<[f64; 4]> = r.image.pixels.iter().map(|p| p.map(f64::from)).collect();
-        let err = relative_rms(&f64s, &reference);
-        eprintln!(
-            "{}: {:?} {err:.2e} from the f64 CPU reference",
-            v.name, r.path
-        );
-        assert!(err < 1e-7, "{}: f64 relative RMS {err:.2e}", v.name);
     }
 }
 
@@ -654,8 +777,8 @@ fn cut_away_boxes_on_the_gpu_match_the_f64_reference_from_an_oblique_view() {
 /// the pixel is the transfer function's emission over extinction (alpha 1); through the core it
 /// meets no face and is the emission–absorption integral over the far half's chord. A box whose
 /// value is linear across the face x = mid, seen along −x with the half x > mid removed: every
-/// pixel is e/σ times the fringes 1 + cos(2πν·value). GPU within 1e-3, f64 CPU within 1e-9; no
-/// faces without a cut, ν ≤ 0, one-line errors.
+/// pixel is e/σ times the fringes 1 + cos(2πν·value), and likewise on an oblique plane's face.
+/// GPU within 1e-3, f64 CPU within 1e-9; no faces without a cut, ν ≤ 0, one-line errors.
 #[test]
 fn cut_faces_show_the_field_as_an_opaque_surface() {
     use hdrvis::model::{Axis, Camera, Cut, CutFaces, DepthRings, TransferFunction, Volume};
@@ -749,6 +872,26 @@ fn cut_faces_show_the_field_as_an_opaque_surface() {
             return None;
         }
         let v = 1.0 + y + 0.5 * z;
+        Some(ke / ka * (1.0 + (std::f64::consts::TAU * nu * v).cos()))
+    });
+    // An oblique plane's face: with (x − 8) + (z − 8)/2 ≥ 0 removed, the ray at (y, z) meets
+    // the face at x = 8 − (z − 8)/2, where a field that also rises with x takes its value.
+    let ramp_x =
+        Volume::from_fn("ramp_x", [m, m, m], |x, y, z| 1.0 + 0.25 * x + y + 0.5 * z).unwrap();
+    o.cut = Some(Cut {
+        planes: vec![hdrvis::model::CutPlane {
+            point: [8.0; 3],
+            normal: [1.0, 0.0, 0.5],
+        }],
+        ..Default::default()
+    });
+    check(&ramp_x, &o, &|px, py| {
+        let y = 16.0 * (px as f64 + 0.5) / 64.0;
+        let z = 16.0 * (1.0 - (py as f64 + 0.5) / 64.0);
+        if !(0.5..=15.5).contains(&y) || !(0.5..=15.5).contains(&z) {
+            return None;
+        }
+        let v = 1.0 + 0.25 * (8.0 - 0.5 * (z - 8.0)) + y + 0.5 * z;
         Some(ke / ka * (1.0 + (std::f64::consts::TAU * nu * v).cos()))
     });
     // Faces without a cut, and fringes of no width, are refused in one line.

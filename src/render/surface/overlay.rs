@@ -74,6 +74,7 @@ impl ShellSurface {
         let kept = self.grid.contains(inside)
             && !self
                 .cut
+                .as_ref()
                 .is_some_and(|c| c.removes(self.grid.planet_radius, inside));
         if !kept {
             return None;
@@ -142,7 +143,7 @@ impl Overlay {
             projector: Projector::Shell(Box::new(ShellSurface {
                 camera: *camera,
                 grid: (**g).clone(),
-                cut: cut.copied(),
+                cut: cut.cloned(),
             })),
             coast,
             graticule,
