@@ -490,6 +490,38 @@ pub(crate) fn declared_radius(
     Ok(None)
 }
 
+/// The 2-D latitude and longitude of a variable on a curvilinear grid: the auxiliary
+/// coordinates its `coordinates` attribute names whose dimensions are the variable's last two
+/// (`dims`, in that order) and whose CF role is latitude and longitude; `None` unless both are
+/// there.
+pub(crate) fn curvilinear_coords(
+    path: &Path,
+    attributes: &[(String, NcAttribute)],
+    dims: &[String],
+) -> Result<Option<(NcVariable, NcVariable)>> {
+    let (Some(names), [.., y, x]) = (attr_text(attributes, "coordinates"), dims) else {
+        return Ok(None);
+    };
+    let listed = netcdf::list_variables(path)?;
+    let (mut lat, mut lon) = (None, None);
+    for name in names.split_whitespace() {
+        let on_grid = netcdf::dims_in(&listed, name)
+            .iter()
+            .map(|d| d.0.as_str())
+            .eq([y.as_str(), x.as_str()]);
+        if !on_grid {
+            continue;
+        }
+        let v = netcdf::read_variable(path, name)?;
+        match axis_role(path, &v) {
+            Ok(AxisRole::Latitude) => lat = Some(v),
+            Ok(AxisRole::Longitude) => lon = Some(v),
+            _ => {}
+        }
+    }
+    Ok(lat.zip(lon))
+}
+
 /// The rotated pole of `variable`'s CF grid mapping: its `grid_mapping` names a variable whose
 /// `grid_mapping_name` is `rotated_latitude_longitude`; `None` for another mapping or none. A
 /// rotated mapping without its pole, or with one out of range, is an error naming the file, the

@@ -9,6 +9,7 @@ pub mod cache;
 pub(crate) mod cf;
 pub(crate) mod cf_time;
 pub mod coastlines;
+pub(crate) mod curvilinear;
 pub mod generate;
 pub(crate) mod geotiff;
 pub(crate) mod grid_out;
@@ -68,6 +69,9 @@ pub struct LoadOptions {
     /// A NetCDF variable on one of the volume's dimensions, in units of length, to place it by
     /// instead of that dimension's coordinate (a model level's height, say).
     pub vertical: Option<String>,
+    /// The step in degrees of the regular grid a curvilinear grid is regridded onto (default:
+    /// its median cell edge); refused for other grids.
+    pub resolution: Option<f64>,
 }
 
 /// Loads a scalar volume, choosing the reader by extension: `.npy` (shape (nz, ny, nx)),
@@ -204,6 +208,8 @@ pub struct GridFile {
     /// The rotated pole of a CF `rotated_latitude_longitude` grid, whose x and y are then its
     /// rotated longitudes and latitudes.
     pub rotated_pole: Option<crate::model::RotatedPole>,
+    /// How a curvilinear grid was regridded onto x and y ([`curvilinear`]).
+    pub regridded: Option<String>,
 }
 
 /// A 2-D field for the surface renderer, with the names and units of the variable and its
@@ -220,7 +226,7 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
 /// [`read_grid`] of the variable with the dimensions `sel` fixes (NetCDF, a MintPy time
 /// series).
 pub fn read_grid_with(path: &Path, var: Option<&str>, sel: &select::Selection) -> Result<GridFile> {
-    read_grid_file(path, var, sel, None)
+    read_grid_file(path, var, sel, None, None)
 }
 
 /// A GeoTIFF's band as a grid file; a variable or selection is refused (a GeoTIFF has
@@ -257,6 +263,7 @@ fn geotiff_grid(
         y: axis("lat", "degrees_north", r.lat, CoordKind::Latitude),
         wavelength: None,
         rotated_pole: None,
+        regridded: None,
     })
 }
 
@@ -266,10 +273,11 @@ fn read_grid_file(
     var: Option<&str>,
     sel: &select::Selection,
     band: Option<usize>,
+    resolution: Option<f64>,
 ) -> Result<GridFile> {
     let ext = crate::io::extension(path);
     if geotiff::EXTENSIONS.contains(&ext.as_str()) {
-        return geotiff_grid(path, var, sel, band);
+        return no_resolution(path, resolution).and_then(|_| geotiff_grid(path, var, sel, band));
     }
     if let Some(b) = band.filter(|&b| b != 1) {
         return Err(Error::format(
@@ -281,6 +289,7 @@ fn read_grid_file(
     let [ny, nx] = [array.shape[0], array.shape[1]];
     let mut wavelength = None;
     let mut rotated_pole = None;
+    let mut curvilinear = None;
     let (x, y) = match ext.as_str() {
         "npz" => {
             let find = |names: [&str; 3], len: usize| -> Result<Option<GridAxis>> {
@@ -304,42 +313,9 @@ fn read_grid_file(
             )
         }
         "nc" | "nc4" | "cdf" | "netcdf" => {
-            let axis = |dim: &str| -> Result<Option<GridAxis>> {
-                Ok(cf::read_coordinate(path, dim)?.map(|var| {
-                    // Longitude, latitude and depth (drawn downward) matter to a grid; a
-                    // vertical axis's unit check is the volume reader's concern, so its error is
-                    // not raised here.
-                    let kind = match cf::axis_role(path, &var) {
-                        Ok(cf::AxisRole::Longitude) => CoordKind::Longitude,
-                        Ok(cf::AxisRole::Latitude) => CoordKind::Latitude,
-                        Ok(cf::AxisRole::Vertical {
-                            kind: cf::Vertical::Depth,
-                            ..
-                        }) => CoordKind::Depth,
-                        _ => CoordKind::Plain,
-                    };
-                    GridAxis {
-                        name: dim.to_string(),
-                        units: var.units,
-                        values: var.data,
-                        kind,
-                    }
-                }))
-            };
-            let (mut x, mut y) = (axis(&array.dims[1])?, axis(&array.dims[0])?);
-            rotated_pole = cf::rotated_pole(path, &array.name)?;
-            if rotated_pole.is_some() {
-                // Rotated longitudes and latitudes (CF grid_longitude, grid_latitude).
-                for (a, kind) in [
-                    (&mut x, CoordKind::Longitude),
-                    (&mut y, CoordKind::Latitude),
-                ] {
-                    if let Some(a) = a {
-                        a.kind = kind;
-                    }
-                }
-            }
-            (x, y)
+            let axes = netcdf_grid_axes(path, &array)?;
+            (rotated_pole, curvilinear) = (axes.rotated_pole, axes.curvilinear);
+            (axes.x, axes.y)
         }
         ext if hdf5::EXTENSIONS.contains(&ext) => match mintpy::open(path)? {
             Some(product) => {
@@ -353,7 +329,7 @@ fn read_grid_file(
         },
         _ => (None, None),
     };
-    Ok(GridFile {
+    let mut file = GridFile {
         name: array.name,
         selected: array.notes,
         units: array.units,
@@ -363,7 +339,130 @@ fn read_grid_file(
         y,
         wavelength,
         rotated_pole,
+        regridded: None,
+    };
+    match curvilinear {
+        Some((lat, lon)) => {
+            regrid_curvilinear(path, &mut file, &array.dims, (lat, lon), resolution)?
+        }
+        None => no_resolution(path, resolution)?,
+    }
+    Ok(file)
+}
+
+/// A NetCDF grid variable's axes: its dimensions' coordinate variables with their CF kinds, the
+/// rotated pole of a rotated-pole grid (whose axes are then longitude and latitude), and the 2-D
+/// latitude and longitude of a curvilinear grid (when its axes are not geographic).
+struct NetcdfGridAxes {
+    x: Option<GridAxis>,
+    y: Option<GridAxis>,
+    rotated_pole: Option<crate::model::RotatedPole>,
+    curvilinear: Option<(netcdf::NcVariable, netcdf::NcVariable)>,
+}
+
+fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<NetcdfGridAxes> {
+    let axis = |dim: &str| -> Result<Option<GridAxis>> {
+        Ok(cf::read_coordinate(path, dim)?.map(|var| {
+            // Longitude, latitude and depth (drawn downward) matter to a grid; a
+            // vertical axis's unit check is the volume reader's concern, so its error is
+            // not raised here.
+            let kind = match cf::axis_role(path, &var) {
+                Ok(cf::AxisRole::Longitude) => CoordKind::Longitude,
+                Ok(cf::AxisRole::Latitude) => CoordKind::Latitude,
+                Ok(cf::AxisRole::Vertical {
+                    kind: cf::Vertical::Depth,
+                    ..
+                }) => CoordKind::Depth,
+                _ => CoordKind::Plain,
+            };
+            GridAxis {
+                name: dim.to_string(),
+                units: var.units,
+                values: var.data,
+                kind,
+            }
+        }))
+    };
+    let (mut x, mut y) = (axis(&array.dims[1])?, axis(&array.dims[0])?);
+    let rotated_pole = cf::rotated_pole(path, &array.name)?;
+    if rotated_pole.is_some() {
+        // Rotated longitudes and latitudes (CF grid_longitude, grid_latitude).
+        for (a, kind) in [
+            (&mut x, CoordKind::Longitude),
+            (&mut y, CoordKind::Latitude),
+        ] {
+            if let Some(a) = a {
+                a.kind = kind;
+            }
+        }
+    }
+    let geographic = |a: &Option<GridAxis>, kind| a.as_ref().is_some_and(|a| a.kind == kind);
+    let mut curvilinear = None;
+    if rotated_pole.is_none()
+        && !(geographic(&x, CoordKind::Longitude) && geographic(&y, CoordKind::Latitude))
+    {
+        curvilinear = cf::curvilinear_coords(path, &array.attributes, &array.dims)?;
+    }
+    Ok(NetcdfGridAxes {
+        x,
+        y,
+        rotated_pole,
+        curvilinear,
     })
+}
+
+/// A resolution is for curvilinear grids: refused for any other.
+fn no_resolution(path: &Path, resolution: Option<f64>) -> Result<()> {
+    match resolution {
+        Some(r) => Err(Error::format(
+            path,
+            format!("resolution {r}: only curvilinear grids (2-D latitude and longitude named in a variable's coordinates) are regridded; this grid has its own axes"),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// `file` (read on its curvilinear dimensions) regridded onto a regular latitude–longitude grid
+/// of `resolution` degrees ([`curvilinear`]).
+fn regrid_curvilinear(
+    path: &Path,
+    file: &mut GridFile,
+    dims: &[String],
+    (lat, lon): (netcdf::NcVariable, netcdf::NcVariable),
+    resolution: Option<f64>,
+) -> Result<()> {
+    let grid = curvilinear::Curvilinear {
+        shape: file.shape,
+        lat: &lat.data,
+        lon: &lon.data,
+    };
+    let r = curvilinear::regrid(&grid, &file.data, resolution).map_err(|e| {
+        Error::format(
+            path,
+            format!(
+                "variable {:?} on {} and {}: {e}",
+                file.name, lat.name, lon.name
+            ),
+        )
+    })?;
+    let [y, x] = [&dims[dims.len() - 2], &dims[dims.len() - 1]];
+    file.regridded = Some(format!(
+        "curvilinear {}({y}, {x}) and {}({y}, {x}), {} x {} nodes, regridded onto {:.6} degrees",
+        lat.name, lon.name, file.shape[0], file.shape[1], r.step
+    ));
+    let axis = |name: &str, units: &str, values, kind| {
+        Some(GridAxis {
+            name: name.to_string(),
+            units: Some(units.to_string()),
+            values,
+            kind,
+        })
+    };
+    file.shape = [r.lat.len(), r.lon.len()];
+    file.x = axis(&lon.name, "degrees_east", r.lon, CoordKind::Longitude);
+    file.y = axis(&lat.name, "degrees_north", r.lat, CoordKind::Latitude);
+    file.data = r.data;
+    Ok(())
 }
 
 /// Names an array may have that make it the elevation of a grid rather than a property.
@@ -387,7 +486,7 @@ pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
 /// properties are only those of the same selection's shape that have the selected dimensions.
 pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     let var = opts.variable.as_deref();
-    let file = read_grid_file(path, var, &opts.select, opts.band)?;
+    let file = read_grid_file(path, var, &opts.select, opts.band, opts.resolution)?;
     let [ny, nx] = file.shape;
     let x = grid_coords(file.x, "x", nx);
     let y = grid_coords(file.y, "y", ny);
@@ -398,8 +497,9 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
         "npz" | "nc" | "nc4" | "cdf" | "netcdf"
     ) {
         let coord_names = [x.name.as_str(), y.name.as_str()];
-        // With a selection, only the named variable: others may lack the selected dimensions.
-        let only_elevation = var.is_some() || !opts.select.is_empty();
+        // With a selection, only the named variable: others may lack the selected dimensions;
+        // a regridded one stands alone too (the others are on the curvilinear nodes).
+        let only_elevation = var.is_some() || !opts.select.is_empty() || file.regridded.is_some();
         let found = same_shape_arrays(path, &file.name, &coord_names, [ny, nx], only_elevation)?;
         props.extend(found.properties);
         elevation = found.elevation;
@@ -527,6 +627,7 @@ fn volume_from_netcdf_array(
         cf::use_vertical(path, name, &mut coords)?;
     }
     if !opts.cartesian {
+        refuse_curvilinear(path, &array, &coords)?;
         if let Some(grid) = spherical_grid_of(path, &array, &coords, opts)? {
             let volume = volume_from_array(path, array, [None, None, None])?;
             return volume
@@ -552,6 +653,35 @@ fn volume_from_netcdf_array(
         }
     }
     volume_from_array(path, array, axes).map(|v| (v, note))
+}
+
+/// A volume on a curvilinear grid (2-D latitude and longitude) has no place on the sphere the
+/// renderer knows: refused, naming the way to a level as a regridded surface or the volume in
+/// index space.
+fn refuse_curvilinear(path: &Path, array: &ArrayData, coords: &[cf::DimCoord]) -> Result<()> {
+    // 1-D geographic axes (the 2-D coordinates then only repeat them), or a rotated pole's.
+    let geographic = coords.iter().rev().take(2).all(|d| {
+        d.coord.as_ref().is_some_and(|c| {
+            matches!(
+                cf::axis_role(path, c),
+                Ok(cf::AxisRole::Latitude | cf::AxisRole::Longitude)
+            )
+        })
+    });
+    if geographic || cf::rotated_pole(path, &array.name)?.is_some() {
+        return Ok(());
+    }
+    let Some((lat, lon)) = cf::curvilinear_coords(path, &array.attributes, &array.dims)? else {
+        return Ok(());
+    };
+    let level = coords.first().map_or("level", |d| d.name.as_str());
+    Err(Error::format(
+        path,
+        format!(
+            "variable {:?} is on a curvilinear grid ({} and {} are 2-D); volumes need 1-D latitude and longitude axes: load one {level} as a surface with load_grid(path, #{{ index: #{{ {level}: 0 }} }}) (regridded), or the volume in index space with geometry: \"cartesian\"",
+            array.name, lat.name, lon.name
+        ),
+    ))
 }
 
 /// The spherical grid of a NetCDF variable whose last three dimensions CF marks as latitude,

@@ -325,7 +325,14 @@ mod tests {
                     spec.name,
                     spec.kind.example(spec.default)
                 );
-                if let Err(e) = plan(&source) {
+                let result = plan(&source);
+                // The fixture's grid is on 1-D axes: its reader refuses a resolution by name.
+                if table.function == "load_grid" && spec.name == "resolution" {
+                    let e = result.unwrap_err().to_string();
+                    assert!(e.contains("resolution 1: only curvilinear grids"), "{e}");
+                    continue;
+                }
+                if let Err(e) = result {
                     panic!(
                         "{}: option {} refused: {e}\n{source}",
                         table.function, spec.name

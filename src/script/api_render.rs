@@ -277,6 +277,7 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
                 select: super::api_datasets::selection(&given)?,
                 band: None,
                 vertical: given.string("vertical")?,
+                resolution: None,
             };
             h.session.load_volume(&p, &load).map_err(to_rhai)
         },

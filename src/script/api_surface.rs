@@ -61,6 +61,12 @@ pub(crate) const LOAD_GRID: OptionTable = OptionTable {
             "none (a one-band file)",
             "the band of a multi-band GeoTIFF, counted from 1 as GDAL does",
         ),
+        opt(
+            "resolution",
+            Kind::NumAbove(0.0, 90.0),
+            "the grid's median cell edge",
+            "a curvilinear grid (2-D latitude and longitude named in the variable's coordinates): the step in degrees of the regular latitude-longitude grid it is regridded onto; refused for other grids",
+        ),
     ],
     call: "load_grid(\"geo.nc\", OPTS)",
     base: "#{}",
@@ -415,6 +421,7 @@ fn register_load_grid(engine: &mut Engine, host: &Arc<ScriptHost>) {
                 variable: variable_option(given.string("variable")?, from_path, "load_grid")?,
                 select: super::api_datasets::selection(&given)?,
                 band: given.int("band")?.map(|b| b as usize),
+                resolution: given.num("resolution")?,
                 ..LoadOptions::default()
             };
             h.session.load_grid(&p, &opts).map_err(to_rhai)

@@ -73,7 +73,21 @@ fn auxiliary_variables_are_not_chosen_as_data() {
     let path = dir.path().join("aux.nc");
     // xarray wrote the ancillary `qc` (3-D too) first: the default is still `temp`.
     assert_eq!(r["order"][..2], ["qc", "temp"]);
-    let v = hdrvis::datasets::load_volume(&path).unwrap();
+    // temp's latitude and longitude are 2-D (a curvilinear grid): no volume on the sphere; in
+    // index space with geometry "cartesian".
+    let e = hdrvis::datasets::load_volume(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("variable \"temp\" is on a curvilinear grid (latitude and longitude are 2-D)")
+            && e.contains("geometry: \"cartesian\""),
+        "{e}"
+    );
+    let cartesian = LoadOptions {
+        cartesian: true,
+        ..LoadOptions::default()
+    };
+    let v = hdrvis::datasets::load_volume_with(&path, &cartesian).unwrap();
     assert_eq!(v.name, "temp");
     let got: Vec<f64> = v.data.iter().map(|&x| f64::from(x)).collect();
     assert_values(&got, &numbers(&r, "temp"), 0.0, "temp");
@@ -469,6 +483,88 @@ fn vertical_levels_that_are_not_lengths_load_by_index_or_by_a_named_height() {
         assert!(e.contains(want) && e.contains(".nc"), "{name}: {e}");
         assert_eq!(e.lines().count(), 1, "{e}");
     }
+}
+
+/// A curvilinear grid as ocean models write it (tests/python/write_cf_cases.py `curvilinear`,
+/// xarray: 2-D lat/lon, sheared and bent, across the antimeridian with longitudes stored in
+/// [-180, 180), one missing node): `load_grid` with `resolution: 0.5` regrids it onto exactly the
+/// regular nodes numpy computes, with numpy's values of linear interpolation over the grid's
+/// triangles (1e-9), missing where numpy's are; `lin`, linear in latitude and longitude, equals
+/// its closed form wherever it is defined; map and globe render with coastlines; `hdrvis info`
+/// says what the grid is; a resolution for a grid on 1-D axes is a one-line error.
+#[test]
+fn curvilinear_grids_are_regridded_onto_latitude_and_longitude() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "curvilinear") else {
+        return;
+    };
+    let path = dir.path().join("curvilinear.nc");
+    let (lon, lat) = (numbers(&r, "lon"), numbers(&r, "lat"));
+    for name in ["sst", "lin"] {
+        let opts = LoadOptions {
+            variable: Some(name.into()),
+            resolution: Some(0.5),
+            ..LoadOptions::default()
+        };
+        let grid = hdrvis::datasets::load_grid_with(&path, &opts).unwrap();
+        assert!(grid.is_geographic(), "{name}");
+        assert_values(&grid.x().values, &lon, 1e-12, "lon");
+        assert_values(&grid.y().values, &lat, 1e-12, "lat");
+        let got = grid.property(name).unwrap();
+        assert_values(got, &numbers(&r, name), 1e-9, name);
+        let defined = got.iter().filter(|v| v.is_finite()).count();
+        assert!(
+            defined > got.len() / 3,
+            "{name}: {defined} of {}",
+            got.len()
+        );
+        if name == "lin" {
+            for (k, v) in got.iter().enumerate().filter(|(_, v)| v.is_finite()) {
+                let want = 0.1 * lat[k / lon.len()] + 0.05 * lon[k % lon.len()];
+                assert!((v - want).abs() < 1e-9, "lin node {k}: {v} vs {want}");
+            }
+        }
+    }
+    std::fs::write(
+        dir.path().join("c.rhai"),
+        r#"let g = load_grid("curvilinear.nc", #{ variable: "sst" });
+        save_png(render_surface(g, #{ mode: "direct", coastlines: true, graticule: 10.0 }), "map.png", #{ frame: true, legend: true });
+        save_png(render_surface(g, #{ view: "globe", mode: "cyclic", nu: 1.0, coastlines: true }), "globe.png");"#,
+    )
+    .unwrap();
+    let (code, _, err) = hdrvis(&["run", "c.rhai", "--out", "o"], dir.path());
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = hdrvis(
+        &["info", path.to_str().unwrap(), "--var", "sst"],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("curvilinear grid: lat and lon are 2-D; latitudes -30.0000 to ")
+            && out.contains(&format!("longitudes {:.4} to ", lon[0])),
+        "{out}"
+    );
+    std::fs::write(
+        dir.path().join("bad.rhai"),
+        r#"let g = load_grid("curvilinear.nc", #{ variable: "sst" }); let h = load_grid("flat.nc", #{ resolution: 0.5 });"#,
+    )
+    .unwrap();
+    hdrvis::datasets::netcdf::write_grid(
+        dir.path().join("flat.nc"),
+        &[
+            ("lat", &[10.0, 20.0], "degrees_north"),
+            ("lon", &[1.0, 2.0, 3.0], "degrees_east"),
+        ],
+        &[("v", &[1.0f64; 6], "m", "v")],
+        &[],
+    )
+    .unwrap();
+    let (code, _, err) = hdrvis(&["run", "bad.rhai", "--out", "o2"], dir.path());
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("flat.nc: resolution 0.5: only curvilinear grids"),
+        "{err}"
+    );
 }
 
 /// A rotated-pole grid as EURO-CORDEX writes it (tests/python/write_cf_cases.py `rotated`,

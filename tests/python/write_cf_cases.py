@@ -23,6 +23,11 @@ CASE is one of:
             pole 39.25N 162W) with CORDEX's 2-D auxiliary lat/lon and a field `tlat` holding each
             node's true latitude; the rotated axes and each node's true latitude and longitude as
             pyproj (PROJ's ob_tran, CRS.from_cf) computes them
+  curvilinear curvilinear.nc: xarray, an ocean-model-like curvilinear grid (2-D lat/lon as
+            coordinates, sheared and bent, across the antimeridian with longitudes stored in
+            [-180, 180)) holding a smooth field `sst` with one missing node and `lin`, linear in
+            latitude and unwrapped longitude; the regular 0.5-degree nodes and the values on them
+            of linear interpolation over the grid's triangles, computed here with numpy
   movie     tsunami_series.nc by datasets/fixtures/make_series.py (xarray): eta's range over every
             step, its 2nd and 98th percentiles (numpy's nanpercentile, as xarray's robust plots)
             over steps 1, 3 and 5, and the time axis's dates
@@ -305,10 +310,60 @@ def rotated(out):
             "tlat": values(tlat), "tlon": values(tlon)}
 
 
+def curvilinear(out):
+    path = os.path.join(out, "curvilinear.nc")
+    ny, nx = 24, 36
+    j, i = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+    x, y = 0.8 * i, 0.8 * j
+    th = np.radians(25.0)
+    ulon = 165.0 + x * np.cos(th) - y * np.sin(th) + 0.01 * x * x
+    lat = -30.0 + x * np.sin(th) + y * np.cos(th) + 0.005 * y * y
+    lon = (ulon + 180.0) % 360.0 - 180.0
+    sst = 20.0 + 5.0 * np.sin(np.radians(3.0 * lat)) * np.cos(np.radians(2.0 * ulon))
+    sst[10, 15] = np.nan
+    lin = 0.1 * lat + 0.05 * ulon
+    ds = xr.Dataset(
+        {"sst": (("nj", "ni"), sst, {"units": "degC"}), "lin": (("nj", "ni"), lin, {"units": "1"})},
+        coords={
+            "lat": (("nj", "ni"), lat, {"standard_name": "latitude", "units": "degrees_north"}),
+            "lon": (("nj", "ni"), lon, {"standard_name": "longitude", "units": "degrees_east"}),
+        },
+    )
+    ds.to_netcdf(path, format="NETCDF4")
+    # The regular nodes and linear interpolation over the triangles (k, k+1, k+nx+1) and
+    # (k, k+nx+1, k+nx) of each cell, missing where a corner is or no triangle covers a node.
+    step = 0.5
+    def axis(v):
+        n = int(np.floor((v.max() - v.min()) / step + 1e-9)) + 1
+        return v.min() + step * np.arange(n)
+    rlon, rlat = axis(ulon), axis(lat)
+    px, py = np.meshgrid(rlon, rlat)
+    result = {}
+    for name, field in (("sst", sst), ("lin", lin)):
+        got = np.full(px.shape, np.nan)
+        done = np.zeros(px.shape, dtype=bool)
+        P, V = np.stack([ulon.ravel(), lat.ravel()], 1), field.ravel()
+        for jj in range(ny - 1):
+            for ii in range(nx - 1):
+                k = jj * nx + ii
+                for tri in ((k, k + 1, k + nx + 1), (k, k + nx + 1, k + nx)):
+                    a, b, c = P[list(tri)]
+                    area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
+                    wb = ((px - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (py - a[1])) / area
+                    wc = ((b[0] - a[0]) * (py - a[1]) - (px - a[0]) * (b[1] - a[1])) / area
+                    wa = 1.0 - wb - wc
+                    inside = (wa >= -1e-12) & (wb >= -1e-12) & (wc >= -1e-12) & ~done
+                    got[inside] = (wa * V[tri[0]] + wb * V[tri[1]] + wc * V[tri[2]])[inside]
+                    done |= inside
+        result[name] = values(got)
+    result.update({"lon": [float(v) for v in rlon], "lat": [float(v) for v in rlat]})
+    return result
+
+
 def main():
     out, case = sys.argv[1], sys.argv[2]
     run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series, "movie": movie, "levels": levels,
-           "rotated": rotated}[case]
+           "rotated": rotated, "curvilinear": curvilinear}[case]
     emit("", run(out))
 
 
