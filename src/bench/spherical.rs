@@ -107,6 +107,7 @@ pub fn tomography_shell(n: usize) -> Result<Volume> {
         planet_radius: R,
         length_unit: "km".into(),
         vertical: "depth".into(),
+        rotated_pole: None,
     };
     Volume::new("dvs", [4 * n, 2 * n, n], [1.0; 3], [0.0; 3], data)?
         .with_geometry(Geometry::Spherical(Box::new(g)))

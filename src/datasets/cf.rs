@@ -329,9 +329,18 @@ pub(crate) fn spherical_grid(
             d.name
         )
     };
+    // A rotated-pole grid's grid_latitude and grid_longitude are its latitude and longitude on
+    // the rotated sphere.
+    let pole = rotated_pole(path, var)?;
     let mut roles = Vec::new();
     for d in dims {
         roles.push(match &d.coord {
+            Some(c) if pole.is_some() && text(c, "standard_name") == Some("grid_latitude") => {
+                AxisRole::Latitude
+            }
+            Some(c) if pole.is_some() && text(c, "standard_name") == Some("grid_longitude") => {
+                AxisRole::Longitude
+            }
             Some(c) => axis_role(path, c)?,
             None => AxisRole::Other,
         });
@@ -397,6 +406,7 @@ pub(crate) fn spherical_grid(
         planet_radius,
         length_unit: unit.to_string(),
         vertical: kind.name().to_string(),
+        rotated_pole: pole,
     };
     grid.check(&format!("{}: variable '{var}'", path.display()))?;
     Ok(Some(grid))

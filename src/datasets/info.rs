@@ -262,7 +262,7 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
     if let Some(p) = pole {
         let _ = writeln!(
             out,
-            "grid mapping: rotated_latitude_longitude, {} (maps in rotated coordinates, globes at true positions)",
+            "grid mapping: rotated_latitude_longitude, {} (maps in rotated coordinates; globes and volumes at true positions)",
             p.describe()
         );
     }

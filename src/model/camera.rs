@@ -58,6 +58,19 @@ fn check_finite(field: &str, v: &[f64]) -> Result<()> {
 }
 
 impl Camera {
+    /// The same camera in a frame turned by the rotation `m` about the origin (rows: the new
+    /// frame's axes in the old one), as a rotated-pole volume's grid frame.
+    pub(crate) fn turned(&self, m: [[f64; 3]; 3]) -> Camera {
+        let turn = |v: [f64; 3]| m.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2]);
+        Camera {
+            eye: turn(self.eye),
+            forward: turn(self.forward),
+            right: turn(self.right),
+            up: turn(self.up),
+            projection: self.projection,
+        }
+    }
+
     /// A perspective camera at `eye` looking at `target`, with `up` giving the vertical.
     pub fn look_at(
         eye: [f64; 3],

@@ -653,6 +653,7 @@ mod tests {
             planet_radius: 1.0,
             length_unit: "m".into(),
             vertical: "radius".into(),
+            rotated_pole: None,
         };
         let e = diagonal.check(&shell).unwrap_err().to_string();
         assert!(e.starts_with("cut: x, y, z and planes cut boxes"), "{e}");

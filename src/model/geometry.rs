@@ -174,6 +174,10 @@ pub struct SphericalGrid {
     pub length_unit: String,
     /// The file's vertical coordinate: `depth`, `radius` or `height`, for reports.
     pub vertical: String,
+    /// Latitude and longitude are on a rotated sphere (CF `rotated_latitude_longitude`): the
+    /// volume lies in the grid's frame, in which renders are made; cameras given in the true
+    /// frame (`camera_geo`, `camera_look_at`) and coastlines are turned into it.
+    pub rotated_pole: Option<super::RotatedPole>,
 }
 
 impl SphericalGrid {
@@ -397,13 +401,17 @@ impl std::fmt::Display for SphericalGrid {
             self.latitude.hi
         )?;
         if self.lon_wraps {
-            write!(f, "longitude all round from {}°", self.longitude.lo)
+            write!(f, "longitude all round from {}°", self.longitude.lo)?;
         } else {
             write!(
                 f,
                 "longitude {}° to {}°",
                 self.longitude.lo, self.longitude.hi
-            )
+            )?;
+        }
+        match &self.rotated_pole {
+            Some(p) => write!(f, " (rotated: {})", p.describe()),
+            None => Ok(()),
         }
     }
 }
@@ -454,6 +462,7 @@ mod tests {
             planet_radius: 3.0,
             length_unit: "km".into(),
             vertical: "radius".into(),
+            rotated_pole: None,
         }
     }
 

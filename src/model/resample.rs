@@ -87,6 +87,7 @@ mod tests {
             planet_radius: 3.0,
             length_unit: "km".into(),
             vertical: "radius".into(),
+            rotated_pole: None,
         };
         let dims = [radii.len(), 18, 36];
         let data = (0..dims.iter().product::<usize>())

@@ -133,8 +133,19 @@ pub fn great_circle_section(v: &Volume, spec: &SectionSpec) -> Result<Grid> {
     }
     let mut values = vec![f64::NAN; columns * rows];
     for (i, u) in units.iter().enumerate() {
+        // A rotated-pole volume lies in its grid's frame: the true arc is turned into it (a
+        // great circle stays one).
+        let (inside, u) = match &g.rotated_pole {
+            None => (SphericalGrid::to_world(mid_radius, lats[i], lons[i]), *u),
+            Some(p) => {
+                let ug = p
+                    .matrix()
+                    .map(|row| row[0] * u[0] + row[1] * u[1] + row[2] * u[2]);
+                (ug.map(|c| c * mid_radius), ug)
+            }
+        };
         // The wedge test at a radius inside the shell: only the angles decide.
-        if !g.contains(SphericalGrid::to_world(mid_radius, lats[i], lons[i])) {
+        if !g.contains(inside) {
             continue;
         }
         for (j, d) in depths.iter().enumerate() {
@@ -445,6 +456,7 @@ mod tests {
             planet_radius: R,
             length_unit: "km".into(),
             vertical: "depth".into(),
+            rotated_pole: None,
         };
         Volume::new("dvs", [180, 90, 12], [1.0; 3], [0.0; 3], data)
             .unwrap()

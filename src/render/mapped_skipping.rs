@@ -392,6 +392,7 @@ mod tests {
             planet_radius: 1.0,
             length_unit: "1".into(),
             vertical: "radius".into(),
+            rotated_pole: None,
         };
         let mut seed = 3u64;
         let data: Vec<f32> = (0..nr * nlat * nlon)

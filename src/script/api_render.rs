@@ -50,7 +50,22 @@ impl ScriptCamera {
             },
             VolumeSource::Bricked(_) => (bounds.center(), 0.5 * bounds.diagonal()),
         };
-        self.resolve_in(&bounds, sphere)
+        let camera = self.resolve_in(&bounds, sphere)?;
+        // A rotated-pole volume lies in its grid's frame: views that frame it are made there,
+        // cameras placed in the true frame (camera_geo, camera_look_at) turn into it.
+        let pole = match source {
+            VolumeSource::Memory(v) => match &v.geometry {
+                Geometry::Spherical(g) => g.rotated_pole,
+                _ => None,
+            },
+            VolumeSource::Bricked(_) => None,
+        };
+        Ok(match (self, pole) {
+            (ScriptCamera::Geo { .. } | ScriptCamera::Fixed(_), Some(p)) => {
+                camera.turned(p.matrix())
+            }
+            _ => camera,
+        })
     }
 
     /// The camera for a scene with these bounds, `camera_geo` counting from the centre and in

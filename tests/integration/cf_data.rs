@@ -485,6 +485,94 @@ fn vertical_levels_that_are_not_lengths_load_by_index_or_by_a_named_height() {
     }
 }
 
+/// A rotated-pole volume (tests/python/write_cf_cases.py `rotated3d`, xarray: (depth, rlat,
+/// rlon) on EURO-CORDEX's grid) lies at its true positions: a Gaussian blob about the true point
+/// 50°N 10°E (placed by pyproj's node positions) seen by `camera_geo(50, 10)` — a camera in the
+/// true frame, turned into the grid's — is centred in the image within a pixel, with coastlines
+/// drawn; a section along a true great circle through a field holding each node's true
+/// latitude reads, in every column, that column's latitude (within 0.01°); the volume's
+/// description names the pole.
+#[test]
+fn rotated_pole_volumes_lie_at_their_true_positions() {
+    use hdrvis::model::section::{great_circle_section, SectionSpec};
+    use hdrvis::model::{Geometry, Missing};
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "rotated3d") else {
+        return;
+    };
+    let path = dir.path().join("rotated3d.nc");
+    let blob = hdrvis::datasets::load_volume_with(
+        &path,
+        &LoadOptions {
+            variable: Some("blob".into()),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap();
+    let Geometry::Spherical(g) = &blob.geometry else {
+        panic!("a spherical volume: {:?}", blob.geometry.name());
+    };
+    let pole = g.rotated_pole.expect("the rotated pole");
+    let at = numbers(&r, "blob_rotated");
+    let (rlat, rlon) = pole.to_rotated(50.0, 10.0);
+    assert!((rlat - at[0]).abs() < 1e-9 && (rlon - at[1]).abs() < 1e-9);
+    assert!(
+        g.to_string()
+            .contains("(rotated: rotated pole at 39.25°N -162°E)"),
+        "{g}"
+    );
+    let n = 96u32;
+    std::fs::write(
+        dir.path().join("r.rhai"),
+        format!(
+            r#"let v = load_volume("rotated3d.nc", #{{ variable: "blob" }});
+            save_exr(render_volume(v, #{{ tf: tf_emission_absorption(1.0, 0.0), camera: camera_geo(50.0, 10.0, 3.0, 8.0), width: {n}, height: {n}, coastlines: true }}), "r.exr");"#
+        ),
+    )
+    .unwrap();
+    let (code, _, err) = hdrvis(&["run", "r.rhai", "--out", "o"], dir.path());
+    assert_eq!(code, 0, "{err}");
+    let img = hdrvis::io::exr::read_exr(&dir.path().join("o/r.exr")).unwrap();
+    let (mut sum, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for (k, p) in img.pixels.iter().enumerate() {
+        let w = p[0] as f64;
+        sum += w;
+        cx += w * ((k as u32 % n) as f64 + 0.5);
+        cy += w * ((k as u32 / n) as f64 + 0.5);
+    }
+    let (cx, cy) = (cx / sum, cy / sum);
+    let centre = n as f64 / 2.0;
+    eprintln!("blob centroid ({cx:.3}, {cy:.3}), image centre {centre}");
+    assert!(
+        (cx - centre).abs() < 1.0 && (cy - centre).abs() < 1.0,
+        "blob centroid ({cx:.2}, {cy:.2}), expected ({centre}, {centre})"
+    );
+    let tlat = hdrvis::datasets::load_volume_with(
+        &path,
+        &LoadOptions {
+            variable: Some("tlat".into()),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap();
+    let spec = SectionSpec {
+        from: [45.0, 0.0],
+        to: [55.0, 20.0],
+        depth: [0.0, 600.0],
+        n: [21, 3],
+        missing: Missing::Strict,
+    };
+    let s = great_circle_section(&tlat, &spec).unwrap();
+    let (values, lats) = (s.property("tlat").unwrap(), s.property("latitude").unwrap());
+    let worst = values
+        .iter()
+        .zip(lats)
+        .map(|(v, l)| (v - l).abs())
+        .fold(0.0, f64::max);
+    eprintln!("section: true latitude read back within {worst:.2e} degrees");
+    assert!(worst < 0.01, "worst {worst}");
+}
+
 /// A curvilinear grid as ocean models write it (tests/python/write_cf_cases.py `curvilinear`,
 /// xarray: 2-D lat/lon, sheared and bent, across the antimeridian with longitudes stored in
 /// [-180, 180), one missing node): `load_grid` with `resolution: 0.5` regrids it onto exactly the

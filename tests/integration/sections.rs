@@ -347,6 +347,7 @@ fn constant_shell() -> hdrvis::model::Volume {
         planet_radius: 6371.0,
         length_unit: "km".into(),
         vertical: "depth".into(),
+        rotated_pole: None,
     };
     Volume::new(
         "shell",

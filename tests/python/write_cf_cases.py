@@ -23,6 +23,10 @@ CASE is one of:
             pole 39.25N 162W) with CORDEX's 2-D auxiliary lat/lon and a field `tlat` holding each
             node's true latitude; the rotated axes and each node's true latitude and longitude as
             pyproj (PROJ's ob_tran, CRS.from_cf) computes them
+  rotated3d rotated3d.nc: xarray, a (depth, rlat, rlon) volume on the EURO-CORDEX-like rotated
+            grid of `rotated`: `blob`, a Gaussian 2 degrees wide about the true point 50N 10E (by
+            pyproj's node positions), and `tlat`, each node's true latitude; the blob centre's
+            rotated coordinates
   curvilinear curvilinear.nc: xarray, an ocean-model-like curvilinear grid (2-D lat/lon as
             coordinates, sheared and bent, across the antimeridian with longitudes stored in
             [-180, 180)) holding a smooth field `sst` with one missing node and `lin`, linear in
@@ -310,6 +314,45 @@ def rotated(out):
             "tlat": values(tlat), "tlon": values(tlon)}
 
 
+def rotated3d(out):
+    import pyproj
+
+    path = os.path.join(out, "rotated3d.nc")
+    mapping = {
+        "grid_mapping_name": "rotated_latitude_longitude",
+        "grid_north_pole_latitude": 39.25,
+        "grid_north_pole_longitude": -162.0,
+    }
+    rlat = np.arange(-12.0, 12.01, 0.5)
+    rlon = np.arange(-16.0, 16.01, 0.5)
+    depth = np.array([0.0, 200.0, 400.0, 600.0])
+    rlon2, rlat2 = np.meshgrid(rlon, rlat)
+    crs = pyproj.CRS.from_cf(mapping)
+    tlon, tlat = pyproj.Transformer.from_crs(crs, "EPSG:4326", always_xy=True).transform(rlon2, rlat2)
+    geod = pyproj.Geod(a=1.0, b=1.0)
+    _, _, dist = geod.inv(tlon, tlat, np.full_like(tlon, 10.0), np.full_like(tlat, 50.0))
+    blob = np.exp(-(np.degrees(dist) / 2.0) ** 2)
+    field = {"grid_mapping": "rotated_pole", "coordinates": "lat lon"}
+    layers = lambda a: np.repeat(a[None, :, :], len(depth), axis=0)
+    ds = xr.Dataset(
+        {
+            "blob": (("depth", "rlat", "rlon"), layers(blob), dict(field, units="1")),
+            "tlat": (("depth", "rlat", "rlon"), layers(tlat), dict(field, units="degrees")),
+            "rotated_pole": ((), np.int32(0), mapping),
+        },
+        coords={
+            "depth": ("depth", depth, {"units": "km", "positive": "down", "standard_name": "depth"}),
+            "rlat": ("rlat", rlat, {"standard_name": "grid_latitude", "units": "degrees", "axis": "Y"}),
+            "rlon": ("rlon", rlon, {"standard_name": "grid_longitude", "units": "degrees", "axis": "X"}),
+            "lat": (("rlat", "rlon"), tlat, {"standard_name": "latitude", "units": "degrees_north"}),
+            "lon": (("rlat", "rlon"), tlon, {"standard_name": "longitude", "units": "degrees_east"}),
+        },
+    )
+    ds.to_netcdf(path, format="NETCDF4")
+    brlon, brlat = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True).transform(10.0, 50.0)
+    return {"blob_rotated": [float(brlat), float(brlon)]}
+
+
 def curvilinear(out):
     path = os.path.join(out, "curvilinear.nc")
     ny, nx = 24, 36
@@ -363,7 +406,7 @@ def curvilinear(out):
 def main():
     out, case = sys.argv[1], sys.argv[2]
     run = {"fills": fills, "aux": aux, "wrapped": wrapped, "series": series, "movie": movie, "levels": levels,
-           "rotated": rotated, "curvilinear": curvilinear}[case]
+           "rotated": rotated, "rotated3d": rotated3d, "curvilinear": curvilinear}[case]
     emit("", run(out))
 
 

@@ -364,6 +364,7 @@ pub(crate) fn generate_native(
         planet_radius: km,
         length_unit: "km".into(),
         vertical: "radius".into(),
+        rotated_pole: None,
     };
     let layer = res.theta * res.phi;
     let mut fields = Vec::new();

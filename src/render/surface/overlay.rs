@@ -99,7 +99,8 @@ pub(crate) struct Overlay {
     graticule: Option<f64>,
     /// Depths of lines across a section's map (its y axis's unit).
     rings: Vec<f64>,
-    /// A map of a rotated-pole grid: lines are drawn at their rotated coordinates.
+    /// A map of a rotated-pole grid, or a render of a rotated-pole volume: lines are drawn at
+    /// their rotated coordinates.
     rotation: Option<crate::model::RotatedPole>,
 }
 
@@ -148,7 +149,8 @@ impl Overlay {
             coast,
             graticule,
             rings: Vec::new(),
-            rotation: None,
+            // A rotated-pole volume is drawn in its grid's frame: the lines are moved into it.
+            rotation: g.rotated_pole,
         }))
     }
 
