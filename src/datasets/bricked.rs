@@ -393,8 +393,22 @@ fn variable_to_brick(
 }
 
 /// Bricks and out-of-core rendering work on regular boxes: a variable on latitude and
-/// longitude is refused with what to do instead.
+/// longitude (1-D, rotated or 2-D curvilinear) is refused with what to do instead.
 fn refuse_geographic(path: &Path, name: &str, dims: &[String], shape: &[usize]) -> Result<()> {
+    let attributes = super::netcdf::variable_attributes(path, name)?;
+    let placed = if super::cf::rotated_pole(path, name)?.is_some() {
+        Some("a rotated-pole grid; read it with load_volume (native spherical rendering)")
+    } else if super::cf::curvilinear_coords(path, &attributes, dims)?.is_some() {
+        Some("a curvilinear grid (2-D latitude and longitude); read one level with load_grid (regridded) or the volume in index space with load_volume(path, #{ geometry: \"cartesian\" })")
+    } else {
+        None
+    };
+    if let Some(what) = placed {
+        return Err(Error::format(
+            path,
+            format!("'{name}' lies on {what}; bricked (opened) volumes are regular boxes"),
+        ));
+    }
     let dims: Vec<(String, usize)> = dims.iter().cloned().zip(shape.iter().copied()).collect();
     for d in super::cf::dim_coords(path, &dims)? {
         let Some(c) = &d.coord else { continue };

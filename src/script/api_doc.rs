@@ -232,6 +232,7 @@ pub(crate) fn reference_markdown() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::script::options::Kind;
     use crate::script::{run_script_source, ScriptOptions};
 
     /// Runs `source` as a planning run (options checked, nothing rendered or written) in a
@@ -239,9 +240,18 @@ mod tests {
     /// tables' calls load it) and `series.nc`, a time series (series_range's).
     fn plan(source: &str) -> crate::Result<()> {
         let dir = tempfile::tempdir().unwrap();
+        plan_fixtures(dir.path());
+        let mut opts = ScriptOptions::new(dir.path().join("out"));
+        opts.progress = false;
+        opts.plan_only = true;
+        run_script_source(source, "t.rhai", dir.path(), &opts).map(|_| ())
+    }
+
+    /// The files the tables' calls read, written into `dir`.
+    fn plan_fixtures(dir: &std::path::Path) {
         let uz: Vec<f64> = (0..12).map(|i| i as f64 * 0.25 - 1.0).collect();
         crate::datasets::netcdf::write_grid(
-            dir.path().join("geo.nc"),
+            dir.join("geo.nc"),
             &[
                 ("lat", &[10.0, 20.0, 30.0], "degrees_north"),
                 ("lon", &[100.0, 110.0, 120.0, 130.0], "degrees_east"),
@@ -253,11 +263,7 @@ mod tests {
         // A time series for series_range: the example script's fixture (xarray-written).
         let series = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("datasets/fixtures/tsunami_series.nc");
-        std::fs::copy(series, dir.path().join("series.nc")).unwrap();
-        let mut opts = ScriptOptions::new(dir.path().join("out"));
-        opts.progress = false;
-        opts.plan_only = true;
-        run_script_source(source, "t.rhai", dir.path(), &opts).map(|_| ())
+        std::fs::copy(series, dir.join("series.nc")).unwrap();
     }
 
     fn tables() -> Vec<&'static OptionTable> {
@@ -294,6 +300,10 @@ mod tests {
                         && ["relief", "exaggeration"].contains(&spec.name) =>
                     {
                         table.base.replace(" }", ", view: \"perspective\" }")
+                    }
+                    // A seed varies jittered renders.
+                    _ if table.function == "render_volume" && spec.name == "seed" => {
+                        table.base.replace(" }", ", jitter: true }")
                     }
                     // Faces are a cut's.
                     _ if spec.name == "cut_faces" => {
@@ -340,6 +350,160 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Values to try for an option when looking for one that changes the image: the example,
+    /// every choice, both switches, and a few points of a range.
+    fn candidates(kind: &Kind, default: &str) -> Vec<String> {
+        let mut out = vec![kind.example(default)];
+        match kind {
+            Kind::Choice(names) => out.extend(names.iter().map(|n| format!("{n:?}"))),
+            Kind::Bool => out.extend(["false".to_string(), "true".to_string()]),
+            Kind::Int(lo, hi) => {
+                out.extend([lo + 1, (lo + 3).min(*hi), (*hi).min(64)].map(|v| v.to_string()))
+            }
+            Kind::Num(lo, hi) | Kind::NumAbove(lo, hi) => {
+                let hi = if hi.is_finite() { *hi } else { lo + 8.0 };
+                out.extend([0.25, 0.5, 0.9].map(|f| format!("{:?}", lo + f * (hi - lo))));
+            }
+            Kind::Finite => out.extend(["-1.0", "0.5", "2.0", "7.0"].map(String::from)),
+            Kind::Text(_) | Kind::Value(..) => {}
+        }
+        out
+    }
+
+    /// The pixels a real run of `source` saves to `x.exr`, or the run's error.
+    fn image_of(dir: &std::path::Path, source: &str) -> Result<Vec<[f32; 4]>, String> {
+        let out = dir.join("out");
+        let _ = std::fs::remove_dir_all(&out);
+        let mut opts = ScriptOptions::new(out.clone());
+        opts.progress = false;
+        run_script_source(source, "t.rhai", dir, &opts).map_err(|e| e.to_string())?;
+        crate::io::exr::read_exr(&out.join("x.exr"))
+            .map(|img| img.pixels)
+            .map_err(|e| e.to_string())
+    }
+
+    /// The options of image-making functions that change nothing in [`audit_options`]'s scenes,
+    /// each with why that is not an option ignored.
+    const UNCHANGED_FOR_A_REASON: [(&str, &str); 21] = [
+        ("render_volume tf", "the base call's own transfer function"),
+        ("render_volume background", "the example is the default"),
+        (
+            "render_volume empty_space_skipping",
+            "exact by design: the same image, faster",
+        ),
+        (
+            "render_volume memory_budget",
+            "the in-memory volume fits every budget tried",
+        ),
+        (
+            "render_volume early_exit",
+            "no ray of the small scene reaches the threshold",
+        ),
+        (
+            "render_volume shading",
+            "the small scene's gradients light it as unshaded",
+        ),
+        ("render_volume shading ambient", "as shading"),
+        ("render_volume shading diffuse", "as shading"),
+        ("render_volume shading specular", "as shading"),
+        ("render_volume shading shininess", "as shading"),
+        (
+            "render_volume cut plane point",
+            "the example is the base call's point",
+        ),
+        ("render_surface colormap", "the example is the default"),
+        ("render_surface property", "the fixture's only property"),
+        (
+            "render_surface missing",
+            "the fixture has no missing values",
+        ),
+        (
+            "render_surface coastlines resolution",
+            "no coast differs at 8 x 8 pixels",
+        ),
+        ("surface_colorbar colormap", "the example is the default"),
+        ("surface_colorbar property", "the fixture's only property"),
+        ("surface_legend colormap", "the example is the default"),
+        ("surface_legend property", "the fixture's only property"),
+        ("tonemap saturation", "the test image is grey"),
+        (
+            "tonemap gamut",
+            "the test image is grey, within every gamut",
+        ),
+    ];
+
+    /// No option silently ignored: for every table of a function that makes an image, each
+    /// option either changes the image for some value or is refused, except the options
+    /// [`UNCHANGED_FOR_A_REASON`] names, which must be exactly those that change nothing (so a
+    /// newly ignored option, or a stale entry, fails).
+    #[test]
+    fn audit_options() {
+        let dir = tempfile::tempdir().unwrap();
+        plan_fixtures(dir.path());
+        let makes_image = [
+            "render_volume",
+            "render_surface",
+            "tonemap",
+            "false_colour",
+            "surface_colorbar",
+            "surface_legend",
+        ];
+        let mut silent = Vec::new();
+        for table in tables() {
+            if !makes_image.iter().any(|f| table.call.starts_with(f)) {
+                continue;
+            }
+            let call = table.call.replace("OPTS", "o");
+            let base_source = format!("let o = {}; save_exr({call}, \"x.exr\");", table.base);
+            let Ok(base) = image_of(dir.path(), &base_source) else {
+                eprintln!("{}: the base call fails", table.function);
+                continue;
+            };
+            for spec in table.options {
+                let mut verdicts = Vec::new();
+                let (mut changed, mut same) = (false, false);
+                for value in candidates(&spec.kind, spec.default) {
+                    let source = format!(
+                        "let o = {}; o[{:?}] = {value}; save_exr({call}, \"x.exr\");",
+                        table.base, spec.name
+                    );
+                    match image_of(dir.path(), &source) {
+                        Err(e) => verdicts.push(format!(
+                            "{value}: refused ({})",
+                            e.lines().next().unwrap_or("")
+                        )),
+                        Ok(img) if img != base => changed = true,
+                        Ok(_) => {
+                            same = true;
+                            verdicts.push(format!("{value}: same"));
+                        }
+                    }
+                }
+                if same && !changed {
+                    silent.push(format!(
+                        "{} {}: {}",
+                        table.function,
+                        spec.name,
+                        verdicts.join("; ")
+                    ));
+                }
+            }
+        }
+        let mut expected: Vec<&str> = UNCHANGED_FOR_A_REASON.iter().map(|e| e.0).collect();
+        let mut names: Vec<&str> = silent
+            .iter()
+            .map(|s| s.split(':').next().unwrap_or(""))
+            .collect();
+        expected.sort_unstable();
+        names.sort_unstable();
+        assert_eq!(
+            names,
+            expected,
+            "options that changed nothing and were not refused:\n{}",
+            silent.join("\n")
+        );
     }
 
     /// The tone-mapping operators that take the parameter `name`.

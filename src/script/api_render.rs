@@ -139,7 +139,7 @@ pub(crate) const RENDER_VOLUME: OptionTable = OptionTable {
         opt("height", SIDE, "512", "pixels"),
         opt("step", Kind::Num(1e-4, 1e4), "1", "ray-march step in voxels"),
         opt("jitter", Kind::Bool, "false", "offset each ray's first sample randomly (hides wood-grain)"),
-        opt("seed", Kind::Int(0, u32::MAX as i64), "0", "seed of the jitter"),
+        opt("seed", Kind::Int(0, u32::MAX as i64), "0", "seed of the jitter (with jitter: true; refused without it)"),
         opt("early_exit", Kind::Num(0.0, 0.999_999), "0", "stop a ray once its transmittance falls below this (0: never)"),
         opt("background", Kind::Value("[r, g, b]", "[0.0, 0.0, 0.0]"), "[0, 0, 0]", "linear radiance behind the volume"),
         opt("filter", Kind::Choice(FilterMode::NAMES), "\"auto\"", "trilinear filtering: hardware where exact enough, exact in the shader otherwise"),
@@ -672,7 +672,16 @@ fn take_render_options(o: &mut VolumeRenderOptions, given: &Given) -> RResult<()
     }
     o.step = given.num("step")?.unwrap_or(o.step);
     o.jitter = given.bool("jitter")?.unwrap_or(o.jitter);
-    o.seed = given.int("seed")?.map_or(o.seed, |s| s as u32);
+    if let Some(seed) = given.int("seed")? {
+        // A seed varies only jittered rays: without jitter it would change nothing.
+        if !o.jitter {
+            return Err(to_rhai(crate::Error::invalid(
+                "seed",
+                format!("{seed} with jitter off; a seed varies only jittered renders (add jitter: true)"),
+            )));
+        }
+        o.seed = seed as u32;
+    }
     o.early_exit = given.num("early_exit")?.unwrap_or(o.early_exit);
     if let Some(v) = given.value("background")? {
         o.background = vec3(v, "background")?;

@@ -89,6 +89,13 @@ fn auxiliary_variables_are_not_chosen_as_data() {
     };
     let v = hdrvis::datasets::load_volume_with(&path, &cartesian).unwrap();
     assert_eq!(v.name, "temp");
+    let e = hdrvis::datasets::bricked::open_bricked(&path, Some("temp"), 32)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("'temp' lies on a curvilinear grid (2-D latitude and longitude)"),
+        "{e}"
+    );
     let got: Vec<f64> = v.data.iter().map(|&x| f64::from(x)).collect();
     assert_values(&got, &numbers(&r, "temp"), 0.0, "temp");
     let (code, out, err) = hdrvis(&["info", path.to_str().unwrap()], dir.path());
@@ -521,6 +528,11 @@ fn rotated_pole_volumes_lie_at_their_true_positions() {
             .contains("(rotated: rotated pole at 39.25°N -162°E)"),
         "{g}"
     );
+    // Bricks are boxes: the opened volume would lie elsewhere, so it is refused.
+    let e = hdrvis::datasets::bricked::open_bricked(&path, Some("blob"), 32)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("'blob' lies on a rotated-pole grid"), "{e}");
     let n = 96u32;
     std::fs::write(
         dir.path().join("r.rhai"),
