@@ -245,22 +245,14 @@ fn geotiff_grid(
         ));
     }
     let r = geotiff::read(path, band)?;
-    let axis = |name: &str, units: &str, values, kind| {
-        Some(GridAxis {
-            name: name.to_string(),
-            units: Some(units.to_string()),
-            values,
-            kind,
-        })
-    };
     Ok(GridFile {
         name: r.name,
         selected: Vec::new(),
         units: r.units,
         shape: r.shape,
         data: r.data,
-        x: axis("lon", "degrees_east", r.lon, CoordKind::Longitude),
-        y: axis("lat", "degrees_north", r.lat, CoordKind::Latitude),
+        x: geographic_axis("lon", r.lon, CoordKind::Longitude),
+        y: geographic_axis("lat", r.lat, CoordKind::Latitude),
         wavelength: None,
         rotated_pole: None,
         regridded: None,
@@ -411,6 +403,20 @@ fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<NetcdfGridAxes> {
     })
 }
 
+/// A longitude or latitude axis in CF's degrees east or north.
+fn geographic_axis(name: &str, values: Vec<f64>, kind: CoordKind) -> Option<GridAxis> {
+    let units = match kind {
+        CoordKind::Latitude => "degrees_north",
+        _ => "degrees_east",
+    };
+    Some(GridAxis {
+        name: name.to_string(),
+        units: Some(units.to_string()),
+        values,
+        kind,
+    })
+}
+
 /// A resolution is for curvilinear grids: refused for any other.
 fn no_resolution(path: &Path, resolution: Option<f64>) -> Result<()> {
     match resolution {
@@ -450,17 +456,9 @@ fn regrid_curvilinear(
         "curvilinear {}({y}, {x}) and {}({y}, {x}), {} x {} nodes, regridded onto {:.6} degrees",
         lat.name, lon.name, file.shape[0], file.shape[1], r.step
     ));
-    let axis = |name: &str, units: &str, values, kind| {
-        Some(GridAxis {
-            name: name.to_string(),
-            units: Some(units.to_string()),
-            values,
-            kind,
-        })
-    };
     file.shape = [r.lat.len(), r.lon.len()];
-    file.x = axis(&lon.name, "degrees_east", r.lon, CoordKind::Longitude);
-    file.y = axis(&lat.name, "degrees_north", r.lat, CoordKind::Latitude);
+    file.x = geographic_axis(&lon.name, r.lon, CoordKind::Longitude);
+    file.y = geographic_axis(&lat.name, r.lat, CoordKind::Latitude);
     file.data = r.data;
     Ok(())
 }
