@@ -1,18 +1,18 @@
-//! Curvilinear grids: a field on (y, x) whose latitude and longitude are 2-D auxiliary
-//! coordinates (CF `coordinates`), as ocean and regional models write them. Maps, globes,
-//! coastlines and fringes work on regular latitude–longitude grids, so the field is regridded
-//! once, at load, onto one: each cell of the curvilinear grid is split into two triangles along
-//! its (i, j)–(i + 1, j + 1) diagonal, and every regular node inside a triangle takes the value
-//! linear in (longitude, latitude) over it (barycentric weights of its three nodes; a missing
-//! node makes the triangle missing, as a missing voxel does its cell). Nodes no triangle covers
-//! are missing. The regridded field is therefore exact for fields linear in longitude and
-//! latitude and otherwise the grid's own piecewise-linear interpolant, sampled at the regular
-//! nodes; the default step is the median edge of the grid's cells, so no detail the source
-//! resolves is lost to the sampling. Longitudes are unwrapped along rows and the first column
-//! (each within half a turn of its neighbour), so a grid across the antimeridian stays one piece;
-//! one that goes all round (a global ocean grid: in most rows the last node is within one and a
-//! half steps of the first, a turn on) is periodic, its last column joined to its first, and gives
-//! a regular grid all round, triangles across the seam drawn on both sides. Triangles spanning more than half a turn of longitude (at a pole
+//! Curvilinear grids: a field on (y, x) whose latitude and longitude are 2-D auxiliary coordinates
+//! (CF `coordinates`), as ocean and regional models write them. Maps, globes, coastlines and
+//! fringes work on regular latitude–longitude grids, so the field is regridded once, at load, onto
+//! one: each cell of the curvilinear grid is split into two triangles along its (i, j)–(i+1, j+1)
+//! diagonal, and every regular node inside a triangle takes the value linear in (longitude,
+//! latitude) over it (barycentric weights of its three nodes; a missing node makes the triangle
+//! missing, as a missing voxel does its cell). Nodes no triangle covers are missing. The regridded
+//! field is therefore exact for fields linear in longitude and latitude and otherwise the grid's
+//! own piecewise-linear interpolant, sampled at the regular nodes; the default step is the median
+//! edge of the grid's cells, so no detail the source resolves is lost to the sampling. Longitudes
+//! are unwrapped along rows and the first column (each within half a turn of its neighbour), so a
+//! grid across the antimeridian stays one piece; one that goes all round (a global ocean grid: in
+//! most rows the last node is within one and a half steps of the first, a turn on) is periodic, its
+//! last column joined to its first, and gives a regular grid all round from −180°, triangles across
+//! the seam drawn on both sides. Triangles spanning more than half a turn of longitude (at a pole
 //! or a fold of a tripolar grid) are left out.
 
 use crate::error::{Error, Result};
@@ -178,10 +178,10 @@ pub(crate) fn regrid(grid: &Curvilinear, data: &[f64], step: Option<f64>) -> Res
     };
     let all_round = grid.rows_close(&lon);
     let (lon_nodes, step_lon) = if all_round {
-        // Whole steps round the circle.
+        // Whole steps round the circle from the antimeridian, as global products have them.
         let n = (360.0 / step).round().max(1.0) as usize;
         let s = 360.0 / n as f64;
-        ((0..n).map(|k| lon_lo + k as f64 * s).collect(), s)
+        ((0..n).map(|k| -180.0 + k as f64 * s).collect(), s)
     } else {
         (nodes(lon_lo, lon_hi, step), step)
     };
@@ -266,8 +266,10 @@ impl Target {
             return;
         }
         let value = |w: [f64; 3]| w[0] * corners[0].1 + w[1] * corners[1].1 + w[2] * corners[2].1;
+        // All round, a triangle is drawn at every turn that meets [-180, 180): unwrapped
+        // longitudes lie within a turn or two of it.
         let shifts: &[f64] = if self.all_round {
-            &[-360.0, 0.0, 360.0]
+            &[-720.0, -360.0, 0.0, 360.0, 720.0]
         } else {
             &[0.0]
         };
@@ -368,8 +370,9 @@ mod tests {
         assert!(inside > 300 && outside > 100, "{inside} {outside}");
     }
 
-    /// A grid all round the globe stored from 0 to 357.5 with a row across the seam at 180:
-    /// the regular grid goes all round and every node between its latitudes has a value.
+    /// A grid all round the globe stored in [-180, 180) from -80, so its rows jump at the
+    /// antimeridian: the regular grid goes all round from -180 and every node between its
+    /// latitudes has a value.
     #[test]
     fn a_global_grid_regrids_all_round() {
         let (ny, nx) = (10, 144);
@@ -390,6 +393,7 @@ mod tests {
         };
         let r = regrid(&grid, &data, Some(2.5)).unwrap();
         assert_eq!(r.lon.len(), 144);
+        assert_eq!(r.lon[0], -180.0);
         let missing = r.data.iter().filter(|v| v.is_nan()).count();
         assert_eq!(missing, 0, "{missing} of {} nodes missing", r.data.len());
         for (j, y) in r.lat.iter().enumerate() {
