@@ -398,7 +398,7 @@ fn refuse_geographic(path: &Path, name: &str, dims: &[String], shape: &[usize]) 
     let attributes = super::netcdf::variable_attributes(path, name)?;
     let placed = if super::cf::rotated_pole(path, name)?.is_some() {
         Some("a rotated-pole grid; read it with load_volume (native spherical rendering)")
-    } else if super::cf::curvilinear_coords(path, &attributes, dims)?.is_some() {
+    } else if super::cf::curvilinear_coords(path, name, &attributes, dims)?.is_some() {
         Some("a curvilinear grid (2-D latitude and longitude); read one level with load_grid (regridded) or the volume in index space with load_volume(path, #{ geometry: \"cartesian\" })")
     } else {
         None

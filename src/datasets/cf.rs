@@ -500,18 +500,31 @@ pub(crate) fn declared_radius(
     Ok(None)
 }
 
-/// The 2-D latitude and longitude of a variable on a curvilinear grid: the auxiliary
-/// coordinates its `coordinates` attribute names whose dimensions are the variable's last two
-/// (`dims`, in that order) and whose CF role is latitude and longitude; `None` unless both are
-/// there.
+/// The 2-D latitude and longitude of `variable` on a curvilinear grid: the auxiliary
+/// coordinates its `coordinates` attribute names whose dimensions are its last two (`dims`, in
+/// that order) and whose CF role is latitude and longitude; `None` unless both are there, and
+/// for a grid placed otherwise — by 1-D latitude and longitude axes (which the 2-D coordinates
+/// only repeat) or a rotated pole (CORDEX writes both).
 pub(crate) fn curvilinear_coords(
     path: &Path,
+    variable: &str,
     attributes: &[(String, NcAttribute)],
     dims: &[String],
 ) -> Result<Option<(NcVariable, NcVariable)>> {
     let (Some(names), [.., y, x]) = (attr_text(attributes, "coordinates"), dims) else {
         return Ok(None);
     };
+    let geographic = |dim: &str| -> Result<bool> {
+        Ok(netcdf::coordinate_variable(path, dim)?.is_some_and(|c| {
+            matches!(
+                axis_role(path, &c),
+                Ok(AxisRole::Latitude | AxisRole::Longitude)
+            )
+        }))
+    };
+    if (geographic(y)? && geographic(x)?) || rotated_pole(path, variable)?.is_some() {
+        return Ok(None);
+    }
     let listed = netcdf::list_variables(path)?;
     let (mut lat, mut lon) = (None, None);
     for name in names.split_whitespace() {

@@ -45,12 +45,7 @@ impl Curvilinear<'_> {
     /// (unwrapped), median cell edge e degrees".
     pub(crate) fn describe(&self) -> String {
         let lon = self.unwrapped();
-        let range = |v: &[f64]| {
-            let finite = v.iter().filter(|x| x.is_finite());
-            let lo = finite.clone().fold(f64::INFINITY, |a, b| a.min(*b));
-            (lo, finite.fold(f64::NEG_INFINITY, |a, b| a.max(*b)))
-        };
-        let ((a, b), (c, d)) = (range(self.lat), range(&lon));
+        let ((a, b), (c, d)) = (finite_range(self.lat), finite_range(&lon));
         let edge = self
             .median_edge(&lon)
             .map_or("no cell of non-zero size".to_string(), |e| {
@@ -151,19 +146,7 @@ pub(crate) fn regrid(grid: &Curvilinear, data: &[f64], step: Option<f64>) -> Res
         ));
     }
     let lon = grid.unwrapped();
-    let finite = |v: &&f64| v.is_finite();
-    let span = |values: &[f64]| {
-        let lo = values
-            .iter()
-            .filter(finite)
-            .fold(f64::INFINITY, |a, b| a.min(*b));
-        let hi = values
-            .iter()
-            .filter(finite)
-            .fold(f64::NEG_INFINITY, |a, b| a.max(*b));
-        (lo, hi)
-    };
-    let ((lat_lo, lat_hi), (lon_lo, lon_hi)) = (span(grid.lat), span(&lon));
+    let ((lat_lo, lat_hi), (lon_lo, lon_hi)) = (finite_range(grid.lat), finite_range(&lon));
     if !(lat_lo.is_finite() && lon_lo.is_finite()) {
         return Err(Error::invalid(
             "curvilinear grid",
@@ -227,6 +210,16 @@ pub(crate) fn regrid(grid: &Curvilinear, data: &[f64], step: Option<f64>) -> Res
     })
 }
 
+/// The least and greatest finite value (infinite when there is none).
+fn finite_range(values: &[f64]) -> (f64, f64) {
+    values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(*v), hi.max(*v))
+        })
+}
+
 /// Nodes `lo + k·step` from `lo` to at most `hi`.
 fn nodes(lo: f64, hi: f64, step: f64) -> Vec<f64> {
     let n = ((hi - lo) / step + 1e-9).floor() as usize + 1;
@@ -258,11 +251,9 @@ impl Target {
         // Within half a turn of the first corner; wider triangles (a pole, a fold) are left out.
         let near = |p: [f64; 2]| [p[0] - 360.0 * ((p[0] - a[0]) / 360.0).round(), p[1]];
         let (b, c) = (near(b), near(c));
-        let lons = [a[0], b[0], c[0]];
-        let width = lons.iter().fold(f64::NEG_INFINITY, |m, v| m.max(*v))
-            - lons.iter().fold(f64::INFINITY, |m, v| m.min(*v));
+        let (west, east) = finite_range(&[a[0], b[0], c[0]]);
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
-        if width > 180.0 || area == 0.0 {
+        if east - west > 180.0 || area == 0.0 {
             return;
         }
         let value = |w: [f64; 3]| w[0] * corners[0].1 + w[1] * corners[1].1 + w[2] * corners[2].1;
@@ -273,16 +264,13 @@ impl Target {
         } else {
             &[0.0]
         };
+        let (south, north) = finite_range(&[a[1], b[1], c[1]]);
         for &shift in shifts {
-            let lon_range = [
-                lons.iter().fold(f64::INFINITY, |m, v| m.min(*v)) + shift,
-                lons.iter().fold(f64::NEG_INFINITY, |m, v| m.max(*v)) + shift,
-            ];
+            let lon_range = [west + shift, east + shift];
             let Some(is) = span_of(lon_range, self.lon0, self.step_lon, self.nx) else {
                 continue;
             };
-            let lat_range = [a[1].min(b[1]).min(c[1]), a[1].max(b[1]).max(c[1])];
-            let Some(js) = span_of(lat_range, self.lat0, self.step_lat, self.ny) else {
+            let Some(js) = span_of([south, north], self.lat0, self.step_lat, self.ny) else {
                 continue;
             };
             for j in js.0..=js.1 {

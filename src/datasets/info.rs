@@ -266,21 +266,21 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
             p.describe()
         );
     }
-    if pole.is_none() {
-        if let Some((lat, lon)) = cf::curvilinear_coords(path, &array.attributes, &array.dims)? {
-            let grid = super::curvilinear::Curvilinear {
-                shape: [lat.dims[0].1, lat.dims[1].1],
-                lat: &lat.data,
-                lon: &lon.data,
-            };
-            let _ = writeln!(
-                out,
-                "curvilinear grid: {} and {} are 2-D; {} (load_grid regrids it onto a regular latitude-longitude grid; volumes on it load with geometry: \"cartesian\" only)",
-                lat.name,
-                lon.name,
-                grid.describe()
-            );
-        }
+    if let Some((lat, lon)) =
+        cf::curvilinear_coords(path, &array.name, &array.attributes, &array.dims)?
+    {
+        let grid = super::curvilinear::Curvilinear {
+            shape: [lat.dims[0].1, lat.dims[1].1],
+            lat: &lat.data,
+            lon: &lon.data,
+        };
+        let _ = writeln!(
+            out,
+            "curvilinear grid: {} and {} are 2-D; {} (load_grid regrids it onto a regular latitude-longitude grid; volumes on it load with geometry: \"cartesian\" only)",
+            lat.name,
+            lon.name,
+            grid.describe()
+        );
     }
     for note in &array.notes {
         let _ = writeln!(out, "selected: {note}");

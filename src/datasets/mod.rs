@@ -388,13 +388,7 @@ fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<NetcdfGridAxes> {
             }
         }
     }
-    let geographic = |a: &Option<GridAxis>, kind| a.as_ref().is_some_and(|a| a.kind == kind);
-    let mut curvilinear = None;
-    if rotated_pole.is_none()
-        && !(geographic(&x, CoordKind::Longitude) && geographic(&y, CoordKind::Latitude))
-    {
-        curvilinear = cf::curvilinear_coords(path, &array.attributes, &array.dims)?;
-    }
+    let curvilinear = cf::curvilinear_coords(path, &array.name, &array.attributes, &array.dims)?;
     Ok(NetcdfGridAxes {
         x,
         y,
@@ -657,19 +651,9 @@ fn volume_from_netcdf_array(
 /// renderer knows: refused, naming the way to a level as a regridded surface or the volume in
 /// index space.
 fn refuse_curvilinear(path: &Path, array: &ArrayData, coords: &[cf::DimCoord]) -> Result<()> {
-    // 1-D geographic axes (the 2-D coordinates then only repeat them), or a rotated pole's.
-    let geographic = coords.iter().rev().take(2).all(|d| {
-        d.coord.as_ref().is_some_and(|c| {
-            matches!(
-                cf::axis_role(path, c),
-                Ok(cf::AxisRole::Latitude | cf::AxisRole::Longitude)
-            )
-        })
-    });
-    if geographic || cf::rotated_pole(path, &array.name)?.is_some() {
-        return Ok(());
-    }
-    let Some((lat, lon)) = cf::curvilinear_coords(path, &array.attributes, &array.dims)? else {
+    let Some((lat, lon)) =
+        cf::curvilinear_coords(path, &array.name, &array.attributes, &array.dims)?
+    else {
         return Ok(());
     };
     let level = coords.first().map_or("level", |d| d.name.as_str());

@@ -58,15 +58,13 @@ fn check_finite(field: &str, v: &[f64]) -> Result<()> {
 }
 
 impl Camera {
-    /// The same camera in a frame turned by the rotation `m` about the origin (rows: the new
-    /// frame's axes in the old one), as a rotated-pole volume's grid frame.
-    pub(crate) fn turned(&self, m: [[f64; 3]; 3]) -> Camera {
-        let turn = |v: [f64; 3]| m.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2]);
+    /// The same camera in the frame of a rotated-pole grid (turned about the planet's centre).
+    pub(crate) fn turned(&self, pole: &super::RotatedPole) -> Camera {
         Camera {
-            eye: turn(self.eye),
-            forward: turn(self.forward),
-            right: turn(self.right),
-            up: turn(self.up),
+            eye: pole.turn(self.eye),
+            forward: pole.turn(self.forward),
+            right: pole.turn(self.right),
+            up: pole.turn(self.up),
             projection: self.projection,
         }
     }

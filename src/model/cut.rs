@@ -11,6 +11,7 @@
 //! The faces a cut opens may show the field as an opaque surface ([`CutFaces`]).
 
 use super::geometry::{cone_hits, sphere_hit, SphericalGrid};
+use super::vec3::dot;
 use super::Aabb;
 use crate::error::{Error, Result};
 
@@ -196,7 +197,7 @@ impl Cut {
         (0..3).all(|a| p[a] >= r[a][0] && p[a] <= r[a][1])
             && self.planes.iter().all(|plane| {
                 let (n, c) = plane.in_frame([0.0; 3]);
-                n[0] * p[0] + n[1] * p[1] + n[2] * p[2] >= c
+                dot(n, p) >= c
             })
     }
 
@@ -462,10 +463,6 @@ impl Cut {
         }
         t
     }
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Rays through a shell less what a cut removes, beside the shell's own crossings.

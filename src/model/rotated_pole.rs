@@ -84,6 +84,11 @@ impl RotatedPole {
         angles(self.rows.map(|row| dot(row, unit(lat, lon))))
     }
 
+    /// The true Cartesian vector `v` in the rotated frame.
+    pub(crate) fn turn(&self, v: [f64; 3]) -> [f64; 3] {
+        self.rows.map(|row| dot(row, v))
+    }
+
     /// The rotation from true to rotated Cartesian coordinates, rows x, y, z, for shaders.
     pub(crate) fn matrix(&self) -> [[f64; 3]; 3] {
         self.rows

@@ -138,9 +138,7 @@ pub fn great_circle_section(v: &Volume, spec: &SectionSpec) -> Result<Grid> {
         let (inside, u) = match &g.rotated_pole {
             None => (SphericalGrid::to_world(mid_radius, lats[i], lons[i]), *u),
             Some(p) => {
-                let ug = p
-                    .matrix()
-                    .map(|row| row[0] * u[0] + row[1] * u[1] + row[2] * u[2]);
+                let ug = p.turn(*u);
                 (ug.map(|c| c * mid_radius), ug)
             }
         };

@@ -61,9 +61,7 @@ impl ScriptCamera {
             VolumeSource::Bricked(_) => None,
         };
         Ok(match (self, pole) {
-            (ScriptCamera::Geo { .. } | ScriptCamera::Fixed(_), Some(p)) => {
-                camera.turned(p.matrix())
-            }
+            (ScriptCamera::Geo { .. } | ScriptCamera::Fixed(_), Some(p)) => camera.turned(&p),
             _ => camera,
         })
     }
