@@ -259,7 +259,7 @@ fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
 /// those are fixed (leading length-1 dimensions dropped), else the first of a higher rank (whose
 /// read then says which dimensions are left to fix); without a rank the first of the highest
 /// rank.
-fn default_netcdf_variable(
+pub(super) fn default_netcdf_variable(
     path: &Path,
     listed: &[ArrayListing],
     rank: Option<usize>,

@@ -98,8 +98,21 @@ pub(crate) struct NpyFileSource {
     big_endian: bool,
 }
 
-impl NpyFileSource {
-    pub(crate) fn open(path: &Path) -> Result<NpyFileSource> {
+/// Where a C-ordered `.npy` array's values lie in its file, and how they are stored: the
+/// header read and checked against the file's length, no values read.
+pub(crate) struct NpyLayout {
+    pub file: std::fs::File,
+    /// Byte offset of the first value.
+    pub offset: u64,
+    pub shape: Vec<usize>,
+    pub element: Scalar,
+    pub big_endian: bool,
+    /// The dtype as NumPy spells it (`<f4`).
+    pub descr: String,
+}
+
+impl NpyLayout {
+    pub(crate) fn open(path: &Path) -> Result<NpyLayout> {
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
         let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
         let bad = |m: String| Error::format(path, m);
@@ -142,27 +155,72 @@ impl NpyFileSource {
             ))
         })?;
         let shape: Vec<usize> = npy.shape().iter().map(|&s| s as usize).collect();
-        if shape.len() != 3 {
-            return Err(bad(format!(
-                "expected a 3-D array of shape (nz, ny, nx), got shape {shape:?}"
-            )));
-        }
-        let dims = [shape[2], shape[1], shape[0]];
-        crate::model::volume::check_shape(&dims, "shape").map_err(|e| bad(e.to_string()))?;
-        let need = dims.iter().map(|&d| d as u64).product::<u64>() * element.size() as u64;
-        if offset + need > len {
+        let need = shape
+            .iter()
+            .try_fold(element.size() as u64, |acc, &d| acc.checked_mul(d as u64))
+            .unwrap_or(u64::MAX);
+        if offset.saturating_add(need) > len {
             return Err(bad(format!(
                 "header declares shape {shape:?} of {descr} ({need} bytes) but the file holds only {} bytes after the header",
                 len - offset
             )));
         }
-        Ok(NpyFileSource {
-            path: path.to_path_buf(),
+        Ok(NpyLayout {
             file,
             offset,
-            dims,
+            shape,
             element,
             big_endian,
+            descr,
+        })
+    }
+
+    /// Values `start .. start + count` (in C order), decoded to f64; a file that shrank since it
+    /// was opened is an error naming the byte it ends before.
+    pub(crate) fn read_f64(&self, path: &Path, start: usize, count: usize) -> Result<Vec<f64>> {
+        let es = self.element.size();
+        let at = self.offset + (start * es) as u64;
+        let mut bytes = vec![0u8; count * es];
+        self.file
+            .read_exact_at(&mut bytes, at)
+            .map_err(|e| shrank(path, e, at + bytes.len() as u64))?;
+        Ok(self.element.decode_f64(self.big_endian, &bytes))
+    }
+}
+
+/// The error of a positioned read that failed: a file that ended early shrank after it was
+/// opened (its header was checked against its length then).
+fn shrank(path: &Path, e: std::io::Error, end: u64) -> Error {
+    if e.kind() == std::io::ErrorKind::UnexpectedEof {
+        Error::format(
+            path,
+            format!("ends before byte {end}: the file shrank after it was opened"),
+        )
+    } else {
+        Error::io(path, e)
+    }
+}
+
+impl NpyFileSource {
+    pub(crate) fn open(path: &Path) -> Result<NpyFileSource> {
+        let layout = NpyLayout::open(path)?;
+        let shape = &layout.shape;
+        if shape.len() != 3 {
+            return Err(Error::format(
+                path,
+                format!("expected a 3-D array of shape (nz, ny, nx), got shape {shape:?}"),
+            ));
+        }
+        let dims = [shape[2], shape[1], shape[0]];
+        crate::model::volume::check_shape(&dims, "shape")
+            .map_err(|e| Error::format(path, e.to_string()))?;
+        Ok(NpyFileSource {
+            path: path.to_path_buf(),
+            file: layout.file,
+            offset: layout.offset,
+            dims,
+            element: layout.element,
+            big_endian: layout.big_endian,
         })
     }
 
@@ -203,19 +261,9 @@ impl VoxelSource for NpyFileSource {
         let mut o = 0;
         for k in lo[2]..lo[2] + size[2] {
             let at = self.byte_of(lo[0], lo[1], k);
-            self.file.read_exact_at(&mut span, at).map_err(|e| {
-                if e.kind() == std::io::ErrorKind::UnexpectedEof {
-                    Error::format(
-                        &self.path,
-                        format!(
-                            "ends before byte {}: the file shrank after it was opened",
-                            at + span.len() as u64
-                        ),
-                    )
-                } else {
-                    Error::io(&self.path, e)
-                }
-            })?;
+            self.file
+                .read_exact_at(&mut span, at)
+                .map_err(|e| shrank(&self.path, e, at + span.len() as u64))?;
             for j in 0..size[1] {
                 self.element.decode_into(
                     self.big_endian,

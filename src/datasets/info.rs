@@ -13,76 +13,15 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use rayon::prelude::*;
-
 use super::select::Selection;
+use super::slabs::{Slabs, SLAB_VALUES};
+use super::stats::{histogram, streamed_min_gap, GapBuckets, GapPasses, ValueStats};
 use super::{cf, list_arrays, read_array_sel, ArrayData};
 use crate::error::Result;
 
-/// Widest histogram bar, in columns.
-const BAR_WIDTH: usize = 60;
-/// At most this many decade rows; smaller magnitudes are gathered into the first row.
-const MAX_DECADE_ROWS: i32 = 40;
-
-/// Statistics of one array's values.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct ValueStats {
-    pub count: usize,
-    pub finite: usize,
-    pub nan: usize,
-    pub infinite: usize,
-    pub zeros: usize,
-    pub min: Option<f64>,
-    pub max: Option<f64>,
-    pub min_abs_nonzero: Option<f64>,
-    pub max_abs: Option<f64>,
-    /// Smallest non-zero difference between two distinct finite values.
-    pub min_gap: Option<f64>,
-}
-
-impl ValueStats {
-    pub(crate) fn of(values: &[f64]) -> Self {
-        let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
-        let nan = values.iter().filter(|v| v.is_nan()).count();
-        let zeros = finite.iter().filter(|v| **v == 0.0).count();
-        finite.par_sort_unstable_by(f64::total_cmp);
-        let min_abs_nonzero = finite
-            .iter()
-            .filter(|v| **v != 0.0)
-            .map(|v| v.abs())
-            .reduce(f64::min);
-        let min_gap = finite
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .filter(|d| *d > 0.0)
-            .reduce(f64::min);
-        ValueStats {
-            count: values.len(),
-            finite: finite.len(),
-            nan,
-            infinite: values.len() - finite.len() - nan,
-            zeros,
-            min: finite.first().copied(),
-            max: finite.last().copied(),
-            min_abs_nonzero,
-            max_abs: match (finite.first(), finite.last()) {
-                (Some(lo), Some(hi)) => Some(lo.abs().max(hi.abs())),
-                _ => None,
-            },
-            min_gap,
-        }
-    }
-
-    /// Eq. 1 with d = the smallest non-zero |v|; `None` when every value is 0 or missing.
-    pub(crate) fn dynamic_range(&self) -> Option<f64> {
-        Some((self.max? - self.min?) / self.min_abs_nonzero?)
-    }
-
-    /// Eq. 1 with d = the smallest gap between distinct values.
-    pub(crate) fn dynamic_range_by_gap(&self) -> Option<f64> {
-        Some((self.max? - self.min?) / self.min_gap?)
-    }
-}
+/// Arrays of more values than this are read in slabs (where the format allows) rather than
+/// whole: whole, the values and the reader's copy take 16 bytes each.
+const STREAM_ABOVE: u64 = 1 << 24;
 
 /// The report `hdrvis info FILE [--variable NAME]` prints. Without `var`, an `.npz` is described
 /// by its largest array and a NetCDF file by its first data variable; both list every array. An
@@ -134,7 +73,7 @@ pub fn info_report_band(
         }
         return exr_report(path, var);
     }
-    let array = read_array_sel(path, var, None, sel)?;
+    let (array, stats, how_read) = read_with_stats(path, var, sel, STREAM_ABOVE, SLAB_VALUES)?;
     let mut out = String::new();
     let _ = writeln!(out, "file: {}", path.display());
     let ext = crate::io::extension(path);
@@ -170,7 +109,10 @@ pub fn info_report_band(
             }
         }
     }
-    describe_array(&mut out, &array);
+    describe_array(&mut out, &array, &stats);
+    if let Some(how) = how_read {
+        let _ = writeln!(out, "read: {how}");
+    }
     if super::hdf5::EXTENSIONS.contains(&ext.as_str()) {
         if let Some(product) = super::mintpy::open(path)? {
             for line in super::mintpy::describe(path, &product)? {
@@ -206,7 +148,8 @@ fn geotiff_report(
     let raster = super::geotiff::read(path, band)?;
     let mut out = String::new();
     let _ = writeln!(out, "file: {}", path.display());
-    describe_array(&mut out, &raster.array());
+    let array = raster.array();
+    describe_array(&mut out, &array, &ValueStats::of(&array.data));
     for line in raster.describe() {
         let _ = writeln!(out, "{line}");
     }
@@ -337,8 +280,77 @@ fn exr_report(path: &Path, channel: Option<&str>) -> Result<String> {
     Ok(out)
 }
 
-fn describe_array(out: &mut String, array: &ArrayData) {
+/// The array `info` describes and its statistics: read whole, or, above `stream_above` values
+/// where the format allows, in slabs of at most `slab_values` (`data` then empty) with a line on
+/// how.
+fn read_with_stats(
+    path: &Path,
+    var: Option<&str>,
+    sel: &Selection,
+    stream_above: u64,
+    slab_values: usize,
+) -> Result<(ArrayData, ValueStats, Option<String>)> {
+    if let Some(slabs) = Slabs::open(path, var, sel)? {
+        if slabs.len() > stream_above {
+            return streamed_stats(slabs, slab_values);
+        }
+    }
+    let array = read_array_sel(path, var, None, sel)?;
     let stats = ValueStats::of(&array.data);
+    Ok((array, stats, None))
+}
+
+/// Statistics from one pass over the slabs, the smallest gap from as many more as sorting the
+/// values a range at a time within a quarter of the available memory takes.
+fn streamed_stats(
+    slabs: Slabs,
+    slab_values: usize,
+) -> Result<(ArrayData, ValueStats, Option<String>)> {
+    let ranges = slabs.ranges(slab_values);
+    let mut stats = ValueStats::default();
+    let mut buckets = GapBuckets::new();
+    let mut fills = 0;
+    for rows in &ranges {
+        let slab = slabs.read(rows.clone())?;
+        stats.add(&slab.values);
+        buckets.add(&slab.values);
+        fills += slab.fills;
+    }
+    let budget = crate::model::volume::available_memory_bytes()
+        .unwrap_or(4 << 30)
+        .min(32 << 30)
+        / 4
+        / 8;
+    let (gap, passes) = streamed_min_gap(&buckets, budget, |visit| {
+        for rows in &ranges {
+            visit(&slabs.read(rows.clone())?.values);
+        }
+        Ok(())
+    })?;
+    stats.min_gap = gap;
+    let gap_note = match passes {
+        GapPasses::Passes(0) => "no finite values, so no gap".to_string(),
+        GapPasses::Passes(1) => "the smallest gap in one more pass".to_string(),
+        GapPasses::Passes(n) => {
+            format!("the smallest gap in {n} more passes, a range of values at a time")
+        }
+        GapPasses::TooDense { bucket_values } => format!(
+            "smallest gap not computed: {bucket_values} values share a range too narrow to split within the memory budget of {budget} values"
+        ),
+    };
+    let how = format!(
+        "in {} slab(s) of at most {} rows along '{}' ({} values in all); {gap_note}",
+        ranges.len(),
+        ranges.first().map_or(0, |r| r.len()),
+        slabs.meta.dims.first().map_or("-", String::as_str),
+        slabs.len()
+    );
+    let mut array = slabs.meta;
+    array.fill_count = fills;
+    Ok((array, stats, Some(how)))
+}
+
+fn describe_array(out: &mut String, array: &ArrayData, stats: &ValueStats) {
     let dims: Vec<String> = array
         .dims
         .iter()
@@ -380,88 +392,13 @@ fn describe_array(out: &mut String, array: &ArrayData) {
         show(stats.min_gap),
         decades(stats.dynamic_range_by_gap())
     );
-    out.push_str(&histogram(&array.data, &stats));
-}
-
-/// One row per decade of |v| from the smallest non-zero magnitude to the largest, bars scaled
-/// to the fullest row; zeros get their own row.
-fn histogram(values: &[f64], stats: &ValueStats) -> String {
-    let mut text = String::from("histogram of |v| (one row per decade):\n");
-    let (Some(lo), Some(hi)) = (stats.min_abs_nonzero, stats.max_abs) else {
-        text.push_str("  (no non-zero finite values)\n");
-        return text;
-    };
-    let top = hi.log10().floor() as i32;
-    let bottom = (lo.log10().floor() as i32).max(top - MAX_DECADE_ROWS + 1);
-    let rows = (top - bottom + 1) as usize;
-    let counts = values
-        .par_iter()
-        .filter(|v| v.is_finite() && **v != 0.0)
-        .fold(
-            || vec![0usize; rows],
-            |mut acc, v| {
-                let decade = (v.abs().log10().floor() as i32).clamp(bottom, top);
-                acc[(decade - bottom) as usize] += 1;
-                acc
-            },
-        )
-        .reduce(
-            || vec![0usize; rows],
-            |mut a, b| {
-                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-                a
-            },
-        );
-    let fullest = counts
-        .iter()
-        .copied()
-        .max()
-        .unwrap_or(0)
-        .max(stats.zeros)
-        .max(1);
-    let bar = |count: usize| {
-        // Any non-empty row shows at least one mark, so sparse decades stay visible.
-        let width = (count * BAR_WIDTH).div_ceil(fullest);
-        "#".repeat(width)
-    };
-    if stats.zeros > 0 {
-        let _ = writeln!(
-            text,
-            "  {:>21} | {:<BAR_WIDTH$} {}",
-            "0",
-            bar(stats.zeros),
-            stats.zeros
-        );
-    }
-    for (row, &count) in counts.iter().enumerate() {
-        let decade = bottom + row as i32;
-        let label = if row == 0 && decade > lo.log10().floor() as i32 {
-            format!("< 1e{}", decade + 1)
-        } else {
-            format!("[1e{decade}, 1e{})", decade + 1)
-        };
-        let _ = writeln!(text, "  {label:>21} | {:<BAR_WIDTH$} {count}", bar(count));
-    }
-    text
+    out.push_str(&histogram(stats));
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::datasets::netcdf;
-
-    #[test]
-    fn stats_and_dynamic_range_of_a_small_volume() {
-        // Values chosen so every number is known: min -2, max 1000, smallest |v| 1e-3,
-        // D = 1002 / 1e-3 = 1.002e6; distinct sorted values -2, 0, 1e-3, 1, 1000: gap 1e-3.
-        let data = [-2.0, 0.0, 1e-3, 1.0, 1000.0, f64::NAN, f64::INFINITY, 1.0];
-        let s = ValueStats::of(&data);
-        assert_eq!((s.min, s.max), (Some(-2.0), Some(1000.0)));
-        assert_eq!((s.nan, s.infinite, s.zeros, s.finite), (1, 1, 1, 6));
-        assert_eq!(s.min_abs_nonzero, Some(1e-3));
-        assert_eq!(s.min_gap, Some(1e-3));
-        assert!((s.dynamic_range().unwrap() - 1.002e6).abs() < 1e-6);
-    }
 
     #[test]
     fn report_on_a_netcdf_volume_counts_fills_and_draws_decades() {
@@ -505,6 +442,78 @@ mod tests {
             err.contains("no variable 'salinity'") && err.contains("temperature"),
             "{err}"
         );
+    }
+
+    /// The slab path reads what the whole read reads: every statistic, the fill count and the
+    /// description equal, for a NetCDF variable under a selection and for an `.npy` array.
+    #[test]
+    fn statistics_read_in_slabs_equal_those_of_the_whole_array() {
+        let dir = tempfile::tempdir().unwrap();
+        let (nx, ny, nz) = (7usize, 5usize, 6usize);
+        let data: Vec<f32> = (0..nx * ny * nz)
+            .map(|i| match i % 23 {
+                0 => f32::NAN,
+                1 => 0.0,
+                _ => ((i as f32) * 0.37).sin() * 10f32.powi((i % 9) as i32 - 4),
+            })
+            .collect();
+        let nc = dir.path().join("v.nc");
+        netcdf::write_volume(
+            &nc,
+            [nx, ny, nz],
+            [1.0; 3],
+            [0.0; 3],
+            "km",
+            ("t", &data, "K", "temperature"),
+            &[],
+        )
+        .unwrap();
+        let npy = dir.path().join("v.npy");
+        crate::datasets::npy::write_npy_f32(&npy, &[nz, ny, nx], &data).unwrap();
+        let at_y = Selection {
+            index: vec![("y".into(), 2)],
+            at: Vec::new(),
+        };
+        for (path, sel) in [
+            (&nc, Selection::default()),
+            (&nc, at_y),
+            (&npy, Selection::default()),
+        ] {
+            let (whole, whole_stats, none) =
+                read_with_stats(path, None, &sel, u64::MAX, 1).unwrap();
+            assert!(none.is_none());
+            for slab in [1, 13, 35, 1000] {
+                let (meta, stats, how) = read_with_stats(path, None, &sel, 0, slab).unwrap();
+                assert_eq!(stats, whole_stats, "{} slab {slab}", path.display());
+                assert_eq!(
+                    (
+                        &meta.name,
+                        &meta.dims,
+                        &meta.shape,
+                        &meta.dtype,
+                        &meta.units
+                    ),
+                    (
+                        &whole.name,
+                        &whole.dims,
+                        &whole.shape,
+                        &whole.dtype,
+                        &whole.units
+                    )
+                );
+                assert_eq!(
+                    (meta.fill_count, &meta.notes),
+                    (whole.fill_count, &whole.notes)
+                );
+                let how = how.unwrap();
+                let expect_slabs = whole.shape[0]
+                    .div_ceil((slab / whole.shape[1..].iter().product::<usize>()).max(1));
+                assert!(
+                    how.starts_with(&format!("in {expect_slabs} slab(s)")),
+                    "{how}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -24,6 +24,8 @@ pub mod okada;
 mod scalar;
 pub mod select;
 pub mod series;
+mod slabs;
+mod stats;
 pub mod tsunami;
 pub(crate) mod vti;
 pub(crate) mod vtk_legacy;

@@ -128,14 +128,36 @@ pub(crate) fn read_variable_picked(
     name: &str,
     picks: &[Option<usize>],
 ) -> Result<NcVariable> {
+    read_variable_window(path, name, picks, None)
+}
+
+/// [`read_variable_picked`] of the rows `window.1` of dimension `window.0` (counted among all
+/// the variable's dimensions, one that `picks` keeps): a slab, for reading in bounded memory.
+pub(crate) fn read_variable_window(
+    path: &Path,
+    name: &str,
+    picks: &[Option<usize>],
+    window: Option<(usize, std::ops::Range<usize>)>,
+) -> Result<NcVariable> {
     let file = open(path)?;
     let var = numeric_variable(path, &file, name)?;
-    let all_dims = dims_of(path, var)?;
+    let mut all_dims = dims_of(path, var)?;
     let picks: Vec<Option<usize>> = if picks.is_empty() {
         vec![None; all_dims.len()]
     } else {
         picks.to_vec()
     };
+    let mut ranges: Vec<(u64, u64)> = all_dims.iter().map(|(_, n)| (0, *n as u64)).collect();
+    if let Some((axis, rows)) = &window {
+        if picks.get(*axis) != Some(&None) || rows.end > all_dims[*axis].1 {
+            return Err(Error::format(
+                path,
+                format!("variable '{name}': rows {rows:?} of dimension {axis} are not in it"),
+            ));
+        }
+        ranges[*axis] = (rows.start as u64, rows.end as u64);
+        all_dims[*axis].1 = rows.len();
+    }
     let dims: Dims = all_dims
         .iter()
         .zip(&picks)
@@ -151,17 +173,17 @@ pub(crate) fn read_variable_picked(
         count.saturating_mul(16),
         &format!("{}: variable '{name}'", path.display()),
     )?;
-    let mut raw = if picks.iter().all(Option::is_none) {
+    let mut raw = if picks.iter().all(Option::is_none) && window.is_none() {
         file.read_variable_as_f64(name)
     } else {
         let selections = picks
             .iter()
-            .zip(&all_dims)
-            .map(|(p, (_, n))| match p {
+            .zip(&ranges)
+            .map(|(p, &(start, end))| match p {
                 Some(i) => netcdf_reader::NcSliceInfoElem::Index(*i as u64),
                 None => netcdf_reader::NcSliceInfoElem::Slice {
-                    start: 0,
-                    end: *n as u64,
+                    start,
+                    end,
                     step: 1,
                 },
             })
@@ -705,6 +727,21 @@ fn check_hdf5_length(path: &Path, file: &mut std::fs::File) -> Result<()> {
 
 fn reader_error(path: &Path, e: netcdf_reader::Error) -> Error {
     let msg = e.to_string().replace(['\n', '\r'], " ");
+    // The reader lists a group's objects all at once, so one HDF5 virtual dataset (layout class
+    // 3, which it does not decode) stops every variable of the file; netCDF-C reads them.
+    if let Some(name) = msg
+        .split_once("child '")
+        .and_then(|(_, rest)| rest.split_once('\''))
+        .map(|(name, _)| name)
+        .filter(|_| msg.contains("unsupported layout class 3"))
+    {
+        return Error::format(
+            path,
+            format!(
+                "dataset '{name}' is an HDF5 virtual dataset, which hdrvis's NetCDF-4 reader (the netcdf-reader crate) cannot pass over, so none of the file's variables read; rewrite the file with netCDF's `nccopy IN OUT`, which stores it as a plain variable"
+            ),
+        );
+    }
     Error::format(path, format!("not a readable NetCDF file: {msg}"))
 }
 

@@ -406,8 +406,10 @@ fn luminance_weights(chromaticities: Option<Chromaticities>) -> [f32; 3] {
     [(yr / sum) as f32, (yg / sum) as f32, (yb / sum) as f32]
 }
 
-/// The reader's error in one line; a compression method the `exr` crate does not know (ZSTD,
-/// 13, in OpenEXR 3.4) is named from the header, which the crate only calls invalid.
+/// The reader's error in one line. What the `exr` crate does not read but only calls invalid or
+/// unsupported is named from the header: a compression method it does not know (ZSTD, 13, in
+/// OpenEXR 3.4) and subsampled channels (OpenEXR's luminance-chroma images store RY and BY at
+/// half resolution).
 fn read_error(path: &Path, message: &str) -> Error {
     let head = std::fs::File::open(path).ok().and_then(|f| {
         use std::io::Read;
@@ -416,22 +418,57 @@ fn read_error(path: &Path, message: &str) -> Error {
         f.take(1 << 16).read_to_end(&mut bytes).ok()?;
         Some(bytes)
     });
-    let named = head.and_then(|bytes| {
-        let key = b"compression\0compression\0";
-        let at = bytes.windows(key.len()).position(|w| w == key)? + key.len() + 4;
-        let id = *bytes.get(at)?;
-        let name = match id {
-            12 => "LJ2K",
-            13 => "ZSTD",
-            _ => return None,
-        };
-        Some(format!(
-            "{name} compression (method {id}) is not read by hdrvis's OpenEXR reader (the exr \
-             crate); save the file with ZIP, PIZ or no compression"
-        ))
-    });
+    let named = head.and_then(|bytes| unknown_compression(&bytes).or_else(|| subsampled(&bytes)));
     let message = named.unwrap_or_else(|| format!("not a readable OpenEXR file: {message}"));
     Error::format(path, message.replace(['\n', '\r'], " "))
+}
+
+/// The header's value of attribute `name` of type `kind`.
+fn header_value<'b>(bytes: &'b [u8], name: &str, kind: &str) -> Option<&'b [u8]> {
+    let key = format!("{name}\0{kind}\0");
+    let at = bytes.windows(key.len()).position(|w| w == key.as_bytes())? + key.len();
+    let size = i32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?);
+    bytes.get(at + 4..at + 4 + usize::try_from(size).ok()?)
+}
+
+fn unknown_compression(bytes: &[u8]) -> Option<String> {
+    let id = *header_value(bytes, "compression", "compression")?.first()?;
+    let name = match id {
+        12 => "LJ2K",
+        13 => "ZSTD",
+        _ => return None,
+    };
+    Some(format!(
+        "{name} compression (method {id}) is not read by hdrvis's OpenEXR reader (the exr \
+         crate); save the file with ZIP, PIZ or no compression"
+    ))
+}
+
+/// The channels stored at less than full resolution, from the header's channel list (each
+/// entry: name, NUL, pixel type, linear flag and three reserved bytes, x and y sampling).
+fn subsampled(bytes: &[u8]) -> Option<String> {
+    let mut list = header_value(bytes, "channels", "chlist")?;
+    let mut found = Vec::new();
+    while let Some(end) = list.iter().position(|&b| b == 0).filter(|&e| e > 0) {
+        let name = String::from_utf8_lossy(&list[..end]).into_owned();
+        let field = |k: usize| {
+            let at = end + 1 + 8 + 4 * k;
+            Some(i32::from_le_bytes(list.get(at..at + 4)?.try_into().ok()?))
+        };
+        let (x, y) = (field(0)?, field(1)?);
+        if (x, y) != (1, 1) {
+            found.push(format!("{name} (1 in {x} x {y})"));
+        }
+        list = list.get(end + 1 + 16..)?;
+    }
+    (!found.is_empty()).then(|| {
+        format!(
+            "channels {} are stored subsampled, which hdrvis's OpenEXR reader (the exr crate) \
+             does not decode; save the image with every channel at full resolution (RGB, or Y, \
+             RY, BY unsubsampled)",
+            found.join(", ")
+        )
+    })
 }
 
 #[cfg(test)]

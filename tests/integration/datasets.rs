@@ -264,11 +264,11 @@ fn nrrd_line_and_byte_skips_read_like_pynrrd() {
     }
 }
 
-/// A few kilobytes that declare gigabytes (a never-written chunked NetCDF-4 variable): under a
-/// memory limit `info` refuses in one line before allocating, where it used to abort (SIGABRT)
-/// part-way through the allocation after seconds.
+/// A few kilobytes that declare gigabytes (a never-written chunked NetCDF-4 variable of 1024^3
+/// floats, 8 GiB as f64): under a 4 GB memory limit `info` reads it in slabs and reports every
+/// value a fill value, where it used to abort (SIGABRT) part-way through the allocation.
 #[test]
-fn a_small_file_declaring_more_than_the_memory_limit_is_refused_in_one_line() {
+fn a_small_file_declaring_more_than_the_memory_limit_is_described_in_slabs() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("unwritten.nc");
     let Some(report) = python_check("write_unwritten_nc.py", &[file.to_str().unwrap()]) else {
@@ -276,7 +276,6 @@ fn a_small_file_declaring_more_than_the_memory_limit_is_refused_in_one_line() {
     };
     assert!(report.starts_with("exit 0"), "{report}");
     assert!(std::fs::metadata(&file).unwrap().len() < 100_000);
-    let start = std::time::Instant::now();
     let out = std::process::Command::new("sh")
         .arg("-c")
         .arg(format!(
@@ -286,14 +285,16 @@ fn a_small_file_declaring_more_than_the_memory_limit_is_refused_in_one_line() {
         ))
         .output()
         .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert_eq!(stderr.lines().count(), 1, "{stderr}");
-    assert!(
-        stderr.contains("unwritten.nc: variable 'v': needs 16.0 GiB but only"),
-        "{stderr}"
-    );
-    assert!(start.elapsed().as_secs_f64() < 10.0);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    for line in [
+        "values: 1073741824 (0 finite)",
+        "missing: 1073741824 NaN (of which 1073741824 fill values), 0 infinite",
+        "read: in 64 slab(s) of at most 16 rows along 'z' (1073741824 values in all)",
+    ] {
+        assert!(stdout.contains(line), "{line:?} in\n{stdout}");
+    }
 }
 
 #[test]

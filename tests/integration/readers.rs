@@ -110,6 +110,17 @@ fn netcdf4_with_an_odd_attribute_and_a_committed_type_reads_its_variables() {
         stdout.contains("(read leniently, the strict reading stopped at: "),
         "{stdout}"
     );
+    // netCDF-C reads a NetCDF-4 file holding an HDF5 virtual dataset; the pure-Rust reader
+    // lists a group's objects all at once and cannot pass over it: one line says so and how
+    // to rewrite the file.
+    let (code, stdout, stderr) = hdrvis(&["info", "vds.nc", "--variable", "other"], d);
+    assert_eq!(code, 1, "{stdout}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("vds.nc: dataset 'vds' is an HDF5 virtual dataset")
+            && stderr.contains("nccopy IN OUT"),
+        "{stderr}"
+    );
 }
 
 /// String variables (NC_STRING and char arrays) are listed but never picked by default, and
@@ -148,7 +159,7 @@ fn netcdf_string_variables_are_passed_over_and_refused_by_name() {
 
 /// OpenEXR images with only some colour channels: Y or one of R, G, B alone as grey, a missing
 /// colour channel 0 with a note, luminance-chroma converted to RGB with the file's primaries, and a
-/// ZSTD-compressed file refused in one line naming the compression.
+/// ZSTD-compressed file and one with subsampled chroma refused in one line naming what is not read.
 #[test]
 fn exr_channel_subsets_and_luminance_chroma_read_as_documented() {
     let dir = tempfile::tempdir().unwrap();
@@ -189,6 +200,15 @@ fn exr_channel_subsets_and_luminance_chroma_read_as_documented() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(
         stderr.contains("zstd.exr: ZSTD compression (method 13) is not read"),
+        "{stderr}"
+    );
+    let (code, stdout, stderr) = hdrvis(&["info", "yc_sub.exr"], d);
+    assert_eq!(code, 1, "{stdout}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains(
+            "yc_sub.exr: channels BY (1 in 2 x 2), RY (1 in 2 x 2) are stored subsampled"
+        ),
         "{stderr}"
     );
 }

@@ -15,13 +15,16 @@ read back with the writing tool itself:
              virtual dataset of src.h5's /a), /t (a committed datatype) and /typed (f32 in it), and
              /g/inner; odd.nc: a NetCDF-4 file from netCDF4 with variables good and other, to
              which h5py adds a root attribute of invalid UTF-8, a committed datatype /t and a
-             dataset /typed of it. Keys: good, typed, inner, other (values in C order).
+             dataset /typed of it; vds.nc: a NetCDF-4 file with a variable other and a virtual
+             dataset vds added by h5py (netCDF4 reads both). Keys: good, typed, inner, other
+             (values in C order).
   strings    strings.nc (NetCDF-4) and strings3.nc (classic) from netCDF4: station_name (NC_STRING,
              NetCDF-4 only), label (a char array) and temp (f4, 2x3x4). Key: temp.
   exr        OpenEXR images (OpenEXR module), 6x4 pixels, values from a fixed random generator:
              y.exr (Y only, half), r.exr (R only), rg.exr (R and G, and an extra channel Z),
              yc.exr (Y, RY, BY at full resolution), yc_p3.exr (the same with P3-D65
-             chromaticities) and zstd.exr (R, G, B, ZSTD-compressed). Keys: FILE_CHANNEL for
+             chromaticities), yc_sub.exr (RY and BY subsampled 2 x 2, as OpenEXR's
+             luminance-chroma files are) and zstd.exr (R, G, B, ZSTD-compressed). Keys: FILE_CHANNEL for
              each stored channel as OpenEXR reads it, and yc_R/G/B, yc_p3_R/G/B: the RGB of the
              luminance-chroma files (R = (RY+1) Y, B = (BY+1) Y, G from Y with the luminance
              weights of the primaries (Rec. 709's, OpenEXR's default, without the
@@ -95,6 +98,17 @@ def partial(out):
         f.create_dataset("typed", data=a * 2, dtype=f["t"])
     with h5py.File(nc, "r") as f:
         report("other", f["other"][()].ravel())
+    vds = os.path.join(out, "vds.nc")
+    with netCDF4.Dataset(vds, "w") as d:
+        for name, n in zip("zyx", a.shape):
+            d.createDimension(name, n)
+        d.createVariable("other", "f4", ("z", "y", "x"))[:] = a * 5
+    with h5py.File(vds, "a") as f:
+        layout = h5py.VirtualLayout(shape=a.shape, dtype="f4")
+        layout[:] = h5py.VirtualSource("src.h5", "a", shape=a.shape)
+        f.create_virtual_dataset("vds", layout)
+    with netCDF4.Dataset(vds) as d:
+        assert np.array_equal(d["vds"][:], a) and np.array_equal(d["other"][:], a * 5)
 
 
 def strings(out):
@@ -141,6 +155,13 @@ def exr(out):
     }
     for name, (header, channels) in files.items():
         OpenEXR.File(header, channels).write(os.path.join(out, name))
+    # OpenEXR's own luminance-chroma layout: RY and BY at one sample per 2 x 2 pixels.
+    sub = os.path.join(out, "yc_sub.exr")
+    OpenEXR.File(zip_, {"Y": OpenEXR.Channel(y), "RY": OpenEXR.Channel(ry, 2, 2),
+                        "BY": OpenEXR.Channel(by, 2, 2)}).write(sub)
+    with OpenEXR.File(sub) as f:
+        sampling = {k: (c.xSampling, c.ySampling) for k, c in f.channels().items()}
+        assert sampling == {"Y": (1, 1), "RY": (2, 2), "BY": (2, 2)}, sampling
     for name in files:
         with OpenEXR.File(os.path.join(out, name)) as f:
             for channel, c in f.channels().items():
