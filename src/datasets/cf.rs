@@ -107,21 +107,13 @@ pub(crate) fn axis_role(path: &Path, v: &NcVariable) -> Result<AxisRole> {
         "degreen",
         "degreesn",
     ];
-    let lon_units = [
-        "degrees_east",
-        "degree_east",
-        "degree_e",
-        "degrees_e",
-        "degreee",
-        "degreese",
-    ];
     if units.contains(" since ") || standard == "time" || text(v, "axis") == Some("T") {
         return Ok(AxisRole::Time);
     }
     if standard == "latitude" || lat_units.contains(&units.as_str()) {
         return Ok(AxisRole::Latitude);
     }
-    if standard == "longitude" || lon_units.contains(&units.as_str()) {
+    if standard == "longitude" || netcdf::LONGITUDE_UNITS.contains(&units.as_str()) {
         return Ok(AxisRole::Longitude);
     }
     let kind =
@@ -241,7 +233,17 @@ fn cf_bounds(path: &Path, v: &NcVariable) -> Result<Option<(f64, f64)>> {
     let Some(name) = text(v, "bounds") else {
         return Ok(None);
     };
-    let b = netcdf::read_variable(path, name)?;
+    let mut b = netcdf::read_variable(path, name)?;
+    // Longitudes unwrapped across the seam: each cell's bounds move by whole turns to lie beside
+    // its centre, as the centre moved.
+    let pairs = b.data.len() == 2 * v.data.len() && !v.data.is_empty();
+    if pairs && matches!(axis_role(path, v), Ok(AxisRole::Longitude)) {
+        for (pair, &centre) in b.data.chunks_mut(2).zip(&v.data) {
+            for x in pair {
+                *x += ((centre - *x) / 360.0).round() * 360.0;
+            }
+        }
+    }
     let finite = b.data.iter().filter(|x| x.is_finite());
     let lo = finite.clone().fold(f64::INFINITY, |a, &x| a.min(x));
     let hi = finite.fold(f64::NEG_INFINITY, |a, &x| a.max(x));

@@ -133,6 +133,10 @@ pub(crate) fn read_variable_picked(
 
 /// [`read_variable_picked`] of the rows `window.1` of dimension `window.0` (counted among all
 /// the variable's dimensions, one that `picks` keeps): a slab, for reading in bounded memory.
+///
+/// A longitude axis stored in numeric order across the seam ([`seam_roll`]) is read in
+/// geographic order, as if stored rolled: its coordinate variable and every variable on it alike,
+/// indices counted in that order.
 pub(crate) fn read_variable_window(
     path: &Path,
     name: &str,
@@ -141,12 +145,143 @@ pub(crate) fn read_variable_window(
 ) -> Result<NcVariable> {
     let file = open(path)?;
     let var = numeric_variable(path, &file, name)?;
-    let mut all_dims = dims_of(path, var)?;
+    let all_dims = dims_of(path, var)?;
     let picks: Vec<Option<usize>> = if picks.is_empty() {
         vec![None; all_dims.len()]
     } else {
         picks.to_vec()
     };
+    let rolls: Vec<Option<usize>> = all_dims
+        .iter()
+        .map(|(dim, _)| seam_roll_of(&file, dim))
+        .collect();
+    if rolls.iter().all(Option::is_none) {
+        return read_stored(path, &file, var, &picks, window);
+    }
+    let stored_picks: Vec<Option<usize>> = picks
+        .iter()
+        .zip(&rolls)
+        .zip(&all_dims)
+        .map(|((p, r), (_, n))| match (p, r) {
+            (Some(i), Some(start)) if i < n => Some((i + start) % n),
+            _ => *p,
+        })
+        .collect();
+    // A window along a rolled axis is cut after rolling the whole axis.
+    let rolled_window = window.clone().filter(|(a, _)| rolls[*a].is_some());
+    let direct = window.filter(|(a, _)| rolls[*a].is_none());
+    let mut v = read_stored(path, &file, var, &stored_picks, direct)?;
+    let kept: Vec<usize> = (0..all_dims.len())
+        .filter(|&a| picks[a].is_none())
+        .collect();
+    for (p, &a) in kept.iter().enumerate() {
+        if let Some(start) = rolls[a] {
+            let shape: Vec<usize> = v.dims.iter().map(|(_, n)| *n).collect();
+            v.data = roll_axis(&v.data, &shape, p, start);
+        }
+        if let Some((_, rows)) = rolled_window.as_ref().filter(|(w, _)| *w == a) {
+            let shape: Vec<usize> = v.dims.iter().map(|(_, n)| *n).collect();
+            v.data = take_rows(&v.data, &shape, p, rows.clone());
+            v.dims[p].1 = rows.len();
+        }
+    }
+    Ok(v)
+}
+
+/// Where a longitude axis stored in numeric order across the seam begins in geographic order:
+/// `Some(k)` when increasing values have one hole (a step wider than four times the median one)
+/// and the step from the last value round to the first is an ordinary one (at most 1.5 times the
+/// widest other step), as a region from 170.5°E to 170.5°W stored −179.5 … −170.5, 170.5 …
+/// 179.5 has; its cells in order are then those from the hole on. `None` for any other axis.
+pub(crate) fn seam_roll(values: &[f64]) -> Option<usize> {
+    let n = values.len();
+    if n < 3 || values.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let steps: Vec<f64> = values.windows(2).map(|w| w[1] - w[0]).collect();
+    if steps.iter().any(|&d| d <= 0.0) {
+        return None;
+    }
+    let (hole, &widest) = steps.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    let mut sorted = steps.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    let other = steps
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| i != hole)
+        .map(|(_, &d)| d)
+        .fold(0.0, f64::max);
+    let round = 360.0 - (values[n - 1] - values[0]);
+    (widest > 4.0 * median && round > 0.0 && round <= 1.5 * other.max(median)).then_some(hole + 1)
+}
+
+/// Longitude units of CF (udunits spellings, lower case).
+pub(crate) const LONGITUDE_UNITS: [&str; 6] = [
+    "degrees_east",
+    "degree_east",
+    "degree_e",
+    "degrees_e",
+    "degreee",
+    "degreese",
+];
+
+/// [`seam_roll`] of dimension `dim`'s coordinate variable when it is a longitude (by units or
+/// standard name), read as stored.
+fn seam_roll_of(file: &NcFile, dim: &str) -> Option<usize> {
+    let var = file.variable(dim).ok()?;
+    if var.dimensions().len() != 1 || var.dimensions()[0].name != dim {
+        return None;
+    }
+    let text = |key: &str| {
+        var.attributes()
+            .iter()
+            .find_map(|a| match convert_attribute(&a.value) {
+                Some(NcAttribute::Text(t)) if a.name == key => Some(t.trim().to_ascii_lowercase()),
+                _ => None,
+            })
+    };
+    let longitude = text("standard_name").as_deref() == Some("longitude")
+        || text("units").is_some_and(|u| LONGITUDE_UNITS.contains(&u.as_str()));
+    if !longitude {
+        return None;
+    }
+    let mut raw = file.read_variable_as_f64(dim).ok()?;
+    decode_cf(var, &mut raw);
+    seam_roll(&raw.iter().copied().collect::<Vec<f64>>())
+}
+
+/// C-ordered `data` of `shape` with axis `axis` rolled to begin at index `start`.
+fn roll_axis(data: &[f64], shape: &[usize], axis: usize, start: usize) -> Vec<f64> {
+    let n = shape[axis];
+    let inner: usize = shape[axis + 1..].iter().product();
+    let mut out = Vec::with_capacity(data.len());
+    for block in data.chunks(n * inner) {
+        out.extend_from_slice(&block[start * inner..]);
+        out.extend_from_slice(&block[..start * inner]);
+    }
+    out
+}
+
+/// C-ordered `data` of `shape` cut to `rows` of axis `axis`.
+fn take_rows(data: &[f64], shape: &[usize], axis: usize, rows: std::ops::Range<usize>) -> Vec<f64> {
+    let inner: usize = shape[axis + 1..].iter().product();
+    data.chunks(shape[axis] * inner)
+        .flat_map(|block| &block[rows.start * inner..rows.end * inner])
+        .copied()
+        .collect()
+}
+
+/// [`read_variable_window`] in storage order.
+fn read_stored(
+    path: &Path,
+    file: &NcFile,
+    var: &netcdf_reader::NcVariable,
+    picks: &[Option<usize>],
+    window: Option<(usize, std::ops::Range<usize>)>,
+) -> Result<NcVariable> {
+    let name = var.name();
+    let mut all_dims = dims_of(path, var)?;
     let mut ranges: Vec<(u64, u64)> = all_dims.iter().map(|(_, n)| (0, *n as u64)).collect();
     if let Some((axis, rows)) = &window {
         if picks.get(*axis) != Some(&None) || rows.end > all_dims[*axis].1 {
@@ -160,7 +295,7 @@ pub(crate) fn read_variable_window(
     }
     let dims: Dims = all_dims
         .iter()
-        .zip(&picks)
+        .zip(picks)
         .filter(|(_, p)| p.is_none())
         .map(|(d, _)| d.clone())
         .collect();
@@ -845,6 +980,43 @@ fn add_text_attr(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numeric_order_across_the_seam_rolls_and_nothing_else_does() {
+        let across = [-177.5, -172.5, -167.5, 162.5, 167.5, 172.5, 177.5];
+        assert_eq!(seam_roll(&across), Some(3));
+        // Across Greenwich in 0 .. 360: 0.5 .. 10.5, 350.5 .. 359.5.
+        let greenwich: Vec<f64> = (0..11)
+            .map(|i| 0.5 + f64::from(i))
+            .chain((0..10).map(|i| 350.5 + f64::from(i)))
+            .collect();
+        assert_eq!(seam_roll(&greenwich), Some(11));
+        // A global axis, a regional one, a global one missing a column, storage-order wraps,
+        // decreasing axes, a hole that does not close round the circle: left as stored.
+        let global: Vec<f64> = (0..36).map(|i| 5.0 + 10.0 * f64::from(i)).collect();
+        let mut missing = global.clone();
+        missing.remove(7);
+        for values in [
+            global.as_slice(),
+            &[10.0, 12.0, 14.0, 16.0],
+            &missing,
+            &[350.0, 355.0, 0.0, 5.0],
+            &[177.5, 172.5, -172.5, -177.5],
+            &[0.0, 1.0, 2.0, 100.0, 101.0, 102.0],
+        ] {
+            assert_eq!(seam_roll(values), None, "{values:?}");
+        }
+        // Rolling an axis of a C-ordered (2, 3, 2) array, and cutting rows of it.
+        let data: Vec<f64> = (0..12).map(f64::from).collect();
+        assert_eq!(
+            roll_axis(&data, &[2, 3, 2], 1, 2),
+            [4.0, 5.0, 0.0, 1.0, 2.0, 3.0, 10.0, 11.0, 6.0, 7.0, 8.0, 9.0]
+        );
+        assert_eq!(
+            take_rows(&data, &[2, 3, 2], 1, 1..3),
+            [2.0, 3.0, 4.0, 5.0, 8.0, 9.0, 10.0, 11.0]
+        );
+    }
     use std::path::PathBuf;
 
     fn read_coordinate(path: impl AsRef<Path>, dim: &str) -> Result<Option<Vec<f64>>> {

@@ -119,7 +119,7 @@ fn auxiliary_variables_are_not_chosen_as_data() {
 }
 
 #[test]
-fn longitudes_across_the_meridian_are_unwrapped_not_all_round() {
+fn longitudes_across_the_meridian_are_unwrapped_not_all_round_in_storage_or_numeric_order() {
     let dir = tempfile::tempdir().unwrap();
     let Some(r) = reference(dir.path(), "wrapped") else {
         return;
@@ -139,6 +139,39 @@ fn longitudes_across_the_meridian_are_unwrapped_not_all_round() {
     assert!(!out.contains("all round"), "{out}");
     let v = hdrvis::datasets::load_volume(&path).unwrap();
     assert_eq!(v.dims, [9, 4, 3]);
+    // Across the antimeridian in numeric order (-177.5 .. -157.5, 162.5 .. 177.5, with bounds):
+    // read in geographic order, 162.5 .. 202.5, as xarray's roll puts it.
+    let sorted = dir.path().join("sorted.nc");
+    let grid = hdrvis::datasets::read_grid(&sorted, Some("eta")).unwrap();
+    assert_eq!(
+        grid.x.as_ref().unwrap().values,
+        numbers(&r, "sorted.unwrapped")
+    );
+    assert_values(&grid.data, &numbers(&r, "sorted.eta"), 0.0, "sorted eta");
+    let v = hdrvis::datasets::load_volume_var(&sorted, Some("rho")).unwrap();
+    let rho: Vec<f64> = v.data.iter().map(|&x| f64::from(x)).collect();
+    assert_values(&rho, &numbers(&r, "sorted.rho"), 0.0, "sorted rho");
+    let (code, out, err) = hdrvis(&["info", "sorted.nc", "--variable", "rho"], dir.path());
+    assert_eq!(code, 0, "{err}");
+    for line in [
+        "lon = 9: longitude, 162.5 to 202.5 degrees_east",
+        "latitude 40° to 55°, longitude 160° to 205°",
+    ] {
+        assert!(out.contains(line), "{line:?} in\n{out}");
+    }
+    // Indices count in geographic order too: index 4 is 182.5 east, stored at 0.
+    let lon4 = numbers(&r, "sorted.eta_lon4");
+    let (code, out, err) = hdrvis(
+        &["info", "sorted.nc", "--variable", "eta", "--index", "lon=4"],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{err}");
+    for (key, value) in [("min", lon4[0]), ("max", lon4[3])] {
+        assert!(
+            out.contains(&format!("{key}: {value:.6e}")),
+            "{key} {value} in\n{out}"
+        );
+    }
 }
 
 fn selection(index: &[(&str, i64)], at: &[(&str, At)]) -> LoadOptions {

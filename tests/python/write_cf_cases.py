@@ -11,7 +11,10 @@ CASE is one of:
   aux       aux.nc: xarray, a 3-D field `temp` with 2-D auxiliary latitude/longitude, a grid
             mapping, bounds and an ancillary variable written before it
   wrapped   wrapped.nc: xarray, (depth, lat, lon) and (lat, lon) fields on a 40 degree region
-            across the prime meridian, longitudes stored 322.5 .. 357.5, 2.5
+            across the prime meridian, longitudes stored 322.5 .. 357.5, 2.5; sorted.nc: the
+            same fields on the region 160 .. 205 E across the antimeridian, longitudes stored in
+            numeric order in [-180, 180) (-177.5 .. -157.5, 162.5 .. 177.5) with CF bounds, and
+            the fields in geographic order (xarray's roll) with the longitudes unwrapped
   series    series360.nc (360_day, negative times) and series_gregorian.nc (standard calendar
             across the 1582 reform): (time, depth, lat, lon) and (time, lat, lon) fields, with
             cftime's dates and xarray's isel/sel/interp values; series_badcal.nc with the
@@ -155,12 +158,46 @@ def wrapped(out):
     )
     ds.to_netcdf(path, format="NETCDF4")
     with xr.open_dataset(path) as x:
-        return {
+        result = {
             "lon": [float(v) for v in x.lon.values],
             "unwrapped": [float(v) for v in unwrapped],
             "eta": values(x.eta.values),
             "rho": values(x.rho.values),
         }
+    # The region 160 .. 205 degrees east across the antimeridian, stored in numeric order in
+    # [-180, 180) with CF bounds, as a sorted longitude axis leaves it; the reference is the
+    # geographic order (xarray's roll) with longitudes unwrapped east of 180.
+    true = 162.5 + 5.0 * np.arange(9)
+    stored = np.where(true >= 180.0, true - 360.0, true)
+    order = np.argsort(stored)
+    d3, la3, lo3 = np.meshgrid(depth, lat, true, indexing="ij")
+    field = (d3 + 0.5 * la3 + 0.01 * lo3).astype(np.float32)
+    sorted_ds = xr.Dataset(
+        {
+            "rho": (("depth", "lat", "lon"), field[..., order], {"units": "kg m-3"}),
+            "eta": (("lat", "lon"), field[0][..., order] * 2.0, {"units": "m"}),
+            "lon_bnds": (("lon", "nv"), np.stack([stored[order] - 2.5, stored[order] + 2.5], -1)),
+        },
+        coords={
+            "depth": ("depth", depth, {"units": "km", "positive": "down"}),
+            "lat": ("lat", lat, {"units": "degrees_north", "standard_name": "latitude"}),
+            "lon": ("lon", stored[order], {"units": "degrees_east", "bounds": "lon_bnds"}),
+        },
+    )
+    sorted_path = os.path.join(out, "sorted.nc")
+    sorted_ds.to_netcdf(sorted_path, format="NETCDF4")
+    with xr.open_dataset(sorted_path) as x:
+        start = int(np.argmax(np.diff(x.lon.values))) + 1
+        geo = x.roll(lon=-start, roll_coords=True)
+        lon = geo.lon.values
+        result["sorted"] = {
+            "stored": [float(v) for v in x.lon.values],
+            "unwrapped": [float(v) for v in np.where(lon < lon[0], lon + 360.0, lon)],
+            "eta": values(geo.eta.values),
+            "rho": values(geo.rho.values),
+            "eta_lon4": values(geo.eta.isel(lon=4).values),
+        }
+    return result
 
 
 def iso(date):
