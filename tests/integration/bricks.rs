@@ -100,6 +100,18 @@ fn bricked(
     bricked_in(&session(), bv, o, budget, skip).unwrap()
 }
 
+/// How far renders that take the same samples, texels and weights may differ, relative to the
+/// peak: not at all on a CPU rasterizer (lavapipe compiles both shaders alike), 1e-6 on a GPU,
+/// whose compiler fuses multiplies and adds (FMA) differently in the bricked and plain shaders
+/// (3.3e-7 seen on an NVIDIA H200).
+fn same_samples_tolerance() -> f64 {
+    if renderer(BackendChoice::Vulkan).context().info.device_type == wgpu::DeviceType::Cpu {
+        0.0
+    } else {
+        1e-6
+    }
+}
+
 /// Largest difference over all channels relative to the image's peak colour.
 fn diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
     let peak = b
@@ -155,7 +167,7 @@ fn bricked_and_skipped_renders_equal_the_plain_render() {
             // the texture unit's filter sees atlas coordinates instead of volume ones and may
             // round its weights differently.
             let tol = if filter == FilterMode::Exact {
-                f64::MIN_POSITIVE
+                same_samples_tolerance() + f64::MIN_POSITIVE
             } else {
                 1e-3
             };
@@ -184,7 +196,10 @@ fn out_of_core_renders_equal_the_plain_render() {
         assert_eq!(st.capacity, 7);
         assert!(st.passes >= 80 / 7, "{name}: {st:?}");
         let d = diff(&img, &reference);
-        assert!(d == 0.0, "{name} out of core: {d} ({st:?})");
+        assert!(
+            d <= same_samples_tolerance(),
+            "{name} out of core: {d} ({st:?})"
+        );
         // With skipping and early termination on an opaque transfer function, and f16.
         o.tf = scene_tf(0.35);
         o.early_exit = 1e-2;
@@ -503,7 +518,10 @@ for step in [1.0, 0.5] {
             for kind in ["bricked", "out_of_core"] {
                 let img = read(&format!("{kind}_{p}_{step}.exr")).pixels;
                 let d = diff(&img, &plain);
-                assert!(d == 0.0, "{kind} {p} step {step}: {d} of the peak");
+                assert!(
+                    d <= same_samples_tolerance(),
+                    "{kind} {p} step {step}: {d} of the peak"
+                );
             }
         }
     }

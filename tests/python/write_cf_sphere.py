@@ -29,6 +29,7 @@ import argparse
 import sys
 
 try:
+    import netCDF4  # noqa: F401  (xarray's NetCDF-4 writer; without it to_netcdf fails)
     import numpy as np
     import xarray as xr
 except ImportError as exc:  # pragma: no cover - depends on the machine
