@@ -259,7 +259,7 @@ fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result
 /// those are fixed (leading length-1 dimensions dropped), else the first of a higher rank (whose
 /// read then says which dimensions are left to fix); without a rank the first of the highest
 /// rank.
-pub(super) fn default_netcdf_variable(
+fn default_netcdf_variable(
     path: &Path,
     listed: &[ArrayListing],
     rank: Option<usize>,
@@ -308,15 +308,7 @@ fn read_netcdf_array(
     rank: Option<usize>,
     sel: &select::Selection,
 ) -> Result<ArrayData> {
-    let listed = list_arrays(path)?;
-    let name = match var {
-        Some(v) => v.to_string(),
-        None => default_netcdf_variable(path, &listed, rank, sel)?,
-    };
-    let listing = listed
-        .iter()
-        .find(|a| a.name == name)
-        .ok_or_else(|| missing_array(path, &name, &listed))?;
+    let (name, listing) = netcdf_variable(path, var, rank, sel)?;
     let dims = netcdf::list_variables(path)?
         .into_iter()
         .find(|(n, _)| *n == name)
@@ -341,6 +333,27 @@ fn read_netcdf_array(
         attributes: variable.attributes,
         notes: plan.notes,
     })
+}
+
+/// The NetCDF variable a read takes: `var`, else the default one ([`default_netcdf_variable`]),
+/// with its listing; a name the file lacks is an error listing what it has.
+pub(super) fn netcdf_variable(
+    path: &Path,
+    var: Option<&str>,
+    rank: Option<usize>,
+    sel: &select::Selection,
+) -> Result<(String, ArrayListing)> {
+    let listed = list_arrays(path)?;
+    let name = match var {
+        Some(v) => v.to_string(),
+        None => default_netcdf_variable(path, &listed, rank, sel)?,
+    };
+    let listing = listed
+        .iter()
+        .find(|a| a.name == name)
+        .cloned()
+        .ok_or_else(|| missing_array(path, &name, &listed))?;
+    Ok((name, listing))
 }
 
 /// [`read_array`] of the one volume of a `.vti`, `.vtk` or `.nhdr`/`.nrrd` file (`ext`), as

@@ -7,9 +7,9 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use super::arrays::{default_netcdf_variable, missing_array, ArrayData};
+use super::arrays::{netcdf_variable, ArrayData};
 use super::bricked::NpyLayout;
-use super::{list_arrays, netcdf, select};
+use super::{netcdf, select};
 use crate::error::Result;
 
 /// Values per slab: 128 MiB as f64 (and the reader's stored copy beside them).
@@ -127,15 +127,7 @@ fn netcdf_source(
     var: Option<&str>,
     sel: &select::Selection,
 ) -> Result<Option<(Source, ArrayData)>> {
-    let listed = list_arrays(path)?;
-    let name = match var {
-        Some(v) => v.to_string(),
-        None => default_netcdf_variable(path, &listed, None, sel)?,
-    };
-    let listing = listed
-        .iter()
-        .find(|a| a.name == name)
-        .ok_or_else(|| missing_array(path, &name, &listed))?;
+    let (name, listing) = netcdf_variable(path, var, None, sel)?;
     if listing.unreadable.is_some() {
         return Ok(None);
     }
