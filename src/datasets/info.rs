@@ -290,6 +290,8 @@ fn read_with_stats(
     stream_above: u64,
     slab_values: usize,
 ) -> Result<(ArrayData, ValueStats, Option<String>)> {
+    // Before anything opens it: a FIFO without a writer would block the open.
+    crate::io::check_regular_file(path)?;
     if let Some(slabs) = Slabs::open(path, var, sel)? {
         if slabs.len() > stream_above {
             return streamed_stats(slabs, slab_values);

@@ -1038,17 +1038,21 @@ fn tonemap_cli_gamut_flag() {
 
 // --- beside pfstools -------------------------------------------------------------------------
 
-/// Whether pfstools' `pfsin` runs; when not, the side-by-side is skipped unless
-/// HDRVIS_REQUIRE_PFSTOOLS=1 (as in CI) makes its absence a failure.
+/// Whether pfstools' `pfsin` and its operators (Debian's pfstmo, which pfstools only
+/// recommends) run; when not, the side-by-side is skipped unless HDRVIS_REQUIRE_PFSTOOLS=1 (as in
+/// CI) makes their absence a failure.
 fn pfstools() -> bool {
-    let present = std::process::Command::new("pfsin")
-        .arg("--help")
-        .output()
-        .is_ok();
+    let runs = |tool: &str| {
+        std::process::Command::new(tool)
+            .arg("--help")
+            .output()
+            .is_ok()
+    };
+    let present = runs("pfsin") && runs("pfstmo_reinhard02");
     if !present {
         crate::common::missing::<()>(
             "HDRVIS_REQUIRE_PFSTOOLS",
-            "the side-by-side with pfstools needs Debian's pfstools, which is not installed",
+            "the side-by-side with pfstools needs Debian's pfstools and pfstmo, which are not installed",
         );
     }
     present
