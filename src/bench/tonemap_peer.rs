@@ -57,22 +57,24 @@ pub struct PeerToneMapSetup<'a> {
     pub rounds: usize,
 }
 
-/// Checks that pfstools is installed, with what to do if not.
+/// Checks that pfstools and its operators (Debian's pfstmo, which pfstools only recommends) are
+/// installed, with what to do if not.
 pub fn pfstools_present() -> Result<()> {
-    let found = Command::new("pfsin")
-        .arg("--help")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok();
-    if found {
-        Ok(())
-    } else {
-        Err(Error::invalid(
-            "--peer pfstools",
-            "pfsin not found on PATH; install Debian's pfstools (apt install pfstools)",
-        ))
+    for tool in ["pfsin", "pfstmo_reinhard02"] {
+        let found = Command::new(tool)
+            .arg("--help")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok();
+        if !found {
+            return Err(Error::invalid(
+                "--peer pfstools",
+                format!("{tool} not found on PATH; install Debian's pfstools and pfstmo (apt install pfstools pfstmo)"),
+            ));
+        }
     }
+    Ok(())
 }
 
 /// Times every operator pair on each size: `rounds` rounds of one hdrvis run then one
