@@ -91,11 +91,8 @@ fn scalar_of_descr(d: &str) -> Option<(Scalar, bool)> {
 /// instead of killing the process with SIGBUS, and nothing stays resident after a read.
 pub(crate) struct NpyFileSource {
     path: PathBuf,
-    file: std::fs::File,
-    offset: u64,
+    layout: NpyLayout,
     dims: [usize; 3],
-    element: Scalar,
-    big_endian: bool,
 }
 
 /// Where a C-ordered `.npy` array's values lie in its file, and how they are stored: the
@@ -216,16 +213,14 @@ impl NpyFileSource {
             .map_err(|e| Error::format(path, e.to_string()))?;
         Ok(NpyFileSource {
             path: path.to_path_buf(),
-            file: layout.file,
-            offset: layout.offset,
+            layout,
             dims,
-            element: layout.element,
-            big_endian: layout.big_endian,
         })
     }
 
     fn byte_of(&self, i: usize, j: usize, k: usize) -> u64 {
-        self.offset + (((k * self.dims[1] + j) * self.dims[0] + i) * self.element.size()) as u64
+        let (offset, es) = (self.layout.offset, self.layout.element.size());
+        offset + (((k * self.dims[1] + j) * self.dims[0] + i) * es) as u64
     }
 }
 
@@ -252,7 +247,7 @@ impl VoxelSource for NpyFileSource {
         if size.contains(&0) {
             return Ok(());
         }
-        let es = self.element.size();
+        let es = self.layout.element.size();
         let row = size[0] * es;
         // The rows of one z slice lie `dims[0]` samples apart: one read spans them all (with
         // the gaps between them when the box is narrower than the volume).
@@ -261,12 +256,13 @@ impl VoxelSource for NpyFileSource {
         let mut o = 0;
         for k in lo[2]..lo[2] + size[2] {
             let at = self.byte_of(lo[0], lo[1], k);
-            self.file
+            self.layout
+                .file
                 .read_exact_at(&mut span, at)
                 .map_err(|e| shrank(&self.path, e, at + span.len() as u64))?;
             for j in 0..size[1] {
-                self.element.decode_into(
-                    self.big_endian,
+                self.layout.element.decode_into(
+                    self.layout.big_endian,
                     &span[j * pitch..j * pitch + row],
                     &mut out[o..o + size[0]],
                 );

@@ -404,15 +404,19 @@ mod tests {
 
     #[test]
     fn a_range_too_dense_for_the_budget_is_named_not_guessed() {
-        // 1000 distinct values within one bucket (the same leading 20 bits), a budget of 100.
+        // The smallest gap of `values` streamed in slabs of 10 within a budget of 100 values.
+        let streamed = |values: &[f64]| {
+            let mut buckets = GapBuckets::new();
+            buckets.add(values);
+            streamed_min_gap(&buckets, 100, |visit| {
+                values.chunks(10).for_each(&mut *visit);
+                Ok(())
+            })
+            .unwrap()
+        };
+        // 1000 distinct values within one bucket (the same leading 20 bits).
         let values: Vec<f64> = (0..1000).map(|i| 1.0 + f64::from(i) * 1e-9).collect();
-        let mut buckets = GapBuckets::new();
-        buckets.add(&values);
-        let (gap, passes) = streamed_min_gap(&buckets, 100, |visit| {
-            values.chunks(10).for_each(&mut *visit);
-            Ok(())
-        })
-        .unwrap();
+        let (gap, passes) = streamed(&values);
         assert_eq!(gap, None);
         assert_eq!(
             passes,
@@ -422,14 +426,7 @@ mod tests {
         );
         // Repeats are not distinct: a dense bucket of few values still gives its gap.
         let repeats: Vec<f64> = (0..1000).map(|i| 1.0 + f64::from(i % 3) * 0.5e-9).collect();
-        let mut buckets = GapBuckets::new();
-        buckets.add(&repeats);
-        let (gap, _) = streamed_min_gap(&buckets, 100, |visit| {
-            repeats.chunks(10).for_each(&mut *visit);
-            Ok(())
-        })
-        .unwrap();
-        assert_eq!(gap, ValueStats::of(&repeats).min_gap);
+        assert_eq!(streamed(&repeats).0, ValueStats::of(&repeats).min_gap);
     }
 
     #[test]
