@@ -18,17 +18,19 @@
 //   downsample  one item per cell of level k level k-1 (blur_in, window from row
 //                                            window_first) -> level k (blur_out)
 //   for each scale i, on its level k_i (cell = 2^k, grid_width x grid_height cells):
-//     blur_x    level k (blur_in) -> this scale's horizontal blur (blur_out)
+//     blur_x    one item per run of RUN cells of a row: level k (blur_in) -> this scale's
+//               horizontal blur (blur_out)
 //   per pixel band, for each scale i:
-//     blur_y    horizontal blur (blur_in, window from row window_first) -> the rows of the
-//               scale this band reads, at dst_offset in the band's `blurred` buffer
+//     blur_y    one item per run of RUN cells of a column: horizontal blur (blur_in, window
+//               from row window_first) -> the rows of the scale this band reads, at
+//               dst_offset in the band's `blurred` buffer
 //   apply       one item per pixel           image, stats, blurred, scales -> output
 //
 // Bindings (group 0):
 //   @binding(0)  params    uniform    ToneMapParams (per pass: sigma, radius, cell,
 //                                     grid_width, grid_height, band_first, band_rows,
 //                                     window_first, dst_offset; apply: levels = number of
-//                                     scales + 1)
+//                                     scales + 1, fine_scales = those on level 0)
 //   @binding(1)  image     storage, read        array<vec4<f32>>  (prepare, apply)
 //   @binding(2)  output    storage, read_write  array<vec4<f32>>  (apply)
 //   @binding(3)  stats     storage, read        LuminanceStats    (prepare, apply)
@@ -124,30 +126,67 @@ fn blur_radius() -> i32 {
     return i32(min(params.radius, MAX_TAPS - 1u));
 }
 
-// Two entry points rather than a branch on a uniform: Mesa's CPU rasterizers would run both.
+// Tap k of the pass's Gaussian, 0 beyond its radius r.
+fn tap_within(k: i32, r: i32) -> f32 {
+    return select(0.0, tap(k), abs(k) <= r);
+}
+
+// The taps of input offset d for the four outputs of a run (offsets 0..3 from its start).
+fn run_taps(d: i32, r: i32) -> vec4<f32> {
+    return vec4<f32>(tap_within(d, r), tap_within(d - 1, r), tap_within(d - 2, r), tap_within(d - 3, r));
+}
+
+// Output o (0..7) of a run from its two halves' sums.
+fn run_output(o: u32, lm0: vec4<f32>, lm1: vec4<f32>, m0: vec4<f32>, m1: vec4<f32>) -> vec2<f32> {
+    if o < 4u {
+        return vec2<f32>(lm0[o], m0[o]);
+    }
+    return vec2<f32>(lm1[o - 4u], m1[o - 4u]);
+}
+
+// Each lane blurs a run of RUN consecutive cells (along x for blur_x, along y for blur_y),
+// loading each input cell once for the whole run: RUN + 2r loads per RUN outputs instead of
+// RUN (2r + 1). On Mesa's CPU rasterizers a load from a storage buffer at a per-lane index is a
+// gather, the blurs' dominant cost; the weights are the same for every lane (uniform loops, no
+// per-lane bounds), and each output still sums its taps from -r to r in order. Two entry
+// points rather than a branch on a uniform: Mesa's CPU rasterizers would run both.
+const RUN: u32 = 8u;
+
 @compute @workgroup_size(256)
 fn blur_x(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
     let r = blur_radius();
+    let runs = (params.grid_width + RUN - 1u) / RUN;
     let c = pixel_index(id, groups);
-    if c >= params.grid_width * params.band_rows {
+    if c >= runs * params.band_rows {
         return;
     }
     // Rows are independent: in and out windows both start at the band's first row.
-    let x = i32(c % params.grid_width);
-    let row = c - u32(x);
+    let x0 = i32((c % runs) * RUN);
+    let row = (c / runs) * params.grid_width;
     let last = i32(params.grid_width) - 1;
-    var acc = vec2<f32>(0.0);
-    // The same taps for every lane (a uniform loop; taps outside the grid weigh 0), which
-    // Mesa's CPU rasterizers run far faster than per-lane loop bounds.
-    for (var k = -r; k <= r; k = k + 1) {
-        let sx = x + k;
-        let weight = select(0.0, tap(k), sx >= 0 && sx <= last);
-        acc = acc + weight * blur_in[row + u32(clamp(sx, 0, last))];
+    var lm0 = vec4<f32>(0.0);
+    var lm1 = vec4<f32>(0.0);
+    var m0 = vec4<f32>(0.0);
+    var m1 = vec4<f32>(0.0);
+    for (var d = -r; d <= r + i32(RUN) - 1; d = d + 1) {
+        let sx = x0 + d;
+        // Cells outside the grid weigh 0.
+        let v = select(vec2<f32>(0.0), blur_in[row + u32(clamp(sx, 0, last))], sx >= 0 && sx <= last);
+        let w0 = run_taps(d, r);
+        let w1 = run_taps(d - 4, r);
+        lm0 = lm0 + w0 * v.x;
+        lm1 = lm1 + w1 * v.x;
+        m0 = m0 + w0 * v.y;
+        m1 = m1 + w1 * v.y;
     }
-    blur_out[c] = acc;
+    for (var o = 0u; o < RUN; o = o + 1u) {
+        if x0 + i32(o) <= last {
+            blur_out[row + u32(x0) + o] = run_output(o, lm0, lm1, m0, m1);
+        }
+    }
 }
 
 @compute @workgroup_size(256)
@@ -156,48 +195,82 @@ fn blur_y(
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
     let r = blur_radius();
+    let runs = (params.band_rows + RUN - 1u) / RUN;
     let c = pixel_index(id, groups);
-    if c >= params.grid_width * params.band_rows {
+    if c >= params.grid_width * runs {
         return;
     }
-    // The input window starts at row window_first, at least the radius above the band (or 0).
+    // The input window starts at row window_first, at least the radius above the band (or
+    // 0), and ends at least the radius below it (or at the last row); the rows a run's tail
+    // would read beyond the window only feed outputs past the band, which are not written.
     let x = c % params.grid_width;
-    let y = i32(params.band_first + c / params.grid_width);
-    let last = i32(params.grid_height) - 1;
-    var acc = vec2<f32>(0.0);
-    for (var k = -r; k <= r; k = k + 1) {
-        let sy = y + k;
-        let weight = select(0.0, tap(k), sy >= 0 && sy <= last);
-        acc = acc + weight * blur_in[(u32(clamp(sy, 0, last)) - params.window_first) * params.grid_width + x];
+    let first = (c / params.grid_width) * RUN;
+    let y0 = i32(params.band_first + first);
+    let last = min(i32(params.grid_height), i32(params.window_first + arrayLength(&blur_in) / params.grid_width)) - 1;
+    var lm0 = vec4<f32>(0.0);
+    var lm1 = vec4<f32>(0.0);
+    var m0 = vec4<f32>(0.0);
+    var m1 = vec4<f32>(0.0);
+    for (var d = -r; d <= r + i32(RUN) - 1; d = d + 1) {
+        let sy = y0 + d;
+        let inside = sy >= 0 && sy <= last;
+        let v = select(vec2<f32>(0.0), blur_in[(u32(clamp(sy, i32(params.window_first), max(last, 0))) - params.window_first) * params.grid_width + x], inside);
+        let w0 = run_taps(d, r);
+        let w1 = run_taps(d - 4, r);
+        lm0 = lm0 + w0 * v.x;
+        lm1 = lm1 + w1 * v.x;
+        m0 = m0 + w0 * v.y;
+        m1 = m1 + w1 * v.y;
     }
-    blur_out[params.dst_offset + c] = acc;
+    for (var o = 0u; o < RUN; o = o + 1u) {
+        if first + o < params.band_rows {
+            blur_out[params.dst_offset + (first + o) * params.grid_width + x] = run_output(o, lm0, lm1, m0, m1);
+        }
+    }
 }
 
-// V_i at pixel (x, y): the normalised blur of scale i, read bilinearly from its level (level 0:
-// the pixel itself). Cell c's centre is at pixel (c + 0.5) 2^k - 0.5, clamped to the outermost
-// centres, as cpu.rs `bilinear_on`.
-fn scale_value(i: u32, x: u32, y: u32) -> f32 {
+// V_i at pixel (x, y) for a scale blurred on level 0 (the pixel itself).
+fn fine_value(i: u32, x: u32, y: u32) -> f32 {
     let entry = scales[i];
-    var v: vec2<f32>;
-    if entry.y == 0u {
-        v = blurred[entry.x + (y - entry.w) * params.width + x];
-    } else {
-        let cell = 1u << entry.y;
-        let gw = (params.width + cell - 1u) / cell;
-        let gh = (params.height + cell - 1u) / cell;
-        let u = clamp((f32(x) + 0.5) / f32(cell) - 0.5, 0.0, f32(gw - 1u));
-        let w = clamp((f32(y) + 0.5) / f32(cell) - 0.5, 0.0, f32(gh - 1u));
-        let x0 = floor(u);
-        let y0 = floor(w);
-        let x1 = min(u32(x0) + 1u, gw - 1u);
-        let y1 = min(u32(y0) + 1u, gh - 1u);
-        let r0 = entry.x + (u32(y0) - entry.w) * gw;
-        let r1 = entry.x + (y1 - entry.w) * gw;
-        let top = mix(blurred[r0 + u32(x0)], blurred[r0 + x1], u - x0);
-        let bottom = mix(blurred[r1 + u32(x0)], blurred[r1 + x1], u - x0);
-        v = mix(top, bottom, w - y0);
-    }
+    let v = blurred[entry.x + (y - entry.w) * params.width + x];
     return select(0.0, v.x / v.y, v.y > 0.0);
+}
+
+// V_i at pixel (x, y) for a scale blurred on a coarser level k, read bilinearly. Cell c's
+// centre is at pixel (c + 0.5) 2^k - 0.5, clamped to the outermost centres, as cpu.rs
+// `bilinear_on`.
+fn coarse_value(i: u32, x: u32, y: u32) -> f32 {
+    let entry = scales[i];
+    let cell = 1u << entry.y;
+    let gw = (params.width + cell - 1u) / cell;
+    let gh = (params.height + cell - 1u) / cell;
+    let u = clamp((f32(x) + 0.5) / f32(cell) - 0.5, 0.0, f32(gw - 1u));
+    let w = clamp((f32(y) + 0.5) / f32(cell) - 0.5, 0.0, f32(gh - 1u));
+    let x0 = floor(u);
+    let y0 = floor(w);
+    let x1 = min(u32(x0) + 1u, gw - 1u);
+    let y1 = min(u32(y0) + 1u, gh - 1u);
+    let r0 = entry.x + (u32(y0) - entry.w) * gw;
+    let r1 = entry.x + (y1 - entry.w) * gw;
+    let top = mix(blurred[r0 + u32(x0)], blurred[r0 + x1], u - x0);
+    let bottom = mix(blurred[r1 + u32(x0)], blurred[r1 + x1], u - x0);
+    let v = mix(top, bottom, w - y0);
+    return select(0.0, v.x / v.y, v.y > 0.0);
+}
+
+// The scale selection's state: the previous scale's V, the chosen V, whether a scale failed.
+struct Selection {
+    v1: f32,
+    chosen: f32,
+    done: bool,
+}
+
+// One step of the scale selection: V_s (in `sel.v1`) against V_s+1 = v2.
+fn select_step(sel: Selection, s: u32, v2: f32) -> Selection {
+    let scale = bitcast<f32>(scales[s].z);
+    let activity = (sel.v1 - v2) / (params.sharpness / (scale * scale) + sel.v1);
+    let done = sel.done || abs(activity) >= params.epsilon;
+    return Selection(v2, select(sel.v1, sel.chosen, done), done);
 }
 
 @compute @workgroup_size(256)
@@ -214,24 +287,28 @@ fn apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
     let x = i % params.width;
     let y = params.band_first + i / params.width;
     let l = scaled_luminance(p);
-    var v1 = scale_value(0u, x, y);
-    var chosen = v1;
-    var done = false;
-    // Every lane runs every scale (no per-pixel break), so the loop and the level test in
-    // scale_value stay uniform; a pixel's choice freezes at its first failing scale.
-    for (var s = 0u; s + 1u < params.levels; s = s + 1u) {
-        let v2 = scale_value(s + 1u, x, y);
-        let scale = bitcast<f32>(scales[s].z);
-        let activity = (v1 - v2) / (params.sharpness / (scale * scale) + v1);
-        done = done || abs(activity) >= params.epsilon;
-        chosen = select(v1, chosen, done);
-        v1 = v2;
+    // Scales grow with their index, and so do their levels: the fine_scales on level 0 come
+    // first. Two loops rather than a branch on the level, which Mesa's CPU rasterizers would
+    // run both sides of. Every lane runs every scale (no per-pixel break), so the loops stay
+    // uniform; a pixel's choice freezes at its first failing scale.
+    var v1 = 0.0;
+    if params.fine_scales > 0u {
+        v1 = fine_value(0u, x, y);
+    } else {
+        v1 = coarse_value(0u, x, y);
+    }
+    var sel = Selection(v1, v1, false);
+    for (var s = 1u; s < params.fine_scales; s = s + 1u) {
+        sel = select_step(sel, s - 1u, fine_value(s, x, y));
+    }
+    for (var s = max(params.fine_scales, 1u); s < params.levels; s = s + 1u) {
+        sel = select_step(sel, s - 1u, coarse_value(s, x, y));
     }
     let colour = max(p.rgb, vec3<f32>(0.0));
     let y_w = dot(colour, REC709);
     var rgb = compose(vec3<f32>(0.0), 1.0, 0.0);
     if y_w > 0.0 && l > 0.0 {
-        rgb = compose(colour, y_w, l / (1.0 + chosen));
+        rgb = compose(colour, y_w, l / (1.0 + sel.chosen));
     }
     output[i] = vec4<f32>(rgb, clamp(p.a, 0.0, 1.0));
 }

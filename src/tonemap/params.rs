@@ -611,7 +611,7 @@ impl ToneMapSettings {
 
 /// The uniform block every shader in `shaders/tonemap/` declares as `ToneMapParams`.
 /// Keep in sync with the WGSL struct `ToneMapParams` (same field order, all 4-byte scalars,
-/// 144 bytes). Pass-specific fields (`pass_index`, `sigma`, `radius`, `direction`) vary between
+/// 144 bytes). Pass-specific fields (`sigma`, `radius`, the grid and band fields) vary between
 /// dispatches of one operator: write one uniform per dispatch or use dynamic offsets.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -646,20 +646,18 @@ pub(crate) struct ToneMapParams {
     pub sharpness: f32,
     /// Reinhard local: epsilon.
     pub epsilon: f32,
-    /// Reinhard local: ratio between successive scales (kept for reference; the host computes
-    /// `scale` and `sigma` per pass from it).
-    pub ratio: f32,
-    /// Reinhard local: scale s = ratio^i of the centre Gaussian of the current `select_scale`.
-    pub scale: f32,
-    /// Index of the current pass (Reinhard local `select_scale`: centre scale index i).
-    pub pass_index: u32,
-    /// Gaussian sigma in pixels for the current Reinhard local `blur` pass ([`blur_sigma`]).
+    pub _pad2: u32,
+    pub _pad3: u32,
+    /// Reinhard local `apply`: how many scales are blurred on pyramid level 0 (full
+    /// resolution); they come first, since levels grow with the scale.
+    pub fine_scales: u32,
+    /// Gaussian sigma of the current blur pass (in cells of its level; the shader reads the
+    /// host's taps, so this is for a reader of the uniform).
     pub sigma: f32,
     /// Window half-width: [`gaussian_radius`] for a Reinhard blur pass, the grid blur's radius
     /// in cells for Durand, the legend strip height for the false-colour view.
     pub radius: u32,
-    /// Blur direction for the current pass: 0 horizontal, 1 vertical.
-    pub direction: u32,
+    pub _pad4: u32,
     /// Durand: grid cell side in pixels; Reinhard local: cell side of the pass's pyramid
     /// level (2^k).
     pub cell: u32,
@@ -724,16 +722,11 @@ impl ToneMapParams {
                 p.bins = bins;
             }
             Operator::ReinhardLocal {
-                key,
-                ratio,
-                phi,
-                epsilon,
-                ..
+                key, phi, epsilon, ..
             } => {
                 p.key = key as f32;
                 p.sharpness = (2f64.powf(phi) * key) as f32;
                 p.epsilon = epsilon as f32;
-                p.ratio = ratio as f32;
             }
             Operator::DurandBilateral {
                 contrast,

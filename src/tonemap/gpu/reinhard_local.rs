@@ -165,7 +165,7 @@ impl GpuToneMapper {
                 )
                 .window(9, bands::window(0, row, band.first, band.end(), align));
                 rec.items(
-                    gw * band.rows,
+                    gw.div_ceil(BLUR_RUN) * band.rows,
                     REINHARD_SHADER,
                     "blur_x",
                     &[
@@ -222,7 +222,7 @@ impl GpuToneMapper {
                 });
                 rec.window(8, halo);
                 rec.items(
-                    gw * rows.rows,
+                    gw * rows.rows.div_ceil(BLUR_RUN),
                     REINHARD_SHADER,
                     "blur_y",
                     &[
@@ -240,6 +240,7 @@ impl GpuToneMapper {
             let u = self.band_uniform(
                 &ToneMapParams {
                     levels: r.levels.len() as u32,
+                    fine_scales: r.levels.iter().filter(|&&k| k == 0).count() as u32,
                     ..*base
                 },
                 band,
@@ -275,6 +276,9 @@ impl GpuToneMapper {
         self.uniform_bytes("reinhard taps", bytemuck::cast_slice(&taps))
     }
 }
+
+/// Cells each lane of a blur pass computes (`RUN` in the shader).
+const BLUR_RUN: u32 = 8;
 
 /// Taps a blur's uniform holds (`MAX_TAPS` in the shader): radius at most 127.
 const MAX_TAPS: usize = 128;
