@@ -56,6 +56,8 @@ const MAX_TAPS: u32 = 128u;
 const TAP_VECTORS: u32 = 32u;
 // Scales + 1 blurs at most (params.rs: scales <= 16).
 const MAX_SCALES: u32 = 17u;
+// Sixteen taps (radius <= 15) for each scale blurred on level 0, whose sigma is under 3.2 px.
+const FINE_TAP_VECTORS: u32 = 68u;
 
 @group(0) @binding(0) var<uniform> params: ToneMapParams;
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
@@ -65,8 +67,10 @@ const MAX_SCALES: u32 = 17u;
 @group(0) @binding(9) var<storage, read_write> blur_out: array<vec2<f32>>;
 @group(0) @binding(10) var<storage, read_write> pyramid: array<vec2<f32>>;
 @group(0) @binding(11) var<storage, read> blurred: array<vec2<f32>>;
+@group(0) @binding(12) var<storage, read> fine: array<vec2<f32>>;
 @group(0) @binding(18) var<uniform> scales: array<vec4<u32>, MAX_SCALES>;
 @group(0) @binding(19) var<uniform> taps: array<vec4<f32>, TAP_VECTORS>;
+@group(0) @binding(20) var<uniform> fine_taps: array<vec4<f32>, FINE_TAP_VECTORS>;
 
 
 // Scaled luminance L = key / Lbar * L_w (0 for black pixels), as prepare and apply need it.
@@ -163,9 +167,13 @@ fn blur_x(
     if c >= runs * params.band_rows {
         return;
     }
-    // Rows are independent: in and out windows both start at the band's first row.
+    // Rows are independent. The input window starts at row window_first; the output row is
+    // out_stride elements long, this scale's cells at dst_offset in it (a coarse scale's own
+    // buffer, from the band's first row; or its plane in a band's fine buffer).
     let x0 = i32((c % runs) * RUN);
-    let row = (c / runs) * params.grid_width;
+    let band_row = c / runs;
+    let row = (params.band_first + band_row - params.window_first) * params.grid_width;
+    let out_row = band_row * params.out_stride + params.dst_offset;
     let last = i32(params.grid_width) - 1;
     var lm0 = vec4<f32>(0.0);
     var lm1 = vec4<f32>(0.0);
@@ -184,7 +192,7 @@ fn blur_x(
     }
     for (var o = 0u; o < RUN; o = o + 1u) {
         if x0 + i32(o) <= last {
-            blur_out[row + u32(x0) + o] = run_output(o, lm0, lm1, m0, m1);
+            blur_out[out_row + u32(x0) + o] = run_output(o, lm0, lm1, m0, m1);
         }
     }
 }
@@ -229,11 +237,49 @@ fn blur_y(
     }
 }
 
-// V_i at pixel (x, y) for a scale blurred on level 0 (the pixel itself).
-fn fine_value(i: u32, x: u32, y: u32) -> f32 {
-    let entry = scales[i];
-    let v = blurred[entry.x + (y - entry.w) * params.width + x];
-    return select(0.0, v.x / v.y, v.y > 0.0);
+// The values of one scale at the RUN pixels of a column run (rows y0 .. y0 + 7).
+struct Run {
+    lo: vec4<f32>,
+    hi: vec4<f32>,
+}
+
+// Tap k of fine scale i's Gaussian (its 16 taps at fine_taps[4 i ..]), 0 beyond its radius r.
+fn fine_tap(i: u32, k: i32, r: i32) -> f32 {
+    let a = min(u32(abs(k)), 15u);
+    return select(0.0, fine_taps[4u * i + a / 4u][a % 4u], abs(k) <= r);
+}
+
+fn fine_taps4(i: u32, d: i32, r: i32) -> vec4<f32> {
+    return vec4<f32>(fine_tap(i, d, r), fine_tap(i, d - 1, r), fine_tap(i, d - 2, r), fine_tap(i, d - 3, r));
+}
+
+// V of fine scale i (blurred on level 0) at the run's pixels: the vertical blur of its
+// horizontal blur, which the band's `fine` buffer holds for rows window_first onwards (plane
+// i of each row of fine_scales planes), loading each row once for the run.
+fn fine_run(i: u32, x: u32, y0: i32) -> Run {
+    let r = i32(scales[i].x);
+    let stride = params.fine_scales * params.width;
+    let column = i * params.width + x;
+    let first = i32(params.window_first);
+    // Rows past the band's halo feed only outputs past the band, which are not written.
+    let last = min(i32(params.height), first + i32(arrayLength(&fine) / stride)) - 1;
+    var lm0 = vec4<f32>(0.0);
+    var lm1 = vec4<f32>(0.0);
+    var m0 = vec4<f32>(0.0);
+    var m1 = vec4<f32>(0.0);
+    for (var d = -r; d <= r + i32(RUN) - 1; d = d + 1) {
+        let sy = y0 + d;
+        let inside = sy >= 0 && sy <= last;
+        let v = select(vec2<f32>(0.0), fine[u32(clamp(sy, first, max(last, first)) - first) * stride + column], inside);
+        let w0 = fine_taps4(i, d, r);
+        let w1 = fine_taps4(i, d - 4, r);
+        lm0 = lm0 + w0 * v.x;
+        lm1 = lm1 + w1 * v.x;
+        m0 = m0 + w0 * v.y;
+        m1 = m1 + w1 * v.y;
+    }
+    let zero = vec4<f32>(0.0);
+    return Run(select(zero, lm0 / m0, m0 > zero), select(zero, lm1 / m1, m1 > zero));
 }
 
 // V_i at pixel (x, y) for a scale blurred on a coarser level k, read bilinearly. Cell c's
@@ -258,57 +304,90 @@ fn coarse_value(i: u32, x: u32, y: u32) -> f32 {
     return select(0.0, v.x / v.y, v.y > 0.0);
 }
 
-// The scale selection's state: the previous scale's V, the chosen V, whether a scale failed.
+// V of coarse scale i at the run's pixels (rows past the band repeat its last row).
+fn coarse_run(i: u32, x: u32, y0: u32, last: u32) -> Run {
+    var lo = vec4<f32>(0.0);
+    var hi = vec4<f32>(0.0);
+    for (var o = 0u; o < 4u; o = o + 1u) {
+        lo[o] = coarse_value(i, x, min(y0 + o, last));
+        hi[o] = coarse_value(i, x, min(y0 + o + 4u, last));
+    }
+    return Run(lo, hi);
+}
+
+fn scale_run(i: u32, x: u32, y0: u32, last: u32) -> Run {
+    if i < params.fine_scales {
+        return fine_run(i, x, i32(y0));
+    }
+    return coarse_run(i, x, y0, last);
+}
+
+// The scale selection's state for a run: the previous scale's V, the chosen V, and whether a
+// scale has failed, per pixel.
 struct Selection {
-    v1: f32,
-    chosen: f32,
-    done: bool,
+    v1: Run,
+    chosen: Run,
+    done_lo: vec4<bool>,
+    done_hi: vec4<bool>,
 }
 
 // One step of the scale selection: V_s (in `sel.v1`) against V_s+1 = v2.
-fn select_step(sel: Selection, s: u32, v2: f32) -> Selection {
+fn select_step(sel: Selection, s: u32, v2: Run) -> Selection {
     let scale = bitcast<f32>(scales[s].z);
-    let activity = (sel.v1 - v2) / (params.sharpness / (scale * scale) + sel.v1);
-    let done = sel.done || abs(activity) >= params.epsilon;
-    return Selection(v2, select(sel.v1, sel.chosen, done), done);
+    let sharp = vec4<f32>(params.sharpness / (scale * scale));
+    let eps = vec4<f32>(params.epsilon);
+    let done_lo = sel.done_lo | (abs((sel.v1.lo - v2.lo) / (sharp + sel.v1.lo)) >= eps);
+    let done_hi = sel.done_hi | (abs((sel.v1.hi - v2.hi) / (sharp + sel.v1.hi)) >= eps);
+    let chosen = Run(select(sel.v1.lo, sel.chosen.lo, done_lo), select(sel.v1.hi, sel.chosen.hi, done_hi));
+    return Selection(v2, chosen, done_lo, done_hi);
 }
 
-@compute @workgroup_size(256)
-fn apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = pixel_index(id, groups);
-    if i >= params.width * params.band_rows {
-        return;
-    }
+// L_d = L / (1 + V_chosen) for pixel i of the band (row y, column x).
+fn write_pixel(i: u32, chosen: f32) {
     let p = image[i];
     if is_missing(p) {
         output[i] = vec4<f32>(0.0);
         return;
     }
-    let x = i % params.width;
-    let y = params.band_first + i / params.width;
     let l = scaled_luminance(p);
-    // Scales grow with their index, and so do their levels: the fine_scales on level 0 come
-    // first. Two loops rather than a branch on the level, which Mesa's CPU rasterizers would
-    // run both sides of. Every lane runs every scale (no per-pixel break), so the loops stay
-    // uniform; a pixel's choice freezes at its first failing scale.
-    var v1 = 0.0;
-    if params.fine_scales > 0u {
-        v1 = fine_value(0u, x, y);
-    } else {
-        v1 = coarse_value(0u, x, y);
-    }
-    var sel = Selection(v1, v1, false);
-    for (var s = 1u; s < params.fine_scales; s = s + 1u) {
-        sel = select_step(sel, s - 1u, fine_value(s, x, y));
-    }
-    for (var s = max(params.fine_scales, 1u); s < params.levels; s = s + 1u) {
-        sel = select_step(sel, s - 1u, coarse_value(s, x, y));
-    }
     let colour = max(p.rgb, vec3<f32>(0.0));
     let y_w = dot(colour, REC709);
     var rgb = compose(vec3<f32>(0.0), 1.0, 0.0);
     if y_w > 0.0 && l > 0.0 {
-        rgb = compose(colour, y_w, l / (1.0 + sel.chosen));
+        rgb = compose(colour, y_w, l / (1.0 + chosen));
     }
     output[i] = vec4<f32>(rgb, clamp(p.a, 0.0, 1.0));
+}
+
+@compute @workgroup_size(256)
+fn apply(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let runs = (params.band_rows + RUN - 1u) / RUN;
+    let c = pixel_index(id, groups);
+    if c >= params.width * runs {
+        return;
+    }
+    let x = c % params.width;
+    let first = (c / params.width) * RUN;
+    let y0 = params.band_first + first;
+    let last = params.band_first + params.band_rows - 1u;
+    // Scales grow with their index, and so do their levels: the fine_scales on level 0 come
+    // first. Two loops rather than a branch on the level, which Mesa's CPU rasterizers would
+    // run both sides of. Every lane runs every scale (no per-pixel break), so the loops stay
+    // uniform; a pixel's choice freezes at its first failing scale.
+    let v0 = scale_run(0u, x, y0, last);
+    var sel = Selection(v0, v0, vec4<bool>(false), vec4<bool>(false));
+    for (var s = 1u; s < params.fine_scales; s = s + 1u) {
+        sel = select_step(sel, s - 1u, fine_run(s, x, i32(y0)));
+    }
+    for (var s = max(params.fine_scales, 1u); s < params.levels; s = s + 1u) {
+        sel = select_step(sel, s - 1u, coarse_run(s, x, y0, last));
+    }
+    for (var o = 0u; o < 4u; o = o + 1u) {
+        if first + o < params.band_rows {
+            write_pixel((first + o) * params.width + x, sel.chosen.lo[o]);
+        }
+        if first + o + 4u < params.band_rows {
+            write_pixel((first + o + 4u) * params.width + x, sel.chosen.hi[o]);
+        }
+    }
 }

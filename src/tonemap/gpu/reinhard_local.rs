@@ -35,10 +35,8 @@ impl GpuToneMapper {
             cache.scratch(ctx, "reinhard pyramid odd", parity_bytes(1)),
         ];
         let tmp: Vec<wgpu::Buffer> = r
-            .levels
-            .iter()
-            .enumerate()
-            .map(|(i, &k)| cache.scratch(ctx, TMP_LABELS[i], r.level_bytes(k)))
+            .coarse()
+            .map(|(i, k)| cache.scratch(ctx, TMP_LABELS[i], r.level_bytes(k)))
             .collect();
         let taps = (0..r.levels.len())
             .map(|i| self.blur_taps(r.sigma_cells[i], r.radius[i]))
@@ -48,6 +46,7 @@ impl GpuToneMapper {
             pyramid,
             tmp,
             taps,
+            fine_taps: self.fine_taps(r),
         };
         self.record_reinhard_pyramid(rec, r, call, &buffers)?;
         self.record_reinhard_blur_x(rec, r, &call.base, &buffers)?;
@@ -130,7 +129,8 @@ impl GpuToneMapper {
         Ok(())
     }
 
-    /// Each scale's horizontal blur, whole, on its level.
+    /// Each coarse scale's horizontal blur, whole, on its level (the fine scales' are computed
+    /// per pixel band, [`Self::record_reinhard_fine_x`]).
     fn record_reinhard_blur_x(
         &self,
         rec: &mut Recording<'_>,
@@ -140,7 +140,7 @@ impl GpuToneMapper {
     ) -> Result<()> {
         let align = self.align();
         let limit = self.window_limit;
-        for (i, &k) in r.levels.iter().enumerate() {
+        for (i, k) in r.coarse() {
             let (gw, gh) = r.level_size(k);
             let row = gw as u64 * 8;
             let rows = bands::band_rows(gh, bands::row_step(row, align), "reinhard blur", |n| {
@@ -149,21 +149,25 @@ impl GpuToneMapper {
             let blur = ToneMapParams {
                 sigma: r.sigma_cells[i] as f32,
                 radius: r.radius[i],
+                out_stride: gw,
                 ..r.level_params(base, k)
             };
             for band in bands::split(gh, rows) {
-                let u = self.band_uniform(&blur, band);
-                rec.window(
-                    8,
-                    bands::window(
-                        buffers.offsets[k as usize],
-                        row,
-                        band.first,
-                        band.end(),
-                        align,
-                    ),
-                )
-                .window(9, bands::window(0, row, band.first, band.end(), align));
+                let input = bands::window(
+                    buffers.offsets[k as usize],
+                    row,
+                    band.first,
+                    band.end(),
+                    align,
+                );
+                let u = self.uniform(&ToneMapParams {
+                    band_first: band.first,
+                    band_rows: band.rows,
+                    window_first: input.first_row,
+                    ..blur
+                });
+                rec.window(8, input)
+                    .window(9, bands::window(0, row, band.first, band.end(), align));
                 rec.items(
                     gw.div_ceil(BLUR_RUN) * band.rows,
                     REINHARD_SHADER,
@@ -171,7 +175,7 @@ impl GpuToneMapper {
                     &[
                         (0, &u),
                         (8, buffers.level(k)),
-                        (9, &buffers.tmp[i]),
+                        (9, &buffers.tmp[i - r.fine]),
                         (19, &buffers.taps[i]),
                     ],
                 )?;
@@ -180,8 +184,58 @@ impl GpuToneMapper {
         Ok(())
     }
 
-    /// Per pixel band: the vertical blur of the rows of every scale the band reads, into one
-    /// band-sized buffer, then the scale selection over them.
+    /// The horizontal blurs of the fine scales (on level 0) for the rows a pixel band's
+    /// vertical blurs read, `fine_rows`, into the band's fine buffer: row by row, one plane
+    /// per fine scale.
+    fn record_reinhard_fine_x(
+        &self,
+        rec: &mut Recording<'_>,
+        r: &ReinhardPlan,
+        base: &ToneMapParams,
+        buffers: &ReinhardBuffers,
+        fine: &wgpu::Buffer,
+        fine_rows: Band,
+    ) -> Result<()> {
+        let align = self.align();
+        let row = r.width as u64 * 8;
+        let input = bands::window(
+            buffers.offsets[0],
+            row,
+            fine_rows.first,
+            fine_rows.end(),
+            align,
+        );
+        for i in 0..r.fine {
+            let u = self.uniform(&ToneMapParams {
+                sigma: r.sigma_cells[i] as f32,
+                radius: r.radius[i],
+                band_first: fine_rows.first,
+                band_rows: fine_rows.rows,
+                window_first: input.first_row,
+                out_stride: r.fine_row_len(),
+                dst_offset: i as u32 * r.width,
+                ..r.level_params(base, 0)
+            });
+            rec.window(8, input)
+                .window(9, r.fine_window(fine_rows.rows, align));
+            rec.items(
+                r.width.div_ceil(BLUR_RUN) * fine_rows.rows,
+                REINHARD_SHADER,
+                "blur_x",
+                &[
+                    (0, &u),
+                    (8, buffers.level(0)),
+                    (9, fine),
+                    (19, &buffers.taps[i]),
+                ],
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Per pixel band: the fine scales' horizontal blurs of the rows the band reads, the
+    /// vertical blur of the rows of every coarse scale the band reads into one band-sized
+    /// buffer, then the scale selection over them.
     fn record_reinhard_scales(
         &self,
         rec: &mut Recording<'_>,
@@ -199,10 +253,22 @@ impl GpuToneMapper {
             .max()
             .unwrap_or(16);
         let blurred = cache.scratch(&self.ctx, "reinhard blurred", largest);
+        let fine_rows = plan.bands.iter().map(|&b| r.fine_rows(b).rows).max();
+        let fine = cache.scratch(
+            &self.ctx,
+            "reinhard fine",
+            fine_rows.unwrap_or(0) as u64 * r.fine_row_len() as u64 * 8,
+        );
         for (&band, planes) in plan.bands.iter().zip(&band_planes) {
+            let fine_rows = r.fine_rows(band);
+            self.record_reinhard_fine_x(rec, r, base, buffers, &fine, fine_rows)?;
             let mut table = [[0u32; 4]; 17];
+            for (i, entry) in table.iter_mut().enumerate().take(r.fine) {
+                let scale = r.ratio.powi(i as i32) as f32;
+                *entry = [r.radius[i], 0, scale.to_bits(), 0];
+            }
             let mut at = 0u32;
-            for (i, (&k, rows)) in r.levels.iter().zip(planes).enumerate() {
+            for ((i, k), rows) in r.coarse().zip(planes) {
                 let (gw, gh) = r.level_size(k);
                 let halo = bands::window(
                     0,
@@ -227,7 +293,7 @@ impl GpuToneMapper {
                     "blur_y",
                     &[
                         (0, &u),
-                        (8, &buffers.tmp[i]),
+                        (8, &buffers.tmp[i - r.fine]),
                         (9, &blurred),
                         (19, &buffers.taps[i]),
                     ],
@@ -240,15 +306,17 @@ impl GpuToneMapper {
             let u = self.band_uniform(
                 &ToneMapParams {
                     levels: r.levels.len() as u32,
-                    fine_scales: r.levels.iter().filter(|&&k| k == 0).count() as u32,
+                    fine_scales: r.fine as u32,
+                    window_first: fine_rows.first,
                     ..*base
                 },
                 band,
             );
             rec.window(1, plan.pixel_window(band, 16))
-                .window(2, plan.pixel_window(band, 16));
-            rec.pixels(
-                band,
+                .window(2, plan.pixel_window(band, 16))
+                .window(12, r.fine_window(fine_rows.rows, align));
+            rec.items(
+                r.width * band.rows.div_ceil(BLUR_RUN),
                 REINHARD_SHADER,
                 "apply",
                 &[
@@ -257,7 +325,9 @@ impl GpuToneMapper {
                     (2, &call.output),
                     (3, &call.stats),
                     (11, &blurred),
+                    (12, &fine),
                     (18, &table_buffer),
+                    (20, &buffers.fine_taps),
                 ],
             )?;
         }
@@ -275,10 +345,29 @@ impl GpuToneMapper {
         }
         self.uniform_bytes("reinhard taps", bytemuck::cast_slice(&taps))
     }
+
+    /// The fine scales' Gaussian taps, [`FINE_TAPS`] per scale, for the apply pass's vertical
+    /// blurs (the same values as [`Self::blur_taps`]).
+    fn fine_taps(&self, r: &ReinhardPlan) -> wgpu::Buffer {
+        let mut taps = [0f32; FINE_TAPS * 17];
+        for i in 0..r.fine {
+            let (sigma, radius) = (r.sigma_cells[i], r.radius[i] as usize);
+            debug_assert!(radius < FINE_TAPS, "fine scales have radius <= 10");
+            for k in 0..=radius.min(FINE_TAPS - 1) {
+                let k2 = (k * k) as f64;
+                taps[i * FINE_TAPS + k] = (-k2 / (2.0 * sigma * sigma)).exp() as f32;
+            }
+        }
+        self.uniform_bytes("reinhard fine taps", bytemuck::cast_slice(&taps))
+    }
 }
 
 /// Cells each lane of a blur pass computes (`RUN` in the shader).
 const BLUR_RUN: u32 = 8;
+
+/// Taps each fine scale has in the apply pass's table (`fine_taps` in the shader): radius at
+/// most 15, and a fine scale's sigma is under 2 `REINHARD_MIN_LEVEL_SIGMA` pixels (radius 10).
+const FINE_TAPS: usize = 16;
 
 /// Taps a blur's uniform holds (`MAX_TAPS` in the shader): radius at most 127.
 const MAX_TAPS: usize = 128;
@@ -291,9 +380,12 @@ const REINHARD_SHADER: &str = "tonemap/reinhard_local.wgsl";
 struct ReinhardBuffers {
     offsets: Vec<u64>,
     pyramid: [wgpu::Buffer; 2],
+    /// Each coarse scale's horizontal blur (scale `fine + j` in `tmp[j]`).
     tmp: Vec<wgpu::Buffer>,
     /// Each scale's Gaussian taps (binding 19 of its blurs).
     taps: Vec<wgpu::Buffer>,
+    /// The fine scales' taps (binding 20 of the apply pass).
+    fine_taps: wgpu::Buffer,
 }
 
 impl ReinhardBuffers {
@@ -335,6 +427,11 @@ pub(super) struct ReinhardPlan {
     sigma_cells: Vec<f64>,
     radius: Vec<u32>,
     deepest: u32,
+    /// How many scales are blurred on level 0 (the first ones: levels grow with the scale).
+    fine: usize,
+    /// The largest radius of a fine scale's blur: the rows above and below a pixel band that
+    /// its vertical blurs read.
+    fine_radius: u32,
 }
 
 impl ReinhardPlan {
@@ -346,15 +443,46 @@ impl ReinhardPlan {
             .zip(&levels)
             .map(|(&s, &k)| grid_sigma(s, 1 << k))
             .collect();
+        let radius: Vec<u32> = sigma_cells.iter().map(|&s| gaussian_radius(s)).collect();
+        let fine = levels.iter().take_while(|&&k| k == 0).count();
         ReinhardPlan {
             width,
             height,
             ratio,
-            radius: sigma_cells.iter().map(|&s| gaussian_radius(s)).collect(),
+            fine_radius: radius[..fine].iter().copied().max().unwrap_or(0),
+            fine,
+            radius,
             deepest: levels.iter().copied().max().unwrap_or(0),
             levels,
             sigma_cells,
         }
+    }
+
+    /// The coarse scales (blurred on levels 1 and deeper) with their levels.
+    fn coarse(&self) -> impl Iterator<Item = (usize, u32)> + '_ {
+        self.levels.iter().copied().enumerate().skip(self.fine)
+    }
+
+    /// The pixel rows whose fine horizontal blurs a band's vertical blurs read.
+    fn fine_rows(&self, band: Band) -> Band {
+        let first = band.first.saturating_sub(self.fine_radius);
+        let end = (band.end() + self.fine_radius).min(self.height);
+        Band {
+            first,
+            rows: end - first,
+        }
+    }
+
+    /// Elements in one row of a band's fine buffer: a plane of the image's width per fine
+    /// scale.
+    fn fine_row_len(&self) -> u32 {
+        self.fine as u32 * self.width
+    }
+
+    /// The first `rows` rows of a band's fine buffer (at least one element, as a binding).
+    fn fine_window(&self, rows: u32, align: u64) -> bands::Window {
+        let row = (self.fine_row_len() as u64 * 8).max(8);
+        bands::window(0, row, 0, rows.max(1), align)
     }
 
     /// `base` on the cells of pyramid level k (2^k pixels a side).
@@ -403,11 +531,10 @@ impl ReinhardPlan {
         (y0, (y0 + 1).min(gh - 1))
     }
 
-    /// Per scale, the rows of its level that pixel rows `band` read.
+    /// Per coarse scale, the rows of its level that pixel rows `band` read.
     fn planes_for(&self, band: Band) -> Vec<Band> {
-        self.levels
-            .iter()
-            .map(|&k| {
+        self.coarse()
+            .map(|(_, k)| {
                 let first = self.cell_rows(k, band.first).0;
                 let last = self.cell_rows(k, band.end() - 1).1;
                 Band {
@@ -421,8 +548,8 @@ impl ReinhardPlan {
     fn planes_bytes(&self, planes: &[Band]) -> u64 {
         planes
             .iter()
-            .zip(&self.levels)
-            .map(|(p, &k)| p.rows as u64 * self.level_size(k).0 as u64 * 8)
+            .zip(self.coarse())
+            .map(|(p, (_, k))| p.rows as u64 * self.level_size(k).0 as u64 * 8)
             .sum()
     }
 
@@ -436,16 +563,19 @@ impl ReinhardPlan {
             rows,
         };
         let planes = self.planes_for(worst);
-        let halo_fits = planes
-            .iter()
-            .zip(&self.levels)
-            .zip(&self.radius)
-            .all(|((p, &k), &r)| {
-                let row = self.level_size(k).0 as u64 * 8;
-                (p.rows as u64 + 2 * r as u64 + bands::row_step(row, align) as u64) * row <= limit
-            });
+        let halo_fits = planes.iter().zip(self.coarse()).all(|(p, (i, k))| {
+            let row = self.level_size(k).0 as u64 * 8;
+            let r = self.radius[i] as u64;
+            (p.rows as u64 + 2 * r + bands::row_step(row, align) as u64) * row <= limit
+        });
+        // The fine blurs' input (level 0 from an aligned row) and output (every fine plane).
+        let fine = self.fine_rows(worst).rows as u64;
+        let level0 = self.width as u64 * 8;
+        let fine_fits = (fine + bands::row_step(level0, align) as u64) * level0 <= limit
+            && fine * self.fine_row_len() as u64 * 8 <= limit;
         rows as u64 * self.width as u64 * 8 <= limit
             && self.planes_bytes(&planes) <= limit
             && halo_fits
+            && fine_fits
     }
 }
