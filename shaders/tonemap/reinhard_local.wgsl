@@ -67,7 +67,7 @@ const FINE_TAP_VECTORS: u32 = 68u;
 @group(0) @binding(9) var<storage, read_write> blur_out: array<vec2<f32>>;
 @group(0) @binding(10) var<storage, read_write> pyramid: array<vec2<f32>>;
 @group(0) @binding(11) var<storage, read> blurred: array<vec2<f32>>;
-@group(0) @binding(12) var<storage, read> fine: array<vec2<f32>>;
+@group(0) @binding(12) var fine: texture_2d<f32>;
 @group(0) @binding(18) var<uniform> scales: array<vec4<u32>, MAX_SCALES>;
 @group(0) @binding(19) var<uniform> taps: array<vec4<f32>, TAP_VECTORS>;
 @group(0) @binding(20) var<uniform> fine_taps: array<vec4<f32>, FINE_TAP_VECTORS>;
@@ -258,11 +258,10 @@ fn fine_taps4(i: u32, d: i32, r: i32) -> vec4<f32> {
 // i of each row of fine_scales planes), loading each row once for the run.
 fn fine_run(i: u32, x: u32, y0: i32) -> Run {
     let r = i32(scales[i].x);
-    let stride = params.fine_scales * params.width;
-    let column = i * params.width + x;
+    let planes = i32(params.fine_scales);
     let first = i32(params.window_first);
     // Rows past the band's halo feed only outputs past the band, which are not written.
-    let last = min(i32(params.height), first + i32(arrayLength(&fine) / stride)) - 1;
+    let last = min(i32(params.height), first + i32(textureDimensions(fine).y) / planes) - 1;
     var lm0 = vec4<f32>(0.0);
     var lm1 = vec4<f32>(0.0);
     var m0 = vec4<f32>(0.0);
@@ -270,7 +269,8 @@ fn fine_run(i: u32, x: u32, y0: i32) -> Run {
     for (var d = -r; d <= r + i32(RUN) - 1; d = d + 1) {
         let sy = y0 + d;
         let inside = sy >= 0 && sy <= last;
-        let v = select(vec2<f32>(0.0), fine[u32(clamp(sy, first, max(last, first)) - first) * stride + column], inside);
+        let row = (clamp(sy, first, max(last, first)) - first) * planes + i32(i);
+        let v = select(vec2<f32>(0.0), textureLoad(fine, vec2<i32>(i32(x), row), 0).xy, inside);
         let w0 = fine_taps4(i, d, r);
         let w1 = fine_taps4(i, d - 4, r);
         lm0 = lm0 + w0 * v.x;

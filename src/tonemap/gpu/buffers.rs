@@ -11,6 +11,7 @@ pub(super) struct BufferCache {
     image: Option<UploadBuffer>,
     output: Option<ReadbackBuffer>,
     scratch: HashMap<&'static str, wgpu::Buffer>,
+    textures: HashMap<&'static str, wgpu::Texture>,
 }
 
 impl BufferCache {
@@ -57,6 +58,45 @@ impl BufferCache {
                 }
             })
             .or_insert_with(|| new_storage(ctx, label, size))
+            .clone()
+    }
+}
+
+impl BufferCache {
+    /// A 2-D texture of exactly `width` x `height` texels of `format` under `label`, sampled
+    /// and filled by copies.
+    pub(super) fn texture(
+        &mut self,
+        ctx: &GpuContext,
+        label: &'static str,
+        format: wgpu::TextureFormat,
+        (width, height): (u32, u32),
+    ) -> wgpu::Texture {
+        let size = wgpu::Extent3d {
+            width: width.max(1),
+            height: height.max(1),
+            depth_or_array_layers: 1,
+        };
+        let make = || {
+            ctx.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        };
+        self.textures
+            .entry(label)
+            .and_modify(|t| {
+                if t.size() != size || t.format() != format {
+                    *t = make();
+                }
+            })
+            .or_insert_with(make)
             .clone()
     }
 }

@@ -168,9 +168,14 @@ impl GpuToneMapper {
             _ => None,
         };
         let plan = self.plan(width, height, |rows| {
-            reinhard
-                .as_ref()
-                .is_none_or(|r| r.band_fits(rows, self.window_limit, self.align()))
+            reinhard.as_ref().is_none_or(|r| {
+                r.band_fits(
+                    rows,
+                    self.window_limit,
+                    self.align(),
+                    self.ctx.caps.max_texture_2d,
+                )
+            })
         })?;
         Ok((reinhard, plan))
     }
@@ -400,6 +405,7 @@ impl GpuToneMapper {
             width,
             height,
             windows: Vec::new(),
+            textures: Vec::new(),
         }
     }
 }

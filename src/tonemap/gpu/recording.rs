@@ -17,6 +17,8 @@ pub(super) struct Recording<'a> {
     pub(super) height: u32,
     /// Windows (byte ranges) for the next dispatch's bindings; the rest are bound whole.
     pub(super) windows: Vec<(u32, Window)>,
+    /// Textures for the next dispatch's bindings, beside its buffers.
+    pub(super) textures: Vec<(u32, wgpu::TextureView)>,
 }
 
 impl Recording<'_> {
@@ -29,7 +31,8 @@ impl Recording<'_> {
     ) -> Result<()> {
         let pipeline = self.mapper.pipeline(file, entry, self.spec)?;
         let windows = std::mem::take(&mut self.windows);
-        let entries: Vec<wgpu::BindGroupEntry> = bindings
+        let textures = std::mem::take(&mut self.textures);
+        let mut entries: Vec<wgpu::BindGroupEntry> = bindings
             .iter()
             .map(|(binding, buffer)| wgpu::BindGroupEntry {
                 binding: *binding,
@@ -43,6 +46,10 @@ impl Recording<'_> {
                 },
             })
             .collect();
+        entries.extend(textures.iter().map(|(binding, view)| wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: wgpu::BindingResource::TextureView(view),
+        }));
         let bind_group = self
             .mapper
             .ctx
@@ -62,6 +69,13 @@ impl Recording<'_> {
         pass.set_bind_group(0, &bind_group, &[]);
         pass.dispatch_workgroups(groups.0, groups.1, 1);
         Ok(())
+    }
+
+    /// Binds `texture` at `binding` in the next dispatch.
+    pub(super) fn texture(&mut self, binding: u32, texture: &wgpu::Texture) -> &mut Self {
+        self.textures
+            .push((binding, texture.create_view(&Default::default())));
+        self
     }
 
     /// Binds `window` of the buffer at `binding` in the next dispatch.

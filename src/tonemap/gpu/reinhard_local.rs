@@ -213,7 +213,7 @@ impl GpuToneMapper {
                 band_rows: fine_rows.rows,
                 window_first: input.first_row,
                 out_stride: r.fine_row_len(),
-                dst_offset: i as u32 * r.width,
+                dst_offset: i as u32 * r.fine_pitch(),
                 ..r.level_params(base, 0)
             });
             rec.window(8, input)
@@ -259,9 +259,16 @@ impl GpuToneMapper {
             "reinhard fine",
             fine_rows.unwrap_or(0) as u64 * r.fine_row_len() as u64 * 8,
         );
+        let texture = cache.texture(
+            &self.ctx,
+            "reinhard fine texture",
+            wgpu::TextureFormat::Rg32Float,
+            (r.width, fine_rows.unwrap_or(0) * r.fine as u32),
+        );
         for (&band, planes) in plan.bands.iter().zip(&band_planes) {
             let fine_rows = r.fine_rows(band);
             self.record_reinhard_fine_x(rec, r, base, buffers, &fine, fine_rows)?;
+            r.copy_fine(rec, &fine, &texture, fine_rows);
             let mut table = [[0u32; 4]; 17];
             for (i, entry) in table.iter_mut().enumerate().take(r.fine) {
                 let scale = r.ratio.powi(i as i32) as f32;
@@ -314,7 +321,7 @@ impl GpuToneMapper {
             );
             rec.window(1, plan.pixel_window(band, 16))
                 .window(2, plan.pixel_window(band, 16))
-                .window(12, r.fine_window(fine_rows.rows, align));
+                .texture(12, &texture);
             rec.items(
                 r.width * band.rows.div_ceil(BLUR_RUN),
                 REINHARD_SHADER,
@@ -325,7 +332,6 @@ impl GpuToneMapper {
                     (2, &call.output),
                     (3, &call.stats),
                     (11, &blurred),
-                    (12, &fine),
                     (18, &table_buffer),
                     (20, &buffers.fine_taps),
                 ],
@@ -473,10 +479,47 @@ impl ReinhardPlan {
         }
     }
 
-    /// Elements in one row of a band's fine buffer: a plane of the image's width per fine
-    /// scale.
+    /// Elements in one plane's row of a band's fine buffer: the image's width, padded to the
+    /// 256-byte rows a copy into a texture takes.
+    fn fine_pitch(&self) -> u32 {
+        self.width.next_multiple_of(32)
+    }
+
+    /// Elements in one row of a band's fine buffer: a plane per fine scale.
     fn fine_row_len(&self) -> u32 {
-        self.fine as u32 * self.width
+        self.fine as u32 * self.fine_pitch()
+    }
+
+    /// Copies a band's fine horizontal blurs into the texture the apply pass reads them from
+    /// (row j of the texture is plane j % fine of row j / fine): on Mesa's CPU rasterizers a
+    /// texel fetch gathers the lanes' values in vector code, where a storage-buffer load at a
+    /// per-lane index runs one lane at a time.
+    fn copy_fine(
+        &self,
+        rec: &mut Recording<'_>,
+        fine: &wgpu::Buffer,
+        texture: &wgpu::Texture,
+        rows: Band,
+    ) {
+        if self.fine == 0 {
+            return;
+        }
+        rec.encoder.copy_buffer_to_texture(
+            wgpu::TexelCopyBufferInfo {
+                buffer: fine,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.fine_pitch() * 8),
+                    rows_per_image: None,
+                },
+            },
+            texture.as_image_copy(),
+            wgpu::Extent3d {
+                width: self.width,
+                height: rows.rows * self.fine as u32,
+                depth_or_array_layers: 1,
+            },
+        );
     }
 
     /// The first `rows` rows of a band's fine buffer (at least one element, as a binding).
@@ -556,7 +599,7 @@ impl ReinhardPlan {
     /// Whether a band of `rows` pixel rows keeps Reinhard's windows within `limit`: level 0
     /// of the pyramid, the band's blurred rows of every scale, and each vertical blur's input
     /// (the band's rows plus the blur's radius on both sides).
-    pub(super) fn band_fits(&self, rows: u32, limit: u64, align: u64) -> bool {
+    pub(super) fn band_fits(&self, rows: u32, limit: u64, align: u64, max_texture: u32) -> bool {
         let rows = rows.min(self.height);
         let worst = Band {
             first: (self.height - rows) / 2,
@@ -572,7 +615,9 @@ impl ReinhardPlan {
         let fine = self.fine_rows(worst).rows as u64;
         let level0 = self.width as u64 * 8;
         let fine_fits = (fine + bands::row_step(level0, align) as u64) * level0 <= limit
-            && fine * self.fine_row_len() as u64 * 8 <= limit;
+            && fine * self.fine_row_len() as u64 * 8 <= limit
+            && fine * self.fine as u64 <= max_texture as u64
+            && self.width <= max_texture;
         rows as u64 * self.width as u64 * 8 <= limit
             && self.planes_bytes(&planes) <= limit
             && halo_fits
