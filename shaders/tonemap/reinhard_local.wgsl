@@ -66,7 +66,7 @@ const FINE_TAP_VECTORS: u32 = 68u;
 @group(0) @binding(8) var<storage, read> blur_in: array<vec2<f32>>;
 @group(0) @binding(9) var<storage, read_write> blur_out: array<vec2<f32>>;
 @group(0) @binding(10) var<storage, read_write> pyramid: array<vec2<f32>>;
-@group(0) @binding(11) var<storage, read> blurred: array<vec2<f32>>;
+@group(0) @binding(11) var coarse: texture_2d<f32>;
 @group(0) @binding(12) var fine: texture_2d<f32>;
 @group(0) @binding(18) var<uniform> scales: array<vec4<u32>, MAX_SCALES>;
 @group(0) @binding(19) var<uniform> taps: array<vec4<f32>, TAP_VECTORS>;
@@ -232,7 +232,7 @@ fn blur_y(
     }
     for (var o = 0u; o < RUN; o = o + 1u) {
         if first + o < params.band_rows {
-            blur_out[params.dst_offset + (first + o) * params.grid_width + x] = run_output(o, lm0, lm1, m0, m1);
+            blur_out[params.dst_offset + (first + o) * params.out_stride + x] = run_output(o, lm0, lm1, m0, m1);
         }
     }
 }
@@ -296,10 +296,13 @@ fn coarse_value(i: u32, x: u32, y: u32) -> f32 {
     let y0 = floor(w);
     let x1 = min(u32(x0) + 1u, gw - 1u);
     let y1 = min(u32(y0) + 1u, gh - 1u);
-    let r0 = entry.x + (u32(y0) - entry.w) * gw;
-    let r1 = entry.x + (y1 - entry.w) * gw;
-    let top = mix(blurred[r0 + u32(x0)], blurred[r0 + x1], u - x0);
-    let bottom = mix(blurred[r1 + u32(x0)], blurred[r1 + x1], u - x0);
+    // Row c of level k is texture row entry.x + c - entry.w.
+    let r0 = i32(entry.x + u32(y0) - entry.w);
+    let r1 = i32(entry.x + y1 - entry.w);
+    let c0 = i32(x0);
+    let c1 = i32(x1);
+    let top = mix(textureLoad(coarse, vec2<i32>(c0, r0), 0).xy, textureLoad(coarse, vec2<i32>(c1, r0), 0).xy, u - x0);
+    let bottom = mix(textureLoad(coarse, vec2<i32>(c0, r1), 0).xy, textureLoad(coarse, vec2<i32>(c1, r1), 0).xy, u - x0);
     let v = mix(top, bottom, w - y0);
     return select(0.0, v.x / v.y, v.y > 0.0);
 }

@@ -245,14 +245,20 @@ impl GpuToneMapper {
         buffers: &ReinhardBuffers,
     ) -> Result<()> {
         let (plan, base) = (call.plan, &call.base);
-        let align = self.align();
         let band_planes: Vec<Vec<Band>> = plan.bands.iter().map(|&b| r.planes_for(b)).collect();
-        let largest = band_planes
-            .iter()
-            .map(|planes| r.planes_bytes(planes))
-            .max()
-            .unwrap_or(16);
-        let blurred = cache.scratch(&self.ctx, "reinhard blurred", largest);
+        let coarse_rows = band_planes.iter().map(|planes| r.planes_rows(planes)).max();
+        let coarse_rows = coarse_rows.unwrap_or(0);
+        let blurred = cache.scratch(
+            &self.ctx,
+            "reinhard blurred",
+            coarse_rows as u64 * r.coarse_pitch() as u64 * 8,
+        );
+        let coarse = cache.texture(
+            &self.ctx,
+            "reinhard coarse texture",
+            wgpu::TextureFormat::Rg32Float,
+            (r.coarse_width(), coarse_rows),
+        );
         let fine_rows = plan.bands.iter().map(|&b| r.fine_rows(b).rows).max();
         let fine = cache.scratch(
             &self.ctx,
@@ -268,47 +274,26 @@ impl GpuToneMapper {
         for (&band, planes) in plan.bands.iter().zip(&band_planes) {
             let fine_rows = r.fine_rows(band);
             self.record_reinhard_fine_x(rec, r, base, buffers, &fine, fine_rows)?;
-            r.copy_fine(rec, &fine, &texture, fine_rows);
+            r.copy_rows(
+                rec,
+                &fine,
+                &texture,
+                r.fine_pitch(),
+                (r.width, fine_rows.rows * r.fine as u32),
+            );
             let mut table = [[0u32; 4]; 17];
             for (i, entry) in table.iter_mut().enumerate().take(r.fine) {
                 let scale = r.ratio.powi(i as i32) as f32;
                 *entry = [r.radius[i], 0, scale.to_bits(), 0];
             }
-            let mut at = 0u32;
-            for ((i, k), rows) in r.coarse().zip(planes) {
-                let (gw, gh) = r.level_size(k);
-                let halo = bands::window(
-                    0,
-                    gw as u64 * 8,
-                    rows.first.saturating_sub(r.radius[i]),
-                    (rows.end() + r.radius[i]).min(gh),
-                    align,
-                );
-                let u = self.uniform(&ToneMapParams {
-                    sigma: r.sigma_cells[i] as f32,
-                    radius: r.radius[i],
-                    band_first: rows.first,
-                    band_rows: rows.rows,
-                    window_first: halo.first_row,
-                    dst_offset: at,
-                    ..r.level_params(base, k)
-                });
-                rec.window(8, halo);
-                rec.items(
-                    gw * rows.rows.div_ceil(BLUR_RUN),
-                    REINHARD_SHADER,
-                    "blur_y",
-                    &[
-                        (0, &u),
-                        (8, &buffers.tmp[i - r.fine]),
-                        (9, &blurred),
-                        (19, &buffers.taps[i]),
-                    ],
-                )?;
-                let scale = r.ratio.powi(i as i32) as f32;
-                table[i] = [at, k, scale.to_bits(), rows.first];
-                at += gw * rows.rows;
-            }
+            self.record_reinhard_coarse_y(rec, r, base, buffers, &blurred, planes, &mut table)?;
+            r.copy_rows(
+                rec,
+                &blurred,
+                &coarse,
+                r.coarse_pitch(),
+                (r.coarse_width(), r.planes_rows(planes)),
+            );
             let table_buffer = self.uniform_bytes("reinhard scales", bytemuck::cast_slice(&table));
             let u = self.band_uniform(
                 &ToneMapParams {
@@ -321,6 +306,7 @@ impl GpuToneMapper {
             );
             rec.window(1, plan.pixel_window(band, 16))
                 .window(2, plan.pixel_window(band, 16))
+                .texture(11, &coarse)
                 .texture(12, &texture);
             rec.items(
                 r.width * band.rows.div_ceil(BLUR_RUN),
@@ -331,11 +317,64 @@ impl GpuToneMapper {
                     (1, &call.image),
                     (2, &call.output),
                     (3, &call.stats),
-                    (11, &blurred),
                     (18, &table_buffer),
                     (20, &buffers.fine_taps),
                 ],
             )?;
+        }
+        Ok(())
+    }
+
+    /// The vertical blurs of the rows of each coarse scale that a pixel band reads (`planes`),
+    /// one after another in `blurred` (rows of `coarse_pitch` cells), and their entries in the
+    /// apply pass's table: (first texture row, level, scale, first level row).
+    #[allow(clippy::too_many_arguments)]
+    fn record_reinhard_coarse_y(
+        &self,
+        rec: &mut Recording<'_>,
+        r: &ReinhardPlan,
+        base: &ToneMapParams,
+        buffers: &ReinhardBuffers,
+        blurred: &wgpu::Buffer,
+        planes: &[Band],
+        table: &mut [[u32; 4]; 17],
+    ) -> Result<()> {
+        let align = self.align();
+        let mut at = 0u32;
+        for ((i, k), rows) in r.coarse().zip(planes) {
+            let (gw, gh) = r.level_size(k);
+            let halo = bands::window(
+                0,
+                gw as u64 * 8,
+                rows.first.saturating_sub(r.radius[i]),
+                (rows.end() + r.radius[i]).min(gh),
+                align,
+            );
+            let u = self.uniform(&ToneMapParams {
+                sigma: r.sigma_cells[i] as f32,
+                radius: r.radius[i],
+                band_first: rows.first,
+                band_rows: rows.rows,
+                window_first: halo.first_row,
+                out_stride: r.coarse_pitch(),
+                dst_offset: at * r.coarse_pitch(),
+                ..r.level_params(base, k)
+            });
+            rec.window(8, halo);
+            rec.items(
+                gw * rows.rows.div_ceil(BLUR_RUN),
+                REINHARD_SHADER,
+                "blur_y",
+                &[
+                    (0, &u),
+                    (8, &buffers.tmp[i - r.fine]),
+                    (9, blurred),
+                    (19, &buffers.taps[i]),
+                ],
+            )?;
+            let scale = r.ratio.powi(i as i32) as f32;
+            table[i] = [at, k, scale.to_bits(), rows.first];
+            at += rows.rows;
         }
         Ok(())
     }
@@ -490,33 +529,35 @@ impl ReinhardPlan {
         self.fine as u32 * self.fine_pitch()
     }
 
-    /// Copies a band's fine horizontal blurs into the texture the apply pass reads them from
-    /// (row j of the texture is plane j % fine of row j / fine): on Mesa's CPU rasterizers a
-    /// texel fetch gathers the lanes' values in vector code, where a storage-buffer load at a
-    /// per-lane index runs one lane at a time.
-    fn copy_fine(
+    /// Copies `size` texels of (L m, m) pairs from `buffer` (rows of `pitch` pairs) into the
+    /// texture the apply pass reads them from: the fine horizontal blurs (texture row j is
+    /// plane j % fine of pixel row j / fine) or the coarse scales' rows. On Mesa's CPU
+    /// rasterizers a texel fetch gathers the lanes' values in vector code, where a
+    /// storage-buffer load at a per-lane index runs one lane at a time.
+    fn copy_rows(
         &self,
         rec: &mut Recording<'_>,
-        fine: &wgpu::Buffer,
+        buffer: &wgpu::Buffer,
         texture: &wgpu::Texture,
-        rows: Band,
+        pitch: u32,
+        (width, height): (u32, u32),
     ) {
-        if self.fine == 0 {
+        if width == 0 || height == 0 {
             return;
         }
         rec.encoder.copy_buffer_to_texture(
             wgpu::TexelCopyBufferInfo {
-                buffer: fine,
+                buffer,
                 layout: wgpu::TexelCopyBufferLayout {
                     offset: 0,
-                    bytes_per_row: Some(self.fine_pitch() * 8),
+                    bytes_per_row: Some(pitch * 8),
                     rows_per_image: None,
                 },
             },
             texture.as_image_copy(),
             wgpu::Extent3d {
-                width: self.width,
-                height: rows.rows * self.fine as u32,
+                width,
+                height,
                 depth_or_array_layers: 1,
             },
         );
@@ -588,12 +629,24 @@ impl ReinhardPlan {
             .collect()
     }
 
-    fn planes_bytes(&self, planes: &[Band]) -> u64 {
-        planes
-            .iter()
-            .zip(self.coarse())
-            .map(|(p, (_, k))| p.rows as u64 * self.level_size(k).0 as u64 * 8)
-            .sum()
+    /// Rows of the coarse scales' planes that a band reads, all together.
+    fn planes_rows(&self, planes: &[Band]) -> u32 {
+        planes.iter().map(|p| p.rows).sum()
+    }
+
+    /// Cells in the widest coarse level (level 1, or the first coarse scale's), 0 without
+    /// coarse scales.
+    fn coarse_width(&self) -> u32 {
+        self.coarse()
+            .map(|(_, k)| self.level_size(k).0)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Cells in one row of the coarse planes' buffer: the widest coarse level's, padded to the
+    /// 256-byte rows a copy into a texture takes.
+    fn coarse_pitch(&self) -> u32 {
+        self.coarse_width().max(1).next_multiple_of(32)
     }
 
     /// Whether a band of `rows` pixel rows keeps Reinhard's windows within `limit`: level 0
@@ -618,8 +671,10 @@ impl ReinhardPlan {
             && fine * self.fine_row_len() as u64 * 8 <= limit
             && fine * self.fine as u64 <= max_texture as u64
             && self.width <= max_texture;
+        let coarse_rows = self.planes_rows(&planes);
         rows as u64 * self.width as u64 * 8 <= limit
-            && self.planes_bytes(&planes) <= limit
+            && coarse_rows as u64 * self.coarse_pitch() as u64 * 8 <= limit
+            && coarse_rows <= max_texture
             && halo_fits
             && fine_fits
     }
