@@ -6,7 +6,7 @@ struct ToneMapParams {
     exposure_ev: f32, offset: f32, inv_gamma: f32, saturation: f32,
     key: f32, white: f32, bias: f32, ld_max: f32,
     ld_min: f32, contrast_log10: f32, sigma_spatial_px: f32, sigma_range: f32,
-    sharpness: f32, epsilon: f32, out_stride: u32, pad3: u32,
+    sharpness: f32, epsilon: f32, out_stride: u32, in_stride: u32,
     fine_scales: u32, sigma: f32, radius: u32, pad4: u32,
     cell: u32, grid_width: u32, grid_height: u32, levels: u32,
     first_level: f32, level_step: f32, band_first: u32, dst_offset: u32,

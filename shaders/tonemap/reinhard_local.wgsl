@@ -68,6 +68,7 @@ const FINE_TAP_VECTORS: u32 = 68u;
 @group(0) @binding(10) var<storage, read_write> pyramid: array<vec2<f32>>;
 @group(0) @binding(11) var coarse: texture_2d<f32>;
 @group(0) @binding(12) var fine: texture_2d<f32>;
+@group(0) @binding(13) var level0: texture_2d<f32>;
 @group(0) @binding(18) var<uniform> scales: array<vec4<u32>, MAX_SCALES>;
 @group(0) @binding(19) var<uniform> taps: array<vec4<f32>, TAP_VECTORS>;
 @group(0) @binding(20) var<uniform> fine_taps: array<vec4<f32>, FINE_TAP_VECTORS>;
@@ -89,10 +90,12 @@ fn prepare(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
         return;
     }
     let p = image[i];
+    // Level 0's rows are out_stride cells apart (padded for the copy into a texture).
+    let at = (i / params.width) * params.out_stride + i % params.width;
     if is_missing(p) {
-        pyramid[i] = vec2<f32>(0.0);
+        pyramid[at] = vec2<f32>(0.0);
     } else {
-        pyramid[i] = vec2<f32>(scaled_luminance(p), 1.0);
+        pyramid[at] = vec2<f32>(scaled_luminance(p), 1.0);
     }
 }
 
@@ -113,7 +116,7 @@ fn downsample(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     for (var dy = 0u; dy < 2u; dy = dy + 1u) {
         for (var dx = 0u; dx < 2u; dx = dx + 1u) {
             if x + dx < sw && y + dy < sh {
-                acc = acc + 0.25 * blur_in[(y + dy - params.window_first) * sw + x + dx];
+                acc = acc + 0.25 * blur_in[(y + dy - params.window_first) * params.in_stride + x + dx];
             }
         }
     }
@@ -156,6 +159,31 @@ fn run_output(o: u32, lm0: vec4<f32>, lm1: vec4<f32>, m0: vec4<f32>, m1: vec4<f3
 // points rather than a branch on a uniform: Mesa's CPU rasterizers would run both.
 const RUN: u32 = 8u;
 
+// A run's horizontal sums: (L m) and m for its eight outputs.
+struct RunSums {
+    lm0: vec4<f32>,
+    lm1: vec4<f32>,
+    m0: vec4<f32>,
+    m1: vec4<f32>,
+}
+
+// Adds input cell d of a run (offset d from its first output) to its sums.
+fn add_to_run(sums: RunSums, d: i32, r: i32, v: vec2<f32>) -> RunSums {
+    let w0 = run_taps(d, r);
+    let w1 = run_taps(d - 4, r);
+    return RunSums(sums.lm0 + w0 * v.x, sums.lm1 + w1 * v.x, sums.m0 + w0 * v.y, sums.m1 + w1 * v.y);
+}
+
+// Writes a row run's outputs that lie inside the grid (last = its last cell).
+fn write_row_run(out_row: u32, x0: i32, last: i32, sums: RunSums) {
+    for (var o = 0u; o < RUN; o = o + 1u) {
+        if x0 + i32(o) <= last {
+            blur_out[out_row + u32(x0) + o] = run_output(o, sums.lm0, sums.lm1, sums.m0, sums.m1);
+        }
+    }
+}
+
+// The horizontal blur of a coarse scale, on its level k (blur_in).
 @compute @workgroup_size(256)
 fn blur_x(
     @builtin(global_invocation_id) id: vec3<u32>,
@@ -168,33 +196,46 @@ fn blur_x(
         return;
     }
     // Rows are independent. The input window starts at row window_first; the output row is
-    // out_stride elements long, this scale's cells at dst_offset in it (a coarse scale's own
-    // buffer, from the band's first row; or its plane in a band's fine buffer).
+    // out_stride elements long, this scale's cells at dst_offset in it (the scale's own
+    // buffer, from the band's first row).
     let x0 = i32((c % runs) * RUN);
     let band_row = c / runs;
     let row = (params.band_first + band_row - params.window_first) * params.grid_width;
-    let out_row = band_row * params.out_stride + params.dst_offset;
     let last = i32(params.grid_width) - 1;
-    var lm0 = vec4<f32>(0.0);
-    var lm1 = vec4<f32>(0.0);
-    var m0 = vec4<f32>(0.0);
-    var m1 = vec4<f32>(0.0);
+    var sums = RunSums(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     for (var d = -r; d <= r + i32(RUN) - 1; d = d + 1) {
         let sx = x0 + d;
         // Cells outside the grid weigh 0.
         let v = select(vec2<f32>(0.0), blur_in[row + u32(clamp(sx, 0, last))], sx >= 0 && sx <= last);
-        let w0 = run_taps(d, r);
-        let w1 = run_taps(d - 4, r);
-        lm0 = lm0 + w0 * v.x;
-        lm1 = lm1 + w1 * v.x;
-        m0 = m0 + w0 * v.y;
-        m1 = m1 + w1 * v.y;
+        sums = add_to_run(sums, d, r, v);
     }
-    for (var o = 0u; o < RUN; o = o + 1u) {
-        if x0 + i32(o) <= last {
-            blur_out[out_row + u32(x0) + o] = run_output(o, lm0, lm1, m0, m1);
-        }
+    write_row_run(band_row * params.out_stride + params.dst_offset, x0, last, sums);
+}
+
+// The horizontal blur of a fine scale for rows band_first .. band_first + band_rows of level
+// 0, read from `level0` (a copy of those rows), into its plane (at dst_offset) of each
+// out_stride-long row of the band's fine buffer.
+@compute @workgroup_size(256)
+fn fine_x(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let r = blur_radius();
+    let runs = (params.width + RUN - 1u) / RUN;
+    let c = pixel_index(id, groups);
+    if c >= runs * params.band_rows {
+        return;
     }
+    let x0 = i32((c % runs) * RUN);
+    let band_row = c / runs;
+    let last = i32(params.width) - 1;
+    var sums = RunSums(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+    for (var d = -r; d <= r + i32(RUN) - 1; d = d + 1) {
+        let sx = x0 + d;
+        let texel = textureLoad(level0, vec2<i32>(clamp(sx, 0, last), i32(band_row)), 0).xy;
+        sums = add_to_run(sums, d, r, select(vec2<f32>(0.0), texel, sx >= 0 && sx <= last));
+    }
+    write_row_run(band_row * params.out_stride + params.dst_offset, x0, last, sums);
 }
 
 @compute @workgroup_size(256)

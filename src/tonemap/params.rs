@@ -646,10 +646,11 @@ pub(crate) struct ToneMapParams {
     pub sharpness: f32,
     /// Reinhard local: epsilon.
     pub epsilon: f32,
-    /// Reinhard local `blur_x`: elements per row of its output (the level's width for a
+    /// Reinhard local `prepare`, `blur_x`, `fine_x`: elements per row of its output (the level's width for a
     /// coarse scale's own buffer, every fine plane of a row for the band's fine buffer).
     pub out_stride: u32,
-    pub _pad3: u32,
+    /// Reinhard local `downsample`: cells per stored row of the level above.
+    pub in_stride: u32,
     /// Reinhard local `apply`: how many scales are blurred on pyramid level 0 (full
     /// resolution); they come first, since levels grow with the scale.
     pub fine_scales: u32,

@@ -66,13 +66,17 @@ impl GpuToneMapper {
         let align = self.align();
         let limit = self.window_limit;
         // Level 0: the pixels' (L m, m).
+        let level0 = ToneMapParams {
+            out_stride: r.level_pitch(0),
+            ..*base
+        };
         for &band in &plan.bands {
-            let u = self.band_uniform(base, band);
+            let u = self.band_uniform(&level0, band);
             rec.window(1, plan.pixel_window(band, 16)).window(
                 10,
                 bands::window(
                     offsets[0],
-                    r.width as u64 * 8,
+                    r.level_pitch(0) as u64 * 8,
                     band.first,
                     band.end(),
                     align,
@@ -92,8 +96,8 @@ impl GpuToneMapper {
         }
         for k in 1..=r.deepest {
             let (gw, gh) = r.level_size(k);
-            let (sw, sh) = r.level_size(k - 1);
-            let (row, src_row) = (gw as u64 * 8, sw as u64 * 8);
+            let sh = r.level_size(k - 1).1;
+            let (row, src_row) = (gw as u64 * 8, r.level_pitch(k - 1) as u64 * 8);
             let rows =
                 bands::band_rows(gh, bands::row_step(row, align), "reinhard pyramid", |n| {
                     n as u64 * row <= limit
@@ -112,6 +116,7 @@ impl GpuToneMapper {
                     band_first: band.first,
                     band_rows: band.rows,
                     window_first: src.first_row,
+                    in_stride: r.level_pitch(k - 1),
                     ..r.level_params(base, k)
                 });
                 rec.window(8, src).window(
@@ -186,7 +191,8 @@ impl GpuToneMapper {
 
     /// The horizontal blurs of the fine scales (on level 0) for the rows a pixel band's
     /// vertical blurs read, `fine_rows`, into the band's fine buffer: row by row, one plane
-    /// per fine scale.
+    /// per fine scale. They read those rows of level 0 from a texture, a copy of them.
+    #[allow(clippy::too_many_arguments)]
     fn record_reinhard_fine_x(
         &self,
         rec: &mut Recording<'_>,
@@ -194,16 +200,16 @@ impl GpuToneMapper {
         base: &ToneMapParams,
         buffers: &ReinhardBuffers,
         fine: &wgpu::Buffer,
+        level0: &wgpu::Texture,
         fine_rows: Band,
     ) -> Result<()> {
         let align = self.align();
-        let row = r.width as u64 * 8;
-        let input = bands::window(
-            buffers.offsets[0],
-            row,
-            fine_rows.first,
-            fine_rows.end(),
-            align,
+        r.copy_rows(
+            rec,
+            (buffers.level(0), buffers.offsets[0] + fine_rows.first as u64 * r.level_pitch(0) as u64 * 8),
+            level0,
+            r.level_pitch(0),
+            (r.width, fine_rows.rows),
         );
         for i in 0..r.fine {
             let u = self.uniform(&ToneMapParams {
@@ -211,23 +217,18 @@ impl GpuToneMapper {
                 radius: r.radius[i],
                 band_first: fine_rows.first,
                 band_rows: fine_rows.rows,
-                window_first: input.first_row,
+                window_first: fine_rows.first,
                 out_stride: r.fine_row_len(),
                 dst_offset: i as u32 * r.fine_pitch(),
                 ..r.level_params(base, 0)
             });
-            rec.window(8, input)
-                .window(9, r.fine_window(fine_rows.rows, align));
+            rec.window(9, r.fine_window(fine_rows.rows, align))
+                .texture(13, level0);
             rec.items(
                 r.width.div_ceil(BLUR_RUN) * fine_rows.rows,
                 REINHARD_SHADER,
-                "blur_x",
-                &[
-                    (0, &u),
-                    (8, buffers.level(0)),
-                    (9, fine),
-                    (19, &buffers.taps[i]),
-                ],
+                "fine_x",
+                &[(0, &u), (9, fine), (19, &buffers.taps[i])],
             )?;
         }
         Ok(())
@@ -271,12 +272,18 @@ impl GpuToneMapper {
             wgpu::TextureFormat::Rg32Float,
             (r.width, fine_rows.unwrap_or(0) * r.fine as u32),
         );
+        let level0 = cache.texture(
+            &self.ctx,
+            "reinhard level-0 texture",
+            wgpu::TextureFormat::Rg32Float,
+            (r.width, fine_rows.unwrap_or(0)),
+        );
         for (&band, planes) in plan.bands.iter().zip(&band_planes) {
             let fine_rows = r.fine_rows(band);
-            self.record_reinhard_fine_x(rec, r, base, buffers, &fine, fine_rows)?;
+            self.record_reinhard_fine_x(rec, r, base, buffers, &fine, &level0, fine_rows)?;
             r.copy_rows(
                 rec,
-                &fine,
+                (&fine, 0),
                 &texture,
                 r.fine_pitch(),
                 (r.width, fine_rows.rows * r.fine as u32),
@@ -289,7 +296,7 @@ impl GpuToneMapper {
             self.record_reinhard_coarse_y(rec, r, base, buffers, &blurred, planes, &mut table)?;
             r.copy_rows(
                 rec,
-                &blurred,
+                (&blurred, 0),
                 &coarse,
                 r.coarse_pitch(),
                 (r.coarse_width(), r.planes_rows(planes)),
@@ -529,15 +536,16 @@ impl ReinhardPlan {
         self.fine as u32 * self.fine_pitch()
     }
 
-    /// Copies `size` texels of (L m, m) pairs from `buffer` (rows of `pitch` pairs) into the
-    /// texture the apply pass reads them from: the fine horizontal blurs (texture row j is
+    /// Copies `size` texels of (L m, m) pairs from `buffer` at `offset` (rows of `pitch` pairs)
+    /// into a texture: rows of level 0 for the fine horizontal blurs, or for the apply pass the
+    /// fine horizontal blurs (texture row j is
     /// plane j % fine of pixel row j / fine) or the coarse scales' rows. On Mesa's CPU
     /// rasterizers a texel fetch gathers the lanes' values in vector code, where a
     /// storage-buffer load at a per-lane index runs one lane at a time.
     fn copy_rows(
         &self,
         rec: &mut Recording<'_>,
-        buffer: &wgpu::Buffer,
+        (buffer, offset): (&wgpu::Buffer, u64),
         texture: &wgpu::Texture,
         pitch: u32,
         (width, height): (u32, u32),
@@ -549,7 +557,7 @@ impl ReinhardPlan {
             wgpu::TexelCopyBufferInfo {
                 buffer,
                 layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
+                    offset,
                     bytes_per_row: Some(pitch * 8),
                     rows_per_image: None,
                 },
@@ -584,9 +592,17 @@ impl ReinhardPlan {
         (self.width.div_ceil(1 << k), self.height.div_ceil(1 << k))
     }
 
+    /// Cells in one row of pyramid level k as stored: level 0's rows are padded to the
+    /// 256-byte rows a copy into a texture takes (the fine blurs read it as one).
+    fn level_pitch(&self, k: u32) -> u32 {
+        match k {
+            0 => self.width.next_multiple_of(32),
+            _ => self.level_size(k).0,
+        }
+    }
+
     fn level_bytes(&self, k: u32) -> u64 {
-        let (gw, gh) = self.level_size(k);
-        gw as u64 * gh as u64 * 8
+        self.level_pitch(k) as u64 * self.level_size(k).1 as u64 * 8
     }
 
     /// Byte offset of each level in its parity's buffer (aligned, so windows can start there).
@@ -664,15 +680,15 @@ impl ReinhardPlan {
             let r = self.radius[i] as u64;
             (p.rows as u64 + 2 * r + bands::row_step(row, align) as u64) * row <= limit
         });
-        // The fine blurs' input (level 0 from an aligned row) and output (every fine plane).
+        // The fine blurs' output (every fine plane of a row), and the textures their input
+        // and output are read from.
         let fine = self.fine_rows(worst).rows as u64;
-        let level0 = self.width as u64 * 8;
-        let fine_fits = (fine + bands::row_step(level0, align) as u64) * level0 <= limit
-            && fine * self.fine_row_len() as u64 * 8 <= limit
+        let level0 = self.level_pitch(0) as u64 * 8;
+        let fine_fits = fine * self.fine_row_len() as u64 * 8 <= limit
             && fine * self.fine as u64 <= max_texture as u64
             && self.width <= max_texture;
         let coarse_rows = self.planes_rows(&planes);
-        rows as u64 * self.width as u64 * 8 <= limit
+        rows as u64 * level0 <= limit
             && coarse_rows as u64 * self.coarse_pitch() as u64 * 8 <= limit
             && coarse_rows <= max_texture
             && halo_fits
