@@ -13,39 +13,55 @@
 // item = global_id.x + global_id.y * X * 256), `stats` from luminance_stats.wgsl. Every pass
 // runs over bands of rows [band_first, band_first + band_rows) of its item grid (one band when
 // the buffers fit one binding each; src/tonemap/gpu/reinhard_local.rs `record_reinhard`), with the large
-// buffers bound as windows that start at the band's first row unless said otherwise:
-//   prepare     one item per pixel           image, stats -> level 0 (pyramid)
-//   downsample  one item per cell of level k level k-1 (blur_in, window from row
-//                                            window_first) -> level k (blur_out)
-//   for each scale i, on its level k_i (cell = 2^k, grid_width x grid_height cells):
+// buffers bound as windows that start at the band's first row unless said otherwise. Scales
+// 0 .. fine_scales - 1 are blurred on level 0 ("fine"), the others on coarser levels:
+//   prepare     one item per pixel           image, stats -> level 0 (pyramid; rows
+//                                            out_stride cells apart, padded to 256 bytes)
+//   downsample  one item per cell of level k level k-1 (blur_in, rows in_stride apart, window
+//                                            from row window_first) -> level k (blur_out)
+//   for each coarse scale i, on its level k_i (cell = 2^k, grid_width x grid_height cells):
 //     blur_x    one item per run of RUN cells of a row: level k (blur_in) -> this scale's
 //               horizontal blur (blur_out)
-//   per pixel band, for each scale i:
-//     blur_y    one item per run of RUN cells of a column: horizontal blur (blur_in, window
-//               from row window_first) -> the rows of the scale this band reads, at
-//               dst_offset in the band's `blurred` buffer
-//   apply       one item per pixel           image, stats, blurred, scales -> output
+//   per pixel band:
+//     (copy)    the band's rows of level 0, and a halo of the largest fine radius, -> level0
+//     fine_x    per fine scale, one item per run of RUN cells of a row: level0 -> its plane
+//               (at dst_offset) of each out_stride-long row of the band's fine buffer
+//     (copy)    fine buffer -> `fine` (texture row j: plane j % fine_scales of row j / fine_scales)
+//     blur_y    per coarse scale, one item per run of RUN cells of a column: horizontal blur
+//               (blur_in, window from row window_first) -> the rows of the scale this band
+//               reads, at dst_offset in the band's coarse buffer (rows out_stride cells apart)
+//     (copy)    coarse buffer -> `coarse`
+//     apply     one item per run of RUN pixels of a column: image, stats, fine, coarse, scales
+//               -> output
+// Every pass writes storage buffers and the blurs and the selection read textures: Mesa's CPU
+// rasterizers load a storage buffer at a per-lane index one lane at a time, and gather texel
+// fetches in vector code.
 //
 // Bindings (group 0):
 //   @binding(0)  params    uniform    ToneMapParams (per pass: sigma, radius, cell,
 //                                     grid_width, grid_height, band_first, band_rows,
-//                                     window_first, dst_offset; apply: levels = number of
-//                                     scales + 1, fine_scales = those on level 0)
+//                                     window_first, dst_offset, out_stride, in_stride; apply:
+//                                     levels = number of scales + 1, fine_scales, window_first =
+//                                     the first pixel row in `fine`)
 //   @binding(1)  image     storage, read        array<vec4<f32>>  (prepare, apply)
 //   @binding(2)  output    storage, read_write  array<vec4<f32>>  (apply)
 //   @binding(3)  stats     storage, read        LuminanceStats    (prepare, apply)
 //   @binding(8)  blur_in   storage, read        array<vec2<f32>>  (downsample, blur_x, blur_y)
-//   @binding(9)  blur_out  storage, read_write  array<vec2<f32>>  (downsample, blur_x, blur_y)
+//   @binding(9)  blur_out  storage, read_write  array<vec2<f32>>  (downsample, blur_x, fine_x,
+//                                                                  blur_y)
 //   @binding(10) pyramid   storage, read_write  array<vec2<f32>>  (prepare: level 0)
-//   @binding(11) blurred   storage, read        array<vec2<f32>>  (apply)
-//   @binding(18) scales    uniform    array<vec4<u32>, 17>  per scale i: (offset in
-//                                     blurred, k, bits of f32 s_i = ratio^i, first row of
-//                                     level k held in blurred)
+//   @binding(11) coarse    texture_2d<f32>      the band's coarse rows (apply)
+//   @binding(12) fine      texture_2d<f32>      the band's fine horizontal blurs (apply)
+//   @binding(13) level0    texture_2d<f32>      the band's rows of level 0 (fine_x)
+//   @binding(18) scales    uniform    array<vec4<u32>, 17>  per scale i: fine (radius, 0, bits
+//                                     of f32 s_i = ratio^i, 0); coarse (first texture row in
+//                                     `coarse`, k, bits of s_i, first row of level k held)
 //   @binding(19) taps      uniform    array<vec4<f32>, 32>  the blur's Gaussian taps
 //                                     exp(-k^2 / (2 sigma^2)), k = 0..=radius, from the host
-//                                     (blur_x, blur_y): no exp per lane, and no workgroup
+//                                     (blur_x, fine_x, blur_y): no exp per lane, and no workgroup
 //                                     memory, whose barrier costs Mesa's CPU rasterizers a
 //                                     switch of every lane's coroutine
+//   @binding(20) fine_taps uniform    array<vec4<f32>, 68>  16 taps per fine scale (apply)
 
 #include "shared/tonemap_common.wgsl"
 

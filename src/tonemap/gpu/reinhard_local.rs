@@ -9,11 +9,12 @@ use crate::error::Result;
 use crate::tonemap::params::{blur_sigma, gaussian_radius, grid_sigma, reinhard_level};
 
 impl GpuToneMapper {
-    /// Reinhard's dodging and burning after the statistics: the pyramid, the blurs, and per
-    /// pixel band the rows of every blurred scale that band reads, then the scale selection.
-    /// Pyramid levels alternate between two buffers (a downsample reads one and writes the
-    /// other), each scale's horizontal blur is kept whole, and the vertical blur writes only
-    /// the rows a band needs into a band-sized buffer (one band: the whole image, as before).
+    /// Reinhard's dodging and burning after the statistics: the pyramid, the coarse scales'
+    /// horizontal blurs, and per pixel band the fine scales' horizontal blurs and the coarse
+    /// scales' vertical blurs of the rows that band reads, then the scale selection (which
+    /// does the fine scales' vertical blurs). Pyramid levels alternate between two buffers (a
+    /// downsample reads one and writes the other); a coarse scale's horizontal blur is kept
+    /// whole; what the band's passes read is copied into textures (one band: the whole image).
     pub(super) fn record_reinhard(
         &self,
         rec: &mut Recording<'_>,
@@ -206,7 +207,10 @@ impl GpuToneMapper {
         let align = self.align();
         r.copy_rows(
             rec,
-            (buffers.level(0), buffers.offsets[0] + fine_rows.first as u64 * r.level_pitch(0) as u64 * 8),
+            (
+                buffers.level(0),
+                buffers.offsets[0] + fine_rows.first as u64 * r.level_pitch(0) as u64 * 8,
+            ),
             level0,
             r.level_pitch(0),
             (r.width, fine_rows.rows),
