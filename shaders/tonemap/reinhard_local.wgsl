@@ -272,24 +272,16 @@ fn blur_y(
     let first = (c / params.grid_width) * RUN;
     let y0 = i32(params.band_first + first);
     let last = min(i32(params.grid_height), i32(params.window_first + arrayLength(&blur_in) / params.grid_width)) - 1;
-    var lm0 = vec4<f32>(0.0);
-    var lm1 = vec4<f32>(0.0);
-    var m0 = vec4<f32>(0.0);
-    var m1 = vec4<f32>(0.0);
+    var sums = RunSums(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     for (var d = -r; d <= r + i32(RUN) - 1; d = d + 1) {
         let sy = y0 + d;
         let inside = sy >= 0 && sy <= last;
-        let v = select(vec2<f32>(0.0), blur_in[(u32(clamp(sy, i32(params.window_first), max(last, 0))) - params.window_first) * params.grid_width + x], inside);
-        let w0 = run_taps(d, r);
-        let w1 = run_taps(d - 4, r);
-        lm0 = lm0 + w0 * v.x;
-        lm1 = lm1 + w1 * v.x;
-        m0 = m0 + w0 * v.y;
-        m1 = m1 + w1 * v.y;
+        let v = blur_in[(u32(clamp(sy, i32(params.window_first), max(last, 0))) - params.window_first) * params.grid_width + x];
+        sums = add_to_run(sums, d, r, select(vec2<f32>(0.0), v, inside));
     }
     for (var o = 0u; o < RUN; o = o + 1u) {
         if first + o < params.band_rows {
-            blur_out[params.dst_offset + (first + o) * params.out_stride + x] = run_output(o, lm0, lm1, m0, m1);
+            blur_out[params.dst_offset + (first + o) * params.out_stride + x] = run_output(o, sums.lm0, sums.lm1, sums.m0, sums.m1);
         }
     }
 }

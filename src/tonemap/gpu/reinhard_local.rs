@@ -221,7 +221,6 @@ impl GpuToneMapper {
                 radius: r.radius[i],
                 band_first: fine_rows.first,
                 band_rows: fine_rows.rows,
-                window_first: fine_rows.first,
                 out_stride: r.fine_row_len(),
                 dst_offset: i as u32 * r.fine_pitch(),
                 ..r.level_params(base, 0)
