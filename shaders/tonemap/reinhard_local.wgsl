@@ -167,15 +167,16 @@ fn run_output(o: u32, lm0: vec4<f32>, lm1: vec4<f32>, m0: vec4<f32>, m1: vec4<f3
     return vec2<f32>(lm1[o - 4u], m1[o - 4u]);
 }
 
-// Each lane blurs a run of RUN consecutive cells (along x for blur_x, along y for blur_y),
-// loading each input cell once for the whole run: RUN + 2r loads per RUN outputs instead of
-// RUN (2r + 1). On Mesa's CPU rasterizers a load from a storage buffer at a per-lane index is a
-// gather, the blurs' dominant cost; the weights are the same for every lane (uniform loops, no
+// Each lane blurs a run of RUN consecutive cells (along x for blur_x and fine_x, along y for
+// blur_y and the fine scales in apply), loading each input cell once for the whole run:
+// RUN + 2r loads per RUN outputs instead of RUN (2r + 1). On Mesa's CPU rasterizers the loads
+// are the blurs' dominant cost (a storage buffer at a per-lane index is read one lane at a
+// time, a texture in vector code); the weights are the same for every lane (uniform loops, no
 // per-lane bounds), and each output still sums its taps from -r to r in order. Two entry
 // points rather than a branch on a uniform: Mesa's CPU rasterizers would run both.
 const RUN: u32 = 8u;
 
-// A run's horizontal sums: (L m) and m for its eight outputs.
+// A run's sums: (L m) and m for its eight outputs.
 struct RunSums {
     lm0: vec4<f32>,
     lm1: vec4<f32>,
