@@ -38,7 +38,7 @@
 // fetches in vector code.
 //
 // Bindings (group 0):
-//   @binding(0)  params    uniform    ToneMapParams (per pass: sigma, radius, cell,
+//   @binding(0)  params    uniform    ToneMapParams (per pass: radius, cell,
 //                                     grid_width, grid_height, band_first, band_rows,
 //                                     window_first, dst_offset, out_stride, in_stride; apply:
 //                                     levels = number of scales + 1, fine_scales, window_first =
@@ -159,14 +159,6 @@ fn run_taps(d: i32, r: i32) -> vec4<f32> {
     return vec4<f32>(tap_within(d, r), tap_within(d - 1, r), tap_within(d - 2, r), tap_within(d - 3, r));
 }
 
-// Output o (0..7) of a run from its two halves' sums.
-fn run_output(o: u32, lm0: vec4<f32>, lm1: vec4<f32>, m0: vec4<f32>, m1: vec4<f32>) -> vec2<f32> {
-    if o < 4u {
-        return vec2<f32>(lm0[o], m0[o]);
-    }
-    return vec2<f32>(lm1[o - 4u], m1[o - 4u]);
-}
-
 // Each lane blurs a run of RUN consecutive cells (along x for blur_x and fine_x, along y for
 // blur_y and the fine scales in apply), loading each input cell once for the whole run:
 // RUN + 2r loads per RUN outputs instead of RUN (2r + 1). On Mesa's CPU rasterizers the loads
@@ -184,18 +176,29 @@ struct RunSums {
     m1: vec4<f32>,
 }
 
-// Adds input cell d of a run (offset d from its first output) to its sums.
-fn add_to_run(sums: RunSums, d: i32, r: i32, v: vec2<f32>) -> RunSums {
-    let w0 = run_taps(d, r);
-    let w1 = run_taps(d - 4, r);
+// Output o (0..7) of a run: its (L m, m).
+fn run_output(o: u32, sums: RunSums) -> vec2<f32> {
+    if o < 4u {
+        return vec2<f32>(sums.lm0[o], sums.m0[o]);
+    }
+    return vec2<f32>(sums.lm1[o - 4u], sums.m1[o - 4u]);
+}
+
+// Adds input value v to a run's sums with the weights w0 (outputs 0..3) and w1 (4..7).
+fn add_weighted(sums: RunSums, w0: vec4<f32>, w1: vec4<f32>, v: vec2<f32>) -> RunSums {
     return RunSums(sums.lm0 + w0 * v.x, sums.lm1 + w1 * v.x, sums.m0 + w0 * v.y, sums.m1 + w1 * v.y);
+}
+
+// Adds input cell d of a run (offset d from its first output) to its sums, with the pass's taps.
+fn add_to_run(sums: RunSums, d: i32, r: i32, v: vec2<f32>) -> RunSums {
+    return add_weighted(sums, run_taps(d, r), run_taps(d - 4, r), v);
 }
 
 // Writes a row run's outputs that lie inside the grid (last = its last cell).
 fn write_row_run(out_row: u32, x0: i32, last: i32, sums: RunSums) {
     for (var o = 0u; o < RUN; o = o + 1u) {
         if x0 + i32(o) <= last {
-            blur_out[out_row + u32(x0) + o] = run_output(o, sums.lm0, sums.lm1, sums.m0, sums.m1);
+            blur_out[out_row + u32(x0) + o] = run_output(o, sums);
         }
     }
 }
@@ -282,7 +285,7 @@ fn blur_y(
     }
     for (var o = 0u; o < RUN; o = o + 1u) {
         if first + o < params.band_rows {
-            blur_out[params.dst_offset + (first + o) * params.out_stride + x] = run_output(o, sums.lm0, sums.lm1, sums.m0, sums.m1);
+            blur_out[params.dst_offset + (first + o) * params.out_stride + x] = run_output(o, sums);
         }
     }
 }
@@ -312,24 +315,16 @@ fn fine_run(i: u32, x: u32, y0: i32) -> Run {
     let first = i32(params.window_first);
     // Rows past the band's halo feed only outputs past the band, which are not written.
     let last = min(i32(params.height), first + i32(textureDimensions(fine).y) / planes) - 1;
-    var lm0 = vec4<f32>(0.0);
-    var lm1 = vec4<f32>(0.0);
-    var m0 = vec4<f32>(0.0);
-    var m1 = vec4<f32>(0.0);
+    var sums = RunSums(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     for (var d = -r; d <= r + i32(RUN) - 1; d = d + 1) {
         let sy = y0 + d;
         let inside = sy >= 0 && sy <= last;
         let row = (clamp(sy, first, max(last, first)) - first) * planes + i32(i);
         let v = select(vec2<f32>(0.0), textureLoad(fine, vec2<i32>(i32(x), row), 0).xy, inside);
-        let w0 = fine_taps4(i, d, r);
-        let w1 = fine_taps4(i, d - 4, r);
-        lm0 = lm0 + w0 * v.x;
-        lm1 = lm1 + w1 * v.x;
-        m0 = m0 + w0 * v.y;
-        m1 = m1 + w1 * v.y;
+        sums = add_weighted(sums, fine_taps4(i, d, r), fine_taps4(i, d - 4, r), v);
     }
     let zero = vec4<f32>(0.0);
-    return Run(select(zero, lm0 / m0, m0 > zero), select(zero, lm1 / m1, m1 > zero));
+    return Run(select(zero, sums.lm0 / sums.m0, sums.m0 > zero), select(zero, sums.lm1 / sums.m1, sums.m1 > zero));
 }
 
 // V_i at pixel (x, y) for a scale blurred on a coarser level k, read bilinearly. Cell c's
@@ -395,7 +390,7 @@ fn select_step(sel: Selection, s: u32, v2: Run) -> Selection {
     return Selection(v2, chosen, done_lo, done_hi);
 }
 
-// L_d = L / (1 + V_chosen) for pixel i of the band (row y, column x).
+// L_d = L / (1 + V_chosen) for pixel i of the band.
 fn write_pixel(i: u32, chosen: f32) {
     let p = image[i];
     if is_missing(p) {

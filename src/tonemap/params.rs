@@ -646,16 +646,16 @@ pub(crate) struct ToneMapParams {
     pub sharpness: f32,
     /// Reinhard local: epsilon.
     pub epsilon: f32,
-    /// Reinhard local `prepare`, `blur_x`, `fine_x`: elements per row of its output (the level's width for a
-    /// coarse scale's own buffer, every fine plane of a row for the band's fine buffer).
+    /// Reinhard local: elements per row of a pass's output (`prepare`: level 0's padded pitch;
+    /// `blur_x`: the level's width; `fine_x`: every fine plane of a row; `blur_y`: the coarse
+    /// buffer's pitch).
     pub out_stride: u32,
     /// Reinhard local `downsample`: cells per stored row of the level above.
     pub in_stride: u32,
     /// Reinhard local `apply`: how many scales are blurred on pyramid level 0 (full
     /// resolution); they come first, since levels grow with the scale.
     pub fine_scales: u32,
-    /// Gaussian sigma of the current blur pass (in cells of its level; the shader reads the
-    /// host's taps, so this is for a reader of the uniform).
+    /// Durand: the grid blur's Gaussian sigma in cells (Reinhard's blurs read the host's taps).
     pub sigma: f32,
     /// Window half-width: [`gaussian_radius`] for a Reinhard blur pass, the grid blur's radius
     /// in cells for Durand, the legend strip height for the false-colour view.

@@ -153,7 +153,6 @@ impl GpuToneMapper {
                 n as u64 * row <= limit
             })?;
             let blur = ToneMapParams {
-                sigma: r.sigma_cells[i] as f32,
                 radius: r.radius[i],
                 out_stride: gw,
                 ..r.level_params(base, k)
@@ -217,7 +216,6 @@ impl GpuToneMapper {
         );
         for i in 0..r.fine {
             let u = self.uniform(&ToneMapParams {
-                sigma: r.sigma_cells[i] as f32,
                 radius: r.radius[i],
                 band_first: fine_rows.first,
                 band_rows: fine_rows.rows,
@@ -361,7 +359,6 @@ impl GpuToneMapper {
                 align,
             );
             let u = self.uniform(&ToneMapParams {
-                sigma: r.sigma_cells[i] as f32,
                 radius: r.radius[i],
                 band_first: rows.first,
                 band_rows: rows.rows,
@@ -394,10 +391,10 @@ impl GpuToneMapper {
     /// once in f64 as the CPU reference computes them, as the shader's uniform array.
     fn blur_taps(&self, sigma: f64, radius: u32) -> wgpu::Buffer {
         let mut taps = [0f32; MAX_TAPS];
-        for (k, tap) in taps.iter_mut().enumerate().take(radius as usize + 1) {
-            let k = k as f64;
-            *tap = (-k * k / (2.0 * sigma * sigma)).exp() as f32;
-        }
+        gaussian_taps(
+            sigma,
+            &mut taps[..=radius.min(MAX_TAPS as u32 - 1) as usize],
+        );
         self.uniform_bytes("reinhard taps", bytemuck::cast_slice(&taps))
     }
 
@@ -405,16 +402,28 @@ impl GpuToneMapper {
     /// blurs (the same values as [`Self::blur_taps`]).
     fn fine_taps(&self, r: &ReinhardPlan) -> wgpu::Buffer {
         let mut taps = [0f32; FINE_TAPS * 17];
-        for i in 0..r.fine {
-            let (sigma, radius) = (r.sigma_cells[i], r.radius[i] as usize);
+        for (i, scale) in taps.chunks_mut(FINE_TAPS).enumerate().take(r.fine) {
+            let radius = r.radius[i] as usize;
             debug_assert!(radius < FINE_TAPS, "fine scales have radius <= 10");
-            for k in 0..=radius.min(FINE_TAPS - 1) {
-                let k2 = (k * k) as f64;
-                taps[i * FINE_TAPS + k] = (-k2 / (2.0 * sigma * sigma)).exp() as f32;
-            }
+            gaussian_taps(r.sigma_cells[i], &mut scale[..=radius.min(FINE_TAPS - 1)]);
         }
         self.uniform_bytes("reinhard fine taps", bytemuck::cast_slice(&taps))
     }
+}
+
+/// Fills `taps` with a Gaussian's taps exp(−k² / 2σ²) for k = 0, 1, …, computed in f64 as the
+/// CPU reference computes them.
+fn gaussian_taps(sigma: f64, taps: &mut [f32]) {
+    for (k, tap) in taps.iter_mut().enumerate() {
+        let k = k as f64;
+        *tap = (-k * k / (2.0 * sigma * sigma)).exp() as f32;
+    }
+}
+
+/// Cells a stored row holds so that it is a whole number of the 256-byte rows a copy into a
+/// texture takes (8-byte cells).
+fn texture_pitch(cells: u32) -> u32 {
+    cells.next_multiple_of(32)
 }
 
 /// Cells each lane of a blur pass computes (`RUN` in the shader).
@@ -528,10 +537,10 @@ impl ReinhardPlan {
         }
     }
 
-    /// Elements in one plane's row of a band's fine buffer: the image's width, padded to the
-    /// 256-byte rows a copy into a texture takes.
+    /// Elements in one plane's row of a band's fine buffer: the image's width, padded for the
+    /// copy into a texture.
     fn fine_pitch(&self) -> u32 {
-        self.width.next_multiple_of(32)
+        texture_pitch(self.width)
     }
 
     /// Elements in one row of a band's fine buffer: a plane per fine scale.
@@ -541,10 +550,9 @@ impl ReinhardPlan {
 
     /// Copies `size` texels of (L m, m) pairs from `buffer` at `offset` (rows of `pitch` pairs)
     /// into a texture: rows of level 0 for the fine horizontal blurs, or for the apply pass the
-    /// fine horizontal blurs (texture row j is
-    /// plane j % fine of pixel row j / fine) or the coarse scales' rows. On Mesa's CPU
-    /// rasterizers a texel fetch gathers the lanes' values in vector code, where a
-    /// storage-buffer load at a per-lane index runs one lane at a time.
+    /// fine horizontal blurs (texture row j is plane j % fine of pixel row j / fine) or the
+    /// coarse scales' rows. On Mesa's CPU rasterizers a texel fetch gathers the lanes' values
+    /// in vector code, where a storage-buffer load at a per-lane index runs one lane at a time.
     fn copy_rows(
         &self,
         rec: &mut Recording<'_>,
@@ -599,7 +607,7 @@ impl ReinhardPlan {
     /// 256-byte rows a copy into a texture takes (the fine blurs read it as one).
     fn level_pitch(&self, k: u32) -> u32 {
         match k {
-            0 => self.width.next_multiple_of(32),
+            0 => texture_pitch(self.width),
             _ => self.level_size(k).0,
         }
     }
@@ -662,15 +670,16 @@ impl ReinhardPlan {
             .unwrap_or(0)
     }
 
-    /// Cells in one row of the coarse planes' buffer: the widest coarse level's, padded to the
-    /// 256-byte rows a copy into a texture takes.
+    /// Cells in one row of the coarse planes' buffer: the widest coarse level's, padded for the
+    /// copy into a texture.
     fn coarse_pitch(&self) -> u32 {
-        self.coarse_width().max(1).next_multiple_of(32)
+        texture_pitch(self.coarse_width().max(1))
     }
 
-    /// Whether a band of `rows` pixel rows keeps Reinhard's windows within `limit`: level 0
-    /// of the pyramid, the band's blurred rows of every scale, and each vertical blur's input
-    /// (the band's rows plus the blur's radius on both sides).
+    /// Whether a band of `rows` pixel rows keeps Reinhard's windows within `limit` and its
+    /// textures within `max_texture` a side: level 0 of the pyramid, the band's rows of every
+    /// coarse scale and each coarse vertical blur's input (the band's rows plus the blur's
+    /// radius on both sides), and the fine blurs of the band's rows and halo.
     pub(super) fn band_fits(&self, rows: u32, limit: u64, align: u64, max_texture: u32) -> bool {
         let rows = rows.min(self.height);
         let worst = Band {
