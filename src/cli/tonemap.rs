@@ -143,8 +143,22 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     let auto = auto_exposure_mode(args)?;
 
     let clock = StageClock::start();
-    let img = hdrvis::io::exr::read_exr(&args.input).map_err(one_line)?;
-    clock.mark("read (whole file)");
+    // The GPU's set-up and the operator's pipelines do not need the image: build them while
+    // the file is read.
+    let (img, mapper) = std::thread::scope(|scope| {
+        let gpu = scope.spawn(|| -> Result<GpuToneMapper> {
+            let mapper = GpuToneMapper::new(GpuContext::new(backend)?);
+            mapper.prepare(&settings, args.false_colour)?;
+            Ok(mapper)
+        });
+        let img = hdrvis::io::exr::read_exr(&args.input).map_err(one_line);
+        clock.mark("read (whole file)");
+        let mapper = gpu.join().expect("GPU set-up thread panicked");
+        clock.mark("GPU set-up and pipelines, after the read");
+        (img, mapper)
+    });
+    let img = img?;
+    let mapper = mapper?;
     if let Some(mode) = auto {
         let key = args.key.unwrap_or(0.18);
         let ev = match mode {
@@ -154,15 +168,13 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         settings.exposure_ev = (settings.exposure_ev + ev).clamp(-200.0, 200.0);
         eprintln!("{input}: auto exposure ({mode}) {ev:+.2} EV");
     }
-    let ctx = GpuContext::new(backend)?;
-    let adapter = ctx.describe();
-    let mapper = GpuToneMapper::new(ctx);
+    let adapter = mapper.context().describe();
     let out = if args.false_colour {
         mapper.false_colour(&img, settings.exposure_ev, None)?
     } else {
         mapper.tonemap(&img, &settings)?
     };
-    clock.mark("GPU set-up + map");
+    clock.mark("map");
     match store {
         Store::Png(compression) => hdrvis::io::png::write_display_png_with(
             &out,

@@ -436,6 +436,32 @@ fn tonemap_pipelines_are_cached() {
     assert_eq!(m.cached_pipelines(), built);
 }
 
+/// `prepare` (what `hdrvis tonemap` runs while it reads the file) builds every pipeline a call
+/// with the same settings uses, whatever the image's size, and changes nothing in its result.
+#[test]
+fn tonemap_prepare_builds_the_calls_pipelines() {
+    let ctx = renderer(BackendChoice::Vulkan).context().clone();
+    let img = grey(300, 170, |i| {
+        10f32.powf((i % 300) as f32 / 60.0 - 2.0) * (1.0 + (i / 300) as f32 / 17.0)
+    });
+    for op in ALL {
+        let s = settings(op);
+        let prepared = GpuToneMapper::new(ctx.clone());
+        prepared.prepare(&s, false).unwrap();
+        let built = prepared.cached_pipelines();
+        assert!(built > 0, "{}: prepare built no pipeline", op.name());
+        let out = prepared.tonemap(&img, &s).unwrap();
+        assert_eq!(prepared.cached_pipelines(), built, "{}", op.name());
+        let fresh = GpuToneMapper::new(ctx.clone()).tonemap(&img, &s).unwrap();
+        assert_eq!(max_diff(&out, &fresh).0, 0.0, "{}", op.name());
+    }
+    let prepared = GpuToneMapper::new(ctx);
+    prepared.prepare(&settings(Operator::Linear), true).unwrap();
+    let built = prepared.cached_pipelines();
+    prepared.false_colour(&img, 0.0, None).unwrap();
+    assert_eq!(prepared.cached_pipelines(), built, "false colour");
+}
+
 // --- the binary on files -------------------------------------------------------------------
 
 fn write_half_exr(path: &Path, channels: &[&str], w: usize, h: usize) {

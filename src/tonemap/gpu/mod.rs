@@ -238,6 +238,27 @@ impl GpuToneMapper {
         Ok(pipeline)
     }
 
+    /// Builds the pipelines a call with `settings` (or, with `false_colour`, the false-colour
+    /// view) will use, by mapping a small image, so that a caller can do it while it reads the
+    /// real one: on a CPU rasterizer, building the local operators' pipelines takes about as
+    /// long as reading a 1024² EXR.
+    pub fn prepare(&self, settings: &ToneMapSettings, false_colour: bool) -> Result<()> {
+        const SIDE: u32 = 64;
+        let pixels = (0..SIDE * SIDE)
+            .map(|i| {
+                let l = 10f32.powf((i % SIDE) as f32 / 16.0 - 2.0) * (1.0 + (i / SIDE) as f32);
+                [l, 0.7 * l, 0.4 * l, 1.0]
+            })
+            .collect();
+        let img = HdrImage::from_pixels(SIDE, SIDE, pixels);
+        if false_colour {
+            self.false_colour(&img, settings.exposure_ev, None)?;
+        } else {
+            self.tonemap(&img, settings)?;
+        }
+        Ok(())
+    }
+
     /// Number of pipelines built so far (for tests of the cache).
     pub fn cached_pipelines(&self) -> usize {
         self.pipelines
