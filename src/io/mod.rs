@@ -39,6 +39,15 @@ pub(crate) fn write_atomic(
     Ok(())
 }
 
+/// [`write_atomic`] for writers that speak `std::io` errors (the netCDF and VTK
+/// encoders).
+pub(crate) fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
+) -> Result<()> {
+    write_atomic(path, |out| write(out).map_err(|e| Error::io(path, e)))
+}
+
 /// Writes a text file atomically (see [`write_atomic`]): job scripts, reports.
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
     write_atomic(path, |w| {

@@ -97,7 +97,7 @@ pub(crate) fn write_vti(
          \x20 <AppendedData encoding=\"raw\">\n   _",
         origin[0], origin[1], origin[2], spacing[0], spacing[1], spacing[2],
     );
-    crate::datasets::netcdf::write_atomically(path, |out| {
+    crate::io::write_atomically(path, |out| {
         out.write_all(header.as_bytes())?;
         out.write_all(&((data.len() * 4) as u64).to_le_bytes())?;
         let mut block = Vec::with_capacity(64 * 1024);
