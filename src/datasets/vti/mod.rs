@@ -43,20 +43,7 @@ pub(crate) fn write_vti(
     data: &[f32],
 ) -> Result<()> {
     let path = path.as_ref();
-    for (axis, (&n, &d)) in ["x", "y", "z"].iter().zip(dims.iter().zip(&spacing)) {
-        if n == 0 {
-            return Err(Error::invalid(format!("dims.{axis}"), "must be at least 1"));
-        }
-        if !(d.is_finite() && d > 0.0) {
-            return Err(Error::invalid(
-                format!("spacing.{axis}"),
-                format!("is {d}; must be finite and > 0"),
-            ));
-        }
-    }
-    if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
-        return Err(Error::invalid("origin", format!("has {o}; must be finite")));
-    }
+    crate::datasets::netcdf::check_volume_geometry(dims, spacing, origin)?;
     let cells = dims.iter().try_fold(1usize, |acc, &n| acc.checked_mul(n));
     if cells != Some(data.len()) {
         return Err(Error::invalid(
