@@ -172,6 +172,22 @@ pub fn srgb_to_linear(encoded: f64) -> f64 {
     }
 }
 
+/// `srgb_to_linear(v) as f32`. An 8-bit code k / 255 (what colorgrad's turbo gives) is decoded
+/// from a table of the 256, computed once by the same formula: the false-colour view decodes
+/// three per pixel, a million per terminal preview, and a power each cost more than the rest
+/// of its work. Any other value is decoded directly.
+pub(crate) fn decode_srgb_f32(v: f32) -> f32 {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    let code = (v * 255.0).round();
+    if (0.0..=255.0).contains(&code) && code as u8 as f32 / 255.0 == v {
+        let table = TABLE.get_or_init(|| {
+            std::array::from_fn(|k| srgb_to_linear((k as f32 / 255.0) as f64) as f32)
+        });
+        return table[code as usize];
+    }
+    srgb_to_linear(v as f64) as f32
+}
+
 /// The IEC 61966-2-1 sRGB encoding curve (exact piecewise form): linear light, clamped to
 /// [0, 1] (NaN as 0), to the encoded value.
 pub(crate) fn linear_to_srgb(linear: f64) -> f64 {
@@ -261,6 +277,24 @@ pub(crate) fn encode_srgb16(linear: f64) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The tabled sRGB decoding equals the formula for every 8-bit code and between codes.
+    #[test]
+    fn decode_srgb_f32_equals_the_formula() {
+        for k in 0..=255u32 {
+            let v = k as f32 / 255.0;
+            assert_eq!(
+                decode_srgb_f32(v),
+                srgb_to_linear(v as f64) as f32,
+                "code {k}"
+            );
+            let between = v + 0.3 / 255.0;
+            assert_eq!(
+                decode_srgb_f32(between),
+                srgb_to_linear(between as f64) as f32
+            );
+        }
+    }
 
     /// The stepped 8-bit encoder gives the formula's code for every input: at each step and the
     /// doubles either side of it, a million random values in [0, 1], and out-of-range ones.

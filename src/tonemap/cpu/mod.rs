@@ -16,7 +16,7 @@ use local::{durand, reinhard_local, ReinhardLocal};
 
 use super::params::{Gamut, Operator, ToneMapSettings};
 use crate::error::{Error, Result};
-use crate::model::colormap::srgb_to_linear;
+use crate::model::colormap::decode_srgb_f32;
 use crate::model::image::HdrImage;
 
 const REC709: [f64; 3] = [0.2126, 0.7152, 0.0722];
@@ -449,23 +449,9 @@ pub fn auto_exposure_percentile(img: &HdrImage, percentile: f64, target: f64) ->
 pub(crate) fn turbo_linear(t: f64) -> [f32; 3] {
     use colorgrad::Gradient;
     let c = colorgrad::preset::turbo().at(t.clamp(0.0, 1.0) as f32);
+    // colorgrad's turbo gives 8-bit codes k / 255 (its map steps between them), which the
+    // table of decode_srgb_f32 serves.
     [c.r, c.g, c.b].map(decode_srgb_f32)
-}
-
-/// `srgb_to_linear(v) as f32`. colorgrad's turbo gives 8-bit codes k / 255 (its map steps
-/// between them), so their decodings come from a table of the 256, computed once by the same
-/// formula: the false-colour view decodes three per pixel, a million per terminal preview,
-/// and a power each cost more than the rest of its work. Any other value is decoded directly.
-fn decode_srgb_f32(v: f32) -> f32 {
-    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
-    let code = (v * 255.0).round();
-    if (0.0..=255.0).contains(&code) && code as u8 as f32 / 255.0 == v {
-        let table = TABLE.get_or_init(|| {
-            std::array::from_fn(|k| srgb_to_linear((k as f32 / 255.0) as f64) as f32)
-        });
-        return table[code as usize];
-    }
-    srgb_to_linear(v as f64) as f32
 }
 
 /// Colour of missing pixels in the false-colour view: mid grey, outside the turbo map's hues.

@@ -563,23 +563,9 @@ fn durand_splat_holds_every_level_the_grid_may_have() {
     assert!(source.contains(&declared), "{declared} missing");
 }
 
-/// The tabled sRGB decoding of the turbo map's colours equals the formula for every 8-bit code
-/// and for values between codes, and the map's colours are 8-bit codes (so the table serves).
+/// The turbo map's colours are 8-bit codes, so `decode_srgb_f32`'s table serves them.
 #[test]
-fn turbo_decoding_equals_the_formula() {
-    for k in 0..=255u32 {
-        let v = k as f32 / 255.0;
-        assert_eq!(
-            decode_srgb_f32(v),
-            srgb_to_linear(v as f64) as f32,
-            "code {k}"
-        );
-        let between = v + 0.3 / 255.0;
-        assert_eq!(
-            decode_srgb_f32(between),
-            srgb_to_linear(between as f64) as f32
-        );
-    }
+fn turbo_gives_8_bit_codes() {
     use colorgrad::Gradient;
     let map = colorgrad::preset::turbo();
     let on_codes = (0..=1000).all(|i| {
