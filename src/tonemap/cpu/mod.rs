@@ -13,6 +13,7 @@ mod local;
 pub(crate) mod exact;
 
 use local::{durand, reinhard_local, ReinhardLocal};
+use rayon::prelude::*;
 
 use super::params::{Gamut, Operator, ToneMapSettings};
 use crate::error::{Error, Result};
@@ -56,7 +57,7 @@ impl Scene {
         let gain = exposure_ev.exp2();
         let colour: Vec<Option<[f64; 3]>> = img
             .pixels
-            .iter()
+            .par_iter()
             .map(|p| {
                 if p.iter().all(|v| v.is_finite()) {
                     Some([0, 1, 2].map(|k| (p[k] as f64).max(0.0) * gain))
@@ -66,7 +67,7 @@ impl Scene {
             })
             .collect();
         let lum = colour
-            .iter()
+            .par_iter()
             .map(|c| match c {
                 Some(c) => REC709[0] * c[0] + REC709[1] * c[1] + REC709[2] * c[2],
                 None => f64::NAN,
@@ -87,7 +88,7 @@ impl Scene {
 
 fn log_stats(lum: &[f64]) -> Option<LogLuminanceStats> {
     let logs: Vec<f64> = lum
-        .iter()
+        .par_iter()
         .filter(|l| l.is_finite() && **l > 0.0)
         .map(|l| l.ln())
         .collect();
@@ -149,12 +150,12 @@ pub(crate) fn tonemap_cpu_with(
     check_size(img)?;
     let scene = Scene::new(img, s.exposure_ev);
     let display_lum = display_luminance(&scene, &s.op, filters);
-    let inv_gamma = 1.0 / s.gamma;
+    let (saturate, encode) = (power(s.saturation), power(1.0 / s.gamma));
     let pixels = img
         .pixels
-        .iter()
+        .par_iter()
         .zip(&scene.colour)
-        .zip(scene.lum.iter().zip(&display_lum))
+        .zip(scene.lum.par_iter().zip(&display_lum))
         .map(|((p, colour), (&lw, &ld))| {
             let Some(colour) = colour else {
                 return [0.0; 4];
@@ -163,14 +164,14 @@ pub(crate) fn tonemap_cpu_with(
             let mut c = [0.0f64; 3];
             for k in 0..3 {
                 c[k] = if lw > 0.0 && ld.is_finite() {
-                    (colour[k] / lw).powf(s.saturation) * ld
+                    saturate(colour[k] / lw) * ld
                 } else {
                     0.0
                 } + s.offset;
             }
             let c = into_gamut(c, s.gamut);
             for k in 0..3 {
-                out[k] = c[k].clamp(0.0, 1.0).powf(inv_gamma) as f32;
+                out[k] = encode(c[k].clamp(0.0, 1.0)) as f32;
             }
             out[3] = p[3].clamp(0.0, 1.0);
             out
@@ -183,6 +184,17 @@ pub(crate) fn tonemap_cpu_with(
     result.set_meta("gamut", s.gamut.name());
     result.set_meta("transfer", "display-linear");
     Ok(result)
+}
+
+/// x ↦ x^e, without the power where e is 1 (the defaults of saturation and gamma): x^1 is x
+/// exactly, and libm's pow, whose error is under one ulp, returns x there too. Chosen once per
+/// image: a branch on e inside the pixel loop is folded back into the power by the compiler.
+fn power(e: f64) -> Box<dyn Fn(f64) -> f64 + Sync> {
+    if e == 1.0 {
+        Box::new(|x| x)
+    } else {
+        Box::new(move |x: f64| x.powf(e))
+    }
 }
 
 /// A display colour with its largest channel above 1 scaled by 1 / that channel (`Gamut::Scale`,
@@ -221,10 +233,10 @@ fn display_luminance(scene: &Scene, op: &Operator, filters: Filters) -> Vec<f64>
             .map(|l| if l.is_nan() { *l } else { 0.0 })
             .collect();
     };
-    let global = |f: &dyn Fn(f64) -> f64| -> Vec<f64> {
+    let global = |f: &(dyn Fn(f64) -> f64 + Sync)| -> Vec<f64> {
         scene
             .lum
-            .iter()
+            .par_iter()
             .map(|&l| {
                 if l.is_nan() {
                     l
@@ -485,6 +497,17 @@ pub(crate) fn false_colour_decades(
     exposure_ev: f64,
     decades: Option<(f64, f64)>,
 ) -> Result<(f64, f64)> {
+    match decades {
+        Some(_) => decade_range(None, decades),
+        None => decade_range(luminance_log_stats(img, exposure_ev), None),
+    }
+}
+
+/// [`false_colour_decades`] with the image's statistics already taken.
+fn decade_range(
+    stats: Option<LogLuminanceStats>,
+    decades: Option<(f64, f64)>,
+) -> Result<(f64, f64)> {
     let range = match decades {
         Some((lo, hi)) if lo.is_finite() && hi.is_finite() && hi > lo && hi - lo <= 100.0 => {
             (lo, hi)
@@ -495,7 +518,7 @@ pub(crate) fn false_colour_decades(
                 format!("({lo}, {hi}) must be finite with low < high <= low + 100"),
             ))
         }
-        None => match luminance_log_stats(img, exposure_ev) {
+        None => match stats {
             Some(s) => {
                 // The slack keeps f32(0.01) from opening the decade below.
                 let lo = (s.min_log / std::f64::consts::LN_10 + 1e-6).floor();
@@ -539,11 +562,16 @@ pub fn false_colour_log10(
         ));
     }
     let scene = Scene::new(img, exposure_ev);
-    let (low, high) = false_colour_decades(img, exposure_ev, decades)?;
+    let stats = if decades.is_none() {
+        scene.stats()
+    } else {
+        None
+    };
+    let (low, high) = decade_range(stats, decades)?;
     let (width, height) = (img.width as usize, img.height as usize);
     let mut pixels: Vec<[f32; 4]> = scene
         .lum
-        .iter()
+        .par_iter()
         .map(|&l| {
             if l.is_nan() {
                 [MISSING_GREY, MISSING_GREY, MISSING_GREY, 1.0]

@@ -576,3 +576,22 @@ fn turbo_gives_8_bit_codes() {
     });
     assert!(on_codes, "colorgrad's turbo no longer gives 8-bit codes");
 }
+
+/// Saturation and gamma of 1 skip the power: the same bits as libm's pow(x, 1) over every
+/// binade of the values they see (colour ratios and display values), subnormals and 0 included.
+#[test]
+fn a_power_of_one_is_the_value_itself() {
+    let (one, other) = (power(1.0), power(1.0 / 2.2));
+    let normals = (-1022..=1023).flat_map(|e| {
+        [1.0, 1.1, 1.5, 1.999_999_9]
+            .into_iter()
+            .map(move |m| m * 2f64.powi(e))
+    });
+    let subnormals = [1u64, 12_345, 1 << 51].map(f64::from_bits);
+    let values: Vec<f64> = normals.chain(subnormals).chain([0.0]).collect();
+    for &x in &values {
+        assert_eq!(one(x).to_bits(), x.powf(1.0).to_bits(), "{x:e}");
+        assert_eq!(other(x).to_bits(), x.powf(1.0 / 2.2).to_bits(), "{x:e}");
+    }
+    assert_eq!(values.len(), 4 * 2046 + 4);
+}
