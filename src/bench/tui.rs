@@ -3,9 +3,10 @@
 //! mantle volume and, for ν, the Okada surface. Scene keys (exposure, next operator, a 15° orbit
 //! that re-renders, ν × 1.25 that re-runs the fringe pass) are timed on the quick
 //! `preview_scale` 0.25 render in a 160 × 50 terminal; view keys (exposure, operator, false
-//! colour, and a new image arriving) on a full-resolution 768² render in 80 × 24, 160 × 50 and
-//! 240 × 70 terminals. Every case runs for half blocks, sixel and kitty at 10 × 20-pixel cells,
-//! the picture area taken from the TUI's own layout; medians after a warm-up.
+//! colour, the local operators Reinhard and Durand, and a new image arriving) on a
+//! full-resolution 768² render in 80 × 24, 160 × 50 and 240 × 70 terminals. Every case runs for
+//! half blocks, sixel and kitty at 10 × 20-pixel cells, the picture area taken from the TUI's
+//! own layout; medians after a warm-up.
 
 use crate::error::Result;
 use crate::gpu::BackendChoice;
@@ -15,6 +16,7 @@ use crate::tui::app::{Action, App, Effect, Source};
 use crate::tui::protocol::{Display, ProtocolChoice};
 use crate::tui::scene::SceneEdit;
 use crate::tui::ui::{picture_area, PictureArea as Rect};
+use crate::tui::view::VIEW_OPERATORS;
 use crate::tui::worker::{prepare, render_scene, Downsampled};
 use crate::tui::worker::{LOW_RES_SCALE, PREVIEW_SCALE};
 use std::path::Path;
@@ -199,6 +201,8 @@ impl Bench<'_> {
                     ("image arrives", Key::NewImage),
                     ("exposure +0.5 EV", Key::Press(Action::ExposureUp)),
                     ("next operator", Key::Press(Action::NextOperator)),
+                    ("reinhard local", Key::Operator("reinhard-local")),
+                    ("durand", Key::Operator("durand")),
                     ("false colour", Key::Press(Action::ToggleFalseColour)),
                 ] {
                     let times = self.time(&mut app, key, &display, area, &mut downsampled)?;
@@ -239,6 +243,7 @@ impl Bench<'_> {
                     }
                 }
                 Key::NewImage => *downsampled = Downsampled::default(),
+                Key::Operator(name) => app.view.operator = view_operator(name),
             }
             let hdr = app.hdr.clone().expect("a first run gave an image");
             let p = prepare(display, &hdr, &app.view, area, downsampled)?;
@@ -301,6 +306,16 @@ enum Key {
     Press(Action),
     /// A new image to show (the full pass arriving): downsampled afresh.
     NewImage,
+    /// The view switched to this operator of [`VIEW_OPERATORS`] (as `o` pressed until it shows).
+    Operator(&'static str),
+}
+
+/// The index of `name` in [`VIEW_OPERATORS`].
+fn view_operator(name: &str) -> usize {
+    VIEW_OPERATORS
+        .iter()
+        .position(|op| *op == name)
+        .expect("a view operator")
 }
 
 /// Side of the full-resolution render whose view keys are timed (a 768² image, the size of the

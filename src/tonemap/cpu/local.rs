@@ -39,6 +39,7 @@ fn reinhard_blurs(
         let (pw, ph, prev) = pyramid.last().expect("level 0");
         let (w, h) = (pw.div_ceil(2), ph.div_ceil(2));
         let next = (0..w * h)
+            .into_par_iter()
             .map(|c| {
                 let (cx, cy) = (c % w, c / w);
                 let mut acc = [0.0, 0.0];
@@ -74,9 +75,14 @@ fn reinhard_blurs(
                 false,
             );
             (0..width * height)
+                .into_par_iter()
                 .map(|p| {
-                    let [num, den] =
-                        bilinear_on(&blurred, cell, *w as u32, *h as u32, p % width, p / width);
+                    // Level 0 is the image's own grid: the bilinear read is the cell itself.
+                    let [num, den] = if k == 0 {
+                        blurred[p]
+                    } else {
+                        bilinear_on(&blurred, cell, *w as u32, *h as u32, p % width, p / width)
+                    };
                     if den > 0.0 {
                         num / den
                     } else {
@@ -110,7 +116,7 @@ pub(super) fn reinhard_local(
 ) -> Vec<f64> {
     let scaled: Vec<f64> = scene
         .lum
-        .iter()
+        .par_iter()
         .map(|&l| {
             if l.is_finite() && l > 0.0 {
                 p.key * (l.ln() - stats.mean_log).exp()
@@ -133,16 +139,22 @@ pub(super) fn reinhard_local(
     };
     let blurs = reinhard_blurs(&scaled, &mask, scene.width, scene.height, &sigmas, level_of);
     let sharpness = p.phi.exp2() * p.key;
+    let scale_squared: Vec<f64> = (0..p.scales)
+        .map(|k| {
+            let s = p.ratio.powi(k as i32);
+            s * s
+        })
+        .collect();
     (0..scaled.len())
+        .into_par_iter()
         .map(|i| {
             if mask[i] == 0.0 {
                 return f64::NAN;
             }
             let mut chosen = blurs[0][i];
-            for k in 0..p.scales as usize {
-                let s = p.ratio.powi(k as i32);
+            for (k, s2) in scale_squared.iter().enumerate() {
                 let (v1, v2) = (blurs[k][i], blurs[k + 1][i]);
-                let activity = (v1 - v2) / (sharpness / (s * s) + v1);
+                let activity = (v1 - v2) / (sharpness / s2 + v1);
                 if activity.abs() >= p.epsilon {
                     break;
                 }
@@ -306,22 +318,42 @@ fn blur_pairs(
     horizontal: bool,
 ) -> Vec<[f64; 2]> {
     let radius = (weights.len() / 2) as isize;
-    (0..width * height)
-        .map(|i| {
-            let (x, y) = ((i % width) as isize, (i / width) as isize);
-            let mut acc = [0.0, 0.0];
-            for (k, w) in (-radius..=radius).zip(weights) {
-                let (sx, sy) = if horizontal { (x + k, y) } else { (x, y + k) };
-                if sx < 0 || sy < 0 || sx >= width as isize || sy >= height as isize {
-                    continue;
+    let mut out = vec![[0.0, 0.0]; width * height];
+    out.par_chunks_mut(width.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            // Tap by tap over the whole row: each output still adds its taps in order from -r,
+            // leaving out those outside the grid, so the sums are the same as pixel by pixel.
+            for (k, &w) in (-radius..=radius).zip(weights) {
+                if horizontal {
+                    let from = (-k).max(0) as usize;
+                    let to = (width as isize - k).clamp(0, width as isize) as usize;
+                    if from >= to {
+                        continue;
+                    }
+                    let src_row = &src[y * width..(y + 1) * width];
+                    let shifted =
+                        &src_row[(from as isize + k) as usize..(to as isize + k) as usize];
+                    add_weighted(&mut row[from..to], shifted, w);
+                } else {
+                    let sy = y as isize + k;
+                    if sy < 0 || sy >= height as isize {
+                        continue;
+                    }
+                    let sy = sy as usize;
+                    add_weighted(row, &src[sy * width..(sy + 1) * width], w);
                 }
-                let s = src[sy as usize * width + sx as usize];
-                acc[0] += w * s[0];
-                acc[1] += w * s[1];
             }
-            acc
-        })
-        .collect()
+        });
+    out
+}
+
+/// acc += w · src, pair by pair.
+fn add_weighted(acc: &mut [[f64; 2]], src: &[[f64; 2]], w: f64) {
+    for (a, s) in acc.iter_mut().zip(src) {
+        a[0] += w * s[0];
+        a[1] += w * s[1];
+    }
 }
 
 /// Bilinear interpolation at full-resolution pixel (x, y) of pairs stored on a grid of
