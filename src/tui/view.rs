@@ -11,6 +11,7 @@ use crate::model::image::rec709_luminance;
 use crate::model::HdrImage;
 use crate::tonemap::cpu::{false_colour_log10, tonemap_cpu};
 use crate::tonemap::{Operator, ToneMapSettings, DISPLAY_REFERRED};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// The display operators the `o` key cycles through: the plain exposure view (scene × 2^EV,
@@ -191,33 +192,36 @@ pub(crate) fn resample(img: &HdrImage, max_w: u32, max_h: u32) -> HdrImage {
         return img.clone();
     }
     let (sx, sy) = (img.width as f64 / w as f64, img.height as f64 / h as f64);
-    let mut pixels = Vec::with_capacity(w as usize * h as usize);
-    for y in 0..h {
-        let (y0, y1) = span(y, sy, img.height);
-        for x in 0..w {
-            let (x0, x1) = span(x, sx, img.width);
-            let mut sum = [0f64; 4];
-            let mut count = [0u32; 4];
-            for yy in y0..y1 {
-                for xx in x0..x1 {
-                    let p = img.pixel(xx, yy);
-                    for k in 0..4 {
-                        if p[k].is_finite() {
-                            sum[k] += p[k] as f64;
-                            count[k] += 1;
+    let mut pixels = vec![[0f32; 4]; w as usize * h as usize];
+    pixels
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            let (y0, y1) = span(y as u32, sy, img.height);
+            for (x, out) in row.iter_mut().enumerate() {
+                let (x0, x1) = span(x as u32, sx, img.width);
+                let mut sum = [0f64; 4];
+                let mut count = [0u32; 4];
+                for yy in y0..y1 {
+                    for xx in x0..x1 {
+                        let p = img.pixel(xx, yy);
+                        for k in 0..4 {
+                            if p[k].is_finite() {
+                                sum[k] += p[k] as f64;
+                                count[k] += 1;
+                            }
                         }
                     }
                 }
+                *out = std::array::from_fn(|k| {
+                    if count[k] > 0 {
+                        (sum[k] / count[k] as f64) as f32
+                    } else {
+                        f32::NAN
+                    }
+                });
             }
-            pixels.push(std::array::from_fn(|k| {
-                if count[k] > 0 {
-                    (sum[k] / count[k] as f64) as f32
-                } else {
-                    f32::NAN
-                }
-            }));
-        }
-    }
+        });
     let mut out = HdrImage::from_pixels(w, h, pixels);
     out.metadata = img.metadata.clone();
     out

@@ -375,6 +375,9 @@ pub(crate) struct Downsampled {
 impl Downsampled {
     /// `hdr` at `size`, resampled only when the image or the size changed.
     fn get(&mut self, hdr: &Arc<HdrImage>, size: (u32, u32)) -> Arc<HdrImage> {
+        if size == (hdr.width, hdr.height) {
+            return hdr.clone();
+        }
         let same_source = self.source.as_ref().is_some_and(|s| Arc::ptr_eq(s, hdr));
         match &self.image {
             Some(image) if same_source && self.size == size => image.clone(),
@@ -390,7 +393,7 @@ impl Downsampled {
 }
 
 /// HDR image -> downsampled to what the picture shows ([`Display::picture_size`]) -> tone-mapped
-/// view -> encoded for the terminal, plus the log-luminance histogram of the downsampled image.
+/// view -> encoded for the terminal, plus the log-luminance histogram of the image as viewed.
 pub(crate) fn prepare(
     display: &Display,
     hdr: &Arc<HdrImage>,
@@ -398,18 +401,44 @@ pub(crate) fn prepare(
     area: Rect,
     downsampled: &mut Downsampled,
 ) -> Result<Prepared> {
-    let (pw, ph) = display.picture_size(hdr.width, hdr.height, area);
-    let small = downsampled.get(hdr, (pw.max(1), ph.max(1)));
-    let shown = display_image(&small, view)?;
-    let histogram = LogHistogram::new(
-        &crate::tui::view::select_channel(&small, &view.channel)?,
-        64,
-    );
-    let protocol = display.encode(srgb8_picture(&shown), area)?;
+    let size = display.picture_size(hdr.width, hdr.height, area);
+    let (picture, histogram) = view_picture(hdr, view, size, downsampled)?;
+    let protocol = display.encode(picture, area)?;
     Ok(Prepared {
         protocol,
         histogram,
     })
+}
+
+/// The view of `hdr` as an 8-bit sRGB picture of `size` (within it, keeping the aspect), and
+/// the log-luminance histogram of what was tone-mapped. A picture smaller than the image is
+/// tone-mapped at its own size (only the pixels shown); a larger one is the image tone-mapped
+/// at its own size and then enlarged, so that a local operator's scales stay in image pixels,
+/// as `hdrvis tonemap` and a saved view have them, and no more pixels are tone-mapped than
+/// the image has.
+pub(crate) fn view_picture(
+    hdr: &Arc<HdrImage>,
+    view: &ViewSettings,
+    size: (u32, u32),
+    downsampled: &mut Downsampled,
+) -> Result<(image::RgbImage, Option<LogHistogram>)> {
+    let size = (size.0.max(1), size.1.max(1));
+    let enlarged = size.0 > hdr.width || size.1 > hdr.height;
+    let tone_size = if enlarged {
+        (hdr.width, hdr.height)
+    } else {
+        size
+    };
+    let small = downsampled.get(hdr, tone_size);
+    let mut shown = display_image(&small, view)?;
+    if enlarged {
+        shown = resample(&shown, size.0, size.1);
+    }
+    let histogram = LogHistogram::new(
+        &crate::tui::view::select_channel(&small, &view.channel)?,
+        64,
+    );
+    Ok((srgb8_picture(&shown), histogram))
 }
 
 /// A request to show an image.
@@ -451,4 +480,65 @@ pub(crate) fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<
         })
         .expect("spawning the view thread");
     (job_tx, done_rx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tonemap::cpu::tonemap_cpu;
+    use crate::tui::view::VIEW_OPERATORS;
+
+    /// A 48 × 32 image with a bright spot on a gradient, so that a local operator's result
+    /// depends on its scales in pixels.
+    fn spot() -> Arc<HdrImage> {
+        let pixels = (0..48 * 32)
+            .map(|i| {
+                let (x, y) = ((i % 48) as f32, (i / 48) as f32);
+                let d2 = (x - 20.0).powi(2) + (y - 12.0).powi(2);
+                let v = 0.05 + x / 48.0 + 400.0 * (-d2 / 8.0).exp();
+                [v, 0.8 * v, 0.6 * v, 1.0]
+            })
+            .collect();
+        Arc::new(HdrImage::from_pixels(48, 32, pixels))
+    }
+
+    fn view_of(name: &str) -> ViewSettings {
+        ViewSettings {
+            operator: VIEW_OPERATORS.iter().position(|o| *o == name).unwrap(),
+            ..ViewSettings::default()
+        }
+    }
+
+    #[test]
+    fn an_enlarged_view_is_the_images_own_tone_mapping_enlarged() {
+        let hdr = spot();
+        for name in ["reinhard-local", "durand", "reinhard"] {
+            let view = view_of(name);
+            // Twice the image's size: every image pixel becomes a 2 × 2 block.
+            let (picture, _) =
+                view_picture(&hdr, &view, (96, 64), &mut Downsampled::default()).unwrap();
+            assert_eq!(picture.dimensions(), (96, 64));
+            let settings = view.tonemap_settings().unwrap().unwrap();
+            let own = tonemap_cpu(&hdr, &settings).unwrap().to_srgb8();
+            for (x, y, p) in picture.enumerate_pixels() {
+                let expected = own[(y / 2 * 48 + x / 2) as usize];
+                assert_eq!(p.0, expected, "{name} at ({x}, {y})");
+            }
+        }
+    }
+
+    #[test]
+    fn a_smaller_view_is_tone_mapped_at_the_pictures_size() {
+        let hdr = spot();
+        let view = view_of("reinhard-local");
+        let (picture, histogram) =
+            view_picture(&hdr, &view, (24, 16), &mut Downsampled::default()).unwrap();
+        let small = resample(&hdr, 24, 16);
+        let settings = view.tonemap_settings().unwrap().unwrap();
+        let expected = tonemap_cpu(&small, &settings).unwrap().to_srgb8();
+        let got: Vec<[u8; 3]> = picture.pixels().map(|p| p.0).collect();
+        assert_eq!(got, expected);
+        let counted = histogram.map(|h| h.counts.iter().sum::<u64>() + h.dark_or_missing);
+        assert_eq!(counted, Some(24 * 16));
+    }
 }
