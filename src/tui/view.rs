@@ -227,6 +227,34 @@ pub(crate) fn resample(img: &HdrImage, max_w: u32, max_h: u32) -> HdrImage {
     out
 }
 
+/// `img` enlarged to `w` × `h` by repeating pixels: output pixel x shows source pixel
+/// ⌊(x + ½) · width / w⌋ (likewise rows). Rows that repeat the one above are copied whole:
+/// this runs on every key that changes an enlarged view, where `image`'s general resize cost
+/// as much as the tone mapping it follows.
+pub(crate) fn enlarge_nearest(img: &image::RgbImage, w: u32, h: u32) -> image::RgbImage {
+    let source = |i: u32, n: u32, of: u32| {
+        (((i as f64 + 0.5) * of as f64 / n as f64) as u32).min(of.saturating_sub(1))
+    };
+    let columns: Vec<usize> = (0..w).map(|x| source(x, w, img.width()) as usize).collect();
+    let (row_len, src_len) = (3 * w as usize, 3 * img.width() as usize);
+    let mut out = vec![0u8; row_len * h as usize];
+    let mut previous: Option<u32> = None;
+    for y in 0..h {
+        let sy = source(y, h, img.height());
+        let at = y as usize * row_len;
+        if previous == Some(sy) {
+            out.copy_within(at - row_len..at, at);
+            continue;
+        }
+        let src = &img.as_raw()[sy as usize * src_len..][..src_len];
+        for (x, &sx) in columns.iter().enumerate() {
+            out[at + 3 * x..at + 3 * x + 3].copy_from_slice(&src[3 * sx..3 * sx + 3]);
+        }
+        previous = Some(sy);
+    }
+    image::RgbImage::from_raw(w, h, out).expect("w * h pixels")
+}
+
 /// The source rows (or columns) [start, end) that output index `i` averages at scale `s`.
 fn span(i: u32, s: f64, n: u32) -> (u32, u32) {
     let a = ((i as f64 * s).floor() as u32).min(n - 1);
@@ -338,6 +366,23 @@ mod tests {
         let img = HdrImage::from_pixels(4, 2, pixels);
         let shown = display_image(&img, &ViewSettings::default()).unwrap();
         assert_eq!(shown.to_srgb8(), img.to_srgb8());
+    }
+
+    #[test]
+    fn enlarging_repeats_the_nearest_source_pixel() {
+        let src = image::RgbImage::from_fn(3, 2, |x, y| image::Rgb([x as u8, y as u8, 7]));
+        let big = enlarge_nearest(&src, 5, 5);
+        assert_eq!(big.dimensions(), (5, 5));
+        // Columns 0..5 show source columns 0, 0, 1, 2, 2; rows 0..5 source rows 0, 0, 1, 1, 1.
+        let (columns, rows) = ([0, 0, 1, 2, 2], [0, 0, 1, 1, 1]);
+        for (x, y, p) in big.enumerate_pixels() {
+            assert_eq!(
+                p.0,
+                [columns[x as usize], rows[y as usize], 7],
+                "({x}, {y})"
+            );
+        }
+        assert_eq!(enlarge_nearest(&src, 3, 2), src);
     }
 
     #[test]

@@ -17,7 +17,7 @@ use crate::script::{run_script_file, LastVolumeRender, ParamRecord, ScriptOption
 use crate::tui::histogram::LogHistogram;
 use crate::tui::protocol::{Display, Picture};
 use crate::tui::scene::{LensSpace, SceneEdit};
-use crate::tui::view::{display_image, resample, ViewSettings};
+use crate::tui::view::{display_image, enlarge_nearest, fit_within, resample, ViewSettings};
 use ratatui::layout::Rect;
 use std::path::PathBuf;
 use std::sync::mpsc::{channel, Receiver, Sender};
@@ -413,7 +413,7 @@ pub(crate) fn prepare(
 /// The view of `hdr` as an 8-bit sRGB picture of `size` (within it, keeping the aspect), and
 /// the log-luminance histogram of what was tone-mapped. A picture smaller than the image is
 /// tone-mapped at its own size (only the pixels shown); a larger one is the image tone-mapped
-/// at its own size and then enlarged, so that a local operator's scales stay in image pixels,
+/// at its own size and then enlarged (nearest pixel), so that a local operator's scales stay in image pixels,
 /// as `hdrvis tonemap` and a saved view have them, and no more pixels are tone-mapped than
 /// the image has.
 pub(crate) fn view_picture(
@@ -430,15 +430,16 @@ pub(crate) fn view_picture(
         size
     };
     let small = downsampled.get(hdr, tone_size);
-    let mut shown = display_image(&small, view)?;
+    let mut picture = srgb8_picture(&display_image(&small, view)?);
     if enlarged {
-        shown = resample(&shown, size.0, size.1);
+        let (w, h) = fit_within(hdr.width, hdr.height, size.0, size.1);
+        picture = enlarge_nearest(&picture, w, h);
     }
     let histogram = LogHistogram::new(
         &crate::tui::view::select_channel(&small, &view.channel)?,
         64,
     );
-    Ok((srgb8_picture(&shown), histogram))
+    Ok((picture, histogram))
 }
 
 /// A request to show an image.
