@@ -423,7 +423,8 @@ pub(crate) fn view_picture(
     downsampled: &mut Downsampled,
 ) -> Result<(image::RgbImage, Option<LogHistogram>)> {
     let size = (size.0.max(1), size.1.max(1));
-    let enlarged = size.0 > hdr.width || size.1 > hdr.height;
+    let has_pixels = hdr.width > 0 && hdr.height > 0;
+    let enlarged = has_pixels && (size.0 > hdr.width || size.1 > hdr.height);
     let tone_size = if enlarged {
         (hdr.width, hdr.height)
     } else {
