@@ -16,7 +16,7 @@ use crate::tui::app::{Action, App, Effect, Source};
 use crate::tui::protocol::{Display, ProtocolChoice};
 use crate::tui::scene::SceneEdit;
 use crate::tui::ui::{picture_area, PictureArea as Rect};
-use crate::tui::view::VIEW_OPERATORS;
+use crate::tui::view::view_operator;
 use crate::tui::worker::{prepare, render_scene, Downsampled};
 use crate::tui::worker::{LOW_RES_SCALE, PREVIEW_SCALE};
 use std::path::Path;
@@ -243,7 +243,9 @@ impl Bench<'_> {
                     }
                 }
                 Key::NewImage => *downsampled = Downsampled::default(),
-                Key::Operator(name) => app.view.operator = view_operator(name),
+                Key::Operator(name) => {
+                    app.view.operator = view_operator(name).expect("a view operator")
+                }
             }
             let hdr = app.hdr.clone().expect("a first run gave an image");
             let p = prepare(display, &hdr, &app.view, area, downsampled)?;
@@ -306,16 +308,8 @@ enum Key {
     Press(Action),
     /// A new image to show (the full pass arriving): downsampled afresh.
     NewImage,
-    /// The view switched to this operator of [`VIEW_OPERATORS`] (as `o` pressed until it shows).
+    /// The view switched to this operator of [`crate::tui::view::VIEW_OPERATORS`] (as `o` pressed until it shows).
     Operator(&'static str),
-}
-
-/// The index of `name` in [`VIEW_OPERATORS`].
-fn view_operator(name: &str) -> usize {
-    VIEW_OPERATORS
-        .iter()
-        .position(|op| *op == name)
-        .expect("a view operator")
 }
 
 /// Side of the full-resolution render whose view keys are timed (a 768² image, the size of the

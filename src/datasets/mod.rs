@@ -36,6 +36,30 @@ pub(crate) use arrays::{list_arrays, read_array, read_array_sel, ArrayData, Arra
 use arrays::{missing_array, plain_array};
 use std::path::Path;
 
+/// That a cell-centred volume's `dims` are at least 1, its `spacing` finite and positive and its
+/// `origin` finite (the netCDF and VTK volume writers' shared check).
+pub(crate) fn check_volume_geometry(
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    origin: [f64; 3],
+) -> Result<()> {
+    for (axis, (&n, &d)) in ["x", "y", "z"].iter().zip(dims.iter().zip(&spacing)) {
+        if n == 0 {
+            return Err(Error::invalid(format!("dims.{axis}"), "must be at least 1"));
+        }
+        if !(d.is_finite() && d > 0.0) {
+            return Err(Error::invalid(
+                format!("spacing.{axis}"),
+                format!("is {d}; must be finite and > 0"),
+            ));
+        }
+    }
+    if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
+        return Err(Error::invalid("origin", format!("has {o}; must be finite")));
+    }
+    Ok(())
+}
+
 /// The volume file extensions `load_volume` knows, for error messages.
 const VOLUME_EXTENSIONS: &str = ".npy, .npz, .nc, .vti, .vtk, .nhdr, .nrrd or .h5";
 

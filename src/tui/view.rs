@@ -28,6 +28,11 @@ pub(crate) const VIEW_OPERATORS: [&str; 8] = [
     "durand",
 ];
 
+/// The index of the display operator `name` in [`VIEW_OPERATORS`].
+pub(crate) fn view_operator(name: &str) -> Option<usize> {
+    VIEW_OPERATORS.iter().position(|op| *op == name)
+}
+
 /// The main parameter of each entry of [`VIEW_OPERATORS`]: (name, default, step, min, max), the
 /// default being the operator's own; `None` where the operator has none worth a key.
 pub(crate) fn main_parameter(op: &str) -> Option<(&'static str, f64, f64, f64, f64)> {

@@ -17,7 +17,9 @@ use crate::script::{run_script_file, LastVolumeRender, ParamRecord, ScriptOption
 use crate::tui::histogram::LogHistogram;
 use crate::tui::protocol::{Display, Picture};
 use crate::tui::scene::{LensSpace, SceneEdit};
-use crate::tui::view::{display_image, enlarge_nearest, fit_within, resample, ViewSettings};
+use crate::tui::view::{
+    display_image, enlarge_nearest, fit_within, resample, select_channel, Channel, ViewSettings,
+};
 use ratatui::layout::Rect;
 use std::path::PathBuf;
 use std::sync::mpsc::{channel, Receiver, Sender};
@@ -363,13 +365,16 @@ pub(crate) struct Prepared {
     pub histogram: Option<LogHistogram>,
 }
 
-/// The last downsampled image, kept because most keys (exposure, operator, false colour) change
-/// the view of the same image at the same size: only tone mapping and encoding run again.
+/// The last downsampled image and its histogram, kept because most keys (exposure, operator,
+/// false colour) change the view of the same image at the same size: only tone mapping and
+/// encoding run again.
 #[derive(Default)]
 pub(crate) struct Downsampled {
     source: Option<Arc<HdrImage>>,
     size: (u32, u32),
     image: Option<Arc<HdrImage>>,
+    /// The log-luminance histogram of an image (as `get` gave it) in a channel.
+    histogram: Option<(Arc<HdrImage>, Channel, Option<LogHistogram>)>,
 }
 
 impl Downsampled {
@@ -389,6 +394,23 @@ impl Downsampled {
                 image
             }
         }
+    }
+
+    /// The histogram of `image` (from [`Downsampled::get`]) in `channel`, counted only when
+    /// either changed: exposure and operator keys leave it as it is.
+    fn histogram(
+        &mut self,
+        image: &Arc<HdrImage>,
+        channel: &Channel,
+    ) -> Result<Option<LogHistogram>> {
+        if let Some((of, shown, histogram)) = &self.histogram {
+            if Arc::ptr_eq(of, image) && shown == channel {
+                return Ok(histogram.clone());
+            }
+        }
+        let histogram = LogHistogram::new(&select_channel(image, channel)?, 64);
+        self.histogram = Some((image.clone(), channel.clone(), histogram.clone()));
+        Ok(histogram)
     }
 }
 
@@ -413,9 +435,9 @@ pub(crate) fn prepare(
 /// The view of `hdr` as an 8-bit sRGB picture of `size` (within it, keeping the aspect), and
 /// the log-luminance histogram of what was tone-mapped. A picture smaller than the image is
 /// tone-mapped at its own size (only the pixels shown); a larger one is the image tone-mapped
-/// at its own size and then enlarged (nearest pixel), so that a local operator's scales stay in image pixels,
-/// as `hdrvis tonemap` and a saved view have them, and no more pixels are tone-mapped than
-/// the image has.
+/// at its own size and then enlarged (nearest pixel), so that a local operator's scales stay
+/// in image pixels, as `hdrvis tonemap` and a saved view have them, and no more pixels are
+/// tone-mapped than the image has.
 pub(crate) fn view_picture(
     hdr: &Arc<HdrImage>,
     view: &ViewSettings,
@@ -436,10 +458,7 @@ pub(crate) fn view_picture(
         let (w, h) = fit_within(hdr.width, hdr.height, size.0, size.1);
         picture = enlarge_nearest(&picture, w, h);
     }
-    let histogram = LogHistogram::new(
-        &crate::tui::view::select_channel(&small, &view.channel)?,
-        64,
-    );
+    let histogram = downsampled.histogram(&small, &view.channel)?;
     Ok((picture, histogram))
 }
 
@@ -488,7 +507,7 @@ pub(crate) fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<
 mod tests {
     use super::*;
     use crate::tonemap::cpu::tonemap_cpu;
-    use crate::tui::view::VIEW_OPERATORS;
+    use crate::tui::view::view_operator;
 
     /// A 48 × 32 image with a bright spot on a gradient, so that a local operator's result
     /// depends on its scales in pixels.
@@ -506,7 +525,7 @@ mod tests {
 
     fn view_of(name: &str) -> ViewSettings {
         ViewSettings {
-            operator: VIEW_OPERATORS.iter().position(|o| *o == name).unwrap(),
+            operator: view_operator(name).unwrap(),
             ..ViewSettings::default()
         }
     }

@@ -12,8 +12,6 @@ use netcdf_reader::{NcAttrValue, NcFile};
 use crate::error::{Error, Result};
 
 mod write;
-#[cfg(test)]
-pub(crate) use write::check_volume_geometry;
 pub use write::{write_grid, write_volume, GridValue};
 pub(crate) use write::{write_grid_with_aux, AuxCoord, GridAux, GridCoord, GridVar};
 

@@ -212,7 +212,7 @@ pub fn write_volume(
     var: GridVar<'_, f32>,
     global_attrs: &[(&str, &str)],
 ) -> Result<()> {
-    check_volume_geometry(dims, spacing, origin)?;
+    crate::datasets::check_volume_geometry(dims, spacing, origin)?;
     let centres = |a: usize| -> Vec<f64> {
         (0..dims[a])
             .map(|i| origin[a] + (i as f64 + 0.5) * spacing[a])
@@ -278,28 +278,4 @@ fn add_text_attr(
     builder
         .add_variable_attribute(var, key, NcAttrValue::Chars(value.to_string()))
         .map_err(|e| Error::invalid(format!("attribute {key}"), e.to_string()))
-}
-
-/// That a cell-centred volume's `dims` are at least 1, its `spacing` finite and positive and its
-/// `origin` finite (the volume writers' shared check).
-pub(crate) fn check_volume_geometry(
-    dims: [usize; 3],
-    spacing: [f64; 3],
-    origin: [f64; 3],
-) -> Result<()> {
-    for (axis, (&n, &d)) in ["x", "y", "z"].iter().zip(dims.iter().zip(&spacing)) {
-        if n == 0 {
-            return Err(Error::invalid(format!("dims.{axis}"), "must be at least 1"));
-        }
-        if !(d.is_finite() && d > 0.0) {
-            return Err(Error::invalid(
-                format!("spacing.{axis}"),
-                format!("is {d}; must be finite and > 0"),
-            ));
-        }
-    }
-    if let Some(o) = origin.iter().find(|o| !o.is_finite()) {
-        return Err(Error::invalid("origin", format!("has {o}; must be finite")));
-    }
-    Ok(())
 }

@@ -43,7 +43,7 @@ pub(crate) fn write_vti(
     data: &[f32],
 ) -> Result<()> {
     let path = path.as_ref();
-    crate::datasets::netcdf::check_volume_geometry(dims, spacing, origin)?;
+    crate::datasets::check_volume_geometry(dims, spacing, origin)?;
     let cells = dims.iter().try_fold(1usize, |acc, &n| acc.checked_mul(n));
     if cells != Some(data.len()) {
         return Err(Error::invalid(
