@@ -81,7 +81,8 @@ fn stop_line(why: &str, written: &[PathBuf]) -> String {
 
 /// On SIGINT or SIGTERM: prints what the run wrote and that it stopped, then dies of the same
 /// signal, so the exit status is what it would have been without the handler. Outputs are
-/// written atomically, so nothing half-written is left under its final name.
+/// written atomically, so nothing half-written is left under its final name, and every output
+/// under its final name is in the list (see `hdrvis::io::hold_outputs`).
 fn stop_on_signals(written: Arc<Mutex<Vec<PathBuf>>>) -> Result<()> {
     use signal_hook::consts::{SIGINT, SIGTERM};
     let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])
@@ -91,6 +92,9 @@ fn stop_on_signals(written: Arc<Mutex<Vec<PathBuf>>>) -> Result<()> {
         .spawn(move || {
             if let Some(sig) = signals.forever().next() {
                 let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
+                // No output takes its final name from here on, and one that just did is in
+                // the list: the list and the folder agree.
+                let _outputs = hdrvis::io::hold_outputs();
                 // A panic elsewhere may have poisoned the lock; the list is still whole.
                 let list = written.lock().unwrap_or_else(|p| p.into_inner());
                 eprintln!("{}", stop_line(name, &list));

@@ -248,10 +248,7 @@ fn encode_with_ffmpeg(
     let messages = messages.join().unwrap_or_default();
     let last = messages.lines().rev().find(|l| !l.trim().is_empty());
     match (fed, status) {
-        (Ok(()), Ok(s)) if s.success() => {
-            tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-            Ok(())
-        }
+        (Ok(()), Ok(s)) if s.success() => super::persist(tmp, path),
         // A frame that could not be made is the cause, not the broken pipe it leaves.
         (Err(e), _) if !matches!(e, Error::Io { .. }) => Err(e),
         (_, status) => Err(Error::format(

@@ -35,8 +35,68 @@ pub(crate) fn write_atomic(
         w.flush().map_err(|e| Error::io(path, e))?;
     }
     tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
+    persist(tmp, path)
+}
+
+/// Held while a finished file takes its final name and, for a script's output, while the run
+/// records it: a run stopped by a signal holds it too before it lists what it wrote, so the
+/// list names exactly the outputs that exist (see [`hold_outputs`]).
+static OUTPUTS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+std::thread_local! {
+    /// The output [`recording_output`] expects on this thread and what records it.
+    static RECORDER: std::cell::RefCell<Option<(PathBuf, Recorder)>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// What records an output (a script run's list and its observer).
+pub(crate) type Recorder = Box<dyn Fn(&Path)>;
+
+/// Renames a complete temporary file to `path`, the one way an output appears; an output that
+/// [`recording_output`] expects is recorded before anyone holding [`hold_outputs`] can look.
+pub(crate) fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> Result<()> {
+    let _held = OUTPUTS
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
+    let expected = RECORDER.with(|slot| {
+        let mut slot = slot.borrow_mut();
+        match slot.as_ref() {
+            Some((expected, _)) if expected == path => slot.take(),
+            _ => None,
+        }
+    });
+    if let Some((_, record)) = expected {
+        record(path);
+    }
     Ok(())
+}
+
+/// Runs `write`, which writes the output `path`, and calls `record(path)` the moment the file
+/// has its final name, without letting go of [`OUTPUTS`] in between.
+pub(crate) fn recording_output(
+    path: &Path,
+    record: Recorder,
+    write: impl FnOnce() -> Result<()>,
+) -> Result<()> {
+    RECORDER.with(|slot| *slot.borrow_mut() = Some((path.to_path_buf(), record)));
+    let result = write();
+    // Still here if `write` failed, or wrote `path` without [`persist`] (then it is recorded now).
+    let unrecorded = RECORDER.with(|slot| slot.borrow_mut().take());
+    if let (Ok(()), Some((_, record))) = (&result, unrecorded) {
+        record(path);
+    }
+    result
+}
+
+/// Stops outputs from appearing while the guard lives and waits for one that is appearing to be
+/// recorded. A run stopped by a signal takes it, never to give it back, before it says what the
+/// run wrote: every file under its final name is then in that list, and a file still being
+/// written stays a temporary, which `--resume` sweeps away.
+pub fn hold_outputs() -> std::sync::MutexGuard<'static, ()> {
+    OUTPUTS
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// [`write_atomic`] for writers that speak `std::io` errors (the netCDF and VTK
@@ -174,4 +234,63 @@ fn is_hdrvis_checkout(dir: &Path) -> bool {
                 .any(|line| line.replace(' ', "") == "name=\"hdrvis\"")
         })
         .unwrap_or(false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::{Arc, Mutex};
+
+    /// A recorder that keeps what it was told, and checks that it is told while no one can
+    /// hold the outputs (so a stop handler never lists without it).
+    fn keeping(list: &Arc<Mutex<Vec<PathBuf>>>) -> Recorder {
+        let list = list.clone();
+        Box::new(move |p: &Path| {
+            assert!(OUTPUTS.try_lock().is_err(), "recorded outside the lock");
+            list.lock().unwrap().push(p.to_path_buf());
+        })
+    }
+
+    #[test]
+    fn an_output_appears_only_once_the_holder_lets_go_and_is_recorded_at_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        let list = Arc::new(Mutex::new(Vec::new()));
+        let held = hold_outputs();
+        let writer = {
+            let (path, list) = (path.clone(), list.clone());
+            std::thread::spawn(move || {
+                recording_output(&path, keeping(&list), || write_text(&path, "x"))
+            })
+        };
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        assert!(!path.exists() && list.lock().unwrap().is_empty());
+        drop(held);
+        writer.join().unwrap().unwrap();
+        assert_eq!(*list.lock().unwrap(), std::slice::from_ref(&path));
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "x");
+        // Only the expected output is recorded: a file written on the way is not.
+        let other = dir.path().join("b.txt");
+        let path_c = dir.path().join("c.txt");
+        recording_output(&path_c, keeping(&list), || {
+            write_text(&other, "side")?;
+            write_text(&path_c, "y")
+        })
+        .unwrap();
+        assert_eq!(*list.lock().unwrap(), [path, path_c]);
+    }
+
+    #[test]
+    fn a_failed_write_records_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        let list = Arc::new(Mutex::new(Vec::new()));
+        let failed = recording_output(&path, keeping(&list), || {
+            write_atomic(&path, |_| Err(Error::invalid("test", "no")))
+        });
+        assert!(failed.is_err() && !path.exists() && list.lock().unwrap().is_empty());
+        // Nothing is left expected: a later write of the same name is not recorded.
+        write_text(&path, "z").unwrap();
+        assert!(list.lock().unwrap().is_empty());
+    }
 }

@@ -179,10 +179,10 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             return Ok(());
         }
         let t = std::time::Instant::now();
-        crate::io::exr::write_exr_with(img, &p, how).map_err(to_rhai)?;
+        h.write_output(&p, |p| crate::io::exr::write_exr_with(img, p, how))
+            .map_err(to_rhai)?;
         h.session
             .record_sink("save-exr", t.elapsed().as_secs_f64() * 1e3);
-        h.note_written(p);
         Ok(())
     };
     let plain = save_exr.clone();
@@ -222,16 +222,15 @@ fn register_saves(engine: &mut Engine, host: &Arc<ScriptHost>) {
             return Ok(());
         }
         let t = std::time::Instant::now();
-        if let Some(picture) = decorated(img, ev, display, decoration).map_err(to_rhai)? {
-            crate::io::png::write_display_png(&picture, &p, false).map_err(to_rhai)?;
-        } else if display {
-            crate::io::png::write_display_png(img, &p, false).map_err(to_rhai)?;
-        } else {
-            crate::io::png::write_exposed_png(img, &p, ev).map_err(to_rhai)?;
-        }
+        let picture = decorated(img, ev, display, decoration).map_err(to_rhai)?;
+        h.write_output(&p, |p| match &picture {
+            Some(picture) => crate::io::png::write_display_png(picture, p, false),
+            None if display => crate::io::png::write_display_png(img, p, false),
+            None => crate::io::png::write_exposed_png(img, p, ev),
+        })
+        .map_err(to_rhai)?;
         h.session
             .record_sink("save-png", t.elapsed().as_secs_f64() * 1e3);
-        h.note_written(p);
         Ok(())
     };
     let save_png2 = save_png.clone();
@@ -280,10 +279,12 @@ fn register_animation(engine: &mut Engine, host: &Arc<ScriptHost>) {
         let t = std::time::Instant::now();
         let frame =
             |i: usize| -> crate::Result<RgbFrame> { animation_frame(&h, &frames[i], i, ev) };
-        crate::io::animation::write_animation(&p, frames.len(), fps, frame).map_err(to_rhai)?;
+        h.write_output(&p, |p| {
+            crate::io::animation::write_animation(p, frames.len(), fps, frame)
+        })
+        .map_err(to_rhai)?;
         h.session
             .record_sink("save-animation", t.elapsed().as_secs_f64() * 1e3);
-        h.note_written(p);
         Ok(())
     };
     let save2 = save.clone();

@@ -201,8 +201,8 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             if host.planned(&p) || host.already_done(&p) || !host.write_outputs {
                 return Ok(());
             }
-            crate::datasets::grid_out::save_grid(grid, &p).map_err(to_rhai)?;
-            host.note_written(p);
+            host.write_output(&p, |p| crate::datasets::grid_out::save_grid(grid, p))
+                .map_err(to_rhai)?;
             Ok(())
         },
     );

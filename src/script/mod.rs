@@ -268,8 +268,21 @@ impl ScriptHost {
         }
     }
 
+    /// Writes the output `path` with `write` and records it the moment it has its final name
+    /// (see [`crate::io::recording_output`]: a run stopped by a signal lists exactly the
+    /// outputs on disk).
+    pub(crate) fn write_output(
+        self: &Arc<Self>,
+        path: &Path,
+        write: impl FnOnce(&Path) -> Result<()>,
+    ) -> Result<()> {
+        let host = self.clone();
+        let record = Box::new(move |p: &Path| host.note_written(p.to_path_buf()));
+        crate::io::recording_output(path, record, || write(path))
+    }
+
     /// Records a finished output and tells the observer.
-    pub(crate) fn note_written(&self, path: PathBuf) {
+    fn note_written(&self, path: PathBuf) {
         if let Some(observer) = &self.on_written {
             (observer.0)(&path);
         }

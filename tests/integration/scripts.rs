@@ -360,6 +360,16 @@ fn sigterm_mid_sweep_prints_what_was_written() {
             "{w}"
         );
     }
+    // Every frame that has its final name was reported: a stop between a file's rename and its
+    // "wrote" line would leave an output the run never owned up to.
+    let mut on_disk: Vec<String> = std::fs::read_dir(d.join("o"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| !n.starts_with(".hdrvis-"))
+        .collect();
+    on_disk.sort_by_key(|n| frame_number(n));
+    let reported: Vec<String> = written.iter().map(|w| file_name(w)).collect();
+    assert_eq!(on_disk, reported);
     let stop = stderr
         .lines()
         .find(|l| l.starts_with("stopped by SIGTERM"))
@@ -369,6 +379,22 @@ fn sigterm_mid_sweep_prints_what_was_written() {
             && stop.ends_with(written.last().unwrap()),
         "{stop}"
     );
+}
+
+/// `N` of `frame-N.png`.
+fn frame_number(name: &str) -> usize {
+    name.trim_start_matches("frame-")
+        .trim_end_matches(".png")
+        .parse()
+        .unwrap_or_else(|_| panic!("not a frame: {name}"))
+}
+
+fn file_name(path: &str) -> String {
+    Path::new(path)
+        .file_name()
+        .unwrap()
+        .to_string_lossy()
+        .to_string()
 }
 
 /// Whether `ffmpeg` and `ffprobe` run; when not, the movie checks that need them are skipped,
