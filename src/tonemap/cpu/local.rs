@@ -14,84 +14,91 @@ use crate::tonemap::params::{
 /// pixels and outside the image, on a pyramid of (L m, m) pairs: level k has cells of 2^k
 /// pixels, each the mean of four cells of level k - 1. Scale i's Gaussian (sigma_i pixels) is
 /// blurred separably on level [`reinhard_level`] with [`grid_sigma`] cells and read back
-/// bilinearly (level 0: the image itself, exactly the full-resolution blur). Returns V_i per
-/// pixel for i in 0..=scales.
-fn reinhard_blurs(
-    scaled: &[f64],
-    mask: &[f64],
+/// bilinearly (level 0: the image itself, exactly the full-resolution blur). One scale at a
+/// time into planes the caller reuses, with two blur buffers kept from scale to scale: fresh
+/// memory costs a page fault per 4 KiB, which on the machines we measure cost more than the
+/// blurs themselves.
+struct ReinhardBlurs {
     width: usize,
     height: usize,
-    sigmas: &[f64],
-    level_of: fn(f64) -> u32,
-) -> Vec<Vec<f64>> {
-    let levels: Vec<u32> = sigmas.iter().map(|&s| level_of(s)).collect();
-    let deepest = levels.iter().copied().max().unwrap_or(0);
-    let mut pyramid: Vec<(usize, usize, Vec<[f64; 2]>)> = vec![(
-        width,
-        height,
-        scaled
-            .iter()
-            .zip(mask)
-            .map(|(v, m)| if *m > 0.0 { [v * m, *m] } else { [0.0, 0.0] })
-            .collect(),
-    )];
-    for _ in 0..deepest {
-        let (pw, ph, prev) = pyramid.last().expect("level 0");
-        let (w, h) = (pw.div_ceil(2), ph.div_ceil(2));
-        let next = (0..w * h)
-            .into_par_iter()
-            .map(|c| {
-                let (cx, cy) = (c % w, c / w);
-                let mut acc = [0.0, 0.0];
-                for (sx, sy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                    let (x, y) = (2 * cx + sx, 2 * cy + sy);
-                    if x < *pw && y < *ph {
-                        let v = prev[y * pw + x];
-                        acc[0] += 0.25 * v[0];
-                        acc[1] += 0.25 * v[1];
-                    }
-                }
-                acc
-            })
-            .collect();
-        pyramid.push((w, h, next));
-    }
-    sigmas
-        .par_iter()
-        .zip(&levels)
-        .map(|(&sigma, &k)| {
-            let (w, h, plane) = &pyramid[k as usize];
-            let cell = 1u32 << k;
-            let sigma_cells = grid_sigma(sigma, cell);
-            let radius = gaussian_radius(sigma_cells) as isize;
-            let weights: Vec<f64> = (-radius..=radius)
-                .map(|t| (-((t * t) as f64) / (2.0 * sigma_cells * sigma_cells)).exp())
-                .collect();
-            let blurred = blur_pairs(
-                &blur_pairs(plane, *w, *h, &weights, true),
-                *w,
-                *h,
-                &weights,
-                false,
-            );
-            (0..width * height)
+    pyramid: Vec<(usize, usize, Vec<[f64; 2]>)>,
+    across: Vec<[f64; 2]>,
+    blurred: Vec<[f64; 2]>,
+}
+
+impl ReinhardBlurs {
+    fn new(scaled: &[f64], mask: &[f64], width: usize, height: usize, deepest: u32) -> Self {
+        let mut pyramid: Vec<(usize, usize, Vec<[f64; 2]>)> = vec![(
+            width,
+            height,
+            scaled
+                .par_iter()
+                .zip(mask)
+                .map(|(v, m)| if *m > 0.0 { [v * m, *m] } else { [0.0, 0.0] })
+                .collect(),
+        )];
+        for _ in 0..deepest {
+            let (pw, ph, prev) = pyramid.last().expect("level 0");
+            let (w, h) = (pw.div_ceil(2), ph.div_ceil(2));
+            let next = (0..w * h)
                 .into_par_iter()
-                .map(|p| {
+                .map(|c| {
+                    let (cx, cy) = (c % w, c / w);
+                    let mut acc = [0.0, 0.0];
+                    for (sx, sy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                        let (x, y) = (2 * cx + sx, 2 * cy + sy);
+                        if x < *pw && y < *ph {
+                            let v = prev[y * pw + x];
+                            acc[0] += 0.25 * v[0];
+                            acc[1] += 0.25 * v[1];
+                        }
+                    }
+                    acc
+                })
+                .collect();
+            pyramid.push((w, h, next));
+        }
+        ReinhardBlurs {
+            width,
+            height,
+            pyramid,
+            across: Vec::new(),
+            blurred: Vec::new(),
+        }
+    }
+
+    /// V per pixel of the Gaussian of `sigma` pixels blurred on pyramid level `k`, into `v`.
+    fn scale_into(&mut self, sigma: f64, k: u32, v: &mut [f64]) {
+        let (w, h, plane) = &self.pyramid[k as usize];
+        let (w, h) = (*w, *h);
+        let cell = 1u32 << k;
+        let sigma_cells = grid_sigma(sigma, cell);
+        let radius = gaussian_radius(sigma_cells) as isize;
+        let weights: Vec<f64> = (-radius..=radius)
+            .map(|t| (-((t * t) as f64) / (2.0 * sigma_cells * sigma_cells)).exp())
+            .collect();
+        self.across.resize(w * h, [0.0, 0.0]);
+        self.blurred.resize(w * h, [0.0, 0.0]);
+        let (across, blurred) = (&mut self.across[..w * h], &mut self.blurred[..w * h]);
+        blur_pairs_into(plane, w, h, &weights, true, across);
+        blur_pairs_into(across, w, h, &weights, false, blurred);
+        let blurred = &*blurred;
+        let width = self.width;
+        v[..width * self.height]
+            .par_chunks_mut(width.max(1))
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, out) in row.iter_mut().enumerate() {
                     // Level 0 is the image's own grid: the bilinear read is the cell itself.
                     let [num, den] = if k == 0 {
-                        blurred[p]
+                        blurred[y * width + x]
                     } else {
-                        bilinear_on(&blurred, cell, *w as u32, *h as u32, p % width, p / width)
+                        bilinear_on(blurred, cell, w as u32, h as u32, x, y)
                     };
-                    if den > 0.0 {
-                        num / den
-                    } else {
-                        0.0
-                    }
-                })
-                .collect()
-        })
-        .collect()
+                    *out = if den > 0.0 { num / den } else { 0.0 };
+                }
+            });
+    }
 }
 
 /// Reinhard's local operator's parameters (`Operator::ReinhardLocal`).
@@ -137,30 +144,49 @@ pub(super) fn reinhard_local(
         Filters::Accelerated => reinhard_level,
         Filters::Exact => |_| 0,
     };
-    let blurs = reinhard_blurs(&scaled, &mask, scene.width, scene.height, &sigmas, level_of);
+    let levels: Vec<u32> = sigmas.iter().map(|&s| level_of(s)).collect();
+    let deepest = levels.iter().copied().max().unwrap_or(0);
+    let mut blurs = ReinhardBlurs::new(&scaled, &mask, scene.width, scene.height, deepest);
     let sharpness = p.phi.exp2() * p.key;
-    let scale_squared: Vec<f64> = (0..p.scales)
-        .map(|k| {
-            let s = p.ratio.powi(k as i32);
-            s * s
-        })
-        .collect();
-    (0..scaled.len())
+    // Scale by scale: `chosen` holds V1 of the last scale whose activity stayed below epsilon,
+    // `settled` marks pixels whose scan has stopped (missing pixels from the start).
+    let n = scaled.len();
+    let mut previous = vec![0.0; n];
+    blurs.scale_into(sigmas[0], levels[0], &mut previous);
+    let mut chosen = previous.clone();
+    let mut settled: Vec<bool> = mask.iter().map(|&m| m == 0.0).collect();
+    let mut current = vec![0.0; n];
+    for k in 0..p.scales as usize {
+        // Once every pixel has stopped, the larger scales change nothing.
+        if settled.par_iter().all(|&s| s) {
+            break;
+        }
+        blurs.scale_into(sigmas[k + 1], levels[k + 1], &mut current);
+        let s = p.ratio.powi(k as i32);
+        let s2 = s * s;
+        (&mut chosen, &mut settled, (&previous, &current))
+            .into_par_iter()
+            .for_each(|(chosen, settled, (&v1, &v2))| {
+                if *settled {
+                    return;
+                }
+                let activity = (v1 - v2) / (sharpness / s2 + v1);
+                if activity.abs() >= p.epsilon {
+                    *settled = true;
+                } else {
+                    *chosen = v1;
+                }
+            });
+        std::mem::swap(&mut previous, &mut current);
+    }
+    (0..n)
         .into_par_iter()
         .map(|i| {
             if mask[i] == 0.0 {
-                return f64::NAN;
+                f64::NAN
+            } else {
+                scaled[i] / (1.0 + chosen[i])
             }
-            let mut chosen = blurs[0][i];
-            for (k, s2) in scale_squared.iter().enumerate() {
-                let (v1, v2) = (blurs[k][i], blurs[k + 1][i]);
-                let activity = (v1 - v2) / (sharpness / s2 + v1);
-                if activity.abs() >= p.epsilon {
-                    break;
-                }
-                chosen = v1;
-            }
-            scaled[i] / (1.0 + chosen)
         })
         .collect()
 }
@@ -317,11 +343,25 @@ fn blur_pairs(
     weights: &[f64],
     horizontal: bool,
 ) -> Vec<[f64; 2]> {
-    let radius = (weights.len() / 2) as isize;
     let mut out = vec![[0.0, 0.0]; width * height];
+    blur_pairs_into(src, width, height, weights, horizontal, &mut out);
+    out
+}
+
+/// [`blur_pairs`] into `out` (`width` x `height` pairs, overwritten).
+fn blur_pairs_into(
+    src: &[[f64; 2]],
+    width: usize,
+    height: usize,
+    weights: &[f64],
+    horizontal: bool,
+    out: &mut [[f64; 2]],
+) {
+    let radius = (weights.len() / 2) as isize;
     out.par_chunks_mut(width.max(1))
         .enumerate()
         .for_each(|(y, row)| {
+            row.fill([0.0, 0.0]);
             // Tap by tap over the whole row: each output still adds its taps in order from -r,
             // leaving out those outside the grid, so the sums are the same as pixel by pixel.
             for (k, &w) in (-radius..=radius).zip(weights) {
@@ -345,7 +385,6 @@ fn blur_pairs(
                 }
             }
         });
-    out
 }
 
 /// acc += w · src, pair by pair.
