@@ -54,6 +54,8 @@ pub struct PeerToneMapSetup<'a> {
     /// Output extension: `exr` (both tools' defaults: hdrvis half ZIP, pfsoutexr half PIZ) or
     /// `png` (hdrvis's own encoder; pfsout through ImageMagick).
     pub format: &'a str,
+    /// `--mapper` for hdrvis's runs: auto, cpu or gpu.
+    pub mapper: &'a str,
     pub rounds: usize,
 }
 
@@ -130,7 +132,7 @@ fn time_hdrvis(setup: &PeerToneMapSetup<'_>, op: &str, input: &Path, out: &Path)
     let mut cmd = Command::new(setup.hdrvis);
     cmd.args(["--backend", setup.backend]);
     cmd.arg("tonemap").arg(input).arg("-o").arg(out);
-    cmd.args(["--op", op]);
+    cmd.args(["--op", op, "--mapper", setup.mapper]);
     timed(&mut cmd, &format!("hdrvis tonemap --op {op}"))
 }
 
@@ -167,9 +169,9 @@ fn timed(cmd: &mut Command, what: &str) -> Result<f64> {
 /// The side-by-side table.
 pub fn format_tonemap_peer_table(setup: &PeerToneMapSetup<'_>, rows: &[PeerToneMapRow]) -> String {
     let mut s = format!(
-        "whole processes, read + tone map + write .{}, median of {} alternating rounds; \
-         × = pfstools' time / hdrvis's (median of the rounds' ratios)\n",
-        setup.format, setup.rounds
+        "whole processes, read + tone map + write .{}, hdrvis --mapper {}, median of {} \
+         alternating rounds; × = pfstools' time / hdrvis's (median of the rounds' ratios)\n",
+        setup.format, setup.mapper, setup.rounds
     );
     s += &format!(
         "{:15} {:>11} {:>11} {:28} {:>11} {:>7} {:>13}\n",

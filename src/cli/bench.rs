@@ -130,12 +130,16 @@ fn bench_tonemap_command(
         peer,
         rounds,
         format,
+        mapper,
     } = cmd
     else {
         unreachable!("called for bench tonemap only")
     };
     match peer {
-        Some(peer) => bench_tonemap_peer((&peer, backend), quick, rounds.max(1), &format, progress),
+        Some(peer) => {
+            let how = (format.as_str(), mapper.as_str());
+            bench_tonemap_peer((&peer, backend), quick, rounds.max(1), how, progress)
+        }
         None => {
             let (ctx, adapter) = gpu(backend)?;
             let rows = tonemap::bench_tonemap(ctx, tonemap::sizes(quick), runs, progress)?;
@@ -151,10 +155,14 @@ fn bench_tonemap_peer(
     (peer, backend): (&str, BackendChoice),
     quick: bool,
     rounds: usize,
-    format: &str,
+    (format, mapper): (&str, &str),
     progress: &mut dyn FnMut(&str),
 ) -> Result<()> {
     use hdrvis::bench::tonemap_peer;
+    hdrvis::tonemap::MapperChoice::parse(mapper).map_err(|e| match e {
+        Error::Invalid { msg, .. } => Error::invalid("--mapper", msg),
+        other => other,
+    })?;
     if peer != "pfstools" {
         return Err(Error::invalid(
             "--peer",
@@ -166,6 +174,7 @@ fn bench_tonemap_peer(
         hdrvis: &hdrvis,
         backend: backend.name(),
         format,
+        mapper,
         rounds,
     };
     let sizes: &[u32] = if quick { &[1024] } else { &[1024, 4096] };

@@ -350,6 +350,9 @@ pub enum BenchCommand {
         /// With --peer: the output format both tools write, exr or png.
         #[arg(long, default_value = "exr")]
         format: String,
+        /// With --peer: where hdrvis maps (`hdrvis tonemap --mapper`): auto, cpu or gpu.
+        #[arg(long, default_value = "auto")]
+        mapper: String,
     },
     /// TUI responsiveness: key press to updated preview (exposure, operator, ν, camera) on a
     /// 256^3 volume and a 513^2 surface at preview size, medians.

@@ -1,5 +1,6 @@
 //! `hdrvis tonemap IN.exr -o OUT.png|OUT.exr`: tone-maps any RGB(A) OpenEXR (float or half, from
-//! any producer) on the GPU with a chosen operator, or draws its false-colour view, and writes a
+//! any producer) with a chosen operator, on the GPU or with the f64 operators on the CPU
+//! ([`hdrvis::tonemap::mapper`] chooses), or draws its false-colour view, and writes a
 //! display image: PNG in sRGB (8-bit, or 16-bit on request) or EXR holding display-referred
 //! linear values in [0, 1]. Every option is checked before the input is read, and outputs are
 //! written atomically, so bad input leaves no file behind.
@@ -8,7 +9,9 @@ use hdrvis::gpu::{BackendChoice, GpuContext};
 use hdrvis::io::exr::ExrWrite;
 use hdrvis::io::png::PngCompression;
 use hdrvis::tonemap::cpu::{auto_exposure_key, auto_exposure_percentile};
-use hdrvis::tonemap::{check_ev, Gamut, GpuToneMapper, Operator, StageClock, ToneMapSettings};
+use hdrvis::tonemap::{
+    check_ev, Gamut, MapperChoice, Operator, StageClock, ToneMapSettings, ToneMapper,
+};
 use hdrvis::{Error, Result};
 use std::path::PathBuf;
 
@@ -72,6 +75,10 @@ pub struct ToneMapArgs {
     /// Write the false-colour view of log10 luminance (with a legend) instead of tone mapping.
     #[arg(long)]
     pub false_colour: bool,
+    /// Where to map: `cpu` (the f64 operators on every core), `gpu`, or `auto`: the CPU when
+    /// the only adapter is a CPU rasterizer (lavapipe, llvmpipe), else the GPU.
+    #[arg(long, value_name = "auto|cpu|gpu", default_value = "auto")]
+    pub mapper: String,
 }
 
 enum Format {
@@ -141,13 +148,17 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     };
     settings.validate()?;
     let auto = auto_exposure_mode(args)?;
+    let choice = MapperChoice::parse(&args.mapper).map_err(|e| match e {
+        Error::Invalid { msg, .. } => Error::invalid("--mapper", msg),
+        other => other,
+    })?;
 
     let clock = StageClock::start();
-    // The GPU's set-up and the operator's pipelines do not need the image: build them while
-    // the file is read.
+    // Opening the adapter (which decides the mapper) and the GPU's pipelines do not need the
+    // image: they are made while the file is read.
     let (img, mapper) = std::thread::scope(|scope| {
-        let gpu = scope.spawn(|| -> Result<GpuToneMapper> {
-            let mapper = GpuToneMapper::new(GpuContext::new(backend)?);
+        let gpu = scope.spawn(|| -> Result<ToneMapper> {
+            let mapper = ToneMapper::new(GpuContext::new(backend)?, choice);
             mapper.prepare(&settings, args.false_colour)?;
             Ok(mapper)
         });
@@ -168,7 +179,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         settings.exposure_ev = (settings.exposure_ev + ev).clamp(-200.0, 200.0);
         eprintln!("{input}: auto exposure ({mode}) {ev:+.2} EV");
     }
-    let adapter = mapper.context().describe();
+    let adapter = mapper.describe();
     let out = if args.false_colour {
         mapper.false_colour(&img, settings.exposure_ev, None)?
     } else {

@@ -17,7 +17,7 @@ use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
 use crate::gpu::{BackendChoice, GpuContext};
 use crate::model::{Grid, HdrImage, Volume};
-use crate::tonemap::{GpuToneMapper, ToneMapSettings};
+use crate::tonemap::{MapperChoice, ToneMapSettings, ToneMapper};
 use std::any::Any;
 use std::collections::HashMap;
 use std::path::Path;
@@ -31,7 +31,7 @@ struct Gpu {
     volume: Arc<VolumeRenderer>,
     volume_f64: Arc<F64RayCaster>,
     surface: Arc<SurfaceRenderer>,
-    tonemap: Arc<GpuToneMapper>,
+    tonemap: Arc<ToneMapper>,
 }
 
 /// Renderers on one GPU context (created on first use), the result cache and the pass log.
@@ -156,7 +156,7 @@ impl RenderSession {
         Ok(self.gpu()?.surface.clone())
     }
 
-    pub(crate) fn tonemapper(&self) -> Result<Arc<GpuToneMapper>> {
+    pub(crate) fn tonemapper(&self) -> Result<Arc<ToneMapper>> {
         Ok(self.gpu()?.tonemap.clone())
     }
 
@@ -431,7 +431,7 @@ impl Gpu {
             volume: Arc::new(VolumeRenderer::new(ctx.clone())),
             volume_f64: Arc::new(F64RayCaster::new(ctx.clone())),
             surface: Arc::new(SurfaceRenderer::new(ctx.clone())),
-            tonemap: Arc::new(GpuToneMapper::new(ctx)),
+            tonemap: Arc::new(ToneMapper::new(ctx, MapperChoice::Auto)),
         }
     }
 }

@@ -122,7 +122,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("exposure and tone mapping", "load_image", &["path: string"], "Image", "Reads an RGB(A) OpenEXR (float or half, from any producer) as an HDR image."),
     e("exposure and tone mapping", "exposure", &["image: Image", "ev: number"], "Image", "The HDR image times 2^ev (no re-render)."),
     e("exposure and tone mapping", "bracket", &["image: Image", "evs: array"], "array", "One exposed HDR image per EV, all from the same render."),
-    with(e("exposure and tone mapping", "tonemap", &["image: Image", "options: map"], "Image", "Display-referred image in [0, 1] (GPU, with an f64 CPU reference); each operator takes only its own parameters. Options:"), &[&TONEMAP]),
+    with(e("exposure and tone mapping", "tonemap", &["image: Image", "options: map"], "Image", "Display-referred image in [0, 1] (the f64 operators on a CPU-only machine, else the GPU); each operator takes only its own parameters. Options:"), &[&TONEMAP]),
     e("exposure and tone mapping", "tonemap", &["image: Image", "op: string"], "Image", "As above with the operator's defaults."),
     e("exposure and tone mapping", "false_colour", &["image: Image"], "Image", "False-colour view of log10 luminance with a decade legend."),
     with(e("exposure and tone mapping", "false_colour", &["image: Image", "options: map"], "Image", "As above over a given range of luminance (the same colours for every image of a sweep). Options:"), &[&FALSE_COLOUR]),
@@ -386,7 +386,7 @@ mod tests {
 
     /// The options of image-making functions that change nothing in [`audit_options`]'s scenes,
     /// each with why that is not an option ignored.
-    const UNCHANGED_FOR_A_REASON: [(&str, &str); 22] = [
+    const UNCHANGED_FOR_A_REASON: [(&str, &str); 23] = [
         ("render_volume tf", "the base call's own transfer function"),
         ("render_volume background", "the example is the default"),
         (
@@ -435,6 +435,10 @@ mod tests {
         (
             "tonemap gamut",
             "the test image is grey, within every gamut",
+        ),
+        (
+            "tonemap exposure",
+            "the default operator, Reinhard's, divides by the log-average luminance, which exposure scales alike",
         ),
     ];
 

@@ -40,7 +40,9 @@ pub(crate) const TONEMAP: OptionTable = OptionTable {
         opt("sigma_spatial", Kind::Finite, "0.02", "durand: spatial sigma, fraction of the larger image side"),
         opt("sigma_range", Kind::Finite, "0.4", "durand: range sigma, log10 luminance"),
     ],
-    call: "tonemap(exposure(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), 0.0), OPTS)",
+    // Seven lit pixels: with fewer, the f64 operators map the scene to exactly 0 and 1 and
+    // exposure, key and gamma cannot show.
+    call: "tonemap(exposure(render_volume(generate_mantle(#{ n: 8 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 8, height: 8 }), 0.0), OPTS)",
     base: "#{}",
 };
 

@@ -1,17 +1,20 @@
 //! Exposure and tone mapping of HDR images: operator parameters (names and defaults from the
 //! papers), their f64 CPU references, the GPU passes (`shaders/tonemap/`, host code in [`gpu`]),
 //! and exposure in stops and exposure brackets (several views of one HDR image, no re-render);
-//! the `hdrvis bench tonemap` benchmark is [`crate::bench::tonemap`].
+//! [`mapper`] decides which of the two maps a caller's images. The `hdrvis bench tonemap`
+//! benchmark is [`crate::bench::tonemap`].
 
 pub(crate) mod bands;
 pub mod cpu;
 pub mod gpu;
+pub mod mapper;
 pub mod params;
 
 use crate::error::{Error, Result};
 use crate::model::HdrImage;
 
 pub use gpu::GpuToneMapper;
+pub use mapper::{MapperChoice, ToneMapper};
 
 pub(crate) use gpu::DISPLAY_REFERRED;
 pub use params::{Gamut, Operator, ToneMapSettings};

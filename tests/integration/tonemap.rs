@@ -1172,3 +1172,71 @@ fn global_operators_agree_with_pfstools_and_reinhard_local_within_its_scale_choi
     );
     assert!(ratios[0] >= 0.95 && ratios[ratios.len() - 1] <= 1.08);
 }
+
+#[test]
+fn tonemap_cli_maps_on_the_cpu_or_the_gpu_to_one_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (_, img) = synthetic().swap_remove(0);
+    hdrvis::io::exr::write_exr(&img, &d.join("in.exr")).unwrap();
+    let adapter_is_cpu =
+        renderer(BackendChoice::Auto).context().info.device_type == wgpu::DeviceType::Cpu;
+    let run = |op: &str, mapper: &str| {
+        let out = format!("{op}-{mapper}.exr");
+        let mut args = vec![
+            "tonemap",
+            "in.exr",
+            "-o",
+            &out,
+            "--float32",
+            "--mapper",
+            mapper,
+        ];
+        if op == "false-colour" {
+            args.push("--false-colour");
+        } else {
+            args.extend(["--op", op]);
+        }
+        let (rc, stdout, err) = hdrvis(&args, d);
+        assert_eq!(rc, 0, "{err}");
+        let on_cpu = stdout.contains("f64 on the CPU");
+        (hdrvis::io::exr::read_exr(&d.join(&out)).unwrap(), on_cpu)
+    };
+    for op in [
+        "reinhard",
+        "drago",
+        "reinhard-local",
+        "durand",
+        "false-colour",
+    ] {
+        let (cpu, cpu_said) = run(op, "cpu");
+        let (gpu, gpu_said) = run(op, "gpu");
+        let (_, auto_said) = run(op, "auto");
+        assert!(
+            cpu_said && !gpu_said,
+            "{op}: the wrote line names the mapper"
+        );
+        assert_eq!(
+            auto_said, adapter_is_cpu,
+            "{op}: auto maps on the CPU on a CPU adapter"
+        );
+        // The false-colour view quantises to the colour map's codes; the operators agree to TOL.
+        let tol = if op == "false-colour" { 1e-2 } else { TOL };
+        let (worst, at) = max_diff(&cpu, &gpu);
+        assert!(worst <= tol, "{op}: |cpu - gpu| = {worst} at {at}");
+        let expected = [
+            ("tonemap.exposure_ev", op != "false-colour"),
+            ("display_referred", true),
+        ];
+        for (key, present) in expected {
+            assert_eq!(cpu.meta(key), gpu.meta(key), "{op}: {key}");
+            assert_eq!(cpu.meta(key).is_some(), present, "{op}: {key}");
+        }
+    }
+    let (rc, _, err) = hdrvis(&["tonemap", "in.exr", "-o", "x.png", "--mapper", "fpga"], d);
+    assert_eq!(rc, 1);
+    assert!(
+        err.trim().lines().count() == 1 && err.contains("--mapper") && !d.join("x.png").exists(),
+        "{err}"
+    );
+}
