@@ -179,7 +179,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         settings.exposure_ev = (settings.exposure_ev + ev).clamp(-200.0, 200.0);
         eprintln!("{input}: auto exposure ({mode}) {ev:+.2} EV");
     }
-    let adapter = mapper.describe();
+    let adapter = mapper.describe(&img, (!args.false_colour).then_some(&settings.op));
     let out = if args.false_colour {
         mapper.false_colour(&img, settings.exposure_ev, None)?
     } else {

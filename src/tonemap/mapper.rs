@@ -6,15 +6,17 @@
 //! run. There the f64 operators are the better tool on both counts: they are the references the
 //! GPU passes are tested against, and a whole `hdrvis tonemap` of a 1024² image took 0.53–0.58 s
 //! against 0.99–1.05 s for Reinhard's local operator on the 2-core benchmark machine
-//! (docs/performance.md). A real GPU keeps the GPU passes.
+//! (docs/performance.md). A real GPU keeps the GPU passes, and so does an image too large for
+//! the f64 operators' planes in the memory available.
 
 use std::sync::Arc;
 
 use super::cpu::{false_colour_log10, tonemap_cpu};
 use super::gpu::GpuToneMapper;
-use super::{ToneMapSettings, DISPLAY_REFERRED};
+use super::{Operator, ToneMapSettings, DISPLAY_REFERRED};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
+use crate::model::volume::available_memory_bytes;
 use crate::model::HdrImage;
 
 /// Which tone mapper a caller asks for (`hdrvis tonemap --mapper`).
@@ -43,49 +45,81 @@ impl MapperChoice {
     }
 }
 
-/// A tone mapper: the f64 operators on the CPU, or the GPU passes on an opened adapter.
-pub enum ToneMapper {
-    Cpu,
-    Gpu(Box<GpuToneMapper>),
+/// Peak bytes a pixel of the f64 operators (whole-process peaks measured at 1024² and 4096²,
+/// rounded up): the scene in f64, the operator's planes and the f32 result. Reinhard's local
+/// operator also holds its pyramid, two blur buffers and three scale planes.
+const CPU_BYTES_PER_PIXEL: u64 = 100;
+const CPU_BYTES_PER_PIXEL_REINHARD_LOCAL: u64 = 180;
+
+/// Whether the f64 operators' planes for a `width` x `height` image fit in half of `available`
+/// bytes (unknown: they are taken to fit).
+fn f64_planes_fit(width: u32, height: u32, op: Option<&Operator>, available: Option<u64>) -> bool {
+    let per_pixel = match op {
+        Some(Operator::ReinhardLocal { .. }) => CPU_BYTES_PER_PIXEL_REINHARD_LOCAL,
+        _ => CPU_BYTES_PER_PIXEL,
+    };
+    let bytes = (width as u64 * height as u64).saturating_mul(per_pixel);
+    available.is_none_or(|avail| bytes <= avail / 2)
+}
+
+/// A tone mapper: the f64 operators on the CPU or the GPU passes on an opened adapter, chosen
+/// per image.
+pub struct ToneMapper {
+    gpu: GpuToneMapper,
+    choice: MapperChoice,
 }
 
 impl ToneMapper {
-    /// The mapper `choice` asks for on `ctx`: the one place the CPU/GPU decision is made.
+    /// The mapper `choice` asks for on `ctx`.
     pub fn new(ctx: Arc<GpuContext>, choice: MapperChoice) -> ToneMapper {
-        let on_cpu = match choice {
-            MapperChoice::Auto => ctx.info.device_type == wgpu::DeviceType::Cpu,
-            MapperChoice::Cpu => true,
-            MapperChoice::Gpu => false,
-        };
-        if on_cpu {
-            ToneMapper::Cpu
-        } else {
-            ToneMapper::Gpu(Box::new(GpuToneMapper::new(ctx)))
+        ToneMapper {
+            gpu: GpuToneMapper::new(ctx),
+            choice,
         }
     }
 
-    /// Makes ready what a call with `settings` (or the false-colour view) will use: the GPU's
-    /// pipelines; nothing on the CPU. Meant to run while the caller reads the image.
+    fn cpu_adapter(&self) -> bool {
+        self.gpu.context().info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// The one place the CPU/GPU decision is made: `Auto` maps on the CPU where the adapter is a
+    /// CPU rasterizer and the f64 operators' planes for `img` fit in half the memory available;
+    /// a larger image goes to the GPU passes, which work in bands. `op` is `None` for the
+    /// false-colour view.
+    pub fn maps_on_cpu(&self, img: &HdrImage, op: Option<&Operator>) -> bool {
+        match self.choice {
+            MapperChoice::Cpu => true,
+            MapperChoice::Gpu => false,
+            MapperChoice::Auto => {
+                let available = available_memory_bytes();
+                self.cpu_adapter() && f64_planes_fit(img.width, img.height, op, available)
+            }
+        }
+    }
+
+    /// Builds the GPU's pipelines for a call with `settings` (or the false-colour view) where
+    /// the GPU is the likely mapper; on a CPU rasterizer under `Auto` only images too large for
+    /// the f64 planes use it, and they build their pipelines when they come. Meant to run while
+    /// the caller reads the image.
     pub fn prepare(&self, settings: &ToneMapSettings, false_colour: bool) -> Result<()> {
-        match self {
-            ToneMapper::Cpu => Ok(()),
-            ToneMapper::Gpu(gpu) => gpu.prepare(settings, false_colour),
+        match self.choice {
+            MapperChoice::Cpu => Ok(()),
+            MapperChoice::Auto if self.cpu_adapter() => Ok(()),
+            _ => self.gpu.prepare(settings, false_colour),
         }
     }
 
     /// Tone-maps `img`: display-referred linear RGBA in [0, 1], missing pixels (0, 0, 0, 0),
     /// with the metadata of [`GpuToneMapper::tonemap`] whichever mapper ran.
     pub fn tonemap(&self, img: &HdrImage, settings: &ToneMapSettings) -> Result<HdrImage> {
-        match self {
-            ToneMapper::Cpu => {
-                settings.validate()?;
-                let mut out = tonemap_cpu(img, settings)?;
-                out.set_meta("tonemap.exposure_ev", format!("{}", settings.exposure_ev));
-                out.set_meta(DISPLAY_REFERRED, "1");
-                Ok(out)
-            }
-            ToneMapper::Gpu(gpu) => gpu.tonemap(img, settings),
+        if !self.maps_on_cpu(img, Some(&settings.op)) {
+            return self.gpu.tonemap(img, settings);
         }
+        settings.validate()?;
+        let mut out = tonemap_cpu(img, settings)?;
+        out.set_meta("tonemap.exposure_ev", format!("{}", settings.exposure_ev));
+        out.set_meta(DISPLAY_REFERRED, "1");
+        Ok(out)
     }
 
     /// The false-colour view of log10 luminance (see [`false_colour_log10`]).
@@ -95,22 +129,46 @@ impl ToneMapper {
         exposure_ev: f64,
         decades: Option<(f64, f64)>,
     ) -> Result<HdrImage> {
-        match self {
-            ToneMapper::Cpu => {
-                super::check_ev("exposure_ev", exposure_ev)?;
-                let mut out = false_colour_log10(img, exposure_ev, decades)?;
-                out.set_meta(DISPLAY_REFERRED, "1");
-                Ok(out)
-            }
-            ToneMapper::Gpu(gpu) => gpu.false_colour(img, exposure_ev, decades),
+        if !self.maps_on_cpu(img, None) {
+            return self.gpu.false_colour(img, exposure_ev, decades);
         }
+        super::check_ev("exposure_ev", exposure_ev)?;
+        let mut out = false_colour_log10(img, exposure_ev, decades)?;
+        out.set_meta(DISPLAY_REFERRED, "1");
+        Ok(out)
     }
 
-    /// What maps, for reports: the adapter, or the CPU and its threads.
-    pub fn describe(&self) -> String {
-        match self {
-            ToneMapper::Cpu => format!("f64 on the CPU, {} threads", rayon::current_num_threads()),
-            ToneMapper::Gpu(gpu) => gpu.context().describe(),
+    /// What maps `img` (see [`ToneMapper::maps_on_cpu`]), for reports: "f64 on the CPU, N
+    /// threads", or the adapter.
+    pub fn describe(&self, img: &HdrImage, op: Option<&Operator>) -> String {
+        if self.maps_on_cpu(img, op) {
+            format!("f64 on the CPU, {} threads", rayon::current_num_threads())
+        } else {
+            self.gpu.context().describe()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn images_too_large_for_the_f64_planes_go_to_the_gpu() {
+        let local = Operator::REINHARD_LOCAL;
+        let gib = 1u64 << 30;
+        // 4096²: 1.6 GiB of planes for a global operator, 2.8 GiB for Reinhard local.
+        assert!(f64_planes_fit(
+            4096,
+            4096,
+            Some(&Operator::REINHARD),
+            Some(4 * gib)
+        ));
+        assert!(!f64_planes_fit(4096, 4096, Some(&local), Some(4 * gib)));
+        assert!(f64_planes_fit(4096, 4096, Some(&local), Some(6 * gib)));
+        assert!(f64_planes_fit(4096, 4096, None, Some(4 * gib)));
+        // Sides whose product overflows 32 bits, and a machine that does not say.
+        assert!(!f64_planes_fit(65536, 65536, None, Some(64 * gib)));
+        assert!(f64_planes_fit(1024, 1024, Some(&local), None));
     }
 }
