@@ -159,10 +159,7 @@ fn bench_tonemap_peer(
     progress: &mut dyn FnMut(&str),
 ) -> Result<()> {
     use hdrvis::bench::tonemap_peer;
-    hdrvis::tonemap::MapperChoice::parse(mapper).map_err(|e| match e {
-        Error::Invalid { msg, .. } => Error::invalid("--mapper", msg),
-        other => other,
-    })?;
+    super::tonemap::mapper_flag(mapper)?;
     if peer != "pfstools" {
         return Err(Error::invalid(
             "--peer",

@@ -148,10 +148,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     };
     settings.validate()?;
     let auto = auto_exposure_mode(args)?;
-    let choice = MapperChoice::parse(&args.mapper).map_err(|e| match e {
-        Error::Invalid { msg, .. } => Error::invalid("--mapper", msg),
-        other => other,
-    })?;
+    let choice = mapper_flag(&args.mapper)?;
 
     let clock = StageClock::start();
     // Opening the adapter (which decides the mapper) and the GPU's pipelines do not need the
@@ -208,6 +205,14 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
         out.height
     );
     Ok(())
+}
+
+/// `--mapper NAME` (of `hdrvis tonemap` and `hdrvis bench tonemap --peer`).
+pub(super) fn mapper_flag(name: &str) -> Result<MapperChoice> {
+    MapperChoice::parse(name).map_err(|e| match e {
+        Error::Invalid { msg, .. } => Error::invalid("--mapper", msg),
+        other => other,
+    })
 }
 
 /// The output's format, from its file name's extension.
