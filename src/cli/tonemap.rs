@@ -5,7 +5,7 @@
 //! linear values in [0, 1]. Every option is checked before the input is read, and outputs are
 //! written atomically, so bad input leaves no file behind.
 
-use hdrvis::gpu::{BackendChoice, GpuContext};
+use hdrvis::gpu::BackendChoice;
 use hdrvis::io::exr::ExrWrite;
 use hdrvis::io::png::PngCompression;
 use hdrvis::tonemap::cpu::{auto_exposure_key, auto_exposure_percentile};
@@ -155,7 +155,7 @@ pub fn run_tonemap(args: &ToneMapArgs, backend: BackendChoice) -> Result<()> {
     // image: they are made while the file is read.
     let (img, mapper) = std::thread::scope(|scope| {
         let gpu = scope.spawn(|| -> Result<ToneMapper> {
-            let mapper = ToneMapper::new(GpuContext::new(backend)?, choice);
+            let mapper = ToneMapper::open(backend, choice)?;
             mapper.prepare(&settings, args.false_colour)?;
             Ok(mapper)
         });

@@ -13,9 +13,9 @@ use std::sync::Arc;
 
 use super::cpu::{false_colour_log10, tonemap_cpu};
 use super::gpu::GpuToneMapper;
-use super::{Operator, ToneMapSettings, DISPLAY_REFERRED};
+use super::{Operator, ToneMapSettings};
 use crate::error::{Error, Result};
-use crate::gpu::GpuContext;
+use crate::gpu::{BackendChoice, GpuContext};
 use crate::model::volume::available_memory_bytes;
 use crate::model::HdrImage;
 
@@ -65,7 +65,8 @@ fn f64_planes_fit(width: u32, height: u32, op: Option<&Operator>, available: Opt
 /// A tone mapper: the f64 operators on the CPU or the GPU passes on an opened adapter, chosen
 /// per image.
 pub struct ToneMapper {
-    gpu: GpuToneMapper,
+    /// The GPU's mapper; `None` when the CPU was asked for, which needs no adapter.
+    gpu: Option<GpuToneMapper>,
     choice: MapperChoice,
 }
 
@@ -73,28 +74,40 @@ impl ToneMapper {
     /// The mapper `choice` asks for on `ctx`.
     pub fn new(ctx: Arc<GpuContext>, choice: MapperChoice) -> ToneMapper {
         ToneMapper {
-            gpu: GpuToneMapper::new(ctx),
+            gpu: Some(GpuToneMapper::new(ctx)),
             choice,
         }
     }
 
-    fn cpu_adapter(&self) -> bool {
-        self.gpu.context().info.device_type == wgpu::DeviceType::Cpu
+    /// The mapper `choice` asks for, opening an adapter of `backend` unless it asks for the CPU.
+    /// The CPU, asked for or chosen by `Auto` where no adapter opens, needs no GPU driver at all.
+    pub fn open(backend: BackendChoice, choice: MapperChoice) -> Result<ToneMapper> {
+        let cpu_only = ToneMapper { gpu: None, choice };
+        if choice == MapperChoice::Cpu {
+            return Ok(cpu_only);
+        }
+        match GpuContext::new(backend) {
+            Ok(ctx) => Ok(ToneMapper::new(ctx, choice)),
+            Err(_) if choice == MapperChoice::Auto => Ok(cpu_only),
+            Err(e) => Err(e),
+        }
     }
 
-    /// The one place the CPU/GPU decision is made: `Auto` maps on the CPU where the adapter is a
-    /// CPU rasterizer and the f64 operators' planes for `img` fit in half the memory available;
-    /// a larger image goes to the GPU passes, which work in bands. `op` is `None` for the
-    /// false-colour view.
-    pub fn maps_on_cpu(&self, img: &HdrImage, op: Option<&Operator>) -> bool {
-        match self.choice {
+    /// The one place the CPU/GPU decision is made: the GPU's mapper where it maps `img`, `None`
+    /// where the f64 operators do. `Auto` maps on the CPU where the adapter is a CPU rasterizer
+    /// and the f64 operators' planes for `img` fit in half the memory available; a larger image
+    /// goes to the GPU passes, which work in bands. `op` is `None` for the false-colour view.
+    fn gpu_for(&self, img: &HdrImage, op: Option<&Operator>) -> Option<&GpuToneMapper> {
+        let gpu = self.gpu.as_ref()?;
+        let on_cpu = match self.choice {
             MapperChoice::Cpu => true,
             MapperChoice::Gpu => false,
             MapperChoice::Auto => {
                 let available = available_memory_bytes();
-                self.cpu_adapter() && f64_planes_fit(img.width, img.height, op, available)
+                cpu_adapter(gpu) && f64_planes_fit(img.width, img.height, op, available)
             }
-        }
+        };
+        (!on_cpu).then_some(gpu)
     }
 
     /// Builds the GPU's pipelines for a call with `settings` (or the false-colour view) where
@@ -102,24 +115,22 @@ impl ToneMapper {
     /// the f64 planes use it, and they build their pipelines when they come. Meant to run while
     /// the caller reads the image.
     pub fn prepare(&self, settings: &ToneMapSettings, false_colour: bool) -> Result<()> {
-        match self.choice {
-            MapperChoice::Cpu => Ok(()),
-            MapperChoice::Auto if self.cpu_adapter() => Ok(()),
-            _ => self.gpu.prepare(settings, false_colour),
+        match (&self.gpu, self.choice) {
+            (Some(gpu), MapperChoice::Gpu) => gpu.prepare(settings, false_colour),
+            (Some(gpu), MapperChoice::Auto) if !cpu_adapter(gpu) => {
+                gpu.prepare(settings, false_colour)
+            }
+            _ => Ok(()),
         }
     }
 
     /// Tone-maps `img`: display-referred linear RGBA in [0, 1], missing pixels (0, 0, 0, 0),
-    /// with the metadata of [`GpuToneMapper::tonemap`] whichever mapper ran.
+    /// with the same metadata whichever mapper ran.
     pub fn tonemap(&self, img: &HdrImage, settings: &ToneMapSettings) -> Result<HdrImage> {
-        if !self.maps_on_cpu(img, Some(&settings.op)) {
-            return self.gpu.tonemap(img, settings);
+        match self.gpu_for(img, Some(&settings.op)) {
+            Some(gpu) => gpu.tonemap(img, settings),
+            None => tonemap_cpu(img, settings),
         }
-        settings.validate()?;
-        let mut out = tonemap_cpu(img, settings)?;
-        out.set_meta("tonemap.exposure_ev", format!("{}", settings.exposure_ev));
-        out.set_meta(DISPLAY_REFERRED, "1");
-        Ok(out)
     }
 
     /// The false-colour view of log10 luminance (see [`false_colour_log10`]).
@@ -129,24 +140,23 @@ impl ToneMapper {
         exposure_ev: f64,
         decades: Option<(f64, f64)>,
     ) -> Result<HdrImage> {
-        if !self.maps_on_cpu(img, None) {
-            return self.gpu.false_colour(img, exposure_ev, decades);
+        match self.gpu_for(img, None) {
+            Some(gpu) => gpu.false_colour(img, exposure_ev, decades),
+            None => false_colour_log10(img, exposure_ev, decades),
         }
-        super::check_ev("exposure_ev", exposure_ev)?;
-        let mut out = false_colour_log10(img, exposure_ev, decades)?;
-        out.set_meta(DISPLAY_REFERRED, "1");
-        Ok(out)
     }
 
-    /// What maps `img` (see [`ToneMapper::maps_on_cpu`]), for reports: "f64 on the CPU, N
-    /// threads", or the adapter.
+    /// What maps `img`, for reports: "f64 on the CPU, N threads", or the adapter.
     pub fn describe(&self, img: &HdrImage, op: Option<&Operator>) -> String {
-        if self.maps_on_cpu(img, op) {
-            format!("f64 on the CPU, {} threads", rayon::current_num_threads())
-        } else {
-            self.gpu.context().describe()
+        match self.gpu_for(img, op) {
+            Some(gpu) => gpu.context().describe(),
+            None => format!("f64 on the CPU, {} threads", rayon::current_num_threads()),
         }
     }
+}
+
+fn cpu_adapter(gpu: &GpuToneMapper) -> bool {
+    gpu.context().info.device_type == wgpu::DeviceType::Cpu
 }
 
 #[cfg(test)]

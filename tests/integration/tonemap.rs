@@ -1233,6 +1233,39 @@ fn tonemap_cli_maps_on_the_cpu_or_the_gpu_to_one_image() {
             assert_eq!(cpu.meta(key).is_some(), present, "{op}: {key}");
         }
     }
+    // With no GPU driver at all, the CPU (asked for, or chosen by auto) still maps; the GPU
+    // cannot.
+    let no_driver = [
+        ("VK_ICD_FILENAMES", "/nonexistent.json"),
+        ("VK_DRIVER_FILES", "/nonexistent.json"),
+    ];
+    for (mapper, works) in [("cpu", true), ("auto", true), ("gpu", false)] {
+        let out = format!("none-{mapper}.png");
+        let args = [
+            "--backend",
+            "vulkan",
+            "tonemap",
+            "in.exr",
+            "-o",
+            &out,
+            "--mapper",
+            mapper,
+        ];
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_hdrvis"))
+            .args(args)
+            .envs(no_driver)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        assert_eq!(run.status.success(), works, "--mapper {mapper}: {run:?}");
+        assert_eq!(d.join(&out).exists(), works, "--mapper {mapper}");
+        assert_eq!(
+            stdout.contains("f64 on the CPU"),
+            works,
+            "--mapper {mapper}"
+        );
+    }
     let (rc, _, err) = hdrvis(&["tonemap", "in.exr", "-o", "x.png", "--mapper", "fpga"], d);
     assert_eq!(rc, 1);
     assert!(

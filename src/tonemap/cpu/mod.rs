@@ -182,7 +182,9 @@ pub(crate) fn tonemap_cpu_with(
     result.metadata = img.metadata.clone();
     result.set_meta("tonemap", s.op.name());
     result.set_meta("gamut", s.gamut.name());
+    result.set_meta("tonemap.exposure_ev", format!("{}", s.exposure_ev));
     result.set_meta("transfer", "display-linear");
+    result.set_meta(crate::tonemap::DISPLAY_REFERRED, "1");
     Ok(result)
 }
 
@@ -555,12 +557,7 @@ pub fn false_colour_log10(
     decades: Option<(f64, f64)>,
 ) -> Result<HdrImage> {
     check_size(img)?;
-    if !exposure_ev.is_finite() {
-        return Err(Error::invalid(
-            "exposure_ev",
-            format!("{exposure_ev} must be finite"),
-        ));
-    }
+    crate::tonemap::check_ev("exposure_ev", exposure_ev)?;
     let scene = Scene::new(img, exposure_ev);
     let stats = if decades.is_none() {
         scene.stats()
@@ -610,6 +607,7 @@ pub fn false_colour_log10(
     out.set_meta("false_colour.log10_max", format!("{high}"));
     false_colour_bar(low, high).record(&mut out);
     out.set_meta("transfer", "display-linear");
+    out.set_meta(crate::tonemap::DISPLAY_REFERRED, "1");
     Ok(out)
 }
 

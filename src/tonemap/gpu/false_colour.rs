@@ -4,7 +4,7 @@
 
 use super::upload::upload_image;
 use super::{GpuToneMapper, Specialisation, ToneMapParams, DISPLAY_REFERRED};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::model::HdrImage;
 use crate::tonemap::cpu::{false_colour_decades, legend_height, turbo_lut};
 use crate::tonemap::StageClock;
@@ -19,12 +19,7 @@ impl GpuToneMapper {
         exposure_ev: f64,
         decades: Option<(f64, f64)>,
     ) -> Result<HdrImage> {
-        if !exposure_ev.is_finite() || exposure_ev.abs() > 200.0 {
-            return Err(Error::invalid(
-                "exposure_ev",
-                format!("{exposure_ev} must be a finite number of stops in [-200, 200]"),
-            ));
-        }
+        crate::tonemap::check_ev("exposure_ev", exposure_ev)?;
         self.check_image(img)?;
         let (low, high) = false_colour_decades(img, exposure_ev, decades)?;
         let (w, h) = (img.width, img.height);
