@@ -43,11 +43,11 @@ pub(crate) struct LogLuminanceStats {
     pub count: usize,
 }
 
-/// Scene colour after exposure, with missing pixels as `None`.
+/// Scene luminance after exposure, for the operators that need it as a plane (the local
+/// operators, Ward's histogram, the false-colour view).
 struct Scene {
     width: usize,
     height: usize,
-    colour: Vec<Option<[f64; 3]>>,
     /// Rec. 709 luminance; NaN where missing.
     lum: Vec<f64>,
 }
@@ -55,53 +55,78 @@ struct Scene {
 impl Scene {
     fn new(img: &HdrImage, exposure_ev: f64) -> Scene {
         let gain = exposure_ev.exp2();
-        let colour: Vec<Option<[f64; 3]>> = img
-            .pixels
-            .par_iter()
-            .map(|p| {
-                if p.iter().all(|v| v.is_finite()) {
-                    Some([0, 1, 2].map(|k| (p[k] as f64).max(0.0) * gain))
-                } else {
-                    None
-                }
-            })
-            .collect();
-        let lum = colour
-            .par_iter()
-            .map(|c| match c {
-                Some(c) => REC709[0] * c[0] + REC709[1] * c[1] + REC709[2] * c[2],
-                None => f64::NAN,
-            })
-            .collect();
         Scene {
             width: img.width as usize,
             height: img.height as usize,
-            colour,
-            lum,
+            lum: img.pixels.par_iter().map(|p| luminance(p, gain)).collect(),
         }
     }
 
     fn stats(&self) -> Option<LogLuminanceStats> {
-        log_stats(&self.lum)
+        log_stats(&self.lum, |&l| l)
     }
 }
 
-fn log_stats(lum: &[f64]) -> Option<LogLuminanceStats> {
-    let logs: Vec<f64> = lum
-        .par_iter()
-        .filter(|l| l.is_finite() && **l > 0.0)
-        .map(|l| l.ln())
+/// A pixel's colour times `gain`, negative components clamped to 0; `None` where any of its
+/// R, G, B, A is NaN or infinite (missing).
+fn exposed(p: &[f32; 4], gain: f64) -> Option<[f64; 3]> {
+    if p.iter().all(|v| v.is_finite()) {
+        Some([0, 1, 2].map(|k| (p[k] as f64).max(0.0) * gain))
+    } else {
+        None
+    }
+}
+
+/// Rec. 709 luminance of a colour.
+fn luminance_of(c: [f64; 3]) -> f64 {
+    REC709[0] * c[0] + REC709[1] * c[1] + REC709[2] * c[2]
+}
+
+/// Rec. 709 luminance of a pixel after `gain`; NaN where it is missing.
+fn luminance(p: &[f32; 4], gain: f64) -> f64 {
+    exposed(p, gain).map_or(f64::NAN, luminance_of)
+}
+
+/// Pixels per task of [`log_stats`]: fixed, so that the sum is the same on any number of
+/// threads.
+const STATS_CHUNK: usize = 1 << 14;
+
+/// Statistics of ln L over the finite positive luminances `lum` of `items` gives, without a
+/// plane of logarithms: each fixed chunk sums its logarithms in runs of 64 and then pairwise,
+/// and the chunks' sums are added pairwise ([`pairwise_sum`]'s error bound, the same sum on any
+/// number of threads).
+fn log_stats<T: Sync>(items: &[T], lum: impl Fn(&T) -> f64 + Sync) -> Option<LogLuminanceStats> {
+    let parts: Vec<(f64, usize, f64, f64)> = items
+        .par_chunks(STATS_CHUNK)
+        .map(|chunk| {
+            let mut runs = Vec::with_capacity(chunk.len().div_ceil(64));
+            let (mut count, mut max, mut min) = (0, f64::NEG_INFINITY, f64::INFINITY);
+            for run in chunk.chunks(64) {
+                let mut sum = 0.0;
+                for l in run.iter().map(&lum) {
+                    if l.is_finite() && l > 0.0 {
+                        let v = l.ln();
+                        sum += v;
+                        count += 1;
+                        max = max.max(v);
+                        min = min.min(v);
+                    }
+                }
+                runs.push(sum);
+            }
+            (pairwise_sum(&runs), count, max, min)
+        })
         .collect();
-    if logs.is_empty() {
+    let count: usize = parts.iter().map(|p| p.1).sum();
+    if count == 0 {
         return None;
     }
-    let max_log = logs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let min_log = logs.iter().copied().fold(f64::INFINITY, f64::min);
+    let sums: Vec<f64> = parts.iter().map(|p| p.0).collect();
     Some(LogLuminanceStats {
-        mean_log: pairwise_sum(&logs) / logs.len() as f64,
-        max_log,
-        min_log,
-        count: logs.len(),
+        mean_log: pairwise_sum(&sums) / count as f64,
+        max_log: parts.iter().map(|p| p.2).fold(f64::NEG_INFINITY, f64::max),
+        min_log: parts.iter().map(|p| p.3).fold(f64::INFINITY, f64::min),
+        count,
     })
 }
 
@@ -119,7 +144,8 @@ fn pairwise_sum(values: &[f64]) -> f64 {
 /// Log-luminance statistics of an image after `exposure_ev`; `None` when no pixel has a finite
 /// luminance > 0.
 pub(crate) fn luminance_log_stats(img: &HdrImage, exposure_ev: f64) -> Option<LogLuminanceStats> {
-    Scene::new(img, exposure_ev).stats()
+    let gain = exposure_ev.exp2();
+    log_stats(&img.pixels, |p| luminance(p, gain))
 }
 
 /// Tone-maps `img` on the CPU in f64. The result holds display-referred linear values in
@@ -148,18 +174,19 @@ pub(crate) fn tonemap_cpu_with(
 ) -> Result<HdrImage> {
     s.validate()?;
     check_size(img)?;
-    let scene = Scene::new(img, s.exposure_ev);
-    let display_lum = display_luminance(&scene, &s.op, filters);
+    let gain = s.exposure_ev.exp2();
+    let display = display_luminance(img, s.exposure_ev, &s.op, filters);
     let (saturate, encode) = (power(s.saturation), power(1.0 / s.gamma));
     let pixels = img
         .pixels
         .par_iter()
-        .zip(&scene.colour)
-        .zip(scene.lum.par_iter().zip(&display_lum))
-        .map(|((p, colour), (&lw, &ld))| {
-            let Some(colour) = colour else {
+        .enumerate()
+        .map(|(i, p)| {
+            let Some(colour) = exposed(p, gain) else {
                 return [0.0; 4];
             };
+            let lw = luminance_of(colour);
+            let ld = display.at(i, lw);
             let mut out = [0.0f32; 4];
             let mut c = [0.0f64; 3];
             for k in 0..3 {
@@ -225,55 +252,85 @@ fn check_size(img: &HdrImage) -> Result<()> {
     Ok(())
 }
 
-/// Display luminance L_d per pixel (NaN where missing; may exceed 1 before the final clamp).
-fn display_luminance(scene: &Scene, op: &Operator, filters: Filters) -> Vec<f64> {
-    let Some(stats) = scene.stats() else {
-        // Nothing positive: every valid pixel is black.
-        return scene
-            .lum
-            .iter()
-            .map(|l| if l.is_nan() { *l } else { 0.0 })
-            .collect();
-    };
-    let global = |f: &(dyn Fn(f64) -> f64 + Sync)| -> Vec<f64> {
-        scene
-            .lum
-            .par_iter()
-            .map(|&l| {
-                if l.is_nan() {
-                    l
-                } else if l > 0.0 && l.is_finite() {
-                    f(l)
-                } else {
-                    0.0
-                }
-            })
-            .collect()
-    };
+/// Display luminance L_d: a function of the pixel's own luminance for the global operators
+/// (mapped in the final pass, no plane written), a plane for the local ones.
+enum DisplayLuminance<'a> {
+    Global(Box<dyn Fn(f64) -> f64 + Sync + 'a>),
+    /// Per pixel, NaN where missing.
+    Plane(Vec<f64>),
+}
+
+impl DisplayLuminance<'_> {
+    /// L_d (may exceed 1 before the final clamp) of pixel `i`, present, of luminance `lw`.
+    fn at(&self, i: usize, lw: f64) -> f64 {
+        match self {
+            DisplayLuminance::Global(f) if lw > 0.0 && lw.is_finite() => f(lw),
+            DisplayLuminance::Global(_) => 0.0,
+            DisplayLuminance::Plane(ld) => ld[i],
+        }
+    }
+}
+
+/// `op`'s display luminance for `img` after `exposure_ev`. Linear and ACES need no statistics;
+/// where no pixel has a positive luminance every present pixel is black.
+fn display_luminance<'a>(
+    img: &HdrImage,
+    exposure_ev: f64,
+    op: &'a Operator,
+    filters: Filters,
+) -> DisplayLuminance<'a> {
+    use DisplayLuminance::{Global, Plane};
     match *op {
-        Operator::Linear => global(&|l| l.min(1.0)),
-        Operator::Drago { bias, ld_max } => global(&|l| drago(l, &stats, bias, ld_max)),
-        Operator::Reinhard { key, white } => {
+        Operator::Linear => return Global(Box::new(|l| l.min(1.0))),
+        Operator::Aces => return Global(Box::new(aces)),
+        _ => {}
+    }
+    let local = matches!(
+        op,
+        Operator::ReinhardLocal { .. }
+            | Operator::DurandBilateral { .. }
+            | Operator::WardHistogram { .. }
+    );
+    let scene = local.then(|| Scene::new(img, exposure_ev));
+    let stats = match &scene {
+        Some(scene) => scene.stats(),
+        None => luminance_log_stats(img, exposure_ev),
+    };
+    let Some(stats) = stats else {
+        return Global(Box::new(|_| 0.0));
+    };
+    match (*op, scene) {
+        (Operator::Drago { bias, ld_max }, _) => {
+            Global(Box::new(move |l| drago(l, &stats, bias, ld_max)))
+        }
+        (Operator::Reinhard { key, white }, _) => {
             let white = white.unwrap_or_else(|| key * (stats.max_log - stats.mean_log).exp());
-            global(&|l| reinhard_global(key * (l.ln() - stats.mean_log).exp(), white))
+            Global(Box::new(move |l| {
+                reinhard_global(key * (l.ln() - stats.mean_log).exp(), white)
+            }))
         }
-        Operator::WardHistogram {
-            ld_min,
-            ld_max,
-            bins,
-        } => {
+        (
+            Operator::WardHistogram {
+                ld_min,
+                ld_max,
+                bins,
+            },
+            Some(scene),
+        ) => {
             let ward = WardMapping::new(&scene.lum, &stats, ld_min, ld_max, bins);
-            global(&|l| ward.map(l))
+            Global(Box::new(move |l| ward.map(l)))
         }
-        Operator::Aces => global(&aces),
-        Operator::ReinhardLocal {
-            key,
-            alpha1,
-            ratio,
-            phi,
-            epsilon,
-            scales,
-        } => {
+        (
+            Operator::ReinhardLocal {
+                key,
+                alpha1,
+                ratio,
+                phi,
+                epsilon,
+                scales,
+            },
+            Some(scene),
+        ) => {
             let params = ReinhardLocal {
                 key,
                 alpha1,
@@ -282,13 +339,23 @@ fn display_luminance(scene: &Scene, op: &Operator, filters: Filters) -> Vec<f64>
                 epsilon,
                 scales,
             };
-            reinhard_local(scene, &stats, &params, filters)
+            Plane(reinhard_local(&scene, &stats, &params, filters))
         }
-        Operator::DurandBilateral {
+        (
+            Operator::DurandBilateral {
+                contrast,
+                sigma_spatial,
+                sigma_range,
+            },
+            Some(scene),
+        ) => Plane(durand(
+            &scene,
             contrast,
             sigma_spatial,
             sigma_range,
-        } => durand(scene, contrast, sigma_spatial, sigma_range, filters),
+            filters,
+        )),
+        _ => unreachable!("linear and ACES returned above; the others have their scene"),
     }
 }
 
@@ -558,18 +625,19 @@ pub fn false_colour_log10(
 ) -> Result<HdrImage> {
     check_size(img)?;
     crate::tonemap::check_ev("exposure_ev", exposure_ev)?;
-    let scene = Scene::new(img, exposure_ev);
     let stats = if decades.is_none() {
-        scene.stats()
+        luminance_log_stats(img, exposure_ev)
     } else {
         None
     };
     let (low, high) = decade_range(stats, decades)?;
     let (width, height) = (img.width as usize, img.height as usize);
-    let mut pixels: Vec<[f32; 4]> = scene
-        .lum
+    let gain = exposure_ev.exp2();
+    let mut pixels: Vec<[f32; 4]> = img
+        .pixels
         .par_iter()
-        .map(|&l| {
+        .map(|p| {
+            let l = luminance(p, gain);
             if l.is_nan() {
                 [MISSING_GREY, MISSING_GREY, MISSING_GREY, 1.0]
             } else {

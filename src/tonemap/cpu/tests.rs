@@ -241,6 +241,46 @@ fn log_average_of_tiny_values_is_exact() {
 }
 
 #[test]
+fn log_statistics_are_the_same_on_any_number_of_threads() {
+    // 2^18 + 123 pixels over five decades, a few missing: 17 chunks of the statistics' fixed
+    // size, the last one short. One thread and three must give the same bits, and the mean
+    // must be that of the logarithms summed exactly (as f64 values, in i128 fixed point).
+    let values: Vec<f32> = (0..(1usize << 18) + 123)
+        .map(|i| match i % 997 {
+            0 => f32::NAN,
+            k => 10f32.powf(-3.0 + 5.0 * k as f32 / 997.0),
+        })
+        .collect();
+    let img = grey(&values, 1);
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| luminance_log_stats(&img, 0.0).unwrap())
+    };
+    let (one, three) = (on(1), on(3));
+    assert_eq!(one, three);
+    let logs: Vec<f64> = img
+        .pixels
+        .iter()
+        .map(|p| {
+            let v = p[0] as f64;
+            0.2126 * v + 0.7152 * v + 0.0722 * v
+        })
+        .filter(|l| l.is_finite())
+        .map(f64::ln)
+        .collect();
+    assert_eq!(one.count, logs.len());
+    let fixed: i128 = logs.iter().map(|l| (l * 2f64.powi(80)) as i128).sum();
+    let exact = fixed as f64 / 2f64.powi(80) / logs.len() as f64;
+    assert!((one.mean_log - exact).abs() < 1e-14 * exact.abs().max(1.0));
+    let max = logs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let min = logs.iter().copied().fold(f64::INFINITY, f64::min);
+    assert_eq!((one.max_log, one.min_log), (max, min));
+}
+
+#[test]
 fn missing_pixels_do_not_spread_through_local_blurs() {
     let (w, h) = (64usize, 64usize);
     let mut values: Vec<f32> = (0..w * h)
