@@ -864,7 +864,9 @@ mod tests {
             let display = Display::fixed(ProtocolChoice::Halfblocks, (8, 16));
             let area = Rect::new(0, 0, 2, 1);
             Prepared {
-                protocol: display.encode(image::RgbImage::new(16, 16), area).unwrap(),
+                protocol: display
+                    .encode(image::RgbImage::new(16, 16), (16, 16), area)
+                    .unwrap(),
                 histogram: None,
             }
         });

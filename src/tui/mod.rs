@@ -1,7 +1,8 @@
 //! The terminal front end, `hdrvis tui SCRIPT.rhai | IMAGE.exr`: the only user of ratatui,
 //! crossterm and ratatui-image. `app` holds the state and the keys, `ui` draws it,
 //! `view` turns the HDR image into the display image, `worker` runs scripts and encodes
-//! pictures off the UI thread, `protocol` finds how the terminal shows pictures, `terminal`
+//! pictures off the UI thread, `protocol` finds how the terminal shows pictures (`sixel` writes
+//! sixel pictures from a palette found at the image's own size), `terminal`
 //! guarantees the terminal is restored, `decode` (test code) reads sixel/kitty payloads back,
 //! and [`crate::bench::tui`] times key press to updated preview. One-shot inline pictures
 //! (`hdrvis run --preview`) are the io layer's ([`crate::io::terminal`]). The event loop here
@@ -15,6 +16,7 @@ pub(crate) mod histogram;
 pub(crate) mod keys;
 pub(crate) mod protocol;
 pub(crate) mod scene;
+mod sixel;
 pub(crate) mod terminal;
 pub(crate) mod ui;
 pub(crate) mod view;

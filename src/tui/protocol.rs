@@ -22,10 +22,11 @@
 
 use crate::error::{Error, Result};
 use crate::io::terminal_query::{cell_from_winsize, in_tmux, probe};
-use crate::tui::view::fit_within;
+use crate::tui::sixel::{widget_data, Indexed};
+use crate::tui::view::{enlarge_nearest, fit_within};
 use ratatui::layout::{Rect, Size};
 use ratatui_image::picker::{cap_parser::QueryStdioOptions, Picker, ProtocolType};
-use ratatui_image::protocol::{halfblocks::Halfblocks, Protocol};
+use ratatui_image::protocol::{halfblocks::Halfblocks, sixel::Sixel, Protocol};
 use std::time::Duration;
 
 pub(crate) use crate::io::terminal::ProtocolChoice;
@@ -160,8 +161,23 @@ impl Display {
         )
     }
 
-    /// Encodes `img` (at [`Display::picture_size`] for `area`) for the terminal.
-    pub(crate) fn encode(&self, img: image::RgbImage, area: Rect) -> Result<Picture> {
+    /// Encodes `img` for the terminal, shown at `shown` (at most [`Display::picture_size`] for
+    /// `area`): a smaller `img` is enlarged by repeating pixels ([`enlarge_nearest`]). Sixel
+    /// reduces `img` to its palette before it is enlarged ([`crate::tui::sixel`]).
+    pub(crate) fn encode(
+        &self,
+        img: image::RgbImage,
+        shown: (u32, u32),
+        area: Rect,
+    ) -> Result<Picture> {
+        if self.picker.protocol_type() == ProtocolType::Sixel && !self.kitty_direct {
+            return Ok(Picture::Widget(self.sixel(&img, shown)));
+        }
+        let img = if img.dimensions() == shown {
+            img
+        } else {
+            enlarge_nearest(&img, shown.0, shown.1)
+        };
         if self.kitty_direct {
             return Ok(Picture::KittyDirect(kitty_direct_escape(&img)));
         }
@@ -184,6 +200,23 @@ impl Display {
             )
             .map(Picture::Widget)
             .map_err(|e| Error::invalid("terminal image", e.to_string()))
+    }
+
+    /// ratatui-image's sixel widget showing `img` enlarged to `shown`, over the cells those
+    /// pixels cover (rounded up, as ratatui-image counts them).
+    fn sixel(&self, img: &image::RgbImage, shown: (u32, u32)) -> Protocol {
+        let image = Indexed::quantise(img).enlarged(shown.0, shown.1).sixel();
+        let fs = self.picker.font_size();
+        let cells = (
+            shown.0.div_ceil(u32::from(fs.width).max(1)) as u16,
+            shown.1.div_ceil(u32::from(fs.height).max(1)) as u16,
+        );
+        let is_tmux = self.picker.tmux_detected();
+        Protocol::Sixel(Sixel {
+            data: widget_data(&image, cells, is_tmux),
+            size: Size::new(cells.0, cells.1),
+            is_tmux,
+        })
     }
 }
 
@@ -335,7 +368,7 @@ mod tests {
         // A tall image keeps its aspect too: 100 x 400 fits 235 x 940 pixels, 24 columns.
         assert_eq!(display.picture_size(100, 400, area), (24, 94));
         let img = image::RgbImage::from_fn(128, 86, |x, y| image::Rgb([x as u8, (y * 3) as u8, 7]));
-        let Picture::Widget(encoded) = display.encode(img, area).unwrap() else {
+        let Picture::Widget(encoded) = display.encode(img, (128, 86), area).unwrap() else {
             panic!("a widget picture");
         };
         let mut buf = Buffer::empty(area);
@@ -370,18 +403,27 @@ mod tests {
         let blocks =
             |x: u32, y: u32| image::Rgb([(x / 20 % 6 * 51) as u8, (y / 50 % 2 * 255) as u8, 102]);
         type Pattern<'a> = &'a dyn Fn(u32, u32) -> image::Rgb<u8>;
-        let cases: [(ProtocolChoice, Pattern, bool); 4] = [
-            (ProtocolChoice::Sixel, &gradient, false),
-            (ProtocolChoice::Kitty, &gradient, true),
-            (ProtocolChoice::Sixel, &blocks, true),
-            (ProtocolChoice::Kitty, &blocks, true),
+        // Each also from a picture of half the size, enlarged by the encoder (sixel: its
+        // palette indices).
+        let cases: [(ProtocolChoice, Pattern, bool, u32); 8] = [
+            (ProtocolChoice::Sixel, &gradient, false, 1),
+            (ProtocolChoice::Kitty, &gradient, true, 1),
+            (ProtocolChoice::Sixel, &blocks, true, 1),
+            (ProtocolChoice::Kitty, &blocks, true, 1),
+            (ProtocolChoice::Sixel, &gradient, false, 2),
+            (ProtocolChoice::Kitty, &gradient, true, 2),
+            (ProtocolChoice::Sixel, &blocks, true, 2),
+            (ProtocolChoice::Kitty, &blocks, true, 2),
         ];
-        for (protocol, pattern, exact) in cases {
+        for (protocol, pattern, exact, shrink) in cases {
             let display = Display::fixed(protocol, (10, 20));
             let (w, h) = display.picture_size(120, 100, area);
             assert_eq!((w, h), (120, 100));
-            let img = image::RgbImage::from_fn(w, h, pattern);
-            let Picture::Widget(encoded) = display.encode(img.clone(), area).unwrap() else {
+            let small = image::RgbImage::from_fn(w / shrink, h / shrink, |x, y| {
+                pattern(x * shrink, y * shrink)
+            });
+            let img = crate::tui::view::enlarge_nearest(&small, w, h);
+            let Picture::Widget(encoded) = display.encode(small, (w, h), area).unwrap() else {
                 panic!("a widget picture");
             };
             let mut buf = Buffer::empty(area);

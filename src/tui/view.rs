@@ -237,27 +237,42 @@ pub(crate) fn resample(img: &HdrImage, max_w: u32, max_h: u32) -> HdrImage {
 /// this runs on every key that changes an enlarged view, where `image`'s general resize cost
 /// as much as the tone mapping it follows.
 pub(crate) fn enlarge_nearest(img: &image::RgbImage, w: u32, h: u32) -> image::RgbImage {
+    let raw = enlarge_nearest_raw(img.as_raw(), img.width(), img.height(), 3, w, h);
+    image::RgbImage::from_raw(w, h, raw).expect("w * h pixels")
+}
+
+/// [`enlarge_nearest`] of a `width` × `height` raster of `channels` bytes a pixel (palette
+/// indices for sixel: one).
+pub(crate) fn enlarge_nearest_raw(
+    src: &[u8],
+    width: u32,
+    height: u32,
+    channels: usize,
+    w: u32,
+    h: u32,
+) -> Vec<u8> {
     let source = |i: u32, n: u32, of: u32| {
         (((i as f64 + 0.5) * of as f64 / n as f64) as u32).min(of.saturating_sub(1))
     };
-    let columns: Vec<usize> = (0..w).map(|x| source(x, w, img.width()) as usize).collect();
-    let (row_len, src_len) = (3 * w as usize, 3 * img.width() as usize);
+    let columns: Vec<usize> = (0..w).map(|x| source(x, w, width) as usize).collect();
+    let (row_len, src_len) = (channels * w as usize, channels * width as usize);
     let mut out = vec![0u8; row_len * h as usize];
     let mut previous: Option<u32> = None;
     for y in 0..h {
-        let sy = source(y, h, img.height());
+        let sy = source(y, h, height);
         let at = y as usize * row_len;
         if previous == Some(sy) {
             out.copy_within(at - row_len..at, at);
             continue;
         }
-        let src = &img.as_raw()[sy as usize * src_len..][..src_len];
+        let row = &src[sy as usize * src_len..][..src_len];
         for (x, &sx) in columns.iter().enumerate() {
-            out[at + 3 * x..at + 3 * x + 3].copy_from_slice(&src[3 * sx..3 * sx + 3]);
+            let to = at + channels * x;
+            out[to..to + channels].copy_from_slice(&row[channels * sx..channels * sx + channels]);
         }
         previous = Some(sy);
     }
-    image::RgbImage::from_raw(w, h, out).expect("w * h pixels")
+    out
 }
 
 /// The source rows (or columns) [start, end) that output index `i` averages at scale `s`.

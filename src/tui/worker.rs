@@ -18,7 +18,7 @@ use crate::tui::histogram::LogHistogram;
 use crate::tui::protocol::{Display, Picture};
 use crate::tui::scene::{LensSpace, SceneEdit};
 use crate::tui::view::{
-    display_image, enlarge_nearest, fit_within, resample, select_channel, Channel, ViewSettings,
+    display_image, fit_within, resample, select_channel, Channel, ViewSettings,
 };
 use ratatui::layout::Rect;
 use std::path::PathBuf;
@@ -424,26 +424,27 @@ pub(crate) fn prepare(
     downsampled: &mut Downsampled,
 ) -> Result<Prepared> {
     let size = display.picture_size(hdr.width, hdr.height, area);
-    let (picture, histogram) = view_picture(hdr, view, size, downsampled)?;
-    let protocol = display.encode(picture, area)?;
+    let (picture, shown, histogram) = view_picture(hdr, view, size, downsampled)?;
+    let protocol = display.encode(picture, shown, area)?;
     Ok(Prepared {
         protocol,
         histogram,
     })
 }
 
-/// The view of `hdr` as an 8-bit sRGB picture of `size` (within it, keeping the aspect), and
-/// the log-luminance histogram of what was tone-mapped. A picture smaller than the image is
-/// tone-mapped at its own size (only the pixels shown); a larger one is the image tone-mapped
-/// at its own size and then enlarged (nearest pixel), so that a local operator's scales stay
-/// in image pixels, as `hdrvis tonemap` and a saved view have them, and no more pixels are
-/// tone-mapped than the image has.
+/// The view of `hdr` as an 8-bit sRGB picture to be shown at a size within `size` (keeping the
+/// aspect), returned with that size and the log-luminance histogram of what was tone-mapped.
+/// A picture smaller than the image is tone-mapped at its own size (only the pixels shown); a
+/// larger one is the image tone-mapped at its own size, to be enlarged by repeating pixels
+/// ([`Display::encode`]), so that a local operator's scales stay in image pixels, as
+/// `hdrvis tonemap` and a saved view have them, and no more pixels are tone-mapped than the
+/// image has.
 pub(crate) fn view_picture(
     hdr: &Arc<HdrImage>,
     view: &ViewSettings,
     size: (u32, u32),
     downsampled: &mut Downsampled,
-) -> Result<(image::RgbImage, Option<LogHistogram>)> {
+) -> Result<(image::RgbImage, (u32, u32), Option<LogHistogram>)> {
     let size = (size.0.max(1), size.1.max(1));
     let has_pixels = hdr.width > 0 && hdr.height > 0;
     let enlarged = has_pixels && (size.0 > hdr.width || size.1 > hdr.height);
@@ -453,13 +454,14 @@ pub(crate) fn view_picture(
         size
     };
     let small = downsampled.get(hdr, tone_size);
-    let mut picture = srgb8_picture(&display_image(&small, view)?);
-    if enlarged {
-        let (w, h) = fit_within(hdr.width, hdr.height, size.0, size.1);
-        picture = enlarge_nearest(&picture, w, h);
-    }
+    let picture = srgb8_picture(&display_image(&small, view)?);
+    let shown = if enlarged {
+        fit_within(hdr.width, hdr.height, size.0, size.1)
+    } else {
+        picture.dimensions()
+    };
     let histogram = downsampled.histogram(&small, &view.channel)?;
-    Ok((picture, histogram))
+    Ok((picture, shown, histogram))
 }
 
 /// A request to show an image.
@@ -507,7 +509,7 @@ pub(crate) fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<
 mod tests {
     use super::*;
     use crate::tonemap::cpu::tonemap_cpu;
-    use crate::tui::view::view_operator;
+    use crate::tui::view::{enlarge_nearest, view_operator};
 
     /// A 48 × 32 image with a bright spot on a gradient, so that a local operator's result
     /// depends on its scales in pixels.
@@ -536,9 +538,10 @@ mod tests {
         for name in ["reinhard-local", "durand", "reinhard"] {
             let view = view_of(name);
             // Twice the image's size: every image pixel becomes a 2 × 2 block.
-            let (picture, _) =
+            let (picture, shown, _) =
                 view_picture(&hdr, &view, (96, 64), &mut Downsampled::default()).unwrap();
-            assert_eq!(picture.dimensions(), (96, 64));
+            assert_eq!(shown, (96, 64));
+            let picture = enlarge_nearest(&picture, shown.0, shown.1);
             let settings = view.tonemap_settings().unwrap().unwrap();
             let own = tonemap_cpu(&hdr, &settings).unwrap().to_srgb8();
             for (x, y, p) in picture.enumerate_pixels() {
@@ -552,8 +555,9 @@ mod tests {
     fn a_smaller_view_is_tone_mapped_at_the_pictures_size() {
         let hdr = spot();
         let view = view_of("reinhard-local");
-        let (picture, histogram) =
+        let (picture, shown, histogram) =
             view_picture(&hdr, &view, (24, 16), &mut Downsampled::default()).unwrap();
+        assert_eq!(shown, (24, 16));
         let small = resample(&hdr, 24, 16);
         let settings = view.tonemap_settings().unwrap().unwrap();
         let expected = tonemap_cpu(&small, &settings).unwrap().to_srgb8();
