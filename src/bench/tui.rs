@@ -70,6 +70,8 @@ pub fn bench_tui(
     runs: usize,
     log: &mut dyn FnMut(&str),
 ) -> Result<(String, Vec<TuiBenchRow>)> {
+    // As the TUI runs.
+    crate::tui::worker::keep_freed_memory();
     let dir = tempfile::tempdir().map_err(|e| crate::Error::io(std::env::temp_dir(), e))?;
     let script = dir.path().join("tui_demo.rhai");
     std::fs::write(&script, DEMO).map_err(|e| crate::Error::io(&script, e))?;

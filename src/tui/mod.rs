@@ -72,6 +72,7 @@ pub fn run_tui(opts: &TuiOptions) -> Result<()> {
         Source::Script(_) => None,
     };
     protocol::prepare_environment();
+    worker::keep_freed_memory();
     let mut guard = terminal::TerminalGuard::enter()?;
     let display = protocol::detect(opts.protocol);
     if display.kitty_direct || display.picker.protocol_type() == ProtocolType::Kitty {

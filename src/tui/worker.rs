@@ -414,6 +414,23 @@ impl Downsampled {
     }
 }
 
+/// Keeps freed memory in the process for the TUI's repeated work. Every key allocates and
+/// frees the same few large buffers (f64 planes, the picture, its escape sequence); glibc's
+/// malloc gives large freed blocks back to the kernel, and each new one then costs a page fault
+/// per 4 KiB touched, which in the virtual machines we measure on costs as much as the tone
+/// mapping ([performance.md](../../docs/performance.md#terminal-front-end)). Blocks up to
+/// 64 MiB now come from the heap, which is trimmed only beyond 256 MiB free. Other C
+/// libraries keep their own policy.
+pub(crate) fn keep_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only sets two of glibc's malloc parameters; it is thread-safe (it takes
+    // the arenas' locks) and these values are within what glibc accepts.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 64 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 256 << 20);
+    }
+}
+
 /// HDR image -> downsampled to what the picture shows ([`Display::picture_size`]) -> tone-mapped
 /// view -> encoded for the terminal, plus the log-luminance histogram of the image as viewed.
 pub(crate) fn prepare(
