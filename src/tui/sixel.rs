@@ -208,6 +208,37 @@ mod tests {
     }
 
     #[test]
+    fn the_widget_wraps_a_picture_as_ratatui_images_own_sixel_does() {
+        use ratatui::layout::Size;
+        use ratatui_image::protocol::sixel::Sixel;
+        // Only the image between the wrapping differs (its own encoder, its own palette).
+        let img = image::RgbImage::from_fn(20, 40, |x, y| image::Rgb([x as u8 * 9, y as u8, 40]));
+        let ours = Indexed::quantise(&img).sixel();
+        for (cells, tmux) in [
+            ((2, 2), false),
+            ((2, 2), true),
+            ((2, 1), true),
+            ((3, 1), false),
+        ] {
+            let size = Size::new(cells.0, cells.1);
+            let theirs = Sixel::new(image::DynamicImage::ImageRgb8(img.clone()), size, tmux)
+                .unwrap()
+                .data;
+            let mine = widget_data(&ours, cells, tmux);
+            // Up to and including the escape that opens the image's DCS ("ESC P" or, doubled
+            // inside tmux's passthrough, "ESC ESC P").
+            let head = |d: &str| {
+                let at = d.find("P9;1;0q").or_else(|| d.find("P0;1;0q")).unwrap();
+                d[..at].to_string()
+            };
+            // The last band's end, the image's terminator and (tmux) the passthrough's.
+            let tail = |d: &str| d[d.len() - if tmux { 6 } else { 4 }..].to_string();
+            assert_eq!(head(&mine), head(&theirs), "{cells:?} tmux {tmux}");
+            assert_eq!(tail(&mine), tail(&theirs), "{cells:?} tmux {tmux}");
+        }
+    }
+
+    #[test]
     fn an_enlarged_picture_repeats_indices_as_pixels_repeat() {
         let img =
             image::RgbImage::from_fn(7, 5, |x, y| image::Rgb([x as u8 * 30, y as u8 * 50, 9]));
