@@ -30,7 +30,7 @@ impl Indexed {
         let pixels: Vec<Srgb<u8>> = img.pixels().map(|p| Srgb::new(p[0], p[1], p[2])).collect();
         let Ok(image) = ImageRef::new(width, height, &pixels) else {
             // Empty (or beyond quantette's 2^32 pixels, which no terminal shows): black.
-            let n = (width * height) as usize;
+            let n = width as usize * height as usize;
             return Indexed {
                 palette: vec![[0; 3]],
                 indices: vec![0; n],

@@ -272,7 +272,9 @@ impl DisplayLuminance<'_> {
 }
 
 /// `op`'s display luminance for `img` after `exposure_ev`. Linear and ACES need no statistics;
-/// where no pixel has a positive luminance every present pixel is black.
+/// the other global operators take them from the pixels, the local ones and Ward's histogram
+/// from their luminance plane. Where no pixel has a positive luminance every present pixel is
+/// black.
 fn display_luminance<'a>(
     img: &HdrImage,
     exposure_ev: f64,
@@ -280,57 +282,42 @@ fn display_luminance<'a>(
     filters: Filters,
 ) -> DisplayLuminance<'a> {
     use DisplayLuminance::{Global, Plane};
+    let black = || Global(Box::new(|_| 0.0));
+    let with_stats = |f: &dyn Fn(LogLuminanceStats) -> DisplayLuminance<'a>| {
+        luminance_log_stats(img, exposure_ev).map_or_else(black, f)
+    };
+    let with_scene = |f: &dyn Fn(&Scene, LogLuminanceStats) -> DisplayLuminance<'a>| {
+        let scene = Scene::new(img, exposure_ev);
+        scene.stats().map_or_else(black, |stats| f(&scene, stats))
+    };
     match *op {
-        Operator::Linear => return Global(Box::new(|l| l.min(1.0))),
-        Operator::Aces => return Global(Box::new(aces)),
-        _ => {}
-    }
-    let local = matches!(
-        op,
-        Operator::ReinhardLocal { .. }
-            | Operator::DurandBilateral { .. }
-            | Operator::WardHistogram { .. }
-    );
-    let scene = local.then(|| Scene::new(img, exposure_ev));
-    let stats = match &scene {
-        Some(scene) => scene.stats(),
-        None => luminance_log_stats(img, exposure_ev),
-    };
-    let Some(stats) = stats else {
-        return Global(Box::new(|_| 0.0));
-    };
-    match (*op, scene) {
-        (Operator::Drago { bias, ld_max }, _) => {
-            Global(Box::new(move |l| drago(l, &stats, bias, ld_max)))
+        Operator::Linear => Global(Box::new(|l| l.min(1.0))),
+        Operator::Aces => Global(Box::new(aces)),
+        Operator::Drago { bias, ld_max } => {
+            with_stats(&|stats| Global(Box::new(move |l| drago(l, &stats, bias, ld_max))))
         }
-        (Operator::Reinhard { key, white }, _) => {
+        Operator::Reinhard { key, white } => with_stats(&|stats| {
             let white = white.unwrap_or_else(|| key * (stats.max_log - stats.mean_log).exp());
             Global(Box::new(move |l| {
                 reinhard_global(key * (l.ln() - stats.mean_log).exp(), white)
             }))
-        }
-        (
-            Operator::WardHistogram {
-                ld_min,
-                ld_max,
-                bins,
-            },
-            Some(scene),
-        ) => {
+        }),
+        Operator::WardHistogram {
+            ld_min,
+            ld_max,
+            bins,
+        } => with_scene(&|scene, stats| {
             let ward = WardMapping::new(&scene.lum, &stats, ld_min, ld_max, bins);
             Global(Box::new(move |l| ward.map(l)))
-        }
-        (
-            Operator::ReinhardLocal {
-                key,
-                alpha1,
-                ratio,
-                phi,
-                epsilon,
-                scales,
-            },
-            Some(scene),
-        ) => {
+        }),
+        Operator::ReinhardLocal {
+            key,
+            alpha1,
+            ratio,
+            phi,
+            epsilon,
+            scales,
+        } => {
             let params = ReinhardLocal {
                 key,
                 alpha1,
@@ -339,23 +326,15 @@ fn display_luminance<'a>(
                 epsilon,
                 scales,
             };
-            Plane(reinhard_local(&scene, &stats, &params, filters))
+            with_scene(&|scene, stats| Plane(reinhard_local(scene, &stats, &params, filters)))
         }
-        (
-            Operator::DurandBilateral {
-                contrast,
-                sigma_spatial,
-                sigma_range,
-            },
-            Some(scene),
-        ) => Plane(durand(
-            &scene,
+        Operator::DurandBilateral {
             contrast,
             sigma_spatial,
             sigma_range,
-            filters,
-        )),
-        _ => unreachable!("linear and ACES returned above; the others have their scene"),
+        } => with_scene(&|scene, _| {
+            Plane(durand(scene, contrast, sigma_spatial, sigma_range, filters))
+        }),
     }
 }
 
