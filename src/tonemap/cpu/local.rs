@@ -84,16 +84,17 @@ impl ReinhardBlurs {
         blur_pairs_into(across, w, h, &weights, false, blurred);
         let blurred = &*blurred;
         let width = self.width;
+        let reads =
+            (k > 0).then(|| BilinearReads::new(cell, w as u32, h as u32, width, self.height));
         v[..width * self.height]
             .par_chunks_mut(width.max(1))
             .enumerate()
             .for_each(|(y, row)| {
                 for (x, out) in row.iter_mut().enumerate() {
                     // Level 0 is the image's own grid: the bilinear read is the cell itself.
-                    let [num, den] = if k == 0 {
-                        blurred[y * width + x]
-                    } else {
-                        bilinear_on(blurred, cell, w as u32, h as u32, x, y)
+                    let [num, den] = match &reads {
+                        None => blurred[y * width + x],
+                        Some(reads) => reads.at(blurred, x, y),
                     };
                     *out = if den > 0.0 { num / den } else { 0.0 };
                 }
@@ -206,7 +207,7 @@ pub(super) fn durand(
     let (width, height) = (scene.width, scene.height);
     let log_l: Vec<f64> = scene
         .lum
-        .iter()
+        .par_iter()
         .map(|&l| {
             if l.is_finite() && l > 0.0 {
                 l.log10()
@@ -233,8 +234,8 @@ pub(super) fn durand(
     };
     scene
         .lum
-        .iter()
-        .zip(base.iter().zip(&log_l))
+        .par_iter()
+        .zip(base.par_iter().zip(&log_l))
         .map(|(&l, (&b, &ll))| {
             if l.is_nan() {
                 f64::NAN
@@ -270,6 +271,7 @@ fn grid_base(
         l_max,
     );
     let levels = durand_levels(log_l, width, height, &grid, sigma_range);
+    let reads = BilinearReads::on_grid(&grid, width, height);
     (0..width * height)
         .into_par_iter()
         .map(|p| {
@@ -280,7 +282,7 @@ fn grid_base(
             let (j, f) = grid.bracket(l);
             let at = |level: u32| {
                 let plane = &levels[level as usize];
-                let [num, den] = bilinear_pair(plane, &grid, p % width, p / width);
+                let [num, den] = reads.at(plane, p % width, p / width);
                 num / den
             };
             (1.0 - f) * at(j) + f * at(j + 1)
@@ -357,34 +359,58 @@ fn blur_pairs_into(
     horizontal: bool,
     out: &mut [[f64; 2]],
 ) {
-    let radius = (weights.len() / 2) as isize;
+    let radius = weights.len() / 2;
     out.par_chunks_mut(width.max(1))
         .enumerate()
-        .for_each(|(y, row)| {
-            row.fill([0.0, 0.0]);
-            // Tap by tap over the whole row: each output still adds its taps in order from -r,
-            // leaving out those outside the grid, so the sums are the same as pixel by pixel.
-            for (k, &w) in (-radius..=radius).zip(weights) {
-                if horizontal {
-                    let from = (-k).max(0) as usize;
-                    let to = (width as isize - k).clamp(0, width as isize) as usize;
-                    if from >= to {
-                        continue;
-                    }
-                    let src_row = &src[y * width..(y + 1) * width];
-                    let shifted =
-                        &src_row[(from as isize + k) as usize..(to as isize + k) as usize];
-                    add_weighted(&mut row[from..to], shifted, w);
-                } else {
-                    let sy = y as isize + k;
-                    if sy < 0 || sy >= height as isize {
-                        continue;
-                    }
-                    let sy = sy as usize;
-                    add_weighted(row, &src[sy * width..(sy + 1) * width], w);
-                }
+        .for_each_init(Vec::new, |padded, (y, row)| {
+            // Each output adds its taps in order from -r, as pixel by pixel, but four taps a
+            // pass over the row.
+            if horizontal {
+                // The row between `radius` zero pairs: a tap beyond the edge adds w · 0 = +0,
+                // which leaves a sum of non-negative zero-or-more terms bit for bit as leaving
+                // the tap out does (sums start at +0 and never become -0).
+                padded.clear();
+                padded.resize(width + 2 * radius, [0.0, 0.0]);
+                padded[radius..radius + width].copy_from_slice(&src[y * width..(y + 1) * width]);
+                let taps: Vec<_> = (0..weights.len())
+                    .map(|t| (&padded[t..t + width], weights[t]))
+                    .collect();
+                add_taps(row, &taps);
+            } else {
+                let taps: Vec<_> = (0..weights.len())
+                    .filter_map(|t| {
+                        let sy = (y + t).checked_sub(radius).filter(|&sy| sy < height)?;
+                        Some((&src[sy * width..(sy + 1) * width], weights[t]))
+                    })
+                    .collect();
+                add_taps(row, &taps);
             }
         });
+}
+
+/// acc = sum of w · src over `taps`, in their order, pair by pair; four taps a pass (one load
+/// and store of the accumulator for four terms, the same additions in the same order).
+fn add_taps(acc: &mut [[f64; 2]], taps: &[(&[[f64; 2]], f64)]) {
+    let mut fours = taps.chunks_exact(4);
+    let mut first = true;
+    for four in &mut fours {
+        let [(s0, w0), (s1, w1), (s2, w2), (s3, w3)] = [four[0], four[1], four[2], four[3]];
+        let sources = s0.iter().zip(s1).zip(s2).zip(s3);
+        for (a, (((x0, x1), x2), x3)) in acc.iter_mut().zip(sources) {
+            for k in 0..2 {
+                // The first pass starts from +0 rather than from a zeroed row.
+                let before = if first { 0.0 } else { a[k] };
+                a[k] = before + w0 * x0[k] + w1 * x1[k] + w2 * x2[k] + w3 * x3[k];
+            }
+        }
+        first = false;
+    }
+    if first {
+        acc.fill([0.0, 0.0]);
+    }
+    for &(src, w) in fours.remainder() {
+        add_weighted(acc, src, w);
+    }
 }
 
 /// acc += w · src, pair by pair.
@@ -395,27 +421,44 @@ fn add_weighted(acc: &mut [[f64; 2]], src: &[[f64; 2]], w: f64) {
     }
 }
 
-/// Bilinear interpolation at full-resolution pixel (x, y) of pairs stored on a grid of
-/// `cell`-pixel cells (`grid_width` x `grid_height`): cell c's centre is pixel
-/// (c + 0.5) cell - 0.5; outside the outermost centres the edge cells are used.
-fn bilinear_pair(plane: &[[f64; 2]], grid: &DurandGrid, x: usize, y: usize) -> [f64; 2] {
-    bilinear_on(plane, grid.cell, grid.grid_width, grid.grid_height, x, y)
+/// Bilinear reads at full-resolution pixels of pairs stored on a grid of `cell`-pixel cells
+/// (`grid_width` x `grid_height`): cell c's centre is pixel (c + 0.5) cell - 0.5; outside the
+/// outermost centres the edge cells are used. Each column's and row's two cells and weight are
+/// found once, not at every pixel.
+struct BilinearReads {
+    grid_width: usize,
+    columns: Vec<(usize, usize, f64)>,
+    rows: Vec<(usize, usize, f64)>,
 }
 
-fn bilinear_on(plane: &[[f64; 2]], cell: u32, gw: u32, gh: u32, x: usize, y: usize) -> [f64; 2] {
-    let axis = |p: usize, n: u32| -> (usize, usize, f64) {
-        let u = ((p as f64 + 0.5) / cell as f64 - 0.5).clamp(0.0, (n - 1) as f64);
-        let i0 = u.floor() as usize;
-        let i1 = (i0 + 1).min(n as usize - 1);
-        (i0, i1, u - i0 as f64)
-    };
-    let (x0, x1, fx) = axis(x, gw);
-    let (y0, y1, fy) = axis(y, gh);
-    let gw = gw as usize;
-    let at = |cx: usize, cy: usize| plane[cy * gw + cx];
-    [0, 1].map(|k| {
-        let top = at(x0, y0)[k] * (1.0 - fx) + at(x1, y0)[k] * fx;
-        let bottom = at(x0, y1)[k] * (1.0 - fx) + at(x1, y1)[k] * fx;
-        top * (1.0 - fy) + bottom * fy
-    })
+impl BilinearReads {
+    fn new(cell: u32, grid_width: u32, grid_height: u32, width: usize, height: usize) -> Self {
+        let axis = |p: usize, n: u32| -> (usize, usize, f64) {
+            let u = ((p as f64 + 0.5) / cell as f64 - 0.5).clamp(0.0, (n - 1) as f64);
+            let i0 = u.floor() as usize;
+            let i1 = (i0 + 1).min(n as usize - 1);
+            (i0, i1, u - i0 as f64)
+        };
+        BilinearReads {
+            grid_width: grid_width as usize,
+            columns: (0..width).map(|x| axis(x, grid_width)).collect(),
+            rows: (0..height).map(|y| axis(y, grid_height)).collect(),
+        }
+    }
+
+    fn on_grid(grid: &DurandGrid, width: usize, height: usize) -> Self {
+        Self::new(grid.cell, grid.grid_width, grid.grid_height, width, height)
+    }
+
+    /// The pair at pixel (x, y) of `plane`.
+    fn at(&self, plane: &[[f64; 2]], x: usize, y: usize) -> [f64; 2] {
+        let (x0, x1, fx) = self.columns[x];
+        let (y0, y1, fy) = self.rows[y];
+        let at = |cx: usize, cy: usize| plane[cy * self.grid_width + cx];
+        [0, 1].map(|k| {
+            let top = at(x0, y0)[k] * (1.0 - fx) + at(x1, y0)[k] * fx;
+            let bottom = at(x0, y1)[k] * (1.0 - fx) + at(x1, y1)[k] * fx;
+            top * (1.0 - fy) + bottom * fy
+        })
+    }
 }
