@@ -120,6 +120,21 @@ impl Operator {
         Self::NAMES[self.code() as usize]
     }
 
+    /// Whether the operator's picture is the same at every exposure: those that divide the
+    /// scene by its log-average (Reinhard, Drago, Reinhard local) or map log luminance relative
+    /// to the image's own range (Ward's histogram, Durand's base) scale exposure out, up to
+    /// rounding. Linear and ACES map the exposed values as they are.
+    pub fn divides_out_exposure(&self) -> bool {
+        match self {
+            Operator::Linear | Operator::Aces => false,
+            Operator::Drago { .. }
+            | Operator::Reinhard { .. }
+            | Operator::WardHistogram { .. }
+            | Operator::ReinhardLocal { .. }
+            | Operator::DurandBilateral { .. } => true,
+        }
+    }
+
     /// The operator's number in the shaders' `op` field (the index into `Operator::NAMES`).
     pub fn code(&self) -> u32 {
         match self {

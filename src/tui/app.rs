@@ -456,8 +456,18 @@ impl App {
         }
     }
 
+    /// A new exposure: the picture is mapped again, unless the operator divides exposure out,
+    /// where it would come back the same; the histogram's window and a saved EXR still follow
+    /// the exposure.
     fn set_exposure(&mut self, ev: f64) -> Effect {
         self.view.exposure_ev = ev;
+        if self.view.picture_ignores_exposure() {
+            self.message = format!(
+                "{} divides exposure out: same picture (the histogram window and a saved EXR move)",
+                self.view.operator_name()
+            );
+            return Effect::Redraw;
+        }
         Effect::Redisplay
     }
 
@@ -706,9 +716,21 @@ mod tests {
         assert_eq!(app.view.exposure_ev, 0.5);
         assert_eq!(app.apply(Action::NextOperator), Effect::Redisplay);
         assert_eq!(app.view.operator_name(), "linear");
+        assert_eq!(app.apply(Action::ExposureUp), Effect::Redisplay);
         app.apply(Action::NextOperator);
         assert_eq!(app.apply(Action::OperatorParamUp), Effect::Redisplay);
         assert_eq!(app.view.op_param, Some(0.21));
+        // Reinhard divides exposure out: the exposure changes, the picture is not mapped
+        // again, and the status line says why; in false colour exposure moves the colours.
+        assert_eq!(app.apply(Action::ExposureUp), Effect::Redraw);
+        assert_eq!(app.view.exposure_ev, 1.5);
+        assert!(
+            app.message.contains("reinhard divides exposure out"),
+            "{}",
+            app.message
+        );
+        app.apply(Action::ToggleFalseColour);
+        assert_eq!(app.apply(Action::ExposureDown), Effect::Redisplay);
         assert!(app.overrides.is_empty(), "no script parameter changed");
     }
 

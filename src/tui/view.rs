@@ -132,6 +132,14 @@ impl ViewSettings {
         }
     }
 
+    /// Whether exposure leaves the picture as it is: under an operator that divides it out
+    /// ([`Operator::divides_out_exposure`]). The false-colour view's decades are absolute
+    /// luminance, so exposure moves its colours under any operator.
+    pub(crate) fn picture_ignores_exposure(&self) -> bool {
+        !self.false_colour
+            && matches!(self.tonemap_settings(), Ok(Some(s)) if s.op.divides_out_exposure())
+    }
+
     /// Tone-mapping settings for operators other than the plain exposure view.
     pub(crate) fn tonemap_settings(&self) -> Result<Option<ToneMapSettings>> {
         let name = self.operator_name();

@@ -122,6 +122,53 @@ fn one_stop_doubles_linear_values() {
     }
 }
 
+/// `Operator::divides_out_exposure` is what the operators do: at +3.5 EV and -2 EV an image over
+/// five decades (with a missing pixel) maps to the same picture within f32 rounding under the
+/// operators that say so, and to a clearly different one under the others.
+#[test]
+fn operators_that_divide_out_exposure_give_one_picture_at_every_exposure() {
+    let (w, h) = (48u32, 40u32);
+    let mut img = HdrImage::new(w, h);
+    for (i, p) in img.pixels.iter_mut().enumerate() {
+        let (x, y) = ((i as u32 % w) as f64, (i as u32 / w) as f64);
+        let v = 10f64.powf(-2.5 + 5.0 * x / (w - 1) as f64) * (1.0 + 0.3 * (0.7 * y).sin());
+        *p = [v as f32, (0.6 * v) as f32, (0.3 * v) as f32, 1.0];
+    }
+    img.pixels[77] = [f32::NAN; 4];
+    for op in Operator::ALL {
+        let at = |ev: f64| {
+            let s = ToneMapSettings {
+                exposure_ev: ev,
+                ..settings(op)
+            };
+            tonemap_cpu(&img, &s).unwrap()
+        };
+        let base = at(0.0);
+        for ev in [3.5, -2.0] {
+            let other = at(ev);
+            let largest = base
+                .pixels
+                .iter()
+                .zip(&other.pixels)
+                .flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs()))
+                .fold(0.0f32, f32::max);
+            if op.divides_out_exposure() {
+                assert!(
+                    largest <= 2e-6,
+                    "{} at {ev} EV moved by {largest}",
+                    op.name()
+                );
+            } else {
+                assert!(
+                    largest > 0.1,
+                    "{} at {ev} EV moved only {largest}",
+                    op.name()
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn global_operators_are_monotonic_over_twelve_decades() {
     let n = 1201;
