@@ -82,21 +82,26 @@ impl ReinhardBlurs {
         let (across, blurred) = (&mut self.across[..w * h], &mut self.blurred[..w * h]);
         blur_pairs_into(plane, w, h, &weights, true, across);
         blur_pairs_into(across, w, h, &weights, false, blurred);
-        let blurred = &*blurred;
-        let width = self.width;
-        let reads =
-            (k > 0).then(|| BilinearReads::new(cell, w as u32, h as u32, width, self.height));
-        v[..width * self.height]
-            .par_chunks_mut(width.max(1))
+        let (width, height) = (self.width, self.height);
+        let v = &mut v[..width * height];
+        let quotient = |[num, den]: [f64; 2]| if den > 0.0 { num / den } else { 0.0 };
+        if k == 0 {
+            // Level 0 is the image's own grid: the bilinear read is the cell itself.
+            v.par_iter_mut()
+                .zip(&*blurred)
+                .for_each(|(out, &pair)| *out = quotient(pair));
+            return;
+        }
+        let reads = BilinearReads::new(cell, w as u32, h as u32, width, height);
+        let across = &mut self.across;
+        reads.along_rows(blurred, across);
+        let across = &*across;
+        v.par_chunks_mut(width.max(1))
             .enumerate()
             .for_each(|(y, row)| {
-                for (x, out) in row.iter_mut().enumerate() {
-                    // Level 0 is the image's own grid: the bilinear read is the cell itself.
-                    let [num, den] = match &reads {
-                        None => blurred[y * width + x],
-                        Some(reads) => reads.at(blurred, x, y),
-                    };
-                    *out = if den > 0.0 { num / den } else { 0.0 };
+                let (top, bottom, fy) = reads.rows_of(across, y);
+                for ((out, t), b) in row.iter_mut().zip(top).zip(bottom) {
+                    *out = quotient([0, 1].map(|c| t[c] * (1.0 - fy) + b[c] * fy));
                 }
             });
     }
@@ -388,36 +393,38 @@ fn blur_pairs_into(
         });
 }
 
-/// acc = sum of w · src over `taps`, in their order, pair by pair; four taps a pass (one load
-/// and store of the accumulator for four terms, the same additions in the same order).
+/// acc = sum of w · src over `taps`, in their order, pair by pair: four taps a pass over the
+/// row (one load and store of the accumulator for four terms), the last one to three in one
+/// more pass; the same additions in the same order as tap by tap.
 fn add_taps(acc: &mut [[f64; 2]], taps: &[(&[[f64; 2]], f64)]) {
     let mut fours = taps.chunks_exact(4);
     let mut first = true;
     for four in &mut fours {
-        let [(s0, w0), (s1, w1), (s2, w2), (s3, w3)] = [four[0], four[1], four[2], four[3]];
-        let sources = s0.iter().zip(s1).zip(s2).zip(s3);
-        for (a, (((x0, x1), x2), x3)) in acc.iter_mut().zip(sources) {
-            for k in 0..2 {
-                // The first pass starts from +0 rather than from a zeroed row.
-                let before = if first { 0.0 } else { a[k] };
-                a[k] = before + w0 * x0[k] + w1 * x1[k] + w2 * x2[k] + w3 * x3[k];
-            }
-        }
+        add_pass(acc, [four[0], four[1], four[2], four[3]], first);
         first = false;
     }
-    if first {
-        acc.fill([0.0, 0.0]);
-    }
-    for &(src, w) in fours.remainder() {
-        add_weighted(acc, src, w);
+    match *fours.remainder() {
+        [] if first => acc.fill([0.0, 0.0]),
+        [] => {}
+        [a] => add_pass(acc, [a], first),
+        [a, b] => add_pass(acc, [a, b], first),
+        [a, b, c] => add_pass(acc, [a, b, c], first),
+        _ => unreachable!("chunks_exact(4) leaves at most three"),
     }
 }
 
-/// acc += w · src, pair by pair.
-fn add_weighted(acc: &mut [[f64; 2]], src: &[[f64; 2]], w: f64) {
-    for (a, s) in acc.iter_mut().zip(src) {
-        a[0] += w * s[0];
-        a[1] += w * s[1];
+/// acc = (acc or +0 on the `first` pass) + w_1 src_1 + ... + w_N src_N, in that order.
+fn add_pass<const N: usize>(acc: &mut [[f64; 2]], taps: [(&[[f64; 2]], f64); N], first: bool) {
+    let n = acc.len();
+    let taps = taps.map(|(src, w)| (&src[..n], w));
+    for (i, a) in acc.iter_mut().enumerate() {
+        for c in 0..2 {
+            let mut sum = if first { 0.0 } else { a[c] };
+            for (src, w) in &taps {
+                sum += w * src[i][c];
+            }
+            a[c] = sum;
+        }
     }
 }
 
@@ -427,6 +434,7 @@ fn add_weighted(acc: &mut [[f64; 2]], src: &[[f64; 2]], w: f64) {
 /// found once, not at every pixel.
 struct BilinearReads {
     grid_width: usize,
+    grid_height: usize,
     columns: Vec<(usize, usize, f64)>,
     rows: Vec<(usize, usize, f64)>,
 }
@@ -441,6 +449,7 @@ impl BilinearReads {
         };
         BilinearReads {
             grid_width: grid_width as usize,
+            grid_height: grid_height as usize,
             columns: (0..width).map(|x| axis(x, grid_width)).collect(),
             rows: (0..height).map(|y| axis(y, grid_height)).collect(),
         }
@@ -448,6 +457,39 @@ impl BilinearReads {
 
     fn on_grid(grid: &DurandGrid, width: usize, height: usize) -> Self {
         Self::new(grid.cell, grid.grid_width, grid.grid_height, width, height)
+    }
+
+    /// The first half of every read: each grid row of `plane` interpolated along x at every
+    /// pixel column, into `out` (grid rows x width pairs). A pixel row then blends two of these
+    /// rows ([`BilinearReads::rows_of`]), which gives [`BilinearReads::at`] bit for bit: the
+    /// same products and sums in the same order, each along-row value found once for the
+    /// `cell` pixel rows that use it.
+    fn along_rows(&self, plane: &[[f64; 2]], out: &mut Vec<[f64; 2]>) {
+        let width = self.columns.len();
+        out.resize(self.grid_height * width, [0.0, 0.0]);
+        out.par_chunks_mut(width.max(1))
+            .zip(plane.par_chunks(self.grid_width))
+            .for_each(|(row, grid_row)| {
+                for (o, &(x0, x1, fx)) in row.iter_mut().zip(&self.columns) {
+                    *o = [0, 1].map(|c| grid_row[x0][c] * (1.0 - fx) + grid_row[x1][c] * fx);
+                }
+            });
+    }
+
+    /// Pixel row `y`'s two along-row interpolations from [`BilinearReads::along_rows`] (upper
+    /// and lower grid row) and the weight of the lower one.
+    fn rows_of<'p>(
+        &self,
+        along: &'p [[f64; 2]],
+        y: usize,
+    ) -> (&'p [[f64; 2]], &'p [[f64; 2]], f64) {
+        let width = self.columns.len();
+        let (y0, y1, fy) = self.rows[y];
+        (
+            &along[y0 * width..][..width],
+            &along[y1 * width..][..width],
+            fy,
+        )
     }
 
     /// The pair at pixel (x, y) of `plane`.
