@@ -67,8 +67,16 @@ impl ReinhardBlurs {
         }
     }
 
-    /// V per pixel of the Gaussian of `sigma` pixels blurred on pyramid level `k`, into `v`.
-    fn scale_into(&mut self, sigma: f64, k: u32, v: &mut [f64]) {
+    /// V per pixel of the Gaussian of `sigma` pixels blurred on pyramid level `k`, handed with
+    /// the pixel's entry of `pixels` to `take` (in the same pass that computes it: no plane of
+    /// V is written).
+    fn scale_into<P: Send>(
+        &mut self,
+        sigma: f64,
+        k: u32,
+        pixels: &mut [P],
+        take: impl Fn(&mut P, f64) + Sync,
+    ) {
         let (w, h, plane) = &self.pyramid[k as usize];
         let (w, h) = (*w, *h);
         let cell = 1u32 << k;
@@ -78,30 +86,45 @@ impl ReinhardBlurs {
             .map(|t| (-((t * t) as f64) / (2.0 * sigma_cells * sigma_cells)).exp())
             .collect();
         self.across.resize(w * h, [0.0, 0.0]);
-        self.blurred.resize(w * h, [0.0, 0.0]);
-        let (across, blurred) = (&mut self.across[..w * h], &mut self.blurred[..w * h]);
-        blur_pairs_into(plane, w, h, &weights, true, across);
-        blur_pairs_into(across, w, h, &weights, false, blurred);
+        blur_pairs_into(plane, w, h, &weights, true, &mut self.across[..w * h]);
         let (width, height) = (self.width, self.height);
-        let v = &mut v[..width * height];
+        let pixels = &mut pixels[..width * height];
         let quotient = |[num, den]: [f64; 2]| if den > 0.0 { num / den } else { 0.0 };
         if k == 0 {
-            // Level 0 is the image's own grid: the bilinear read is the cell itself.
-            v.par_iter_mut()
-                .zip(&*blurred)
-                .for_each(|(out, &pair)| *out = quotient(pair));
+            // Level 0 is the image's own grid: the bilinear read is the cell itself, so each
+            // row is blurred down and taken at once, with no plane written.
+            let across = &self.across[..w * h];
+            pixels
+                .par_chunks_mut(width.max(1))
+                .enumerate()
+                .for_each_init(
+                    || (Vec::new(), vec![[0.0, 0.0]; width]),
+                    |(scratch, blurred), (y, row)| {
+                        blur_row(across, w, h, &weights, false, y, scratch, blurred);
+                        for (pixel, &pair) in row.iter_mut().zip(blurred.iter()) {
+                            take(pixel, quotient(pair));
+                        }
+                    },
+                );
             return;
         }
+        self.blurred.resize(w * h, [0.0, 0.0]);
+        let (across, blurred) = (&self.across[..w * h], &mut self.blurred[..w * h]);
+        blur_pairs_into(across, w, h, &weights, false, blurred);
         let reads = BilinearReads::new(cell, w as u32, h as u32, width, height);
         let across = &mut self.across;
         reads.along_rows(blurred, across);
         let across = &*across;
-        v.par_chunks_mut(width.max(1))
+        pixels
+            .par_chunks_mut(width.max(1))
             .enumerate()
             .for_each(|(y, row)| {
                 let (top, bottom, fy) = reads.rows_of(across, y);
-                for ((out, t), b) in row.iter_mut().zip(top).zip(bottom) {
-                    *out = quotient([0, 1].map(|c| t[c] * (1.0 - fy) + b[c] * fy));
+                for ((pixel, t), b) in row.iter_mut().zip(top).zip(bottom) {
+                    take(
+                        pixel,
+                        quotient([0, 1].map(|c| t[c] * (1.0 - fy) + b[c] * fy)),
+                    );
                 }
             });
     }
@@ -140,7 +163,7 @@ pub(super) fn reinhard_local(
         .collect();
     let mask: Vec<f64> = scene
         .lum
-        .iter()
+        .par_iter()
         .map(|l| if l.is_nan() { 0.0 } else { 1.0 })
         .collect();
     let sigmas: Vec<f64> = (0..=p.scales)
@@ -154,47 +177,59 @@ pub(super) fn reinhard_local(
     let deepest = levels.iter().copied().max().unwrap_or(0);
     let mut blurs = ReinhardBlurs::new(&scaled, &mask, scene.width, scene.height, deepest);
     let sharpness = p.phi.exp2() * p.key;
-    // Scale by scale: `chosen` holds V1 of the last scale whose activity stayed below epsilon,
-    // `settled` marks pixels whose scan has stopped (missing pixels from the start).
-    let n = scaled.len();
-    let mut previous = vec![0.0; n];
-    blurs.scale_into(sigmas[0], levels[0], &mut previous);
-    let mut chosen = previous.clone();
-    let mut settled: Vec<bool> = mask.iter().map(|&m| m == 0.0).collect();
-    let mut current = vec![0.0; n];
+    let mut scans: Vec<Scan> = mask
+        .par_iter()
+        .map(|&m| Scan {
+            previous: 0.0,
+            chosen: 0.0,
+            settled: m == 0.0,
+        })
+        .collect();
+    blurs.scale_into(sigmas[0], levels[0], &mut scans, |scan, v| {
+        scan.previous = v;
+        scan.chosen = v;
+    });
     for k in 0..p.scales as usize {
         // Once every pixel has stopped, the larger scales change nothing.
-        if settled.par_iter().all(|&s| s) {
+        if scans.par_iter().all(|scan| scan.settled) {
             break;
         }
-        blurs.scale_into(sigmas[k + 1], levels[k + 1], &mut current);
         let s = p.ratio.powi(k as i32);
         let s2 = s * s;
-        (&mut chosen, &mut settled, (&previous, &current))
-            .into_par_iter()
-            .for_each(|(chosen, settled, (&v1, &v2))| {
-                if *settled {
-                    return;
-                }
-                let activity = (v1 - v2) / (sharpness / s2 + v1);
-                if activity.abs() >= p.epsilon {
-                    *settled = true;
-                } else {
-                    *chosen = v1;
-                }
-            });
-        std::mem::swap(&mut previous, &mut current);
+        blurs.scale_into(sigmas[k + 1], levels[k + 1], &mut scans, |scan, v2| {
+            let v1 = std::mem::replace(&mut scan.previous, v2);
+            if scan.settled {
+                return;
+            }
+            let activity = (v1 - v2) / (sharpness / s2 + v1);
+            if activity.abs() >= p.epsilon {
+                scan.settled = true;
+            } else {
+                scan.chosen = v1;
+            }
+        });
     }
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            if mask[i] == 0.0 {
+    scans
+        .par_iter()
+        .zip(&scaled)
+        .zip(&mask)
+        .map(|((scan, &l), &m)| {
+            if m == 0.0 {
                 f64::NAN
             } else {
-                scaled[i] / (1.0 + chosen[i])
+                l / (1.0 + scan.chosen)
             }
         })
         .collect()
+}
+
+/// One pixel's scan up the scales of [`reinhard_local`]: V1 of the scale before, V1 of the last
+/// scale whose activity stayed below epsilon, and whether the scan has stopped (missing pixels
+/// from the start).
+struct Scan {
+    previous: f64,
+    chosen: f64,
+    settled: bool,
 }
 
 /// Durand & Dorsey 2002: log10 luminance l (missing and black pixels have weight 0) is split
@@ -364,33 +399,48 @@ fn blur_pairs_into(
     horizontal: bool,
     out: &mut [[f64; 2]],
 ) {
-    let radius = weights.len() / 2;
     out.par_chunks_mut(width.max(1))
         .enumerate()
-        .for_each_init(Vec::new, |padded, (y, row)| {
-            // Each output adds its taps in order from -r, as pixel by pixel, but four taps a
-            // pass over the row.
-            if horizontal {
-                // The row between `radius` zero pairs: a tap beyond the edge adds w · 0 = +0,
-                // which leaves a sum of non-negative zero-or-more terms bit for bit as leaving
-                // the tap out does (sums start at +0 and never become -0).
-                padded.clear();
-                padded.resize(width + 2 * radius, [0.0, 0.0]);
-                padded[radius..radius + width].copy_from_slice(&src[y * width..(y + 1) * width]);
-                let taps: Vec<_> = (0..weights.len())
-                    .map(|t| (&padded[t..t + width], weights[t]))
-                    .collect();
-                add_taps(row, &taps);
-            } else {
-                let taps: Vec<_> = (0..weights.len())
-                    .filter_map(|t| {
-                        let sy = (y + t).checked_sub(radius).filter(|&sy| sy < height)?;
-                        Some((&src[sy * width..(sy + 1) * width], weights[t]))
-                    })
-                    .collect();
-                add_taps(row, &taps);
-            }
+        .for_each_init(Vec::new, |scratch, (y, row)| {
+            blur_row(src, width, height, weights, horizontal, y, scratch, row);
         });
+}
+
+/// Row `y` of one direction of [`blur_pairs`] into `row`; `scratch` is the caller's, reused
+/// from row to row. Each output adds its taps in order from -r, as pixel by pixel, but four
+/// taps a pass over the row.
+#[allow(clippy::too_many_arguments)]
+fn blur_row(
+    src: &[[f64; 2]],
+    width: usize,
+    height: usize,
+    weights: &[f64],
+    horizontal: bool,
+    y: usize,
+    scratch: &mut Vec<[f64; 2]>,
+    row: &mut [[f64; 2]],
+) {
+    let radius = weights.len() / 2;
+    if horizontal {
+        // The row between `radius` zero pairs: a tap beyond the edge adds w · 0 = +0, which
+        // leaves a sum of non-negative zero-or-more terms bit for bit as leaving the tap out
+        // does (sums start at +0 and never become -0).
+        scratch.clear();
+        scratch.resize(width + 2 * radius, [0.0, 0.0]);
+        scratch[radius..radius + width].copy_from_slice(&src[y * width..(y + 1) * width]);
+        let taps: Vec<_> = (0..weights.len())
+            .map(|t| (&scratch[t..t + width], weights[t]))
+            .collect();
+        add_taps(row, &taps);
+    } else {
+        let taps: Vec<_> = (0..weights.len())
+            .filter_map(|t| {
+                let sy = (y + t).checked_sub(radius).filter(|&sy| sy < height)?;
+                Some((&src[sy * width..(sy + 1) * width], weights[t]))
+            })
+            .collect();
+        add_taps(row, &taps);
+    }
 }
 
 /// acc = sum of w · src over `taps`, in their order, pair by pair: four taps a pass over the
