@@ -85,29 +85,51 @@ impl ReinhardBlurs {
         let weights: Vec<f64> = (-radius..=radius)
             .map(|t| (-((t * t) as f64) / (2.0 * sigma_cells * sigma_cells)).exp())
             .collect();
-        self.across.resize(w * h, [0.0, 0.0]);
-        blur_pairs_into(plane, w, h, &weights, true, &mut self.across[..w * h]);
         let (width, height) = (self.width, self.height);
         let pixels = &mut pixels[..width * height];
         let quotient = |[num, den]: [f64; 2]| if den > 0.0 { num / den } else { 0.0 };
         if k == 0 {
-            // Level 0 is the image's own grid: the bilinear read is the cell itself, so each
-            // row is blurred down and taken at once, with no plane written.
-            let across = &self.across[..w * h];
+            // Level 0 is the image's own grid: the bilinear read is the cell itself. A band of
+            // rows is blurred across (with `radius` rows either side) and down, and taken at
+            // once, so no plane is written.
+            let radius = weights.len() / 2;
             pixels
-                .par_chunks_mut(width.max(1))
+                .par_chunks_mut(width.max(1) * BAND_ROWS)
                 .enumerate()
                 .for_each_init(
-                    || (Vec::new(), vec![[0.0, 0.0]; width]),
-                    |(scratch, blurred), (y, row)| {
-                        blur_row(across, w, h, &weights, false, y, scratch, blurred);
-                        for (pixel, &pair) in row.iter_mut().zip(blurred.iter()) {
-                            take(pixel, quotient(pair));
+                    || (Vec::new(), Vec::new(), vec![[0.0, 0.0]; width]),
+                    |(scratch, band, blurred), (b, rows)| {
+                        let first = b * BAND_ROWS;
+                        let last = first + rows.len() / width.max(1);
+                        let top = first.saturating_sub(radius);
+                        let bottom = (last + radius).min(height);
+                        band.resize((bottom - top) * width, [0.0, 0.0]);
+                        for (y, across) in (top..bottom).zip(band.chunks_mut(width.max(1))) {
+                            blur_row(plane, w, h, &weights, true, y, scratch, across);
+                        }
+                        // The band's rows are the image's rows top..bottom, every row a tap
+                        // of first..last can reach: the same taps in the same order.
+                        for (y, row) in (first..last).zip(rows.chunks_mut(width.max(1))) {
+                            blur_row(
+                                band,
+                                w,
+                                bottom - top,
+                                &weights,
+                                false,
+                                y - top,
+                                scratch,
+                                blurred,
+                            );
+                            for (pixel, &pair) in row.iter_mut().zip(blurred.iter()) {
+                                take(pixel, quotient(pair));
+                            }
                         }
                     },
                 );
             return;
         }
+        self.across.resize(w * h, [0.0, 0.0]);
+        blur_pairs_into(plane, w, h, &weights, true, &mut self.across[..w * h]);
         self.blurred.resize(w * h, [0.0, 0.0]);
         let (across, blurred) = (&self.across[..w * h], &mut self.blurred[..w * h]);
         blur_pairs_into(across, w, h, &weights, false, blurred);
@@ -129,6 +151,12 @@ impl ReinhardBlurs {
             });
     }
 }
+
+/// Rows a task of a full-resolution scale blurs and takes at once: its horizontal blurs cover
+/// the radius's rows either side too (at most 8 for the default scales, an eighth more work at
+/// each edge), and its band of across-blurred rows (about 1 MB at 768 pixels wide) stays in
+/// the core's cache for the vertical blur.
+const BAND_ROWS: usize = 64;
 
 /// Reinhard's local operator's parameters (`Operator::ReinhardLocal`).
 pub(super) struct ReinhardLocal {
