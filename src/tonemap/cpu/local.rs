@@ -15,9 +15,9 @@ use crate::tonemap::params::{
 /// pixels, each the mean of four cells of level k - 1. Scale i's Gaussian (sigma_i pixels) is
 /// blurred separably on level [`reinhard_level`] with [`grid_sigma`] cells and read back
 /// bilinearly (level 0: the image itself, exactly the full-resolution blur). One scale at a
-/// time into planes the caller reuses, with two blur buffers kept from scale to scale: fresh
-/// memory costs a page fault per 4 KiB, which on the machines we measure cost more than the
-/// blurs themselves.
+/// time, each pixel's V handed on as it is computed; the coarse levels blur through two
+/// buffers kept from scale to scale: fresh memory costs a page fault per 4 KiB, which on the
+/// machines we measure cost more than the blurs themselves.
 struct ReinhardBlurs {
     width: usize,
     height: usize,
@@ -77,63 +77,87 @@ impl ReinhardBlurs {
         pixels: &mut [P],
         take: impl Fn(&mut P, f64) + Sync,
     ) {
-        let (w, h, plane) = &self.pyramid[k as usize];
-        let (w, h) = (*w, *h);
         let cell = 1u32 << k;
         let sigma_cells = grid_sigma(sigma, cell);
         let radius = gaussian_radius(sigma_cells) as isize;
         let weights: Vec<f64> = (-radius..=radius)
             .map(|t| (-((t * t) as f64) / (2.0 * sigma_cells * sigma_cells)).exp())
             .collect();
-        let (width, height) = (self.width, self.height);
-        let pixels = &mut pixels[..width * height];
-        let quotient = |[num, den]: [f64; 2]| if den > 0.0 { num / den } else { 0.0 };
+        let pixels = &mut pixels[..self.width * self.height];
         if k == 0 {
-            // Level 0 is the image's own grid: the bilinear read is the cell itself. A band of
-            // rows is blurred across (with `radius` rows either side) and down, and taken at
-            // once, so no plane is written.
-            let radius = weights.len() / 2;
-            pixels
-                .par_chunks_mut(width.max(1) * BAND_ROWS)
-                .enumerate()
-                .for_each_init(
-                    || (Vec::new(), Vec::new(), vec![[0.0, 0.0]; width]),
-                    |(scratch, band, blurred), (b, rows)| {
-                        let first = b * BAND_ROWS;
-                        let last = first + rows.len() / width.max(1);
-                        let top = first.saturating_sub(radius);
-                        let bottom = (last + radius).min(height);
-                        band.resize((bottom - top) * width, [0.0, 0.0]);
-                        for (y, across) in (top..bottom).zip(band.chunks_mut(width.max(1))) {
-                            blur_row(plane, w, h, &weights, true, y, scratch, across);
-                        }
-                        // The band's rows are the image's rows top..bottom, every row a tap
-                        // of first..last can reach: the same taps in the same order.
-                        for (y, row) in (first..last).zip(rows.chunks_mut(width.max(1))) {
-                            blur_row(
-                                band,
-                                w,
-                                bottom - top,
-                                &weights,
-                                false,
-                                y - top,
-                                scratch,
-                                blurred,
-                            );
-                            for (pixel, &pair) in row.iter_mut().zip(blurred.iter()) {
-                                take(pixel, quotient(pair));
-                            }
-                        }
-                    },
-                );
-            return;
+            self.take_full_resolution(&weights, pixels, take);
+        } else {
+            self.take_coarse(k, &weights, pixels, take);
         }
+    }
+
+    /// [`ReinhardBlurs::scale_into`] on level 0, the image's own grid, where the bilinear read
+    /// is the cell itself: a band of rows is blurred across (with the radius's rows either
+    /// side) and down, and taken at once, so no plane is written.
+    fn take_full_resolution<P: Send>(
+        &self,
+        weights: &[f64],
+        pixels: &mut [P],
+        take: impl Fn(&mut P, f64) + Sync,
+    ) {
+        let (width, height) = (self.width, self.height);
+        let plane = &self.pyramid[0].2;
+        let radius = weights.len() / 2;
+        pixels
+            .par_chunks_mut(width.max(1) * BAND_ROWS)
+            .enumerate()
+            .for_each_init(
+                || (Vec::new(), Vec::new(), vec![[0.0, 0.0]; width]),
+                |(scratch, band, blurred), (b, rows)| {
+                    let first = b * BAND_ROWS;
+                    let last = first + rows.len() / width.max(1);
+                    let top = first.saturating_sub(radius);
+                    let bottom = (last + radius).min(height);
+                    band.resize((bottom - top) * width, [0.0, 0.0]);
+                    for (y, across) in (top..bottom).zip(band.chunks_mut(width.max(1))) {
+                        blur_row(plane, width, height, weights, true, y, scratch, across);
+                    }
+                    // The band's rows are the image's rows top..bottom, every row a tap of
+                    // first..last can reach: the same taps in the same order.
+                    let band_height = bottom - top;
+                    for (y, row) in (first..last).zip(rows.chunks_mut(width.max(1))) {
+                        let at = y - top;
+                        blur_row(
+                            band,
+                            width,
+                            band_height,
+                            weights,
+                            false,
+                            at,
+                            scratch,
+                            blurred,
+                        );
+                        for (pixel, &pair) in row.iter_mut().zip(blurred.iter()) {
+                            take(pixel, quotient(pair));
+                        }
+                    }
+                },
+            );
+    }
+
+    /// [`ReinhardBlurs::scale_into`] on a coarser level `k`: blurred there through the two
+    /// kept buffers, then read back bilinearly row by row ([`BilinearReads::along_rows`]).
+    fn take_coarse<P: Send>(
+        &mut self,
+        k: u32,
+        weights: &[f64],
+        pixels: &mut [P],
+        take: impl Fn(&mut P, f64) + Sync,
+    ) {
+        let (w, h, plane) = &self.pyramid[k as usize];
+        let (w, h) = (*w, *h);
+        let width = self.width;
         self.across.resize(w * h, [0.0, 0.0]);
-        blur_pairs_into(plane, w, h, &weights, true, &mut self.across[..w * h]);
+        blur_pairs_into(plane, w, h, weights, true, &mut self.across[..w * h]);
         self.blurred.resize(w * h, [0.0, 0.0]);
         let (across, blurred) = (&self.across[..w * h], &mut self.blurred[..w * h]);
-        blur_pairs_into(across, w, h, &weights, false, blurred);
-        let reads = BilinearReads::new(cell, w as u32, h as u32, width, height);
+        blur_pairs_into(across, w, h, weights, false, blurred);
+        let reads = BilinearReads::new(1 << k, w as u32, h as u32, width, self.height);
         let across = &mut self.across;
         reads.along_rows(blurred, across);
         let across = &*across;
@@ -149,6 +173,16 @@ impl ReinhardBlurs {
                     );
                 }
             });
+    }
+}
+
+/// V of a blurred (sum w L m, sum w m) pair: the normalised convolution, 0 where no present
+/// pixel is within reach.
+fn quotient([num, den]: [f64; 2]) -> f64 {
+    if den > 0.0 {
+        num / den
+    } else {
+        0.0
     }
 }
 
