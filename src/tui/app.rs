@@ -462,8 +462,9 @@ impl App {
     fn set_exposure(&mut self, ev: f64) -> Effect {
         self.view.exposure_ev = ev;
         if self.view.picture_ignores_exposure() {
+            // Short enough for an 80-column status line; docs/tui.md says the rest.
             self.message = format!(
-                "{} divides exposure out: same picture (the histogram window and a saved EXR move)",
+                "{} divides exposure out: same picture",
                 self.view.operator_name()
             );
             return Effect::Redraw;
