@@ -48,7 +48,7 @@ impl MapperChoice {
 /// Peak bytes a pixel of the f64 operators (whole-process peaks measured at 1024² and 4096²,
 /// rounded up): the luminance plane, the operator's planes and the f32 result; an upper bound
 /// for the global operators, which write only the result. Reinhard's local operator also holds
-/// its pyramid, two blur buffers and three scale planes.
+/// its pyramid, its coarse scales' two blur buffers and each pixel's scan up the scales.
 const CPU_BYTES_PER_PIXEL: u64 = 100;
 const CPU_BYTES_PER_PIXEL_REINHARD_LOCAL: u64 = 180;
 

@@ -108,30 +108,22 @@ impl ReinhardBlurs {
             .enumerate()
             .for_each_init(
                 || (Vec::new(), Vec::new(), vec![[0.0, 0.0]; width]),
-                |(scratch, band, blurred), (b, rows)| {
+                |(padded, band, blurred), (b, rows)| {
                     let first = b * BAND_ROWS;
                     let last = first + rows.len() / width.max(1);
                     let top = first.saturating_sub(radius);
                     let bottom = (last + radius).min(height);
                     band.resize((bottom - top) * width, [0.0, 0.0]);
                     for (y, across) in (top..bottom).zip(band.chunks_mut(width.max(1))) {
-                        blur_row(plane, width, height, weights, true, y, scratch, across);
+                        let src_row = &plane[y * width..(y + 1) * width];
+                        blur_row_across(src_row, weights, padded, across);
                     }
                     // The band's rows are the image's rows top..bottom, every row a tap of
                     // first..last can reach: the same taps in the same order.
                     let band_height = bottom - top;
                     for (y, row) in (first..last).zip(rows.chunks_mut(width.max(1))) {
                         let at = y - top;
-                        blur_row(
-                            band,
-                            width,
-                            band_height,
-                            weights,
-                            false,
-                            at,
-                            scratch,
-                            blurred,
-                        );
+                        blur_row_down(band, width, band_height, weights, at, blurred);
                         for (pixel, &pair) in row.iter_mut().zip(blurred.iter()) {
                             take(pixel, quotient(pair));
                         }
@@ -463,46 +455,55 @@ fn blur_pairs_into(
 ) {
     out.par_chunks_mut(width.max(1))
         .enumerate()
-        .for_each_init(Vec::new, |scratch, (y, row)| {
-            blur_row(src, width, height, weights, horizontal, y, scratch, row);
+        .for_each_init(Vec::new, |padded, (y, row)| {
+            if horizontal {
+                blur_row_across(&src[y * width..(y + 1) * width], weights, padded, row);
+            } else {
+                blur_row_down(src, width, height, weights, y, row);
+            }
         });
 }
 
-/// Row `y` of one direction of [`blur_pairs`] into `row`; `scratch` is the caller's, reused
-/// from row to row. Each output adds its taps in order from -r, as pixel by pixel, but four
-/// taps a pass over the row.
-#[allow(clippy::too_many_arguments)]
-fn blur_row(
+/// One row of the horizontal blur of [`blur_pairs`]: `src_row` blurred into `row`; `padded` is
+/// the caller's, reused from row to row. Each output adds its taps in order from -r, as pixel
+/// by pixel, but four taps a pass over the row.
+fn blur_row_across(
+    src_row: &[[f64; 2]],
+    weights: &[f64],
+    padded: &mut Vec<[f64; 2]>,
+    row: &mut [[f64; 2]],
+) {
+    // The row between `radius` zero pairs: a tap beyond the edge adds w · 0 = +0, which leaves
+    // every sum bit for bit as leaving the tap out does (x + 0 = x for every x but -0, and the
+    // sums start at +0 and never become -0: in round-to-nearest +0 + -0 and x - x are +0).
+    let (width, radius) = (src_row.len(), weights.len() / 2);
+    padded.clear();
+    padded.resize(width + 2 * radius, [0.0, 0.0]);
+    padded[radius..radius + width].copy_from_slice(src_row);
+    let taps: Vec<_> = (0..weights.len())
+        .map(|t| (&padded[t..t + width], weights[t]))
+        .collect();
+    add_taps(row, &taps);
+}
+
+/// Row `y` of the vertical blur of [`blur_pairs`] of the `width` x `height` grid `src`, into
+/// `row`: the rows within reach, in order from -r, four a pass.
+fn blur_row_down(
     src: &[[f64; 2]],
     width: usize,
     height: usize,
     weights: &[f64],
-    horizontal: bool,
     y: usize,
-    scratch: &mut Vec<[f64; 2]>,
     row: &mut [[f64; 2]],
 ) {
     let radius = weights.len() / 2;
-    if horizontal {
-        // The row between `radius` zero pairs: a tap beyond the edge adds w · 0 = +0, which
-        // leaves a sum of non-negative zero-or-more terms bit for bit as leaving the tap out
-        // does (sums start at +0 and never become -0).
-        scratch.clear();
-        scratch.resize(width + 2 * radius, [0.0, 0.0]);
-        scratch[radius..radius + width].copy_from_slice(&src[y * width..(y + 1) * width]);
-        let taps: Vec<_> = (0..weights.len())
-            .map(|t| (&scratch[t..t + width], weights[t]))
-            .collect();
-        add_taps(row, &taps);
-    } else {
-        let taps: Vec<_> = (0..weights.len())
-            .filter_map(|t| {
-                let sy = (y + t).checked_sub(radius).filter(|&sy| sy < height)?;
-                Some((&src[sy * width..(sy + 1) * width], weights[t]))
-            })
-            .collect();
-        add_taps(row, &taps);
-    }
+    let taps: Vec<_> = (0..weights.len())
+        .filter_map(|t| {
+            let sy = (y + t).checked_sub(radius).filter(|&sy| sy < height)?;
+            Some((&src[sy * width..(sy + 1) * width], weights[t]))
+        })
+        .collect();
+    add_taps(row, &taps);
 }
 
 /// acc = sum of w · src over `taps`, in their order, pair by pair: four taps a pass over the
