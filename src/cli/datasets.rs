@@ -206,6 +206,10 @@ pub struct InfoArgs {
     /// The band of a multi-band GeoTIFF, counted from 1 as GDAL does
     #[arg(long = "band", value_name = "N")]
     pub band: Option<usize>,
+    /// One JSON object for machines instead of the report: dims, roles, shape, units, the
+    /// dimensions' coordinates, decoded times, missing count, min and max (docs/formats.md)
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Runs a generator and returns the file it wrote (or found in the cache).
@@ -261,6 +265,15 @@ pub fn run_info(args: &InfoArgs) -> Result<String> {
             _ => hdrvis::datasets::select::At::Date(v),
         };
         sel.at.push((dim, at));
+    }
+    if args.json {
+        if args.band.is_some() {
+            return Err(Error::invalid(
+                "--json",
+                "describes variables; --band is for the report",
+            ));
+        }
+        return hdrvis::datasets::describe::describe_json(&args.file, args.var.as_deref(), &sel);
     }
     hdrvis::datasets::info::info_report_band(&args.file, args.var.as_deref(), &sel, args.band)
 }
@@ -465,6 +478,7 @@ mod tests {
             index: Vec::new(),
             at: Vec::new(),
             band: None,
+            json: false,
         })
         .unwrap();
         assert!(report.contains("variable: max_abs_eta"), "{report}");

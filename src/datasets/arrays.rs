@@ -3,9 +3,7 @@
 //! selection: `read_array_sel`), for NumPy `.npy`/`.npz`, NetCDF, HDF5 and MintPy, GeoTIFF,
 //! NRRD and VTK files; and the one-line errors that list what a file has when a name is wrong.
 
-use super::{
-    geotiff, hdf5, mintpy, netcdf, nhdr, npy, select, vti, vtk_legacy, Volume, VOLUME_EXTENSIONS,
-};
+use super::{geotiff, hdf5, mintpy, netcdf, nhdr, npy, select, vti, vtk_legacy, Format, Volume};
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -59,8 +57,8 @@ pub(crate) struct ArrayData {
 /// The arrays a file holds: every variable of a NetCDF file, every member of an `.npz`, the one
 /// array of `.npy`, `.vti`, `.nhdr`/`.nrrd` files.
 pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
-    match crate::io::extension(path).as_str() {
-        "npz" => {
+    match Format::of(path)? {
+        Format::Npz => {
             let mut archive = open_npz(path)?;
             let names = npz_array_names(&archive, path)?;
             let mut listed = Vec::with_capacity(names.len());
@@ -84,7 +82,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
             }
             Ok(listed)
         }
-        "nc" | "nc4" | "cdf" | "netcdf" => {
+        Format::NetCdf => {
             let file = netcdf::open(path)?;
             let vars = file
                 .variables()
@@ -102,7 +100,7 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
                 })
                 .collect())
         }
-        ext if hdf5::EXTENSIONS.contains(&ext) => hdf5::list_datasets(path),
+        Format::Hdf5 => hdf5::list_datasets(path),
         _ => {
             let array = read_array(path, None, None)?;
             Ok(vec![ArrayListing {
@@ -134,10 +132,9 @@ pub(crate) fn read_array_sel(
     rank: Option<usize>,
     sel: &select::Selection,
 ) -> Result<ArrayData> {
-    crate::io::check_regular_file(path)?;
-    let ext = crate::io::extension(path);
-    let netcdf = matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf");
-    let mintpy = if hdf5::EXTENSIONS.contains(&ext.as_str()) {
+    let format = Format::of(path)?;
+    let netcdf = format == Format::NetCdf;
+    let mintpy = if format == Format::Hdf5 {
         mintpy::open(path)?
     } else {
         None
@@ -148,30 +145,29 @@ pub(crate) fn read_array_sel(
             "selecting by dimension (index, at) needs a NetCDF file or a MintPy time series",
         ));
     }
-    let mut array = match ext.as_str() {
-        "npy" => {
-            let npy = npy::read_npy::<f64>(path)?;
-            let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("array");
-            plain_array(name, npy.shape, npy.dtype, npy.data)
-        }
-        "npz" => read_npz_array(path, var, rank)?,
-        "nc" | "nc4" | "cdf" | "netcdf" => read_netcdf_array(path, var, rank, sel)?,
-        "vti" | "vtk" | "nhdr" | "nrrd" => read_volume_array(path, &ext, var)?,
-        ext if hdf5::EXTENSIONS.contains(&ext) => match &mintpy {
-            Some(product) => mintpy::read_array(path, product, var, sel, rank.is_some())?,
-            None => hdf5::read_dataset(path, var)?,
-        },
-        ext if geotiff::EXTENSIONS.contains(&ext) => {
-            geotiff::no_variable(path, var)?;
-            geotiff::read(path, None)?.array()
-        }
-        other => {
-            return Err(Error::format(
+    let mut array =
+        match format {
+            Format::Npy => {
+                let npy = npy::read_npy::<f64>(path)?;
+                let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("array");
+                plain_array(name, npy.shape, npy.dtype, npy.data)
+            }
+            Format::Npz => read_npz_array(path, var, rank)?,
+            Format::NetCdf => read_netcdf_array(path, var, rank, sel)?,
+            Format::Vti | Format::VtkLegacy | Format::Nrrd => read_volume_array(path, format, var)?,
+            Format::Hdf5 => match &mintpy {
+                Some(product) => mintpy::read_array(path, product, var, sel, rank.is_some())?,
+                None => hdf5::read_dataset(path, var)?,
+            },
+            Format::GeoTiff => {
+                geotiff::no_variable(path, var)?;
+                geotiff::read(path, None)?.array()
+            }
+            Format::Exr => return Err(Error::format(
                 path,
-                format!("unknown array format {other:?}; expected {VOLUME_EXTENSIONS}"),
-            ))
-        }
-    };
+                "is an OpenEXR image, not an array of data (hdrvis info describes its channels)",
+            )),
+        };
     if let Some(r) = rank {
         let kept = squeezed(&array.shape, r).len();
         if kept != r {
@@ -356,16 +352,15 @@ pub(super) fn netcdf_variable(
     Ok((name, listing))
 }
 
-/// [`read_array`] of the one volume of a `.vti`, `.vtk` or `.nhdr`/`.nrrd` file (`ext`), as
-/// (z, y, x).
-fn read_volume_array(path: &Path, ext: &str, var: Option<&str>) -> Result<ArrayData> {
-    let volume = match ext {
-        "vti" => {
+/// [`read_array`] of the one volume of a `.vti`, `.vtk` or `.nhdr`/`.nrrd` file, as (z, y, x).
+fn read_volume_array(path: &Path, format: Format, var: Option<&str>) -> Result<ArrayData> {
+    let volume = match format {
+        Format::Vti => {
             let v = vti::read_vti(path)?;
             Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
                 .map_err(|e| Error::format(path, e.to_string()))?
         }
-        "vtk" => vtk_legacy::read_vtk(path, var)?,
+        Format::VtkLegacy => vtk_legacy::read_vtk(path, var)?,
         _ => nhdr::read_nrrd(path)?,
     };
     if let Some(wanted) = var.filter(|w| *w != volume.name) {

@@ -36,12 +36,12 @@ pub(crate) fn open_bricked_with(
         Error::Invalid { field, msg } => Error::format(path, format!("{field}: {msg}")),
         other => other,
     };
-    match crate::io::extension(path).as_str() {
-        "npy" => {
+    match super::Format::of(path)? {
+        super::Format::Npy => {
             let src = NpyFileSource::open(path)?;
             BrickedVolume::build(stem, Arc::new(src), [1.0; 3], [0.0; 3], brick).map_err(at)
         }
-        "nc" | "nc4" | "cdf" | "netcdf" => {
+        super::Format::NetCdf => {
             let src = NetcdfSource::open(path, var, sel)?;
             let (spacing, origin, units, name) =
                 (src.spacing, src.origin, src.units.clone(), src.var.clone());

@@ -130,7 +130,9 @@ fn kind_of(name: &str) -> Option<String> {
     }
     let (stem, ext) = name.rsplit_once('.')?;
     let (kind, key) = stem.rsplit_once('-')?;
-    let ours = matches!(ext, "nc" | "npy")
+    let ours = [super::Format::NetCdf, super::Format::Npy]
+        .iter()
+        .any(|f| f.extensions()[0] == ext)
         && !kind.is_empty()
         && !key.is_empty()
         && key.chars().all(|c| c.is_ascii_alphanumeric());

@@ -228,6 +228,49 @@ pub(crate) fn time_units(path: &Path, v: &NcVariable) -> Result<Option<TimeUnits
         })
 }
 
+/// A time coordinate's values as dates, or why they stay numbers.
+pub(crate) enum TimeDecoding {
+    /// One date per value (`None` for a missing value), and how a unit of no fixed length was
+    /// read.
+    Dates {
+        dates: Vec<Option<String>>,
+        note: Option<String>,
+    },
+    /// The axis cannot be decoded (no `since` in its units, an unknown unit or calendar, only
+    /// missing values): its values stay numbers, and the reason is said, not raised, so that
+    /// the file's other variables read as xarray leaves such an axis undecoded.
+    Raw { why: String },
+}
+
+/// The dates of time coordinate `v`, or why they cannot be had (see [`TimeDecoding`]).
+pub(crate) fn time_decoding(path: &Path, v: &NcVariable) -> TimeDecoding {
+    let raw = |why: String| TimeDecoding::Raw {
+        why: format!(
+            "time coordinate '{}' {why}; its values are left as numbers",
+            v.name
+        ),
+    };
+    match time_units(path, v) {
+        Ok(Some(_)) if !v.data.is_empty() && v.data.iter().all(|x| x.is_nan()) => {
+            raw("holds only missing values".to_string())
+        }
+        Ok(Some(t)) => TimeDecoding::Dates {
+            dates: v
+                .data
+                .iter()
+                .map(|&x| x.is_finite().then(|| t.date(x)))
+                .collect(),
+            note: t.unit_note.clone(),
+        },
+        Ok(None) => raw(format!(
+            "has units {:?}, not '<unit> since <date>'",
+            v.units.as_deref().unwrap_or("")
+        )),
+        Err(Error::Format { msg, .. }) => raw(format!("cannot be decoded ({msg})")),
+        Err(e) => raw(format!("cannot be decoded ({e})")),
+    }
+}
+
 /// The domain `[lo, hi]` from the CF `bounds` variable of a coordinate, when it names one.
 fn cf_bounds(path: &Path, v: &NcVariable) -> Result<Option<(f64, f64)>> {
     let Some(name) = text(v, "bounds") else {
@@ -493,13 +536,35 @@ pub(crate) fn declared_radius(
     if let Some(r) = attr_number(&netcdf::global_attributes(path)?, "planet_radius") {
         return Ok(Some((r, None)));
     }
-    if let Some(mapping) = attr_text(attributes, "grid_mapping") {
-        let m = netcdf::read_variable(path, mapping)?;
-        if let Some(r) = attr_number(&m.attributes, "earth_radius") {
+    if let Some((_, m)) = grid_mapping(path, attributes)? {
+        if let Some(r) = attr_number(&m, "earth_radius") {
             return Ok(Some((r, Some("m"))));
         }
     }
     Ok(None)
+}
+
+/// A variable's attributes in file order.
+type Attributes = Vec<(String, NcAttribute)>;
+
+/// The grid-mapping variable a variable's `grid_mapping` names (CF 5.6: "crs" or the extended
+/// "crs: lat lon" form, whose first name is the mapping) with its attributes. A mapping is an
+/// attribute container whatever its type: CORDEX writes `char rotated_pole`, others an integer
+/// or a scalar, and its value is never read. A name the file lacks gives `None`, as it leaves
+/// the variable unplaced rather than unreadable.
+fn grid_mapping(
+    path: &Path,
+    attributes: &[(String, NcAttribute)],
+) -> Result<Option<(String, Attributes)>> {
+    let Some(mapping) = attr_text(attributes, "grid_mapping")
+        .and_then(|m| m.split([':', ' ']).next())
+        .filter(|m| !m.is_empty())
+    else {
+        return Ok(None);
+    };
+    Ok(netcdf::variable_attributes(path, mapping)
+        .ok()
+        .map(|m| (mapping.to_string(), m)))
 }
 
 /// The 2-D latitude and longitude of `variable` on a curvilinear grid: the auxiliary
@@ -553,14 +618,7 @@ pub(crate) fn curvilinear_coords(
 /// mapping and the attribute.
 pub(crate) fn rotated_pole(path: &Path, variable: &str) -> Result<Option<RotatedPole>> {
     let attrs = netcdf::variable_attributes(path, variable)?;
-    // "crs" or CF's extended "crs: lat lon" form: the mapping variable is the first name.
-    let Some(mapping) = attr_text(&attrs, "grid_mapping")
-        .and_then(|m| m.split([':', ' ']).next())
-        .filter(|m| !m.is_empty())
-    else {
-        return Ok(None);
-    };
-    let Ok(m) = netcdf::variable_attributes(path, mapping) else {
+    let Some((mapping, m)) = grid_mapping(path, &attrs)? else {
         return Ok(None);
     };
     if attr_text(&m, "grid_mapping_name") != Some("rotated_latitude_longitude") {

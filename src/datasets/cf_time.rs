@@ -2,8 +2,11 @@
 //! <date>` in a calendar, and this module turns them into dates and dates back into values. The
 //! calendars are CF's: standard/gregorian (Julian before 1582-10-15, Gregorian from then on, the
 //! ten days between do not exist), proleptic_gregorian, noleap/365_day, all_leap/366_day, 360_day
-//! and julian; the units seconds, minutes, hours and days (months and years, which CF leaves
-//! ill-defined, are refused). Each calendar counts days from its own day 0, so a date is a day
+//! and julian; the units seconds, minutes, hours and days, and months and years as udunits
+//! defines them (a year of 365.242198781 days, a month a twelfth of it; CF 4.4 warns that they
+//! are not calendar months) except where the calendar makes them exact: cftime's months of 30
+//! days in the 360_day calendar (with years of 360 days) and its common years of 365 days in
+//! noleap. Each calendar counts days from its own day 0, so a date is a day
 //! number and the seconds into that day; dates are written in ISO 8601 to the second, with
 //! astronomical year numbers (the year before 1 is 0).
 
@@ -26,6 +29,10 @@ const CALENDAR_NAMES: &str =
 
 /// Seconds in a day.
 const DAY: f64 = 86_400.0;
+
+/// udunits' year (the tropical year, 365.242198781 days) in seconds, which its `month` divides
+/// by twelve.
+const UDUNITS_YEAR: f64 = 365.242_198_781 * DAY;
 
 /// The Julian day number of 1582-10-15, the first day of the Gregorian calendar.
 const GREGORIAN_START: i64 = 2_299_161;
@@ -182,6 +189,9 @@ pub(crate) struct TimeUnits {
     pub calendar: Calendar,
     /// Seconds per unit.
     unit: f64,
+    /// How a unit that is not a fixed length of time was read ("months of 30.436851 days
+    /// (udunits)"), for reports; `None` for seconds to days.
+    pub unit_note: Option<String>,
     /// The epoch in seconds from the calendar's day 0.
     epoch: f64,
 }
@@ -206,24 +216,12 @@ impl TimeUnits {
                 format!("'{units}' is not '<unit> since <date>'"),
             ));
         };
-        let unit = match unit.trim() {
-            "second" | "seconds" | "sec" | "secs" | "s" => 1.0,
-            "minute" | "minutes" | "min" | "mins" => 60.0,
-            "hour" | "hours" | "hr" | "hrs" | "h" => 3600.0,
-            "day" | "days" | "d" => DAY,
-            other => {
-                return Err(Error::invalid(
-                    "units",
-                    format!(
-                        "time unit '{other}' in '{units}'; expected seconds, minutes, hours or days"
-                    ),
-                ))
-            }
-        };
+        let (unit, unit_note) = parse_unit(units, unit.trim(), calendar)?;
         let epoch = parse_instant(calendar, epoch, true)?;
         Ok(TimeUnits {
             calendar,
             unit,
+            unit_note,
             epoch,
         })
     }
@@ -248,6 +246,43 @@ impl TimeUnits {
     pub fn value(&self, date: &str) -> Result<f64> {
         Ok((parse_instant(self.calendar, date, false)? - self.epoch) / self.unit)
     }
+}
+
+/// Seconds per time unit `unit` (of the units string `units`) in `calendar`, and how a unit of
+/// no fixed length was read.
+fn parse_unit(units: &str, unit: &str, calendar: Calendar) -> Result<(f64, Option<String>)> {
+    let fixed = match unit {
+        "second" | "seconds" | "sec" | "secs" | "s" => Some(1.0),
+        "minute" | "minutes" | "min" | "mins" => Some(60.0),
+        "hour" | "hours" | "hr" | "hrs" | "h" => Some(3600.0),
+        "day" | "days" | "d" => Some(DAY),
+        _ => None,
+    };
+    if let Some(seconds) = fixed {
+        return Ok((seconds, None));
+    }
+    let (seconds, rule) = match (unit, calendar) {
+        ("month" | "months", Calendar::Day360) => (30.0 * DAY, "cftime's 360_day rule"),
+        ("year" | "years" | "yr", Calendar::Day360) => (360.0 * DAY, "the 360_day calendar"),
+        ("common_year" | "common_years", Calendar::NoLeap) => (365.0 * DAY, "cftime's noleap rule"),
+        ("month" | "months", _) => (UDUNITS_YEAR / 12.0, "udunits"),
+        ("year" | "years" | "yr", _) => (UDUNITS_YEAR, "udunits"),
+        (other, _) => {
+            return Err(Error::invalid(
+                "units",
+                format!(
+                    "time unit '{other}' in '{units}'; expected seconds, minutes, hours, days, months or years"
+                ),
+            ))
+        }
+    };
+    let name = if unit.starts_with('m') {
+        "months"
+    } else {
+        "years"
+    };
+    let note = format!("{name} of {:.6} days ({rule})", seconds / DAY);
+    Ok((seconds, Some(note)))
 }
 
 /// Seconds from the calendar's day 0 of a date and optional time. A units string's epoch
@@ -394,15 +429,44 @@ mod tests {
     }
 
     #[test]
+    fn months_and_years_follow_cftime_in_360_day_and_udunits_elsewhere() {
+        // cftime.num2date([0, 1, 2, 13, 25.5], "months since 1958-1-1", "360_day").
+        let t = axis("months since 1958-1-1", "360_day");
+        let dates: Vec<String> = [0.0, 1.0, 2.0, 13.0, 25.5].map(|v| t.date(v)).to_vec();
+        assert_eq!(
+            dates,
+            [
+                "1958-01-01T00:00:00",
+                "1958-02-01T00:00:00",
+                "1958-03-01T00:00:00",
+                "1959-02-01T00:00:00",
+                "1960-02-16T00:00:00"
+            ]
+        );
+        assert!(t.unit_note.as_deref().unwrap().contains("30.000000 days"));
+        // udunits: a month is 365.242198781 / 12 = 30.436849898 days, so month 12 of 2001
+        // (no leap day) ends 365.242 days on: 2002-01-01T05:48:46.
+        let t = axis("months since 2001-01-01", "standard");
+        assert_eq!(t.date(12.0), "2002-01-01T05:48:46");
+        assert_eq!(t.date(1.0), "2001-01-31T10:29:04");
+        assert!(t.unit_note.as_deref().unwrap().contains("udunits"));
+        let t = axis("years since 2000-01-01", "proleptic_gregorian");
+        assert_eq!(t.date(4.0), "2003-12-31T23:15:04");
+        let t = axis("common_years since 2000-01-01", "noleap");
+        assert_eq!(t.date(3.0), "2003-01-01T00:00:00");
+        assert!(TimeUnits::parse("common_years since 2000-01-01", None).is_err());
+    }
+
+    #[test]
     fn bad_units_calendars_and_dates_are_named() {
         let e = TimeUnits::parse("days since 2000-01-01", Some("lunar"))
             .unwrap_err()
             .to_string();
         assert!(e.contains("unknown calendar 'lunar'"), "{e}");
-        let e = TimeUnits::parse("months since 2000-01-01", None)
+        let e = TimeUnits::parse("fortnights since 2000-01-01", None)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("time unit 'months'"), "{e}");
+        assert!(e.contains("time unit 'fortnights'"), "{e}");
         let t = axis("days since 2000-01-01", "standard");
         for bad in [
             "11/03/2011",

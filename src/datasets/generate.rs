@@ -28,24 +28,29 @@ pub enum OutputFormat {
 impl OutputFormat {
     /// The format a file name asks for: `.nc` (or `.nc4`, `.cdf`, `.netcdf`) or `.npy`.
     pub fn from_path(path: &Path) -> Result<Self> {
-        match crate::io::extension(path).as_str() {
-            "nc" | "nc4" | "cdf" | "netcdf" => Ok(OutputFormat::NetCdf),
-            "npy" => Ok(OutputFormat::Npy),
-            other => Err(Error::invalid(
+        match super::Format::from_extension(path) {
+            Some(super::Format::NetCdf) => Ok(OutputFormat::NetCdf),
+            Some(super::Format::Npy) => Ok(OutputFormat::Npy),
+            _ => Err(Error::invalid(
                 "output",
                 format!(
-                    "{}: unknown extension {other:?}; expected .nc or .npy",
-                    path.display()
+                    "{}: unknown extension {:?}; expected .nc or .npy",
+                    path.display(),
+                    crate::io::extension(path)
                 ),
             )),
         }
     }
 
-    pub fn extension(self) -> &'static str {
+    fn format(self) -> super::Format {
         match self {
-            OutputFormat::NetCdf => "nc",
-            OutputFormat::Npy => "npy",
+            OutputFormat::NetCdf => super::Format::NetCdf,
+            OutputFormat::Npy => super::Format::Npy,
         }
+    }
+
+    pub fn extension(self) -> &'static str {
+        self.format().extensions()[0]
     }
 }
 

@@ -22,9 +22,6 @@ use tiff::tags::Tag;
 use super::scalar::Scalar;
 use crate::error::{Error, Result};
 
-/// The extensions read as GeoTIFF.
-pub(crate) const EXTENSIONS: [&str; 2] = ["tif", "tiff"];
-
 /// GeoKey ids (GeoTIFF 1.1, section 7) and the values hdrvis takes from them.
 const GT_MODEL_TYPE: u16 = 1024;
 const GT_RASTER_TYPE: u16 = 1025;

@@ -16,9 +16,6 @@ use super::scalar::Scalar;
 use super::{ArrayData, ArrayListing};
 use crate::error::{Error, Result};
 
-/// The extensions read as HDF5.
-pub(crate) const EXTENSIONS: [&str; 3] = ["h5", "hdf5", "he5"];
-
 fn open(path: &Path) -> Result<Hdf5File> {
     let options = hdf5_reader::OpenOptions::default().with_filter_registry(filters());
     Hdf5File::open_with_options(path, options)

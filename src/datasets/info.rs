@@ -21,7 +21,7 @@ use crate::error::Result;
 
 /// Arrays of more values than this are read in slabs (where the format allows) rather than
 /// whole: whole, the values and the reader's copy take 16 bytes each.
-const STREAM_ABOVE: u64 = 1 << 24;
+pub(crate) const STREAM_ABOVE: u64 = 1 << 24;
 
 /// The report `hdrvis info FILE [--variable NAME]` prints. Without `var`, an `.npz` is described
 /// by its largest array and a NetCDF file by its first data variable; both list every array. An
@@ -54,8 +54,8 @@ pub fn info_report_band(
     if let Some((file, name)) = shorthand {
         return info_report_band(Path::new(file), Some(name), sel, band);
     }
-    let ext = crate::io::extension(path);
-    if super::geotiff::EXTENSIONS.contains(&ext.as_str()) {
+    let format = super::Format::of(path)?;
+    if format == super::Format::GeoTiff {
         return geotiff_report(path, var, sel, band);
     }
     if let Some(b) = band.filter(|&b| b != 1) {
@@ -64,7 +64,7 @@ pub fn info_report_band(
             format!("band {b}: only GeoTIFF files (.tif, .tiff) have several bands"),
         ));
     }
-    if crate::io::extension(path) == "exr" {
+    if format == super::Format::Exr {
         if !sel.is_empty() {
             return Err(crate::error::Error::format(
                 path,
@@ -76,10 +76,8 @@ pub fn info_report_band(
     let (array, stats, how_read) = read_with_stats(path, var, sel, STREAM_ABOVE, SLAB_VALUES)?;
     let mut out = String::new();
     let _ = writeln!(out, "file: {}", path.display());
-    let ext = crate::io::extension(path);
-    if matches!(ext.as_str(), "npz" | "nc" | "nc4" | "cdf" | "netcdf")
-        || super::hdf5::EXTENSIONS.contains(&ext.as_str())
-    {
+    use super::Format::{Hdf5, NetCdf, Npz};
+    if matches!(format, Npz | NetCdf | Hdf5) {
         let listed = list_arrays(path)?;
         let _ = writeln!(out, "arrays ({}):", listed.len());
         for a in &listed {
@@ -100,7 +98,7 @@ pub fn info_report_band(
                 }
             }
         }
-        if matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") {
+        if format == NetCdf {
             if let (_, Some(why)) = super::netcdf::open_noting(path)? {
                 let _ = writeln!(
                     out,
@@ -113,7 +111,7 @@ pub fn info_report_band(
     if let Some(how) = how_read {
         let _ = writeln!(out, "read: {how}");
     }
-    if super::hdf5::EXTENSIONS.contains(&ext.as_str()) {
+    if format == Hdf5 {
         if let Some(product) = super::mintpy::open(path)? {
             for line in super::mintpy::describe(path, &product)? {
                 let _ = writeln!(out, "{line}");
@@ -123,7 +121,7 @@ pub fn info_report_band(
             }
         }
     }
-    if matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") {
+    if format == NetCdf {
         dimension_lines(&mut out, path, &array)?;
         if array.shape.len() >= 3 {
             let _ = writeln!(out, "geometry: {}", super::netcdf_geometry(path, &array)?);
@@ -174,20 +172,30 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
                 let _ = writeln!(out, "  {dim} = {n}: other (no coordinate variable)");
                 continue;
             }
-            Err(e) => {
-                let _ = writeln!(out, "  {dim} = {n}: other ({e})");
-                continue;
-            }
+            // A time axis need not be monotonic to be reported (all missing, say).
+            Err(e) => match super::netcdf::coordinate_variable(path, dim)? {
+                Some(c) if matches!(cf::axis_role(path, &c), Ok(cf::AxisRole::Time)) => c,
+                _ => {
+                    let _ = writeln!(out, "  {dim} = {n}: other ({e})");
+                    continue;
+                }
+            },
         };
         let role = cf::axis_role(path, &coord).unwrap_or(cf::AxisRole::Other);
         let units = coord.units.as_deref().unwrap_or("no units");
-        let detail = match (&role, cf::time_units(path, &coord)?) {
-            (_, Some(t)) => format!(
-                "{} to {} ({} calendar)",
-                t.date(coord.data[0]),
-                t.date(coord.data[n.saturating_sub(1)]),
-                t.calendar.name()
+        let decoded = match role {
+            cf::AxisRole::Time => Some(cf::time_decoding(path, &coord)),
+            _ => None,
+        };
+        let detail = match (decoded, cf::time_units(path, &coord)) {
+            (Some(cf::TimeDecoding::Dates { dates, note }), Ok(Some(t))) => format!(
+                "{} to {} ({} calendar{})",
+                dates[0].as_deref().unwrap_or("missing"),
+                dates[n.saturating_sub(1)].as_deref().unwrap_or("missing"),
+                t.calendar.name(),
+                note.map_or(String::new(), |n| format!("; {n}"))
             ),
+            (Some(cf::TimeDecoding::Raw { why }), _) => why,
             _ if coord.data.is_empty() => units.to_string(),
             _ => format!(
                 "{} to {} {units}",
@@ -283,7 +291,7 @@ fn exr_report(path: &Path, channel: Option<&str>) -> Result<String> {
 /// The array `info` describes and its statistics: read whole, or, above `stream_above` values
 /// where the format allows, in slabs of at most `slab_values` (`data` then empty) with a line on
 /// how.
-fn read_with_stats(
+pub(crate) fn read_with_stats(
     path: &Path,
     var: Option<&str>,
     sel: &Selection,

@@ -10,6 +10,7 @@ pub(crate) mod cf;
 pub(crate) mod cf_time;
 pub mod coastlines;
 pub(crate) mod curvilinear;
+pub mod describe;
 pub mod generate;
 pub(crate) mod geotiff;
 pub(crate) mod grid_out;
@@ -21,6 +22,7 @@ pub mod netcdf;
 pub(crate) mod nhdr;
 pub mod npy;
 pub mod okada;
+pub mod readers;
 mod scalar;
 pub mod select;
 pub mod series;
@@ -34,6 +36,7 @@ use crate::error::{Error, Result};
 use crate::model::{CoordAxis, CoordKind, Geometry, Grid, GridCoords, Volume};
 pub(crate) use arrays::{list_arrays, read_array, read_array_sel, ArrayData, ArrayListing};
 use arrays::{missing_array, plain_array};
+pub use readers::Format;
 use std::path::Path;
 
 /// That a cell-centred volume's `dims` are at least 1, its `spacing` finite and positive and its
@@ -59,9 +62,6 @@ pub(crate) fn check_volume_geometry(
     }
     Ok(())
 }
-
-/// The volume file extensions `load_volume` knows, for error messages.
-const VOLUME_EXTENSIONS: &str = ".npy, .npz, .nc, .vti, .vtk, .nhdr, .nrrd or .h5";
 
 /// Loads a scalar volume, choosing the reader by extension; see [`load_volume_with`].
 pub fn load_volume(path: &Path) -> Result<Volume> {
@@ -113,19 +113,18 @@ pub struct LoadOptions {
 /// variable's `units` attribute.
 pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
     let var = opts.variable.as_deref();
-    crate::io::check_regular_file(path)?;
-    let ext = crate::io::extension(path);
-    if !opts.select.is_empty() && !matches!(ext.as_str(), "nc" | "nc4" | "cdf" | "netcdf") {
+    let format = Format::of(path)?;
+    if !opts.select.is_empty() && format != Format::NetCdf {
         return Err(Error::format(
             path,
             "selecting by dimension (index, at) needs a NetCDF file",
         ));
     }
-    match crate::io::extension(path).as_str() {
-        "npy" => volume_from_npy(path),
-        "npz" => volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None]),
-        "nc" | "nc4" | "cdf" | "netcdf" => volume_from_netcdf(path, opts),
-        "vti" => {
+    match format {
+        Format::Npy => volume_from_npy(path),
+        Format::Npz => volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None]),
+        Format::NetCdf => volume_from_netcdf(path, opts),
+        Format::Vti => {
             let vti = vti::read_vti(path)?;
             if let Some(wanted) = var.filter(|w| *w != vti.name) {
                 return Err(Error::format(
@@ -136,9 +135,9 @@ pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
             Volume::new(vti.name, vti.dims, vti.spacing, vti.origin, vti.data)
                 .map_err(|e| Error::format(path, e.to_string()))
         }
-        "nhdr" | "nrrd" => nhdr::read_nrrd(path),
-        "vtk" => vtk_legacy::read_vtk(path, var),
-        ext if hdf5::EXTENSIONS.contains(&ext) => {
+        Format::Nrrd => nhdr::read_nrrd(path),
+        Format::VtkLegacy => vtk_legacy::read_vtk(path, var),
+        Format::Hdf5 => {
             if mintpy::open(path)?.is_some() {
                 return Err(Error::format(
                     path,
@@ -147,13 +146,13 @@ pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
             }
             volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None])
         }
-        ext if geotiff::EXTENSIONS.contains(&ext) => Err(Error::format(
+        Format::GeoTiff => Err(Error::format(
             path,
             "is a GeoTIFF, a 2-D raster; load it with load_grid",
         )),
-        other => Err(Error::format(
+        Format::Exr => Err(Error::format(
             path,
-            format!("unknown volume format {other:?}; expected {VOLUME_EXTENSIONS}"),
+            "is an OpenEXR image; volumes are read from data files (view it with hdrvis tui)",
         )),
     }
 }
@@ -199,7 +198,7 @@ pub(crate) fn load_grid_arrays(
 /// has one), in ISO 8601: a NetCDF file's CF time axis or a MintPy time series' `date` list.
 /// What `times(path)` returns.
 pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
-    if hdf5::EXTENSIONS.contains(&crate::io::extension(path).as_str()) {
+    if Format::of(path)? == Format::Hdf5 {
         if let Some(product) = mintpy::open(path)? {
             return mintpy::time_steps(path, &product, var);
         }
@@ -293,8 +292,8 @@ fn read_grid_file(
     band: Option<usize>,
     resolution: Option<f64>,
 ) -> Result<GridFile> {
-    let ext = crate::io::extension(path);
-    if geotiff::EXTENSIONS.contains(&ext.as_str()) {
+    let format = Format::of(path)?;
+    if format == Format::GeoTiff {
         return no_resolution(path, resolution).and_then(|_| geotiff_grid(path, var, sel, band));
     }
     if let Some(b) = band.filter(|&b| b != 1) {
@@ -308,8 +307,8 @@ fn read_grid_file(
     let mut wavelength = None;
     let mut rotated_pole = None;
     let mut curvilinear = None;
-    let (x, y) = match ext.as_str() {
-        "npz" => {
+    let (x, y) = match format {
+        Format::Npz => {
             let find = |names: [&str; 3], len: usize| -> Result<Option<GridAxis>> {
                 let listed = list_arrays(path)?;
                 for name in names {
@@ -330,12 +329,12 @@ fn read_grid_file(
                 find(["y", "lat", "latitude"], ny)?,
             )
         }
-        "nc" | "nc4" | "cdf" | "netcdf" => {
+        Format::NetCdf => {
             let axes = netcdf_grid_axes(path, &array)?;
             (rotated_pole, curvilinear) = (axes.rotated_pole, axes.curvilinear);
             (axes.x, axes.y)
         }
-        ext if hdf5::EXTENSIONS.contains(&ext) => match mintpy::open(path)? {
+        Format::Hdf5 => match mintpy::open(path)? {
             Some(product) => {
                 wavelength = product.wavelength(path)?;
                 match mintpy::axes(path, &product, [ny, nx])? {
@@ -510,10 +509,8 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     let y = grid_coords(file.y, "y", ny);
     let mut props = vec![(file.name.clone(), file.data, file.units.unwrap_or_default())];
     let mut elevation = None;
-    if matches!(
-        crate::io::extension(path).as_str(),
-        "npz" | "nc" | "nc4" | "cdf" | "netcdf"
-    ) {
+    let format = Format::of(path)?;
+    if matches!(format, Format::Npz | Format::NetCdf) {
         let coord_names = [x.name.as_str(), y.name.as_str()];
         // With a selection, only the named variable: others may lack the selected dimensions;
         // a regridded one stands alone too (the others are on the curvilinear nodes).
@@ -522,7 +519,7 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
         props.extend(found.properties);
         elevation = found.elevation;
         // A saved section's per-column latitude and longitude come back as its properties.
-        if crate::io::extension(path) != "npz" && x.kind != CoordKind::Longitude {
+        if format != Format::Npz && x.kind != CoordKind::Longitude {
             let present: Vec<String> = props.iter().map(|p| p.0.clone()).collect();
             let columns = grid_out::column_properties(path, &x.name, [ny, nx])?;
             props.extend(columns.into_iter().filter(|c| !present.contains(&c.0)));
@@ -708,17 +705,22 @@ fn spherical_grid_of(
 }
 
 /// `hdrvis info`'s line on where a NetCDF volume lies: on the sphere, with its radii and
-/// angles, or in a Cartesian box.
+/// angles, or in a Cartesian box. Dimensions of length 1 (a 2 m `height`, a single level) are
+/// labels of the field and a time axis is never space, so both are left out.
 pub(crate) fn netcdf_geometry(path: &Path, array: &ArrayData) -> Result<String> {
-    let n = array.dims.len();
+    let mut spatial: Vec<(String, usize)> = Vec::new();
+    for (dim, &len) in array.dims.iter().zip(&array.shape) {
+        let time = netcdf::coordinate_variable(path, dim)?
+            .is_some_and(|c| matches!(cf::axis_role(path, &c), Ok(cf::AxisRole::Time)));
+        if len > 1 && !time {
+            spatial.push((dim.clone(), len));
+        }
+    }
+    let n = spatial.len();
     if n < 3 {
         return Ok("cartesian (not a volume)".into());
     }
-    let dims: Vec<(String, usize)> = array.dims[n - 3..]
-        .iter()
-        .cloned()
-        .zip(array.shape[n - 3..].iter().copied())
-        .collect();
+    let dims = spatial[n - 3..].to_vec();
     let coords = cf::dim_coords(path, &dims)?;
     Ok(
         match spherical_grid_of(path, array, &coords, &LoadOptions::default())? {

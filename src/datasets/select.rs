@@ -143,12 +143,17 @@ pub(crate) fn plan(
 
 /// " (2011-03-11T06:00:00)" when `dim` is a CF time axis, else "".
 fn date_note(path: &Path, dim: &str, i: usize) -> Result<String> {
-    let Some(coord) = cf::read_coordinate(path, dim)? else {
+    // Unchecked: an index needs no monotonic axis, and an undecodable one gives no date.
+    let Some(coord) = netcdf::coordinate_variable(path, dim)? else {
         return Ok(String::new());
     };
-    Ok(match cf::time_units(path, &coord)? {
-        Some(t) => format!(" ({})", t.date(coord.data[i])),
-        None => String::new(),
+    Ok(match cf::time_decoding(path, &coord) {
+        cf::TimeDecoding::Dates { dates, .. } => dates
+            .get(i)
+            .cloned()
+            .flatten()
+            .map_or(String::new(), |d| format!(" ({d})")),
+        cf::TimeDecoding::Raw { .. } => String::new(),
     })
 }
 
@@ -286,20 +291,23 @@ pub(crate) fn refuse_time(path: &Path, var: &str, kept: &[&(String, usize)]) -> 
         if *n < 2 {
             continue;
         }
-        let Some(coord) = cf::read_coordinate(path, dim)? else {
+        let Some(coord) = netcdf::coordinate_variable(path, dim)? else {
             continue;
         };
         if !matches!(cf::axis_role(path, &coord), Ok(cf::AxisRole::Time)) {
             continue;
         }
-        let span = match cf::time_units(path, &coord)? {
-            Some(t) => format!(
+        let span = match (
+            cf::time_units(path, &coord),
+            cf::time_decoding(path, &coord),
+        ) {
+            (Ok(Some(t)), cf::TimeDecoding::Dates { dates, .. }) => format!(
                 ", {} to {} ({} calendar)",
-                t.date(coord.data[0]),
-                t.date(coord.data[n - 1]),
+                dates[0].as_deref().unwrap_or("missing"),
+                dates[n - 1].as_deref().unwrap_or("missing"),
                 t.calendar.name()
             ),
-            None => String::new(),
+            _ => String::new(),
         };
         return Err(time_is_not_space(path, var, dim, *n, &span));
     }

@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use super::select::{time_axis, Selection};
-use super::{hdf5, mintpy, netcdf};
+use super::{mintpy, netcdf};
 use crate::error::{Error, Result};
 
 /// What [`series_range`] computes over.
@@ -106,7 +106,7 @@ enum StepReader {
 
 impl Series {
     fn open(path: &Path, var: Option<&str>) -> Result<Series> {
-        if hdf5::EXTENSIONS.contains(&crate::io::extension(path).as_str()) {
+        if super::Format::of(path)? == super::Format::Hdf5 {
             if let Some(product) = mintpy::open(path)? {
                 let steps = mintpy::time_steps(path, &product, var)?.len();
                 return Ok(Series {

@@ -49,9 +49,8 @@ impl Slabs {
         var: Option<&str>,
         sel: &select::Selection,
     ) -> Result<Option<Slabs>> {
-        let ext = crate::io::extension(path);
-        let (source, meta) = match ext.as_str() {
-            "npy" if sel.is_empty() => {
+        let (source, meta) = match super::Format::of(path)? {
+            super::Format::Npy if sel.is_empty() => {
                 let Ok(layout) = NpyLayout::open(path) else {
                     // The whole read says what is wrong, or reads what this path cannot.
                     return Ok(None);
@@ -65,7 +64,7 @@ impl Slabs {
                 );
                 (Source::Npy(layout), meta)
             }
-            "nc" | "nc4" | "cdf" | "netcdf" => match netcdf_source(path, var, sel)? {
+            super::Format::NetCdf => match netcdf_source(path, var, sel)? {
                 Some(opened) => opened,
                 None => return Ok(None),
             },

@@ -192,7 +192,8 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "save_grid",
         move |grid: &mut ScriptGrid, path: &str| -> RResult<()> {
             let p = host.sandbox.write_path(path).map_err(to_rhai)?;
-            if !matches!(crate::io::extension(&p).as_str(), "nc" | "nc4" | "netcdf") {
+            if crate::datasets::Format::from_extension(&p) != Some(crate::datasets::Format::NetCdf)
+            {
                 return err(
                     "save_grid",
                     format!("{path}: expected a NetCDF file name ending in .nc"),

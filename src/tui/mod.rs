@@ -55,7 +55,7 @@ pub struct TuiOptions {
 
 /// The input's kind by extension: `.exr` is an image, anything else a script.
 pub(crate) fn source_of(path: &Path) -> Source {
-    if crate::io::extension(path) == "exr" {
+    if crate::datasets::Format::from_extension(path) == Some(crate::datasets::Format::Exr) {
         Source::Image(path.to_path_buf())
     } else {
         Source::Script(path.to_path_buf())

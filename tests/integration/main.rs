@@ -5,6 +5,7 @@
 // reads best as one function.
 #![allow(clippy::too_many_lines)]
 
+mod archives;
 mod bricks;
 mod cf_data;
 mod cli;

@@ -570,8 +570,30 @@ fn open_mode(path: &Path, mode: netcdf_reader::NcMetadataMode) -> Result<NcFile>
         metadata_mode: mode,
         ..Default::default()
     };
-    NcFile::from_storage_with_options(std::sync::Arc::new(storage), options)
-        .map_err(|e| reader_error(path, e))
+    match NcFile::from_storage_with_options(std::sync::Arc::new(storage), options) {
+        Err(netcdf_reader::Error::InvalidData(msg))
+            if msg.starts_with("classic attribute claims") =>
+        {
+            open_long_classic_header(path)
+                .map_err(|_| reader_error(path, netcdf_reader::Error::InvalidData(msg)))
+        }
+        other => other.map_err(|e| reader_error(path, e)),
+    }
+}
+
+/// A classic file whose header outgrows the reader's first 64 KiB read (long `history` or
+/// comment attributes, common in old archives): netcdf-reader 0.12 grows that read only when
+/// the header's parse runs out of bytes, not when an attribute's length reaches past its end,
+/// which it reports as invalid data. netCDF-C reads such files, so they are opened from a memory
+/// map of the whole file, which the reader parses at once; only this case gives up the
+/// positioned reads [`open`] prefers.
+fn open_long_classic_header(path: &Path) -> std::result::Result<NcFile, netcdf_reader::Error> {
+    let file = NcFile::open(path)?;
+    use netcdf_reader::NcFormat;
+    match file.format() {
+        NcFormat::Classic | NcFormat::Offset64 | NcFormat::Cdf5 => Ok(file),
+        _ => Err(netcdf_reader::Error::InvalidData("not classic".into())),
+    }
 }
 
 /// A truncated NetCDF-4 file can still decode when the lost tail held other objects, so, as the
