@@ -3,7 +3,7 @@
 //! selection: `read_array_sel`), for NumPy `.npy`/`.npz`, NetCDF, HDF5 and MintPy, GeoTIFF,
 //! NRRD and VTK files; and the one-line errors that list what a file has when a name is wrong.
 
-use super::{geotiff, hdf5, mintpy, netcdf, nhdr, npy, select, vti, vtk_legacy, Format, Volume};
+use super::{netcdf, select, Format, Volume};
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -57,62 +57,7 @@ pub(crate) struct ArrayData {
 /// The arrays a file holds: every variable of a NetCDF file, every member of an `.npz`, the one
 /// array of `.npy`, `.vti`, `.nhdr`/`.nrrd` files.
 pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
-    match Format::of(path)? {
-        Format::Npz => {
-            let mut archive = open_npz(path)?;
-            let names = npz_array_names(&archive, path)?;
-            let mut listed = Vec::with_capacity(names.len());
-            for name in names {
-                // Only the member's header is read: its shape and dtype.
-                let npy = npy::open_npy(npz_member(&mut archive, path, &name)?).map_err(|e| {
-                    Error::format(path, format!("array '{name}': {}", npy::header_error(&e)))
-                })?;
-                listed.push(ArrayListing {
-                    shape: npy.shape().iter().map(|&s| s as usize).collect(),
-                    // "<f4" as the array's own report spells it (descr() quotes it as Python does).
-                    dtype: match npy.dtype() {
-                        npyz::DType::Plain(ts) => ts.to_string(),
-                        other => other.descr(),
-                    },
-                    is_coordinate: false,
-                    is_auxiliary: false,
-                    unreadable: None,
-                    name,
-                });
-            }
-            Ok(listed)
-        }
-        Format::NetCdf => {
-            let file = netcdf::open(path)?;
-            let vars = file
-                .variables()
-                .map_err(|e| Error::format(path, e.to_string()))?;
-            let auxiliary = netcdf::auxiliary_names(vars);
-            Ok(vars
-                .iter()
-                .map(|v| ArrayListing {
-                    name: v.name().to_string(),
-                    shape: v.shape().iter().map(|&s| s as usize).collect(),
-                    dtype: format!("{:?}", v.dtype()).to_lowercase(),
-                    is_coordinate: v.is_coordinate_variable(),
-                    is_auxiliary: auxiliary.iter().any(|a| a == v.name()),
-                    unreadable: None,
-                })
-                .collect())
-        }
-        Format::Hdf5 => hdf5::list_datasets(path),
-        _ => {
-            let array = read_array(path, None, None)?;
-            Ok(vec![ArrayListing {
-                name: array.name,
-                shape: array.shape,
-                dtype: array.dtype,
-                is_coordinate: false,
-                is_auxiliary: false,
-                unreadable: None,
-            }])
-        }
-    }
+    Format::of(path)?.reader().list(path)
 }
 
 /// Reads one array. `var` picks it by name (an error lists the available ones); without it an
@@ -132,42 +77,15 @@ pub(crate) fn read_array_sel(
     rank: Option<usize>,
     sel: &select::Selection,
 ) -> Result<ArrayData> {
-    let format = Format::of(path)?;
-    let netcdf = format == Format::NetCdf;
-    let mintpy = if format == Format::Hdf5 {
-        mintpy::open(path)?
-    } else {
-        None
-    };
-    if !netcdf && mintpy.is_none() && !sel.is_empty() {
+    let reader = Format::of(path)?.reader();
+    let selects = reader.selects(path)?;
+    if !selects && !sel.is_empty() {
         return Err(Error::format(
             path,
             "selecting by dimension (index, at) needs a NetCDF file or a MintPy time series",
         ));
     }
-    let mut array =
-        match format {
-            Format::Npy => {
-                let npy = npy::read_npy::<f64>(path)?;
-                let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("array");
-                plain_array(name, npy.shape, npy.dtype, npy.data)
-            }
-            Format::Npz => read_npz_array(path, var, rank)?,
-            Format::NetCdf => read_netcdf_array(path, var, rank, sel)?,
-            Format::Vti | Format::VtkLegacy | Format::Nrrd => read_volume_array(path, format, var)?,
-            Format::Hdf5 => match &mintpy {
-                Some(product) => mintpy::read_array(path, product, var, sel, rank.is_some())?,
-                None => hdf5::read_dataset(path, var)?,
-            },
-            Format::GeoTiff => {
-                geotiff::no_variable(path, var)?;
-                geotiff::read(path, None)?.array()
-            }
-            Format::Exr => return Err(Error::format(
-                path,
-                "is an OpenEXR image, not an array of data (hdrvis info describes its channels)",
-            )),
-        };
+    let mut array = reader.read(path, var, rank, sel)?;
     if let Some(r) = rank {
         let kept = squeezed(&array.shape, r).len();
         if kept != r {
@@ -182,7 +100,7 @@ pub(crate) fn read_array_sel(
             } else {
                 " after the selection"
             };
-            let hint = if kept > r && netcdf {
+            let hint = if kept > r && selects {
                 format!("; fix {} more dimension(s) with index or at", kept - r)
             } else {
                 String::new()
@@ -206,48 +124,13 @@ pub(crate) fn read_array_sel(
 
 /// Whether an array of `shape` has `rank` dimensions once leading length-1 ones are dropped
 /// (any shape fits no rank).
-fn fits_rank(shape: &[usize], rank: Option<usize>) -> bool {
+pub(crate) fn fits_rank(shape: &[usize], rank: Option<usize>) -> bool {
     rank.is_none_or(|r| squeezed(shape, r).len() == r)
 }
 
 /// "2-D " for rank 2, "" for none: how "no array" errors name what was looked for.
-fn rank_name(rank: Option<usize>) -> String {
+pub(crate) fn rank_name(rank: Option<usize>) -> String {
     rank.map(|r| format!("{r}-D ")).unwrap_or_default()
-}
-
-/// [`read_array`] of an `.npz` member: `var`, else the largest array of the rank (the first of
-/// equally large ones).
-fn read_npz_array(path: &Path, var: Option<&str>, rank: Option<usize>) -> Result<ArrayData> {
-    let listed = list_arrays(path)?;
-    let name = match var {
-        Some(v) => v.to_string(),
-        None => listed
-            .iter()
-            .filter(|a| fits_rank(&a.shape, rank))
-            // Reversed so that of equally large arrays the first in the archive wins.
-            .rev()
-            .max_by_key(|a| a.shape.iter().product::<usize>())
-            .map(|a| a.name.clone())
-            .ok_or_else(|| no_array(path, &rank_name(rank), &listed))?,
-    };
-    if !listed.iter().any(|a| a.name == name) {
-        return Err(missing_array(path, &name, &listed));
-    }
-    let mut archive = open_npz(path)?;
-    let mut entry = npz_member(&mut archive, path, &name)?;
-    let size = entry.size();
-    let npy = npy::read_npy_from::<f64, _>(&mut entry, size, path).map_err(|e| match e {
-        Error::Format { path, msg } => Error::Format {
-            path,
-            msg: format!("array '{name}': {msg}"),
-        },
-        other => other,
-    })?;
-    // Reading on to the member's end makes zip compare its CRC-32: a damaged stored member is
-    // then an error rather than wrong values.
-    std::io::copy(&mut entry, &mut std::io::sink())
-        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
-    Ok(plain_array(&name, npy.shape, npy.dtype, npy.data))
 }
 
 /// The variable a NetCDF file is read for when none is named: of its data variables (not
@@ -298,7 +181,7 @@ fn default_netcdf_variable(
 
 /// [`read_array`] of a NetCDF variable: `var`, else [`default_netcdf_variable`], with the
 /// dimensions `sel` fixes; values the file marks as missing are counted.
-fn read_netcdf_array(
+pub(crate) fn read_netcdf_array(
     path: &Path,
     var: Option<&str>,
     rank: Option<usize>,
@@ -352,23 +235,8 @@ pub(super) fn netcdf_variable(
     Ok((name, listing))
 }
 
-/// [`read_array`] of the one volume of a `.vti`, `.vtk` or `.nhdr`/`.nrrd` file, as (z, y, x).
-fn read_volume_array(path: &Path, format: Format, var: Option<&str>) -> Result<ArrayData> {
-    let volume = match format {
-        Format::Vti => {
-            let v = vti::read_vti(path)?;
-            Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
-                .map_err(|e| Error::format(path, e.to_string()))?
-        }
-        Format::VtkLegacy => vtk_legacy::read_vtk(path, var)?,
-        _ => nhdr::read_nrrd(path)?,
-    };
-    if let Some(wanted) = var.filter(|w| *w != volume.name) {
-        return Err(Error::format(
-            path,
-            format!("no array '{wanted}'; the file has: {}", volume.name),
-        ));
-    }
+/// The one volume of a `.vti`, `.vtk` or `.nhdr`/`.nrrd` file as an array (z, y, x).
+pub(crate) fn volume_array(volume: Volume) -> ArrayData {
     let [nx, ny, nz] = volume.dims;
     let mut array = plain_array(
         &volume.name,
@@ -378,7 +246,7 @@ fn read_volume_array(path: &Path, format: Format, var: Option<&str>) -> Result<A
     );
     array.dims = vec!["z".into(), "y".into(), "x".into()];
     array.units = (!volume.units.is_empty()).then_some(volume.units);
-    Ok(array)
+    array
 }
 
 /// The shape without leading length-1 dimensions beyond `rank` (a single time step, say).
@@ -390,7 +258,7 @@ fn squeezed(shape: &[usize], rank: usize) -> &[usize] {
     &shape[start..]
 }
 
-pub(super) fn plain_array(
+pub(crate) fn plain_array(
     name: &str,
     shape: Vec<usize>,
     dtype: String,
@@ -409,52 +277,6 @@ pub(super) fn plain_array(
     }
 }
 
-/// An `.npz` file opened as the zip archive it is (members stored or deflated, as `np.savez`
-/// and `np.savez_compressed` write them).
-type NpzArchive = zip::ZipArchive<std::io::BufReader<std::fs::File>>;
-
-fn open_npz(path: &Path) -> Result<NpzArchive> {
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    zip::ZipArchive::new(std::io::BufReader::new(file))
-        .map_err(|e| Error::format(path, format!("not a readable .npz archive: {e}")))
-}
-
-/// The arrays of an `.npz` in archive order: its `NAME.npy` members, named without the suffix
-/// (other members are not arrays and are passed over, as NumPy's `load` does).
-fn npz_array_names(archive: &NpzArchive, path: &Path) -> Result<Vec<String>> {
-    let mut names = Vec::with_capacity(archive.len());
-    for member in archive.file_names() {
-        let member =
-            member.map_err(|e| Error::format(path, format!("unreadable .npz member name: {e}")))?;
-        if let Some(name) = npyz::npz::array_name_from_file_name(&member) {
-            names.push(name.to_string());
-        }
-    }
-    Ok(names)
-}
-
-/// The member holding array `name`, decompressed as it is read.
-fn npz_member<'a>(
-    archive: &'a mut NpzArchive,
-    path: &Path,
-    name: &str,
-) -> Result<zip::read::ZipFile<'a, std::io::BufReader<std::fs::File>>> {
-    let entry = archive
-        .by_name(&npyz::npz::file_name_from_array_name(name))
-        .map_err(|e| Error::format(path, format!("array '{name}': {e}")))?;
-    // NumPy writes only these two, and zip is built with no other decoder.
-    match entry.compression() {
-        zip::CompressionMethod::Stored | zip::CompressionMethod::Deflated => Ok(entry),
-        other => Err(Error::format(
-            path,
-            format!(
-                "array '{name}' is compressed with {other}; expected a stored or deflated member \
-                 (np.savez, np.savez_compressed)"
-            ),
-        )),
-    }
-}
-
 fn describe(listed: &[ArrayListing]) -> String {
     if listed.is_empty() {
         return "no arrays".to_string();
@@ -466,14 +288,14 @@ fn describe(listed: &[ArrayListing]) -> String {
         .join(", ")
 }
 
-pub(super) fn missing_array(path: &Path, name: &str, listed: &[ArrayListing]) -> Error {
+pub(crate) fn missing_array(path: &Path, name: &str, listed: &[ArrayListing]) -> Error {
     Error::format(
         path,
         format!("no variable '{name}'; the file has: {}", describe(listed)),
     )
 }
 
-fn no_array(path: &Path, rank_name: &str, listed: &[ArrayListing]) -> Error {
+pub(crate) fn no_array(path: &Path, rank_name: &str, listed: &[ArrayListing]) -> Error {
     Error::format(
         path,
         format!(

@@ -76,8 +76,8 @@ pub fn info_report_band(
     let (array, stats, how_read) = read_with_stats(path, var, sel, STREAM_ABOVE, SLAB_VALUES)?;
     let mut out = String::new();
     let _ = writeln!(out, "file: {}", path.display());
-    use super::Format::{Hdf5, NetCdf, Npz};
-    if matches!(format, Npz | NetCdf | Hdf5) {
+    use super::Format::{Hdf5, NetCdf};
+    if format.reader().holds_many() {
         let listed = list_arrays(path)?;
         let _ = writeln!(out, "arrays ({}):", listed.len());
         for a in &listed {

@@ -12,31 +12,25 @@ pub mod coastlines;
 pub(crate) mod curvilinear;
 pub mod describe;
 pub mod generate;
-pub(crate) mod geotiff;
 pub(crate) mod grid_out;
-pub(crate) mod hdf5;
 pub mod info;
 pub mod mantle;
-pub(crate) mod mintpy;
-pub mod netcdf;
-pub(crate) mod nhdr;
-pub mod npy;
 pub mod okada;
 pub mod readers;
-mod scalar;
 pub mod select;
 pub mod series;
 mod slabs;
 mod stats;
 pub mod tsunami;
-pub(crate) mod vti;
-pub(crate) mod vtk_legacy;
 
 use crate::error::{Error, Result};
 use crate::model::{CoordAxis, CoordKind, Geometry, Grid, GridCoords, Volume};
+pub(crate) use arrays::{
+    fits_rank, missing_array, no_array, plain_array, rank_name, read_netcdf_array, volume_array,
+};
 pub(crate) use arrays::{list_arrays, read_array, read_array_sel, ArrayData, ArrayListing};
-use arrays::{missing_array, plain_array};
-pub use readers::Format;
+pub(crate) use readers::{geotiff, mintpy, scalar};
+pub use readers::{netcdf, npy, Format};
 use std::path::Path;
 
 /// That a cell-centred volume's `dims` are at least 1, its `spacing` finite and positive and its
@@ -112,52 +106,29 @@ pub struct LoadOptions {
 /// 0); when a coordinate is unevenly spaced the volume is rectilinear. Units come from the
 /// variable's `units` attribute.
 pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
-    let var = opts.variable.as_deref();
-    let format = Format::of(path)?;
-    if !opts.select.is_empty() && format != Format::NetCdf {
+    let reader = Format::of(path)?.reader();
+    if !opts.select.is_empty() && !reader.selects(path)? {
         return Err(Error::format(
             path,
             "selecting by dimension (index, at) needs a NetCDF file",
         ));
     }
-    match format {
-        Format::Npy => volume_from_npy(path),
-        Format::Npz => volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None]),
-        Format::NetCdf => volume_from_netcdf(path, opts),
-        Format::Vti => {
-            let vti = vti::read_vti(path)?;
-            if let Some(wanted) = var.filter(|w| *w != vti.name) {
-                return Err(Error::format(
-                    path,
-                    format!("no array '{wanted}'; the file has: {}", vti.name),
-                ));
-            }
-            Volume::new(vti.name, vti.dims, vti.spacing, vti.origin, vti.data)
-                .map_err(|e| Error::format(path, e.to_string()))
-        }
-        Format::Nrrd => nhdr::read_nrrd(path),
-        Format::VtkLegacy => vtk_legacy::read_vtk(path, var),
-        Format::Hdf5 => {
-            if mintpy::open(path)?.is_some() {
-                return Err(Error::format(
-                    path,
-                    "is a MintPy product, a 2-D raster (a time series: one per date); load it with load_grid (index or at choose a date)",
-                ));
-            }
-            volume_from_array(path, read_array(path, var, Some(3))?, [None, None, None])
-        }
-        Format::GeoTiff => Err(Error::format(
+    reader.volume(path, opts)
+}
+
+/// The one array of a file that holds a volume with its own geometry (VTK ImageData, NRRD,
+/// legacy VTK), refused when `var` names another.
+pub(crate) fn named_volume(path: &Path, volume: Volume, var: Option<&str>) -> Result<Volume> {
+    match var.filter(|w| *w != volume.name) {
+        Some(wanted) => Err(Error::format(
             path,
-            "is a GeoTIFF, a 2-D raster; load it with load_grid",
+            format!("no array '{wanted}'; the file has: {}", volume.name),
         )),
-        Format::Exr => Err(Error::format(
-            path,
-            "is an OpenEXR image; volumes are read from data files (view it with hdrvis tui)",
-        )),
+        None => Ok(volume),
     }
 }
 
-fn volume_from_npy(path: &Path) -> Result<Volume> {
+pub(crate) fn volume_from_npy(path: &Path) -> Result<Volume> {
     let arr = npy::read_npy::<f32>(path)?;
     if arr.shape.len() != 3 {
         return Err(Error::format(
@@ -198,12 +169,7 @@ pub(crate) fn load_grid_arrays(
 /// has one), in ISO 8601: a NetCDF file's CF time axis or a MintPy time series' `date` list.
 /// What `times(path)` returns.
 pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
-    if Format::of(path)? == Format::Hdf5 {
-        if let Some(product) = mintpy::open(path)? {
-            return mintpy::time_steps(path, &product, var);
-        }
-    }
-    select::time_steps(path, var)
+    Format::of(path)?.reader().time_steps(path, var)
 }
 
 /// One coordinate axis of a grid file.
@@ -254,37 +220,7 @@ pub fn read_grid_with(path: &Path, var: Option<&str>, sel: &select::Selection) -
     read_grid_file(path, var, sel, None, None)
 }
 
-/// A GeoTIFF's band as a grid file; a variable or selection is refused (a GeoTIFF has
-/// neither).
-fn geotiff_grid(
-    path: &Path,
-    var: Option<&str>,
-    sel: &select::Selection,
-    band: Option<usize>,
-) -> Result<GridFile> {
-    geotiff::no_variable(path, var)?;
-    if !sel.is_empty() {
-        return Err(Error::format(
-            path,
-            "selecting by dimension (index, at) needs a NetCDF file or a MintPy time series; a GeoTIFF's bands are chosen with band: N",
-        ));
-    }
-    let r = geotiff::read(path, band)?;
-    Ok(GridFile {
-        name: r.name,
-        selected: Vec::new(),
-        units: r.units,
-        shape: r.shape,
-        data: r.data,
-        x: geographic_axis("lon", r.lon, CoordKind::Longitude),
-        y: geographic_axis("lat", r.lat, CoordKind::Latitude),
-        wavelength: None,
-        rotated_pole: None,
-        regridded: None,
-    })
-}
-
-/// [`read_grid_with`] with the band of a GeoTIFF.
+/// [`read_grid_with`] with the band of a GeoTIFF, by the file's reader.
 fn read_grid_file(
     path: &Path,
     var: Option<&str>,
@@ -292,10 +228,21 @@ fn read_grid_file(
     band: Option<usize>,
     resolution: Option<f64>,
 ) -> Result<GridFile> {
-    let format = Format::of(path)?;
-    if format == Format::GeoTiff {
-        return no_resolution(path, resolution).and_then(|_| geotiff_grid(path, var, sel, band));
-    }
+    Format::of(path)?
+        .reader()
+        .grid(path, var, sel, band, resolution)
+}
+
+/// [`Reader::grid`]'s default: the 2-D array `reader` reads, on the axes it gives, a curvilinear
+/// grid regridded onto latitude and longitude.
+pub(crate) fn grid_of_array<R: readers::Reader + ?Sized>(
+    reader: &R,
+    path: &Path,
+    var: Option<&str>,
+    sel: &select::Selection,
+    band: Option<usize>,
+    resolution: Option<f64>,
+) -> Result<GridFile> {
     if let Some(b) = band.filter(|&b| b != 1) {
         return Err(Error::format(
             path,
@@ -304,61 +251,20 @@ fn read_grid_file(
     }
     let array = read_array_sel(path, var, Some(2), sel)?;
     let [ny, nx] = [array.shape[0], array.shape[1]];
-    let mut wavelength = None;
-    let mut rotated_pole = None;
-    let mut curvilinear = None;
-    let (x, y) = match format {
-        Format::Npz => {
-            let find = |names: [&str; 3], len: usize| -> Result<Option<GridAxis>> {
-                let listed = list_arrays(path)?;
-                for name in names {
-                    if listed.iter().any(|a| a.name == name && a.shape == [len]) {
-                        let axis = read_array(path, Some(name), Some(1))?;
-                        return Ok(Some(GridAxis {
-                            name: name.to_string(),
-                            units: None,
-                            values: axis.data,
-                            kind: CoordKind::Plain,
-                        }));
-                    }
-                }
-                Ok(None)
-            };
-            (
-                find(["x", "lon", "longitude"], nx)?,
-                find(["y", "lat", "latitude"], ny)?,
-            )
-        }
-        Format::NetCdf => {
-            let axes = netcdf_grid_axes(path, &array)?;
-            (rotated_pole, curvilinear) = (axes.rotated_pole, axes.curvilinear);
-            (axes.x, axes.y)
-        }
-        Format::Hdf5 => match mintpy::open(path)? {
-            Some(product) => {
-                wavelength = product.wavelength(path)?;
-                match mintpy::axes(path, &product, [ny, nx])? {
-                    Some((x, y)) => (Some(x), Some(y)),
-                    None => (None, None),
-                }
-            }
-            None => (None, None),
-        },
-        _ => (None, None),
-    };
+    let axes = reader.grid_axes(path, &array)?;
     let mut file = GridFile {
         name: array.name,
         selected: array.notes,
         units: array.units,
         shape: [ny, nx],
         data: array.data,
-        x,
-        y,
-        wavelength,
-        rotated_pole,
+        x: axes.x,
+        y: axes.y,
+        wavelength: axes.wavelength,
+        rotated_pole: axes.rotated_pole,
         regridded: None,
     };
-    match curvilinear {
+    match axes.curvilinear {
         Some((lat, lon)) => {
             regrid_curvilinear(path, &mut file, &array.dims, (lat, lon), resolution)?
         }
@@ -370,14 +276,7 @@ fn read_grid_file(
 /// A NetCDF grid variable's axes: its dimensions' coordinate variables with their CF kinds, the
 /// rotated pole of a rotated-pole grid (whose axes are then longitude and latitude), and the 2-D
 /// latitude and longitude of a curvilinear grid (when its axes are not geographic).
-struct NetcdfGridAxes {
-    x: Option<GridAxis>,
-    y: Option<GridAxis>,
-    rotated_pole: Option<crate::model::RotatedPole>,
-    curvilinear: Option<(netcdf::NcVariable, netcdf::NcVariable)>,
-}
-
-fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<NetcdfGridAxes> {
+pub(crate) fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<readers::GridAxes> {
     let axis = |dim: &str| -> Result<Option<GridAxis>> {
         Ok(cf::read_coordinate(path, dim)?.map(|var| {
             // Longitude, latitude and depth (drawn downward) matter to a grid; a
@@ -414,16 +313,17 @@ fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<NetcdfGridAxes> {
         }
     }
     let curvilinear = cf::curvilinear_coords(path, &array.name, &array.attributes, &array.dims)?;
-    Ok(NetcdfGridAxes {
+    Ok(readers::GridAxes {
         x,
         y,
         rotated_pole,
         curvilinear,
+        wavelength: None,
     })
 }
 
 /// A longitude or latitude axis in CF's degrees east or north.
-fn geographic_axis(name: &str, values: Vec<f64>, kind: CoordKind) -> Option<GridAxis> {
+pub(crate) fn geographic_axis(name: &str, values: Vec<f64>, kind: CoordKind) -> Option<GridAxis> {
     let units = match kind {
         CoordKind::Latitude => "degrees_north",
         _ => "degrees_east",
@@ -437,7 +337,7 @@ fn geographic_axis(name: &str, values: Vec<f64>, kind: CoordKind) -> Option<Grid
 }
 
 /// A resolution is for curvilinear grids: refused for any other.
-fn no_resolution(path: &Path, resolution: Option<f64>) -> Result<()> {
+pub(crate) fn no_resolution(path: &Path, resolution: Option<f64>) -> Result<()> {
     match resolution {
         Some(r) => Err(Error::format(
             path,
@@ -508,22 +408,19 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     let x = grid_coords(file.x, "x", nx);
     let y = grid_coords(file.y, "y", ny);
     let mut props = vec![(file.name.clone(), file.data, file.units.unwrap_or_default())];
-    let mut elevation = None;
-    let format = Format::of(path)?;
-    if matches!(format, Format::Npz | Format::NetCdf) {
-        let coord_names = [x.name.as_str(), y.name.as_str()];
-        // With a selection, only the named variable: others may lack the selected dimensions;
-        // a regridded one stands alone too (the others are on the curvilinear nodes).
-        let only_elevation = var.is_some() || !opts.select.is_empty() || file.regridded.is_some();
-        let found = same_shape_arrays(path, &file.name, &coord_names, [ny, nx], only_elevation)?;
+    // With a selection, only the named variable: others may lack the selected dimensions; a
+    // regridded one stands alone too (the others are on the curvilinear nodes).
+    let ask = readers::ExtrasAsked {
+        main: &file.name,
+        coord_names: [x.name.as_str(), y.name.as_str()],
+        shape: [ny, nx],
+        only_elevation: var.is_some() || !opts.select.is_empty() || file.regridded.is_some(),
+        x_is_longitude: x.kind == CoordKind::Longitude,
+    };
+    let found = Format::of(path)?.reader().grid_extras(path, &ask)?;
+    let elevation = found.elevation;
+    if !found.properties.is_empty() {
         props.extend(found.properties);
-        elevation = found.elevation;
-        // A saved section's per-column latitude and longitude come back as its properties.
-        if format != Format::Npz && x.kind != CoordKind::Longitude {
-            let present: Vec<String> = props.iter().map(|p| p.0.clone()).collect();
-            let columns = grid_out::column_properties(path, &x.name, [ny, nx])?;
-            props.extend(columns.into_iter().filter(|c| !present.contains(&c.0)));
-        }
         props.sort_by(|a, b| a.0.cmp(&b.0));
     }
     let mut name = path
@@ -559,29 +456,18 @@ fn grid_coords(axis: Option<GridAxis>, name: &str, n: usize) -> GridCoords {
     }
 }
 
-/// The arrays of a grid file besides its main one, as [`same_shape_arrays`] sorts them.
-struct GridExtras {
-    /// `(name, values, units)` of each further property.
-    properties: Vec<(String, Vec<f64>, String)>,
-    elevation: Option<Vec<f64>>,
-}
-
 /// The other arrays of `path` with the 2-D shape `[ny, nx]` (after dropping length-1
 /// dimensions): elevation-named ones become the elevation, the rest further properties unless
 /// `only_elevation`. The array `main`, coordinate variables and arrays named like coordinates
 /// (`coord_names`, `x`, `y`, `lon`, `lat`, `longitude`, `latitude`) are skipped.
-fn same_shape_arrays(
+pub(crate) fn same_shape_arrays(
     path: &Path,
-    main: &str,
-    coord_names: &[&str],
-    [ny, nx]: [usize; 2],
-    only_elevation: bool,
-) -> Result<GridExtras> {
+    ask: &readers::ExtrasAsked,
+) -> Result<readers::GridExtras> {
     const COORDINATE_NAMES: [&str; 6] = ["x", "y", "lon", "lat", "longitude", "latitude"];
-    let mut extras = GridExtras {
-        properties: Vec::new(),
-        elevation: None,
-    };
+    let (main, coord_names, [ny, nx]) = (ask.main, &ask.coord_names, ask.shape);
+    let only_elevation = ask.only_elevation;
+    let mut extras = readers::GridExtras::default();
     for a in list_arrays(path)? {
         let name = a.name.as_str();
         if name == main
@@ -608,7 +494,7 @@ fn same_shape_arrays(
     Ok(extras)
 }
 
-fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volume> {
+pub(crate) fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volume> {
     let array = read_array_sel(path, opts.variable.as_deref(), Some(3), &opts.select)?;
     // The volume's name says how a selection was made ("temp at time 2000-01-16T00:00:00 (index 2)").
     let name = if array.notes.is_empty() {
@@ -732,7 +618,11 @@ pub(crate) fn netcdf_geometry(path: &Path, array: &ArrayData) -> Result<String> 
 
 /// Builds a volume from a 3-D array (z, y, x) and optional cell-centre coordinates per volume
 /// axis (x, y, z).
-fn volume_from_array(path: &Path, array: ArrayData, axes: [Option<Vec<f64>>; 3]) -> Result<Volume> {
+pub(crate) fn volume_from_array(
+    path: &Path,
+    array: ArrayData,
+    axes: [Option<Vec<f64>>; 3],
+) -> Result<Volume> {
     let dims = [array.shape[2], array.shape[1], array.shape[0]];
     crate::model::volume::check_dims(&dims, &format!("{}: shape", path.display()))?;
     let mut data: Vec<f32> = array.data.iter().map(|&v| v as f32).collect();
@@ -822,7 +712,7 @@ fn rectilinear_axes(
 }
 
 /// Reverses the order of the voxels along volume axis `axis` (0 = x, 1 = y, 2 = z).
-fn flip_axis(data: &mut [f32], dims: [usize; 3], axis: usize) {
+pub(crate) fn flip_axis(data: &mut [f32], dims: [usize; 3], axis: usize) {
     let [nx, ny, nz] = dims;
     for k in 0..nz {
         for j in 0..ny {

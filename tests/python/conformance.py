@@ -898,6 +898,38 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_census(args):
+    """How much of the corpus any hdrvis build's `info` reads: per file the default report, per
+    numeric variable `info --variable NAME`; exit status 0 counts as read. For builds before
+    `--json`, to set them beside each other."""
+    import netCDF4
+
+    root = os.path.join(args.cache_dir, "files")
+    files = sorted(os.path.join(d, n) for d, _, names in os.walk(root) for n in names)
+    counts = dict(files=0, files_read=0, variables=0, variables_read=0)
+    refusals = {}
+    for path in files:
+        counts["files"] += 1
+        run = subprocess.run([args.hdrvis, "info", path], capture_output=True, text=True,
+                             errors="replace")
+        counts["files_read"] += run.returncode == 0
+        if run.returncode != 0:
+            why = (run.stderr.strip().splitlines() or ["?"])[-1]
+            key = why.split(": ", 1)[-1][:90]
+            refusals[key] = refusals.get(key, 0) + 1
+        with netCDF4.Dataset(path) as nc:
+            names = [n for n, v in nc.variables.items() if v.dtype.kind in "biuf"]
+        for name in names:
+            counts["variables"] += 1
+            run = subprocess.run([args.hdrvis, "info", path, "--variable", name],
+                                 capture_output=True, text=True, errors="replace")
+            counts["variables_read"] += run.returncode == 0
+    for why, n in sorted(refusals.items(), key=lambda kv: -kv[1]):
+        print(f"{n:4d} files refused: {why}")
+    print("CENSUS " + " ".join(f"{k}={v}" for k, v in counts.items()))
+    return 0
+
+
 COUNTS = ["files", "variables", "agree", "netcdf4", "by design", "refused", "disagree"]
 
 
@@ -945,7 +977,12 @@ def main(argv):
     p.add_argument("--jobs", type=int, default=2, help="hdrvis runs at once (default 2)")
     p.add_argument("--timeout", type=float, default=300.0,
                    help="seconds allowed to one hdrvis run (default 300)")
+    p = sub.add_parser("census", help="which files and variables HDRVIS_BIN's text report reads")
+    p.add_argument("hdrvis")
+    p.add_argument("cache_dir")
     args = parser.parse_args(argv)
+    if args.command == "census":
+        return cmd_census(args)
     if args.command == "fetch":
         return cmd_fetch(args) or 0
     if args.command == "reference":

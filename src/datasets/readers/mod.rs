@@ -5,13 +5,137 @@
 //! named `.h5` as plain HDF5 datasets). Every reader, the CLI's messages and the writers that
 //! choose a format by name ask this table; no other module lists extensions.
 //!
-//! Adding a format: a variant of [`Format`], its row in [`FORMATS`] (name, extensions and the
-//! signature test), and its reader module; the readers' dispatch in `datasets` names the variant.
+//! Each format's reader implements [`Reader`], as an xarray backend does: list what a file holds,
+//! read one array (under a selection, where the format has dimensions), and, where the format
+//! says more than an array does, place a volume or a grid's axes. `load_volume`, `load_grid`,
+//! `info`, `list_arrays` and `read_array` ask the registry for the reader and call it.
+//!
+//! Adding a format: a variant of [`Format`], its row in [`FORMATS`] (name, extensions, the
+//! signature test and the reader), and its module here implementing [`Reader`]; nothing else.
+
+mod exr;
+pub(crate) mod geotiff;
+pub(crate) mod hdf5;
+pub(crate) mod mintpy;
+pub mod netcdf;
+pub(crate) mod nhdr;
+pub mod npy;
+mod npz;
+pub(crate) mod scalar;
+pub(crate) mod vti;
+pub(crate) mod vtk_legacy;
 
 use std::io::Read;
 use std::path::Path;
 
+use crate::datasets::select::Selection;
+use crate::datasets::{ArrayData, ArrayListing, GridAxis, GridFile, LoadOptions};
 use crate::error::{Error, Result};
+use crate::model::{RotatedPole, Volume};
+
+/// What one format's reader does. Only `list` and `read` are required; the rest have the
+/// defaults of a format that holds bare arrays (no dimensions to select, no coordinates).
+pub(crate) trait Reader: Sync {
+    /// Every array the file holds, in file order.
+    fn list(&self, path: &Path) -> Result<Vec<ArrayListing>>;
+
+    /// One array, decoded (missing values NaN): `var`, else the reader's default for `rank`,
+    /// with the dimensions `sel` fixes (only where [`Reader::selects`]).
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        rank: Option<usize>,
+        sel: &Selection,
+    ) -> Result<ArrayData>;
+
+    /// Whether `read` takes a selection by dimension for this file.
+    fn selects(&self, _path: &Path) -> Result<bool> {
+        Ok(false)
+    }
+
+    /// Whether the file holds many arrays (`hdrvis info` lists them).
+    fn holds_many(&self) -> bool {
+        false
+    }
+
+    /// A volume: by default the 3-D array placed by index (spacing 1).
+    fn volume(&self, path: &Path, opts: &LoadOptions) -> Result<Volume> {
+        let array = self.read(path, opts.variable.as_deref(), Some(3), &opts.select)?;
+        crate::datasets::volume_from_array(path, array, [None, None, None])
+    }
+
+    /// A 2-D field with its axes; a band is GeoTIFF's and refused elsewhere.
+    fn grid(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        sel: &Selection,
+        band: Option<usize>,
+        resolution: Option<f64>,
+    ) -> Result<GridFile> {
+        crate::datasets::grid_of_array(self, path, var, sel, band, resolution)
+    }
+
+    /// Where the rows and columns of a 2-D array read from the file lie: none by default.
+    fn grid_axes(&self, _path: &Path, _array: &ArrayData) -> Result<GridAxes> {
+        Ok(GridAxes::default())
+    }
+
+    /// The file's other arrays that join a grid as properties and its relief: none by default.
+    fn grid_extras(&self, _path: &Path, _ask: &ExtrasAsked) -> Result<GridExtras> {
+        Ok(GridExtras::default())
+    }
+
+    /// The dates of a time axis of `var` (else of the first data variable with one).
+    fn time_steps(&self, path: &Path, _var: Option<&str>) -> Result<Vec<String>> {
+        Err(Error::format(path, "has no time axis"))
+    }
+}
+
+/// Where a grid's rows and columns lie, as a format's metadata says.
+#[derive(Default)]
+pub(crate) struct GridAxes {
+    pub x: Option<GridAxis>,
+    pub y: Option<GridAxis>,
+    /// The rotated pole of a CF `rotated_latitude_longitude` grid (x and y are then rotated
+    /// longitudes and latitudes).
+    pub rotated_pole: Option<RotatedPole>,
+    /// The 2-D latitude and longitude of a curvilinear grid, to regrid onto.
+    pub curvilinear: Option<(netcdf::NcVariable, netcdf::NcVariable)>,
+    /// The radar wavelength (m) of an InSAR product.
+    pub wavelength: Option<f64>,
+}
+
+/// What a grid's further arrays are looked for beside: its main array and axes.
+pub(crate) struct ExtrasAsked<'a> {
+    pub main: &'a str,
+    pub coord_names: [&'a str; 2],
+    pub shape: [usize; 2],
+    /// Only the relief, not further properties (a named variable, a selection, a regridding).
+    pub only_elevation: bool,
+    /// Whether x is a longitude axis (a saved section's columns carry their own positions).
+    pub x_is_longitude: bool,
+}
+
+/// A grid's further arrays: `(name, values, units)` of each property, and the relief.
+#[derive(Default)]
+pub(crate) struct GridExtras {
+    pub properties: Vec<(String, Vec<f64>, String)>,
+    pub elevation: Option<Vec<f64>>,
+}
+
+/// The listing of a file that holds one array, from that array.
+pub(crate) fn single_listing(array: ArrayData) -> Vec<ArrayListing> {
+    vec![ArrayListing {
+        name: array.name,
+        shape: array.shape,
+        dtype: array.dtype,
+        is_coordinate: false,
+        is_auxiliary: false,
+        unreadable: None,
+    }]
+}
 
 /// A file format hdrvis reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,6 +167,7 @@ struct FormatRow {
     name: &'static str,
     extensions: &'static [&'static str],
     signature: fn(&[u8]) -> bool,
+    reader: &'static dyn Reader,
 }
 
 /// The HDF5 superblock signature (HDF5 file format specification, section II.A); it sits at 0
@@ -75,24 +200,28 @@ const FORMATS: [FormatRow; 9] = [
         name: "NumPy .npy",
         extensions: &["npy"],
         signature: |h| h.starts_with(b"\x93NUMPY"),
+        reader: &npy::NpyReader,
     },
     FormatRow {
         format: Format::Npz,
         name: "NumPy .npz",
         extensions: &["npz"],
         signature: |h| h.starts_with(b"PK\x03\x04") || h.starts_with(b"PK\x05\x06"),
+        reader: &npz::NpzReader,
     },
     FormatRow {
         format: Format::NetCdf,
         name: "NetCDF",
         extensions: &["nc", "nc4", "cdf", "netcdf"],
         signature: |h| is_netcdf_classic(h) || is_hdf5(h),
+        reader: &netcdf::NetcdfReader,
     },
     FormatRow {
         format: Format::Hdf5,
         name: "HDF5",
         extensions: &["h5", "hdf5", "he5"],
         signature: is_hdf5,
+        reader: &hdf5::Hdf5Reader,
     },
     FormatRow {
         format: Format::GeoTiff,
@@ -103,30 +232,35 @@ const FORMATS: [FormatRow; 9] = [
                 .iter()
                 .any(|m| h.starts_with(&m[..]))
         },
+        reader: &geotiff::GeoTiffReader,
     },
     FormatRow {
         format: Format::Nrrd,
         name: "NRRD",
         extensions: &["nrrd", "nhdr"],
         signature: |h| h.starts_with(b"NRRD000"),
+        reader: &nhdr::NrrdReader,
     },
     FormatRow {
         format: Format::Vti,
         name: "VTK ImageData",
         extensions: &["vti"],
         signature: is_xml_vtk_image,
+        reader: &vti::VtiReader,
     },
     FormatRow {
         format: Format::VtkLegacy,
         name: "legacy VTK",
         extensions: &["vtk"],
         signature: |h| h.starts_with(b"# vtk DataFile"),
+        reader: &vtk_legacy::VtkReader,
     },
     FormatRow {
         format: Format::Exr,
         name: "OpenEXR",
         extensions: &["exr"],
         signature: |h| h.starts_with(&[0x76, 0x2f, 0x31, 0x01]),
+        reader: &exr::ExrReader,
     },
 ];
 
@@ -169,6 +303,11 @@ impl Format {
     /// The format's name in messages ("NetCDF", "GeoTIFF").
     pub fn name(self) -> &'static str {
         self.row().name
+    }
+
+    /// The format's reader.
+    pub(crate) fn reader(self) -> &'static dyn Reader {
+        self.row().reader
     }
 
     /// The extensions the format is written with, the usual one first.

@@ -13,7 +13,7 @@ use hdf5_reader::group::Group;
 use hdf5_reader::{ByteOrder, Dataset, Datatype, FilterRegistry, Hdf5File};
 
 use super::scalar::Scalar;
-use super::{ArrayData, ArrayListing};
+use crate::datasets::{ArrayData, ArrayListing};
 use crate::error::{Error, Result};
 
 fn open(path: &Path) -> Result<Hdf5File> {
@@ -334,7 +334,8 @@ pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData>
         .map(|u| u.trim_end_matches('\0').to_string())
         .filter(|u| !u.is_empty());
     let values = sample.decode_f64(big, &raw);
-    let mut array = super::plain_array(&full, listing.shape.clone(), listing.dtype.clone(), values);
+    let mut array =
+        crate::datasets::plain_array(&full, listing.shape.clone(), listing.dtype.clone(), values);
     array.units = units;
     Ok(array)
 }
@@ -421,7 +422,7 @@ pub(crate) fn read_plane(path: &Path, name: &str, first: Option<usize>) -> Resul
         Scalar::F16 => return Err(fail("float16 planes are not read one at a time".into())),
     }
     .map_err(|e| fail(e.to_string()))?;
-    let mut array = super::plain_array(
+    let mut array = crate::datasets::plain_array(
         &full,
         shape[1..].to_vec(),
         sample.name().to_string(),
@@ -434,4 +435,74 @@ pub(crate) fn read_plane(path: &Path, name: &str, first: Option<usize>) -> Resul
         .map(|u| u.trim_end_matches('\0').to_string())
         .filter(|u| !u.is_empty());
     Ok(array)
+}
+
+/// The HDF5 reader: datasets by path, and MintPy's products (a raster, or a time series whose
+/// dates select like a time axis) on their geocoding.
+pub(crate) struct Hdf5Reader;
+
+impl super::Reader for Hdf5Reader {
+    fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
+        list_datasets(path)
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        rank: Option<usize>,
+        sel: &crate::datasets::select::Selection,
+    ) -> Result<ArrayData> {
+        match super::mintpy::open(path)? {
+            Some(product) => super::mintpy::read_array(path, &product, var, sel, rank.is_some()),
+            None => read_dataset(path, var),
+        }
+    }
+
+    fn selects(&self, path: &Path) -> Result<bool> {
+        Ok(super::mintpy::open(path)?.is_some())
+    }
+
+    fn holds_many(&self) -> bool {
+        true
+    }
+
+    fn volume(
+        &self,
+        path: &Path,
+        opts: &crate::datasets::LoadOptions,
+    ) -> Result<crate::model::Volume> {
+        if super::mintpy::open(path)?.is_some() {
+            return Err(Error::format(
+                path,
+                "is a MintPy product, a 2-D raster (a time series: one per date); load it with load_grid (index or at choose a date)",
+            ));
+        }
+        let array = crate::datasets::read_array(path, opts.variable.as_deref(), Some(3))?;
+        crate::datasets::volume_from_array(path, array, [None, None, None])
+    }
+
+    fn grid_axes(&self, path: &Path, array: &ArrayData) -> Result<super::GridAxes> {
+        let Some(product) = super::mintpy::open(path)? else {
+            return Ok(super::GridAxes::default());
+        };
+        let (x, y) = super::mintpy::axes(path, &product, [array.shape[0], array.shape[1]])?
+            .map_or((None, None), |(x, y)| (Some(x), Some(y)));
+        Ok(super::GridAxes {
+            x,
+            y,
+            wavelength: product.wavelength(path)?,
+            ..super::GridAxes::default()
+        })
+    }
+
+    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+        match super::mintpy::open(path)? {
+            Some(product) => super::mintpy::time_steps(path, &product, var),
+            None => Err(Error::format(
+                path,
+                "has no time axis (only MintPy time series among HDF5 files have one)",
+            )),
+        }
+    }
 }

@@ -272,6 +272,38 @@ pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
     write_npy(path, shape, data)
 }
 
+/// The `.npy` reader: one array named after the file; a volume is its (nz, ny, nx) read as f32.
+pub(crate) struct NpyReader;
+
+impl super::Reader for NpyReader {
+    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
+        let array = self.read(path, None, None, &Default::default())?;
+        Ok(super::single_listing(array))
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        _var: Option<&str>,
+        _rank: Option<usize>,
+        _sel: &crate::datasets::select::Selection,
+    ) -> Result<crate::datasets::ArrayData> {
+        let npy = read_npy::<f64>(path)?;
+        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("array");
+        Ok(crate::datasets::plain_array(
+            name, npy.shape, npy.dtype, npy.data,
+        ))
+    }
+
+    fn volume(
+        &self,
+        path: &Path,
+        _opts: &crate::datasets::LoadOptions,
+    ) -> Result<crate::model::Volume> {
+        crate::datasets::volume_from_npy(path)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

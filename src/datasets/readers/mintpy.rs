@@ -12,9 +12,10 @@
 
 use std::path::Path;
 
-use super::cf_time::TimeUnits;
-use super::select::{self, Selection};
-use super::{hdf5, ArrayData, GridAxis};
+use super::hdf5;
+use crate::datasets::cf_time::TimeUnits;
+use crate::datasets::select::{self, Selection};
+use crate::datasets::{ArrayData, GridAxis};
 use crate::error::{Error, Result};
 use crate::model::CoordKind;
 
@@ -201,7 +202,7 @@ fn named_dataset(
         .iter()
         .find(|a| a.name == full)
         .map(|a| a.shape.clone())
-        .ok_or_else(|| super::missing_array(path, &full, &listed))?;
+        .ok_or_else(|| crate::datasets::missing_array(path, &full, &listed))?;
     Ok((name, shape))
 }
 

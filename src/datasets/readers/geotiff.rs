@@ -61,8 +61,8 @@ pub(crate) struct Raster {
 
 impl Raster {
     /// The band as an array (dimensions y, x), for `hdrvis info` and `read_array`.
-    pub(crate) fn array(&self) -> super::ArrayData {
-        let mut array = super::plain_array(
+    pub(crate) fn array(&self) -> crate::datasets::ArrayData {
+        let mut array = crate::datasets::plain_array(
             &self.name,
             self.shape.to_vec(),
             self.dtype.clone(),
@@ -591,6 +591,73 @@ fn check_crs(path: &Path, keys: &[(u16, u16)]) -> Result<String> {
             path,
             format!("is in geographic CRS EPSG:{code}, not WGS 84; {expected}"),
         )),
+    }
+}
+
+/// The GeoTIFF reader: one band as a 2-D grid on its pixel centres' longitudes and latitudes;
+/// no variables, no dimensions to select, no volume.
+pub(crate) struct GeoTiffReader;
+
+impl super::Reader for GeoTiffReader {
+    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
+        let array = self.read(path, None, None, &Default::default())?;
+        Ok(super::single_listing(array))
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        _rank: Option<usize>,
+        _sel: &crate::datasets::select::Selection,
+    ) -> Result<crate::datasets::ArrayData> {
+        no_variable(path, var)?;
+        Ok(read(path, None)?.array())
+    }
+
+    fn volume(
+        &self,
+        path: &Path,
+        _opts: &crate::datasets::LoadOptions,
+    ) -> Result<crate::model::Volume> {
+        Err(Error::format(
+            path,
+            "is a GeoTIFF, a 2-D raster; load it with load_grid",
+        ))
+    }
+
+    /// Band `band` (counted from 1) as a grid file; a variable or selection is refused.
+    fn grid(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        sel: &crate::datasets::select::Selection,
+        band: Option<usize>,
+        resolution: Option<f64>,
+    ) -> Result<crate::datasets::GridFile> {
+        use crate::model::CoordKind;
+        crate::datasets::no_resolution(path, resolution)?;
+        no_variable(path, var)?;
+        if !sel.is_empty() {
+            return Err(Error::format(
+                path,
+                "selecting by dimension (index, at) needs a NetCDF file or a MintPy time series; a GeoTIFF's bands are chosen with band: N",
+            ));
+        }
+        let r = read(path, band)?;
+        let axis = crate::datasets::geographic_axis;
+        Ok(crate::datasets::GridFile {
+            name: r.name,
+            selected: Vec::new(),
+            units: r.units,
+            shape: r.shape,
+            data: r.data,
+            x: axis("lon", r.lon, CoordKind::Longitude),
+            y: axis("lat", r.lat, CoordKind::Latitude),
+            wavelength: None,
+            rotated_pole: None,
+            regridded: None,
+        })
     }
 }
 

@@ -8,7 +8,7 @@
 //! `data file` names one file, a `LIST` of files (their names on the header's following lines)
 //! or a printf pattern (`slice.%03d 1 93 1 [subdim]`); the files hold consecutive slabs of
 //! `subdim` axes (default 2: one z slice each) and are read in order. Every name resolves
-//! through [`super::access::referenced_file`]. Per the NRRD specification `line skip` lines are
+//! through [`crate::datasets::access::referenced_file`]. Per the NRRD specification `line skip` lines are
 //! skipped in each data file before decoding and `byte skip` bytes after it (of the
 //! decompressed data for gzip and bzip2); a `byte skip` of -1 (raw only) reads the data from
 //! the file's end.
@@ -515,7 +515,7 @@ fn data_files(fields: &Fields, dims: [usize; 3]) -> Result<Option<(Vec<PathBuf>,
     }
     let files = names
         .iter()
-        .map(|n| super::access::referenced_file(path, "data file", n))
+        .map(|n| crate::datasets::access::referenced_file(path, "data file", n))
         .collect::<Result<Vec<_>>>()?;
     Ok(Some((files, dims[..subdim].iter().product())))
 }
@@ -688,6 +688,37 @@ fn ascii_samples(
         ));
     }
     Ok(out)
+}
+
+/// The NRRD reader: one volume placed by its header's spacings and origin.
+pub(crate) struct NrrdReader;
+
+impl super::Reader for NrrdReader {
+    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
+        let array = self.read(path, None, None, &Default::default())?;
+        Ok(super::single_listing(array))
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        _rank: Option<usize>,
+        _sel: &crate::datasets::select::Selection,
+    ) -> Result<crate::datasets::ArrayData> {
+        Ok(crate::datasets::volume_array(self.volume_of(path, var)?))
+    }
+
+    fn volume(&self, path: &Path, opts: &crate::datasets::LoadOptions) -> Result<Volume> {
+        self.volume_of(path, opts.variable.as_deref())
+    }
+}
+
+impl NrrdReader {
+    /// The file's one volume, refused when `var` names another.
+    fn volume_of(&self, path: &Path, var: Option<&str>) -> Result<Volume> {
+        crate::datasets::named_volume(path, read_nrrd(path)?, var)
+    }
 }
 
 #[cfg(test)]
@@ -1073,10 +1104,9 @@ mod skip_and_list_tests {
             std::fs::write(inside.join(format!("s{z}.raw")), &slab).unwrap();
             std::fs::write(root.path().join(format!("s{z}.raw")), &slab).unwrap();
         }
-        let _scope =
-            super::super::access::ReadScope::enter(&[
-                super::super::access::resolve(&inside).unwrap()
-            ]);
+        let _scope = crate::datasets::access::ReadScope::enter(&[
+            crate::datasets::access::resolve(&inside).unwrap(),
+        ]);
         assert_eq!(
             read(
                 &inside,

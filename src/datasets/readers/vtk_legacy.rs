@@ -485,7 +485,7 @@ fn volume_of(
                 for (a, axis) in axes.iter().enumerate() {
                     let step = axis.uniform_step(EVEN_SPACING).unwrap_or(1.0);
                     if step < 0.0 {
-                        super::flip_axis(&mut data, dims, a);
+                        crate::datasets::flip_axis(&mut data, dims, a);
                     }
                     spacing[a] = step.abs();
                     corner[a] = axis.lo;
@@ -571,6 +571,37 @@ fn axis_of(
         hi,
         points,
     })
+}
+
+/// The legacy VTK reader: the volume of a structured-points or rectilinear file.
+pub(crate) struct VtkReader;
+
+impl super::Reader for VtkReader {
+    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
+        let array = self.read(path, None, None, &Default::default())?;
+        Ok(super::single_listing(array))
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        _rank: Option<usize>,
+        _sel: &crate::datasets::select::Selection,
+    ) -> Result<crate::datasets::ArrayData> {
+        Ok(crate::datasets::volume_array(self.volume_of(path, var)?))
+    }
+
+    fn volume(&self, path: &Path, opts: &crate::datasets::LoadOptions) -> Result<Volume> {
+        self.volume_of(path, opts.variable.as_deref())
+    }
+}
+
+impl VtkReader {
+    /// The file's one volume, refused when `var` names another.
+    fn volume_of(&self, path: &Path, var: Option<&str>) -> Result<Volume> {
+        crate::datasets::named_volume(path, read_vtk(path, var)?, var)
+    }
 }
 
 #[cfg(test)]
