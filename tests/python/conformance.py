@@ -918,7 +918,7 @@ def cmd_census(args):
             key = why.split(": ", 1)[-1][:90]
             refusals[key] = refusals.get(key, 0) + 1
         with netCDF4.Dataset(path) as nc:
-            names = [n for n, v in nc.variables.items() if v.dtype.kind in "biuf"]
+            names = [n for n, v in nc.variables.items() if getattr(v.dtype, "kind", "S") in "biuf"]
         for name in names:
             counts["variables"] += 1
             run = subprocess.run([args.hdrvis, "info", path, "--variable", name],
