@@ -6,22 +6,16 @@ pub(crate) mod access;
 mod arrays;
 pub mod bricked;
 pub mod cache;
-pub(crate) mod cf;
-pub(crate) mod cf_time;
 pub mod coastlines;
-pub(crate) mod curvilinear;
+pub mod conventions;
 pub mod describe;
-pub mod generate;
+pub mod generators;
 pub(crate) mod grid_out;
 pub mod info;
-pub mod mantle;
-pub mod okada;
 pub mod readers;
-pub mod select;
 pub mod series;
 mod slabs;
 mod stats;
-pub mod tsunami;
 
 use crate::error::{Error, Result};
 use crate::model::{CoordAxis, CoordKind, Geometry, Grid, GridCoords, Volume};
@@ -29,6 +23,9 @@ pub(crate) use arrays::{
     fits_rank, missing_array, no_array, plain_array, rank_name, read_netcdf_array, volume_array,
 };
 pub(crate) use arrays::{list_arrays, read_array, read_array_sel, ArrayData, ArrayListing};
+pub use conventions::select;
+pub(crate) use conventions::{cf, cf_time, curvilinear};
+pub use generators::{generate, mantle, okada, tsunami};
 pub(crate) use readers::{geotiff, mintpy, scalar};
 pub use readers::{netcdf, npy, Format};
 use std::path::Path;

@@ -15,7 +15,7 @@ use std::path::Path;
 use super::hdf5;
 use crate::datasets::cf_time::TimeUnits;
 use crate::datasets::select::{self, Selection};
-use crate::datasets::{ArrayData, GridAxis};
+use crate::datasets::{ArrayData, ArrayListing, GridAxis};
 use crate::error::{Error, Result};
 use crate::model::CoordKind;
 
@@ -366,4 +366,75 @@ pub(crate) fn describe(path: &Path, product: &Product) -> Result<Vec<String>> {
         ));
     }
     Ok(lines)
+}
+
+/// The HDF5 format's reader, here above both plain datasets and MintPy's layout: datasets by
+/// path, and MintPy's products (a raster, or a time series whose
+/// dates select like a time axis) on their geocoding.
+pub(crate) struct Hdf5Reader;
+
+impl super::Reader for Hdf5Reader {
+    fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
+        super::hdf5::list_datasets(path)
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        rank: Option<usize>,
+        sel: &crate::datasets::select::Selection,
+    ) -> Result<ArrayData> {
+        match open(path)? {
+            Some(product) => read_array(path, &product, var, sel, rank.is_some()),
+            None => super::hdf5::read_dataset(path, var),
+        }
+    }
+
+    fn selects(&self, path: &Path) -> Result<bool> {
+        Ok(open(path)?.is_some())
+    }
+
+    fn holds_many(&self) -> bool {
+        true
+    }
+
+    fn volume(
+        &self,
+        path: &Path,
+        opts: &crate::datasets::LoadOptions,
+    ) -> Result<crate::model::Volume> {
+        if open(path)?.is_some() {
+            return Err(Error::format(
+                path,
+                "is a MintPy product, a 2-D raster (a time series: one per date); load it with load_grid (index or at choose a date)",
+            ));
+        }
+        let array = crate::datasets::read_array(path, opts.variable.as_deref(), Some(3))?;
+        crate::datasets::volume_from_array(path, array, [None, None, None])
+    }
+
+    fn grid_axes(&self, path: &Path, array: &ArrayData) -> Result<super::GridAxes> {
+        let Some(product) = open(path)? else {
+            return Ok(super::GridAxes::default());
+        };
+        let (x, y) = axes(path, &product, [array.shape[0], array.shape[1]])?
+            .map_or((None, None), |(x, y)| (Some(x), Some(y)));
+        Ok(super::GridAxes {
+            x,
+            y,
+            wavelength: product.wavelength(path)?,
+            ..super::GridAxes::default()
+        })
+    }
+
+    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+        match open(path)? {
+            Some(product) => time_steps(path, &product, var),
+            None => Err(Error::format(
+                path,
+                "has no time axis (only MintPy time series among HDF5 files have one)",
+            )),
+        }
+    }
 }

@@ -221,7 +221,7 @@ const FORMATS: [FormatRow; 9] = [
         name: "HDF5",
         extensions: &["h5", "hdf5", "he5"],
         signature: is_hdf5,
-        reader: &hdf5::Hdf5Reader,
+        reader: &mintpy::Hdf5Reader,
     },
     FormatRow {
         format: Format::GeoTiff,

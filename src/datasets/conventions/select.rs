@@ -11,7 +11,7 @@ use std::path::Path;
 
 use super::cf;
 use super::cf_time::TimeUnits;
-use super::netcdf::{self, NcVariable};
+use crate::datasets::netcdf::{self, NcVariable};
 use crate::error::{Error, Result};
 
 /// A coordinate value to select at.
@@ -367,7 +367,7 @@ pub(crate) fn time_step(
 }
 
 /// The dates of the CF time axis of variable `var` of a NetCDF file (else of the first data
-/// variable that has one), in ISO 8601 ([`super::time_steps`] serves every format).
+/// variable that has one), in ISO 8601 ([`crate::datasets::time_steps`] serves every format).
 pub fn time_steps(path: &Path, var: Option<&str>) -> Result<Vec<String>> {
     Ok(time_axis(path, var)?.dates)
 }
@@ -381,12 +381,12 @@ pub(crate) struct TimeAxis {
 
 /// The CF time axis of variable `var`, else of the first data variable that has one.
 pub(crate) fn time_axis(path: &Path, var: Option<&str>) -> Result<TimeAxis> {
-    let listed = super::list_arrays(path)?;
+    let listed = crate::datasets::list_arrays(path)?;
     let vars = netcdf::list_variables(path)?;
     let wanted: Vec<&(String, netcdf::Dims)> = match var {
         Some(name) => {
             let found = vars.iter().find(|(n, _)| n == name);
-            vec![found.ok_or_else(|| super::missing_array(path, name, &listed))?]
+            vec![found.ok_or_else(|| crate::datasets::missing_array(path, name, &listed))?]
         }
         None => vars
             .iter()

@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use super::cf_time::TimeUnits;
-use super::netcdf::{self, NcAttribute, NcVariable};
+use crate::datasets::netcdf::{self, NcAttribute, NcVariable};
 use crate::error::{Error, Result};
 use crate::model::{CoordAxis, RotatedPole, SphericalGrid};
 

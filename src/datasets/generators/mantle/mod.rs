@@ -341,7 +341,7 @@ pub(crate) fn generate_native(
     progress(0.0)?;
     let grid = build_spherical(opts, &mut |f| progress(0.8 * f))?;
     let res = grid.resolution;
-    let km = super::cf::EARTH_RADIUS_KM;
+    let km = crate::datasets::cf::EARTH_RADIUS_KM;
     let radii: Vec<f64> = (0..res.radial)
         .map(|ir| km * node_radius(&res, ir))
         .collect();

@@ -1,6 +1,6 @@
 //! The generators as jobs: plain parameter structs for the Okada, tsunami and mantle fields,
 //! independent of any command-line parser, each with a stable cache key (FNV-1a over a canonical
-//! text of every parameter, see `super::cache`) and a `run` that writes the result. The output
+//! text of every parameter, see `crate::datasets::cache`) and a `run` that writes the result. The output
 //! format follows the file's extension: NetCDF (`.nc`, CF-1.8 classic, with units, long names and
 //! the parameters as global attributes) or `.npy` (one array; which one is said on each job).
 //! Every write goes through a temporary file renamed into place.
@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use super::mantle::{self, MantleField, MantleOptions};
 use super::okada::{self, Elastic, FaultSegment};
 use super::tsunami::{self, TsunamiOptions};
-use super::{cache, netcdf};
+use crate::datasets::{cache, netcdf};
 use crate::error::{Error, Result};
 
 /// Bumped whenever a generator's output changes for the same parameters, so old cache entries
@@ -28,9 +28,9 @@ pub enum OutputFormat {
 impl OutputFormat {
     /// The format a file name asks for: `.nc` (or `.nc4`, `.cdf`, `.netcdf`) or `.npy`.
     pub fn from_path(path: &Path) -> Result<Self> {
-        match super::Format::from_extension(path) {
-            Some(super::Format::NetCdf) => Ok(OutputFormat::NetCdf),
-            Some(super::Format::Npy) => Ok(OutputFormat::Npy),
+        match crate::datasets::Format::from_extension(path) {
+            Some(crate::datasets::Format::NetCdf) => Ok(OutputFormat::NetCdf),
+            Some(crate::datasets::Format::Npy) => Ok(OutputFormat::Npy),
             _ => Err(Error::invalid(
                 "output",
                 format!(
@@ -42,10 +42,10 @@ impl OutputFormat {
         }
     }
 
-    fn format(self) -> super::Format {
+    fn format(self) -> crate::datasets::Format {
         match self {
-            OutputFormat::NetCdf => super::Format::NetCdf,
-            OutputFormat::Npy => super::Format::Npy,
+            OutputFormat::NetCdf => crate::datasets::Format::NetCdf,
+            OutputFormat::Npy => crate::datasets::Format::Npy,
         }
     }
 
@@ -225,7 +225,7 @@ impl OkadaJob {
                 for component in [&field.ux, &field.uy, &field.uz] {
                     stack.extend_from_slice(component);
                 }
-                super::npy::write_npy::<f64>(out, &[3, n, n], &stack)?;
+                crate::datasets::npy::write_npy::<f64>(out, &[3, n, n], &stack)?;
             }
         }
         progress(1.0)?;
@@ -441,7 +441,9 @@ impl TsunamiJob {
         let eta0: Vec<f64> = uplift.iter().map(|u| u[2]).collect();
         let result = tsunami::simulate(&bathy, &eta0, &self.options, progress)?;
         match format {
-            OutputFormat::Npy => super::npy::write_npy::<f64>(out, &[ny, nx], &result.max_abs_eta),
+            OutputFormat::Npy => {
+                crate::datasets::npy::write_npy::<f64>(out, &[ny, nx], &result.max_abs_eta)
+            }
             OutputFormat::NetCdf => {
                 let o = &self.options;
                 let bathymetry = match &self.bathymetry {
@@ -497,7 +499,7 @@ impl TsunamiJob {
 /// Reads an elevation grid (positive up) and turns it into bathymetry on a south-to-north,
 /// west-to-east raster.
 fn bathymetry_from_file(path: &Path, var: Option<&str>) -> Result<tsunami::Bathymetry> {
-    let grid = super::read_grid(path, var)?;
+    let grid = crate::datasets::read_grid(path, var)?;
     let (Some(x), Some(y)) = (grid.x, grid.y) else {
         return Err(Error::format(
             path,
@@ -508,7 +510,7 @@ fn bathymetry_from_file(path: &Path, var: Option<&str>) -> Result<tsunami::Bathy
         ));
     };
     let [ny, nx] = grid.shape;
-    let degrees = |axis: &super::GridAxis| {
+    let degrees = |axis: &crate::datasets::GridAxis| {
         matches!(axis.name.as_str(), "lon" | "longitude" | "lat" | "latitude")
             || axis
                 .units
@@ -518,7 +520,7 @@ fn bathymetry_from_file(path: &Path, var: Option<&str>) -> Result<tsunami::Bathy
     let (dx, dy) = if degrees(&x) && degrees(&y) {
         tsunami::grid_spacing_from_lonlat(&x.values, &y.values)?
     } else {
-        let step = |axis: &super::GridAxis| -> Result<f64> {
+        let step = |axis: &crate::datasets::GridAxis| -> Result<f64> {
             let v = &axis.values;
             if v.len() < 2 {
                 return Err(Error::format(
@@ -619,7 +621,7 @@ impl MantleJob {
         match format {
             OutputFormat::Npy => {
                 let data = volume.field(wanted[0]).unwrap_or(&[]);
-                super::npy::write_npy_f32(out, &[n, n, n], data)
+                crate::datasets::npy::write_npy_f32(out, &[n, n, n], data)
             }
             OutputFormat::NetCdf => {
                 let centres: Vec<f64> = (0..n)
@@ -830,7 +832,7 @@ mod tests {
             ..OkadaJob::default()
         };
         job.run(&out, &mut |_| Ok(())).unwrap();
-        let arr = super::super::npy::read_npy::<f64>(&out).unwrap();
+        let arr = crate::datasets::npy::read_npy::<f64>(&out).unwrap();
         assert_eq!(arr.shape, [3, 5, 5]);
         let field =
             okada::surface_field(&job.segments, &job.elastic, 1.0e6, 5, &mut |_| Ok(())).unwrap();
