@@ -10,12 +10,12 @@
 //! gap from their ticks, the bar's top label clears its caption), so a test can hold the boxes
 //! apart. The text, the number format and the round tick values are those of [`super::text`].
 
-use super::grid::GridCoords;
 use super::text::{
     draw_extend_triangles, draw_text, extend_length, format_number, nice_ticks, typeset_number,
     ColourBar, Type,
 };
-use super::HdrImage;
+use crate::model::grid::GridCoords;
+use crate::model::HdrImage;
 
 const WHITE: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
 const BLACK: [f32; 4] = [0.0, 0.0, 0.0, 1.0];
@@ -33,7 +33,7 @@ pub(crate) struct MapAxis {
 }
 
 /// The two axes of a map image: x runs east (left to right), y north (bottom to top) or, when
-/// `y_down` (a depth axis, [`super::Grid::y_down`]), downward (top to bottom).
+/// `y_down` (a depth axis, [`crate::model::Grid::y_down`]), downward (top to bottom).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct MapAxes {
     pub x: MapAxis,
@@ -152,7 +152,7 @@ impl MapAxes {
     }
 
     /// The axes of a grid in map view, when both are evenly spaced.
-    pub(crate) fn of_grid(grid: &super::Grid) -> Option<MapAxes> {
+    pub(crate) fn of_grid(grid: &crate::model::Grid) -> Option<MapAxes> {
         Some(MapAxes {
             x: MapAxis::of_coords(grid.x())?,
             y: MapAxis::of_coords(grid.y())?,
@@ -568,7 +568,7 @@ fn draw_upright_bar(
     ((x0, x1), (y0, y1)): ((u32, u32), (u32, u32)),
     ty: Type,
 ) -> crate::Result<()> {
-    let cmap = super::colormap::Colormap::by_name(&bar.colormap)?;
+    let cmap = crate::model::colormap::Colormap::by_name(&bar.colormap)?;
     let (r0, r1) = upright_rows(bar, y1 - y0, ty.line());
     let n = (r1 - r0) as f64;
     for row in r0..r1 {

@@ -8,7 +8,7 @@
 //! units, which ends clip) and [`with_colour_bar`] draws it under an image with labelled ticks —
 //! every decade on log10 and symlog scales — for `save_png(img, path, #{legend: true})`.
 
-use super::HdrImage;
+use crate::model::HdrImage;
 use ab_glyph::{Font, FontRef, PxScale, ScaleFont};
 use std::sync::OnceLock;
 
@@ -442,7 +442,7 @@ pub(crate) fn fill_triangle(img: &mut HdrImage, corners: [(f64, f64); 3], colour
 pub(crate) fn draw_extend_triangles(
     img: &mut HdrImage,
     bar: &ColourBar,
-    cmap: &super::colormap::Colormap,
+    cmap: &crate::model::colormap::Colormap,
     (x0, x1): (u32, u32),
     (y0, y1): (u32, u32),
     upright: bool,
@@ -485,7 +485,7 @@ pub(crate) fn with_colour_bar(
     bar: &ColourBar,
     ty: Type,
 ) -> crate::Result<HdrImage> {
-    let cmap = super::colormap::Colormap::by_name(&bar.colormap)?;
+    let cmap = crate::model::colormap::Colormap::by_name(&bar.colormap)?;
     let (w, h) = (img.width, img.height);
     let (gap, line) = (ty.gap(), ty.line());
     let thick = line;
@@ -594,7 +594,7 @@ mod tests {
         assert_eq!((out.width, out.height), (200, 10 + 5 * gap + 3 * line));
         // The bar's first row is the colour map from end to end; each drawn tick sits where
         // `position` puts its value, in the gap under the bar.
-        let cmap = super::super::colormap::Colormap::by_name("viridis").unwrap();
+        let cmap = crate::model::colormap::Colormap::by_name("viridis").unwrap();
         let row = (10 + gap) as usize;
         assert_eq!(
             out.meta("legend_bar_rows"),
