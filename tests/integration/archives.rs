@@ -188,6 +188,28 @@ fn a_classic_header_longer_than_64_kib_reads() {
 }
 
 #[test]
+fn cf_attributes_of_a_plain_hdf5_dataset_decode_as_netcdf_c_decodes_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "h5cf") else {
+        return;
+    };
+    let path = dir.path().join("cf.h5");
+    let got = hdrvis::datasets::read_grid(&path, Some("/sst"))
+        .unwrap()
+        .data;
+    let (nc, xr) = (numbers(&r, "netcdf4"), numbers(&r, "xarray"));
+    for (i, ((g, n), x)) in got.iter().zip(&nc).zip(&xr).enumerate() {
+        // netCDF-C masks valid_range too, which xarray leaves (the 32000 stored at index 4).
+        assert!(
+            (g.is_nan() && n.is_nan()) || (g - n).abs() <= 1e-6 * n.abs(),
+            "[{i}] {g}, netCDF4-python {n}"
+        );
+        assert!(i == 4 || (g.is_nan() && x.is_nan()) || (g - x).abs() <= 1e-6 * x.abs());
+    }
+    assert!(got[2].is_nan() && got[4].is_nan() && !xr[4].is_nan());
+}
+
+#[test]
 fn bad_input_is_one_line_naming_the_file_and_what_was_expected() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -16,6 +16,9 @@ CASE is one of:
   nat       all_missing_time.nc: a field whose `time` coordinate holds only _FillValue
   longhdr   long_header.nc: NetCDF-3 classic with 100 kB of text attributes before the variables
             (the header is longer than a first read of 64 KiB)
+  h5cf      cf.h5: a plain HDF5 dataset written by h5py with CF's packing and masking attributes
+            (int16, _FillValue, scale_factor, add_offset, valid_range); the values as
+            netCDF4-python (netCDF-C) and xarray decode it
 Each result is one line, `KEY VALUE VALUE ...`, arrays in C order with `nan` for missing values.
 Exit status 77 (skipped) when a module is missing.
 """
@@ -232,7 +235,23 @@ def longhdr(out):
     emit("elevation", ds.elevation.values)
 
 
-CASES = {"cordex": cordex, "cmip": cmip, "months": months, "nat": nat, "longhdr": longhdr}
+def h5cf(out):
+    import h5py
+
+    path = os.path.join(out, "cf.h5")
+    with h5py.File(path, "w") as f:
+        d = f.create_dataset("sst", data=np.array([[100, 200, -32768], [300, 32000, -5]], "i2"))
+        d.attrs["_FillValue"] = np.int16(-32768)
+        d.attrs["scale_factor"] = np.float32(0.01)
+        d.attrs["add_offset"] = np.float32(20.0)
+        d.attrs["valid_range"] = np.array([-1000, 31000], "i2")
+        d.attrs["units"] = "degC"
+    with netCDF4.Dataset(path) as nc:
+        emit("netcdf4", np.ma.filled(nc["sst"][:].astype("f8"), np.nan))
+    emit("xarray", xr.open_dataset(path, engine="netcdf4").sst.values)
+
+
+CASES = {"cordex": cordex, "cmip": cmip, "months": months, "nat": nat, "longhdr": longhdr, "h5cf": h5cf}
 
 if __name__ == "__main__":
     out_dir, case = sys.argv[1], sys.argv[2]

@@ -3,8 +3,11 @@
 //! shuffle, Fletcher-32 or LZ4, whose filter hdrvis decodes itself), integers and floats of either
 //! byte order. A dataset is named by its path inside the file (`file.h5:/group/name`); a 3-D one
 //! of shape (nz, ny, nx) loads like a `.npy` (spacing 1, origin 0), with units from a `units`
-//! attribute. A dataset the reader cannot open (a virtual dataset) is listed with the reason and
-//! leaves the rest of the file readable.
+//! attribute. CF's masking and packing attributes, where a writer gave them (`_FillValue`,
+//! `missing_value`, `valid_range`, `scale_factor`, `add_offset`, `_Unsigned`), are decoded by the
+//! same decoder as NetCDF's (`conventions::cf_decode`), without netCDF's default fills, which
+//! are netCDF's own. A dataset the reader cannot open (a virtual dataset) is listed with the
+//! reason and leaves the rest of the file readable.
 
 use std::path::Path;
 
@@ -12,7 +15,9 @@ use hdf5_reader::filters::FILTER_LZ4;
 use hdf5_reader::group::Group;
 use hdf5_reader::{ByteOrder, Dataset, Datatype, FilterRegistry, Hdf5File};
 
+use super::netcdf::NcAttribute;
 use super::scalar::Scalar;
+use crate::datasets::conventions::cf_decode::{CfDecoding, Stored};
 use crate::datasets::{ArrayData, ArrayListing};
 use crate::error::{Error, Result};
 
@@ -121,6 +126,42 @@ fn sample_type(dtype: &Datatype) -> Option<(Scalar, bool)> {
         _ => return None,
     };
     Some((scalar, order == ByteOrder::BigEndian))
+}
+
+/// The stored type CF decoding compares attributes in.
+fn stored_of(sample: Scalar) -> Stored {
+    let int = |bits, unsigned| Stored::Int { bits, unsigned };
+    match sample {
+        Scalar::F32 => Stored::Float32,
+        Scalar::F64 => Stored::Float64,
+        Scalar::I8 => int(8, false),
+        Scalar::U8 => int(8, true),
+        Scalar::I16 => int(16, false),
+        Scalar::U16 => int(16, true),
+        Scalar::I32 => int(32, false),
+        Scalar::U32 => int(32, true),
+        Scalar::I64 => int(64, false),
+        Scalar::U64 => int(64, true),
+        _ => Stored::Other,
+    }
+}
+
+/// A dataset's attributes as CF decoding reads them: numbers as f64, strings as text.
+fn cf_attributes(dataset: &Dataset) -> Vec<(String, NcAttribute)> {
+    dataset
+        .attributes()
+        .into_iter()
+        .filter_map(|a| match sample_type(&a.datatype) {
+            Some((sample, big)) => Some((
+                a.name.clone(),
+                NcAttribute::Numbers(sample.decode_f64(big, &a.raw_data)),
+            )),
+            None => a.read_string().ok().map(|t| {
+                let t = t.trim_end_matches('\0').to_string();
+                (a.name.clone(), NcAttribute::Text(t))
+            }),
+        })
+        .collect()
 }
 
 /// A short name of a datatype for listings: `float32`, `int16`, … or `other`.
@@ -333,10 +374,17 @@ pub(crate) fn read_dataset(path: &Path, name: Option<&str>) -> Result<ArrayData>
         .and_then(|a| a.read_string().ok())
         .map(|u| u.trim_end_matches('\0').to_string())
         .filter(|u| !u.is_empty());
-    let values = sample.decode_f64(big, &raw);
+    let mut values = sample.decode_f64(big, &raw);
+    // CF's attributes where the writer gave them (xarray's h5netcdf, satellite products):
+    // NaN stored as data is not a fill.
+    let stored_nan = values.iter().filter(|v| v.is_nan()).count();
+    let decoding = CfDecoding::with_defaults(&cf_attributes(&dataset), stored_of(sample), false);
+    decoding.apply(&mut values);
+    let fill_count = values.iter().filter(|v| v.is_nan()).count() - stored_nan;
     let mut array =
         crate::datasets::plain_array(&full, listing.shape.clone(), listing.dtype.clone(), values);
     array.units = units;
+    array.fill_count = fill_count;
     Ok(array)
 }
 

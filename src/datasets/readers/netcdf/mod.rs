@@ -408,69 +408,55 @@ pub(crate) fn read_slice(
     Ok(raw.iter().copied().collect())
 }
 
-/// The CF decoding of a variable's values, in place, in this order: signedness (`_Unsigned`),
-/// masking, unpacking (`scale_factor`, `add_offset`). Masking is the reader's (`_FillValue`,
-/// `missing_value`, `valid_*`), with netCDF's default fill value of the stored type standing in
-/// for an absent `_FillValue`: unwritten parts of a file hold it, and netCDF4-python and ncdump
-/// treat it as missing.
+/// The CF decoding of a variable's values, in place (`conventions::cf_decode`, as for every
+/// format with attributes).
 fn decode_cf(var: &netcdf_reader::NcVariable, values: &mut ndarray::ArrayD<f64>) {
-    use netcdf_reader::masked::MaskParams;
-    use netcdf_reader::unpack::{SignParams, UnpackParams};
-    if let Some(sign) = SignParams::from_variable(var) {
-        sign.apply(values);
-    }
-    let mut mask = MaskParams::from_variable(var);
-    if var.attribute("_FillValue").is_none() {
-        if let Some(fill) = default_fill(var) {
-            let m = mask.get_or_insert(MaskParams {
-                fill_value: None,
-                missing_values: Vec::new(),
-                valid_min: None,
-                valid_max: None,
-            });
-            m.fill_value = Some(fill);
-        }
-    }
-    if let Some(mask) = mask {
-        mask.apply(values);
-    }
-    if let Some(unpack) = UnpackParams::from_variable(var) {
-        unpack.apply(values);
-    }
-}
-
-/// netCDF's default fill value (netcdf.h's `NC_FILL_*`) of the type a variable's values have
-/// once its `_Unsigned` attribute is applied, as f64 (the int64 ones rounded, as every value of
-/// those types is when read as f64).
-fn default_fill(var: &netcdf_reader::NcVariable) -> Option<f64> {
+    use crate::datasets::conventions::cf_decode::{CfDecoding, Stored};
     use netcdf_reader::NcType;
-    let unsigned = var
-        .attribute("_Unsigned")
-        .and_then(|a| a.value.as_string())
-        .and_then(|s| match s.trim().to_ascii_lowercase().as_str() {
-            "true" => Some(true),
-            "false" => Some(false),
-            _ => None,
-        });
-    let as_unsigned = |signed: bool| unsigned.unwrap_or(!signed);
-    Some(match var.dtype() {
-        NcType::Float | NcType::Double => 9.969_209_968_386_869e36,
-        NcType::Byte | NcType::UByte if as_unsigned(matches!(var.dtype(), NcType::Byte)) => 255.0,
-        NcType::Byte | NcType::UByte => -127.0,
-        NcType::Short | NcType::UShort if as_unsigned(matches!(var.dtype(), NcType::Short)) => {
-            65535.0
-        }
-        NcType::Short | NcType::UShort => -32767.0,
-        NcType::Int | NcType::UInt if as_unsigned(matches!(var.dtype(), NcType::Int)) => {
-            4_294_967_295.0
-        }
-        NcType::Int | NcType::UInt => -2_147_483_647.0,
-        NcType::Int64 | NcType::UInt64 if as_unsigned(matches!(var.dtype(), NcType::Int64)) => {
-            18_446_744_073_709_551_614_u64 as f64
-        }
-        NcType::Int64 | NcType::UInt64 => -9_223_372_036_854_775_806_i64 as f64,
-        _ => return None,
-    })
+    let stored = match var.dtype() {
+        NcType::Float => Stored::Float32,
+        NcType::Double => Stored::Float64,
+        NcType::Byte => Stored::Int {
+            bits: 8,
+            unsigned: false,
+        },
+        NcType::UByte => Stored::Int {
+            bits: 8,
+            unsigned: true,
+        },
+        NcType::Short => Stored::Int {
+            bits: 16,
+            unsigned: false,
+        },
+        NcType::UShort => Stored::Int {
+            bits: 16,
+            unsigned: true,
+        },
+        NcType::Int => Stored::Int {
+            bits: 32,
+            unsigned: false,
+        },
+        NcType::UInt => Stored::Int {
+            bits: 32,
+            unsigned: true,
+        },
+        NcType::Int64 => Stored::Int {
+            bits: 64,
+            unsigned: false,
+        },
+        NcType::UInt64 => Stored::Int {
+            bits: 64,
+            unsigned: true,
+        },
+        _ => Stored::Other,
+    };
+    let attributes: Vec<(String, NcAttribute)> = var
+        .attributes()
+        .iter()
+        .filter_map(|a| convert_attribute(&a.value).map(|v| (a.name.clone(), v)))
+        .collect();
+    let decoding = CfDecoding::of(&attributes, stored);
+    values.mapv_inplace(|v| decoding.value(v));
 }
 
 /// The variables that other variables name as their auxiliary coordinates, bounds, grid
