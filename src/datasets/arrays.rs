@@ -224,7 +224,12 @@ pub(super) fn netcdf_variable(
 ) -> Result<(String, ArrayListing)> {
     let listed = list_arrays(path)?;
     let name = match var {
-        Some(v) => v.to_string(),
+        // An HDF5-style path to a root-group variable ("/t2m", as for plain HDF5 files).
+        Some(v) => match v.strip_prefix('/') {
+            Some(root) if !root.contains('/') && !listed.iter().any(|a| a.name == v) => root,
+            _ => v,
+        }
+        .to_string(),
         None => default_netcdf_variable(path, &listed, rank, sel)?,
     };
     let listing = listed

@@ -210,6 +210,22 @@ fn cf_attributes_of_a_plain_hdf5_dataset_decode_as_netcdf_c_decodes_them() {
 }
 
 #[test]
+fn an_hdf5_file_with_dimension_scales_reads_through_cf_as_netcdf_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "h5dims") else {
+        return;
+    };
+    let path = dir.path().join("dims.h5");
+    // Named .h5, laid out as NetCDF-4: dimensions, CF roles, a noleap calendar and masking.
+    let got = grid_values(&path, "t2m", &[("time", 1)]);
+    assert_same(&got, &numbers(&r, "t2m.t1"), "t2m at time 1");
+    assert!(got[0].is_nan());
+    let info = info_json(&path, "/t2m");
+    assert_eq!(words(&info["roles"]), ["time", "latitude", "longitude"]);
+    assert_eq!(words(&info["times"]), r["time"]);
+}
+
+#[test]
 fn bad_input_is_one_line_naming_the_file_and_what_was_expected() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -16,6 +16,9 @@ CASE is one of:
   nat       all_missing_time.nc: a field whose `time` coordinate holds only _FillValue
   longhdr   long_header.nc: NetCDF-3 classic with 100 kB of text attributes before the variables
             (the header is longer than a first read of 64 KiB)
+  h5dims    dims.h5: h5py's dimension scales (time in days since 2000-01-01, noleap; lat; lon)
+            attached to a float32 t2m with missing_value, as h5netcdf lays files out; xarray's
+            isel(time=1) and dates
   h5cf      cf.h5: a plain HDF5 dataset written by h5py with CF's packing and masking attributes
             (int16, _FillValue, scale_factor, add_offset, valid_range); the values as
             netCDF4-python (netCDF-C) and xarray decode it
@@ -251,7 +254,34 @@ def h5cf(out):
     emit("xarray", xr.open_dataset(path, engine="netcdf4").sst.values)
 
 
-CASES = {"cordex": cordex, "cmip": cmip, "months": months, "nat": nat, "longhdr": longhdr, "h5cf": h5cf}
+def h5dims(out):
+    import h5py
+
+    path = os.path.join(out, "dims.h5")
+    with h5py.File(path, "w") as f:
+        scales = []
+        for name, values, attrs in (
+            ("time", [0.0, 31.0, 59.0], {"units": "days since 2000-01-01", "calendar": "noleap"}),
+            ("lat", np.linspace(-30.0, 30.0, 4), {"units": "degrees_north"}),
+            ("lon", np.arange(6) * 60.0, {"units": "degrees_east"}),
+        ):
+            d = f.create_dataset(name, data=np.asarray(values))
+            d.attrs.update(attrs)
+            d.make_scale(name)
+            scales.append(d)
+        data = field(3, 4, 6, 4)
+        data[1, 0, 0] = -999.0
+        t = f.create_dataset("t2m", data=data)
+        t.attrs["units"] = "K"
+        t.attrs["missing_value"] = np.float32(-999.0)
+        for axis, scale in enumerate(scales):
+            t.dims[axis].attach_scale(scale)
+    ds = xr.open_dataset(path, engine="netcdf4")
+    emit("t2m.t1", ds.t2m.isel(time=1).values)
+    print("time", " ".join(t.isoformat()[:19] for t in ds.time.values))
+
+
+CASES = {"cordex": cordex, "cmip": cmip, "months": months, "nat": nat, "longhdr": longhdr, "h5cf": h5cf, "h5dims": h5dims}
 
 if __name__ == "__main__":
     out_dir, case = sys.argv[1], sys.argv[2]

@@ -204,6 +204,39 @@ pub(crate) fn list_datasets(path: &Path) -> Result<Vec<ArrayListing>> {
     Ok(listed)
 }
 
+/// Whether an HDF5 file is laid out as NetCDF-4 is, so that the NetCDF reader's dimensions and
+/// CF decoding apply: netCDF-C's `_NCProperties` on the root group, or (as h5py and h5netcdf
+/// write) datasets in the root group only, some of them dimension scales or attached to one
+/// (`CLASS`, `DIMENSION_LIST`), and no MintPy product. Any trouble reading the file says no: the
+/// HDF5 reader then says what is wrong.
+pub(crate) fn has_netcdf_dimensions(path: &Path) -> bool {
+    let Ok(file) = open(path) else {
+        return false;
+    };
+    let Ok(root) = file.root_group() else {
+        return false;
+    };
+    let Ok(root_attrs) = root.attributes() else {
+        return false;
+    };
+    let root_attrs: Vec<String> = root_attrs.into_iter().map(|a| a.name).collect();
+    if root_attrs.iter().any(|n| n == "_NCProperties") {
+        return true;
+    }
+    if root_attrs.iter().any(|n| n == "FILE_TYPE") {
+        return false;
+    }
+    let Ok((groups, datasets)) = root.members() else {
+        return false;
+    };
+    groups.is_empty()
+        && datasets.iter().any(|d| {
+            d.attributes()
+                .iter()
+                .any(|a| a.name == "DIMENSION_LIST" || a.name == "CLASS")
+        })
+}
+
 /// A group's members opened one at a time, for a group where opening them all at once fails:
 /// `hdf5-reader` 0.12 fails the whole of `Group::members` on one child it cannot parse (a
 /// virtual dataset's layout, class 3). Each child that opens as neither a group nor a dataset is

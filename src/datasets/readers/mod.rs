@@ -2,7 +2,8 @@
 //! bytes (the signatures the formats' own specifications fix), as xarray's backends guess an
 //! engine; the extension is only a hint, used where the content allows two readings (a NetCDF-4
 //! file is an HDF5 file: named `.nc` it is read as NetCDF with its dimensions and CF metadata,
-//! named `.h5` as plain HDF5 datasets). Every reader, the CLI's messages and the writers that
+//! named `.h5` as NetCDF too when it is laid out as NetCDF-4 is, with dimension scales in its root
+//! group, and as plain HDF5 datasets otherwise). Every reader, the CLI's messages and the writers that
 //! choose a format by name ask this table; no other module lists extensions.
 //!
 //! Each format's reader implements [`Reader`], as an xarray backend does: list what a file holds,
@@ -337,7 +338,11 @@ impl Format {
         std::fs::File::open(path)
             .and_then(|f| f.take(HEAD_BYTES as u64).read_to_end(&mut head))
             .map_err(|e| Error::io(path, e))?;
-        Self::of_head(path, &head)
+        match Self::of_head(path, &head)? {
+            // An HDF5 file with NetCDF-4's dimensions reads as NetCDF whatever its name.
+            Format::Hdf5 if hdf5::has_netcdf_dimensions(path) => Ok(Format::NetCdf),
+            format => Ok(format),
+        }
     }
 
     fn of_head(path: &Path, head: &[u8]) -> Result<Format> {
