@@ -5,17 +5,12 @@
 use std::path::Path;
 
 use crate::datasets::select::Selection;
-use crate::datasets::{ArrayData, ArrayListing};
+use crate::datasets::ArrayData;
 use crate::error::{Error, Result};
 
 pub(crate) struct ExrReader;
 
 impl super::Reader for ExrReader {
-    fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
-        self.read(path, None, None, &Selection::default())
-            .map(super::single_listing)
-    }
-
     fn read(
         &self,
         path: &Path,

@@ -599,11 +599,6 @@ fn check_crs(path: &Path, keys: &[(u16, u16)]) -> Result<String> {
 pub(crate) struct GeoTiffReader;
 
 impl super::Reader for GeoTiffReader {
-    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
-        let array = self.read(path, None, None, &Default::default())?;
-        Ok(super::single_listing(array))
-    }
-
     fn read(
         &self,
         path: &Path,

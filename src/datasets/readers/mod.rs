@@ -37,8 +37,18 @@ use crate::model::{RotatedPole, Volume};
 /// What one format's reader does. Only `list` and `read` are required; the rest have the
 /// defaults of a format that holds bare arrays (no dimensions to select, no coordinates).
 pub(crate) trait Reader: Sync {
-    /// Every array the file holds, in file order.
-    fn list(&self, path: &Path) -> Result<Vec<ArrayListing>>;
+    /// Every array the file holds, in file order; by default the one array `read` gives.
+    fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
+        let array = self.read(path, None, None, &Selection::default())?;
+        Ok(vec![ArrayListing {
+            name: array.name,
+            shape: array.shape,
+            dtype: array.dtype,
+            is_coordinate: false,
+            is_auxiliary: false,
+            unreadable: None,
+        }])
+    }
 
     /// One array, decoded (missing values NaN): `var`, else the reader's default for `rank`,
     /// with the dimensions `sel` fixes (only where [`Reader::selects`]).
@@ -126,16 +136,24 @@ pub(crate) struct GridExtras {
     pub elevation: Option<Vec<f64>>,
 }
 
-/// The listing of a file that holds one array, from that array.
-pub(crate) fn single_listing(array: ArrayData) -> Vec<ArrayListing> {
-    vec![ArrayListing {
-        name: array.name,
-        shape: array.shape,
-        dtype: array.dtype,
-        is_coordinate: false,
-        is_auxiliary: false,
-        unreadable: None,
-    }]
+/// The reader of a format that holds one volume with its own geometry (NRRD, VTK ImageData,
+/// legacy VTK), from the function that reads that volume (refusing a `var` that names another).
+pub(crate) struct OneVolume(pub fn(&Path, Option<&str>) -> Result<Volume>);
+
+impl Reader for OneVolume {
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        _rank: Option<usize>,
+        _sel: &Selection,
+    ) -> Result<ArrayData> {
+        Ok(crate::datasets::volume_array((self.0)(path, var)?))
+    }
+
+    fn volume(&self, path: &Path, opts: &LoadOptions) -> Result<Volume> {
+        (self.0)(path, opts.variable.as_deref())
+    }
 }
 
 /// A file format hdrvis reads.
@@ -240,21 +258,21 @@ const FORMATS: [FormatRow; 9] = [
         name: "NRRD",
         extensions: &["nrrd", "nhdr"],
         signature: |h| h.starts_with(b"NRRD000"),
-        reader: &nhdr::NrrdReader,
+        reader: &OneVolume(nhdr::volume),
     },
     FormatRow {
         format: Format::Vti,
         name: "VTK ImageData",
         extensions: &["vti"],
         signature: is_xml_vtk_image,
-        reader: &vti::VtiReader,
+        reader: &OneVolume(vti::volume),
     },
     FormatRow {
         format: Format::VtkLegacy,
         name: "legacy VTK",
         extensions: &["vtk"],
         signature: |h| h.starts_with(b"# vtk DataFile"),
-        reader: &vtk_legacy::VtkReader,
+        reader: &OneVolume(vtk_legacy::volume),
     },
     FormatRow {
         format: Format::Exr,

@@ -690,35 +690,9 @@ fn ascii_samples(
     Ok(out)
 }
 
-/// The NRRD reader: one volume placed by its header's spacings and origin.
-pub(crate) struct NrrdReader;
-
-impl super::Reader for NrrdReader {
-    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
-        let array = self.read(path, None, None, &Default::default())?;
-        Ok(super::single_listing(array))
-    }
-
-    fn read(
-        &self,
-        path: &Path,
-        var: Option<&str>,
-        _rank: Option<usize>,
-        _sel: &crate::datasets::select::Selection,
-    ) -> Result<crate::datasets::ArrayData> {
-        Ok(crate::datasets::volume_array(self.volume_of(path, var)?))
-    }
-
-    fn volume(&self, path: &Path, opts: &crate::datasets::LoadOptions) -> Result<Volume> {
-        self.volume_of(path, opts.variable.as_deref())
-    }
-}
-
-impl NrrdReader {
-    /// The file's one volume, refused when `var` names another.
-    fn volume_of(&self, path: &Path, var: Option<&str>) -> Result<Volume> {
-        crate::datasets::named_volume(path, read_nrrd(path)?, var)
-    }
+/// The file's one volume (the registry's reader), refused when `var` names another.
+pub(crate) fn volume(path: &Path, var: Option<&str>) -> Result<Volume> {
+    crate::datasets::named_volume(path, read_nrrd(path)?, var)
 }
 
 #[cfg(test)]

@@ -276,11 +276,6 @@ pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<()> {
 pub(crate) struct NpyReader;
 
 impl super::Reader for NpyReader {
-    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
-        let array = self.read(path, None, None, &Default::default())?;
-        Ok(super::single_listing(array))
-    }
-
     fn read(
         &self,
         path: &Path,

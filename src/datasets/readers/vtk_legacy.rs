@@ -573,35 +573,9 @@ fn axis_of(
     })
 }
 
-/// The legacy VTK reader: the volume of a structured-points or rectilinear file.
-pub(crate) struct VtkReader;
-
-impl super::Reader for VtkReader {
-    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
-        let array = self.read(path, None, None, &Default::default())?;
-        Ok(super::single_listing(array))
-    }
-
-    fn read(
-        &self,
-        path: &Path,
-        var: Option<&str>,
-        _rank: Option<usize>,
-        _sel: &crate::datasets::select::Selection,
-    ) -> Result<crate::datasets::ArrayData> {
-        Ok(crate::datasets::volume_array(self.volume_of(path, var)?))
-    }
-
-    fn volume(&self, path: &Path, opts: &crate::datasets::LoadOptions) -> Result<Volume> {
-        self.volume_of(path, opts.variable.as_deref())
-    }
-}
-
-impl VtkReader {
-    /// The file's one volume, refused when `var` names another.
-    fn volume_of(&self, path: &Path, var: Option<&str>) -> Result<Volume> {
-        crate::datasets::named_volume(path, read_vtk(path, var)?, var)
-    }
+/// The file's one volume (the registry's reader), refused when `var` names another.
+pub(crate) fn volume(path: &Path, var: Option<&str>) -> Result<Volume> {
+    crate::datasets::named_volume(path, read_vtk(path, var)?, var)
 }
 
 #[cfg(test)]

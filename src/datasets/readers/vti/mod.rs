@@ -33,45 +33,12 @@ pub(crate) struct VtiVolume {
     pub data: Vec<f32>,
 }
 
-/// Writes a volume as a `.vti` file readable by ParaView, through a temporary file renamed into
-/// place.
-/// The VTK ImageData reader: one point-data array placed by Origin and Spacing.
-pub(crate) struct VtiReader;
-
-impl super::Reader for VtiReader {
-    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
-        let array = self.read(path, None, None, &Default::default())?;
-        Ok(super::single_listing(array))
-    }
-
-    fn read(
-        &self,
-        path: &Path,
-        var: Option<&str>,
-        _rank: Option<usize>,
-        _sel: &crate::datasets::select::Selection,
-    ) -> Result<crate::datasets::ArrayData> {
-        Ok(crate::datasets::volume_array(self.volume_of(path, var)?))
-    }
-
-    fn volume(&self, path: &Path, opts: &crate::datasets::LoadOptions) -> Result<Volume> {
-        self.volume_of(path, opts.variable.as_deref())
-    }
-}
-
-impl VtiReader {
-    /// The file's one volume, refused when `var` names another.
-    fn volume_of(&self, path: &Path, var: Option<&str>) -> Result<Volume> {
-        let v = read_vti(path)?;
-        if let Some(wanted) = var.filter(|w| *w != v.name) {
-            return Err(Error::format(
-                path,
-                format!("no array '{wanted}'; the file has: {}", v.name),
-            ));
-        }
-        Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
-            .map_err(|e| Error::format(path, e.to_string()))
-    }
+/// The file's one volume (the registry's reader), refused when `var` names another.
+pub(crate) fn volume(path: &Path, var: Option<&str>) -> Result<Volume> {
+    let v = read_vti(path)?;
+    let volume = Volume::new(v.name, v.dims, v.spacing, v.origin, v.data)
+        .map_err(|e| Error::format(path, e.to_string()))?;
+    crate::datasets::named_volume(path, volume, var)
 }
 
 #[cfg(test)]
