@@ -1,6 +1,7 @@
-//! Datasets: readers for the formats geoscientists have (NumPy, NRRD raw headers) and, as the
-//! datasets work lands, the generators of the paper's case studies. `load_volume` picks the
-//! reader from the file name.
+//! Datasets: the files geoscientists have, read through one registry of readers chosen by
+//! content (`readers`), given their meaning by the CF conventions (`conventions`), and the
+//! generators of the paper's case studies (`generators`); here, the volumes and grids built from
+//! what the readers read (`load_volume`, `load_grid`) and the arrays by name across formats.
 
 pub(crate) mod access;
 mod arrays;
@@ -54,7 +55,7 @@ pub(crate) fn check_volume_geometry(
     Ok(())
 }
 
-/// Loads a scalar volume, choosing the reader by extension; see [`load_volume_with`].
+/// Loads a scalar volume by the file's reader; see [`load_volume_with`].
 pub fn load_volume(path: &Path) -> Result<Volume> {
     load_volume_with(path, &LoadOptions::default())
 }
@@ -91,7 +92,7 @@ pub struct LoadOptions {
     pub resolution: Option<f64>,
 }
 
-/// Loads a scalar volume, choosing the reader by extension: `.npy` (shape (nz, ny, nx)),
+/// Loads a scalar volume by the reader the file's content names ([`Format::of`]): `.npy` (shape (nz, ny, nx)),
 /// `.npz` (the array `var`, else the largest 3-D one), `.nc` (the variable `var`, else the first
 /// 3-D data variable; dimensions (z, y, x), leading length-1 dimensions such as a single time
 /// step are dropped), `.vti`, `.nhdr`/`.nrrd`. For NetCDF, a variable on CF latitude, longitude
