@@ -3,7 +3,8 @@
 //! selection: `read_array_sel`), for NumPy `.npy`/`.npz`, NetCDF, HDF5 and MintPy, GeoTIFF,
 //! NRRD and VTK files; and the one-line errors that list what a file has when a name is wrong.
 
-use super::{netcdf, select, Format, Volume};
+use super::readers::variables;
+use super::{select, Format, Volume};
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -49,7 +50,7 @@ pub(crate) struct ArrayData {
     /// already turned into NaN; 0 for formats without such a convention.
     pub fill_count: usize,
     /// The variable's attributes (NetCDF), for the CF metadata that places it in the world.
-    pub attributes: Vec<(String, netcdf::NcAttribute)>,
+    pub attributes: Vec<(String, variables::NcAttribute)>,
     /// How each dimension a selection fixed was chosen.
     pub notes: Vec<String>,
 }
@@ -144,8 +145,8 @@ fn default_netcdf_variable(
     rank: Option<usize>,
     sel: &select::Selection,
 ) -> Result<String> {
-    let all_dims = netcdf::list_variables(path)?;
-    let dims_of = |name: &str| netcdf::dims_in(&all_dims, name);
+    let all_dims = variables::list_variables(path)?;
+    let dims_of = |name: &str| variables::dims_in(&all_dims, name);
     let candidates: Vec<(&ArrayListing, Vec<usize>)> = listed
         .iter()
         .filter(|a| a.is_data())
@@ -188,7 +189,7 @@ pub(crate) fn read_netcdf_array(
     sel: &select::Selection,
 ) -> Result<ArrayData> {
     let (name, listing) = netcdf_variable(path, var, rank, sel)?;
-    let dims = netcdf::list_variables(path)?
+    let dims = variables::list_variables(path)?
         .into_iter()
         .find(|(n, _)| *n == name)
         .map(|(_, d)| d)

@@ -8,8 +8,9 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
+use super::readers::variables;
 use super::select::Selection;
-use super::{cf, netcdf, Format};
+use super::{cf, Format};
 use crate::error::Result;
 
 /// The JSON object describing variable `var` of `path` (else the variable `hdrvis info` would
@@ -28,9 +29,9 @@ pub fn describe_json(path: &Path, var: Option<&str>, sel: &Selection) -> Result<
     let mut times = Value::Null;
     let mut notes: Vec<String> = array.notes.clone();
     for dim in &array.dims {
-        let coord = match format {
-            Format::NetCdf => netcdf::coordinate_variable(path, dim)?,
-            _ => None,
+        let coord = match format.reader().variables() {
+            Some(v) => v.coordinate(path, dim)?,
+            None => None,
         };
         let Some(coord) = coord else {
             roles.push("other");
@@ -38,7 +39,7 @@ pub fn describe_json(path: &Path, var: Option<&str>, sel: &Selection) -> Result<
         };
         let role = cf::axis_role(path, &coord).unwrap_or(cf::AxisRole::Other);
         roles.push(role_name(&role));
-        if let Some(k) = netcdf::rolled_by(path, dim)? {
+        if let Some(k) = variables::rolled_by(path, dim)? {
             notes.push(format!(
                 "'{dim}' is read in geographic order: its longitudes are stored in numeric order across the seam, and the reading starts at stored index {k}"
             ));

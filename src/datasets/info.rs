@@ -157,7 +157,7 @@ fn geotiff_report(
 /// Each dimension of a NetCDF variable with its length and CF role (a time axis with its first
 /// and last dates and calendar), then how the selected ones were chosen.
 fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<()> {
-    let dims = super::netcdf::list_variables(path)?
+    let dims = super::readers::variables::list_variables(path)?
         .into_iter()
         .find(|(n, _)| *n == array.name)
         .map(|(_, d)| d)
@@ -173,7 +173,7 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
                 continue;
             }
             // A time axis need not be monotonic to be reported (all missing, say).
-            Err(e) => match super::netcdf::coordinate_variable(path, dim)? {
+            Err(e) => match super::readers::variables::coordinate_variable(path, dim)? {
                 Some(c) if matches!(cf::axis_role(path, &c), Ok(cf::AxisRole::Time)) => c,
                 _ => {
                     let _ = writeln!(out, "  {dim} = {n}: other ({e})");

@@ -594,7 +594,7 @@ fn spherical_grid_of(
 pub(crate) fn netcdf_geometry(path: &Path, array: &ArrayData) -> Result<String> {
     let mut spatial: Vec<(String, usize)> = Vec::new();
     for (dim, &len) in array.dims.iter().zip(&array.shape) {
-        let time = netcdf::coordinate_variable(path, dim)?
+        let time = readers::variables::coordinate_variable(path, dim)?
             .is_some_and(|c| matches!(cf::axis_role(path, &c), Ok(cf::AxisRole::Time)));
         if len > 1 && !time {
             spatial.push((dim.clone(), len));

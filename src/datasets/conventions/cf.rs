@@ -9,6 +9,7 @@ use std::path::Path;
 
 use super::cf_time::TimeUnits;
 use crate::datasets::netcdf::{self, NcAttribute, NcVariable};
+use crate::datasets::readers::variables;
 use crate::error::{Error, Result};
 use crate::model::{CoordAxis, RotatedPole, SphericalGrid};
 
@@ -163,7 +164,7 @@ pub(crate) fn use_vertical(path: &Path, name: &str, dims: &mut [DimCoord]) -> Re
             format!("{}: {msg}", path.display()),
         ))
     };
-    let mut v = match netcdf::read_variable(path, name) {
+    let mut v = match variables::read_variable(path, name) {
         Ok(v) => v,
         Err(_) => return fail(format!("no variable '{name}' in the file")),
     };
@@ -276,7 +277,7 @@ fn cf_bounds(path: &Path, v: &NcVariable) -> Result<Option<(f64, f64)>> {
     let Some(name) = text(v, "bounds") else {
         return Ok(None);
     };
-    let mut b = netcdf::read_variable(path, name)?;
+    let mut b = variables::read_variable(path, name)?;
     // Longitudes unwrapped across the seam: each cell's bounds move by whole turns to lie beside
     // its centre, as the centre moved.
     let pairs = b.data.len() == 2 * v.data.len() && !v.data.is_empty();
@@ -305,12 +306,12 @@ pub(crate) fn dim_coords(path: &Path, dims: &[(String, usize)]) -> Result<Vec<Di
     Ok(out)
 }
 
-/// The coordinate variable of dimension `dim` (see [`netcdf::coordinate_variable`]), checked to
+/// The coordinate variable of dimension `dim` (see [`variables::coordinate_variable`]), checked to
 /// be finite and strictly monotonic, since cell positions are derived from it. Longitudes are
 /// first unwrapped by whole turns in storage order ([`unwrap_longitudes`]): a region across the
 /// prime meridian stored 322.5 … 357.5, 2.5 reads 322.5 … 362.5.
 pub(crate) fn read_coordinate(path: &Path, dim: &str) -> Result<Option<NcVariable>> {
-    let Some(mut v) = netcdf::coordinate_variable(path, dim)? else {
+    let Some(mut v) = variables::coordinate_variable(path, dim)? else {
         return Ok(None);
     };
     if matches!(axis_role(path, &v), Ok(AxisRole::Longitude)) {
@@ -533,7 +534,7 @@ pub(crate) fn declared_radius(
     if let Some(r) = attr_number(attributes, "planet_radius") {
         return Ok(Some((r, None)));
     }
-    if let Some(r) = attr_number(&netcdf::global_attributes(path)?, "planet_radius") {
+    if let Some(r) = attr_number(&variables::global_attributes(path)?, "planet_radius") {
         return Ok(Some((r, None)));
     }
     if let Some((_, m)) = grid_mapping(path, attributes)? {
@@ -562,7 +563,7 @@ fn grid_mapping(
     else {
         return Ok(None);
     };
-    Ok(netcdf::variable_attributes(path, mapping)
+    Ok(variables::variable_attributes(path, mapping)
         .ok()
         .map(|m| (mapping.to_string(), m)))
 }
@@ -582,7 +583,7 @@ pub(crate) fn curvilinear_coords(
         return Ok(None);
     };
     let geographic = |dim: &str| -> Result<bool> {
-        Ok(netcdf::coordinate_variable(path, dim)?.is_some_and(|c| {
+        Ok(variables::coordinate_variable(path, dim)?.is_some_and(|c| {
             matches!(
                 axis_role(path, &c),
                 Ok(AxisRole::Latitude | AxisRole::Longitude)
@@ -592,17 +593,17 @@ pub(crate) fn curvilinear_coords(
     if (geographic(y)? && geographic(x)?) || rotated_pole(path, variable)?.is_some() {
         return Ok(None);
     }
-    let listed = netcdf::list_variables(path)?;
+    let listed = variables::list_variables(path)?;
     let (mut lat, mut lon) = (None, None);
     for name in names.split_whitespace() {
-        let on_grid = netcdf::dims_in(&listed, name)
+        let on_grid = variables::dims_in(&listed, name)
             .iter()
             .map(|d| d.0.as_str())
             .eq([y.as_str(), x.as_str()]);
         if !on_grid {
             continue;
         }
-        let v = netcdf::read_variable(path, name)?;
+        let v = variables::read_variable(path, name)?;
         match axis_role(path, &v) {
             Ok(AxisRole::Latitude) => lat = Some(v),
             Ok(AxisRole::Longitude) => lon = Some(v),
@@ -617,7 +618,7 @@ pub(crate) fn curvilinear_coords(
 /// rotated mapping without its pole, or with one out of range, is an error naming the file, the
 /// mapping and the attribute.
 pub(crate) fn rotated_pole(path: &Path, variable: &str) -> Result<Option<RotatedPole>> {
-    let attrs = netcdf::variable_attributes(path, variable)?;
+    let attrs = variables::variable_attributes(path, variable)?;
     let Some((mapping, m)) = grid_mapping(path, &attrs)? else {
         return Ok(None);
     };

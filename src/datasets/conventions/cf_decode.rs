@@ -7,7 +7,7 @@
 //! (`stored * scale_factor + add_offset`). The masking attributes are compared in the stored
 //! type, as netCDF-C compares them: a float32 variable's `_FillValue` is rounded to float32.
 
-use super::super::netcdf::NcAttribute;
+use crate::datasets::readers::variables::NcAttribute;
 
 /// The type values are stored in, as far as decoding needs it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

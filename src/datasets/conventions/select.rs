@@ -12,6 +12,7 @@ use std::path::Path;
 use super::cf;
 use super::cf_time::TimeUnits;
 use crate::datasets::netcdf::{self, NcVariable};
+use crate::datasets::readers::variables;
 use crate::error::{Error, Result};
 
 /// A coordinate value to select at.
@@ -144,7 +145,7 @@ pub(crate) fn plan(
 /// " (2011-03-11T06:00:00)" when `dim` is a CF time axis, else "".
 fn date_note(path: &Path, dim: &str, i: usize) -> Result<String> {
     // Unchecked: an index needs no monotonic axis, and an undecodable one gives no date.
-    let Some(coord) = netcdf::coordinate_variable(path, dim)? else {
+    let Some(coord) = variables::coordinate_variable(path, dim)? else {
         return Ok(String::new());
     };
     Ok(match cf::time_decoding(path, &coord) {
@@ -265,7 +266,7 @@ pub(crate) fn read(path: &Path, var: &str, plan: &Plan) -> Result<NcVariable> {
                 }
             })
             .collect();
-        let part = netcdf::read_variable_picked(path, var, &picks)?;
+        let part = variables::read_variable_picked(path, var, &picks)?;
         total = Some(match total {
             None => NcVariable {
                 data: part.data.iter().map(|v| weight * v).collect(),
@@ -291,7 +292,7 @@ pub(crate) fn refuse_time(path: &Path, var: &str, kept: &[&(String, usize)]) -> 
         if *n < 2 {
             continue;
         }
-        let Some(coord) = netcdf::coordinate_variable(path, dim)? else {
+        let Some(coord) = variables::coordinate_variable(path, dim)? else {
             continue;
         };
         if !matches!(cf::axis_role(path, &coord), Ok(cf::AxisRole::Time)) {
@@ -382,7 +383,7 @@ pub(crate) struct TimeAxis {
 /// The CF time axis of variable `var`, else of the first data variable that has one.
 pub(crate) fn time_axis(path: &Path, var: Option<&str>) -> Result<TimeAxis> {
     let listed = crate::datasets::list_arrays(path)?;
-    let vars = netcdf::list_variables(path)?;
+    let vars = variables::list_variables(path)?;
     let wanted: Vec<&(String, netcdf::Dims)> = match var {
         Some(name) => {
             let found = vars.iter().find(|(n, _)| n == name);

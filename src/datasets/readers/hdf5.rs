@@ -15,8 +15,8 @@ use hdf5_reader::filters::FILTER_LZ4;
 use hdf5_reader::group::Group;
 use hdf5_reader::{ByteOrder, Dataset, Datatype, FilterRegistry, Hdf5File};
 
-use super::netcdf::NcAttribute;
 use super::scalar::Scalar;
+use super::variables::NcAttribute;
 use crate::datasets::conventions::cf_decode::{CfDecoding, Stored};
 use crate::datasets::{ArrayData, ArrayListing};
 use crate::error::{Error, Result};

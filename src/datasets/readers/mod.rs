@@ -23,6 +23,7 @@ pub(crate) mod nhdr;
 pub mod npy;
 mod npz;
 pub(crate) mod scalar;
+pub(crate) mod variables;
 pub(crate) mod vti;
 pub(crate) mod vtk_legacy;
 
@@ -60,9 +61,10 @@ pub(crate) trait Reader: Sync {
         sel: &Selection,
     ) -> Result<ArrayData>;
 
-    /// Whether `read` takes a selection by dimension for this file.
+    /// Whether `read` takes a selection by dimension for this file: where it has named
+    /// dimensions.
     fn selects(&self, _path: &Path) -> Result<bool> {
-        Ok(false)
+        Ok(self.variables().is_some())
     }
 
     /// Whether the file holds many arrays (`hdrvis info` lists them).
@@ -96,6 +98,12 @@ pub(crate) trait Reader: Sync {
     /// The file's other arrays that join a grid as properties and its relief: none by default.
     fn grid_extras(&self, _path: &Path, _ask: &ExtrasAsked) -> Result<GridExtras> {
         Ok(GridExtras::default())
+    }
+
+    /// The file's variables with named dimensions and attributes, where the format has them
+    /// (the model the CF conventions read): none by default.
+    fn variables(&self) -> Option<&dyn variables::Variables> {
+        None
     }
 
     /// The dates of a time axis of `var` (else of the first data variable with one).

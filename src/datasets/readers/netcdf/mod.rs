@@ -15,48 +15,8 @@ mod write;
 pub use write::{write_grid, write_volume, GridValue};
 pub(crate) use write::{write_grid_with_aux, AuxCoord, GridAux, GridCoord, GridVar};
 
-/// One attribute value, reduced to what CF metadata needs.
-#[derive(Debug, Clone, PartialEq)]
-pub enum NcAttribute {
-    Text(String),
-    Numbers(Vec<f64>),
-}
-
-/// Dimensions as `(name, length)`, slowest first.
-pub(crate) type Dims = Vec<(String, usize)>;
-
-/// A variable read with CF decoding applied: `data` is in physical units, C order (last dimension
-/// fastest), with fill and missing values as NaN.
-#[derive(Debug, Clone)]
-pub struct NcVariable {
-    pub name: String,
-    pub dims: Dims,
-    pub data: Vec<f64>,
-    pub units: Option<String>,
-    pub long_name: Option<String>,
-    /// Every attribute of the variable in file order, including the CF ones already applied.
-    pub attributes: Vec<(String, NcAttribute)>,
-    /// Values stored as NaN (not fills: those are NaN in `data` too, but not counted here).
-    pub stored_nan: usize,
-}
-
-impl NcVariable {
-    pub fn attribute(&self, name: &str) -> Option<&NcAttribute> {
-        self.attributes
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v)
-    }
-}
-
-/// The dimensions of `name` in what [`list_variables`] gave; none for a name it lacks.
-pub(crate) fn dims_in(listed: &[(String, Dims)], name: &str) -> Dims {
-    listed
-        .iter()
-        .find(|(n, _)| n == name)
-        .map(|(_, d)| d.clone())
-        .unwrap_or_default()
-}
+pub(crate) use super::variables::{dims_in, Dims};
+pub use super::variables::{NcAttribute, NcVariable};
 
 /// Every variable of the root group with its dimensions, in file order.
 pub(crate) fn list_variables(path: impl AsRef<Path>) -> Result<Vec<(String, Dims)>> {
@@ -739,10 +699,6 @@ impl super::Reader for NetcdfReader {
         crate::datasets::read_netcdf_array(path, var, rank, sel)
     }
 
-    fn selects(&self, _path: &Path) -> Result<bool> {
-        Ok(true)
-    }
-
     fn holds_many(&self) -> bool {
         true
     }
@@ -782,6 +738,42 @@ impl super::Reader for NetcdfReader {
 
     fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
         crate::datasets::select::time_steps(path, var)
+    }
+
+    fn variables(&self) -> Option<&dyn super::variables::Variables> {
+        Some(self)
+    }
+}
+
+impl super::variables::Variables for NetcdfReader {
+    fn list(&self, path: &Path) -> Result<Vec<(String, Dims)>> {
+        list_variables(path)
+    }
+
+    fn attributes(&self, path: &Path, name: &str) -> Result<Vec<(String, NcAttribute)>> {
+        variable_attributes(path, name)
+    }
+
+    fn global_attributes(&self, path: &Path) -> Result<Vec<(String, NcAttribute)>> {
+        global_attributes(path)
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        name: &str,
+        picks: &[Option<usize>],
+        window: Option<(usize, std::ops::Range<usize>)>,
+    ) -> Result<NcVariable> {
+        read_variable_window(path, name, picks, window)
+    }
+
+    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>> {
+        coordinate_variable(path, dim)
+    }
+
+    fn rolled_by(&self, path: &Path, dim: &str) -> Result<Option<usize>> {
+        rolled_by(path, dim)
     }
 }
 

@@ -1,0 +1,137 @@
+//! The data model under the CF conventions: variables with named dimensions and attributes, read
+//! whole or by hyperslab, as NetCDF holds them, CF describes them and xarray's `Dataset` presents
+//! them. A reader whose format has this model gives a [`Variables`] ([`super::Reader::variables`]:
+//! NetCDF, and HDF5 laid out as NetCDF-4, which the registry sends there). The conventions
+//! (`conventions/`: coordinate roles, calendars, grid mappings, selection, placement) read
+//! through the functions here, which ask the file's reader, so a format with named dimensions
+//! gets all of CF by implementing this trait; one without them is refused in one line.
+
+use std::ops::Range;
+use std::path::Path;
+
+use super::Format;
+use crate::error::{Error, Result};
+
+/// One attribute value, reduced to what CF metadata needs.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NcAttribute {
+    Text(String),
+    Numbers(Vec<f64>),
+}
+
+/// Dimensions as `(name, length)`, slowest first.
+pub(crate) type Dims = Vec<(String, usize)>;
+
+/// A variable read with CF decoding applied: `data` is in physical units, C order (last dimension
+/// fastest), with fill and missing values as NaN.
+#[derive(Debug, Clone)]
+pub struct NcVariable {
+    pub name: String,
+    pub dims: Dims,
+    pub data: Vec<f64>,
+    pub units: Option<String>,
+    pub long_name: Option<String>,
+    /// Every attribute of the variable in file order, including the CF ones already applied.
+    pub attributes: Vec<(String, NcAttribute)>,
+    /// Values stored as NaN (not fills: those are NaN in `data` too, but not counted here).
+    pub stored_nan: usize,
+}
+
+impl NcVariable {
+    pub fn attribute(&self, name: &str) -> Option<&NcAttribute> {
+        self.attributes
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v)
+    }
+}
+
+/// The dimensions of `name` in what [`list_variables`] gave; none for a name it lacks.
+pub(crate) fn dims_in(listed: &[(String, Dims)], name: &str) -> Dims {
+    listed
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, d)| d.clone())
+        .unwrap_or_default()
+}
+
+/// Variables with named dimensions and attributes, in one file of a format that has them.
+pub(crate) trait Variables: Sync {
+    /// Every variable with its dimensions, in file order.
+    fn list(&self, path: &Path) -> Result<Vec<(String, Dims)>>;
+
+    /// A variable's attributes, in file order; a name the file lacks is an error.
+    fn attributes(&self, path: &Path, name: &str) -> Result<Vec<(String, NcAttribute)>>;
+
+    /// The file's global attributes.
+    fn global_attributes(&self, path: &Path) -> Result<Vec<(String, NcAttribute)>>;
+
+    /// Variable `name` CF-decoded (`conventions::cf_decode`): `picks` (one per dimension, or
+    /// empty for all) takes index `i` of a dimension or all of it; `window` the rows of one
+    /// kept dimension.
+    fn read(
+        &self,
+        path: &Path,
+        name: &str,
+        picks: &[Option<usize>],
+        window: Option<(usize, Range<usize>)>,
+    ) -> Result<NcVariable>;
+
+    /// The coordinate variable of dimension `dim` (1-D, named like it), as stored; `None`
+    /// without one; an unknown dimension is an error listing the file's.
+    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>>;
+
+    /// Where a longitude dimension stored in numeric order across the seam begins when read in
+    /// geographic order (every variable on it is read so); `None` for any other.
+    fn rolled_by(&self, _path: &Path, _dim: &str) -> Result<Option<usize>> {
+        Ok(None)
+    }
+}
+
+/// The variables of the file at `path`, by its reader.
+fn of(path: &Path) -> Result<&'static dyn Variables> {
+    let format = Format::of(path)?;
+    format.reader().variables().ok_or_else(|| {
+        Error::format(
+            path,
+            format!(
+                "is a {} file, which has no named dimensions; CF coordinates and selection by dimension need a NetCDF file",
+                format.name()
+            ),
+        )
+    })
+}
+
+pub(crate) fn list_variables(path: &Path) -> Result<Vec<(String, Dims)>> {
+    of(path)?.list(path)
+}
+
+pub(crate) fn variable_attributes(path: &Path, name: &str) -> Result<Vec<(String, NcAttribute)>> {
+    of(path)?.attributes(path, name)
+}
+
+pub(crate) fn global_attributes(path: &Path) -> Result<Vec<(String, NcAttribute)>> {
+    of(path)?.global_attributes(path)
+}
+
+/// Variable `name`, whole.
+pub(crate) fn read_variable(path: &Path, name: &str) -> Result<NcVariable> {
+    of(path)?.read(path, name, &[], None)
+}
+
+/// Variable `name` with the dimensions `picks` fixes.
+pub(crate) fn read_variable_picked(
+    path: &Path,
+    name: &str,
+    picks: &[Option<usize>],
+) -> Result<NcVariable> {
+    of(path)?.read(path, name, picks, None)
+}
+
+pub(crate) fn coordinate_variable(path: &Path, dim: &str) -> Result<Option<NcVariable>> {
+    of(path)?.coordinate(path, dim)
+}
+
+pub(crate) fn rolled_by(path: &Path, dim: &str) -> Result<Option<usize>> {
+    of(path)?.rolled_by(path, dim)
+}
