@@ -193,6 +193,11 @@ pub(crate) fn key_of(canonical: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The extension NetCDF entries are written with (the registry's).
+    fn netcdf_extension() -> &'static str {
+        crate::datasets::Format::NetCdf.extensions()[0]
+    }
     use std::cell::Cell;
 
     #[test]
@@ -225,14 +230,14 @@ mod tests {
     #[test]
     fn failed_make_leaves_nothing() {
         let dir = tempfile::tempdir().unwrap();
-        let err = cached_in(dir.path(), "mantle", "k", "nc", |p| {
+        let err = cached_in(dir.path(), "mantle", "k", netcdf_extension(), |p| {
             std::fs::write(p, b"half").unwrap();
             Err(Error::invalid("n", "too large"))
         })
         .unwrap_err();
         assert!(err.to_string().contains("too large"));
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
-        let err = cached_in(dir.path(), "mantle", "k", "nc", |_| Ok(())).unwrap_err();
+        let err = cached_in(dir.path(), "mantle", "k", netcdf_extension(), |_| Ok(())).unwrap_err();
         assert!(err.to_string().contains("without writing"), "{err}");
     }
 
@@ -276,7 +281,7 @@ mod tests {
     #[test]
     fn refuses_names_that_escape_the_folder() {
         let dir = tempfile::tempdir().unwrap();
-        let err = cached_in(dir.path(), "../x", "k", "nc", |_| Ok(())).unwrap_err();
+        let err = cached_in(dir.path(), "../x", "k", netcdf_extension(), |_| Ok(())).unwrap_err();
         assert!(err.to_string().starts_with("job_kind:"), "{err}");
     }
 }
