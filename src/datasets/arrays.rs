@@ -223,6 +223,15 @@ pub(super) fn netcdf_variable(
     rank: Option<usize>,
     sel: &select::Selection,
 ) -> Result<(String, ArrayListing)> {
+    netcdf_variable_in(path, var, rank, sel).map_err(crate::datasets::netcdf::with_group_note)
+}
+
+fn netcdf_variable_in(
+    path: &Path,
+    var: Option<&str>,
+    rank: Option<usize>,
+    sel: &select::Selection,
+) -> Result<(String, ArrayListing)> {
     let listed = list_arrays(path)?;
     let name = match var {
         // An HDF5-style path to a root-group variable ("/t2m", as for plain HDF5 files).

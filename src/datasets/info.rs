@@ -99,6 +99,14 @@ pub fn info_report_band(
             }
         }
         if format == NetCdf {
+            let groups = super::netcdf::groups(path)?;
+            if !groups.is_empty() {
+                let _ = writeln!(
+                    out,
+                    "  groups, not read yet (only the root group's variables are): {}",
+                    groups.join(", ")
+                );
+            }
             if let (_, Some(why)) = super::netcdf::open_noting(path)? {
                 let _ = writeln!(
                     out,

@@ -226,6 +226,36 @@ fn an_hdf5_file_with_dimension_scales_reads_through_cf_as_netcdf_does() {
 }
 
 #[test]
+fn variables_in_groups_are_named_as_not_read_yet() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "groups") else {
+        return;
+    };
+    assert_eq!(r["groups"], ["PRODUCT"]);
+    let groups = "/PRODUCT (1 variable), /PRODUCT/SUPPORT_DATA (1 variable)";
+    for args in [
+        vec!["info", "groups.nc"],
+        vec!["info", "groups.nc", "--variable", "ch4"],
+    ] {
+        let (code, _, err) = hdrvis(&args, dir.path());
+        assert_ne!(code, 0);
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains(&format!("variables in groups ({groups}) are not read yet")),
+            "{err}"
+        );
+    }
+    let (code, out, err) = hdrvis(&["info", "groups.nc", "--variable", "time"], dir.path());
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains(&format!(
+            "groups, not read yet (only the root group's variables are): {groups}"
+        )),
+        "{out}"
+    );
+}
+
+#[test]
 fn bad_input_is_one_line_naming_the_file_and_what_was_expected() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

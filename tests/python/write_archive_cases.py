@@ -19,6 +19,8 @@ CASE is one of:
   h5dims    dims.h5: h5py's dimension scales (time in days since 2000-01-01, noleap; lat; lon)
             attached to a float32 t2m with missing_value, as h5netcdf lays files out; xarray's
             isel(time=1) and dates
+  groups    groups.nc: NetCDF-4 with a root time axis and the data in groups, as satellite
+            products keep it (/PRODUCT/ch4, /PRODUCT/SUPPORT_DATA/qa)
   h5cf      cf.h5: a plain HDF5 dataset written by h5py with CF's packing and masking attributes
             (int16, _FillValue, scale_factor, add_offset, valid_range); the values as
             netCDF4-python (netCDF-C) and xarray decode it
@@ -281,7 +283,23 @@ def h5dims(out):
     print("time", " ".join(t.isoformat()[:19] for t in ds.time.values))
 
 
-CASES = {"cordex": cordex, "cmip": cmip, "months": months, "nat": nat, "longhdr": longhdr, "h5cf": h5cf, "h5dims": h5dims}
+def groups(out):
+    path = os.path.join(out, "groups.nc")
+    with netCDF4.Dataset(path, "w") as ds:
+        ds.createDimension("time", 2)
+        t = ds.createVariable("time", "f8", ("time",))
+        t.units = "days since 2020-01-01"
+        t[:] = [0.0, 1.0]
+        product = ds.createGroup("PRODUCT")
+        product.createDimension("y", 3)
+        product.createDimension("x", 4)
+        product.createVariable("ch4", "f4", ("time", "y", "x"))[:] = np.arange(24.0).reshape(2, 3, 4)
+        product.createGroup("SUPPORT_DATA").createVariable("qa", "i1", ("time",))[:] = [1, 2]
+    with netCDF4.Dataset(path) as ds:
+        print("groups", " ".join(sorted(ds.groups)))
+
+
+CASES = {"cordex": cordex, "cmip": cmip, "months": months, "nat": nat, "longhdr": longhdr, "h5cf": h5cf, "h5dims": h5dims, "groups": groups}
 
 if __name__ == "__main__":
     out_dir, case = sys.argv[1], sys.argv[2]

@@ -312,6 +312,63 @@ fn read_stored(
     })
 }
 
+/// The paths of every group below the root of an open file (`/PRODUCT`, `/PRODUCT/SUPPORT`),
+/// each with its number of variables: NetCDF-4 files of satellite products keep their data
+/// there, and hdrvis reads the root group's variables only.
+fn group_paths(file: &NcFile) -> Vec<String> {
+    let Ok(root) = file.root_group() else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    let mut pending: Vec<(String, &netcdf_reader::NcGroup)> = root
+        .groups
+        .iter()
+        .map(|g| (format!("/{}", g.name), g))
+        .collect();
+    while let Some((at, group)) = pending.pop() {
+        let n = group.variables.len();
+        out.push(format!(
+            "{at} ({n} variable{})",
+            if n == 1 { "" } else { "s" }
+        ));
+        pending.extend(group.groups.iter().map(|g| (format!("{at}/{}", g.name), g)));
+    }
+    out.sort();
+    out
+}
+
+/// What a "no such variable" error adds when the file has groups: that their variables are not
+/// read yet; empty without groups.
+fn group_note(groups: &[String]) -> String {
+    if groups.is_empty() {
+        return String::new();
+    }
+    format!(
+        "; variables in groups ({}) are not read yet, only the root group's",
+        groups.join(", ")
+    )
+}
+
+/// [`group_paths`] of the file at `path`.
+pub(crate) fn groups(path: &Path) -> Result<Vec<String>> {
+    Ok(group_paths(&open(path)?))
+}
+
+/// A "no such variable" or "no data array" error with [`group_note`] added: a name the root
+/// group lacks may be a group's.
+pub(crate) fn with_group_note(e: Error) -> Error {
+    match e {
+        Error::Format { path, msg } if msg.starts_with("no ") => {
+            let note = groups(&path).map_or(String::new(), |g| group_note(&g));
+            Error::Format {
+                msg: format!("{msg}{note}"),
+                path,
+            }
+        }
+        other => other,
+    }
+}
+
 /// Variable `name` of an open file, which must be numeric; a name the file lacks gives an error
 /// that lists the variables it has.
 fn numeric_variable<'f>(
@@ -325,12 +382,13 @@ fn numeric_variable<'f>(
         return Err(Error::format(
             path,
             format!(
-                "no variable '{name}'; the file has: {}",
+                "no variable '{name}'; the file has: {}{}",
                 if available.is_empty() {
                     "no variables".to_string()
                 } else {
                     available.join(", ")
-                }
+                },
+                group_note(&group_paths(file))
             ),
         ));
     };
