@@ -11,6 +11,9 @@
 //! says more than an array does, place a volume or a grid's axes. `load_volume`, `load_grid`,
 //! `info`, `list_arrays` and `read_array` ask the registry for the reader and call it.
 //!
+//! Formats with named dimensions also give the data model the CF conventions read
+//! ([`variables::Variables`]).
+//!
 //! Adding a format: a variant of [`Format`], its row in [`FORMATS`] (name, extensions, the
 //! signature test and the reader), and its module here implementing [`Reader`]; nothing else.
 
@@ -35,8 +38,8 @@ use crate::datasets::{ArrayData, ArrayListing, GridAxis, GridFile, LoadOptions};
 use crate::error::{Error, Result};
 use crate::model::{RotatedPole, Volume};
 
-/// What one format's reader does. Only `list` and `read` are required; the rest have the
-/// defaults of a format that holds bare arrays (no dimensions to select, no coordinates).
+/// What one format's reader does. Only `read` is required; the rest have the defaults of a
+/// format that holds one array or bare arrays (no dimensions to select, no coordinates).
 pub(crate) trait Reader: Sync {
     /// Every array the file holds, in file order; by default the one array `read` gives.
     fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
