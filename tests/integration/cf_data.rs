@@ -3,7 +3,7 @@
 //! across the prime meridian, CF time in two calendars and selection by dimension.
 
 use crate::cli::hdrvis;
-use crate::common::{python_reference, reference_numbers as numbers};
+use crate::common::{assert_values, python_reference, reference_numbers as numbers};
 use hdrvis::datasets::select::{At, Selection};
 use hdrvis::datasets::LoadOptions;
 use hdrvis::model::CoordKind;
@@ -14,21 +14,6 @@ use std::path::Path;
 /// `None` when the Python modules are missing.
 fn reference(dir: &Path, case: &str) -> Option<HashMap<String, Vec<String>>> {
     python_reference("write_cf_cases.py", dir, case)
-}
-
-/// Equal values, NaN where the reference is masked, within `tol` relative.
-fn assert_values(got: &[f64], want: &[f64], tol: f64, what: &str) {
-    assert_eq!(got.len(), want.len(), "{what}: lengths");
-    for (i, (g, w)) in got.iter().zip(want).enumerate() {
-        if w.is_nan() {
-            assert!(g.is_nan(), "{what}[{i}]: {g}, expected missing");
-        } else {
-            assert!(
-                (g - w).abs() <= tol * w.abs().max(1.0),
-                "{what}[{i}]: {g}, expected {w}"
-            );
-        }
-    }
 }
 
 #[test]

@@ -99,6 +99,21 @@ pub fn render(backend: BackendChoice, vol: &Volume, opts: &VolumeRenderOptions) 
     })
 }
 
+/// Equal values, NaN where the reference is masked, within `tol` relative.
+pub fn assert_values(got: &[f64], want: &[f64], tol: f64, what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: lengths");
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        if w.is_nan() {
+            assert!(g.is_nan(), "{what}[{i}]: {g}, expected missing");
+        } else {
+            assert!(
+                (g - w).abs() <= tol * w.abs().max(1.0),
+                "{what}[{i}]: {g}, expected {w}"
+            );
+        }
+    }
+}
+
 /// Largest relative difference, measured against `floor` where values are tiny.
 pub fn max_rel(a: &[f64], b: &[f64], floor: f64) -> f64 {
     a.iter()

@@ -11,7 +11,9 @@ use netcdf_reader::{NcAttrValue, NcFile};
 
 use crate::error::{Error, Result};
 
+mod reader;
 mod write;
+pub(crate) use reader::NetcdfReader;
 pub use write::{write_grid, write_volume, GridValue};
 pub(crate) use write::{write_grid_with_aux, AuxCoord, GridAux, GridCoord, GridVar};
 
@@ -721,118 +723,6 @@ pub(crate) fn check_monotonic(values: &[f64]) -> std::result::Result<(), String>
         ));
     }
     Err("is not strictly monotonic".to_string())
-}
-
-/// The NetCDF reader (classic and NetCDF-4): variables with their dimensions, read under a
-/// selection and CF-decoded, volumes and grids placed by their CF coordinates.
-pub(crate) struct NetcdfReader;
-
-impl super::Reader for NetcdfReader {
-    fn list(&self, path: &Path) -> Result<Vec<crate::datasets::ArrayListing>> {
-        let file = open(path)?;
-        let vars = file
-            .variables()
-            .map_err(|e| Error::format(path, e.to_string()))?;
-        let auxiliary = auxiliary_names(vars);
-        Ok(vars
-            .iter()
-            .map(|v| crate::datasets::ArrayListing {
-                name: v.name().to_string(),
-                shape: v.shape().iter().map(|&s| s as usize).collect(),
-                dtype: format!("{:?}", v.dtype()).to_lowercase(),
-                is_coordinate: v.is_coordinate_variable(),
-                is_auxiliary: auxiliary.iter().any(|a| a == v.name()),
-                unreadable: None,
-            })
-            .collect())
-    }
-
-    fn read(
-        &self,
-        path: &Path,
-        var: Option<&str>,
-        rank: Option<usize>,
-        sel: &crate::datasets::select::Selection,
-    ) -> Result<crate::datasets::ArrayData> {
-        crate::datasets::read_netcdf_array(path, var, rank, sel)
-    }
-
-    fn holds_many(&self) -> bool {
-        true
-    }
-
-    fn volume(
-        &self,
-        path: &Path,
-        opts: &crate::datasets::LoadOptions,
-    ) -> Result<crate::model::Volume> {
-        crate::datasets::volume_from_netcdf(path, opts)
-    }
-
-    fn grid_axes(
-        &self,
-        path: &Path,
-        array: &crate::datasets::ArrayData,
-    ) -> Result<super::GridAxes> {
-        crate::datasets::netcdf_grid_axes(path, array)
-    }
-
-    /// The other data variables of the grid's shape, and a saved section's per-column latitude
-    /// and longitude.
-    fn grid_extras(&self, path: &Path, ask: &super::ExtrasAsked) -> Result<super::GridExtras> {
-        let mut extras = crate::datasets::same_shape_arrays(path, ask)?;
-        if !ask.x_is_longitude {
-            let present: Vec<String> = std::iter::once(ask.main.to_string())
-                .chain(extras.properties.iter().map(|p| p.0.clone()))
-                .collect();
-            let columns =
-                crate::datasets::grid_out::column_properties(path, ask.coord_names[0], ask.shape)?;
-            extras
-                .properties
-                .extend(columns.into_iter().filter(|c| !present.contains(&c.0)));
-        }
-        Ok(extras)
-    }
-
-    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
-        crate::datasets::select::time_steps(path, var)
-    }
-
-    fn variables(&self) -> Option<&dyn super::variables::Variables> {
-        Some(self)
-    }
-}
-
-impl super::variables::Variables for NetcdfReader {
-    fn list(&self, path: &Path) -> Result<Vec<(String, Dims)>> {
-        list_variables(path)
-    }
-
-    fn attributes(&self, path: &Path, name: &str) -> Result<Vec<(String, NcAttribute)>> {
-        variable_attributes(path, name)
-    }
-
-    fn global_attributes(&self, path: &Path) -> Result<Vec<(String, NcAttribute)>> {
-        global_attributes(path)
-    }
-
-    fn read(
-        &self,
-        path: &Path,
-        name: &str,
-        picks: &[Option<usize>],
-        window: Option<(usize, std::ops::Range<usize>)>,
-    ) -> Result<NcVariable> {
-        read_variable_window(path, name, picks, window)
-    }
-
-    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>> {
-        coordinate_variable(path, dim)
-    }
-
-    fn rolled_by(&self, path: &Path, dim: &str) -> Result<Option<usize>> {
-        rolled_by(path, dim)
-    }
 }
 
 #[cfg(test)]
