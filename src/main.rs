@@ -11,7 +11,10 @@ use std::path::Path;
 fn main() {
     quiet_wayland_probe();
     let cli = cli::parse();
-    if let Err(e) = run(cli) {
+    let result = run(cli);
+    // Entries made for this run only, when the cache folder could not take them.
+    hdrvis::datasets::cache::remove_private_dir();
+    if let Err(e) = result {
         eprintln!("error: {e}");
         std::process::exit(1);
     }
@@ -43,7 +46,15 @@ fn run(cli: Cli) -> Result<()> {
             .map(|n| println!("wrote {} ({n} frames)", args.output.display())),
         Some(Command::Slurm(args)) => cli::slurm::run_slurm(&args),
         Some(Command::SweepStatus(args)) => cli::slurm::run_sweep_status(&args, backend),
-        Some(Command::Cache(cmd)) => cli::cache::run_cache(&cmd).map(|r| print!("{r}")),
+        Some(Command::Cache(cmd)) => {
+            let (report, passed) = cli::cache::run_cache(&cmd)?;
+            print!("{report}");
+            if !passed {
+                hdrvis::datasets::cache::remove_private_dir();
+                std::process::exit(1);
+            }
+            Ok(())
+        }
     }
 }
 

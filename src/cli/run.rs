@@ -98,6 +98,7 @@ fn stop_on_signals(written: Arc<Mutex<Vec<PathBuf>>>) -> Result<()> {
                 // A panic elsewhere may have poisoned the lock; the list is still whole.
                 let list = written.lock().unwrap_or_else(|p| p.into_inner());
                 eprintln!("{}", stop_line(name, &list));
+                hdrvis::datasets::cache::remove_private_dir();
                 let _ = std::io::Write::flush(&mut std::io::stdout());
                 let _ = signal_hook::low_level::emulate_default_handler(sig);
                 std::process::exit(128 + sig);

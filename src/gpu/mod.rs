@@ -144,7 +144,7 @@ impl PersistentPipelineCache {
         let path = crate::io::cache_dir()
             .join("pipelines")
             .join(format!("{key}_{driver}.bin"));
-        let data = std::fs::read(&path).ok();
+        let data = read_pipeline_cache(&path);
         // SAFETY: the data is either absent or what `get_data` of a cache for this adapter
         // (same vendor, device and driver in the file name) returned; with `fallback` the
         // driver validates the header and starts empty when it does not match.
@@ -172,10 +172,34 @@ impl PersistentPipelineCache {
         if let Some(dir) = self.path.parent() {
             let _ = std::fs::create_dir_all(dir);
         }
+        let sealed = crate::io::checked::seal(&data);
         let _ = crate::io::write_atomic(&self.path, |f| {
             use std::io::Write;
-            f.write_all(&data).map_err(|e| Error::io(&self.path, e))
+            f.write_all(&sealed).map_err(|e| Error::io(&self.path, e))
         });
+    }
+}
+
+/// The pipeline data saved at `path`, checked against the checksum it was sealed with: a file
+/// cut short or changed is set aside (`hdrvis cache du` lists it as failed) and the pipelines
+/// are compiled afresh, so the driver is never handed damaged bytes.
+fn read_pipeline_cache(path: &std::path::Path) -> Option<Vec<u8>> {
+    let blob = std::fs::read(path).ok()?;
+    match crate::io::checked::unseal(&blob) {
+        Ok(data) => Some(data.to_vec()),
+        Err(why) => {
+            let cache = crate::io::cache_dir();
+            let aside = crate::io::checked::set_aside(&cache, path);
+            let fate = match &aside {
+                Ok(to) => format!("set aside as {}", to.display()),
+                Err(_) => "left in place (the folder cannot be written)".to_string(),
+            };
+            crate::io::notice(&format!(
+                "cache: {} {why}; {fate}, pipelines are compiled afresh",
+                path.display()
+            ));
+            None
+        }
     }
 }
 

@@ -5,6 +5,7 @@
 //! caches things in (generated datasets, compiled GPU pipelines): [`cache_location`].
 
 pub mod animation;
+pub(crate) mod checked;
 pub mod exr;
 pub mod png;
 pub mod progress;
@@ -27,8 +28,12 @@ pub(crate) fn write_atomic(
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut tmp = temporary_beside(dir)?;
+    // Errors name the output, whichever step failed: the user asked for that file.
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(path, e))?;
+    let mut tmp = temporary_beside(dir).map_err(|e| match e {
+        Error::Io { source, .. } => Error::io(path, source),
+        other => other,
+    })?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());
         fill(&mut w)?;
@@ -36,6 +41,36 @@ pub(crate) fn write_atomic(
     }
     tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
     persist(tmp, path)
+}
+
+/// Where [`notice`] lines go: stderr unless a front end (the terminal viewer) takes them.
+type NoticeSink = Box<dyn Fn(&str) + Send + Sync>;
+static NOTICES: std::sync::Mutex<(Option<NoticeSink>, Vec<String>)> =
+    std::sync::Mutex::new((None, Vec::new()));
+
+/// Tells the user, in one line, something hdrvis did on their behalf that they would want to
+/// know (a damaged cache entry made again, a cache folder it could not write): on stderr as
+/// `note: …`, or to the sink a front end installed. Each distinct line is told once per process.
+pub fn notice(line: &str) {
+    let mut notices = NOTICES
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if notices.1.iter().any(|told| told == line) {
+        return;
+    }
+    notices.1.push(line.to_string());
+    match &notices.0 {
+        Some(sink) => sink(line),
+        None => eprintln!("note: {line}"),
+    }
+}
+
+/// Sends [`notice`] lines to `sink` instead of stderr (a full-screen front end shows them itself).
+pub fn set_notice_sink(sink: impl Fn(&str) + Send + Sync + 'static) {
+    NOTICES
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .0 = Some(Box::new(sink));
 }
 
 /// Held while a finished file takes its final name and, for a script's output, while the run

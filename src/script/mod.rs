@@ -17,6 +17,7 @@ mod api_sweep;
 mod convert;
 mod lines;
 mod options;
+mod resume;
 mod sandbox;
 mod shard;
 mod slurm_job;
@@ -228,9 +229,22 @@ impl ScriptHost {
         }
     }
 
-    /// Whether an output may be skipped: `--resume` is on and the file is already there.
+    /// Whether an output may be skipped: `--resume` is on and the file is already there and
+    /// reads back whole ([`resume::output_intact`]); one that does not is written again.
     pub(crate) fn already_done(&self, path: &Path) -> bool {
-        self.resume && path.is_file()
+        if !self.resume || !path.is_file() {
+            return false;
+        }
+        match resume::output_intact(path) {
+            Ok(()) => true,
+            Err(why) => {
+                crate::io::notice(&format!(
+                    "--resume: {} {why}; it is written again",
+                    path.display()
+                ));
+                false
+            }
+        }
     }
 
     /// Reports loop progress on stderr with an ETA from the rate measured so far.
@@ -492,6 +506,8 @@ pub fn run_script_source(
     // Generated datasets live in the cache; scripts read them through `generate`.
     let mut readable = opts.allowed_paths.clone();
     readable.push(crate::datasets::cache::cache_dir());
+    // Where datasets are made when the cache folder cannot be written.
+    readable.push(crate::datasets::cache::private_dir_path().to_path_buf());
     let sandbox = Sandbox::new(script_dir, &opts.out_dir, &readable)?;
     let mut sets = HashMap::new();
     for (k, v) in &opts.sets {

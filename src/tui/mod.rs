@@ -233,8 +233,18 @@ impl EventLoop<'_> {
 
     /// Polls input every 15 ms and never waits on a worker, until `q`, Ctrl-C or a signal.
     fn run(&mut self, signals: &Receiver<i32>) -> Result<()> {
+        // Library notices (a cache entry made again, a fallback folder) would tear the screen
+        // on stderr: they become the notice line instead.
+        let (notice_tx, notices) = channel::<String>();
+        crate::io::set_notice_sink(move |line| {
+            let _ = notice_tx.send(line.to_string());
+        });
         self.send_render();
         loop {
+            if let Ok(line) = notices.try_recv() {
+                self.app.message = line;
+                self.dirty = true;
+            }
             self.follow_layout()?;
             if self.dirty {
                 let (app, picture) = (&self.app, self.picture.as_ref());
