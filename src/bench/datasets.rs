@@ -1,5 +1,6 @@
 //! The dataset generator benchmark (`hdrvis bench datasets`): each generator timed end to end,
-//! NetCDF output included, with the process's peak memory after it.
+//! NetCDF output included, with the process's peak memory after it; and what checking a cache
+//! entry costs (its checksum, read in full) beside reading it.
 
 use super::{median, peak_memory_mib};
 use crate::datasets::generate::Job;
@@ -101,6 +102,84 @@ pub fn format_generator_table(rows: &[GeneratorTiming]) -> String {
             r.peak_mib
                 .map(|m| format!("{m:.0}"))
                 .unwrap_or_else(|| "?".into())
+        ));
+    }
+    s
+}
+
+/// What checking a cache entry of `n`³ f32 values costs: the median seconds of its checksum
+/// (the file read in full and hashed, as on every first use in a process) and of reading the
+/// same file into memory, which any reader of the entry pays anyway.
+#[derive(Clone, Debug)]
+pub struct ChecksumTiming {
+    pub n: usize,
+    pub bytes: u64,
+    pub checksum_s: Vec<f64>,
+    pub read_s: Vec<f64>,
+}
+
+/// Times the cache check on files of 256³ and 512³ f32 values (64³ and 128³ with `quick`), the
+/// page cache warm (a file just made or just read, as a run finds its entry most often).
+pub fn bench_checksum(
+    runs: usize,
+    quick: bool,
+    log: &mut dyn FnMut(&str),
+) -> Result<Vec<ChecksumTiming>> {
+    use crate::io::checked::Sum;
+    let dir = tempfile::tempdir().map_err(|e| Error::io(std::env::temp_dir(), e))?;
+    let sizes: &[usize] = if quick { &[64, 128] } else { &[256, 512] };
+    let mut out = Vec::new();
+    for &n in sizes {
+        let path = dir.path().join(format!("entry-{n}.bin"));
+        let values: Vec<f32> = (0..n * n * n).map(|i| (i as f32 * 0.618).sin()).collect();
+        std::fs::write(&path, bytemuck::cast_slice(&values)).map_err(|e| Error::io(&path, e))?;
+        drop(values);
+        let bytes = std::fs::metadata(&path)
+            .map_err(|e| Error::io(&path, e))?
+            .len();
+        let (mut checksum_s, mut read_s) = (Vec::new(), Vec::new());
+        for _ in 0..runs.max(1) {
+            let start = std::time::Instant::now();
+            std::hint::black_box(Sum::of_file(&path)?);
+            checksum_s.push(start.elapsed().as_secs_f64());
+            let start = std::time::Instant::now();
+            std::hint::black_box(std::fs::read(&path).map_err(|e| Error::io(&path, e))?);
+            read_s.push(start.elapsed().as_secs_f64());
+        }
+        log(&format!(
+            "checksum {n}^3: median {:.3} s",
+            median(&checksum_s)
+        ));
+        let _ = std::fs::remove_file(&path);
+        out.push(ChecksumTiming {
+            n,
+            bytes,
+            checksum_s,
+            read_s,
+        });
+    }
+    Ok(out)
+}
+
+/// The checksum table `hdrvis bench datasets` prints after the generators.
+pub fn format_checksum_table(rows: &[ChecksumTiming]) -> String {
+    let mut s = String::from(
+        "cache entry check (length + xxh3 of every byte, page cache warm), one thread\n",
+    );
+    s.push_str(&format!(
+        "{:<14} {:>10} {:>12} {:>10} {:>12} {:>14}\n",
+        "entry", "MiB", "checksum s", "GiB/s", "plain read s", "check / read"
+    ));
+    for r in rows {
+        let (check, read) = (median(&r.checksum_s), median(&r.read_s));
+        s.push_str(&format!(
+            "{:<14} {:>10.0} {:>12.3} {:>10.2} {:>12.3} {:>14.2}\n",
+            format!("{}^3 f32", r.n),
+            r.bytes as f64 / (1u64 << 20) as f64,
+            check,
+            r.bytes as f64 / check / (1u64 << 30) as f64,
+            read,
+            check / read
         ));
     }
     s

@@ -91,6 +91,8 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
         BenchCommand::Datasets { runs, quick } => {
             let rows = datasets::bench_generators(runs, quick, &mut progress)?;
             print!("{}", datasets::format_generator_table(&rows));
+            let rows = datasets::bench_checksum(runs.max(3), quick, &mut progress)?;
+            print!("\n{}", datasets::format_checksum_table(&rows));
             Ok(())
         }
         cmd @ BenchCommand::Tonemap { .. } => bench_tonemap_command(cmd, backend, &mut progress),

@@ -30,8 +30,12 @@ pub(crate) fn write_atomic(
     };
     // Errors name the output, whichever step failed: the user asked for that file.
     std::fs::create_dir_all(dir).map_err(|e| Error::io(path, e))?;
+    // tempfile's error names the temporary file; the system's own error says it plainly.
     let mut tmp = temporary_beside(dir).map_err(|e| match e {
-        Error::Io { source, .. } => Error::io(path, source),
+        Error::Io { source, .. } => match source.raw_os_error() {
+            Some(code) => Error::io(path, std::io::Error::from_raw_os_error(code)),
+            None => Error::io(path, source),
+        },
         other => other,
     })?;
     {

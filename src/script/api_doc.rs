@@ -134,7 +134,7 @@ pub(crate) const API: &[ApiEntry] = &[
     with(e("output", "save_png", &["image: Image", "path: string", "options: map"], "()", "As above with options:"), &[&SAVE_PNG]),
     e("output", "save_animation", &["frames: array", "path: string"], "()", "A movie of the frames (Images, or paths of PNGs under the output folder) at 12 frames/s: .mp4 (H.264) and .webm (VP9) through the system's ffmpeg, .gif and .png (animated PNG) without it. Under the output folder; frames are converted one at a time."),
     with(e("output", "save_animation", &["frames: array", "path: string", "options: map"], "()", "As above with options:"), &[&SAVE_ANIMATION]),
-    e("parameters and sweeps", "already_done", &["path: string"], "bool", "True when `--resume` is on and this output already exists: skip its work."),
+    e("parameters and sweeps", "already_done", &["path: string"], "bool", "True when `--resume` is on and this output already exists and reads back whole (a damaged one is written again): skip its work."),
     e("parameters and sweeps", "progress", &["done: int", "total: int"], "()", "Progress bar with ETA on stderr (when it is a terminal)."),
     e("parameters and sweeps", "progress", &["done: int", "total: int", "label: string"], "()", "As above, with a label."),
     e("parameters and sweeps", "shard", &["items: array or range"], "array", "The items this task owns when a sweep is shared out: all of them when run alone; with `hdrvis run --shard I/N`, in a Slurm job array (SLURM_ARRAY_TASK_ID) or in srun tasks (SLURM_PROCID of SLURM_NTASKS), task I of N gets the contiguous block from floor(I·len/N) to floor((I+1)·len/N), so the tasks' shares are disjoint and cover the list. `for az in shard([0, 45, 90])`, `for i in shard(0..frames)`."),

@@ -109,7 +109,8 @@ pub fn sweep_status(
                 }
                 None => owners.push((path.clone(), vec![index])),
             }
-            if !path.is_file() {
+            // A damaged output is as missing as an absent one: `--resume` writes it again.
+            if !path.is_file() || super::resume::output_intact(&path).is_err() {
                 missing_here += 1;
                 status.missing.push(path.clone());
             }

@@ -7,6 +7,7 @@
 
 mod archives;
 mod bricks;
+mod cache;
 mod cf_data;
 mod cli;
 mod cluster;
