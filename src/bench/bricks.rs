@@ -198,22 +198,21 @@ pub fn bench_large(
     runs: usize,
     log: &mut dyn FnMut(&str),
 ) -> Result<LargeReport> {
-    let dir = crate::datasets::cache::cache_dir();
-    let path = dir.join(format!("bench-large-blobs-{n}.npy"));
+    // A cache entry like any dataset: checked when used, made again when damaged.
     let mut generated_s = None;
-    if !path.exists() {
+    let path = crate::datasets::cache::cached("bench-large-blobs", &n.to_string(), "npy", |tmp| {
         let bytes = (n as u64).pow(3) * 4;
         log(&format!(
-            "writing {} ({:.1} GB) ...",
-            path.display(),
+            "writing the {n}^3 blobs to the cache ({:.1} GB) ...",
             bytes as f64 / 1e9
         ));
         let t = std::time::Instant::now();
-        crate::datasets::bricked::write_npy_f32_streaming(&path, [n; 3], &|k, out| {
+        crate::datasets::bricked::write_npy_f32_streaming(tmp, [n; 3], &|k, out| {
             blob_slice(n, k, out)
         })?;
         generated_s = Some(t.elapsed().as_secs_f64());
-    }
+        Ok(())
+    })?;
     let file_bytes = std::fs::metadata(&path)
         .map_err(|e| Error::io(&path, e))?
         .len();

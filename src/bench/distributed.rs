@@ -52,16 +52,13 @@ pub struct WorldReport {
     pub link: Option<(f64, f64)>,
 }
 
-/// The benchmark volume: the mantle's fluctuation `n`³ as `.npy` in the dataset cache, written
-/// once (atomically, so ranks that race write the same file).
+/// The benchmark volume: the mantle's fluctuation `n`³ as `.npy`, an entry of the dataset cache
+/// (made once under its lock, checked when used).
 pub fn bench_volume_file(n: usize) -> Result<PathBuf> {
-    let path =
-        crate::datasets::cache::cache_dir().join(format!("bench-distributed-mantle-{n}.npy"));
-    if !path.exists() {
+    crate::datasets::cache::cached("bench-distributed-mantle", &n.to_string(), "npy", |tmp| {
         let v = mantle_fluctuation(n, 7)?;
-        crate::datasets::npy::write_npy_f32(&path, &v.dims, &v.data)?;
-    }
-    Ok(path)
+        crate::datasets::npy::write_npy_f32(tmp, &v.dims, &v.data)
+    })
 }
 
 /// Runs the benchmark as one rank of `world`; every rank must call it with the same `bench`.
