@@ -241,7 +241,16 @@ pub fn run_gen(cmd: &GenCommand) -> Result<PathBuf> {
         }
         None => {
             let format = output.format.map_or(OutputFormat::NetCdf, format_of);
-            job.run_cached(format, &mut progress)?
+            let path = job.run_cached(format, &mut progress)?;
+            if hdrvis::datasets::cache::is_private(&path) {
+                // The user asked for the file: it outlives the run, outside the cache.
+                hdrvis::datasets::cache::keep_private_dir();
+                hdrvis::io::notice(&format!(
+                    "{} stays where it is when hdrvis ends (remove it when done, or give -o FILE)",
+                    path.display()
+                ));
+            }
+            path
         }
     };
     bar.clear();

@@ -301,10 +301,23 @@ fn private_dir() -> std::result::Result<&'static Path, String> {
     Ok(dir)
 }
 
-/// Removes this run's [`private_dir`], if one was made.
+/// Set by [`keep_private_dir`]: the run hands a file in the private folder to the user.
+static KEEP_PRIVATE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether `path` lies in this run's private folder (the cache folder could not take it).
+pub fn is_private(path: &Path) -> bool {
+    path.starts_with(private_dir_path())
+}
+
+/// Keeps this run's private folder when the run ends: `hdrvis gen` prints a path in it.
+pub fn keep_private_dir() {
+    KEEP_PRIVATE.store(true, Ordering::SeqCst);
+}
+
+/// Removes this run's [`private_dir`], if one was made and is not kept ([`keep_private_dir`]).
 pub fn remove_private_dir() {
     let dir = private_dir_path();
-    if dir.is_dir() {
+    if dir.is_dir() && !KEEP_PRIVATE.load(Ordering::SeqCst) {
         let _ = std::fs::remove_dir_all(dir);
     }
 }

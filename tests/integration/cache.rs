@@ -304,6 +304,24 @@ fn a_cache_nobody_can_write_is_used_when_good_and_bypassed_when_not() {
         })
         .collect();
     assert!(left.is_empty(), "the private folder outlived the run");
+    // `hdrvis gen` hands the user the file: it stays, and the note says so.
+    let gen = Command::new("setpriv")
+        .args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"])
+        .arg(env!("CARGO_BIN_EXE_hdrvis"))
+        .args(["gen", "mantle", "--n", "9"])
+        .env("HDRVIS_CACHE", &cache)
+        .current_dir(d)
+        .output()
+        .unwrap();
+    assert!(gen.status.success(), "{}", stderr(&gen));
+    let made = PathBuf::from(String::from_utf8_lossy(&gen.stdout).trim());
+    assert!(made.is_file(), "{made:?}");
+    assert!(
+        stderr(&gen).contains("stays where it is when hdrvis ends"),
+        "{}",
+        stderr(&gen)
+    );
+    std::fs::remove_dir_all(made.parent().unwrap()).unwrap();
 
     // The same cache once root made the entry: used as it is, without a word.
     let made = run_in(d, "root", &env, false);
