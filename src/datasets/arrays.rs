@@ -61,6 +61,21 @@ pub(crate) fn list_arrays(path: &Path) -> Result<Vec<ArrayListing>> {
     Format::of(path)?.reader().list(path)
 }
 
+/// A variable's values as the file stores them, decoded (CF scale, offset and fills applied) but
+/// not regridded, flipped or rolled, with its dimensions (name, length) after `sel`: what a
+/// library user compares with another reader's array.
+pub fn read_values(
+    path: &Path,
+    var: Option<&str>,
+    sel: &select::Selection,
+) -> Result<(variables::Dims, Vec<f64>)> {
+    let array = read_array_sel(path, var, None, sel)?;
+    Ok((
+        array.dims.into_iter().zip(array.shape).collect(),
+        array.data,
+    ))
+}
+
 /// Reads one array. `var` picks it by name (an error lists the available ones); without it an
 /// `.npz` gives its largest array and a NetCDF file its first numeric variable that is not a
 /// coordinate. With `rank`, leading length-1 dimensions are dropped down to that rank and an

@@ -20,6 +20,7 @@ mod stats;
 
 use crate::error::{Error, Result};
 use crate::model::{CoordAxis, CoordKind, Geometry, Grid, GridCoords, Volume};
+pub use arrays::read_values;
 pub(crate) use arrays::{
     fits_rank, missing_array, no_array, plain_array, rank_name, read_netcdf_array, volume_array,
 };

@@ -21,6 +21,7 @@ mod figures;
 mod fuzz_corpus;
 mod gallery;
 mod georaster;
+mod grib;
 mod mpi;
 mod passes;
 mod readers;

@@ -19,6 +19,7 @@
 
 mod exr;
 pub(crate) mod geotiff;
+pub(crate) mod grib;
 pub(crate) mod hdf5;
 pub(crate) mod mintpy;
 pub mod netcdf;
@@ -188,6 +189,8 @@ pub enum Format {
     VtkLegacy,
     /// OpenEXR images (`hdrvis info` and the TUI read them).
     Exr,
+    /// GRIB editions 1 and 2 (weather services' forecasts and analyses).
+    Grib,
 }
 
 /// One row of the registry: a format's name in messages, its extensions (the first is the one
@@ -224,7 +227,7 @@ fn is_xml_vtk_image(head: &[u8]) -> bool {
     (text.starts_with("<?xml") || text.starts_with("<VTKFile")) && text.contains("ImageData")
 }
 
-const FORMATS: [FormatRow; 9] = [
+const FORMATS: [FormatRow; 10] = [
     FormatRow {
         format: Format::Npy,
         name: "NumPy .npy",
@@ -292,11 +295,17 @@ const FORMATS: [FormatRow; 9] = [
         signature: |h| h.starts_with(&[0x76, 0x2f, 0x31, 0x01]),
         reader: &exr::ExrReader,
     },
+    FormatRow {
+        format: Format::Grib,
+        name: "GRIB",
+        extensions: &["grib", "grib2", "grb", "grb2", "grib1", "grb1"],
+        signature: grib::is_grib,
+        reader: &grib::GribReader,
+    },
 ];
 
 /// Formats hdrvis recognises but does not read, so that a user hears what the file is.
-const KNOWN_OTHERS: [(&str, &[u8], &str); 8] = [
-    ("GRIB", b"GRIB", "GRIB is not read yet"),
+const KNOWN_OTHERS: [(&str, &[u8], &str); 7] = [
     (
         "HDF4",
         &[0x0e, 0x03, 0x13, 0x01],
@@ -488,8 +497,18 @@ mod tests {
             msg.contains("named as NetCDF but not one") && msg.contains("PNG image"),
             "{msg}"
         );
-        let msg = of("f.grib2", b"GRIB\0\0\0\x02").unwrap_err().to_string();
-        assert!(msg.contains("GRIB is not read yet"), "{msg}");
+        let msg = of("swath.hdf", &[0x0e, 0x03, 0x13, 0x01, 0, 0])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("HDF4 is not read; convert it with h4toh5"),
+            "{msg}"
+        );
+        // GRIB is read, also after a WMO bulletin header.
+        assert_eq!(
+            of("f.bin", b"TTAA01 KWBC\r\r\nGRIB\0\0\0\x02").unwrap(),
+            Format::Grib
+        );
         let msg = of("f.nc", b"").unwrap_err().to_string();
         assert!(msg.contains("the file is empty"), "{msg}");
         // Unknown content under a known name goes to that reader, which says what is wrong.

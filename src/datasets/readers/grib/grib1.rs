@@ -1,0 +1,348 @@
+//! GRIB edition 1 (WMO FM 92 GRIB, edition 1), decoded here: the `grib` crate reads edition 2
+//! only, and what archives still hold in edition 1 (NCEP's Eta and reanalysis files, ERA-40,
+//! ECMWF's MARS) is grid-point data in simple packing, which is short to decode. Read: the
+//! product definition (parameter, level, reference time and forecast step), regular and
+//! Gaussian latitude–longitude grids and rotated latitude–longitude grids, the bitmap, and
+//! simple packing Y = (R + X·2^E)/10^D with R an IBM single-precision float. Projected GRIB1
+//! grids, reduced (quasi-regular) grids, spherical harmonics and second-order packing are
+//! refused in one line naming what the message holds.
+
+use super::model::{GribField, GridInfo};
+use super::names;
+
+/// An unsigned big-endian integer of `n` octets at `at`.
+fn uint(b: &[u8], at: usize, n: usize) -> Option<u64> {
+    let bytes = b.get(at..at + n)?;
+    Some(bytes.iter().fold(0u64, |acc, &x| (acc << 8) | x as u64))
+}
+
+/// GRIB1's signed integers: the top bit is the sign, the rest the magnitude.
+fn signed(b: &[u8], at: usize, n: usize) -> Option<i64> {
+    let v = uint(b, at, n)?;
+    let sign_bit = 1u64 << (8 * n - 1);
+    let magnitude = (v & (sign_bit - 1)) as i64;
+    Some(if v & sign_bit != 0 {
+        -magnitude
+    } else {
+        magnitude
+    })
+}
+
+/// An IBM System/360 single-precision float: sign, 7-bit excess-64 exponent of 16, 24-bit
+/// fraction.
+pub(super) fn ibm_float(bits: u32) -> f64 {
+    let sign = if bits & 0x8000_0000 != 0 { -1.0 } else { 1.0 };
+    let exponent = ((bits >> 24) & 0x7f) as i32 - 64;
+    let fraction = (bits & 0x00ff_ffff) as f64 / (1u64 << 24) as f64;
+    sign * fraction * 16f64.powi(exponent)
+}
+
+/// Why a message cannot be read, in words for a one-line error.
+type Why = String;
+
+/// The sections of one GRIB1 message (bytes from "GRIB" to "7777").
+struct Sections<'a> {
+    pds: &'a [u8],
+    gds: Option<&'a [u8]>,
+    bms: Option<&'a [u8]>,
+    bds: &'a [u8],
+}
+
+fn sections(msg: &[u8]) -> Result<Sections<'_>, Why> {
+    let short = || "the message ends inside a section (truncated)".to_string();
+    let section = |at: usize| -> Result<&[u8], Why> {
+        let len = uint(msg, at, 3).ok_or_else(short)? as usize;
+        if len < 3 {
+            return Err(format!("a section length of {len} octets at offset {at}"));
+        }
+        msg.get(at..at + len).ok_or_else(short)
+    };
+    let pds = section(8)?;
+    if pds.len() < 28 {
+        return Err(format!(
+            "a product definition section of {} octets; expected at least 28",
+            pds.len()
+        ));
+    }
+    let flags = pds[7];
+    let mut at = 8 + pds.len();
+    let gds = if flags & 0x80 != 0 {
+        let s = section(at)?;
+        at += s.len();
+        Some(s)
+    } else {
+        None
+    };
+    let bms = if flags & 0x40 != 0 {
+        let s = section(at)?;
+        at += s.len();
+        Some(s)
+    } else {
+        None
+    };
+    let bds = section(at)?;
+    if msg.get(at + bds.len()..at + bds.len() + 4) != Some(b"7777") {
+        return Err("no end section '7777' after the data (truncated or damaged)".into());
+    }
+    Ok(Sections { pds, gds, bms, bds })
+}
+
+/// The metadata of a GRIB1 message (its values are decoded by [`values`]).
+pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
+    let s = sections(msg)?;
+    let p = s.pds;
+    let table = p[3];
+    let centre = p[4] as u16;
+    let parameter = p[8];
+    let level_type = p[9];
+    let level = names::grib1_level(level_type, p[10], p[11]);
+    let century = p[24] as i64;
+    let year = (century - 1) * 100 + p[12] as i64;
+    let (month, day, hour, minute) = (p[13], p[14], p[15], p[16]);
+    let unit_hours = match p[17] {
+        0 => 1.0 / 60.0,
+        1 => 1.0,
+        2 => 24.0,
+        10 => 3.0,
+        11 => 6.0,
+        12 => 12.0,
+        13 => 0.25,
+        254 => 1.0 / 3600.0,
+        u => {
+            return Err(format!(
+                "unit of time range {u} (GRIB1 code table 4) is not read"
+            ))
+        }
+    };
+    let (p1, p2, range) = (p[18] as f64, p[19] as f64, p[20]);
+    let step_hours = unit_hours
+        * match range {
+            // P1 and P2 form one 16-bit forecast time.
+            10 => uint(p, 18, 2).unwrap_or(0) as f64,
+            // Averages and accumulations from P1 to P2 are labelled at their end, as ecCodes does.
+            2..=5 => p2,
+            _ => p1,
+        };
+    let grid = match s.gds {
+        Some(gds) => grid(gds)?,
+        None => return Err(format!("a predefined grid (catalogue number {}) without a grid description section is not read", p[6])),
+    };
+    Ok(GribField {
+        edition: 1,
+        param: names::grib1_param(table, centre, parameter, level_type, &level),
+        level,
+        reference: format!("{year:04}-{month:02}-{day:02} {hour:02}:{minute:02}:00"),
+        step_hours,
+        number: None,
+        grid,
+        packing: "grid_simple".into(),
+        centre,
+    })
+}
+
+/// Latitudes and longitudes of a latitude–longitude (0), Gaussian (4) or rotated (10) grid.
+fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
+    let kind = gds
+        .get(5)
+        .copied()
+        .ok_or("an empty grid description section")?;
+    let name = match kind {
+        0 => "regular_ll",
+        4 => "regular_gg",
+        10 => "rotated_ll",
+        1 => return Err("GRIB1 Mercator grids are not read yet".into()),
+        3 => return Err("GRIB1 Lambert conformal grids are not read yet".into()),
+        5 => return Err("GRIB1 polar stereographic grids are not read yet".into()),
+        50 => {
+            return Err("spherical harmonics (GRIB1 grid type 50) are not grid-point data".into())
+        }
+        k => return Err(format!("GRIB1 grid type {k} (code table 6) is not read")),
+    };
+    let short = || "the grid description section is too short".to_string();
+    let ni = uint(gds, 6, 2).ok_or_else(short)? as usize;
+    let nj = uint(gds, 8, 2).ok_or_else(short)? as usize;
+    if ni == 0xffff {
+        return Err(
+            "a reduced (quasi-regular) grid is not read; regrid it first (cdo setgridtype,regular)"
+                .into(),
+        );
+    }
+    let milli = |at| {
+        signed(gds, at, 3)
+            .map(|v| v as f64 / 1000.0)
+            .ok_or_else(short)
+    };
+    let (la1, lo1, la2, lo2) = (milli(10)?, milli(13)?, milli(17)?, milli(20)?);
+    let scan = gds.get(27).copied().ok_or_else(short)?;
+    if scan & 0x20 != 0 {
+        return Err("points consecutive along meridians (scanning mode 0x20) are not read".into());
+    }
+    let lons = axis_between(lo1, lo2, ni, scan & 0x80 != 0, true);
+    let lats = if kind == 4 {
+        let n = uint(gds, 25, 2).ok_or_else(short)? as usize;
+        gaussian_rows(n, la1, la2, nj)?
+    } else {
+        axis_between(la1, la2, nj, scan & 0x40 == 0, false)
+    };
+    let mut info = GridInfo::regular(name, lats, lons);
+    if kind == 10 {
+        let south_lat = milli(32)?;
+        let south_lon = milli(35)?;
+        let angle = uint(gds, 38, 4).map(|b| ibm_float(b as u32)).unwrap_or(0.0);
+        if angle != 0.0 {
+            return Err(format!(
+                "a rotated grid turned by {angle}° about the pole is not read"
+            ));
+        }
+        info = info.rotated(south_lat, south_lon)?;
+    }
+    Ok(info)
+}
+
+/// `n` evenly spaced values from `first` to `last`; `decreasing` says which way they run, and
+/// longitudes (`wraps`) cross the seam instead of running back.
+fn axis_between(first: f64, last: f64, n: usize, decreasing: bool, wraps: bool) -> Vec<f64> {
+    if n <= 1 {
+        return vec![first; n];
+    }
+    let mut span = last - first;
+    if wraps {
+        if !decreasing && span < 0.0 {
+            span += 360.0;
+        } else if decreasing && span > 0.0 {
+            span -= 360.0;
+        }
+    }
+    let d = span / (n - 1) as f64;
+    (0..n).map(|i| first + i as f64 * d).collect()
+}
+
+/// The rows of a Gaussian grid with `n` latitudes between a pole and the equator, from `first`
+/// to `last` (which the message gives to a millidegree).
+fn gaussian_rows(n: usize, first: f64, last: f64, rows: usize) -> Result<Vec<f64>, Why> {
+    let all = super::model::gaussian_latitudes(n);
+    let near = |lat: f64| all.iter().position(|&l| (l - lat).abs() < 2e-3);
+    let (Some(a), Some(b)) = (near(first), near(last)) else {
+        return Err(format!("a Gaussian grid N{n} whose first and last rows ({first}°, {last}°) are not among its latitudes"));
+    };
+    let picked: Vec<f64> = if a <= b {
+        all[a..=b].to_vec()
+    } else {
+        all[b..=a].iter().rev().copied().collect()
+    };
+    if picked.len() != rows {
+        return Err(format!(
+            "a Gaussian grid of {rows} rows where its first and last latitude span {}",
+            picked.len()
+        ));
+    }
+    Ok(picked)
+}
+
+/// The message's values in scanning order, missing points (bitmap) as NaN.
+pub(super) fn values(msg: &[u8], points: usize) -> Result<Vec<f64>, Why> {
+    let s = sections(msg)?;
+    let d = signed(s.pds, 26, 2).unwrap_or(0);
+    let bds = s.bds;
+    if bds.len() < 11 {
+        return Err("a binary data section of under 11 octets".into());
+    }
+    let flags = bds[3] >> 4;
+    if flags & 0x8 != 0 {
+        return Err("spherical harmonic coefficients are not grid-point data".into());
+    }
+    if flags & 0x4 != 0 {
+        return Err("second-order (complex) GRIB1 packing is not read yet".into());
+    }
+    let e = signed(bds, 4, 2).unwrap_or(0) as i32;
+    let r = ibm_float(uint(bds, 6, 4).unwrap_or(0) as u32);
+    let bits = bds[10] as usize;
+    let present = match s.bms {
+        Some(bms) => {
+            if uint(bms, 4, 2) != Some(0) {
+                return Err("a predefined bitmap (not in the message) is not read".into());
+            }
+            let map = &bms[6..];
+            if map.len() * 8 < points {
+                return Err(format!(
+                    "a bitmap of {} bits for {points} points",
+                    map.len() * 8
+                ));
+            }
+            (0..points)
+                .map(|i| map[i / 8] & (0x80 >> (i % 8)) != 0)
+                .collect()
+        }
+        None => vec![true; points],
+    };
+    let packed = present.iter().filter(|&&p| p).count();
+    let data = &bds[11..];
+    if bits > 0 && data.len() * 8 < packed * bits {
+        return Err(format!(
+            "{} octets of packed data for {packed} values of {bits} bits (truncated)",
+            data.len()
+        ));
+    }
+    let scale = 2f64.powi(e);
+    let decimal = 10f64.powi(-(d as i32));
+    let mut reader = BitReader { data, at: 0 };
+    Ok(present
+        .iter()
+        .map(|&p| {
+            if !p {
+                return f64::NAN;
+            }
+            let x = if bits == 0 { 0 } else { reader.take(bits) };
+            (r + x as f64 * scale) * decimal
+        })
+        .collect())
+}
+
+/// Reads big-endian bit fields of any width up to 64.
+struct BitReader<'a> {
+    data: &'a [u8],
+    at: usize,
+}
+
+impl BitReader<'_> {
+    fn take(&mut self, bits: usize) -> u64 {
+        let mut v = 0u64;
+        for _ in 0..bits {
+            let byte = self.data[self.at / 8];
+            v = (v << 1) | ((byte >> (7 - self.at % 8)) & 1) as u64;
+            self.at += 1;
+        }
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ibm_floats_decode_as_the_format_defines() {
+        // 0x4110_0000: fraction 1/16, exponent 65 → 1.0; 0xC276_A000: −118.625 (the textbook
+        // example of IBM hexadecimal floating point).
+        assert_eq!(ibm_float(0x4110_0000), 1.0);
+        assert_eq!(ibm_float(0xC276_A000), -118.625);
+        assert_eq!(ibm_float(0), 0.0);
+    }
+
+    #[test]
+    fn sign_and_magnitude_integers() {
+        assert_eq!(signed(&[0x80, 0x00, 0x05], 0, 3), Some(-5));
+        assert_eq!(signed(&[0x00, 0x01, 0x00], 0, 3), Some(256));
+        assert_eq!(signed(&[0x80, 0x01], 0, 2), Some(-1));
+    }
+
+    #[test]
+    fn bit_fields_cross_octets() {
+        let mut r = BitReader {
+            data: &[0b1010_1100, 0b0111_0000],
+            at: 0,
+        };
+        assert_eq!(r.take(3), 0b101);
+        assert_eq!(r.take(9), 0b0_1100_0111);
+    }
+}

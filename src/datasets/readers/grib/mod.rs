@@ -1,0 +1,362 @@
+//! GRIB (WMO FM 92, editions 1 and 2), the format of weather services' forecasts and analyses,
+//! as a reader of the data model: a file's messages become variables with named dimensions and
+//! CF attributes ([`index`], [`dataset`]), so selection by level and step (`at: #{
+//! isobaricInhPa: 500 }`), CF time, geographic and curvilinear placement, maps and globes work as
+//! on NetCDF. Edition 2 is decoded by the `grib` crate ([`grib2`]), edition 1 here ([`grib1`]).
+//! `index: #{ message: k }` reads message k (0-based, in file order) whatever variable it
+//! belongs to.
+
+mod dataset;
+mod grib1;
+mod grib2;
+mod index;
+mod model;
+mod names;
+
+use std::path::Path;
+
+use super::variables::{Dims, NcAttribute, NcVariable};
+use crate::datasets::select::Selection;
+use crate::datasets::{ArrayData, ArrayListing};
+use crate::error::{Error, Result};
+use model::{Content, GribIndex, GribVariable};
+
+/// The GRIB reader (editions 1 and 2).
+pub(crate) struct GribReader;
+
+/// Whether `head` holds a GRIB message start: "GRIB" then edition 1 or 2 at octet 8, at the
+/// start or after a WMO bulletin header.
+pub(crate) fn is_grib(head: &[u8]) -> bool {
+    head.windows(8)
+        .any(|w| &w[..4] == b"GRIB" && matches!(w[7], 1 | 2))
+}
+
+fn variable<'a>(path: &Path, index: &'a GribIndex, name: &str) -> Result<&'a GribVariable> {
+    index
+        .variables
+        .iter()
+        .find(|v| v.name == name)
+        .ok_or_else(|| {
+            let names: Vec<&str> = index.variables.iter().map(|v| v.name.as_str()).collect();
+            Error::invalid(
+                "variable",
+                format!(
+                    "'{name}' is not in {}; it holds {}",
+                    path.display(),
+                    names.join(", ")
+                ),
+            )
+        })
+}
+
+/// The values of message `k`, decoded, in the grid's row order.
+fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> {
+    let m = &index.messages[k];
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let msg = bytes.get(m.offset..m.offset + m.length).ok_or_else(|| {
+        Error::format(
+            path,
+            format!("message {k}: the file changed while it was read"),
+        )
+    })?;
+    let points = m.field.grid.ni * m.field.grid.nj;
+    let values = match m.field.edition {
+        1 => grib1::values(msg, points),
+        _ => grib2::values(msg),
+    }
+    .map_err(|why| {
+        Error::format(
+            path,
+            format!("message {k} (GRIB{}): {why}", m.field.edition),
+        )
+    })?;
+    if values.len() != points {
+        return Err(Error::format(
+            path,
+            format!(
+                "message {k}: {} values for a grid of {points} points",
+                values.len()
+            ),
+        ));
+    }
+    Ok(values)
+}
+
+/// The indices kept of each dimension: a pick, the window's rows, or all.
+fn kept(
+    dims: &Dims,
+    picks: &[Option<usize>],
+    window: &Option<(usize, std::ops::Range<usize>)>,
+) -> Result<Vec<Vec<usize>>> {
+    dims.iter()
+        .enumerate()
+        .map(
+            |(d, (name, n))| match (picks.get(d).copied().flatten(), window) {
+                (Some(i), _) if i < *n => Ok(vec![i]),
+                (Some(i), _) => Err(Error::invalid(
+                    name.clone(),
+                    format!("index {i} is outside 0..{n}"),
+                )),
+                (None, Some((w, rows))) if *w == d => {
+                    Ok(rows.clone().filter(|&r| r < *n).collect())
+                }
+                _ => Ok((0..*n).collect()),
+            },
+        )
+        .collect()
+}
+
+/// Every combination of `sel` in C order, as flat indices into an array of `dims`.
+fn flat_indices(dims: &Dims, sel: &[Vec<usize>]) -> Vec<usize> {
+    let mut out = vec![0usize];
+    for ((_, n), keep) in dims.iter().zip(sel) {
+        out = out
+            .iter()
+            .flat_map(|&base| keep.iter().map(move |&i| base * n + i))
+            .collect();
+    }
+    out
+}
+
+impl GribReader {
+    /// Variable `var` of the file with `picks` and `window` applied.
+    fn read_variable(
+        &self,
+        path: &Path,
+        var: &GribVariable,
+        picks: &[Option<usize>],
+        window: Option<(usize, std::ops::Range<usize>)>,
+    ) -> Result<NcVariable> {
+        let sel = kept(&var.dims, picks, &window)?;
+        let data = match &var.content {
+            Content::Stored(values) => flat_indices(&var.dims, &sel)
+                .into_iter()
+                .map(|i| values[i])
+                .collect(),
+            Content::Messages(holders) => {
+                let index = index::index_of(path)?;
+                let outer = var.dims.len() - 2;
+                let (grid_dims, grid_sel) = (var.dims[outer..].to_vec(), &sel[outer..]);
+                let cells = flat_indices(&grid_dims, grid_sel);
+                let mut data = Vec::new();
+                for o in flat_indices(&var.dims[..outer].to_vec(), &sel[..outer]) {
+                    match holders[o] {
+                        Some(k) => {
+                            let values = message_values(path, &index, k)?;
+                            data.extend(cells.iter().map(|&c| values[c]));
+                        }
+                        None => data.extend(std::iter::repeat_n(f64::NAN, cells.len())),
+                    }
+                }
+                data
+            }
+        };
+        let dims: Dims = var
+            .dims
+            .iter()
+            .zip(&sel)
+            .enumerate()
+            .filter(|(d, _)| picks.get(*d).copied().flatten().is_none())
+            .map(|(_, ((name, _), keep))| (name.clone(), keep.len()))
+            .collect();
+        let find = |key: &str| {
+            var.attributes
+                .iter()
+                .find(|(k, _)| k == key)
+                .map(|(_, v)| v)
+        };
+        let as_text = |a: Option<&NcAttribute>| match a {
+            Some(NcAttribute::Text(t)) => Some(t.clone()),
+            _ => None,
+        };
+        Ok(NcVariable {
+            name: var.name.clone(),
+            dims,
+            data,
+            units: as_text(find("units")),
+            long_name: as_text(find("long_name")),
+            attributes: var.attributes.clone(),
+            stored_nan: 0,
+        })
+    }
+
+    /// Message `k` alone, as a 2-D array on its grid.
+    fn read_message(&self, path: &Path, k: i64) -> Result<ArrayData> {
+        let index = index::index_of(path)?;
+        let count = index.messages.len();
+        let k = usize::try_from(k)
+            .ok()
+            .filter(|&k| k < count)
+            .ok_or_else(|| {
+                Error::invalid(
+                    "message",
+                    format!("index {k} is outside the file's messages 0..{count}"),
+                )
+            })?;
+        let var = index
+            .variables
+            .iter()
+            .find(|v| matches!(&v.content, Content::Messages(h) if h.contains(&Some(k))))
+            .expect("every message is in a variable");
+        let grid = var.dims[var.dims.len() - 2..].to_vec();
+        let data = message_values(path, &index, k)?;
+        let fill_count = data.iter().filter(|v| v.is_nan()).count();
+        let f = &index.messages[k].field;
+        Ok(ArrayData {
+            name: var.name.clone(),
+            dims: grid.iter().map(|(d, _)| d.clone()).collect(),
+            shape: grid.iter().map(|(_, n)| *n).collect(),
+            dtype: "float64".into(),
+            units: f.param.units.clone(),
+            data,
+            fill_count,
+            attributes: var.attributes.clone(),
+            notes: vec![format!(
+                "message {k}: {} on {} {}, step {} h, reference {}",
+                f.param.name,
+                f.level.type_name,
+                f.level.value.map_or(String::new(), |v| v.to_string()),
+                f.step_hours,
+                f.reference
+            )],
+        })
+    }
+}
+
+impl super::Reader for GribReader {
+    fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
+        let index = index::index_of(path)?;
+        let auxiliary: Vec<String> = index
+            .variables
+            .iter()
+            .filter_map(|v| v.attributes.iter().find(|(k, _)| k == "coordinates"))
+            .filter_map(|(_, a)| match a {
+                NcAttribute::Text(t) => {
+                    Some(t.split_whitespace().map(str::to_string).collect::<Vec<_>>())
+                }
+                NcAttribute::Numbers(_) => None,
+            })
+            .flatten()
+            .collect();
+        Ok(index
+            .variables
+            .iter()
+            .map(|v| ArrayListing {
+                name: v.name.clone(),
+                shape: v.dims.iter().map(|(_, n)| *n).collect(),
+                dtype: "float64".into(),
+                is_coordinate: v.dims.len() == 1 && v.dims[0].0 == v.name,
+                is_auxiliary: auxiliary.contains(&v.name),
+                unreadable: None,
+            })
+            .collect())
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        rank: Option<usize>,
+        sel: &Selection,
+    ) -> Result<ArrayData> {
+        if let Some((_, k)) = sel.index.iter().find(|(d, _)| d == "message") {
+            if sel.index.len() > 1 || !sel.at.is_empty() {
+                return Err(Error::invalid(
+                    "index",
+                    "message: k picks one message; give no other index or at",
+                ));
+            }
+            let array = self.read_message(path, *k)?;
+            if let Some(v) = var.filter(|v| *v != array.name) {
+                return Err(Error::invalid(
+                    "variable",
+                    format!(
+                        "message {k} of {} holds '{}', not '{v}'",
+                        path.display(),
+                        array.name
+                    ),
+                ));
+            }
+            return Ok(array);
+        }
+        let _ = rank;
+        crate::datasets::read_netcdf_array(path, var, rank, sel)
+    }
+
+    fn holds_many(&self) -> bool {
+        true
+    }
+
+    fn volume(
+        &self,
+        path: &Path,
+        opts: &crate::datasets::LoadOptions,
+    ) -> Result<crate::model::Volume> {
+        crate::datasets::volume_from_netcdf(path, opts)
+    }
+
+    fn grid_axes(&self, path: &Path, array: &ArrayData) -> Result<super::GridAxes> {
+        crate::datasets::netcdf_grid_axes(path, array)
+    }
+
+    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+        crate::datasets::select::time_steps(path, var)
+    }
+
+    fn variables(&self) -> Option<&dyn super::variables::Variables> {
+        Some(self)
+    }
+}
+
+impl super::variables::Variables for GribReader {
+    fn list(&self, path: &Path) -> Result<Vec<(String, Dims)>> {
+        let index = index::index_of(path)?;
+        Ok(index
+            .variables
+            .iter()
+            .map(|v| (v.name.clone(), v.dims.clone()))
+            .collect())
+    }
+
+    fn attributes(&self, path: &Path, name: &str) -> Result<Vec<(String, NcAttribute)>> {
+        let index = index::index_of(path)?;
+        Ok(variable(path, &index, name)?.attributes.clone())
+    }
+
+    fn global_attributes(&self, path: &Path) -> Result<Vec<(String, NcAttribute)>> {
+        Ok(index::index_of(path)?.globals.clone())
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        name: &str,
+        picks: &[Option<usize>],
+        window: Option<(usize, std::ops::Range<usize>)>,
+    ) -> Result<NcVariable> {
+        let index = index::index_of(path)?;
+        self.read_variable(path, variable(path, &index, name)?, picks, window)
+    }
+
+    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>> {
+        let index = index::index_of(path)?;
+        let known = index
+            .variables
+            .iter()
+            .any(|v| v.dims.iter().any(|(d, _)| d == dim));
+        if !known {
+            return Err(Error::invalid(
+                "dimension",
+                format!("'{dim}' is not a dimension of {}", path.display()),
+            ));
+        }
+        match index
+            .variables
+            .iter()
+            .find(|v| v.name == dim && v.dims.len() == 1)
+        {
+            Some(v) => self.read_variable(path, v, &[], None).map(Some),
+            None => Ok(None),
+        }
+    }
+}

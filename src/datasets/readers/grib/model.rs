@@ -1,0 +1,174 @@
+//! The GRIB reader's own model: a message's description (parameter, level, times, grid), the
+//! variables the messages make, and the Gaussian latitudes both editions' grids need.
+
+use crate::datasets::readers::variables::NcAttribute;
+
+/// A parameter's variable name, long name and units.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Param {
+    pub name: String,
+    pub long_name: String,
+    pub units: Option<String>,
+}
+
+/// A level: ecCodes' `typeOfLevel`, its value (hPa for pressure) and unit.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Level {
+    pub type_name: String,
+    pub value: Option<f64>,
+    pub units: Option<String>,
+}
+
+/// A grid's node positions in the order of the message's values (rows of `ni` points).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct GridInfo {
+    /// ecCodes' `gridType`: regular_ll, regular_gg, rotated_ll, lambert, polar_stereographic,
+    /// mercator.
+    pub kind: String,
+    pub ni: usize,
+    pub nj: usize,
+    /// Latitude and longitude of every node, `nj` rows of `ni`.
+    pub lats: Vec<f64>,
+    pub lons: Vec<f64>,
+}
+
+impl GridInfo {
+    /// A grid of `lats` rows by `lons` columns.
+    pub(crate) fn regular(kind: &str, lats: Vec<f64>, lons: Vec<f64>) -> GridInfo {
+        let (ni, nj) = (lons.len(), lats.len());
+        GridInfo {
+            kind: kind.to_string(),
+            ni,
+            nj,
+            lats: lats
+                .iter()
+                .flat_map(|&la| std::iter::repeat_n(la, ni))
+                .collect(),
+            lons: (0..nj).flat_map(|_| lons.iter().copied()).collect(),
+        }
+    }
+
+    /// This grid's rotated coordinates turned to true ones, for a grid whose southern pole of
+    /// rotation is at (`south_lat`, `south_lon`).
+    pub(crate) fn rotated(mut self, south_lat: f64, south_lon: f64) -> Result<GridInfo, String> {
+        let pole = crate::model::RotatedPole::new(-south_lat, south_lon + 180.0, 0.0)
+            .map_err(|e| e.to_string())?;
+        for (la, lo) in self.lats.iter_mut().zip(self.lons.iter_mut()) {
+            (*la, *lo) = pole.to_true(*la, *lo);
+        }
+        Ok(self)
+    }
+
+    /// Whether every row has one latitude and every row the same longitudes: then the grid has
+    /// one-dimensional coordinates.
+    pub(crate) fn is_rectilinear(&self) -> bool {
+        (0..self.nj).all(|j| {
+            let row = j * self.ni;
+            (0..self.ni)
+                .all(|i| self.lats[row + i] == self.lats[row] && self.lons[row + i] == self.lons[i])
+        })
+    }
+}
+
+/// One message's description; its values are decoded when read.
+#[derive(Clone, Debug)]
+pub(crate) struct GribField {
+    pub edition: u8,
+    pub param: Param,
+    pub level: Level,
+    /// Reference time, "YYYY-MM-DD hh:mm:ss" (UTC).
+    pub reference: String,
+    pub step_hours: f64,
+    /// Ensemble member (perturbation number), for ensemble products.
+    pub number: Option<i64>,
+    pub grid: GridInfo,
+    /// ecCodes' `packingType`.
+    pub packing: String,
+    pub centre: u16,
+}
+
+/// Where a message lies in its file.
+#[derive(Clone, Debug)]
+pub(crate) struct Located {
+    pub offset: usize,
+    pub length: usize,
+    pub field: GribField,
+}
+
+/// The latitudes of a Gaussian grid with `n` rows between a pole and the equator, north to
+/// south: the zeros of the Legendre polynomial P₂ₙ(sin φ), by Newton's method from the
+/// asymptotic first guess (to 1e-14 in sin φ).
+pub(crate) fn gaussian_latitudes(n: usize) -> Vec<f64> {
+    let rows = 2 * n;
+    let mut lats = Vec::with_capacity(rows);
+    for k in 1..=rows {
+        // First guess: cos(π(k − 1/4)/(2n + 1/2)).
+        let mut x = (std::f64::consts::PI * (k as f64 - 0.25) / (rows as f64 + 0.5)).cos();
+        for _ in 0..100 {
+            let (p, dp) = legendre(rows, x);
+            let dx = p / dp;
+            x -= dx;
+            if dx.abs() < 1e-15 {
+                break;
+            }
+        }
+        lats.push(x.asin().to_degrees());
+    }
+    lats
+}
+
+/// Pₙ(x) and its derivative, by the three-term recurrence.
+fn legendre(n: usize, x: f64) -> (f64, f64) {
+    let (mut p0, mut p1) = (1.0, x);
+    for k in 2..=n {
+        let k = k as f64;
+        let p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+        (p0, p1) = (p1, p2);
+    }
+    let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+    (p1, dp)
+}
+
+/// One variable of the presented dataset.
+#[derive(Clone, Debug)]
+pub(crate) struct GribVariable {
+    pub name: String,
+    pub dims: Vec<(String, usize)>,
+    pub attributes: Vec<(String, NcAttribute)>,
+    pub content: Content,
+}
+
+/// What a variable's values are: stored (coordinates) or decoded from messages.
+#[derive(Clone, Debug)]
+pub(crate) enum Content {
+    Stored(Vec<f64>),
+    /// The message (index into [`GribIndex::messages`]) of each combination of the variable's
+    /// dimensions before the grid's two, in C order; `None` where no message holds it.
+    Messages(Vec<Option<usize>>),
+}
+
+/// The file's messages and the variables they make.
+#[derive(Debug)]
+pub(crate) struct GribIndex {
+    pub messages: Vec<Located>,
+    pub variables: Vec<GribVariable>,
+    pub globals: Vec<(String, NcAttribute)>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gaussian_latitudes_match_the_published_n32_rows() {
+        // The N32 Gaussian grid as ecCodes gives it (codes_get_gaussian_latitudes(32)): first
+        // rows 87.863799°, 85.096527°, 82.312913°, the row nearest the equator 1.395307°.
+        let lats = gaussian_latitudes(32);
+        assert_eq!(lats.len(), 64);
+        for (got, want) in lats.iter().zip([87.863799, 85.096527, 82.312913]) {
+            assert!((got - want).abs() < 1e-6, "{got} vs {want}");
+        }
+        assert!((lats[31] - 1.395307).abs() < 1e-6, "{}", lats[31]);
+        assert!((lats[31] + lats[32]).abs() < 1e-12);
+    }
+}
