@@ -144,6 +144,36 @@ fn months_since_decode_by_cftime_in_360_day_and_by_udunits_elsewhere() {
 }
 
 #[test]
+fn absolute_day_time_axes_of_cdo_and_icon_are_dates() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(r) = reference(dir.path(), "absolute") else {
+        return;
+    };
+    let path = dir.path().join("absolute_time.nc");
+    let info = info_json(&path, "ts");
+    assert_eq!(words(&info["times"]), r["absolute.time"]);
+    assert!(
+        info["note"].as_str().unwrap_or("").contains("YYYYMMDD"),
+        "{info}"
+    );
+    // Selection by date on it, as on any CF time axis.
+    let sel = Selection {
+        index: Vec::new(),
+        at: vec![(
+            "time".to_string(),
+            hdrvis::datasets::select::At::Date("2024-02-29T12:00".into()),
+        )],
+    };
+    let (_, got) = hdrvis::datasets::read_values(&path, Some("ts"), &sel).unwrap();
+    assert_values(
+        &got,
+        &numbers(&r, "absolute.ts.t2"),
+        0.0,
+        "ts at 2024-02-29T12",
+    );
+}
+
+#[test]
 fn a_time_axis_of_missing_values_stays_numbers_and_the_data_read() {
     let dir = tempfile::tempdir().unwrap();
     let Some(r) = reference(dir.path(), "nat") else {

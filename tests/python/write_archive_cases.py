@@ -13,6 +13,9 @@ CASE is one of:
             tas_height.nc: the same field as tas(time, height, lat, lon) on a size-1 height axis
   months    months.nc: a series on `months since 1958-1-1` in the 360_day calendar (cftime
             decodes it) and months_std.nc in the standard calendar (xarray leaves it as numbers)
+  absolute  absolute_time.nc: ICON/CDO output whose time axis is `day as %Y%m%d.%f` (absolute
+            dates, 20240115.25 for 06:00 on 15 January 2024), which xarray leaves as numbers; the
+            dates as CDO defines them (the digits are the date, the fraction the time of day)
   nat       all_missing_time.nc: a field whose `time` coordinate holds only _FillValue
   longhdr   long_header.nc: NetCDF-3 classic with 100 kB of text attributes before the variables
             (the header is longer than a first read of 64 KiB)
@@ -204,6 +207,31 @@ def months(out):
             print(f"{key}.time", " ".join(getattr(t, "isoformat", lambda: str(t))()[:19] for t in decoded))
 
 
+def absolute(out):
+    import datetime
+    path = os.path.join(out, "absolute_time.nc")
+    values = [20240115.0, 20240115.25, 20240229.5, 20240301.75]
+    with netCDF4.Dataset(path, "w", format="NETCDF4") as ds:
+        ds.createDimension("time", None)
+        ds.createDimension("ncells", 5)
+        ds.createDimension("lev", 1)
+        time = ds.createVariable("time", "f8", ("time",))
+        time.units = "day as %Y%m%d.%f"
+        time.calendar = "proleptic_gregorian"
+        time.axis = "T"
+        time[:] = values
+        v = ds.createVariable("ts", "f4", ("time", "ncells"))
+        v.units = "K"
+        v[:] = field(4, 1, 5, 9)[:, 0, :]
+    dates = []
+    for value in values:
+        day = int(value)
+        start = datetime.datetime(day // 10000, day // 100 % 100, day % 100)
+        dates.append((start + datetime.timedelta(days=value - day)).isoformat()[:19])
+    print("absolute.time", " ".join(dates))
+    emit("absolute.ts.t2", xr.open_dataset(path, decode_times=False).ts.isel(time=2).values)
+
+
 def nat(out):
     path = os.path.join(out, "all_missing_time.nc")
     with netCDF4.Dataset(path, "w", format="NETCDF4") as ds:
@@ -299,7 +327,7 @@ def groups(out):
         print("groups", " ".join(sorted(ds.groups)))
 
 
-CASES = {"cordex": cordex, "cmip": cmip, "months": months, "nat": nat, "longhdr": longhdr, "h5cf": h5cf, "h5dims": h5dims, "groups": groups}
+CASES = {"cordex": cordex, "cmip": cmip, "months": months, "absolute": absolute, "nat": nat, "longhdr": longhdr, "h5cf": h5cf, "h5dims": h5dims, "groups": groups}
 
 if __name__ == "__main__":
     out_dir, case = sys.argv[1], sys.argv[2]

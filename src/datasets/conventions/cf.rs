@@ -108,7 +108,7 @@ pub(crate) fn axis_role(path: &Path, v: &NcVariable) -> Result<AxisRole> {
         "degreen",
         "degreesn",
     ];
-    if units.contains(" since ") || standard == "time" || text(v, "axis") == Some("T") {
+    if super::cf_time::is_time_units(&units) || standard == "time" || text(v, "axis") == Some("T") {
         return Ok(AxisRole::Time);
     }
     if standard == "latitude" || lat_units.contains(&units.as_str()) {
@@ -208,13 +208,13 @@ impl AxisRole {
 }
 
 /// The CF time units and calendar of a time coordinate, or `None` when its units are not
-/// `<unit> since <date>`; units or a calendar that cannot be read are an error naming the file
+/// `<unit> since <date>` (or CDO's absolute `day as %Y%m%d.%f`); units or a calendar that cannot be read are an error naming the file
 /// and the coordinate.
 pub(crate) fn time_units(path: &Path, v: &NcVariable) -> Result<Option<TimeUnits>> {
     let Some(units) = v
         .units
         .as_deref()
-        .filter(|u| u.to_ascii_lowercase().contains(" since "))
+        .filter(|u| super::cf_time::is_time_units(u))
     else {
         return Ok(None);
     };

@@ -194,6 +194,8 @@ pub(crate) struct TimeUnits {
     pub unit_note: Option<String>,
     /// The epoch in seconds from the calendar's day 0.
     epoch: f64,
+    /// `day as %Y%m%d.%f` (CDO, ICON): values are dates, 20240115.5 for noon of 15 January 2024.
+    absolute: bool,
 }
 
 impl TimeUnits {
@@ -210,10 +212,21 @@ impl TimeUnits {
             })?,
         };
         let lower = units.trim().to_ascii_lowercase();
+        if ABSOLUTE_UNITS.contains(&lower.as_str()) {
+            return Ok(TimeUnits {
+                calendar,
+                unit: DAY,
+                unit_note: Some(
+                    "dates written as YYYYMMDD.fraction of a day (CDO's absolute time)".into(),
+                ),
+                epoch: 0.0,
+                absolute: true,
+            });
+        }
         let Some((unit, epoch)) = lower.split_once(" since ") else {
             return Err(Error::invalid(
                 "units",
-                format!("'{units}' is not '<unit> since <date>'"),
+                format!("'{units}' is not '<unit> since <date>' or 'day as %Y%m%d.%f'"),
             ));
         };
         let (unit, unit_note) = parse_unit(units, unit.trim(), calendar)?;
@@ -223,12 +236,32 @@ impl TimeUnits {
             unit,
             unit_note,
             epoch,
+            absolute: false,
         })
+    }
+
+    /// Seconds from the calendar's day 0 of an absolute value YYYYMMDD.fraction; `None` when its
+    /// digits are no date of the calendar.
+    fn absolute_seconds(&self, value: f64) -> Option<f64> {
+        let day = value.floor();
+        let ymd = day as i64;
+        let n = self
+            .calendar
+            .day_number((ymd / 10000, ymd / 100 % 100, ymd % 100))
+            .ok()?;
+        Some(n as f64 * DAY + (value - day) * DAY)
     }
 
     /// The date of coordinate value `value`, in ISO 8601 to the nearest second.
     pub fn date(&self, value: f64) -> String {
-        let seconds = (self.epoch + value * self.unit).round();
+        let seconds = if self.absolute {
+            match self.absolute_seconds(value) {
+                Some(s) => s.round(),
+                None => return format!("{value} (not a YYYYMMDD date)"),
+            }
+        } else {
+            (self.epoch + value * self.unit).round()
+        };
         let day = (seconds / DAY).floor();
         let in_day = (seconds - day * DAY) as i64;
         let (y, m, d) = self.calendar.date(day as i64);
@@ -244,8 +277,23 @@ impl TimeUnits {
     /// The coordinate value of an ISO 8601 date (`2011-03-11`, `2011-03-11T06:00`,
     /// `2011-03-11 06:00:30`, a trailing `Z`) in this calendar.
     pub fn value(&self, date: &str) -> Result<f64> {
-        Ok((parse_instant(self.calendar, date, false)? - self.epoch) / self.unit)
+        let seconds = parse_instant(self.calendar, date, false)?;
+        if self.absolute {
+            let day = (seconds / DAY).floor();
+            let (y, m, d) = self.calendar.date(day as i64);
+            return Ok((y * 10000 + m * 100 + d) as f64 + (seconds - day * DAY) / DAY);
+        }
+        Ok((seconds - self.epoch) / self.unit)
     }
+}
+
+/// The units of absolute time axes, as CDO and ICON write them (lower case).
+const ABSOLUTE_UNITS: [&str; 3] = ["day as %y%m%d.%f", "days as %y%m%d.%f", "day as %y%m%d"];
+
+/// Whether `units` are those of a time axis: `<unit> since <date>`, or absolute days.
+pub(crate) fn is_time_units(units: &str) -> bool {
+    let lower = units.trim().to_ascii_lowercase();
+    lower.contains(" since ") || ABSOLUTE_UNITS.contains(&lower.as_str())
 }
 
 /// Seconds per time unit `unit` (of the units string `units`) in `calendar`, and how a unit of
@@ -434,6 +482,18 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("not a day of the standard calendar"), "{err}");
+    }
+
+    #[test]
+    fn absolute_day_units_are_dates() {
+        // CDO's `-a` absolute time axis: 20240115.5 is noon on 15 January 2024.
+        let units = TimeUnits::parse("day as %Y%m%d.%f", Some("proleptic_gregorian")).unwrap();
+        assert_eq!(units.date(20240115.5), "2024-01-15T12:00:00");
+        assert_eq!(units.date(20240229.25), "2024-02-29T06:00:00");
+        assert_eq!(units.value("2024-03-01T18:00").unwrap(), 20240301.75);
+        assert!(units.date(20240230.0).contains("not a YYYYMMDD date"));
+        let day360 = TimeUnits::parse("day as %Y%m%d.%f", Some("360_day")).unwrap();
+        assert_eq!(day360.date(20240230.0), "2024-02-30T00:00:00");
     }
 
     #[test]
