@@ -209,11 +209,24 @@ pub(crate) fn read_netcdf_array(
         .find(|(n, _)| *n == name)
         .map(|(_, d)| d)
         .unwrap_or_default();
-    let plan = select::plan(path, &name, &dims, sel)?;
-    if rank.is_some() {
-        select::refuse_time(path, &name, &plan.kept(&dims))?;
-    }
-    let variable = select::read(path, &name, &plan)?;
+    let (variable, notes) =
+        match crate::datasets::conventions::vertical::at_level(path, &name, &dims, sel)? {
+            // A level on a parametric vertical coordinate (`at: #{ pressure: 500 }`).
+            Some((variable, notes)) => {
+                if rank.is_some() {
+                    let kept: Vec<&(String, usize)> = variable.dims.iter().collect();
+                    select::refuse_time(path, &name, &kept)?;
+                }
+                (variable, notes)
+            }
+            None => {
+                let plan = select::plan(path, &name, &dims, sel)?;
+                if rank.is_some() {
+                    select::refuse_time(path, &name, &plan.kept(&dims))?;
+                }
+                (select::read(path, &name, &plan)?, plan.notes)
+            }
+        };
     // Missing values become NaN when decoded; NaN already stored raw is not a fill.
     let raw_nan = variable.stored_nan;
     let decoded_nan = variable.data.iter().filter(|v| v.is_nan()).count();
@@ -226,7 +239,7 @@ pub(crate) fn read_netcdf_array(
         fill_count: decoded_nan.saturating_sub(raw_nan),
         data: variable.data,
         attributes: variable.attributes,
-        notes: plan.notes,
+        notes,
     })
 }
 

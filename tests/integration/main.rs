@@ -33,4 +33,5 @@ mod stability;
 mod surface;
 mod tonemap;
 mod tui;
+mod vertical;
 mod volume_render;

@@ -9,3 +9,4 @@ pub(crate) mod cf_decode;
 pub(crate) mod cf_time;
 pub(crate) mod curvilinear;
 pub mod select;
+pub(crate) mod vertical;
