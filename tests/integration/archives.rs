@@ -295,7 +295,10 @@ fn bad_input_is_one_line_naming_the_file_and_what_was_expected() {
             "picture.nc",
             "named as NetCDF but not one (it is a PNG image",
         ),
-        ("forecast.grib2", "GRIB is not read yet"),
+        (
+            "forecast.grib2",
+            "message 0 (offset 0): the file ends inside its indicator section (truncated)",
+        ),
         (
             "notes.dat",
             "not a format hdrvis reads (it begins \"station,\")",

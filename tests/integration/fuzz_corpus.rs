@@ -1,5 +1,5 @@
 //! The fuzz corpus: every reader (`.npy`, `.npz`, NRRD, NetCDF classic and NetCDF-4, HDF5, `.vti`,
-//! legacy `.vtk`, OpenEXR, GeoTIFF) is fed deterministic mutants of a small valid file
+//! legacy `.vtk`, OpenEXR, GeoTIFF, GRIB editions 1 and 2) is fed deterministic mutants of a small valid file
 //! (tests/fuzz/seeds/, written by tests/python/write_fuzz_seeds.py): bit flips, truncations,
 //! inserted bytes, boundary numbers written over binary fields and over the numbers of text
 //! headers. Each read runs in-process under `catch_unwind` and must end in a value or a one-line
@@ -42,7 +42,7 @@ fn read_every_way(path: &Path) -> Vec<String> {
             "read_exr",
             Box::new(|| read_exr(path).err().map(|e| e.to_string())),
         )),
-        "tif" => reads.push((
+        "tif" | "grib1" | "grib2" => reads.push((
             "load_grid",
             Box::new(|| load_grid(path, None).err().map(|e| e.to_string())),
         )),
@@ -213,7 +213,7 @@ fn mutant_loop() {
         .map(|e| e.path())
         .collect();
     seeds.sort();
-    assert_eq!(seeds.len(), 10, "{seeds:?}");
+    assert_eq!(seeds.len(), 14, "{seeds:?}");
     for (k, seed_path) in seeds.iter().enumerate() {
         let seed = std::fs::read(seed_path).unwrap();
         let name = seed_path.file_name().unwrap().to_str().unwrap();

@@ -17,6 +17,10 @@ the same 5x4x3 float32 volume (x fastest), values 0.5 * i - 3 j + 10 k:
   seed.vtk           VTK legacy STRUCTURED_POINTS, binary
   seed.exr           OpenEXR, R, G, B, ZIP compression, 6x4
   seed.tif           rasterio (GDAL) GeoTIFF, EPSG:4326, deflate, 6x4, nodata -9999
+  seed.grib1         ecCodes GRIB1, simple packing with a bitmap, 13x7 (write_grib_cases.py)
+  seed_bitmap.grib2  ecCodes GRIB2, simple packing with a bitmap, 13x7
+  seed_jpeg.grib2    ecCodes GRIB2, JPEG 2000 packing, 25x13
+  seed_complex.grib2 ecCodes GRIB2, complex packing with spatial differencing, 25x13
 
 Exit status 77 (skipped) when one of the modules is missing.
 """
@@ -96,6 +100,23 @@ def main():
                    compress="deflate")
     with rasterio.open(path("seed.tif"), "w", **profile) as d:
         d.write(grid, 1)
+    grib_seeds(out)
+
+
+def grib_seeds(out):
+    """GRIB seeds: files of tests/python/write_grib_cases.py (ecCodes) copied under seed names."""
+    import shutil
+    import subprocess
+    import tempfile
+    here = os.path.dirname(os.path.abspath(__file__))
+    with tempfile.TemporaryDirectory() as tmp:
+        subprocess.run([sys.executable, os.path.join(here, "write_grib_cases.py"), tmp], check=True,
+                       stdout=subprocess.DEVNULL)
+        for source, seed in (("grib1_regular_ll.grib1", "seed.grib1"),
+                             ("grid_simple_bitmap.grib2", "seed_bitmap.grib2"),
+                             ("grid_jpeg.grib2", "seed_jpeg.grib2"),
+                             ("grid_complex_spatial_differencing.grib2", "seed_complex.grib2")):
+            shutil.copyfile(os.path.join(tmp, source), os.path.join(out, seed))
 
 
 if __name__ == "__main__":

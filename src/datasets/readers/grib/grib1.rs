@@ -161,6 +161,7 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
     let short = || "the grid description section is too short".to_string();
     let ni = uint(gds, 6, 2).ok_or_else(short)? as usize;
     let nj = uint(gds, 8, 2).ok_or_else(short)? as usize;
+    super::model::check_grid(ni, nj)?;
     if ni == 0xffff {
         return Err(
             "a reduced (quasi-regular) grid is not read; regrid it first (cdo setgridtype,regular)"
@@ -180,6 +181,12 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
     let lons = axis_between(lo1, lo2, ni, scan & 0x80 != 0, true);
     let lats = if kind == 4 {
         let n = uint(gds, 25, 2).ok_or_else(short)? as usize;
+        if n == 0 || n > super::model::MAX_GAUSSIAN_N || nj > 2 * n {
+            return Err(format!(
+                "a Gaussian grid of N = {n}; expected 1 to {}",
+                super::model::MAX_GAUSSIAN_N
+            ));
+        }
         gaussian_rows(n, la1, la2, nj)?
     } else {
         axis_between(la1, la2, nj, scan & 0x40 == 0, false)

@@ -10,6 +10,14 @@ use super::names;
 
 type Why = String;
 
+/// The crate's error as one line (some of its errors print as multi-line debug structures).
+fn one_line(e: impl std::fmt::Display) -> Why {
+    e.to_string()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// ecCodes' `gridType` of a grid definition template (code table 3.1).
 fn grid_kind(template: u16) -> Result<&'static str, Why> {
     Ok(match template {
@@ -64,6 +72,119 @@ fn unit_hours(unit: u8) -> Result<f64, Why> {
     })
 }
 
+/// Checks that a message's sections (each a 4-octet length and its number) tile it up to
+/// "7777": the crate reads a section into a buffer of its declared length, so a damaged length
+/// must be refused before it is handed over.
+fn check_sections(msg: &[u8]) -> Result<(), Why> {
+    let end = msg.len().saturating_sub(4);
+    let mut at = 16;
+    let (mut jpeg, mut values) = (false, 0u64);
+    while at < end {
+        let len = msg
+            .get(at..at + 4)
+            .map(|b| u32::from_be_bytes(b.try_into().expect("4 octets")) as usize)
+            .ok_or("the message ends inside a section header (truncated)")?;
+        let number = msg.get(at + 4).copied().unwrap_or(0);
+        if len < 5 || at + len > end || !(1..=7).contains(&number) {
+            return Err(format!(
+                "section {number} at offset {at} declares {len} octets where {} remain before '7777' (damaged)",
+                end - at
+            ));
+        }
+        if number == 5 {
+            check_representation(&msg[at..at + len])?;
+            jpeg = msg.get(at + 9..at + 11) == Some(&[0, 40]);
+            values = msg.get(at + 5..at + 9).map_or(0, |b| {
+                u32::from_be_bytes(b.try_into().expect("4 octets")) as u64
+            });
+        }
+        if number == 7 && jpeg {
+            check_jpeg2000(&msg[at + 5..at + len], values)?;
+        }
+        at += len;
+    }
+    Ok(())
+}
+
+/// A JPEG 2000 code stream's image size (its SIZ marker segment), which sizes the decoder's
+/// buffers: one component of no more samples than the message has values.
+fn check_jpeg2000(stream: &[u8], values: u64) -> Result<(), Why> {
+    if stream.is_empty() {
+        return Ok(());
+    }
+    let word = |at: usize| {
+        stream
+            .get(at..at + 4)
+            .map(|b| u32::from_be_bytes(b.try_into().expect("4 octets")) as u64)
+    };
+    if stream.get(..4) != Some(&[0xff, 0x4f, 0xff, 0x51]) {
+        return Err("the JPEG 2000 code stream does not begin with SOC and SIZ (damaged)".into());
+    }
+    let size = |a: usize, b: usize| Some(word(a)?.checked_sub(word(b)?)?);
+    let (width, height) = (size(8, 16), size(12, 20));
+    let components = stream.get(40..42).map(|b| u16::from_be_bytes([b[0], b[1]]));
+    match (width, height, components) {
+        (Some(w), Some(h), Some(1)) if w > 0 && h > 0 && w.saturating_mul(h) <= values.max(1) => Ok(()),
+        _ => Err(format!(
+            "a JPEG 2000 image of {width:?} × {height:?} samples in {components:?} components for {values} values (damaged)"
+        )),
+    }
+}
+
+/// Section 5's counts that size the decoder's buffers: complex packing's number of groups can
+/// be no more than the values it packs.
+fn check_representation(sect: &[u8]) -> Result<(), Why> {
+    let word = |at: usize| {
+        sect.get(at..at + 4)
+            .map(|b| u32::from_be_bytes(b.try_into().expect("4 octets")) as usize)
+    };
+    let template = sect.get(9..11).map(|b| u16::from_be_bytes([b[0], b[1]]));
+    let values = word(5).unwrap_or(0);
+    if matches!(template, Some(2 | 3)) {
+        let groups = word(31).ok_or("section 5 ends before complex packing's group count")?;
+        // Octets 38–41: the reference group length; 43–46: the last group's true length.
+        let reference = word(37).unwrap_or(0);
+        let last = word(42).unwrap_or(0);
+        if groups > values || reference > values || last > values {
+            return Err(format!(
+                "complex packing of {values} values in {groups} groups of reference length {reference}, the last {last} long (damaged)"
+            ));
+        }
+    }
+    Ok(())
+}
+
+thread_local! {
+    /// Set while the crate decodes on this thread: its panics are turned into errors, not printed.
+    static DECODING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs the crate on one message, turning a panic of the crate (an arithmetic overflow on a
+/// damaged message) into a one-line error; the panic hook stays quiet for it, and for nothing
+/// else.
+fn guarded<T>(f: impl FnOnce() -> Result<T, Why>) -> Result<T, Why> {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !DECODING.with(std::cell::Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    DECODING.with(|d| d.set(true));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    DECODING.with(|d| d.set(false));
+    result.unwrap_or_else(|panic| {
+        let why = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        Err(format!("the GRIB2 decoder failed on it ({why}): the message is damaged or uses a form hdrvis does not read"))
+    })
+}
+
 /// The one field of a GRIB2 message; a message that repeats its sections for several fields
 /// is refused rather than read in part.
 fn with_field<T>(
@@ -72,15 +193,18 @@ fn with_field<T>(
         grib::SubMessage<'_, grib::SeekableGrib2Reader<std::io::Cursor<&[u8]>>>,
     ) -> Result<T, Why>,
 ) -> Result<T, Why> {
-    let grib2 = grib::from_bytes(msg).map_err(|e| e.to_string())?;
-    if grib2.len() != 1 {
-        return Err(format!(
-            "holds {} fields in one message (repeated sections); only single-field messages are read",
-            grib2.len()
-        ));
-    }
-    let (_, field) = grib2.iter().next().ok_or("holds no field")?;
-    f(field)
+    check_sections(msg)?;
+    guarded(|| {
+        let grib2 = grib::from_bytes(msg).map_err(one_line)?;
+        if grib2.len() != 1 {
+            return Err(format!(
+                "holds {} fields in one message (repeated sections); only single-field messages are read",
+                grib2.len()
+            ));
+        }
+        let (_, field) = grib2.iter().next().ok_or("holds no field")?;
+        f(field)
+    })
 }
 
 /// The metadata of a GRIB2 message (values are decoded by [`values`]).
@@ -126,10 +250,22 @@ pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
             t.year, t.month, t.day, t.hour, t.minute, t.second
         );
         let kind = grid_kind(sub.grid_def().grid_tmpl_num())?;
+        if kind.ends_with("_gg") {
+            // N, octets 68–71 of section 3 (payload from octet 6): its latitudes cost O(N²).
+            let n: Vec<u8> = sub.grid_def().iter().skip(62).take(4).copied().collect();
+            let n = n.try_into().map(u32::from_be_bytes).unwrap_or(0) as usize;
+            if n == 0 || n > super::model::MAX_GAUSSIAN_N {
+                return Err(format!(
+                    "a Gaussian grid of N = {n}; expected 1 to {}",
+                    super::model::MAX_GAUSSIAN_N
+                ));
+            }
+        }
         let packing = packing(sub.repr_def().repr_tmpl_num())?;
-        let (ni, nj) = sub.grid_shape().map_err(|e| e.to_string())?;
+        let (ni, nj) = sub.grid_shape().map_err(one_line)?;
+        super::model::check_grid(ni, nj)?;
         let (lats, lons): (Vec<f64>, Vec<f64>) = grib::LatLons::latlons_unchecked(&sub)
-            .map_err(|e| e.to_string())?
+            .map_err(one_line)?
             .unzip();
         if lats.len() != ni * nj {
             return Err(format!(
@@ -160,8 +296,26 @@ pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
 /// The message's values in scanning order, missing points as NaN.
 pub(super) fn values(msg: &[u8]) -> Result<Vec<f64>, Why> {
     with_field(msg, |sub| {
-        let decoder = grib::Grib2SubmessageDecoder::from(sub).map_err(|e| e.to_string())?;
-        let values = decoder.dispatch().map_err(|e| e.to_string())?;
-        Ok(values.map(f64::from).collect())
+        let (points, coded) = (sub.grid_def().num_points(), sub.repr_def().num_points());
+        if coded > points {
+            return Err(format!(
+                "{coded} coded values for a grid of {points} points (damaged)"
+            ));
+        }
+        let decoder = grib::Grib2SubmessageDecoder::from(sub).map_err(one_line)?;
+        let values = decoder.dispatch().map_err(one_line)?;
+        // A damaged message may decode to more values than its grid has: stop one past.
+        let values: Vec<f64> = values.map(f64::from).take(points as usize + 1).collect();
+        if values.len() != points as usize {
+            return Err(format!(
+                "{} values decoded for a grid of {points} points (damaged)",
+                if values.len() > points as usize {
+                    "more".to_string()
+                } else {
+                    values.len().to_string()
+                }
+            ));
+        }
+        Ok(values)
     })
 }

@@ -33,10 +33,12 @@ pub(crate) fn split(path: &Path, bytes: &[u8]) -> Result<Vec<(usize, usize, u8)>
         };
         let what = format!("message {} (offset {start})", found.len());
         let Some(length) = length else {
-            return Err(Error::format(
-                path,
-                format!("{what}: GRIB edition {edition} is not 1 or 2"),
-            ));
+            let why = if matches!(edition, 1 | 2) {
+                "the file ends inside its indicator section (truncated)".to_string()
+            } else {
+                format!("GRIB edition {edition} is not 1 or 2")
+            };
+            return Err(Error::format(path, format!("{what}: {why}")));
         };
         let end = start.checked_add(length).filter(|&e| e <= bytes.len());
         match end {

@@ -32,6 +32,21 @@ pub(crate) struct GridInfo {
     pub lons: Vec<f64>,
 }
 
+/// The most rows a Gaussian grid may have between a pole and the equator: regular Gaussian
+/// grids in archives go to N2560 (ERA5's is N320); the latitudes take O(N²) work to find.
+pub(crate) const MAX_GAUSSIAN_N: usize = 4096;
+
+/// Refuses a grid of `ni` × `nj` points that cannot be meant (none, or more than memory holds
+/// for its values and the latitude and longitude of every node) before anything is allocated.
+pub(crate) fn check_grid(ni: usize, nj: usize) -> Result<(), String> {
+    let points = ni
+        .checked_mul(nj)
+        .filter(|&p| p > 0)
+        .ok_or_else(|| format!("a grid of {ni} × {nj} points"))?;
+    crate::model::volume::check_allocation(points as u64 * 8 * 4, "GRIB grid")
+        .map_err(|e| format!("a grid of {ni} × {nj} points: {e}"))
+}
+
 impl GridInfo {
     /// A grid of `lats` rows by `lons` columns.
     pub(crate) fn regular(kind: &str, lats: Vec<f64>, lons: Vec<f64>) -> GridInfo {
