@@ -120,7 +120,7 @@ fn check_jpeg2000(stream: &[u8], values: u64) -> Result<(), Why> {
     if stream.get(..4) != Some(&[0xff, 0x4f, 0xff, 0x51]) {
         return Err("the JPEG 2000 code stream does not begin with SOC and SIZ (damaged)".into());
     }
-    let size = |a: usize, b: usize| Some(word(a)?.checked_sub(word(b)?)?);
+    let size = |a: usize, b: usize| word(a)?.checked_sub(word(b)?);
     let (width, height) = (size(8, 16), size(12, 20));
     let components = stream.get(40..42).map(|b| u16::from_be_bytes([b[0], b[1]]));
     match (width, height, components) {
