@@ -307,7 +307,9 @@ pub(crate) fn read_with_stats(
     slab_values: usize,
 ) -> Result<(ArrayData, ValueStats, Option<String>)> {
     // Before anything opens it: a FIFO without a writer would block the open.
-    crate::io::check_regular_file(path)?;
+    if !crate::datasets::readers::zarr::is_store(path) {
+        crate::io::check_regular_file(path)?;
+    }
     if let Some(slabs) = Slabs::open(path, var, sel)? {
         if slabs.len() > stream_above {
             return streamed_stats(slabs, slab_values);

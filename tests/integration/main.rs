@@ -35,3 +35,4 @@ mod tonemap;
 mod tui;
 mod vertical;
 mod volume_render;
+mod zarr;

@@ -30,6 +30,7 @@ pub(crate) mod scalar;
 pub(crate) mod variables;
 pub(crate) mod vti;
 pub(crate) mod vtk_legacy;
+pub(crate) mod zarr;
 
 use std::io::Read;
 use std::path::Path;
@@ -191,6 +192,8 @@ pub enum Format {
     Exr,
     /// GRIB editions 1 and 2 (weather services' forecasts and analyses).
     Grib,
+    /// Zarr directory stores, versions 2 and 3 (cloud archives, xarray's `to_zarr`).
+    Zarr,
 }
 
 /// One row of the registry: a format's name in messages, its extensions (the first is the one
@@ -227,7 +230,7 @@ fn is_xml_vtk_image(head: &[u8]) -> bool {
     (text.starts_with("<?xml") || text.starts_with("<VTKFile")) && text.contains("ImageData")
 }
 
-const FORMATS: [FormatRow; 10] = [
+const FORMATS: [FormatRow; 11] = [
     FormatRow {
         format: Format::Npy,
         name: "NumPy .npy",
@@ -302,6 +305,14 @@ const FORMATS: [FormatRow; 10] = [
         signature: grib::is_grib,
         reader: &grib::GribReader,
     },
+    FormatRow {
+        format: Format::Zarr,
+        name: "Zarr",
+        extensions: &["zarr"],
+        // A store is a folder, recognised by its metadata files (`Format::of`), not by bytes.
+        signature: |_| false,
+        reader: &zarr::ZarrReader,
+    },
 ];
 
 /// Formats hdrvis recognises but does not read, so that a user hears what the file is.
@@ -371,6 +382,9 @@ impl Format {
     /// extension are an error naming the file, what it holds when that is known, and what was
     /// expected.
     pub fn of(path: &Path) -> Result<Format> {
+        if zarr::is_store(path) {
+            return Ok(Format::Zarr);
+        }
         crate::io::check_regular_file(path)?;
         let mut head = Vec::with_capacity(HEAD_BYTES);
         std::fs::File::open(path)

@@ -1,0 +1,372 @@
+//! A Zarr directory store's metadata, versions 2 and 3, as xarray's `to_zarr` writes it: the
+//! root group's attributes, and for each array its shape, chunk shape, element type, fill value,
+//! codecs, dimension names (v2: xarray's `_ARRAY_DIMENSIONS` attribute; v3: `dimension_names`)
+//! and attributes.
+
+use std::path::{Path, PathBuf};
+
+use super::codecs::{Codec, Dtype};
+use crate::datasets::readers::variables::NcAttribute;
+use crate::error::{Error, Result};
+
+/// One array of the store.
+#[derive(Clone, Debug)]
+pub(crate) struct ZArray {
+    pub name: String,
+    pub dir: PathBuf,
+    pub shape: Vec<usize>,
+    pub chunks: Vec<usize>,
+    pub dtype: Dtype,
+    /// The value of chunks that were never written.
+    pub fill: f64,
+    /// Bytes-to-bytes codecs in the order they were applied when writing.
+    pub codecs: Vec<Codec>,
+    pub dims: Vec<String>,
+    /// Attributes; for v2 the array's `fill_value` is its `_FillValue`, as xarray reads it.
+    pub attributes: Vec<(String, NcAttribute)>,
+    /// Chunk keys: v3's default encoding puts them under "c" and separates indices with '/';
+    /// v2 separates them with '.' (or '/').
+    pub key_prefix: Option<&'static str>,
+    pub separator: char,
+}
+
+impl ZArray {
+    /// The file of the chunk at grid position `at`.
+    pub(crate) fn chunk_path(&self, at: &[usize]) -> PathBuf {
+        let sep = self.separator.to_string();
+        let mut parts: Vec<String> = self.key_prefix.iter().map(|p| p.to_string()).collect();
+        parts.extend(at.iter().map(usize::to_string));
+        if at.is_empty() && self.key_prefix.is_none() {
+            parts.push("0".into());
+        }
+        self.dir.join(parts.join(&sep))
+    }
+}
+
+/// The store: its global attributes and arrays.
+#[derive(Debug)]
+pub(crate) struct Store {
+    pub globals: Vec<(String, NcAttribute)>,
+    pub arrays: Vec<ZArray>,
+}
+
+/// Whether `path` is a Zarr store (a folder with v2 or v3 root metadata).
+pub(crate) fn is_store(path: &Path) -> bool {
+    path.is_dir()
+        && [".zgroup", ".zarray", ".zmetadata", "zarr.json"]
+            .iter()
+            .any(|f| path.join(f).is_file())
+}
+
+fn json(path: &Path) -> Result<serde_json::Value> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    serde_json::from_str(&text).map_err(|e| Error::format(path, format!("is not valid JSON: {e}")))
+}
+
+/// A JSON attribute value as the data model keeps it.
+fn attribute(v: &serde_json::Value) -> NcAttribute {
+    use serde_json::Value;
+    match v {
+        Value::String(s) => NcAttribute::Text(s.clone()),
+        Value::Number(n) => NcAttribute::Numbers(vec![n.as_f64().unwrap_or(f64::NAN)]),
+        Value::Bool(b) => NcAttribute::Numbers(vec![f64::from(u8::from(*b))]),
+        Value::Array(items) if items.iter().all(|x| x.is_number()) && !items.is_empty() => {
+            NcAttribute::Numbers(
+                items
+                    .iter()
+                    .map(|x| x.as_f64().unwrap_or(f64::NAN))
+                    .collect(),
+            )
+        }
+        other => NcAttribute::Text(other.to_string()),
+    }
+}
+
+/// A fill value as Zarr writes it: a number, "NaN", "Infinity", "-Infinity", or (v3) raw bits
+/// in hexadecimal.
+fn fill_value(v: &serde_json::Value, dtype: &Dtype) -> Option<f64> {
+    match v {
+        serde_json::Value::Number(n) => n.as_f64(),
+        serde_json::Value::Bool(b) => Some(f64::from(u8::from(*b))),
+        serde_json::Value::String(s) => match s.as_str() {
+            "NaN" => Some(f64::NAN),
+            "Infinity" => Some(f64::INFINITY),
+            "-Infinity" => Some(f64::NEG_INFINITY),
+            hex => {
+                let bits = u64::from_str_radix(hex.strip_prefix("0x")?, 16).ok()?;
+                let bytes = bits.to_le_bytes();
+                dtype.values(&bytes[..dtype.size]).first().copied()
+            }
+        },
+        _ => None,
+    }
+}
+
+/// xarray writes a v3 array's `_FillValue` as the base64 of its bytes (little-endian): the
+/// number it stands for.
+fn base64_number(text: &str, dtype: &Dtype) -> Option<f64> {
+    const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut bits = 0u32;
+    let mut count = 0;
+    let mut out = Vec::new();
+    for c in text.trim_end_matches('=').bytes() {
+        let v = ALPHABET.iter().position(|&a| a == c)? as u32;
+        bits = bits << 6 | v;
+        count += 6;
+        if count >= 8 {
+            count -= 8;
+            out.push((bits >> count) as u8);
+        }
+    }
+    let little = Dtype {
+        little: true,
+        ..*dtype
+    };
+    (out.len() == dtype.size).then(|| little.values(&out)[0])
+}
+
+fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
+    let meta_path = dir.join(".zarray");
+    let meta = json(&meta_path)?;
+    let bad = |why: String| Error::format(&meta_path, why);
+    let numbers = |key: &str| -> Result<Vec<usize>> {
+        meta[key]
+            .as_array()
+            .ok_or_else(|| bad(format!("has no '{key}' list")))?
+            .iter()
+            .map(|n| {
+                n.as_u64()
+                    .map(|n| n as usize)
+                    .ok_or_else(|| bad(format!("'{key}' holds a non-integer")))
+            })
+            .collect()
+    };
+    let dtype = Dtype::from_numpy(meta["dtype"].as_str().unwrap_or("")).map_err(bad)?;
+    if meta["order"].as_str() == Some("F") {
+        return Err(bad("is in Fortran order, which is not read".into()));
+    }
+    if meta["filters"].as_array().is_some_and(|f| !f.is_empty()) {
+        return Err(bad(format!(
+            "has filters {}, which are not read",
+            meta["filters"]
+        )));
+    }
+    let codecs = match &meta["compressor"] {
+        serde_json::Value::Null => Vec::new(),
+        c => vec![Codec::named(c["id"].as_str().unwrap_or("?")).map_err(bad)?],
+    };
+    let attrs_path = dir.join(".zattrs");
+    let attrs = if attrs_path.is_file() {
+        json(&attrs_path)?
+    } else {
+        serde_json::json!({})
+    };
+    let dims: Vec<String> = attrs["_ARRAY_DIMENSIONS"]
+        .as_array()
+        .map(|d| {
+            d.iter()
+                .map(|x| x.as_str().unwrap_or("").to_string())
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut attributes: Vec<(String, NcAttribute)> = attrs
+        .as_object()
+        .into_iter()
+        .flatten()
+        .filter(|(k, _)| *k != "_ARRAY_DIMENSIONS")
+        .map(|(k, v)| (k.clone(), attribute(v)))
+        .collect();
+    let fill = fill_value(&meta["fill_value"], &dtype);
+    if let Some(f) = fill {
+        if !attributes.iter().any(|(k, _)| k == "_FillValue") {
+            attributes.push(("_FillValue".into(), NcAttribute::Numbers(vec![f])));
+        }
+    }
+    let separator = if meta["dimension_separator"].as_str() == Some("/") {
+        '/'
+    } else {
+        '.'
+    };
+    finish(ZArray {
+        name: name.to_string(),
+        dir: dir.to_path_buf(),
+        shape: numbers("shape")?,
+        chunks: numbers("chunks")?,
+        dtype,
+        fill: fill.unwrap_or(f64::NAN),
+        codecs,
+        dims,
+        attributes,
+        key_prefix: None,
+        separator,
+    })
+}
+
+fn array_v3(dir: &Path, name: &str, meta: &serde_json::Value) -> Result<ZArray> {
+    let meta_path = dir.join("zarr.json");
+    let bad = |why: String| Error::format(&meta_path, why);
+    let list = |v: &serde_json::Value, key: &str| -> Result<Vec<usize>> {
+        v.as_array()
+            .ok_or_else(|| bad(format!("has no '{key}' list")))?
+            .iter()
+            .map(|n| {
+                n.as_u64()
+                    .map(|n| n as usize)
+                    .ok_or_else(|| bad(format!("'{key}' holds a non-integer")))
+            })
+            .collect()
+    };
+    let mut dtype = Dtype::from_v3(meta["data_type"].as_str().unwrap_or("?")).map_err(bad)?;
+    if meta["chunk_grid"]["name"].as_str() != Some("regular") {
+        return Err(bad(format!(
+            "has chunk grid {}, only 'regular' is read",
+            meta["chunk_grid"]["name"]
+        )));
+    }
+    let mut codecs = Vec::new();
+    for c in meta["codecs"].as_array().into_iter().flatten() {
+        match c["name"].as_str().unwrap_or("?") {
+            "bytes" => dtype.little = c["configuration"]["endian"].as_str() != Some("big"),
+            "sharding_indexed" => {
+                return Err(bad(
+                    "is sharded (sharding_indexed), which is not read yet".into()
+                ))
+            }
+            "transpose" => return Err(bad("has a transpose codec, which is not read".into())),
+            other => codecs.push(Codec::named(other).map_err(bad)?),
+        }
+    }
+    let encoding = &meta["chunk_key_encoding"];
+    let v2_keys = encoding["name"].as_str() == Some("v2");
+    let separator = match encoding["configuration"]["separator"].as_str() {
+        Some(".") => '.',
+        Some("/") => '/',
+        _ if v2_keys => '.',
+        _ => '/',
+    };
+    let mut attributes: Vec<(String, NcAttribute)> = meta["attributes"]
+        .as_object()
+        .into_iter()
+        .flatten()
+        .map(|(k, v)| (k.clone(), attribute(v)))
+        .collect();
+    for (k, v) in attributes.iter_mut() {
+        if let (true, NcAttribute::Text(t)) = (k == "_FillValue", &*v) {
+            if let Some(n) = base64_number(t, &dtype) {
+                *v = NcAttribute::Numbers(vec![n]);
+            }
+        }
+    }
+    let dims = meta["dimension_names"]
+        .as_array()
+        .map(|d| {
+            d.iter()
+                .map(|x| x.as_str().unwrap_or("").to_string())
+                .collect()
+        })
+        .unwrap_or_default();
+    finish(ZArray {
+        name: name.to_string(),
+        dir: dir.to_path_buf(),
+        shape: list(&meta["shape"], "shape")?,
+        chunks: list(
+            &meta["chunk_grid"]["configuration"]["chunk_shape"],
+            "chunk_shape",
+        )?,
+        fill: fill_value(&meta["fill_value"], &dtype).unwrap_or(f64::NAN),
+        dtype,
+        codecs,
+        dims,
+        attributes,
+        key_prefix: (!v2_keys).then_some("c"),
+        separator,
+    })
+}
+
+/// Checks that shape, chunks and dimensions agree, naming missing dimension names `dim_k`.
+fn finish(mut a: ZArray) -> Result<ZArray> {
+    let meta = a.dir.join(if a.key_prefix.is_some() {
+        "zarr.json"
+    } else {
+        ".zarray"
+    });
+    if a.chunks.len() != a.shape.len() || a.chunks.contains(&0) {
+        return Err(Error::format(
+            &meta,
+            format!(
+                "chunk shape {:?} does not fit shape {:?}",
+                a.chunks, a.shape
+            ),
+        ));
+    }
+    if a.dims.len() != a.shape.len() {
+        a.dims = (0..a.shape.len()).map(|k| format!("dim_{k}")).collect();
+    }
+    Ok(a)
+}
+
+/// The store at `root`: its arrays (the root's child folders that are arrays), by name.
+pub(crate) fn read_store(root: &Path) -> Result<Store> {
+    let v3 = root.join("zarr.json");
+    let (version, globals) = if v3.is_file() {
+        let meta = json(&v3)?;
+        let attrs = meta["attributes"]
+            .as_object()
+            .into_iter()
+            .flatten()
+            .map(|(k, v)| (k.clone(), attribute(v)))
+            .collect();
+        (3, attrs)
+    } else {
+        let attrs_path = root.join(".zattrs");
+        let attrs = if attrs_path.is_file() {
+            json(&attrs_path)?
+        } else {
+            serde_json::json!({})
+        };
+        let globals = attrs
+            .as_object()
+            .into_iter()
+            .flatten()
+            .map(|(k, v)| (k.clone(), attribute(v)))
+            .collect();
+        (2, globals)
+    };
+    let mut names: Vec<String> = std::fs::read_dir(root)
+        .map_err(|e| Error::io(root, e))?
+        .flatten()
+        .filter(|e| e.path().is_dir())
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    names.sort();
+    let mut arrays = Vec::new();
+    for name in names {
+        let dir = root.join(&name);
+        if version == 3 && dir.join("zarr.json").is_file() {
+            let meta = json(&dir.join("zarr.json"))?;
+            if meta["node_type"].as_str() == Some("array") {
+                arrays.push(array_v3(&dir, &name, &meta)?);
+            }
+        } else if version == 2 && dir.join(".zarray").is_file() {
+            arrays.push(array_v2(&dir, &name)?);
+        }
+    }
+    Ok(Store { globals, arrays })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn xarray_fill_values_decode() {
+        let f8 = Dtype::from_v3("float64").unwrap();
+        // xarray's base64 of NaN's bytes (little-endian f64 0x7ff8000000000000).
+        assert!(base64_number("AAAAAAAA+H8=", &f8).unwrap().is_nan());
+        let f4 = Dtype::from_v3("float32").unwrap();
+        assert_eq!(base64_number("AADAfw==", &f4).map(f64::is_nan), Some(true));
+        assert_eq!(base64_number("AACAPw==", &f4), Some(1.0));
+        assert_eq!(fill_value(&serde_json::json!("0x3f800000"), &f4), Some(1.0));
+        assert!(fill_value(&serde_json::json!("NaN"), &f4).unwrap().is_nan());
+    }
+}

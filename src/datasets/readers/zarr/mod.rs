@@ -1,0 +1,312 @@
+//! Zarr directory stores (versions 2 and 3), the layout of cloud archives (reanalyses, CMIP6
+//! copies) and of xarray's `to_zarr`, as a reader of the data model: each array is a variable
+//! with its dimension names and attributes, read chunk by chunk (only the chunks a selection
+//! touches) and CF-decoded as NetCDF is, so CF time, coordinates, selection and maps work
+//! unchanged. Groups below the root are not read.
+
+mod codecs;
+mod meta;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use super::variables::{Dims, NcAttribute, NcVariable};
+use crate::datasets::conventions::cf_decode::CfDecoding;
+use crate::datasets::select::Selection;
+use crate::datasets::{ArrayData, ArrayListing};
+use crate::error::{Error, Result};
+pub(crate) use meta::is_store;
+use meta::{Store, ZArray};
+
+/// The Zarr reader.
+pub(crate) struct ZarrReader;
+
+type Stamp = Option<std::time::SystemTime>;
+
+/// Stores read so far, with the time of their root metadata then.
+type Stores = HashMap<PathBuf, (Stamp, Arc<Store>)>;
+
+static STORES: Mutex<Option<Stores>> = Mutex::new(None);
+
+fn store(path: &Path) -> Result<Arc<Store>> {
+    let root_meta = [
+        path.join("zarr.json"),
+        path.join(".zgroup"),
+        path.join(".zmetadata"),
+    ]
+    .into_iter()
+    .find(|p| p.is_file())
+    .unwrap_or_else(|| path.to_path_buf());
+    let stamp = std::fs::metadata(&root_meta)
+        .and_then(|m| m.modified())
+        .ok();
+    let mut stores = STORES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((s, store)) = stores.as_ref().and_then(|m| m.get(path)) {
+        if *s == stamp {
+            return Ok(store.clone());
+        }
+    }
+    let store = Arc::new(meta::read_store(path)?);
+    stores
+        .get_or_insert_with(HashMap::new)
+        .insert(path.to_path_buf(), (stamp, store.clone()));
+    Ok(store)
+}
+
+fn array<'a>(path: &Path, store: &'a Store, name: &str) -> Result<&'a ZArray> {
+    store.arrays.iter().find(|a| a.name == name).ok_or_else(|| {
+        let names: Vec<&str> = store.arrays.iter().map(|a| a.name.as_str()).collect();
+        Error::invalid(
+            "variable",
+            format!(
+                "'{name}' is not in {}; it holds {}",
+                path.display(),
+                names.join(", ")
+            ),
+        )
+    })
+}
+
+/// The indices kept of each dimension: a pick, the window's rows, or all.
+fn kept(
+    a: &ZArray,
+    picks: &[Option<usize>],
+    window: &Option<(usize, std::ops::Range<usize>)>,
+) -> Result<Vec<Vec<usize>>> {
+    (0..a.shape.len())
+        .map(|d| {
+            let n = a.shape[d];
+            match (picks.get(d).copied().flatten(), window) {
+                (Some(i), _) if i < n => Ok(vec![i]),
+                (Some(i), _) => Err(Error::invalid(
+                    a.dims[d].clone(),
+                    format!("index {i} is outside 0..{n}"),
+                )),
+                (None, Some((w, rows))) if *w == d => Ok(rows.clone().filter(|&r| r < n).collect()),
+                _ => Ok((0..n).collect()),
+            }
+        })
+        .collect()
+}
+
+/// The decoded values of the chunk at grid position `at` (the fill value where it was never
+/// written), `chunk` elements long.
+fn chunk_values(a: &ZArray, at: &[usize], chunk: usize) -> Result<Vec<f64>> {
+    let file = a.chunk_path(at);
+    let mut bytes = match std::fs::read(&file) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(vec![a.fill; chunk]),
+        Err(e) => return Err(Error::io(&file, e)),
+    };
+    let size = chunk * a.dtype.size;
+    for codec in a.codecs.iter().rev() {
+        bytes = codec
+            .decode(&bytes, size)
+            .map_err(|why| Error::format(&file, why))?;
+    }
+    if bytes.len() != size {
+        return Err(Error::format(
+            &file,
+            format!(
+                "holds {} bytes where a chunk of {chunk} {} values needs {size}",
+                bytes.len(),
+                a.dtype.name()
+            ),
+        ));
+    }
+    Ok(a.dtype.values(&bytes))
+}
+
+/// The values of `a` at the indices `sel` (one list per dimension), in C order, read chunk by
+/// chunk: only the chunks holding a selected index are decoded.
+fn read_selected(a: &ZArray, sel: &[Vec<usize>]) -> Result<Vec<f64>> {
+    let count: usize = sel.iter().map(Vec::len).product();
+    crate::model::volume::check_allocation(count as u64 * 8, &a.name)?;
+    let chunk: usize = a.chunks.iter().product();
+    let mut out = vec![f64::NAN; count];
+    let mut cache: HashMap<Vec<usize>, Vec<f64>> = HashMap::new();
+    let mut index = vec![0usize; sel.len()];
+    for slot in out.iter_mut() {
+        let at: Vec<usize> = index.iter().zip(sel).map(|(&i, s)| s[i]).collect();
+        let grid: Vec<usize> = at.iter().zip(&a.chunks).map(|(&i, &c)| i / c).collect();
+        if !cache.contains_key(&grid) {
+            // Chunks are visited in order, so one held at a time (plus the row of chunks the
+            // last dimension crosses) is enough; drop the rest.
+            if cache.len() > 64 {
+                cache.clear();
+            }
+            let values = chunk_values(a, &grid, chunk)?;
+            cache.insert(grid.clone(), values);
+        }
+        let within = at
+            .iter()
+            .zip(&a.chunks)
+            .fold(0usize, |acc, (&i, &c)| acc * c + i % c);
+        *slot = cache[&grid][within];
+        for d in (0..index.len()).rev() {
+            index[d] += 1;
+            if index[d] < sel[d].len() {
+                break;
+            }
+            index[d] = 0;
+        }
+    }
+    Ok(out)
+}
+
+fn text_of(attrs: &[(String, NcAttribute)], key: &str) -> Option<String> {
+    attrs
+        .iter()
+        .find(|(k, _)| k == key)
+        .and_then(|(_, v)| match v {
+            NcAttribute::Text(t) => Some(t.clone()),
+            NcAttribute::Numbers(_) => None,
+        })
+}
+
+impl ZarrReader {
+    fn read_array(
+        &self,
+        a: &ZArray,
+        picks: &[Option<usize>],
+        window: Option<(usize, std::ops::Range<usize>)>,
+    ) -> Result<NcVariable> {
+        let sel = kept(a, picks, &window)?;
+        let mut data = read_selected(a, &sel)?;
+        CfDecoding::with_defaults(&a.attributes, a.dtype.stored(), false).apply(&mut data);
+        let dims: Dims = a
+            .dims
+            .iter()
+            .zip(&sel)
+            .enumerate()
+            .filter(|(d, _)| picks.get(*d).copied().flatten().is_none())
+            .map(|(_, (name, keep))| (name.clone(), keep.len()))
+            .collect();
+        Ok(NcVariable {
+            name: a.name.clone(),
+            dims,
+            data,
+            units: text_of(&a.attributes, "units"),
+            long_name: text_of(&a.attributes, "long_name"),
+            attributes: a.attributes.clone(),
+            stored_nan: 0,
+        })
+    }
+}
+
+impl super::Reader for ZarrReader {
+    fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
+        let store = store(path)?;
+        let auxiliary: Vec<String> = store
+            .arrays
+            .iter()
+            .filter_map(|a| text_of(&a.attributes, "coordinates"))
+            .flat_map(|t| t.split_whitespace().map(str::to_string).collect::<Vec<_>>())
+            .collect();
+        Ok(store
+            .arrays
+            .iter()
+            .map(|a| ArrayListing {
+                name: a.name.clone(),
+                shape: a.shape.clone(),
+                dtype: a.dtype.name(),
+                is_coordinate: a.dims.len() == 1 && a.dims[0] == a.name,
+                is_auxiliary: auxiliary.contains(&a.name),
+                unreadable: None,
+            })
+            .collect())
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        var: Option<&str>,
+        rank: Option<usize>,
+        sel: &Selection,
+    ) -> Result<ArrayData> {
+        crate::datasets::read_netcdf_array(path, var, rank, sel)
+    }
+
+    fn holds_many(&self) -> bool {
+        true
+    }
+
+    fn volume(
+        &self,
+        path: &Path,
+        opts: &crate::datasets::LoadOptions,
+    ) -> Result<crate::model::Volume> {
+        crate::datasets::volume_from_netcdf(path, opts)
+    }
+
+    fn grid_axes(&self, path: &Path, array: &ArrayData) -> Result<super::GridAxes> {
+        crate::datasets::netcdf_grid_axes(path, array)
+    }
+
+    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+        crate::datasets::select::time_steps(path, var)
+    }
+
+    fn variables(&self) -> Option<&dyn super::variables::Variables> {
+        Some(self)
+    }
+}
+
+impl super::variables::Variables for ZarrReader {
+    fn list(&self, path: &Path) -> Result<Vec<(String, Dims)>> {
+        let store = store(path)?;
+        Ok(store
+            .arrays
+            .iter()
+            .map(|a| {
+                (
+                    a.name.clone(),
+                    a.dims
+                        .iter()
+                        .cloned()
+                        .zip(a.shape.iter().copied())
+                        .collect(),
+                )
+            })
+            .collect())
+    }
+
+    fn attributes(&self, path: &Path, name: &str) -> Result<Vec<(String, NcAttribute)>> {
+        let store = store(path)?;
+        Ok(array(path, &store, name)?.attributes.clone())
+    }
+
+    fn global_attributes(&self, path: &Path) -> Result<Vec<(String, NcAttribute)>> {
+        Ok(store(path)?.globals.clone())
+    }
+
+    fn read(
+        &self,
+        path: &Path,
+        name: &str,
+        picks: &[Option<usize>],
+        window: Option<(usize, std::ops::Range<usize>)>,
+    ) -> Result<NcVariable> {
+        let store = store(path)?;
+        self.read_array(array(path, &store, name)?, picks, window)
+    }
+
+    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>> {
+        let store = store(path)?;
+        if !store.arrays.iter().any(|a| a.dims.iter().any(|d| d == dim)) {
+            return Err(Error::invalid(
+                "dimension",
+                format!("'{dim}' is not a dimension of {}", path.display()),
+            ));
+        }
+        match store
+            .arrays
+            .iter()
+            .find(|a| a.name == dim && a.dims.len() == 1)
+        {
+            Some(a) => self.read_array(a, &[], None).map(Some),
+            None => Ok(None),
+        }
+    }
+}
