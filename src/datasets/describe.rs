@@ -81,7 +81,7 @@ fn role_name(role: &cf::AxisRole) -> &'static str {
         cf::AxisRole::Time => "time",
         cf::AxisRole::Latitude => "latitude",
         cf::AxisRole::Longitude => "longitude",
-        cf::AxisRole::Vertical { .. } | cf::AxisRole::Levels => "vertical",
+        cf::AxisRole::Vertical { .. } | cf::AxisRole::Levels | cf::AxisRole::Pressure => "vertical",
         cf::AxisRole::Other => "other",
     }
 }

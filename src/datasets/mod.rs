@@ -299,6 +299,23 @@ pub(crate) fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<readers
         }))
     };
     let (mut x, mut y) = (axis(&array.dims[1])?, axis(&array.dims[0])?);
+    // A pressure axis is no length: rows at the standard atmosphere's heights, surface at the
+    // bottom, as in a volume.
+    for a in [&mut x, &mut y].into_iter().flatten() {
+        if let Some(scale) = a
+            .units
+            .as_deref()
+            .and_then(conventions::vertical::pascals_per)
+        {
+            a.values = a
+                .values
+                .iter()
+                .map(|p| conventions::vertical::standard_height_km(p * scale))
+                .collect();
+            a.name = format!("{} (standard-atmosphere height of its pressure)", a.name);
+            a.units = Some("km".into());
+        }
+    }
     let rotated_pole = cf::rotated_pole(path, &array.name)?;
     if rotated_pole.is_some() {
         // Rotated longitudes and latitudes (CF grid_longitude, grid_latitude).
@@ -523,8 +540,11 @@ fn volume_from_netcdf_array(
         .zip(array.shape.iter().copied())
         .collect();
     let mut coords = cf::dim_coords(path, &dims)?;
-    if let Some(name) = &opts.vertical {
-        cf::use_vertical(path, name, &mut coords)?;
+    let mut placed = None;
+    match &opts.vertical {
+        Some(name) => cf::use_vertical(path, name, &mut coords)?,
+        // Pressure levels at the standard atmosphere's heights, not by index.
+        None => placed = conventions::vertical::pressure_as_height(&mut coords),
     }
     if !opts.cartesian {
         refuse_curvilinear(path, &array, &coords)?;
@@ -532,13 +552,14 @@ fn volume_from_netcdf_array(
             let volume = volume_from_array(path, array, [None, None, None])?;
             return volume
                 .with_geometry(Geometry::Spherical(Box::new(grid)))
-                .map(|v| (v, None))
+                .map(|v| (v, placed))
                 .map_err(|e| Error::format(path, e.to_string()));
         }
     }
     // Volume axes are x, y, z; the array's dimensions run z, y, x. Levels that are not lengths
-    // (model levels, pressure) are placed by index, as an axis without coordinates.
-    let mut note = None;
+    // (model levels; pressure was turned into heights above) are placed by index, as an axis
+    // without coordinates.
+    let mut note = placed;
     let mut axes: [Option<Vec<f64>>; 3] = [None, None, None];
     for (a, d) in coords.iter().rev().enumerate() {
         let Some(c) = &d.coord else { continue };
@@ -606,7 +627,9 @@ pub(crate) fn netcdf_geometry(path: &Path, array: &ArrayData) -> Result<String> 
         return Ok("cartesian (not a volume)".into());
     }
     let dims = spatial[n - 3..].to_vec();
-    let coords = cf::dim_coords(path, &dims)?;
+    let mut coords = cf::dim_coords(path, &dims)?;
+    // As `load_volume` places them: pressure levels at standard-atmosphere heights.
+    conventions::vertical::pressure_as_height(&mut coords);
     Ok(
         match spherical_grid_of(path, array, &coords, &LoadOptions::default())? {
             Some(g) => format!("spherical: {g}"),

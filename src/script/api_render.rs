@@ -120,7 +120,7 @@ pub(crate) const LOAD_VOLUME: OptionTable = OptionTable {
         opt("variable", Kind::Text("\"fluctuation\""), "the file's first 3-D variable", "the array or variable to read (an unknown one lists the file's)"),
         opt("geometry", Kind::Choice(&["auto", "cartesian"]), "\"auto\"", "auto: CF latitude, longitude and depth/radius/height make a spherical volume; cartesian: coordinates as box lengths"),
         opt("planet_radius", Kind::NumAbove(0.0, f64::INFINITY), "the file's, else 6371 km", "the planet's radius in the vertical axis's unit"),
-        opt("vertical", Kind::Text("\"radius\""), "the vertical dimension's coordinate", "a NetCDF variable in m or km along one of the dimensions (a model level's height) placing the volume instead; a vertical axis in other units (model levels, pressure) is otherwise placed by index"),
+        opt("vertical", Kind::Text("\"radius\""), "the vertical dimension's coordinate", "a NetCDF variable in m or km along one of the dimensions (a model level's height) placing the volume instead; pressure levels are otherwise placed at the 1976 standard atmosphere's heights, other levels (model levels) by index"),
         super::api_datasets::SELECT_INDEX,
         super::api_datasets::SELECT_AT,
     ],

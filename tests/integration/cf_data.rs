@@ -435,8 +435,8 @@ fn a_series_movie_has_one_colour_range_over_its_steps() {
     );
 }
 
-/// A vertical axis in units that are not a length (model levels, pressure) is placed by index
-/// with a note instead of refusing the file; `vertical:` names an auxiliary height in metres that
+/// A vertical axis in units that are not a length is placed by index (model levels) or at the
+/// standard atmosphere's heights (pressure) with a note instead of refusing the file; `vertical:` names an auxiliary height in metres that
 /// places the same field on the sphere; selections take levels as xarray's isel/sel do; a
 /// `vertical` that is not a length along one of the dimensions is a one-line error.
 #[test]
@@ -479,16 +479,47 @@ fn vertical_levels_that_are_not_lengths_load_by_index_or_by_a_named_height() {
     };
     let level3 = hdrvis::datasets::read_grid_with(&model, None, &isel).unwrap();
     assert_values(&level3.data, &numbers(&r, "ta_level3"), 0.0, "isel level 3");
-    // Pressure levels stored 1000 .. 100 hPa: placed by index in storage order; sel by value.
+    // Pressure levels stored 1000 .. 100 hPa are no lengths either: placed at the 1976 US
+    // Standard Atmosphere's geopotential heights (500 hPa at 5 574 m in its tables), surface
+    // at the bottom, on the sphere; sel by value.
     let pressure = dir.path().join("pressure_levels.nc");
     let u = hdrvis::datasets::load_volume(&pressure).unwrap();
     assert!(
-        u.name.contains("plev in 'hPa' placed by index"),
+        u.name
+            .contains("plev 1000–100 hPa placed at the 1976 standard atmosphere's heights"),
         "{}",
         u.name
     );
+    let Geometry::Spherical(g) = &u.geometry else {
+        panic!("{u}: expected a spherical volume")
+    };
+    assert_eq!(g.length_unit.as_str(), "km");
+    let heights: Vec<f64> = g.radius.centres.iter().map(|r| r - 6371.0).collect();
+    assert!((heights[2] - 5.574).abs() < 2e-3, "{heights:?}");
+    assert!(
+        heights.windows(2).all(|w| w[0] < w[1]) && heights[0] > 0.0 && heights[0] < 0.2,
+        "{heights:?}"
+    );
     let got: Vec<f64> = u.data.iter().map(|&x| f64::from(x)).collect();
     assert_values(&got, &numbers(&r, "u"), 0.0, "u");
+    // A (plev, lat) slice: rows at those heights too, 1000 hPa at the bottom.
+    let slice = LoadOptions {
+        select: Selection {
+            index: vec![("lon".into(), 0)],
+            at: vec![],
+        },
+        ..LoadOptions::default()
+    };
+    let s = hdrvis::datasets::load_grid_with(&pressure, &slice).unwrap();
+    let y = s.y();
+    assert_eq!(y.units, "km");
+    assert!(y.name.contains("standard-atmosphere height"), "{}", y.name);
+    assert!(
+        (y.values[0] - heights[0]).abs() < 1e-9 && !s.y_down(),
+        "{:?}",
+        y.values
+    );
+    assert!((y.values[2] - 5.574).abs() < 2e-3);
     let sel = Selection {
         index: vec![],
         at: vec![("plev".into(), At::Value(500.0))],
@@ -498,7 +529,7 @@ fn vertical_levels_that_are_not_lengths_load_by_index_or_by_a_named_height() {
     let (code, out, err) = hdrvis(&["info", pressure.to_str().unwrap()], dir.path());
     assert_eq!(code, 0, "{err}");
     assert!(
-        out.contains("plev = 5: vertical levels (not a length: placed by index), 1000 to 100 hPa"),
+        out.contains("plev = 5: vertical pressure (placed at the standard atmosphere's heights), 1000 to 100 hPa"),
         "{out}"
     );
     for (name, want) in [

@@ -29,9 +29,12 @@ pub(crate) enum AxisRole {
         unit: &'static str,
         to_unit: f64,
     },
-    /// A vertical coordinate in units that are not a length (model levels, pressure, sigma):
-    /// placed by index, since it says nothing of where its levels are.
+    /// A vertical coordinate in units that are not a length (model levels, sigma): placed by
+    /// index, since it says nothing of where its levels are.
     Levels,
+    /// A vertical coordinate in units of pressure: placed at the standard atmosphere's heights
+    /// (`vertical::pressure_as_height`).
+    Pressure,
     Other,
 }
 
@@ -149,6 +152,7 @@ pub(crate) fn axis_role(path: &Path, v: &NcVariable) -> Result<AxisRole> {
             unit,
             to_unit,
         }),
+        None if super::vertical::is_pressure_unit(&units) => Ok(AxisRole::Pressure),
         None => Ok(AxisRole::Levels),
     }
 }
@@ -202,6 +206,7 @@ impl AxisRole {
             AxisRole::Longitude => "longitude",
             AxisRole::Vertical { .. } => "vertical",
             AxisRole::Levels => "vertical levels (not a length: placed by index)",
+            AxisRole::Pressure => "vertical pressure (placed at the standard atmosphere's heights)",
             AxisRole::Other => "other",
         }
     }
