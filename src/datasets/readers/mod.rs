@@ -41,7 +41,9 @@ use crate::error::{Error, Result};
 use crate::model::{RotatedPole, Volume};
 
 /// What one format's reader does. Only `read` is required; the rest have the defaults of a
-/// format that holds one array or bare arrays (no dimensions to select, no coordinates).
+/// format that holds one array or bare arrays (no dimensions to select, no coordinates), or,
+/// for a format with named dimensions ([`Reader::variables`]), the CF conventions' readings:
+/// many variables, volumes and grid axes placed by CF coordinates, CF time steps.
 pub(crate) trait Reader: Sync {
     /// Every array the file holds, in file order; by default the one array `read` gives.
     fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
@@ -74,11 +76,15 @@ pub(crate) trait Reader: Sync {
 
     /// Whether the file holds many arrays (`hdrvis info` lists them).
     fn holds_many(&self) -> bool {
-        false
+        self.variables().is_some()
     }
 
-    /// A volume: by default the 3-D array placed by index (spacing 1).
+    /// A volume: the 3-D array placed by CF coordinates where the format has named dimensions,
+    /// else by index (spacing 1).
     fn volume(&self, path: &Path, opts: &LoadOptions) -> Result<Volume> {
+        if self.variables().is_some() {
+            return crate::datasets::volume_from_netcdf(path, opts);
+        }
         let array = self.read(path, opts.variable.as_deref(), Some(3), &opts.select)?;
         crate::datasets::volume_from_array(path, array, [None, None, None])
     }
@@ -95,8 +101,12 @@ pub(crate) trait Reader: Sync {
         crate::datasets::grid_of_array(self, path, var, sel, band, resolution)
     }
 
-    /// Where the rows and columns of a 2-D array read from the file lie: none by default.
-    fn grid_axes(&self, _path: &Path, _array: &ArrayData) -> Result<GridAxes> {
+    /// Where the rows and columns of a 2-D array read from the file lie: by CF coordinates
+    /// where the format has named dimensions, else nowhere.
+    fn grid_axes(&self, path: &Path, array: &ArrayData) -> Result<GridAxes> {
+        if self.variables().is_some() {
+            return crate::datasets::netcdf_grid_axes(path, array);
+        }
         Ok(GridAxes::default())
     }
 
@@ -112,7 +122,10 @@ pub(crate) trait Reader: Sync {
     }
 
     /// The dates of a time axis of `var` (else of the first data variable with one).
-    fn time_steps(&self, path: &Path, _var: Option<&str>) -> Result<Vec<String>> {
+    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
+        if self.variables().is_some() {
+            return crate::datasets::select::time_steps(path, var);
+        }
         Err(Error::format(path, "has no time axis"))
     }
 }

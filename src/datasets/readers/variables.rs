@@ -88,6 +88,61 @@ pub(crate) trait Variables: Sync {
     }
 }
 
+/// The indices a read keeps of each of `dims`: a pick, the window's rows, or all (for readers
+/// that select in memory: GRIB, Zarr).
+pub(crate) fn kept(
+    dims: &Dims,
+    picks: &[Option<usize>],
+    window: &Option<(usize, std::ops::Range<usize>)>,
+) -> Result<Vec<Vec<usize>>> {
+    dims.iter()
+        .enumerate()
+        .map(
+            |(d, (name, n))| match (picks.get(d).copied().flatten(), window) {
+                (Some(i), _) if i < *n => Ok(vec![i]),
+                (Some(i), _) => Err(Error::invalid(
+                    name.clone(),
+                    format!("index {i} is outside 0..{n}"),
+                )),
+                (None, Some((w, rows))) if *w == d => {
+                    Ok(rows.clone().filter(|&r| r < *n).collect())
+                }
+                _ => Ok((0..*n).collect()),
+            },
+        )
+        .collect()
+}
+
+/// The arrays of a format whose variables say their roles only through `coordinates`
+/// attributes (GRIB, Zarr): coordinate variables (1-D, named like their dimension), auxiliary
+/// ones (named in a `coordinates` attribute) and data, with each one's stored type from `dtype`.
+pub(crate) fn listing(
+    vars: &dyn Variables,
+    path: &Path,
+    dtype: &dyn Fn(&str) -> String,
+) -> Result<Vec<crate::datasets::ArrayListing>> {
+    let listed = vars.list(path)?;
+    let mut auxiliary: Vec<String> = Vec::new();
+    for (name, _) in &listed {
+        for (key, value) in vars.attributes(path, name)? {
+            if let (true, NcAttribute::Text(t)) = (key == "coordinates", value) {
+                auxiliary.extend(t.split_whitespace().map(str::to_string));
+            }
+        }
+    }
+    Ok(listed
+        .into_iter()
+        .map(|(name, dims)| crate::datasets::ArrayListing {
+            shape: dims.iter().map(|(_, n)| *n).collect(),
+            dtype: dtype(&name),
+            is_coordinate: dims.len() == 1 && dims[0].0 == name,
+            is_auxiliary: auxiliary.contains(&name),
+            unreadable: None,
+            name,
+        })
+        .collect())
+}
+
 /// The variables of the file at `path`, by its reader.
 fn of(path: &Path) -> Result<&'static dyn Variables> {
     let format = Format::of(path)?;

@@ -82,30 +82,6 @@ fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> 
     Ok(values)
 }
 
-/// The indices kept of each dimension: a pick, the window's rows, or all.
-fn kept(
-    dims: &Dims,
-    picks: &[Option<usize>],
-    window: &Option<(usize, std::ops::Range<usize>)>,
-) -> Result<Vec<Vec<usize>>> {
-    dims.iter()
-        .enumerate()
-        .map(
-            |(d, (name, n))| match (picks.get(d).copied().flatten(), window) {
-                (Some(i), _) if i < *n => Ok(vec![i]),
-                (Some(i), _) => Err(Error::invalid(
-                    name.clone(),
-                    format!("index {i} is outside 0..{n}"),
-                )),
-                (None, Some((w, rows))) if *w == d => {
-                    Ok(rows.clone().filter(|&r| r < *n).collect())
-                }
-                _ => Ok((0..*n).collect()),
-            },
-        )
-        .collect()
-}
-
 /// Every combination of `sel` in C order, as flat indices into an array of `dims`.
 fn flat_indices(dims: &Dims, sel: &[Vec<usize>]) -> Vec<usize> {
     let mut out = vec![0usize];
@@ -127,7 +103,7 @@ impl GribReader {
         picks: &[Option<usize>],
         window: Option<(usize, std::ops::Range<usize>)>,
     ) -> Result<NcVariable> {
-        let sel = kept(&var.dims, picks, &window)?;
+        let sel = super::variables::kept(&var.dims, picks, &window)?;
         let data = match &var.content {
             Content::Stored(values) => flat_indices(&var.dims, &sel)
                 .into_iter()
@@ -225,31 +201,8 @@ impl GribReader {
 
 impl super::Reader for GribReader {
     fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
-        let index = index::index_of(path)?;
-        let auxiliary: Vec<String> = index
-            .variables
-            .iter()
-            .filter_map(|v| v.attributes.iter().find(|(k, _)| k == "coordinates"))
-            .filter_map(|(_, a)| match a {
-                NcAttribute::Text(t) => {
-                    Some(t.split_whitespace().map(str::to_string).collect::<Vec<_>>())
-                }
-                NcAttribute::Numbers(_) => None,
-            })
-            .flatten()
-            .collect();
-        Ok(index
-            .variables
-            .iter()
-            .map(|v| ArrayListing {
-                name: v.name.clone(),
-                shape: v.dims.iter().map(|(_, n)| *n).collect(),
-                dtype: "float64".into(),
-                is_coordinate: v.dims.len() == 1 && v.dims[0].0 == v.name,
-                is_auxiliary: auxiliary.contains(&v.name),
-                unreadable: None,
-            })
-            .collect())
+        // Every variable is decoded to double precision.
+        super::variables::listing(self, path, &|_| "float64".into())
     }
 
     fn read(
@@ -279,28 +232,7 @@ impl super::Reader for GribReader {
             }
             return Ok(array);
         }
-        let _ = rank;
         crate::datasets::read_netcdf_array(path, var, rank, sel)
-    }
-
-    fn holds_many(&self) -> bool {
-        true
-    }
-
-    fn volume(
-        &self,
-        path: &Path,
-        opts: &crate::datasets::LoadOptions,
-    ) -> Result<crate::model::Volume> {
-        crate::datasets::volume_from_netcdf(path, opts)
-    }
-
-    fn grid_axes(&self, path: &Path, array: &ArrayData) -> Result<super::GridAxes> {
-        crate::datasets::netcdf_grid_axes(path, array)
-    }
-
-    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
-        crate::datasets::select::time_steps(path, var)
     }
 
     fn variables(&self) -> Option<&dyn super::variables::Variables> {

@@ -44,26 +44,6 @@ impl crate::datasets::readers::Reader for NetcdfReader {
         crate::datasets::read_netcdf_array(path, var, rank, sel)
     }
 
-    fn holds_many(&self) -> bool {
-        true
-    }
-
-    fn volume(
-        &self,
-        path: &Path,
-        opts: &crate::datasets::LoadOptions,
-    ) -> Result<crate::model::Volume> {
-        crate::datasets::volume_from_netcdf(path, opts)
-    }
-
-    fn grid_axes(
-        &self,
-        path: &Path,
-        array: &crate::datasets::ArrayData,
-    ) -> Result<crate::datasets::readers::GridAxes> {
-        crate::datasets::netcdf_grid_axes(path, array)
-    }
-
     /// The other data variables of the grid's shape, and a saved section's per-column latitude
     /// and longitude.
     fn grid_extras(
@@ -83,10 +63,6 @@ impl crate::datasets::readers::Reader for NetcdfReader {
                 .extend(columns.into_iter().filter(|c| !present.contains(&c.0)));
         }
         Ok(extras)
-    }
-
-    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
-        crate::datasets::select::time_steps(path, var)
     }
 
     fn variables(&self) -> Option<&dyn crate::datasets::readers::variables::Variables> {

@@ -68,28 +68,6 @@ fn array<'a>(path: &Path, store: &'a Store, name: &str) -> Result<&'a ZArray> {
     })
 }
 
-/// The indices kept of each dimension: a pick, the window's rows, or all.
-fn kept(
-    a: &ZArray,
-    picks: &[Option<usize>],
-    window: &Option<(usize, std::ops::Range<usize>)>,
-) -> Result<Vec<Vec<usize>>> {
-    (0..a.shape.len())
-        .map(|d| {
-            let n = a.shape[d];
-            match (picks.get(d).copied().flatten(), window) {
-                (Some(i), _) if i < n => Ok(vec![i]),
-                (Some(i), _) => Err(Error::invalid(
-                    a.dims[d].clone(),
-                    format!("index {i} is outside 0..{n}"),
-                )),
-                (None, Some((w, rows))) if *w == d => Ok(rows.clone().filter(|&r| r < n).collect()),
-                _ => Ok((0..n).collect()),
-            }
-        })
-        .collect()
-}
-
 /// The decoded values of the chunk at grid position `at` (the fill value where it was never
 /// written), `chunk` elements long.
 fn chunk_values(a: &ZArray, at: &[usize], chunk: usize) -> Result<Vec<f64>> {
@@ -172,7 +150,13 @@ impl ZarrReader {
         picks: &[Option<usize>],
         window: Option<(usize, std::ops::Range<usize>)>,
     ) -> Result<NcVariable> {
-        let sel = kept(a, picks, &window)?;
+        let dims: Dims = a
+            .dims
+            .iter()
+            .cloned()
+            .zip(a.shape.iter().copied())
+            .collect();
+        let sel = super::variables::kept(&dims, picks, &window)?;
         let mut data = read_selected(a, &sel)?;
         CfDecoding::with_defaults(&a.attributes, a.dtype.stored(), false).apply(&mut data);
         let dims: Dims = a
@@ -198,24 +182,11 @@ impl ZarrReader {
 impl super::Reader for ZarrReader {
     fn list(&self, path: &Path) -> Result<Vec<ArrayListing>> {
         let store = store(path)?;
-        let auxiliary: Vec<String> = store
-            .arrays
-            .iter()
-            .filter_map(|a| text_of(&a.attributes, "coordinates"))
-            .flat_map(|t| t.split_whitespace().map(str::to_string).collect::<Vec<_>>())
-            .collect();
-        Ok(store
-            .arrays
-            .iter()
-            .map(|a| ArrayListing {
-                name: a.name.clone(),
-                shape: a.shape.clone(),
-                dtype: a.dtype.name(),
-                is_coordinate: a.dims.len() == 1 && a.dims[0] == a.name,
-                is_auxiliary: auxiliary.contains(&a.name),
-                unreadable: None,
-            })
-            .collect())
+        let dtype = |name: &str| {
+            let a = store.arrays.iter().find(|a| a.name == name);
+            a.map_or_else(String::new, |a| a.dtype.name())
+        };
+        super::variables::listing(self, path, &dtype)
     }
 
     fn read(
@@ -226,26 +197,6 @@ impl super::Reader for ZarrReader {
         sel: &Selection,
     ) -> Result<ArrayData> {
         crate::datasets::read_netcdf_array(path, var, rank, sel)
-    }
-
-    fn holds_many(&self) -> bool {
-        true
-    }
-
-    fn volume(
-        &self,
-        path: &Path,
-        opts: &crate::datasets::LoadOptions,
-    ) -> Result<crate::model::Volume> {
-        crate::datasets::volume_from_netcdf(path, opts)
-    }
-
-    fn grid_axes(&self, path: &Path, array: &ArrayData) -> Result<super::GridAxes> {
-        crate::datasets::netcdf_grid_axes(path, array)
-    }
-
-    fn time_steps(&self, path: &Path, var: Option<&str>) -> Result<Vec<String>> {
-        crate::datasets::select::time_steps(path, var)
     }
 
     fn variables(&self) -> Option<&dyn super::variables::Variables> {
