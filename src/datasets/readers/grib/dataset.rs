@@ -89,6 +89,7 @@ pub(crate) fn build(messages: Vec<Located>) -> GribIndex {
             g.grid == grid
                 && first.param.name == f.param.name
                 && first.level.type_name == f.level.type_name
+                && first.step_type == f.step_type
         };
         match groups.iter_mut().find(|g| same(g)) {
             Some(g) => g.members.push(k),
@@ -147,14 +148,28 @@ pub(crate) fn build(messages: Vec<Located>) -> GribIndex {
     }
 }
 
-/// Names that stay unique: a parameter on two level types gets the level type appended, and
-/// one on two grids the grid's number.
+/// Names that stay unique: a parameter on two level types gets the level type appended, a
+/// statistic beside the instant value its step type (`_avg`, `_accum`), and one on two grids the
+/// grid's number.
 fn name_groups(groups: &mut [Group], messages: &[Located]) {
-    let level = |g: &Group| messages[g.members[0]].field.level.type_name.clone();
-    let keys: Vec<(String, String)> = groups.iter().map(|g| (g.name.clone(), level(g))).collect();
+    let key = |g: &Group| {
+        let f = &messages[g.members[0]].field;
+        (
+            g.name.clone(),
+            f.level.type_name.clone(),
+            f.step_type.clone(),
+        )
+    };
+    let keys: Vec<(String, String, String)> = groups.iter().map(key).collect();
     for (i, g) in groups.iter_mut().enumerate() {
-        if keys.iter().filter(|k| k.0 == keys[i].0).count() > 1 {
-            g.name = format!("{}_{}", keys[i].0, keys[i].1);
+        let (name, level, step) = &keys[i];
+        let other = |pick: &dyn Fn(&(String, String, String)) -> bool| keys.iter().any(pick);
+        if other(&|k| k.0 == *name && k.1 != *level) {
+            g.name = format!("{name}_{level}");
+        }
+        // The same parameter as an instant and as a statistic (an average, an accumulation).
+        if step != "instant" && other(&|k| k.0 == *name && k.1 == *level && k.2 != *step) {
+            g.name = format!("{}_{step}", g.name);
         }
         if keys.iter().filter(|k| **k == keys[i]).count() > 1 {
             g.name = format!("{}_grid{}", g.name, g.grid);
@@ -232,9 +247,22 @@ fn grid_dims(g: usize, info: &GridInfo) -> GridDims {
 /// The attributes of a level coordinate: pressure down in hPa, heights up in metres.
 fn level_attributes(type_name: &str, units: Option<&str>) -> Vec<(String, NcAttribute)> {
     let mut attrs = vec![("long_name".to_string(), text(type_name))];
+    // A layer between two levels is a label, as cfgrib keeps it, not a vertical axis.
+    if type_name.ends_with("Layer") {
+        attrs.push(("units".to_string(), text(units.unwrap_or("1"))));
+        return attrs;
+    }
+    // Model levels, as cfgrib marks them: vertical, numbered downward.
+    if type_name == "hybrid" {
+        attrs.push(("positive".to_string(), text("down")));
+        attrs.push((
+            "standard_name".to_string(),
+            text("atmosphere_hybrid_sigma_pressure_coordinate"),
+        ));
+    }
     match units {
-        Some("hPa") => {
-            attrs.push(("units".to_string(), text("hPa")));
+        Some("hPa" | "Pa") => {
+            attrs.push(("units".to_string(), text(units.unwrap_or("hPa"))));
             attrs.push(("positive".to_string(), text("down")));
             attrs.push(("standard_name".to_string(), text("air_pressure")));
         }
@@ -271,7 +299,10 @@ fn group_variable(
     let times = distinct(fields.iter().map(|f| seconds(&f.reference)).collect());
     let steps = distinct(fields.iter().map(|f| f.step_hours).collect());
     let mut levels = distinct(fields.iter().filter_map(|f| f.level.value).collect());
-    let pressure = first.level.units.as_deref() == Some("hPa");
+    // Pressure levels run from the surface up (high to low), as cfgrib orders them; layers in
+    // increasing order of their bound.
+    let pressure = matches!(first.level.units.as_deref(), Some("hPa" | "Pa"))
+        && !first.level.type_name.ends_with("Layer");
     if pressure {
         levels.reverse();
     }
@@ -371,6 +402,7 @@ fn variable_attributes(
     a.push(("long_name".to_string(), text(&first.param.long_name)));
     a.push(("GRIB_edition".to_string(), number(first.edition as f64)));
     a.push(("GRIB_typeOfLevel".to_string(), text(&first.level.type_name)));
+    a.push(("GRIB_stepType".to_string(), text(&first.step_type)));
     a.push(("GRIB_gridType".to_string(), text(&first.grid.kind)));
     a.push(("GRIB_packingType".to_string(), text(&first.packing)));
     let [numbers, times, steps, levels] = counts;

@@ -129,15 +129,38 @@ pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
     };
     Ok(GribField {
         edition: 1,
-        param: names::grib1_param(table, centre, parameter, level_type, &level),
+        param: names::grib1_param(table, (centre, p[25]), parameter, &level),
         level,
         reference: format!("{year:04}-{month:02}-{day:02} {hour:02}:{minute:02}:00"),
         step_hours,
-        number: None,
+        step_type: if (2..=5).contains(&range) {
+            "stat"
+        } else {
+            "instant"
+        }
+        .into(),
+        number: ecmwf_member(p, centre),
         grid,
         packing: "grid_simple".into(),
         centre,
     })
+}
+
+/// The ensemble member of an ECMWF product (centre or sub-centre 98), where ecCodes reads
+/// `perturbationNumber` after the MARS labels of its local definition (octet 41 on): one octet
+/// at octet 50 in definitions 1, 15, 16, 26, 30 and 36, two octets at 50–51 in definition 12
+/// (monthly means, as seasonal forecasts are archived).
+fn ecmwf_member(pds: &[u8], centre: u16) -> Option<i64> {
+    if !(centre == 98 || pds.get(25) == Some(&98)) {
+        return None;
+    }
+    match pds.get(40)? {
+        1 | 15 | 16 | 26 | 30 | 36 => pds.get(49).map(|&n| n as i64),
+        12 => pds
+            .get(49..51)
+            .map(|b| u16::from_be_bytes([b[0], b[1]]) as i64),
+        _ => None,
+    }
 }
 
 /// Latitudes and longitudes of a latitude–longitude (0), Gaussian (4) or rotated (10) grid.
@@ -191,7 +214,7 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
     } else {
         axis_between(la1, la2, nj, scan & 0x40 == 0, false)
     };
-    let mut info = GridInfo::regular(name, lats, lons);
+    let mut info = GridInfo::regular(name, lats, lons).across_the_seam();
     if kind == 10 {
         let south_lat = milli(32)?;
         let south_lon = milli(35)?;

@@ -185,10 +185,10 @@ fn guarded<T>(f: impl FnOnce() -> Result<T, Why>) -> Result<T, Why> {
     })
 }
 
-/// The one field of a GRIB2 message; a message that repeats its sections for several fields
-/// is refused rather than read in part.
+/// Field `k` of a GRIB2 message (most hold one; some repeat their sections for several).
 fn with_field<T>(
     msg: &[u8],
+    k: usize,
     f: impl FnOnce(
         grib::SubMessage<'_, grib::SeekableGrib2Reader<std::io::Cursor<&[u8]>>>,
     ) -> Result<T, Why>,
@@ -196,20 +196,52 @@ fn with_field<T>(
     check_sections(msg)?;
     guarded(|| {
         let grib2 = grib::from_bytes(msg).map_err(one_line)?;
-        if grib2.len() != 1 {
-            return Err(format!(
-                "holds {} fields in one message (repeated sections); only single-field messages are read",
-                grib2.len()
-            ));
-        }
-        let (_, field) = grib2.iter().next().ok_or("holds no field")?;
+        let (_, field) = grib2
+            .iter()
+            .nth(k)
+            .ok_or_else(|| format!("holds {} fields, not a field {k}", grib2.len()))?;
         f(field)
     })
 }
 
+/// How many fields a GRIB2 message holds (a message may repeat its sections for several).
+pub(super) fn field_count(msg: &[u8]) -> Result<usize, Why> {
+    check_sections(msg)?;
+    guarded(|| Ok(grib::from_bytes(msg).map_err(one_line)?.len()))
+}
+
+/// The end of a statistical product's interval (templates 4.8 and 4.11, where ecCodes labels
+/// the step) in hours after the forecast time, and its kind as ecCodes' `stepType` names it.
+fn statistics(template: u16, payload: &[u8]) -> Result<Option<(f64, &'static str)>, Why> {
+    // Octet 47 (4.8) or 50 (4.11) of section 4: the statistical process, then the type of
+    // increment, the unit and the length of the time range; the payload starts at octet 6.
+    let at = match template {
+        8 => 41,
+        11 => 44,
+        _ => return Ok(None),
+    };
+    let (Some(&process), Some(&unit), Some(length)) = (
+        payload.get(at),
+        payload.get(at + 2),
+        payload.get(at + 3..at + 7),
+    ) else {
+        return Err("a statistical product definition cut short".into());
+    };
+    let length = u32::from_be_bytes(length.try_into().expect("4 octets")) as f64;
+    let kind = match process {
+        0 => "avg",
+        1 => "accum",
+        2 => "max",
+        3 => "min",
+        4 => "diff",
+        _ => "stat",
+    };
+    Ok(Some((length * unit_hours(unit)?, kind)))
+}
+
 /// The metadata of a GRIB2 message (values are decoded by [`values`]).
-pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
-    with_field(msg, |sub| {
+pub(super) fn field(msg: &[u8], k: usize) -> Result<GribField, Why> {
+    with_field(msg, k, |sub| {
         let discipline = sub.indicator().discipline;
         let prod = sub.prod_def();
         let template = prod.prod_tmpl_num();
@@ -230,7 +262,7 @@ pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
             Some((a, b)) => names::grib2_level(surface(&a), surface(&b)),
             None => names::grib2_level((255, None), (255, None)),
         };
-        let step_hours = match prod.forecast_time() {
+        let mut step_hours = match prod.forecast_time() {
             Some(ft) => {
                 let unit = match ft.unit {
                     grib::Code::Name(u) => u8::from(u),
@@ -240,6 +272,12 @@ pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
             }
             None => 0.0,
         };
+        let payload: Vec<u8> = prod.iter().copied().collect();
+        let mut step_type = "instant";
+        if let Some((length, kind)) = statistics(template, &payload)? {
+            step_hours += length;
+            step_type = kind;
+        }
         // Templates 4.1 and 4.11 (ensemble members): the perturbation number, octet 36.
         let ensemble = matches!(template, 1 | 11)
             .then(|| prod.iter().nth(30).map(|&n| n as i64))
@@ -273,8 +311,10 @@ pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
                 lats.len()
             ));
         }
+        let (lats, lons, alternate_rows) = same_direction_rows(lats, lons, ni);
         Ok(GribField {
             edition: 2,
+            step_type: step_type.to_string(),
             param: names::grib2_param(discipline, category, number, &level),
             level,
             reference,
@@ -286,16 +326,59 @@ pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
                 nj,
                 lats,
                 lons,
-            },
+                alternate_rows,
+            }
+            .across_the_seam(),
             packing: packing.to_string(),
             centre: sub.identification().centre_id(),
         })
     })
 }
 
+/// Rows scanned in alternating directions (flag table 3.4, bit 4: a boustrophedon) turned to
+/// run one way, as cfgrib turns them, when that makes the grid rectilinear; whether it did.
+fn same_direction_rows(
+    mut lats: Vec<f64>,
+    mut lons: Vec<f64>,
+    ni: usize,
+) -> (Vec<f64>, Vec<f64>, bool) {
+    let regular = |lats: &[f64], lons: &[f64]| {
+        lats.chunks(ni).all(|r| r.iter().all(|&x| x == r[0]))
+            && lons.chunks(ni).all(|r| r == &lons[..ni])
+    };
+    if ni < 2 || lats.len() < 2 * ni || regular(&lats, &lons) {
+        return (lats, lons, false);
+    }
+    let flip = |v: &mut Vec<f64>| {
+        v.chunks_mut(ni)
+            .skip(1)
+            .step_by(2)
+            .for_each(<[f64]>::reverse)
+    };
+    let (mut la, mut lo) = (lats.clone(), lons.clone());
+    flip(&mut la);
+    flip(&mut lo);
+    if regular(&la, &lo) {
+        (lats, lons) = (la, lo);
+        (lats, lons, true)
+    } else {
+        (lats, lons, false)
+    }
+}
+
+/// Values of a grid whose rows alternate in direction, turned as [`same_direction_rows`] turns
+/// its nodes.
+pub(super) fn unalternate(values: &mut [f64], ni: usize) {
+    values
+        .chunks_mut(ni)
+        .skip(1)
+        .step_by(2)
+        .for_each(<[f64]>::reverse);
+}
+
 /// The message's values in scanning order, missing points as NaN.
-pub(super) fn values(msg: &[u8]) -> Result<Vec<f64>, Why> {
-    with_field(msg, |sub| {
+pub(super) fn values(msg: &[u8], k: usize) -> Result<Vec<f64>, Why> {
+    with_field(msg, k, |sub| {
         let (points, coded) = (sub.grid_def().num_points(), sub.repr_def().num_points());
         if coded > points {
             return Err(format!(

@@ -102,21 +102,30 @@ pub(crate) fn index_of(path: &Path) -> Result<Arc<GribIndex>> {
     let mut messages = Vec::new();
     for (k, (offset, length, edition)) in split(path, &bytes)?.into_iter().enumerate() {
         let msg = &bytes[offset..offset + length];
-        let field = match edition {
-            1 => super::grib1::field(msg),
-            _ => super::grib2::field(msg),
-        }
-        .map_err(|why| {
+        let named = |why: String| {
             Error::format(
                 path,
                 format!("message {k} (GRIB{edition}, offset {offset}): {why}"),
             )
-        })?;
-        messages.push(Located {
-            offset,
-            length,
-            field,
-        });
+        };
+        // Each field of a message is one message to the rest of hdrvis, as to cfgrib.
+        let fields = match edition {
+            1 => 1,
+            _ => super::grib2::field_count(msg).map_err(named)?,
+        };
+        for sub in 0..fields {
+            let field = match edition {
+                1 => super::grib1::field(msg),
+                _ => super::grib2::field(msg, sub),
+            }
+            .map_err(named)?;
+            messages.push(Located {
+                offset,
+                length,
+                sub,
+                field,
+            });
+        }
     }
     let index = Arc::new(super::dataset::build(messages));
     INDEXES

@@ -60,9 +60,9 @@ fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> 
         )
     })?;
     let points = m.field.grid.ni * m.field.grid.nj;
-    let values = match m.field.edition {
+    let mut values = match m.field.edition {
         1 => grib1::values(msg, points),
-        _ => grib2::values(msg),
+        _ => grib2::values(msg, m.sub),
     }
     .map_err(|why| {
         Error::format(
@@ -70,6 +70,9 @@ fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> 
             format!("message {k} (GRIB{}): {why}", m.field.edition),
         )
     })?;
+    if m.field.grid.alternate_rows && values.len() == points {
+        grib2::unalternate(&mut values, m.field.grid.ni);
+    }
     if values.len() != points {
         return Err(Error::format(
             path,

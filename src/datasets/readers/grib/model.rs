@@ -30,6 +30,9 @@ pub(crate) struct GridInfo {
     /// Latitude and longitude of every node, `nj` rows of `ni`.
     pub lats: Vec<f64>,
     pub lons: Vec<f64>,
+    /// The message scans rows in alternating directions; nodes (and values when read) are
+    /// turned to run one way.
+    pub alternate_rows: bool,
 }
 
 /// The most rows a Gaussian grid may have between a pole and the equator: regular Gaussian
@@ -60,6 +63,7 @@ impl GridInfo {
                 .flat_map(|&la| std::iter::repeat_n(la, ni))
                 .collect(),
             lons: (0..nj).flat_map(|_| lons.iter().copied()).collect(),
+            alternate_rows: false,
         }
     }
 
@@ -72,6 +76,23 @@ impl GridInfo {
             (*la, *lo) = pole.to_true(*la, *lo);
         }
         Ok(self)
+    }
+
+    /// Longitudes of a grid whose rows cross the 0° meridian eastward (first point 350°, last
+    /// 19°) written as ecCodes gives them: increasing through the seam from negative values
+    /// (−10° … 19°), not back from 359.9° to 0° nor on past 360°.
+    pub(crate) fn across_the_seam(mut self) -> GridInfo {
+        let ni = self.ni;
+        for row in self.lons.chunks_mut(ni.max(1)) {
+            if let Some(drop) = row.windows(2).position(|w| w[1] < w[0] - 180.0) {
+                row[..=drop].iter_mut().for_each(|l| *l -= 360.0);
+            } else if row.first().is_some_and(|&l| l >= 180.0)
+                && row.last().is_some_and(|&l| l > 360.0)
+            {
+                row.iter_mut().for_each(|l| *l -= 360.0);
+            }
+        }
+        self
     }
 
     /// Whether every row has one latitude and every row the same longitudes: then the grid has
@@ -94,6 +115,9 @@ pub(crate) struct GribField {
     /// Reference time, "YYYY-MM-DD hh:mm:ss" (UTC).
     pub reference: String,
     pub step_hours: f64,
+    /// ecCodes' `stepType`: "instant", or the statistic over the interval ending at the step
+    /// ("avg", "accum", "max", "min").
+    pub step_type: String,
     /// Ensemble member (perturbation number), for ensemble products.
     pub number: Option<i64>,
     pub grid: GridInfo,
@@ -107,6 +131,8 @@ pub(crate) struct GribField {
 pub(crate) struct Located {
     pub offset: usize,
     pub length: usize,
+    /// Which field of the message (GRIB2 messages may hold several).
+    pub sub: usize,
     pub field: GribField,
 }
 

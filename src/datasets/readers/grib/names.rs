@@ -33,11 +33,19 @@ fn common(key: &str, level: &Level) -> Option<Param> {
         "v" => param("v", "V component of wind", "m s**-1"),
         "w" => param("w", "Vertical velocity", "Pa s**-1"),
         "q" => param("q", "Specific humidity", "kg kg**-1"),
+        "r" if at("heightAboveGround", 2.0) => param("r2", "2 metre relative humidity", "%"),
         "r" => param("r", "Relative humidity", "%"),
+        "gh" if level.type_name == "surface" => param("orog", "Orography", "m"),
         "gh" => param("gh", "Geopotential height", "gpm"),
+        "cape" => param("cape", "Convective available potential energy", "J kg**-1"),
+        "cin" => param("cin", "Convective inhibition", "J kg**-1"),
+        "acpcp" => param("acpcp", "Convective precipitation (water)", "kg m**-2"),
+        "hlcy" => param("hlcy", "Storm relative helicity", "m**2 s**-2"),
         "z" => param("z", "Geopotential", "m**2 s**-2"),
         "pres" if level.type_name == "surface" => param("sp", "Surface pressure", "Pa"),
         "pres" if level.type_name == "meanSea" => param("msl", "Mean sea level pressure", "Pa"),
+        "pres" if level.type_name == "tropopause" => param("trpp", "Tropopause pressure", "Pa"),
+        "pres" if level.type_name == "cloudBase" => param("pcdb", "Pressure at cloud base", "Pa"),
         "pres" => param("pres", "Pressure", "Pa"),
         "prmsl" => param("prmsl", "Pressure reduced to MSL", "Pa"),
         "msl" => param("msl", "Mean sea level pressure", "Pa"),
@@ -67,6 +75,10 @@ pub(crate) fn grib2_param(discipline: u8, category: u8, number: u8, level: &Leve
         (0, 1, 0) => "q",
         (0, 1, 1) => "r",
         (0, 1, 8) => "tp",
+        (0, 1, 10) => "acpcp",
+        (0, 7, 6) => "cape",
+        (0, 7, 7) => "cin",
+        (0, 7, 8) => "hlcy",
         (0, 2, 2) => "u",
         (0, 2, 3) => "v",
         (0, 2, 8) => "w",
@@ -120,14 +132,14 @@ fn snake(name: &str) -> String {
 /// A GRIB1 parameter: `table` (the centre's table 2 version), `centre` and its number.
 pub(crate) fn grib1_param(
     table: u8,
-    centre: u16,
+    (centre, subcentre): (u16, u8),
     number: u8,
-    _level_type: u8,
     level: &Level,
 ) -> Param {
-    // ECMWF's table 128 (centre 98), else WMO's table 2 (versions 1 to 3, which all centres share
-    // below 128).
-    let key = if centre == 98 && table == 128 {
+    // ECMWF's table 128 (centre 98, or another centre's product archived in ECMWF's MARS, sub-
+    // centre 98), else WMO's table 2 (versions 1 to 3, which all centres share below 128).
+    let ecmwf = (centre == 98 || subcentre == 98) && table == 128;
+    let key = if ecmwf {
         match number {
             34 => "sst",
             129 => "z",
@@ -173,11 +185,20 @@ pub(crate) fn grib1_param(
     } else {
         ""
     };
-    common(key, level).unwrap_or_else(|| Param {
-        name: format!("param{number}_table{table}"),
-        long_name: format!("GRIB1 parameter {number} of table 2 version {table} (centre {centre})"),
-        units: None,
-    })
+    // ECMWF's total precipitation is a depth of water (m), WMO's a mass per area.
+    let units = (ecmwf && key == "tp").then(|| "m".to_string());
+    common(key, level)
+        .map(|p| Param {
+            units: units.or(p.units),
+            ..p
+        })
+        .unwrap_or_else(|| Param {
+            name: format!("param{number}_table{table}"),
+            long_name: format!(
+                "GRIB1 parameter {number} of table 2 version {table} (centre {centre})"
+            ),
+            units: None,
+        })
 }
 
 /// A GRIB2 level from its first and second fixed surfaces (code table 4.5): ecCodes'
@@ -193,6 +214,8 @@ pub(crate) fn grib2_level(first: (u8, Option<f64>), second: (u8, Option<f64>)) -
         7 => ("tropopause", 1.0, ""),
         8 => ("nominalTop", 1.0, ""),
         10 => ("entireAtmosphere", 1.0, ""),
+        // ecCodes names a pressure that is no whole number of hPa "isobaricInPa".
+        100 if value.is_some_and(|p| p % 100.0 != 0.0) => ("isobaricInPa", 1.0, "Pa"),
         100 => ("isobaricInhPa", 0.01, "hPa"),
         101 => ("meanSea", 1.0, ""),
         102 => ("heightAboveSea", 1.0, "m"),
@@ -201,7 +224,8 @@ pub(crate) fn grib2_level(first: (u8, Option<f64>), second: (u8, Option<f64>)) -
         105 => ("hybrid", 1.0, "1"),
         106 => ("depthBelowLand", 1.0, "m"),
         107 => ("theta", 1.0, "K"),
-        108 => ("pressureFromGroundLayer", 0.01, "hPa"),
+        // ecCodes keeps this layer's bound in Pa.
+        108 => ("pressureFromGroundLayer", 1.0, "Pa"),
         109 => ("potentialVorticity", 1.0, "K m**2 kg**-1 s**-1"),
         160 => ("depthBelowSea", 1.0, "m"),
         255 => ("unknown", 1.0, ""),
@@ -210,8 +234,8 @@ pub(crate) fn grib2_level(first: (u8, Option<f64>), second: (u8, Option<f64>)) -
     let layer = second.0 != 255 && second.0 == kind && second.1 != value;
     let type_name = match (name, layer) {
         ("", _) => format!("level{kind}"),
-        (n, true) => format!("{n}Layer"),
-        (n, false) => n.to_string(),
+        (n, true) if !n.ends_with("Layer") => format!("{n}Layer"),
+        (n, _) => n.to_string(),
     };
     Level {
         type_name,
@@ -270,9 +294,14 @@ mod tests {
         let two_metres = grib2_level((103, Some(2.0)), (255, None));
         assert_eq!(grib2_param(0, 0, 0, &two_metres).name, "t2m");
         let ten = grib1_level(105, 0, 10);
-        assert_eq!(grib1_param(128, 98, 165, 105, &ten).name, "u10");
+        assert_eq!(grib1_param(128, (98, 0), 165, &ten).name, "u10");
+        assert_eq!(grib1_param(128, (7, 98), 167, &ten).name, "t2m");
         assert_eq!(
-            grib1_param(2, 7, 11, 100, &grib1_level(100, 1, 244)).name,
+            grib1_param(128, (98, 0), 228, &ten).units.as_deref(),
+            Some("m")
+        );
+        assert_eq!(
+            grib1_param(2, (7, 0), 11, &grib1_level(100, 1, 244)).name,
             "t"
         );
         assert_eq!(grib1_level(100, 1, 244).value, Some(500.0));
