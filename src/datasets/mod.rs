@@ -305,12 +305,12 @@ pub(crate) fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<readers
         if let Some(scale) = a
             .units
             .as_deref()
-            .and_then(conventions::vertical::pascals_per)
+            .and_then(conventions::atmosphere::pascals_per)
         {
             a.values = a
                 .values
                 .iter()
-                .map(|p| conventions::vertical::standard_height_km(p * scale))
+                .map(|p| conventions::atmosphere::standard_height_km(p * scale))
                 .collect();
             a.name = format!("{} (standard-atmosphere height of its pressure)", a.name);
             a.units = Some("km".into());

@@ -428,6 +428,30 @@ def grib1_multi_case():
     return out
 
 
+def grib1_lambert_case():
+    """GRIB1 Lambert conformal on the spherical Earth (R = 6367.47 km), secant at 25° and 45°N,
+    as NCEP's Eta files lay it out."""
+    h = ec.codes_grib_new_from_samples("GRIB1")
+    set_keys(h, {"centre": "kwbc", "dataDate": DATE, "dataTime": TIME})
+    set_keys(h, level_keys("t", 850, 0, edition=1))
+    set_keys(h, {
+        "gridType": "lambert",
+        "Nx": 9,
+        "Ny": 7,
+        "latitudeOfFirstGridPointInDegrees": 20.0,
+        "longitudeOfFirstGridPointInDegrees": -120.0,
+        "LoVInDegrees": -95.0,
+        "DxInMetres": 120000,
+        "DyInMetres": 120000,
+        "Latin1InDegrees": 25.0,
+        "Latin2InDegrees": 45.0,
+        "projectionCenterFlag": 0,
+        "iScansNegatively": 0,
+        "jScansPositively": 1,
+    })
+    return [(h, fill(h, temperature))]
+
+
 CASES = [(p + ".grib2", lambda p=p: packing_case(p)) for p in PACKINGS] + [
     ("grid_simple_bitmap.grib2", bitmap_case),
     ("regular_gg.grib2", regular_gg_case),
@@ -440,6 +464,7 @@ CASES = [(p + ".grib2", lambda p=p: packing_case(p)) for p in PACKINGS] + [
     ("grib1_regular_ll.grib1", grib1_regular_ll_case),
     ("grib1_gaussian.grib1", grib1_gaussian_case),
     ("grib1_multi.grib1", grib1_multi_case),
+    ("grib1_lambert.grib1", grib1_lambert_case),
 ]
 
 

@@ -152,7 +152,7 @@ pub(crate) fn axis_role(path: &Path, v: &NcVariable) -> Result<AxisRole> {
             unit,
             to_unit,
         }),
-        None if super::vertical::is_pressure_unit(&units) => Ok(AxisRole::Pressure),
+        None if super::atmosphere::is_pressure_unit(&units) => Ok(AxisRole::Pressure),
         None => Ok(AxisRole::Levels),
     }
 }

@@ -4,6 +4,7 @@
 //! calendars and time units (`cf_time`), selection by dimension as xarray's `isel`/`sel`/`interp`
 //! (`select`), and curvilinear grids regridded onto latitude and longitude (`curvilinear`).
 
+pub(crate) mod atmosphere;
 pub(crate) mod cf;
 pub(crate) mod cf_decode;
 pub(crate) mod cf_time;

@@ -1,11 +1,11 @@
 //! GRIB edition 1 (WMO FM 92 GRIB, edition 1), decoded here: the `grib` crate reads edition 2
 //! only, and what archives still hold in edition 1 (NCEP's Eta and reanalysis files, ERA-40,
 //! ECMWF's MARS) is grid-point data in simple packing, which is short to decode. Read: the
-//! product definition (parameter, level, reference time and forecast step), regular and
-//! Gaussian latitude–longitude grids and rotated latitude–longitude grids, the bitmap, and
-//! simple packing Y = (R + X·2^E)/10^D with R an IBM single-precision float. Projected GRIB1
-//! grids, reduced (quasi-regular) grids, spherical harmonics and second-order packing are
-//! refused in one line naming what the message holds.
+//! product definition (parameter, level, reference time and forecast step, ECMWF's ensemble
+//! member), regular, Gaussian and rotated latitude–longitude grids, Lambert conformal grids,
+//! the bitmap, and simple packing Y = (R + X·2^E)/10^D with R an IBM single-precision float.
+//! Mercator and polar stereographic GRIB1 grids, reduced (quasi-regular) grids, spherical
+//! harmonics and second-order packing are refused in one line naming what the message holds.
 
 use super::model::{GribField, GridInfo};
 use super::names;
@@ -174,7 +174,7 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
         4 => "regular_gg",
         10 => "rotated_ll",
         1 => return Err("GRIB1 Mercator grids are not read yet".into()),
-        3 => return Err("GRIB1 Lambert conformal grids are not read yet".into()),
+        3 => return lambert(gds),
         5 => return Err("GRIB1 polar stereographic grids are not read yet".into()),
         50 => {
             return Err("spherical harmonics (GRIB1 grid type 50) are not grid-point data".into())
@@ -227,6 +227,78 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
         info = info.rotated(south_lat, south_lon)?;
     }
     Ok(info)
+}
+
+/// The radius of GRIB1's spherical Earth (m), when the resolution flags do not ask for the
+/// IAU 1965 spheroid.
+const EARTH_RADIUS_M: f64 = 6_367_470.0;
+
+/// A Lambert conformal grid (data representation type 3) on GRIB1's spherical Earth: each node
+/// placed by the projection's closed forms (Snyder, "Map Projections: A Working Manual", USGS
+/// 1987, eqs. 15-1 to 15-5 and 14-4): the first point projected, then steps of Dx and Dy
+/// metres, and every node unprojected.
+fn lambert(gds: &[u8]) -> Result<GridInfo, Why> {
+    let short = || "the grid description section is too short".to_string();
+    let u = |at: usize, n: usize| uint(gds, at, n).ok_or_else(short);
+    let milli = |at: usize| {
+        signed(gds, at, 3)
+            .map(|v| (v as f64 / 1000.0).to_radians())
+            .ok_or_else(short)
+    };
+    let (ni, nj) = (u(6, 2)? as usize, u(8, 2)? as usize);
+    super::model::check_grid(ni, nj)?;
+    if u(16, 1)? & 0x40 != 0 {
+        return Err(
+            "a Lambert grid on the oblate IAU 1965 spheroid is not read (the spherical Earth is)"
+                .into(),
+        );
+    }
+    let (la1, lo1, lov) = (milli(10)?, milli(13)?, milli(17)?);
+    let (dx, dy) = (u(20, 3)? as f64, u(23, 3)? as f64);
+    let scan = u(27, 1)?;
+    let (latin1, latin2) = (milli(28)?, milli(31)?);
+    if scan & 0x20 != 0 || dx == 0.0 || dy == 0.0 {
+        return Err(format!(
+            "a Lambert grid with scanning mode {scan:#04x} and steps {dx} × {dy} m is not read"
+        ));
+    }
+    let t = |phi: f64| (std::f64::consts::FRAC_PI_4 + phi / 2.0).tan();
+    let n = if (latin1 - latin2).abs() < 1e-12 {
+        latin1.sin()
+    } else {
+        (latin1.cos() / latin2.cos()).ln() / (t(latin2) / t(latin1)).ln()
+    };
+    let f = latin1.cos() * t(latin1).powf(n) / n;
+    let rho = |phi: f64| EARTH_RADIUS_M * f / t(phi).powf(n);
+    let project = |phi: f64, lam: f64| {
+        let theta = n * (lam - lov);
+        (rho(phi) * theta.sin(), -rho(phi) * theta.cos())
+    };
+    let (x1, y1) = project(la1, lo1);
+    let (sx, sy) = (
+        if scan & 0x80 != 0 { -dx } else { dx },
+        if scan & 0x40 != 0 { dy } else { -dy },
+    );
+    let (mut lats, mut lons) = (Vec::with_capacity(ni * nj), Vec::with_capacity(ni * nj));
+    for j in 0..nj {
+        for i in 0..ni {
+            let (x, y) = (x1 + i as f64 * sx, y1 + j as f64 * sy);
+            let r = n.signum() * x.hypot(y);
+            let theta = (n.signum() * x).atan2(-n.signum() * y);
+            let phi =
+                2.0 * (EARTH_RADIUS_M * f / r).powf(1.0 / n).atan() - std::f64::consts::FRAC_PI_2;
+            lats.push(phi.to_degrees());
+            lons.push((lov + theta / n).to_degrees());
+        }
+    }
+    Ok(GridInfo {
+        kind: "lambert".into(),
+        ni,
+        nj,
+        lats,
+        lons,
+        alternate_rows: false,
+    })
 }
 
 /// `n` evenly spaced values from `first` to `last`; `decreasing` says which way they run, and
