@@ -19,13 +19,30 @@ save_exr(img, "m.exr");
     )
 }
 
+/// A copy of the binary in `dir` that the user `nobody` may run: the checkout (and so the
+/// built binary) may lie in a folder only its owner may enter, as /root is.
+fn binary_for_nobody(dir: &Path) -> PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let copy = dir.join("hdrvis-for-nobody");
+    if !copy.is_file() {
+        std::fs::copy(env!("CARGO_BIN_EXE_hdrvis"), &copy).unwrap();
+        std::fs::set_permissions(&copy, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    copy
+}
+
+/// `setpriv` running the binary as the user `nobody`.
+fn as_nobody(dir: &Path) -> Command {
+    let mut c = Command::new("setpriv");
+    c.args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"])
+        .arg(binary_for_nobody(dir));
+    c
+}
+
 /// `hdrvis run s.rhai --out OUT` in `dir` with `env`, optionally as the user `nobody`.
-fn run_in(dir: &Path, out: &str, env: &[(&str, &Path)], as_nobody: bool) -> Output {
-    let mut cmd = if as_nobody {
-        let mut c = Command::new("setpriv");
-        c.args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"])
-            .arg(env!("CARGO_BIN_EXE_hdrvis"));
-        c
+fn run_in(dir: &Path, out: &str, env: &[(&str, &Path)], nobody: bool) -> Output {
+    let mut cmd = if nobody {
+        as_nobody(dir)
     } else {
         Command::new(env!("CARGO_BIN_EXE_hdrvis"))
     };
@@ -305,9 +322,7 @@ fn a_cache_nobody_can_write_is_used_when_good_and_bypassed_when_not() {
         .collect();
     assert!(left.is_empty(), "the private folder outlived the run");
     // `hdrvis gen` hands the user the file: it stays, and the note says so.
-    let gen = Command::new("setpriv")
-        .args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"])
-        .arg(env!("CARGO_BIN_EXE_hdrvis"))
+    let gen = as_nobody(d)
         .args(["gen", "mantle", "--n", "9"])
         .env("HDRVIS_CACHE", &cache)
         .current_dir(d)
@@ -334,10 +349,8 @@ fn a_cache_nobody_can_write_is_used_when_good_and_bypassed_when_not() {
     let home = d.join("home-of-root");
     std::fs::create_dir_all(&home).unwrap();
     let out = {
-        let mut cmd = Command::new("setpriv");
-        cmd.args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"])
-            .arg(env!("CARGO_BIN_EXE_hdrvis"))
-            .args(["run", "s.rhai", "--out", "home"])
+        let mut cmd = as_nobody(d);
+        cmd.args(["run", "s.rhai", "--out", "home"])
             .current_dir(d)
             .env_remove("HDRVIS_CACHE")
             .env_remove("XDG_CACHE_HOME")
