@@ -452,6 +452,27 @@ def grib1_lambert_case():
     return [(h, fill(h, temperature))]
 
 
+def grib1_polar_case():
+    """GRIB1 polar stereographic (north, true at 60°N) on the spherical Earth."""
+    h = ec.codes_grib_new_from_samples("GRIB1")
+    set_keys(h, {"centre": "kwbc", "dataDate": DATE, "dataTime": TIME})
+    set_keys(h, level_keys("t", 500, 0, edition=1))
+    set_keys(h, {
+        "gridType": "polar_stereographic",
+        "Nx": 9,
+        "Ny": 7,
+        "latitudeOfFirstGridPointInDegrees": 40.0,
+        "longitudeOfFirstGridPointInDegrees": -130.0,
+        "orientationOfTheGridInDegrees": -105.0,
+        "DxInMetres": 250000,
+        "DyInMetres": 250000,
+        "projectionCenterFlag": 0,
+        "iScansNegatively": 0,
+        "jScansPositively": 1,
+    })
+    return [(h, fill(h, temperature))]
+
+
 CASES = [(p + ".grib2", lambda p=p: packing_case(p)) for p in PACKINGS] + [
     ("grid_simple_bitmap.grib2", bitmap_case),
     ("regular_gg.grib2", regular_gg_case),
@@ -465,6 +486,7 @@ CASES = [(p + ".grib2", lambda p=p: packing_case(p)) for p in PACKINGS] + [
     ("grib1_gaussian.grib1", grib1_gaussian_case),
     ("grib1_multi.grib1", grib1_multi_case),
     ("grib1_lambert.grib1", grib1_lambert_case),
+    ("grib1_polar_stereographic.grib1", grib1_polar_case),
 ]
 
 

@@ -2,9 +2,10 @@
 //! only, and what archives still hold in edition 1 (NCEP's Eta and reanalysis files, ERA-40,
 //! ECMWF's MARS) is grid-point data in simple packing, which is short to decode. Read: the
 //! product definition (parameter, level, reference time and forecast step, ECMWF's ensemble
-//! member), regular, Gaussian and rotated latitude–longitude grids, Lambert conformal grids,
+//! member), regular, Gaussian and rotated latitude–longitude grids, Lambert conformal and
+//! polar stereographic grids,
 //! the bitmap, and simple packing Y = (R + X·2^E)/10^D with R an IBM single-precision float.
-//! Mercator and polar stereographic GRIB1 grids, reduced (quasi-regular) grids, spherical
+//! Mercator GRIB1 grids, reduced (quasi-regular) grids, spherical
 //! harmonics and second-order packing are refused in one line naming what the message holds.
 
 use super::model::{GribField, GridInfo};
@@ -175,7 +176,7 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
         10 => "rotated_ll",
         1 => return Err("GRIB1 Mercator grids are not read yet".into()),
         3 => return lambert(gds),
-        5 => return Err("GRIB1 polar stereographic grids are not read yet".into()),
+        5 => return polar_stereographic(gds),
         50 => {
             return Err("spherical harmonics (GRIB1 grid type 50) are not grid-point data".into())
         }
@@ -293,6 +294,59 @@ fn lambert(gds: &[u8]) -> Result<GridInfo, Why> {
     }
     Ok(GridInfo {
         kind: "lambert".into(),
+        ni,
+        nj,
+        lats,
+        lons,
+        alternate_rows: false,
+    })
+}
+
+/// A north-polar stereographic grid (data representation type 5) on GRIB1's spherical Earth,
+/// true at 60°N (GRIB1 fixes it there): the first point projected, steps of Dx and Dy metres,
+/// every node unprojected (Snyder 1987, eqs. 21-2 to 21-4 and 20-14, 20-15 with k at 60°).
+fn polar_stereographic(gds: &[u8]) -> Result<GridInfo, Why> {
+    let short = || "the grid description section is too short".to_string();
+    let u = |at: usize, n: usize| uint(gds, at, n).ok_or_else(short);
+    let milli = |at: usize| {
+        signed(gds, at, 3)
+            .map(|v| (v as f64 / 1000.0).to_radians())
+            .ok_or_else(short)
+    };
+    let (ni, nj) = (u(6, 2)? as usize, u(8, 2)? as usize);
+    super::model::check_grid(ni, nj)?;
+    if u(16, 1)? & 0x40 != 0 {
+        return Err("a polar stereographic grid on the oblate IAU 1965 spheroid is not read (the spherical Earth is)".into());
+    }
+    let (la1, lo1, lov) = (milli(10)?, milli(13)?, milli(17)?);
+    let (dx, dy) = (u(20, 3)? as f64, u(23, 3)? as f64);
+    if u(26, 1)? & 0x80 != 0 {
+        return Err(
+            "a south-polar GRIB1 stereographic grid is not read yet (north-polar ones are)".into(),
+        );
+    }
+    let scan = u(27, 1)?;
+    if scan & 0x20 != 0 || dx == 0.0 || dy == 0.0 {
+        return Err(format!("a polar stereographic grid with scanning mode {scan:#04x} and steps {dx} × {dy} m is not read"));
+    }
+    let scale = EARTH_RADIUS_M * (1.0 + 60f64.to_radians().sin());
+    let rho = |phi: f64| scale * (std::f64::consts::FRAC_PI_4 - phi / 2.0).tan();
+    let (x1, y1) = (rho(la1) * (lo1 - lov).sin(), -rho(la1) * (lo1 - lov).cos());
+    let (sx, sy) = (
+        if scan & 0x80 != 0 { -dx } else { dx },
+        if scan & 0x40 != 0 { dy } else { -dy },
+    );
+    let (mut lats, mut lons) = (Vec::with_capacity(ni * nj), Vec::with_capacity(ni * nj));
+    for j in 0..nj {
+        for i in 0..ni {
+            let (x, y) = (x1 + i as f64 * sx, y1 + j as f64 * sy);
+            let phi = std::f64::consts::FRAC_PI_2 - 2.0 * (x.hypot(y) / scale).atan();
+            lats.push(phi.to_degrees());
+            lons.push((lov + x.atan2(-y)).to_degrees());
+        }
+    }
+    Ok(GridInfo {
+        kind: "polar_stereographic".into(),
         ni,
         nj,
         lats,
