@@ -33,19 +33,20 @@ pub(crate) fn output_intact(path: &Path) -> Result<(), String> {
             }
             Ok(())
         }
-        "exr" => crate::io::exr::read_exr(path)
-            .map(|_| ())
-            .map_err(|e| format!("does not read as OpenEXR ({e})")),
         "json" => {
             let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
             serde_json::from_slice::<serde_json::Value>(&bytes)
                 .map(|_| ())
                 .map_err(|e| format!("does not parse as JSON ({e})"))
         }
-        "nc" | "nc4" | "npy" | "npz" | "vti" | "vtk" | "h5" | "tif" | "tiff" => {
-            every_array_reads(path)
-        }
-        _ => Ok(()),
+        // Pictures and data files by the one registry of formats.
+        _ => match crate::datasets::Format::from_extension(path) {
+            Some(crate::datasets::Format::Exr) => crate::io::exr::read_exr(path)
+                .map(|_| ())
+                .map_err(|e| format!("does not read as OpenEXR ({e})")),
+            Some(_) => every_array_reads(path),
+            None => Ok(()),
+        },
     }
 }
 

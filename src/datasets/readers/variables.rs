@@ -77,9 +77,26 @@ pub(crate) trait Variables: Sync {
         window: Option<(usize, Range<usize>)>,
     ) -> Result<NcVariable>;
 
-    /// The coordinate variable of dimension `dim` (1-D, named like it), as stored; `None`
-    /// without one; an unknown dimension is an error listing the file's.
-    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>>;
+    /// The coordinate variable of dimension `dim` (1-D, named like it), decoded; `None`
+    /// without one; an unknown dimension is an error. By default found among [`Variables::list`]
+    /// and read whole.
+    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>> {
+        let listed = self.list(path)?;
+        if !listed
+            .iter()
+            .any(|(_, dims)| dims.iter().any(|(d, _)| d == dim))
+        {
+            return Err(Error::invalid(
+                "dimension",
+                format!("'{dim}' is not a dimension of {}", path.display()),
+            ));
+        }
+        let is_coordinate = |(name, dims): &(String, Dims)| name == dim && dims.len() == 1;
+        match listed.iter().any(is_coordinate) {
+            true => self.read(path, dim, &[], None).map(Some),
+            false => Ok(None),
+        }
+    }
 
     /// Where a longitude dimension stored in numeric order across the seam begins when read in
     /// geographic order (every variable on it is read so); `None` for any other.

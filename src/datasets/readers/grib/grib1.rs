@@ -182,7 +182,6 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
         }
         k => return Err(format!("GRIB1 grid type {k} (code table 6) is not read")),
     };
-    let short = || "the grid description section is too short".to_string();
     let ni = uint(gds, 6, 2).ok_or_else(short)? as usize;
     let nj = uint(gds, 8, 2).ok_or_else(short)? as usize;
     super::model::check_grid(ni, nj)?;
@@ -234,35 +233,102 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
 /// IAU 1965 spheroid.
 const EARTH_RADIUS_M: f64 = 6_367_470.0;
 
+/// What GRIB1's projected grids (Lambert conformal, polar stereographic) share in their grid
+/// description: the grid's size, its first point and the orientation longitude (radians), the
+/// steps in metres with the direction the scanning mode gives them, and the octets to read the
+/// rest from.
+struct Projected<'a> {
+    gds: &'a [u8],
+    ni: usize,
+    nj: usize,
+    la1: f64,
+    lo1: f64,
+    lov: f64,
+    /// Dx and Dy in metres, signed by the scanning mode.
+    step: (f64, f64),
+}
+
+impl<'a> Projected<'a> {
+    fn read(gds: &'a [u8], what: &str) -> Result<Projected<'a>, Why> {
+        let u = |at: usize, n: usize| uint(gds, at, n).ok_or_else(short);
+        let (ni, nj) = (u(6, 2)? as usize, u(8, 2)? as usize);
+        super::model::check_grid(ni, nj)?;
+        if u(16, 1)? & 0x40 != 0 {
+            return Err(format!(
+                "a {what} grid on the oblate IAU 1965 spheroid is not read (the spherical Earth is)"
+            ));
+        }
+        let (dx, dy) = (u(20, 3)? as f64, u(23, 3)? as f64);
+        let scan = u(27, 1)?;
+        if scan & 0x20 != 0 || dx == 0.0 || dy == 0.0 {
+            return Err(format!(
+                "a {what} grid with scanning mode {scan:#04x} and steps {dx} × {dy} m is not read"
+            ));
+        }
+        Ok(Projected {
+            gds,
+            ni,
+            nj,
+            la1: radians(gds, 10)?,
+            lo1: radians(gds, 13)?,
+            lov: radians(gds, 17)?,
+            step: (
+                if scan & 0x80 != 0 { -dx } else { dx },
+                if scan & 0x40 != 0 { dy } else { -dy },
+            ),
+        })
+    }
+
+    /// The grid of `kind` whose first point projects to `first` (metres) and whose nodes
+    /// `unproject` turns into latitude and longitude (radians).
+    fn nodes(
+        &self,
+        kind: &str,
+        first: (f64, f64),
+        unproject: impl Fn(f64, f64) -> (f64, f64),
+    ) -> GridInfo {
+        let (mut lats, mut lons) = (
+            Vec::with_capacity(self.ni * self.nj),
+            Vec::with_capacity(self.ni * self.nj),
+        );
+        for j in 0..self.nj {
+            for i in 0..self.ni {
+                let x = first.0 + i as f64 * self.step.0;
+                let y = first.1 + j as f64 * self.step.1;
+                let (phi, lam) = unproject(x, y);
+                lats.push(phi.to_degrees());
+                lons.push(lam.to_degrees());
+            }
+        }
+        GridInfo {
+            kind: kind.into(),
+            ni: self.ni,
+            nj: self.nj,
+            lats,
+            lons,
+            alternate_rows: false,
+        }
+    }
+}
+
+fn short() -> Why {
+    "the grid description section is too short".to_string()
+}
+
+/// A signed 3-octet angle in millidegrees at `at`, in radians.
+fn radians(gds: &[u8], at: usize) -> Result<f64, Why> {
+    signed(gds, at, 3)
+        .map(|v| (v as f64 / 1000.0).to_radians())
+        .ok_or_else(short)
+}
+
 /// A Lambert conformal grid (data representation type 3) on GRIB1's spherical Earth: each node
 /// placed by the projection's closed forms (Snyder, "Map Projections: A Working Manual", USGS
 /// 1987, eqs. 15-1 to 15-5 and 14-4): the first point projected, then steps of Dx and Dy
 /// metres, and every node unprojected.
 fn lambert(gds: &[u8]) -> Result<GridInfo, Why> {
-    let short = || "the grid description section is too short".to_string();
-    let u = |at: usize, n: usize| uint(gds, at, n).ok_or_else(short);
-    let milli = |at: usize| {
-        signed(gds, at, 3)
-            .map(|v| (v as f64 / 1000.0).to_radians())
-            .ok_or_else(short)
-    };
-    let (ni, nj) = (u(6, 2)? as usize, u(8, 2)? as usize);
-    super::model::check_grid(ni, nj)?;
-    if u(16, 1)? & 0x40 != 0 {
-        return Err(
-            "a Lambert grid on the oblate IAU 1965 spheroid is not read (the spherical Earth is)"
-                .into(),
-        );
-    }
-    let (la1, lo1, lov) = (milli(10)?, milli(13)?, milli(17)?);
-    let (dx, dy) = (u(20, 3)? as f64, u(23, 3)? as f64);
-    let scan = u(27, 1)?;
-    let (latin1, latin2) = (milli(28)?, milli(31)?);
-    if scan & 0x20 != 0 || dx == 0.0 || dy == 0.0 {
-        return Err(format!(
-            "a Lambert grid with scanning mode {scan:#04x} and steps {dx} × {dy} m is not read"
-        ));
-    }
+    let g = Projected::read(gds, "Lambert")?;
+    let (latin1, latin2) = (radians(g.gds, 28)?, radians(g.gds, 31)?);
     let t = |phi: f64| (std::f64::consts::FRAC_PI_4 + phi / 2.0).tan();
     let n = if (latin1 - latin2).abs() < 1e-12 {
         latin1.sin()
@@ -270,89 +336,34 @@ fn lambert(gds: &[u8]) -> Result<GridInfo, Why> {
         (latin1.cos() / latin2.cos()).ln() / (t(latin2) / t(latin1)).ln()
     };
     let f = latin1.cos() * t(latin1).powf(n) / n;
-    let rho = |phi: f64| EARTH_RADIUS_M * f / t(phi).powf(n);
-    let project = |phi: f64, lam: f64| {
-        let theta = n * (lam - lov);
-        (rho(phi) * theta.sin(), -rho(phi) * theta.cos())
-    };
-    let (x1, y1) = project(la1, lo1);
-    let (sx, sy) = (
-        if scan & 0x80 != 0 { -dx } else { dx },
-        if scan & 0x40 != 0 { dy } else { -dy },
-    );
-    let (mut lats, mut lons) = (Vec::with_capacity(ni * nj), Vec::with_capacity(ni * nj));
-    for j in 0..nj {
-        for i in 0..ni {
-            let (x, y) = (x1 + i as f64 * sx, y1 + j as f64 * sy);
-            let r = n.signum() * x.hypot(y);
-            let theta = (n.signum() * x).atan2(-n.signum() * y);
-            let phi =
-                2.0 * (EARTH_RADIUS_M * f / r).powf(1.0 / n).atan() - std::f64::consts::FRAC_PI_2;
-            lats.push(phi.to_degrees());
-            lons.push((lov + theta / n).to_degrees());
-        }
-    }
-    Ok(GridInfo {
-        kind: "lambert".into(),
-        ni,
-        nj,
-        lats,
-        lons,
-        alternate_rows: false,
-    })
+    let rho = EARTH_RADIUS_M * f / t(g.la1).powf(n);
+    let theta = n * (g.lo1 - g.lov);
+    let first = (rho * theta.sin(), -rho * theta.cos());
+    Ok(g.nodes("lambert", first, |x, y| {
+        let r = n.signum() * x.hypot(y);
+        let theta = (n.signum() * x).atan2(-n.signum() * y);
+        let phi = 2.0 * (EARTH_RADIUS_M * f / r).powf(1.0 / n).atan() - std::f64::consts::FRAC_PI_2;
+        (phi, g.lov + theta / n)
+    }))
 }
 
 /// A north-polar stereographic grid (data representation type 5) on GRIB1's spherical Earth,
 /// true at 60°N (GRIB1 fixes it there): the first point projected, steps of Dx and Dy metres,
 /// every node unprojected (Snyder 1987, eqs. 21-2 to 21-4 and 20-14, 20-15 with k at 60°).
 fn polar_stereographic(gds: &[u8]) -> Result<GridInfo, Why> {
-    let short = || "the grid description section is too short".to_string();
-    let u = |at: usize, n: usize| uint(gds, at, n).ok_or_else(short);
-    let milli = |at: usize| {
-        signed(gds, at, 3)
-            .map(|v| (v as f64 / 1000.0).to_radians())
-            .ok_or_else(short)
-    };
-    let (ni, nj) = (u(6, 2)? as usize, u(8, 2)? as usize);
-    super::model::check_grid(ni, nj)?;
-    if u(16, 1)? & 0x40 != 0 {
-        return Err("a polar stereographic grid on the oblate IAU 1965 spheroid is not read (the spherical Earth is)".into());
-    }
-    let (la1, lo1, lov) = (milli(10)?, milli(13)?, milli(17)?);
-    let (dx, dy) = (u(20, 3)? as f64, u(23, 3)? as f64);
-    if u(26, 1)? & 0x80 != 0 {
+    let g = Projected::read(gds, "polar stereographic")?;
+    if uint(gds, 26, 1).ok_or_else(short)? & 0x80 != 0 {
         return Err(
             "a south-polar GRIB1 stereographic grid is not read yet (north-polar ones are)".into(),
         );
     }
-    let scan = u(27, 1)?;
-    if scan & 0x20 != 0 || dx == 0.0 || dy == 0.0 {
-        return Err(format!("a polar stereographic grid with scanning mode {scan:#04x} and steps {dx} × {dy} m is not read"));
-    }
     let scale = EARTH_RADIUS_M * (1.0 + 60f64.to_radians().sin());
-    let rho = |phi: f64| scale * (std::f64::consts::FRAC_PI_4 - phi / 2.0).tan();
-    let (x1, y1) = (rho(la1) * (lo1 - lov).sin(), -rho(la1) * (lo1 - lov).cos());
-    let (sx, sy) = (
-        if scan & 0x80 != 0 { -dx } else { dx },
-        if scan & 0x40 != 0 { dy } else { -dy },
-    );
-    let (mut lats, mut lons) = (Vec::with_capacity(ni * nj), Vec::with_capacity(ni * nj));
-    for j in 0..nj {
-        for i in 0..ni {
-            let (x, y) = (x1 + i as f64 * sx, y1 + j as f64 * sy);
-            let phi = std::f64::consts::FRAC_PI_2 - 2.0 * (x.hypot(y) / scale).atan();
-            lats.push(phi.to_degrees());
-            lons.push((lov + x.atan2(-y)).to_degrees());
-        }
-    }
-    Ok(GridInfo {
-        kind: "polar_stereographic".into(),
-        ni,
-        nj,
-        lats,
-        lons,
-        alternate_rows: false,
-    })
+    let rho = scale * (std::f64::consts::FRAC_PI_4 - g.la1 / 2.0).tan();
+    let first = (rho * (g.lo1 - g.lov).sin(), -rho * (g.lo1 - g.lov).cos());
+    Ok(g.nodes("polar_stereographic", first, |x, y| {
+        let phi = std::f64::consts::FRAC_PI_2 - 2.0 * (x.hypot(y) / scale).atan();
+        (phi, g.lov + x.atan2(-y))
+    }))
 }
 
 /// `n` evenly spaced values from `first` to `last`; `decreasing` says which way they run, and

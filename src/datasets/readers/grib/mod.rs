@@ -52,17 +52,25 @@ fn variable<'a>(path: &Path, index: &'a GribIndex, name: &str) -> Result<&'a Gri
 /// The values of message `k`, decoded, in the grid's row order.
 fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> {
     let m = &index.messages[k];
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let msg = bytes.get(m.offset..m.offset + m.length).ok_or_else(|| {
-        Error::format(
-            path,
-            format!("message {k}: the file changed while it was read"),
-        )
-    })?;
+    // Only this message's bytes: a variable reads its messages one by one.
+    let msg = {
+        use std::io::{Read, Seek, SeekFrom};
+        let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let mut msg = vec![0u8; m.length];
+        file.seek(SeekFrom::Start(m.offset as u64))
+            .and_then(|_| file.read_exact(&mut msg))
+            .map_err(|_| {
+                Error::format(
+                    path,
+                    format!("message {k}: the file changed while it was read"),
+                )
+            })?;
+        msg
+    };
     let points = m.field.grid.ni * m.field.grid.nj;
     let mut values = match m.field.edition {
-        1 => grib1::values(msg, points),
-        _ => grib2::values(msg, m.sub),
+        1 => grib1::values(&msg, points),
+        _ => grib2::values(&msg, m.sub),
     }
     .map_err(|why| {
         Error::format(
@@ -271,27 +279,5 @@ impl super::variables::Variables for GribReader {
     ) -> Result<NcVariable> {
         let index = index::index_of(path)?;
         self.read_variable(path, variable(path, &index, name)?, picks, window)
-    }
-
-    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>> {
-        let index = index::index_of(path)?;
-        let known = index
-            .variables
-            .iter()
-            .any(|v| v.dims.iter().any(|(d, _)| d == dim));
-        if !known {
-            return Err(Error::invalid(
-                "dimension",
-                format!("'{dim}' is not a dimension of {}", path.display()),
-            ));
-        }
-        match index
-            .variables
-            .iter()
-            .find(|v| v.name == dim && v.dims.len() == 1)
-        {
-            Some(v) => self.read_variable(path, v, &[], None).map(Some),
-            None => Ok(None),
-        }
     }
 }

@@ -242,22 +242,4 @@ impl super::variables::Variables for ZarrReader {
         let store = store(path)?;
         self.read_array(array(path, &store, name)?, picks, window)
     }
-
-    fn coordinate(&self, path: &Path, dim: &str) -> Result<Option<NcVariable>> {
-        let store = store(path)?;
-        if !store.arrays.iter().any(|a| a.dims.iter().any(|d| d == dim)) {
-            return Err(Error::invalid(
-                "dimension",
-                format!("'{dim}' is not a dimension of {}", path.display()),
-            ));
-        }
-        match store
-            .arrays
-            .iter()
-            .find(|a| a.name == dim && a.dims.len() == 1)
-        {
-            Some(a) => self.read_array(a, &[], None).map(Some),
-            None => Ok(None),
-        }
-    }
 }
