@@ -302,16 +302,12 @@ pub(crate) fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<readers
     // A pressure axis is no length: rows at the standard atmosphere's heights, surface at the
     // bottom, as in a volume.
     for a in [&mut x, &mut y].into_iter().flatten() {
-        if let Some(scale) = a
+        let heights = a
             .units
             .as_deref()
-            .and_then(conventions::atmosphere::pascals_per)
-        {
-            a.values = a
-                .values
-                .iter()
-                .map(|p| conventions::atmosphere::standard_height_km(p * scale))
-                .collect();
+            .and_then(|u| conventions::atmosphere::heights_km(&a.values, u));
+        if let Some(heights) = heights {
+            a.values = heights;
             a.name = format!("{} (standard-atmosphere height of its pressure)", a.name);
             a.units = Some("km".into());
         }

@@ -130,7 +130,13 @@ pub fn python_reference(
     dir: &Path,
     case: &str,
 ) -> Option<HashMap<String, Vec<String>>> {
-    let report = crate::cli::python_check(script, &[dir.to_str().unwrap(), case])?;
+    python_report(script, &[dir.to_str().unwrap(), case])
+}
+
+/// The `KEY VALUE ...` lines of the tests/python writer `script` run with `args`, by key;
+/// `None` when the Python modules are missing. The script must exit 0.
+pub fn python_report(script: &str, args: &[&str]) -> Option<HashMap<String, Vec<String>>> {
+    let report = crate::cli::python_check(script, args)?;
     assert!(report.starts_with("exit 0\n"), "{report}");
     Some(
         report

@@ -6,24 +6,18 @@
 //! levels, no extrapolation) and of CF's g2 formula within 1e-5 relative, missing where the
 //! column does not reach the level.
 
-use crate::cli::{hdrvis, python_check};
-use crate::common::assert_values;
+use crate::cli::hdrvis;
+use crate::common::{assert_values, python_report, reference_numbers};
 use hdrvis::datasets::select::{At, Selection};
 use std::collections::HashMap;
 use std::path::Path;
 
 fn reference(dir: &Path) -> Option<HashMap<String, Vec<f64>>> {
-    let report = python_check("write_vertical_cases.py", &[dir.to_str().unwrap()])?;
-    assert!(report.starts_with("exit 0\n"), "{report}");
+    let report = python_report("write_vertical_cases.py", &[dir.to_str().unwrap()])?;
     Some(
         report
-            .lines()
-            .skip(1)
-            .filter_map(|l| {
-                let mut w = l.split_whitespace();
-                let key = w.next()?.to_string();
-                Some((key, w.map(|x| x.parse().unwrap()).collect()))
-            })
+            .keys()
+            .map(|k| (k.clone(), reference_numbers(&report, k)))
             .collect(),
     )
 }

@@ -3,29 +3,14 @@
 //! zlib: chunked with partial edge chunks, NaN fills, a datetime time axis and a packed int16
 //! variable. Every value and date must equal `xarray.open_zarr`'s.
 
-use crate::cli::{hdrvis, python_check};
-use crate::common::assert_values;
+use crate::cli::hdrvis;
+use crate::common::{assert_values, python_report, reference_numbers};
 use hdrvis::datasets::select::Selection;
 use std::collections::HashMap;
 use std::path::Path;
 
 fn reference(dir: &Path) -> Option<HashMap<String, Vec<String>>> {
-    let report = python_check("write_zarr_cases.py", &[dir.to_str().unwrap()])?;
-    assert!(report.starts_with("exit 0\n"), "{report}");
-    Some(
-        report
-            .lines()
-            .skip(1)
-            .filter_map(|l| {
-                let mut w = l.split_whitespace();
-                Some((w.next()?.to_string(), w.map(str::to_string).collect()))
-            })
-            .collect(),
-    )
-}
-
-fn numbers(words: &[String]) -> Vec<f64> {
-    words.iter().map(|w| w.parse().unwrap()).collect()
+    python_report("write_zarr_cases.py", &[dir.to_str().unwrap()])
 }
 
 #[test]
@@ -47,7 +32,7 @@ fn zarr_stores_read_as_xarray_reads_them() {
             // xarray unpacks in float64, as hdrvis does: equal to the last bit.
             assert_values(
                 &got,
-                &numbers(&r[&format!("{store}.{key}")]),
+                &reference_numbers(&r, &format!("{store}.{key}")),
                 0.0,
                 &format!("{store} {var}"),
             );

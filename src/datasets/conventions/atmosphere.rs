@@ -48,6 +48,18 @@ pub(crate) fn pascals_per(units: &str) -> Option<f64> {
     }
 }
 
+/// Pressures in `units` as the standard atmosphere's heights (km); `None` when `units` are no
+/// pressure unit.
+pub(crate) fn heights_km(pressures: &[f64], units: &str) -> Option<Vec<f64>> {
+    let scale = pascals_per(units)?;
+    Some(
+        pressures
+            .iter()
+            .map(|p| standard_height_km(p * scale))
+            .collect(),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -447,15 +447,11 @@ pub(crate) fn pressure_as_height(coords: &mut [super::cf::DimCoord]) -> Option<S
     for d in coords.iter_mut() {
         let Some(c) = d.coord.as_mut() else { continue };
         let units = c.units.clone().unwrap_or_default();
-        let Some(scale) = super::atmosphere::pascals_per(&units) else {
+        let Some(heights) = super::atmosphere::heights_km(&c.data, &units) else {
             continue;
         };
         let (first, last) = (c.data.first().copied()?, c.data.last().copied()?);
-        c.data = c
-            .data
-            .iter()
-            .map(|p| super::atmosphere::standard_height_km(p * scale))
-            .collect();
+        c.data = heights;
         c.units = Some("km".into());
         c.attributes
             .retain(|(k, _)| !["units", "positive", "standard_name", "axis"].contains(&k.as_str()));

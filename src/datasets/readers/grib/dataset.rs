@@ -63,12 +63,19 @@ fn distinct(mut v: Vec<f64>) -> Vec<f64> {
 
 /// Seconds since 1970 of a "YYYY-MM-DD hh:mm:ss" reference time.
 fn seconds(reference: &str) -> f64 {
-    crate::datasets::cf_time::TimeUnits::parse(
-        "seconds since 1970-01-01 00:00:00",
-        Some("proleptic_gregorian"),
-    )
-    .and_then(|u| u.value(reference))
-    .unwrap_or(f64::NAN)
+    use crate::datasets::cf_time::TimeUnits;
+    static EPOCH: std::sync::OnceLock<Option<TimeUnits>> = std::sync::OnceLock::new();
+    EPOCH
+        .get_or_init(|| {
+            TimeUnits::parse(
+                "seconds since 1970-01-01 00:00:00",
+                Some("proleptic_gregorian"),
+            )
+            .ok()
+        })
+        .as_ref()
+        .and_then(|u| u.value(reference).ok())
+        .unwrap_or(f64::NAN)
 }
 
 /// The variables of the file's messages.

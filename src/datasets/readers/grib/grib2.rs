@@ -311,7 +311,6 @@ pub(super) fn field(msg: &[u8], k: usize) -> Result<GribField, Why> {
                 lats.len()
             ));
         }
-        let (lats, lons, alternate_rows) = same_direction_rows(lats, lons, ni);
         Ok(GribField {
             edition: 2,
             step_type: step_type.to_string(),
@@ -326,54 +325,14 @@ pub(super) fn field(msg: &[u8], k: usize) -> Result<GribField, Why> {
                 nj,
                 lats,
                 lons,
-                alternate_rows,
+                alternate_rows: false,
             }
+            .rows_one_way()
             .across_the_seam(),
             packing: packing.to_string(),
             centre: sub.identification().centre_id(),
         })
     })
-}
-
-/// Rows scanned in alternating directions (flag table 3.4, bit 4: a boustrophedon) turned to
-/// run one way, as cfgrib turns them, when that makes the grid rectilinear; whether it did.
-fn same_direction_rows(
-    mut lats: Vec<f64>,
-    mut lons: Vec<f64>,
-    ni: usize,
-) -> (Vec<f64>, Vec<f64>, bool) {
-    let regular = |lats: &[f64], lons: &[f64]| {
-        lats.chunks(ni).all(|r| r.iter().all(|&x| x == r[0]))
-            && lons.chunks(ni).all(|r| r == &lons[..ni])
-    };
-    if ni < 2 || lats.len() < 2 * ni || regular(&lats, &lons) {
-        return (lats, lons, false);
-    }
-    let flip = |v: &mut Vec<f64>| {
-        v.chunks_mut(ni)
-            .skip(1)
-            .step_by(2)
-            .for_each(<[f64]>::reverse)
-    };
-    let (mut la, mut lo) = (lats.clone(), lons.clone());
-    flip(&mut la);
-    flip(&mut lo);
-    if regular(&la, &lo) {
-        (lats, lons) = (la, lo);
-        (lats, lons, true)
-    } else {
-        (lats, lons, false)
-    }
-}
-
-/// Values of a grid whose rows alternate in direction, turned as [`same_direction_rows`] turns
-/// its nodes.
-pub(super) fn unalternate(values: &mut [f64], ni: usize) {
-    values
-        .chunks_mut(ni)
-        .skip(1)
-        .step_by(2)
-        .for_each(<[f64]>::reverse);
 }
 
 /// The message's values in scanning order, missing points as NaN.

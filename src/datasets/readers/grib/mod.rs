@@ -79,7 +79,7 @@ fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> 
         )
     })?;
     if m.field.grid.alternate_rows && values.len() == points {
-        grib2::unalternate(&mut values, m.field.grid.ni);
+        model::turn_alternate_rows(&mut values, m.field.grid.ni);
     }
     if values.len() != points {
         return Err(Error::format(

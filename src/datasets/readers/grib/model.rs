@@ -95,6 +95,24 @@ impl GridInfo {
         self
     }
 
+    /// A grid scanned in rows of alternating direction (GRIB2 flag table 3.4, bit 4: a
+    /// boustrophedon) turned to run one way, as cfgrib turns it, when that makes it
+    /// rectilinear; its values are turned alike when read ([`turn_alternate_rows`]).
+    pub(crate) fn rows_one_way(self) -> GridInfo {
+        if self.ni < 2 || self.nj < 2 || self.is_rectilinear() {
+            return self;
+        }
+        let mut turned = self.clone();
+        turn_alternate_rows(&mut turned.lats, self.ni);
+        turn_alternate_rows(&mut turned.lons, self.ni);
+        if turned.is_rectilinear() {
+            turned.alternate_rows = true;
+            turned
+        } else {
+            self
+        }
+    }
+
     /// Whether every row has one latitude and every row the same longitudes: then the grid has
     /// one-dimensional coordinates.
     pub(crate) fn is_rectilinear(&self) -> bool {
@@ -104,6 +122,15 @@ impl GridInfo {
                 .all(|i| self.lats[row + i] == self.lats[row] && self.lons[row + i] == self.lons[i])
         })
     }
+}
+
+/// Every second row of `values` (rows of `ni`) reversed.
+pub(crate) fn turn_alternate_rows(values: &mut [f64], ni: usize) {
+    values
+        .chunks_mut(ni)
+        .skip(1)
+        .step_by(2)
+        .for_each(<[f64]>::reverse);
 }
 
 /// One message's description; its values are decoded when read.

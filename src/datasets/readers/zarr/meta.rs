@@ -82,6 +82,30 @@ fn attribute(v: &serde_json::Value) -> NcAttribute {
     }
 }
 
+/// The attributes of a JSON object (none when it is not one), leaving out `skip`.
+fn attributes_of(v: &serde_json::Value, skip: &str) -> Vec<(String, NcAttribute)> {
+    v.as_object()
+        .into_iter()
+        .flatten()
+        .filter(|(k, _)| *k != skip)
+        .map(|(k, v)| (k.clone(), attribute(v)))
+        .collect()
+}
+
+/// A list of sizes (`shape`, `chunks`) named `key` in the metadata file `meta`.
+fn sizes(v: &serde_json::Value, key: &str, meta: &Path) -> Result<Vec<usize>> {
+    let bad = |why: String| Error::format(meta, why);
+    v.as_array()
+        .ok_or_else(|| bad(format!("has no '{key}' list")))?
+        .iter()
+        .map(|n| {
+            n.as_u64()
+                .map(|n| n as usize)
+                .ok_or_else(|| bad(format!("'{key}' holds a non-integer")))
+        })
+        .collect()
+}
+
 /// A fill value as Zarr writes it: a number, "NaN", "Infinity", "-Infinity", or (v3) raw bits
 /// in hexadecimal.
 fn fill_value(v: &serde_json::Value, dtype: &Dtype) -> Option<f64> {
@@ -129,18 +153,6 @@ fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
     let meta_path = dir.join(".zarray");
     let meta = json(&meta_path)?;
     let bad = |why: String| Error::format(&meta_path, why);
-    let numbers = |key: &str| -> Result<Vec<usize>> {
-        meta[key]
-            .as_array()
-            .ok_or_else(|| bad(format!("has no '{key}' list")))?
-            .iter()
-            .map(|n| {
-                n.as_u64()
-                    .map(|n| n as usize)
-                    .ok_or_else(|| bad(format!("'{key}' holds a non-integer")))
-            })
-            .collect()
-    };
     let dtype = Dtype::from_numpy(meta["dtype"].as_str().unwrap_or("")).map_err(bad)?;
     if meta["order"].as_str() == Some("F") {
         return Err(bad("is in Fortran order, which is not read".into()));
@@ -169,13 +181,7 @@ fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
                 .collect()
         })
         .unwrap_or_default();
-    let mut attributes: Vec<(String, NcAttribute)> = attrs
-        .as_object()
-        .into_iter()
-        .flatten()
-        .filter(|(k, _)| *k != "_ARRAY_DIMENSIONS")
-        .map(|(k, v)| (k.clone(), attribute(v)))
-        .collect();
+    let mut attributes = attributes_of(&attrs, "_ARRAY_DIMENSIONS");
     let fill = fill_value(&meta["fill_value"], &dtype);
     if let Some(f) = fill {
         if !attributes.iter().any(|(k, _)| k == "_FillValue") {
@@ -190,8 +196,8 @@ fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
     finish(ZArray {
         name: name.to_string(),
         dir: dir.to_path_buf(),
-        shape: numbers("shape")?,
-        chunks: numbers("chunks")?,
+        shape: sizes(&meta["shape"], "shape", &meta_path)?,
+        chunks: sizes(&meta["chunks"], "chunks", &meta_path)?,
         dtype,
         fill: fill.unwrap_or(f64::NAN),
         codecs,
@@ -205,17 +211,6 @@ fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
 fn array_v3(dir: &Path, name: &str, meta: &serde_json::Value) -> Result<ZArray> {
     let meta_path = dir.join("zarr.json");
     let bad = |why: String| Error::format(&meta_path, why);
-    let list = |v: &serde_json::Value, key: &str| -> Result<Vec<usize>> {
-        v.as_array()
-            .ok_or_else(|| bad(format!("has no '{key}' list")))?
-            .iter()
-            .map(|n| {
-                n.as_u64()
-                    .map(|n| n as usize)
-                    .ok_or_else(|| bad(format!("'{key}' holds a non-integer")))
-            })
-            .collect()
-    };
     let mut dtype = Dtype::from_v3(meta["data_type"].as_str().unwrap_or("?")).map_err(bad)?;
     if meta["chunk_grid"]["name"].as_str() != Some("regular") {
         return Err(bad(format!(
@@ -244,12 +239,7 @@ fn array_v3(dir: &Path, name: &str, meta: &serde_json::Value) -> Result<ZArray> 
         _ if v2_keys => '.',
         _ => '/',
     };
-    let mut attributes: Vec<(String, NcAttribute)> = meta["attributes"]
-        .as_object()
-        .into_iter()
-        .flatten()
-        .map(|(k, v)| (k.clone(), attribute(v)))
-        .collect();
+    let mut attributes = attributes_of(&meta["attributes"], "");
     for (k, v) in attributes.iter_mut() {
         if let (true, NcAttribute::Text(t)) = (k == "_FillValue", &*v) {
             if let Some(n) = base64_number(t, &dtype) {
@@ -268,10 +258,11 @@ fn array_v3(dir: &Path, name: &str, meta: &serde_json::Value) -> Result<ZArray> 
     finish(ZArray {
         name: name.to_string(),
         dir: dir.to_path_buf(),
-        shape: list(&meta["shape"], "shape")?,
-        chunks: list(
+        shape: sizes(&meta["shape"], "shape", &meta_path)?,
+        chunks: sizes(
             &meta["chunk_grid"]["configuration"]["chunk_shape"],
             "chunk_shape",
+            &meta_path,
         )?,
         fill: fill_value(&meta["fill_value"], &dtype).unwrap_or(f64::NAN),
         dtype,
@@ -310,12 +301,7 @@ pub(crate) fn read_store(root: &Path) -> Result<Store> {
     let v3 = root.join("zarr.json");
     let (version, globals) = if v3.is_file() {
         let meta = json(&v3)?;
-        let attrs = meta["attributes"]
-            .as_object()
-            .into_iter()
-            .flatten()
-            .map(|(k, v)| (k.clone(), attribute(v)))
-            .collect();
+        let attrs = attributes_of(&meta["attributes"], "");
         (3, attrs)
     } else {
         let attrs_path = root.join(".zattrs");
@@ -324,12 +310,7 @@ pub(crate) fn read_store(root: &Path) -> Result<Store> {
         } else {
             serde_json::json!({})
         };
-        let globals = attrs
-            .as_object()
-            .into_iter()
-            .flatten()
-            .map(|(k, v)| (k.clone(), attribute(v)))
-            .collect();
+        let globals = attributes_of(&attrs, "");
         (2, globals)
     };
     let mut names: Vec<String> = std::fs::read_dir(root)
