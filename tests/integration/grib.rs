@@ -83,7 +83,10 @@ fn every_message_equals_what_eccodes_reads() {
             };
             hdrvis::datasets::load_grid_with(&path, &opts)
                 .unwrap_or_else(|e| panic!("{what}: {e}"));
-            let want = numbers(&m["values"]);
+            // A reduced grid reads as the regular grid of its longest row, filled along rows:
+            // the reference is numpy's periodic interpolation of ecCodes' values.
+            let on_grid = m.get("regular").unwrap_or(m);
+            let want = numbers(&on_grid["values"]);
             assert_eq!(data.len(), want.len(), "{what}");
             // ecCodes decodes in double precision; the GRIB2 decoders give single precision
             // (2.4e-7 relative: two roundings of f32), GRIB1's is double.
@@ -111,8 +114,8 @@ fn every_message_equals_what_eccodes_reads() {
             };
             for (i, (la, lo)) in lats.iter().zip(&lons).enumerate() {
                 let (wla, wlo) = (
-                    m["latitudes"][i].as_f64().unwrap(),
-                    m["longitudes"][i].as_f64().unwrap(),
+                    on_grid["latitudes"][i].as_f64().unwrap(),
+                    on_grid["longitudes"][i].as_f64().unwrap(),
                 );
                 assert!(
                     (la - wla).abs() < tol_deg,
@@ -126,7 +129,7 @@ fn every_message_equals_what_eccodes_reads() {
             checked += 1;
         }
     }
-    assert!(checked >= 25, "{checked} messages");
+    assert!(checked >= 36, "{checked} messages");
 }
 
 #[test]

@@ -1194,6 +1194,10 @@ def classify_grib(ref, got):
     - Mercator: cfgrib lists a Mercator grid's points along one dimension `values` (it gives
       latitude/longitude dimensions to regular and Gaussian grids only); hdrvis keeps the grid's
       rows and columns, so its two last dimensions are cfgrib's `values` in row-major order.
+    - reduced Gaussian: cfgrib lists the stored points along `values`; hdrvis reads the grid as
+      the regular Gaussian grid of its longest row, each row filled linearly in longitude (as
+      cdo's setgridtype,regular), so its minimum and maximum lie within cfgrib's and its missing
+      count is at least cfgrib's.
     - a latitude or longitude axis whose declared increment contradicts its first and last
       points and count (cfgrib's regular_ll_wrong_increment.grib: 37 rows from 90 to -90 said to
       be 2 degrees apart): ecCodes steps by the increment and puts the last row at the last point
@@ -1228,6 +1232,27 @@ def classify_grib(ref, got):
         got["coords"] = {k: v for k, v in (got.get("coords") or {}).items()
                          if k not in gd[-2:]}
         gd = got["dims"]
+    if rd and rd[-1] == "values" and c.get("gridType") == "reduced_gg" \
+            and len(gd) == len(rd) + 1 and gd[:-2] == rd[:-1]:
+        designed.append(f"dims hdrvis={short(gd[-2:])} shape {short(gs[-2:])} cfgrib=[\"values\"] "
+                        f"shape {short(ref['shape'][-1:])} (a reduced Gaussian grid is read on the "
+                        f"regular grid of its longest row, filled linearly along rows)")
+        got["dims"], got["shape"] = gd[:-2] + ["values"], gs[:-2] + [ref["shape"][-1]]
+        got["roles"] = list(got.get("roles") or [])[:-2] + [ref["roles"][-1]]
+        got["coords"] = {k: v for k, v in (got.get("coords") or {}).items() if k not in gd[-2:]}
+        gd = got["dims"]
+        # Filled rows never leave the range of the stored points, and hold at least their holes.
+        low, high = ref.get("min"), ref.get("max")
+        if None not in (low, high, got.get("min"), got.get("max")):
+            slack = 1e-6 * max(abs(low), abs(high))
+            if low - slack <= got["min"] <= got["max"] <= high + slack:
+                designed.append(f"min/max hdrvis={got['min']:.6g}/{got['max']:.6g} within cfgrib's "
+                                f"{low:.6g}/{high:.6g} (values between stored points)")
+                got["min"], got["max"] = low, high
+        if (got.get("missing") or 0) >= (ref.get("missing") or 0) and got.get("missing") != ref.get("missing"):
+            designed.append(f"missing hdrvis={got.get('missing')} cfgrib={ref.get('missing')} "
+                            f"(a node next to a missing stored point is missing)")
+            got["missing"] = ref.get("missing")
     if len(gd) == len(rd):
         renamed = {a: b for a, b in zip(gd, rd)
                    if a != b and re.fullmatch(re.escape(b) + r"_\d+", a)}

@@ -43,6 +43,13 @@ randomness, nothing read from the network; the same ecCodes writes the same byte
                                missing (missingValue 9999)
     grib1_gaussian.grib1       t at 500 hPa, regular Gaussian N=8 (32 x 16)
     grib1_multi.grib1          4 messages at step 12 h: t at 850, 500, 250 hPa and z at 500 hPa
+    grib1_lambert.grib1        t at 850 hPa, Lambert conformal 9 x 7 (secant at 25 and 45N)
+    grib1_polar_stereographic.grib1   t at 500 hPa, north polar stereographic 9 x 7
+    grib1_south_polar_stereographic.grib1   t at 500 hPa, south polar stereographic 9 x 7
+                               (projection centre flag 128, first point 50S 120E, LoV 150, 400 km)
+    grib1_mercator.grib1       t at 850 hPa, Mercator 9 x 7 (first point 10N 100E, Latin 20, 100 km)
+  Reduced Gaussian (ecCodes' reduced_gg_pl samples, N32: 64 rows of 20..128 points, 6114 in all):
+    reduced_gg.grib1, reduced_gg.grib2 (the GRIB2 one with points 0, 1000 and 6113 missing)
 
 and reference.json (compact JSON):
 
@@ -72,6 +79,12 @@ in the order above, where each MESSAGE is an object of
   and "longitudes" (lists of float: ecCodes' geographic coordinates of each point in the same
   order; for rotated_ll ecCodes rounds them to 1e-6 degrees; longitudes as ecCodes gives them,
   in [-180, 180) for rotated_ll and in [0, 360) for the others).
+  Reduced grids add "pl" (points per row) and "regular": {"Ni", "values", "latitudes",
+  "longitudes"}, the values on the regular grid of max(pl) longitudes per row, each row filled by
+  numpy's periodic linear interpolation of ecCodes' values (null next to a missing point).
+  The south-polar GRIB1 grid's "latitudes" and "longitudes" are PROJ's (pyproj, `stere` with
+  lat_0=-90, lat_ts=-60 on R = 6367470 m, in a subprocess), ecCodes' kept as
+  "eccodes_latitudes"/"eccodes_longitudes": ecCodes 2.50 places such grids as if north-polar.
 Floats are Python floats (doubles), written by `json` with repr, so they read back exactly.
 
 The script also checks its files: each opens, has its count of messages, its missing points
@@ -83,6 +96,7 @@ Exit status 77 (skipped) when a module is missing.
 import json
 import math
 import os
+import subprocess
 import sys
 
 try:
@@ -155,6 +169,11 @@ GRID_KEYS = {
         "projectionCentreFlag", "shapeOfTheEarth", "radius",
         "iScansNegatively", "jScansPositively", "jPointsAreConsecutive",
     ],
+    "reduced_gg": [
+        "N", "Nj", "latitudeOfFirstGridPointInDegrees", "longitudeOfFirstGridPointInDegrees",
+        "latitudeOfLastGridPointInDegrees", "longitudeOfLastGridPointInDegrees",
+        "iScansNegatively", "jScansPositively", "jPointsAreConsecutive",
+    ],
     "mercator": [
         "Ni", "Nj", "latitudeOfFirstGridPointInDegrees", "longitudeOfFirstGridPointInDegrees",
         "latitudeOfLastGridPointInDegrees", "longitudeOfLastGridPointInDegrees",
@@ -184,9 +203,12 @@ def temperature(lats, lons, shift=0.0):
 def coordinates(h):
     """ecCodes' latitudes and longitudes of the message's points (the grid's keys set), found
     by packing placeholder values first. GRIB2's numberOfDataPoints is not derived from the
-    grid's dimensions: it is set here."""
-    ni, nj = ("Nx", "Ny") if ec.codes_is_defined(h, "Nx") else ("Ni", "Nj")
-    n = ec.codes_get(h, ni) * ec.codes_get(h, nj)
+    grid's dimensions: it is set here. A reduced grid keeps its sample's points."""
+    if ec.codes_get(h, "gridType") == "reduced_gg":
+        n = int(sum(ec.codes_get_array(h, "pl")))
+    else:
+        ni, nj = ("Nx", "Ny") if ec.codes_is_defined(h, "Nx") else ("Ni", "Nj")
+        n = ec.codes_get(h, ni) * ec.codes_get(h, nj)
     if ec.codes_get(h, "edition") == 2:
         ec.codes_set_long(h, "numberOfDataPoints", n)
     ec.codes_set_values(h, np.linspace(0.0, 1.0, n))
@@ -473,6 +495,116 @@ def grib1_polar_case():
     return [(h, fill(h, temperature))]
 
 
+def grib1_south_polar_case():
+    """GRIB1 polar stereographic centred on the south pole (projection centre flag 128), true
+    at 60°S, an Antarctic grid."""
+    h = ec.codes_grib_new_from_samples("GRIB1")
+    set_keys(h, {"centre": "kwbc", "dataDate": DATE, "dataTime": TIME})
+    set_keys(h, level_keys("t", 500, 0, edition=1))
+    set_keys(h, SOUTH_POLAR)
+    return [(h, fill(h, temperature))]
+
+
+SOUTH_POLAR = {
+    "gridType": "polar_stereographic",
+    "Nx": 9,
+    "Ny": 7,
+    "latitudeOfFirstGridPointInDegrees": -50.0,
+    "longitudeOfFirstGridPointInDegrees": 120.0,
+    "orientationOfTheGridInDegrees": 150.0,
+    "DxInMetres": 400000,
+    "DyInMetres": 400000,
+    "projectionCenterFlag": 128,
+    "iScansNegatively": 0,
+    "jScansPositively": 1,
+}
+
+
+def south_polar_positions():
+    """The south-polar grid's nodes by PROJ's polar stereographic (lat_0 = -90, true at 60°S) on
+    GRIB1's sphere (R = 6367470 m): first point projected, then steps of Dx east and Dy north
+    on the plane. ecCodes 2.50 is not the reference here: its iterator takes the hemisphere from
+    the sign of LaD, which GRIB1 does not code, and places south-polar GRIB1 nodes as if the
+    north pole were the centre (latitudes rise from -50° towards the equator along a row)."""
+    # In a process of its own: the eccodes and pyproj wheels, loaded in this order into one
+    # process, abort at exit (double free between their bundled libraries).
+    script = """
+import json, sys, numpy as np, pyproj
+g = json.loads(sys.argv[1])
+proj = pyproj.Proj(proj="stere", lat_0=-90, lat_ts=-60, lon_0=g["orientationOfTheGridInDegrees"],
+                   R=6367470.0)
+x0, y0 = proj(g["longitudeOfFirstGridPointInDegrees"], g["latitudeOfFirstGridPointInDegrees"])
+i, j = np.meshgrid(np.arange(g["Nx"]), np.arange(g["Ny"]))
+lons, lats = proj(x0 + i.ravel() * g["DxInMetres"], y0 + j.ravel() * g["DyInMetres"], inverse=True)
+print(json.dumps([[float(v) for v in lats], [float(v % 360.0) for v in lons]]))
+"""
+    out = subprocess.run([sys.executable, "-c", script, json.dumps(SOUTH_POLAR)], check=True,
+                         capture_output=True, text=True).stdout
+    lats, lons = json.loads(out)
+    return lats, lons
+
+
+def grib1_mercator_case():
+    """GRIB1 Mercator on GRIB1's sphere (R = 6367470 m), true at 20°N, 100 km steps."""
+    ni, nj, d, latin, lat1, lon1 = 9, 7, 100000, 20.0, 10.0, 100.0
+    r = 6367470.0 * math.cos(math.radians(latin))
+    y1 = r * math.log(math.tan(math.pi / 4 + math.radians(lat1) / 2))
+    lat2 = math.degrees(2 * math.atan(math.exp((y1 + (nj - 1) * d) / r)) - math.pi / 2)
+    lon2 = lon1 + math.degrees((ni - 1) * d / r)
+    h = ec.codes_grib_new_from_samples("GRIB1")
+    set_keys(h, {"centre": "kwbc", "dataDate": DATE, "dataTime": TIME})
+    set_keys(h, level_keys("t", 850, 0, edition=1))
+    set_keys(h, {
+        "gridType": "mercator",
+        "Ni": ni,
+        "Nj": nj,
+        "latitudeOfFirstGridPointInDegrees": lat1,
+        "longitudeOfFirstGridPointInDegrees": lon1,
+        "latitudeOfLastGridPointInDegrees": round(lat2, 3),
+        "longitudeOfLastGridPointInDegrees": round(lon2, 3),
+        "LaDInDegrees": latin,
+        "DiInMetres": d,
+        "DjInMetres": d,
+        "iScansNegatively": 0,
+        "jScansPositively": 1,
+    })
+    return [(h, fill(h, temperature))]
+
+
+def reduced_case(edition):
+    """ecCodes' reduced Gaussian N32 sample (64 rows of 20 to 128 points, 6114 in all), 2t; the
+    GRIB2 one with a bitmap (points 0, 1000 and 6113 missing)."""
+    def case():
+        h = ec.codes_grib_new_from_samples(f"reduced_gg_pl_grib{edition}")
+        set_keys(h, {"centre": "ecmf", "dataDate": DATE, "dataTime": TIME})
+        return [(h, fill(h, temperature, missing=[0, 1000, 6113] if edition == 2 else ()))]
+    return case
+
+
+def filled_rows(m, pl):
+    """A reduced grid's values on the regular grid of max(pl) longitudes per row, as cdo's
+    setgridtype,regular makes it: linear in longitude between a row's two nearest points, around
+    the circle (numpy's periodic interp), missing next to a missing point."""
+    values = np.array([np.nan if v is None else v for v in m["values"]])
+    lats = np.array(m["latitudes"])
+    ni = int(max(pl))
+    out_v, out_la, out_lo = [], [], []
+    start = 0
+    for n in pl:
+        n = int(n)
+        row, src = values[start:start + n], np.arange(n) * 360.0 / n
+        lat = lats[start]
+        start += n
+        dst = np.arange(ni) * 360.0 / ni
+        filled = np.interp(dst, src, np.nan_to_num(row), period=360.0)
+        holes = np.interp(dst, src, np.isnan(row).astype(float), period=360.0) > 0
+        filled[holes] = np.nan
+        out_v += [None if np.isnan(v) else float(v) for v in filled]
+        out_la += [float(lat)] * ni
+        out_lo += [float(v) for v in dst]
+    return {"Ni": ni, "values": out_v, "latitudes": out_la, "longitudes": out_lo}
+
+
 CASES = [(p + ".grib2", lambda p=p: packing_case(p)) for p in PACKINGS] + [
     ("grid_simple_bitmap.grib2", bitmap_case),
     ("regular_gg.grib2", regular_gg_case),
@@ -487,6 +619,10 @@ CASES = [(p + ".grib2", lambda p=p: packing_case(p)) for p in PACKINGS] + [
     ("grib1_multi.grib1", grib1_multi_case),
     ("grib1_lambert.grib1", grib1_lambert_case),
     ("grib1_polar_stereographic.grib1", grib1_polar_case),
+    ("grib1_south_polar_stereographic.grib1", grib1_south_polar_case),
+    ("grib1_mercator.grib1", grib1_mercator_case),
+    ("reduced_gg.grib1", reduced_case(1)),
+    ("reduced_gg.grib2", reduced_case(2)),
 ]
 
 
@@ -538,7 +674,10 @@ def describe(h, name, index):
         if value is not None:
             grid[key] = value
     codes = {key: get(h, key, int) if edition in editions else None for key, editions in CODE_KEYS.items()}
-    return {
+    extra = {}
+    if grid_type == "reduced_gg":
+        extra["pl"] = [int(n) for n in ec.codes_get_array(h, "pl")]
+    return extra | {
         "file": name,
         "message": index,
         "edition": edition,
@@ -583,7 +722,13 @@ def read_file(path):
             h = ec.codes_grib_new_from_file(f)
             if h is None:
                 break
-            messages.append(describe(h, os.path.basename(path), len(messages)))
+            m = describe(h, os.path.basename(path), len(messages))
+            if "pl" in m:
+                m["regular"] = filled_rows(m, m["pl"])
+            if os.path.basename(path).startswith("grib1_south_polar"):
+                m["eccodes_latitudes"], m["eccodes_longitudes"] = m["latitudes"], m["longitudes"]
+                m["latitudes"], m["longitudes"] = south_polar_positions()
+            messages.append(m)
             ec.codes_release(h)
     return messages
 

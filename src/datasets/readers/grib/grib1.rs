@@ -2,11 +2,11 @@
 //! only, and what archives still hold in edition 1 (NCEP's Eta and reanalysis files, ERA-40,
 //! ECMWF's MARS) is grid-point data in simple packing, which is short to decode. Read: the
 //! product definition (parameter, level, reference time and forecast step, ECMWF's ensemble
-//! member), regular, Gaussian and rotated latitude–longitude grids, Lambert conformal and
-//! polar stereographic grids,
-//! the bitmap, and simple packing Y = (R + X·2^E)/10^D with R an IBM single-precision float.
-//! Mercator GRIB1 grids, reduced (quasi-regular) grids, spherical
-//! harmonics and second-order packing are refused in one line naming what the message holds.
+//! member), regular, Gaussian (also reduced) and rotated latitude–longitude grids, Mercator,
+//! Lambert conformal and polar stereographic grids, the bitmap, and simple packing
+//! Y = (R + X·2^E)/10^D with R an IBM single-precision float. Reduced latitude–longitude grids,
+//! spherical harmonics and second-order packing are refused in one line naming what the
+//! message holds.
 
 use super::model::{GribField, GridInfo};
 use super::names;
@@ -174,7 +174,7 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
         0 => "regular_ll",
         4 => "regular_gg",
         10 => "rotated_ll",
-        1 => return Err("GRIB1 Mercator grids are not read yet".into()),
+        1 => return mercator(gds),
         3 => return lambert(gds),
         5 => return polar_stereographic(gds),
         50 => {
@@ -184,13 +184,11 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
     };
     let ni = uint(gds, 6, 2).ok_or_else(short)? as usize;
     let nj = uint(gds, 8, 2).ok_or_else(short)? as usize;
-    super::model::check_grid(ni, nj)?;
-    if ni == 0xffff {
-        return Err(
-            "a reduced (quasi-regular) grid is not read; regrid it first (cdo setgridtype,regular)"
-                .into(),
-        );
+    let reduced = ni == 0xffff;
+    if reduced && kind != 4 {
+        return Err("a reduced (quasi-regular) latitude–longitude grid is not read; regrid it first (cdo setgridtype,regular)".into());
     }
+    super::model::check_grid(if reduced { 1 } else { ni }, nj)?;
     let milli = |at| {
         signed(gds, at, 3)
             .map(|v| v as f64 / 1000.0)
@@ -210,10 +208,13 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
                 super::model::MAX_GAUSSIAN_N
             ));
         }
-        gaussian_rows(n, la1, la2, nj)?
+        super::model::gaussian_rows(n, la1, la2, nj)?
     } else {
         axis_between(la1, la2, nj, scan & 0x40 == 0, false)
     };
+    if reduced {
+        return reduced_gaussian(gds, lats, (lo1, lo2));
+    }
     let mut info = GridInfo::regular(name, lats, lons).across_the_seam();
     if kind == 10 {
         let south_lat = milli(32)?;
@@ -227,6 +228,67 @@ fn grid(gds: &[u8]) -> Result<GridInfo, Why> {
         info = info.rotated(south_lat, south_lon)?;
     }
     Ok(info)
+}
+
+/// A global reduced Gaussian grid: the points of each row from the grid description's list
+/// (after the vertical coordinate parameters, if any), every row from 0° around the globe.
+fn reduced_gaussian(gds: &[u8], lats: Vec<f64>, (lo1, lo2): (f64, f64)) -> Result<GridInfo, Why> {
+    let (nv, pvl) = (gds[3] as usize, gds[4] as usize);
+    if pvl == 255 || pvl == 0 {
+        return Err("a reduced grid without its list of points per row".into());
+    }
+    let at = pvl - 1 + 4 * nv;
+    let row_points: Vec<usize> = (0..lats.len())
+        .map(|j| uint(gds, at + 2 * j, 2).map(|n| n as usize))
+        .collect::<Option<_>>()
+        .ok_or("the list of points per row ends early (truncated)")?;
+    let longest = row_points.iter().copied().max().unwrap_or(0).max(1);
+    if lo1 != 0.0 || (lo2 - (360.0 - 360.0 / longest as f64)).abs() > 1e-3 {
+        return Err(format!(
+            "a reduced grid over longitudes {lo1}° to {lo2}° is not read (global ones are)"
+        ));
+    }
+    GridInfo::reduced(lats, row_points)
+}
+
+/// A Mercator grid (data representation type 1) on GRIB1's spherical Earth: Di and Dj metres
+/// at the latitude Latin where the projection is true; each row at one latitude and each
+/// column at one longitude (Snyder 1987, eqs. 7-1, 7-2 and 7-4 with k at Latin).
+fn mercator(gds: &[u8]) -> Result<GridInfo, Why> {
+    let u = |at: usize, n: usize| uint(gds, at, n).ok_or_else(short);
+    let (ni, nj) = (u(6, 2)? as usize, u(8, 2)? as usize);
+    super::model::check_grid(ni, nj)?;
+    if u(16, 1)? & 0x40 != 0 {
+        return Err(
+            "a Mercator grid on the oblate IAU 1965 spheroid is not read (the spherical Earth is)"
+                .into(),
+        );
+    }
+    let (la1, lo1, latin) = (radians(gds, 10)?, radians(gds, 13)?, radians(gds, 23)?);
+    let scan = u(27, 1)?;
+    let (di, dj) = (u(28, 3)? as f64, u(31, 3)? as f64);
+    if scan & 0x20 != 0 || di == 0.0 || dj == 0.0 || latin.abs() >= 89f64.to_radians() {
+        return Err(format!(
+            "a Mercator grid with scanning mode {scan:#04x}, steps {di} × {dj} m and Latin {:.3}° is not read",
+            latin.to_degrees()
+        ));
+    }
+    let r = EARTH_RADIUS_M * latin.cos();
+    let (dx, dy) = (
+        if scan & 0x80 != 0 { -di } else { di },
+        if scan & 0x40 != 0 { dj } else { -dj },
+    );
+    let y1 = r * (std::f64::consts::FRAC_PI_4 + la1 / 2.0).tan().ln();
+    let lats = (0..nj)
+        .map(|j| {
+            (2.0 * ((y1 + j as f64 * dy) / r).exp().atan() - std::f64::consts::FRAC_PI_2)
+                .to_degrees()
+        })
+        .collect();
+    let lons = (0..ni)
+        .map(|i| (lo1 + i as f64 * dx / r).to_degrees())
+        .collect();
+    Ok(GridInfo::regular("mercator", lats, lons).across_the_seam())
 }
 
 /// The radius of GRIB1's spherical Earth (m), when the resolution flags do not ask for the
@@ -307,6 +369,7 @@ impl<'a> Projected<'a> {
             lats,
             lons,
             alternate_rows: false,
+            row_points: None,
         }
     }
 }
@@ -347,22 +410,26 @@ fn lambert(gds: &[u8]) -> Result<GridInfo, Why> {
     }))
 }
 
-/// A north-polar stereographic grid (data representation type 5) on GRIB1's spherical Earth,
-/// true at 60°N (GRIB1 fixes it there): the first point projected, steps of Dx and Dy metres,
-/// every node unprojected (Snyder 1987, eqs. 21-2 to 21-4 and 20-14, 20-15 with k at 60°).
+/// A polar stereographic grid (data representation type 5) on GRIB1's spherical Earth, true
+/// at 60° in the hemisphere of its projection centre (GRIB1 fixes it there): the first point
+/// projected, steps of Dx and Dy metres, every node unprojected (Snyder 1987, eqs. 21-2 to
+/// 21-4, 20-14 and 20-15 with k at 60°; the south-polar case by the same forms with latitude
+/// and longitude from the pole turned, as ecCodes' iterator writes them with its sign).
 fn polar_stereographic(gds: &[u8]) -> Result<GridInfo, Why> {
     let g = Projected::read(gds, "polar stereographic")?;
-    if uint(gds, 26, 1).ok_or_else(short)? & 0x80 != 0 {
-        return Err(
-            "a south-polar GRIB1 stereographic grid is not read yet (north-polar ones are)".into(),
-        );
-    }
+    // Projection centre flag, bit 1: the south pole is on the projection plane.
+    let s = if uint(gds, 26, 1).ok_or_else(short)? & 0x80 != 0 {
+        -1.0
+    } else {
+        1.0
+    };
     let scale = EARTH_RADIUS_M * (1.0 + 60f64.to_radians().sin());
-    let rho = scale * (std::f64::consts::FRAC_PI_4 - g.la1 / 2.0).tan();
-    let first = (rho * (g.lo1 - g.lov).sin(), -rho * (g.lo1 - g.lov).cos());
+    let rho = scale * (std::f64::consts::FRAC_PI_4 - s * g.la1 / 2.0).tan();
+    let turn = s * (g.lo1 - g.lov);
+    let first = (s * rho * turn.sin(), -s * rho * turn.cos());
     Ok(g.nodes("polar_stereographic", first, |x, y| {
-        let phi = std::f64::consts::FRAC_PI_2 - 2.0 * (x.hypot(y) / scale).atan();
-        (phi, g.lov + x.atan2(-y))
+        let phi = s * (std::f64::consts::FRAC_PI_2 - 2.0 * (x.hypot(y) / scale).atan());
+        (phi, g.lov + s * (s * x).atan2(-s * y))
     }))
 }
 
@@ -382,28 +449,6 @@ fn axis_between(first: f64, last: f64, n: usize, decreasing: bool, wraps: bool) 
     }
     let d = span / (n - 1) as f64;
     (0..n).map(|i| first + i as f64 * d).collect()
-}
-
-/// The rows of a Gaussian grid with `n` latitudes between a pole and the equator, from `first`
-/// to `last` (which the message gives to a millidegree).
-fn gaussian_rows(n: usize, first: f64, last: f64, rows: usize) -> Result<Vec<f64>, Why> {
-    let all = super::model::gaussian_latitudes(n);
-    let near = |lat: f64| all.iter().position(|&l| (l - lat).abs() < 2e-3);
-    let (Some(a), Some(b)) = (near(first), near(last)) else {
-        return Err(format!("a Gaussian grid N{n} whose first and last rows ({first}°, {last}°) are not among its latitudes"));
-    };
-    let picked: Vec<f64> = if a <= b {
-        all[a..=b].to_vec()
-    } else {
-        all[b..=a].iter().rev().copied().collect()
-    };
-    if picked.len() != rows {
-        return Err(format!(
-            "a Gaussian grid of {rows} rows where its first and last latitude span {}",
-            picked.len()
-        ));
-    }
-    Ok(picked)
 }
 
 /// The message's values in scanning order, missing points (bitmap) as NaN.

@@ -1,6 +1,6 @@
 //! GRIB edition 2 through the `grib` crate (grib-rs): its sections, the product's parameter,
 //! fixed surfaces, reference time and forecast time, the grid's node latitudes and longitudes
-//! (regular, rotated and Gaussian latitude–longitude, Mercator, polar stereographic, Lambert
+//! (regular, rotated and Gaussian latitude–longitude, reduced Gaussian, Mercator, polar stereographic, Lambert
 //! conformal) and the values of every packing operational centres use (simple, complex, complex
 //! with spatial differencing, JPEG 2000, PNG, CCSDS, run length), missing points of the bitmap as
 //! NaN. One message is handed to the crate at a time, so a file may mix editions.
@@ -300,17 +300,12 @@ pub(super) fn field(msg: &[u8], k: usize) -> Result<GribField, Why> {
             }
         }
         let packing = packing(sub.repr_def().repr_tmpl_num())?;
-        let (ni, nj) = sub.grid_shape().map_err(one_line)?;
-        super::model::check_grid(ni, nj)?;
-        let (lats, lons): (Vec<f64>, Vec<f64>) = grib::LatLons::latlons_unchecked(&sub)
-            .map_err(one_line)?
-            .unzip();
-        if lats.len() != ni * nj {
-            return Err(format!(
-                "{} node positions for a grid of {ni} × {nj}",
-                lats.len()
-            ));
-        }
+        let section3: Vec<u8> = sub.grid_def().iter().copied().collect();
+        let grid = if kind == "regular_gg" && section3.get(25..29) == Some(&[0xff; 4]) {
+            reduced_gaussian(&section3)?
+        } else {
+            node_positions(&sub, kind)?
+        };
         Ok(GribField {
             edition: 2,
             step_type: step_type.to_string(),
@@ -319,20 +314,82 @@ pub(super) fn field(msg: &[u8], k: usize) -> Result<GribField, Why> {
             reference,
             step_hours,
             number: ensemble,
-            grid: GridInfo {
-                kind: kind.to_string(),
-                ni,
-                nj,
-                lats,
-                lons,
-                alternate_rows: false,
-            }
-            .rows_one_way()
-            .across_the_seam(),
+            grid,
             packing: packing.to_string(),
             centre: sub.identification().centre_id(),
         })
     })
+}
+
+/// The node positions the crate computes for a grid of `kind`, rows turned one way.
+fn node_positions(
+    sub: &grib::SubMessage<impl grib::Grib2Read>,
+    kind: &str,
+) -> Result<GridInfo, Why> {
+    let (ni, nj) = sub.grid_shape().map_err(one_line)?;
+    super::model::check_grid(ni, nj)?;
+    let (lats, lons): (Vec<f64>, Vec<f64>) = grib::LatLons::latlons_unchecked(&sub)
+        .map_err(one_line)?
+        .unzip();
+    if lats.len() != ni * nj {
+        return Err(format!(
+            "{} node positions for a grid of {ni} × {nj}",
+            lats.len()
+        ));
+    }
+    Ok(GridInfo {
+        kind: kind.to_string(),
+        ni,
+        nj,
+        lats,
+        lons,
+        alternate_rows: false,
+        row_points: None,
+    }
+    .rows_one_way()
+    .across_the_seam())
+}
+
+/// A global reduced Gaussian grid (template 3.40 with Ni missing) from section 3's payload
+/// (octet 6 on): N, the first and last rows, and the points of each row in the list after
+/// the template (octet 73 on, of the width octet 11 gives).
+fn reduced_gaussian(s3: &[u8]) -> Result<GridInfo, Why> {
+    let short = || "a reduced Gaussian grid's section 3 ends early (truncated)".to_string();
+    let uint = |at: usize, n: usize| -> Result<u64, Why> {
+        let b = s3.get(at..at + n).ok_or_else(short)?;
+        Ok(b.iter().fold(0u64, |acc, &x| (acc << 8) | x as u64))
+    };
+    // GRIB2's signed integers: sign bit, then magnitude; angles in micro-degrees.
+    let degrees = |at: usize| -> Result<f64, Why> {
+        let v = uint(at, 4)?;
+        let magnitude = (v & 0x7fff_ffff) as f64 * 1e-6;
+        Ok(if v & 0x8000_0000 != 0 {
+            -magnitude
+        } else {
+            magnitude
+        })
+    };
+    let (width, interpretation) = (uint(5, 1)? as usize, uint(6, 1)?);
+    let (nj, n) = (uint(29, 4)? as usize, uint(62, 4)? as usize);
+    if width == 0 || interpretation != 1 || uint(33, 4)? != 0 || uint(37, 4)? != 0xffff_ffff {
+        return Err(format!("a reduced Gaussian grid with a row list of {width}-octet numbers (interpretation {interpretation}) or a basic angle is not read"));
+    }
+    if uint(66, 1)? & 0x20 != 0 {
+        return Err("a reduced grid with points consecutive along meridians is not read".into());
+    }
+    super::model::check_grid(1, nj)?;
+    let row_points: Vec<usize> = (0..nj)
+        .map(|j| uint(67 + width * j, width).map(|v| v as usize))
+        .collect::<Result<_, _>>()?;
+    let (la1, lo1, la2, lo2) = (degrees(41)?, degrees(45)?, degrees(50)?, degrees(54)?);
+    let longest = row_points.iter().copied().max().unwrap_or(0).max(1);
+    if lo1 != 0.0 || (lo2 - (360.0 - 360.0 / longest as f64)).abs() > 1e-3 {
+        return Err(format!(
+            "a reduced grid over longitudes {lo1}° to {lo2}° is not read (global ones are)"
+        ));
+    }
+    let lats = super::model::gaussian_rows(n, la1, la2, nj)?;
+    GridInfo::reduced(lats, row_points)
 }
 
 /// The message's values in scanning order, missing points as NaN.

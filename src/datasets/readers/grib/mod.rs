@@ -67,7 +67,8 @@ fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> 
             })?;
         msg
     };
-    let points = m.field.grid.ni * m.field.grid.nj;
+    let grid = &m.field.grid;
+    let points = grid.stored_points();
     let mut values = match m.field.edition {
         1 => grib1::values(&msg, points),
         _ => grib2::values(&msg, m.sub),
@@ -78,9 +79,6 @@ fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> 
             format!("message {k} (GRIB{}): {why}", m.field.edition),
         )
     })?;
-    if m.field.grid.alternate_rows && values.len() == points {
-        model::turn_alternate_rows(&mut values, m.field.grid.ni);
-    }
     if values.len() != points {
         return Err(Error::format(
             path,
@@ -90,7 +88,10 @@ fn message_values(path: &Path, index: &GribIndex, k: usize) -> Result<Vec<f64>> 
             ),
         ));
     }
-    Ok(values)
+    if grid.alternate_rows {
+        model::turn_alternate_rows(&mut values, grid.ni);
+    }
+    Ok(grid.fill_rows(values))
 }
 
 /// Every combination of `sel` in C order, as flat indices into an array of `dims`.

@@ -22,8 +22,8 @@ pub(crate) struct Level {
 /// A grid's node positions in the order of the message's values (rows of `ni` points).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct GridInfo {
-    /// ecCodes' `gridType`: regular_ll, regular_gg, rotated_ll, lambert, polar_stereographic,
-    /// mercator.
+    /// ecCodes' `gridType`: regular_ll, regular_gg, reduced_gg, rotated_ll, lambert,
+    /// polar_stereographic, mercator.
     pub kind: String,
     pub ni: usize,
     pub nj: usize,
@@ -33,6 +33,10 @@ pub(crate) struct GridInfo {
     /// The message scans rows in alternating directions; nodes (and values when read) are
     /// turned to run one way.
     pub alternate_rows: bool,
+    /// A reduced (quasi-regular) Gaussian grid's points in each row as the message stores them
+    /// (its `pl` list): the nodes are the regular grid of `ni` = the longest row's points, and
+    /// values are interpolated along each row onto them when read ([`GridInfo::fill_rows`]).
+    pub row_points: Option<Vec<usize>>,
 }
 
 /// The most rows a Gaussian grid may have between a pole and the equator: regular Gaussian
@@ -64,7 +68,62 @@ impl GridInfo {
                 .collect(),
             lons: (0..nj).flat_map(|_| lons.iter().copied()).collect(),
             alternate_rows: false,
+            row_points: None,
         }
+    }
+
+    /// A global reduced Gaussian grid with rows at `lats` of `row_points` points each, every
+    /// row starting at 0°: its nodes are the regular grid of the longest row's points, the grid
+    /// cdo's `setgridtype,regular` makes of it.
+    pub(crate) fn reduced(lats: Vec<f64>, row_points: Vec<usize>) -> Result<GridInfo, String> {
+        if row_points.len() != lats.len() || row_points.contains(&0) {
+            return Err(format!(
+                "a reduced grid of {} rows with {} row lengths (some empty or missing)",
+                lats.len(),
+                row_points.len()
+            ));
+        }
+        let ni = row_points.iter().copied().max().unwrap_or(0);
+        check_grid(ni, lats.len())?;
+        let lons = (0..ni).map(|i| i as f64 * 360.0 / ni as f64).collect();
+        let mut grid = GridInfo::regular("reduced_gg", lats, lons);
+        grid.row_points = Some(row_points);
+        Ok(grid)
+    }
+
+    /// How many values the message stores: a reduced grid's rows' points, else every node.
+    pub(crate) fn stored_points(&self) -> usize {
+        match &self.row_points {
+            Some(pl) => pl.iter().sum(),
+            None => self.ni * self.nj,
+        }
+    }
+
+    /// A reduced grid's stored values (rows of `row_points`) on the grid's `ni` longitudes:
+    /// linear along each row between its two nearest points, around the circle; a node on a
+    /// stored point takes its value exactly, and a node next to a missing point is missing.
+    /// Other grids' values are returned as they are.
+    pub(crate) fn fill_rows(&self, stored: Vec<f64>) -> Vec<f64> {
+        let Some(pl) = &self.row_points else {
+            return stored;
+        };
+        let ni = self.ni;
+        let mut out = Vec::with_capacity(ni * self.nj);
+        let mut start = 0;
+        for &n in pl {
+            let row = &stored[start..start + n];
+            start += n;
+            out.extend((0..ni).map(|i| {
+                // Node i at i·360/ni lies between stored points k and k + 1 (of n).
+                let (k, rest) = ((i * n) / ni, (i * n) % ni);
+                if rest == 0 {
+                    return row[k];
+                }
+                let t = rest as f64 / ni as f64;
+                (1.0 - t) * row[k] + t * row[(k + 1) % n]
+            }));
+        }
+        out
     }
 
     /// This grid's rotated coordinates turned to true ones, for a grid whose southern pole of
@@ -185,6 +244,33 @@ pub(crate) fn gaussian_latitudes(n: usize) -> Vec<f64> {
     lats
 }
 
+/// The rows of a Gaussian grid with `n` latitudes between a pole and the equator, from `first`
+/// to `last` (which the message gives to a millidegree).
+pub(crate) fn gaussian_rows(
+    n: usize,
+    first: f64,
+    last: f64,
+    rows: usize,
+) -> Result<Vec<f64>, String> {
+    let all = gaussian_latitudes(n);
+    let near = |lat: f64| all.iter().position(|&l| (l - lat).abs() < 2e-3);
+    let (Some(a), Some(b)) = (near(first), near(last)) else {
+        return Err(format!("a Gaussian grid N{n} whose first and last rows ({first}°, {last}°) are not among its latitudes"));
+    };
+    let picked: Vec<f64> = if a <= b {
+        all[a..=b].to_vec()
+    } else {
+        all[b..=a].iter().rev().copied().collect()
+    };
+    if picked.len() != rows {
+        return Err(format!(
+            "a Gaussian grid of {rows} rows where its first and last latitude span {}",
+            picked.len()
+        ));
+    }
+    Ok(picked)
+}
+
 /// Pₙ(x) and its derivative, by the three-term recurrence.
 fn legendre(n: usize, x: f64) -> (f64, f64) {
     let (mut p0, mut p1) = (1.0, x);
@@ -238,5 +324,19 @@ mod tests {
         }
         assert!((lats[31] - 1.395307).abs() < 1e-6, "{}", lats[31]);
         assert!((lats[31] + lats[32]).abs() < 1e-12);
+    }
+
+    #[test]
+    fn reduced_rows_are_filled_linearly_around_the_circle() {
+        let grid = GridInfo::reduced(vec![45.0, -45.0], vec![4, 2]).unwrap();
+        assert_eq!((grid.ni, grid.nj, grid.stored_points()), (4, 2, 6));
+        assert_eq!(grid.lons[..4], [0.0, 90.0, 180.0, 270.0]);
+        // The second row's points at 0° and 180°: 90° and 270° lie halfway, around the circle.
+        let filled = grid.fill_rows(vec![1.0, 2.0, 3.0, 4.0, 10.0, 20.0]);
+        assert_eq!(filled, [1.0, 2.0, 3.0, 4.0, 10.0, 15.0, 20.0, 15.0]);
+        let holed = grid.fill_rows(vec![1.0, 2.0, 3.0, 4.0, f64::NAN, 20.0]);
+        assert!(holed[4].is_nan() && holed[5].is_nan() && holed[7].is_nan());
+        assert_eq!(holed[6], 20.0);
+        assert!(GridInfo::reduced(vec![0.0], vec![0]).is_err());
     }
 }
