@@ -207,7 +207,7 @@ pub(crate) const SELECT_AT: OptionSpec = opt(
     "at",
     Kind::Value("map of dimension: number or ISO 8601 date", "#{}"),
     "none",
-    "fix dimensions at coordinate values, as xarray's sel: #{ depth: 600.0, time: \"2011-03-11T06:00\" } (the nearest time; between two levels, linear interpolation); on model levels with CF formula_terms, #{ pressure: 500.0 } (hPa, each column in ln p as vinth2p), #{ height: z } or #{ depth: d } (m)",
+    "fix dimensions at coordinate values, as xarray's sel: #{ depth: 600.0, time: \"2011-03-11T06:00\" } (the nearest time; between two levels, linear interpolation); on model levels with CF formula_terms or a GRIB PV array, #{ pressure: 500.0 } (hPa, each column in ln p as vinth2p), #{ height: z } or #{ depth: d } (m)",
 );
 
 /// The `index` and `at` options of a loading function.

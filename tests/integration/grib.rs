@@ -2,10 +2,10 @@
 //! GRIB2 file per packing (simple, complex, complex with spatial differencing, JPEG 2000, PNG,
 //! CCSDS) and per grid (regular and Gaussian latitude–longitude, rotated, Lambert conformal,
 //! polar stereographic, Mercator), a bitmap, a forecast of several levels and steps, an ensemble,
-//! and GRIB1 simple packing on regular and Gaussian grids. Every message read by hdrvis must
-//! equal what ecCodes reads: its values (missing where the bitmap says), and its nodes'
-//! latitudes and longitudes within 1e-6°.
-
+//! GRIB1 simple packing on regular, Gaussian, Mercator, Lambert and polar grids, reduced Gaussian
+//! grids (read filled onto the regular grid) and model levels with their PV array (read at a
+//! pressure). Every message read by hdrvis must equal what ecCodes reads: its values (missing
+//! where the bitmap says), and its nodes' latitudes and longitudes within 1e-6°.
 use crate::cli::{hdrvis, python_check};
 use hdrvis::datasets::select::{At, Selection};
 use hdrvis::datasets::LoadOptions;
@@ -129,7 +129,7 @@ fn every_message_equals_what_eccodes_reads() {
             checked += 1;
         }
     }
-    assert!(checked >= 36, "{checked} messages");
+    assert!(checked >= 50, "{checked} messages");
 }
 
 #[test]
@@ -291,6 +291,52 @@ fn damaged_grib_is_refused_in_one_line() {
     assert_eq!(code, 1);
     assert!(
         err.contains("message 0") && err.contains("template 3.90"),
+        "{err}"
+    );
+}
+
+#[test]
+fn model_levels_interpolate_to_pressure_from_the_pv_array() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(reference) = cases(dir.path()) else {
+        return;
+    };
+    let mut compared = 0;
+    for (file, targets) in reference["model_levels"].as_object().unwrap() {
+        let path = dir.path().join(file);
+        for (hpa, want) in targets.as_object().unwrap() {
+            let sel = Selection {
+                index: Vec::new(),
+                at: vec![("pressure".into(), At::Value(hpa.parse().unwrap()))],
+            };
+            let (dims, got) = hdrvis::datasets::read_values(&path, Some("t"), &sel)
+                .unwrap_or_else(|e| panic!("{file} at {hpa} hPa: {e}"));
+            assert_eq!(dims.len(), 2, "{file}: {dims:?}");
+            let want = numbers(want);
+            assert_eq!(got.len(), want.len(), "{file}");
+            // The pressure of each level from the PV array and e^lnsp or sp, then linear in
+            // ln p: numpy's rule of vinth2p on ecCodes' decoded values, within 1e-5 relative.
+            for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                assert!(
+                    (g - w).abs() <= 1e-5 * w.abs(),
+                    "{file} at {hpa} hPa, point {i}: {g} vs {w}"
+                );
+            }
+            compared += 1;
+        }
+    }
+    assert_eq!(compared, 3);
+    // Under the lowest model level everywhere (its pressure is at most 948 hPa): one line.
+    let path = dir.path().join("model_levels.grib2");
+    let sel = Selection {
+        index: Vec::new(),
+        at: vec![("pressure".into(), At::Value(1000.0))],
+    };
+    let err = hdrvis::datasets::read_values(&path, Some("t"), &sel)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("model_levels.grib2") && err.contains("outside every column"),
         "{err}"
     );
 }

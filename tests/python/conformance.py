@@ -871,7 +871,7 @@ def cfgrib_variables(path):
 # parameter it names otherwise (paramN_tableT, param2_1_3, a WMO table 4.2 name) while ecCodes
 # calls it one of these is a disagreement; for any other parameter the fallback is by design.
 HDRVIS_GRIB_NAMES = {"t", "t2m", "dpt", "d2m", "u", "u10", "v", "v10", "w", "q", "r", "gh", "z",
-                     "sp", "msl", "pres", "prmsl", "tp", "tcc", "lsm", "vo", "absv", "sst", "skt"}
+                     "sp", "lnsp", "msl", "pres", "prmsl", "tp", "tcc", "lsm", "vo", "absv", "sst", "skt"}
 
 
 def grib_reference_records(path, only=None):

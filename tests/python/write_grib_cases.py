@@ -50,13 +50,19 @@ randomness, nothing read from the network; the same ecCodes writes the same byte
     grib1_mercator.grib1       t at 850 hPa, Mercator 9 x 7 (first point 10N 100E, Latin 20, 100 km)
   Reduced Gaussian (ecCodes' reduced_gg_pl samples, N32: 64 rows of 20..128 points, 6114 in all):
     reduced_gg.grib1, reduced_gg.grib2 (the GRIB2 one with points 0, 1000 and 6113 missing)
+  Model levels (typeOfLevel hybrid with the PV array of 7 half levels' A and B), regular 13 x 7:
+    model_levels.grib2         t on levels 1..6 and lnsp on level 1 (as ECMWF writes them)
+    model_levels.grib1         t on levels 1..6 and sp on the surface
 
 and reference.json (compact JSON):
 
   {"eccodes": {"library": "2.50.0", "python": "2.44.0"},
-   "files": [{"file": NAME, "edition": 1|2, "count": N, "messages": [MESSAGE, ...]}, ...]}
+   "files": [{"file": NAME, "edition": 1|2, "count": N, "messages": [MESSAGE, ...]}, ...],
+   "model_levels": {NAME: {HPA: [float or null, ...]}}}
 
-in the order above, where each MESSAGE is an object of
+where "model_levels" holds t at each pressure of MODEL_LEVEL_TARGETS for each model-level file
+(model_level_reference: linear in ln p, vinth2p's rule, null where no column brackets it), and
+the files are in the order above, where each MESSAGE is an object of
   "file" (str), "message" (int, 0-based index in the file), "edition" (int), "shortName", "name",
   "units", "typeOfLevel" (str), "level" (int), "stepRange" (str), "step" (int, hours),
   "dataDate", "dataTime", "validityDate", "validityTime" (int, YYYYMMDD and HHMM),
@@ -605,6 +611,85 @@ def filled_rows(m, pl):
     return {"Ni": ni, "values": out_v, "latitudes": out_la, "longitudes": out_lo}
 
 
+# -- model levels --------------------------------------------------------------------------------
+
+# An IFS-like set of 7 half levels (6 model levels): A in Pa, B dimensionless, top to bottom.
+HALF_A = [0.0, 2000.0, 8000.0, 15000.0, 12000.0, 4000.0, 0.0]
+HALF_B = [0.0, 0.0, 0.02, 0.15, 0.45, 0.8, 1.0]
+
+
+def surface_pressure(lats, lons):
+    """Between 950 and 1030 hPa across the grid (Pa)."""
+    return 99000.0 + 4000.0 * np.sin(np.radians(lons) * 6.0) * np.cos(np.radians(lats) * 4.0)
+
+
+def model_levels_case(edition):
+    """t on the 6 model levels (typeOfLevel hybrid, PV array of the 7 half levels' A and B) and
+    the surface pressure: GRIB2 as ECMWF writes it, ln(ps) (`lnsp`) on model level 1; GRIB1 as
+    most centres do, `sp` on the surface. t is a function of each level's pressure and position, so it
+    varies along every column."""
+    def case():
+        sample = "regular_ll_pl_grib2" if edition == 2 else "regular_ll_pl_grib1"
+        out = []
+        ps = None
+        for level in range(1, 7):
+            h = grib2(sample) if edition == 2 else grib1(sample, "t", 850, 0, REGULAR_LL)
+            set_keys(h, REGULAR_LL)
+            set_keys(h, {"typeOfLevel": "hybrid", "level": level, "shortName": "t"})
+            ec.codes_set_long(h, "PVPresent", 1)
+            ec.codes_set_array(h, "pv", HALF_A + HALF_B)
+            lats, lons = coordinates(h)
+            ps = surface_pressure(lats, lons)
+            p = 0.5 * (HALF_A[level - 1] + HALF_A[level]) + 0.5 * (HALF_B[level - 1] + HALF_B[level]) * ps
+            out.append((h, fill(h, lambda la, lo, p=p: 288.0 * (p / 1e5) ** 0.19 + 0.05 * lo - 0.03 * la)))
+        if edition == 2:
+            h = grib2(sample)
+            set_keys(h, REGULAR_LL)
+            set_keys(h, {"typeOfLevel": "hybrid", "level": 1, "shortName": "lnsp"})
+            out.append((h, fill(h, lambda la, lo: np.log(surface_pressure(la, lo)))))
+        else:
+            h = grib1(sample, "t", 850, 0, REGULAR_LL)
+            set_keys(h, {"typeOfLevel": "surface", "level": 0, "shortName": "sp"})
+            out.append((h, fill(h, surface_pressure)))
+        return out
+    return case
+
+
+def model_level_reference(path, target_hpa):
+    """t at `target_hpa` from the file as ecCodes reads it back: each model level's pressure
+    0.5 (A[k-1] + A[k]) + 0.5 (B[k-1] + B[k]) ps from the PV array ecCodes reads and the decoded
+    surface pressure (e^lnsp or sp), then linear in ln p between the two levels that bracket the
+    target in each column, as NCL's vinth2p (intyp 2); null where no two levels bracket it."""
+    t, ps, pv = {}, None, None
+    with open(path, "rb") as f:
+        while (h := ec.codes_grib_new_from_file(f)) is not None:
+            name, values = ec.codes_get(h, "shortName"), ec.codes_get_values(h)
+            if name == "t":
+                t[ec.codes_get(h, "level")] = values
+                pv = ec.codes_get_array(h, "pv")
+            elif name == "lnsp":
+                ps = np.exp(values)
+            else:
+                ps = values
+            ec.codes_release(h)
+    a, b = pv[: len(pv) // 2], pv[len(pv) // 2:]
+    levels = sorted(t)
+    lnp = np.array([np.log(0.5 * (a[k - 1] + a[k]) + 0.5 * (b[k - 1] + b[k]) * ps) for k in levels])
+    field = np.array([t[k] for k in levels])
+    target = np.log(target_hpa * 100.0)
+    out = []
+    for c in range(field.shape[1]):
+        got = None
+        for k in range(len(levels) - 1):
+            lo, hi = lnp[k, c], lnp[k + 1, c]
+            if min(lo, hi) <= target <= max(lo, hi):
+                w = (target - lo) / (hi - lo)
+                got = float(field[k, c] + w * (field[k + 1, c] - field[k, c]))
+                break
+        out.append(got)
+    return out
+
+
 CASES = [(p + ".grib2", lambda p=p: packing_case(p)) for p in PACKINGS] + [
     ("grid_simple_bitmap.grib2", bitmap_case),
     ("regular_gg.grib2", regular_gg_case),
@@ -623,7 +708,12 @@ CASES = [(p + ".grib2", lambda p=p: packing_case(p)) for p in PACKINGS] + [
     ("grib1_mercator.grib1", grib1_mercator_case),
     ("reduced_gg.grib1", reduced_case(1)),
     ("reduced_gg.grib2", reduced_case(2)),
+    ("model_levels.grib2", model_levels_case(2)),
+    ("model_levels.grib1", model_levels_case(1)),
 ]
+
+# The model-level files and the pressures (hPa) of their reference.
+MODEL_LEVEL_TARGETS = {"model_levels.grib2": [500.0, 250.0], "model_levels.grib1": [500.0]}
 
 
 # -- reading back --------------------------------------------------------------------------------
@@ -771,6 +861,10 @@ def main(out):
     reference = {
         "eccodes": {"library": ec.codes_get_api_version(), "python": ec.bindings_version},
         "files": files,
+        "model_levels": {
+            name: {f"{p:g}": model_level_reference(os.path.join(out, name), p) for p in targets}
+            for name, targets in MODEL_LEVEL_TARGETS.items()
+        },
     }
     with open(os.path.join(out, "reference.json"), "w") as f:
         json.dump(reference, f, separators=(",", ":"))

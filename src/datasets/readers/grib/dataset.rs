@@ -123,6 +123,7 @@ pub(crate) fn build(messages: Vec<Located>) -> GribIndex {
             &mut coords,
         ));
     }
+    hybrid_formulas(&mut coords, &mut variables, &messages);
     for (name, values, attrs) in coords.made {
         variables.push(GribVariable {
             dims: vec![(name.clone(), values.len())],
@@ -153,6 +154,121 @@ pub(crate) fn build(messages: Vec<Located>) -> GribIndex {
         variables,
         globals,
     }
+}
+
+/// Model levels' pressure as CF's `atmosphere_hybrid_sigma_pressure_coordinate`: for each
+/// `hybrid` dimension whose messages carry the PV array (A and B at the N + 1 half levels),
+/// the full levels' coefficients `hyam` (Pa) and `hybm` become variables on it, each the mean
+/// of its level's two half levels as the IFS defines full levels, and the dimension's
+/// `formula_terms` names them with the surface pressure: the file's `sp` (Pa) on the same grid,
+/// else e^`lnsp` as a variable `ps`. Without both the dimension stays plain model levels.
+fn hybrid_formulas(coords: &mut Coords, variables: &mut Vec<GribVariable>, messages: &[Located]) {
+    for c in 0..coords.made.len() {
+        let name = coords.made[c].0.clone();
+        let suffix = match name.strip_prefix("hybrid") {
+            Some(s) if s.is_empty() || s.starts_with('_') => s.to_string(),
+            _ => continue,
+        };
+        let on_dim = variables.iter().find_map(|v| match &v.content {
+            Content::Messages(h) if v.dims.iter().any(|(d, _)| *d == name) => {
+                h.iter().flatten().next().map(|&k| (v.dims.clone(), k))
+            }
+            _ => None,
+        });
+        let Some((dims, k)) = on_dim else { continue };
+        let pv = &messages[k].field.pv;
+        let half = pv.len() / 2;
+        let levels = &coords.made[c].1;
+        let fits = pv.len().is_multiple_of(2)
+            && levels
+                .iter()
+                .all(|&l| l.fract() == 0.0 && l >= 1.0 && (l as usize) < half);
+        if pv.is_empty() || !fits {
+            continue;
+        }
+        let grid = &dims[dims.len() - 2..];
+        let Some(ps) = surface_pressure(variables, grid, &suffix) else {
+            continue;
+        };
+        let full = |coef: &[f64]| -> Vec<f64> {
+            levels
+                .iter()
+                .map(|&l| (coef[l as usize - 1] + coef[l as usize]) / 2.0)
+                .collect()
+        };
+        let (hyam, hybm) = (format!("hyam{suffix}"), format!("hybm{suffix}"));
+        for (var, values, long_name, units) in [
+            (
+                &hyam,
+                full(&pv[..half]),
+                "hybrid A coefficient at full levels (GRIB PV array)",
+                "Pa",
+            ),
+            (
+                &hybm,
+                full(&pv[half..]),
+                "hybrid B coefficient at full levels (GRIB PV array)",
+                "1",
+            ),
+        ] {
+            variables.push(GribVariable {
+                name: var.clone(),
+                dims: vec![(name.clone(), values.len())],
+                attributes: vec![
+                    ("long_name".to_string(), text(long_name)),
+                    ("units".to_string(), text(units)),
+                ],
+                content: Content::Stored(values),
+            });
+        }
+        coords.made[c].2.push((
+            "formula_terms".to_string(),
+            text(&format!("ap: {hyam} b: {hybm} ps: {ps}")),
+        ));
+    }
+}
+
+/// The surface pressure (Pa) on `grid` for model levels: the file's `sp`, else a variable `ps`
+/// (with `suffix`) made as e^`lnsp`; `None` when the file has neither.
+fn surface_pressure(
+    variables: &mut Vec<GribVariable>,
+    grid: &[(String, usize)],
+    suffix: &str,
+) -> Option<String> {
+    let on_grid = |v: &GribVariable, name: &str| {
+        v.name == name
+            && v.dims.len() >= 2
+            && v.dims[v.dims.len() - 2..] == *grid
+            && matches!(v.content, Content::Messages(_))
+    };
+    if let Some(sp) = variables.iter().find(|v| on_grid(v, "sp")) {
+        return Some(sp.name.clone());
+    }
+    let lnsp = variables.iter().find(|v| on_grid(v, "lnsp"))?;
+    let name = format!("ps{suffix}");
+    if variables.iter().any(|v| v.name == name) {
+        return Some(name);
+    }
+    let Content::Messages(holders) = &lnsp.content else {
+        return None;
+    };
+    let mut attributes: Vec<(String, NcAttribute)> = lnsp
+        .attributes
+        .iter()
+        .filter(|(k, _)| k.starts_with("GRIB_") || k == "coordinates")
+        .cloned()
+        .collect();
+    attributes.push(("units".to_string(), text("Pa")));
+    attributes.push(("long_name".to_string(), text("surface pressure (e^lnsp)")));
+    attributes.push(("standard_name".to_string(), text("surface_air_pressure")));
+    let ps = GribVariable {
+        name: name.clone(),
+        dims: lnsp.dims.clone(),
+        attributes,
+        content: Content::ExpOfMessages(holders.clone()),
+    };
+    variables.push(ps);
+    Some(name)
 }
 
 /// Names that stay unique: a parameter on two level types gets the level type appended, a

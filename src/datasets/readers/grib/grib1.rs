@@ -144,7 +144,25 @@ pub(super) fn field(msg: &[u8]) -> Result<GribField, Why> {
         grid,
         packing: "grid_simple".into(),
         centre,
+        pv: s
+            .gds
+            .map(vertical_parameters)
+            .transpose()?
+            .unwrap_or_default(),
     })
+}
+
+/// The vertical coordinate parameters (IBM floats) the grid description carries for model
+/// levels: NV of them (octet 4) from the octet octet 5 names.
+fn vertical_parameters(gds: &[u8]) -> Result<Vec<f64>, Why> {
+    let (nv, pvl) = (gds[3] as usize, gds[4] as usize);
+    if nv == 0 || pvl == 255 || pvl == 0 {
+        return Ok(Vec::new());
+    }
+    (0..nv)
+        .map(|i| uint(gds, pvl - 1 + 4 * i, 4).map(|b| ibm_float(b as u32)))
+        .collect::<Option<_>>()
+        .ok_or_else(|| format!("{nv} vertical coordinate parameters that the grid description section does not hold (truncated)"))
 }
 
 /// The ensemble member of an ECMWF product (centre or sub-centre 98), where ecCodes reads

@@ -317,8 +317,34 @@ pub(super) fn field(msg: &[u8], k: usize) -> Result<GribField, Why> {
             grid,
             packing: packing.to_string(),
             centre: sub.identification().centre_id(),
+            pv: vertical_parameters(&payload)?,
         })
     })
+}
+
+/// The vertical coordinate parameters after section 4's template: NV (octets 6–7) IEEE
+/// single-precision floats ending the section; `payload` is the section from octet 6.
+fn vertical_parameters(payload: &[u8]) -> Result<Vec<f64>, Why> {
+    let nv = payload
+        .get(..2)
+        .map_or(0, |b| u16::from_be_bytes([b[0], b[1]]) as usize);
+    if nv == 0 {
+        return Ok(Vec::new());
+    }
+    let start = payload
+        .len()
+        .checked_sub(4 * nv)
+        .filter(|&s| s >= 4)
+        .ok_or_else(|| {
+            format!(
+                "{nv} vertical coordinate parameters in a product definition section of {} octets",
+                payload.len() + 5
+            )
+        })?;
+    Ok(payload[start..]
+        .chunks_exact(4)
+        .map(|b| f32::from_be_bytes([b[0], b[1], b[2], b[3]]) as f64)
+        .collect())
 }
 
 /// The node positions the crate computes for a grid of `kind`, rows turned one way.

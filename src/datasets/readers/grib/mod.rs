@@ -121,7 +121,7 @@ impl GribReader {
                 .into_iter()
                 .map(|i| values[i])
                 .collect(),
-            Content::Messages(holders) => {
+            Content::Messages(holders) | Content::ExpOfMessages(holders) => {
                 let index = index::index_of(path)?;
                 let outer = var.dims.len() - 2;
                 let (grid_dims, grid_sel) = (var.dims[outer..].to_vec(), &sel[outer..]);
@@ -135,6 +135,9 @@ impl GribReader {
                         }
                         None => data.extend(std::iter::repeat_n(f64::NAN, cells.len())),
                     }
+                }
+                if matches!(var.content, Content::ExpOfMessages(_)) {
+                    data.iter_mut().for_each(|v| *v = v.exp());
                 }
                 data
             }

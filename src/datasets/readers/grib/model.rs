@@ -210,6 +210,10 @@ pub(crate) struct GribField {
     /// ecCodes' `packingType`.
     pub packing: String,
     pub centre: u16,
+    /// The vertical coordinate parameters of a model-level message (GRIB's PV array): the
+    /// hybrid A (Pa) then B coefficients of the N + 1 half levels; empty when the message has
+    /// none.
+    pub pv: Vec<f64>,
 }
 
 /// Where a message lies in its file.
@@ -299,6 +303,9 @@ pub(crate) enum Content {
     /// The message (index into [`GribIndex::messages`]) of each combination of the variable's
     /// dimensions before the grid's two, in C order; `None` where no message holds it.
     Messages(Vec<Option<usize>>),
+    /// As `Messages`, each value v read as e^v: surface pressure (Pa) from ECMWF's logarithm
+    /// of it (`lnsp`), for the pressure of model levels.
+    ExpOfMessages(Vec<Option<usize>>),
 }
 
 /// The file's messages and the variables they make.
