@@ -1,7 +1,8 @@
 //! hdrvis's reading of every numeric variable of real archives, set beside xarray's: the files
 //! climate, ocean and weather projects publish inside their PyPI packages (Met Office, CMIP6
-//! models through ESMValTool, ARM, NCEP/NCAR reanalyses, GFDL) and the GRIB files of cfgrib's
-//! source distribution (ECMWF, NCEP, DWD), pinned with their hashes in
+//! models through ESMValTool, ARM, NCEP/NCAR reanalyses, GFDL), the GRIB files of cfgrib's
+//! source distribution (ECMWF, NCEP, DWD) and the Zarr stores of cfdm and earthkit-data (v2 and
+//! v3, consolidated, one with Python's bare NaN), pinned with their hashes in
 //! tests/python/conformance.py, fetched once into `target/conformance-corpus` by the test (never
 //! by the tool). For each variable `hdrvis info --json` must give xarray + cf_xarray's dims,
 //! roles, shape, units, coordinates, dates, missing count, minimum and maximum (cfgrib's for
@@ -66,7 +67,7 @@ fn every_variable_of_real_archives_reads_as_xarray_reads_it() {
         problems.join("\n")
     );
     assert!(
-        count("files") >= 134 && count("variables") >= 2000,
+        count("files") >= 169 && count("variables") >= 2100,
         "{summary}"
     );
     // docs/formats.md shows this run's table.

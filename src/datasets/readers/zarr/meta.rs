@@ -60,7 +60,38 @@ pub(crate) fn is_store(path: &Path) -> bool {
 
 fn json(path: &Path) -> Result<serde_json::Value> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    serde_json::from_str(&text).map_err(|e| Error::format(path, format!("is not valid JSON: {e}")))
+    serde_json::from_str(&text)
+        .or_else(|e| serde_json::from_str(&quote_non_finite(&text)).map_err(|_| e))
+        .map_err(|e| Error::format(path, format!("is not valid JSON: {e}")))
+}
+
+/// `text` with the bare `NaN`, `Infinity` and `-Infinity` that Python's `json` writes (and
+/// zarr-python reads; strict JSON has no such numbers) turned into the strings Zarr's metadata
+/// uses for them. Text inside strings is left alone.
+fn quote_non_finite(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 16);
+    let (mut in_string, mut escaped) = (false, false);
+    let mut rest = text;
+    while let Some(c) = rest.chars().next() {
+        if in_string {
+            in_string = escaped || c != '"';
+            escaped = !escaped && c == '\\';
+        } else if c == '"' {
+            in_string = true;
+        } else if let Some(word) = ["-Infinity", "Infinity", "NaN"]
+            .into_iter()
+            .find(|w| rest.starts_with(w))
+        {
+            out.push('"');
+            out.push_str(word);
+            out.push('"');
+            rest = &rest[word.len()..];
+            continue;
+        }
+        out.push(c);
+        rest = &rest[c.len_utf8()..];
+    }
+    out
 }
 
 /// A JSON attribute value as the data model keeps it.
@@ -149,10 +180,16 @@ fn base64_number(text: &str, dtype: &Dtype) -> Option<f64> {
     (out.len() == dtype.size).then(|| little.values(&out)[0])
 }
 
-fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
-    let meta_path = dir.join(".zarray");
-    let meta = json(&meta_path)?;
-    let bad = |why: String| Error::format(&meta_path, why);
+/// A v2 array from its `.zarray` metadata and `.zattrs` attributes (from its own files, or the
+/// store's consolidated `.zmetadata`, `meta_path`).
+fn array_v2(
+    dir: &Path,
+    name: &str,
+    meta: &serde_json::Value,
+    attrs: &serde_json::Value,
+    meta_path: &Path,
+) -> Result<ZArray> {
+    let bad = |why: String| Error::format(meta_path, why);
     let dtype = Dtype::from_numpy(meta["dtype"].as_str().unwrap_or("")).map_err(bad)?;
     if meta["order"].as_str() == Some("F") {
         return Err(bad("is in Fortran order, which is not read".into()));
@@ -167,12 +204,6 @@ fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
         serde_json::Value::Null => Vec::new(),
         c => vec![Codec::named(c["id"].as_str().unwrap_or("?")).map_err(bad)?],
     };
-    let attrs_path = dir.join(".zattrs");
-    let attrs = if attrs_path.is_file() {
-        json(&attrs_path)?
-    } else {
-        serde_json::json!({})
-    };
     let dims: Vec<String> = attrs["_ARRAY_DIMENSIONS"]
         .as_array()
         .map(|d| {
@@ -181,7 +212,7 @@ fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
                 .collect()
         })
         .unwrap_or_default();
-    let mut attributes = attributes_of(&attrs, "_ARRAY_DIMENSIONS");
+    let mut attributes = attributes_of(attrs, "_ARRAY_DIMENSIONS");
     let fill = fill_value(&meta["fill_value"], &dtype);
     if let Some(f) = fill {
         if !attributes.iter().any(|(k, _)| k == "_FillValue") {
@@ -196,8 +227,8 @@ fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
     finish(ZArray {
         name: name.to_string(),
         dir: dir.to_path_buf(),
-        shape: sizes(&meta["shape"], "shape", &meta_path)?,
-        chunks: sizes(&meta["chunks"], "chunks", &meta_path)?,
+        shape: sizes(&meta["shape"], "shape", meta_path)?,
+        chunks: sizes(&meta["chunks"], "chunks", meta_path)?,
         dtype,
         fill: fill.unwrap_or(f64::NAN),
         codecs,
@@ -208,9 +239,10 @@ fn array_v2(dir: &Path, name: &str) -> Result<ZArray> {
     })
 }
 
-fn array_v3(dir: &Path, name: &str, meta: &serde_json::Value) -> Result<ZArray> {
-    let meta_path = dir.join("zarr.json");
-    let bad = |why: String| Error::format(&meta_path, why);
+/// A v3 array from its `zarr.json` metadata (its own, or the root's consolidated copy at
+/// `meta_path`).
+fn array_v3(dir: &Path, name: &str, meta: &serde_json::Value, meta_path: &Path) -> Result<ZArray> {
+    let bad = |why: String| Error::format(meta_path, why);
     let mut dtype = Dtype::from_v3(meta["data_type"].as_str().unwrap_or("?")).map_err(bad)?;
     if meta["chunk_grid"]["name"].as_str() != Some("regular") {
         return Err(bad(format!(
@@ -258,11 +290,11 @@ fn array_v3(dir: &Path, name: &str, meta: &serde_json::Value) -> Result<ZArray> 
     finish(ZArray {
         name: name.to_string(),
         dir: dir.to_path_buf(),
-        shape: sizes(&meta["shape"], "shape", &meta_path)?,
+        shape: sizes(&meta["shape"], "shape", meta_path)?,
         chunks: sizes(
             &meta["chunk_grid"]["configuration"]["chunk_shape"],
             "chunk_shape",
-            &meta_path,
+            meta_path,
         )?,
         fill: fill_value(&meta["fill_value"], &dtype).unwrap_or(f64::NAN),
         dtype,
@@ -296,43 +328,91 @@ fn finish(mut a: ZArray) -> Result<ZArray> {
     Ok(a)
 }
 
-/// The store at `root`: its arrays (the root's child folders that are arrays), by name.
+/// The store at `root`: its arrays (the root's children that are arrays), by name. Consolidated
+/// metadata (v2's `.zmetadata`, v3's `consolidated_metadata` in the root's `zarr.json`) is read
+/// when the store has it, as xarray does (`consolidated=None`): one file for the whole store,
+/// and the arrays' own files are not opened.
 pub(crate) fn read_store(root: &Path) -> Result<Store> {
     let v3 = root.join("zarr.json");
-    let (version, globals) = if v3.is_file() {
+    let mut arrays = Vec::new();
+    let globals = if v3.is_file() {
         let meta = json(&v3)?;
-        let attrs = attributes_of(&meta["attributes"], "");
-        (3, attrs)
-    } else {
-        let attrs_path = root.join(".zattrs");
-        let attrs = if attrs_path.is_file() {
-            json(&attrs_path)?
+        let consolidated = &meta["consolidated_metadata"]["metadata"];
+        if let Some(nodes) = consolidated.as_object() {
+            for (name, node) in nodes.iter().filter(|(n, _)| !n.contains('/')) {
+                if node["node_type"].as_str() == Some("array") {
+                    arrays.push(array_v3(&root.join(name), name, node, &v3)?);
+                }
+            }
         } else {
-            serde_json::json!({})
+            for name in child_folders(root)? {
+                let (dir, own) = (root.join(&name), root.join(&name).join("zarr.json"));
+                if own.is_file() {
+                    let node = json(&own)?;
+                    if node["node_type"].as_str() == Some("array") {
+                        arrays.push(array_v3(&dir, &name, &node, &own)?);
+                    }
+                }
+            }
+        }
+        attributes_of(&meta["attributes"], "")
+    } else {
+        let own_or_empty = |path: &Path| -> Result<serde_json::Value> {
+            if path.is_file() {
+                json(path)
+            } else {
+                Ok(serde_json::json!({}))
+            }
         };
-        let globals = attributes_of(&attrs, "");
-        (2, globals)
+        let zmeta = root.join(".zmetadata");
+        let consolidated = if zmeta.is_file() {
+            Some(json(&zmeta)?)
+        } else {
+            None
+        };
+        match consolidated
+            .as_ref()
+            .and_then(|c| c["metadata"].as_object())
+        {
+            Some(entries) => {
+                for (key, meta) in entries {
+                    let Some(name) = key.strip_suffix("/.zarray").filter(|n| !n.contains('/'))
+                    else {
+                        continue;
+                    };
+                    let attrs = entries
+                        .get(&format!("{name}/.zattrs"))
+                        .cloned()
+                        .unwrap_or_else(|| serde_json::json!({}));
+                    arrays.push(array_v2(&root.join(name), name, meta, &attrs, &zmeta)?);
+                }
+                attributes_of(&entries.get(".zattrs").cloned().unwrap_or_default(), "")
+            }
+            None => {
+                for name in child_folders(root)? {
+                    let dir = root.join(&name);
+                    let own = dir.join(".zarray");
+                    if own.is_file() {
+                        let attrs = own_or_empty(&dir.join(".zattrs"))?;
+                        arrays.push(array_v2(&dir, &name, &json(&own)?, &attrs, &own)?);
+                    }
+                }
+                attributes_of(&own_or_empty(&root.join(".zattrs"))?, "")
+            }
+        }
     };
-    let mut names: Vec<String> = std::fs::read_dir(root)
+    arrays.sort_by(|a, b| a.name.cmp(&b.name));
+    Ok(Store { globals, arrays })
+}
+
+/// The names of the folders in `root`.
+fn child_folders(root: &Path) -> Result<Vec<String>> {
+    Ok(std::fs::read_dir(root)
         .map_err(|e| Error::io(root, e))?
         .flatten()
         .filter(|e| e.path().is_dir())
         .map(|e| e.file_name().to_string_lossy().to_string())
-        .collect();
-    names.sort();
-    let mut arrays = Vec::new();
-    for name in names {
-        let dir = root.join(&name);
-        if version == 3 && dir.join("zarr.json").is_file() {
-            let meta = json(&dir.join("zarr.json"))?;
-            if meta["node_type"].as_str() == Some("array") {
-                arrays.push(array_v3(&dir, &name, &meta)?);
-            }
-        } else if version == 2 && dir.join(".zarray").is_file() {
-            arrays.push(array_v2(&dir, &name)?);
-        }
-    }
-    Ok(Store { globals, arrays })
+        .collect())
 }
 
 #[cfg(test)]
@@ -349,5 +429,14 @@ mod tests {
         assert_eq!(base64_number("AACAPw==", &f4), Some(1.0));
         assert_eq!(fill_value(&serde_json::json!("0x3f800000"), &f4), Some(1.0));
         assert!(fill_value(&serde_json::json!("NaN"), &f4).unwrap().is_nan());
+    }
+
+    #[test]
+    fn python_json_non_finite_numbers_are_read() {
+        let text = r#"{"fill_value": NaN, "a": [-Infinity, Infinity], "s": "NaN \" Infinity"}"#;
+        let v: serde_json::Value = serde_json::from_str(&quote_non_finite(text)).unwrap();
+        assert_eq!(v["fill_value"], "NaN");
+        assert_eq!(v["a"], serde_json::json!(["-Infinity", "Infinity"]));
+        assert_eq!(v["s"], "NaN \" Infinity");
     }
 }

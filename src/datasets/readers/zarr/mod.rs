@@ -97,34 +97,71 @@ fn chunk_values(a: &ZArray, at: &[usize], chunk: usize) -> Result<Vec<f64>> {
 }
 
 /// The values of `a` at the indices `sel` (one list per dimension), in C order, read chunk by
-/// chunk: only the chunks holding a selected index are decoded.
+/// chunk: only the chunks holding a selected index are decoded. Along the last dimension the
+/// selected indices go in runs that share a chunk, each run one chunk lookup and a gather.
 fn read_selected(a: &ZArray, sel: &[Vec<usize>]) -> Result<Vec<f64>> {
     let count: usize = sel.iter().map(Vec::len).product();
     crate::model::volume::check_allocation(count as u64 * 8, &a.name)?;
     let chunk: usize = a.chunks.iter().product();
-    let mut out = vec![f64::NAN; count];
-    let mut cache: HashMap<Vec<usize>, Vec<f64>> = HashMap::new();
-    let mut index = vec![0usize; sel.len()];
-    for slot in out.iter_mut() {
-        let at: Vec<usize> = index.iter().zip(sel).map(|(&i, s)| s[i]).collect();
-        let grid: Vec<usize> = at.iter().zip(&a.chunks).map(|(&i, &c)| i / c).collect();
-        if !cache.contains_key(&grid) {
-            // Chunks are visited in order, so one held at a time (plus the row of chunks the
-            // last dimension crosses) is enough; drop the rest.
-            if cache.len() > 64 {
-                cache.clear();
-            }
-            let values = chunk_values(a, &grid, chunk)?;
-            cache.insert(grid.clone(), values);
+    let Some((last, outer)) = sel.split_last() else {
+        // A scalar: one chunk of one value.
+        return chunk_values(a, &[], 1);
+    };
+    let n = sel.len();
+    // Per dimension, each selected index's chunk coordinate and offset within the chunk.
+    let split: Vec<Vec<(usize, usize)>> = sel
+        .iter()
+        .zip(&a.chunks)
+        .map(|(s, &c)| s.iter().map(|&i| (i / c, i % c)).collect())
+        .collect();
+    // The last dimension's selection in runs of one chunk coordinate: (coordinate, offsets).
+    let mut runs: Vec<(usize, Vec<usize>)> = Vec::new();
+    for &(g, w) in &split[n - 1] {
+        match runs.last_mut() {
+            Some((run, offsets)) if *run == g => offsets.push(w),
+            _ => runs.push((g, vec![w])),
         }
-        let within = at
-            .iter()
-            .zip(&a.chunks)
-            .fold(0usize, |acc, (&i, &c)| acc * c + i % c);
-        *slot = cache[&grid][within];
+    }
+    let chunks_along: Vec<usize> = a
+        .shape
+        .iter()
+        .zip(&a.chunks)
+        .map(|(&len, &c)| len.div_ceil(c).max(1))
+        .collect();
+    let mut out = Vec::with_capacity(count);
+    // Chunks are visited in order, so the few along the last dimensions are enough to hold.
+    let mut cache: HashMap<usize, Vec<f64>> = HashMap::new();
+    let mut index = vec![0usize; n - 1];
+    let mut grid = vec![0usize; n];
+    let rows = if last.is_empty() {
+        0
+    } else {
+        outer.iter().map(Vec::len).product()
+    };
+    for _ in 0..rows {
+        let (mut id, mut within) = (0usize, 0usize);
+        for (d, &i) in index.iter().enumerate() {
+            let (g, w) = split[d][i];
+            id = id * chunks_along[d] + g;
+            within = within * a.chunks[d] + w;
+            grid[d] = g;
+        }
+        for (g, offsets) in &runs {
+            let key = id * chunks_along[n - 1] + g;
+            grid[n - 1] = *g;
+            if !cache.contains_key(&key) {
+                if cache.len() > 64 {
+                    cache.clear();
+                }
+                cache.insert(key, chunk_values(a, &grid, chunk)?);
+            }
+            let values = &cache[&key];
+            let base = within * a.chunks[n - 1];
+            out.extend(offsets.iter().map(|&w| values[base + w]));
+        }
         for d in (0..index.len()).rev() {
             index[d] += 1;
-            if index[d] < sel[d].len() {
+            if index[d] < outer[d].len() {
                 break;
             }
             index[d] = 0;
