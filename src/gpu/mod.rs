@@ -12,6 +12,7 @@ pub(crate) mod timestamps;
 pub mod transfer;
 
 use crate::error::{Error, Result};
+use std::path::Path;
 use std::sync::Arc;
 
 /// Environment variable that selects the backend when `--backend` is not given.
@@ -101,6 +102,8 @@ pub struct GpuContext {
     uncaptured: Arc<std::sync::Mutex<Option<String>>>,
     /// The texture unit's trilinear error, measured on first use ([`filter_probe`]).
     filter_error: std::sync::OnceLock<Option<f64>>,
+    /// Why this adapter is a slow path and what to do, when it is one ([`slow_path`]).
+    slow_path: Option<String>,
 }
 
 struct PersistentPipelineCache {
@@ -219,6 +222,84 @@ fn type_rank(t: wgpu::DeviceType) -> u32 {
     }
 }
 
+/// Why the chosen adapter is a slow path and what to do about it, in one line; `None` on the
+/// fast path. Two cases: OpenGL on Mesa's llvmpipe (the fallback when no Vulkan driver is
+/// installed, or `--backend gl`), which runs hdrvis's shaders 2–2.7× slower than Vulkan's
+/// lavapipe on the same CPU (`hdrvis bench volume --quick` with each backend, side by side,
+/// docs/performance.md); and a CPU rasterizer while the machine has a GPU that another backend
+/// reaches (a container without NVIDIA's Vulkan driver file, or `--backend gl` beside one).
+fn slow_path(choice: BackendChoice, chosen: &wgpu::AdapterInfo) -> Option<String> {
+    if chosen.device_type != wgpu::DeviceType::Cpu {
+        return None;
+    }
+    if let Some((gpu, backend)) = unused_gpu() {
+        return Some(format!(
+            "rendering on {} (a CPU rasterizer) although {gpu} is present through {backend}: a GPU renders a 513³ → 1024² frame in about 14 ms where lavapipe on 2 cores takes 2.3 s (docs/performance.md); run with --backend {}",
+            chosen.name,
+            backend.to_lowercase()
+        ));
+    }
+    if chosen.backend != wgpu::Backend::Gl {
+        return None;
+    }
+    let how = if choice == BackendChoice::Gl && has_adapter(wgpu::Backends::VULKAN) {
+        "Vulkan is installed here: leave out --backend gl (or HDRVIS_BACKEND=gl)".to_string()
+    } else {
+        "install Vulkan's lavapipe: apt-get install mesa-vulkan-drivers (Debian, Ubuntu) or dnf install mesa-vulkan-drivers (Fedora)".to_string()
+    };
+    Some(format!(
+        "rendering with OpenGL on {} (the GL fallback), 2–2.7× slower than Vulkan's lavapipe on the same CPU; {how}",
+        chosen.name
+    ))
+}
+
+/// Whether this process is the first (or only) MPI rank: the slow-path line is said once per
+/// job, not once per rank.
+fn first_rank() -> bool {
+    ["OMPI_COMM_WORLD_RANK", "PMI_RANK"]
+        .iter()
+        .filter_map(|k| std::env::var(k).ok())
+        .all(|r| r.trim() == "0")
+}
+
+fn has_adapter(backends: wgpu::Backends) -> bool {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = backends;
+    let instance = wgpu::Instance::new(desc);
+    !pollster::block_on(instance.enumerate_adapters(backends)).is_empty()
+}
+
+/// A GPU (its name and backend) that Vulkan or GL can reach, looked for only where the machine
+/// has a GPU's device file (`/dev/nvidia0`, `/dev/kfd`, a DRI render node): on CPU-only nodes
+/// no second driver is started.
+fn unused_gpu() -> Option<(String, &'static str)> {
+    let render_node = std::fs::read_dir("/dev/dri").is_ok_and(|d| {
+        d.flatten()
+            .any(|e| e.file_name().to_string_lossy().starts_with("renderD"))
+    });
+    if !(render_node || Path::new("/dev/nvidia0").exists() || Path::new("/dev/kfd").exists()) {
+        return None;
+    }
+    for (backends, name) in [
+        (wgpu::Backends::VULKAN, "Vulkan"),
+        (wgpu::Backends::GL, "GL"),
+    ] {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let adapters = pollster::block_on(instance.enumerate_adapters(backends));
+        if let Some(gpu) = adapters.iter().map(|a| a.get_info()).find(|i| {
+            matches!(
+                i.device_type,
+                wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu
+            )
+        }) {
+            return Some((gpu.name, name));
+        }
+    }
+    None
+}
+
 impl GpuContext {
     /// Opens the best adapter for the choice: on auto, Vulkan adapters first (real GPUs before
     /// CPU rasterizers), then GL.
@@ -235,7 +316,11 @@ impl GpuContext {
             let mut adapters = pollster::block_on(instance.enumerate_adapters(backends));
             adapters.sort_by_key(|a| type_rank(a.get_info().device_type));
             if let Some(adapter) = adapters.into_iter().next() {
-                return GpuContext::open(instance, adapter);
+                let ctx = GpuContext::open(instance, adapter, choice)?;
+                if let (Some(line), true) = (&ctx.slow_path, first_rank()) {
+                    crate::io::notice(line);
+                }
+                return Ok(ctx);
             }
         }
         let hint = match choice {
@@ -248,7 +333,11 @@ impl GpuContext {
         )))
     }
 
-    fn open(instance: wgpu::Instance, adapter: wgpu::Adapter) -> Result<Arc<GpuContext>> {
+    fn open(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        choice: BackendChoice,
+    ) -> Result<Arc<GpuContext>> {
         let info = adapter.get_info();
         let features = adapter.features();
         let limits = adapter.limits();
@@ -315,6 +404,7 @@ impl GpuContext {
             None
         };
         Ok(Arc::new(GpuContext {
+            slow_path: slow_path(choice, &info),
             instance,
             adapter,
             device,
@@ -379,6 +469,10 @@ impl GpuContext {
 
     /// The `hdrvis doctor` report.
     pub fn report(&self) -> String {
+        let path = match &self.slow_path {
+            Some(line) => format!("\npath:     slow: {line}"),
+            None => "\npath:     fast".to_string(),
+        };
         let yes = |b: bool| if b { "yes" } else { "no" };
         let c = &self.caps;
         format!(
@@ -404,6 +498,7 @@ impl GpuContext {
                 None => "no (this backend compiles pipelines on every run)".to_string(),
             }
             .as_str()
+            + path.as_str()
     }
 
     /// The pipeline cache to pass to pipeline creation (`None` where the backend has none).

@@ -281,6 +281,45 @@ fn doctor_reports_adapter_and_capabilities() {
 }
 
 #[test]
+fn a_run_on_the_gl_fallback_says_so_once_and_a_vulkan_run_does_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/demo.rhai");
+    let run = |backend: &str, extra: &[(&str, &str)]| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_hdrvis"));
+        cmd.args(["run", script.to_str().unwrap(), "--out", backend])
+            .args(["--set", "n=32", "--set", "size=48"])
+            .env("HDRVIS_BACKEND", backend)
+            .current_dir(dir.path());
+        for (k, v) in extra {
+            cmd.env(k, v);
+        }
+        let out = cmd.output().unwrap();
+        assert!(out.status.success(), "{backend}: {out:?}");
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let gl = run("gl", &[]);
+    assert_eq!(gl.matches("note: rendering with OpenGL").count(), 1, "{gl}");
+    assert!(gl.contains("leave out --backend gl"), "{gl}");
+    // Without a Vulkan driver the line names the package that brings lavapipe.
+    let none = [
+        ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+        ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+    ];
+    let fallback = run("auto", &none);
+    assert_eq!(
+        fallback.matches("note: rendering with OpenGL").count(),
+        1,
+        "{fallback}"
+    );
+    assert!(
+        fallback.contains("apt-get install mesa-vulkan-drivers"),
+        "{fallback}"
+    );
+    let vulkan = run("vulkan", &[]);
+    assert!(!vulkan.contains("note: rendering"), "{vulkan}");
+}
+
+#[test]
 fn demo_runs_with_small_parameters() {
     let dir = tempfile::tempdir().unwrap();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/demo.rhai");
@@ -322,6 +361,18 @@ fn backend_from_environment_and_missing_capability_fallback() {
         "{stdout}"
     );
     assert!(stdout.contains("shader f64: no"), "{stdout}");
+    // The GL fallback is a slow path, and says so once, with what to do.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stdout.contains("path:     slow: rendering with OpenGL"),
+        "{stdout}"
+    );
+    assert_eq!(
+        stderr.matches("note: rendering with OpenGL").count(),
+        1,
+        "{stderr}"
+    );
+    assert!(stderr.contains("slower than Vulkan's lavapipe"), "{stderr}");
     // No Vulkan driver: one line naming the package to install.
     let out = Command::new(env!("CARGO_BIN_EXE_hdrvis"))
         .args(["doctor", "--backend", "vulkan"])
