@@ -241,6 +241,22 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
             grid.describe()
         );
     }
+    let dims: Vec<(String, usize)> = array
+        .dims
+        .iter()
+        .cloned()
+        .zip(array.shape.iter().copied())
+        .collect();
+    if let Some(mesh) =
+        crate::datasets::conventions::mesh::read::mesh_of(path, &array.name, &dims, None)?
+    {
+        let _ = writeln!(
+            out,
+            "mesh: {} (load_grid samples it onto a regular latitude-longitude grid at its median cell edge, {:.4} degrees, or at resolution)",
+            mesh.describe(),
+            mesh.median_edge().unwrap_or(f64::NAN)
+        );
+    }
     for note in &array.notes {
         let _ = writeln!(out, "selected: {note}");
     }

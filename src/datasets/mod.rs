@@ -88,9 +88,12 @@ pub struct LoadOptions {
     /// A NetCDF variable on one of the volume's dimensions, in units of length, to place it by
     /// instead of that dimension's coordinate (a model level's height, say).
     pub vertical: Option<String>,
-    /// The step in degrees of the regular grid a curvilinear grid is regridded onto (default:
-    /// its median cell edge); refused for other grids.
+    /// The step in degrees of the regular grid a curvilinear grid is regridded onto, or an
+    /// unstructured mesh sampled onto (default: its median cell edge); refused for other grids.
     pub resolution: Option<f64>,
+    /// The file holding the mesh of a variable on an unstructured mesh, when its own file has
+    /// only the values (ICON and MPAS keep the grid apart).
+    pub grid: Option<std::path::PathBuf>,
 }
 
 /// Loads a scalar volume by the reader the file's content names ([`Format::of`]): `.npy` (shape (nz, ny, nx)),
@@ -216,20 +219,26 @@ pub fn read_grid(path: &Path, var: Option<&str>) -> Result<GridFile> {
 /// [`read_grid`] of the variable with the dimensions `sel` fixes (NetCDF, a MintPy time
 /// series).
 pub fn read_grid_with(path: &Path, var: Option<&str>, sel: &select::Selection) -> Result<GridFile> {
-    read_grid_file(path, var, sel, None, None)
+    read_grid_file(path, var, sel, None, None, None)
 }
 
-/// [`read_grid_with`] with the band of a GeoTIFF, by the file's reader.
+/// [`read_grid_with`] with the band of a GeoTIFF, by the file's reader; a variable on an
+/// unstructured mesh (in its file, or in `mesh_grid`) is sampled onto latitude and longitude.
 fn read_grid_file(
     path: &Path,
     var: Option<&str>,
     sel: &select::Selection,
     band: Option<usize>,
     resolution: Option<f64>,
+    mesh_grid: Option<&Path>,
 ) -> Result<GridFile> {
-    Format::of(path)?
-        .reader()
-        .grid(path, var, sel, band, resolution)
+    let reader = Format::of(path)?.reader();
+    if reader.variables().is_some() || mesh_grid.is_some() {
+        if let Some(file) = conventions::mesh::grid_file(path, var, sel, resolution, mesh_grid)? {
+            return Ok(file);
+        }
+    }
+    reader.grid(path, var, sel, band, resolution)
 }
 
 /// [`Reader::grid`]'s default: the 2-D array `reader` reads, on the axes it gives, a curvilinear
@@ -353,7 +362,7 @@ pub(crate) fn no_resolution(path: &Path, resolution: Option<f64>) -> Result<()> 
     match resolution {
         Some(r) => Err(Error::format(
             path,
-            format!("resolution {r}: only curvilinear grids (2-D latitude and longitude named in a variable's coordinates) are regridded; this grid has its own axes"),
+            format!("resolution {r}: only curvilinear grids (2-D latitude and longitude named in a variable's coordinates) and unstructured meshes are regridded; this grid has its own axes"),
         )),
         None => Ok(()),
     }
@@ -415,7 +424,14 @@ pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
 /// properties are only those of the same selection's shape that have the selected dimensions.
 pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     let var = opts.variable.as_deref();
-    let file = read_grid_file(path, var, &opts.select, opts.band, opts.resolution)?;
+    let file = read_grid_file(
+        path,
+        var,
+        &opts.select,
+        opts.band,
+        opts.resolution,
+        opts.grid.as_deref(),
+    )?;
     let [ny, nx] = file.shape;
     let x = grid_coords(file.x, "x", nx);
     let y = grid_coords(file.y, "y", ny);

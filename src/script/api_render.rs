@@ -291,6 +291,7 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
                 band: None,
                 vertical: given.string("vertical")?,
                 resolution: None,
+                grid: None,
             };
             h.session.load_volume(&p, &load).map_err(to_rhai)
         },

@@ -65,7 +65,13 @@ pub(crate) const LOAD_GRID: OptionTable = OptionTable {
             "resolution",
             Kind::NumAbove(0.0, 90.0),
             "the grid's median cell edge",
-            "a curvilinear grid (2-D latitude and longitude named in the variable's coordinates): the step in degrees of the regular latitude-longitude grid it is regridded onto; refused for other grids",
+            "a curvilinear grid (2-D latitude and longitude named in the variable's coordinates) or an unstructured mesh (UGRID, ICON, MPAS, SCRIP, FVCOM, ADCIRC): the step in degrees of the regular latitude-longitude grid it is regridded or sampled onto; refused for other grids",
+        ),
+        opt(
+            "grid",
+            Kind::Text("\"grid.nc\""),
+            "the variable's own file",
+            "an unstructured mesh kept in a file of its own (ICON and MPAS grid files, SCRIP): the variable's values run along its cells or nodes",
         ),
     ],
     call: "load_grid(\"geo.nc\", OPTS)",
@@ -422,6 +428,10 @@ fn register_load_grid(engine: &mut Engine, host: &Arc<ScriptHost>) {
                 select: super::api_datasets::selection(&given)?,
                 band: given.int("band")?.map(|b| b as usize),
                 resolution: given.num("resolution")?,
+                grid: match given.string("grid")? {
+                    Some(g) => Some(h.sandbox.read_path(&g).map_err(to_rhai)?),
+                    None => None,
+                },
                 ..LoadOptions::default()
             };
             h.session.load_grid(&p, &opts).map_err(to_rhai)

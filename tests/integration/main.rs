@@ -22,6 +22,7 @@ mod fuzz_corpus;
 mod gallery;
 mod georaster;
 mod grib;
+mod meshes;
 mod mpi;
 mod passes;
 mod readers;

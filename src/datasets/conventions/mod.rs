@@ -9,5 +9,6 @@ pub(crate) mod cf;
 pub(crate) mod cf_decode;
 pub(crate) mod cf_time;
 pub(crate) mod curvilinear;
+pub(crate) mod mesh;
 pub mod select;
 pub(crate) mod vertical;

@@ -481,16 +481,28 @@ fn decode_cf(var: &netcdf_reader::NcVariable, values: &mut ndarray::ArrayD<f64>)
 
 /// The variables that other variables name as their auxiliary coordinates, bounds, grid
 /// mappings, ancillary variables, climatology bounds or cell measures (CF 1.11 sections 5, 7.1,
-/// 7.2, 7.4, 3.4), and the grid-mapping variables themselves.
+/// 7.2, 7.4, 3.4), the grid-mapping variables themselves, and a UGRID mesh's topology variable
+/// with the coordinates and connectivity it names.
 pub(crate) fn auxiliary_names(vars: &[netcdf_reader::NcVariable]) -> Vec<String> {
     let mut names = Vec::new();
     for v in vars {
-        if v.attribute("grid_mapping_name").is_some() {
+        let topology = v
+            .attribute("cf_role")
+            .and_then(|a| a.value.as_string())
+            .is_some_and(|r| r.trim() == "mesh_topology");
+        if v.attribute("grid_mapping_name").is_some() || topology {
             names.push(v.name().to_string());
         }
         for key in [
             "coordinates",
             "bounds",
+            "node_coordinates",
+            "face_node_connectivity",
+            "face_coordinates",
+            "edge_node_connectivity",
+            "face_edge_connectivity",
+            "face_face_connectivity",
+            "edge_coordinates",
             "grid_mapping",
             "ancillary_variables",
             "climatology",

@@ -1,0 +1,220 @@
+//! Unstructured meshes, as climate, ocean and coastal models write them: UGRID 1.0 flexible
+//! meshes, ICON's triangles (cell centres with their vertices, CF bounds), MPAS's Voronoi cells,
+//! SCRIP grid files and coastal models' triangle lists (FVCOM, ADCIRC). A variable whose last
+//! dimension runs over a mesh's cells or nodes is found on its mesh here ([`read`]), from its own
+//! file or from a separate grid file, and sampled onto a regular latitude–longitude grid
+//! ([`sample`]) so that maps, globes and every grid tool draw it.
+
+pub(crate) mod read;
+pub(crate) mod sample;
+
+use std::path::Path;
+
+use super::select::{self, Selection};
+use crate::datasets::readers::variables;
+use crate::datasets::{geographic_axis, GridFile};
+use crate::error::{Error, Result};
+use crate::model::CoordKind;
+
+/// Where a variable's values sit on its mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Location {
+    /// One value per cell, constant over it.
+    Faces,
+    /// One value per node, linear over the cells' triangles.
+    Nodes,
+}
+
+/// A mesh: nodes on the sphere and cells as rings of node indices.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Mesh {
+    /// The convention it was read by ("UGRID", "ICON", "MPAS", "SCRIP", "FVCOM", ...).
+    pub kind: String,
+    /// Node longitudes and latitudes in degrees.
+    pub lon: Vec<f64>,
+    pub lat: Vec<f64>,
+    /// Cell `f`'s nodes are `nodes[offsets[f]..offsets[f + 1]]`.
+    pub offsets: Vec<usize>,
+    pub nodes: Vec<usize>,
+    pub location: Location,
+    /// The dimension the variable's values run along (cells or nodes).
+    pub dim: String,
+}
+
+impl Mesh {
+    pub(crate) fn faces(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    pub(crate) fn face(&self, f: usize) -> &[usize] {
+        &self.nodes[self.offsets[f]..self.offsets[f + 1]]
+    }
+
+    /// How many values a variable on this mesh has.
+    pub(crate) fn values(&self) -> usize {
+        match self.location {
+            Location::Faces => self.faces(),
+            Location::Nodes => self.lon.len(),
+        }
+    }
+
+    /// The median length of the cells' edges in degrees of arc (of at most 200 000 edges spread
+    /// over the mesh); `None` when every edge has zero length.
+    pub(crate) fn median_edge(&self) -> Option<f64> {
+        let every = (self.faces() / 50_000).max(1);
+        let mut edges: Vec<f64> = (0..self.faces())
+            .step_by(every)
+            .flat_map(|f| {
+                let ids = self.face(f);
+                (0..ids.len()).map(move |k| (ids[k], ids[(k + 1) % ids.len()]))
+            })
+            .map(|(a, b)| arc_degrees([self.lon[a], self.lat[a]], [self.lon[b], self.lat[b]]))
+            .filter(|e| e.is_finite() && *e > 0.0)
+            .collect();
+        if edges.is_empty() {
+            return None;
+        }
+        let mid = edges.len() / 2;
+        Some(*edges.select_nth_unstable_by(mid, f64::total_cmp).1)
+    }
+
+    /// One line for `hdrvis info` and a grid's name: convention, cells, nodes, where the values
+    /// sit.
+    pub(crate) fn describe(&self) -> String {
+        let on = match self.location {
+            Location::Faces => "cells",
+            Location::Nodes => "nodes",
+        };
+        format!(
+            "{} mesh of {} cells and {} nodes, values on its {on} ({})",
+            self.kind,
+            self.faces(),
+            self.lon.len(),
+            self.dim
+        )
+    }
+}
+
+/// The angle between two points (longitude, latitude in degrees), in degrees.
+fn arc_degrees(a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (la, lb) = (a[1].to_radians(), b[1].to_radians());
+    let dlon = (b[0] - a[0]).to_radians();
+    let h = ((lb - la) / 2.0).sin().powi(2) + la.cos() * lb.cos() * (dlon / 2.0).sin().powi(2);
+    (2.0 * h.sqrt().min(1.0).asin()).to_degrees()
+}
+
+/// Arrays that describe meshes rather than hold data on them.
+const GEOMETRY: [&str; 24] = [
+    "clon",
+    "clat",
+    "clon_vertices",
+    "clat_vertices",
+    "vlon",
+    "vlat",
+    "latCell",
+    "lonCell",
+    "latVertex",
+    "lonVertex",
+    "verticesOnCell",
+    "nEdgesOnCell",
+    "grid_center_lat",
+    "grid_center_lon",
+    "grid_corner_lat",
+    "grid_corner_lon",
+    "grid_imask",
+    "grid_dims",
+    "nv",
+    "element",
+    "lonc",
+    "latc",
+    "x",
+    "y",
+];
+
+/// The variable to draw: `var`, else the file's first variable that lies on a mesh.
+fn variable_on_mesh(
+    path: &Path,
+    var: Option<&str>,
+    grid: Option<&Path>,
+) -> Result<Option<(String, Mesh)>> {
+    let listed = variables::list_variables(path)?;
+    // Without a name: the data variables, not coordinates nor the mesh's own arrays.
+    let names: Vec<String> = match var {
+        Some(v) => vec![v.to_string()],
+        None => crate::datasets::arrays::list_arrays(path)?
+            .into_iter()
+            .filter(|a| !a.is_coordinate && !a.is_auxiliary && !GEOMETRY.contains(&a.name.as_str()))
+            .map(|a| a.name)
+            .collect(),
+    };
+    for name in names {
+        let dims = variables::dims_in(&listed, &name);
+        if dims.is_empty() {
+            continue;
+        }
+        if let Some(mesh) = read::mesh_of(path, &name, &dims, grid)? {
+            return Ok(Some((name, mesh)));
+        }
+    }
+    Ok(None)
+}
+
+/// A variable on an unstructured mesh as a grid: the selection fixes every dimension but the
+/// mesh's, and the values are sampled onto a regular latitude–longitude grid of `resolution`
+/// degrees (default: the median cell edge). `None` when the variable (or, without one, every
+/// variable) is on no mesh and no `grid` file is given.
+pub(crate) fn grid_file(
+    path: &Path,
+    var: Option<&str>,
+    sel: &Selection,
+    resolution: Option<f64>,
+    grid: Option<&Path>,
+) -> Result<Option<GridFile>> {
+    let Some((name, mesh)) = variable_on_mesh(path, var, grid)? else {
+        return match grid {
+            Some(g) => Err(Error::format(
+                path,
+                format!(
+                    "grid {}: {} lies on no mesh that file describes",
+                    g.display(),
+                    var.map_or("no variable".to_string(), |v| format!("'{v}'"))
+                ),
+            )),
+            None => Ok(None),
+        };
+    };
+    let listed = variables::list_variables(path)?;
+    let dims = variables::dims_in(&listed, &name);
+    let plan = select::plan(path, &name, &dims, sel)?;
+    let v = select::read(path, &name, &plan)?;
+    if v.dims.len() != 1 || v.dims[0].0 != mesh.dim {
+        let kept: Vec<String> = v.dims.iter().map(|(d, n)| format!("{d}={n}")).collect();
+        return Err(Error::format(
+            path,
+            format!(
+                "'{name}' on the {} keeps [{}] after the selection; fix every dimension but '{}' with index or at",
+                mesh.describe(),
+                kept.join(", "),
+                mesh.dim
+            ),
+        ));
+    }
+    let r = sample::regrid(&mesh, &v.data, resolution)
+        .map_err(|e| Error::format(path, format!("'{name}': {e}")))?;
+    Ok(Some(GridFile {
+        name: name.clone(),
+        selected: plan.notes.clone(),
+        units: v.units.clone(),
+        shape: [r.lat.len(), r.lon.len()],
+        data: r.data,
+        x: geographic_axis("longitude", r.lon, CoordKind::Longitude),
+        y: geographic_axis("latitude", r.lat, CoordKind::Latitude),
+        wavelength: None,
+        rotated_pole: None,
+        regridded: Some(format!(
+            "{}, sampled onto {:.6} degrees",
+            mesh.describe(),
+            r.step
+        )),
+    }))
+}

@@ -1,0 +1,484 @@
+//! Finding a variable's mesh by the conventions models write, in their order of precedence:
+//! UGRID 1.0 (the variable's `mesh` and `location`; the topology's node coordinates and
+//! `face_node_connectivity` with its `start_index` and fill values), MPAS (`verticesOnCell`,
+//! `nEdgesOnCell`, `latVertex`/`lonVertex`, radians), SCRIP (`grid_corner_lat`/`_lon`), CF cell
+//! bounds on 1-D longitude and latitude (ICON's `clon`/`clat` with `clon_vertices`, radians, and
+//! what CDO writes for unstructured grids) and coastal models' triangle lists (FVCOM's `nv`,
+//! ADCIRC's `element`, 0- or 1-based) with node longitudes and latitudes. The geometry comes from
+//! the variable's own file or from `grid` (ICON and MPAS keep it apart); a grid whose cell count
+//! matches none of the variable's dimensions is refused.
+
+use std::path::Path;
+
+use super::{Location, Mesh};
+use crate::datasets::readers::variables::{self, Dims, NcAttribute, NcVariable};
+use crate::error::{Error, Result};
+
+type Attributes = Vec<(String, NcAttribute)>;
+
+fn text(attrs: &Attributes, key: &str) -> Option<String> {
+    attrs
+        .iter()
+        .find(|(k, _)| k == key)
+        .and_then(|(_, v)| match v {
+            NcAttribute::Text(t) => Some(t.trim().to_string()),
+            NcAttribute::Numbers(_) => None,
+        })
+}
+
+fn number(attrs: &Attributes, key: &str) -> Option<f64> {
+    attrs
+        .iter()
+        .find(|(k, _)| k == key)
+        .and_then(|(_, v)| match v {
+            NcAttribute::Numbers(n) => n.first().copied(),
+            NcAttribute::Text(t) => t.trim().parse().ok(),
+        })
+}
+
+/// The file a mesh's geometry is read from, with its variables listed once.
+struct Source<'a> {
+    path: &'a Path,
+    listed: Vec<(String, Dims)>,
+}
+
+impl<'a> Source<'a> {
+    fn open(path: &'a Path) -> Result<Source<'a>> {
+        Ok(Source {
+            path,
+            listed: variables::list_variables(path)?,
+        })
+    }
+
+    fn has(&self, name: &str) -> bool {
+        self.listed.iter().any(|(n, _)| n == name)
+    }
+
+    fn dims(&self, name: &str) -> Dims {
+        variables::dims_in(&self.listed, name)
+    }
+
+    fn read(&self, name: &str) -> Result<NcVariable> {
+        variables::read_variable(self.path, name)
+    }
+
+    fn attributes(&self, name: &str) -> Result<Attributes> {
+        variables::variable_attributes(self.path, name)
+    }
+
+    /// Variable `name` as degrees: radians converted, by its `units` (or `fallback` when it has
+    /// none); any other unit is refused.
+    fn degrees(&self, name: &str, fallback: &str) -> Result<Vec<f64>> {
+        let v = self.read(name)?;
+        let units = v.units.clone().unwrap_or_else(|| fallback.to_string());
+        let u = units.trim().to_ascii_lowercase();
+        let scale = if u.starts_with("radian") || u == "rad" {
+            180.0 / std::f64::consts::PI
+        } else if u.starts_with("degree") || u == "deg" {
+            1.0
+        } else {
+            return Err(Error::format(
+                self.path,
+                format!("mesh coordinate '{name}' in unknown units '{units}'; expected degrees or radians"),
+            ));
+        };
+        Ok(v.data.iter().map(|x| x * scale).collect())
+    }
+}
+
+/// The mesh variable `name` (dimensions `dims`) of `path` lies on, if any.
+pub(crate) fn mesh_of(
+    path: &Path,
+    name: &str,
+    dims: &Dims,
+    grid: Option<&Path>,
+) -> Result<Option<Mesh>> {
+    let attrs = variables::variable_attributes(path, name)?;
+    let data = Source::open(path)?;
+    let src = match grid {
+        Some(g) => Source::open(g)?,
+        None => Source::open(path)?,
+    };
+    let found = if let Some(topology) = text(&attrs, "mesh") {
+        let from = if src.has(&topology) { &src } else { &data };
+        Some(ugrid(from, &topology, text(&attrs, "location").as_deref())?)
+    } else if src.has("verticesOnCell") && src.has("nEdgesOnCell") {
+        Some(mpas(&src, dims)?)
+    } else if src.has("grid_corner_lat") && src.has("grid_corner_lon") {
+        Some(scrip(&src)?)
+    } else if let Some(m) = bounded(&src, &attrs)? {
+        Some(m)
+    } else {
+        triangles(&src, dims)?
+    };
+    let Some(mut mesh) = found else {
+        return Ok(None);
+    };
+    if mesh.lon.len() != mesh.lat.len() {
+        return Err(Error::format(
+            src.path,
+            format!(
+                "{} mesh with {} node longitudes but {} latitudes",
+                mesh.kind,
+                mesh.lon.len(),
+                mesh.lat.len()
+            ),
+        ));
+    }
+    // The variable's dimension that runs over the mesh: by name, else (from a grid file) by length.
+    let want = mesh.values();
+    let on = dims
+        .iter()
+        .rev()
+        .find(|(d, n)| *d == mesh.dim && *n == want)
+        .or_else(|| grid.and_then(|_| dims.iter().rev().find(|(_, n)| *n == want)));
+    match on {
+        Some((d, _)) => {
+            mesh.dim = d.clone();
+            Ok(Some(mesh))
+        }
+        None if grid.is_some() => Err(Error::format(
+            path,
+            format!(
+                "'{name}' has dimensions [{}], none of the {want} {} of the {} in {}",
+                dims.iter()
+                    .map(|(d, n)| format!("{d}={n}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if mesh.location == Location::Faces {
+                    "cells"
+                } else {
+                    "nodes"
+                },
+                mesh.describe(),
+                src.path.display()
+            ),
+        )),
+        None => Ok(None),
+    }
+}
+
+/// Cells from rows of node indices (`rows` of `width`), `base`-based, ending early at a fill
+/// (NaN or negative): each checked against the `nodes` the mesh has.
+fn cells(
+    src: &Source,
+    what: &str,
+    rows: impl Iterator<Item = Vec<f64>>,
+    base: f64,
+    nodes: usize,
+) -> Result<(Vec<usize>, Vec<usize>)> {
+    let (mut offsets, mut flat) = (vec![0], Vec::new());
+    for (f, row) in rows.enumerate() {
+        let start = flat.len();
+        for &v in &row {
+            if !v.is_finite() || v < base {
+                break;
+            }
+            let n = v - base;
+            if n.fract() != 0.0 || n >= nodes as f64 {
+                return Err(Error::format(
+                    src.path,
+                    format!("'{what}' cell {f} names node {v} (base {base}); the mesh has {nodes} nodes"),
+                ));
+            }
+            flat.push(n as usize);
+        }
+        if flat.len() - start < 3 {
+            return Err(Error::format(
+                src.path,
+                format!(
+                    "'{what}' cell {f} has {} nodes; expected at least 3",
+                    flat.len() - start
+                ),
+            ));
+        }
+        offsets.push(flat.len());
+    }
+    Ok((offsets, flat))
+}
+
+/// The rows of a 2-D variable, transposed when its cells run along its second dimension.
+fn rows_of(v: &NcVariable, cells_first: bool) -> Vec<Vec<f64>> {
+    let (a, b) = (v.dims[0].1, v.dims[1].1);
+    if cells_first {
+        v.data.chunks(b.max(1)).map(<[f64]>::to_vec).collect()
+    } else {
+        (0..b)
+            .map(|j| (0..a).map(|i| v.data[i * b + j]).collect())
+            .collect()
+    }
+}
+
+fn ugrid(src: &Source, topology: &str, location: Option<&str>) -> Result<Mesh> {
+    let t = src.attributes(topology)?;
+    let bad = |why: String| Error::format(src.path, format!("UGRID mesh '{topology}': {why}"));
+    let coords = text(&t, "node_coordinates").ok_or_else(|| bad("no node_coordinates".into()))?;
+    let names: Vec<&str> = coords.split_whitespace().collect();
+    let [x, y] = names[..] else {
+        return Err(bad(format!(
+            "node_coordinates '{coords}'; expected two variables"
+        )));
+    };
+    // CF orders them x then y; standard names or units say which is the latitude when not.
+    let is_lat = |n: &str| -> bool {
+        src.attributes(n).is_ok_and(|a| {
+            text(&a, "standard_name").as_deref() == Some("latitude")
+                || text(&a, "units").is_some_and(|u| u.contains("north"))
+        })
+    };
+    let (lon_name, lat_name) = if is_lat(x) { (y, x) } else { (x, y) };
+    let (lon, lat) = (
+        src.degrees(lon_name, "degrees")?,
+        src.degrees(lat_name, "degrees")?,
+    );
+    let conn_name = text(&t, "face_node_connectivity")
+        .ok_or_else(|| bad("no face_node_connectivity".into()))?;
+    let conn = src.read(&conn_name)?;
+    if conn.dims.len() != 2 {
+        return Err(bad(format!("'{conn_name}' is not 2-D")));
+    }
+    let face_dim = text(&t, "face_dimension").unwrap_or_else(|| conn.dims[0].0.clone());
+    let base = number(&src.attributes(&conn_name)?, "start_index").unwrap_or(0.0);
+    let (offsets, nodes) = cells(
+        src,
+        &conn_name,
+        rows_of(&conn, conn.dims[0].0 == face_dim).into_iter(),
+        base,
+        lon.len(),
+    )?;
+    let (location, dim) = match location {
+        Some("face") | None => (Location::Faces, face_dim),
+        Some("node") => (Location::Nodes, src.dims(lon_name)[0].0.clone()),
+        Some(other) => {
+            return Err(bad(format!(
+                "values on '{other}' are not drawn (faces and nodes are)"
+            )))
+        }
+    };
+    Ok(Mesh {
+        kind: "UGRID".into(),
+        lon,
+        lat,
+        offsets,
+        nodes,
+        location,
+        dim,
+    })
+}
+
+fn mpas(src: &Source, dims: &Dims) -> Result<Mesh> {
+    let lon = src.degrees("lonVertex", "radians")?;
+    let lat = src.degrees("latVertex", "radians")?;
+    let v = src.read("verticesOnCell")?;
+    let counts = src.read("nEdgesOnCell")?.data;
+    let width = v.dims.get(1).map_or(0, |d| d.1);
+    let rows = v.data.chunks(width.max(1)).zip(&counts).map(|(row, &n)| {
+        row.iter()
+            .take(n.max(0.0) as usize)
+            .copied()
+            .collect::<Vec<f64>>()
+    });
+    let (offsets, nodes) = cells(src, "verticesOnCell", rows, 1.0, lon.len())?;
+    let on_nodes =
+        dims.iter().any(|(d, _)| d == "nVertices") && !dims.iter().any(|(d, _)| d == "nCells");
+    Ok(Mesh {
+        kind: "MPAS".into(),
+        lon,
+        lat,
+        offsets,
+        nodes,
+        location: if on_nodes {
+            Location::Nodes
+        } else {
+            Location::Faces
+        },
+        dim: if on_nodes { "nVertices" } else { "nCells" }.into(),
+    })
+}
+
+/// Cells whose corners are stored with each cell: `(cells, corners)` longitudes and latitudes,
+/// each corner its own node.
+fn corner_cells(src: &Source, kind: &str, lon: &str, lat: &str, fallback: &str) -> Result<Mesh> {
+    let (x, y) = (src.degrees(lon, fallback)?, src.degrees(lat, fallback)?);
+    let v = src.dims(lon);
+    if v.len() != 2 || src.dims(lat) != v {
+        return Err(Error::format(
+            src.path,
+            format!("'{lon}' and '{lat}' must share two dimensions (cells, corners)"),
+        ));
+    }
+    let (count, corners) = (v[0].1, v[1].1);
+    // A repeated last corner (SCRIP pads triangles so) is dropped; cells keep at least three.
+    let mut offsets = vec![0];
+    let mut nodes = Vec::with_capacity(x.len());
+    for c in 0..count {
+        let start = nodes.len();
+        for k in 0..corners {
+            let n = c * corners + k;
+            let same = nodes.len() > start && {
+                let p = nodes[nodes.len() - 1];
+                x[p] == x[n] && y[p] == y[n]
+            };
+            if x[n].is_finite() && y[n].is_finite() && !same {
+                nodes.push(n);
+            }
+        }
+        if nodes.len() - start < 3 {
+            return Err(Error::format(
+                src.path,
+                format!(
+                    "'{lon}' cell {c} has {} distinct corners; expected at least 3",
+                    nodes.len() - start
+                ),
+            ));
+        }
+        offsets.push(nodes.len());
+    }
+    Ok(Mesh {
+        kind: kind.into(),
+        lon: x,
+        lat: y,
+        offsets,
+        nodes,
+        location: Location::Faces,
+        dim: v[0].0.clone(),
+    })
+}
+
+fn scrip(src: &Source) -> Result<Mesh> {
+    let units = text(&src.attributes("grid_corner_lat")?, "units");
+    if units.is_none() {
+        return Err(Error::format(
+            src.path,
+            "SCRIP 'grid_corner_lat' has no units; expected degrees or radians",
+        ));
+    }
+    corner_cells(
+        src,
+        "SCRIP",
+        "grid_corner_lon",
+        "grid_corner_lat",
+        "degrees",
+    )
+}
+
+/// 1-D longitude and latitude with CF `bounds` of shape (cells, vertices): among the variable's
+/// `coordinates`, else ICON's `clon`/`clat`.
+fn bounded(src: &Source, attrs: &Attributes) -> Result<Option<Mesh>> {
+    let mut candidates: Vec<String> = text(attrs, "coordinates")
+        .map(|c| c.split_whitespace().map(str::to_string).collect())
+        .unwrap_or_default();
+    candidates.extend(["clon", "clat", "lon", "lat", "longitude", "latitude"].map(String::from));
+    let mut lon: Option<(String, String, Dims)> = None;
+    let mut lat: Option<(String, String, Dims)> = None;
+    for c in candidates
+        .iter()
+        .filter(|c| src.has(c) && src.dims(c).len() == 1)
+    {
+        let a = src.attributes(c)?;
+        // Cells of at least three corners (a regular axis's bounds have two).
+        let Some(b) = text(&a, "bounds")
+            .filter(|b| src.has(b) && src.dims(b).len() == 2 && src.dims(b)[1].1 >= 3)
+        else {
+            continue;
+        };
+        let units = text(&a, "units").unwrap_or_default();
+        let standard = text(&a, "standard_name").unwrap_or_default();
+        let latitude = standard == "latitude" || units.contains("north") || c.contains("lat");
+        let slot = if latitude { &mut lat } else { &mut lon };
+        slot.get_or_insert((b, units, src.dims(c)));
+    }
+    // Both on the one dimension of the cells.
+    let (Some((lon_b, lon_units, on)), Some((lat_b, _, also))) = (lon, lat) else {
+        return Ok(None);
+    };
+    if on != also {
+        return Ok(None);
+    }
+    // ICON keeps the units on the centres; its bounds may have none.
+    let fallback = if lon_units.is_empty() {
+        "degrees".to_string()
+    } else {
+        lon_units
+    };
+    let kind = if lon_b.starts_with("clon") {
+        "ICON"
+    } else {
+        "CF cell bounds"
+    };
+    corner_cells(src, kind, &lon_b, &lat_b, &fallback).map(Some)
+}
+
+/// Names coastal models give their triangle lists.
+const TRIANGLE_LISTS: [&str; 6] = ["nv", "element", "ele", "elements", "face_nodes", "tri"];
+
+fn triangles(src: &Source, dims: &Dims) -> Result<Option<Mesh>> {
+    let Some(list) = TRIANGLE_LISTS
+        .iter()
+        .find(|n| src.has(n) && src.dims(n).len() == 2)
+    else {
+        return Ok(None);
+    };
+    let ld = src.dims(list);
+    let cells_first = matches!(ld[1].1, 3 | 4);
+    if !cells_first && !matches!(ld[0].1, 3 | 4) {
+        return Ok(None);
+    }
+    let (lon_name, lat_name) = [("lon", "lat"), ("x", "y"), ("longitude", "latitude")]
+        .into_iter()
+        .find(|(a, b)| src.has(a) && src.has(b) && src.dims(a).len() == 1)
+        .ok_or_else(|| {
+            Error::format(
+                src.path,
+                format!(
+                    "triangle list '{list}' without node longitudes and latitudes (lon/lat or x/y)"
+                ),
+            )
+        })?;
+    let (lon, lat) = (
+        src.degrees(lon_name, "degrees")?,
+        src.degrees(lat_name, "degrees")?,
+    );
+    let v = src.read(list)?;
+    let finite = v.data.iter().filter(|x| x.is_finite());
+    let lowest = finite.clone().fold(f64::INFINITY, |a, &b| a.min(b));
+    let highest = finite.fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+    let base = match number(&src.attributes(list)?, "start_index") {
+        Some(b) => b,
+        // FVCOM and ADCIRC count from 1: a list that never names node 0 and names node N is.
+        None if lowest >= 1.0 && highest == lon.len() as f64 => 1.0,
+        None => 0.0,
+    };
+    let (offsets, nodes) = cells(
+        src,
+        list,
+        rows_of(&v, cells_first).into_iter(),
+        base,
+        lon.len(),
+    )?;
+    let node_dim = src.dims(lon_name)[0].clone();
+    let face_dim = if cells_first {
+        ld[0].clone()
+    } else {
+        ld[1].clone()
+    };
+    let on_nodes = dims.contains(&node_dim) || !dims.contains(&face_dim);
+    let kind = match *list {
+        "nv" => "FVCOM",
+        "element" => "ADCIRC",
+        _ => "triangle list",
+    };
+    Ok(Some(Mesh {
+        kind: kind.into(),
+        lon,
+        lat,
+        offsets,
+        nodes,
+        location: if on_nodes {
+            Location::Nodes
+        } else {
+            Location::Faces
+        },
+        dim: if on_nodes { node_dim.0 } else { face_dim.0 },
+    }))
+}

@@ -1,0 +1,427 @@
+//! A mesh's field sampled onto a regular latitude–longitude grid, so every grid tool (maps,
+//! globes, coastlines, `save_grid`, statistics, movies, the TUI) works on it unchanged. A cell is
+//! the polygon of its nodes joined by straight lines in (longitude, latitude), its longitudes
+//! unwrapped from its first node; a node at a pole, which has no longitude, is widened to the
+//! stretch of the pole between its two neighbours' longitudes; a ring that goes round a pole is
+//! closed along it. Cell data: a grid node takes the value of the cell it falls in (by the
+//! crossing-number rule, so a node on an edge shared by two cells belongs to one of them). Node
+//! data: linear over the cell's fan of triangles from its first node (barycentric weights; a
+//! ring round a pole is cut into one trapezoid per edge, down to the pole, whose value is the
+//! mean of the ring's). Nodes no cell covers are missing. Cells are found by scanning each
+//! cell's bounding box on the target grid — the target grid is the spatial index, so the work is
+//! proportional to the cells plus the grid's nodes.
+
+use super::{Location, Mesh};
+use crate::datasets::conventions::curvilinear::Regridded;
+use crate::error::{Error, Result};
+
+/// The most nodes a sampled grid may have (as for curvilinear grids).
+const MAX_NODES: usize = 1 << 26;
+
+/// One cell in the (longitude, latitude) plane, ready to be drawn.
+pub(crate) struct Ring {
+    /// Vertices, longitudes unwrapped.
+    pub points: Vec<[f64; 2]>,
+    /// The mesh node of each vertex (`None` for a point added on a pole).
+    pub nodes: Vec<Option<usize>>,
+    /// The ring goes round a pole and was closed along it: its vertices before the last three
+    /// are the ring's own.
+    pub cap: bool,
+}
+
+/// Cell `f` of `mesh` as a ring in the plane; `None` when a node has no finite position.
+pub(crate) fn ring(mesh: &Mesh, f: usize) -> Option<Ring> {
+    let ids = mesh.face(f);
+    let at_pole = |n: usize| mesh.lat[n].abs() >= 90.0 - 1e-9;
+    if ids
+        .iter()
+        .any(|&n| !(mesh.lat[n].is_finite() && (mesh.lon[n].is_finite() || at_pole(n))))
+    {
+        return None;
+    }
+    // Unwrap the longitudes of the nodes off the poles, each within half a turn of the last.
+    let mut lon = vec![f64::NAN; ids.len()];
+    let mut last: Option<f64> = None;
+    for (k, &n) in ids.iter().enumerate() {
+        if at_pole(n) {
+            continue;
+        }
+        let l = mesh.lon[n];
+        lon[k] = match last {
+            Some(p) => l - 360.0 * ((l - p) / 360.0).round(),
+            None => l,
+        };
+        last = Some(lon[k]);
+    }
+    lon.iter().find(|l| l.is_finite())?;
+    let near = |l: f64, to: f64| l - 360.0 * ((l - to) / 360.0).round();
+    let count = ids.len();
+    let mut points = Vec::with_capacity(count + 4);
+    let mut nodes = Vec::with_capacity(count + 4);
+    for (k, &n) in ids.iter().enumerate() {
+        if !at_pole(n) {
+            points.push([lon[k], mesh.lat[n]]);
+            nodes.push(Some(n));
+            continue;
+        }
+        // The stretch of the pole between the neighbours off it, the shorter way round.
+        let prev = (1..count)
+            .map(|d| lon[(k + count - d) % count])
+            .find(|l| l.is_finite())?;
+        let next = (1..count)
+            .map(|d| lon[(k + d) % count])
+            .find(|l| l.is_finite())?;
+        let (prev, next) = if k == 0 {
+            (near(prev, next), next)
+        } else {
+            (prev, near(next, prev))
+        };
+        let pole = mesh.lat[n].signum() * 90.0;
+        points.extend([[prev, pole], [next, pole]]);
+        nodes.extend([Some(n), Some(n)]);
+    }
+    // The closing edge, from the last vertex back to the first, unwrapped like the others.
+    let (x0, y0) = (points[0][0], points[0][1]);
+    let xl = points[points.len() - 1][0];
+    let closing = x0 - 360.0 * ((x0 - xl) / 360.0).round();
+    let turn = closing - x0;
+    let cap = turn.abs() > 180.0;
+    if cap {
+        let pole = if points.iter().map(|p| p[1]).sum::<f64>() > 0.0 {
+            90.0
+        } else {
+            -90.0
+        };
+        points.push([closing, y0]);
+        points.push([closing, pole]);
+        points.push([x0, pole]);
+        nodes.push(nodes[0]);
+        nodes.extend([None, None]);
+    }
+    Some(Ring { points, nodes, cap })
+}
+
+/// Whether `p` is inside the polygon `points` (crossing number: a point on an edge belongs to
+/// the polygons on one side of it only).
+pub(crate) fn contains(points: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let mut inside = false;
+    let mut j = points.len() - 1;
+    for i in 0..points.len() {
+        let ([xi, yi], [xj, yj]) = (points[i], points[j]);
+        if (yi > p[1]) != (yj > p[1]) && p[0] < (xj - xi) * (p[1] - yi) / (yj - yi) + xi {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
+/// Whether `p` lies on an edge of the polygon (within 1e-9 degrees): cells are closed, so the
+/// nodes on a mesh's outer boundary are drawn (an edge shared by two cells goes to the first).
+fn on_boundary(points: &[[f64; 2]], p: [f64; 2]) -> bool {
+    let mut j = points.len() - 1;
+    for i in 0..points.len() {
+        let (a, b) = (points[j], points[i]);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 {
+            (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let (ex, ey) = (a[0] + t * dx - p[0], a[1] + t * dy - p[1]);
+        if ex * ex + ey * ey <= 1e-18 {
+            return true;
+        }
+        j = i;
+    }
+    false
+}
+
+/// The regular grid a mesh is sampled onto: nodes, step, and whether it goes all round.
+struct Plan {
+    lon: Vec<f64>,
+    lat: Vec<f64>,
+    step_lon: f64,
+    step: f64,
+    all_round: bool,
+}
+
+/// The grid for `mesh` at `step` degrees (default: the median edge of its cells, in degrees of
+/// arc): all round from −180° when the mesh spans the globe, else its extent in whichever of
+/// [−180°, 180°) and [0°, 360°) keeps it in one piece.
+fn plan(mesh: &Mesh, rings: &[Option<Ring>], step: Option<f64>) -> Result<Plan> {
+    let step = match step {
+        Some(s) if s.is_finite() && s > 0.0 => s,
+        Some(s) => {
+            return Err(Error::invalid(
+                "resolution",
+                format!("{s}; expected a step in degrees above 0"),
+            ))
+        }
+        None => mesh
+            .median_edge()
+            .ok_or_else(|| Error::invalid("mesh", "every cell has zero size"))?,
+    };
+    let finite = |v: &[f64]| {
+        v.iter()
+            .filter(|x| x.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(*x), b.max(*x))
+            })
+    };
+    let lats: Vec<f64> = rings
+        .iter()
+        .flatten()
+        .flat_map(|r| r.points.iter().map(|p| p[1]))
+        .collect();
+    let (south, north) = finite(&lats);
+    if !(south.is_finite() && north.is_finite()) {
+        return Err(Error::invalid(
+            "mesh",
+            "no cell has nodes at finite positions",
+        ));
+    }
+    let polar =
+        rings.iter().flatten().any(|r| r.cap) || south <= -90.0 + 1e-9 || north >= 90.0 - 1e-9;
+    let west: Vec<f64> = mesh.lon.iter().map(|l| l.rem_euclid(360.0)).collect();
+    let centred: Vec<f64> = west
+        .iter()
+        .map(|l| if *l >= 180.0 { l - 360.0 } else { *l })
+        .collect();
+    let (a, b) = finite(&west);
+    let (c, d) = finite(&centred);
+    let (lo, hi) = if b - a < d - c { (a, b) } else { (c, d) };
+    let all_round = polar || hi - lo >= 360.0 - 2.0 * step;
+    let (lon, step_lon) = if all_round {
+        let n = (360.0 / step).round().max(1.0) as usize;
+        let s = 360.0 / n as f64;
+        ((0..n).map(|k| -180.0 + k as f64 * s).collect(), s)
+    } else {
+        (axis(lo, hi, step), step)
+    };
+    let lat = axis(south, north, step);
+    if lon.len().saturating_mul(lat.len()) > MAX_NODES || lon.len() < 2 || lat.len() < 2 {
+        return Err(Error::invalid(
+            "resolution",
+            format!(
+                "{step} degrees gives {} x {} nodes over latitudes {south}..{north} and longitudes {lo}..{hi}; expected 2 to {MAX_NODES} in all, at least 2 along each",
+                lat.len(),
+                lon.len()
+            ),
+        ));
+    }
+    Ok(Plan {
+        lon,
+        lat,
+        step_lon,
+        step,
+        all_round,
+    })
+}
+
+/// Nodes `lo + k·step` from `lo` to at most `hi`.
+fn axis(lo: f64, hi: f64, step: f64) -> Vec<f64> {
+    let n = ((hi - lo) / step + 1e-9).floor() as usize + 1;
+    (0..n).map(|k| lo + k as f64 * step).collect()
+}
+
+/// The first and last node index within `[lo, hi]` of nodes `first + k·step`, `k < n`.
+fn span([lo, hi]: [f64; 2], first: f64, step: f64, n: usize) -> Option<(usize, usize)> {
+    let a = ((lo - first) / step - 1e-9).ceil().max(0.0);
+    let b = ((hi - first) / step + 1e-9).floor().min(n as f64 - 1.0);
+    (a <= b).then_some((a as usize, b as usize))
+}
+
+impl Plan {
+    /// Calls `visit(k, lon, lat)` for every grid node in the bounding box of `points`, at every
+    /// turn of longitude that meets the grid, with the node's longitude moved to that turn.
+    fn each_node_near(&self, points: &[[f64; 2]], mut visit: impl FnMut(usize, [f64; 2])) {
+        let (mut west, mut east, mut south, mut north) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for p in points {
+            (west, east) = (west.min(p[0]), east.max(p[0]));
+            (south, north) = (south.min(p[1]), north.max(p[1]));
+        }
+        let shifts: &[f64] = if self.all_round {
+            &[-720.0, -360.0, 0.0, 360.0, 720.0]
+        } else {
+            &[-360.0, 0.0, 360.0]
+        };
+        let Some(js) = span([south, north], self.lat[0], self.step, self.lat.len()) else {
+            return;
+        };
+        let nx = self.lon.len();
+        for &shift in shifts {
+            let Some(is) = span([west + shift, east + shift], self.lon[0], self.step_lon, nx)
+            else {
+                continue;
+            };
+            for j in js.0..=js.1 {
+                for i in is.0..=is.1 {
+                    visit(j * nx + i, [self.lon[i] - shift, self.lat[j]]);
+                }
+            }
+        }
+    }
+}
+
+/// `values` on `mesh` (one per cell or per node, as its location says) sampled onto a regular
+/// latitude–longitude grid of `step` degrees (default: the median cell edge).
+pub(crate) fn regrid(mesh: &Mesh, values: &[f64], step: Option<f64>) -> Result<Regridded> {
+    let rings: Vec<Option<Ring>> = (0..mesh.faces()).map(|f| ring(mesh, f)).collect();
+    let plan = plan(mesh, &rings, step)?;
+    let cells = plan.lon.len() * plan.lat.len();
+    let mut out = vec![f64::NAN; cells];
+    let mut written = vec![false; cells];
+    for (f, r) in rings.iter().enumerate() {
+        let Some(r) = r else { continue };
+        match mesh.location {
+            Location::Faces => {
+                let v = values[f];
+                plan.each_node_near(&r.points, |k, p| {
+                    if !written[k] && (contains(&r.points, p) || on_boundary(&r.points, p)) {
+                        out[k] = v;
+                        written[k] = true;
+                    }
+                });
+            }
+            Location::Nodes => {
+                for tri in triangles(r, values) {
+                    fill_triangle(&plan, tri, &mut out, &mut written);
+                }
+            }
+        }
+    }
+    Ok(Regridded {
+        lon: plan.lon,
+        lat: plan.lat,
+        data: out,
+        step: plan.step,
+    })
+}
+
+/// A ring's triangles with the node values at their corners: the fan from its first vertex, or
+/// for a ring round a pole two triangles per edge down to the pole, whose value is the mean of
+/// the ring's.
+fn triangles(r: &Ring, values: &[f64]) -> Vec<[([f64; 2], f64); 3]> {
+    let value = |k: usize| r.nodes[k].map_or(f64::NAN, |n| values[n]);
+    if !r.cap {
+        return (1..r.points.len().saturating_sub(1))
+            .map(|k| [0, k, k + 1].map(|i| (r.points[i], value(i))))
+            .collect();
+    }
+    let own = r.points.len() - 2;
+    let ring: Vec<f64> = (0..own - 1).map(value).collect();
+    let pole_value = ring.iter().sum::<f64>() / ring.len() as f64;
+    let pole = r.points[own][1];
+    (0..own - 1)
+        .flat_map(|k| {
+            let (a, b) = ((r.points[k], value(k)), (r.points[k + 1], value(k + 1)));
+            let (pa, pb) = (([a.0[0], pole], pole_value), ([b.0[0], pole], pole_value));
+            [[a, b, pb], [a, pb, pa]]
+        })
+        .collect()
+}
+
+/// Sets every grid node inside the triangle that no cell has set yet to the value linear over
+/// it (a missing corner makes the triangle missing).
+fn fill_triangle(plan: &Plan, t: [([f64; 2], f64); 3], out: &mut [f64], written: &mut [bool]) {
+    let [(a, va), (b, vb), (c, vc)] = t;
+    let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
+    if area == 0.0 {
+        return;
+    }
+    plan.each_node_near(&[a, b, c], |k, [x, y]| {
+        let wb = ((x - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (y - a[1])) / area;
+        let wc = ((b[0] - a[0]) * (y - a[1]) - (x - a[0]) * (b[1] - a[1])) / area;
+        let wa = 1.0 - wb - wc;
+        let tol = -1e-12;
+        if wa >= tol && wb >= tol && wc >= tol && !written[k] {
+            out[k] = wa * va + wb * vb + wc * vc;
+            written[k] = true;
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mesh(lon: Vec<f64>, lat: Vec<f64>, cells: &[&[usize]], location: Location) -> Mesh {
+        let mut offsets = vec![0];
+        let mut nodes = Vec::new();
+        for c in cells {
+            nodes.extend_from_slice(c);
+            offsets.push(nodes.len());
+        }
+        Mesh {
+            kind: "test".into(),
+            lon,
+            lat,
+            offsets,
+            nodes,
+            location,
+            dim: "cell".into(),
+        }
+    }
+
+    #[test]
+    fn a_ring_round_the_pole_is_closed_along_it() {
+        // A pentagon at 80°N round the pole, its longitudes across the antimeridian.
+        let lon: Vec<f64> = (0..5).map(|k| 170.0 + 72.0 * k as f64).collect();
+        let m = mesh(lon, vec![80.0; 5], &[&[0, 1, 2, 3, 4]], Location::Faces);
+        let r = ring(&m, 0).unwrap();
+        assert!(r.cap);
+        for x in [-180.0, -90.0, 0.0, 45.0, 170.0, 350.0] {
+            let inside = (-2..=2).any(|t| contains(&r.points, [x + 360.0 * t as f64, 85.0]));
+            assert!(inside, "{x}");
+            let below = (-2..=2).any(|t| contains(&r.points, [x + 360.0 * t as f64, 75.0]));
+            assert!(!below, "{x}");
+        }
+        let g = regrid(&m, &[7.0], Some(2.0)).unwrap();
+        assert_eq!(g.lon.len(), 180);
+        let row = g.lat.iter().position(|&l| l == 86.0).unwrap();
+        assert!(g.data[row * 180..(row + 1) * 180].iter().all(|&v| v == 7.0));
+    }
+
+    #[test]
+    fn a_node_at_the_pole_widens_to_its_neighbours_longitudes() {
+        // ICON's triangle with a vertex on the pole (longitude 0 there, meaningless).
+        let m = mesh(
+            vec![0.0, 10.0, 82.0],
+            vec![90.0, 80.0, 80.0],
+            &[&[0, 1, 2]],
+            Location::Nodes,
+        );
+        let r = ring(&m, 0).unwrap();
+        assert!(!r.cap);
+        assert_eq!(r.points.len(), 4);
+        assert!(contains(&r.points, [46.0, 85.0]));
+        assert!(!contains(&r.points, [100.0, 85.0]));
+        // Node data: the pole's value along its stretch, linear down to the ring.
+        let g = regrid(&m, &[10.0, 0.0, 0.0], Some(1.0)).unwrap();
+        let at = |lon: f64, lat: f64| {
+            let (i, j) = (
+                g.lon.iter().position(|&l| l == lon).unwrap(),
+                g.lat.iter().position(|&l| l == lat).unwrap(),
+            );
+            g.data[j * g.lon.len() + i]
+        };
+        assert!((at(20.0, 85.0) - 5.0).abs() < 1e-9, "{}", at(20.0, 85.0));
+        assert!(at(100.0, 85.0).is_nan());
+    }
+
+    #[test]
+    fn cells_across_the_antimeridian_are_drawn_whole() {
+        let m = mesh(
+            vec![170.0, -170.0, -170.0, 170.0],
+            vec![0.0, 0.0, 10.0, 10.0],
+            &[&[0, 1, 2, 3]],
+            Location::Faces,
+        );
+        let g = regrid(&m, &[3.0], Some(5.0)).unwrap();
+        // The extent in [0, 360): 170..190, five columns, all set.
+        assert_eq!(g.lon, vec![170.0, 175.0, 180.0, 185.0, 190.0]);
+        assert!(g.data.iter().all(|&v| v == 3.0), "{:?}", g.data);
+    }
+}
