@@ -32,7 +32,7 @@ struct Case {
     on_nodes: bool,
 }
 
-const CASES: [Case; 13] = [
+const CASES: [Case; 14] = [
     Case {
         file: "ugrid.nc",
         grid: None,
@@ -127,6 +127,14 @@ const CASES: [Case; 13] = [
         variable: "zeta",
         index: &[("time", 1)],
         step: 0.02,
+        on_nodes: true,
+    },
+    Case {
+        file: "camse.nc",
+        grid: None,
+        variable: "T850",
+        index: &[("time", 1)],
+        step: 2.0,
         on_nodes: true,
     },
     Case {

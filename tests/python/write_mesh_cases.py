@@ -72,6 +72,11 @@ write: the files below (each under 300 kB) and OUT_DIR/cases.json; prints a tabl
                     1-based (long_name "element", units "nondimensional"), counter-clockwise;
                     depth(node); zeta(time, node) float64, _FillValue -99999 (node):
                     0.5 + 0.01 x - 0.02 y + 0.1 time, node 30 dry (missing) at time 1.
+  camse.nc          CAM-SE history output on its native grid: 600 columns (ncol) with only their
+                    centres, lat(ncol) and lon(ncol) in degrees (lon in [0, 360), a nudged
+                    Fibonacci sphere), area(ncol), T850(time, ncol) and lin(ncol) = 2 + 0.01 lon +
+                    0.03 lat; its cells for the reference are the spherical Delaunay triangles of
+                    the centres, the faces of their convex hull (scipy's qhull), values on nodes
   Bad files, each one fault:
   bad_index.nc      ugrid.nc with face 10's second entry = number of nodes + 5.
   bad_polygon.nc    ugrid.nc with face 10 having only 2 valid nodes.
@@ -108,7 +113,8 @@ sample: REQUEST.json is {"file": NAME, "grid": null or NAME, "variable": NAME, "
   - face data: that cell's value; node data: barycentric over the first of the cell's
     triangles that holds the point (weights >= -1e-12; zero-area triangles skipped): the fan
     (v0, vk, vk+1), k = 1..n-2 of the final polygon, or for a ring round a pole two triangles
-    per ring edge down to the pole, (a, b, pole below b) and (a, pole below b, pole below a),
+    per ring edge down to the pole, (a, b, pole below b) and (a, pole below b, pole below a)
+    with a the edge's western end,
     the pole's value the mean of the ring's; missing data in the cell's value or any of its
     vertex values give null (the cell counts as no cell).
   Exit status 1 with a message on stderr for a file it cannot read (the bad files).
@@ -642,6 +648,38 @@ def write_adcirc(path):
                 coordinates="time y x", units="m", positive="up")
 
 
+def camse_columns(n=600):
+    """A quasi-uniform global set of column centres (a Fibonacci sphere, each point nudged by a
+    hashed amount, so no four lie on one circle), as CAM-SE's ne-grids spread theirs."""
+    k = np.arange(n) + 0.5
+    lat = np.degrees(np.arcsin(1.0 - 2.0 * k / n))
+    lon = (np.degrees(np.pi * (1.0 + 5.0 ** 0.5) * k)) % 360.0
+    lat = lat + np.array([0.3 * (hash01(i, 1, 7) - 0.5) for i in range(n)])
+    lon = (lon + np.array([0.3 * (hash01(i, 2, 7) - 0.5) for i in range(n)])) % 360.0
+    return lon, np.clip(lat, -89.9, 89.9)
+
+
+def write_camse(path):
+    """CAM-SE history output on its native grid: columns `ncol` with only their centres,
+    lat(ncol) and lon(ncol) in degrees (lon in [0, 360)), area(ncol), T850(time, ncol) and the
+    exactly linear lin(ncol) = 2 + 0.01 lon + 0.03 lat."""
+    lon, lat = camse_columns()
+    with netCDF4.Dataset(path, "w", format="NETCDF3_64BIT_OFFSET") as ds:
+        ds.createDimension("ncol", len(lon))
+        ds.createDimension("time", None)
+        ds.ne = 4
+        add_var(ds, "time", "f8", ("time",), [0.0, 1.0], units="days since 2000-01-01 00:00:00",
+                calendar="noleap")
+        add_var(ds, "lat", "f8", ("ncol",), lat, long_name="latitude", units="degrees_north")
+        add_var(ds, "lon", "f8", ("ncol",), lon, long_name="longitude", units="degrees_east")
+        add_var(ds, "area", "f8", ("ncol",), np.full(len(lon), 4.0 * np.pi / len(lon)),
+                long_name="gll grid areas")
+        t = np.array([250.0 + 30.0 * np.cos(np.radians(lat)) + 3.0 * np.sin(np.radians(2 * lon)) + s
+                      for s in (0.0, 1.0)])
+        add_var(ds, "T850", "f4", ("time", "ncol"), t, units="K", long_name="Temperature at 850 mbar pressure surface")
+        add_var(ds, "lin", "f8", ("ncol",), 2.0 + 0.01 * lon + 0.03 * lat, units="1")
+
+
 # -- reading (the reference's own reader of each convention) ---------------------------------------
 
 
@@ -726,6 +764,15 @@ def load_mesh(ds):
         conn = raw(ds["element"]).astype(np.int64) - 1
         return Mesh("adcirc", cells_from_nodes(lon, lat, conn, np.ones(conn.shape, bool)), ("nele",), ("node",),
                     len(lon))
+    if "ncol" in ds.dimensions and "lat" in names and "lon" in names and ds["lat"].dimensions == ("ncol",):
+        from scipy.spatial import ConvexHull
+        lon = degrees(raw(ds["lon"]), ds["lon"].units, "lon")
+        lat = degrees(raw(ds["lat"]), ds["lat"].units, "lat")
+        xyz = np.stack([np.cos(np.radians(lat)) * np.cos(np.radians(lon)),
+                        np.cos(np.radians(lat)) * np.sin(np.radians(lon)), np.sin(np.radians(lat))], axis=1)
+        # The sphere's Delaunay triangles are its centres' convex hull's faces (qhull).
+        tris = ConvexHull(xyz).simplices.astype(np.int64)
+        return Mesh("columns", cells_from_nodes(lon, lat, tris, np.ones(tris.shape, bool)), (), ("ncol",), len(lon))
     raise Fail("no mesh found")
 
 
@@ -868,7 +915,9 @@ def triangles_of(poly):
     out = []
     for k in range(own - 1):
         a, b = (xs[k], ys[k], vs[k]), (xs[k + 1], ys[k + 1], vs[k + 1])
-        pa, pb = (xs[k], plat, mean), (xs[k + 1], plat, mean)
+        if a[0] > b[0]:  # west to east: the diagonal does not depend on the ring's direction
+            a, b = b, a
+        pa, pb = (a[0], plat, mean), (b[0], plat, mean)
         out += [(a, b, pb), (a, pb, pa)]
     return out
 
@@ -904,11 +953,15 @@ def sample_points(mesh, values, loc, lon, lat):
     # Cells with missing data count as no cell; the edges of every cell are ambiguous.
     edge, _, _, _ = locate(polys, lon, lat)
     live = [p if g else None for p, g in zip(polys, good)]
-    _, cell, shift, _ = locate(live, lon, lat)
+    _, cell, shift, count = locate(live, lon, lat)
     out = []
     for n in range(len(lon)):
         if edge[n]:
             out.append("edge")
+        elif count[n] > 1:
+            # Two cells overlap here in the (longitude, latitude) plane (a triangle near a
+            # pole whose straight edges cross the cap of another): either may be drawn.
+            out.append("overlap")
         elif cell[n] < 0:
             out.append(None)
         elif loc == "face":
@@ -985,6 +1038,7 @@ def write(out):
     write_scrip_data(p("scrip_data.nc"))
     write_fvcom(p("fvcom.nc"))
     write_adcirc(p("adcirc.nc"))
+    write_camse(p("camse.nc"))
     write_ugrid(p("bad_index.nc"), fault="index")
     write_ugrid(p("bad_polygon.nc"), fault="polygon")
     write_icon_data(p("bad_units.nc"), units="furlongs")
@@ -1017,6 +1071,9 @@ def write(out):
                  linear={"zeta": "0.5 + 0.01*x - 0.02*y + 0.1*time"},
                  missing={"zeta": f"node {ADCIRC_DRY_NODE} (0-based) dry at time 1 (_FillValue -99999)"},
                  notes="element(nele, nvertex) 1-based, no mesh topology variable"),
+        describe(out, "camse.nc", "columns", node_vars=["T850", "lin"],
+                 linear={"lin": "2 + 0.01*lon + 0.03*lat, lon in [0, 360)"},
+                 notes="600 columns with centres only; cells: their spherical Delaunay triangles (qhull)"),
         describe(out, "bad_index.nc", "ugrid", faces_vars=["depth", "temp"], node_vars=["elev"],
                  fault="face 10 refers to node index nodes + 5"),
         describe(out, "bad_polygon.nc", "ugrid", faces_vars=["depth", "temp"], node_vars=["elev"],

@@ -1,10 +1,12 @@
 //! Unstructured meshes, as climate, ocean and coastal models write them: UGRID 1.0 flexible
 //! meshes, ICON's triangles (cell centres with their vertices, CF bounds), MPAS's Voronoi cells,
-//! SCRIP grid files and coastal models' triangle lists (FVCOM, ADCIRC). A variable whose last
+//! SCRIP grid files, coastal models' triangle lists (FVCOM, ADCIRC) and columns given by their
+//! centres alone (CAM-SE), triangulated ([`delaunay`]). A variable whose last
 //! dimension runs over a mesh's cells or nodes is found on its mesh here ([`read`]), from its own
 //! file or from a separate grid file, and sampled onto a regular latitude–longitude grid
 //! ([`sample`]) so that maps, globes and every grid tool draw it.
 
+pub(crate) mod delaunay;
 pub(crate) mod read;
 pub(crate) mod sample;
 

@@ -108,8 +108,10 @@ pub(crate) fn mesh_of(
         Some(scrip(&src)?)
     } else if let Some(m) = bounded(&src, &attrs)? {
         Some(m)
+    } else if let Some(m) = triangles(&src, dims)? {
+        Some(m)
     } else {
-        triangles(&src, dims)?
+        columns(&src, &attrs, dims)?
     };
     let Some(mut mesh) = found else {
         return Ok(None);
@@ -480,5 +482,59 @@ fn triangles(src: &Source, dims: &Dims) -> Result<Option<Mesh>> {
             Location::Faces
         },
         dim: if on_nodes { node_dim.0 } else { face_dim.0 },
+    }))
+}
+
+/// Columns with only their centres: 1-D latitude and longitude on one dimension that is not
+/// their own (CAM-SE's `lat(ncol)`, `lon(ncol)`), which the variable has; their cells are the
+/// spherical Delaunay triangles of the centres ([`super::delaunay`]), the values on the nodes.
+fn columns(src: &Source, attrs: &Attributes, dims: &Dims) -> Result<Option<Mesh>> {
+    let mut names: Vec<String> = text(attrs, "coordinates")
+        .map(|c| c.split_whitespace().map(str::to_string).collect())
+        .unwrap_or_default();
+    names.extend(["lon", "lat", "longitude", "latitude", "clon", "clat"].map(String::from));
+    let one_d = |n: &String| {
+        let d = src.dims(n);
+        (src.has(n) && d.len() == 1 && d[0].0 != *n).then(|| d[0].clone())
+    };
+    let pick = |latitude: bool| -> Result<Option<(String, (String, usize))>> {
+        for n in &names {
+            let Some(d) = one_d(n) else { continue };
+            let a = src.attributes(n)?;
+            let units = text(&a, "units").unwrap_or_default();
+            let is_lat = text(&a, "standard_name").as_deref() == Some("latitude")
+                || units.contains("north")
+                || n.contains("lat");
+            if is_lat == latitude {
+                return Ok(Some((n.clone(), d)));
+            }
+        }
+        Ok(None)
+    };
+    let (Some((lon_name, on)), Some((lat_name, also))) = (pick(false)?, pick(true)?) else {
+        return Ok(None);
+    };
+    if on != also || on.1 < 3 || !dims.iter().any(|(_, n)| *n == on.1) {
+        return Ok(None);
+    }
+    let (lon, lat) = (
+        src.degrees(&lon_name, "degrees")?,
+        src.degrees(&lat_name, "degrees")?,
+    );
+    let tris = super::delaunay::triangulate(&lon, &lat).map_err(|why| {
+        Error::format(
+            src.path,
+            format!("columns '{lon_name}', '{lat_name}': {why}"),
+        )
+    })?;
+    let offsets = (0..=tris.len()).map(|k| 3 * k).collect();
+    Ok(Some(Mesh {
+        kind: "columns (spherical Delaunay of their centres)".into(),
+        lon,
+        lat,
+        offsets,
+        nodes: tris.into_iter().flatten().collect(),
+        location: Location::Nodes,
+        dim: on.0,
     }))
 }

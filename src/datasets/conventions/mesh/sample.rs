@@ -302,7 +302,7 @@ pub(crate) fn regrid(mesh: &Mesh, values: &[f64], step: Option<f64>) -> Result<R
 
 /// A ring's triangles with the node values at their corners: the fan from its first vertex, or
 /// for a ring round a pole two triangles per edge down to the pole, whose value is the mean of
-/// the ring's.
+/// the ring's (the trapezoid cut from the edge's western end to the pole below its eastern).
 fn triangles(r: &Ring, values: &[f64]) -> Vec<[([f64; 2], f64); 3]> {
     let value = |k: usize| r.nodes[k].map_or(f64::NAN, |n| values[n]);
     if !r.cap {
@@ -316,7 +316,12 @@ fn triangles(r: &Ring, values: &[f64]) -> Vec<[([f64; 2], f64); 3]> {
     let pole = r.points[own][1];
     (0..own - 1)
         .flat_map(|k| {
-            let (a, b) = ((r.points[k], value(k)), (r.points[k + 1], value(k + 1)));
+            // West to east along the edge, so the trapezoid's diagonal does not depend on
+            // which way the ring runs.
+            let (mut a, mut b) = ((r.points[k], value(k)), (r.points[k + 1], value(k + 1)));
+            if a.0[0] > b.0[0] {
+                std::mem::swap(&mut a, &mut b);
+            }
             let (pa, pb) = (([a.0[0], pole], pole_value), ([b.0[0], pole], pole_value));
             [[a, b, pb], [a, pb, pa]]
         })
