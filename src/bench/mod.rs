@@ -19,6 +19,7 @@ pub mod datasets;
 pub mod distributed;
 pub mod effects;
 pub mod equal_error;
+pub mod meshes;
 pub mod skipping;
 pub mod spherical;
 pub mod surface;

@@ -4,7 +4,7 @@
 
 use super::{BenchCommand, SkippingViewArg};
 use hdrvis::bench::{
-    accuracy, bricks, datasets, effects, skipping, spherical, surface, tonemap, tui, volume,
+    accuracy, bricks, datasets, effects, meshes, skipping, spherical, surface, tonemap, tui, volume,
 };
 use hdrvis::gpu::{BackendChoice, GpuContext};
 use hdrvis::{Error, Result};
@@ -111,6 +111,7 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             Ok(())
         }
         cmd @ BenchCommand::Distributed { .. } => bench_distributed(backend, cmd),
+        cmd @ BenchCommand::Meshes { .. } => bench_meshes_command(cmd, backend, &mut progress),
         BenchCommand::Surface { runs, n } => {
             let (ctx, adapter) = gpu(backend)?;
             let rows = surface::bench_surface(ctx, n, runs, &mut progress)?;
@@ -118,6 +119,33 @@ pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `hdrvis bench meshes`: the levels checked, then each mesh timed (and its peer run).
+fn bench_meshes_command(
+    cmd: BenchCommand,
+    backend: BackendChoice,
+    progress: &mut dyn FnMut(&str),
+) -> Result<()> {
+    let BenchCommand::Meshes {
+        runs,
+        levels,
+        width,
+        peer,
+    } = cmd
+    else {
+        unreachable!("called for bench meshes only")
+    };
+    if let Some(&l) = levels.iter().find(|&&l| l > 10) {
+        return Err(Error::invalid(
+            "levels",
+            format!("{l}; expected 0 to 10 (10: 10 485 762 cells)"),
+        ));
+    }
+    let (ctx, adapter) = gpu(backend)?;
+    let rows = meshes::bench_meshes(ctx, &levels, width, runs, peer.as_deref(), progress)?;
+    print!("{}", meshes::format_meshes_table(&adapter, width, &rows));
+    Ok(())
 }
 
 /// `hdrvis bench tonemap`: the GPU tone mapper on its own, or with `--peer` whole processes.

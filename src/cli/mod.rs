@@ -402,6 +402,24 @@ pub enum BenchCommand {
         #[arg(long, hide = true)]
         report: Option<PathBuf>,
     },
+    /// Unstructured meshes at model sizes: MPAS-like Voronoi meshes of the icosahedron (level 9:
+    /// MPAS's 15 km mesh's 2 621 442 cells) written as MPAS writes them, then load_grid (read,
+    /// mesh, sample onto lat/lon) and a map render timed, with peak memory; `--peer geovista`
+    /// draws the same file with GeoVista in the same run
+    Meshes {
+        /// Timed runs per mesh (after one warm-up).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Icosahedral levels (7: 163 842 cells, 8: 655 362, 9: 2 621 442).
+        #[arg(long, value_delimiter = ',', default_values_t = vec![7u32, 9])]
+        levels: Vec<u32>,
+        /// Width of the map in pixels (its height is half).
+        #[arg(long, default_value_t = 1024)]
+        width: u32,
+        /// A peer drawing the same mesh file: geovista.
+        #[arg(long)]
+        peer: Option<String>,
+    },
     /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
     /// two-step render, medians.
     Surface {

@@ -252,9 +252,9 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
     {
         let _ = writeln!(
             out,
-            "mesh: {} (load_grid samples it onto a regular latitude-longitude grid at its median cell edge, {:.4} degrees, or at resolution)",
+            "mesh: {} (load_grid samples it onto a regular latitude-longitude grid at its cells' median size, {:.4} degrees, or at resolution)",
             mesh.describe(),
-            mesh.median_edge().unwrap_or(f64::NAN)
+            mesh.median_size().unwrap_or(f64::NAN)
         );
     }
     for note in &array.notes {

@@ -64,7 +64,7 @@ pub(crate) const LOAD_GRID: OptionTable = OptionTable {
         opt(
             "resolution",
             Kind::NumAbove(0.0, 90.0),
-            "the grid's median cell edge",
+            "the grid's median cell edge; a mesh's median cell size",
             "a curvilinear grid (2-D latitude and longitude named in the variable's coordinates) or an unstructured mesh (UGRID, ICON, MPAS, SCRIP, FVCOM, ADCIRC): the step in degrees of the regular latitude-longitude grid it is regridded or sampled onto; refused for other grids",
         ),
         opt(

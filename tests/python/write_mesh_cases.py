@@ -286,8 +286,8 @@ def to_lonlat(xyz):
     return np.arctan2(xyz[:, 1], xyz[:, 0]), np.arcsin(np.clip(xyz[:, 2], -1.0, 1.0))
 
 
-def icon_mesh():
-    xyz, tris = icosphere(2)
+def icon_mesh(level=2):
+    xyz, tris = icosphere(level)
     centres = xyz[tris].sum(axis=1)
     centres /= np.linalg.norm(centres, axis=1)[:, None]
     vlon, vlat = to_lonlat(xyz)
@@ -295,10 +295,10 @@ def icon_mesh():
     return xyz, tris, centres, vlon, vlat, clon, clat
 
 
-def mpas_mesh():
-    """The Voronoi dual of icon_mesh: cells at the icosahedral points, vertices at the
+def mpas_mesh(level=2):
+    """The Voronoi dual of icon_mesh(level): cells at the icosahedral points, vertices at the
     triangles' centres, each cell's vertices counter-clockwise seen from outside."""
-    xyz, tris, centres, _, _, _, _ = icon_mesh()
+    xyz, tris, centres, _, _, _, _ = icon_mesh(level)
     around = [[] for _ in range(len(xyz))]
     for n, tri in enumerate(tris):
         for v in tri:
@@ -407,8 +407,8 @@ def icon_salinity(clon, clat, ntime=2, ndepth=3):
     return s
 
 
-def write_icon_grid(path):
-    _, tris, _, vlon, vlat, clon, clat = icon_mesh()
+def write_icon_grid(path, level=2):
+    _, tris, _, vlon, vlat, clon, clat = icon_mesh(level)
     with netCDF4.Dataset(path, "w", format="NETCDF4") as ds:
         ds.title = "ICON grid description"
         ds.grid_mapping_name = "lat_long_on_sphere"
@@ -429,8 +429,8 @@ def write_icon_grid(path):
                 long_name="vertices of each cell", cdi="ignore")
 
 
-def write_icon_data(path, coords=True, ncells=None, units="radian"):
-    _, tris, _, vlon, vlat, clon, clat = icon_mesh()
+def write_icon_data(path, coords=True, ncells=None, units="radian", level=2):
+    _, tris, _, vlon, vlat, clon, clat = icon_mesh(level)
     s = icon_salinity(clon, clat)
     n = len(clon) if ncells is None else ncells
     with netCDF4.Dataset(path, "w", format="NETCDF4") as ds:
@@ -462,8 +462,8 @@ def write_icon_data(path, coords=True, ncells=None, units="radian"):
         add_var(ds, "S", "f4", ("time", "depth", "ncells"), s[:, :, :n], fill=np.float32(-9e33), **attrs)
 
 
-def write_mpas(grid_path, data_path):
-    xyz, tris, centres, voc = mpas_mesh()
+def write_mpas(grid_path, data_path, level=2):
+    xyz, tris, centres, voc = mpas_mesh(level)
     nc, nv = len(xyz), len(centres)
     lon_c, lat_c = to_lonlat(xyz)
     lon_v, lat_v = to_lonlat(centres)
@@ -477,7 +477,7 @@ def write_mpas(grid_path, data_path):
         ds.sphere_radius = 1.0
         ds.is_periodic = "NO"
         ds.mesh_spec = "1.0"
-        ds.file_id = "hdrvis-icosahedral-2"
+        ds.file_id = f"hdrvis-icosahedral-{level}"
         for name, n in (("nCells", nc), ("nVertices", nv), ("maxEdges", 6), ("vertexDegree", 3)):
             ds.createDimension(name, n)
         add_var(ds, "latCell", "f8", ("nCells",), lat_c, units="radians", long_name="Latitude of cells")
@@ -569,8 +569,10 @@ def adcirc_mesh():
     return triangle_patch(-90.0, -88.5, 8, 28.5, 29.7, 6, 23, clockwise=False)
 
 
-def write_fvcom(path):
-    lon, lat, tris = fvcom_mesh()
+def write_fvcom(path, mesh=None, depth=None):
+    """fvcom.nc; mesh: (lon, lat, triangles) of another patch (default fvcom_mesh(), whose
+    triangles are clockwise, as FVCOM stores them), depth: its h(node) (default a plane)."""
+    lon, lat, tris = fvcom_mesh() if mesh is None else mesh
     tris = np.array(tris)
     lonc, latc = lon[tris].mean(axis=1), lat[tris].mean(axis=1)
     with netCDF4.Dataset(path, "w", format="NETCDF4_CLASSIC") as ds:
@@ -591,7 +593,9 @@ def write_fvcom(path):
                 units="degrees_east")
         add_var(ds, "latc", "f8", ("nele",), latc, long_name="zonal latitude", standard_name="latitude",
                 units="degrees_north")
-        add_var(ds, "h", "f8", ("node",), 20.0 + 10.0 * (lat - 41.0) + 5.0 * (lon + 70.0),
+        if depth is None:
+            depth = 20.0 + 10.0 * (lat - 41.0) + 5.0 * (lon + 70.0)
+        add_var(ds, "h", "f8", ("node",), depth,
                 long_name="Bathymetry", standard_name="sea_floor_depth_below_geoid", units="m",
                 positive="down", grid="Bathymetry_Mesh", coordinates="lat lon", type="data")
         add_var(ds, "nv", "i4", ("three", "nele"), tris.T + 1, long_name="nodes surrounding element")

@@ -60,24 +60,41 @@ impl Mesh {
         }
     }
 
-    /// The median length of the cells' edges in degrees of arc (of at most 200 000 edges spread
-    /// over the mesh); `None` when every edge has zero length.
-    pub(crate) fn median_edge(&self) -> Option<f64> {
-        let every = (self.faces() / 50_000).max(1);
-        let mut edges: Vec<f64> = (0..self.faces())
+    /// The cells' median size in degrees: the square root of a cell's area (its polygon in
+    /// longitude and latitude, the longitudes shrunk by the cosine of its latitude), the step
+    /// at which a grid samples each cell about once. Of at most 200 000 cells spread over the
+    /// mesh; cells round a pole or at one are left out. `None` when every cell has zero area.
+    pub(crate) fn median_size(&self) -> Option<f64> {
+        let every = (self.faces() / 200_000).max(1);
+        let mut sizes: Vec<f64> = (0..self.faces())
             .step_by(every)
-            .flat_map(|f| {
+            .filter_map(|f| {
                 let ids = self.face(f);
-                (0..ids.len()).map(move |k| (ids[k], ids[(k + 1) % ids.len()]))
+                let first = self.lon[ids[0]];
+                let mut pts = Vec::with_capacity(ids.len());
+                for &n in ids {
+                    let (lo, la) = (self.lon[n], self.lat[n]);
+                    if !(lo.is_finite() && la.is_finite()) || la.abs() >= 90.0 - 1e-9 {
+                        return None;
+                    }
+                    pts.push([lo - 360.0 * ((lo - first) / 360.0).round(), la]);
+                }
+                let mean_lat = pts.iter().map(|p| p[1]).sum::<f64>() / pts.len() as f64;
+                let twice: f64 = (0..pts.len())
+                    .map(|k| {
+                        let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
+                        a[0] * b[1] - b[0] * a[1]
+                    })
+                    .sum();
+                let area = 0.5 * twice.abs() * mean_lat.to_radians().cos();
+                (area > 0.0).then(|| area.sqrt())
             })
-            .map(|(a, b)| arc_degrees([self.lon[a], self.lat[a]], [self.lon[b], self.lat[b]]))
-            .filter(|e| e.is_finite() && *e > 0.0)
             .collect();
-        if edges.is_empty() {
+        if sizes.is_empty() {
             return None;
         }
-        let mid = edges.len() / 2;
-        Some(*edges.select_nth_unstable_by(mid, f64::total_cmp).1)
+        let mid = sizes.len() / 2;
+        Some(*sizes.select_nth_unstable_by(mid, f64::total_cmp).1)
     }
 
     /// One line for `hdrvis info` and a grid's name: convention, cells, nodes, where the values
@@ -95,14 +112,6 @@ impl Mesh {
             self.dim
         )
     }
-}
-
-/// The angle between two points (longitude, latitude in degrees), in degrees.
-fn arc_degrees(a: [f64; 2], b: [f64; 2]) -> f64 {
-    let (la, lb) = (a[1].to_radians(), b[1].to_radians());
-    let dlon = (b[0] - a[0]).to_radians();
-    let h = ((lb - la) / 2.0).sin().powi(2) + la.cos() * lb.cos() * (dlon / 2.0).sin().powi(2);
-    (2.0 * h.sqrt().min(1.0).asin()).to_degrees()
 }
 
 /// Arrays that describe meshes rather than hold data on them.
@@ -163,7 +172,7 @@ fn variable_on_mesh(
 
 /// A variable on an unstructured mesh as a grid: the selection fixes every dimension but the
 /// mesh's, and the values are sampled onto a regular latitude–longitude grid of `resolution`
-/// degrees (default: the median cell edge). `None` when the variable (or, without one, every
+/// degrees (default: the cells' median size). `None` when the variable (or, without one, every
 /// variable) is on no mesh and no `grid` file is given.
 pub(crate) fn grid_file(
     path: &Path,

@@ -165,14 +165,14 @@ pub(crate) fn mesh_of(
 fn cells(
     src: &Source,
     what: &str,
-    rows: impl Iterator<Item = Vec<f64>>,
+    rows: impl Iterator<Item = impl AsRef<[f64]>>,
     base: f64,
     nodes: usize,
 ) -> Result<(Vec<usize>, Vec<usize>)> {
     let (mut offsets, mut flat) = (vec![0], Vec::new());
     for (f, row) in rows.enumerate() {
         let start = flat.len();
-        for &v in &row {
+        for &v in row.as_ref() {
             if !v.is_finite() || v < base {
                 break;
             }
@@ -274,12 +274,11 @@ fn mpas(src: &Source, dims: &Dims) -> Result<Mesh> {
     let v = src.read("verticesOnCell")?;
     let counts = src.read("nEdgesOnCell")?.data;
     let width = v.dims.get(1).map_or(0, |d| d.1);
-    let rows = v.data.chunks(width.max(1)).zip(&counts).map(|(row, &n)| {
-        row.iter()
-            .take(n.max(0.0) as usize)
-            .copied()
-            .collect::<Vec<f64>>()
-    });
+    let rows = v
+        .data
+        .chunks(width.max(1))
+        .zip(&counts)
+        .map(|(row, &n)| &row[..(n.max(0.0) as usize).min(row.len())]);
     let (offsets, nodes) = cells(src, "verticesOnCell", rows, 1.0, lon.len())?;
     let on_nodes =
         dims.iter().any(|(d, _)| d == "nVertices") && !dims.iter().any(|(d, _)| d == "nCells");

@@ -14,11 +14,13 @@
 use super::{Location, Mesh};
 use crate::datasets::conventions::curvilinear::Regridded;
 use crate::error::{Error, Result};
+use rayon::prelude::*;
 
 /// The most nodes a sampled grid may have (as for curvilinear grids).
 const MAX_NODES: usize = 1 << 26;
 
 /// One cell in the (longitude, latitude) plane, ready to be drawn.
+#[derive(Default)]
 pub(crate) struct Ring {
     /// Vertices, longitudes unwrapped.
     pub points: Vec<[f64; 2]>,
@@ -27,37 +29,58 @@ pub(crate) struct Ring {
     /// The ring goes round a pole and was closed along it: its vertices before the last three
     /// are the ring's own.
     pub cap: bool,
+    /// Scratch: the unwrapped longitude of each node (NaN at a pole).
+    lon: Vec<f64>,
+}
+
+/// `l` moved by whole turns to within half a turn of `to`.
+fn near(l: f64, to: f64) -> f64 {
+    let d = l - to;
+    if d.abs() <= 180.0 {
+        l
+    } else {
+        l - 360.0 * (d / 360.0).round()
+    }
 }
 
 /// Cell `f` of `mesh` as a ring in the plane; `None` when a node has no finite position.
+#[cfg(test)]
 pub(crate) fn ring(mesh: &Mesh, f: usize) -> Option<Ring> {
+    let mut r = Ring::default();
+    ring_into(mesh, f, &mut r).then_some(r)
+}
+
+/// Cell `f` of `mesh` as a ring in the plane, into `r` (whose buffers are reused from cell to
+/// cell); `false` when a node has no finite position.
+pub(crate) fn ring_into(mesh: &Mesh, f: usize, r: &mut Ring) -> bool {
     let ids = mesh.face(f);
     let at_pole = |n: usize| mesh.lat[n].abs() >= 90.0 - 1e-9;
     if ids
         .iter()
         .any(|&n| !(mesh.lat[n].is_finite() && (mesh.lon[n].is_finite() || at_pole(n))))
     {
-        return None;
+        return false;
     }
     // Unwrap the longitudes of the nodes off the poles, each within half a turn of the last.
-    let mut lon = vec![f64::NAN; ids.len()];
+    let lon = &mut r.lon;
+    lon.clear();
     let mut last: Option<f64> = None;
-    for (k, &n) in ids.iter().enumerate() {
+    for &n in ids {
         if at_pole(n) {
+            lon.push(f64::NAN);
             continue;
         }
-        let l = mesh.lon[n];
-        lon[k] = match last {
-            Some(p) => l - 360.0 * ((l - p) / 360.0).round(),
-            None => l,
-        };
-        last = Some(lon[k]);
+        let l = last.map_or(mesh.lon[n], |p| near(mesh.lon[n], p));
+        lon.push(l);
+        last = Some(l);
     }
-    lon.iter().find(|l| l.is_finite())?;
-    let near = |l: f64, to: f64| l - 360.0 * ((l - to) / 360.0).round();
+    if last.is_none() {
+        return false;
+    }
     let count = ids.len();
-    let mut points = Vec::with_capacity(count + 4);
-    let mut nodes = Vec::with_capacity(count + 4);
+    let (points, nodes) = (&mut r.points, &mut r.nodes);
+    points.clear();
+    nodes.clear();
     for (k, &n) in ids.iter().enumerate() {
         if !at_pole(n) {
             points.push([lon[k], mesh.lat[n]]);
@@ -67,10 +90,13 @@ pub(crate) fn ring(mesh: &Mesh, f: usize) -> Option<Ring> {
         // The stretch of the pole between the neighbours off it, the shorter way round.
         let prev = (1..count)
             .map(|d| lon[(k + count - d) % count])
-            .find(|l| l.is_finite())?;
+            .find(|l| l.is_finite());
         let next = (1..count)
             .map(|d| lon[(k + d) % count])
-            .find(|l| l.is_finite())?;
+            .find(|l| l.is_finite());
+        let (Some(prev), Some(next)) = (prev, next) else {
+            return false;
+        };
         let (prev, next) = if k == 0 {
             (near(prev, next), next)
         } else {
@@ -82,23 +108,19 @@ pub(crate) fn ring(mesh: &Mesh, f: usize) -> Option<Ring> {
     }
     // The closing edge, from the last vertex back to the first, unwrapped like the others.
     let (x0, y0) = (points[0][0], points[0][1]);
-    let xl = points[points.len() - 1][0];
-    let closing = x0 - 360.0 * ((x0 - xl) / 360.0).round();
-    let turn = closing - x0;
-    let cap = turn.abs() > 180.0;
-    if cap {
+    let closing = near(x0, points[points.len() - 1][0]);
+    r.cap = (closing - x0).abs() > 180.0;
+    if r.cap {
         let pole = if points.iter().map(|p| p[1]).sum::<f64>() > 0.0 {
             90.0
         } else {
             -90.0
         };
-        points.push([closing, y0]);
-        points.push([closing, pole]);
-        points.push([x0, pole]);
-        nodes.push(nodes[0]);
-        nodes.extend([None, None]);
+        points.extend([[closing, y0], [closing, pole], [x0, pole]]);
+        let first = nodes[0];
+        nodes.extend([first, None, None]);
     }
-    Some(Ring { points, nodes, cap })
+    true
 }
 
 /// Whether `p` is inside the polygon `points` (crossing number: a point on an edge belongs to
@@ -138,6 +160,28 @@ fn on_boundary(points: &[[f64; 2]], p: [f64; 2]) -> bool {
     false
 }
 
+/// The pole (±90) that cell `f`'s ring goes round, if it does: its longitude steps (off the
+/// poles, each the short way) add up to a turn.
+fn round_pole(mesh: &Mesh, f: usize) -> Option<f64> {
+    let ids = mesh.face(f);
+    let off: Vec<usize> = ids
+        .iter()
+        .copied()
+        .filter(|&n| mesh.lat[n].abs() < 90.0 - 1e-9 && mesh.lon[n].is_finite())
+        .collect();
+    if off.len() < 3 || off.len() != ids.len() {
+        return None;
+    }
+    let turn: f64 = (0..off.len())
+        .map(|k| {
+            let d = mesh.lon[off[(k + 1) % off.len()]] - mesh.lon[off[k]];
+            d - 360.0 * (d / 360.0).round()
+        })
+        .sum();
+    let mean = off.iter().map(|&n| mesh.lat[n]).sum::<f64>();
+    (turn.abs() > 180.0).then_some(if mean > 0.0 { 90.0 } else { -90.0 })
+}
+
 /// The regular grid a mesh is sampled onto: nodes, step, and whether it goes all round.
 struct Plan {
     lon: Vec<f64>,
@@ -147,10 +191,10 @@ struct Plan {
     all_round: bool,
 }
 
-/// The grid for `mesh` at `step` degrees (default: the median edge of its cells, in degrees of
-/// arc): all round from −180° when the mesh spans the globe, else its extent in whichever of
+/// The grid for `mesh` at `step` degrees (default: its cells' median size, the square root of
+/// their area): all round from −180° when the mesh spans the globe, else its extent in whichever of
 /// [−180°, 180°) and [0°, 360°) keeps it in one piece.
-fn plan(mesh: &Mesh, rings: &[Option<Ring>], step: Option<f64>) -> Result<Plan> {
+fn plan(mesh: &Mesh, step: Option<f64>) -> Result<Plan> {
     let step = match step {
         Some(s) if s.is_finite() && s > 0.0 => s,
         Some(s) => {
@@ -160,7 +204,7 @@ fn plan(mesh: &Mesh, rings: &[Option<Ring>], step: Option<f64>) -> Result<Plan> 
             ))
         }
         None => mesh
-            .median_edge()
+            .median_size()
             .ok_or_else(|| Error::invalid("mesh", "every cell has zero size"))?,
     };
     let finite = |v: &[f64]| {
@@ -170,20 +214,22 @@ fn plan(mesh: &Mesh, rings: &[Option<Ring>], step: Option<f64>) -> Result<Plan> 
                 (a.min(*x), b.max(*x))
             })
     };
-    let lats: Vec<f64> = rings
-        .iter()
-        .flatten()
-        .flat_map(|r| r.points.iter().map(|p| p[1]))
-        .collect();
-    let (south, north) = finite(&lats);
+    // Latitudes the cells reach: their nodes', and a pole that a ring goes round.
+    let (mut south, mut north) = finite(&mesh.lat);
     if !(south.is_finite() && north.is_finite()) {
         return Err(Error::invalid(
             "mesh",
             "no cell has nodes at finite positions",
         ));
     }
-    let polar =
-        rings.iter().flatten().any(|r| r.cap) || south <= -90.0 + 1e-9 || north >= 90.0 - 1e-9;
+    let caps: Vec<f64> = (0..mesh.faces())
+        .into_par_iter()
+        .filter_map(|f| round_pole(mesh, f))
+        .collect();
+    for pole in &caps {
+        (south, north) = (south.min(*pole), north.max(*pole));
+    }
+    let polar = !caps.is_empty() || south <= -90.0 + 1e-9 || north >= 90.0 - 1e-9;
     let west: Vec<f64> = mesh.lon.iter().map(|l| l.rem_euclid(360.0)).collect();
     let centred: Vec<f64> = west
         .iter()
@@ -266,30 +312,46 @@ impl Plan {
 }
 
 /// `values` on `mesh` (one per cell or per node, as its location says) sampled onto a regular
-/// latitude–longitude grid of `step` degrees (default: the median cell edge).
+/// latitude–longitude grid of `step` degrees (default: the cells' median size).
 pub(crate) fn regrid(mesh: &Mesh, values: &[f64], step: Option<f64>) -> Result<Regridded> {
-    let rings: Vec<Option<Ring>> = (0..mesh.faces()).map(|f| ring(mesh, f)).collect();
-    let plan = plan(mesh, &rings, step)?;
+    let plan = plan(mesh, step)?;
     let cells = plan.lon.len() * plan.lat.len();
-    let mut out = vec![f64::NAN; cells];
-    let mut written = vec![false; cells];
-    for (f, r) in rings.iter().enumerate() {
-        let Some(r) = r else { continue };
-        match mesh.location {
-            Location::Faces => {
-                let v = values[f];
-                plan.each_node_near(&r.points, |k, p| {
-                    if !written[k] && (contains(&r.points, p) || on_boundary(&r.points, p)) {
-                        out[k] = v;
-                        written[k] = true;
+    // The cells in chunks on every core, each chunk's grid nodes and values in cell order; then
+    // written in that order, so the first cell to reach a node keeps it, as drawn one by one.
+    const CHUNK: usize = 4096;
+    let hits: Vec<Vec<(usize, f64)>> = (0..mesh.faces().div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (mut hits, mut r) = (Vec::new(), Ring::default());
+            for f in c * CHUNK..((c + 1) * CHUNK).min(mesh.faces()) {
+                if !ring_into(mesh, f, &mut r) {
+                    continue;
+                }
+                match mesh.location {
+                    Location::Faces => {
+                        let v = values[f];
+                        plan.each_node_near(&r.points, |k, p| {
+                            if contains(&r.points, p) || on_boundary(&r.points, p) {
+                                hits.push((k, v));
+                            }
+                        });
                     }
-                });
-            }
-            Location::Nodes => {
-                for tri in triangles(r, values) {
-                    fill_triangle(&plan, tri, &mut out, &mut written);
+                    Location::Nodes => {
+                        for tri in triangles(&r, values) {
+                            triangle_hits(&plan, tri, &mut hits);
+                        }
+                    }
                 }
             }
+            hits
+        })
+        .collect();
+    let mut out = vec![f64::NAN; cells];
+    let mut written = vec![false; cells];
+    for (k, v) in hits.into_iter().flatten() {
+        if !written[k] {
+            out[k] = v;
+            written[k] = true;
         }
     }
     Ok(Regridded {
@@ -328,9 +390,9 @@ fn triangles(r: &Ring, values: &[f64]) -> Vec<[([f64; 2], f64); 3]> {
         .collect()
 }
 
-/// Sets every grid node inside the triangle that no cell has set yet to the value linear over
-/// it (a missing corner makes the triangle missing).
-fn fill_triangle(plan: &Plan, t: [([f64; 2], f64); 3], out: &mut [f64], written: &mut [bool]) {
+/// The grid nodes inside the triangle with the value linear over it (a missing corner makes
+/// them missing).
+fn triangle_hits(plan: &Plan, t: [([f64; 2], f64); 3], hits: &mut Vec<(usize, f64)>) {
     let [(a, va), (b, vb), (c, vc)] = t;
     let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
     if area == 0.0 {
@@ -341,9 +403,8 @@ fn fill_triangle(plan: &Plan, t: [([f64; 2], f64); 3], out: &mut [f64], written:
         let wc = ((b[0] - a[0]) * (y - a[1]) - (x - a[0]) * (b[1] - a[1])) / area;
         let wa = 1.0 - wb - wc;
         let tol = -1e-12;
-        if wa >= tol && wb >= tol && wc >= tol && !written[k] {
-            out[k] = wa * va + wb * vb + wc * vc;
-            written[k] = true;
+        if wa >= tol && wb >= tol && wc >= tol {
+            hits.push((k, wa * va + wb * vb + wc * vc));
         }
     });
 }
