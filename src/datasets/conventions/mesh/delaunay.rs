@@ -53,6 +53,33 @@ fn basis(p: [f64; 3]) -> ([f64; 3], [f64; 3]) {
     (e1, e2)
 }
 
+/// Whether every finite point lies on one great circle (within 1e-9 of its plane), as a
+/// section's path does: such points make no cells.
+pub(crate) fn on_one_great_circle(lon: &[f64], lat: &[f64]) -> bool {
+    let points: Vec<[f64; 3]> = (0..lon.len())
+        .filter(|&i| lon[i].is_finite() && lat[i].is_finite())
+        .map(|i| unit(lon[i], lat[i]))
+        .collect();
+    let Some(&a) = points.first() else {
+        return true;
+    };
+    // The plane through the origin, the first point and the point farthest from its line.
+    let cross = |p: [f64; 3], q: [f64; 3]| {
+        [
+            p[1] * q[2] - p[2] * q[1],
+            p[2] * q[0] - p[0] * q[2],
+            p[0] * q[1] - p[1] * q[0],
+        ]
+    };
+    let normal = points
+        .iter()
+        .map(|&p| cross(a, p))
+        .max_by(|x, y| dot(*x, *x).total_cmp(&dot(*y, *y)))
+        .unwrap_or([0.0; 3]);
+    let n = dot(normal, normal).sqrt();
+    n < 1e-12 || points.iter().all(|&p| (dot(p, normal) / n).abs() < 1e-9)
+}
+
 /// The spherical Delaunay triangles of the points (longitude, latitude in degrees), as node
 /// indices; points repeated or not finite take no part.
 pub(crate) fn triangulate(lon: &[f64], lat: &[f64]) -> Result<Vec<[usize; 3]>, String> {
@@ -134,5 +161,12 @@ mod tests {
         tris.sort_unstable();
         tris.dedup();
         assert_eq!(tris.len(), 8);
+        assert!(!on_one_great_circle(&lon, &lat));
+        // A section's path along a meridian and along the equator.
+        assert!(on_one_great_circle(
+            &[30.0; 5],
+            &[-60.0, -10.0, 0.0, 20.0, 70.0]
+        ));
+        assert!(on_one_great_circle(&[0.0, 40.0, 170.0, 250.0], &[0.0; 4]));
     }
 }

@@ -250,7 +250,10 @@ fn ugrid(src: &Source, topology: &str, location: Option<&str>) -> Result<Mesh> {
     )?;
     let (location, dim) = match location {
         Some("face") | None => (Location::Faces, face_dim),
-        Some("node") => (Location::Nodes, src.dims(lon_name)[0].0.clone()),
+        Some("node") => match src.dims(lon_name).first() {
+            Some(d) => (Location::Nodes, d.0.clone()),
+            None => return Err(bad(format!("node coordinate '{lon_name}' is not 1-D"))),
+        },
         Some(other) => {
             return Err(bad(format!(
                 "values on '{other}' are not drawn (faces and nodes are)"
@@ -520,6 +523,10 @@ fn columns(src: &Source, attrs: &Attributes, dims: &Dims) -> Result<Option<Mesh>
         src.degrees(&lon_name, "degrees")?,
         src.degrees(&lat_name, "degrees")?,
     );
+    // Points along one great circle (a section's path) are a line, not columns.
+    if super::delaunay::on_one_great_circle(&lon, &lat) {
+        return Ok(None);
+    }
     let tris = super::delaunay::triangulate(&lon, &lat).map_err(|why| {
         Error::format(
             src.path,
