@@ -523,6 +523,21 @@ pub(crate) fn same_shape_arrays(
 }
 
 pub(crate) fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volume> {
+    if let Some((array, coords)) = conventions::mesh::volume_array(
+        path,
+        opts.variable.as_deref(),
+        &opts.select,
+        opts.resolution,
+        opts.grid.as_deref(),
+    )? {
+        return volume_from_mesh(path, array, coords, opts);
+    }
+    if let Some(r) = opts.resolution {
+        return Err(Error::format(
+            path,
+            format!("resolution {r}: only a variable on an unstructured mesh is sampled into a volume; this one has its own axes"),
+        ));
+    }
     let array = read_array_sel(path, opts.variable.as_deref(), Some(3), &opts.select)?;
     // The volume's name says how a selection was made ("temp at time 2000-01-16T00:00:00 (index 2)").
     let name = if array.notes.is_empty() {
@@ -535,6 +550,37 @@ pub(crate) fn volume_from_netcdf(path: &Path, opts: &LoadOptions) -> Result<Volu
         Some(note) => format!("{name} ({note})"),
         None => name,
     };
+    Ok(volume)
+}
+
+/// A variable on a mesh, its levels sampled onto latitude and longitude
+/// ([`conventions::mesh::volume_array`]): a spherical volume when its level dimension is a
+/// depth, radius or height (unless `opts.cartesian`), else a box of longitude, latitude and
+/// level index.
+fn volume_from_mesh(
+    path: &Path,
+    array: ArrayData,
+    coords: Vec<cf::DimCoord>,
+    opts: &LoadOptions,
+) -> Result<Volume> {
+    let name = format!("{} at {}", array.name, array.notes.join(", "));
+    let grid = if opts.cartesian {
+        None
+    } else {
+        spherical_grid_of(path, &array, &coords, opts)?
+    };
+    let axes = [
+        coords[2].coord.as_ref().map(|c| c.data.clone()),
+        coords[1].coord.as_ref().map(|c| c.data.clone()),
+        None,
+    ];
+    let mut volume = match grid {
+        Some(g) => volume_from_array(path, array, [None, None, None])?
+            .with_geometry(Geometry::Spherical(Box::new(g)))
+            .map_err(|e| Error::format(path, e.to_string()))?,
+        None => volume_from_array(path, array, axes)?,
+    };
+    volume.name = name;
     Ok(volume)
 }
 

@@ -180,12 +180,14 @@ pub fn great_circle_section(v: &Volume, spec: &SectionSpec) -> Result<Grid> {
     Ok(grid)
 }
 
-/// The property a section or slice stores the volume's values under: its name, or `value`.
+/// The property a section or slice stores the volume's values under: its variable's name (the
+/// name's first word: a loaded volume's name goes on to say how it was selected), or `value`.
 fn property_name(v: &Volume) -> String {
-    if v.name.is_empty() || v.name == "latitude" || v.name == "longitude" {
+    let name = v.name.split_whitespace().next().unwrap_or("");
+    if name.is_empty() || name == "latitude" || name == "longitude" {
         "value".into()
     } else {
-        v.name.clone()
+        name.to_string()
     }
 }
 

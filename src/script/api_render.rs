@@ -121,6 +121,8 @@ pub(crate) const LOAD_VOLUME: OptionTable = OptionTable {
         opt("geometry", Kind::Choice(&["auto", "cartesian"]), "\"auto\"", "auto: CF latitude, longitude and depth/radius/height make a spherical volume; cartesian: coordinates as box lengths"),
         opt("planet_radius", Kind::NumAbove(0.0, f64::INFINITY), "the file's, else 6371 km", "the planet's radius in the vertical axis's unit"),
         opt("vertical", Kind::Text("\"radius\""), "the vertical dimension's coordinate", "a NetCDF variable in m or km along one of the dimensions (a model level's height) placing the volume instead; pressure levels are otherwise placed at the 1976 standard atmosphere's heights, other levels (model levels) by index"),
+        opt("resolution", Kind::NumAbove(0.0, 90.0), "the mesh's median cell size", "a variable on an unstructured mesh with one level dimension (ICON's S(depth, ncells)): the step in degrees of the latitude-longitude grid each level is sampled onto; the levels' depth, radius or height place it on the sphere"),
+        opt("grid", Kind::Text("\"grid.nc\""), "the variable's own file", "an unstructured mesh kept in a file of its own (ICON and MPAS grid files, SCRIP)"),
         super::api_datasets::SELECT_INDEX,
         super::api_datasets::SELECT_AT,
     ],
@@ -290,8 +292,11 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
                 select: super::api_datasets::selection(&given)?,
                 band: None,
                 vertical: given.string("vertical")?,
-                resolution: None,
-                grid: None,
+                resolution: given.num("resolution")?,
+                grid: match given.string("grid")? {
+                    Some(g) => Some(h.sandbox.read_path(&g).map_err(to_rhai)?),
+                    None => None,
+                },
             };
             h.session.load_volume(&p, &load).map_err(to_rhai)
         },

@@ -331,3 +331,60 @@ fn bad_meshes_are_refused_in_one_line_and_nothing_is_written() {
         assert!(!dir.path().join("bad/out.nc").exists(), "{file}");
     }
 }
+
+/// ICON's salinity on depth levels loads as a spherical volume: each level is the grid that
+/// `load_grid` samples at that depth, the depths place it below the surface, and a section and a
+/// volume render of it run from a script.
+#[test]
+fn a_mesh_with_depth_levels_is_a_spherical_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    if !cases(dir.path()) {
+        return;
+    }
+    let path = dir.path().join("icon_data.nc");
+    let at = |index: Vec<(String, i64)>| Selection {
+        index,
+        at: Vec::new(),
+    };
+    let opts = LoadOptions {
+        variable: Some("S".into()),
+        select: at(vec![("time".into(), 1)]),
+        resolution: Some(3.0),
+        ..LoadOptions::default()
+    };
+    let volume = hdrvis::datasets::load_volume_with(&path, &opts).unwrap();
+    assert!(
+        matches!(volume.geometry, hdrvis::model::Geometry::Spherical(_)),
+        "{:?}",
+        volume.geometry
+    );
+    let [nx, ny, nz] = volume.dims;
+    assert_eq!(nz, 3);
+    for depth in 0..nz {
+        let level = LoadOptions {
+            select: at(vec![("time".into(), 1), ("depth".into(), depth as i64)]),
+            ..opts.clone()
+        };
+        let grid = hdrvis::datasets::load_grid_with(&path, &level).unwrap();
+        assert_eq!((grid.nx(), grid.ny()), (nx, ny));
+        let want = grid.property("S").unwrap();
+        for (k, w) in want.iter().enumerate() {
+            let got = volume.data[depth * nx * ny + k];
+            assert!(
+                (w.is_nan() && got.is_nan()) || (f64::from(got) - w).abs() <= 1e-6 * w.abs(),
+                "depth {depth} node {k}: {got} vs {w}"
+            );
+        }
+    }
+    let script = r#"
+        let v = load_volume("icon_data.nc", #{ variable: "S", index: #{ time: 0 }, resolution: 3.0 });
+        let s = section(v, #{ from: [-60.0, -30.0], to: [60.0, 30.0], n: [64, 3] });
+        save_grid(s, "section.nc");
+        let img = render_volume(v, #{ tf: tf_emission_absorption(1.0, 1.0), width: 48, height: 48, step: 16.0 });
+        save_exr(img, "v.exr");
+    "#;
+    std::fs::write(dir.path().join("v.rhai"), script).unwrap();
+    let (code, _, err) = hdrvis(&["run", "v.rhai", "--out", "o"], dir.path());
+    assert_eq!(code, 0, "{err}");
+    assert!(dir.path().join("o/section.nc").is_file() && dir.path().join("o/v.exr").is_file());
+}

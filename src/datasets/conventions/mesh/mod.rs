@@ -229,3 +229,112 @@ pub(crate) fn grid_file(
         )),
     }))
 }
+
+/// A variable on a mesh with one more dimension (depth or levels: ICON's `S(depth, ncells)`,
+/// MPAS's `temperature(nCells, nVertLevels)`) after the selection, each level sampled onto one
+/// latitude–longitude grid of `resolution` degrees: the array (level, latitude, longitude) and
+/// its dimensions' coordinates (the level's own from the file, latitude and longitude made), for
+/// the volume reader to place on the sphere as any CF volume. `None` when the variable is on no
+/// mesh.
+pub(crate) fn volume_array(
+    path: &Path,
+    var: Option<&str>,
+    sel: &Selection,
+    resolution: Option<f64>,
+    grid: Option<&Path>,
+) -> Result<Option<(crate::datasets::arrays::ArrayData, Vec<super::cf::DimCoord>)>> {
+    let Some((name, mesh)) = variable_on_mesh(path, var, grid)? else {
+        return Ok(None);
+    };
+    let listed = variables::list_variables(path)?;
+    let dims = variables::dims_in(&listed, &name);
+    let plan = select::plan(path, &name, &dims, sel)?;
+    let v = select::read(path, &name, &plan)?;
+    let on = v.dims.iter().position(|(d, _)| *d == mesh.dim);
+    let (Some(on), 2) = (on, v.dims.len()) else {
+        let kept: Vec<String> = v.dims.iter().map(|(d, n)| format!("{d}={n}")).collect();
+        return Err(Error::format(
+            path,
+            format!(
+                "'{name}' on the {} keeps [{}] after the selection; a volume needs '{}' and one level dimension: fix the others with index or at",
+                mesh.describe(),
+                kept.join(", "),
+                mesh.dim
+            ),
+        ));
+    };
+    let (level_dim, levels) = v.dims[1 - on].clone();
+    let count = mesh.values();
+    // Each level's values along the mesh, whichever of the two dimensions comes first.
+    let level_values = |l: usize| -> Vec<f64> {
+        (0..count)
+            .map(|c| {
+                if on == 1 {
+                    v.data[l * count + c]
+                } else {
+                    v.data[c * levels + l]
+                }
+            })
+            .collect()
+    };
+    let mut data = Vec::new();
+    let mut axes = None;
+    for l in 0..levels {
+        let r = sample::regrid(&mesh, &level_values(l), resolution)
+            .map_err(|e| Error::format(path, format!("'{name}': {e}")))?;
+        crate::model::volume::check_allocation(
+            (levels * r.data.len() * 8) as u64,
+            &format!(
+                "'{name}' sampled onto {} x {} nodes at {levels} levels",
+                r.lat.len(),
+                r.lon.len()
+            ),
+        )?;
+        data.extend_from_slice(&r.data);
+        axes.get_or_insert((r.lat, r.lon));
+    }
+    let (lat, lon) = axes.unwrap_or_default();
+    let axis = |name: &str, values: Vec<f64>, standard: &str, units: &str| super::cf::DimCoord {
+        name: name.to_string(),
+        coord: Some(variables::NcVariable {
+            name: name.to_string(),
+            dims: vec![(name.to_string(), values.len())],
+            data: values,
+            units: Some(units.to_string()),
+            long_name: None,
+            attributes: vec![
+                (
+                    "standard_name".into(),
+                    variables::NcAttribute::Text(standard.into()),
+                ),
+                ("units".into(), variables::NcAttribute::Text(units.into())),
+            ],
+            stored_nan: 0,
+        }),
+    };
+    let coords = vec![
+        super::cf::DimCoord {
+            name: level_dim.clone(),
+            coord: super::cf::read_coordinate(path, &level_dim)?,
+        },
+        axis("latitude", lat.clone(), "latitude", "degrees_north"),
+        axis("longitude", lon.clone(), "longitude", "degrees_east"),
+    ];
+    let mut notes = plan.notes.clone();
+    notes.push(format!(
+        "{}, each level sampled onto latitude and longitude",
+        mesh.describe()
+    ));
+    let array = crate::datasets::arrays::ArrayData {
+        name: name.clone(),
+        dims: vec![level_dim, "latitude".into(), "longitude".into()],
+        shape: vec![levels, lat.len(), lon.len()],
+        dtype: "float64".into(),
+        units: v.units.clone(),
+        fill_count: 0,
+        attributes: v.attributes.clone(),
+        notes,
+        data,
+    };
+    Ok(Some((array, coords)))
+}
