@@ -206,6 +206,10 @@ pub struct InfoArgs {
     /// The band of a multi-band GeoTIFF, counted from 1 as GDAL does
     #[arg(long = "band", value_name = "N")]
     pub band: Option<usize>,
+    /// The file holding the unstructured mesh of a variable whose own file has only the values
+    /// (ICON and MPAS grid files): the report then names the mesh
+    #[arg(long = "grid", value_name = "FILE")]
+    pub grid: Option<std::path::PathBuf>,
     /// One JSON object for machines instead of the report: dims, roles, shape, units, the
     /// dimensions' coordinates, decoded times, missing count, min and max (docs/formats.md)
     #[arg(long)]
@@ -284,7 +288,12 @@ pub fn run_info(args: &InfoArgs) -> Result<String> {
         }
         return hdrvis::datasets::describe::describe_json(&args.file, args.var.as_deref(), &sel);
     }
-    hdrvis::datasets::info::info_report_band(&args.file, args.var.as_deref(), &sel, args.band)
+    let report = hdrvis::datasets::info::InfoRequest {
+        sel: &sel,
+        band: args.band,
+        grid: args.grid.as_deref(),
+    };
+    hdrvis::datasets::info::info_report_for(&args.file, args.var.as_deref(), &report)
 }
 
 /// `DIM=VALUE` as its two sides.

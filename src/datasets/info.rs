@@ -38,6 +38,14 @@ pub(crate) fn info_report_with(path: &Path, var: Option<&str>, sel: &Selection) 
     info_report_band(path, var, sel, None)
 }
 
+/// What `hdrvis info` is asked beyond the file and variable: the selection, a GeoTIFF's band and
+/// the separate grid file of a variable on an unstructured mesh.
+pub struct InfoRequest<'a> {
+    pub sel: &'a Selection,
+    pub band: Option<usize>,
+    pub grid: Option<&'a Path>,
+}
+
 /// [`info_report_with`] of band `band` (counted from 1) of a GeoTIFF. A GeoTIFF's report adds
 /// its CRS, georeferencing and nodata value; a MintPy product's its type, geography, `UNIT`,
 /// `WAVELENGTH`, reference point and dates.
@@ -47,12 +55,24 @@ pub fn info_report_band(
     sel: &Selection,
     band: Option<usize>,
 ) -> Result<String> {
+    let request = InfoRequest {
+        sel,
+        band,
+        grid: None,
+    };
+    info_report_for(path, var, &request)
+}
+
+/// The report of [`info_report_band`], naming the mesh of a variable whose mesh is in
+/// `request.grid`.
+pub fn info_report_for(path: &Path, var: Option<&str>, request: &InfoRequest) -> Result<String> {
+    let (sel, band) = (request.sel, request.band);
     let shorthand = (!path.exists() && var.is_none())
         .then(|| path.to_str()?.rsplit_once(':'))
         .flatten()
         .filter(|(file, name)| !name.is_empty() && Path::new(file).is_file());
     if let Some((file, name)) = shorthand {
-        return info_report_band(Path::new(file), Some(name), sel, band);
+        return info_report_for(Path::new(file), Some(name), request);
     }
     let format = super::Format::of(path)?;
     if format == super::Format::GeoTiff {
@@ -130,7 +150,7 @@ pub fn info_report_band(
         }
     }
     if format == NetCdf {
-        dimension_lines(&mut out, path, &array)?;
+        dimension_lines(&mut out, path, &array, request.grid)?;
         if array.shape.len() >= 3 {
             let _ = writeln!(out, "geometry: {}", super::netcdf_geometry(path, &array)?);
         }
@@ -164,7 +184,12 @@ fn geotiff_report(
 
 /// Each dimension of a NetCDF variable with its length and CF role (a time axis with its first
 /// and last dates and calendar), then how the selected ones were chosen.
-fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<()> {
+fn dimension_lines(
+    out: &mut String,
+    path: &Path,
+    array: &ArrayData,
+    grid: Option<&Path>,
+) -> Result<()> {
     let dims = super::readers::variables::list_variables(path)?
         .into_iter()
         .find(|(n, _)| *n == array.name)
@@ -248,7 +273,7 @@ fn dimension_lines(out: &mut String, path: &Path, array: &ArrayData) -> Result<(
         .zip(array.shape.iter().copied())
         .collect();
     if let Some(mesh) =
-        crate::datasets::conventions::mesh::read::mesh_of(path, &array.name, &dims, None)?
+        crate::datasets::conventions::mesh::read::mesh_of(path, &array.name, &dims, grid)?
     {
         let _ = writeln!(
             out,

@@ -282,6 +282,23 @@ fn meshes_load_from_scripts_and_info_names_them() {
     let (code, out, err) = hdrvis(&["info", "icon_data.nc", "--variable", "S"], dir.path());
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("mesh: ICON mesh of 320 cells"), "{out}");
+    // A data file with only the values: its mesh named through --grid.
+    let (code, out, err) = hdrvis(
+        &[
+            "info",
+            "mpas_data.nc",
+            "--variable",
+            "temperature",
+            "--grid",
+            "mpas_grid.nc",
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("mesh: MPAS mesh of 162 cells and 320 nodes"),
+        "{out}"
+    );
     let (code, out, _) = hdrvis(&["info", "ugrid.nc"], dir.path());
     assert_eq!(code, 0);
     assert!(
