@@ -496,6 +496,7 @@ mod tests {
             index: Vec::new(),
             at: Vec::new(),
             band: None,
+            grid: None,
             json: false,
         })
         .unwrap();
