@@ -297,7 +297,12 @@ impl Plan {
             return;
         };
         let nx = self.lon.len();
+        let (first, last) = (self.lon[0], self.lon[nx - 1]);
         for &shift in shifts {
+            // Most turns miss the grid: skip them before finding the columns.
+            if east + shift < first - self.step_lon || west + shift > last + self.step_lon {
+                continue;
+            }
             let Some(is) = span([west + shift, east + shift], self.lon[0], self.step_lon, nx)
             else {
                 continue;
