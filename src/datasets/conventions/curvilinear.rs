@@ -160,26 +160,9 @@ pub(crate) fn regrid(grid: &Curvilinear, data: &[f64], step: Option<f64>) -> Res
             .ok_or_else(|| Error::invalid("curvilinear grid", "every cell has zero size"))?,
     };
     let all_round = grid.rows_close(&lon);
-    let (lon_nodes, step_lon) = if all_round {
-        // Whole steps round the circle from the antimeridian, as global products have them.
-        let n = (360.0 / step).round().max(1.0) as usize;
-        let s = 360.0 / n as f64;
-        ((0..n).map(|k| -180.0 + k as f64 * s).collect(), s)
-    } else {
-        (nodes(lon_lo, lon_hi, step), step)
-    };
-    let lat_nodes = nodes(lat_lo, lat_hi, step);
-    let cells = lon_nodes.len().saturating_mul(lat_nodes.len());
-    if cells > MAX_NODES || lon_nodes.len() < 2 || lat_nodes.len() < 2 {
-        return Err(Error::invalid(
-            "resolution",
-            format!(
-                "{step} degrees gives {} x {} nodes over latitudes {lat_lo}..{lat_hi} and longitudes {lon_lo}..{lon_hi}; expected 2 to {MAX_NODES} in all, at least 2 along each",
-                lat_nodes.len(),
-                lon_nodes.len()
-            ),
-        ));
-    }
+    let (lon_nodes, lat_nodes, step_lon) =
+        target_axes(step, (lat_lo, lat_hi), (lon_lo, lon_hi), all_round)?;
+    let cells = lon_nodes.len() * lat_nodes.len();
     let target = Target {
         lon0: lon_nodes[0],
         lat0: lat_nodes[0],
@@ -210,8 +193,52 @@ pub(crate) fn regrid(grid: &Curvilinear, data: &[f64], step: Option<f64>) -> Res
     })
 }
 
+/// The nodes of the regular grid a field is regridded onto at `step` degrees over the latitudes
+/// `lat` and longitudes `lon` (ranges): longitudes all round from the antimeridian in whole
+/// steps (as global products have them) when `all_round`, else over the range; with the
+/// longitude step. Refused when the grid would have too many nodes or fewer than two along an
+/// axis.
+pub(crate) fn target_axes(
+    step: f64,
+    (lat_lo, lat_hi): (f64, f64),
+    (lon_lo, lon_hi): (f64, f64),
+    all_round: bool,
+) -> Result<(Vec<f64>, Vec<f64>, f64)> {
+    let (lon_nodes, step_lon) = if all_round {
+        let n = (360.0 / step).round().max(1.0) as usize;
+        let s = 360.0 / n as f64;
+        ((0..n).map(|k| -180.0 + k as f64 * s).collect(), s)
+    } else {
+        (nodes(lon_lo, lon_hi, step), step)
+    };
+    let lat_nodes = nodes(lat_lo, lat_hi, step);
+    let cells = lon_nodes.len().saturating_mul(lat_nodes.len());
+    if cells > MAX_NODES || lon_nodes.len() < 2 || lat_nodes.len() < 2 {
+        return Err(Error::invalid(
+            "resolution",
+            format!(
+                "{step} degrees gives {} x {} nodes over latitudes {lat_lo}..{lat_hi} and longitudes {lon_lo}..{lon_hi}; expected 2 to {MAX_NODES} in all, at least 2 along each",
+                lat_nodes.len(),
+                lon_nodes.len()
+            ),
+        ));
+    }
+    Ok((lon_nodes, lat_nodes, step_lon))
+}
+
+/// The value at `p` linear over the triangle `t` (corners and their values; `area` twice its
+/// signed area, not zero), or `None` when `p` lies outside it (a weight below −1e-12).
+pub(crate) fn linear_in(t: &[([f64; 2], f64); 3], area: f64, [x, y]: [f64; 2]) -> Option<f64> {
+    let [(a, va), (b, vb), (c, vc)] = *t;
+    let wb = ((x - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (y - a[1])) / area;
+    let wc = ((b[0] - a[0]) * (y - a[1]) - (x - a[0]) * (b[1] - a[1])) / area;
+    let wa = 1.0 - wb - wc;
+    let tol = -1e-12;
+    (wa >= tol && wb >= tol && wc >= tol).then(|| wa * va + wb * vb + wc * vc)
+}
+
 /// The least and greatest finite value (infinite when there is none).
-fn finite_range(values: &[f64]) -> (f64, f64) {
+pub(crate) fn finite_range(values: &[f64]) -> (f64, f64) {
     values
         .iter()
         .filter(|v| v.is_finite())
@@ -256,7 +283,7 @@ impl Target {
         if east - west > 180.0 || area == 0.0 {
             return;
         }
-        let value = |w: [f64; 3]| w[0] * corners[0].1 + w[1] * corners[1].1 + w[2] * corners[2].1;
+        let triangle = [(a, corners[0].1), (b, corners[1].1), (c, corners[2].1)];
         // All round, a triangle is drawn at every turn that meets [-180, 180): unwrapped
         // longitudes lie within a turn or two of it.
         let shifts: &[f64] = if self.all_round {
@@ -277,13 +304,12 @@ impl Target {
                 let y = self.lat0 + j as f64 * self.step_lat;
                 for i in is.0..=is.1 {
                     let x = self.lon0 + i as f64 * self.step_lon - shift;
-                    let wb = ((x - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (y - a[1])) / area;
-                    let wc = ((b[0] - a[0]) * (y - a[1]) - (x - a[0]) * (b[1] - a[1])) / area;
-                    let wa = 1.0 - wb - wc;
-                    let tol = -1e-12;
                     let k = j * self.nx + i;
-                    if wa >= tol && wb >= tol && wc >= tol && !written[k] {
-                        out[k] = value([wa, wb, wc]);
+                    if written[k] {
+                        continue;
+                    }
+                    if let Some(v) = linear_in(&triangle, area, [x, y]) {
+                        out[k] = v;
                         written[k] = true;
                     }
                 }
@@ -293,7 +319,12 @@ impl Target {
 }
 
 /// The first and last node index within `[lo, hi]` of nodes `first + k·step`, `k < n`.
-fn span_of([lo, hi]: [f64; 2], first: f64, step: f64, n: usize) -> Option<(usize, usize)> {
+pub(crate) fn span_of(
+    [lo, hi]: [f64; 2],
+    first: f64,
+    step: f64,
+    n: usize,
+) -> Option<(usize, usize)> {
     let a = ((lo - first) / step - 1e-9).ceil().max(0.0);
     let b = ((hi - first) / step + 1e-9).floor().min(n as f64 - 1.0);
     (a <= b).then_some((a as usize, b as usize))

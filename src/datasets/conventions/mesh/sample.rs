@@ -12,12 +12,11 @@
 //! proportional to the cells plus the grid's nodes.
 
 use super::{Location, Mesh};
-use crate::datasets::conventions::curvilinear::Regridded;
+use crate::datasets::conventions::curvilinear::{
+    finite_range, linear_in, span_of, target_axes, Regridded,
+};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
-
-/// The most nodes a sampled grid may have (as for curvilinear grids).
-const MAX_NODES: usize = 1 << 26;
 
 /// One cell in the (longitude, latitude) plane, ready to be drawn.
 #[derive(Default)]
@@ -207,15 +206,7 @@ fn plan(mesh: &Mesh, step: Option<f64>) -> Result<Plan> {
             .median_size()
             .ok_or_else(|| Error::invalid("mesh", "every cell has zero size"))?,
     };
-    let finite = |v: &[f64]| {
-        v.iter()
-            .filter(|x| x.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-                (a.min(*x), b.max(*x))
-            })
-    };
-    // Latitudes the cells reach: their nodes', and a pole that a ring goes round.
-    let (mut south, mut north) = finite(&mesh.lat);
+    let (mut south, mut north) = finite_range(&mesh.lat);
     if !(south.is_finite() && north.is_finite()) {
         return Err(Error::invalid(
             "mesh",
@@ -235,28 +226,11 @@ fn plan(mesh: &Mesh, step: Option<f64>) -> Result<Plan> {
         .iter()
         .map(|l| if *l >= 180.0 { l - 360.0 } else { *l })
         .collect();
-    let (a, b) = finite(&west);
-    let (c, d) = finite(&centred);
+    let (a, b) = finite_range(&west);
+    let (c, d) = finite_range(&centred);
     let (lo, hi) = if b - a < d - c { (a, b) } else { (c, d) };
     let all_round = polar || hi - lo >= 360.0 - 2.0 * step;
-    let (lon, step_lon) = if all_round {
-        let n = (360.0 / step).round().max(1.0) as usize;
-        let s = 360.0 / n as f64;
-        ((0..n).map(|k| -180.0 + k as f64 * s).collect(), s)
-    } else {
-        (axis(lo, hi, step), step)
-    };
-    let lat = axis(south, north, step);
-    if lon.len().saturating_mul(lat.len()) > MAX_NODES || lon.len() < 2 || lat.len() < 2 {
-        return Err(Error::invalid(
-            "resolution",
-            format!(
-                "{step} degrees gives {} x {} nodes over latitudes {south}..{north} and longitudes {lo}..{hi}; expected 2 to {MAX_NODES} in all, at least 2 along each",
-                lat.len(),
-                lon.len()
-            ),
-        ));
-    }
+    let (lon, lat, step_lon) = target_axes(step, (south, north), (lo, hi), all_round)?;
     Ok(Plan {
         lon,
         lat,
@@ -264,19 +238,6 @@ fn plan(mesh: &Mesh, step: Option<f64>) -> Result<Plan> {
         step,
         all_round,
     })
-}
-
-/// Nodes `lo + k·step` from `lo` to at most `hi`.
-fn axis(lo: f64, hi: f64, step: f64) -> Vec<f64> {
-    let n = ((hi - lo) / step + 1e-9).floor() as usize + 1;
-    (0..n).map(|k| lo + k as f64 * step).collect()
-}
-
-/// The first and last node index within `[lo, hi]` of nodes `first + k·step`, `k < n`.
-fn span([lo, hi]: [f64; 2], first: f64, step: f64, n: usize) -> Option<(usize, usize)> {
-    let a = ((lo - first) / step - 1e-9).ceil().max(0.0);
-    let b = ((hi - first) / step + 1e-9).floor().min(n as f64 - 1.0);
-    (a <= b).then_some((a as usize, b as usize))
 }
 
 impl Plan {
@@ -293,7 +254,7 @@ impl Plan {
         } else {
             &[-360.0, 0.0, 360.0]
         };
-        let Some(js) = span([south, north], self.lat[0], self.step, self.lat.len()) else {
+        let Some(js) = span_of([south, north], self.lat[0], self.step, self.lat.len()) else {
             return;
         };
         let nx = self.lon.len();
@@ -303,7 +264,7 @@ impl Plan {
             if east + shift < first - self.step_lon || west + shift > last + self.step_lon {
                 continue;
             }
-            let Some(is) = span([west + shift, east + shift], self.lon[0], self.step_lon, nx)
+            let Some(is) = span_of([west + shift, east + shift], self.lon[0], self.step_lon, nx)
             else {
                 continue;
             };
@@ -398,18 +359,14 @@ fn triangles(r: &Ring, values: &[f64]) -> Vec<[([f64; 2], f64); 3]> {
 /// The grid nodes inside the triangle with the value linear over it (a missing corner makes
 /// them missing).
 fn triangle_hits(plan: &Plan, t: [([f64; 2], f64); 3], hits: &mut Vec<(usize, f64)>) {
-    let [(a, va), (b, vb), (c, vc)] = t;
+    let [(a, _), (b, _), (c, _)] = t;
     let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
     if area == 0.0 {
         return;
     }
-    plan.each_node_near(&[a, b, c], |k, [x, y]| {
-        let wb = ((x - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (y - a[1])) / area;
-        let wc = ((b[0] - a[0]) * (y - a[1]) - (x - a[0]) * (b[1] - a[1])) / area;
-        let wa = 1.0 - wb - wc;
-        let tol = -1e-12;
-        if wa >= tol && wb >= tol && wc >= tol {
-            hits.push((k, wa * va + wb * vb + wc * vc));
+    plan.each_node_near(&[a, b, c], |k, p| {
+        if let Some(v) = linear_in(&t, area, p) {
+            hits.push((k, v));
         }
     });
 }
