@@ -234,7 +234,7 @@ pub(crate) fn linear_in(t: &[([f64; 2], f64); 3], area: f64, [x, y]: [f64; 2]) -
     let wc = ((b[0] - a[0]) * (y - a[1]) - (x - a[0]) * (b[1] - a[1])) / area;
     let wa = 1.0 - wb - wc;
     let tol = -1e-12;
-    (wa >= tol && wb >= tol && wc >= tol).then(|| wa * va + wb * vb + wc * vc)
+    (wa >= tol && wb >= tol && wc >= tol).then_some(wa * va + wb * vb + wc * vc)
 }
 
 /// The least and greatest finite value (infinite when there is none).
