@@ -10,6 +10,7 @@ use super::{median, peak_memory_mib};
 use crate::datasets::LoadOptions;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
+use crate::model::vec3::{dot, normalize, tangent_basis};
 use crate::render::surface::{FringeMode, SurfaceOptions, SurfaceRenderer, SurfaceView};
 use std::collections::HashMap;
 use std::path::Path;
@@ -17,11 +18,6 @@ use std::sync::Arc;
 use std::time::Instant;
 
 type V3 = [f64; 3];
-
-fn normalised(v: V3) -> V3 {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
-}
 
 /// The icosahedron subdivided `level` times, its vertices pushed out to the unit sphere: nodes
 /// and counter-clockwise triangles (seen from outside).
@@ -41,7 +37,7 @@ pub(crate) fn icosphere(level: u32) -> (Vec<V3>, Vec<[u32; 3]>) {
         [-t, 0.0, -1.0],
         [-t, 0.0, 1.0],
     ]
-    .map(normalised)
+    .map(normalize)
     .to_vec();
     let mut tris: Vec<[u32; 3]> = vec![
         [0, 11, 5],
@@ -70,7 +66,7 @@ pub(crate) fn icosphere(level: u32) -> (Vec<V3>, Vec<[u32; 3]>) {
         let mut split = |a: u32, b: u32, nodes: &mut Vec<V3>| -> u32 {
             *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
                 let (p, q) = (nodes[a as usize], nodes[b as usize]);
-                nodes.push(normalised([p[0] + q[0], p[1] + q[1], p[2] + q[2]]));
+                nodes.push(normalize([p[0] + q[0], p[1] + q[1], p[2] + q[2]]));
                 (nodes.len() - 1) as u32
             })
         };
@@ -103,7 +99,7 @@ pub(crate) fn voronoi(level: u32) -> Voronoi {
         .iter()
         .map(|t| {
             let [a, b, c] = t.map(|i| nodes[i as usize]);
-            normalised([a[0] + b[0] + c[0], a[1] + b[1] + c[1], a[2] + b[2] + c[2]])
+            normalize([a[0] + b[0] + c[0], a[1] + b[1] + c[1], a[2] + b[2] + c[2]])
         })
         .collect();
     let mut rings: Vec<Vec<u32>> = vec![Vec::with_capacity(6); nodes.len()];
@@ -114,27 +110,10 @@ pub(crate) fn voronoi(level: u32) -> Voronoi {
     }
     for (n, ring) in rings.iter_mut().enumerate() {
         // Counter-clockwise about the outward normal: by angle in the tangent plane.
-        let p = nodes[n];
-        let helper = if p[2].abs() < 0.9 {
-            [0.0, 0.0, 1.0]
-        } else {
-            [1.0, 0.0, 0.0]
-        };
-        let d = helper[0] * p[0] + helper[1] * p[1] + helper[2] * p[2];
-        let e1 = normalised([
-            helper[0] - d * p[0],
-            helper[1] - d * p[1],
-            helper[2] - d * p[2],
-        ]);
-        let e2 = [
-            p[1] * e1[2] - p[2] * e1[1],
-            p[2] * e1[0] - p[0] * e1[2],
-            p[0] * e1[1] - p[1] * e1[0],
-        ];
+        let (e1, e2) = tangent_basis(nodes[n]);
         let angle = |k: &u32| {
             let v = vertices[*k as usize];
-            let dot = |e: V3| v[0] * e[0] + v[1] * e[1] + v[2] * e[2];
-            dot(e2).atan2(dot(e1))
+            dot(v, e2).atan2(dot(v, e1))
         };
         ring.sort_by(|a, b| angle(a).total_cmp(&angle(b)));
     }

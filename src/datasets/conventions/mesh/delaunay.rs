@@ -6,6 +6,7 @@
 //! with each edge of the plane's convex hull. Triangles with an edge over eight times the median
 //! edge are dropped: they span the empty side of a regional set of points, not data.
 
+use crate::model::vec3::{cross, dot, tangent_basis};
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 
 /// One projected centre and the index of the column it came from.
@@ -26,33 +27,6 @@ fn unit(lon: f64, lat: f64) -> [f64; 3] {
     [la.cos() * lo.cos(), la.cos() * lo.sin(), la.sin()]
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Two unit vectors perpendicular to `p` and to each other.
-fn basis(p: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let helper = if p[2].abs() < 0.9 {
-        [0.0, 0.0, 1.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let d = dot(helper, p);
-    let e1 = [
-        helper[0] - d * p[0],
-        helper[1] - d * p[1],
-        helper[2] - d * p[2],
-    ];
-    let n = dot(e1, e1).sqrt();
-    let e1 = [e1[0] / n, e1[1] / n, e1[2] / n];
-    let e2 = [
-        p[1] * e1[2] - p[2] * e1[1],
-        p[2] * e1[0] - p[0] * e1[2],
-        p[0] * e1[1] - p[1] * e1[0],
-    ];
-    (e1, e2)
-}
-
 /// Whether every finite point lies on one great circle (within 1e-9 of its plane), as a
 /// section's path does: such points make no cells.
 pub(crate) fn on_one_great_circle(lon: &[f64], lat: &[f64]) -> bool {
@@ -64,13 +38,6 @@ pub(crate) fn on_one_great_circle(lon: &[f64], lat: &[f64]) -> bool {
         return true;
     };
     // The plane through the origin, the first point and the point farthest from its line.
-    let cross = |p: [f64; 3], q: [f64; 3]| {
-        [
-            p[1] * q[2] - p[2] * q[1],
-            p[2] * q[0] - p[0] * q[2],
-            p[0] * q[1] - p[1] * q[0],
-        ]
-    };
     let normal = points
         .iter()
         .map(|&p| cross(a, p))
@@ -90,7 +57,7 @@ pub(crate) fn triangulate(lon: &[f64], lat: &[f64]) -> Result<Vec<[usize; 3]>, S
         return Err("no column has a finite position".into());
     };
     let p = unit(lon[pole], lat[pole]);
-    let (e1, e2) = basis(p);
+    let (e1, e2) = tangent_basis(p);
     let columns: Vec<Column> = finite[1..]
         .iter()
         .filter_map(|&i| {
