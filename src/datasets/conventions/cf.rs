@@ -67,7 +67,7 @@ pub(crate) fn text<'a>(v: &'a NcVariable, key: &str) -> Option<&'a str> {
 }
 
 /// The text attribute `key` among `attrs`, trimmed.
-fn attr_text<'a>(attrs: &'a [(String, NcAttribute)], key: &str) -> Option<&'a str> {
+pub(crate) fn attr_text<'a>(attrs: &'a [(String, NcAttribute)], key: &str) -> Option<&'a str> {
     attrs.iter().find_map(|(k, v)| match v {
         NcAttribute::Text(t) if k == key => Some(t.trim()),
         _ => None,
@@ -75,7 +75,7 @@ fn attr_text<'a>(attrs: &'a [(String, NcAttribute)], key: &str) -> Option<&'a st
 }
 
 /// The first number of the attribute `key` among `attrs`.
-fn attr_number(attrs: &[(String, NcAttribute)], key: &str) -> Option<f64> {
+pub(crate) fn attr_number(attrs: &[(String, NcAttribute)], key: &str) -> Option<f64> {
     attrs.iter().find_map(|(k, v)| match v {
         NcAttribute::Numbers(n) if k == key => n.first().copied(),
         _ => None,

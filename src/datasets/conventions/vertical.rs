@@ -10,6 +10,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use super::cf::attr_text;
 use super::select::{self, At, Selection};
 use crate::datasets::readers::variables::{self, Dims, NcAttribute, NcVariable};
 use crate::error::{Error, Result};
@@ -40,25 +41,16 @@ struct Formula {
     default_p0: Option<f64>,
 }
 
-fn text(attrs: &[(String, NcAttribute)], key: &str) -> Option<String> {
-    attrs
-        .iter()
-        .find(|(k, _)| k == key)
-        .and_then(|(_, v)| match v {
-            NcAttribute::Text(t) => Some(t.trim().to_string()),
-            NcAttribute::Numbers(_) => None,
-        })
-}
-
 /// The parametric coordinate among `dims`: its dimension's index and formula.
 fn formula_of(path: &Path, dims: &Dims) -> Result<Option<(usize, Formula)>> {
     for (a, (dim, _)) in dims.iter().enumerate() {
         let Ok(attrs) = variables::variable_attributes(path, dim) else {
             continue;
         };
-        if let (Some(name), Some(terms)) =
-            (text(&attrs, "standard_name"), text(&attrs, "formula_terms"))
-        {
+        if let (Some(name), Some(terms)) = (
+            attr_text(&attrs, "standard_name"),
+            attr_text(&attrs, "formula_terms"),
+        ) {
             let words: Vec<&str> = terms.split_whitespace().collect();
             let terms = words
                 .chunks(2)
@@ -67,21 +59,21 @@ fn formula_of(path: &Path, dims: &Dims) -> Result<Option<(usize, Formula)>> {
             return Ok(Some((
                 a,
                 Formula {
-                    name,
+                    name: name.to_string(),
                     terms,
                     default_p0: None,
                 },
             )));
         }
         if let (Some(a_var), Some(b_var), Some(ps)) = (
-            text(&attrs, "A_var"),
-            text(&attrs, "B_var"),
-            text(&attrs, "PS_var"),
+            attr_text(&attrs, "A_var"),
+            attr_text(&attrs, "B_var"),
+            attr_text(&attrs, "PS_var"),
         ) {
             let mut terms = HashMap::from([
-                ("a".to_string(), a_var),
-                ("b".to_string(), b_var),
-                ("ps".to_string(), ps),
+                ("a".to_string(), a_var.to_string()),
+                ("b".to_string(), b_var.to_string()),
+                ("ps".to_string(), ps.to_string()),
             ]);
             let has_p0 = variables::list_variables(path)?
                 .iter()

@@ -11,30 +11,11 @@
 use std::path::Path;
 
 use super::{Location, Mesh};
+use crate::datasets::conventions::cf::{attr_number, attr_text};
 use crate::datasets::readers::variables::{self, Dims, NcAttribute, NcVariable};
 use crate::error::{Error, Result};
 
 type Attributes = Vec<(String, NcAttribute)>;
-
-fn text(attrs: &Attributes, key: &str) -> Option<String> {
-    attrs
-        .iter()
-        .find(|(k, _)| k == key)
-        .and_then(|(_, v)| match v {
-            NcAttribute::Text(t) => Some(t.trim().to_string()),
-            NcAttribute::Numbers(_) => None,
-        })
-}
-
-fn number(attrs: &Attributes, key: &str) -> Option<f64> {
-    attrs
-        .iter()
-        .find(|(k, _)| k == key)
-        .and_then(|(_, v)| match v {
-            NcAttribute::Numbers(n) => n.first().copied(),
-            NcAttribute::Text(t) => t.trim().parse().ok(),
-        })
-}
 
 /// The file a mesh's geometry is read from, with its variables listed once.
 struct Source<'a> {
@@ -94,14 +75,18 @@ pub(crate) fn mesh_of(
     grid: Option<&Path>,
 ) -> Result<Option<Mesh>> {
     let attrs = variables::variable_attributes(path, name)?;
-    let data = Source::open(path)?;
-    let src = match grid {
-        Some(g) => Source::open(g)?,
-        None => Source::open(path)?,
-    };
-    let found = if let Some(topology) = text(&attrs, "mesh") {
-        let from = if src.has(&topology) { &src } else { &data };
-        Some(ugrid(from, &topology, text(&attrs, "location").as_deref())?)
+    let src = Source::open(grid.unwrap_or(path))?;
+    let found = if let Some(topology) = attr_text(&attrs, "mesh") {
+        // The topology in the grid file, else beside the variable.
+        let own;
+        let from = match grid {
+            Some(_) if !src.has(topology) => {
+                own = Source::open(path)?;
+                &own
+            }
+            _ => &src,
+        };
+        Some(ugrid(from, topology, attr_text(&attrs, "location"))?)
     } else if src.has("verticesOnCell") && src.has("nEdgesOnCell") {
         Some(mpas(&src, dims)?)
     } else if src.has("grid_corner_lat") && src.has("grid_corner_lon") {
@@ -214,7 +199,8 @@ fn rows_of(v: &NcVariable, cells_first: bool) -> Vec<Vec<f64>> {
 fn ugrid(src: &Source, topology: &str, location: Option<&str>) -> Result<Mesh> {
     let t = src.attributes(topology)?;
     let bad = |why: String| Error::format(src.path, format!("UGRID mesh '{topology}': {why}"));
-    let coords = text(&t, "node_coordinates").ok_or_else(|| bad("no node_coordinates".into()))?;
+    let coords =
+        attr_text(&t, "node_coordinates").ok_or_else(|| bad("no node_coordinates".into()))?;
     let names: Vec<&str> = coords.split_whitespace().collect();
     let [x, y] = names[..] else {
         return Err(bad(format!(
@@ -224,8 +210,8 @@ fn ugrid(src: &Source, topology: &str, location: Option<&str>) -> Result<Mesh> {
     // CF orders them x then y; standard names or units say which is the latitude when not.
     let is_lat = |n: &str| -> bool {
         src.attributes(n).is_ok_and(|a| {
-            text(&a, "standard_name").as_deref() == Some("latitude")
-                || text(&a, "units").is_some_and(|u| u.contains("north"))
+            attr_text(&a, "standard_name") == Some("latitude")
+                || attr_text(&a, "units").is_some_and(|u| u.contains("north"))
         })
     };
     let (lon_name, lat_name) = if is_lat(x) { (y, x) } else { (x, y) };
@@ -233,17 +219,18 @@ fn ugrid(src: &Source, topology: &str, location: Option<&str>) -> Result<Mesh> {
         src.degrees(lon_name, "degrees")?,
         src.degrees(lat_name, "degrees")?,
     );
-    let conn_name = text(&t, "face_node_connectivity")
+    let conn_name = attr_text(&t, "face_node_connectivity")
         .ok_or_else(|| bad("no face_node_connectivity".into()))?;
-    let conn = src.read(&conn_name)?;
+    let conn = src.read(conn_name)?;
     if conn.dims.len() != 2 {
         return Err(bad(format!("'{conn_name}' is not 2-D")));
     }
-    let face_dim = text(&t, "face_dimension").unwrap_or_else(|| conn.dims[0].0.clone());
-    let base = number(&src.attributes(&conn_name)?, "start_index").unwrap_or(0.0);
+    let face_dim =
+        attr_text(&t, "face_dimension").map_or_else(|| conn.dims[0].0.clone(), str::to_string);
+    let base = attr_number(&src.attributes(conn_name)?, "start_index").unwrap_or(0.0);
     let (offsets, nodes) = cells(
         src,
-        &conn_name,
+        conn_name,
         rows_of(&conn, conn.dims[0].0 == face_dim).into_iter(),
         base,
         lon.len(),
@@ -350,8 +337,7 @@ fn corner_cells(src: &Source, kind: &str, lon: &str, lat: &str, fallback: &str) 
 }
 
 fn scrip(src: &Source) -> Result<Mesh> {
-    let units = text(&src.attributes("grid_corner_lat")?, "units");
-    if units.is_none() {
+    if attr_text(&src.attributes("grid_corner_lat")?, "units").is_none() {
         return Err(Error::format(
             src.path,
             "SCRIP 'grid_corner_lat' has no units; expected degrees or radians",
@@ -369,7 +355,7 @@ fn scrip(src: &Source) -> Result<Mesh> {
 /// 1-D longitude and latitude with CF `bounds` of shape (cells, vertices): among the variable's
 /// `coordinates`, else ICON's `clon`/`clat`.
 fn bounded(src: &Source, attrs: &Attributes) -> Result<Option<Mesh>> {
-    let mut candidates: Vec<String> = text(attrs, "coordinates")
+    let mut candidates: Vec<String> = attr_text(attrs, "coordinates")
         .map(|c| c.split_whitespace().map(str::to_string).collect())
         .unwrap_or_default();
     candidates.extend(["clon", "clat", "lon", "lat", "longitude", "latitude"].map(String::from));
@@ -381,16 +367,16 @@ fn bounded(src: &Source, attrs: &Attributes) -> Result<Option<Mesh>> {
     {
         let a = src.attributes(c)?;
         // Cells of at least three corners (a regular axis's bounds have two).
-        let Some(b) = text(&a, "bounds")
+        let Some(b) = attr_text(&a, "bounds")
             .filter(|b| src.has(b) && src.dims(b).len() == 2 && src.dims(b)[1].1 >= 3)
         else {
             continue;
         };
-        let units = text(&a, "units").unwrap_or_default();
-        let standard = text(&a, "standard_name").unwrap_or_default();
+        let units = attr_text(&a, "units").unwrap_or_default();
+        let standard = attr_text(&a, "standard_name").unwrap_or_default();
         let latitude = standard == "latitude" || units.contains("north") || c.contains("lat");
         let slot = if latitude { &mut lat } else { &mut lon };
-        slot.get_or_insert((b, units, src.dims(c)));
+        slot.get_or_insert((b.to_string(), units.to_string(), src.dims(c)));
     }
     // Both on the one dimension of the cells.
     let (Some((lon_b, lon_units, on)), Some((lat_b, _, also))) = (lon, lat) else {
@@ -447,7 +433,7 @@ fn triangles(src: &Source, dims: &Dims) -> Result<Option<Mesh>> {
     let finite = v.data.iter().filter(|x| x.is_finite());
     let lowest = finite.clone().fold(f64::INFINITY, |a, &b| a.min(b));
     let highest = finite.fold(f64::NEG_INFINITY, |a, &b| a.max(b));
-    let base = match number(&src.attributes(list)?, "start_index") {
+    let base = match attr_number(&src.attributes(list)?, "start_index") {
         Some(b) => b,
         // FVCOM and ADCIRC count from 1: a list that never names node 0 and names node N is.
         None if lowest >= 1.0 && highest == lon.len() as f64 => 1.0,
@@ -491,7 +477,7 @@ fn triangles(src: &Source, dims: &Dims) -> Result<Option<Mesh>> {
 /// their own (CAM-SE's `lat(ncol)`, `lon(ncol)`), which the variable has; their cells are the
 /// spherical Delaunay triangles of the centres ([`super::delaunay`]), the values on the nodes.
 fn columns(src: &Source, attrs: &Attributes, dims: &Dims) -> Result<Option<Mesh>> {
-    let mut names: Vec<String> = text(attrs, "coordinates")
+    let mut names: Vec<String> = attr_text(attrs, "coordinates")
         .map(|c| c.split_whitespace().map(str::to_string).collect())
         .unwrap_or_default();
     names.extend(["lon", "lat", "longitude", "latitude", "clon", "clat"].map(String::from));
@@ -503,8 +489,8 @@ fn columns(src: &Source, attrs: &Attributes, dims: &Dims) -> Result<Option<Mesh>
         for n in &names {
             let Some(d) = one_d(n) else { continue };
             let a = src.attributes(n)?;
-            let units = text(&a, "units").unwrap_or_default();
-            let is_lat = text(&a, "standard_name").as_deref() == Some("latitude")
+            let units = attr_text(&a, "units").unwrap_or_default();
+            let is_lat = attr_text(&a, "standard_name") == Some("latitude")
                 || units.contains("north")
                 || n.contains("lat");
             if is_lat == latitude {
