@@ -147,7 +147,7 @@ fn variable_on_mesh(
     path: &Path,
     var: Option<&str>,
     grid: Option<&Path>,
-) -> Result<Option<(String, Mesh)>> {
+) -> Result<Option<(String, variables::Dims, Mesh)>> {
     let listed = variables::list_variables(path)?;
     // Without a name: the data variables, not coordinates nor the mesh's own arrays.
     let names: Vec<String> = match var {
@@ -164,10 +164,60 @@ fn variable_on_mesh(
             continue;
         }
         if let Some(mesh) = read::mesh_of(path, &name, &dims, grid)? {
-            return Ok(Some((name, mesh)));
+            return Ok(Some((name, dims, mesh)));
         }
     }
     Ok(None)
+}
+
+/// A variable on a mesh read under a selection.
+struct OnMesh {
+    name: String,
+    mesh: Mesh,
+    /// How each dimension the selection fixed was chosen.
+    notes: Vec<String>,
+    values: variables::NcVariable,
+}
+
+impl OnMesh {
+    /// The variable on its mesh (`None`: on none), its values read under `sel`.
+    fn read(
+        path: &Path,
+        var: Option<&str>,
+        sel: &Selection,
+        grid: Option<&Path>,
+    ) -> Result<Option<OnMesh>> {
+        let Some((name, dims, mesh)) = variable_on_mesh(path, var, grid)? else {
+            return Ok(None);
+        };
+        let plan = select::plan(path, &name, &dims, sel)?;
+        let values = select::read(path, &name, &plan)?;
+        Ok(Some(OnMesh {
+            name,
+            mesh,
+            notes: plan.notes,
+            values,
+        }))
+    }
+
+    /// The selection left more (or other) dimensions than `wanted` says: one line naming them.
+    fn refused(&self, path: &Path, wanted: &str) -> Error {
+        let kept: Vec<String> = self
+            .values
+            .dims
+            .iter()
+            .map(|(d, n)| format!("{d}={n}"))
+            .collect();
+        Error::format(
+            path,
+            format!(
+                "'{}' on the {} keeps [{}] after the selection; {wanted}",
+                self.name,
+                self.mesh.describe(),
+                kept.join(", ")
+            ),
+        )
+    }
 }
 
 /// A variable on an unstructured mesh as a grid: the selection fixes every dimension but the
@@ -181,7 +231,7 @@ pub(crate) fn grid_file(
     resolution: Option<f64>,
     grid: Option<&Path>,
 ) -> Result<Option<GridFile>> {
-    let Some((name, mesh)) = variable_on_mesh(path, var, grid)? else {
+    let Some(on) = OnMesh::read(path, var, sel, grid)? else {
         return match grid {
             Some(g) => Err(Error::format(
                 path,
@@ -194,27 +244,18 @@ pub(crate) fn grid_file(
             None => Ok(None),
         };
     };
-    let listed = variables::list_variables(path)?;
-    let dims = variables::dims_in(&listed, &name);
-    let plan = select::plan(path, &name, &dims, sel)?;
-    let v = select::read(path, &name, &plan)?;
+    let (mesh, v) = (&on.mesh, &on.values);
     if v.dims.len() != 1 || v.dims[0].0 != mesh.dim {
-        let kept: Vec<String> = v.dims.iter().map(|(d, n)| format!("{d}={n}")).collect();
-        return Err(Error::format(
+        return Err(on.refused(
             path,
-            format!(
-                "'{name}' on the {} keeps [{}] after the selection; fix every dimension but '{}' with index or at",
-                mesh.describe(),
-                kept.join(", "),
-                mesh.dim
-            ),
+            &format!("fix every dimension but '{}' with index or at", mesh.dim),
         ));
     }
-    let r = sample::regrid(&mesh, &v.data, resolution)
-        .map_err(|e| Error::format(path, format!("'{name}': {e}")))?;
+    let r = sample::regrid(mesh, &v.data, resolution)
+        .map_err(|e| Error::format(path, format!("'{}': {e}", on.name)))?;
     Ok(Some(GridFile {
-        name: name.clone(),
-        selected: plan.notes.clone(),
+        name: on.name.clone(),
+        selected: on.notes.clone(),
         units: v.units.clone(),
         shape: [r.lat.len(), r.lon.len()],
         data: r.data,
@@ -243,22 +284,16 @@ pub(crate) fn volume_array(
     resolution: Option<f64>,
     grid: Option<&Path>,
 ) -> Result<Option<(crate::datasets::arrays::ArrayData, Vec<super::cf::DimCoord>)>> {
-    let Some((name, mesh)) = variable_on_mesh(path, var, grid)? else {
+    let Some(read) = OnMesh::read(path, var, sel, grid)? else {
         return Ok(None);
     };
-    let listed = variables::list_variables(path)?;
-    let dims = variables::dims_in(&listed, &name);
-    let plan = select::plan(path, &name, &dims, sel)?;
-    let v = select::read(path, &name, &plan)?;
+    let (name, mesh, v) = (&read.name, &read.mesh, &read.values);
     let on = v.dims.iter().position(|(d, _)| *d == mesh.dim);
     let (Some(on), 2) = (on, v.dims.len()) else {
-        let kept: Vec<String> = v.dims.iter().map(|(d, n)| format!("{d}={n}")).collect();
-        return Err(Error::format(
+        return Err(read.refused(
             path,
-            format!(
-                "'{name}' on the {} keeps [{}] after the selection; a volume needs '{}' and one level dimension: fix the others with index or at",
-                mesh.describe(),
-                kept.join(", "),
+            &format!(
+                "a volume needs '{}' and one level dimension: fix the others with index or at",
                 mesh.dim
             ),
         ));
@@ -280,7 +315,7 @@ pub(crate) fn volume_array(
     let mut data = Vec::new();
     let mut axes = None;
     for l in 0..levels {
-        let r = sample::regrid(&mesh, &level_values(l), resolution)
+        let r = sample::regrid(mesh, &level_values(l), resolution)
             .map_err(|e| Error::format(path, format!("'{name}': {e}")))?;
         crate::model::volume::check_allocation(
             (levels * r.data.len() * 8) as u64,
@@ -320,7 +355,7 @@ pub(crate) fn volume_array(
         axis("latitude", lat.clone(), "latitude", "degrees_north"),
         axis("longitude", lon.clone(), "longitude", "degrees_east"),
     ];
-    let mut notes = plan.notes.clone();
+    let mut notes = read.notes.clone();
     notes.push(format!(
         "{}, each level sampled onto latitude and longitude",
         mesh.describe()
