@@ -130,6 +130,39 @@ pub(crate) fn kept(
         .collect()
 }
 
+/// Variable `name` as read by a reader that selects in memory: `data` at the indices `sel` keeps
+/// of `dims` (see [`kept`]), the dimensions `picks` fixed left out, units and long name from its
+/// `attributes`.
+pub(crate) fn picked_variable(
+    name: &str,
+    dims: &Dims,
+    (sel, picks): (&[Vec<usize>], &[Option<usize>]),
+    data: Vec<f64>,
+    attributes: &[(String, NcAttribute)],
+) -> NcVariable {
+    let text = |key: &str| {
+        attributes.iter().find_map(|(k, v)| match v {
+            NcAttribute::Text(t) if k == key => Some(t.clone()),
+            _ => None,
+        })
+    };
+    NcVariable {
+        name: name.to_string(),
+        dims: dims
+            .iter()
+            .zip(sel)
+            .enumerate()
+            .filter(|(d, _)| picks.get(*d).copied().flatten().is_none())
+            .map(|(_, ((dim, _), keep))| (dim.clone(), keep.len()))
+            .collect(),
+        data,
+        units: text("units"),
+        long_name: text("long_name"),
+        attributes: attributes.to_vec(),
+        stored_nan: 0,
+    }
+}
+
 /// The arrays of a format whose variables say their roles only through `coordinates`
 /// attributes (GRIB, Zarr): coordinate variables (1-D, named like their dimension), auxiliary
 /// ones (named in a `coordinates` attribute) and data, with each one's stored type from `dtype`.

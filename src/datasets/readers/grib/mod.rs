@@ -142,33 +142,13 @@ impl GribReader {
                 data
             }
         };
-        let dims: Dims = var
-            .dims
-            .iter()
-            .zip(&sel)
-            .enumerate()
-            .filter(|(d, _)| picks.get(*d).copied().flatten().is_none())
-            .map(|(_, ((name, _), keep))| (name.clone(), keep.len()))
-            .collect();
-        let find = |key: &str| {
-            var.attributes
-                .iter()
-                .find(|(k, _)| k == key)
-                .map(|(_, v)| v)
-        };
-        let as_text = |a: Option<&NcAttribute>| match a {
-            Some(NcAttribute::Text(t)) => Some(t.clone()),
-            _ => None,
-        };
-        Ok(NcVariable {
-            name: var.name.clone(),
-            dims,
+        Ok(super::variables::picked_variable(
+            &var.name,
+            &var.dims,
+            (&sel, picks),
             data,
-            units: as_text(find("units")),
-            long_name: as_text(find("long_name")),
-            attributes: var.attributes.clone(),
-            stored_nan: 0,
-        })
+            &var.attributes,
+        ))
     }
 
     /// Message `k` alone, as a 2-D array on its grid.

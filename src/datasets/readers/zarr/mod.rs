@@ -170,16 +170,6 @@ fn read_selected(a: &ZArray, sel: &[Vec<usize>]) -> Result<Vec<f64>> {
     Ok(out)
 }
 
-fn text_of(attrs: &[(String, NcAttribute)], key: &str) -> Option<String> {
-    attrs
-        .iter()
-        .find(|(k, _)| k == key)
-        .and_then(|(_, v)| match v {
-            NcAttribute::Text(t) => Some(t.clone()),
-            NcAttribute::Numbers(_) => None,
-        })
-}
-
 impl ZarrReader {
     fn read_array(
         &self,
@@ -196,23 +186,13 @@ impl ZarrReader {
         let sel = super::variables::kept(&dims, picks, &window)?;
         let mut data = read_selected(a, &sel)?;
         CfDecoding::with_defaults(&a.attributes, a.dtype.stored(), false).apply(&mut data);
-        let dims: Dims = a
-            .dims
-            .iter()
-            .zip(&sel)
-            .enumerate()
-            .filter(|(d, _)| picks.get(*d).copied().flatten().is_none())
-            .map(|(_, (name, keep))| (name.clone(), keep.len()))
-            .collect();
-        Ok(NcVariable {
-            name: a.name.clone(),
-            dims,
+        Ok(super::variables::picked_variable(
+            &a.name,
+            &dims,
+            (&sel, picks),
             data,
-            units: text_of(&a.attributes, "units"),
-            long_name: text_of(&a.attributes, "long_name"),
-            attributes: a.attributes.clone(),
-            stored_nan: 0,
-        })
+            &a.attributes,
+        ))
     }
 }
 
