@@ -427,9 +427,9 @@ def ensemble_case():
 # -- GRIB1 ---------------------------------------------------------------------------------------
 
 
-def grib1(sample, short_name, level, step, grid):
+def grib1(sample, short_name, level, step, grid, centre="ecmf"):
     h = ec.codes_grib_new_from_samples(sample)
-    set_keys(h, {"centre": "ecmf", "dataDate": DATE, "dataTime": TIME})
+    set_keys(h, {"centre": centre, "dataDate": DATE, "dataTime": TIME})
     set_keys(h, level_keys(short_name, level, step, edition=1))
     set_keys(h, grid)
     return h
@@ -459,10 +459,7 @@ def grib1_multi_case():
 def grib1_lambert_case():
     """GRIB1 Lambert conformal on the spherical Earth (R = 6367.47 km), secant at 25° and 45°N,
     as NCEP's Eta files lay it out."""
-    h = ec.codes_grib_new_from_samples("GRIB1")
-    set_keys(h, {"centre": "kwbc", "dataDate": DATE, "dataTime": TIME})
-    set_keys(h, level_keys("t", 850, 0, edition=1))
-    set_keys(h, {
+    h = grib1("GRIB1", "t", 850, 0, {
         "gridType": "lambert",
         "Nx": 9,
         "Ny": 7,
@@ -476,16 +473,13 @@ def grib1_lambert_case():
         "projectionCenterFlag": 0,
         "iScansNegatively": 0,
         "jScansPositively": 1,
-    })
+    }, centre="kwbc")
     return [(h, fill(h, temperature))]
 
 
 def grib1_polar_case():
     """GRIB1 polar stereographic (north, true at 60°N) on the spherical Earth."""
-    h = ec.codes_grib_new_from_samples("GRIB1")
-    set_keys(h, {"centre": "kwbc", "dataDate": DATE, "dataTime": TIME})
-    set_keys(h, level_keys("t", 500, 0, edition=1))
-    set_keys(h, {
+    h = grib1("GRIB1", "t", 500, 0, {
         "gridType": "polar_stereographic",
         "Nx": 9,
         "Ny": 7,
@@ -497,17 +491,14 @@ def grib1_polar_case():
         "projectionCenterFlag": 0,
         "iScansNegatively": 0,
         "jScansPositively": 1,
-    })
+    }, centre="kwbc")
     return [(h, fill(h, temperature))]
 
 
 def grib1_south_polar_case():
     """GRIB1 polar stereographic centred on the south pole (projection centre flag 128), true
     at 60°S, an Antarctic grid."""
-    h = ec.codes_grib_new_from_samples("GRIB1")
-    set_keys(h, {"centre": "kwbc", "dataDate": DATE, "dataTime": TIME})
-    set_keys(h, level_keys("t", 500, 0, edition=1))
-    set_keys(h, SOUTH_POLAR)
+    h = grib1("GRIB1", "t", 500, 0, SOUTH_POLAR, centre="kwbc")
     return [(h, fill(h, temperature))]
 
 
@@ -557,10 +548,7 @@ def grib1_mercator_case():
     y1 = r * math.log(math.tan(math.pi / 4 + math.radians(lat1) / 2))
     lat2 = math.degrees(2 * math.atan(math.exp((y1 + (nj - 1) * d) / r)) - math.pi / 2)
     lon2 = lon1 + math.degrees((ni - 1) * d / r)
-    h = ec.codes_grib_new_from_samples("GRIB1")
-    set_keys(h, {"centre": "kwbc", "dataDate": DATE, "dataTime": TIME})
-    set_keys(h, level_keys("t", 850, 0, edition=1))
-    set_keys(h, {
+    h = grib1("GRIB1", "t", 850, 0, {
         "gridType": "mercator",
         "Ni": ni,
         "Nj": nj,
@@ -573,7 +561,7 @@ def grib1_mercator_case():
         "DjInMetres": d,
         "iScansNegatively": 0,
         "jScansPositively": 1,
-    })
+    }, centre="kwbc")
     return [(h, fill(h, temperature))]
 
 
