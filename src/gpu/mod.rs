@@ -262,11 +262,17 @@ fn first_rank() -> bool {
         .all(|r| r.trim() == "0")
 }
 
-fn has_adapter(backends: wgpu::Backends) -> bool {
+/// A headless instance of `backends` and the adapters it finds.
+fn adapters(backends: wgpu::Backends) -> (wgpu::Instance, Vec<wgpu::Adapter>) {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
     desc.backends = backends;
     let instance = wgpu::Instance::new(desc);
-    !pollster::block_on(instance.enumerate_adapters(backends)).is_empty()
+    let found = pollster::block_on(instance.enumerate_adapters(backends));
+    (instance, found)
+}
+
+fn has_adapter(backends: wgpu::Backends) -> bool {
+    !adapters(backends).1.is_empty()
 }
 
 /// A GPU (its name and backend) that Vulkan or GL can reach, looked for only where the machine
@@ -284,11 +290,8 @@ fn unused_gpu() -> Option<(String, &'static str)> {
         (wgpu::Backends::VULKAN, "Vulkan"),
         (wgpu::Backends::GL, "GL"),
     ] {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = backends;
-        let instance = wgpu::Instance::new(desc);
-        let adapters = pollster::block_on(instance.enumerate_adapters(backends));
-        if let Some(gpu) = adapters.iter().map(|a| a.get_info()).find(|i| {
+        let (_, found) = adapters(backends);
+        if let Some(gpu) = found.iter().map(|a| a.get_info()).find(|i| {
             matches!(
                 i.device_type,
                 wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu
@@ -310,12 +313,9 @@ impl GpuContext {
             BackendChoice::Gl => &[wgpu::Backends::GL],
         };
         for &backends in tries {
-            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-            desc.backends = backends;
-            let instance = wgpu::Instance::new(desc);
-            let mut adapters = pollster::block_on(instance.enumerate_adapters(backends));
-            adapters.sort_by_key(|a| type_rank(a.get_info().device_type));
-            if let Some(adapter) = adapters.into_iter().next() {
+            let (instance, mut found) = adapters(backends);
+            found.sort_by_key(|a| type_rank(a.get_info().device_type));
+            if let Some(adapter) = found.into_iter().next() {
                 let ctx = GpuContext::open(instance, adapter, choice)?;
                 if let (Some(line), true) = (&ctx.slow_path, first_rank()) {
                     crate::io::notice(line);
