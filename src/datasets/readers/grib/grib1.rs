@@ -260,13 +260,7 @@ fn reduced_gaussian(gds: &[u8], lats: Vec<f64>, (lo1, lo2): (f64, f64)) -> Resul
         .map(|j| uint(gds, at + 2 * j, 2).map(|n| n as usize))
         .collect::<Option<_>>()
         .ok_or("the list of points per row ends early (truncated)")?;
-    let longest = row_points.iter().copied().max().unwrap_or(0).max(1);
-    if lo1 != 0.0 || (lo2 - (360.0 - 360.0 / longest as f64)).abs() > 1e-3 {
-        return Err(format!(
-            "a reduced grid over longitudes {lo1}° to {lo2}° is not read (global ones are)"
-        ));
-    }
-    GridInfo::reduced(lats, row_points)
+    GridInfo::reduced(lats, row_points, (lo1, lo2))
 }
 
 /// A Mercator grid (data representation type 1) on GRIB1's spherical Earth: Di and Dj metres

@@ -408,14 +408,8 @@ fn reduced_gaussian(s3: &[u8]) -> Result<GridInfo, Why> {
         .map(|j| uint(67 + width * j, width).map(|v| v as usize))
         .collect::<Result<_, _>>()?;
     let (la1, lo1, la2, lo2) = (degrees(41)?, degrees(45)?, degrees(50)?, degrees(54)?);
-    let longest = row_points.iter().copied().max().unwrap_or(0).max(1);
-    if lo1 != 0.0 || (lo2 - (360.0 - 360.0 / longest as f64)).abs() > 1e-3 {
-        return Err(format!(
-            "a reduced grid over longitudes {lo1}° to {lo2}° is not read (global ones are)"
-        ));
-    }
     let lats = super::model::gaussian_rows(n, la1, la2, nj)?;
-    GridInfo::reduced(lats, row_points)
+    GridInfo::reduced(lats, row_points, (lo1, lo2))
 }
 
 /// The message's values in scanning order, missing points as NaN.

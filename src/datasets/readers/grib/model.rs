@@ -73,9 +73,14 @@ impl GridInfo {
     }
 
     /// A global reduced Gaussian grid with rows at `lats` of `row_points` points each, every
-    /// row starting at 0°: its nodes are the regular grid of the longest row's points, the grid
-    /// cdo's `setgridtype,regular` makes of it.
-    pub(crate) fn reduced(lats: Vec<f64>, row_points: Vec<usize>) -> Result<GridInfo, String> {
+    /// row from 0° (the first and last longitudes the message gives, `lo1` and `lo2`, must say
+    /// so; a regional grid is refused): its nodes are the regular grid of the longest row's
+    /// points, the grid cdo's `setgridtype,regular` makes of it.
+    pub(crate) fn reduced(
+        lats: Vec<f64>,
+        row_points: Vec<usize>,
+        (lo1, lo2): (f64, f64),
+    ) -> Result<GridInfo, String> {
         if row_points.len() != lats.len() || row_points.contains(&0) {
             return Err(format!(
                 "a reduced grid of {} rows with {} row lengths (some empty or missing)",
@@ -84,6 +89,11 @@ impl GridInfo {
             ));
         }
         let ni = row_points.iter().copied().max().unwrap_or(0);
+        if lo1 != 0.0 || (lo2 - (360.0 - 360.0 / ni as f64)).abs() > 1e-3 {
+            return Err(format!(
+                "a reduced grid over longitudes {lo1}° to {lo2}° is not read (global ones are)"
+            ));
+        }
         check_grid(ni, lats.len())?;
         let lons = (0..ni).map(|i| i as f64 * 360.0 / ni as f64).collect();
         let mut grid = GridInfo::regular("reduced_gg", lats, lons);
@@ -335,7 +345,7 @@ mod tests {
 
     #[test]
     fn reduced_rows_are_filled_linearly_around_the_circle() {
-        let grid = GridInfo::reduced(vec![45.0, -45.0], vec![4, 2]).unwrap();
+        let grid = GridInfo::reduced(vec![45.0, -45.0], vec![4, 2], (0.0, 270.0)).unwrap();
         assert_eq!((grid.ni, grid.nj, grid.stored_points()), (4, 2, 6));
         assert_eq!(grid.lons[..4], [0.0, 90.0, 180.0, 270.0]);
         // The second row's points at 0° and 180°: 90° and 270° lie halfway, around the circle.
@@ -344,6 +354,6 @@ mod tests {
         let holed = grid.fill_rows(vec![1.0, 2.0, 3.0, 4.0, f64::NAN, 20.0]);
         assert!(holed[4].is_nan() && holed[5].is_nan() && holed[7].is_nan());
         assert_eq!(holed[6], 20.0);
-        assert!(GridInfo::reduced(vec![0.0], vec![0]).is_err());
+        assert!(GridInfo::reduced(vec![0.0], vec![0], (0.0, 0.0)).is_err());
     }
 }
