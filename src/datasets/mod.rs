@@ -419,6 +419,27 @@ pub fn load_grid(path: &Path, var: Option<&str>) -> Result<Grid> {
     load_grid_with(path, &opts)
 }
 
+/// A variable on an unstructured mesh as it lies there, for drawing cell by cell: `opts.variable`
+/// (else the file's first variable on a mesh) with the dimensions `opts.select` fixes, its mesh
+/// from its file or from `opts.grid`. `resolution` and `band` belong to grids and are refused.
+pub fn load_mesh(path: &Path, opts: &LoadOptions) -> Result<crate::model::mesh::MeshField> {
+    if opts.resolution.is_some() {
+        return Err(Error::invalid(
+            "resolution",
+            "a mesh is drawn cell by cell; resolution samples it onto a grid with load_grid",
+        ));
+    }
+    if opts.band.is_some() {
+        return Err(Error::invalid("band", "bands belong to GeoTIFF grids"));
+    }
+    conventions::mesh::field(
+        path,
+        opts.variable.as_deref(),
+        &opts.select,
+        opts.grid.as_deref(),
+    )
+}
+
 /// [`load_grid`] of `opts.variable` with the dimensions `opts.select` fixes; the grid's name
 /// then says how each was chosen ("… at time 2011-03-11T06:00:00 (index 5)"), and further
 /// properties are only those of the same selection's shape that have the selected dimensions.

@@ -302,8 +302,14 @@ impl Camera {
 
     /// The world ray through the centre of pixel (px, py) of a `width × height` image.
     pub fn ray(&self, px: u32, py: u32, width: u32, height: u32) -> ([f64; 3], [f64; 3]) {
-        let sx = 2.0 * (px as f64 + 0.5) / width as f64 - 1.0;
-        let sy = 1.0 - 2.0 * (py as f64 + 0.5) / height as f64;
+        self.ray_at([px as f64 + 0.5, py as f64 + 0.5], width, height)
+    }
+
+    /// The world ray through the point `at` of a `width × height` image, in continuous pixel
+    /// coordinates (x right, y down; pixel (i, j) covers [i, i + 1] × [j, j + 1]).
+    pub fn ray_at(&self, at: [f64; 2], width: u32, height: u32) -> ([f64; 3], [f64; 3]) {
+        let sx = 2.0 * at[0] / width as f64 - 1.0;
+        let sy = 1.0 - 2.0 * at[1] / height as f64;
         match self.projection {
             Projection::Orthographic {
                 half_width,

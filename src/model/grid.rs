@@ -16,6 +16,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
+/// A fresh identity for something the renderers cache results of (grids, mesh fields): one
+/// sequence, so no two things drawn share one.
+pub(crate) fn next_id() -> u64 {
+    NEXT_ID.fetch_add(1, Ordering::Relaxed)
+}
+
 /// What a grid axis measures: plain coordinates, degrees of longitude or latitude, or a depth (a
 /// vertical coordinate positive downward, CF's `positive: "down"`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

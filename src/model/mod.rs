@@ -10,6 +10,7 @@ pub mod figure;
 pub mod geometry;
 pub(crate) mod grid;
 pub(crate) mod image;
+pub mod mesh;
 pub mod numeric;
 pub(crate) mod resample;
 pub mod rotated_pole;

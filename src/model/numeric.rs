@@ -4,6 +4,16 @@
 
 use std::f64::consts::{PI, TAU};
 
+/// The least and greatest finite value (infinite when there is none).
+pub(crate) fn finite_range(values: &[f64]) -> (f64, f64) {
+    values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(*v), hi.max(*v))
+        })
+}
+
 /// Associated Legendre function in the normalisation of CitcomS, the code of the Zhong et al.
 /// (2008) benchmark, whose initial perturbation uses it: P_lm(x) = sqrt((2 - delta_m0) (2l + 1)
 /// (l - m)! / (4 pi (l + m)!)) P_l^m(x), with the Condon-Shortley phase (-1)^m in P_l^m. The real

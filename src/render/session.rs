@@ -10,12 +10,13 @@
 use super::cache::{KeyBuilder, ResultCache};
 use super::distributed::Exchange;
 use super::passes::{describe, PassLog, PassRecord};
-use super::surface::{SurfaceOptions, SurfaceRenderer};
+use super::surface::{SurfaceOptions, SurfaceRenderer, SurfaceTiming};
 use super::volume::{GpuVolume, VolumeRenderer};
 use super::volume_f64::F64RayCaster;
 use super::{Precision, TfSampling, VolumeRenderOptions};
 use crate::error::Result;
 use crate::gpu::{BackendChoice, GpuContext};
+use crate::model::mesh::MeshField;
 use crate::model::{Grid, HdrImage, Volume};
 use crate::tonemap::{MapperChoice, ToneMapSettings, ToneMapper};
 use std::any::Any;
@@ -378,17 +379,33 @@ impl RenderSession {
     /// A surface render: the data pass runs when the grid, view, size or property set changed
     /// (the surface renderer keeps its targets), the fringe pass when anything else did.
     pub fn surface(&self, grid: &Arc<Grid>, opts: &SurfaceOptions) -> Result<Arc<Vec<HdrImage>>> {
-        let key = KeyBuilder::new("surface")
-            .u64(grid.id())
-            .debug(opts)
-            .finish();
+        self.surface_of(grid.id(), opts, |r| r.render_timed(grid, opts))
+    }
+
+    /// A field on a mesh drawn cell by cell, cached as [`Self::surface`].
+    pub fn mesh_surface(
+        &self,
+        field: &Arc<MeshField>,
+        opts: &SurfaceOptions,
+    ) -> Result<Arc<Vec<HdrImage>>> {
+        self.surface_of(field.id(), opts, |r| r.render_mesh_timed(field, opts))
+    }
+
+    /// The surface images of the thing `id` names under `opts`, from the cache or `render`.
+    fn surface_of(
+        &self,
+        id: u64,
+        opts: &SurfaceOptions,
+        render: impl FnOnce(&SurfaceRenderer) -> Result<(Vec<HdrImage>, SurfaceTiming)>,
+    ) -> Result<Arc<Vec<HdrImage>>> {
+        let key = KeyBuilder::new("surface").u64(id).debug(opts).finish();
         if let Some(v) = self.cache.get::<Vec<HdrImage>>(key) {
             self.log.push(PassRecord::cached("surface-data"));
             self.log.push(PassRecord::cached("fringe"));
             return Ok(v);
         }
         let renderer = self.surface_renderer()?;
-        let (mut images, timing) = renderer.render_timed(grid, opts)?;
+        let (mut images, timing) = render(&renderer)?;
         let data = match timing.data_ms {
             Some(ms) => PassRecord::ran("surface-data", ms).with_detail(opts.view.describe()),
             None => PassRecord::cached("surface-data"),
@@ -404,6 +421,22 @@ impl RenderSession {
         let bytes = images.iter().map(image_bytes).sum();
         self.cache.put(key, images.clone(), bytes);
         Ok(images)
+    }
+
+    /// A field on an unstructured mesh, read once per session ([`crate::datasets::load_mesh`]).
+    pub fn load_mesh(
+        &self,
+        path: &Path,
+        opts: &crate::datasets::LoadOptions,
+    ) -> Result<Arc<MeshField>> {
+        let key = file_key("load mesh", path, Some(&format!("{opts:?}")))?;
+        self.stage(
+            "load",
+            key,
+            |f: &MeshField| (f.values().len() * 8 + f.mesh().bytes()) as u64,
+            |_, _| {},
+            || Ok((crate::datasets::load_mesh(path, opts)?, String::new())),
+        )
     }
 
     /// Records a sink (a written file, a preview) that took `ms`.

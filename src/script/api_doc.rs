@@ -13,7 +13,7 @@ use super::api_render::{
     CUT, CUT_FACES, CUT_PLANE, LENS, LOAD_VOLUME, RENDER_VOLUME, SHADING, TF_LUT,
 };
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
-use super::api_surface::{LOAD_GRID, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
+use super::api_surface::{LOAD_GRID, LOAD_MESH, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
 use super::lines::COASTLINES;
 use super::options::OptionTable;
 #[cfg(test)]
@@ -113,6 +113,15 @@ pub(crate) const API: &[ApiEntry] = &[
     e("surfaces", "get$wavelength", &["grid: Grid"], "float or ()", "grid.wavelength: the radar wavelength in m of a MintPy product (WAVELENGTH), else (); nu: 2.0 / g.wavelength on a displacement in m draws one fringe per λ/2, which the legend then says (\"1 fringe = 0.02773 m = λ/2\")"),
     with(e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2. The EXR gets the data value, `fringe` and `fringe_filtered` channels. Options:"), &[&RENDER_SURFACE, &COASTLINES]),
     e("surfaces", "render_surface", &["grid: Grid"], "Image", "An error naming the options render_surface needs."),
+    e("surfaces", "load_mesh", &["path: string"], "Mesh", "A variable on an unstructured mesh as it lies there, one value per cell or node (UGRID, ICON, MPAS, SCRIP, FVCOM, ADCIRC, or columns with centres only, triangulated); \"f.nc:T850\" picks the variable. render_surface draws it cell by cell; load_grid samples it onto latitude and longitude instead."),
+    with(e("surfaces", "load_mesh", &["path: string", "options: map"], "Mesh", "As above with the other dimensions fixed by index or at, and the mesh from a grid file. Options:"), &[&LOAD_MESH]),
+    e("surfaces", "get$cells", &["mesh: Mesh"], "int", "mesh.cells: how many cells"),
+    e("surfaces", "get$nodes", &["mesh: Mesh"], "int", "mesh.nodes: how many nodes"),
+    e("surfaces", "get$kind", &["mesh: Mesh"], "string", "mesh.kind: the convention it was read by (UGRID, ICON, MPAS, SCRIP, FVCOM, ADCIRC, columns)"),
+    e("surfaces", "get$name", &["mesh: Mesh"], "string", "mesh.name: the variable"),
+    e("surfaces", "get$units", &["mesh: Mesh"], "string", "mesh.units: the variable's units"),
+    e("surfaces", "describe", &["mesh: Mesh"], "string", "One line: the variable, how its other dimensions were chosen, the mesh's convention, cells, nodes and where the values sit."),
+    with(e("surfaces", "render_surface", &["mesh: Mesh", "options: map"], "Image", "A mesh drawn cell by cell on the map (over the mesh's extent, 1024 px on the long side by default) or the globe: each pixel located in the mesh through its spatial index, cell data flat over each cell, node data linear over its triangles, the value exact in f64 at every pixel; antialias (default) averages 4 samples per pixel. The same options as for a grid, on map and globe views; cell_edges draws the cells' outlines. Options:"), &[&RENDER_SURFACE, &COASTLINES]),
     with(e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for render_surface's options, with the resolution 1/nu in its metadata. Options:"), &[&SURFACE_COLORBAR]),
     with(e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for render_surface's options: the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text. Options:"), &[&SURFACE_LEGEND]),
     with(e("sections and slices", "section", &["volume: Volume", "options: map"], "Grid", "A great-circle section of a spherical volume: columns evenly spaced along the short arc from `from` to `to`, rows evenly spaced in depth, each node trilinear in the volume's (radius, latitude, longitude) grid. x is the distance along the arc at the surface and y the depth, both in the volume's length unit; the properties are the volume's values and each column's `latitude` and `longitude`. Columns outside a wedge are missing. render_surface draws it (fringes, frame: true). Options:"), &[&SECTION]),

@@ -13,17 +13,19 @@ use super::lines::{coastline_style, graticule_step};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
 use crate::datasets::LoadOptions;
+use crate::model::mesh::MeshField;
 use crate::model::text::{TYPE_MAX, TYPE_MIN};
 use crate::model::{Aabb, Axis, Grid, HdrImage};
 use crate::render::surface::{
-    colorbar, legend_in, legend_type, FringeMode, MissingColour, PhaseMethod, SurfaceOptions,
-    SurfaceView, MAX_COLORBAR_HEIGHT,
+    colorbar, legend_in, legend_type, mesh_extent_grid, FringeMode, MissingColour, PhaseMethod,
+    SurfaceOptions, SurfaceView, MAX_COLORBAR_HEIGHT,
 };
 use crate::render::MAX_IMAGE_SIDE;
 use rhai::{Dynamic, Engine, Map};
 use std::sync::Arc;
 
 pub(crate) type ScriptGrid = Arc<Grid>;
+pub(crate) type ScriptMesh = Arc<MeshField>;
 
 /// The options `render_surface`, `surface_colorbar` and `surface_legend` share (what sets the
 /// colours), followed by the function's own (`render_surface`'s view, all three's sizes).
@@ -75,6 +77,28 @@ pub(crate) const LOAD_GRID: OptionTable = OptionTable {
         ),
     ],
     call: "load_grid(\"geo.nc\", OPTS)",
+    base: "#{}",
+};
+
+pub(crate) const LOAD_MESH: OptionTable = OptionTable {
+    function: "load_mesh",
+    options: &[
+        opt(
+            "variable",
+            Kind::Text("\"T850\""),
+            "the file's first variable on a mesh",
+            "the variable to read (an unknown one lists the file's)",
+        ),
+        super::api_datasets::SELECT_INDEX,
+        super::api_datasets::SELECT_AT,
+        opt(
+            "grid",
+            Kind::Text("\"grid.nc\""),
+            "the variable's own file",
+            "the file that holds the mesh when the variable's file has only its values (ICON and MPAS grid files, SCRIP)",
+        ),
+    ],
+    call: "load_mesh(\"mesh.nc\", OPTS)",
     base: "#{}",
 };
 
@@ -334,31 +358,14 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
     });
 
     register_load_grid(engine, &host);
+    register_meshes(engine, &host);
 
     let h = host;
     engine.register_fn(
         "render_surface",
         move |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
             let (o, many) = render_surface_options(grid, &opts)?;
-            let mut images = if h.plan_only {
-                let img = HdrImage::new(o.width.unwrap_or(1), o.height.unwrap_or(1));
-                vec![img; o.properties.len().max(1)]
-            } else {
-                h.session.surface(grid, &o).map_err(to_rhai)?.to_vec()
-            };
-            if let Some(first) = images.first() {
-                h.note_image(&Arc::new(first.clone()));
-            }
-            if many {
-                Ok(Dynamic::from(
-                    images
-                        .into_iter()
-                        .map(|i| Dynamic::from(Arc::new(i) as ScriptImage))
-                        .collect::<rhai::Array>(),
-                ))
-            } else {
-                Ok(Dynamic::from(Arc::new(images.remove(0)) as ScriptImage))
-            }
+            surface_images(&h, &o, many, || h.session.surface(grid, &o))
         },
     );
     engine.register_fn("render_surface", |_: &mut ScriptGrid| -> RResult<Dynamic> {
@@ -390,6 +397,82 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
             let w = given.int("width")?.unwrap_or(384) as u32;
             let ty = legend_type(w, given.num("font_size")?);
             Ok(Arc::new(legend_in(grid, &o, w, ty).map_err(to_rhai)?))
+        },
+    );
+}
+
+/// `render_surface`'s result: one image, or an array when `property` was an array; a blank
+/// image of the asked size per property when the script is only planned.
+fn surface_images(
+    h: &ScriptHost,
+    o: &SurfaceOptions,
+    many: bool,
+    render: impl FnOnce() -> crate::error::Result<Arc<Vec<HdrImage>>>,
+) -> RResult<Dynamic> {
+    let mut images = if h.plan_only {
+        let img = HdrImage::new(o.width.unwrap_or(1), o.height.unwrap_or(1));
+        vec![img; o.properties.len().max(1)]
+    } else {
+        render().map_err(to_rhai)?.to_vec()
+    };
+    if let Some(first) = images.first() {
+        h.note_image(&Arc::new(first.clone()));
+    }
+    if many {
+        Ok(Dynamic::from(
+            images
+                .into_iter()
+                .map(|i| Dynamic::from(Arc::new(i) as ScriptImage))
+                .collect::<rhai::Array>(),
+        ))
+    } else {
+        Ok(Dynamic::from(Arc::new(images.remove(0)) as ScriptImage))
+    }
+}
+
+/// `load_mesh` (two forms), the `Mesh` type's getters and `render_surface` of a mesh.
+fn register_meshes(engine: &mut Engine, host: &Arc<ScriptHost>) {
+    engine.register_type_with_name::<ScriptMesh>("Mesh");
+    engine.register_get("name", |m: &mut ScriptMesh| m.name().to_string());
+    engine.register_get("units", |m: &mut ScriptMesh| m.units().to_string());
+    engine.register_get("cells", |m: &mut ScriptMesh| m.mesh().faces() as i64);
+    engine.register_get("nodes", |m: &mut ScriptMesh| m.mesh().nodes() as i64);
+    engine.register_get("kind", |m: &mut ScriptMesh| m.mesh().kind().to_string());
+    engine.register_fn("describe", |m: &mut ScriptMesh| m.describe());
+    let h = host.clone();
+    engine.register_fn("load_mesh", move |path: &str| -> RResult<ScriptMesh> {
+        let (p, variable) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+        let opts = LoadOptions {
+            variable,
+            ..LoadOptions::default()
+        };
+        h.session.load_mesh(&p, &opts).map_err(to_rhai)
+    });
+    let h = host.clone();
+    engine.register_fn(
+        "load_mesh",
+        move |path: &str, opts: Map| -> RResult<ScriptMesh> {
+            let given = LOAD_MESH.read(&opts)?;
+            let (p, from_path) = h.sandbox.read_data_path(path).map_err(to_rhai)?;
+            let opts = LoadOptions {
+                variable: variable_option(given.string("variable")?, from_path, "load_mesh")?,
+                select: super::api_datasets::selection(&given)?,
+                grid: match given.string("grid")? {
+                    Some(g) => Some(h.sandbox.read_path(&g).map_err(to_rhai)?),
+                    None => None,
+                },
+                ..LoadOptions::default()
+            };
+            h.session.load_mesh(&p, &opts).map_err(to_rhai)
+        },
+    );
+    let h = host.clone();
+    engine.register_fn(
+        "render_surface",
+        move |mesh: &mut ScriptMesh, opts: Map| -> RResult<Dynamic> {
+            let extent = mesh_extent_grid(mesh).map_err(to_rhai)?;
+            let (o, many) = render_surface_options(&extent, &opts)?;
+            surface_images(&h, &o, many, || h.session.mesh_surface(mesh, &o))
         },
     );
 }

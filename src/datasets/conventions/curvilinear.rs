@@ -16,6 +16,8 @@
 //! or a fold of a tripolar grid) are left out.
 
 use crate::error::{Error, Result};
+use crate::model::mesh::ring::linear_in;
+pub(crate) use crate::model::numeric::finite_range;
 
 /// The most nodes a regridded grid may have.
 const MAX_NODES: usize = 1 << 26;
@@ -224,27 +226,6 @@ pub(crate) fn target_axes(
         ));
     }
     Ok((lon_nodes, lat_nodes, step_lon))
-}
-
-/// The value at `p` linear over the triangle `t` (corners and their values; `area` twice its
-/// signed area, not zero), or `None` when `p` lies outside it (a weight below −1e-12).
-pub(crate) fn linear_in(t: &[([f64; 2], f64); 3], area: f64, [x, y]: [f64; 2]) -> Option<f64> {
-    let [(a, va), (b, vb), (c, vc)] = *t;
-    let wb = ((x - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (y - a[1])) / area;
-    let wc = ((b[0] - a[0]) * (y - a[1]) - (x - a[0]) * (b[1] - a[1])) / area;
-    let wa = 1.0 - wb - wc;
-    let tol = -1e-12;
-    (wa >= tol && wb >= tol && wc >= tol).then_some(wa * va + wb * vb + wc * vc)
-}
-
-/// The least and greatest finite value (infinite when there is none).
-pub(crate) fn finite_range(values: &[f64]) -> (f64, f64) {
-    values
-        .iter()
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(*v), hi.max(*v))
-        })
 }
 
 /// Nodes `lo + k·step` from `lo` to at most `hi`.

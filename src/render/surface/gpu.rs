@@ -3,6 +3,7 @@
 
 use super::geometry::SurfaceGeometry;
 use super::legend::{colour_domain, surface_colour_bar};
+use super::mesh::{mesh_frame, mesh_pixels, MeshPixels};
 use super::options::{
     check_nu, default_size, property_indices, MissingColour, PhaseMethod, SurfaceOptions,
     SurfaceView,
@@ -15,6 +16,7 @@ use crate::error::{Error, Result};
 use crate::gpu::transfer::ReadbackBuffer;
 use crate::gpu::{pipeline, shader, GpuContext};
 use crate::model::colormap::Colormap;
+use crate::model::mesh::MeshField;
 use crate::model::{Grid, HdrImage};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -71,6 +73,8 @@ struct DataKey {
     properties: Vec<String>,
     relief: Option<String>,
     exaggeration: u64,
+    /// Samples per pixel of a mesh's host data pass (0 for a grid's).
+    samples: u32,
 }
 
 /// Counters for tests and benchmarks.
@@ -245,21 +249,26 @@ impl SurfaceRenderer {
 
     fn resolve_size(&self, grid: &Grid, opts: &SurfaceOptions) -> Result<(u32, u32)> {
         let (w, h) = default_size(grid, opts);
+        let what = format!("a {}x{} grid", grid.nx(), grid.ny());
+        self.check_binding(w, h, (grid.nx() * grid.ny()) as u64, &what)?;
+        Ok((w, h))
+    }
+
+    /// That `w × h` pixels and `nodes` input nodes (of `what`) fit the adapter's buffer bindings.
+    fn check_binding(&self, w: u32, h: u32, nodes: u64, what: &str) -> Result<()> {
         let limit = self.ctx.caps.max_storage_buffer_binding_size;
-        let largest = (w as u64 * h as u64).max((grid.nx() * grid.ny()) as u64) * 16;
+        let largest = (w as u64 * h as u64).max(nodes) * 16;
         if largest > limit {
             return Err(Error::invalid(
                 "width",
                 format!(
-                    "{w}x{h} pixels on a {}x{} grid need {} MiB buffers; this adapter binds at most {} MiB",
-                    grid.nx(),
-                    grid.ny(),
+                    "{w}x{h} pixels of {what} need {} MiB buffers; this adapter binds at most {} MiB",
                     largest >> 20,
                     limit >> 20
                 ),
             ));
         }
-        Ok((w, h))
+        Ok(())
     }
 
     /// Step 1, cached: the data targets for these options.
@@ -365,11 +374,140 @@ impl SurfaceRenderer {
         let data = self.data_pass(grid, opts, &props)?;
         let data_ms = (self.data_passes.load(Ordering::Relaxed) > passes_before)
             .then(|| t0.elapsed().as_secs_f64() * 1e3);
+        self.fringe_and_overlay(
+            &data,
+            props.len(),
+            opts,
+            &colormap,
+            overlay.as_ref(),
+            data_ms,
+        )
+    }
+
+    /// Draws a field on an unstructured mesh cell by cell on the map or the globe
+    /// ([`super::mesh`]): one image, as [`Self::render`] gives for a grid.
+    pub fn render_mesh(&self, field: &MeshField, opts: &SurfaceOptions) -> Result<Vec<HdrImage>> {
+        Ok(self.render_mesh_timed(field, opts)?.0)
+    }
+
+    /// As [`Self::render_mesh`], also saying how long each step took.
+    pub(crate) fn render_mesh_timed(
+        &self,
+        field: &MeshField,
+        opts: &SurfaceOptions,
+    ) -> Result<(Vec<HdrImage>, SurfaceTiming)> {
+        opts.validate()?;
+        if opts.properties.len() > 1 || opts.properties.iter().any(|p| p != field.name()) {
+            return Err(Error::invalid(
+                "property",
+                format!(
+                    "{:?}: a mesh field has one property, {:?}",
+                    opts.properties,
+                    field.name()
+                ),
+            ));
+        }
+        let colormap = Colormap::by_name(opts.colormap_name())?;
+        let (frame, width, height) = mesh_frame(field, opts)?;
+        self.check_binding(width, height, 0, &field.describe())?;
+        let overlay = Overlay::plan(&frame, opts)?;
+        let key = DataKey {
+            grid: field.id(),
+            view: opts.view.key(),
+            width,
+            height,
+            properties: vec![field.name().to_string()],
+            relief: None,
+            exaggeration: 0,
+            samples: if opts.antialias { 4 } else { 1 },
+        };
+        let t0 = std::time::Instant::now();
+        let (data, data_ms) = match self.cached_targets(&key) {
+            Some(t) => (t, None),
+            None => {
+                let pixels = mesh_pixels(field, opts, &frame, width, height)?;
+                let t = self.host_targets(field, &pixels, &frame, opts, [width, height]);
+                self.data_passes.fetch_add(1, Ordering::Relaxed);
+                self.remember(key, t.clone());
+                (t, Some(t0.elapsed().as_secs_f64() * 1e3))
+            }
+        };
+        let (mut images, timing) =
+            self.fringe_and_overlay(&data, 1, opts, &colormap, overlay.as_ref(), data_ms)?;
+        for img in &mut images {
+            img.set_meta("mesh", field.describe());
+            img.set_meta(
+                "mesh_samples",
+                if opts.antialias {
+                    "mean of 4 points per pixel (2 x 2), where at least 2 fall on the mesh"
+                } else {
+                    "the pixel's centre"
+                },
+            );
+        }
+        Ok((images, timing))
+    }
+
+    /// Step 1 for a mesh: the pixels' values (f64, relative to the middle of the field's range)
+    /// and shading, computed on the host, as the data targets step 2 reads.
+    fn host_targets(
+        &self,
+        field: &MeshField,
+        pixels: &MeshPixels,
+        frame: &Grid,
+        opts: &SurfaceOptions,
+        [width, height]: [u32; 2],
+    ) -> Arc<DataTargets> {
+        let range = field.range();
+        let d_ref = range.map_or(0.0, |(a, b)| 0.5 * (a + b));
+        let n = pixels.values.len();
+        let (mut hi, mut rest) = (vec![0f32; n], vec![0f32; n]);
+        let mut mask = vec![[0f32; 2]; n];
+        for k in 0..n {
+            let d = pixels.values[k];
+            if d.is_finite() {
+                let off = d - d_ref;
+                hi[k] = off as f32;
+                rest[k] = (off - hi[k] as f64) as f32;
+            }
+            mask[k] = [d.is_finite() as u8 as f32, pixels.shade[k]];
+        }
+        Arc::new(DataTargets {
+            hi: self.input_buffer("mesh pixels hi", bytemuck::cast_slice(&hi)),
+            rest: self.input_buffer("mesh pixels rest", bytemuck::cast_slice(&rest)),
+            mask: self.input_buffer("mesh pixels mask", bytemuck::cast_slice(&mask)),
+            width,
+            height,
+            props: vec![(
+                field.name().to_string(),
+                field.units().to_string(),
+                d_ref,
+                range,
+            )],
+            view: opts.view.describe(),
+            axes: (opts.view == SurfaceView::Map)
+                .then(|| crate::model::map_frame::MapAxes::of_grid(frame))
+                .flatten(),
+            outputs: Mutex::new(None),
+            values: Mutex::new(HashMap::new()),
+        })
+    }
+
+    /// Step 2 for each of `slots` properties of `data`, with `overlay` drawn over each image.
+    fn fringe_and_overlay(
+        &self,
+        data: &DataTargets,
+        slots: usize,
+        opts: &SurfaceOptions,
+        colormap: &Colormap,
+        overlay: Option<&Overlay>,
+        data_ms: Option<f64>,
+    ) -> Result<(Vec<HdrImage>, SurfaceTiming)> {
         let t1 = std::time::Instant::now();
-        let mut images = (0..props.len())
-            .map(|slot| self.fringe_pass(&data, slot, opts.nu_for(slot), opts, &colormap))
+        let mut images = (0..slots)
+            .map(|slot| self.fringe_pass(data, slot, opts.nu_for(slot), opts, colormap))
             .collect::<Result<Vec<_>>>()?;
-        if let Some(overlay) = &overlay {
+        if let Some(overlay) = overlay {
             images.iter_mut().for_each(|img| overlay.draw(img));
         }
         let timing = SurfaceTiming {
@@ -613,6 +751,7 @@ impl DataKey {
             } else {
                 opts.exaggeration.to_bits()
             },
+            samples: 0,
         }
     }
 }

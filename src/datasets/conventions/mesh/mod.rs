@@ -16,103 +16,8 @@ use super::select::{self, Selection};
 use crate::datasets::readers::variables;
 use crate::datasets::{geographic_axis, GridFile};
 use crate::error::{Error, Result};
+use crate::model::mesh::{Mesh, MeshField};
 use crate::model::CoordKind;
-
-/// Where a variable's values sit on its mesh.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Location {
-    /// One value per cell, constant over it.
-    Faces,
-    /// One value per node, linear over the cells' triangles.
-    Nodes,
-}
-
-/// A mesh: nodes on the sphere and cells as rings of node indices.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Mesh {
-    /// The convention it was read by ("UGRID", "ICON", "MPAS", "SCRIP", "FVCOM", ...).
-    pub kind: String,
-    /// Node longitudes and latitudes in degrees.
-    pub lon: Vec<f64>,
-    pub lat: Vec<f64>,
-    /// Cell `f`'s nodes are `nodes[offsets[f]..offsets[f + 1]]`.
-    pub offsets: Vec<usize>,
-    pub nodes: Vec<usize>,
-    pub location: Location,
-    /// The dimension the variable's values run along (cells or nodes).
-    pub dim: String,
-}
-
-impl Mesh {
-    pub(crate) fn faces(&self) -> usize {
-        self.offsets.len() - 1
-    }
-
-    pub(crate) fn face(&self, f: usize) -> &[usize] {
-        &self.nodes[self.offsets[f]..self.offsets[f + 1]]
-    }
-
-    /// How many values a variable on this mesh has.
-    pub(crate) fn values(&self) -> usize {
-        match self.location {
-            Location::Faces => self.faces(),
-            Location::Nodes => self.lon.len(),
-        }
-    }
-
-    /// The cells' median size in degrees: the square root of a cell's area (its polygon in
-    /// longitude and latitude, the longitudes shrunk by the cosine of its latitude), the step
-    /// at which a grid samples each cell about once. Of at most 200 000 cells spread over the
-    /// mesh; cells round a pole or at one are left out. `None` when every cell has zero area.
-    pub(crate) fn median_size(&self) -> Option<f64> {
-        let every = (self.faces() / 200_000).max(1);
-        let mut sizes: Vec<f64> = (0..self.faces())
-            .step_by(every)
-            .filter_map(|f| {
-                let ids = self.face(f);
-                let first = self.lon[ids[0]];
-                let mut pts = Vec::with_capacity(ids.len());
-                for &n in ids {
-                    let (lo, la) = (self.lon[n], self.lat[n]);
-                    if !(lo.is_finite() && la.is_finite()) || la.abs() >= 90.0 - 1e-9 {
-                        return None;
-                    }
-                    pts.push([lo - 360.0 * ((lo - first) / 360.0).round(), la]);
-                }
-                let mean_lat = pts.iter().map(|p| p[1]).sum::<f64>() / pts.len() as f64;
-                let twice: f64 = (0..pts.len())
-                    .map(|k| {
-                        let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
-                        a[0] * b[1] - b[0] * a[1]
-                    })
-                    .sum();
-                let area = 0.5 * twice.abs() * mean_lat.to_radians().cos();
-                (area > 0.0).then(|| area.sqrt())
-            })
-            .collect();
-        if sizes.is_empty() {
-            return None;
-        }
-        let mid = sizes.len() / 2;
-        Some(*sizes.select_nth_unstable_by(mid, f64::total_cmp).1)
-    }
-
-    /// One line for `hdrvis info` and a grid's name: convention, cells, nodes, where the values
-    /// sit.
-    pub(crate) fn describe(&self) -> String {
-        let on = match self.location {
-            Location::Faces => "cells",
-            Location::Nodes => "nodes",
-        };
-        format!(
-            "{} mesh of {} cells and {} nodes, values on its {on} ({})",
-            self.kind,
-            self.faces(),
-            self.lon.len(),
-            self.dim
-        )
-    }
-}
 
 /// Arrays that describe meshes rather than hold data on them.
 const GEOMETRY: [&str; 24] = [
@@ -218,6 +123,37 @@ impl OnMesh {
             ),
         )
     }
+}
+
+/// A variable on an unstructured mesh as it lies there (for drawing cell by cell): the selection
+/// fixes every dimension but the mesh's. An error naming the file when the variable (or, without
+/// one, every variable) is on no mesh.
+pub(crate) fn field(
+    path: &Path,
+    var: Option<&str>,
+    sel: &Selection,
+    grid: Option<&Path>,
+) -> Result<MeshField> {
+    let Some(on) = OnMesh::read(path, var, sel, grid)? else {
+        let what = var.map_or("no variable".to_string(), |v| format!("'{v}'"));
+        return Err(Error::format(
+            path,
+            format!(
+                "{what} lies on no unstructured mesh (UGRID, ICON, MPAS, SCRIP, FVCOM, ADCIRC or columns){}; load_grid reads grids",
+                grid.map_or(String::new(), |g| format!(" that {} describes", g.display()))
+            ),
+        ));
+    };
+    let v = &on.values;
+    if v.dims.len() != 1 || v.dims[0].0 != on.mesh.dim {
+        return Err(on.refused(
+            path,
+            &format!("fix every dimension but '{}' with index or at", on.mesh.dim),
+        ));
+    }
+    let units = v.units.clone().unwrap_or_default();
+    MeshField::new(on.mesh, v.data.clone(), &on.name, &units, on.notes)
+        .map_err(|e| Error::format(path, e.to_string()))
 }
 
 /// A variable on an unstructured mesh as a grid: the selection fixes every dimension but the

@@ -10,10 +10,10 @@
 
 use std::path::Path;
 
-use super::{Location, Mesh};
 use crate::datasets::conventions::cf::{attr_number, attr_text};
 use crate::datasets::readers::variables::{self, Dims, NcAttribute, NcVariable};
 use crate::error::{Error, Result};
+use crate::model::mesh::{Location, Mesh};
 
 type Attributes = Vec<(String, NcAttribute)>;
 

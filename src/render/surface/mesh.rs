@@ -1,0 +1,245 @@
+//! Meshes drawn cell by cell (`render_surface` of a [`MeshField`]). Each pixel is placed on the
+//! sphere — on the map by its equirectangular axes over the mesh's extent, on the globe where the
+//! camera's ray meets the unit sphere — and located in the mesh through its spatial index; the
+//! value there, in f64, becomes the data targets the fringe pass reads, so colours, fringes,
+//! colour bars, coastlines and graticules are the grid path's own, and the phase is exact at
+//! every pixel. No grid lies between the mesh and the picture: a cell's edge is as sharp as the
+//! pixels. With `antialias` each pixel takes the mean of four samples (a 2 × 2 pattern at its
+//! quarter points) where at least two of them fall on the mesh, so cell edges and the mesh's
+//! outline are smoothed; without it, the value at its centre.
+
+use super::globe::GlobeFrame;
+use super::options::{SurfaceOptions, SurfaceView};
+use crate::error::{Error, Result};
+use crate::model::mesh::MeshField;
+use crate::model::{CoordKind, Grid, GridCoords, SphericalGrid};
+use rayon::prelude::*;
+
+/// The long side of a mesh's map when neither `width` nor `height` is given, in pixels.
+pub(crate) const DEFAULT_MAP_SIDE: u32 = 1024;
+
+/// Where a mesh's map lies: its longitudes (west edge, span) and latitudes (south edge, span),
+/// the mesh's extent in the convention that keeps it in one piece, all round when it reaches a
+/// pole or spans more than half a turn.
+#[derive(Clone, Copy, Debug)]
+struct MapExtent {
+    west: f64,
+    span: f64,
+    south: f64,
+    height: f64,
+}
+
+impl MapExtent {
+    fn of(field: &MeshField) -> Result<MapExtent> {
+        let e = field.mesh().extent()?;
+        let (west, span) = if e.polar || e.lon.1 - e.lon.0 > 180.0 {
+            (-180.0, 360.0)
+        } else {
+            (e.lon.0, e.lon.1 - e.lon.0)
+        };
+        let (south, height) = if e.polar {
+            (-90.0, 180.0)
+        } else {
+            (e.south, e.north - e.south)
+        };
+        if !(span > 0.0 && height > 0.0) {
+            return Err(Error::invalid(
+                "mesh",
+                format!("{} covers no area to draw", field.describe()),
+            ));
+        }
+        Ok(MapExtent {
+            west,
+            span,
+            south,
+            height,
+        })
+    }
+
+    /// Map width over height: longitudes shrunk by the cosine of the middle latitude, as the
+    /// grid path's equirectangular maps.
+    fn aspect(&self) -> f64 {
+        let mid = (self.south + 0.5 * self.height).to_radians();
+        self.span * mid.cos().max(1e-6) / self.height
+    }
+}
+
+/// The picture of a mesh for `opts`: its size, and the latitude–longitude grid (values missing)
+/// that stands for the map's axes — one node per pixel centre on the map, so coastlines,
+/// graticules and frames follow the pixels — or on the globe the mesh's extent at 1°, which
+/// places the default camera.
+pub(crate) fn mesh_frame(field: &MeshField, opts: &SurfaceOptions) -> Result<(Grid, u32, u32)> {
+    let ext = MapExtent::of(field)?;
+    let side = |v: f64| v.round().clamp(1.0, crate::render::MAX_IMAGE_SIDE as f64) as u32;
+    let (w, h) = match opts.view {
+        SurfaceView::Map => {
+            let aspect = ext.aspect();
+            match (opts.width, opts.height) {
+                (Some(w), Some(h)) => (w, h),
+                (Some(w), None) => (w, side(w as f64 / aspect)),
+                (None, Some(h)) => (side(h as f64 * aspect), h),
+                (None, None) if aspect >= 1.0 => {
+                    (DEFAULT_MAP_SIDE, side(DEFAULT_MAP_SIDE as f64 / aspect))
+                }
+                (None, None) => (side(DEFAULT_MAP_SIDE as f64 * aspect), DEFAULT_MAP_SIDE),
+            }
+        }
+        _ => (opts.width.unwrap_or(512), opts.height.unwrap_or(512)),
+    };
+    let (nx, ny) = match opts.view {
+        SurfaceView::Map => (w as usize, h as usize),
+        _ => (
+            (ext.span.ceil() as usize).max(2),
+            (ext.height.ceil() as usize).max(2),
+        ),
+    };
+    Ok((extent_grid(field, &ext, nx, ny)?, w, h))
+}
+
+/// The mesh's extent as a latitude–longitude grid of about 1° (values missing): what places a
+/// globe's default camera over it.
+pub(crate) fn mesh_extent_grid(field: &MeshField) -> Result<Grid> {
+    let ext = MapExtent::of(field)?;
+    let n = |span: f64| (span.ceil() as usize).max(2);
+    extent_grid(field, &ext, n(ext.span), n(ext.height))
+}
+
+/// `nx × ny` nodes at the centres of equal cells over `ext`, the field's one property missing.
+fn extent_grid(field: &MeshField, ext: &MapExtent, nx: usize, ny: usize) -> Result<Grid> {
+    let axis = |name: &str, units: &str, kind, lo: f64, span: f64, n: usize| GridCoords {
+        name: name.into(),
+        units: units.into(),
+        values: (0..n)
+            .map(|k| lo + (k as f64 + 0.5) * span / n as f64)
+            .collect(),
+        kind,
+    };
+    let x = axis(
+        "longitude",
+        "degrees_east",
+        CoordKind::Longitude,
+        ext.west,
+        ext.span,
+        nx,
+    );
+    let y = axis(
+        "latitude",
+        "degrees_north",
+        CoordKind::Latitude,
+        ext.south,
+        ext.height,
+        ny,
+    );
+    let values = vec![f64::NAN; nx * ny];
+    let mut grid = Grid::with_coords(
+        field.name(),
+        x,
+        y,
+        vec![(field.name().to_string(), values)],
+        None,
+    )?;
+    grid.set_units(field.name(), field.units())?;
+    Ok(grid)
+}
+
+/// What the pixels of a mesh's picture show: per pixel the value (NaN where missing) and the
+/// shading (1 on the map; the globe's headlight where the ray meets the sphere, −1 where it
+/// misses, the background).
+pub(crate) struct MeshPixels {
+    pub values: Vec<f64>,
+    pub shade: Vec<f32>,
+}
+
+/// Sample offsets within a pixel: its centre, or the 2 × 2 quarter points.
+fn offsets(antialias: bool) -> &'static [[f64; 2]] {
+    if antialias {
+        &[[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]]
+    } else {
+        &[[0.5, 0.5]]
+    }
+}
+
+/// The pixels of `field` in a `w × h` picture of `opts.view` over the map axes of `frame`
+/// (see [`mesh_frame`]).
+pub(crate) fn mesh_pixels(
+    field: &MeshField,
+    opts: &SurfaceOptions,
+    frame: &Grid,
+    w: u32,
+    h: u32,
+) -> Result<MeshPixels> {
+    let offsets = offsets(opts.antialias);
+    let n = w as usize * h as usize;
+    // Each sample's (longitude, latitude), NaN where it misses the sphere; and each pixel's shading.
+    let mut points = vec![[f64::NAN; 2]; n * offsets.len()];
+    let mut shade = vec![1f32; n];
+    match &opts.view {
+        SurfaceView::Map => {
+            let (xs, ys) = (&frame.x().values, &frame.y().values);
+            let step = |v: &[f64]| if v.len() > 1 { v[1] - v[0] } else { 1.0 };
+            let (dx, dy) = (step(xs), step(ys));
+            let (west, north) = (xs[0] - 0.5 * dx, ys[ys.len() - 1] + 0.5 * dy);
+            for j in 0..h as usize {
+                for i in 0..w as usize {
+                    for (s, o) in offsets.iter().enumerate() {
+                        points[(j * w as usize + i) * offsets.len() + s] = [
+                            west + (i as f64 + o[0]) * dx,
+                            north - (j as f64 + o[1]) * dy,
+                        ];
+                    }
+                }
+            }
+        }
+        SurfaceView::Globe(camera) => {
+            let per_row = w as usize * offsets.len();
+            points
+                .par_chunks_mut(per_row)
+                .zip(shade.par_chunks_mut(w as usize))
+                .enumerate()
+                .for_each(|(j, (row, shades))| {
+                    for i in 0..w as usize {
+                        let at = |o: [f64; 2]| {
+                            let (eye, d) = camera.ray_at([i as f64 + o[0], j as f64 + o[1]], w, h);
+                            GlobeFrame::hit(eye, d).map(|(_, p)| (p, d))
+                        };
+                        // The centre's shading, else a sample's on the limb, else background.
+                        let hits: Vec<_> = offsets.iter().map(|&o| at(o)).collect();
+                        shades[i] = at([0.5, 0.5])
+                            .or_else(|| hits.iter().flatten().next().copied())
+                            .map_or(-1.0, |(p, d)| GlobeFrame::shade(p, d) as f32);
+                        for (s, hit) in hits.iter().enumerate() {
+                            if let Some((p, _)) = hit {
+                                let (_, lat, lon) = SphericalGrid::from_world(*p);
+                                row[i * offsets.len() + s] = [lon, lat];
+                            }
+                        }
+                    }
+                });
+        }
+        other => {
+            return Err(Error::invalid(
+                "view",
+                format!(
+                    "a mesh is drawn on the map or the globe, not in {}; load_grid samples it onto a grid for 3-D views",
+                    other.describe()
+                ),
+            ))
+        }
+    }
+    let located = field.values_at(&points);
+    let values = located
+        .chunks(offsets.len())
+        .map(|s| {
+            let (sum, count) = s
+                .iter()
+                .filter(|v| v.is_finite())
+                .fold((0.0, 0usize), |(a, c), v| (a + v, c + 1));
+            if count > 0 && 2 * count >= s.len() {
+                sum / count as f64
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    Ok(MeshPixels { values, shade })
+}
