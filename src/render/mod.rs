@@ -297,7 +297,7 @@ impl VolumeRenderOptions {
             s.validate()?;
         }
         if let Some(c) = &self.coastlines {
-            c.validate()?;
+            c.validate("coastlines")?;
         }
         if let Some(step) = self.graticule {
             surface::check_graticule(step)?;

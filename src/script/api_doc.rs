@@ -14,7 +14,7 @@ use super::api_render::{
 };
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
 use super::api_surface::{LOAD_GRID, LOAD_MESH, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
-use super::lines::COASTLINES;
+use super::lines::{CELL_EDGES, COASTLINES};
 use super::options::OptionTable;
 #[cfg(test)]
 use std::collections::BTreeSet;
@@ -121,7 +121,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("surfaces", "get$name", &["mesh: Mesh"], "string", "mesh.name: the variable"),
     e("surfaces", "get$units", &["mesh: Mesh"], "string", "mesh.units: the variable's units"),
     e("surfaces", "describe", &["mesh: Mesh"], "string", "One line: the variable, how its other dimensions were chosen, the mesh's convention, cells, nodes and where the values sit."),
-    with(e("surfaces", "render_surface", &["mesh: Mesh", "options: map"], "Image", "A mesh drawn cell by cell on the map (over the mesh's extent, 1024 px on the long side by default) or the globe: each pixel located in the mesh through its spatial index, cell data flat over each cell, node data linear over its triangles, the value exact in f64 at every pixel; antialias (default) averages 4 samples per pixel. The same options as for a grid, on map and globe views; cell_edges draws the cells' outlines. Options:"), &[&RENDER_SURFACE, &COASTLINES]),
+    with(e("surfaces", "render_surface", &["mesh: Mesh", "options: map"], "Image", "A mesh drawn cell by cell on the map (over the mesh's extent, 1024 px on the long side by default) or the globe: each pixel located in the mesh through its spatial index, cell data flat over each cell, node data linear over its triangles, the value exact in f64 at every pixel; antialias (default) averages 4 samples per pixel. The same options as for a grid, on map and globe views; cell_edges draws the cells' outlines. Options:"), &[&RENDER_SURFACE, &COASTLINES, &CELL_EDGES]),
     with(e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for render_surface's options, with the resolution 1/nu in its metadata. Options:"), &[&SURFACE_COLORBAR]),
     with(e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for render_surface's options: the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text. Options:"), &[&SURFACE_LEGEND]),
     with(e("sections and slices", "section", &["volume: Volume", "options: map"], "Grid", "A great-circle section of a spherical volume: columns evenly spaced along the short arc from `from` to `to`, rows evenly spaced in depth, each node trilinear in the volume's (radius, latitude, longitude) grid. x is the distance along the arc at the surface and y the depth, both in the volume's length unit; the properties are the volume's values and each column's `latitude` and `longitude`. Columns outside a wedge are missing. render_surface draws it (fringes, frame: true). Options:"), &[&SECTION]),
@@ -273,6 +273,10 @@ mod tests {
         let series = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("datasets/fixtures/tsunami_series.nc");
         std::fs::copy(series, dir.join("series.nc")).unwrap();
+        // A coastal triangle mesh for load_mesh (make_meshes.py's FVCOM file).
+        let mesh = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("datasets/fixtures/mesh_fvcom.nc");
+        std::fs::copy(mesh, dir.join("mesh.nc")).unwrap();
     }
 
     fn tables() -> Vec<&'static OptionTable> {
@@ -361,7 +365,9 @@ mod tests {
                     );
                     continue;
                 }
-                if matches!(table.function, "load_grid" | "load_volume") && spec.name == "grid" {
+                if matches!(table.function, "load_grid" | "load_volume" | "load_mesh")
+                    && spec.name == "grid"
+                {
                     let e = result.unwrap_err().to_string();
                     assert!(e.contains("grid.nc: no such file"), "{e}");
                     continue;

@@ -9,7 +9,7 @@
 
 use super::api_render::{ScriptCamera, ScriptImage};
 use super::convert::{err, numbers, pair, string, to_rhai, variable_option, RResult};
-use super::lines::{coastline_style, graticule_step};
+use super::lines::{cell_edge_style, coastline_style, graticule_step};
 use super::options::{opt, Given, Kind, OptionTable};
 use super::ScriptHost;
 use crate::datasets::LoadOptions;
@@ -85,7 +85,7 @@ pub(crate) const LOAD_MESH: OptionTable = OptionTable {
     options: &[
         opt(
             "variable",
-            Kind::Text("\"T850\""),
+            Kind::Text("\"h\""),
             "the file's first variable on a mesh",
             "the variable to read (an unknown one lists the file's)",
         ),
@@ -99,7 +99,7 @@ pub(crate) const LOAD_MESH: OptionTable = OptionTable {
         ),
     ],
     call: "load_mesh(\"mesh.nc\", OPTS)",
-    base: "#{}",
+    base: "#{ variable: \"h\" }",
 };
 
 /// The side limit of images as an option range.
@@ -116,6 +116,7 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
         opt("antialias", Kind::Bool, "true", "colours from the fringe averaged over each pixel's footprint"),
         opt("missing", Kind::Text("\"grey\""), "\"transparent\"", "colour of missing data: \"transparent\", a colour name or #rrggbb"),
         opt("coastlines", Kind::Value("true | #{ colour, width, resolution }", "true"), "false", "map and globe views of longitude/latitude grids: Natural Earth coastlines (public domain) drawn into the HDR image, hidden on the globe's far side"),
+        opt("cell_edges", Kind::Value("true | #{ colour, width }", "true"), "false", "meshes (load_mesh): the cells' outlines drawn into the HDR image over the field and under coastlines and graticule"),
         opt("graticule", Kind::Value("true | degrees", "30.0"), "false", "map and globe views of longitude/latitude grids: meridians and parallels at the multiples of this step (true: 10), in linear grey 0.2"),
         opt("depth_rings", Kind::Value("true | [depth, ...]", "true"), "none", "map views of sections (a grid on depth): black lines 1.5 px wide across the section at these depths (its depth unit); true: 410 km, 660 km and the core–mantle boundary at 2891 km where the section reaches them"),
         opt(
@@ -236,6 +237,9 @@ pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(Surfac
     }
     if let Some(v) = given.value("graticule")? {
         o.graticule = graticule_step(v)?;
+    }
+    if let Some(v) = given.value("cell_edges")? {
+        o.cell_edges = cell_edge_style(v)?;
     }
     if let Some(v) = given.value("depth_rings")? {
         o.depth_rings = super::lines::depth_rings(v, "depth_rings")?;

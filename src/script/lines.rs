@@ -19,19 +19,48 @@ pub(crate) const COASTLINES: OptionTable = OptionTable {
     base: "#{}",
 };
 
+pub(crate) const CELL_EDGES: OptionTable = OptionTable {
+    function: "render_surface cell_edges",
+    options: &[
+        opt("colour", Kind::Text("\"white\""), "\"black\"", "a colour name or #rrggbb (drawn as its linear RGB)"),
+        opt("width", Kind::Finite, "0.5", "line width in pixels, > 0 and at most 64 (antialiased)"),
+    ],
+    call: "render_surface(load_mesh(\"mesh.nc\", #{ variable: \"h\" }), #{ width: 8, height: 8, mode: \"modulated\", cell_edges: OPTS })",
+    base: "#{}",
+};
+
+/// Width in pixels of cell edges drawn with `cell_edges: true`.
+const CELL_EDGE_WIDTH: f64 = 0.5;
+
+/// `cell_edges: true` (black, half a pixel), `false`, or a map ([`CELL_EDGES`]).
+pub(crate) fn cell_edge_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
+    CELL_EDGES.switch_or_map(v, "cell_edges", |given| {
+        let mut style = CoastlineStyle {
+            width: CELL_EDGE_WIDTH,
+            ..CoastlineStyle::default()
+        };
+        if let Some(c) = given.string("colour")? {
+            style = style.with_colour("cell_edges", &c).map_err(to_rhai)?;
+        }
+        style.width = given.num("width")?.unwrap_or(style.width);
+        style.validate("cell_edges").map_err(to_rhai)?;
+        Ok(style)
+    })
+}
+
 /// `coastlines: true` (black, 1 pixel, the scale by the extent), `false`, or a map
 /// ([`COASTLINES`]).
 pub(crate) fn coastline_style(v: &Dynamic) -> RResult<Option<CoastlineStyle>> {
     COASTLINES.switch_or_map(v, "coastlines", |given| {
         let mut style = CoastlineStyle::default();
         if let Some(c) = given.string("colour")? {
-            style = style.with_colour(&c).map_err(to_rhai)?;
+            style = style.with_colour("coastlines", &c).map_err(to_rhai)?;
         }
         style.width = given.num("width")?.unwrap_or(style.width);
         if let Some(r) = given.string("resolution")? {
             style.resolution = Some(CoastResolution::parse(&r).map_err(to_rhai)?);
         }
-        style.validate().map_err(to_rhai)?;
+        style.validate("coastlines").map_err(to_rhai)?;
         Ok(style)
     })
 }

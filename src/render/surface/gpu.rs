@@ -366,6 +366,15 @@ impl SurfaceRenderer {
         opts: &SurfaceOptions,
     ) -> Result<(Vec<HdrImage>, SurfaceTiming)> {
         opts.validate()?;
+        if opts.cell_edges.is_some() {
+            return Err(Error::invalid(
+                "cell_edges",
+                format!(
+                    "cells are drawn on meshes (load_mesh); {:?} is a grid",
+                    grid.name()
+                ),
+            ));
+        }
         let props = property_indices(grid, opts)?;
         let colormap = Colormap::by_name(opts.colormap_name())?;
         let overlay = Overlay::plan(grid, opts)?;
@@ -386,14 +395,18 @@ impl SurfaceRenderer {
 
     /// Draws a field on an unstructured mesh cell by cell on the map or the globe
     /// ([`super::mesh`]): one image, as [`Self::render`] gives for a grid.
-    pub fn render_mesh(&self, field: &MeshField, opts: &SurfaceOptions) -> Result<Vec<HdrImage>> {
+    pub fn render_mesh(
+        &self,
+        field: &Arc<MeshField>,
+        opts: &SurfaceOptions,
+    ) -> Result<Vec<HdrImage>> {
         Ok(self.render_mesh_timed(field, opts)?.0)
     }
 
     /// As [`Self::render_mesh`], also saying how long each step took.
     pub(crate) fn render_mesh_timed(
         &self,
-        field: &MeshField,
+        field: &Arc<MeshField>,
         opts: &SurfaceOptions,
     ) -> Result<(Vec<HdrImage>, SurfaceTiming)> {
         opts.validate()?;
@@ -410,7 +423,8 @@ impl SurfaceRenderer {
         let colormap = Colormap::by_name(opts.colormap_name())?;
         let (frame, width, height) = mesh_frame(field, opts)?;
         self.check_binding(width, height, 0, &field.describe())?;
-        let overlay = Overlay::plan(&frame, opts)?;
+        let overlay =
+            Overlay::plan(&frame, opts)?.map(|o| o.with_mesh(field, opts.cell_edges.as_ref()));
         let key = DataKey {
             grid: field.id(),
             view: opts.view.key(),

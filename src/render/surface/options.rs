@@ -250,6 +250,8 @@ pub struct SurfaceOptions {
     pub coastlines: Option<CoastlineStyle>,
     /// Meridians and parallels every this many degrees over a map or globe view.
     pub graticule: Option<f64>,
+    /// A mesh's cell outlines over its map or globe view (the style's resolution unused).
+    pub cell_edges: Option<CoastlineStyle>,
     /// Lines across a section's map at these depths.
     pub depth_rings: Option<crate::model::DepthRings>,
 }
@@ -276,6 +278,7 @@ impl Default for SurfaceOptions {
             centre: None,
             coastlines: None,
             graticule: None,
+            cell_edges: None,
             depth_rings: None,
         }
     }
@@ -334,7 +337,10 @@ impl SurfaceOptions {
         }
         self.validate_colour_range()?;
         if let Some(c) = &self.coastlines {
-            c.validate()?;
+            c.validate("coastlines")?;
+        }
+        if let Some(c) = &self.cell_edges {
+            c.validate("cell_edges")?;
         }
         if let Some(step) = self.graticule {
             check_graticule(step)?;

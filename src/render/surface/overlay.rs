@@ -14,7 +14,11 @@ use super::options::{CoastlineStyle, SurfaceOptions, SurfaceView};
 use crate::datasets::coastlines::{coastlines, CoastResolution};
 use crate::error::{Error, Result};
 use crate::model::map_frame::MapAxes;
+use crate::model::mesh::ring::{ring_into, Ring};
+use crate::model::mesh::MeshField;
 use crate::model::{Camera, Cut, DepthRings, Grid, HdrImage, SphericalGrid, Volume};
+use std::borrow::Cow;
+use std::sync::Arc;
 
 /// The graticule's colour (linear mid grey) and width in pixels.
 const GRATICULE_COLOUR: [f64; 3] = [0.2; 3];
@@ -27,15 +31,17 @@ pub(crate) const MAX_LINE_WIDTH: f64 = 64.0;
 const GLOBE_STEP: f64 = 0.5;
 
 impl CoastlineStyle {
-    /// A colour by name or `#rrggbb`, as the `colour` option gives it.
-    pub(crate) fn with_colour(mut self, name: &str) -> Result<Self> {
-        self.linear = crate::model::colormap::named_colour("coastlines.colour", name)?;
+    /// A colour by name or `#rrggbb`, as the option `option` (`coastlines`, `cell_edges`) gives
+    /// it in its `colour`.
+    pub(crate) fn with_colour(mut self, option: &str, name: &str) -> Result<Self> {
+        self.linear = crate::model::colormap::named_colour(&format!("{option}.colour"), name)?;
         self.colour = name.trim().to_string();
         Ok(self)
     }
 
-    pub(crate) fn validate(&self) -> Result<()> {
-        check_width("coastlines.width", self.width)
+    /// That the width suits the option `option`'s lines.
+    pub(crate) fn validate(&self, option: &str) -> Result<()> {
+        check_width(&format!("{option}.width"), self.width)
     }
 }
 
@@ -102,6 +108,8 @@ pub(crate) struct Overlay {
     /// A map of a rotated-pole grid, or a render of a rotated-pole volume: lines are drawn at
     /// their rotated coordinates.
     rotation: Option<crate::model::RotatedPole>,
+    /// A mesh's cell outlines and their style.
+    edges: Option<(CoastlineStyle, Arc<MeshField>)>,
 }
 
 impl Overlay {
@@ -151,6 +159,7 @@ impl Overlay {
             rings: Vec::new(),
             // A rotated-pole volume is drawn in its grid's frame: the lines are moved into it.
             rotation: g.rotated_pole,
+            edges: None,
         }))
     }
 
@@ -200,21 +209,23 @@ impl Overlay {
             graticule: None,
             rings: depths,
             rotation: None,
+            edges: None,
         })
     }
 
     /// The overlay `opts` asks for on `grid`, or `None`; an error naming the option when the
     /// grid or view cannot carry one (lines need longitude and latitude in a map or globe view).
     pub(crate) fn plan(grid: &Grid, opts: &SurfaceOptions) -> Result<Option<Overlay>> {
-        let field = match (&opts.coastlines, opts.graticule) {
-            (None, None) => {
+        let field = match (&opts.coastlines, opts.graticule, &opts.cell_edges) {
+            (None, None, None) => {
                 return match &opts.depth_rings {
                     Some(r) => Self::section_rings(grid, r, &opts.view).map(Some),
                     None => Ok(None),
                 }
             }
-            (Some(_), _) => "coastlines",
-            (None, Some(_)) => "graticule",
+            (Some(_), _, _) => "coastlines",
+            (None, Some(_), _) => "graticule",
+            (None, None, Some(_)) => "cell_edges",
         };
         let axes = MapAxes::of_grid(grid).filter(|_| grid.is_geographic());
         let projector = match (&opts.view, axes) {
@@ -256,12 +267,30 @@ impl Overlay {
             graticule: opts.graticule,
             rings: Vec::new(),
             rotation,
+            edges: None,
         }))
     }
 
-    /// Draws the graticule, then the coastlines, then the depth rings into `img`, and records
-    /// them in its metadata.
+    /// This overlay with `field`'s cell outlines when `style` asks for them.
+    pub(crate) fn with_mesh(
+        mut self,
+        field: &Arc<MeshField>,
+        style: Option<&CoastlineStyle>,
+    ) -> Self {
+        self.edges = style.map(|s| (s.clone(), field.clone()));
+        self
+    }
+
+    /// Draws a mesh's cell edges, the graticule, then the coastlines, then the depth rings into
+    /// `img`, and records them in its metadata.
     pub(crate) fn draw(&self, img: &mut HdrImage) {
+        if let Some((style, field)) = &self.edges {
+            self.draw_edges(img, field, style);
+            img.set_meta(
+                "cell_edges",
+                format!("{}, {} px", style.colour, style.width),
+            );
+        }
         if let (Projector::Map(axes), false) = (&self.projector, self.rings.is_empty()) {
             let layer = Layer {
                 lines: Vec::new(),
@@ -311,15 +340,53 @@ impl Overlay {
     }
 
     fn draw_layer(&self, img: &mut HdrImage, layer: &Layer) {
-        let (w, h) = (img.width, img.height);
-        let mut cover = vec![0f32; (w as usize) * (h as usize)];
-        // On a rotated-pole map the true lines are drawn where they lie on the rotated sphere.
-        let lines: Vec<std::borrow::Cow<[[f64; 2]]>> = layer
+        let lines = layer
             .lines
             .iter()
             .copied()
             .chain(layer.owned.iter().map(Vec::as_slice))
-            .map(|line| match &self.rotation {
+            .map(Cow::Borrowed);
+        self.draw_lines(img, lines, layer.linear, layer.width);
+    }
+
+    /// With `style`, the outline of every cell of `field`'s mesh as its ring runs (a ring round
+    /// a pole without its closure along the pole).
+    fn draw_edges(&self, img: &mut HdrImage, field: &MeshField, style: &CoastlineStyle) {
+        let mesh = field.mesh();
+        let mut ring = Ring::default();
+        let lines = (0..mesh.faces()).filter_map(move |f| {
+            if !ring_into(mesh, f, &mut ring) {
+                return None;
+            }
+            let points = &ring.points;
+            let mut line = if ring.cap {
+                points[..points.len() - 2].to_vec()
+            } else {
+                points.clone()
+            };
+            if !ring.cap {
+                line.push(points[0]);
+            }
+            Some(Cow::Owned(line))
+        });
+        self.draw_lines(img, lines, style.linear, style.width);
+    }
+
+    /// Strokes `lines` (longitude, latitude) `width` pixels wide in the linear colour `linear`.
+    fn draw_lines<'a>(
+        &self,
+        img: &mut HdrImage,
+        lines: impl Iterator<Item = Cow<'a, [[f64; 2]]>>,
+        linear: [f64; 3],
+        width: f64,
+    ) {
+        let (w, h) = (img.width, img.height);
+        let mut cover = vec![0f32; (w as usize) * (h as usize)];
+        // Longitudes jump by a turn at the dateline; a section's distance does not wrap.
+        let wraps = self.rings.is_empty();
+        for line in lines {
+            // On a rotated-pole map the true lines are drawn where they lie on the rotated sphere.
+            let line: Cow<[[f64; 2]]> = match &self.rotation {
                 Some(r) => line
                     .iter()
                     .map(|&[lon, lat]| {
@@ -327,22 +394,18 @@ impl Overlay {
                         [rlon, rlat]
                     })
                     .collect(),
-                None => std::borrow::Cow::Borrowed(line),
-            })
-            .collect();
-        // Longitudes jump by a turn at the dateline; a section's distance does not wrap.
-        let wraps = self.rings.is_empty();
-        for line in lines {
+                None => line,
+            };
             for seg in line.windows(2) {
                 if wraps && (seg[1][0] - seg[0][0]).abs() > 180.0 {
                     continue;
                 }
                 for [a, b] in self.segment_pixels(seg[0], seg[1], w, h) {
-                    stroke(&mut cover, w, h, a, b, layer.width);
+                    stroke(&mut cover, w, h, a, b, width);
                 }
             }
         }
-        let c = layer.linear.map(|v| v as f32);
+        let c = linear.map(|v| v as f32);
         if matches!(self.projector, Projector::Shell(_)) {
             // A volume render's colour is premultiplied (over its background): the line goes
             // over it.
@@ -512,6 +575,7 @@ mod tests {
             graticule: None,
             rings: Vec::new(),
             rotation: None,
+            edges: None,
         }
     }
 
@@ -702,6 +766,7 @@ mod tests {
             graticule: Some(30.0),
             rings: Vec::new(),
             rotation: None,
+            edges: None,
         };
         let mut img = white(360, 180);
         overlay.draw(&mut img);
@@ -736,6 +801,7 @@ mod tests {
             graticule: Some(4.0),
             rings: Vec::new(),
             rotation: None,
+            edges: None,
         };
         overlay.draw(&mut img);
         // The meridian at 4° runs between columns 3 and 4, half covering both: the line's own
@@ -748,7 +814,9 @@ mod tests {
 
     #[test]
     fn bad_styles_name_their_option() {
-        let e = CoastlineStyle::default().with_colour("mauve").unwrap_err();
+        let e = CoastlineStyle::default()
+            .with_colour("coastlines", "mauve")
+            .unwrap_err();
         assert!(e.to_string().starts_with("coastlines.colour:"), "{e}");
         for w in [0.0, -1.0, f64::NAN, 65.0] {
             let s = CoastlineStyle {
@@ -756,7 +824,7 @@ mod tests {
                 ..Default::default()
             };
             assert!(s
-                .validate()
+                .validate("coastlines")
                 .unwrap_err()
                 .to_string()
                 .starts_with("coastlines.width:"));
