@@ -4,7 +4,9 @@
 //! (degrees and radians), FVCOM and ADCIRC triangle lists. Every variable sampled onto a regular
 //! latitude–longitude grid equals the brute-force point-in-polygon (cell data, exactly) and
 //! barycentric (node data, 1e-9 relative) reference at every grid node not on a cell edge, and a
-//! linear node field is reproduced exactly. Bad meshes are refused in one line.
+//! linear node field is reproduced exactly. Drawn cell by cell (`load_mesh`, `render_surface`),
+//! every pixel of a map and a globe shows that reference value where its centre (or its ray's
+//! hit on the sphere) lies. Bad meshes and drawings are refused in one line.
 
 use crate::cli::{hdrvis, python_check};
 use hdrvis::datasets::select::Selection;
@@ -160,6 +162,30 @@ fn options(c: &Case, dir: &Path) -> LoadOptions {
     }
 }
 
+/// The brute-force reference of `c` at the points `at` asks for (`lon` and `lat` axes, or
+/// `points`): per point a value, null (no cell) or a string (on an edge, or two cells overlap).
+fn reference(dir: &Path, c: &Case, at: Value) -> Vec<Value> {
+    let mut request = json!({
+        "file": c.file,
+        "grid": c.grid,
+        "variable": c.variable,
+        "index": c.index.iter().map(|(d, i)| (d.to_string(), json!(i))).collect::<serde_json::Map<_, _>>(),
+    });
+    for (k, v) in at.as_object().unwrap() {
+        request[k] = v.clone();
+    }
+    let req = dir.join("request.json");
+    std::fs::write(&req, request.to_string()).unwrap();
+    let report = python_check(
+        "write_mesh_cases.py",
+        &["sample", dir.to_str().unwrap(), req.to_str().unwrap()],
+    )
+    .unwrap();
+    assert!(report.starts_with("exit 0\n"), "{}: {report}", c.file);
+    let want: Value = serde_json::from_str(report.lines().nth(1).unwrap()).unwrap();
+    want["values"].as_array().unwrap().clone()
+}
+
 #[test]
 fn meshes_sample_as_brute_force_point_location_does() {
     let dir = tempfile::tempdir().unwrap();
@@ -174,31 +200,10 @@ fn meshes_sample_as_brute_force_point_location_does() {
         assert!(grid.is_geographic(), "{what}");
         let (lon, lat) = (grid.x().values.clone(), grid.y().values.clone());
         let got = grid.property(c.variable).unwrap();
-        let request = json!({
-            "file": c.file,
-            "grid": c.grid,
-            "variable": c.variable,
-            "index": c.index.iter().map(|(d, i)| (d.to_string(), json!(i))).collect::<serde_json::Map<_, _>>(),
-            "lon": lon,
-            "lat": lat,
-        });
-        let req = dir.path().join("request.json");
-        std::fs::write(&req, request.to_string()).unwrap();
-        let report = python_check(
-            "write_mesh_cases.py",
-            &[
-                "sample",
-                dir.path().to_str().unwrap(),
-                req.to_str().unwrap(),
-            ],
-        )
-        .unwrap();
-        assert!(report.starts_with("exit 0\n"), "{what}: {report}");
-        let want: Value = serde_json::from_str(report.lines().nth(1).unwrap()).unwrap();
-        let want = want["values"].as_array().unwrap();
+        let want = reference(dir.path(), c, json!({ "lon": lon, "lat": lat }));
         assert_eq!(got.len(), want.len(), "{what}");
         let (mut compared, mut inside) = (0, 0);
-        for (k, (g, w)) in got.iter().zip(want).enumerate() {
+        for (k, (g, w)) in got.iter().zip(&want).enumerate() {
             let at = format!(
                 "{what}: node {k} ({}, {})",
                 lon[k % lon.len()],
@@ -349,6 +354,60 @@ fn bad_meshes_are_refused_in_one_line_and_nothing_is_written() {
     }
 }
 
+/// Drawing a mesh: the same bad files refused by load_mesh, and what a mesh cannot be asked for
+/// (a 3-D view, a resolution, another property, cell edges on a grid), each in one line naming
+/// the option, with no picture written.
+#[test]
+fn bad_mesh_drawings_are_refused_in_one_line_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    if !cases(dir.path()) {
+        return;
+    }
+    let icon = "load_mesh(\"icon_data.nc\", #{ variable: \"S\", index: #{ time: 0, depth: 0 } })";
+    for (call, expected) in [
+        (
+            "load_mesh(\"bad_index.nc\", #{ variable: \"depth\" })".to_string(),
+            "names node 148",
+        ),
+        (
+            "load_mesh(\"icon_data_mismatch.nc\", #{ variable: \"S\", grid: \"icon_grid.nc\", index: #{ time: 0, depth: 0 } })".to_string(),
+            "none of the 320 cells",
+        ),
+        (
+            "load_mesh(\"icon_data.nc\", #{ variable: \"S\", index: #{ time: 0 } })".to_string(),
+            "keeps [depth=3, ncells=320]",
+        ),
+        (
+            "load_mesh(\"fvcom.nc\", #{ variable: \"time\" })".to_string(),
+            "lies on no unstructured mesh",
+        ),
+        (
+            format!("render_surface({icon}, #{{ view: \"perspective\" }})"),
+            "view: a mesh is drawn on the map or the globe",
+        ),
+        (
+            format!("render_surface({icon}, #{{ property: \"T\" }})"),
+            "property: [\"T\"]: a mesh field has one property, \"S\"",
+        ),
+        (
+            format!("render_surface({icon}, #{{ cell_edges: #{{ width: 0.0 }} }})"),
+            "cell_edges.width",
+        ),
+        (
+            "render_surface(load_grid(\"icon_data.nc\", #{ variable: \"S\", index: #{ time: 0, depth: 0 } }), #{ cell_edges: true })".to_string(),
+            "cell_edges: cells are drawn on meshes",
+        ),
+    ] {
+        let script = format!("let img = {call}; save_png(img, \"out.png\");");
+        std::fs::write(dir.path().join("bad.rhai"), &script).unwrap();
+        let (code, _, err) = hdrvis(&["run", "bad.rhai", "--out", "bad"], dir.path());
+        assert_eq!(code, 1, "{call}: {err}");
+        let line = err.lines().next().unwrap_or("");
+        assert!(line.contains(expected), "{call}: {err}");
+        assert!(!dir.path().join("bad/out.png").exists(), "{call}");
+    }
+}
+
 /// ICON's salinity on depth levels loads as a spherical volume: each level is the grid that
 /// `load_grid` samples at that depth, the depths place it below the surface, and a section and a
 /// volume render of it run from a script.
@@ -404,4 +463,246 @@ fn a_mesh_with_depth_levels_is_a_spherical_volume() {
     let (code, _, err) = hdrvis(&["run", "v.rhai", "--out", "o"], dir.path());
     assert_eq!(code, 0, "{err}");
     assert!(dir.path().join("o/section.nc").is_file() && dir.path().join("o/v.exr").is_file());
+}
+
+/// `img`'s extra channel `name`.
+fn channel<'a>(img: &'a hdrvis::model::HdrImage, name: &str) -> &'a [f32] {
+    &img.extra_channels
+        .iter()
+        .find(|(n, _)| n == name)
+        .unwrap_or_else(|| panic!("no channel {name}"))
+        .1
+}
+
+/// Compares a picture of `field` with the reference at its pixels: `value_at` (f64) equals it
+/// exactly for cell data and within 1e-9 relative for node data, and the picture's value channel
+/// (f32) equals `value_at` within f32 rounding about the field's range; missing where no cell is.
+fn assert_pixels(
+    what: &str,
+    field: &hdrvis::model::mesh::MeshField,
+    img: &hdrvis::model::HdrImage,
+    points: &[[f64; 2]],
+    want: &[Value],
+    on_nodes: bool,
+) -> usize {
+    let values = channel(img, field.name());
+    assert_eq!(values.len(), points.len(), "{what}");
+    assert_eq!(want.len(), points.len(), "{what}");
+    let (lo, hi) = field.range().unwrap();
+    let f32_tol = 2.0 * f32::EPSILON as f64 * lo.abs().max(hi.abs()).max(1.0);
+    let mut inside = 0;
+    for (k, (p, w)) in points.iter().zip(want).enumerate() {
+        let at = format!("{what}: pixel {k} at ({}, {})", p[0], p[1]);
+        // A cell whose value is missing shows nothing, as no cell does.
+        let exact = field.value_at(p[0], p[1]).filter(|v| !v.is_nan());
+        match w {
+            Value::String(_) => continue,
+            Value::Null => {
+                assert!(exact.is_none(), "{at}: {exact:?} where no cell is");
+                assert!(values[k].is_nan(), "{at}: {} where no cell is", values[k]);
+            }
+            w => {
+                let w = w.as_f64().unwrap();
+                let e = exact.unwrap_or_else(|| panic!("{at}: nothing where {w} is"));
+                let tol = if on_nodes { 1e-9 } else { 4.0 * f64::EPSILON } * w.abs().max(1.0);
+                assert!((e - w).abs() <= tol, "{at}: {e} vs {w}");
+                let g = values[k] as f64;
+                assert!((g - e).abs() <= f32_tol, "{at}: drawn {g} vs {e}");
+                inside += 1;
+            }
+        }
+    }
+    inside
+}
+
+fn mesh_renderer() -> hdrvis::render::surface::SurfaceRenderer {
+    let backend = crate::common::backends()[0];
+    hdrvis::render::surface::SurfaceRenderer::new(
+        crate::common::renderer(backend).context().clone(),
+    )
+}
+
+#[test]
+fn meshes_drawn_cell_by_cell_show_the_brute_force_value_at_every_pixel() {
+    use hdrvis::render::surface::{FringeMode, SurfaceOptions};
+    let dir = tempfile::tempdir().unwrap();
+    if !cases(dir.path()) {
+        return;
+    }
+    let r = mesh_renderer();
+    for c in &CASES {
+        let what = format!("{} {} {:?} map", c.file, c.variable, c.index);
+        let opts = LoadOptions {
+            resolution: None,
+            ..options(c, dir.path())
+        };
+        let field = std::sync::Arc::new(
+            hdrvis::datasets::load_mesh(&dir.path().join(c.file), &opts)
+                .unwrap_or_else(|e| panic!("{what}: {e}")),
+        );
+        let surface = SurfaceOptions {
+            mode: FringeMode::Direct,
+            antialias: false,
+            width: Some(120),
+            ..Default::default()
+        };
+        let img = r.render_mesh(&field, &surface).unwrap().remove(0);
+        // The pixels' centres on the map's axes, rows from the north.
+        let extent = |key: &str| -> (f64, f64) {
+            let v: Vec<f64> = img
+                .meta(key)
+                .unwrap()
+                .split_whitespace()
+                .map(|t| t.parse().unwrap())
+                .collect();
+            (v[0], v[1])
+        };
+        let ((x0, x1), (y0, y1)) = (extent("map_x_extent"), extent("map_y_extent"));
+        let (w, h) = (img.width as usize, img.height as usize);
+        let lon: Vec<f64> = (0..w)
+            .map(|i| x0 + (i as f64 + 0.5) * (x1 - x0) / w as f64)
+            .collect();
+        let lat: Vec<f64> = (0..h)
+            .map(|j| y1 - (j as f64 + 0.5) * (y1 - y0) / h as f64)
+            .collect();
+        let points: Vec<[f64; 2]> = lat
+            .iter()
+            .flat_map(|&b| lon.iter().map(move |&a| [a, b]))
+            .collect();
+        let want = reference(dir.path(), c, json!({ "lon": lon, "lat": lat }));
+        let inside = assert_pixels(&what, &field, &img, &points, &want, c.on_nodes);
+        assert!(inside > points.len() / 3, "{what}: {inside} pixels inside");
+    }
+}
+
+#[test]
+fn meshes_on_the_globe_show_the_brute_force_value_where_each_ray_meets_the_sphere() {
+    use hdrvis::model::Camera;
+    use hdrvis::render::surface::{FringeMode, SurfaceOptions, SurfaceView};
+    let dir = tempfile::tempdir().unwrap();
+    if !cases(dir.path()) {
+        return;
+    }
+    let r = mesh_renderer();
+    // A global triangle mesh (cells), a Voronoi mesh (vertex data) and the columns, seen over
+    // a pole so that the cap cells and the antimeridian are in view.
+    for (k, lat) in [(3, 70.0), (6, -60.0), (12, 20.0)] {
+        let c = &CASES[k];
+        let what = format!("{} {} globe", c.file, c.variable);
+        let opts = LoadOptions {
+            resolution: None,
+            ..options(c, dir.path())
+        };
+        let field = std::sync::Arc::new(
+            hdrvis::datasets::load_mesh(&dir.path().join(c.file), &opts).unwrap(),
+        );
+        let camera = Camera::geo([0.0; 3], lat, 170.0, 3.2, 40.0).unwrap();
+        let surface = SurfaceOptions {
+            mode: FringeMode::Direct,
+            antialias: false,
+            view: SurfaceView::Globe(camera),
+            width: Some(64),
+            height: Some(64),
+            ..Default::default()
+        };
+        let img = r.render_mesh(&field, &surface).unwrap().remove(0);
+        // Where each pixel's ray meets the unit sphere (the nearer root), as longitude, latitude;
+        // pixels off the sphere are far away, where no cell is.
+        let points: Vec<[f64; 2]> = (0..64 * 64)
+            .map(|p| {
+                let (o, d) = camera.ray(p % 64, p / 64, 64, 64);
+                let b = o[0] * d[0] + o[1] * d[1] + o[2] * d[2];
+                let cc = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - 1.0;
+                let disc = b * b - cc;
+                if disc < 0.0 {
+                    return [0.0, 95.0];
+                }
+                let t = -b - disc.sqrt();
+                let q = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+                let la = q[2].atan2(q[0].hypot(q[1])).to_degrees();
+                [q[1].atan2(q[0]).to_degrees(), la]
+            })
+            .collect();
+        let want = reference(dir.path(), c, json!({ "points": points }));
+        let inside = assert_pixels(&what, &field, &img, &points, &want, c.on_nodes);
+        assert!(inside > 1500, "{what}: {inside} pixels on cells");
+    }
+}
+
+#[test]
+fn antialiased_pixels_are_the_mean_of_their_four_quarter_points() {
+    use hdrvis::render::surface::{FringeMode, SurfaceOptions};
+    let dir = tempfile::tempdir().unwrap();
+    if !cases(dir.path()) {
+        return;
+    }
+    let c = &CASES[0];
+    let opts = LoadOptions {
+        resolution: None,
+        ..options(c, dir.path())
+    };
+    let field =
+        std::sync::Arc::new(hdrvis::datasets::load_mesh(&dir.path().join(c.file), &opts).unwrap());
+    let surface = SurfaceOptions {
+        mode: FringeMode::Direct,
+        width: Some(90),
+        ..Default::default()
+    };
+    let img = mesh_renderer()
+        .render_mesh(&field, &surface)
+        .unwrap()
+        .remove(0);
+    let values = channel(&img, c.variable);
+    let ext: Vec<Vec<f64>> = ["map_x_extent", "map_y_extent"]
+        .iter()
+        .map(|k| {
+            img.meta(k)
+                .unwrap()
+                .split_whitespace()
+                .map(|t| t.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    let (w, h) = (img.width as usize, img.height as usize);
+    let (dx, dy) = (
+        (ext[0][1] - ext[0][0]) / w as f64,
+        (ext[1][1] - ext[1][0]) / h as f64,
+    );
+    let (mut blended, mut whole) = (0, 0);
+    for j in 0..h {
+        for i in 0..w {
+            let quarter: Vec<f64> = [[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]]
+                .iter()
+                .filter_map(|o| {
+                    let lon = ext[0][0] + (i as f64 + o[0]) * dx;
+                    let lat = ext[1][1] - (j as f64 + o[1]) * dy;
+                    field.value_at(lon, lat).filter(|v| v.is_finite())
+                })
+                .collect();
+            let g = values[j * w + i] as f64;
+            if quarter.len() < 2 {
+                assert!(
+                    g.is_nan(),
+                    "pixel ({i}, {j}): {g} on {} points",
+                    quarter.len()
+                );
+                continue;
+            }
+            let mean = quarter.iter().sum::<f64>() / quarter.len() as f64;
+            assert!(
+                (g - mean).abs() <= 1e-4 * mean.abs().max(1.0),
+                "({i}, {j}): {g} vs {mean}"
+            );
+            if quarter.iter().any(|v| *v != quarter[0]) {
+                blended += 1;
+            } else {
+                whole += 1;
+            }
+        }
+    }
+    // Edges blend; most pixels lie inside one cell.
+    assert!(
+        blended > 50 && whole > blended,
+        "{blended} blended, {whole} whole"
+    );
 }

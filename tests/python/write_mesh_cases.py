@@ -991,6 +991,10 @@ def open_request(out, request):
 
 def sample(out, request):
     mesh, values, loc = open_request(out, request)
+    if "points" in request:
+        # Points anywhere (a globe's pixels): [[lon, lat], ...].
+        pts = np.asarray(request["points"], dtype=float).reshape(-1, 2)
+        return sample_points(mesh, values, loc, pts[:, 0], pts[:, 1])
     lon_axis = np.asarray(request["lon"], dtype=float)
     lat_axis = np.asarray(request["lat"], dtype=float)
     lat, lon = np.meshgrid(lat_axis, lon_axis, indexing="ij")

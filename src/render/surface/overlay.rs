@@ -613,6 +613,7 @@ mod tests {
             graticule: Some(10.0),
             rings: Vec::new(),
             rotation: Some(pole),
+            edges: None,
         };
         let mut img = white(w, h);
         overlay.draw(&mut img);
