@@ -1,8 +1,9 @@
 //! The mesh benchmark (`hdrvis bench meshes`): MPAS-like Voronoi meshes of the icosahedron (the
 //! meshes MPAS's quasi-uniform grids are: level 9 has MPAS's 15 km mesh's 2 621 442 cells),
 //! written as MPAS writes them (radians, `verticesOnCell` 1-based), then timed as a user meets
-//! them: `load_grid` (read, mesh, sample onto latitude and longitude at the cells' median size)
-//! and a map render of the result, with the process's peak memory. With `--peer geovista`,
+//! them: `load_grid` (read, mesh, sample onto latitude and longitude at the cells' median size,
+//! then at the picture's pixel) and a map render of the result, and `load_mesh` (read, mesh,
+//! spatial index) with a map drawn cell by cell, with the process's peak memory. With `--peer geovista`,
 //! GeoVista (on PyVista and VTK) reads the same file and draws it to the same size in the same
 //! run (tests/python/bench_meshes_peer.py).
 
@@ -198,13 +199,22 @@ pub(crate) fn write_mpas(path: &Path, level: u32) -> Result<usize> {
     Ok(n)
 }
 
+/// How a mesh reaches the picture.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Route {
+    /// `load_grid` at this step (`None`: the cells' size), then the grid's map.
+    Sampled(Option<f64>),
+    /// `load_mesh`, then the map drawn cell by cell.
+    Cells,
+}
+
 /// One mesh's timings.
 #[derive(Clone, Debug)]
 pub struct MeshBenchRow {
     pub level: u32,
     pub cells: usize,
-    pub step_degrees: f64,
-    pub grid: [usize; 2],
+    /// How it was drawn: "grid 0.1234 deg 2942x1471" or "cells".
+    pub route: String,
     pub load_ms: Vec<f64>,
     pub draw_ms: Vec<f64>,
     pub peak_mib: Option<f64>,
@@ -212,7 +222,8 @@ pub struct MeshBenchRow {
     pub peer: Option<serde_json::Value>,
 }
 
-/// Times `load_grid` and a `width`-pixel map render of each level's mesh, `runs` times each
+/// Times each level's mesh as a user meets it — sampled onto a grid at the cells' size and at
+/// the picture's pixel, and drawn cell by cell — with a `width`-pixel map, `runs` times each
 /// after one warm-up; with `peer`, runs it on the same file.
 pub fn bench_meshes(
     ctx: Arc<GpuContext>,
@@ -229,11 +240,18 @@ pub fn bench_meshes(
         let path = dir.path().join(format!("mpas_level{level}.nc"));
         progress(&format!("meshes: writing level {level}"));
         let cells = write_mpas(&path, level)?;
-        // As a user meets it: sampled at the cells' size, then at the picture's pixel size.
-        for resolution in [None, Some(360.0 / width as f64)] {
-            rows.push(time_mesh(
-                &renderer, &path, level, cells, resolution, width, runs, progress,
-            )?);
+        let routes = [
+            Route::Sampled(None),
+            Route::Sampled(Some(360.0 / width as f64)),
+            Route::Cells,
+        ];
+        for route in routes {
+            let mesh = MeshRun {
+                path: &path,
+                level,
+                cells,
+            };
+            rows.push(time_mesh(&renderer, &mesh, route, width, runs, progress)?);
         }
         if let Some(p) = peer {
             let line = match p {
@@ -246,7 +264,7 @@ pub fn bench_meshes(
                 }
             };
             let n = rows.len();
-            rows[n - 2..]
+            rows[n - routes.len()..]
                 .iter_mut()
                 .for_each(|r| r.peer = Some(line.clone()));
         }
@@ -254,22 +272,29 @@ pub fn bench_meshes(
     Ok(rows)
 }
 
-/// One mesh's `load_grid` at `resolution` (`None`: the cells' size) and a `width`-pixel map
-/// render of it, `runs` times each after one warm-up.
-#[allow(clippy::too_many_arguments)]
-fn time_mesh(
-    renderer: &SurfaceRenderer,
-    path: &Path,
+/// The mesh file a row times.
+struct MeshRun<'a> {
+    path: &'a Path,
     level: u32,
     cells: usize,
-    resolution: Option<f64>,
+}
+
+/// One mesh's load and a `width`-pixel map of it by `route`, `runs` times each after one
+/// warm-up.
+fn time_mesh(
+    renderer: &SurfaceRenderer,
+    mesh: &MeshRun,
+    route: Route,
     width: u32,
     runs: usize,
     progress: &mut dyn FnMut(&str),
 ) -> Result<MeshBenchRow> {
     let opts = LoadOptions {
         variable: Some("temperature".into()),
-        resolution,
+        resolution: match route {
+            Route::Sampled(r) => r,
+            Route::Cells => None,
+        },
         ..LoadOptions::default()
     };
     let surface = SurfaceOptions {
@@ -279,23 +304,50 @@ fn time_mesh(
         height: Some(width / 2),
         ..SurfaceOptions::default()
     };
+    // Loads, then draws: the times of each, and how it went.
+    let once = || -> Result<(f64, f64, String)> {
+        let t = Instant::now();
+        let (drawn, how) = match route {
+            Route::Sampled(_) => {
+                let grid = crate::datasets::load_grid_with(mesh.path, &opts)?;
+                let load = t.elapsed().as_secs_f64() * 1e3;
+                let t = Instant::now();
+                std::hint::black_box(renderer.render(&grid, &surface)?);
+                let how = format!(
+                    "grid {:.4} deg {}x{}",
+                    grid.x().spacing(),
+                    grid.nx(),
+                    grid.ny()
+                );
+                ((load, t.elapsed().as_secs_f64() * 1e3), how)
+            }
+            Route::Cells => {
+                let field = Arc::new(crate::datasets::load_mesh(mesh.path, &opts)?);
+                let load = t.elapsed().as_secs_f64() * 1e3;
+                let t = Instant::now();
+                std::hint::black_box(renderer.render_mesh(&field, &surface)?);
+                let how = "cells, 4 samples/px".to_string();
+                ((load, t.elapsed().as_secs_f64() * 1e3), how)
+            }
+        };
+        Ok((drawn.0, drawn.1, how))
+    };
+    let (_, _, route_name) = once()?;
     let (mut load_ms, mut draw_ms) = (Vec::new(), Vec::new());
-    let mut grid = crate::datasets::load_grid_with(path, &opts)?;
-    renderer.render(&grid, &surface)?;
     for r in 0..runs.max(1) {
-        progress(&format!("meshes: level {level}, run {}", r + 1));
-        let t = Instant::now();
-        grid = crate::datasets::load_grid_with(path, &opts)?;
-        load_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        let t = Instant::now();
-        std::hint::black_box(renderer.render(&grid, &surface)?);
-        draw_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        progress(&format!(
+            "meshes: level {}, {route_name}, run {}",
+            mesh.level,
+            r + 1
+        ));
+        let (load, draw, _) = once()?;
+        load_ms.push(load);
+        draw_ms.push(draw);
     }
     Ok(MeshBenchRow {
-        level,
-        cells,
-        step_degrees: grid.x().spacing(),
-        grid: [grid.ny(), grid.nx()],
+        level: mesh.level,
+        cells: mesh.cells,
+        route: route_name,
         load_ms,
         draw_ms,
         peak_mib: peak_memory_mib(),
@@ -340,15 +392,14 @@ fn run_geovista(path: &Path, width: u32, runs: usize) -> Result<serde_json::Valu
 /// The `hdrvis bench meshes` table.
 pub fn format_meshes_table(adapter: &str, width: u32, rows: &[MeshBenchRow]) -> String {
     let mut s = format!(
-        "adapter: {adapter}\nMPAS-like Voronoi meshes of the icosahedron; load = load_grid (read, mesh, sample onto lat/lon: first at the cells' median size, then at the picture's pixel), draw = map render {width}x{} to host memory; medians; peak MiB: the process's so far\n",
+        "adapter: {adapter}\nMPAS-like Voronoi meshes of the icosahedron; load = load_grid (read, mesh, sample onto a lat/lon grid: at the cells' median size, then at the picture's pixel) or load_mesh (read, mesh, spatial index); draw = map render {width}x{} to host memory (the grid's, or cell by cell); medians; peak MiB: the process's so far\n",
         width / 2
     );
     s.push_str(&format!(
-        "{:>5} {:>10} {:>8} {:>11} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9}\n",
+        "{:>5} {:>10} {:>27} {:>9} {:>9} {:>9} {:>10} {:>10} {:>9}\n",
         "level",
         "cells",
-        "step deg",
-        "grid",
+        "route",
         "load ms",
         "draw ms",
         "peak MiB",
@@ -365,11 +416,10 @@ pub fn format_meshes_table(adapter: &str, width: u32, rows: &[MeshBenchRow]) -> 
             (load, draw)
         });
         s.push_str(&format!(
-            "{:>5} {:>10} {:>8.4} {:>11} {:>9.0} {:>9.0} {:>9} {:>10} {:>10} {:>9}\n",
+            "{:>5} {:>10} {:>27} {:>9.0} {:>9.0} {:>9} {:>10} {:>10} {:>9}\n",
             r.level,
             r.cells,
-            r.step_degrees,
-            format!("{}x{}", r.grid[1], r.grid[0]),
+            r.route,
             load,
             draw,
             r.peak_mib.map_or("-".into(), |m| format!("{m:.0}")),

@@ -10,14 +10,15 @@
 //! pixels of a globe).
 
 use super::ring::{contains, linear_in, on_boundary, ring_into, triangles, Ring};
-use super::{Location, Mesh};
-use crate::error::Result;
+use super::{Extent, Location, Mesh};
 use rayon::prelude::*;
 
 /// Most buckets an index has (32 MiB of offsets).
 const MAX_BUCKETS: usize = 1 << 23;
 /// Cells per parallel chunk while building and points per chunk while locating.
 const CHUNK: usize = 4096;
+/// Bands of bucket rows an index is built in, in parallel.
+const BANDS: usize = 16;
 
 /// A bucket grid over a mesh's cells (see the module notes).
 pub(crate) struct MeshIndex {
@@ -40,9 +41,8 @@ pub(crate) struct MeshIndex {
 }
 
 impl MeshIndex {
-    /// The index of `mesh`'s cells; an error when no node has a finite position.
-    pub(crate) fn new(mesh: &Mesh) -> Result<MeshIndex> {
-        let ext = mesh.extent()?;
+    /// The index of `mesh`'s cells over its extent `ext` ([`Mesh::extent`]).
+    pub(crate) fn new(mesh: &Mesh, ext: &Extent) -> MeshIndex {
         let wrap = ext.polar || ext.lon.1 - ext.lon.0 > 180.0;
         let (west, span) = if wrap {
             (-180.0, 360.0)
@@ -56,7 +56,6 @@ impl MeshIndex {
             .max((area / MAX_BUCKETS as f64).sqrt());
         let cols = ((span / step).ceil() as usize).clamp(1, MAX_BUCKETS);
         let rows = ((height / step).ceil() as usize).clamp(1, MAX_BUCKETS / cols);
-        let boxes = ring_boxes(mesh);
         let mut index = MeshIndex {
             west,
             south: ext.south,
@@ -65,31 +64,65 @@ impl MeshIndex {
             cols,
             rows,
             wrap,
-            start: vec![0; cols * rows + 1],
+            start: Vec::new(),
             cells: Vec::new(),
-            boxes,
+            boxes: ring_boxes(mesh),
         };
-        // Counting sort of (bucket, cell) pairs, so each bucket lists its cells in order.
-        let mut counts = vec![0u32; cols * rows];
-        for b in &index.boxes {
-            index.each_bucket(*b, |k| counts[k] += 1);
+        // A counting sort of (bucket, cell) pairs per band of rows, the bands on every core (each
+        // band's counts stay in cache), so each bucket lists its cells in order; then the bands
+        // joined.
+        let band = rows.div_ceil(BANDS);
+        let mut members: Vec<Vec<u32>> = vec![Vec::new(); rows.div_ceil(band)];
+        for (f, b) in index.boxes.iter().enumerate() {
+            if !b[0].is_nan() {
+                let (r0, r1) = (index.row(b[2] as f64), index.row(b[3] as f64));
+                for m in &mut members[r0 / band..=r1 / band] {
+                    m.push(f as u32);
+                }
+            }
+        }
+        let parts: Vec<(Vec<u32>, Vec<u32>)> = members
+            .par_iter()
+            .enumerate()
+            .map(|(b, m)| index.band(b * band..((b + 1) * band).min(rows), m))
+            .collect();
+        let mut start = Vec::with_capacity(cols * rows + 1);
+        let mut cells = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
+        for (band_start, band_cells) in parts {
+            let base = cells.len() as u32;
+            start.extend(band_start.iter().map(|s| base + s));
+            cells.extend_from_slice(&band_cells);
+        }
+        start.push(cells.len() as u32);
+        (index.start, index.cells) = (start, cells);
+        index
+    }
+
+    /// The buckets of the rows `rows`, which the cells `members` (in order) reach: each one's
+    /// first entry (from 0) and the cells they list.
+    fn band(&self, rows: std::ops::Range<usize>, members: &[u32]) -> (Vec<u32>, Vec<u32>) {
+        let first = rows.start * self.cols;
+        let mut counts = vec![0u32; rows.len() * self.cols];
+        for &f in members {
+            self.each_bucket(self.boxes[f as usize], &rows, |k| counts[k - first] += 1);
         }
         let mut total = 0u32;
-        for (k, c) in counts.iter().enumerate() {
-            index.start[k] = total;
-            total += c;
-        }
-        index.start[cols * rows] = total;
-        let mut next: Vec<u32> = index.start[..cols * rows].to_vec();
+        let start: Vec<u32> = counts
+            .iter()
+            .map(|c| {
+                total += c;
+                total - c
+            })
+            .collect();
+        let mut next = start.clone();
         let mut cells = vec![0u32; total as usize];
-        for (f, b) in index.boxes.iter().enumerate() {
-            index.each_bucket(*b, |k| {
-                cells[next[k] as usize] = f as u32;
-                next[k] += 1;
+        for &f in members {
+            self.each_bucket(self.boxes[f as usize], &rows, |k| {
+                cells[next[k - first] as usize] = f;
+                next[k - first] += 1;
             });
         }
-        index.cells = cells;
-        Ok(index)
+        (start, cells)
     }
 
     /// The column of longitude `x` (unbounded; the caller wraps or clamps it).
@@ -110,28 +143,36 @@ impl MeshIndex {
         (((y - self.south) / self.dlat).floor().max(0.0) as usize).min(self.rows - 1)
     }
 
-    /// Calls `visit` with every bucket the box `b` meets.
-    fn each_bucket(&self, [w, e, s, n]: [f32; 4], mut visit: impl FnMut(usize)) {
+    /// Calls `visit` with every bucket in `rows` that the box `b` meets.
+    fn each_bucket(
+        &self,
+        [w, e, s, n]: [f32; 4],
+        rows: &std::ops::Range<usize>,
+        mut visit: impl FnMut(usize),
+    ) {
         if w.is_nan() {
             return;
         }
-        let (r0, r1) = (self.row(s as f64), self.row(n as f64));
+        let r0 = self.row(s as f64).max(rows.start);
+        let r1 = self.row(n as f64).min(rows.end - 1);
+        if r0 > r1 {
+            return;
+        }
         let c0 = self.column(w as f64);
         let c1 = c0 + ((e as f64 - w as f64) / self.dlon).floor() as i64 + 1;
         let cols = self.cols as i64;
-        let columns: Vec<usize> = if self.wrap {
+        let (c0, c1) = if self.wrap {
             if c1 - c0 + 1 >= cols {
-                (0..self.cols).collect()
+                (0, cols - 1)
             } else {
-                (c0..=c1).map(|c| c.rem_euclid(cols) as usize).collect()
+                (c0, c1)
             }
         } else {
-            let (a, b) = (c0.clamp(0, cols - 1), c1.clamp(0, cols - 1));
-            (a..=b).map(|c| c as usize).collect()
+            (c0.clamp(0, cols - 1), c1.clamp(0, cols - 1))
         };
         for r in r0..=r1 {
-            for &c in &columns {
-                visit(r * self.cols + c);
+            for c in c0..=c1 {
+                visit(r * self.cols + c.rem_euclid(cols) as usize);
             }
         }
     }
@@ -157,14 +198,15 @@ impl MeshIndex {
     }
 
     /// The cell holding the point (`lon`, `lat` in degrees) and `values`' value there (one per
-    /// cell or node, as `mesh.location` says), or `None` outside every cell. `ring` is scratch
-    /// reused from call to call.
+    /// cell or node, as `mesh.location` says), or `None` outside every cell. `scratch` is reused
+    /// from call to call: it keeps the last cell's ring, which the next point, usually nearby,
+    /// tests first.
     pub(crate) fn locate(
         &self,
         mesh: &Mesh,
         values: &[f64],
         [lon, lat]: [f64; 2],
-        ring: &mut Ring,
+        scratch: &mut Scratch,
     ) -> Option<(usize, f64)> {
         let b = self.bucket(lon, lat)?;
         for &c in &self.cells[self.start[b] as usize..self.start[b + 1] as usize] {
@@ -175,15 +217,14 @@ impl MeshIndex {
             }
             // Every whole turn of longitude that puts the point in the box.
             let mut x = lon + 360.0 * ((w - lon) / 360.0).ceil();
-            let mut built = false;
             while x <= e {
-                if !built {
-                    if !ring_into(mesh, c, ring) {
+                if scratch.cell != Some(c) {
+                    scratch.cell = ring_into(mesh, c, &mut scratch.ring).then_some(c);
+                    if scratch.cell.is_none() {
                         break;
                     }
-                    built = true;
                 }
-                if let Some(v) = value_in(mesh, values, c, ring, [x, lat]) {
+                if let Some(v) = value_in(mesh, values, c, &scratch.ring, [x, lat]) {
                     return Some((c, v));
                 }
                 x += 360.0;
@@ -197,17 +238,24 @@ impl MeshIndex {
         points
             .par_chunks(CHUNK)
             .flat_map_iter(|chunk| {
-                let mut ring = Ring::default();
+                let mut scratch = Scratch::default();
                 chunk
                     .iter()
                     .map(|p| {
-                        self.locate(mesh, values, *p, &mut ring)
+                        self.locate(mesh, values, *p, &mut scratch)
                             .map_or(f64::NAN, |(_, v)| v)
                     })
                     .collect::<Vec<_>>()
             })
             .collect()
     }
+}
+
+/// What [`MeshIndex::locate`] reuses from call to call: a ring and the cell it is of.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    ring: Ring,
+    cell: Option<usize>,
 }
 
 /// The value at `p` if cell `c`, whose ring is `r`, holds it.
@@ -294,9 +342,9 @@ mod tests {
     fn a_point_finds_its_cell_on_a_regional_mesh_across_the_antimeridian() {
         let m = quads(175.0, 10);
         let values: Vec<f64> = (0..100).map(f64::from).collect();
-        let index = MeshIndex::new(&m).unwrap();
+        let index = MeshIndex::new(&m, &m.extent().unwrap());
         assert!(!index.wrap);
-        let mut r = Ring::default();
+        let mut r = Scratch::default();
         // Cell i + 10 j is [175 + i, 176 + i] × [−10 + j, −9 + j], whichever convention of
         // longitude the point comes in.
         for [lon, lat] in [
@@ -323,8 +371,8 @@ mod tests {
     fn a_shared_edge_goes_to_the_first_cell_and_the_mesh_is_closed() {
         let m = quads(0.0, 4);
         let values: Vec<f64> = (0..16).map(f64::from).collect();
-        let index = MeshIndex::new(&m).unwrap();
-        let mut r = Ring::default();
+        let index = MeshIndex::new(&m, &m.extent().unwrap());
+        let mut r = Scratch::default();
         // On the edge between cells 0 and 1, and on the mesh's outer corner.
         assert_eq!(index.locate(&m, &values, [1.0, -9.5], &mut r).unwrap().0, 0);
         assert_eq!(
@@ -339,9 +387,9 @@ mod tests {
         // node data linear down from the pole (the ring's mean) on the trapezoids.
         let lon: Vec<f64> = (0..5).map(|k| 170.0 + 72.0 * k as f64).collect();
         let m = mesh(lon, vec![80.0; 5], &[&[0, 1, 2, 3, 4]], Location::Nodes);
-        let index = MeshIndex::new(&m).unwrap();
+        let index = MeshIndex::new(&m, &m.extent().unwrap());
         assert!(index.wrap);
-        let mut r = Ring::default();
+        let mut r = Scratch::default();
         let values = [2.0; 5];
         for x in [-180.0, -91.0, 0.0, 45.0, 170.0, 359.0] {
             let (_, v) = index.locate(&m, &values, [x, 85.0], &mut r).unwrap();
@@ -355,7 +403,7 @@ mod tests {
         // The gather and the scatter agree on a mesh of quads and on node data over triangles.
         let m = quads(-3.0, 12);
         let values: Vec<f64> = (0..144).map(|k| (k as f64 * 0.37).sin()).collect();
-        let index = MeshIndex::new(&m).unwrap();
+        let index = MeshIndex::new(&m, &m.extent().unwrap());
         let points: Vec<[f64; 2]> = (0..400)
             .map(|k| {
                 [

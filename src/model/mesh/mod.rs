@@ -136,13 +136,27 @@ impl Mesh {
             (south, north) = (south.min(*pole), north.max(*pole));
         }
         let polar = !caps.is_empty() || south <= -90.0 + 1e-9 || north >= 90.0 - 1e-9;
-        let west: Vec<f64> = self.lon.iter().map(|l| l.rem_euclid(360.0)).collect();
-        let centred: Vec<f64> = west
-            .iter()
-            .map(|l| if *l >= 180.0 { l - 360.0 } else { *l })
-            .collect();
-        let (a, b) = finite_range(&west);
-        let (c, d) = finite_range(&centred);
+        // The longitudes' ranges in [0°, 360°) and in [−180°, 180°), in one pass.
+        let widen = |(lo, hi): (f64, f64), v: f64| (lo.min(v), hi.max(v));
+        let join = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.max(b.1));
+        let empty = (f64::INFINITY, f64::NEG_INFINITY);
+        let (west, centred) = self
+            .lon
+            .par_iter()
+            .filter(|l| l.is_finite())
+            .fold(
+                || (empty, empty),
+                |(w, c), l| {
+                    let west = l.rem_euclid(360.0);
+                    let centred = if west >= 180.0 { west - 360.0 } else { west };
+                    (widen(w, west), widen(c, centred))
+                },
+            )
+            .reduce(
+                || (empty, empty),
+                |(w1, c1), (w2, c2)| (join(w1, w2), join(c1, c2)),
+            );
+        let ((a, b), (c, d)) = (west, centred);
         let lon = if b - a < d - c { (a, b) } else { (c, d) };
         Ok(Extent {
             south,
@@ -182,6 +196,7 @@ pub struct MeshField {
     /// How each dimension other than the mesh's was chosen.
     pub(crate) notes: Vec<String>,
     pub(crate) index: Arc<MeshIndex>,
+    extent: Extent,
     id: u64,
 }
 
@@ -206,8 +221,10 @@ impl MeshField {
                 ),
             ));
         }
-        let index = Arc::new(MeshIndex::new(&mesh)?);
+        let extent = mesh.extent()?;
+        let index = Arc::new(MeshIndex::new(&mesh, &extent));
         Ok(MeshField {
+            extent,
             mesh: Arc::new(mesh),
             values: Arc::new(values),
             name: name.to_string(),
@@ -235,6 +252,11 @@ impl MeshField {
         &self.values
     }
 
+    /// Where its mesh lies.
+    pub(crate) fn extent(&self) -> Extent {
+        self.extent
+    }
+
     /// Identifies this field (its copies share it) for caches.
     pub fn id(&self) -> u64 {
         self.id
@@ -249,9 +271,9 @@ impl MeshField {
     /// The value at `lon`, `lat` degrees (the cell's, or linear over its triangle for node
     /// data), or `None` outside every cell.
     pub fn value_at(&self, lon: f64, lat: f64) -> Option<f64> {
-        let mut ring = ring::Ring::default();
+        let mut scratch = locate::Scratch::default();
         self.index
-            .locate(&self.mesh, &self.values, [lon, lat], &mut ring)
+            .locate(&self.mesh, &self.values, [lon, lat], &mut scratch)
             .map(|(_, v)| v)
     }
 

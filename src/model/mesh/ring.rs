@@ -151,21 +151,16 @@ pub(crate) fn on_boundary(points: &[[f64; 2]], p: [f64; 2]) -> bool {
 /// poles, each the short way) add up to a turn.
 pub(crate) fn round_pole(mesh: &Mesh, f: usize) -> Option<f64> {
     let ids = mesh.face(f);
-    let off: Vec<usize> = ids
-        .iter()
-        .copied()
-        .filter(|&n| mesh.lat[n].abs() < 90.0 - 1e-9 && mesh.lon[n].is_finite())
-        .collect();
-    if off.len() < 3 || off.len() != ids.len() {
+    let off = |n: usize| mesh.lat[n].abs() < 90.0 - 1e-9 && mesh.lon[n].is_finite();
+    if ids.len() < 3 || !ids.iter().all(|&n| off(n)) {
         return None;
     }
-    let turn: f64 = (0..off.len())
-        .map(|k| {
-            let d = mesh.lon[off[(k + 1) % off.len()]] - mesh.lon[off[k]];
-            d - 360.0 * (d / 360.0).round()
-        })
-        .sum();
-    let mean = off.iter().map(|&n| mesh.lat[n]).sum::<f64>();
+    let (mut turn, mut mean) = (0.0, 0.0);
+    for (k, &n) in ids.iter().enumerate() {
+        let d = mesh.lon[ids[(k + 1) % ids.len()]] - mesh.lon[n];
+        turn += d - 360.0 * (d / 360.0).round();
+        mean += mesh.lat[n];
+    }
     (turn.abs() > 180.0).then_some(if mean > 0.0 { 90.0 } else { -90.0 })
 }
 

@@ -31,7 +31,7 @@ struct MapExtent {
 
 impl MapExtent {
     fn of(field: &MeshField) -> Result<MapExtent> {
-        let e = field.mesh().extent()?;
+        let e = field.extent();
         let (west, span) = if e.polar || e.lon.1 - e.lon.0 > 180.0 {
             (-180.0, 360.0)
         } else {
