@@ -206,6 +206,8 @@ enum Route {
     Sampled(Option<f64>),
     /// `load_mesh`, then the map drawn cell by cell.
     Cells,
+    /// `load_mesh`, then a square globe drawn cell by cell.
+    CellsGlobe,
 }
 
 /// One mesh's timings.
@@ -244,6 +246,7 @@ pub fn bench_meshes(
             Route::Sampled(None),
             Route::Sampled(Some(360.0 / width as f64)),
             Route::Cells,
+            Route::CellsGlobe,
         ];
         for route in routes {
             let mesh = MeshRun {
@@ -293,7 +296,7 @@ fn time_mesh(
         variable: Some("temperature".into()),
         resolution: match route {
             Route::Sampled(r) => r,
-            Route::Cells => None,
+            Route::Cells | Route::CellsGlobe => None,
         },
         ..LoadOptions::default()
     };
@@ -321,12 +324,22 @@ fn time_mesh(
                 );
                 ((load, t.elapsed().as_secs_f64() * 1e3), how)
             }
-            Route::Cells => {
+            Route::Cells | Route::CellsGlobe => {
                 let field = Arc::new(crate::datasets::load_mesh(mesh.path, &opts)?);
                 let load = t.elapsed().as_secs_f64() * 1e3;
                 let t = Instant::now();
-                std::hint::black_box(renderer.render_mesh(&field, &surface)?);
-                let how = "cells, 4 samples/px".to_string();
+                let (view, how) = if route == Route::Cells {
+                    (surface.clone(), "cells, 4 samples/px".to_string())
+                } else {
+                    let camera = crate::model::Camera::geo([0.0; 3], 30.0, -40.0, 3.2, 40.0)?;
+                    let globe = SurfaceOptions {
+                        view: SurfaceView::Globe(camera),
+                        height: Some(width),
+                        ..surface.clone()
+                    };
+                    (globe, format!("cells, globe {width}x{width}"))
+                };
+                std::hint::black_box(renderer.render_mesh(&field, &view)?);
                 ((load, t.elapsed().as_secs_f64() * 1e3), how)
             }
         };
@@ -392,7 +405,7 @@ fn run_geovista(path: &Path, width: u32, runs: usize) -> Result<serde_json::Valu
 /// The `hdrvis bench meshes` table.
 pub fn format_meshes_table(adapter: &str, width: u32, rows: &[MeshBenchRow]) -> String {
     let mut s = format!(
-        "adapter: {adapter}\nMPAS-like Voronoi meshes of the icosahedron; load = load_grid (read, mesh, sample onto a lat/lon grid: at the cells' median size, then at the picture's pixel) or load_mesh (read, mesh, spatial index); draw = map render {width}x{} to host memory (the grid's, or cell by cell); medians; peak MiB: the process's so far\n",
+        "adapter: {adapter}\nMPAS-like Voronoi meshes of the icosahedron; load = load_grid (read, mesh, sample onto a lat/lon grid: at the cells' median size, then at the picture's pixel) or load_mesh (read, mesh, spatial index); draw = map render {width}x{} to host memory (the grid's, or cell by cell), or a globe; medians; peak MiB: the process's so far\n",
         width / 2
     );
     s.push_str(&format!(

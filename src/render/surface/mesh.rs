@@ -143,8 +143,8 @@ fn extent_grid(field: &MeshField, ext: &MapExtent, nx: usize, ny: usize) -> Resu
 }
 
 /// What the pixels of a mesh's picture show: per pixel the value (NaN where missing) and the
-/// shading (1 on the map; the globe's headlight where the ray meets the sphere, −1 where it
-/// misses, the background).
+/// shading (1 on the map; on the globe the headlight's mean over the samples that meet the
+/// sphere, −1 where none does, the background).
 pub(crate) struct MeshPixels {
     pub values: Vec<f64>,
     pub shade: Vec<f32>,
@@ -198,21 +198,23 @@ pub(crate) fn mesh_pixels(
                 .enumerate()
                 .for_each(|(j, (row, shades))| {
                     for i in 0..w as usize {
-                        let at = |o: [f64; 2]| {
+                        // Each sample's hit on the sphere; the pixel's shading is their mean
+                        // (the centre's without antialiasing), −1 (background) when none hits.
+                        let (mut shade, mut hits) = (0.0, 0);
+                        for (s, o) in offsets.iter().enumerate() {
                             let (eye, d) = camera.ray_at([i as f64 + o[0], j as f64 + o[1]], w, h);
-                            GlobeFrame::hit(eye, d).map(|(_, p)| (p, d))
-                        };
-                        // The centre's shading, else a sample's on the limb, else background.
-                        let hits: Vec<_> = offsets.iter().map(|&o| at(o)).collect();
-                        shades[i] = at([0.5, 0.5])
-                            .or_else(|| hits.iter().flatten().next().copied())
-                            .map_or(-1.0, |(p, d)| GlobeFrame::shade(p, d) as f32);
-                        for (s, hit) in hits.iter().enumerate() {
-                            if let Some((p, _)) = hit {
-                                let (_, lat, lon) = SphericalGrid::from_world(*p);
+                            if let Some((_, p)) = GlobeFrame::hit(eye, d) {
+                                let (_, lat, lon) = SphericalGrid::from_world(p);
                                 row[i * offsets.len() + s] = [lon, lat];
+                                shade += GlobeFrame::shade(p, d);
+                                hits += 1;
                             }
                         }
+                        shades[i] = if hits > 0 {
+                            (shade / hits as f64) as f32
+                        } else {
+                            -1.0
+                        };
                     }
                 });
         }
