@@ -277,7 +277,7 @@ fn dimension_lines(
     {
         let _ = writeln!(
             out,
-            "mesh: {} (load_grid samples it onto a regular latitude-longitude grid at its cells' median size, {:.4} degrees, or at resolution)",
+            "mesh: {} (load_mesh draws it cell by cell; load_grid samples it onto a regular latitude-longitude grid at its cells' median size, {:.4} degrees, or at resolution)",
             mesh.describe(),
             mesh.median_size().unwrap_or(f64::NAN)
         );

@@ -10,17 +10,31 @@
 //! difference docs/formats.md explains; a refusal only of a file docs/formats.md names; and
 //! docs/formats.md holds the table this run makes.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// The corpus's folder (`target/conformance-corpus`), fetched once for every test that reads it
+/// (`conformance.py fetch`); `None` when Python or its packages are missing.
+pub fn corpus() -> Option<&'static Path> {
+    static CORPUS: OnceLock<Option<PathBuf>> = OnceLock::new();
+    CORPUS
+        .get_or_init(|| {
+            let cache = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/conformance-corpus");
+            let fetched =
+                crate::cli::python_check("conformance.py", &["fetch", cache.to_str().unwrap()])?;
+            assert!(fetched.starts_with("exit 0\n"), "fetch: {fetched}");
+            Some(cache)
+        })
+        .as_deref()
+}
 
 #[test]
 fn every_variable_of_real_archives_reads_as_xarray_reads_it() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let cache = root.join("target/conformance-corpus");
-    let cache = cache.to_str().unwrap();
-    let Some(fetched) = crate::cli::python_check("conformance.py", &["fetch", cache]) else {
+    let Some(cache) = corpus() else {
         return;
     };
-    assert!(fetched.starts_with("exit 0\n"), "fetch: {fetched}");
+    let cache = cache.to_str().unwrap();
     let dir = tempfile::tempdir().unwrap();
     let table = dir.path().join("conformance.md");
     let args = [

@@ -6,7 +6,9 @@
 //! barycentric (node data, 1e-9 relative) reference at every grid node not on a cell edge, and a
 //! linear node field is reproduced exactly. Drawn cell by cell (`load_mesh`, `render_surface`),
 //! every pixel of a map and a globe shows that reference value where its centre (or its ray's
-//! hit on the sphere) lies. Bad meshes and drawings are refused in one line.
+//! hit on the sphere) lies. A real UGRID file from the registries (the Met Office's LFRic C4 mesh
+//! in iris-sample-data) is held to the same reference. Bad meshes and drawings are refused in one
+//! line.
 
 use crate::cli::{hdrvis, python_check};
 use hdrvis::datasets::select::Selection;
@@ -165,6 +167,7 @@ fn options(c: &Case, dir: &Path) -> LoadOptions {
 /// The brute-force reference of `c` at the points `at` asks for (`lon` and `lat` axes, or
 /// `points`): per point a value, null (no cell) or a string (on an edge, or two cells overlap).
 fn reference(dir: &Path, c: &Case, at: Value) -> Vec<Value> {
+    // `dir` holds the case's files; the request goes to a scratch folder.
     let mut request = json!({
         "file": c.file,
         "grid": c.grid,
@@ -174,7 +177,8 @@ fn reference(dir: &Path, c: &Case, at: Value) -> Vec<Value> {
     for (k, v) in at.as_object().unwrap() {
         request[k] = v.clone();
     }
-    let req = dir.join("request.json");
+    let scratch = tempfile::tempdir().unwrap();
+    let req = scratch.path().join("request.json");
     std::fs::write(&req, request.to_string()).unwrap();
     let report = python_check(
         "write_mesh_cases.py",
@@ -193,41 +197,45 @@ fn meshes_sample_as_brute_force_point_location_does() {
         return;
     }
     for c in &CASES {
-        let what = format!("{} {} {:?}", c.file, c.variable, c.index);
-        let grid =
-            hdrvis::datasets::load_grid_with(&dir.path().join(c.file), &options(c, dir.path()))
-                .unwrap_or_else(|e| panic!("{what}: {e}"));
-        assert!(grid.is_geographic(), "{what}");
-        let (lon, lat) = (grid.x().values.clone(), grid.y().values.clone());
-        let got = grid.property(c.variable).unwrap();
-        let want = reference(dir.path(), c, json!({ "lon": lon, "lat": lat }));
-        assert_eq!(got.len(), want.len(), "{what}");
-        let (mut compared, mut inside) = (0, 0);
-        for (k, (g, w)) in got.iter().zip(&want).enumerate() {
-            let at = format!(
-                "{what}: node {k} ({}, {})",
-                lon[k % lon.len()],
-                lat[k / lon.len()]
-            );
-            match w {
-                Value::String(_) => continue, // on a cell edge: either cell's value
-                Value::Null => assert!(g.is_nan(), "{at}: {g} where no cell is"),
-                w => {
-                    let w = w.as_f64().unwrap();
-                    // Cell data exactly (to the last bit serde_json's float parsing keeps);
-                    // node data within 1e-9 relative.
-                    let tol = if c.on_nodes { 1e-9 } else { 4.0 * f64::EPSILON } * w.abs().max(1.0);
-                    assert!((g - w).abs() <= tol, "{at}: {g} vs {w}");
-                    inside += 1;
-                }
-            }
-            compared += 1;
-        }
-        assert!(
-            inside > compared / 2,
-            "{what}: {inside} of {compared} inside the mesh"
-        );
+        assert_sampled(dir.path(), c);
     }
+}
+
+/// `c` (in `data`) sampled with load_grid equals the reference at every grid node not on a cell
+/// edge: cell data exactly (to the last bit serde_json's float parsing keeps), node data within
+/// 1e-9 relative; more than half the nodes lie on cells.
+fn assert_sampled(data: &Path, c: &Case) {
+    let what = format!("{} {} {:?}", c.file, c.variable, c.index);
+    let grid = hdrvis::datasets::load_grid_with(&data.join(c.file), &options(c, data))
+        .unwrap_or_else(|e| panic!("{what}: {e}"));
+    assert!(grid.is_geographic(), "{what}");
+    let (lon, lat) = (grid.x().values.clone(), grid.y().values.clone());
+    let got = grid.property(c.variable).unwrap();
+    let want = reference(data, c, json!({ "lon": lon, "lat": lat }));
+    assert_eq!(got.len(), want.len(), "{what}");
+    let (mut compared, mut inside) = (0, 0);
+    for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+        let at = format!(
+            "{what}: node {k} ({}, {})",
+            lon[k % lon.len()],
+            lat[k / lon.len()]
+        );
+        match w {
+            Value::String(_) => continue, // on a cell edge: either cell's value
+            Value::Null => assert!(g.is_nan(), "{at}: {g} where no cell is"),
+            w => {
+                let w = w.as_f64().unwrap();
+                let tol = if c.on_nodes { 1e-9 } else { 4.0 * f64::EPSILON } * w.abs().max(1.0);
+                assert!((g - w).abs() <= tol, "{at}: {g} vs {w}");
+                inside += 1;
+            }
+        }
+        compared += 1;
+    }
+    assert!(
+        inside > compared / 2,
+        "{what}: {inside} of {compared} inside the mesh"
+    );
 }
 
 #[test]
@@ -524,61 +532,70 @@ fn mesh_renderer() -> hdrvis::render::surface::SurfaceRenderer {
 
 #[test]
 fn meshes_drawn_cell_by_cell_show_the_brute_force_value_at_every_pixel() {
-    use hdrvis::render::surface::{FringeMode, SurfaceOptions};
     let dir = tempfile::tempdir().unwrap();
     if !cases(dir.path()) {
         return;
     }
     let r = mesh_renderer();
     for c in &CASES {
-        let what = format!("{} {} {:?} map", c.file, c.variable, c.index);
-        let opts = LoadOptions {
-            resolution: None,
-            ..options(c, dir.path())
-        };
-        let field = std::sync::Arc::new(
-            hdrvis::datasets::load_mesh(&dir.path().join(c.file), &opts)
-                .unwrap_or_else(|e| panic!("{what}: {e}")),
-        );
-        let surface = SurfaceOptions {
-            mode: FringeMode::Direct,
-            antialias: false,
-            width: Some(120),
-            ..Default::default()
-        };
-        let img = r.render_mesh(&field, &surface).unwrap().remove(0);
-        // The pixels' centres on the map's axes, rows from the north.
-        let extent = |key: &str| -> (f64, f64) {
-            let v: Vec<f64> = img
-                .meta(key)
-                .unwrap()
-                .split_whitespace()
-                .map(|t| t.parse().unwrap())
-                .collect();
-            (v[0], v[1])
-        };
-        let ((x0, x1), (y0, y1)) = (extent("map_x_extent"), extent("map_y_extent"));
-        let (w, h) = (img.width as usize, img.height as usize);
-        let lon: Vec<f64> = (0..w)
-            .map(|i| x0 + (i as f64 + 0.5) * (x1 - x0) / w as f64)
-            .collect();
-        let lat: Vec<f64> = (0..h)
-            .map(|j| y1 - (j as f64 + 0.5) * (y1 - y0) / h as f64)
-            .collect();
-        let points: Vec<[f64; 2]> = lat
-            .iter()
-            .flat_map(|&b| lon.iter().map(move |&a| [a, b]))
-            .collect();
-        let want = reference(dir.path(), c, json!({ "lon": lon, "lat": lat }));
-        let inside = assert_pixels(&what, &field, &img, &points, &want, c.on_nodes);
-        assert!(inside > points.len() / 3, "{what}: {inside} pixels inside");
+        assert_map(&r, dir.path(), c);
     }
+}
+
+/// `c` (in `data`) loaded with load_mesh.
+fn mesh_field(data: &Path, c: &Case) -> std::sync::Arc<hdrvis::model::mesh::MeshField> {
+    let opts = LoadOptions {
+        resolution: None,
+        ..options(c, data)
+    };
+    std::sync::Arc::new(
+        hdrvis::datasets::load_mesh(&data.join(c.file), &opts)
+            .unwrap_or_else(|e| panic!("{} {}: {e}", c.file, c.variable)),
+    )
+}
+
+/// A 120-pixel map of `c` (in `data`) drawn cell by cell shows the reference at every pixel's
+/// centre, a third of them on cells at least.
+fn assert_map(r: &hdrvis::render::surface::SurfaceRenderer, data: &Path, c: &Case) {
+    use hdrvis::render::surface::{FringeMode, SurfaceOptions};
+    let what = format!("{} {} {:?} map", c.file, c.variable, c.index);
+    let field = mesh_field(data, c);
+    let surface = SurfaceOptions {
+        mode: FringeMode::Direct,
+        antialias: false,
+        width: Some(120),
+        ..Default::default()
+    };
+    let img = r.render_mesh(&field, &surface).unwrap().remove(0);
+    // The pixels' centres on the map's axes, rows from the north.
+    let extent = |key: &str| -> (f64, f64) {
+        let v: Vec<f64> = img
+            .meta(key)
+            .unwrap()
+            .split_whitespace()
+            .map(|t| t.parse().unwrap())
+            .collect();
+        (v[0], v[1])
+    };
+    let ((x0, x1), (y0, y1)) = (extent("map_x_extent"), extent("map_y_extent"));
+    let (w, h) = (img.width as usize, img.height as usize);
+    let lon: Vec<f64> = (0..w)
+        .map(|i| x0 + (i as f64 + 0.5) * (x1 - x0) / w as f64)
+        .collect();
+    let lat: Vec<f64> = (0..h)
+        .map(|j| y1 - (j as f64 + 0.5) * (y1 - y0) / h as f64)
+        .collect();
+    let points: Vec<[f64; 2]> = lat
+        .iter()
+        .flat_map(|&b| lon.iter().map(move |&a| [a, b]))
+        .collect();
+    let want = reference(data, c, json!({ "lon": lon, "lat": lat }));
+    let inside = assert_pixels(&what, &field, &img, &points, &want, c.on_nodes);
+    assert!(inside > points.len() / 3, "{what}: {inside} pixels inside");
 }
 
 #[test]
 fn meshes_on_the_globe_show_the_brute_force_value_where_each_ray_meets_the_sphere() {
-    use hdrvis::model::Camera;
-    use hdrvis::render::surface::{FringeMode, SurfaceOptions, SurfaceView};
     let dir = tempfile::tempdir().unwrap();
     if !cases(dir.path()) {
         return;
@@ -587,46 +604,47 @@ fn meshes_on_the_globe_show_the_brute_force_value_where_each_ray_meets_the_spher
     // A global triangle mesh (cells), a Voronoi mesh (vertex data) and the columns, seen over
     // a pole so that the cap cells and the antimeridian are in view.
     for (k, lat) in [(3, 70.0), (6, -60.0), (12, 20.0)] {
-        let c = &CASES[k];
-        let what = format!("{} {} globe", c.file, c.variable);
-        let opts = LoadOptions {
-            resolution: None,
-            ..options(c, dir.path())
-        };
-        let field = std::sync::Arc::new(
-            hdrvis::datasets::load_mesh(&dir.path().join(c.file), &opts).unwrap(),
-        );
-        let camera = Camera::geo([0.0; 3], lat, 170.0, 3.2, 40.0).unwrap();
-        let surface = SurfaceOptions {
-            mode: FringeMode::Direct,
-            antialias: false,
-            view: SurfaceView::Globe(camera),
-            width: Some(64),
-            height: Some(64),
-            ..Default::default()
-        };
-        let img = r.render_mesh(&field, &surface).unwrap().remove(0);
-        // Where each pixel's ray meets the unit sphere (the nearer root), as longitude, latitude;
-        // pixels off the sphere are far away, where no cell is.
-        let points: Vec<[f64; 2]> = (0..64 * 64)
-            .map(|p| {
-                let (o, d) = camera.ray(p % 64, p / 64, 64, 64);
-                let b = o[0] * d[0] + o[1] * d[1] + o[2] * d[2];
-                let cc = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - 1.0;
-                let disc = b * b - cc;
-                if disc < 0.0 {
-                    return [0.0, 95.0];
-                }
-                let t = -b - disc.sqrt();
-                let q = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
-                let la = q[2].atan2(q[0].hypot(q[1])).to_degrees();
-                [q[1].atan2(q[0]).to_degrees(), la]
-            })
-            .collect();
-        let want = reference(dir.path(), c, json!({ "points": points }));
-        let inside = assert_pixels(&what, &field, &img, &points, &want, c.on_nodes);
-        assert!(inside > 1500, "{what}: {inside} pixels on cells");
+        assert_globe(&r, dir.path(), &CASES[k], [lat, 170.0]);
     }
+}
+
+/// A 64² globe of `c` (in `data`) from above `at` (latitude, longitude) drawn cell by cell shows
+/// the reference where each pixel's ray meets the sphere, on 1500 pixels at least.
+fn assert_globe(r: &hdrvis::render::surface::SurfaceRenderer, data: &Path, c: &Case, at: [f64; 2]) {
+    use hdrvis::model::Camera;
+    use hdrvis::render::surface::{FringeMode, SurfaceOptions, SurfaceView};
+    let what = format!("{} {} globe", c.file, c.variable);
+    let field = mesh_field(data, c);
+    let camera = Camera::geo([0.0; 3], at[0], at[1], 3.2, 40.0).unwrap();
+    let surface = SurfaceOptions {
+        mode: FringeMode::Direct,
+        antialias: false,
+        view: SurfaceView::Globe(camera),
+        width: Some(64),
+        height: Some(64),
+        ..Default::default()
+    };
+    let img = r.render_mesh(&field, &surface).unwrap().remove(0);
+    // Where each pixel's ray meets the unit sphere (the nearer root), as longitude, latitude;
+    // pixels off the sphere are far away, where no cell is.
+    let points: Vec<[f64; 2]> = (0..64 * 64)
+        .map(|p| {
+            let (o, d) = camera.ray(p % 64, p / 64, 64, 64);
+            let b = o[0] * d[0] + o[1] * d[1] + o[2] * d[2];
+            let cc = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] - 1.0;
+            let disc = b * b - cc;
+            if disc < 0.0 {
+                return [0.0, 95.0];
+            }
+            let t = -b - disc.sqrt();
+            let q = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+            let la = q[2].atan2(q[0].hypot(q[1])).to_degrees();
+            [q[1].atan2(q[0]).to_degrees(), la]
+        })
+        .collect();
+    let want = reference(data, c, json!({ "points": points }));
+    let inside = assert_pixels(&what, &field, &img, &points, &want, c.on_nodes);
+    assert!(inside > 1500, "{what}: {inside} pixels on cells");
 }
 
 #[test]
@@ -705,4 +723,33 @@ fn antialiased_pixels_are_the_mean_of_their_four_quarter_points() {
         blended > 50 && whole > blended,
         "{blended} blended, {whole} whole"
     );
+}
+
+/// A real UGRID file from the package registries: the Met Office's LFRic C4 cubed-sphere mesh
+/// (96 quadrilaterals, start_index 1, longitudes in [0°, 360°)) with synthetic values, shipped in
+/// iris-sample-data and pinned in the conformance corpus. Sampled, drawn on the map and drawn on
+/// the globe over a cube corner, it shows the brute-force reference at every node and pixel.
+#[test]
+fn a_real_ugrid_mesh_from_the_registries_samples_and_draws_as_brute_force_location_does() {
+    let Some(corpus) = crate::conformance::corpus() else {
+        return;
+    };
+    let c = Case {
+        file: "iris-sample-data/mesh_C4_synthetic_float.nc",
+        grid: None,
+        variable: "synthetic",
+        index: &[],
+        step: 2.0,
+        on_nodes: false,
+    };
+    let files = corpus.join("files");
+    let field = mesh_field(&files, &c);
+    assert_eq!(
+        field.describe(),
+        "synthetic on the UGRID mesh of 96 cells and 98 nodes, values on its cells (nexample_C4_face)"
+    );
+    assert_sampled(&files, &c);
+    let r = mesh_renderer();
+    assert_map(&r, &files, &c);
+    assert_globe(&r, &files, &c, [35.26, 45.0]);
 }
