@@ -7,8 +7,8 @@
 //! linear node field is reproduced exactly. Drawn cell by cell (`load_mesh`, `render_surface`),
 //! every pixel of a map and a globe shows that reference value where its centre (or its ray's
 //! hit on the sphere) lies. A real UGRID file from the registries (the Met Office's LFRic C4 mesh
-//! in iris-sample-data) is held to the same reference. Bad meshes and drawings are refused in one
-//! line.
+//! in iris-sample-data) is held to the same reference, and a real ship's track is not taken for
+//! columns. Bad meshes and drawings are refused in one line.
 
 use crate::cli::{hdrvis, python_check};
 use hdrvis::datasets::select::Selection;
@@ -752,4 +752,16 @@ fn a_real_ugrid_mesh_from_the_registries_samples_and_draws_as_brute_force_locati
     let r = mesh_renderer();
     assert_map(&r, &files, &c);
     assert_globe(&r, &files, &c, [35.26, 45.0]);
+    // A ship's track (ARM's navigation data in act-atmos: lat(time), lon(time)) is a path in
+    // time, not columns to triangulate.
+    let track = files.join("act-atmos/marnavM1.a1.20180201.000000.nc");
+    let opts = LoadOptions {
+        variable: Some("roll".into()),
+        ..LoadOptions::default()
+    };
+    let e = hdrvis::datasets::load_mesh(&track, &opts).unwrap_err();
+    assert!(
+        e.to_string().contains("lies on no unstructured mesh"),
+        "{e}"
+    );
 }

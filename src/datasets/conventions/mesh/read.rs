@@ -473,6 +473,19 @@ fn triangles(src: &Source, dims: &Dims) -> Result<Option<Mesh>> {
     }))
 }
 
+/// Whether points along `dim` are a path in time rather than columns: `dim` is a time axis (a
+/// ship's or an aircraft's track, a station's series), or the file is one of CF's discrete
+/// sampling geometries other than points (`featureType` trajectory, timeSeries, profile, ...).
+fn is_a_path(src: &Source, dim: &str) -> Result<bool> {
+    if src.has(dim)
+        && attr_text(&src.attributes(dim)?, "units").is_some_and(|u| u.contains(" since "))
+    {
+        return Ok(true);
+    }
+    let globals = variables::global_attributes(src.path)?;
+    Ok(attr_text(&globals, "featureType").is_some_and(|f| !f.eq_ignore_ascii_case("point")))
+}
+
 /// Columns with only their centres: 1-D latitude and longitude on one dimension that is not
 /// their own (CAM-SE's `lat(ncol)`, `lon(ncol)`), which the variable has; their cells are the
 /// spherical Delaunay triangles of the centres ([`super::delaunay`]), the values on the nodes.
@@ -503,6 +516,9 @@ fn columns(src: &Source, attrs: &Attributes, dims: &Dims) -> Result<Option<Mesh>
         return Ok(None);
     };
     if on != also || on.1 < 3 || !dims.iter().any(|(_, n)| *n == on.1) {
+        return Ok(None);
+    }
+    if is_a_path(src, &on.0)? {
         return Ok(None);
     }
     let (lon, lat) = (
