@@ -765,3 +765,60 @@ fn a_real_ugrid_mesh_from_the_registries_samples_and_draws_as_brute_force_locati
         "{e}"
     );
 }
+
+/// Fringes on a mesh keep their phase exact at every pixel: with ν·d near 10⁷ the point fringe of
+/// each pixel equals (1 + cos 2πν·d)/2 computed in f64 from the value at its centre (within 2e-5),
+/// where d as one f32 (the naive phase) is off by most of a fringe somewhere.
+#[test]
+fn fringes_on_meshes_keep_the_phase_exact_at_every_pixel() {
+    use hdrvis::render::surface::{fringe_f64, FringeMode, PhaseMethod, SurfaceOptions};
+    let dir = tempfile::tempdir().unwrap();
+    if !cases(dir.path()) {
+        return;
+    }
+    let c = &CASES[1]; // UGRID node data: elev = 100 + 3·lon − 2·lat
+    let field = mesh_field(dir.path(), c);
+    let (lo, hi) = field.range().unwrap();
+    let nu = 1e7 / lo.abs().max(hi.abs());
+    let r = mesh_renderer();
+    let mut worst = [0.0f64; 2];
+    for (k, phase) in [PhaseMethod::Reduced, PhaseMethod::Naive].into_iter().enumerate() {
+        let surface = SurfaceOptions {
+            mode: FringeMode::Cyclic,
+            nu: vec![nu],
+            phase,
+            antialias: false,
+            width: Some(100),
+            ..Default::default()
+        };
+        let img = r.render_mesh(&field, &surface).unwrap().remove(0);
+        let fringe = channel(&img, "fringe");
+        let ext: Vec<Vec<f64>> = ["map_x_extent", "map_y_extent"]
+            .iter()
+            .map(|key| {
+                img.meta(key)
+                    .unwrap()
+                    .split_whitespace()
+                    .map(|t| t.parse().unwrap())
+                    .collect()
+            })
+            .collect();
+        let (w, h) = (img.width as usize, img.height as usize);
+        let mut compared = 0;
+        for j in 0..h {
+            for i in 0..w {
+                let lon = ext[0][0] + (i as f64 + 0.5) * (ext[0][1] - ext[0][0]) / w as f64;
+                let lat = ext[1][1] - (j as f64 + 0.5) * (ext[1][1] - ext[1][0]) / h as f64;
+                let Some(d) = field.value_at(lon, lat).filter(|v| v.is_finite()) else {
+                    continue;
+                };
+                let got = fringe[j * w + i] as f64;
+                worst[k] = worst[k].max((got - fringe_f64(nu, d)).abs());
+                compared += 1;
+            }
+        }
+        assert!(compared > w * h / 3, "{compared} pixels");
+    }
+    assert!(worst[0] <= 2e-5, "reduced phase: {}", worst[0]);
+    assert!(worst[1] > 0.1, "naive phase: {}", worst[1]);
+}
