@@ -2,6 +2,7 @@
 //! here knows about wgpu, Rhai or the terminal; the renderers, the scripts and the CLI all build on
 //! these types.
 
+pub mod arithmetic;
 pub mod bricks;
 pub(crate) mod camera;
 pub mod colormap;

@@ -3,6 +3,7 @@
 //! Paths a script reads resolve against its own folder and must stay inside the script folder,
 //! the output folder or folders the user allowed; outputs go only under the output folder.
 
+mod api_arithmetic;
 mod api_bricks;
 mod api_datasets;
 pub(crate) mod api_doc;
@@ -370,6 +371,7 @@ pub(crate) fn new_engine(
     api_datasets::register(&mut engine, host.clone());
     api_fields::register(&mut engine);
     api_grids::register(&mut engine);
+    api_arithmetic::register(&mut engine);
     api_surface::register(&mut engine, host.clone());
     api_sections::register(&mut engine, host.clone());
     api_sweep::register(&mut engine, &host);

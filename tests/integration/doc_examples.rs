@@ -1,6 +1,6 @@
 //! Every fenced ```` ```rhai ```` example in README.md and docs/*.md runs: each is written to a
 //! folder that holds small stand-ins for the files the examples name (`box.nc`, `mantle.npy`,
-//! `okada.nc`, …, made with the crate's own writers) and run by `hdrvis run`, with the small sizes
+//! `okada.nc`, `sst.nc`, …, made with the crate's own writers) and run by `hdrvis run`, with the small sizes
 //! `every_script_runs_and_writes_valid_images` uses for the parameters a block reads. An example
 //! that no longer parses (a reserved word as a map key), names an unknown option or function, or
 //! fails at run time fails this test. A block fenced ```` ```rhai,no_run ```` is not run; the docs
@@ -113,6 +113,23 @@ fn write_data_files(dir: &Path) {
             ("uy", &uy, "m", "north displacement"),
             ("uz", &uz, "m", "up displacement"),
         ],
+        &[],
+    )
+    .unwrap();
+    // sst.nc: twelve monthly steps of a temperature in K, for the arithmetic example.
+    let months: Vec<f64> = (0..12).map(|m| 30.0 * f64::from(m)).collect();
+    let mut sst = Vec::new();
+    for m in 0..12 {
+        sst.extend(nodes().map(|(i, j)| 280.0 + i + j + 3.0 * (i + f64::from(m)).sin()));
+    }
+    write_grid(
+        dir.join("sst.nc"),
+        &[
+            ("time", &months, "days since 2000-01-01"),
+            ("lat", &lat, "degrees_north"),
+            ("lon", &lon, "degrees_east"),
+        ],
+        &[("sst", &sst, "K", "sea surface temperature")],
         &[],
     )
     .unwrap();

@@ -6,6 +6,7 @@
 #![allow(clippy::too_many_lines)]
 
 mod archives;
+mod arithmetic;
 mod bricks;
 mod cache;
 mod cf_data;

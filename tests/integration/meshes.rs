@@ -782,7 +782,10 @@ fn fringes_on_meshes_keep_the_phase_exact_at_every_pixel() {
     let nu = 1e7 / lo.abs().max(hi.abs());
     let r = mesh_renderer();
     let mut worst = [0.0f64; 2];
-    for (k, phase) in [PhaseMethod::Reduced, PhaseMethod::Naive].into_iter().enumerate() {
+    for (k, phase) in [PhaseMethod::Reduced, PhaseMethod::Naive]
+        .into_iter()
+        .enumerate()
+    {
         let surface = SurfaceOptions {
             mode: FringeMode::Cyclic,
             nu: vec![nu],
