@@ -610,6 +610,9 @@ mod tests {
             ("render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 100000 });", "width: 100000; expected integer 1..=16384"),
             ("tonemap(exposure(render_volume(generate_mantle(#{ n: 4 }), #{ tf: tf_emission_absorption(1.0, 1.0), width: 4, height: 4 }), 0.0), #{ op: \"drago\", key: 0.2 });", "drago.key"),
             ("surface_colorbar(load_grid(generate(\"okada\", #{ n: 3 })), #{ width: 100000, height: 100000 });", "width: 100000; expected integer 1..=16384"),
+            // A data value where a scaled one belongs: refused, with what it is on the domain.
+            ("tf_lut(#{ domain: [-40.0, 60.0], transparent_below: 15.0 });", "transparent_below: 15 is not a scaled value t in [0, 1], as the emission and opacity points are; the data value 15 is t = 0.5500 on the domain [-40, 60]"),
+            ("tf_lut(#{ scale: \"log10\", transparent_below: -0.5 });", "transparent_below: -0.5 is not a scaled value t in [0, 1], as the emission and opacity points are"),
         ];
         for (source, needle) in cases {
             let e = plan(source).unwrap_err().to_string();

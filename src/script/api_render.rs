@@ -217,7 +217,7 @@ pub(crate) const TF_LUT: OptionTable = OptionTable {
         opt("colormap", Kind::Text("\"viridis\""), "\"viridis\"", "a colour map name (tf_lut lists them on a typo)"),
         opt("emission", Kind::Value("[[t, log10 e], ...]", "[[0.0, -1.0], [1.0, 0.0]]"), "a ramp", "log10 emission control points over t"),
         opt("opacity", Kind::Value("[[t, log10 sigma], ...]", "[[0.0, -1.0], [1.0, 0.0]]"), "a ramp", "log10 extinction control points over t"),
-        opt("transparent_below", Kind::Finite, "none", "values below it emit and absorb nothing"),
+        opt("transparent_below", Kind::Finite, "none", "the scaled value t (as in emission and opacity) below which voxels emit and absorb nothing; a data value v on a linear domain [lo, hi] is t = (v - lo) / (hi - lo)"),
     ],
     call: "tf_lut(OPTS)",
     base: "#{}",
@@ -365,11 +365,27 @@ fn tf_lut(opts: Map) -> RResult<TransferFunction> {
     if let Some(v) = given.value("opacity")? {
         l.opacity = points(v, "opacity")?;
     }
-    if let Some(t) = given.num("transparent_below")? {
-        l.transparent_below = t;
-    }
     let scale = given.string("scale")?.unwrap_or_else(|| "linear".into());
     l.scale = Scale::parse(&scale, given.num("linthresh")?).map_err(to_rhai)?;
+    if let Some(t) = given.num("transparent_below")? {
+        if !(0.0..=1.0).contains(&t) {
+            // Most likely a data value: say what it is on a linear domain, when there is one.
+            let hint = match l.domain {
+                Some([lo, hi]) if l.scale == Scale::Linear && hi > lo && (lo..=hi).contains(&t) => {
+                    format!(
+                        "; the data value {t} is t = {:.4} on the domain [{lo}, {hi}]",
+                        (t - lo) / (hi - lo)
+                    )
+                }
+                _ => String::new(),
+            };
+            return err(
+                "transparent_below",
+                format!("{t} is not a scaled value t in [0, 1], as the emission and opacity points are{hint}"),
+            );
+        }
+        l.transparent_below = t;
+    }
     crate::model::colormap::Colormap::by_name(&l.colormap).map_err(to_rhai)?;
     Ok(TransferFunction::Lut(l))
 }
