@@ -523,6 +523,25 @@ fn assert_pixels(
     inside
 }
 
+/// Where a map picture's pixel-space point (x right, y down, in pixels) lies: (longitude,
+/// latitude) on the axes the picture records.
+fn map_point(img: &hdrvis::model::HdrImage, [x, y]: [f64; 2]) -> [f64; 2] {
+    let extent = |key: &str| -> [f64; 2] {
+        let v: Vec<f64> = img
+            .meta(key)
+            .unwrap()
+            .split_whitespace()
+            .map(|t| t.parse().unwrap())
+            .collect();
+        [v[0], v[1]]
+    };
+    let ([x0, x1], [y0, y1]) = (extent("map_x_extent"), extent("map_y_extent"));
+    [
+        x0 + x * (x1 - x0) / img.width as f64,
+        y1 - y * (y1 - y0) / img.height as f64,
+    ]
+}
+
 fn mesh_renderer() -> hdrvis::render::surface::SurfaceRenderer {
     let backend = crate::common::backends()[0];
     hdrvis::render::surface::SurfaceRenderer::new(
@@ -568,22 +587,12 @@ fn assert_map(r: &hdrvis::render::surface::SurfaceRenderer, data: &Path, c: &Cas
     };
     let img = r.render_mesh(&field, &surface).unwrap().remove(0);
     // The pixels' centres on the map's axes, rows from the north.
-    let extent = |key: &str| -> (f64, f64) {
-        let v: Vec<f64> = img
-            .meta(key)
-            .unwrap()
-            .split_whitespace()
-            .map(|t| t.parse().unwrap())
-            .collect();
-        (v[0], v[1])
-    };
-    let ((x0, x1), (y0, y1)) = (extent("map_x_extent"), extent("map_y_extent"));
     let (w, h) = (img.width as usize, img.height as usize);
     let lon: Vec<f64> = (0..w)
-        .map(|i| x0 + (i as f64 + 0.5) * (x1 - x0) / w as f64)
+        .map(|i| map_point(&img, [i as f64 + 0.5, 0.5])[0])
         .collect();
     let lat: Vec<f64> = (0..h)
-        .map(|j| y1 - (j as f64 + 0.5) * (y1 - y0) / h as f64)
+        .map(|j| map_point(&img, [0.5, j as f64 + 0.5])[1])
         .collect();
     let points: Vec<[f64; 2]> = lat
         .iter()
@@ -671,29 +680,14 @@ fn antialiased_pixels_are_the_mean_of_their_four_quarter_points() {
         .unwrap()
         .remove(0);
     let values = channel(&img, c.variable);
-    let ext: Vec<Vec<f64>> = ["map_x_extent", "map_y_extent"]
-        .iter()
-        .map(|k| {
-            img.meta(k)
-                .unwrap()
-                .split_whitespace()
-                .map(|t| t.parse().unwrap())
-                .collect()
-        })
-        .collect();
     let (w, h) = (img.width as usize, img.height as usize);
-    let (dx, dy) = (
-        (ext[0][1] - ext[0][0]) / w as f64,
-        (ext[1][1] - ext[1][0]) / h as f64,
-    );
     let (mut blended, mut whole) = (0, 0);
     for j in 0..h {
         for i in 0..w {
             let quarter: Vec<f64> = [[0.25, 0.25], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]]
                 .iter()
                 .filter_map(|o| {
-                    let lon = ext[0][0] + (i as f64 + o[0]) * dx;
-                    let lat = ext[1][1] - (j as f64 + o[1]) * dy;
+                    let [lon, lat] = map_point(&img, [i as f64 + o[0], j as f64 + o[1]]);
                     field.value_at(lon, lat).filter(|v| v.is_finite())
                 })
                 .collect();
@@ -796,22 +790,11 @@ fn fringes_on_meshes_keep_the_phase_exact_at_every_pixel() {
         };
         let img = r.render_mesh(&field, &surface).unwrap().remove(0);
         let fringe = channel(&img, "fringe");
-        let ext: Vec<Vec<f64>> = ["map_x_extent", "map_y_extent"]
-            .iter()
-            .map(|key| {
-                img.meta(key)
-                    .unwrap()
-                    .split_whitespace()
-                    .map(|t| t.parse().unwrap())
-                    .collect()
-            })
-            .collect();
         let (w, h) = (img.width as usize, img.height as usize);
         let mut compared = 0;
         for j in 0..h {
             for i in 0..w {
-                let lon = ext[0][0] + (i as f64 + 0.5) * (ext[0][1] - ext[0][0]) / w as f64;
-                let lat = ext[1][1] - (j as f64 + 0.5) * (ext[1][1] - ext[1][0]) / h as f64;
+                let [lon, lat] = map_point(&img, [i as f64 + 0.5, j as f64 + 0.5]);
                 let Some(d) = field.value_at(lon, lat).filter(|v| v.is_finite()) else {
                     continue;
                 };

@@ -298,25 +298,7 @@ fn ring_boxes(mesh: &Mesh) -> Vec<[f32; 4]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A mesh of `cells` (node indices) over the given nodes.
-    fn mesh(lon: Vec<f64>, lat: Vec<f64>, cells: &[&[usize]], location: Location) -> Mesh {
-        let mut offsets = vec![0];
-        let mut nodes = Vec::new();
-        for c in cells {
-            nodes.extend_from_slice(c);
-            offsets.push(nodes.len());
-        }
-        Mesh {
-            kind: "test".into(),
-            lon,
-            lat,
-            offsets,
-            nodes,
-            location,
-            dim: "cell".into(),
-        }
-    }
+    use crate::model::mesh::test_mesh as mesh;
 
     /// A regional quad mesh of n × n one-degree cells from (lon0, 10°S), cell values k.
     fn quads(lon0: f64, n: usize) -> Mesh {

@@ -298,3 +298,28 @@ impl std::fmt::Debug for MeshField {
         write!(f, "MeshField({})", self.describe())
     }
 }
+
+/// A mesh of `cells` (node indices) over the given nodes, for tests.
+#[cfg(test)]
+pub(crate) fn test_mesh(
+    lon: Vec<f64>,
+    lat: Vec<f64>,
+    cells: &[&[usize]],
+    location: Location,
+) -> Mesh {
+    let mut offsets = vec![0];
+    let mut nodes = Vec::new();
+    for c in cells {
+        nodes.extend_from_slice(c);
+        offsets.push(nodes.len());
+    }
+    Mesh {
+        kind: "test".into(),
+        lon,
+        lat,
+        offsets,
+        nodes,
+        location,
+        dim: "cell".into(),
+    }
+}

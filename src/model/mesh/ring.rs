@@ -5,6 +5,7 @@
 //! linear over. Shared by the sampler onto latitude–longitude grids and the point locator.
 
 use super::Mesh;
+use crate::model::geometry::segment_distance;
 
 /// One cell in the (longitude, latitude) plane, ready to be drawn.
 #[derive(Default)]
@@ -130,16 +131,7 @@ pub(crate) fn contains(points: &[[f64; 2]], p: [f64; 2]) -> bool {
 pub(crate) fn on_boundary(points: &[[f64; 2]], p: [f64; 2]) -> bool {
     let mut j = points.len() - 1;
     for i in 0..points.len() {
-        let (a, b) = (points[j], points[i]);
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let len2 = dx * dx + dy * dy;
-        let t = if len2 > 0.0 {
-            (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let (ex, ey) = (a[0] + t * dx - p[0], a[1] + t * dy - p[1]);
-        if ex * ex + ey * ey <= 1e-18 {
+        if segment_distance(p, points[j], points[i]) <= 1e-9 {
             return true;
         }
         j = i;

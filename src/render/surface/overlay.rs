@@ -13,6 +13,7 @@
 use super::options::{CoastlineStyle, SurfaceOptions, SurfaceView};
 use crate::datasets::coastlines::{coastlines, CoastResolution};
 use crate::error::{Error, Result};
+use crate::model::geometry::segment_distance;
 use crate::model::map_frame::MapAxes;
 use crate::model::mesh::ring::{ring_into, Ring};
 use crate::model::mesh::MeshField;
@@ -536,18 +537,6 @@ fn stroke(cover: &mut [f32], w: u32, h: u32, a: [f64; 2], b: [f64; 2], width: f6
             *slot = slot.max(c);
         }
     }
-}
-
-/// Distance from p to the segment a–b.
-pub(crate) fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let len2 = dx * dx + dy * dy;
-    let t = if len2 > 0.0 {
-        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
 }
 
 #[cfg(test)]

@@ -166,24 +166,7 @@ fn triangle_hits(plan: &Plan, t: [([f64; 2], f64); 3], hits: &mut Vec<(usize, f6
 mod tests {
     use super::*;
     use crate::model::mesh::ring::ring;
-
-    fn mesh(lon: Vec<f64>, lat: Vec<f64>, cells: &[&[usize]], location: Location) -> Mesh {
-        let mut offsets = vec![0];
-        let mut nodes = Vec::new();
-        for c in cells {
-            nodes.extend_from_slice(c);
-            offsets.push(nodes.len());
-        }
-        Mesh {
-            kind: "test".into(),
-            lon,
-            lat,
-            offsets,
-            nodes,
-            location,
-            dim: "cell".into(),
-        }
-    }
+    use crate::model::mesh::test_mesh as mesh;
 
     #[test]
     fn a_ring_round_the_pole_is_closed_along_it() {
