@@ -363,7 +363,7 @@ fn bad_meshes_are_refused_in_one_line_and_nothing_is_written() {
 }
 
 /// Drawing a mesh: the same bad files refused by load_mesh, and what a mesh cannot be asked for
-/// (a 3-D view, a resolution, another property, cell edges on a grid), each in one line naming
+/// (cell edges in a 3-D view or on a grid, another property), each in one line naming
 /// the option, with no picture written.
 #[test]
 fn bad_mesh_drawings_are_refused_in_one_line_and_nothing_is_written() {
@@ -390,8 +390,8 @@ fn bad_mesh_drawings_are_refused_in_one_line_and_nothing_is_written() {
             "lies on no unstructured mesh",
         ),
         (
-            format!("render_surface({icon}, #{{ view: \"perspective\" }})"),
-            "view: a mesh is drawn on the map or the globe",
+            format!("render_surface({icon}, #{{ view: \"perspective\", cell_edges: true }})"),
+            "cell_edges: cell edges are drawn on the map and the globe",
         ),
         (
             format!("render_surface({icon}, #{{ property: \"T\" }})"),
@@ -807,4 +807,57 @@ fn fringes_on_meshes_keep_the_phase_exact_at_every_pixel() {
     }
     assert!(worst[0] <= 2e-5, "reduced phase: {}", worst[0]);
     assert!(worst[1] > 0.1, "naive phase: {}", worst[1]);
+}
+
+/// A 3-D view of a mesh over its own relief draws the grid load_grid samples it onto (at the
+/// cells' median size): the same picture, value for value, as that grid's.
+#[test]
+fn a_perspective_view_of_a_mesh_draws_the_grid_it_samples_onto() {
+    use hdrvis::render::surface::{FringeMode, SurfaceOptions, SurfaceView};
+    let dir = tempfile::tempdir().unwrap();
+    if !cases(dir.path()) {
+        return;
+    }
+    let c = &CASES[9]; // FVCOM zeta on the nodes
+    let field = mesh_field(dir.path(), c);
+    let grid = hdrvis::datasets::load_grid_with(
+        &dir.path().join(c.file),
+        &LoadOptions {
+            resolution: None,
+            ..options(c, dir.path())
+        },
+    )
+    .unwrap();
+    let opts = SurfaceOptions {
+        mode: FringeMode::Modulated,
+        view: SurfaceView::Orbit {
+            azimuth: -60.0,
+            elevation: 35.0,
+            fov: 40.0,
+        },
+        relief: Some(c.variable.into()),
+        exaggeration: 2000.0,
+        width: Some(96),
+        height: Some(64),
+        ..Default::default()
+    };
+    let r = mesh_renderer();
+    let from_mesh = r.render_mesh(&field, &opts).unwrap().remove(0);
+    let from_grid = r.render(&grid, &opts).unwrap().remove(0);
+    let (a, b) = (
+        channel(&from_mesh, c.variable),
+        channel(&from_grid, c.variable),
+    );
+    let drawn = a.iter().filter(|v| v.is_finite()).count();
+    assert!(drawn > 96 * 64 / 8, "{drawn} pixels on the surface");
+    for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        assert!(
+            x == y || (x.is_nan() && y.is_nan()),
+            "pixel {k}: {x} vs {y}"
+        );
+    }
+    assert!(from_mesh
+        .meta("mesh_samples")
+        .unwrap()
+        .contains("median size"));
 }

@@ -7,11 +7,12 @@
 pub(crate) mod locate;
 pub(crate) mod ring;
 
+use super::Grid;
 use crate::error::{Error, Result};
 use crate::model::numeric::finite_range;
 use locate::MeshIndex;
 use rayon::prelude::*;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// Where a variable's values sit on its mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -196,6 +197,9 @@ pub struct MeshField {
     /// How each dimension other than the mesh's was chosen.
     pub(crate) notes: Vec<String>,
     pub(crate) index: Arc<MeshIndex>,
+    /// The field sampled onto latitude and longitude at its cells' median size, once a 3-D view
+    /// asked for it; shared by copies.
+    pub(crate) sampled: Arc<OnceLock<Arc<Grid>>>,
     extent: Extent,
     id: u64,
 }
@@ -224,6 +228,7 @@ impl MeshField {
         let extent = mesh.extent()?;
         let index = Arc::new(MeshIndex::new(&mesh, &extent));
         Ok(MeshField {
+            sampled: Arc::new(OnceLock::new()),
             extent,
             mesh: Arc::new(mesh),
             values: Arc::new(values),

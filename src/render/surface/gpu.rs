@@ -420,6 +420,9 @@ impl SurfaceRenderer {
                 ),
             ));
         }
+        if !matches!(opts.view, SurfaceView::Map | SurfaceView::Globe(_)) {
+            return self.render_mesh_sampled(field, opts);
+        }
         let colormap = Colormap::by_name(opts.colormap_name())?;
         let (frame, width, height) = mesh_frame(field, opts)?;
         self.check_binding(width, height, 0, &field.describe())?;
@@ -457,6 +460,38 @@ impl SurfaceRenderer {
                 } else {
                     "the pixel's centre"
                 },
+            );
+        }
+        Ok((images, timing))
+    }
+
+    /// A 3-D view of a mesh, over a relief: through the grid the mesh samples onto at its cells'
+    /// median size (a relief needs heights at nodes), drawn as any grid.
+    fn render_mesh_sampled(
+        &self,
+        field: &Arc<MeshField>,
+        opts: &SurfaceOptions,
+    ) -> Result<(Vec<HdrImage>, SurfaceTiming)> {
+        if opts.cell_edges.is_some() {
+            return Err(Error::invalid(
+                "cell_edges",
+                format!(
+                    "cell edges are drawn on the map and the globe; {} draws the mesh sampled onto a grid",
+                    opts.view.describe()
+                ),
+            ));
+        }
+        let grid = crate::datasets::conventions::mesh::sampled_grid(field)?;
+        let (mut images, timing) = self.render_timed(&grid, opts)?;
+        for img in &mut images {
+            img.set_meta("mesh", field.describe());
+            img.set_meta(
+                "mesh_samples",
+                format!(
+                    "sampled onto a {}x{} latitude-longitude grid at the cells' median size",
+                    grid.nx(),
+                    grid.ny()
+                ),
             );
         }
         Ok((images, timing))

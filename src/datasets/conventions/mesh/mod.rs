@@ -17,7 +17,7 @@ use crate::datasets::readers::variables;
 use crate::datasets::{geographic_axis, GridFile};
 use crate::error::{Error, Result};
 use crate::model::mesh::{Mesh, MeshField};
-use crate::model::CoordKind;
+use crate::model::{CoordKind, Grid, GridCoords};
 
 /// Arrays that describe meshes rather than hold data on them.
 const GEOMETRY: [&str; 24] = [
@@ -154,6 +154,28 @@ pub(crate) fn field(
     let units = v.units.clone().unwrap_or_default();
     MeshField::new(on.mesh, v.data.clone(), &on.name, &units, on.notes)
         .map_err(|e| Error::format(path, e.to_string()))
+}
+
+/// `field` sampled onto a regular latitude–longitude grid at its cells' median size (as
+/// `load_grid` samples it), made once per field: what its 3-D views draw.
+pub(crate) fn sampled_grid(field: &MeshField) -> Result<std::sync::Arc<Grid>> {
+    if let Some(g) = field.sampled.get() {
+        return Ok(g.clone());
+    }
+    let r = sample::regrid(field.mesh(), field.values(), None)?;
+    let axis = |name: &str, units: &str, values: Vec<f64>, kind| GridCoords {
+        name: name.into(),
+        units: units.into(),
+        values,
+        kind,
+    };
+    let x = axis("longitude", "degrees_east", r.lon, CoordKind::Longitude);
+    let y = axis("latitude", "degrees_north", r.lat, CoordKind::Latitude);
+    let name = format!("{} sampled onto {:.6} degrees", field.describe(), r.step);
+    let mut grid = Grid::with_coords(&name, x, y, vec![(field.name().to_string(), r.data)], None)?;
+    grid.set_units(field.name(), field.units())?;
+    let grid = std::sync::Arc::new(grid);
+    Ok(field.sampled.get_or_init(|| grid).clone())
 }
 
 /// A variable on an unstructured mesh as a grid: the selection fixes every dimension but the
