@@ -308,29 +308,44 @@ impl Camera {
     /// The world ray through the point `at` of a `width × height` image, in continuous pixel
     /// coordinates (x right, y down; pixel (i, j) covers [i, i + 1] × [j, j + 1]).
     pub fn ray_at(&self, at: [f64; 2], width: u32, height: u32) -> ([f64; 3], [f64; 3]) {
-        let sx = 2.0 * at[0] / width as f64 - 1.0;
-        let sy = 1.0 - 2.0 * at[1] / height as f64;
-        match self.projection {
-            Projection::Orthographic {
-                half_width,
-                half_height,
-            } => {
-                let o = add_scaled(
-                    add_scaled(self.eye, self.right, sx * half_width),
-                    self.up,
-                    sy * half_height,
-                );
-                (o, self.forward)
-            }
-            Projection::Perspective { fov_y_deg } => {
-                let ty = (0.5 * fov_y_deg.to_radians()).tan();
-                let tx = ty * width as f64 / height as f64;
-                let d = add_scaled(
-                    add_scaled(self.forward, self.right, sx * tx),
-                    self.up,
-                    sy * ty,
-                );
-                (self.eye, normalize(d))
+        self.rays(width, height)(at)
+    }
+
+    /// [`Self::ray_at`] for many points of one image: the projection's constants worked out once.
+    pub(crate) fn rays(
+        &self,
+        width: u32,
+        height: u32,
+    ) -> impl Fn([f64; 2]) -> ([f64; 3], [f64; 3]) + '_ {
+        let (w, h) = (width as f64, height as f64);
+        let ty = match self.projection {
+            Projection::Perspective { fov_y_deg } => (0.5 * fov_y_deg.to_radians()).tan(),
+            Projection::Orthographic { .. } => 0.0,
+        };
+        let tx = ty * w / h;
+        move |at: [f64; 2]| {
+            let sx = 2.0 * at[0] / w - 1.0;
+            let sy = 1.0 - 2.0 * at[1] / h;
+            match self.projection {
+                Projection::Orthographic {
+                    half_width,
+                    half_height,
+                } => {
+                    let o = add_scaled(
+                        add_scaled(self.eye, self.right, sx * half_width),
+                        self.up,
+                        sy * half_height,
+                    );
+                    (o, self.forward)
+                }
+                Projection::Perspective { .. } => {
+                    let d = add_scaled(
+                        add_scaled(self.forward, self.right, sx * tx),
+                        self.up,
+                        sy * ty,
+                    );
+                    (self.eye, normalize(d))
+                }
             }
         }
     }

@@ -346,8 +346,8 @@ impl SphericalGrid {
     }
 }
 
-/// Distance from p to the segment a–b in the plane.
-pub(crate) fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+/// Squared distance from p to the segment a–b in the plane.
+pub(crate) fn segment_distance2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
     let len2 = dx * dx + dy * dy;
     let t = if len2 > 0.0 {
@@ -355,11 +355,15 @@ pub(crate) fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     } else {
         0.0
     };
-    (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
+    let (ex, ey) = (p[0] - a[0] - t * dx, p[1] - a[1] - t * dy);
+    ex * ex + ey * ey
 }
 
-/// Entry and exit of the ray on the sphere of radius `r` about the origin, with the roots
-/// computed without cancellation.
+/// Distance from p to the segment a–b in the plane.
+pub(crate) fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    segment_distance2(p, a, b).sqrt()
+}
+
 pub(crate) fn sphere_hit(o: [f64; 3], d: [f64; 3], r: f64) -> Option<(f64, f64)> {
     let a = dot(d, d);
     let b = dot(o, d);

@@ -9,7 +9,7 @@
 //! which costs less when the points are a grid's nodes; this index serves points anywhere (the
 //! pixels of a globe).
 
-use super::ring::{contains, linear_in, on_boundary, ring_into, triangles, Ring};
+use super::ring::{contains, linear_in, near, on_boundary, ring_into, triangles, Ring};
 use super::{Extent, Location, Mesh};
 use rayon::prelude::*;
 
@@ -199,8 +199,8 @@ impl MeshIndex {
 
     /// The cell holding the point (`lon`, `lat` in degrees) and `values`' value there (one per
     /// cell or node, as `mesh.location` says), or `None` outside every cell. `scratch` is reused
-    /// from call to call: it keeps the last cell's ring, which the next point, usually nearby,
-    /// tests first.
+    /// from call to call: it keeps the rings of the cells tested last, which the next point,
+    /// usually nearby, tests again.
     pub(crate) fn locate(
         &self,
         mesh: &Mesh,
@@ -218,13 +218,10 @@ impl MeshIndex {
             // Every whole turn of longitude that puts the point in the box.
             let mut x = lon + 360.0 * ((w - lon) / 360.0).ceil();
             while x <= e {
-                if scratch.cell != Some(c) {
-                    scratch.cell = ring_into(mesh, c, &mut scratch.ring).then_some(c);
-                    if scratch.cell.is_none() {
-                        break;
-                    }
-                }
-                if let Some(v) = value_in(mesh, values, c, &scratch.ring, [x, lat]) {
+                let Some(ring) = scratch.ring_of(mesh, c) else {
+                    break;
+                };
+                if let Some(v) = value_in(mesh, values, c, ring, [x, lat]) {
                     return Some((c, v));
                 }
                 x += 360.0;
@@ -251,11 +248,31 @@ impl MeshIndex {
     }
 }
 
-/// What [`MeshIndex::locate`] reuses from call to call: a ring and the cell it is of.
+/// Rings [`Scratch`] keeps: more than a bucket's cells, so neighbouring points in one bucket
+/// build none again.
+const KEPT_RINGS: usize = 8;
+
+/// What [`MeshIndex::locate`] reuses from call to call: the rings of the cells it tested last
+/// (replaced oldest first).
 #[derive(Default)]
 pub(crate) struct Scratch {
-    ring: Ring,
-    cell: Option<usize>,
+    rings: [Ring; KEPT_RINGS],
+    /// The cell of each ring (`None`: no ring yet, or its cell has none).
+    cells: [Option<usize>; KEPT_RINGS],
+    next: usize,
+}
+
+impl Scratch {
+    /// Cell `c`'s ring, built unless kept; `None` when a node of it has no finite position.
+    fn ring_of(&mut self, mesh: &Mesh, c: usize) -> Option<&Ring> {
+        if let Some(k) = self.cells.iter().position(|&k| k == Some(c)) {
+            return Some(&self.rings[k]);
+        }
+        let k = self.next;
+        self.next = (k + 1) % KEPT_RINGS;
+        self.cells[k] = ring_into(mesh, c, &mut self.rings[k]).then_some(c);
+        self.cells[k].map(|_| &self.rings[k])
+    }
 }
 
 /// The value at `p` if cell `c`, whose ring is `r`, holds it.
@@ -270,6 +287,28 @@ fn value_in(mesh: &Mesh, values: &[f64], c: usize, r: &Ring, p: [f64; 2]) -> Opt
     }
 }
 
+/// The box of cell `f`'s ring without building it, for the plain cells that are most of every
+/// mesh (no node at a pole, none unplaced, not round a pole): its nodes' longitudes unwrapped
+/// one from the last as [`ring_into`] does, so the box is the ring's. `None` for other cells.
+fn plain_box(mesh: &Mesh, f: usize) -> Option<[f64; 4]> {
+    let ids = mesh.face(f);
+    let (mut w, mut e, mut s, mut n) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    let mut last: Option<f64> = None;
+    for &k in ids {
+        let (lon, lat) = (mesh.lon[k], mesh.lat[k]);
+        if !(lon.is_finite() && lat.abs() < 90.0 - 1e-9) {
+            return None;
+        }
+        let l = last.map_or(lon, |p| near(lon, p));
+        (w, e) = (w.min(l), e.max(l));
+        (s, n) = (s.min(lat), n.max(lat));
+        last = Some(l);
+    }
+    // A ring whose closing edge wraps goes round a pole: ring_into closes it along the pole.
+    let first = mesh.lon[*ids.first()?];
+    ((first - last?).abs() <= 180.0).then_some([w, e, s, n])
+}
+
 /// Every cell's ring's bounding box, rounded outwards to f32 (NaN where the cell has no ring).
 fn ring_boxes(mesh: &Mesh) -> Vec<[f32; 4]> {
     (0..mesh.faces().div_ceil(CHUNK))
@@ -278,14 +317,19 @@ fn ring_boxes(mesh: &Mesh) -> Vec<[f32; 4]> {
             let mut r = Ring::default();
             (c * CHUNK..((c + 1) * CHUNK).min(mesh.faces()))
                 .map(|f| {
-                    if !ring_into(mesh, f, &mut r) {
-                        return [f32::NAN; 4];
-                    }
-                    let (mut w, mut e, mut s, mut n) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-                    for p in &r.points {
-                        (w, e) = (w.min(p[0]), e.max(p[0]));
-                        (s, n) = (s.min(p[1]), n.max(p[1]));
-                    }
+                    let [w, e, s, n] = match plain_box(mesh, f) {
+                        Some(b) => b,
+                        None if ring_into(mesh, f, &mut r) => {
+                            let (mut w, mut e) = (f64::MAX, f64::MIN);
+                            let (mut s, mut n) = (f64::MAX, f64::MIN);
+                            for p in &r.points {
+                                (w, e) = (w.min(p[0]), e.max(p[0]));
+                                (s, n) = (s.min(p[1]), n.max(p[1]));
+                            }
+                            [w, e, s, n]
+                        }
+                        None => return [f32::NAN; 4],
+                    };
                     let down = |x: f64| (x as f32).next_down();
                     let up = |x: f64| (x as f32).next_up();
                     [down(w), up(e), down(s), up(n)]
@@ -377,6 +421,27 @@ mod tests {
             let (_, v) = index.locate(&m, &values, [x, 85.0], &mut r).unwrap();
             assert!((v - 2.0).abs() < 1e-12, "{x}: {v}");
             assert!(index.locate(&m, &values, [x, 75.0], &mut r).is_none());
+        }
+    }
+
+    #[test]
+    fn plain_boxes_are_the_rings_boxes_and_caps_build_their_rings() {
+        let quads = quads(175.0, 6);
+        let lon: Vec<f64> = (0..5).map(|k| 170.0 + 72.0 * k as f64).collect();
+        let cap = mesh(lon, vec![80.0; 5], &[&[0, 1, 2, 3, 4]], Location::Faces);
+        assert_eq!(plain_box(&cap, 0), None);
+        let mut r = Ring::default();
+        for f in 0..quads.faces() {
+            assert!(ring_into(&quads, f, &mut r));
+            let xs = r.points.iter().map(|p| p[0]);
+            let ys = r.points.iter().map(|p| p[1]);
+            let want = [
+                xs.clone().fold(f64::MAX, f64::min),
+                xs.fold(f64::MIN, f64::max),
+                ys.clone().fold(f64::MAX, f64::min),
+                ys.fold(f64::MIN, f64::max),
+            ];
+            assert_eq!(plain_box(&quads, f), Some(want), "cell {f}");
         }
     }
 

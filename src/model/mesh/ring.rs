@@ -5,7 +5,7 @@
 //! linear over. Shared by the sampler onto latitude–longitude grids and the point locator.
 
 use super::Mesh;
-use crate::model::geometry::segment_distance;
+use crate::model::geometry::segment_distance2;
 
 /// One cell in the (longitude, latitude) plane, ready to be drawn.
 #[derive(Default)]
@@ -131,7 +131,7 @@ pub(crate) fn contains(points: &[[f64; 2]], p: [f64; 2]) -> bool {
 pub(crate) fn on_boundary(points: &[[f64; 2]], p: [f64; 2]) -> bool {
     let mut j = points.len() - 1;
     for i in 0..points.len() {
-        if segment_distance(p, points[j], points[i]) <= 1e-9 {
+        if segment_distance2(p, points[j], points[i]) <= 1e-18 {
             return true;
         }
         j = i;
@@ -150,7 +150,12 @@ pub(crate) fn round_pole(mesh: &Mesh, f: usize) -> Option<f64> {
     let (mut turn, mut mean) = (0.0, 0.0);
     for (k, &n) in ids.iter().enumerate() {
         let d = mesh.lon[ids[(k + 1) % ids.len()]] - mesh.lon[n];
-        turn += d - 360.0 * (d / 360.0).round();
+        // The short way round (d itself below half a turn, where the rounding gives 0).
+        turn += if d.abs() < 180.0 {
+            d
+        } else {
+            d - 360.0 * (d / 360.0).round()
+        };
         mean += mesh.lat[n];
     }
     (turn.abs() > 180.0).then_some(if mean > 0.0 { 90.0 } else { -90.0 })

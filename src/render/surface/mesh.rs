@@ -197,12 +197,13 @@ pub(crate) fn mesh_pixels(
                 .zip(shade.par_chunks_mut(w as usize))
                 .enumerate()
                 .for_each(|(j, (row, shades))| {
+                    let ray = camera.rays(w, h);
                     for i in 0..w as usize {
                         // Each sample's hit on the sphere; the pixel's shading is their mean
                         // (the centre's without antialiasing), −1 (background) when none hits.
                         let (mut shade, mut hits) = (0.0, 0);
                         for (s, o) in offsets.iter().enumerate() {
-                            let (eye, d) = camera.ray_at([i as f64 + o[0], j as f64 + o[1]], w, h);
+                            let (eye, d) = ray([i as f64 + o[0], j as f64 + o[1]]);
                             if let Some((_, p)) = GlobeFrame::hit(eye, d) {
                                 let (_, lat, lon) = SphericalGrid::from_world(p);
                                 row[i * offsets.len() + s] = [lon, lat];
