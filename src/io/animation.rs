@@ -62,6 +62,23 @@ pub(crate) fn ffmpeg_available() -> bool {
         .is_ok_and(|s| s.success())
 }
 
+/// That the movie `path` can be written here: a known extension, and ffmpeg installed where the
+/// format needs it (a one-line error naming the path and the fix otherwise).
+pub(crate) fn check_encoder(path: &Path) -> Result<()> {
+    let format = MovieFormat::of(path)?;
+    if format.needs_ffmpeg() && !ffmpeg_available() {
+        return Err(Error::invalid(
+            "path",
+            format!(
+                "{}: writing .{} needs ffmpeg, which is not installed (Debian: apt install ffmpeg); .png (animated PNG) and .gif need nothing",
+                path.display(),
+                super::extension(path)
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Writes `count` frames, made in order by `frame(i)`, as the movie `path` at `fps` frames per
 /// second. All frames must have the first one's size.
 pub fn write_animation(
@@ -80,16 +97,7 @@ pub fn write_animation(
             format!("expected frames per second in [0.1, 1000], got {fps}"),
         ));
     }
-    if format.needs_ffmpeg() && !ffmpeg_available() {
-        return Err(Error::invalid(
-            "path",
-            format!(
-                "{}: writing .{} needs ffmpeg, which is not installed (Debian: apt install ffmpeg); .png (animated PNG) and .gif need nothing",
-                path.display(),
-                super::extension(path)
-            ),
-        ));
-    }
+    check_encoder(path)?;
     let first = frame(0)?;
     let (width, height) = (first.width, first.height);
     if width == 0 || height == 0 || first.rgb.len() != (width * height * 3) as usize {

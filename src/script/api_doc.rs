@@ -151,7 +151,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("output", "save_png", &["image: Image", "path: string"], "()", "8-bit sRGB view of the image at 0 EV, under the output folder."),
     e("output", "save_png", &["image: Image", "path: string", "exposure: number"], "()", "8-bit sRGB view at the given exposure in stops."),
     with(e("output", "save_png", &["image: Image", "path: string", "options: map"], "()", "As above with options:"), &[&SAVE_PNG]),
-    e("output", "save_animation", &["frames: array", "path: string"], "()", "A movie of the frames (Images, or paths of PNGs under the output folder) at 12 frames/s: .mp4 (H.264) and .webm (VP9) through the system's ffmpeg, .gif and .png (animated PNG) without it. Under the output folder; frames are converted one at a time."),
+    e("output", "save_animation", &["frames: array", "path: string"], "()", "A movie of the frames (Images, or paths of PNGs under the output folder) at 12 frames/s: .mp4 (H.264) and .webm (VP9) through the system's ffmpeg, .gif and .png (animated PNG) without it. Under the output folder; frames are converted one at a time. A path written as a string in the call is checked before the script runs, so a missing ffmpeg is said before any frame is rendered."),
     with(e("output", "save_animation", &["frames: array", "path: string", "options: map"], "()", "As above with options:"), &[&SAVE_ANIMATION]),
     e("parameters and sweeps", "already_done", &["path: string"], "bool", "True when `--resume` is on and this output already exists and reads back whole (a damaged one is written again): skip its work."),
     e("parameters and sweeps", "progress", &["done: int", "total: int"], "()", "Progress bar with ETA on stderr (when it is a terminal)."),

@@ -553,6 +553,9 @@ pub fn run_script_source(
         .compile(source)
         .map_err(|e| Error::Script(describe_parse_error(name, source, &e)))?;
     check_sets_are_read(&ast, &opts.sets)?;
+    if !opts.plan_only {
+        check_movie_encoders(&ast)?;
+    }
     // Files that data files name (an NRRD header's `data file`) obey the sandbox too.
     let scope = crate::datasets::access::ReadScope::enter(host.sandbox.readable());
     engine
@@ -572,6 +575,24 @@ pub fn run_script_source(
         last_volume_render: take(&host.last_volume_render),
         printed: take(&host.printed),
     })
+}
+
+/// The movies the script writes under a literal path (`save_animation(frames, "orbit.mp4")`)
+/// checked before anything runs, so a missing ffmpeg is said before the frames are rendered
+/// rather than after.
+fn check_movie_encoders(ast: &rhai::AST) -> Result<()> {
+    let mut paths = Vec::new();
+    for_each_call(ast, |call| {
+        if call.name == "save_animation" && call.args.len() >= 2 {
+            if let rhai::Expr::StringConstant(s, _) = &call.args[1] {
+                paths.push(s.to_string());
+            }
+        }
+    });
+    for p in paths {
+        crate::io::animation::check_encoder(Path::new(&p))?;
+    }
+    Ok(())
 }
 
 /// Calls `visit` with every function call in the script's syntax tree, function bodies

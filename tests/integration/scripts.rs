@@ -508,6 +508,25 @@ fn orbit_frames_become_movies() {
         "{stderr}"
     );
     assert!(!d.join("x.mp4").exists());
+    // A script that would write an MP4 says so before it renders a frame.
+    std::fs::write(
+        d.join("movie.rhai"),
+        "let img = render_volume(load_volume(\"blob.npy\"), #{ tf: tf_emission_absorption(2.0, 0.5), width: 16, height: 16 }); save_png(img, \"first.png\"); save_animation([img], \"late.mp4\");",
+    )
+    .unwrap();
+    let (ok, stderr, _) = run(&["run", "movie.rhai", "--out", "m"], Some(&empty));
+    assert!(
+        !ok && stderr
+            .lines()
+            .next()
+            .unwrap_or("")
+            .contains("late.mp4: writing .mp4 needs ffmpeg"),
+        "{stderr}"
+    );
+    assert!(
+        !d.join("m/first.png").exists(),
+        "a frame was rendered first"
+    );
 
     if ffmpeg_tools() {
         let (ok, stderr, _) = run(&["animate", "o/orbit/*.png", "-o", "orbit.mp4"], None);
