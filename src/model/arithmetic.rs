@@ -104,9 +104,11 @@ impl Reduction {
         }
     }
 
-    /// The reduction of the finite values among `values` (NaN when there is none).
-    fn of(self, values: &mut dyn Iterator<Item = f64>) -> f64 {
-        let finite: Vec<f64> = values.filter(|v| v.is_finite()).collect();
+    /// The reduction of the finite values among `values` (NaN when there is none); `finite` is
+    /// scratch, reused from node to node.
+    fn of(self, values: impl Iterator<Item = f64>, finite: &mut Vec<f64>) -> f64 {
+        finite.clear();
+        finite.extend(values.filter(|v| v.is_finite()));
         if finite.is_empty() {
             return f64::NAN;
         }
@@ -197,26 +199,6 @@ fn paired(grids: &[&Grid]) -> Result<Vec<(String, Vec<usize>)>> {
     Ok(pairs)
 }
 
-/// A grid of `properties` (name, values, units) on `like`'s axes, elevation and placement.
-fn grid_like(like: &Grid, name: &str, properties: Vec<(String, Vec<f64>, String)>) -> Result<Grid> {
-    let units: Vec<(String, String)> = properties
-        .iter()
-        .map(|p| (p.0.clone(), p.2.clone()))
-        .collect();
-    let mut out = Grid::with_coords(
-        name,
-        like.x().clone(),
-        like.y().clone(),
-        properties.into_iter().map(|(n, v, _)| (n, v)).collect(),
-        like.elevation().map(<[f64]>::to_vec),
-    )?;
-    for (n, u) in units {
-        out.set_units(&n, &u)?;
-    }
-    out.keep_placement_of(like);
-    Ok(out)
-}
-
 /// `a op b`, node by node, for the properties that pair ([`paired`]).
 pub fn grids(a: &Grid, op: Op, b: &Grid) -> Result<Grid> {
     same_axes(a, b)?;
@@ -227,11 +209,7 @@ pub fn grids(a: &Grid, op: Op, b: &Grid) -> Result<Grid> {
         let values = x.iter().zip(y).map(|(&u, &v)| op.apply(u, v)).collect();
         props.push((name, values, units));
     }
-    grid_like(
-        a,
-        &format!("{} {} {}", a.name(), op.symbol(), b.name()),
-        props,
-    )
+    a.derived(&format!("{} {} {}", a.name(), op.symbol(), b.name()), props)
 }
 
 /// Every property of `g` with the number `x` on `side` of `op`.
@@ -257,7 +235,7 @@ pub fn grid_number(g: &Grid, op: Op, x: f64, side: Side) -> Result<Grid> {
         Side::Right => format!("{} {} {x}", g.name(), op.symbol()),
         Side::Left => format!("{x} {} {}", op.symbol(), g.name()),
     };
-    grid_like(g, &name, props)
+    g.derived(&name, props)
 }
 
 /// The reduction `how` over `grids` (at least one, all on the first's axes), node by node, for
@@ -290,8 +268,9 @@ pub fn reduce_grids(grids: &[&Grid], how: Reduction) -> Result<Grid> {
             .zip(&at)
             .map(|(g, &i)| g.property_at(i).1)
             .collect();
+        let mut finite = Vec::with_capacity(grids.len());
         let values = (0..first.nx() * first.ny())
-            .map(|k| how.of(&mut columns.iter().map(|c| c[k])))
+            .map(|k| how.of(columns.iter().map(|c| c[k]), &mut finite))
             .collect();
         props.push((name, values, units));
     }
@@ -301,7 +280,7 @@ pub fn reduce_grids(grids: &[&Grid], how: Reduction) -> Result<Grid> {
         grids.len(),
         first.name()
     );
-    grid_like(first, &name, props)
+    first.derived(&name, props)
 }
 
 /// That `b`'s voxels are `a`'s (counts, spacing, origin and geometry).
@@ -387,8 +366,9 @@ pub fn reduce_volumes(volumes: &[&Volume], how: Reduction) -> Result<Volume> {
             ));
         }
     }
+    let mut finite = Vec::with_capacity(volumes.len());
     let data = (0..first.data.len())
-        .map(|k| how.of(&mut volumes.iter().map(|v| v.data[k] as f64)) as f32)
+        .map(|k| how.of(volumes.iter().map(|v| v.data[k] as f64), &mut finite) as f32)
         .collect();
     let name = format!(
         "{} of {} volumes from {}",
@@ -407,5 +387,5 @@ pub fn grid_with_units(g: &Grid, units: &str) -> Result<Grid> {
             (name.to_string(), values.to_vec(), units.to_string())
         })
         .collect();
-    grid_like(g, g.name(), props)
+    g.derived(g.name(), props)
 }

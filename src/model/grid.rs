@@ -440,6 +440,31 @@ impl Grid {
         self.wavelength = other.wavelength;
     }
 
+    /// A grid named `name` of `properties` (name, values, units) on this grid's axes, with its
+    /// elevation and placement: for a grid derived from this one.
+    pub(crate) fn derived(
+        &self,
+        name: &str,
+        properties: Vec<(String, Vec<f64>, String)>,
+    ) -> Result<Grid> {
+        let units: Vec<(String, String)> = properties
+            .iter()
+            .map(|p| (p.0.clone(), p.2.clone()))
+            .collect();
+        let mut out = Grid::with_coords(
+            name,
+            self.x.clone(),
+            self.y.clone(),
+            properties.into_iter().map(|(n, v, _)| (n, v)).collect(),
+            self.elevation.clone(),
+        )?;
+        for (n, u) in units {
+            out.set_units(&n, &u)?;
+        }
+        out.keep_placement_of(self);
+        Ok(out)
+    }
+
     /// Adds (or replaces) the elevation; the grid gets a new identity.
     pub fn with_elevation(mut self, elevation: Vec<f64>) -> Result<Grid> {
         if elevation.len() != self.nx * self.ny {

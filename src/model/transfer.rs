@@ -303,6 +303,7 @@ impl LutTransfer {
             mapping.lens = lens_placement(&mapping, lens)?;
         }
         self.check_control_points()?;
+        self.check_transparent_below()?;
         let cmap = Colormap::by_name(&self.colormap)?;
         Ok(ResolvedTransfer {
             kind: TfKind::Lut,
@@ -365,6 +366,31 @@ impl LutTransfer {
             inv_range,
             lens: None,
         }
+    }
+
+    /// That `transparent_below` is a scaled value t in [0, 1], as the control points are; a
+    /// number outside (most likely a data value) is refused, saying what it is in t on a given
+    /// linear domain.
+    pub(crate) fn check_transparent_below(&self) -> Result<()> {
+        let t = self.transparent_below;
+        if (0.0..=1.0).contains(&t) {
+            return Ok(());
+        }
+        let hint = match self.domain {
+            Some([lo, hi]) if self.scale == Scale::Linear && hi > lo && (lo..=hi).contains(&t) => {
+                format!(
+                    "; the data value {t} is t = {:.4} on the domain [{lo}, {hi}]",
+                    (t - lo) / (hi - lo)
+                )
+            }
+            _ => String::new(),
+        };
+        Err(Error::invalid(
+            "transparent_below",
+            format!(
+                "{t} is not a scaled value t in [0, 1], as the emission and opacity points are{hint}"
+            ),
+        ))
     }
 
     /// Rejects empty, non-finite, unsorted or out-of-range emission and opacity control points.

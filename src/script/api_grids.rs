@@ -20,19 +20,7 @@ fn with_properties(g: &Grid, extra: Vec<(String, Vec<f64>, String)>) -> crate::R
         props.retain(|p| p.0 != e.0);
         props.push(e);
     }
-    let units: Vec<(String, String)> = props.iter().map(|p| (p.0.clone(), p.2.clone())).collect();
-    let mut out = Grid::with_coords(
-        g.name(),
-        g.x().clone(),
-        g.y().clone(),
-        props.into_iter().map(|(n, v, _)| (n, v)).collect(),
-        g.elevation().map(|e| e.to_vec()),
-    )?;
-    for (n, u) in units {
-        out.set_units(&n, &u)?;
-    }
-    out.keep_placement_of(g);
-    Ok(out)
+    g.derived(g.name(), props)
 }
 
 pub(crate) fn register(engine: &mut Engine) {

@@ -368,23 +368,8 @@ fn tf_lut(opts: Map) -> RResult<TransferFunction> {
     let scale = given.string("scale")?.unwrap_or_else(|| "linear".into());
     l.scale = Scale::parse(&scale, given.num("linthresh")?).map_err(to_rhai)?;
     if let Some(t) = given.num("transparent_below")? {
-        if !(0.0..=1.0).contains(&t) {
-            // Most likely a data value: say what it is on a linear domain, when there is one.
-            let hint = match l.domain {
-                Some([lo, hi]) if l.scale == Scale::Linear && hi > lo && (lo..=hi).contains(&t) => {
-                    format!(
-                        "; the data value {t} is t = {:.4} on the domain [{lo}, {hi}]",
-                        (t - lo) / (hi - lo)
-                    )
-                }
-                _ => String::new(),
-            };
-            return err(
-                "transparent_below",
-                format!("{t} is not a scaled value t in [0, 1], as the emission and opacity points are{hint}"),
-            );
-        }
         l.transparent_below = t;
+        l.check_transparent_below().map_err(to_rhai)?;
     }
     crate::model::colormap::Colormap::by_name(&l.colormap).map_err(to_rhai)?;
     Ok(TransferFunction::Lut(l))

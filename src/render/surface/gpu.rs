@@ -3,7 +3,6 @@
 
 use super::geometry::SurfaceGeometry;
 use super::legend::{colour_domain, surface_colour_bar};
-use super::mesh::{mesh_frame, mesh_pixels, MeshPixels};
 use super::options::{
     check_nu, default_size, property_indices, MissingColour, PhaseMethod, SurfaceOptions,
     SurfaceView,
@@ -16,7 +15,6 @@ use crate::error::{Error, Result};
 use crate::gpu::transfer::ReadbackBuffer;
 use crate::gpu::{pipeline, shader, GpuContext};
 use crate::model::colormap::Colormap;
-use crate::model::mesh::MeshField;
 use crate::model::{Grid, HdrImage};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -65,16 +63,16 @@ struct FringeVariant {
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
-struct DataKey {
-    grid: u64,
-    view: Vec<u64>,
-    width: u32,
-    height: u32,
-    properties: Vec<String>,
-    relief: Option<String>,
-    exaggeration: u64,
+pub(super) struct DataKey {
+    pub(super) grid: u64,
+    pub(super) view: Vec<u64>,
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) properties: Vec<String>,
+    pub(super) relief: Option<String>,
+    pub(super) exaggeration: u64,
     /// Samples per pixel of a mesh's host data pass (0 for a grid's).
-    samples: u32,
+    pub(super) samples: u32,
 }
 
 /// Counters for tests and benchmarks.
@@ -99,7 +97,7 @@ pub struct SurfaceRenderer {
     fringe_pipelines:
         Mutex<HashMap<FringeVariant, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
     cache: Mutex<Vec<(DataKey, Arc<DataTargets>)>>,
-    data_passes: AtomicU64,
+    pub(super) data_passes: AtomicU64,
     fringe_passes: AtomicU64,
 }
 
@@ -201,7 +199,7 @@ impl SurfaceRenderer {
         Ok(p)
     }
 
-    fn input_buffer(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    pub(super) fn input_buffer(&self, label: &str, bytes: &[u8]) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;
         self.ctx
             .device
@@ -255,7 +253,7 @@ impl SurfaceRenderer {
     }
 
     /// That `w × h` pixels and `nodes` input nodes (of `what`) fit the adapter's buffer bindings.
-    fn check_binding(&self, w: u32, h: u32, nodes: u64, what: &str) -> Result<()> {
+    pub(super) fn check_binding(&self, w: u32, h: u32, nodes: u64, what: &str) -> Result<()> {
         let limit = self.ctx.caps.max_storage_buffer_binding_size;
         let largest = (w as u64 * h as u64).max(nodes) * 16;
         if largest > limit {
@@ -339,13 +337,13 @@ impl SurfaceRenderer {
     }
 
     /// The cached step-1 targets for `key`, if any.
-    fn cached_targets(&self, key: &DataKey) -> Option<Arc<DataTargets>> {
+    pub(super) fn cached_targets(&self, key: &DataKey) -> Option<Arc<DataTargets>> {
         let cache = self.cache.lock().expect("surface cache poisoned");
         cache.iter().find(|(k, _)| k == key).map(|(_, t)| t.clone())
     }
 
     /// Caches `targets` under `key`, dropping the oldest entry when the cache is full.
-    fn remember(&self, key: DataKey, targets: Arc<DataTargets>) {
+    pub(super) fn remember(&self, key: DataKey, targets: Arc<DataTargets>) {
         let mut cache = self.cache.lock().expect("surface cache poisoned");
         cache.retain(|(k, _)| *k != key);
         if cache.len() >= CACHE_ENTRIES {
@@ -393,157 +391,8 @@ impl SurfaceRenderer {
         )
     }
 
-    /// Draws a field on an unstructured mesh cell by cell on the map or the globe
-    /// ([`super::mesh`]): one image, as [`Self::render`] gives for a grid.
-    pub fn render_mesh(
-        &self,
-        field: &Arc<MeshField>,
-        opts: &SurfaceOptions,
-    ) -> Result<Vec<HdrImage>> {
-        Ok(self.render_mesh_timed(field, opts)?.0)
-    }
-
-    /// As [`Self::render_mesh`], also saying how long each step took.
-    pub(crate) fn render_mesh_timed(
-        &self,
-        field: &Arc<MeshField>,
-        opts: &SurfaceOptions,
-    ) -> Result<(Vec<HdrImage>, SurfaceTiming)> {
-        opts.validate()?;
-        if opts.properties.len() > 1 || opts.properties.iter().any(|p| p != field.name()) {
-            return Err(Error::invalid(
-                "property",
-                format!(
-                    "{:?}: a mesh field has one property, {:?}",
-                    opts.properties,
-                    field.name()
-                ),
-            ));
-        }
-        if !matches!(opts.view, SurfaceView::Map | SurfaceView::Globe(_)) {
-            return self.render_mesh_sampled(field, opts);
-        }
-        let colormap = Colormap::by_name(opts.colormap_name())?;
-        let (frame, width, height) = mesh_frame(field, opts)?;
-        self.check_binding(width, height, 0, &field.describe())?;
-        let overlay =
-            Overlay::plan(&frame, opts)?.map(|o| o.with_mesh(field, opts.cell_edges.as_ref()));
-        let key = DataKey {
-            grid: field.id(),
-            view: opts.view.key(),
-            width,
-            height,
-            properties: vec![field.name().to_string()],
-            relief: None,
-            exaggeration: 0,
-            samples: if opts.antialias { 4 } else { 1 },
-        };
-        let t0 = std::time::Instant::now();
-        let (data, data_ms) = match self.cached_targets(&key) {
-            Some(t) => (t, None),
-            None => {
-                let pixels = mesh_pixels(field, opts, &frame, width, height)?;
-                let t = self.host_targets(field, &pixels, &frame, opts, [width, height]);
-                self.data_passes.fetch_add(1, Ordering::Relaxed);
-                self.remember(key, t.clone());
-                (t, Some(t0.elapsed().as_secs_f64() * 1e3))
-            }
-        };
-        let (mut images, timing) =
-            self.fringe_and_overlay(&data, 1, opts, &colormap, overlay.as_ref(), data_ms)?;
-        for img in &mut images {
-            img.set_meta("mesh", field.describe());
-            img.set_meta(
-                "mesh_samples",
-                if opts.antialias {
-                    "mean of 4 points per pixel (2 x 2), where at least 2 fall on the mesh"
-                } else {
-                    "the pixel's centre"
-                },
-            );
-        }
-        Ok((images, timing))
-    }
-
-    /// A 3-D view of a mesh, over a relief: through the grid the mesh samples onto at its cells'
-    /// median size (a relief needs heights at nodes), drawn as any grid.
-    fn render_mesh_sampled(
-        &self,
-        field: &Arc<MeshField>,
-        opts: &SurfaceOptions,
-    ) -> Result<(Vec<HdrImage>, SurfaceTiming)> {
-        if opts.cell_edges.is_some() {
-            return Err(Error::invalid(
-                "cell_edges",
-                format!(
-                    "cell edges are drawn on the map and the globe; {} draws the mesh sampled onto a grid",
-                    opts.view.describe()
-                ),
-            ));
-        }
-        let grid = crate::datasets::conventions::mesh::sampled_grid(field)?;
-        let (mut images, timing) = self.render_timed(&grid, opts)?;
-        for img in &mut images {
-            img.set_meta("mesh", field.describe());
-            img.set_meta(
-                "mesh_samples",
-                format!(
-                    "sampled onto a {}x{} latitude-longitude grid at the cells' median size",
-                    grid.nx(),
-                    grid.ny()
-                ),
-            );
-        }
-        Ok((images, timing))
-    }
-
-    /// Step 1 for a mesh: the pixels' values (f64, relative to the middle of the field's range)
-    /// and shading, computed on the host, as the data targets step 2 reads.
-    fn host_targets(
-        &self,
-        field: &MeshField,
-        pixels: &MeshPixels,
-        frame: &Grid,
-        opts: &SurfaceOptions,
-        [width, height]: [u32; 2],
-    ) -> Arc<DataTargets> {
-        let range = field.range();
-        let d_ref = range.map_or(0.0, |(a, b)| 0.5 * (a + b));
-        let n = pixels.values.len();
-        let (mut hi, mut rest) = (vec![0f32; n], vec![0f32; n]);
-        let mut mask = vec![[0f32; 2]; n];
-        for k in 0..n {
-            let d = pixels.values[k];
-            if d.is_finite() {
-                let off = d - d_ref;
-                hi[k] = off as f32;
-                rest[k] = (off - hi[k] as f64) as f32;
-            }
-            mask[k] = [d.is_finite() as u8 as f32, pixels.shade[k]];
-        }
-        Arc::new(DataTargets {
-            hi: self.input_buffer("mesh pixels hi", bytemuck::cast_slice(&hi)),
-            rest: self.input_buffer("mesh pixels rest", bytemuck::cast_slice(&rest)),
-            mask: self.input_buffer("mesh pixels mask", bytemuck::cast_slice(&mask)),
-            width,
-            height,
-            props: vec![(
-                field.name().to_string(),
-                field.units().to_string(),
-                d_ref,
-                range,
-            )],
-            view: opts.view.describe(),
-            axes: (opts.view == SurfaceView::Map)
-                .then(|| crate::model::map_frame::MapAxes::of_grid(frame))
-                .flatten(),
-            outputs: Mutex::new(None),
-            values: Mutex::new(HashMap::new()),
-        })
-    }
-
     /// Step 2 for each of `slots` properties of `data`, with `overlay` drawn over each image.
-    fn fringe_and_overlay(
+    pub(super) fn fringe_and_overlay(
         &self,
         data: &DataTargets,
         slots: usize,

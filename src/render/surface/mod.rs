@@ -37,8 +37,9 @@
 //!
 //! The rooms: `options` (what a render is asked for), `phase` (the f64
 //! fringe maths), `globe` and `geometry` (where the surface lies), `params` (what the passes
-//! are given), `gpu` (the renderer), `legend` (colour domain, colour bar and legend) and
-//! `overlay` (coastlines and graticules).
+//! are given), `gpu` (the renderer), `mesh` (meshes drawn cell by cell: their pixels
+//! located on the host), `legend` (colour domain, colour bar and legend) and `overlay`
+//! (coastlines, graticules and cell edges).
 
 mod geometry;
 mod globe;
