@@ -15,7 +15,7 @@ use super::ScriptHost;
 use crate::datasets::LoadOptions;
 use crate::model::mesh::MeshField;
 use crate::model::text::{TYPE_MAX, TYPE_MIN};
-use crate::model::{Aabb, Axis, Grid, HdrImage};
+use crate::model::{Aabb, Axis, Grid, HdrImage, MapProjection, ProjectionKind};
 use crate::render::surface::{
     colorbar, legend_in, legend_type, mesh_extent_grid, FringeMode, MissingColour, PhaseMethod,
     SurfaceOptions, SurfaceView, MAX_COLORBAR_HEIGHT,
@@ -118,6 +118,7 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
         opt("coastlines", Kind::Value("true | #{ colour, width, resolution }", "true"), "false", "map and globe views of longitude/latitude grids: Natural Earth coastlines (public domain) drawn into the HDR image, hidden on the globe's far side"),
         opt("cell_edges", Kind::Value("true | #{ colour, width }", "true"), "false", "meshes (load_mesh): the cells' outlines drawn into the HDR image over the field and under coastlines and graticule"),
         opt("graticule", Kind::Value("true | degrees", "30.0"), "false", "map and globe views of longitude/latitude grids: meridians and parallels at the multiples of this step (true: 10), in linear grey 0.2"),
+        opt("projection", Kind::Value("name | #{ name, lon_0, lat_0, lat_1, lat_2 }", "\"robinson\""), "\"equirectangular\"", "map views of longitude/latitude grids and meshes: equirectangular, robinson, mollweide, orthographic, polar_north, polar_south or lambert (conformal conic), PROJ's formulas on a sphere of the Earth's mean radius; lon_0 defaults to 0 on world and polar maps and to the middle of the data's longitudes otherwise, lat_0 to the middle of its latitudes, lambert's lat_1 and lat_2 a sixth of its height inside its edges"),
         opt("depth_rings", Kind::Value("true | [depth, ...]", "true"), "none", "map views of sections (a grid on depth): black lines 1.5 px wide across the section at these depths (its depth unit); true: 410 km, 660 km and the core–mantle boundary at 2891 km where the section reaches them"),
         opt(
             "width",
@@ -244,6 +245,9 @@ pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(Surfac
     if let Some(v) = given.value("depth_rings")? {
         o.depth_rings = super::lines::depth_rings(v, "depth_rings")?;
     }
+    if let Some(v) = given.value("projection")? {
+        o.projection = Some(map_projection(v)?);
+    }
     let globe = given.bool("globe")?.unwrap_or(false);
     o.view = surface_view(grid, given.value("view")?, globe)?;
     if matches!(o.view, SurfaceView::Map | SurfaceView::Globe(_)) {
@@ -286,6 +290,42 @@ const GLOBE_FOV: f64 = 35.0;
 /// the unit sphere and the camera is in the Earth-centred frame: `camera_axis` frames the sphere's
 /// box along that axis, `camera_orbit` orbits the centre, `"globe"` or no view looks from
 /// above the grid's centre.
+/// `projection: "name"` or `#{ name, lon_0, lat_0, lat_1, lat_2 }` (degrees).
+fn map_projection(v: &Dynamic) -> RResult<MapProjection> {
+    let Some(map) = v.clone().try_cast::<Map>() else {
+        let name = string(v, "projection")?;
+        return Ok(MapProjection::new(
+            ProjectionKind::parse(&name).map_err(to_rhai)?,
+        ));
+    };
+    const KEYS: [&str; 5] = ["name", "lon_0", "lat_0", "lat_1", "lat_2"];
+    if let Some(k) = map.keys().find(|k| !KEYS.contains(&k.as_str())) {
+        return err(
+            "projection",
+            format!("unknown key {k:?}; expected {}", KEYS.join(", ")),
+        );
+    }
+    let name = match map.get("name") {
+        Some(n) => string(n, "projection.name")?,
+        None => {
+            return err(
+                "projection",
+                "a map needs a name, e.g. #{ name: \"lambert\" }",
+            )
+        }
+    };
+    let mut p = MapProjection::new(ProjectionKind::parse(&name).map_err(to_rhai)?);
+    let num = |k: &str| -> RResult<Option<f64>> {
+        map.get(k)
+            .map(|v| super::convert::num(v, &format!("projection.{k}")))
+            .transpose()
+    };
+    (p.lon_0, p.lat_0, p.lat_1, p.lat_2) =
+        (num("lon_0")?, num("lat_0")?, num("lat_1")?, num("lat_2")?);
+    p.validate().map_err(to_rhai)?;
+    Ok(p)
+}
+
 fn surface_view(grid: &Grid, view: Option<&Dynamic>, globe: bool) -> RResult<SurfaceView> {
     let camera = view.and_then(|v| v.clone().try_cast::<ScriptCamera>());
     let name = match (view, &camera) {

@@ -26,6 +26,7 @@ mod grib;
 mod meshes;
 mod mpi;
 mod passes;
+mod projections;
 mod readers;
 mod scripts;
 mod sections;

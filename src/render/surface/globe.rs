@@ -28,19 +28,7 @@ impl GlobeFrame {
     /// The frame of a geographic grid with evenly spaced coordinates; anything else is an error
     /// saying what the globe needs.
     pub fn of(grid: &Grid) -> Result<GlobeFrame> {
-        if !grid.is_geographic() {
-            return Err(Error::invalid(
-                "view",
-                format!(
-                    "the globe needs longitude along x and latitude along y (CF units degrees_east and degrees_north); grid {:?} has {:?} ({}) and {:?} ({})",
-                    grid.name(),
-                    grid.x().name,
-                    grid.x().units,
-                    grid.y().name,
-                    grid.y().units
-                ),
-            ));
-        }
+        Self::check_geographic(grid)?;
         if MapAxis::of_coords(grid.x()).is_none() || MapAxis::of_coords(grid.y()).is_none() {
             return Err(Error::invalid(
                 "view",
@@ -65,6 +53,25 @@ impl GlobeFrame {
             wrap: (nx as f64 * dlon - 360.0).abs() <= 1e-3 * dlon,
             rotation: grid.rotated_pole().copied(),
         })
+    }
+
+    /// That `grid` has longitude along x and latitude along y, or an error saying what the globe
+    /// needs.
+    pub(crate) fn check_geographic(grid: &Grid) -> Result<()> {
+        if !grid.is_geographic() {
+            return Err(Error::invalid(
+                "view",
+                format!(
+                    "the globe needs longitude along x and latitude along y (CF units degrees_east and degrees_north); grid {:?} has {:?} ({}) and {:?} ({})",
+                    grid.name(),
+                    grid.x().name,
+                    grid.x().units,
+                    grid.y().name,
+                    grid.y().units
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// True (latitude, longitude) of the middle of the grid's extent.

@@ -374,6 +374,16 @@ impl SurfaceRenderer {
             ));
         }
         let props = property_indices(grid, opts)?;
+        // The route is chosen here alone: pixels placed on the host (projected maps, maps and
+        // globes of uneven axes), an uneven grid's evenly spaced stand-in (3-D views), or the
+        // data pass.
+        if opts.host_placed(grid) {
+            return self.render_placed(grid, opts, &props);
+        }
+        if !crate::model::grid_sampler::evenly_spaced(grid) {
+            let even = crate::model::GridSampler::new(grid).evenly_spaced(super::MAX_EVEN_NODES)?;
+            return self.render_timed(&even, opts);
+        }
         let colormap = Colormap::by_name(opts.colormap_name())?;
         let overlay = Overlay::plan(grid, opts)?;
         let t0 = std::time::Instant::now();

@@ -45,11 +45,13 @@ mod geometry;
 mod globe;
 mod gpu;
 mod legend;
+mod located;
 mod mesh;
 mod options;
 pub(crate) mod overlay;
 mod params;
 mod phase;
+mod projected;
 
 pub(crate) use geometry::SurfaceGeometry;
 pub(crate) use globe::GlobeFrame;
@@ -63,6 +65,10 @@ pub(crate) use options::default_size;
 pub use options::CoastlineStyle;
 pub use options::{FringeMode, MissingColour, PhaseMethod, SurfaceOptions, SurfaceView};
 pub use phase::{fringe_f64, fringe_filtered_f64, pixel_gradient};
+
+/// Most nodes along an uneven axis's evenly spaced stand-in (3-D views place nodes by index),
+/// and along a host-placed map's default axes.
+pub(crate) const MAX_EVEN_NODES: usize = 8192;
 
 /// Most properties one data pass writes (one RGBA32F target component each).
 pub(crate) const MAX_PROPERTIES: usize = 4;

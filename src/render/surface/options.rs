@@ -5,7 +5,7 @@ use super::globe::GlobeFrame;
 use super::MAX_PROPERTIES;
 use crate::datasets::coastlines::CoastResolution;
 use crate::error::{Error, Result};
-use crate::model::{Camera, Grid, Projection};
+use crate::model::{Camera, Grid, MapProjection, Projection};
 
 /// How the surface is seen in step 1.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -69,8 +69,17 @@ impl SurfaceView {
     /// The globe seen from `distance` sphere radii above the centre of `grid`'s extent, north
     /// up (+y up over a pole), with a `fov`-degree perspective.
     pub(crate) fn globe_above(grid: &Grid, distance: f64, fov: f64) -> Result<SurfaceView> {
-        let frame = GlobeFrame::of(grid)?;
-        let (lat, lon) = frame.centre();
+        let (lat, lon) = if crate::model::grid_sampler::evenly_spaced(grid) {
+            GlobeFrame::of(grid)?.centre()
+        } else {
+            // Uneven axes (drawn with their nodes placed on the host): the middle of their
+            // bounds, on the true sphere.
+            GlobeFrame::check_geographic(grid)?;
+            let b = crate::model::GridSampler::new(grid).bounds();
+            let (lat, lon) = (0.5 * (b[2] + b[3]), 0.5 * (b[0] + b[1]));
+            grid.rotated_pole()
+                .map_or((lat, lon), |r| r.to_true(lat, lon))
+        };
         Ok(SurfaceView::Globe(Camera::geo(
             [0.0; 3], lat, lon, distance, fov,
         )?))
@@ -254,6 +263,8 @@ pub struct SurfaceOptions {
     pub cell_edges: Option<CoastlineStyle>,
     /// Lines across a section's map at these depths.
     pub depth_rings: Option<crate::model::DepthRings>,
+    /// The map view's projection; `None` (or equirectangular) is the equirectangular map.
+    pub projection: Option<MapProjection>,
 }
 
 impl Default for SurfaceOptions {
@@ -280,6 +291,7 @@ impl Default for SurfaceOptions {
             graticule: None,
             cell_edges: None,
             depth_rings: None,
+            projection: None,
         }
     }
 }
@@ -336,6 +348,18 @@ impl SurfaceOptions {
             ));
         }
         self.validate_colour_range()?;
+        if let Some(p) = &self.projection {
+            p.validate()?;
+            if self.view != SurfaceView::Map && !p.is_equirectangular() {
+                return Err(Error::invalid(
+                    "projection",
+                    format!(
+                        "a projection applies to the map view, not to {}",
+                        self.view.describe()
+                    ),
+                ));
+            }
+        }
         if let Some(c) = &self.coastlines {
             c.validate("coastlines")?;
         }
@@ -359,6 +383,42 @@ impl SurfaceOptions {
             }
         }
         Ok(())
+    }
+
+    /// Whether `grid` is drawn by placing its pixels on the host (`located`): a map in a
+    /// projection other than the equirectangular, and a map or globe of a grid whose axes are
+    /// not evenly spaced. (3-D views over a relief draw an uneven grid sampled onto even axes
+    /// at its finest spacing instead.)
+    pub(crate) fn host_placed(&self, grid: &Grid) -> bool {
+        match self.view {
+            SurfaceView::Map => {
+                self.projected() || !crate::model::grid_sampler::evenly_spaced(grid)
+            }
+            SurfaceView::Globe(_) => !crate::model::grid_sampler::evenly_spaced(grid),
+            _ => false,
+        }
+    }
+
+    /// Whether the map is drawn in a projection other than the equirectangular.
+    pub fn projected(&self) -> bool {
+        self.view == SurfaceView::Map && self.projection.is_some_and(|p| !p.is_equirectangular())
+    }
+
+    /// What step 1's picture depends on of the view: the view, and a map's projection.
+    pub(super) fn view_key(&self) -> Vec<u64> {
+        let mut key = self.view.key();
+        if let Some(p) = self.projection.filter(|_| self.projected()) {
+            key.push(
+                100 + crate::model::ProjectionKind::NAMES
+                    .iter()
+                    .position(|&n| n == p.kind.name())
+                    .unwrap_or(0) as u64,
+            );
+            for v in [p.lon_0, p.lat_0, p.lat_1, p.lat_2] {
+                key.push(v.map_or(u64::MAX, f64::to_bits));
+            }
+        }
+        key
     }
 
     /// `domain` and `centre` alone: finite, a domain increasing (positive under log colour), a
@@ -471,6 +531,28 @@ pub(crate) fn default_size(grid: &Grid, opts: &SurfaceOptions) -> (u32, u32) {
         ),
         _ => (opts.width.unwrap_or(512), opts.height.unwrap_or(512)),
     }
+}
+
+/// The map size of `grid` drawn linearly over `bounds` ([x_lo, x_hi, y_lo, y_hi] of its axes)
+/// with `nodes` the node counts that resolve its finest spacing: as [`default_size`] gives
+/// for a grid with that many evenly spaced nodes over those bounds.
+pub(super) fn map_size_of(
+    grid: &Grid,
+    bounds: [f64; 4],
+    (nx, ny): (usize, usize),
+    opts: &SurfaceOptions,
+) -> (u32, u32) {
+    if !grid.is_geographic() {
+        return (
+            opts.width.unwrap_or(nx as u32),
+            opts.height.unwrap_or(ny as u32),
+        );
+    }
+    let lat_c = (0.5 * (bounds[2] + bounds[3]))
+        .clamp(-90.0, 90.0)
+        .to_radians();
+    let aspect = (bounds[1] - bounds[0]) * lat_c.cos().max(1e-6) / (bounds[3] - bounds[2]);
+    geographic_map_size(nx, ny, aspect, opts.width, opts.height)
 }
 
 /// The map size of a geographic grid whose map is `aspect` times as wide as high: both sides

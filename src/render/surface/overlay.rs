@@ -11,6 +11,7 @@
 //! ([`crate::datasets::coastlines`]).
 
 use super::options::{CoastlineStyle, SurfaceOptions, SurfaceView};
+use super::projected::ProjectedMap;
 use crate::datasets::coastlines::{coastlines, CoastResolution};
 use crate::error::{Error, Result};
 use crate::model::geometry::segment_distance;
@@ -63,6 +64,8 @@ enum Projector {
     Globe(Camera),
     /// A spherical volume's outer surface.
     Shell(Box<ShellSurface>),
+    /// A map in a projection.
+    Projected(Arc<ProjectedMap>),
 }
 
 /// The outer surface of a spherical volume a render shows: its grid (radius, extent) and cut.
@@ -217,6 +220,16 @@ impl Overlay {
     /// The overlay `opts` asks for on `grid`, or `None`; an error naming the option when the
     /// grid or view cannot carry one (lines need longitude and latitude in a map or globe view).
     pub(crate) fn plan(grid: &Grid, opts: &SurfaceOptions) -> Result<Option<Overlay>> {
+        Self::plan_on(grid, opts, None)
+    }
+
+    /// As [`Self::plan`], on the projected map `projected` when one is given (`grid` then
+    /// stands for the field's axes).
+    pub(crate) fn plan_on(
+        grid: &Grid,
+        opts: &SurfaceOptions,
+        projected: Option<Arc<ProjectedMap>>,
+    ) -> Result<Option<Overlay>> {
         let field = match (&opts.coastlines, opts.graticule, &opts.cell_edges) {
             (None, None, None) => {
                 return match &opts.depth_rings {
@@ -229,9 +242,10 @@ impl Overlay {
             (None, None, Some(_)) => "cell_edges",
         };
         let axes = MapAxes::of_grid(grid).filter(|_| grid.is_geographic());
-        let projector = match (&opts.view, axes) {
-            (SurfaceView::Map, Some(axes)) => Projector::Map(axes),
-            (SurfaceView::Globe(c), _) => Projector::Globe(*c),
+        let projector = match (&opts.view, axes, projected) {
+            (SurfaceView::Map, _, Some(map)) => Projector::Projected(map),
+            (SurfaceView::Map, Some(axes), None) => Projector::Map(axes),
+            (SurfaceView::Globe(c), _, _) => Projector::Globe(*c),
             _ => {
                 return Err(Error::invalid(
                     field,
@@ -247,6 +261,10 @@ impl Overlay {
             let res = style.resolution.unwrap_or(match &projector {
                 Projector::Map(a) => {
                     CoastResolution::for_extent((a.x.hi - a.x.lo).max(a.y.hi - a.y.lo))
+                }
+                Projector::Projected(map) => {
+                    let [w, e, s, n] = map.extent();
+                    CoastResolution::for_extent((e - w).max(n - s))
                 }
                 Projector::Globe(_) | Projector::Shell(_) => CoastResolution::Coarse,
             });
@@ -455,6 +473,27 @@ impl Overlay {
                 };
                 shifts.iter().map(|&s| [px(a, s), px(b, s)]).collect()
             }
+            Projector::Projected(map) => {
+                // Cut into pieces of at most GLOBE_STEP, each kept when both ends show and it
+                // does not jump across the map (a seam, where the projection cuts the sphere).
+                let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()) / GLOBE_STEP).ceil();
+                let n = (n as usize).max(1);
+                let point = |k: usize| {
+                    let t = k as f64 / n as f64;
+                    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+                };
+                let jump = 0.25 * (w.max(h) as f64);
+                (0..n)
+                    .filter_map(|k| {
+                        let (p, q) = (point(k), point(k + 1));
+                        if map.projector.crosses_seam(p[0], q[0]) {
+                            return None;
+                        }
+                        Some([map.pixel(p[0], p[1])?, map.pixel(q[0], q[1])?])
+                    })
+                    .filter(|[p, q]| (p[0] - q[0]).abs() < jump && (p[1] - q[1]).abs() < jump)
+                    .collect()
+            }
             Projector::Globe(_) | Projector::Shell(_) => {
                 let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()) / GLOBE_STEP).ceil();
                 let n = (n as usize).max(1);
@@ -464,7 +503,7 @@ impl Overlay {
                     match &self.projector {
                         Projector::Shell(shell) => shell.pixel(p, w, h),
                         Projector::Globe(cam) => globe_pixel(cam, p, w, h),
-                        Projector::Map(_) => None,
+                        Projector::Map(_) | Projector::Projected(_) => None,
                     }
                 };
                 (0..n).filter_map(|k| Some([at(k)?, at(k + 1)?])).collect()

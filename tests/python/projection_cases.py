@@ -1,0 +1,88 @@
+"""Map projections and uneven axes as PROJ and netCDF4-python give them, for
+tests/integration/projections.rs.
+
+  projection_cases.py points REQUEST.json   PROJ (pyproj) on a table of points: REQUEST is a
+      list of {"proj": PROJ string, "forward": [[lon, lat], ...], "inverse": [[x, y], ...]};
+      prints per entry {"forward": [[x, y] | null], "inverse": [[lon, lat] | null]} as JSON
+      (null where PROJ places no point).
+  projection_cases.py write DIR   writes, with netCDF4-python, a Gaussian-latitude grid
+      (gaussian.nc: N48, 96 latitudes at the Gauss-Legendre nodes, 192 longitudes) and an
+      ocean grid refined at the equator (ocean.nc: 1/4 deg within 10 deg of it, 2 deg near the
+      poles, 1 deg longitudes); each holds t = the node's latitude and u = its longitude.
+
+Exit 77 when pyproj, numpy or netCDF4 is missing."""
+
+import json
+import math
+import sys
+
+try:
+    import numpy as np
+    import netCDF4
+    from pyproj import Transformer
+except ImportError as e:  # pragma: no cover - reported to the test as skipped
+    print(e, file=sys.stderr)
+    sys.exit(77)
+
+SPHERE = "+proj=latlong +R=6371008.8 +no_defs"
+
+
+def finite(pair):
+    return [float(v) for v in pair] if all(math.isfinite(v) for v in pair) else None
+
+
+def points(request_path):
+    with open(request_path) as f:
+        request = json.load(f)
+    out = []
+    for entry in request:
+        fwd = Transformer.from_crs(SPHERE, entry["proj"], always_xy=True)
+        inv = Transformer.from_crs(entry["proj"], SPHERE, always_xy=True)
+        result = {"forward": [], "inverse": []}
+        for lon, lat in entry.get("forward", []):
+            x, y = fwd.transform(lon, lat, errcheck=False)
+            result["forward"].append(finite((x, y)))
+        for x, y in entry.get("inverse", []):
+            lon, lat = inv.transform(x, y, errcheck=False)
+            result["inverse"].append(finite((lon, lat)))
+        out.append(result)
+    json.dump(out, sys.stdout)
+
+
+def write_grid(path, lats, lons):
+    d = netCDF4.Dataset(path, "w")
+    d.createDimension("lat", len(lats))
+    d.createDimension("lon", len(lons))
+    lat = d.createVariable("lat", "f8", ("lat",))
+    lat.units = "degrees_north"
+    lat[:] = lats
+    lon = d.createVariable("lon", "f8", ("lon",))
+    lon.units = "degrees_east"
+    lon[:] = lons
+    grid_lon, grid_lat = np.meshgrid(lons, lats)
+    for name, values in (("t", grid_lat), ("u", grid_lon)):
+        v = d.createVariable(name, "f8", ("lat", "lon"))
+        v.units = "degrees"
+        v[:] = values
+    d.close()
+
+
+def write(directory):
+    nodes, _ = np.polynomial.legendre.leggauss(96)
+    gaussian = np.degrees(np.arcsin(nodes))
+    write_grid(f"{directory}/gaussian.nc", gaussian, np.arange(192) * 1.875 - 180.0)
+    ocean = np.concatenate(
+        [
+            np.arange(-79.0, -20.0, 2.0),
+            np.arange(-20.0, -10.0, 1.0),
+            np.arange(-10.0, 10.0, 0.25),
+            np.arange(10.0, 20.0, 1.0),
+            np.arange(20.0, 80.0, 2.0),
+        ]
+    )
+    write_grid(f"{directory}/ocean.nc", ocean, np.arange(0.5, 360.0, 1.0))
+    print(json.dumps({"gaussian": gaussian.tolist(), "ocean": ocean.tolist()}))
+
+
+if __name__ == "__main__":
+    {"points": points, "write": write}[sys.argv[1]](sys.argv[2])
