@@ -151,12 +151,14 @@ fn decorated(
             title,
             font_size,
         } => {
-            let axes = MapAxes::of(img).ok_or_else(|| {
-                crate::Error::invalid(
+            // A map in a projection is framed without ticks (it has no straight axes).
+            let axes = MapAxes::of(img);
+            if axes.is_none() && img.meta("map_projection").is_none() {
+                return Err(crate::Error::invalid(
                     "frame",
-                    "this image records no map axes (render_surface in map view of a grid with evenly spaced coordinates does)",
-                )
-            })?;
+                    "this image records no map (render_surface in map view does)",
+                ));
+            }
             let extras = FrameExtras {
                 ty: type_of(*font_size),
                 title: title.as_deref(),
@@ -164,7 +166,7 @@ fn decorated(
                 notes: fringe_note(img).filter(|_| *legend).into_iter().collect(),
                 scale_bar: true,
             };
-            Ok(Some(with_map_frame(&view()?, &axes, &extras)?))
+            Ok(Some(with_map_frame(&view()?, axes.as_ref(), &extras)?))
         }
     }
 }

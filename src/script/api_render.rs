@@ -266,6 +266,9 @@ fn register_types(engine: &mut Engine) {
     engine.register_fn("to_debug", |v: &mut ScriptVolume| v.to_string());
     engine.register_get("width", |i: &mut ScriptImage| i.width as i64);
     engine.register_get("height", |i: &mut ScriptImage| i.height as i64);
+    engine.register_fn("meta", |i: &mut ScriptImage, key: &str| -> Dynamic {
+        i.meta(key).map_or(Dynamic::UNIT, |v| v.to_string().into())
+    });
 }
 
 /// `load_volume`, `generate_mantle` and `volume_stats`.

@@ -201,6 +201,8 @@ fn every_pixel_of_a_projected_map_shows_the_field_where_proj_unprojects_it() {
     };
     for ((p, imgs, pixels), answer) in pictures.iter().zip(&answers) {
         let ours = Projector::new(p, &WORLD).unwrap();
+        // No straight axes to tick.
+        assert!(imgs[0].meta("map_x_extent").is_none(), "{:?}", p.kind);
         let (t, u) = (channel(&imgs[0], "t"), channel(&imgs[1], "u"));
         let width = imgs[0].width as usize;
         let (mut shown, mut outline) = (0, 0);
@@ -401,4 +403,85 @@ fn gaussian_and_refined_latitudes_are_drawn_at_their_own_latitudes() {
             u[32 * 64 + 32]
         );
     }
+}
+
+/// From a script: a framed Robinson map with coastlines and a colour bar, a Lambert map with
+/// its parallels given, and a mesh in Mollweide; then what a projection cannot be asked for,
+/// each refused in one line naming the option, with nothing written.
+#[test]
+fn scripts_draw_projected_maps_and_refuse_bad_projections_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    if uneven_grids(dir.path()).is_none() {
+        return;
+    }
+    let script = r#"
+        let g = load_grid("ocean.nc", #{ variable: "t" });
+        let robin = render_surface(g, #{ mode: "direct", projection: "robinson", coastlines: true, width: 400 });
+        save_png(robin, "robin.png", #{ frame: true, title: "Latitude" });
+        let lcc = render_surface(g, #{ mode: "direct", projection: #{ name: "lambert", lon_0: 10.0, lat_1: 30.0, lat_2: 60.0 }, graticule: 10.0, width: 300 });
+        print(lcc.meta("map_projection"));
+        save_png(lcc, "lcc.png");
+    "#;
+    std::fs::write(dir.path().join("p.rhai"), script).unwrap();
+    let (code, out, err) = crate::cli::hdrvis(&["run", "p.rhai", "--out", "o"], dir.path());
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("+proj=lcc +lat_0=-0.5 +lat_1=30 +lat_2=60 +lon_0=10"),
+        "{out}"
+    );
+    use image::GenericImageView;
+    let framed = image::open(dir.path().join("o/robin.png")).unwrap();
+    assert!(
+        framed.width() > 400 && framed.height() > 200,
+        "{:?}",
+        framed.dimensions()
+    );
+    assert_eq!(
+        image::open(dir.path().join("o/lcc.png")).unwrap().width(),
+        300
+    );
+    let g = "load_grid(\"ocean.nc\", #{ variable: \"t\" })";
+    for (opts, expected) in [
+        (
+            "projection: \"mercator\"",
+            "projection: expected one of equirectangular, robinson",
+        ),
+        (
+            "projection: \"robinson\", view: \"perspective\"",
+            "projection: a projection applies to the map view",
+        ),
+        (
+            "projection: #{ name: \"lambert\", lat_1: -30.0, lat_2: 30.0 }",
+            "must lie on one side of the equator",
+        ),
+        (
+            "projection: #{ name: \"orthographic\", lat_0: 95.0 }",
+            "lat_0 = 95: expected a latitude in [-90, 90]",
+        ),
+        ("projection: #{ lon_0: 10.0 }", "a map needs a name"),
+        (
+            "projection: #{ name: \"robinson\", centre: 10.0 }",
+            "unknown key \"centre\"",
+        ),
+    ] {
+        let script =
+            format!("let img = render_surface({g}, #{{ {opts} }}); save_png(img, \"out.png\");");
+        std::fs::write(dir.path().join("bad.rhai"), &script).unwrap();
+        let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai", "--out", "bad"], dir.path());
+        assert_eq!(code, 1, "{opts}: {err}");
+        let line = err.lines().next().unwrap_or("");
+        assert!(line.contains(expected), "{opts}: {err}");
+        assert!(!dir.path().join("bad/out.png").exists(), "{opts}");
+    }
+    // A grid whose axes are not longitude and latitude has nothing to project.
+    let plain = Grid::from_fn("plain", 8, 8, |i, j| (i + j) as f64).unwrap();
+    let opts = SurfaceOptions {
+        projection: Some(MapProjection::new(ProjectionKind::Robinson)),
+        ..Default::default()
+    };
+    let e = renderer().render(&plain, &opts).unwrap_err().to_string();
+    assert!(
+        e.contains("projection: a projection places longitudes and latitudes"),
+        "{e}"
+    );
 }

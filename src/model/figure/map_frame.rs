@@ -270,17 +270,24 @@ struct Header {
 
 impl FrameLayout {
     /// The layout of `img` framed with `axes` and `extras`; see the module notes.
-    pub(crate) fn new(img: &HdrImage, axes: &MapAxes, extras: &FrameExtras) -> FrameLayout {
+    /// A map in a projection (no `axes`) gets the title, colour bar and notes without ticks.
+    pub(crate) fn new(img: &HdrImage, axes: Option<&MapAxes>, extras: &FrameExtras) -> FrameLayout {
         let ty = extras.ty;
         let (gap, line) = (ty.gap(), ty.line());
         let (tick, pad) = (gap.max(3), 2 * gap);
         let (map_w, map_h) = (img.width, img.height);
         let digit = ty.width("0");
-        let letters = |l: [char; 2]| (!axes.rotated).then_some(l);
-        let x_ticks = axes
-            .x
-            .ticks(map_w, letters(['E', 'W']), |l| ty.width(l) + digit);
-        let y_ticks = axes.y.ticks(map_h, letters(['N', 'S']), |_| line + gap);
+        let (x_ticks, y_ticks) = match axes {
+            Some(axes) => {
+                let letters = |l: [char; 2]| (!axes.rotated).then_some(l);
+                (
+                    axes.x
+                        .ticks(map_w, letters(['E', 'W']), |l| ty.width(l) + digit),
+                    axes.y.ticks(map_h, letters(['N', 'S']), |_| line + gap),
+                )
+            }
+            None => (Vec::new(), Vec::new()),
+        };
         let widest_y = y_ticks.iter().map(|(_, l)| ty.width(l)).max().unwrap_or(0);
         let left = pad + widest_y + gap + tick + 1;
         let bar_x = left + map_w + 1 + line;
@@ -299,10 +306,12 @@ impl FrameLayout {
         for (piece, y, x) in header.rows {
             l.text(piece, x as i64, y, ty, extras.ty.times(1.25));
         }
-        l.x_axis(axes, &x_ticks, ty, tick);
-        l.y_axis(axes, &y_ticks, ty, tick);
+        if let Some(axes) = axes {
+            l.x_axis(axes, &x_ticks, ty, tick);
+            l.y_axis(axes, &y_ticks, ty, tick);
+        }
         let mut bottom = (map.y + map.h) as u32 + 1 + tick + gap + line;
-        let (x_title, _) = axes.titles();
+        let (x_title, _) = axes.map(MapAxes::titles).unwrap_or_default();
         if !x_title.is_empty() {
             let title = x_title;
             let x = map.x + (map.w - ty.width(&title) as i64) / 2;
@@ -313,7 +322,7 @@ impl FrameLayout {
             l.text_at(note, map.x, (bottom + gap) as i64, ty);
             bottom += gap + line;
         }
-        if extras.scale_bar {
+        if let (true, Some(axes)) = (extras.scale_bar, axes) {
             bottom = l.scale_bar(axes, ty, bottom + gap);
         }
         let mut right = (map.x + map.w) as u32 + 1;
@@ -327,7 +336,7 @@ impl FrameLayout {
     }
 
     fn header(
-        axes: &MapAxes,
+        axes: Option<&MapAxes>,
         extras: &FrameExtras,
         (left, map_w, bar_x): (u32, u32, u32),
         pad: u32,
@@ -347,7 +356,7 @@ impl FrameLayout {
             rows.push((piece, y as i64, x as u32));
             y += big.line() + gap;
         }
-        let (_, y_title) = axes.titles();
+        let (_, y_title) = axes.map(MapAxes::titles).unwrap_or_default();
         let caption = extras
             .bar
             .map(|b| b.caption(1 << 20, ty))
@@ -499,7 +508,7 @@ fn upright_rows(bar: &ColourBar, h: u32, thick: u32) -> (u32, u32) {
 /// `frame_scale_bar` ("km pixels").
 pub(crate) fn with_map_frame(
     img: &HdrImage,
-    axes: &MapAxes,
+    axes: Option<&MapAxes>,
     extras: &FrameExtras,
 ) -> crate::Result<HdrImage> {
     let l = FrameLayout::new(img, axes, extras);
@@ -679,8 +688,8 @@ mod tests {
         img.pixels.fill([0.25, 0.5, 0.75, 1.0]);
         let b = bar([false; 2]);
         let ty = Type::new(11.0);
-        let out = with_map_frame(&img, &axes, &extras(ty, Some(&b), None)).unwrap();
-        let layout = FrameLayout::new(&img, &axes, &extras(ty, Some(&b), None));
+        let out = with_map_frame(&img, Some(&axes), &extras(ty, Some(&b), None)).unwrap();
+        let layout = FrameLayout::new(&img, Some(&axes), &extras(ty, Some(&b), None));
         let (left, top) = (layout.map.x as u32, layout.map.y as u32);
         assert_eq!(
             out.meta("frame_map_origin"),
@@ -716,7 +725,7 @@ mod tests {
         }
         // With both ends clipped the bar's end rows narrow to triangles in the end colours.
         let clipped = bar([true, true]);
-        let out = with_map_frame(&img, &axes, &extras(ty, Some(&clipped), None)).unwrap();
+        let out = with_map_frame(&img, Some(&axes), &extras(ty, Some(&clipped), None)).unwrap();
         let at = |x: i64, y: i64| out.pixels[(y as u32 * out.width + x as u32) as usize];
         let (x0, mid) = (bar_rect.x, bar_rect.x + bar_rect.w / 2);
         let (top_row, bottom_row) = (bar_rect.y, bar_rect.y + bar_rect.h - 1);
@@ -746,8 +755,8 @@ mod tests {
         axes.record(&mut img);
         assert_eq!(MapAxes::of(&img), Some(axes.clone()));
         let ty = Type::new(11.0);
-        let out = with_map_frame(&img, &axes, &extras(ty, None, None)).unwrap();
-        let layout = FrameLayout::new(&img, &axes, &extras(ty, None, None));
+        let out = with_map_frame(&img, Some(&axes), &extras(ty, None, None)).unwrap();
+        let layout = FrameLayout::new(&img, Some(&axes), &extras(ty, None, None));
         let (left, top) = (layout.map.x as u32, layout.map.y as u32);
         let at = |x: u32, y: u32| out.pixels[(y * out.width + x) as usize];
         for v in [0u32, 20] {
@@ -818,7 +827,7 @@ mod tests {
                 for extend in [[false; 2], [true, true]] {
                     let b = bar(extend);
                     let e = extras(ty, Some(&b), Some("Sea-surface height, 2011 Tōhoku"));
-                    let l = FrameLayout::new(&img, &axes, &e);
+                    let l = FrameLayout::new(&img, Some(&axes), &e);
                     let texts: Vec<&Rect> = l
                         .pieces
                         .iter()
@@ -887,7 +896,7 @@ mod tests {
             rotated: false,
         };
         let img = HdrImage::new(512, 256);
-        let out = with_map_frame(&img, &axes, &extras(Type::new(12.0), None, None)).unwrap();
+        let out = with_map_frame(&img, Some(&axes), &extras(Type::new(12.0), None, None)).unwrap();
         let lat = (-10.01f64 + -4.89) / 2.0;
         let km_per_px =
             10.24 * 6371.0088 * std::f64::consts::PI / 180.0 * lat.to_radians().cos() / 512.0;
@@ -927,8 +936,8 @@ mod tests {
                 notes: Vec::new(),
                 scale_bar: false,
             };
-            let l = FrameLayout::new(&img, &axes, &e);
-            let out = with_map_frame(&img, &axes, &e).unwrap();
+            let l = FrameLayout::new(&img, Some(&axes), &e);
+            let out = with_map_frame(&img, Some(&axes), &e).unwrap();
             let below = l.map.y + l.map.h + 1 + e.ty.gap().max(3) as i64;
             let (_, r) = l
                 .pieces

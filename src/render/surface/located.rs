@@ -35,6 +35,14 @@ pub(crate) struct Placement {
     pub height: u32,
 }
 
+impl Placement {
+    /// The frame whose axes a linear map records (for frames and overlays); `None` on a
+    /// projected map, which has no straight axes.
+    pub(crate) fn axes_frame(&self) -> Option<&Grid> {
+        self.projected.is_none().then_some(&self.frame)
+    }
+}
+
 /// Sample offsets within a pixel: its centre, or the 2 × 2 quarter points.
 pub(crate) fn offsets(four: bool) -> &'static [[f64; 2]] {
     if four {
@@ -238,7 +246,7 @@ impl SurfaceRenderer {
             Some(t) => (t, None),
             None => {
                 let pixels = grid_pixels(grid, opts, &placement, props)?;
-                let t = self.host_targets(&pixels, Some(&placement.frame), opts, [width, height]);
+                let t = self.host_targets(&pixels, placement.axes_frame(), opts, [width, height]);
                 self.data_passes.fetch_add(1, Ordering::Relaxed);
                 self.remember(key, t.clone());
                 (t, Some(t0.elapsed().as_secs_f64() * 1e3))

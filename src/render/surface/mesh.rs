@@ -255,7 +255,7 @@ impl SurfaceRenderer {
             Some(t) => (t, None),
             None => {
                 let pixels = mesh_pixels(field, opts, &placement)?;
-                let t = self.host_targets(&pixels, Some(&placement.frame), opts, [width, height]);
+                let t = self.host_targets(&pixels, placement.axes_frame(), opts, [width, height]);
                 self.data_passes.fetch_add(1, Ordering::Relaxed);
                 self.remember(key, t.clone());
                 (t, Some(t0.elapsed().as_secs_f64() * 1e3))
