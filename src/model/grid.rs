@@ -161,7 +161,7 @@ impl Grid {
 
     /// The full constructor: coordinates (increasing or decreasing; stored increasing),
     /// properties and an optional elevation, all validated.
-    pub(crate) fn with_coords(
+    pub fn with_coords(
         name: &str,
         x: GridCoords,
         y: GridCoords,

@@ -6,6 +6,7 @@ pub mod arithmetic;
 pub mod bricks;
 pub(crate) mod camera;
 pub mod colormap;
+pub mod contour;
 pub mod cut;
 pub mod figure;
 pub mod geometry;

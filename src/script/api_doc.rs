@@ -14,7 +14,7 @@ use super::api_render::{
 };
 use super::api_sections::{SECTION, SLICE, SLICE_PLANE};
 use super::api_surface::{LOAD_GRID, LOAD_MESH, RENDER_SURFACE, SURFACE_COLORBAR, SURFACE_LEGEND};
-use super::lines::{CELL_EDGES, COASTLINES};
+use super::lines::{CELL_EDGES, COASTLINES, CONTOURS, VECTORS};
 use super::options::OptionTable;
 #[cfg(test)]
 use std::collections::BTreeSet;
@@ -113,7 +113,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("surfaces", "get$ny", &["grid: Grid"], "int", "grid.ny"),
     e("surfaces", "get$properties", &["grid: Grid"], "array", "grid.properties: the property names"),
     e("surfaces", "get$wavelength", &["grid: Grid"], "float or ()", "grid.wavelength: the radar wavelength in m of a MintPy product (WAVELENGTH), else (); nu: 2.0 / g.wavelength on a displacement in m draws one fringe per λ/2, which the legend then says (\"1 fringe = 0.02773 m = λ/2\")"),
-    with(e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2. The EXR gets the data value, `fringe` and `fringe_filtered` channels. Options:"), &[&RENDER_SURFACE, &COASTLINES]),
+    with(e("surfaces", "render_surface", &["grid: Grid", "options: map"], "Image or array", "Interference rendering, I = (1 + cos 2 pi nu d)/2. The EXR gets the data value, `fringe` and `fringe_filtered` channels. Options:"), &[&RENDER_SURFACE, &COASTLINES, &CONTOURS, &VECTORS]),
     e("surfaces", "render_surface", &["grid: Grid"], "Image", "An error naming the options render_surface needs."),
     e("surfaces", "load_mesh", &["path: string"], "Mesh", "A variable on an unstructured mesh as it lies there, one value per cell or node (UGRID, ICON, MPAS, SCRIP, FVCOM, ADCIRC, or columns with centres only, triangulated); \"f.nc:T850\" picks the variable. render_surface draws it cell by cell; load_grid samples it onto latitude and longitude instead."),
     with(e("surfaces", "load_mesh", &["path: string", "options: map"], "Mesh", "As above with the other dimensions fixed by index or at, and the mesh from a grid file. Options:"), &[&LOAD_MESH]),
@@ -123,7 +123,7 @@ pub(crate) const API: &[ApiEntry] = &[
     e("surfaces", "get$name", &["mesh: Mesh"], "string", "mesh.name: the variable"),
     e("surfaces", "get$units", &["mesh: Mesh"], "string", "mesh.units: the variable's units"),
     e("surfaces", "describe", &["mesh: Mesh"], "string", "One line: the variable, how its other dimensions were chosen, the mesh's convention, cells, nodes and where the values sit."),
-    with(e("surfaces", "render_surface", &["mesh: Mesh", "options: map"], "Image", "A mesh drawn cell by cell on the map (over the mesh's extent, 1024 px on the long side by default) or the globe: each pixel located in the mesh through its spatial index, cell data flat over each cell, node data linear over its triangles, the value exact in f64 at every pixel; antialias (default) averages 4 samples per pixel. The same options as for a grid; perspective views draw the mesh sampled onto a grid at its cells' median size (as load_grid does); cell_edges draws the cells' outlines on the map and the globe. Options:"), &[&RENDER_SURFACE, &COASTLINES, &CELL_EDGES]),
+    with(e("surfaces", "render_surface", &["mesh: Mesh", "options: map"], "Image", "A mesh drawn cell by cell on the map (over the mesh's extent, 1024 px on the long side by default) or the globe: each pixel located in the mesh through its spatial index, cell data flat over each cell, node data linear over its triangles, the value exact in f64 at every pixel; antialias (default) averages 4 samples per pixel. The same options as for a grid; perspective views draw the mesh sampled onto a grid at its cells' median size (as load_grid does); cell_edges draws the cells' outlines on the map and the globe. Options:"), &[&RENDER_SURFACE, &COASTLINES, &CELL_EDGES, &CONTOURS, &VECTORS]),
     with(e("surfaces", "surface_colorbar", &["grid: Grid", "options: map"], "Image", "Colour bar for render_surface's options, with the resolution 1/nu in its metadata. Options:"), &[&SURFACE_COLORBAR]),
     with(e("surfaces", "surface_legend", &["grid: Grid", "options: map"], "Image", "Legend for render_surface's options: the colour bar with its domain, \"1 fringe = 1/nu units\", nu and the mode drawn as text. Options:"), &[&SURFACE_LEGEND]),
     e("arithmetic", "+", &["a: Grid | Volume | number", "b: Grid | Volume | number"], "Grid or Volume", "a + b node by node: two grids on the same axes (properties paired by name, or each grid's only one), two volumes on the same voxels, or a field and a number on either side; computed in f64 (volumes rounded back to f32); a missing value stays missing; the units kept (fields in other units are refused: with_units first)."),
@@ -427,7 +427,7 @@ mod tests {
 
     /// The options of image-making functions that change nothing in [`audit_options`]'s scenes,
     /// each with why that is not an option ignored.
-    const UNCHANGED_FOR_A_REASON: [(&str, &str); 23] = [
+    const UNCHANGED_FOR_A_REASON: [(&str, &str); 28] = [
         ("render_volume tf", "the base call's own transfer function"),
         ("render_volume background", "the example is the default"),
         (
@@ -468,6 +468,11 @@ mod tests {
             "render_surface coastlines resolution",
             "no coast differs at 8 x 8 pixels",
         ),
+        ("render_surface contours property", "the example is the rendered property"),
+        ("render_surface contours grid", "the example is the rendered grid"),
+        ("render_surface vectors u", "the example is the base's own"),
+        ("render_surface vectors v", "the example is the base's own"),
+        ("render_surface vectors grid", "the example is the rendered grid"),
         ("surface_colorbar colormap", "the example is the default"),
         ("surface_colorbar property", "the fixture's only property"),
         ("surface_legend colormap", "the example is the default"),

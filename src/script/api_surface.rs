@@ -118,6 +118,8 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
         opt("coastlines", Kind::Value("true | #{ colour, width, resolution }", "true"), "false", "map and globe views of longitude/latitude grids: Natural Earth coastlines (public domain) drawn into the HDR image, hidden on the globe's far side"),
         opt("cell_edges", Kind::Value("true | #{ colour, width }", "true"), "false", "meshes (load_mesh): the cells' outlines drawn into the HDR image over the field and under coastlines and graticule"),
         opt("graticule", Kind::Value("true | degrees", "30.0"), "false", "map and globe views of longitude/latitude grids: meridians and parallels at the multiples of this step (true: 10), in linear grey 0.2"),
+        opt("contours", Kind::Value("true | count | [level, ...] | #{ levels, property, grid, colour, width, labels }", "true"), "false", "contour lines of the rendered property (or another's, or another grid's) by marching squares, drawn into the HDR image on maps (any axes, projected), globes and sections"),
+        opt("vectors", Kind::Value("#{ u, v, grid, spacing, scale, reference, colour, width }", "#{ u: \"uz\", v: \"uz\", spacing: 4.0 }"), "none", "arrows of the vector (u, v) on a lattice of the picture, pointing as the view places the vector (east and north on longitude/latitude grids), with a reference arrow"),
         opt("projection", Kind::Value("name | #{ name, lon_0, lat_0, lat_1, lat_2 }", "\"robinson\""), "\"equirectangular\"", "map views of longitude/latitude grids and meshes: equirectangular, robinson, mollweide, orthographic, polar_north, polar_south or lambert (conformal conic), PROJ's formulas on a sphere of the Earth's mean radius; lon_0 defaults to 0 on world and polar maps and to the middle of the data's longitudes otherwise, lat_0 to the middle of its latitudes, lambert's lat_1 and lat_2 a sixth of its height inside its edges"),
         opt("depth_rings", Kind::Value("true | [depth, ...]", "true"), "none", "map views of sections (a grid on depth): black lines 1.5 px wide across the section at these depths (its depth unit); true: 410 km, 660 km and the core–mantle boundary at 2891 km where the section reaches them"),
         opt(
@@ -244,6 +246,12 @@ pub(crate) fn render_surface_options(grid: &Grid, opts: &Map) -> RResult<(Surfac
     }
     if let Some(v) = given.value("depth_rings")? {
         o.depth_rings = super::lines::depth_rings(v, "depth_rings")?;
+    }
+    if let Some(v) = given.value("contours")? {
+        o.contours = super::lines::contour_style(v)?;
+    }
+    if let Some(v) = given.value("vectors")? {
+        o.vectors = Some(super::lines::vector_style(v)?);
     }
     if let Some(v) = given.value("projection")? {
         o.projection = Some(map_projection(v)?);

@@ -15,6 +15,7 @@ mod cluster;
 mod coastlines;
 mod common;
 mod conformance;
+mod contours;
 mod datasets;
 mod distributed;
 mod doc_examples;

@@ -8,7 +8,9 @@ tests/integration/projections.rs.
   projection_cases.py write DIR   writes, with netCDF4-python, a Gaussian-latitude grid
       (gaussian.nc: N48, 96 latitudes at the Gauss-Legendre nodes, 192 longitudes) and an
       ocean grid refined at the equator (ocean.nc: 1/4 deg within 10 deg of it, 2 deg near the
-      poles, 1 deg longitudes); each holds t = the node's latitude and u = its longitude.
+      poles, 1 deg longitudes); each holds t = the node's latitude and u = its longitude. Also
+      a 5 deg world grid of winds (wind.nc: uas = 10 cos(lat), vas = 2 sin(lon), m s-1) and of
+      sea-level pressure (psl.nc: 1000 + 10 sin(2 lat) cos(lon), hPa).
 
 Exit 77 when pyproj, numpy or netCDF4 is missing."""
 
@@ -49,7 +51,7 @@ def points(request_path):
     json.dump(out, sys.stdout)
 
 
-def write_grid(path, lats, lons):
+def write_grid(path, lats, lons, fields=None):
     d = netCDF4.Dataset(path, "w")
     d.createDimension("lat", len(lats))
     d.createDimension("lon", len(lons))
@@ -60,9 +62,13 @@ def write_grid(path, lats, lons):
     lon.units = "degrees_east"
     lon[:] = lons
     grid_lon, grid_lat = np.meshgrid(lons, lats)
-    for name, values in (("t", grid_lat), ("u", grid_lon)):
+    if fields is None:
+        fields = [("t", "degrees", grid_lat), ("u", "degrees", grid_lon)]
+    else:
+        fields = [(name, units, f(grid_lon, grid_lat)) for name, units, f in fields]
+    for name, units, values in fields:
         v = d.createVariable(name, "f8", ("lat", "lon"))
-        v.units = "degrees"
+        v.units = units
         v[:] = values
     d.close()
 
@@ -81,6 +87,23 @@ def write(directory):
         ]
     )
     write_grid(f"{directory}/ocean.nc", ocean, np.arange(0.5, 360.0, 1.0))
+    lats, lons = np.arange(-87.5, 90.0, 5.0), np.arange(-177.5, 180.0, 5.0)
+    rad = np.radians
+    write_grid(
+        f"{directory}/wind.nc",
+        lats,
+        lons,
+        [
+            ("uas", "m s-1", lambda lo, la: 10.0 * np.cos(rad(la))),
+            ("vas", "m s-1", lambda lo, la: 2.0 * np.sin(rad(lo))),
+        ],
+    )
+    write_grid(
+        f"{directory}/psl.nc",
+        lats,
+        lons,
+        [("psl", "hPa", lambda lo, la: 1000.0 + 10.0 * np.sin(rad(2.0 * la)) * np.cos(rad(lo)))],
+    )
     print(json.dumps({"gaussian": gaussian.tolist(), "ocean": ocean.tolist()}))
 
 

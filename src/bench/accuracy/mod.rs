@@ -75,7 +75,10 @@ pub enum SceneKind {
     },
     /// An interference surface in map view at one pixel per node: the phase methods are
     /// compared on its fringe intensity I = (1 + cos 2πν·d)/2.
-    Surface { grid: Grid, options: SurfaceOptions },
+    Surface {
+        grid: Grid,
+        options: Box<SurfaceOptions>,
+    },
     /// A spherical shell rendered natively and resampled onto boxes of `boxes` voxels a side.
     Shell {
         volume: Volume,
@@ -182,7 +185,7 @@ pub(crate) fn tsunami_scene(n: usize) -> Result<AccuracyScene> {
         name: "tsunami".into(),
         kind: SceneKind::Surface {
             grid,
-            options: surface_options(10.0),
+            options: Box::new(surface_options(10.0)),
         },
     })
 }
@@ -205,7 +208,7 @@ pub(crate) fn fault_scene(n: usize) -> Result<AccuracyScene> {
         name: "fault".into(),
         kind: SceneKind::Surface {
             grid,
-            options: surface_options(8.0),
+            options: Box::new(surface_options(8.0)),
         },
     })
 }

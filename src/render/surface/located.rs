@@ -227,7 +227,12 @@ impl SurfaceRenderer {
         let placement = grid_placement(grid, opts)?;
         let (width, height) = (placement.width, placement.height);
         self.check_binding(width, height, 0, &format!("grid {:?}", grid.name()))?;
-        let overlay = Overlay::plan_on(&placement.frame, opts, placement.projected.clone())?;
+        let overlay = Overlay::plan_on(
+            &placement.frame,
+            Some(grid),
+            opts,
+            placement.projected.clone(),
+        )?;
         let key = DataKey {
             grid: grid.id(),
             view: opts.view_key(),
@@ -317,8 +322,10 @@ fn grid_placement(grid: &Grid, opts: &SurfaceOptions) -> Result<Placement> {
         SurfaceView::Map => (width as usize, height as usize),
         _ => (nx.min(720), ny.min(360)),
     };
+    let mut frame = frame_grid((grid.x(), grid.y()), bounds, nodes, name)?;
+    frame.keep_placement_of(grid);
     Ok(Placement {
-        frame: frame_grid((grid.x(), grid.y()), bounds, nodes, name)?,
+        frame,
         projected: None,
         width,
         height,

@@ -238,7 +238,7 @@ impl SurfaceRenderer {
         let placement = mesh_frame(field, opts)?;
         let (width, height) = (placement.width, placement.height);
         self.check_binding(width, height, 0, &field.describe())?;
-        let overlay = Overlay::plan_on(&placement.frame, opts, placement.projected.clone())?
+        let overlay = Overlay::plan_on(&placement.frame, None, opts, placement.projected.clone())?
             .map(|o| o.with_mesh(field, opts.cell_edges.as_ref()));
         let key = DataKey {
             grid: field.id(),

@@ -265,6 +265,10 @@ pub struct SurfaceOptions {
     pub depth_rings: Option<crate::model::DepthRings>,
     /// The map view's projection; `None` (or equirectangular) is the equirectangular map.
     pub projection: Option<MapProjection>,
+    /// Contour lines over the picture.
+    pub contours: Option<super::marks::ContourStyle>,
+    /// Vector arrows over the picture.
+    pub vectors: Option<super::marks::VectorStyle>,
 }
 
 impl Default for SurfaceOptions {
@@ -292,6 +296,8 @@ impl Default for SurfaceOptions {
             cell_edges: None,
             depth_rings: None,
             projection: None,
+            contours: None,
+            vectors: None,
         }
     }
 }

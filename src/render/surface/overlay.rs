@@ -10,6 +10,7 @@
 //! composited over the render's premultiplied colour. The coastlines are Natural Earth's
 //! ([`crate::datasets::coastlines`]).
 
+use super::marks::{Contours, Vectors};
 use super::options::{CoastlineStyle, SurfaceOptions, SurfaceView};
 use super::projected::ProjectedMap;
 use crate::datasets::coastlines::{coastlines, CoastResolution};
@@ -18,6 +19,7 @@ use crate::model::geometry::segment_distance;
 use crate::model::map_frame::MapAxes;
 use crate::model::mesh::ring::{ring_into, Ring};
 use crate::model::mesh::MeshField;
+use crate::model::text::{draw_text, format_number, Type};
 use crate::model::{Camera, Cut, DepthRings, Grid, HdrImage, SphericalGrid, Volume};
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -31,6 +33,9 @@ const RING_WIDTH: f64 = 1.5;
 pub(crate) const MAX_LINE_WIDTH: f64 = 64.0;
 /// Longest piece of a line drawn straight on the globe, in degrees.
 const GLOBE_STEP: f64 = 0.5;
+
+/// Clear pixels either side of a contour label's text.
+const LABEL_PAD: f64 = 2.0;
 
 impl CoastlineStyle {
     /// A colour by name or `#rrggbb`, as the option `option` (`coastlines`, `cell_edges`) gives
@@ -114,6 +119,11 @@ pub(crate) struct Overlay {
     rotation: Option<crate::model::RotatedPole>,
     /// A mesh's cell outlines and their style.
     edges: Option<(CoastlineStyle, Arc<MeshField>)>,
+    /// Lines are longitudes and latitudes (repeated a turn either way on a map, and not drawn
+    /// across the dateline), rather than a plain grid's coordinates.
+    geographic: bool,
+    contours: Option<Contours>,
+    vectors: Option<Vectors>,
 }
 
 impl Overlay {
@@ -164,6 +174,9 @@ impl Overlay {
             // A rotated-pole volume is drawn in its grid's frame: the lines are moved into it.
             rotation: g.rotated_pole,
             edges: None,
+            geographic: true,
+            contours: None,
+            vectors: None,
         }))
     }
 
@@ -208,39 +221,69 @@ impl Overlay {
                 .collect(),
         };
         Ok(Overlay {
-            projector: Projector::Map(axes),
-            coast: None,
-            graticule: None,
             rings: depths,
-            rotation: None,
-            edges: None,
+            ..Overlay::on(Projector::Map(axes), false)
         })
     }
 
     /// The overlay `opts` asks for on `grid`, or `None`; an error naming the option when the
     /// grid or view cannot carry one (lines need longitude and latitude in a map or globe view).
     pub(crate) fn plan(grid: &Grid, opts: &SurfaceOptions) -> Result<Option<Overlay>> {
-        Self::plan_on(grid, opts, None)
+        Self::plan_on(grid, Some(grid), opts, None)
     }
 
-    /// As [`Self::plan`], on the projected map `projected` when one is given (`grid` then
-    /// stands for the field's axes).
+    /// As [`Self::plan`] for a picture whose pixels lie on the axes of `frame` (or on the
+    /// projected map `projected` when one is given), with contours and vectors from `data` (the
+    /// rendered grid; `None` for a mesh).
     pub(crate) fn plan_on(
-        grid: &Grid,
+        frame: &Grid,
+        data: Option<&Grid>,
         opts: &SurfaceOptions,
         projected: Option<Arc<ProjectedMap>>,
     ) -> Result<Option<Overlay>> {
-        let field = match (&opts.coastlines, opts.graticule, &opts.cell_edges) {
-            (None, None, None) => {
-                return match &opts.depth_rings {
-                    Some(r) => Self::section_rings(grid, r, &opts.view).map(Some),
-                    None => Ok(None),
-                }
-            }
-            (Some(_), _, _) => "coastlines",
-            (None, Some(_), _) => "graticule",
-            (None, None, Some(_)) => "cell_edges",
+        let lines = match (&opts.coastlines, opts.graticule, &opts.cell_edges) {
+            (None, None, None) => None,
+            (Some(_), _, _) => Some("coastlines"),
+            (None, Some(_), _) => Some("graticule"),
+            (None, None, Some(_)) => Some("cell_edges"),
         };
+        let marks = match (&opts.contours, &opts.vectors) {
+            (None, None) => None,
+            (Some(_), _) => Some("contours"),
+            (None, Some(_)) => Some("vectors"),
+        };
+        let mut overlay = match (lines, &opts.depth_rings, marks) {
+            (Some(field), _, _) => Self::geographic(frame, opts, projected, field)?,
+            (None, Some(r), _) => Self::section_rings(frame, r, &opts.view)?,
+            (None, None, Some(field)) => Self::plain(frame, opts, projected, field)?,
+            (None, None, None) => return Ok(None),
+        };
+        let shown = opts
+            .properties
+            .first()
+            .map(String::as_str)
+            .or_else(|| data.map(|g| g.property_at(0).0));
+        overlay.contours = opts
+            .contours
+            .as_ref()
+            .map(|c| Contours::plan(c, data, shown))
+            .transpose()?;
+        overlay.vectors = opts
+            .vectors
+            .as_ref()
+            .map(|v| Vectors::plan(v, data))
+            .transpose()?;
+        Ok(Some(overlay))
+    }
+
+    /// Coastlines, graticule or cell edges (`field` names the first asked for): a map or globe of
+    /// a longitude/latitude grid.
+    fn geographic(
+        grid: &Grid,
+        opts: &SurfaceOptions,
+        projected: Option<Arc<ProjectedMap>>,
+        field: &str,
+    ) -> Result<Overlay> {
         let axes = MapAxes::of_grid(grid).filter(|_| grid.is_geographic());
         let projector = match (&opts.view, axes, projected) {
             (SurfaceView::Map, _, Some(map)) => Projector::Projected(map),
@@ -250,7 +293,7 @@ impl Overlay {
                 return Err(Error::invalid(
                     field,
                     format!(
-                        "lines are drawn on map and globe views of evenly spaced longitude/latitude grids; grid {:?} in {} has none",
+                        "lines are drawn on map and globe views of longitude/latitude grids; grid {:?} in {} has none",
                         grid.name(),
                         opts.view.describe()
                     ),
@@ -280,14 +323,54 @@ impl Overlay {
             Projector::Map(_) => grid.rotated_pole().copied(),
             _ => None,
         };
-        Ok(Some(Overlay {
-            projector,
+        Ok(Overlay {
             coast,
             graticule: opts.graticule,
-            rings: Vec::new(),
             rotation,
+            ..Overlay::on(projector, true)
+        })
+    }
+
+    /// Contours or vectors alone (`field` names the first asked for): a map of any grid with
+    /// evenly spaced axes (its own or the frame its pixels are placed on), a projected map or the
+    /// globe.
+    fn plain(
+        grid: &Grid,
+        opts: &SurfaceOptions,
+        projected: Option<Arc<ProjectedMap>>,
+        field: &str,
+    ) -> Result<Overlay> {
+        let (projector, geographic) = match (&opts.view, projected, MapAxes::of_grid(grid)) {
+            (SurfaceView::Map, Some(map), _) => (Projector::Projected(map), true),
+            (SurfaceView::Map, None, Some(axes)) => (Projector::Map(axes), grid.is_geographic()),
+            (SurfaceView::Globe(c), _, _) => (Projector::Globe(*c), true),
+            _ => {
+                return Err(Error::invalid(
+                    field,
+                    format!(
+                        "{field} are drawn on map and globe views; grid {:?} is drawn in {}",
+                        grid.name(),
+                        opts.view.describe()
+                    ),
+                ))
+            }
+        };
+        Ok(Overlay::on(projector, geographic))
+    }
+
+    /// An overlay drawing nothing yet through `projector`.
+    fn on(projector: Projector, geographic: bool) -> Overlay {
+        Overlay {
+            projector,
+            coast: None,
+            graticule: None,
+            rings: Vec::new(),
+            rotation: None,
             edges: None,
-        }))
+            geographic,
+            contours: None,
+            vectors: None,
+        }
     }
 
     /// This overlay with `field`'s cell outlines when `style` asks for them.
@@ -356,6 +439,171 @@ impl Overlay {
                 ),
             );
         }
+        if let Some(c) = &self.contours {
+            let labels = if c.style.labels {
+                self.contour_labels(c, img.width, img.height)
+            } else {
+                Vec::new()
+            };
+            let holes: Vec<[f64; 4]> = labels.iter().map(|l| l.0).collect();
+            let lines = c.lines.iter().map(|l| Cow::Borrowed(l.points.as_slice()));
+            self.draw_lines(img, lines, c.style.linear, c.style.width, &holes);
+            let ty = Type::for_figure(img.width, img.height);
+            let colour = c.style.linear.map(|v| v as f32);
+            for (b, text) in &labels {
+                let at = (b[0] + LABEL_PAD) as i64;
+                draw_text(
+                    img,
+                    at,
+                    b[1] as i64,
+                    text,
+                    ty,
+                    [colour[0], colour[1], colour[2], 1.0],
+                );
+            }
+            let mut levels: Vec<f64> = c.lines.iter().map(|l| l.level).collect();
+            levels.dedup();
+            let list: Vec<String> = levels.iter().map(|v| format!("{v}")).collect();
+            img.set_meta(
+                "contours",
+                format!(
+                    "{} lines at {}, {}, {} px",
+                    c.lines.len(),
+                    list.join(" "),
+                    c.style.colour,
+                    c.style.width
+                ),
+            );
+        }
+        if let Some(v) = &self.vectors {
+            self.draw_vectors(img, v);
+        }
+    }
+
+    /// Where contour labels go: on each line long enough to carry one (twice its label),
+    /// a box about its middle point in which the line is not drawn, and the text; boxes that
+    /// would leave the picture or meet another are left out.
+    fn contour_labels(&self, c: &Contours, w: u32, h: u32) -> Vec<([f64; 4], String)> {
+        let ty = Type::for_figure(w, h);
+        let mut out: Vec<([f64; 4], String)> = Vec::new();
+        for line in &c.lines {
+            let px: Vec<[f64; 2]> = line
+                .points
+                .iter()
+                .filter_map(|&p| self.line_pixel(p, w, h))
+                .collect();
+            let length: f64 = px
+                .windows(2)
+                .map(|s| (s[1][0] - s[0][0]).hypot(s[1][1] - s[0][1]))
+                // A jump across half the picture is a projection's seam, not line.
+                .filter(|d| *d < 0.5 * w.max(h) as f64)
+                .sum();
+            let text = format_number(line.level);
+            let tw = ty.width(&text) as f64 + 2.0 * LABEL_PAD;
+            if px.is_empty() || length < 2.0 * tw {
+                continue;
+            }
+            let mid = px[px.len() / 2];
+            let lh = ty.line() as f64;
+            let b = [
+                mid[0] - 0.5 * tw,
+                mid[1] - 0.5 * lh,
+                mid[0] + 0.5 * tw,
+                mid[1] + 0.5 * lh,
+            ];
+            let inside = b[0] >= 0.0 && b[1] >= 0.0 && b[2] <= w as f64 && b[3] <= h as f64;
+            let meets = |o: &[f64; 4]| b[0] < o[2] && o[0] < b[2] && b[1] < o[3] && o[1] < b[3];
+            if inside && !out.iter().any(|(o, _)| meets(o)) {
+                out.push((b, text));
+            }
+        }
+        out
+    }
+
+    /// The pixel position of a line's point (longitude and latitude on the true sphere, moved
+    /// onto a rotated-pole map's sphere), or `None`.
+    fn line_pixel(&self, p: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
+        let p = match &self.rotation {
+            Some(r) => {
+                let (lat, lon) = r.to_rotated(p[1], p[0]);
+                [lon, lat]
+            }
+            None => p,
+        };
+        self.pixel_at(p, w, h)
+    }
+
+    /// The arrows of `v` (the field's, then the reference arrow on its box), and their
+    /// description in the metadata.
+    fn draw_vectors(&self, img: &mut HdrImage, v: &Vectors) {
+        let (w, h) = (img.width, img.height);
+        let step = match (&self.projector, v.geographic()) {
+            (Projector::Map(a), false) => {
+                1e-4 * (a.x.hi - a.x.lo).abs().max((a.y.hi - a.y.lo).abs())
+            }
+            _ => 0.01,
+        };
+        let arrows = v.arrows(
+            (w, h),
+            |px| self.point_at(px, w, h),
+            |q| self.pixel_at(q, w, h),
+            step,
+        );
+        let stroke_all = |img: &mut HdrImage, segments: &[[[f64; 2]; 2]]| {
+            let mut cover = vec![0f32; (w as usize) * (h as usize)];
+            for &[a, b] in segments {
+                stroke(&mut cover, w, h, a, b, v.style.width);
+            }
+            self.composite(img, &cover, v.style.linear);
+        };
+        stroke_all(img, &arrows.segments);
+        let reference = v.reference_segments(&arrows, img);
+        stroke_all(img, &reference);
+        img.set_meta("vectors", v.describe(&arrows));
+    }
+
+    /// The coordinates (longitude and latitude, or a plain map's axes) at the pixel position
+    /// `px` of a `w × h` picture; `None` off the map or the sphere.
+    fn point_at(&self, px: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
+        match &self.projector {
+            Projector::Map(a) => {
+                let (fx, fy) = (px[0] / w as f64, px[1] / h as f64);
+                let y = if a.y_down {
+                    a.y.lo + fy * (a.y.hi - a.y.lo)
+                } else {
+                    a.y.hi - fy * (a.y.hi - a.y.lo)
+                };
+                Some([a.x.lo + fx * (a.x.hi - a.x.lo), y])
+            }
+            Projector::Projected(map) => map.lonlat(px),
+            Projector::Globe(cam) => {
+                let (eye, d) = cam.ray_at(px, w, h);
+                let (_, p) = super::GlobeFrame::hit(eye, d)?;
+                let (_, lat, lon) = SphericalGrid::from_world(p);
+                Some([lon, lat])
+            }
+            Projector::Shell(_) => None,
+        }
+    }
+
+    /// The pixel position of the point `q` (as [`Self::point_at`] gives them), or `None`.
+    fn pixel_at(&self, q: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
+        match &self.projector {
+            Projector::Map(a) => {
+                let down = if a.y_down {
+                    q[1] - a.y.lo
+                } else {
+                    a.y.hi - q[1]
+                };
+                Some([
+                    (q[0] - a.x.lo) / (a.x.hi - a.x.lo) * w as f64,
+                    down / (a.y.hi - a.y.lo) * h as f64,
+                ])
+            }
+            Projector::Projected(map) => map.pixel(q[0], q[1]),
+            Projector::Globe(cam) => globe_pixel(cam, q, w, h),
+            Projector::Shell(_) => None,
+        }
     }
 
     fn draw_layer(&self, img: &mut HdrImage, layer: &Layer) {
@@ -365,7 +613,7 @@ impl Overlay {
             .copied()
             .chain(layer.owned.iter().map(Vec::as_slice))
             .map(Cow::Borrowed);
-        self.draw_lines(img, lines, layer.linear, layer.width);
+        self.draw_lines(img, lines, layer.linear, layer.width, &[]);
     }
 
     /// With `style`, the outline of every cell of `field`'s mesh as its ring runs (a ring round
@@ -388,21 +636,23 @@ impl Overlay {
             }
             Some(Cow::Owned(line))
         });
-        self.draw_lines(img, lines, style.linear, style.width);
+        self.draw_lines(img, lines, style.linear, style.width, &[]);
     }
 
     /// Strokes `lines` (longitude, latitude) `width` pixels wide in the linear colour `linear`.
+    /// Pixels inside any of `holes` ([x0, y0, x1, y1], a contour label's box) stay clear.
     fn draw_lines<'a>(
         &self,
         img: &mut HdrImage,
         lines: impl Iterator<Item = Cow<'a, [[f64; 2]]>>,
         linear: [f64; 3],
         width: f64,
+        holes: &[[f64; 4]],
     ) {
         let (w, h) = (img.width, img.height);
         let mut cover = vec![0f32; (w as usize) * (h as usize)];
-        // Longitudes jump by a turn at the dateline; a section's distance does not wrap.
-        let wraps = self.rings.is_empty();
+        // Longitudes jump by a turn at the dateline; a plain grid's coordinates do not wrap.
+        let wraps = self.geographic;
         for line in lines {
             // On a rotated-pole map the true lines are drawn where they lie on the rotated sphere.
             let line: Cow<[[f64; 2]]> = match &self.rotation {
@@ -424,11 +674,23 @@ impl Overlay {
                 }
             }
         }
+        for b in holes {
+            let (x0, x1) = (b[0].max(0.0) as u32, (b[2].ceil() as u32).min(w));
+            let (y0, y1) = (b[1].max(0.0) as u32, (b[3].ceil() as u32).min(h));
+            for y in y0..y1 {
+                cover[(y * w + x0) as usize..(y * w + x1) as usize].fill(0.0);
+            }
+        }
+        self.composite(img, &cover, linear);
+    }
+
+    /// Lays the colour `linear` over `img` at each pixel's coverage in `cover`.
+    fn composite(&self, img: &mut HdrImage, cover: &[f32], linear: [f64; 3]) {
         let c = linear.map(|v| v as f32);
         if matches!(self.projector, Projector::Shell(_)) {
             // A volume render's colour is premultiplied (over its background): the line goes
             // over it.
-            for (p, &a) in img.pixels.iter_mut().zip(&cover) {
+            for (p, &a) in img.pixels.iter_mut().zip(cover) {
                 if a > 0.0 {
                     for k in 0..3 {
                         p[k] = c[k] * a + p[k] * (1.0 - a);
@@ -438,7 +700,7 @@ impl Overlay {
             }
             return;
         }
-        for (p, &a) in img.pixels.iter_mut().zip(&cover) {
+        for (p, &a) in img.pixels.iter_mut().zip(cover) {
             if a > 0.0 {
                 let alpha = a + p[3] * (1.0 - a);
                 for k in 0..3 {
@@ -466,7 +728,7 @@ impl Overlay {
                         down / (axes.y.hi - axes.y.lo) * h as f64,
                     ]
                 };
-                let shifts: &[f64] = if self.rings.is_empty() {
+                let shifts: &[f64] = if self.geographic {
                     &[-360.0, 0.0, 360.0]
                 } else {
                     &[0.0]
@@ -598,12 +860,8 @@ mod tests {
 
     fn coast(projector: Projector, res: CoastResolution) -> Overlay {
         Overlay {
-            projector,
             coast: Some((CoastlineStyle::default(), res)),
-            graticule: None,
-            rings: Vec::new(),
-            rotation: None,
-            edges: None,
+            ..Overlay::on(projector, true)
         }
     }
 
@@ -642,6 +900,9 @@ mod tests {
             rings: Vec::new(),
             rotation: Some(pole),
             edges: None,
+            geographic: true,
+            contours: None,
+            vectors: None,
         };
         let mut img = white(w, h);
         overlay.draw(&mut img);
@@ -790,12 +1051,8 @@ mod tests {
             rotated: false,
         });
         let overlay = Overlay {
-            projector: map,
-            coast: None,
             graticule: Some(30.0),
-            rings: Vec::new(),
-            rotation: None,
-            edges: None,
+            ..Overlay::on(map, true)
         };
         let mut img = white(360, 180);
         overlay.draw(&mut img);
@@ -819,18 +1076,15 @@ mod tests {
     #[test]
     fn lines_over_transparent_pixels_take_their_coverage_as_alpha() {
         let mut img = HdrImage::from_pixels(8, 8, vec![[0.0; 4]; 64]);
+        let axes = MapAxes {
+            x: axis(0.0, 8.0),
+            y: axis(0.0, 8.0),
+            y_down: false,
+            rotated: false,
+        };
         let overlay = Overlay {
-            projector: Projector::Map(MapAxes {
-                x: axis(0.0, 8.0),
-                y: axis(0.0, 8.0),
-                y_down: false,
-                rotated: false,
-            }),
-            coast: None,
             graticule: Some(4.0),
-            rings: Vec::new(),
-            rotation: None,
-            edges: None,
+            ..Overlay::on(Projector::Map(axes), true)
         };
         overlay.draw(&mut img);
         // The meridian at 4° runs between columns 3 and 4, half covering both: the line's own
@@ -864,5 +1118,111 @@ mod tests {
                 .to_string()
                 .starts_with("graticule:"));
         }
+    }
+
+    /// A uniform flow (u east, v north, 3 and 4) on a 2° world grid.
+    fn flow() -> super::super::marks::Vectors {
+        let lon: Vec<f64> = (0..180).map(|i| -179.0 + 2.0 * i as f64).collect();
+        let lat: Vec<f64> = (0..90).map(|j| -89.0 + 2.0 * j as f64).collect();
+        let n = lon.len() * lat.len();
+        let g = Grid::from_lon_lat(
+            "flow",
+            lon,
+            lat,
+            vec![("u".into(), vec![3.0; n]), ("v".into(), vec![4.0; n])],
+        )
+        .unwrap();
+        let style = super::super::marks::VectorStyle::new("u", "v");
+        super::super::marks::Vectors::plan(&style, Some(&g)).unwrap()
+    }
+
+    /// Each shaft's unit direction and its midpoint, from the arrows' segments (shaft, head, head).
+    fn shafts(segments: &[[[f64; 2]; 2]]) -> Vec<([f64; 2], [f64; 2])> {
+        segments
+            .chunks(3)
+            .map(|a| {
+                let [p, q] = a[0];
+                let d = [q[0] - p[0], q[1] - p[1]];
+                let n = d[0].hypot(d[1]);
+                (
+                    [d[0] / n, d[1] / n],
+                    [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])],
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn arrows_on_a_map_point_as_the_map_stretches_east_and_north() {
+        // 60°W–60°E, 0–60°N on 400 × 300 px: 400/120 px per degree east, 300/60 north. A
+        // vector (3, 4) m/s at latitude φ turns 3/(R cos φ) rad east and 4/R north: on the map
+        // (3/cos φ · 400/120, −4 · 300/60), normalised.
+        let axes = MapAxes {
+            x: axis(-60.0, 60.0),
+            y: axis(0.0, 60.0),
+            y_down: false,
+            rotated: false,
+        };
+        let overlay = Overlay::on(Projector::Map(axes), true);
+        let (w, h) = (400u32, 300u32);
+        let v = flow();
+        let arrows = v.arrows(
+            (w, h),
+            |px| overlay.point_at(px, w, h),
+            |q| overlay.pixel_at(q, w, h),
+            0.01,
+        );
+        assert_eq!(arrows.count, 12 * 9);
+        for (d, mid) in shafts(&arrows.segments) {
+            let lat = 60.0 - mid[1] / 300.0 * 60.0;
+            let want = [
+                3.0 / lat.to_radians().cos() * 400.0 / 120.0,
+                -4.0 * 300.0 / 60.0,
+            ];
+            let n = want[0].hypot(want[1]);
+            let angle = (d[0] * want[1] / n - d[1] * want[0] / n).asin().abs();
+            assert!(angle < 1e-5, "at {lat}°: {d:?} vs {want:?}");
+        }
+    }
+
+    #[test]
+    fn arrows_on_the_globe_point_along_the_projected_tangent() {
+        // The perspective image of the tangent t = 3·east + 4·north at p: the derivative of
+        // (v·right, v·up)/(v·forward), v = p − eye, along t.
+        let cam = Camera::geo([0.0; 3], 20.0, 10.0, 3.0, 35.0).unwrap();
+        let overlay = Overlay::on(Projector::Globe(cam), true);
+        let (w, h) = (256u32, 256u32);
+        let v = flow();
+        let arrows = v.arrows(
+            (w, h),
+            |px| overlay.point_at(px, w, h),
+            |q| overlay.pixel_at(q, w, h),
+            0.01,
+        );
+        assert!(arrows.count > 20, "{}", arrows.count);
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let mut checked = 0;
+        for (d, mid) in shafts(&arrows.segments) {
+            // The arrow's point is the lattice point its shaft is centred on.
+            let Some([lon, lat]) = overlay.point_at(mid, w, h) else {
+                continue;
+            };
+            let (lo, la) = (lon.to_radians(), lat.to_radians());
+            let p = [la.cos() * lo.cos(), la.cos() * lo.sin(), la.sin()];
+            let east = [-lo.sin(), lo.cos(), 0.0];
+            let north = [-la.sin() * lo.cos(), -la.sin() * lo.sin(), la.cos()];
+            let t = [0, 1, 2].map(|k| 3.0 * east[k] + 4.0 * north[k]);
+            let vv = [0, 1, 2].map(|k| p[k] - cam.eye[k]);
+            let (vf, tf) = (dot(vv, cam.forward), dot(t, cam.forward));
+            let want = [
+                dot(t, cam.right) * vf - dot(vv, cam.right) * tf,
+                -(dot(t, cam.up) * vf - dot(vv, cam.up) * tf),
+            ];
+            let n = want[0].hypot(want[1]);
+            let angle = (d[0] * want[1] / n - d[1] * want[0] / n).asin().abs();
+            assert!(angle < 1e-3, "({lon}, {lat}): {d:?} vs {want:?}");
+            checked += 1;
+        }
+        assert!(checked > 20);
     }
 }
