@@ -156,7 +156,7 @@ fn decorated(
             if axes.is_none() && img.meta("map_projection").is_none() {
                 return Err(crate::Error::invalid(
                     "frame",
-                    "this image records no map (render_surface in map view does)",
+                    "this image records no map axes or projection (render_surface in map view does)",
                 ));
             }
             let extras = FrameExtras {
