@@ -1,5 +1,5 @@
 //! Log–log scatter charts for benchmark reports (error against time), drawn with `plotters` into
-//! an RGB buffer and written as PNG. Text uses the Hack font shipped by `epaint_default_fonts`,
+//! an RGB buffer and written as PNG. Text uses DejaVu Sans, embedded by the `dejavu` crate,
 //! registered with plotters' pure-Rust `ab_glyph` backend, so no system font or C library is needed.
 
 use crate::error::{Error, Result};
@@ -20,8 +20,7 @@ const FONT: &str = "hdrvis-sans";
 fn register_font() -> Result<()> {
     static DONE: OnceLock<bool> = OnceLock::new();
     let ok = *DONE.get_or_init(|| {
-        plotters::style::register_font(FONT, FontStyle::Normal, epaint_default_fonts::HACK_REGULAR)
-            .is_ok()
+        plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular()).is_ok()
     });
     if ok {
         Ok(())

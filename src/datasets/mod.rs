@@ -487,6 +487,18 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     for (property, units) in &units {
         grid.set_units(property, units)?;
     }
+    // Long names from the data model, where the format has one (NetCDF, HDF5, GRIB, Zarr).
+    if Format::of(path)?.reader().variables().is_some() {
+        for (property, _) in &units {
+            let attributes =
+                readers::variables::variable_attributes(path, property).unwrap_or_default();
+            if let Some((_, readers::variables::NcAttribute::Text(t))) =
+                attributes.iter().find(|(k, _)| k == "long_name")
+            {
+                grid.set_long_name(property, t)?;
+            }
+        }
+    }
     grid.set_wavelength(file.wavelength);
     grid.set_rotated_pole(file.rotated_pole);
     Ok(grid)

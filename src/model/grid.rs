@@ -88,6 +88,8 @@ pub struct Grid {
     y: GridCoords,
     properties: Vec<(String, Vec<f64>)>,
     units: Vec<String>,
+    /// Each property's CF `long_name` (empty when the file gives none).
+    long_names: Vec<String>,
     elevation: Option<Vec<f64>>,
     /// The radar wavelength (m) of an InSAR product, so a fringe legend can say λ/2.
     wavelength: Option<f64>,
@@ -219,6 +221,7 @@ impl Grid {
             }
         }
         let units = vec![String::new(); properties.len()];
+        let long_names = units.clone();
         let mut g = Grid {
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             name: name.to_string(),
@@ -228,6 +231,7 @@ impl Grid {
             y,
             properties,
             units,
+            long_names,
             elevation,
             wavelength: None,
             rotated_pole: None,
@@ -406,6 +410,18 @@ impl Grid {
     pub fn set_units(&mut self, name: &str, units: &str) -> Result<()> {
         let i = self.property_index(name)?;
         self.units[i] = units.to_string();
+        Ok(())
+    }
+
+    /// A property's descriptive name (CF `long_name`), empty when the file gives none.
+    pub fn long_name(&self, index: usize) -> &str {
+        &self.long_names[index]
+    }
+
+    /// Sets a property's descriptive name; like units, it changes no pixel.
+    pub fn set_long_name(&mut self, name: &str, long_name: &str) -> Result<()> {
+        let i = self.property_index(name)?;
+        self.long_names[i] = long_name.to_string();
         Ok(())
     }
 

@@ -234,6 +234,7 @@ impl TransferFunction {
             lo,
             hi,
             units: units.to_string(),
+            label: String::new(),
             extend: [false; 2],
         })
     }

@@ -427,7 +427,7 @@ mod tests {
 
     /// The options of image-making functions that change nothing in [`audit_options`]'s scenes,
     /// each with why that is not an option ignored.
-    const UNCHANGED_FOR_A_REASON: [(&str, &str); 28] = [
+    const UNCHANGED_FOR_A_REASON: [(&str, &str); 30] = [
         ("render_volume tf", "the base call's own transfer function"),
         ("render_volume background", "the example is the default"),
         (
@@ -461,6 +461,10 @@ mod tests {
         ("render_surface colormap", "the example is the default"),
         ("render_surface property", "the fixture's only property"),
         (
+            "render_surface label",
+            "the colour bar's caption, drawn by save_png's frame and legend, not by the render",
+        ),
+        (
             "render_surface missing",
             "the fixture has no missing values",
         ),
@@ -475,6 +479,10 @@ mod tests {
         ("render_surface vectors grid", "the example is the rendered grid"),
         ("surface_colorbar colormap", "the example is the default"),
         ("surface_colorbar property", "the fixture's only property"),
+        (
+            "surface_colorbar label",
+            "the bar's caption, in its metadata for frames and legends",
+        ),
         ("surface_legend colormap", "the example is the default"),
         ("surface_legend property", "the fixture's only property"),
         ("tonemap saturation", "the test image is grey"),

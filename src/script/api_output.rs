@@ -165,6 +165,11 @@ fn decorated(
                 bar: bar.as_ref().filter(|_| *legend),
                 notes: fringe_note(img).filter(|_| *legend).into_iter().collect(),
                 scale_bar: true,
+                graticule: img
+                    .meta("graticule")
+                    .and_then(|g| g.strip_prefix("every "))
+                    .and_then(|g| g.split_whitespace().next())
+                    .and_then(|g| g.parse().ok()),
             };
             Ok(Some(with_map_frame(&view()?, axes.as_ref(), &extras)?))
         }

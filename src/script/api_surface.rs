@@ -40,6 +40,7 @@ macro_rules! surface_option_specs {
             opt("absolute", Kind::Bool, "false", "fringes of |d|"),
             opt("log_color", Kind::Bool, "false", "modulated and direct modes: colours over log10 of the data"),
             opt("domain", Kind::Value("[lo, hi]", "[-1.0, 1.0]"), "the data's range", "modulated and direct modes: the values the colours span (magnitudes with absolute or log_color); values beyond take the end colours and the colour bar gets a triangle at that end"),
+            opt("label", Kind::Text("\"SST (°C)\""), "the property's long_name (else its name) and units", "what the colour bar says it measures, in its caption and in frames and legends"),
             opt("centre", Kind::Finite, "none", "modulated and direct modes: the colour range made symmetric about this value (the middle colour of a diverging map); without a domain, half-width max |d − centre| over the data"),
             $($own),*
         ]
@@ -205,6 +206,7 @@ fn parse_options(given: &Given) -> RResult<(SurfaceOptions, bool)> {
         o.domain = Some((lo, hi));
     }
     o.centre = given.num("centre")?;
+    o.label = given.string("label")?;
     o.validate_colour_range().map_err(to_rhai)?;
     // A value other than the default would be ignored: refused. (The default itself changes
     // nothing, so a loop over modes may pass it.)

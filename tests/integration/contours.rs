@@ -254,6 +254,10 @@ fn scripts_draw_contours_and_arrows_and_refuse_bad_ones_in_one_line() {
             print(img.meta("contours"));
             save_png(img, proj + ".png");
         }
+        // The colour bar says what it measures: the long name and units, or the label given.
+        print(render_surface(p, #{ mode: "direct", width: 64 }).meta("legend_label"));
+        print(render_surface(p, #{ mode: "direct", width: 64, label: "SLP (hPa)" }).meta("legend_label"));
+        print(render_surface(p, #{ width: 64 }).meta("legend_label"));
     "#;
     std::fs::write(dir.path().join("w.rhai"), script).unwrap();
     let (code, out, err) = crate::cli::hdrvis(&["run", "w.rhai", "--out", "o"], dir.path());
@@ -267,6 +271,15 @@ fn scripts_draw_contours_and_arrows_and_refuse_bad_ones_in_one_line() {
         "{out}"
     );
     assert!(dir.path().join("o/robinson.png").is_file());
+    let labels: Vec<&str> = out.lines().rev().take(3).collect();
+    assert_eq!(
+        labels,
+        [
+            "sea-level pressure (hPa) within a fringe",
+            "SLP (hPa)",
+            "sea-level pressure (hPa)"
+        ]
+    );
     let g = "load_grid(\"wind.nc\")";
     for (opts, expected) in [
         ("vectors: #{ u: \"uas\" }", "vectors: v is required"),

@@ -120,8 +120,8 @@ fn colour_bar_draws_extend_triangles_only_where_data_clip() {
     for (x, y) in [(1, 0), (1, 15), (126, 0), (126, 15)] {
         assert_eq!(
             at(&both, x, y),
-            [0.0, 0.0, 0.0, 1.0],
-            "corner ({x}, {y}) left black"
+            [1.0, 1.0, 1.0, 1.0],
+            "corner ({x}, {y}) left white"
         );
     }
     // The colours run over [16, 112): the first column at t = 0.5 / 96.
@@ -129,7 +129,7 @@ fn colour_bar_draws_extend_triangles_only_where_data_clip() {
     let high = bar_of(Some((-3.0, 1.0)));
     assert_eq!(high.meta("legend_extend"), Some("max"));
     assert!(close(at(&high, 0, 0), viridis(0.5 / 112.0), 2e-3));
-    assert_eq!(at(&high, 126, 0), [0.0, 0.0, 0.0, 1.0]);
+    assert_eq!(at(&high, 126, 0), [1.0, 1.0, 1.0, 1.0]);
     let inside = bar_of(Some((-3.0, 3.0)));
     assert_eq!(inside.meta("legend_extend"), Some("neither"));
     assert!(close(at(&inside, 0, 0), viridis(0.5 / 128.0), 2e-3));

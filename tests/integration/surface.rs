@@ -708,11 +708,11 @@ fn legend_states_the_resolution_in_drawn_text() {
     let lit = |img: &hdrvis::model::HdrImage| {
         img.pixels[text_rows.clone()]
             .iter()
-            .filter(|p| p[0] > 0.5)
+            .filter(|p| p[0] < 0.5)
             .count()
     };
-    // Around 20 glyphs per line at 14 px an em, tens of inked pixels each (650 more than half
-    // lit); white text on black, anti-aliased into greys.
+    // Around 20 glyphs per line at 14 px an em, tens of inked pixels each; black text on
+    // white, anti-aliased into greys.
     assert!(lit(&a) > 400, "{}", lit(&a));
     assert!(a.pixels[text_rows.clone()]
         .iter()
@@ -728,12 +728,12 @@ fn legend_states_the_resolution_in_drawn_text() {
     );
     // Three lines of text under the bar, each starting a few pixels from the left edge.
     let ink_rows: Vec<usize> = (LEGEND_BAR_HEIGHT as usize..a.height as usize)
-        .filter(|y| (0..400).any(|x| a.pixels[y * 400 + x][0] > 0.5))
+        .filter(|y| (0..400).any(|x| a.pixels[y * 400 + x][0] < 0.5))
         .collect();
     let lines = 1 + ink_rows.windows(2).filter(|w| w[1] > w[0] + 1).count();
     assert_eq!(lines, 3, "{ink_rows:?}");
     let first_ink = (0..400)
-        .find(|x| ink_rows.iter().any(|y| a.pixels[y * 400 + x][0] > 0.5))
+        .find(|x| ink_rows.iter().any(|y| a.pixels[y * 400 + x][0] < 0.5))
         .unwrap();
     assert!((2..12).contains(&first_ink), "{first_ink}");
 }
@@ -1149,8 +1149,8 @@ fn save_png_legend_draws_the_recorded_colour_bar() {
         .unwrap()
         .to_rgb8();
     assert_eq!(surface.width(), nx as u32);
-    // The bar: the rows under the picture that are not black in its middle column.
-    let coloured = |y: u32| surface.get_pixel(60, y).0 != [0, 0, 0];
+    // The bar: the rows under the picture that are not white in its middle column.
+    let coloured = |y: u32| surface.get_pixel(60, y).0 != [255, 255, 255];
     let bar_top = (ny as u32..surface.height())
         .find(|y| coloured(*y))
         .unwrap();
@@ -1171,16 +1171,12 @@ fn save_png_legend_draws_the_recorded_colour_bar() {
             "{x}: {a:?} {b:?}"
         );
     }
-    // White ticks below the bar at decades 1e-3 and 1 (x = 119·k/4 for k decades up; at 120 px
+    // Black ticks below the bar at decades 1e-3 and 1 (x = 119·k/4 for k decades up; at 120 px
     // the five decades are thinned to every third).
     let tick_row = bar_top + thick;
     for k in [0, 3] {
         let x = (119.0 * k as f64 / 4.0).round() as u32;
-        assert_eq!(
-            surface.get_pixel(x, tick_row).0,
-            [255, 255, 255],
-            "decade {k}"
-        );
+        assert_eq!(surface.get_pixel(x, tick_row).0, [0, 0, 0], "decade {k}");
     }
     let volume = image::open(dir.path().join("out/volume.png"))
         .unwrap()

@@ -10,7 +10,7 @@ tests/integration/projections.rs.
       ocean grid refined at the equator (ocean.nc: 1/4 deg within 10 deg of it, 2 deg near the
       poles, 1 deg longitudes); each holds t = the node's latitude and u = its longitude. Also
       a 5 deg world grid of winds (wind.nc: uas = 10 cos(lat), vas = 2 sin(lon), m s-1) and of
-      sea-level pressure (psl.nc: 1000 + 10 sin(2 lat) cos(lon), hPa).
+      sea-level pressure (psl.nc: 1000 + 10 sin(2 lat) cos(lon), hPa), with CF long_names.
 
 Exit 77 when pyproj, numpy or netCDF4 is missing."""
 
@@ -63,12 +63,14 @@ def write_grid(path, lats, lons, fields=None):
     lon[:] = lons
     grid_lon, grid_lat = np.meshgrid(lons, lats)
     if fields is None:
-        fields = [("t", "degrees", grid_lat), ("u", "degrees", grid_lon)]
+        fields = [("t", "degrees", None, grid_lat), ("u", "degrees", None, grid_lon)]
     else:
-        fields = [(name, units, f(grid_lon, grid_lat)) for name, units, f in fields]
-    for name, units, values in fields:
+        fields = [(name, units, long, f(grid_lon, grid_lat)) for name, units, long, f in fields]
+    for name, units, long_name, values in fields:
         v = d.createVariable(name, "f8", ("lat", "lon"))
         v.units = units
+        if long_name:
+            v.long_name = long_name
         v[:] = values
     d.close()
 
@@ -94,15 +96,22 @@ def write(directory):
         lats,
         lons,
         [
-            ("uas", "m s-1", lambda lo, la: 10.0 * np.cos(rad(la))),
-            ("vas", "m s-1", lambda lo, la: 2.0 * np.sin(rad(lo))),
+            ("uas", "m s-1", "eastward wind", lambda lo, la: 10.0 * np.cos(rad(la))),
+            ("vas", "m s-1", "northward wind", lambda lo, la: 2.0 * np.sin(rad(lo))),
         ],
     )
     write_grid(
         f"{directory}/psl.nc",
         lats,
         lons,
-        [("psl", "hPa", lambda lo, la: 1000.0 + 10.0 * np.sin(rad(2.0 * la)) * np.cos(rad(lo)))],
+        [
+            (
+                "psl",
+                "hPa",
+                "sea-level pressure",
+                lambda lo, la: 1000.0 + 10.0 * np.sin(rad(2.0 * la)) * np.cos(rad(lo)),
+            )
+        ],
     )
     print(json.dumps({"gaussian": gaussian.tolist(), "ocean": ocean.tolist()}))
 

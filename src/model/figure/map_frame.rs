@@ -56,6 +56,11 @@ const Y_DIRECTION_KEY: &str = "map_y_direction";
 /// Metadata key present ("yes") on maps of rotated-pole grids.
 const ROTATED_KEY: &str = "map_rotated_pole";
 
+/// Tick steps on degree axes: those that divide the circle.
+const DEGREE_STEPS: [f64; 16] = [
+    0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 2.5, 5.0, 10.0, 15.0, 20.0, 30.0, 45.0, 60.0, 90.0, 180.0,
+];
+
 impl MapAxis {
     /// The axis of evenly spaced grid coordinates (within 1e-3 of a spacing); `None` for uneven
     /// ones, which the map view would place at the wrong pixels.
@@ -92,6 +97,12 @@ impl MapAxis {
         let Some(hemispheres) = hemispheres else {
             return format!("{}°", typeset_number(v));
         };
+        // Longitudes east of 180° (a 0–360° grid) read as west ones.
+        let v = if hemispheres == ['E', 'W'] && v > 180.0 {
+            v - 360.0
+        } else {
+            v
+        };
         let letter = match v {
             v if v > 0.0 => hemispheres[0].to_string(),
             v if v < 0.0 => hemispheres[1].to_string(),
@@ -110,13 +121,51 @@ impl MapAxis {
     }
 
     /// Round coordinates within the axis with their labels, as many as fit `pixels` with
-    /// labels and the space after them `label_extent(label)` long.
+    /// labels and the space after them `label_extent(label)` long. Degrees take steps that
+    /// divide the circle (1, 2, 5, 10, 15, 20, 30, 45, 60, 90°, …), on the multiples of the
+    /// `graticule` step when the map draws one, so the ticks meet its lines.
     fn ticks(
         &self,
         pixels: u32,
         hemispheres: Option<[char; 2]>,
+        graticule: Option<f64>,
         label_extent: impl Fn(&str) -> u32,
     ) -> Vec<(f64, String)> {
+        let fits = |ticks: &[(f64, String)]| {
+            let longest = ticks.iter().map(|(_, l)| label_extent(l)).max();
+            let room = pixels as f64 / ticks.len().max(1) as f64;
+            longest.is_some_and(|l| l as f64 <= room)
+        };
+        if self.geographic() && self.hi - self.lo >= 0.5 {
+            let steps: Vec<f64> = match graticule {
+                Some(g) => [1.0, 2.0, 3.0, 4.0, 6.0, 9.0, 12.0]
+                    .iter()
+                    .map(|k| k * g)
+                    .collect(),
+                None => DEGREE_STEPS.to_vec(),
+            };
+            let mut last = Vec::new();
+            for step in steps {
+                let k0 = (self.lo / step).ceil() as i64;
+                let k1 = (self.hi / step).floor() as i64;
+                if k1 - k0 > 12 {
+                    continue;
+                }
+                let ticks: Vec<(f64, String)> = (k0..=k1)
+                    .map(|k| k as f64 * step)
+                    .map(|v| (v, self.label(v, hemispheres)))
+                    .collect();
+                if ticks.len() >= 2 && fits(&ticks) {
+                    return ticks;
+                }
+                if !ticks.is_empty() {
+                    last = ticks;
+                }
+            }
+            if !last.is_empty() {
+                return last;
+            }
+        }
         for most in (2..=10).rev() {
             let ticks: Vec<(f64, String)> = nice_ticks(self.lo, self.hi, most)
                 .into_iter()
@@ -206,6 +255,9 @@ pub(crate) struct FrameExtras<'a> {
     pub bar: Option<&'a ColourBar>,
     pub notes: Vec<String>,
     pub scale_bar: bool,
+    /// The graticule's step in degrees, when the map draws one: longitude and latitude ticks
+    /// fall on its lines.
+    pub graticule: Option<f64>,
 }
 
 /// A rectangle of the figure, [x, x + w) × [y, y + h).
@@ -282,8 +334,11 @@ impl FrameLayout {
                 let letters = |l: [char; 2]| (!axes.rotated).then_some(l);
                 (
                     axes.x
-                        .ticks(map_w, letters(['E', 'W']), |l| ty.width(l) + digit),
-                    axes.y.ticks(map_h, letters(['N', 'S']), |_| line + gap),
+                        .ticks(map_w, letters(['E', 'W']), extras.graticule, |l| {
+                            ty.width(l) + digit
+                        }),
+                    axes.y
+                        .ticks(map_h, letters(['N', 'S']), extras.graticule, |_| line + gap),
                 )
             }
             None => (Vec::new(), Vec::new()),
@@ -461,13 +516,17 @@ impl FrameLayout {
 
     /// A scale bar in km at the map's centre latitude under the map's left end, about a quarter
     /// of the map long at a round length, with its label right of it; the row below it. Nothing
-    /// for axes that are not longitude and latitude.
+    /// for axes that are not longitude and latitude, nor where the map's scale varies by more
+    /// than 10 % ([`nearly_constant_scale`]).
     fn scale_bar(&mut self, axes: &MapAxes, ty: Type, y: u32) -> u32 {
         if !(axes.x.geographic() && axes.y.geographic()) {
             return y - ty.gap();
         }
         let m = self.map;
         let lat = 0.5 * (axes.y.lo + axes.y.hi);
+        if !nearly_constant_scale(axes.y.lo, axes.y.hi) {
+            return y - ty.gap();
+        }
         let km_per_degree = EARTH_RADIUS_KM * std::f64::consts::PI / 180.0;
         let km_per_px =
             (axes.x.hi - axes.x.lo) * km_per_degree * lat.to_radians().cos() / m.w as f64;
@@ -493,6 +552,19 @@ impl FrameLayout {
         self.scale = Some((km, px));
         y + line
     }
+}
+
+/// Whether an equirectangular map between latitudes `lo` and `hi` has an east–west scale within
+/// 10 % of its centre latitude's everywhere (a scale bar then means what it says): the scale
+/// goes as cos φ, so its extremes are at the edges and, across the equator, at 0°.
+fn nearly_constant_scale(lo: f64, hi: f64) -> bool {
+    let (lo, hi) = (lo.clamp(-90.0, 90.0), hi.clamp(-90.0, 90.0));
+    let c0 = (0.5 * (lo + hi)).to_radians().cos();
+    let mut extremes = vec![lo.to_radians().cos(), hi.to_radians().cos()];
+    if lo < 0.0 && hi > 0.0 {
+        extremes.push(1.0);
+    }
+    c0 > 0.0 && extremes.iter().all(|c| (c / c0 - 1.0).abs() <= 0.1)
 }
 
 /// The rows [r0, r1) of a map `h` tall over which an upright bar's colours run, short of the
@@ -662,6 +734,7 @@ mod tests {
             lo: 0.0,
             hi: 1.0,
             units: "m".into(),
+            label: String::new(),
             extend,
         }
     }
@@ -673,6 +746,7 @@ mod tests {
             bar,
             notes: vec!["1 fringe = 0.25 m (ν = 4 per m)".into()],
             scale_bar: true,
+            graticule: None,
         }
     }
 
@@ -907,6 +981,42 @@ mod tests {
         assert_eq!((200.0 / km_per_px).round(), 91.0);
     }
 
+    #[test]
+    fn the_scale_bar_is_left_out_where_the_scale_varies_and_ticks_take_degree_steps() {
+        assert!(nearly_constant_scale(-10.0, 20.0));
+        assert!(nearly_constant_scale(35.0, 47.0));
+        assert!(!nearly_constant_scale(-80.0, 80.0));
+        assert!(!nearly_constant_scale(60.0, 80.0));
+        let axis = |lo, hi, name: &str| MapAxis {
+            name: name.into(),
+            units: "degrees".into(),
+            lo,
+            hi,
+        };
+        let values = |t: Vec<(f64, String)>| t.into_iter().map(|(v, _)| v).collect::<Vec<_>>();
+        // A world map: 30° steps on 600 px, 45° on 400 (labels 7 px a character and a gap of
+        // one), 180° and beyond read west.
+        let lon = axis(0.0, 360.0, "lon");
+        let extent = |l: &str| 7 * l.chars().count() as u32 + 7;
+        let t = lon.ticks(600, Some(['E', 'W']), None, extent);
+        assert_eq!(
+            values(t.clone()),
+            (0..13).map(|k| 30.0 * k as f64).collect::<Vec<_>>()
+        );
+        assert_eq!(t[8].1, "120°W");
+        let t = lon.ticks(400, Some(['E', 'W']), None, extent);
+        assert_eq!(
+            values(t),
+            (0..9).map(|k| 45.0 * k as f64).collect::<Vec<_>>()
+        );
+        // With a 45° graticule the ticks fall on its lines.
+        let t = lon.ticks(600, Some(['E', 'W']), Some(45.0), extent);
+        assert!(values(t).iter().all(|v| v % 45.0 == 0.0));
+        let lat = axis(-80.0, 80.0, "lat");
+        let t = lat.ticks(300, Some(['N', 'S']), None, |_| 40);
+        assert_eq!(values(t), vec![-60.0, -30.0, 0.0, 30.0, 60.0]);
+    }
+
     /// The default type grows with the figure: the ink of the x labels is four times as tall
     /// under a map four times as large.
     #[test]
@@ -935,6 +1045,7 @@ mod tests {
                 bar: None,
                 notes: Vec::new(),
                 scale_bar: false,
+                graticule: None,
             };
             let l = FrameLayout::new(&img, Some(&axes), &e);
             let out = with_map_frame(&img, Some(&axes), &e).unwrap();

@@ -1,6 +1,6 @@
 //! Text drawn into HDR images for legends and figures, and the number format and ticks they use.
-//! Type is the Hack typeface (a DejaVu Sans Mono derivative; MIT and Bitstream Vera licences, see
-//! docs/surfaces.md) that the `epaint_default_fonts` crate ships, rasterised by `ab_glyph` into
+//! Type is DejaVu Sans, a proportional sans-serif (matplotlib's default face; Bitstream Vera
+//! licence, see docs/surfaces.md) that the `dejavu` crate embeds, rasterised by `ab_glyph` into
 //! anti-aliased coverage, so labels scale to any size and carry ν, °, the minus sign U+2212, µ and
 //! superscript powers of ten (10⁻³). [`Type`] is a text size with the line metrics layouts use.
 //! Pixels are blended in linear light, so text stays crisp in the EXR and in any PNG view.
@@ -16,8 +16,8 @@ use std::sync::OnceLock;
 fn face() -> &'static FontRef<'static> {
     static FACE: OnceLock<FontRef<'static>> = OnceLock::new();
     FACE.get_or_init(|| {
-        FontRef::try_from_slice(epaint_default_fonts::HACK_REGULAR)
-            .expect("the embedded Hack typeface parses")
+        FontRef::try_from_slice(dejavu::sans::regular())
+            .expect("the embedded DejaVu Sans typeface parses")
     })
 }
 
@@ -260,18 +260,22 @@ pub(crate) struct ColourBar {
     pub lo: f64,
     pub hi: f64,
     pub units: String,
+    /// What the bar measures, as its caption says it ("sea surface temperature (K)"); empty:
+    /// the units alone.
+    pub label: String,
     /// Whether data lie below `lo` and above `hi` (drawn in the end colours): a triangle is
     /// drawn at that end of the bar, as matplotlib's `extend`.
     pub extend: [bool; 2],
 }
 
 /// Metadata keys a render records its colour bar under.
-const BAR_KEYS: [&str; 5] = [
+const BAR_KEYS: [&str; 6] = [
     "legend_colormap",
     "legend_scale",
     "legend_domain",
     "legend_units",
     "legend_extend",
+    "legend_label",
 ];
 
 /// The `extend` words of matplotlib, indexed by [low, high] clipping.
@@ -286,6 +290,9 @@ impl ColourBar {
         img.set_meta(BAR_KEYS[3], self.units.as_str());
         let word = EXTEND_WORDS[self.extend[0] as usize + 2 * self.extend[1] as usize];
         img.set_meta(BAR_KEYS[4], word);
+        if !self.label.is_empty() {
+            img.set_meta(BAR_KEYS[5], self.label.as_str());
+        }
     }
 
     /// The bar `img` records, if it records one.
@@ -303,6 +310,7 @@ impl ColourBar {
             lo,
             hi,
             units: img.meta(BAR_KEYS[3]).unwrap_or("").to_string(),
+            label: img.meta(BAR_KEYS[5]).unwrap_or("").to_string(),
             extend: match img.meta(BAR_KEYS[4]) {
                 Some("min") => [true, false],
                 Some("max") => [false, true],
@@ -330,22 +338,37 @@ impl ColourBar {
         }
     }
 
-    /// The bar's units and scale as one line of at most `width` pixels ("m, log10 scale", then
-    /// shorter forms; empty when even the units do not fit).
+    /// The bar's label (or its units) and a scale other than linear as one line of at most
+    /// `width` pixels ("sea surface temperature (K)", "m, log10 scale", then shorter forms;
+    /// empty when even the shortest does not fit).
     pub(crate) fn caption(&self, width: u32, ty: Type) -> String {
         let units = match self.units.as_str() {
             "" => "data units".to_string(),
             "1" => "dimensionless".to_string(),
             u => u.to_string(),
         };
-        [
-            format!("{units}, {} scale", self.scale.describe()),
-            format!("{units}, {}", self.scale.describe()),
-            units,
-        ]
-        .into_iter()
-        .find(|c| ty.width(c) <= width)
-        .unwrap_or_default()
+        let scale = self.scale.describe();
+        let linear = matches!(self.scale, BarScale::Linear);
+        let candidates = if self.label.is_empty() {
+            vec![
+                format!("{units}, {scale} scale"),
+                format!("{units}, {scale}"),
+                units,
+            ]
+        } else if linear {
+            vec![self.label.clone(), units]
+        } else {
+            vec![
+                format!("{}, {scale} scale", self.label),
+                self.label.clone(),
+                format!("{units}, {scale}"),
+                units,
+            ]
+        };
+        candidates
+            .into_iter()
+            .find(|c| ty.width(c) <= width)
+            .unwrap_or_default()
     }
 
     /// Tick values with their labels: every decade (thinned to at most `most`) on log10, zero and
@@ -493,8 +516,9 @@ pub(crate) fn with_colour_bar(
     let mut out = HdrImage::new(w, h + strip);
     out.metadata = img.metadata.clone();
     out.pixels[..img.pixels.len()].copy_from_slice(&img.pixels);
+    // A white band with black ink, as a figure's page: legible whatever the picture's colours.
     for p in out.pixels[img.pixels.len()..].iter_mut() {
-        *p = [0.0, 0.0, 0.0, 1.0];
+        *p = [1.0, 1.0, 1.0, 1.0];
     }
     let top = h + gap;
     let (x0, x1) = bar.extent(w, extend_length(w, thick));
@@ -506,7 +530,7 @@ pub(crate) fn with_colour_bar(
         }
     }
     draw_extend_triangles(&mut out, bar, &cmap, (0, w), (top, top + thick), false);
-    let white = [1.0, 1.0, 1.0, 1.0];
+    let ink = [0.0, 0.0, 0.0, 1.0];
     let tick_end = top + thick + gap;
     let label_top = tick_end + gap;
     let most = (w / (ty.width("0") * 6).max(1)).clamp(2, 10) as usize;
@@ -515,12 +539,12 @@ pub(crate) fn with_colour_bar(
     for (v, label) in bar.ticks(most) {
         let x = x0 + (bar.position(v) * (x1 - x0 - 1) as f64).round() as u32;
         for y in top + thick..tick_end {
-            out.pixels[(y * w + x) as usize] = white;
+            out.pixels[(y * w + x) as usize] = ink;
         }
         let lw = ty.width(&label) as i64;
         let lx = (x as i64 - lw / 2).clamp(0, (w as i64 - lw).max(0));
         if lx >= free_from {
-            draw_text(&mut out, lx, label_top as i64, &label, ty, white);
+            draw_text(&mut out, lx, label_top as i64, &label, ty, ink);
             free_from = lx + lw + ty.width("0") as i64;
             drawn.push(format!("{v}@{x}"));
         }
@@ -533,7 +557,7 @@ pub(crate) fn with_colour_bar(
         (label_top + line + gap) as i64,
         &caption,
         ty,
-        white,
+        ink,
     );
     out.set_meta("legend_bar_rows", format!("{top} {}", top + thick));
     out.set_meta("legend_ticks", drawn.join(" "));
@@ -551,6 +575,7 @@ mod tests {
             lo,
             hi,
             units: "m".into(),
+            label: String::new(),
             extend: [false; 2],
         }
     }
@@ -609,10 +634,10 @@ mod tests {
             let (v, x): (f64, u32) = (v.parse().unwrap(), x.parse().unwrap());
             assert_eq!(x, (b.position(v) * 199.0).round() as u32);
             let below = row + line as usize;
-            assert_eq!(out.pixels[below * 200 + x as usize], [1.0; 4]);
-            // The tick stops a gap above the labels: the row under it is black there.
+            assert_eq!(out.pixels[below * 200 + x as usize], [0.0, 0.0, 0.0, 1.0]);
+            // The tick stops a gap above the labels: the row under it is the white band there.
             let after = below + gap as usize;
-            assert_eq!(out.pixels[after * 200 + x as usize], [0.0, 0.0, 0.0, 1.0]);
+            assert_eq!(out.pixels[after * 200 + x as usize], [1.0; 4]);
         }
     }
 
@@ -648,7 +673,7 @@ mod tests {
         let (_, small) = ink("H", 12.0);
         let (_, large) = ink("H", 96.0);
         let (hs, hl) = (small.len() as f64, large.len() as f64);
-        // Hack's cap height is 0.73 em.
+        // DejaVu Sans' cap height is 0.73 em.
         assert!((hs - 0.73 * 12.0).abs() <= 1.5, "{hs}");
         assert!((hl / hs - 8.0).abs() < 0.8, "{hl} / {hs}");
         for (text, px) in [("Hgjy°ν10⁻³", 12.0), ("Hgjy°ν10⁻³", 40.0)] {

@@ -435,7 +435,7 @@ impl SurfaceRenderer {
         colormap: &Colormap,
     ) -> Result<HdrImage> {
         check_nu(nu)?;
-        let (name, units, _, range) = data.props[slot].clone();
+        let (name, units, _, range, long_name) = data.props[slot].clone();
         let lut = colormap_table(colormap);
         let params = fringe_params(data, slot, nu, opts, &lut)?;
         let FringeReadback {
@@ -499,7 +499,7 @@ impl SurfaceRenderer {
             opts,
             nu,
             colormap.name(),
-            &units_for_bar,
+            (&units_for_bar, &long_name),
             (&property, d_ref, range),
         )?
         .record(&mut image);
@@ -683,7 +683,7 @@ fn fringe_params(
             mean[k] += c[k] * w;
         }
     }
-    let (name, _, d_ref, range) = &data.props[slot];
+    let (name, _, d_ref, range, _) = &data.props[slot];
     let d_ref = *d_ref;
     let colours = opts.colour_range(*range, name)?;
     let (c_lo, c_inv, floor) = colour_domain(opts, colours.unwrap_or((d_ref, d_ref)), d_ref);

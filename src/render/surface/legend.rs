@@ -55,7 +55,7 @@ pub(super) fn surface_colour_bar(
     opts: &SurfaceOptions,
     nu: f64,
     colormap: &str,
-    units: &str,
+    (units, long_name): (&str, &str),
     (property, d_ref, data): (&str, f64, Option<(f64, f64)>),
 ) -> Result<crate::model::text::ColourBar> {
     use crate::model::text::{BarScale, ColourBar};
@@ -88,8 +88,32 @@ pub(super) fn surface_colour_bar(
         lo,
         hi,
         units: units.to_string(),
+        label: bar_label(opts, property, long_name, units),
         extend,
     })
+}
+
+/// What a surface's colour bar measures: `label` as given, else the property's long name (its
+/// name when it has none) with its units, "sea surface temperature (K)"; in cyclic mode, where
+/// the bar spans one fringe, "… within a fringe".
+fn bar_label(opts: &SurfaceOptions, property: &str, long_name: &str, units: &str) -> String {
+    if let Some(l) = &opts.label {
+        return l.clone();
+    }
+    let what = if long_name.is_empty() {
+        property
+    } else {
+        long_name
+    };
+    let what = match units {
+        "" | "1" => what.to_string(),
+        u => format!("{what} ({u})"),
+    };
+    if opts.mode == FringeMode::Cyclic {
+        format!("{what} within a fringe")
+    } else {
+        what
+    }
 }
 
 /// The tallest colour bar, in pixels: a bar is a strip, and the limit keeps a mistyped size from
@@ -126,7 +150,13 @@ pub(crate) fn colorbar(
     let units = grid.units(p);
     let data = grid.range(p);
     let d_ref = data.map_or(0.0, |(a, b)| 0.5 * (a + b));
-    let bar = surface_colour_bar(opts, nu, cmap.name(), units, (name, d_ref, data))?;
+    let bar = surface_colour_bar(
+        opts,
+        nu,
+        cmap.name(),
+        (units, grid.long_name(p)),
+        (name, d_ref, data),
+    )?;
     let (lo, hi) = (bar.lo, bar.hi);
     let mut img = HdrImage::new(width, height);
     let tri = extend_length(width, height);
@@ -218,24 +248,34 @@ pub(crate) fn legend_in(
     let (gap, line) = (ty.gap(), ty.line());
     let height = LEGEND_BAR_HEIGHT + gap + 3 * (line + gap);
     let mut img = HdrImage::new(width, height);
+    // Black ink on white, as a figure's page.
     for px in img.pixels.iter_mut() {
-        *px = [0.0, 0.0, 0.0, 1.0];
+        *px = [1.0, 1.0, 1.0, 1.0];
     }
-    // The bar's pixels over the black, but not the clear corners beside its extend triangles.
+    // The bar's pixels over the white, but not the clear corners beside its extend triangles.
     for (dst, src) in img.pixels.iter_mut().zip(&bar.pixels) {
         if src[3] > 0.0 {
             *dst = *src;
         }
     }
-    let white = [1.0, 1.0, 1.0, 1.0];
+    let ink = [0.0, 0.0, 0.0, 1.0];
     let top = (LEGEND_BAR_HEIGHT + gap) as i64;
     let step = (line + gap) as i64;
     let x = gap as i64;
     let right_x = width as i64 - ty.width(&right) as i64 - x;
-    draw_text(&mut img, x, top, &left, ty, white);
-    draw_text(&mut img, right_x.max(x), top, &right, ty, white);
-    draw_text(&mut img, x, top + step, &label, ty, white);
-    draw_text(&mut img, x, top + 2 * step, &detail, ty, white);
+    draw_text(&mut img, x, top, &left, ty, ink);
+    draw_text(&mut img, right_x.max(x), top, &right, ty, ink);
+    // What the bar measures, centred between its end values where it fits.
+    if let Some(b) = crate::model::text::ColourBar::of(&bar) {
+        let room = (right_x - x - ty.width(&left) as i64 - 2 * ty.width("0") as i64).max(0);
+        let caption = b.caption(room as u32, ty);
+        if !caption.is_empty() {
+            let cx = (width as i64 - ty.width(&caption) as i64) / 2;
+            draw_text(&mut img, cx, top, &caption, ty, ink);
+        }
+    }
+    draw_text(&mut img, x, top + step, &label, ty, ink);
+    draw_text(&mut img, x, top + 2 * step, &detail, ty, ink);
     img.metadata = bar.metadata.clone();
     img.set_meta("legend", label.as_str());
     Ok(img)

@@ -434,6 +434,7 @@ fn grid_pixels(
                 grid.units(p).to_string(),
                 d_ref,
                 range,
+                grid.long_name(p).to_string(),
             )
         })
         .collect();

@@ -198,6 +198,7 @@ fn mesh_pixels(
             field.units().to_string(),
             d_ref,
             range,
+            String::new(),
         )],
         shade,
     })

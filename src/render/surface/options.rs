@@ -269,6 +269,8 @@ pub struct SurfaceOptions {
     pub contours: Option<super::marks::ContourStyle>,
     /// Vector arrows over the picture.
     pub vectors: Option<super::marks::VectorStyle>,
+    /// What the colour bar says it measures; `None`: the property's long name and units.
+    pub label: Option<String>,
 }
 
 impl Default for SurfaceOptions {
@@ -298,6 +300,7 @@ impl Default for SurfaceOptions {
             projection: None,
             contours: None,
             vectors: None,
+            label: None,
         }
     }
 }

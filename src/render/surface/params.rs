@@ -38,8 +38,8 @@ pub(super) struct FringeParams {
     pub(super) footprint: [f32; 4],
 }
 
-/// Name, units, d_ref and finite range of a rendered property.
-pub(super) type PropMeta = (String, String, f64, Option<(f64, f64)>);
+/// Name, units, d_ref, finite range and long name (empty: none) of a rendered property.
+pub(super) type PropMeta = (String, String, f64, Option<(f64, f64)>, String);
 
 /// The node inputs of step 1: per node and property slot, the value less the property's
 /// reference d_ref split into an f32 head and the f32 rest (together ~f64 precision), and 1
@@ -72,7 +72,13 @@ impl NodeValues {
                     valid[k][slot] = 1.0;
                 }
             }
-            meta.push((name.to_string(), grid.units(p).to_string(), d_ref, range));
+            meta.push((
+                name.to_string(),
+                grid.units(p).to_string(),
+                d_ref,
+                range,
+                grid.long_name(p).to_string(),
+            ));
         }
         NodeValues {
             hi,

@@ -588,6 +588,7 @@ pub(crate) fn false_colour_bar(low: f64, high: f64) -> crate::model::text::Colou
         lo: 10f64.powf(low),
         hi: 10f64.powf(high),
         units: "luminance (image units)".into(),
+        label: String::new(),
         extend: [false; 2],
     }
 }
