@@ -94,6 +94,18 @@ pub struct LoadOptions {
     /// The file holding the mesh of a variable on an unstructured mesh, when its own file has
     /// only the values (ICON and MPAS keep the grid apart).
     pub grid: Option<std::path::PathBuf>,
+    /// A grid reduced over the steps of one of the variable's dimensions (a climatology, a
+    /// time mean): [`load_grid_with`] reads each step and combines them node by node.
+    pub reduce: Option<ReduceOver>,
+}
+
+/// A reduction over the steps `steps` (first and last index, inclusive; all by default) of the
+/// dimension `dim`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReduceOver {
+    pub dim: String,
+    pub how: crate::model::arithmetic::Reduction,
+    pub steps: Option<(usize, usize)>,
 }
 
 /// Loads a scalar volume by the reader the file's content names ([`Format::of`]): `.npy` (shape (nz, ny, nx)),
@@ -108,6 +120,12 @@ pub struct LoadOptions {
 /// 0); when a coordinate is unevenly spaced the volume is rectilinear. Units come from the
 /// variable's `units` attribute.
 pub fn load_volume_with(path: &Path, opts: &LoadOptions) -> Result<Volume> {
+    if let Some(r) = &opts.reduce {
+        return Err(Error::invalid(
+            r.how.name(),
+            "reductions over a dimension make grids (load_grid); a volume keeps its dimensions",
+        ));
+    }
     let reader = Format::of(path)?.reader();
     if !opts.select.is_empty() && !reader.selects(path)? {
         return Err(Error::format(
@@ -432,6 +450,12 @@ pub fn load_mesh(path: &Path, opts: &LoadOptions) -> Result<crate::model::mesh::
     if opts.band.is_some() {
         return Err(Error::invalid("band", "bands belong to GeoTIFF grids"));
     }
+    if let Some(r) = &opts.reduce {
+        return Err(Error::invalid(
+            r.how.name(),
+            "reductions over a dimension are load_grid's; sample the mesh onto a grid there",
+        ));
+    }
     conventions::mesh::field(
         path,
         opts.variable.as_deref(),
@@ -444,6 +468,9 @@ pub fn load_mesh(path: &Path, opts: &LoadOptions) -> Result<crate::model::mesh::
 /// then says how each was chosen ("… at time 2011-03-11T06:00:00 (index 5)"), and further
 /// properties are only those of the same selection's shape that have the selected dimensions.
 pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
+    if let Some(r) = &opts.reduce {
+        return load_grid_reduced(path, opts, r);
+    }
     let var = opts.variable.as_deref();
     let file = read_grid_file(
         path,
@@ -501,6 +528,86 @@ pub fn load_grid_with(path: &Path, opts: &LoadOptions) -> Result<Grid> {
     }
     grid.set_wavelength(file.wavelength);
     grid.set_rotated_pole(file.rotated_pole);
+    Ok(grid)
+}
+
+/// [`load_grid_with`] reduced over `r.dim`: each step read as a grid with the dimension fixed
+/// there (with the options' other selections) and the steps combined node by node
+/// ([`crate::model::arithmetic::reduce_grids`]: missing values skipped, as xarray's skipna).
+fn load_grid_reduced(path: &Path, opts: &LoadOptions, r: &ReduceOver) -> Result<Grid> {
+    let field = r.how.name();
+    if opts.select.dims().any(|d| d == r.dim) {
+        return Err(Error::invalid(
+            field,
+            format!("{:?} is both reduced over and fixed by index or at", r.dim),
+        ));
+    }
+    let listed = readers::variables::list_variables(path)?;
+    let variable = match &opts.variable {
+        Some(v) => v.clone(),
+        None => listed
+            .iter()
+            .find(|(n, dims)| {
+                dims.len() > 2
+                    && dims.iter().any(|(d, _)| d == &r.dim)
+                    && !dims.iter().any(|(d, _)| d == n)
+            })
+            .map(|(n, _)| n.clone())
+            .ok_or_else(|| {
+                Error::format(
+                    path,
+                    format!("no variable has the dimension {:?} to reduce over", r.dim),
+                )
+            })?,
+    };
+    let dims = readers::variables::dims_in(&listed, &variable);
+    let Some(&(_, n)) = dims.iter().find(|(d, _)| d == &r.dim) else {
+        let names: Vec<&str> = dims.iter().map(|(d, _)| d.as_str()).collect();
+        return Err(Error::format(
+            path,
+            format!(
+                "{field}: {variable:?} has no dimension {:?}; it has {}",
+                r.dim,
+                names.join(", ")
+            ),
+        ));
+    };
+    let (first, last) = r.steps.unwrap_or((0, n.saturating_sub(1)));
+    if n == 0 || first > last || last >= n {
+        return Err(Error::invalid(
+            field,
+            format!(
+                "steps {first} to {last} of {:?}, which has {n} (0 to {})",
+                r.dim,
+                n.saturating_sub(1)
+            ),
+        ));
+    }
+    let grids = (first..=last)
+        .map(|k| {
+            let mut step = opts.clone();
+            step.reduce = None;
+            step.variable = Some(variable.clone());
+            step.select.index.push((r.dim.clone(), k as i64));
+            load_grid_with(path, &step)
+        })
+        .collect::<Result<Vec<Grid>>>()?;
+    let refs: Vec<&Grid> = grids.iter().collect();
+    let mut grid = crate::model::arithmetic::reduce_grids(&refs, r.how)?;
+    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("grid");
+    grid.set_name(&format!(
+        "{stem} {variable}, {field} over {} steps {first} to {last}",
+        r.dim
+    ));
+    for i in 0..grids[0].property_names().len() {
+        let (name, long) = (
+            grids[0].property_at(i).0.to_string(),
+            grids[0].long_name(i).to_string(),
+        );
+        if !long.is_empty() && grid.property_index(&name).is_ok() {
+            grid.set_long_name(&name, &format!("{field} of {long}"))?;
+        }
+    }
     Ok(grid)
 }
 

@@ -413,6 +413,11 @@ impl Grid {
         Ok(())
     }
 
+    /// Renames the grid (a name changes no pixel).
+    pub(crate) fn set_name(&mut self, name: &str) {
+        self.name = name.to_string();
+    }
+
     /// A property's descriptive name (CF `long_name`), empty when the file gives none.
     pub fn long_name(&self, index: usize) -> &str {
         &self.long_names[index]

@@ -354,6 +354,20 @@ mod tests {
                 } else {
                     call.clone()
                 };
+                // Reductions over a dimension read the time series, steps with a reduction.
+                let reduces = ["mean", "min", "max", "std", "steps"].contains(&spec.name);
+                let (base, call) = if table.function == "load_grid" && reduces {
+                    (
+                        if spec.name == "steps" {
+                            "#{ mean: \"time\" }".to_string()
+                        } else {
+                            base
+                        },
+                        call.replace("geo.nc", "series.nc"),
+                    )
+                } else {
+                    (base, call)
+                };
                 let source = format!(
                     "let o = {base}; o[{:?}] = {}; {call};",
                     spec.name,

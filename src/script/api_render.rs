@@ -300,6 +300,7 @@ fn register_volumes(engine: &mut Engine, host: &Arc<ScriptHost>) {
                     Some(g) => Some(h.sandbox.read_path(&g).map_err(to_rhai)?),
                     None => None,
                 },
+                reduce: None,
             };
             h.session.load_volume(&p, &load).map_err(to_rhai)
         },

@@ -76,6 +76,11 @@ pub(crate) const LOAD_GRID: OptionTable = OptionTable {
             "the variable's own file",
             "an unstructured mesh kept in a file of its own (ICON and MPAS grid files, SCRIP): the variable's values run along its cells or nodes",
         ),
+        opt("mean", Kind::Text("\"time\""), "none", "the grid averaged over the steps of this dimension, node by node, missing values skipped (xarray's mean(skipna)); the other dimensions fixed by index or at"),
+        opt("min", Kind::Text("\"time\""), "none", "as mean, the smallest value over the steps"),
+        opt("max", Kind::Text("\"time\""), "none", "as mean, the largest value over the steps"),
+        opt("std", Kind::Text("\"time\""), "none", "as mean, the standard deviation over the steps (ddof 0, numpy's nanstd)"),
+        opt("steps", Kind::Value("[first, last]", "[0, 1]"), "every step", "with mean, min, max or std: the steps reduced over, by index, both ends included"),
     ],
     call: "load_grid(\"geo.nc\", OPTS)",
     base: "#{}",
@@ -531,6 +536,54 @@ fn register_meshes(engine: &mut Engine, host: &Arc<ScriptHost>) {
     );
 }
 
+/// `mean`, `min`, `max` or `std` (one of them) naming the dimension a grid is reduced over,
+/// with `steps`.
+fn reduce_over(given: &Given) -> RResult<Option<crate::datasets::ReduceOver>> {
+    use crate::model::arithmetic::Reduction;
+    let mut asked = Vec::new();
+    for (key, how) in [
+        ("mean", Reduction::Mean),
+        ("min", Reduction::Min),
+        ("max", Reduction::Max),
+        ("std", Reduction::Std),
+    ] {
+        if let Some(dim) = given.string(key)? {
+            asked.push((key, how, dim));
+        }
+    }
+    let steps = match given.value("steps")? {
+        Some(v) => {
+            let [a, b] = pair(v, "steps")?;
+            if !(a >= 0.0 && b >= a && a.fract() == 0.0 && b.fract() == 0.0) {
+                return err(
+                    "steps",
+                    format!(
+                        "expected [first, last] indices with 0 <= first <= last, got [{a}, {b}]"
+                    ),
+                );
+            }
+            Some((a as usize, b as usize))
+        }
+        None => None,
+    };
+    match asked.as_slice() {
+        [] if steps.is_some() => err(
+            "steps",
+            "steps choose what mean, min, max or std reduce over",
+        ),
+        [] => Ok(None),
+        [(_, how, dim)] => Ok(Some(crate::datasets::ReduceOver {
+            dim: dim.clone(),
+            how: *how,
+            steps,
+        })),
+        [(a, ..), (b, ..), ..] => err(
+            a,
+            format!("one reduction per grid: {a} and {b} were both given"),
+        ),
+    }
+}
+
 /// The three forms of `load_grid`.
 fn register_load_grid(engine: &mut Engine, host: &Arc<ScriptHost>) {
     let h = host.clone();
@@ -569,6 +622,7 @@ fn register_load_grid(engine: &mut Engine, host: &Arc<ScriptHost>) {
                     Some(g) => Some(h.sandbox.read_path(&g).map_err(to_rhai)?),
                     None => None,
                 },
+                reduce: reduce_over(&given)?,
                 ..LoadOptions::default()
             };
             h.session.load_grid(&p, &opts).map_err(to_rhai)

@@ -88,6 +88,88 @@ fn grid_arithmetic_and_reductions_equal_numpy_exactly() {
     assert!(diff.is_geographic());
 }
 
+/// `load_grid(…, #{ mean: "time" })` and its kin read each step and reduce them: numpy's
+/// nan-reductions over the file's axis, bit for bit, over all steps or a range of them; an
+/// anomaly in one line of script; bad reductions refused in one line.
+#[test]
+fn reductions_over_a_file_dimension_equal_numpy_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(want) = cases(dir.path()) else {
+        return;
+    };
+    let path = dir.path().join("sst.nc");
+    let reduce = |how, steps| LoadOptions {
+        variable: Some("sst".into()),
+        reduce: Some(hdrvis::datasets::ReduceOver {
+            dim: "time".into(),
+            how,
+            steps,
+        }),
+        ..LoadOptions::default()
+    };
+    for how in [
+        Reduction::Mean,
+        Reduction::Min,
+        Reduction::Max,
+        Reduction::Std,
+    ] {
+        let g = hdrvis::datasets::load_grid_with(&path, &reduce(how, None)).unwrap();
+        assert_exact(how.name(), g.property("sst").unwrap(), &want[how.name()]);
+        assert_eq!(g.units(0), "K");
+        assert!(g.is_geographic());
+    }
+    let part =
+        hdrvis::datasets::load_grid_with(&path, &reduce(Reduction::Mean, Some((1, 4)))).unwrap();
+    assert_exact(
+        "mean 1..4",
+        part.property("sst").unwrap(),
+        &want["mean_1_4"],
+    );
+    assert!(
+        part.name().contains("mean over time steps 1 to 4"),
+        "{}",
+        part.name()
+    );
+    let script = r#"
+        let anomaly = load_grid("sst.nc", #{ variable: "sst", index: #{ time: 3 } }) - load_grid("sst.nc", #{ variable: "sst", mean: "time" });
+        save_grid(anomaly, "anomaly.nc");
+    "#;
+    std::fs::write(dir.path().join("a.rhai"), script).unwrap();
+    let (code, _, err) = crate::cli::hdrvis(&["run", "a.rhai", "--out", "o"], dir.path());
+    assert_eq!(code, 0, "{err}");
+    let saved = hdrvis::datasets::load_grid(&dir.path().join("o/anomaly.nc"), None).unwrap();
+    assert_exact("anomaly", saved.property_at(0).1, &want["anomaly"]);
+    for (opts, expected) in [
+        (
+            "mean: \"depth\"",
+            "\"sst\" has no dimension \"depth\"; it has time, lat, lon",
+        ),
+        ("mean: \"time\", std: \"time\"", "one reduction per grid"),
+        (
+            "mean: \"time\", steps: [2, 9]",
+            "steps 2 to 9 of \"time\", which has 6 (0 to 5)",
+        ),
+        (
+            "mean: \"time\", index: #{ time: 1 }",
+            "\"time\" is both reduced over and fixed",
+        ),
+        (
+            "steps: [0, 1]",
+            "steps: steps choose what mean, min, max or std reduce over",
+        ),
+    ] {
+        let script = format!("let g = load_grid(\"sst.nc\", #{{ variable: \"sst\", {opts} }}); save_grid(g, \"g.nc\");");
+        std::fs::write(dir.path().join("bad.rhai"), &script).unwrap();
+        let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai", "--out", "bad"], dir.path());
+        assert_eq!(code, 1, "{opts}: {err}");
+        assert!(
+            err.lines().next().unwrap_or("").contains(expected),
+            "{opts}: {err}"
+        );
+        assert!(!dir.path().join("bad/g.nc").exists());
+    }
+}
+
 #[test]
 fn volume_arithmetic_and_means_equal_numpy_within_f32_rounding() {
     let dir = tempfile::tempdir().unwrap();

@@ -13,6 +13,8 @@ one JSON object: numpy's results, each a flat list in C order (null where missin
   "ratio"          sst[1] / sst[2]
   "product"        sst[0] * sst[1]
   "mean", "min", "max", "std"  np.nanmean / nanmin / nanmax / nanstd (ddof 0) over time
+  "mean_1_4"       np.nanmean(sst[1:5], axis=0)
+  "anomaly"        sst[3] - np.nanmean(sst, axis=0)
   "vol_diff"       float32(float64(t[1]) - float64(t[0]))
   "vol_mean"       float32(np.nanmean(float64(t), axis=0))
 Exit 77 when numpy or netCDF4 is missing.
@@ -78,6 +80,8 @@ def main(out):
             "min": flat(np.nanmin(sst, axis=0)),
             "max": flat(np.nanmax(sst, axis=0)),
             "std": flat(np.nanstd(sst, axis=0)),
+            "mean_1_4": flat(np.nanmean(sst[1:5], axis=0)),
+            "anomaly": flat(sst[3] - np.nanmean(sst, axis=0)),
             "vol_diff": flat((t64[1] - t64[0]).astype(np.float32)),
             "vol_mean": flat(np.nanmean(t64, axis=0).astype(np.float32)),
         }
