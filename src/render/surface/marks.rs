@@ -7,7 +7,8 @@
 //! picture's image of a short step along it (east by u, north by v on the sphere; along x by u
 //! and y by v on other axes), so the direction is the view's own, projection and aspect
 //! included. Lengths are `scale` pixels per data unit, the same everywhere, with a reference
-//! arrow of a round magnitude drawn in the picture's lower-right corner.
+//! arrow of a round magnitude drawn in black with its value on a white box in the picture's
+//! lower-right corner.
 
 use crate::error::{Error, Result};
 use crate::model::contour::{contour_levels, contour_lines, ContourLine};

@@ -549,16 +549,17 @@ impl Overlay {
             |q| self.pixel_at(q, w, h),
             step,
         );
-        let stroke_all = |img: &mut HdrImage, segments: &[[[f64; 2]; 2]]| {
+        let stroke_all = |img: &mut HdrImage, segments: &[[[f64; 2]; 2]], linear: [f64; 3]| {
             let mut cover = vec![0f32; (w as usize) * (h as usize)];
             for &[a, b] in segments {
                 stroke(&mut cover, w, h, a, b, v.style.width);
             }
-            self.composite(img, &cover, v.style.linear);
+            self.composite(img, &cover, linear);
         };
-        stroke_all(img, &arrows.segments);
+        stroke_all(img, &arrows.segments, v.style.linear);
+        // The reference arrow is black, like its label, on its white box.
         let reference = v.reference_segments(&arrows, img);
-        stroke_all(img, &reference);
+        stroke_all(img, &reference, [0.0; 3]);
         img.set_meta("vectors", v.describe(&arrows));
     }
 
