@@ -245,18 +245,7 @@ mod tests {
     use super::*;
 
     fn grid(xs: Vec<f64>, ys: Vec<f64>, f: impl Fn(f64, f64) -> f64) -> Grid {
-        let values = ys
-            .iter()
-            .flat_map(|&y| xs.iter().map(move |&x| (x, y)))
-            .map(|(x, y)| f(x, y))
-            .collect();
-        let axis = |values| super::super::GridCoords {
-            name: "a".into(),
-            units: "m".into(),
-            values,
-            kind: CoordKind::Plain,
-        };
-        Grid::with_coords("g", axis(xs), axis(ys), vec![("v".into(), values)], None).unwrap()
+        super::super::grid::test_grid((xs, ys), [CoordKind::Plain; 2], f)
     }
 
     #[test]
@@ -331,14 +320,11 @@ mod tests {
         let xs: Vec<f64> = (0..36).map(|i| -175.0 + 10.0 * i as f64).collect();
         let ys: Vec<f64> = (0..9).map(|j| -40.0 + 10.0 * j as f64).collect();
         // Low about the equator: one level line north of it and one south, each all round.
-        let g = grid(xs, ys, |x, y| {
-            (y / 20.0).powi(2) + 0.01 * x.to_radians().cos()
-        });
-        let mut lon = g.x().clone();
-        lon.kind = CoordKind::Longitude;
-        let values = g.property("v").unwrap().to_vec();
-        let g =
-            Grid::with_coords("g", lon, g.y().clone(), vec![("v".into(), values)], None).unwrap();
+        let g = super::super::grid::test_grid(
+            (xs, ys),
+            [CoordKind::Longitude, CoordKind::Latitude],
+            |x, y| (y / 20.0).powi(2) + 0.01 * x.to_radians().cos(),
+        );
         let lines = contour_lines(&g, 0, &[1.0]);
         assert_eq!(lines.len(), 2, "north and south");
         for l in &lines {

@@ -518,6 +518,42 @@ impl Grid {
     }
 }
 
+/// A grid `v` of `f(x, y)` on the axes `xs` and `ys` of kinds `kinds` (for tests): longitudes
+/// and latitudes in degrees, other axes in metres.
+#[cfg(test)]
+pub(crate) fn test_grid(
+    (xs, ys): (Vec<f64>, Vec<f64>),
+    kinds: [CoordKind; 2],
+    f: impl Fn(f64, f64) -> f64,
+) -> Grid {
+    let values = ys
+        .iter()
+        .flat_map(|&y| xs.iter().map(move |&x| (x, y)))
+        .map(|(x, y)| f(x, y))
+        .collect();
+    let axis = |values, kind| {
+        let units = match kind {
+            CoordKind::Longitude => "degrees_east",
+            CoordKind::Latitude => "degrees_north",
+            _ => "m",
+        };
+        GridCoords {
+            name: "a".into(),
+            units: units.into(),
+            values,
+            kind,
+        }
+    };
+    Grid::with_coords(
+        "g",
+        axis(xs, kinds[0]),
+        axis(ys, kinds[1]),
+        vec![("v".into(), values)],
+        None,
+    )
+    .expect("a valid test grid")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -202,28 +202,10 @@ pub fn evenly_spaced(grid: &Grid) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::GridCoords;
 
     fn grid(xs: Vec<f64>, ys: Vec<f64>, f: impl Fn(f64, f64) -> f64) -> Grid {
-        let values = ys
-            .iter()
-            .flat_map(|&y| xs.iter().map(move |&x| (x, y)))
-            .map(|(x, y)| f(x, y))
-            .collect();
-        let axis = |name: &str, units: &str, kind, values| GridCoords {
-            name: name.into(),
-            units: units.into(),
-            values,
-            kind,
-        };
-        Grid::with_coords(
-            "g",
-            axis("lon", "degrees_east", CoordKind::Longitude, xs),
-            axis("lat", "degrees_north", CoordKind::Latitude, ys),
-            vec![("v".into(), values)],
-            None,
-        )
-        .unwrap()
+        let kinds = [CoordKind::Longitude, CoordKind::Latitude];
+        super::super::grid::test_grid((xs, ys), kinds, f)
     }
 
     #[test]

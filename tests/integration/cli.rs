@@ -36,6 +36,22 @@ fn write_volume(dir: &Path) -> PathBuf {
     p
 }
 
+/// Each of `cases` — render_surface options and a part of the one-line error they must give —
+/// run on `grid` (a Rhai expression) in `dir`: exit 1, the error's first line holding the
+/// part, nothing written.
+pub fn surface_options_refused(dir: &Path, grid: &str, cases: &[(&str, &str)]) {
+    for (opts, expected) in cases {
+        let script =
+            format!("let img = render_surface({grid}, #{{ {opts} }}); save_png(img, \"out.png\");");
+        std::fs::write(dir.join("bad.rhai"), &script).unwrap();
+        let (code, _, err) = hdrvis(&["run", "bad.rhai", "--out", "bad"], dir);
+        assert_eq!(code, 1, "{opts}: {err}");
+        let line = err.lines().next().unwrap_or("");
+        assert!(line.contains(expected), "{opts}: {err}");
+        assert!(!dir.join("bad/out.png").exists(), "{opts}");
+    }
+}
+
 /// Runs a Python cross-check; exit 77 means its modules are missing, which fails the test when
 /// HDRVIS_REQUIRE_PYTHON=1 (as in CI) and skips it otherwise.
 pub fn python_check(script: &str, args: &[&str]) -> Option<String> {

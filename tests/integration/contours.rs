@@ -281,7 +281,7 @@ fn scripts_draw_contours_and_arrows_and_refuse_bad_ones_in_one_line() {
         ]
     );
     let g = "load_grid(\"wind.nc\")";
-    for (opts, expected) in [
+    let cases = [
         ("vectors: #{ u: \"uas\" }", "vectors: v is required"),
         ("vectors: #{ u: \"uas\", v: \"ws\" }", "vectors.v:"),
         (
@@ -300,14 +300,6 @@ fn scripts_draw_contours_and_arrows_and_refuse_bad_ones_in_one_line() {
         ),
         ("contours: #{ grid: 3 }", "contours.grid: expected a grid"),
         ("contours: #{ colour: \"no such colour\" }", "contours"),
-    ] {
-        let script =
-            format!("let img = render_surface({g}, #{{ {opts} }}); save_png(img, \"out.png\");");
-        std::fs::write(dir.path().join("bad.rhai"), &script).unwrap();
-        let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai", "--out", "bad"], dir.path());
-        assert_eq!(code, 1, "{opts}: {err}");
-        let line = err.lines().next().unwrap_or("");
-        assert!(line.contains(expected), "{opts}: {err}");
-        assert!(!dir.path().join("bad/out.png").exists(), "{opts}");
-    }
+    ];
+    crate::cli::surface_options_refused(dir.path(), g, &cases);
 }

@@ -441,7 +441,7 @@ fn scripts_draw_projected_maps_and_refuse_bad_projections_in_one_line() {
         300
     );
     let g = "load_grid(\"ocean.nc\", #{ variable: \"t\" })";
-    for (opts, expected) in [
+    let cases = [
         (
             "projection: \"mercator\"",
             "projection: expected one of equirectangular, robinson",
@@ -463,16 +463,8 @@ fn scripts_draw_projected_maps_and_refuse_bad_projections_in_one_line() {
             "projection: #{ name: \"robinson\", centre: 10.0 }",
             "unknown key \"centre\"",
         ),
-    ] {
-        let script =
-            format!("let img = render_surface({g}, #{{ {opts} }}); save_png(img, \"out.png\");");
-        std::fs::write(dir.path().join("bad.rhai"), &script).unwrap();
-        let (code, _, err) = crate::cli::hdrvis(&["run", "bad.rhai", "--out", "bad"], dir.path());
-        assert_eq!(code, 1, "{opts}: {err}");
-        let line = err.lines().next().unwrap_or("");
-        assert!(line.contains(expected), "{opts}: {err}");
-        assert!(!dir.path().join("bad/out.png").exists(), "{opts}");
-    }
+    ];
+    crate::cli::surface_options_refused(dir.path(), g, &cases);
     // A grid whose axes are not longitude and latitude has nothing to project.
     let plain = Grid::from_fn("plain", 8, 8, |i, j| (i + j) as f64).unwrap();
     let opts = SurfaceOptions {
