@@ -378,6 +378,26 @@ fn gaussian_and_refined_latitudes_are_drawn_at_their_own_latitudes() {
                 );
             }
         }
+        // A perspective view draws the grid sampled onto even axes, made once: a second view
+        // at another ν runs no data pass.
+        let orbit = SurfaceOptions {
+            view: SurfaceView::Orbit {
+                azimuth: -60.0,
+                elevation: 35.0,
+                fov: 40.0,
+            },
+            width: Some(48),
+            height: Some(48),
+            ..Default::default()
+        };
+        let before = r.counters().data_passes;
+        r.render(&grid, &orbit).unwrap();
+        let again = SurfaceOptions {
+            nu: vec![3.0],
+            ..orbit.clone()
+        };
+        r.render(&grid, &again).unwrap();
+        assert_eq!(r.counters().data_passes, before + 1, "{name}");
         // The globe places them too, centred on the grid's middle.
         let globe = SurfaceOptions {
             properties: vec!["t".into(), "u".into()],

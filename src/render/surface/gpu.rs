@@ -97,6 +97,9 @@ pub struct SurfaceRenderer {
     fringe_pipelines:
         Mutex<HashMap<FringeVariant, Arc<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>>>,
     cache: Mutex<Vec<(DataKey, Arc<DataTargets>)>>,
+    /// Evenly spaced stand-ins of grids on uneven axes (3-D views), by the source grid's
+    /// identity, so views of one grid share one stand-in and its cached data pass.
+    stand_ins: Mutex<Vec<(u64, Arc<Grid>)>>,
     pub(super) data_passes: AtomicU64,
     fringe_passes: AtomicU64,
 }
@@ -108,6 +111,7 @@ impl SurfaceRenderer {
             data_pipelines: Mutex::new(HashMap::new()),
             fringe_pipelines: Mutex::new(HashMap::new()),
             cache: Mutex::new(Vec::new()),
+            stand_ins: Mutex::new(Vec::new()),
             data_passes: AtomicU64::new(0),
             fringe_passes: AtomicU64::new(0),
         }
@@ -381,7 +385,7 @@ impl SurfaceRenderer {
             return self.render_placed(grid, opts, &props);
         }
         if !crate::model::grid_sampler::evenly_spaced(grid) {
-            let even = crate::model::GridSampler::new(grid).evenly_spaced(super::MAX_EVEN_NODES)?;
+            let even = self.stand_in(grid)?;
             return self.render_timed(&even, opts);
         }
         let colormap = Colormap::by_name(opts.colormap_name())?;
@@ -399,6 +403,22 @@ impl SurfaceRenderer {
             overlay.as_ref(),
             data_ms,
         )
+    }
+
+    /// The evenly spaced stand-in of `grid` (on uneven axes) at its finest spacing, made once
+    /// per grid (the last few kept).
+    fn stand_in(&self, grid: &Grid) -> Result<Arc<Grid>> {
+        let mut kept = self.stand_ins.lock().expect("stand-in cache poisoned");
+        if let Some((_, g)) = kept.iter().find(|(id, _)| *id == grid.id()) {
+            return Ok(g.clone());
+        }
+        let even =
+            Arc::new(crate::model::GridSampler::new(grid).evenly_spaced(super::MAX_EVEN_NODES)?);
+        if kept.len() >= 4 {
+            kept.remove(0);
+        }
+        kept.push((grid.id(), even.clone()));
+        Ok(even)
     }
 
     /// Step 2 for each of `slots` properties of `data`, with `overlay` drawn over each image.
