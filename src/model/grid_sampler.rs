@@ -11,16 +11,16 @@ use super::grid::{CoordKind, Grid};
 /// One axis: its coordinates (increasing), whether it closes the circle (longitudes whose
 /// spacing at both ends makes 360°), and the half end spacings that bound it.
 #[derive(Clone, Debug)]
-struct Axis {
-    values: Vec<f64>,
+struct Axis<'a> {
+    values: &'a [f64],
     wraps: bool,
     lo: f64,
     hi: f64,
 }
 
-impl Axis {
+impl<'a> Axis<'a> {
     /// The axis of `values`: longitudes may close the circle, latitudes end at the poles.
-    fn new(values: &[f64], kind: CoordKind) -> Axis {
+    fn new(values: &'a [f64], kind: CoordKind) -> Axis<'a> {
         let longitude = kind == CoordKind::Longitude;
         let n = values.len();
         let (first, last) = (values[0], values[n - 1]);
@@ -37,7 +37,7 @@ impl Axis {
             (lo, hi) = (lo.max(-90.0), hi.min(90.0));
         }
         Axis {
-            values: values.to_vec(),
+            values,
             wraps,
             lo,
             hi,
@@ -46,6 +46,21 @@ impl Axis {
 
     /// The two nodes around `c` and the weight of the second (0 on the first node); `None`
     /// beyond the axis's bounds. A longitude is taken a turn either way to fall on the axis.
+    /// Evenly spaced nodes over the bounds that resolve the finest spacing: at least as many as
+    /// the axis has, at most `max`.
+    fn resolving(&self, max: usize) -> usize {
+        let finest = self
+            .values
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min);
+        if finest.is_finite() && finest > 0.0 {
+            (((self.hi - self.lo) / finest).round() as usize).clamp(self.values.len(), max)
+        } else {
+            self.values.len()
+        }
+    }
+
     fn locate(&self, c: f64) -> Option<(usize, usize, f64)> {
         let n = self.values.len();
         let c = if self.wraps {
@@ -60,7 +75,7 @@ impl Axis {
         if !(self.lo..=self.hi).contains(&c) {
             return None;
         }
-        let v = &self.values;
+        let v = self.values;
         if n == 1 {
             return Some((0, 0, 0.0));
         }
@@ -91,8 +106,8 @@ impl Axis {
 #[derive(Clone, Debug)]
 pub struct GridSampler<'a> {
     grid: &'a Grid,
-    x: Axis,
-    y: Axis,
+    x: Axis<'a>,
+    y: Axis<'a>,
 }
 
 impl<'a> GridSampler<'a> {
@@ -107,6 +122,12 @@ impl<'a> GridSampler<'a> {
     /// The axes' bounds, half an end spacing beyond the end nodes: [x_lo, x_hi, y_lo, y_hi].
     pub fn bounds(&self) -> [f64; 4] {
         [self.x.lo, self.x.hi, self.y.lo, self.y.hi]
+    }
+
+    /// Node counts along x and y that resolve each axis's finest spacing over its bounds (at
+    /// least the grid's, at most `max`): the size of [`Self::evenly_spaced`]'s grid.
+    pub fn resolving_counts(&self, max: usize) -> (usize, usize) {
+        (self.x.resolving(max), self.y.resolving(max))
     }
 
     /// Whether the x axis is longitudes closing the circle.
@@ -152,16 +173,7 @@ impl<'a> GridSampler<'a> {
     /// is kept.
     pub fn evenly_spaced(&self, max_nodes: usize) -> crate::Result<Grid> {
         let axis = |a: &Axis, coords: &super::GridCoords| {
-            let finest = a
-                .values
-                .windows(2)
-                .map(|w| w[1] - w[0])
-                .fold(f64::INFINITY, f64::min);
-            let n = if finest.is_finite() && finest > 0.0 {
-                (((a.hi - a.lo) / finest).round() as usize).clamp(a.values.len(), max_nodes)
-            } else {
-                a.values.len()
-            };
+            let n = a.resolving(max_nodes);
             let step = (a.hi - a.lo) / n as f64;
             super::GridCoords {
                 values: (0..n).map(|k| a.lo + (k as f64 + 0.5) * step).collect(),

@@ -285,22 +285,7 @@ fn grid_placement(grid: &Grid, opts: &SurfaceOptions) -> Result<Placement> {
     }
     let sampler = GridSampler::new(grid);
     let bounds = sampler.bounds();
-    let finest = |c: &GridCoords, lo: f64, hi: f64| {
-        let step = c
-            .values
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .fold(f64::INFINITY, f64::min);
-        if step.is_finite() && step > 0.0 {
-            (((hi - lo) / step).round() as usize).clamp(c.values.len(), super::MAX_EVEN_NODES)
-        } else {
-            c.values.len()
-        }
-    };
-    let (nx, ny) = (
-        finest(grid.x(), bounds[0], bounds[1]),
-        finest(grid.y(), bounds[2], bounds[3]),
-    );
+    let (nx, ny) = sampler.resolving_counts(super::MAX_EVEN_NODES);
     let name = (grid.name(), "");
     if opts.projected() {
         let extent = true_extent(grid, bounds)?;

@@ -173,11 +173,22 @@ impl Vectors {
             grid.property_index(name)
                 .map_err(|e| Error::invalid(key, e.to_string()))
         };
+        let (u, v) = (index(&style.u, "vectors.u")?, index(&style.v, "vectors.v")?);
+        // The two components alone (not every property of the grid), kept until the draw.
+        let component = |i: usize| {
+            let (name, values) = grid.property_at(i);
+            (name.to_string(), values.to_vec(), grid.units(i).to_string())
+        };
+        let components = if u == v {
+            vec![component(u)]
+        } else {
+            vec![component(u), component(v)]
+        };
         Ok(Vectors {
             style: style.clone(),
-            u: index(&style.u, "vectors.u")?,
-            v: index(&style.v, "vectors.v")?,
-            grid: Arc::new(grid.clone()),
+            u: 0,
+            v: usize::from(u != v),
+            grid: Arc::new(grid.derived(grid.name(), components)?),
         })
     }
 

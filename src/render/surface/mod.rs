@@ -53,6 +53,7 @@ pub(crate) mod overlay;
 mod params;
 mod phase;
 mod projected;
+mod projector;
 
 pub(crate) use geometry::SurfaceGeometry;
 pub(crate) use globe::GlobeFrame;

@@ -417,12 +417,7 @@ impl SurfaceOptions {
     pub(super) fn view_key(&self) -> Vec<u64> {
         let mut key = self.view.key();
         if let Some(p) = self.projection.filter(|_| self.projected()) {
-            key.push(
-                100 + crate::model::ProjectionKind::NAMES
-                    .iter()
-                    .position(|&n| n == p.kind.name())
-                    .unwrap_or(0) as u64,
-            );
+            key.push(100 + p.kind as u64);
             for v in [p.lon_0, p.lat_0, p.lat_1, p.lat_2] {
                 key.push(v.map_or(u64::MAX, f64::to_bits));
             }

@@ -13,6 +13,7 @@
 use super::marks::{Contours, Vectors};
 use super::options::{CoastlineStyle, SurfaceOptions, SurfaceView};
 use super::projected::ProjectedMap;
+use super::projector::{Projector, ShellSurface};
 use crate::datasets::coastlines::{coastlines, CoastResolution};
 use crate::error::{Error, Result};
 use crate::model::geometry::segment_distance;
@@ -20,7 +21,7 @@ use crate::model::map_frame::MapAxes;
 use crate::model::mesh::ring::{ring_into, Ring};
 use crate::model::mesh::MeshField;
 use crate::model::text::{draw_text, format_number, Type};
-use crate::model::{Camera, Cut, DepthRings, Grid, HdrImage, SphericalGrid, Volume};
+use crate::model::{Camera, Cut, DepthRings, Grid, HdrImage, Volume};
 use std::borrow::Cow;
 use std::sync::Arc;
 
@@ -31,8 +32,6 @@ const GRATICULE_WIDTH: f64 = 1.0;
 const RING_WIDTH: f64 = 1.5;
 /// Widest line, in pixels.
 pub(crate) const MAX_LINE_WIDTH: f64 = 64.0;
-/// Longest piece of a line drawn straight on the globe, in degrees.
-const GLOBE_STEP: f64 = 0.5;
 
 /// Clear pixels either side of a contour label's text.
 const LABEL_PAD: f64 = 2.0;
@@ -60,41 +59,6 @@ fn check_width(field: &str, w: f64) -> Result<()> {
             field,
             format!("expected a line width > 0 and at most {MAX_LINE_WIDTH} pixels, got {w}"),
         ))
-    }
-}
-
-/// Where a (longitude, latitude) lands in the image.
-enum Projector {
-    Map(MapAxes),
-    Globe(Camera),
-    /// A spherical volume's outer surface.
-    Shell(Box<ShellSurface>),
-    /// A map in a projection.
-    Projected(Arc<ProjectedMap>),
-}
-
-/// The outer surface of a spherical volume a render shows: its grid (radius, extent) and cut.
-struct ShellSurface {
-    camera: Camera,
-    grid: SphericalGrid,
-    cut: Option<Cut>,
-}
-
-impl ShellSurface {
-    /// The pixel of (longitude, latitude) on the outer sphere, where the sphere there faces the
-    /// eye and the domain has its outer surface (just inside it is in the domain and kept).
-    fn pixel(&self, lonlat: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
-        let r = self.grid.radius.hi;
-        let inside = SphericalGrid::to_world(r * (1.0 - 1e-9), lonlat[1], lonlat[0]);
-        let kept = self.grid.contains(inside)
-            && !self
-                .cut
-                .as_ref()
-                .is_some_and(|c| c.removes(self.grid.planet_radius, inside));
-        if !kept {
-            return None;
-        }
-        sphere_pixel(&self.camera, r, lonlat, w, h)
     }
 }
 
@@ -530,7 +494,7 @@ impl Overlay {
             }
             None => p,
         };
-        self.pixel_at(p, w, h)
+        self.projector.pixel_at(p, w, h)
     }
 
     /// The arrows of `v` (the field's, then the reference arrow on its box), and their
@@ -545,8 +509,8 @@ impl Overlay {
         };
         let arrows = v.arrows(
             (w, h),
-            |px| self.point_at(px, w, h),
-            |q| self.pixel_at(q, w, h),
+            |px| self.projector.point_at(px, w, h),
+            |q| self.projector.pixel_at(q, w, h),
             step,
         );
         let stroke_all = |img: &mut HdrImage, segments: &[[[f64; 2]; 2]], linear: [f64; 3]| {
@@ -561,50 +525,6 @@ impl Overlay {
         let reference = v.reference_segments(&arrows, img);
         stroke_all(img, &reference, [0.0; 3]);
         img.set_meta("vectors", v.describe(&arrows));
-    }
-
-    /// The coordinates (longitude and latitude, or a plain map's axes) at the pixel position
-    /// `px` of a `w × h` picture; `None` off the map or the sphere.
-    fn point_at(&self, px: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
-        match &self.projector {
-            Projector::Map(a) => {
-                let (fx, fy) = (px[0] / w as f64, px[1] / h as f64);
-                let y = if a.y_down {
-                    a.y.lo + fy * (a.y.hi - a.y.lo)
-                } else {
-                    a.y.hi - fy * (a.y.hi - a.y.lo)
-                };
-                Some([a.x.lo + fx * (a.x.hi - a.x.lo), y])
-            }
-            Projector::Projected(map) => map.lonlat(px),
-            Projector::Globe(cam) => {
-                let (eye, d) = cam.ray_at(px, w, h);
-                let (_, p) = super::GlobeFrame::hit(eye, d)?;
-                let (_, lat, lon) = SphericalGrid::from_world(p);
-                Some([lon, lat])
-            }
-            Projector::Shell(_) => None,
-        }
-    }
-
-    /// The pixel position of the point `q` (as [`Self::point_at`] gives them), or `None`.
-    fn pixel_at(&self, q: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
-        match &self.projector {
-            Projector::Map(a) => {
-                let down = if a.y_down {
-                    q[1] - a.y.lo
-                } else {
-                    a.y.hi - q[1]
-                };
-                Some([
-                    (q[0] - a.x.lo) / (a.x.hi - a.x.lo) * w as f64,
-                    down / (a.y.hi - a.y.lo) * h as f64,
-                ])
-            }
-            Projector::Projected(map) => map.pixel(q[0], q[1]),
-            Projector::Globe(cam) => globe_pixel(cam, q, w, h),
-            Projector::Shell(_) => None,
-        }
     }
 
     fn draw_layer(&self, img: &mut HdrImage, layer: &Layer) {
@@ -670,7 +590,7 @@ impl Overlay {
                 if wraps && (seg[1][0] - seg[0][0]).abs() > 180.0 {
                     continue;
                 }
-                for [a, b] in self.segment_pixels(seg[0], seg[1], w, h) {
+                for [a, b] in self.projector.segment([seg[0], seg[1]], (w, h), wraps) {
                     stroke(&mut cover, w, h, a, b, width);
                 }
             }
@@ -711,90 +631,6 @@ impl Overlay {
             }
         }
     }
-
-    /// The pieces, in pixel coordinates, that the segment a–b (degrees) is drawn as: on a map
-    /// the straight segment and its copies 360° east and west; on the globe the segment cut
-    /// into pieces of at most [`GLOBE_STEP`], each kept when both its ends face the eye.
-    fn segment_pixels(&self, a: [f64; 2], b: [f64; 2], w: u32, h: u32) -> Vec<[[f64; 2]; 2]> {
-        match &self.projector {
-            Projector::Map(axes) => {
-                let px = |p: [f64; 2], shift: f64| {
-                    let down = if axes.y_down {
-                        p[1] - axes.y.lo
-                    } else {
-                        axes.y.hi - p[1]
-                    };
-                    [
-                        (p[0] + shift - axes.x.lo) / (axes.x.hi - axes.x.lo) * w as f64,
-                        down / (axes.y.hi - axes.y.lo) * h as f64,
-                    ]
-                };
-                let shifts: &[f64] = if self.geographic {
-                    &[-360.0, 0.0, 360.0]
-                } else {
-                    &[0.0]
-                };
-                shifts.iter().map(|&s| [px(a, s), px(b, s)]).collect()
-            }
-            Projector::Projected(map) => {
-                // Cut into pieces of at most GLOBE_STEP, each kept when both ends show and it
-                // does not jump across the map (a seam, where the projection cuts the sphere).
-                let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()) / GLOBE_STEP).ceil();
-                let n = (n as usize).max(1);
-                let point = |k: usize| {
-                    let t = k as f64 / n as f64;
-                    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
-                };
-                let jump = 0.25 * (w.max(h) as f64);
-                (0..n)
-                    .filter_map(|k| {
-                        let (p, q) = (point(k), point(k + 1));
-                        if map.projector.crosses_seam(p[0], q[0]) {
-                            return None;
-                        }
-                        Some([map.pixel(p[0], p[1])?, map.pixel(q[0], q[1])?])
-                    })
-                    .filter(|[p, q]| (p[0] - q[0]).abs() < jump && (p[1] - q[1]).abs() < jump)
-                    .collect()
-            }
-            Projector::Globe(_) | Projector::Shell(_) => {
-                let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()) / GLOBE_STEP).ceil();
-                let n = (n as usize).max(1);
-                let at = |k: usize| {
-                    let t = k as f64 / n as f64;
-                    let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-                    match &self.projector {
-                        Projector::Shell(shell) => shell.pixel(p, w, h),
-                        Projector::Globe(cam) => globe_pixel(cam, p, w, h),
-                        Projector::Map(_) | Projector::Projected(_) => None,
-                    }
-                };
-                (0..n).filter_map(|k| Some([at(k)?, at(k + 1)?])).collect()
-            }
-        }
-    }
-}
-
-/// Where a point on the unit sphere at (longitude, latitude) degrees shows in a globe image,
-/// or `None` when the sphere there faces away from the eye (the far hemisphere).
-pub(crate) fn globe_pixel(cam: &Camera, lonlat: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
-    sphere_pixel(cam, 1.0, lonlat, w, h)
-}
-
-/// [`globe_pixel`] on the sphere of radius `r` about the origin.
-fn sphere_pixel(cam: &Camera, r: f64, lonlat: [f64; 2], w: u32, h: u32) -> Option<[f64; 2]> {
-    let p = SphericalGrid::to_world(r, lonlat[1], lonlat[0]);
-    let towards_eye = match cam.projection {
-        crate::model::Projection::Orthographic { .. } => cam.forward.map(|v| -v),
-        crate::model::Projection::Perspective { .. } => {
-            [cam.eye[0] - p[0], cam.eye[1] - p[1], cam.eye[2] - p[2]]
-        }
-    };
-    let facing = p[0] * towards_eye[0] + p[1] * towards_eye[1] + p[2] * towards_eye[2];
-    if facing <= 0.0 {
-        return None;
-    }
-    cam.project(p, w, h)
 }
 
 /// Meridians and parallels at the multiples of `step` degrees, as polylines of 1° pieces (so
@@ -1169,8 +1005,8 @@ mod tests {
         let v = flow();
         let arrows = v.arrows(
             (w, h),
-            |px| overlay.point_at(px, w, h),
-            |q| overlay.pixel_at(q, w, h),
+            |px| overlay.projector.point_at(px, w, h),
+            |q| overlay.projector.pixel_at(q, w, h),
             0.01,
         );
         assert_eq!(arrows.count, 12 * 9);
@@ -1196,8 +1032,8 @@ mod tests {
         let v = flow();
         let arrows = v.arrows(
             (w, h),
-            |px| overlay.point_at(px, w, h),
-            |q| overlay.pixel_at(q, w, h),
+            |px| overlay.projector.point_at(px, w, h),
+            |q| overlay.projector.pixel_at(q, w, h),
             0.01,
         );
         assert!(arrows.count > 20, "{}", arrows.count);
@@ -1205,7 +1041,7 @@ mod tests {
         let mut checked = 0;
         for (d, mid) in shafts(&arrows.segments) {
             // The arrow's point is the lattice point its shaft is centred on.
-            let Some([lon, lat]) = overlay.point_at(mid, w, h) else {
+            let Some([lon, lat]) = overlay.projector.point_at(mid, w, h) else {
                 continue;
             };
             let (lo, la) = (lon.to_radians(), lat.to_radians());
