@@ -44,9 +44,12 @@ pub fn bench_surface(
     let runs = runs.max(1);
     let renderer = SurfaceRenderer::new(ctx);
     let grid = bench_grid(n, 0.0)?;
+    // One pixel per node, whatever `n` (the default would enlarge a small grid to a figure).
     let mut o = SurfaceOptions {
         nu: vec![1.0],
         mode: FringeMode::Cyclic,
+        width: Some(n as u32),
+        height: Some(n as u32),
         ..Default::default()
     };
     progress(&format!("surface {n}^2: warm-up"));

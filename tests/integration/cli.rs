@@ -581,7 +581,8 @@ fn grid_statistics_derived_properties_and_subsets() {
         String::from_utf8_lossy(&out.stderr)
     );
     let img = hdrvis::io::exr::read_exr(&dir.path().join("o/sub.exr")).unwrap();
-    assert_eq!((img.width, img.height), (20, 20));
+    // 20 × 20 nodes drawn at 51 pixels a node (the odd factor nearest a 1000-pixel figure).
+    assert_eq!((img.width, img.height), (1020, 1020));
 }
 
 /// The accuracy report's CSV in `out`: its text, and its rows (after the header) split at commas.

@@ -41,8 +41,8 @@ fn script_draws_coastlines_on_maps_and_globes() {
     let script = r#"
         let g = load_grid("world.nc");
         let o = #{ mode: "direct", domain: [-1.0, 1.0] };
-        save_exr(render_surface(g, o), "plain.exr");
-        save_exr(render_surface(g, o + #{ coastlines: #{ colour: "white" }, graticule: 30 }), "coast.exr");
+        save_exr(render_surface(g, o + #{ width: 360 }), "plain.exr");
+        save_exr(render_surface(g, o + #{ width: 360, coastlines: #{ colour: "white" }, graticule: 30 }), "coast.exr");
         let globe = o + #{ view: "globe", width: 128, height: 128 };
         save_exr(render_surface(g, globe), "globe.exr");
         save_exr(render_surface(g, globe + #{ coastlines: true }), "globe_coast.exr");

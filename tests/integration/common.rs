@@ -1,8 +1,9 @@
 //! Shared helpers: one GPU context per backend for the whole test binary.
 
 use hdrvis::gpu::{BackendChoice, GpuContext};
-use hdrvis::model::{HdrImage, Volume};
+use hdrvis::model::{Grid, HdrImage, Volume};
 use hdrvis::render::session::RenderSession;
+use hdrvis::render::surface::{SurfaceOptions, SurfaceView};
 use hdrvis::render::volume::VolumeRenderer;
 use hdrvis::render::{RenderPath, VolumeRenderOptions, VolumeSource};
 use std::collections::HashMap;
@@ -169,4 +170,15 @@ pub fn cf_sphere_file(dir: &Path, name: &str, args: &[&str]) -> Option<PathBuf> 
     let out = crate::cli::python_check("write_cf_sphere.py", &all)?;
     assert!(out.starts_with("exit 0"), "{out}");
     Some(path)
+}
+
+/// `o` at one pixel per node in map view of a plain grid when it gives no size (the size the
+/// node-by-node checks read; the default is a figure of about 1000 pixels).
+pub fn at_nodes(grid: &Grid, o: &SurfaceOptions) -> SurfaceOptions {
+    let mut o = o.clone();
+    let unsized_map = matches!(o.view, SurfaceView::Map) && o.width.is_none() && o.height.is_none();
+    if unsized_map && !grid.is_geographic() {
+        (o.width, o.height) = (Some(grid.nx() as u32), Some(grid.ny() as u32));
+    }
+    o
 }

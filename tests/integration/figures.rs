@@ -1,7 +1,7 @@
 //! Figures: colour ranges on surfaces (`domain`, `centre`, the colour bar's extend triangles),
 //! checked pixel by pixel against the colour maps themselves.
 
-use crate::common::{backends, renderer};
+use crate::common::{at_nodes, backends, renderer};
 use hdrvis::model::colormap::srgb_to_linear;
 use hdrvis::model::{Grid, HdrImage};
 use hdrvis::render::surface::{legend, FringeMode, SurfaceOptions, SurfaceRenderer};
@@ -20,7 +20,7 @@ fn reference(map: impl colorgrad::Gradient, t: f64) -> [f32; 3] {
     [c.r, c.g, c.b].map(|v| srgb_to_linear(v.clamp(0.0, 1.0) as f64) as f32)
 }
 
-/// Map view at the default size: row r shows grid row ny − 1 − r; one row suffices here.
+/// Map view at one pixel per node: row r shows grid row ny − 1 − r; one row suffices here.
 fn pixel(img: &HdrImage, i: usize) -> [f32; 4] {
     img.pixels[i]
 }
@@ -43,8 +43,11 @@ fn a_domain_gives_one_value_one_colour_whatever_is_missing() {
         domain: Some((-2.0, 2.0)),
         ..direct("viridis")
     };
-    let a = r.render(&whole, &fixed).unwrap().remove(0);
-    let b = r.render(&part, &fixed).unwrap().remove(0);
+    let a = r
+        .render(&whole, &at_nodes(&whole, &fixed))
+        .unwrap()
+        .remove(0);
+    let b = r.render(&part, &at_nodes(&part, &fixed)).unwrap().remove(0);
     for i in 24..nx {
         let (p, q) = (pixel(&a, i), pixel(&b, i));
         assert!(close(p, [q[0], q[1], q[2]], 1e-6), "{i}: {p:?} {q:?}");
@@ -53,8 +56,14 @@ fn a_domain_gives_one_value_one_colour_whatever_is_missing() {
         let expect = reference(colorgrad::preset::viridis(), t);
         assert!(close(p, expect, 2e-3), "{i}: {p:?} {expect:?}");
     }
-    let free_a = r.render(&whole, &direct("viridis")).unwrap().remove(0);
-    let free_b = r.render(&part, &direct("viridis")).unwrap().remove(0);
+    let free_a = r
+        .render(&whole, &at_nodes(&whole, &direct("viridis")))
+        .unwrap()
+        .remove(0);
+    let free_b = r
+        .render(&part, &at_nodes(&part, &direct("viridis")))
+        .unwrap()
+        .remove(0);
     let (p, q) = (pixel(&free_a, 40), pixel(&free_b, 40));
     assert!(!close(p, [q[0], q[1], q[2]], 1e-2), "{p:?} {q:?}");
 }
@@ -71,7 +80,7 @@ fn centre_zero_puts_the_middle_colour_at_zero() {
         centre: Some(0.0),
         ..direct("rd_bu")
     };
-    let img = r.render(&g, &centred).unwrap().remove(0);
+    let img = r.render(&g, &at_nodes(&g, &centred)).unwrap().remove(0);
     let middle = reference(colorgrad::preset::rd_bu(), 0.5);
     assert!(
         close(pixel(&img, 16), middle, 2e-3),
@@ -85,14 +94,17 @@ fn centre_zero_puts_the_middle_colour_at_zero() {
     assert!(close(pixel(&img, 0), t, 2e-3));
     assert_eq!(img.meta("legend_domain"), Some("-12 12"));
     assert_eq!(img.meta("legend_extend"), Some("neither"));
-    let uncentred = r.render(&g, &direct("rd_bu")).unwrap().remove(0);
+    let uncentred = r
+        .render(&g, &at_nodes(&g, &direct("rd_bu")))
+        .unwrap()
+        .remove(0);
     assert!(!close(pixel(&uncentred, 16), middle, 2e-2));
     let clipped = SurfaceOptions {
         domain: Some((-2.0, 2.0)),
         centre: Some(0.0),
         ..direct("rd_bu")
     };
-    let img = r.render(&g, &clipped).unwrap().remove(0);
+    let img = r.render(&g, &at_nodes(&g, &clipped)).unwrap().remove(0);
     assert_eq!(img.meta("legend_extend"), Some("both"));
     // The bar's ends are the domain itself (round, so its end ticks are drawn).
     assert_eq!(img.meta("legend_domain"), Some("-2 2"));

@@ -5,7 +5,7 @@
 
 use crate::cli::{hdrvis, python_check};
 use crate::common::cf_sphere_file;
-use crate::common::renderer;
+use crate::common::{at_nodes, renderer};
 use hdrvis::datasets::load_volume;
 use hdrvis::model::section::{great_circle_section, SectionSpec};
 use hdrvis::model::{Grid, Missing};
@@ -36,7 +36,7 @@ fn check_fringes(g: &Grid, nu: f64) {
             nu: vec![nu],
             ..Default::default()
         };
-        let img = r.render(g, &o).unwrap().remove(0);
+        let img = r.render(g, &at_nodes(g, &o)).unwrap().remove(0);
         assert_eq!(img.meta("map_y_direction"), Some("down"));
         let fringe = &img
             .extra_channels
@@ -1091,7 +1091,10 @@ fn depth_rings_cross_a_section_at_their_depths() {
             .context()
             .clone(),
     );
-    let plain = r.render(&g, &SurfaceOptions::default()).unwrap().remove(0);
+    let plain = r
+        .render(&g, &at_nodes(&g, &SurfaceOptions::default()))
+        .unwrap()
+        .remove(0);
     let (w, h) = (plain.width as usize, plain.height as usize);
     assert_eq!((w, h), (41, 28));
     let ringed = |rings: DepthRings| {
@@ -1099,7 +1102,7 @@ fn depth_rings_cross_a_section_at_their_depths() {
             depth_rings: Some(rings),
             ..Default::default()
         };
-        r.render(&g, &o)
+        r.render(&g, &at_nodes(&g, &o))
     };
     // Node row k lies at depth 100 + 100 k km.
     let img = ringed(DepthRings::Depths(vec![1000.0, 2000.0]))
@@ -1138,7 +1141,7 @@ fn depth_rings_cross_a_section_at_their_depths() {
         coastlines: Some(Default::default()),
         ..Default::default()
     };
-    let e = r.render(&g, &o).unwrap_err().to_string();
+    let e = r.render(&g, &at_nodes(&g, &o)).unwrap_err().to_string();
     assert!(
         e.starts_with("coastlines:") || e.starts_with("depth_rings:"),
         "{e}"

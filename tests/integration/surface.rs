@@ -3,7 +3,7 @@
 //! the step-1 cache, holes, constant fields and bad input, geographic maps' aspect and the globe
 //! view — on Vulkan and GL.
 
-use crate::common::renderer;
+use crate::common::{at_nodes, renderer};
 use hdrvis::gpu::BackendChoice;
 use hdrvis::model::Grid;
 use hdrvis::render::surface::{
@@ -25,7 +25,7 @@ fn channel<'a>(img: &'a hdrvis::model::HdrImage, name: &str) -> &'a [f32] {
         .1
 }
 
-/// In map view at the default size, pixel (i, r) shows node (i, ny − 1 − r).
+/// In map view at one pixel per node ([`at_nodes`]), pixel (i, r) shows node (i, ny − 1 − r).
 fn node_of(grid: &Grid, px: usize, row: usize) -> usize {
     (grid.ny() - 1 - row) * grid.nx() + px
 }
@@ -77,7 +77,7 @@ fn analytic_fields_match_closed_form_in_map_view() {
         for (name, f) in &fields {
             let g = Grid::from_fn(name, nx, ny, f).unwrap();
             for nu in [1.0, 3.7, 25.0] {
-                let img = r.render(&g, &opts(nu)).unwrap().remove(0);
+                let img = r.render(&g, &at_nodes(&g, &opts(nu))).unwrap().remove(0);
                 assert_eq!((img.width, img.height), (nx as u32, ny as u32));
                 let err = max_fringe_error(&g, &img, nu, 0);
                 assert!(err < 1e-5, "{backend:?} {name} nu {nu}: {err}");
@@ -98,7 +98,7 @@ fn ramp_maxima_count_equals_nu_times_range() {
     for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for nu in [5.0, 12.0, 40.0] {
-            let img = r.render(&g, &opts(nu)).unwrap().remove(0);
+            let img = r.render(&g, &at_nodes(&g, &opts(nu))).unwrap().remove(0);
             let f = &channel(&img, "fringe")[n..2 * n];
             let mut peaks = 0;
             for i in 0..n {
@@ -129,7 +129,10 @@ fn phase_stays_within_1e_3_of_f64_near_a_million() {
     for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         for grid in [&g, &wide] {
-            let img = r.render(grid, &opts(8.0)).unwrap().remove(0);
+            let img = r
+                .render(grid, &at_nodes(grid, &opts(8.0)))
+                .unwrap()
+                .remove(0);
             let err = max_fringe_error(grid, &img, 8.0, 0);
             assert!(err < 1e-3, "{backend:?} {}: {err}", grid.name());
             assert!(
@@ -176,14 +179,14 @@ fn four_properties_in_one_pass_equal_single_renders() {
         o.nu = vec![8.0, 3.0, 20.0, 8.0];
         o.mode = FringeMode::Modulated;
         let before = r.counters().data_passes;
-        let all = r.render(&g, &o).unwrap();
+        let all = r.render(&g, &at_nodes(&g, &o)).unwrap();
         assert_eq!(r.counters().data_passes, before + 1);
         assert_eq!(all.len(), 4);
         for (k, name) in names.iter().enumerate() {
             let mut single = o.clone();
             single.properties = vec![name.to_string()];
             single.nu = vec![o.nu[k]];
-            let one = r.render(&g, &single).unwrap().remove(0);
+            let one = r.render(&g, &at_nodes(&g, &single)).unwrap().remove(0);
             for ch in ["fringe", name] {
                 let (a, b) = (channel(&all[k], ch), channel(&one, ch));
                 let worst = a
@@ -214,7 +217,7 @@ fn changing_nu_or_mode_reruns_only_the_fringe_pass() {
     let r = surface_renderer(BackendChoice::Vulkan);
     let mut o = opts(2.0);
     o.properties = vec!["ux".into(), "uz".into()];
-    let first = r.render(&g, &o).unwrap();
+    let first = r.render(&g, &at_nodes(&g, &o)).unwrap();
     let c0 = r.counters();
     assert_eq!(c0.data_passes, 1);
     for (nu, mode, cmap) in [
@@ -225,7 +228,7 @@ fn changing_nu_or_mode_reruns_only_the_fringe_pass() {
         o.nu = vec![nu];
         o.mode = mode;
         o.colormap = cmap.map(str::to_string);
-        let imgs = r.render(&g, &o).unwrap();
+        let imgs = r.render(&g, &at_nodes(&g, &o)).unwrap();
         assert!(max_fringe_error(&g, &imgs[1], nu, 2) < 1e-5);
         // The value channel is read back once per data pass and reused: still the data.
         for (img, name) in imgs.iter().zip(["ux", "uz"]) {
@@ -246,7 +249,7 @@ fn changing_nu_or_mode_reruns_only_the_fringe_pass() {
     assert_eq!(c1.fringe_passes, c0.fringe_passes + 6);
     // A different size or view does.
     o.width = Some(40);
-    r.render(&g, &o).unwrap();
+    r.render(&g, &at_nodes(&g, &o)).unwrap();
     assert_eq!(r.counters().data_passes, 2);
 }
 
@@ -267,7 +270,7 @@ fn nan_holes_are_missing_and_do_not_touch_neighbours() {
     for backend in crate::common::backends() {
         let r = surface_renderer(backend);
         // Also at a non-native size (bilinear between nodes): no NaN may leak.
-        let img = r.render(&g, &opts(nu)).unwrap().remove(0);
+        let img = r.render(&g, &at_nodes(&g, &opts(nu))).unwrap().remove(0);
         let f = channel(&img, "fringe");
         let v = channel(&img, "h");
         let d = g.property("h").unwrap();
@@ -288,7 +291,7 @@ fn nan_holes_are_missing_and_do_not_touch_neighbours() {
         o.width = Some(77);
         o.height = Some(50);
         o.mode = FringeMode::Modulated;
-        let big = r.render(&g, &o).unwrap().remove(0);
+        let big = r.render(&g, &at_nodes(&g, &o)).unwrap().remove(0);
         assert!(big.pixels.iter().all(|p| p.iter().all(|c| c.is_finite())));
         let holes = big.pixels.iter().filter(|p| p[3] == 0.0).count();
         assert!(holes > 0 && holes < 77 * 50 / 10, "{holes}");
@@ -314,7 +317,7 @@ fn constant_field_renders_one_fringe_value() {
             let mut o = opts(1.0);
             o.mode = mode;
             o.log_color = mode == FringeMode::Modulated;
-            let img = r.render(&g, &o).unwrap().remove(0);
+            let img = r.render(&g, &at_nodes(&g, &o)).unwrap().remove(0);
             let expect = fringe_f64(1.0, 0.3);
             assert!(channel(&img, "fringe")
                 .iter()
@@ -332,15 +335,18 @@ fn bad_input_is_a_clear_error() {
     let g = four_property_grid();
     let r = surface_renderer(BackendChoice::Vulkan);
     for nu in [0.0, -2.0, f64::NAN, f64::INFINITY] {
-        let e = r.render(&g, &opts(nu)).unwrap_err().to_string();
+        let e = r
+            .render(&g, &at_nodes(&g, &opts(nu)))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("nu"), "{e}");
     }
     let mut o = opts(1.0);
     o.properties = vec!["uq".into()];
-    let e = r.render(&g, &o).unwrap_err().to_string();
+    let e = r.render(&g, &at_nodes(&g, &o)).unwrap_err().to_string();
     assert!(e.contains("uq") && e.contains("ux, uy, uz, w"), "{e}");
     o.properties = vec!["ux".into(); 5];
-    assert!(r.render(&g, &o).is_err());
+    assert!(r.render(&g, &at_nodes(&g, &o)).is_err());
     let e = Grid::from_arrays(
         "m",
         4,
@@ -373,7 +379,7 @@ fn perspective_view_with_relief_renders_lit_fringes() {
         o.exaggeration = 2.0;
         o.width = Some(96);
         o.height = Some(72);
-        let img = r.render(&g, &o).unwrap().remove(0);
+        let img = r.render(&g, &at_nodes(&g, &o)).unwrap().remove(0);
         let covered = img.pixels.iter().filter(|p| p[3] == 1.0).count();
         assert!(covered > 96 * 72 / 10, "{backend:?}: {covered} pixels hit");
         // Fringe intensity is still (1 + cos 2πνd)/2 of the value found at each pixel.
@@ -404,7 +410,7 @@ fn naive_phase_loses_at_large_nu_d_what_the_reduced_phase_keeps() {
         for grid in [&small, &large] {
             for phase in [PhaseMethod::Naive, PhaseMethod::Reduced] {
                 let o = SurfaceOptions { phase, ..opts(8.0) };
-                let img = r.render(grid, &o).unwrap().remove(0);
+                let img = r.render(grid, &at_nodes(grid, &o)).unwrap().remove(0);
                 assert!(img.meta("phase").unwrap().starts_with(match phase {
                     PhaseMethod::Naive => "naive",
                     PhaseMethod::Reduced => "f64",
@@ -436,8 +442,8 @@ fn naive_phase_loses_at_large_nu_d_what_the_reduced_phase_keeps() {
     o.backend = BackendChoice::Vulkan;
     let run = |src: &str| hdrvis::script::run_script_source(src, "t.rhai", dir.path(), &o);
     run(r#"let g = load_grid("d.npy");
-           let a = render_surface(g, #{ nu: 8, phase: "naive" });
-           let b = render_surface(g, #{ nu: 8, phase: "reduced" });
+           let a = render_surface(g, #{ nu: 8, phase: "naive", width: g.nx, height: g.ny });
+           let b = render_surface(g, #{ nu: 8, phase: "reduced", width: g.nx, height: g.ny });
            save_exr(a, "a.exr"); save_exr(b, "b.exr");"#)
     .unwrap();
     let a = hdrvis::io::exr::read_exr(&dir.path().join("out/a.exr")).unwrap();
@@ -535,7 +541,7 @@ fn perspective_view_matches_the_f64_reference() {
                 height: Some(144),
                 ..Default::default()
             };
-            let img = r.render(&g, &o).unwrap().remove(0);
+            let img = r.render(&g, &at_nodes(&g, &o)).unwrap().remove(0);
             let reference = surface_reference(&g, &o).unwrap();
             let shown = reference.values[0].iter().filter(|v| v.is_finite()).count();
             let excluded = silhouette_pixels(&reference, 3.0);
@@ -625,9 +631,9 @@ fn script_renders_okada_components_from_one_data_pass_into_exr_channels() {
     assert_eq!(grid.units(2), "m");
     let script = r#"
         let g = load_grid("okada.nc");
-        let imgs = render_surface(g, #{ nu: 8, mode: "cyclic", property: ["ux", "uy", "uz"] });
+        let imgs = render_surface(g, #{ nu: 8, mode: "cyclic", property: ["ux", "uy", "uz"], width: 65, height: 65 });
         for i in 0..3 { save_exr(imgs[i], `u${i}.exr`); }
-        let one = render_surface(g, #{ nu: 2.5, mode: "modulated", property: "uz", log_color: true, absolute: true });
+        let one = render_surface(g, #{ nu: 2.5, mode: "modulated", property: "uz", log_color: true, absolute: true, width: 65, height: 65 });
         save_exr(one, "uz_mod.exr");
         let bar = surface_colorbar(g, #{ nu: 8, mode: "cyclic", property: "uz", width: 64, height: 4 });
         save_exr(bar, "bar.exr");
@@ -790,7 +796,7 @@ fn antialiased_fringe_matches_the_footprint_closed_form() {
                 ] {
                     let mut o = opts(nu);
                     o.mode = mode;
-                    let img = r.render(&g, &o).unwrap().remove(0);
+                    let img = r.render(&g, &at_nodes(&g, &o)).unwrap().remove(0);
                     let err = max_filtered_error(&g, &img, nu, &|_, _| a.hypot(b), &|_, _| true);
                     assert!(
                         err < 2e-4,
@@ -805,7 +811,7 @@ fn antialiased_fringe_matches_the_footprint_closed_form() {
         }
         let g = Grid::from_fn("chirp", chirp_nx, 4, |i, _| c * (i * i) as f64).unwrap();
         let nu = 1.0;
-        let img = r.render(&g, &opts(nu)).unwrap().remove(0);
+        let img = r.render(&g, &at_nodes(&g, &opts(nu))).unwrap().remove(0);
         // Interior pixels: the central difference of c·x² is 2c·x exactly.
         let err = max_filtered_error(&g, &img, nu, &|px, _| 2.0 * c * px as f64, &|px, _| {
             px > 0 && px + 1 < chirp_nx
@@ -858,7 +864,7 @@ fn colours_use_the_filtered_fringe_unless_antialias_is_off() {
                 antialias,
                 ..Default::default()
             };
-            r.render(&g, &o).unwrap().remove(0)
+            r.render(&g, &at_nodes(&g, &o)).unwrap().remove(0)
         };
         let on = render(FringeMode::Modulated, "white", true);
         let off = render(FringeMode::Modulated, "white", false);
@@ -946,7 +952,7 @@ fn antialiasing_removes_the_moire_from_the_tsunami_scene() {
             height: Some(120),
             ..Default::default()
         };
-        let img = r.render(&grid, &o).unwrap().remove(0);
+        let img = r.render(&grid, &at_nodes(&grid, &o)).unwrap().remove(0);
         let values: Vec<f64> = channel(&img, "max_abs_eta")
             .iter()
             .map(|&v| v as f64)
@@ -1010,8 +1016,8 @@ fn holes_in_a_3d_view_take_the_missing_colour_and_the_background_stays_clear() {
     o.width = Some(96);
     o.height = Some(72);
     o.missing = MissingColour::parse("tan").unwrap();
-    let whole = r.render(&filled, &o).unwrap().remove(0);
-    let img = r.render(&holed, &o).unwrap().remove(0);
+    let whole = r.render(&filled, &at_nodes(&filled, &o)).unwrap().remove(0);
+    let img = r.render(&holed, &at_nodes(&holed, &o)).unwrap().remove(0);
     let fringe = channel(&img, "fringe");
     let tan = [210.0f32, 180.0, 140.0].map(|c| {
         let c = c / 255.0;
@@ -1063,7 +1069,7 @@ fn missing_land_is_distinct_from_dark_fringes() {
     let mut o = opts(4.0);
     o.mode = FringeMode::Modulated;
     o.antialias = false;
-    let img = r.render(&g, &o).unwrap().remove(0);
+    let img = r.render(&g, &at_nodes(&g, &o)).unwrap().remove(0);
     assert_eq!(img.meta("missing"), Some("transparent"));
     let fringe = channel(&img, "fringe");
     let path = dir.path().join("default.png");
@@ -1089,7 +1095,7 @@ fn missing_land_is_distinct_from_dark_fringes() {
     }
     assert!(dark > 10, "{dark} dark-fringe pixels");
     o.missing = MissingColour::parse("tan").unwrap();
-    let tan_img = r.render(&g, &o).unwrap().remove(0);
+    let tan_img = r.render(&g, &at_nodes(&g, &o)).unwrap().remove(0);
     assert_eq!(tan_img.meta("missing"), Some("tan"));
     let path = dir.path().join("tan.png");
     hdrvis::io::png::write_display_png(&tan_img, &path, false).unwrap();
@@ -1129,7 +1135,7 @@ fn save_png_legend_draws_the_recorded_colour_bar() {
     let dir = tempfile::tempdir().unwrap();
     let script = r#"
         let g = grid_from_fn();
-        let img = render_surface(g, #{ nu: 2.0, mode: "direct", colormap: "viridis", log_color: true });
+        let img = render_surface(g, #{ nu: 2.0, mode: "direct", colormap: "viridis", log_color: true, width: 120, height: 40 });
         save_png(img, "surface.png", #{ legend: true });
         let vol = load_volume(generate("mantle", #{ n: 33, field: "fluctuation", seed: 7 }));
         let tf = tf_lut(#{ scale: "symlog", linthresh: 1e-3, domain: [-0.3, 0.45], colormap: "rd_bu_r" });
@@ -1373,13 +1379,19 @@ fn geographic_map_keeps_the_cos_latitude_aspect() {
         let img = &r.render(g, &o).unwrap()[0];
         (img.width, img.height)
     };
-    // At least one pixel per node: 90 wide, 90 / aspect = 42.4 rows.
-    assert_eq!(size(&geo, None), (90, 42));
+    // At least one pixel per node (90 wide, 90 / aspect = 42.4 rows), times the odd factor
+    // that brings the long side nearest 1000 pixels: 11 (990; 13 would give 1170).
+    assert_eq!(size(&geo, None), (990, 467));
     assert_eq!(
         size(&geo, Some(300)),
         (300, (300.0 / aspect).round() as u32)
     );
-    assert_eq!(size(&plain, None), (90, 30));
+    assert_eq!(size(&plain, None), (990, 330));
+    assert_eq!(
+        size(&plain, Some(300)),
+        (300, 100),
+        "a width keeps the nodes' aspect"
+    );
     let (w, h) = size(&geo, None);
     assert!((w as f64 / h as f64 - aspect).abs() <= aspect / h as f64);
 
@@ -1394,7 +1406,11 @@ fn geographic_map_keeps_the_cos_latitude_aspect() {
         let g = hdrvis::datasets::load_grid(&xr, None).unwrap();
         assert!(g.is_geographic());
         assert!((g.map_aspect().unwrap() - aspect).abs() < 1e-12);
-        let img = &r.render(&g, &opts(1.0)).unwrap()[0];
+        let o = SurfaceOptions {
+            width: Some(90),
+            ..opts(1.0)
+        };
+        let img = &r.render(&g, &o).unwrap()[0];
         assert_eq!((img.width, img.height), (90, 42));
         let values = channel(img, "eta");
         // Top row: the northern edge row (lat 59.5 at the pixel centre nearest the edge).
@@ -1520,7 +1536,7 @@ fn globe_view_drapes_the_field_on_the_sphere() {
                 modulation: 0.6,
                 ..base.clone()
             };
-            let img = &r.render(&g, &o).unwrap()[0];
+            let img = &r.render(&g, &at_nodes(&g, &o)).unwrap()[0];
             let (values, fringe) = (channel(img, "d"), channel(img, "fringe"));
             let expect_fringe = reference.fringe(0, nu);
             let mut worst_angle: f64 = 0.0;

@@ -42,8 +42,11 @@ pub(super) fn bench_surface_scene(
         (PhaseMethod::Naive, "naive f32"),
         (PhaseMethod::Reduced, "reduced"),
     ] {
+        // One pixel per node: each pixel's fringe is compared with its node's.
         let o = SurfaceOptions {
             phase,
+            width: Some(nx as u32),
+            height: Some(ny as u32),
             ..options.clone()
         };
         let (ms, got) = time_fringe_pass(&renderer, grid, &o, runs)?;

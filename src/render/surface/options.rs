@@ -235,7 +235,7 @@ pub struct SurfaceOptions {
     /// Log-scaled colour over |d| in modulated/direct modes.
     pub log_color: bool,
     pub view: SurfaceView,
-    /// Image size; `None` is the grid's node count (map view) or 512 (other views).
+    /// Image size; `None` is a figure-sized map ([`default_size`]) or 512 (other views).
     pub width: Option<u32>,
     pub height: Option<u32>,
     /// Height for relief in 3-D views: `elevation`, a property name, or `None` (flat).
@@ -522,17 +522,16 @@ impl SurfaceOptions {
     }
 }
 
-/// The image size a render gets: the options' size, else the grid's node counts in map view and
-/// 512² in other views.
+/// The image size a render gets: the options' size, else in map view a figure-sized map of the
+/// grid's nodes ([`map_size`]) and 512² in other views.
 pub(crate) fn default_size(grid: &Grid, opts: &SurfaceOptions) -> (u32, u32) {
-    match (&opts.view, grid.map_aspect()) {
-        (SurfaceView::Map, Some(aspect)) => {
-            geographic_map_size(grid.nx(), grid.ny(), aspect, opts.width, opts.height)
+    match opts.view {
+        SurfaceView::Map => {
+            let aspect = grid
+                .map_aspect()
+                .unwrap_or(grid.nx() as f64 / grid.ny() as f64);
+            map_size(grid.nx(), grid.ny(), aspect, opts.width, opts.height)
         }
-        (SurfaceView::Map, None) => (
-            opts.width.unwrap_or(grid.nx() as u32),
-            opts.height.unwrap_or(grid.ny() as u32),
-        ),
         _ => (opts.width.unwrap_or(512), opts.height.unwrap_or(512)),
     }
 }
@@ -546,23 +545,25 @@ pub(super) fn map_size_of(
     (nx, ny): (usize, usize),
     opts: &SurfaceOptions,
 ) -> (u32, u32) {
-    if !grid.is_geographic() {
-        return (
-            opts.width.unwrap_or(nx as u32),
-            opts.height.unwrap_or(ny as u32),
-        );
-    }
-    let lat_c = (0.5 * (bounds[2] + bounds[3]))
-        .clamp(-90.0, 90.0)
-        .to_radians();
-    let aspect = (bounds[1] - bounds[0]) * lat_c.cos().max(1e-6) / (bounds[3] - bounds[2]);
-    geographic_map_size(nx, ny, aspect, opts.width, opts.height)
+    let aspect = if grid.is_geographic() {
+        let lat_c = (0.5 * (bounds[2] + bounds[3]))
+            .clamp(-90.0, 90.0)
+            .to_radians();
+        (bounds[1] - bounds[0]) * lat_c.cos().max(1e-6) / (bounds[3] - bounds[2])
+    } else {
+        nx as f64 / ny as f64
+    };
+    map_size(nx, ny, aspect, opts.width, opts.height)
 }
 
-/// The map size of a geographic grid whose map is `aspect` times as wide as high: both sides
-/// as given; one given, the other from the aspect; neither, the smallest image of that aspect
-/// with at least one pixel per node along both axes (at most 16384 a side).
-fn geographic_map_size(
+/// The long side a default map aims at: a figure, not a thumbnail.
+pub(crate) const FIGURE_SIDE: f64 = 1000.0;
+
+/// The size of a map `aspect` times as wide as high, of a grid with `nx` × `ny` nodes: both
+/// sides as given; one given, the other from the aspect; neither, the smallest image of that
+/// aspect with at least one pixel per node along both axes, enlarged by [`figure_factor`] to
+/// about [`FIGURE_SIDE`] on its long side (at most 16384 a side).
+fn map_size(
     nx: usize,
     ny: usize,
     aspect: f64,
@@ -580,10 +581,28 @@ fn geographic_map_size(
             } else {
                 (ny as f64 * aspect, ny as f64)
             };
-            let shrink = (16384.0 / w.max(h)).min(1.0);
-            (side(w * shrink), side(h * shrink))
+            let grow = figure_factor(w.max(h)) as f64;
+            let shrink = (16384.0 / (grow * w.max(h))).min(1.0);
+            (side(w * grow * shrink), side(h * grow * shrink))
         }
     }
+}
+
+/// The whole odd factor that brings a map's long side of `long` pixels nearest (in ratio) to
+/// [`FIGURE_SIDE`], at least 1. Odd, so that at one pixel per node times the factor a pixel's
+/// centre still falls on every node: the nodes' own values are shown, and the pixels between
+/// two nodes lie symmetrically about them.
+pub(crate) fn figure_factor(long: f64) -> u32 {
+    if long >= FIGURE_SIDE {
+        return 1;
+    }
+    let mut k = 1u32;
+    while ((long * (k + 2) as f64) / FIGURE_SIDE).ln().abs()
+        < ((long * k as f64) / FIGURE_SIDE).ln().abs()
+    {
+        k += 2;
+    }
+    k
 }
 
 /// Resolves the property list to grid indices (unknown names list the known ones).
@@ -627,5 +646,30 @@ pub(crate) fn check_graticule(step: f64) -> Result<()> {
             "graticule",
             format!("expected a step in degrees > 0 and at most 90, got {step}"),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_default_map_is_a_figure_with_a_pixel_on_every_node() {
+        // The odd factor nearest in ratio to 1000 pixels on the long side.
+        assert_eq!(figure_factor(58.0), 17);
+        assert_eq!(figure_factor(90.0), 11);
+        assert_eq!(figure_factor(20.0), 51);
+        assert_eq!(figure_factor(360.0), 3);
+        assert_eq!(figure_factor(512.0), 3);
+        assert_eq!(figure_factor(600.0), 1);
+        assert_eq!(figure_factor(1000.0), 1);
+        assert_eq!(figure_factor(4096.0), 1);
+        // A plain 49 × 37 grid: 21 pixels a node; a width alone keeps the nodes' aspect.
+        assert_eq!(map_size(49, 37, 49.0 / 37.0, None, None), (1029, 777));
+        assert_eq!(map_size(49, 37, 49.0 / 37.0, Some(490), None), (490, 370));
+        assert_eq!(map_size(49, 37, 49.0 / 37.0, None, Some(74)), (98, 74));
+        // A global 1° grid: three pixels a degree; 16384 caps the largest.
+        assert_eq!(map_size(360, 180, 2.0, None, None), (1080, 540));
+        assert_eq!(map_size(40000, 20, 2000.0, None, None), (16384, 8));
     }
 }
