@@ -610,13 +610,10 @@ pub(crate) fn render_and_note(
 ) -> RResult<ScriptImage> {
     let img = host.session.render_volume(source, o).map_err(to_rhai)?;
     host.note_image(&img);
-    *host
-        .last_volume_render
-        .lock()
-        .expect("last volume render poisoned") = Some(super::LastVolumeRender {
+    host.note_render(super::LastRender::Volume(super::LastVolumeRender {
         source: source.clone(),
         options: o.clone(),
-    });
+    }));
     Ok(img)
 }
 

@@ -11,7 +11,7 @@ use super::api_render::{ScriptCamera, ScriptImage};
 use super::convert::{err, numbers, pair, string, to_rhai, variable_option, RResult};
 use super::lines::{cell_edge_style, coastline_style, graticule_step};
 use super::options::{opt, Given, Kind, OptionTable};
-use super::ScriptHost;
+use super::{LastRender, LastSurfaceRender, ScriptHost, SurfaceField};
 use crate::datasets::LoadOptions;
 use crate::model::mesh::MeshField;
 use crate::model::text::{TYPE_MAX, TYPE_MIN};
@@ -424,7 +424,7 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
         "render_surface",
         move |grid: &mut ScriptGrid, opts: Map| -> RResult<Dynamic> {
             let (o, many) = render_surface_options(grid, &opts)?;
-            surface_images(&h, &o, many, || h.session.surface(grid, &o))
+            surface_images(&h, SurfaceField::Grid(grid.clone()), o, many)
         },
     );
     engine.register_fn("render_surface", |_: &mut ScriptGrid| -> RResult<Dynamic> {
@@ -461,22 +461,24 @@ pub(crate) fn register(engine: &mut Engine, host: Arc<ScriptHost>) {
 }
 
 /// `render_surface`'s result: one image, or an array when `property` was an array; a blank
-/// image of the asked size per property when the script is only planned.
+/// image of the asked size per property when the script is only planned. The render is noted
+/// as the run's last, for the TUI's keys.
 fn surface_images(
     h: &ScriptHost,
-    o: &SurfaceOptions,
+    field: SurfaceField,
+    o: SurfaceOptions,
     many: bool,
-    render: impl FnOnce() -> crate::error::Result<Arc<Vec<HdrImage>>>,
 ) -> RResult<Dynamic> {
     let mut images = if h.plan_only {
         let img = HdrImage::new(o.width.unwrap_or(1), o.height.unwrap_or(1));
         vec![img; o.properties.len().max(1)]
     } else {
-        render().map_err(to_rhai)?.to_vec()
+        field.render(&h.session, &o).map_err(to_rhai)?.to_vec()
     };
     if let Some(first) = images.first() {
         h.note_image(&Arc::new(first.clone()));
     }
+    h.note_render(LastRender::Surface(LastSurfaceRender { field, options: o }));
     if many {
         Ok(Dynamic::from(
             images
@@ -531,7 +533,7 @@ fn register_meshes(engine: &mut Engine, host: &Arc<ScriptHost>) {
         move |mesh: &mut ScriptMesh, opts: Map| -> RResult<Dynamic> {
             let extent = mesh_extent_grid(mesh).map_err(to_rhai)?;
             let (o, many) = render_surface_options(&extent, &opts)?;
-            surface_images(&h, &o, many, || h.session.mesh_surface(mesh, &o))
+            surface_images(&h, SurfaceField::Mesh(mesh.clone()), o, many)
         },
     );
 }

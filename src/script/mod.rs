@@ -25,9 +25,12 @@ mod slurm_job;
 
 use crate::error::{Error, Result};
 use crate::gpu::BackendChoice;
+use crate::model::mesh::MeshField;
+use crate::model::Grid;
 use crate::model::HdrImage;
 use crate::render::passes::PassRecord;
 use crate::render::session::RenderSession;
+use crate::render::surface::SurfaceOptions;
 use crate::render::{VolumeRenderOptions, VolumeSource};
 use rhai::{Dynamic, Engine, EvalAltResult, Position};
 use std::collections::HashMap;
@@ -169,9 +172,10 @@ pub struct ScriptReport {
     /// The last image the script rendered, loaded or saved (what the TUI shows when the script
     /// previews nothing).
     pub last_image: Option<Arc<HdrImage>>,
-    /// The last `render_volume` of the run: its volume and options, so a client (the TUI) can
-    /// render it again with another camera or transfer function without re-running the script.
-    pub last_volume_render: Option<LastVolumeRender>,
+    /// The last `render_volume` or `render_surface` of the run: what it drew and its options,
+    /// so a client (the TUI) can render it again with another camera, transfer function, ν or
+    /// mode without re-running the script.
+    pub last_render: Option<LastRender>,
     /// What `print`/`debug` said, when [`ScriptOptions::capture_prints`] is on.
     pub printed: Vec<String>,
 }
@@ -181,6 +185,41 @@ pub struct ScriptReport {
 pub struct LastVolumeRender {
     pub source: VolumeSource,
     pub options: VolumeRenderOptions,
+}
+
+/// A surface render call as the script made it: the grid or mesh and the resolved options.
+#[derive(Clone, Debug)]
+pub struct LastSurfaceRender {
+    pub field: SurfaceField,
+    pub options: SurfaceOptions,
+}
+
+/// What a surface render drew.
+#[derive(Clone, Debug)]
+pub enum SurfaceField {
+    Grid(Arc<Grid>),
+    Mesh(Arc<MeshField>),
+}
+
+impl SurfaceField {
+    /// Its images under `opts`, through the session's cache.
+    pub(crate) fn render(
+        &self,
+        session: &RenderSession,
+        opts: &SurfaceOptions,
+    ) -> Result<Arc<Vec<HdrImage>>> {
+        match self {
+            SurfaceField::Grid(g) => session.surface(g, opts),
+            SurfaceField::Mesh(m) => session.mesh_surface(m, opts),
+        }
+    }
+}
+
+/// The last render call of a run, volume or surface.
+#[derive(Clone, Debug)]
+pub enum LastRender {
+    Volume(LastVolumeRender),
+    Surface(LastSurfaceRender),
 }
 
 /// State shared by the registered functions of one run.
@@ -193,7 +232,7 @@ pub(crate) struct ScriptHost {
     pub capture_previews: bool,
     pub previews: Mutex<Vec<Arc<HdrImage>>>,
     pub last_image: Mutex<Option<Arc<HdrImage>>>,
-    pub last_volume_render: Mutex<Option<LastVolumeRender>>,
+    pub last_render: Mutex<Option<LastRender>>,
     pub printed: Mutex<Vec<String>>,
     /// [`ScriptOptions::write_outputs`].
     pub write_outputs: bool,
@@ -216,6 +255,11 @@ pub(crate) struct ScriptHost {
 }
 
 impl ScriptHost {
+    /// Remembers the run's latest render call, for [`ScriptReport::last_render`].
+    pub(crate) fn note_render(&self, render: LastRender) {
+        *self.last_render.lock().expect("last render poisoned") = Some(render);
+    }
+
     /// Remembers the image most recently produced, for [`ScriptReport::last_image`].
     pub(crate) fn note_image(&self, img: &Arc<HdrImage>) {
         *self.last_image.lock().expect("last image poisoned") = Some(img.clone());
@@ -472,7 +516,7 @@ pub(crate) fn test_host() -> Arc<ScriptHost> {
         capture_previews: false,
         previews: Mutex::new(Vec::new()),
         last_image: Mutex::new(None),
-        last_volume_render: Mutex::new(None),
+        last_render: Mutex::new(None),
         printed: Mutex::new(Vec::new()),
         write_outputs: true,
         capture_prints: false,
@@ -535,7 +579,7 @@ pub fn run_script_source(
         capture_previews: opts.capture_previews,
         previews: Mutex::new(Vec::new()),
         last_image: Mutex::new(None),
-        last_volume_render: Mutex::new(None),
+        last_render: Mutex::new(None),
         printed: Mutex::new(Vec::new()),
         write_outputs: opts.write_outputs,
         capture_prints: opts.capture_prints,
@@ -572,7 +616,7 @@ pub fn run_script_source(
         params: take(&host.params),
         previews: take(&host.previews),
         last_image: take(&host.last_image),
-        last_volume_render: take(&host.last_volume_render),
+        last_render: take(&host.last_render),
         printed: take(&host.printed),
     })
 }

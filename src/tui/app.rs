@@ -1,7 +1,7 @@
 //! The TUI's state and what keys do to it, without a terminal: an [`App`] struct and
 //! [`App::apply`] of a key's [`Action`] (the keys themselves are in [`crate::tui::keys`]), which changes the state and says what has to happen next ([`Effect`]):
 //! redisplay the HDR image already held (exposure, operator, channel), render again (a script
-//! parameter changed: re-run the script; else only its last volume render with the keys' edit),
+//! parameter changed: re-run the script; else only its last render with the keys' edit),
 //! save, reload or quit. The workers' replies
 //! are state transitions too: [`App::on_render_done`], [`App::on_view_done`] and
 //! [`App::on_saved`] drop stale replies (to a request a newer one replaced), keep the last good
@@ -12,28 +12,55 @@
 //! `zoom` (a factor), `nu`, `mode` (surfaces), `opacity` (decades added to the transfer
 //! function's extinction), `lens_lo`, `lens_hi` (the magnification window, in data values), and
 //! `preview_scale` (set by the TUI: 0.25 for the quick first render, 1 for the full one). Where
-//! the script declares no such parameter, the camera, opacity and lens keys change the TUI's own
-//! [`SceneEdit`] of the script's last volume render, which renders again without a script run.
+//! the script declares no such parameter, the camera, opacity and lens keys (on a volume) and the
+//! camera, ν, mode and lens keys (on a surface, where the lens keys move the colour range)
+//! change the TUI's own [`SceneEdit`] of the script's last render, which renders again without a
+//! script run.
 
 use crate::model::HdrImage;
 use crate::model::Scale;
+use crate::render::surface::FringeMode;
 use crate::script::{ParamKind, ParamRecord};
 use crate::tonemap::MAX_EV;
 use crate::tui::histogram::LogHistogram;
 use crate::tui::keys::action_for_key;
 pub(crate) use crate::tui::keys::{Action, KEYS};
 use crate::tui::protocol::Picture;
-use crate::tui::scene::{format_number, step_window, SceneEdit};
+use crate::tui::scene::{format_number, step_window, KeyTarget, SceneEdit, SceneKeys};
 use crate::tui::view::{main_parameter, Channel, ViewSettings, VIEW_OPERATORS};
-use crate::tui::worker::{
-    pass_summary, RenderDone, RenderJob, ViewDone, ViewJob, VolumeKeys, PREVIEW_SCALE,
-};
+use crate::tui::worker::{pass_summary, RenderDone, RenderJob, ViewDone, ViewJob, PREVIEW_SCALE};
 use ratatui::crossterm::event::{KeyCode, KeyEvent};
 use ratatui::layout::Rect;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
+
+/// Whether the camera keys act on `target`: a volume's, a surface's 3-D view's.
+fn camera(target: KeyTarget) -> std::result::Result<(), &'static str> {
+    match target {
+        KeyTarget::Surface { camera: false, .. } => {
+            Err("a map view has no camera: view \"globe\" or \"perspective\" has")
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Whether the ν keys act on `target`: a surface's fringes.
+fn surface(target: KeyTarget) -> std::result::Result<(), &'static str> {
+    match target {
+        KeyTarget::Volume => Err("a volume render has no ν (interference fringes are on surfaces)"),
+        KeyTarget::Surface { .. } => Ok(()),
+    }
+}
+
+/// Whether the opacity keys act on `target`: a volume's transfer function.
+fn volume(target: KeyTarget) -> std::result::Result<(), &'static str> {
+    match target {
+        KeyTarget::Volume => Ok(()),
+        KeyTarget::Surface { .. } => Err("a surface has no opacity (a volume render has)"),
+    }
+}
 
 /// Exposure step of `+` / `-`, in stops.
 pub(crate) const EV_STEP: f64 = 0.5;
@@ -140,11 +167,11 @@ pub(crate) struct App {
     /// How images reach the terminal, e.g. `sixel` or `halfblocks (no graphics answer)`.
     pub protocol_note: String,
     pub show_help: bool,
-    /// The keys' own changes to the script's last volume render (camera, opacity, window), for
-    /// the quantities the script declares no `param` for.
+    /// The keys' own changes to the script's last render (camera, opacity, window, ν, mode),
+    /// for the quantities the script declares no `param` for.
     pub edit: SceneEdit,
-    /// What those keys can act on: `None` until a run rendered a volume.
-    pub volume: Option<VolumeKeys>,
+    /// What those keys can act on: `None` until a run rendered a volume or a surface.
+    pub keys: Option<SceneKeys>,
     /// The last line the script printed.
     pub log_line: String,
     /// A script parameter (or the file) changed since the last render job: the script has to
@@ -173,7 +200,7 @@ impl App {
             protocol_note: String::new(),
             show_help: false,
             edit: SceneEdit::default(),
-            volume: None,
+            keys: None,
             log_line: String::new(),
             script_dirty: true,
             requests: Requests::default(),
@@ -233,24 +260,30 @@ impl App {
     }
 
     /// Whether the script declares `param(name, ...)`: then that parameter, not the TUI's own
-    /// edit of the volume render, is what the key changes.
+    /// edit of the last render, is what the key changes.
     pub(crate) fn declares(&self, name: &str) -> bool {
         self.params.iter().any(|p| p.name == name)
     }
 
-    /// A camera, opacity or lens key: steps the script's parameter `name` with `by_param` when
-    /// it declares one, else changes the TUI's edit of the last volume render with `by_edit`.
+    /// A camera, opacity, ν or mode key: steps the script's parameter `name` with `by_param`
+    /// when it declares one, else changes the TUI's edit of the last render with `by_edit` when
+    /// `acts` says the key means something there (or why not).
     fn scene_key(
         &mut self,
         name: &str,
         by_param: impl Fn(f64) -> f64,
+        acts: impl Fn(KeyTarget) -> std::result::Result<(), &'static str>,
         by_edit: impl Fn(&mut SceneEdit),
     ) -> Effect {
         if self.declares(name) {
             return self.step_number(name, by_param);
         }
-        if self.volume.is_none() {
-            self.message = format!("the script has no volume render and no param(\"{name}\", ...)");
+        let Some(keys) = &self.keys else {
+            self.message = format!("the script has no render and no param(\"{name}\", ...)");
+            return Effect::None;
+        };
+        if let Err(why) = acts(keys.target) {
+            self.message = why.into();
             return Effect::None;
         }
         by_edit(&mut self.edit);
@@ -330,24 +363,39 @@ impl App {
         }
     }
 
+    /// The next colour mode: the script's `mode` parameter when it declares one, else the
+    /// edit's mode of the last surface render.
     fn cycle_mode(&mut self) -> Effect {
-        const MODES: [&str; 3] = ["cyclic", "modulated", "direct"];
-        let Some(current) = self.param_value("mode") else {
-            self.message = "the script has no param(\"mode\", ...)".into();
+        const MODES: [FringeMode; 3] = [
+            FringeMode::Cyclic,
+            FringeMode::Modulated,
+            FringeMode::Direct,
+        ];
+        let next = |m: FringeMode| MODES[(MODES.iter().position(|x| *x == m).unwrap_or(0) + 1) % 3];
+        if let Some(current) = self.param_value("mode") {
+            let now = FringeMode::parse(&current).unwrap_or(FringeMode::Cyclic);
+            self.set_override("mode", next(now).name());
+            return Effect::Rerender;
+        }
+        let Some(SceneKeys {
+            target: KeyTarget::Surface { mode, .. },
+            ..
+        }) = self.keys
+        else {
+            self.message = "the script has no surface render and no param(\"mode\", ...)".into();
             return Effect::None;
         };
-        let i = MODES.iter().position(|m| *m == current).unwrap_or(0);
-        self.overrides
-            .insert("mode".into(), MODES[(i + 1) % MODES.len()].into());
+        self.edit.mode = Some(next(mode));
+        self.message = format!("mode {}", next(mode).name());
         Effect::Rerender
     }
 
-    /// Moves the magnification window by `shift` of its width and widens it by `grow` of its
-    /// width on each side, in the transfer function's scale (decades on log10 and symlog): the
-    /// script's `lens_lo`/`lens_hi` when it declares them, else the TUI's edit of the last
-    /// volume render's window.
+    /// Moves the window by `shift` of its width and widens it by `grow` of its width on each
+    /// side, in its scale (decades on log10 and symlog): the script's `lens_lo`/`lens_hi` when it
+    /// declares them, else the TUI's edit of the last render's window (a volume's magnification
+    /// window, a surface's colour range).
     fn lens(&mut self, shift: f64, grow: f64) -> Effect {
-        let space = self.volume.as_ref().and_then(|v| v.lens);
+        let space = self.keys.as_ref().and_then(|v| v.lens);
         let scale = space.map_or(Scale::Linear, |s| s.scale);
         if self.declares("lens_lo") && self.declares("lens_hi") {
             let get = |n: &str| self.param_value(n).and_then(|v| v.parse::<f64>().ok());
@@ -362,22 +410,32 @@ impl App {
             self.set_override("lens_hi", format_float(hi));
             return Effect::Rerender;
         }
+        let target = self.keys.as_ref().map(|k| k.target);
         let Some(space) = space else {
-            self.message = if self.volume.is_some() {
-                "the transfer function has no colour table to magnify (use tf_lut)".into()
-            } else {
-                "the script has no volume render and no param(\"lens_lo\"/\"lens_hi\", ...)".into()
-            };
+            self.message = match target {
+                Some(KeyTarget::Volume) => {
+                    "the transfer function has no colour table to magnify (use tf_lut)"
+                }
+                Some(KeyTarget::Surface { .. }) => {
+                    "cyclic colours follow the phase: m for a mode with a colour range"
+                }
+                None => "the script has no render and no param(\"lens_lo\"/\"lens_hi\", ...)",
+            }
+            .into();
             return Effect::None;
         };
         let start = self.edit.lens.unwrap_or_else(|| space.start());
         let Some(window) = step_window(start, space.scale, shift, grow) else {
-            self.message = "the magnification window is at its limit".into();
+            self.message = "the window is at its limit".into();
             return Effect::None;
         };
         self.edit.lens = Some(window);
+        let what = match target {
+            Some(KeyTarget::Surface { .. }) => "colour range",
+            _ => "window",
+        };
         self.message = format!(
-            "window [{}, {}]",
+            "{what} [{}, {}]",
             format_number(window[0]),
             format_number(window[1])
         );
@@ -420,25 +478,39 @@ impl App {
                 Effect::Redisplay
             }
             NextChannel => self.cycle_channel(),
-            OrbitLeft => self.scene_key("azimuth", |v| v - 15.0, |e| e.azimuth_deg -= 15.0),
-            OrbitRight => self.scene_key("azimuth", |v| v + 15.0, |e| e.azimuth_deg += 15.0),
+            OrbitLeft => self.scene_key("azimuth", |v| v - 15.0, camera, |e| e.azimuth_deg -= 15.0),
+            OrbitRight => {
+                self.scene_key("azimuth", |v| v + 15.0, camera, |e| e.azimuth_deg += 15.0)
+            }
             OrbitUp => self.scene_key(
                 "elevation",
                 |v| (v + 10.0).min(89.0),
+                camera,
                 |e| e.elevation_deg += 10.0,
             ),
             OrbitDown => self.scene_key(
                 "elevation",
                 |v| (v - 10.0).max(-89.0),
+                camera,
                 |e| e.elevation_deg -= 10.0,
             ),
-            ZoomIn => self.scene_key("zoom", |v| v * 1.25, |e| e.zoom *= 1.25),
-            ZoomOut => self.scene_key("zoom", |v| v / 1.25, |e| e.zoom /= 1.25),
-            NuUp => self.step_number("nu", |v| v * 1.25),
-            NuDown => self.step_number("nu", |v| v / 1.25),
+            ZoomIn => self.scene_key("zoom", |v| v * 1.25, camera, |e| e.zoom *= 1.25),
+            ZoomOut => self.scene_key("zoom", |v| v / 1.25, camera, |e| e.zoom /= 1.25),
+            NuUp => self.scene_key("nu", |v| v * 1.25, surface, |e| e.nu_factor *= 1.25),
+            NuDown => self.scene_key("nu", |v| v / 1.25, surface, |e| e.nu_factor /= 1.25),
             NextMode => self.cycle_mode(),
-            OpacityUp => self.scene_key("opacity", |v| v + 0.25, |e| e.opacity_decades += 0.25),
-            OpacityDown => self.scene_key("opacity", |v| v - 0.25, |e| e.opacity_decades -= 0.25),
+            OpacityUp => self.scene_key(
+                "opacity",
+                |v| v + 0.25,
+                volume,
+                |e| e.opacity_decades += 0.25,
+            ),
+            OpacityDown => self.scene_key(
+                "opacity",
+                |v| v - 0.25,
+                volume,
+                |e| e.opacity_decades -= 0.25,
+            ),
             LensLeft => self.lens(-0.25, 0.0),
             LensRight => self.lens(0.25, 0.0),
             LensWider => self.lens(0.0, 0.125),
@@ -527,7 +599,7 @@ impl App {
             low_res_first: self.params.is_empty() || self.has_preview_scale(),
             sets: self.script_sets(),
             edit: self.edit.clone(),
-            rerun_script: std::mem::take(&mut self.script_dirty) || self.volume.is_none(),
+            rerun_script: std::mem::take(&mut self.script_dirty) || self.keys.is_none(),
         }
     }
 
@@ -571,7 +643,7 @@ impl App {
                 self.error = None;
                 self.hdr = Some(scene.image);
                 self.set_params(scene.params);
-                self.volume = scene.volume;
+                self.keys = scene.keys;
                 if let Some(line) = scene.printed.last() {
                     self.log_line = line.clone();
                 }
@@ -769,13 +841,15 @@ mod tests {
         let mut app = App::new(Source::Script("s.rhai".into()), "out".into(), Vec::new());
         app.set_params(vec![record("n", ParamKind::Int, "64")]);
         assert_eq!(app.apply(Action::OrbitRight), Effect::None, "no volume yet");
-        app.volume = Some(VolumeKeys {
+        app.keys = Some(SceneKeys {
             lens: Some(LensSpace {
                 scale: Scale::Log10,
                 scaled_domain: [10.0, 14.0],
                 window: Some([1e12, 1e13]),
             }),
+            target: KeyTarget::Volume,
         });
+        assert_eq!(app.apply(Action::NuUp), Effect::None, "a volume has no ν");
         assert!(
             app.render_job().rerun_script,
             "the first job runs the script"
@@ -802,6 +876,71 @@ mod tests {
         // A declared parameter changes the script's value and re-runs the script.
         app.selected = 0;
         assert_eq!(app.apply(Action::StepUp), Effect::Rerender);
+        assert!(app.render_job().rerun_script);
+    }
+
+    #[test]
+    fn without_params_the_keys_edit_the_last_surface_render() {
+        use crate::tui::scene::LensSpace;
+        let mut app = App::new(Source::Script("s.rhai".into()), "out".into(), Vec::new());
+        app.set_params(vec![record("n", ParamKind::Int, "64")]);
+        assert_eq!(app.apply(Action::NuUp), Effect::None, "no render yet");
+        let map = |mode, lens| SceneKeys {
+            lens,
+            target: KeyTarget::Surface {
+                mode,
+                camera: false,
+            },
+        };
+        app.keys = Some(map(FringeMode::Cyclic, None));
+        app.render_job();
+        assert_eq!(app.apply(Action::NuUp), Effect::Rerender);
+        assert_eq!(app.apply(Action::NuUp), Effect::Rerender);
+        assert_eq!(app.apply(Action::NuDown), Effect::Rerender);
+        assert_eq!(app.edit.nu_factor, 1.25);
+        assert_eq!(app.apply(Action::OrbitLeft), Effect::None);
+        assert!(
+            app.message.contains("map view has no camera"),
+            "{}",
+            app.message
+        );
+        assert_eq!(app.apply(Action::OpacityUp), Effect::None);
+        assert_eq!(app.apply(Action::LensRight), Effect::None);
+        assert!(app.message.starts_with("cyclic colours"), "{}", app.message);
+        assert_eq!(app.apply(Action::NextMode), Effect::Rerender);
+        assert_eq!(app.edit.mode, Some(FringeMode::Modulated));
+        assert!(
+            !app.render_job().rerun_script,
+            "only the surface renders again"
+        );
+        // The re-render reports its colour range: the lens keys move it.
+        app.keys = Some(map(
+            FringeMode::Modulated,
+            Some(LensSpace {
+                scale: Scale::Linear,
+                scaled_domain: [0.0, 8.0],
+                window: Some([0.0, 8.0]),
+            }),
+        ));
+        assert_eq!(app.apply(Action::LensRight), Effect::Rerender);
+        assert_eq!(app.edit.lens, Some([2.0, 10.0]));
+        assert_eq!(app.message, "colour range [2, 10]");
+        app.apply(Action::NextMode);
+        assert_eq!(app.edit.mode, Some(FringeMode::Direct));
+        // A 3-D view turns.
+        app.keys = Some(SceneKeys {
+            lens: None,
+            target: KeyTarget::Surface {
+                mode: FringeMode::Direct,
+                camera: true,
+            },
+        });
+        assert_eq!(app.apply(Action::OrbitRight), Effect::Rerender);
+        assert_eq!(app.edit.azimuth_deg, 15.0);
+        // A declared mode parameter is the script's: the script runs again.
+        app.set_params(vec![record("mode", ParamKind::Text, "cyclic")]);
+        assert_eq!(app.apply(Action::NextMode), Effect::Rerender);
+        assert_eq!(app.overrides["mode"], "modulated");
         assert!(app.render_job().rerun_script);
     }
 
@@ -860,7 +999,7 @@ mod tests {
             image: Arc::new(HdrImage::from_pixels(1, 1, vec![[value; 4]])),
             params,
             passes: Vec::new(),
-            volume: None,
+            keys: None,
             printed: Vec::new(),
         }
     }

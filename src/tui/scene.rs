@@ -1,21 +1,25 @@
-//! What the TUI's camera, opacity and lens keys do to a script's last volume render when the
-//! script declares no parameter for them: a [`SceneEdit`] (orbit, zoom, decades of opacity, the
-//! magnification window) applied to that render's options, so the render runs again from the
-//! session (data, upload and pipelines cached) without re-running the script. Also the lens
-//! window's steps in the scale's own space (decades for log10 and symlog), and numbers as the
-//! panel shows them.
+//! What the TUI's camera, opacity, lens, ν and mode keys do to a script's last render (volume
+//! or surface) when the script declares no parameter for them: a [`SceneEdit`] (orbit, zoom,
+//! decades of opacity, the window, a factor on ν, the colour mode) applied to that render's
+//! options, so the render runs again from the session (data, upload and pipelines cached)
+//! without re-running the script. The window is a volume's magnification window and a surface's
+//! colour range; it steps in the scale's own space (decades for log10 and symlog). Also numbers
+//! as the panel shows them.
 
+use crate::model::text::{BarScale, ColourBar};
 use crate::model::transfer::Scale;
-use crate::model::{Camera, Lens, Projection, TransferFunction};
+use crate::model::{Camera, HdrImage, Lens, Projection, TransferFunction};
+use crate::render::surface::{FringeMode, SurfaceOptions, SurfaceView};
 use crate::render::{VolumeRenderOptions, VolumeSource};
-use crate::script::LastVolumeRender;
+use crate::script::{LastRender, LastSurfaceRender, LastVolumeRender};
 
 /// Magnification of a window the TUI adds to a transfer function that has none.
 pub(crate) const DEFAULT_LENS_FACTOR: f64 = 4.0;
 
-/// The TUI's changes to the last volume render: rotations about the volume's centre (azimuth
-/// about world +z, then elevation about the camera's horizontal), a magnification, decades added
-/// to the extinction and a magnification window in data values.
+/// The TUI's changes to the last render: rotations about the scene's centre (azimuth about
+/// world +z, then elevation about the camera's horizontal), a magnification, decades added to a
+/// volume's extinction, the window in data values (a volume's magnification window, a surface's
+/// colour range), a factor on a surface's ν and its colour mode.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct SceneEdit {
     pub azimuth_deg: f64,
@@ -23,6 +27,8 @@ pub(crate) struct SceneEdit {
     pub zoom: f64,
     pub opacity_decades: f64,
     pub lens: Option<[f64; 2]>,
+    pub nu_factor: f64,
+    pub mode: Option<FringeMode>,
 }
 
 impl Default for SceneEdit {
@@ -33,6 +39,55 @@ impl Default for SceneEdit {
             zoom: 1.0,
             opacity_decades: 0.0,
             lens: None,
+            nu_factor: 1.0,
+            mode: None,
+        }
+    }
+}
+
+/// What the TUI's own keys can act on after a run: the last render's kind and where its window
+/// lives.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct SceneKeys {
+    /// `None` where there is no window to move: a volume's transfer function without a colour
+    /// table, a surface in cyclic mode (its colours follow the phase).
+    pub lens: Option<LensSpace>,
+    pub target: KeyTarget,
+}
+
+/// The kind of render the keys edit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum KeyTarget {
+    Volume,
+    /// A surface in `mode` (the edit's, else the script's); `camera` when its view has one (a
+    /// map view has none).
+    Surface {
+        mode: FringeMode,
+        camera: bool,
+    },
+}
+
+impl SceneKeys {
+    /// The keys of `render` as edited by `edit`, whose picture is `image` (a surface's colour
+    /// range is read from the colour bar the image records).
+    pub(crate) fn of(render: &LastRender, edit: &SceneEdit, image: &HdrImage) -> SceneKeys {
+        match render {
+            LastRender::Volume(v) => SceneKeys {
+                lens: LensSpace::of(v),
+                target: KeyTarget::Volume,
+            },
+            LastRender::Surface(s) => {
+                let mode = edit.mode.unwrap_or(s.options.mode);
+                let bar =
+                    ColourBar::of(image).filter(|b| mode != FringeMode::Cyclic && b.lo < b.hi);
+                SceneKeys {
+                    lens: bar.map(|b| LensSpace::of_bar(&b)),
+                    target: KeyTarget::Surface {
+                        mode,
+                        camera: !matches!(s.options.view, SurfaceView::Map),
+                    },
+                }
+            }
         }
     }
 }
@@ -55,6 +110,62 @@ impl SceneEdit {
         }
         o
     }
+}
+
+impl SceneEdit {
+    /// The surface render's options with this edit: ν scaled, the mode and colour range set
+    /// (a cyclic mode takes no range), the camera of a 3-D view turned and zoomed.
+    pub(crate) fn apply_surface(&self, base: &LastSurfaceRender) -> SurfaceOptions {
+        let mut o = base.options.clone();
+        o.nu.iter_mut().for_each(|nu| *nu *= self.nu_factor);
+        if let Some(mode) = self.mode {
+            o.mode = mode;
+        }
+        if o.mode == FringeMode::Cyclic {
+            (o.domain, o.centre) = (None, None);
+        } else if let Some([lo, hi]) = self.lens {
+            (o.domain, o.centre) = (Some((lo, hi)), None);
+        }
+        let (az, el) = (self.azimuth_deg, self.elevation_deg);
+        o.view = match o.view {
+            SurfaceView::Map => SurfaceView::Map,
+            SurfaceView::Orbit {
+                azimuth,
+                elevation,
+                fov,
+            } => SurfaceView::Orbit {
+                azimuth: azimuth + az,
+                elevation: (elevation + el).clamp(-89.0, 89.0),
+                fov: zoom_fov(fov, self.zoom),
+            },
+            SurfaceView::Globe(c) => {
+                SurfaceView::Globe(zoom_camera(&orbit_camera(&c, [0.0; 3], az, el), self.zoom))
+            }
+            SurfaceView::Camera(c) => {
+                let pivot = looked_at(&c);
+                SurfaceView::Camera(zoom_camera(&orbit_camera(&c, pivot, az, el), self.zoom))
+            }
+        };
+        o
+    }
+}
+
+/// The point a surface's free camera looks at: where its view axis meets the surface's floor
+/// (z = 0), or one unit ahead when it looks level or up.
+fn looked_at(c: &Camera) -> [f64; 3] {
+    let t = if c.forward[2] < -1e-6 {
+        -c.eye[2] / c.forward[2]
+    } else {
+        1.0
+    };
+    std::array::from_fn(|i| c.eye[i] + t * c.forward[i])
+}
+
+/// A vertical field of view `fov_deg` magnified `zoom` times.
+fn zoom_fov(fov_deg: f64, zoom: f64) -> f64 {
+    2.0 * ((0.5 * fov_deg.to_radians()).tan() / zoom)
+        .atan()
+        .to_degrees()
 }
 
 /// `v` rotated by `angle` radians about the unit axis `k` (Rodrigues).
@@ -105,10 +216,7 @@ pub(crate) fn orbit_camera(
 pub(crate) fn zoom_camera(c: &Camera, zoom: f64) -> Camera {
     let projection = match c.projection {
         Projection::Perspective { fov_y_deg } => Projection::Perspective {
-            fov_y_deg: 2.0
-                * ((0.5 * fov_y_deg.to_radians()).tan() / zoom)
-                    .atan()
-                    .to_degrees(),
+            fov_y_deg: zoom_fov(fov_y_deg, zoom),
         },
         Projection::Orthographic {
             half_width,
@@ -159,6 +267,20 @@ impl LensSpace {
             scaled_domain: [mapping.s_lo, mapping.s_lo + width],
             window: l.lens.map(|x| [x.lo, x.hi]),
         })
+    }
+
+    /// The lens space of a surface's colour bar: its scale and range, the range the window.
+    pub(crate) fn of_bar(bar: &ColourBar) -> LensSpace {
+        let scale = match bar.scale {
+            BarScale::Linear => Scale::Linear,
+            BarScale::Log10 => Scale::Log10,
+            BarScale::Symlog { linthresh } => Scale::Symlog { linthresh },
+        };
+        LensSpace {
+            scale,
+            scaled_domain: [scale.apply(bar.lo), scale.apply(bar.hi)],
+            window: Some([bar.lo, bar.hi]),
+        }
     }
 
     /// The window to start from: the function's own, else the middle fifth of the domain.
@@ -242,6 +364,93 @@ mod tests {
                 assert!(close(got, want, 1e-9), "{daz} {del}: {got:?} vs {want:?}");
             }
         }
+    }
+
+    #[test]
+    fn a_surface_edit_scales_nu_sets_mode_and_range_and_turns_3d_views() {
+        use crate::model::grid::test_grid;
+        use crate::model::CoordKind;
+        use crate::script::SurfaceField;
+        let axis = |n: usize| (0..n).map(|i| i as f64).collect::<Vec<_>>();
+        let grid = test_grid((axis(4), axis(3)), [CoordKind::Plain; 2], |x, y| x + y);
+        let base = |options| LastSurfaceRender {
+            field: SurfaceField::Grid(std::sync::Arc::new(grid.clone())),
+            options,
+        };
+        let map = base(SurfaceOptions {
+            nu: vec![2.0, 4.0],
+            mode: FringeMode::Modulated,
+            domain: Some((0.0, 5.0)),
+            centre: Some(1.0),
+            ..SurfaceOptions::default()
+        });
+        let edit = SceneEdit {
+            nu_factor: 1.25,
+            lens: Some([1.0, 3.0]),
+            azimuth_deg: 30.0,
+            ..SceneEdit::default()
+        };
+        let o = edit.apply_surface(&map);
+        assert_eq!(o.nu, vec![2.5, 5.0]);
+        assert_eq!((o.domain, o.centre), (Some((1.0, 3.0)), None));
+        assert!(
+            matches!(o.view, SurfaceView::Map),
+            "a map has no camera to turn"
+        );
+        // Cyclic colours follow the phase: a range would be refused, so none is kept.
+        let cyclic = SceneEdit {
+            mode: Some(FringeMode::Cyclic),
+            ..edit.clone()
+        };
+        let o = cyclic.apply_surface(&map);
+        assert_eq!(
+            (o.mode, o.domain, o.centre),
+            (FringeMode::Cyclic, None, None)
+        );
+        assert!(o.validate_colour_range().is_ok());
+        // An orbit adds to its angles (elevation kept below the pole) and narrows its view.
+        let orbit = base(SurfaceOptions {
+            view: SurfaceView::Orbit {
+                azimuth: -60.0,
+                elevation: 80.0,
+                fov: 40.0,
+            },
+            ..SurfaceOptions::default()
+        });
+        let turn = SceneEdit {
+            azimuth_deg: 15.0,
+            elevation_deg: 20.0,
+            zoom: 1.25,
+            ..SceneEdit::default()
+        };
+        let SurfaceView::Orbit {
+            azimuth,
+            elevation,
+            fov,
+        } = turn.apply_surface(&orbit).view
+        else {
+            panic!("an orbit stays an orbit")
+        };
+        assert_eq!((azimuth, elevation), (-45.0, 89.0));
+        // tan(20°) / 1.25 = 0.291176; atan -> 16.2343°, doubled.
+        assert!((fov - 32.4686).abs() < 1e-3, "{fov}");
+        // A globe turns about the Earth's centre: the eye keeps its distance, and 90° of
+        // azimuth takes an eye over 0°E to 90°E.
+        let eye = [3.0, 0.0, 0.0];
+        let globe = Camera::look_at(eye, [0.0; 3], [0.0, 0.0, 1.0], 30.0).unwrap();
+        let o = SceneEdit {
+            azimuth_deg: 90.0,
+            ..SceneEdit::default()
+        }
+        .apply_surface(&base(SurfaceOptions {
+            view: SurfaceView::Globe(globe),
+            ..SurfaceOptions::default()
+        }));
+        let SurfaceView::Globe(c) = o.view else {
+            panic!("a globe stays a globe")
+        };
+        assert!(close(c.eye, [0.0, 3.0, 0.0], 1e-12), "{:?}", c.eye);
+        assert!(close(c.forward, [0.0, -1.0, 0.0], 1e-12), "{:?}", c.forward);
     }
 
     #[test]

@@ -204,7 +204,7 @@ fn draw_params(frame: &mut Frame, app: &App, area: Rect) {
     );
 }
 
-/// The keys' own changes to the last volume render, when there are any.
+/// The keys' own changes to the last render, when there are any.
 fn edit_lines(app: &App, key: Style) -> Vec<Line<'static>> {
     let e = &app.edit;
     let mut lines = Vec::new();
@@ -226,9 +226,25 @@ fn edit_lines(app: &App, key: Style) -> Vec<Line<'static>> {
         ]));
     }
     if let Some([lo, hi]) = e.lens {
+        let surface = matches!(
+            app.keys.as_ref().map(|k| k.target),
+            Some(crate::tui::scene::KeyTarget::Surface { .. })
+        );
         lines.push(Line::from(vec![
-            Span::styled("window   ", key),
+            Span::styled(if surface { "range    " } else { "window   " }, key),
             Span::raw(format!("[{}, {}]", format_number(lo), format_number(hi))),
+        ]));
+    }
+    if e.nu_factor != 1.0 {
+        lines.push(Line::from(vec![
+            Span::styled("ν        ", key),
+            Span::raw(format!("×{}", format_number(e.nu_factor))),
+        ]));
+    }
+    if let Some(mode) = e.mode {
+        lines.push(Line::from(vec![
+            Span::styled("mode     ", key),
+            Span::raw(mode.name()),
         ]));
     }
     lines

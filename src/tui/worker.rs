@@ -3,7 +3,7 @@
 //! stay in its result cache and only the passes a change touches run again) first at
 //! `preview_scale` 0.25 when the script reads it, then at full resolution, skipping the full run
 //! when a newer request is already waiting. A job that changes no script parameter only renders
-//! the last full run's volume render again with the keys' [`SceneEdit`]. Script runs here never
+//! the last full run's last render (volume or surface) again with the keys' [`SceneEdit`]. Script runs here never
 //! write the script's outputs and capture its prints. The view worker turns the HDR image into
 //! what the terminal shows (downsample, tone-map, encode for the protocol, histogram). Both keep
 //! only the newest request: keys pressed while a job runs coalesce into one job.
@@ -13,10 +13,10 @@ use crate::io::terminal::srgb8_picture;
 use crate::model::HdrImage;
 use crate::render::passes::{PassOutcome, PassRecord};
 use crate::render::session::RenderSession;
-use crate::script::{run_script_file, LastVolumeRender, ParamRecord, ScriptOptions};
+use crate::script::{run_script_file, LastRender, ParamRecord, ScriptOptions};
 use crate::tui::histogram::LogHistogram;
 use crate::tui::protocol::{Display, Picture};
-use crate::tui::scene::{LensSpace, SceneEdit};
+use crate::tui::scene::{SceneEdit, SceneKeys};
 use crate::tui::view::{
     display_image, fit_within, resample, select_channel, Channel, ViewSettings,
 };
@@ -31,25 +31,18 @@ pub(crate) const PREVIEW_SCALE: &str = "preview_scale";
 /// Scale of the quick first render.
 pub(crate) const LOW_RES_SCALE: f64 = 0.25;
 
-/// What a script run (or a re-render of its last volume render) gave the TUI.
+/// What a script run (or a re-render of its last render) gave the TUI.
 #[derive(Clone, Debug)]
 pub(crate) struct Scene {
     pub image: Arc<HdrImage>,
     pub params: Vec<ParamRecord>,
     /// The passes of the run: what ran and what came from the session's cache.
     pub passes: Vec<PassRecord>,
-    /// Where the last volume render's magnification window lives; `None` when the script
-    /// rendered no volume (then the camera and opacity keys need the script's `param`s).
-    pub volume: Option<VolumeKeys>,
+    /// What the TUI's own keys act on; `None` when the script rendered no volume or surface
+    /// (then the camera, ν and mode keys need the script's `param`s).
+    pub keys: Option<SceneKeys>,
     /// What the script printed, in order.
     pub printed: Vec<String>,
-}
-
-/// What the TUI's own camera, opacity and lens keys can act on.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct VolumeKeys {
-    /// `None` for a transfer function without a colour table (no window to move).
-    pub lens: Option<LensSpace>,
 }
 
 /// Passes for the status line: `raycast 41 ms`, cached ones as `load (cached)`.
@@ -71,16 +64,16 @@ pub(crate) fn adapter_of(session: &RenderSession) -> Option<String> {
     Some(format!("{name} ({})", ctx.backend_name()))
 }
 
-/// A script run's result with the volume render it ended on (to render again with the keys'
+/// A script run's result with the render it ended on (to render again with the keys'
 /// changes).
 pub(crate) struct ScriptRun {
     pub scene: Scene,
-    pub last_render: Option<LastVolumeRender>,
+    pub last_render: Option<LastRender>,
 }
 
 /// Runs the script once with `sets` in `session`, without writing its outputs and with its
-/// prints captured, and picks the image to show: with a non-identity `edit`, the last volume
-/// render rendered again with it; else the last image passed to `preview(image)`, else the last
+/// prints captured, and picks the image to show: with a non-identity `edit`, the last render
+/// rendered again with it; else the last image passed to `preview(image)`, else the last
 /// one rendered, loaded or saved.
 pub(crate) fn render_scene(
     script: &std::path::Path,
@@ -101,7 +94,7 @@ pub(crate) fn render_scene(
     let report = run_script_file(script, &opts)?;
     let mut passes = report.passes;
     let shown = report.previews.last().cloned().or(report.last_image);
-    let image = match (&report.last_volume_render, edit.is_identity()) {
+    let image = match (&report.last_render, edit.is_identity()) {
         (Some(render), false) => {
             let img = rerender(session, render, edit, 1.0)?;
             passes.extend(session.log().take());
@@ -116,32 +109,55 @@ pub(crate) fn render_scene(
     };
     Ok(ScriptRun {
         scene: Scene {
-            image,
             params: report.params,
             passes,
-            volume: report.last_volume_render.as_ref().map(|r| VolumeKeys {
-                lens: LensSpace::of(r),
-            }),
+            keys: report
+                .last_render
+                .as_ref()
+                .map(|r| SceneKeys::of(r, edit, &image)),
+            image,
             printed: report.printed,
         },
-        last_render: report.last_volume_render,
+        last_render: report.last_render,
     })
 }
 
-/// The script's last volume render again with `edit`, at `scale` times its size (at least 16
-/// pixels a side), from the session: no data reload, no script run.
+/// The script's last render again with `edit`, from the session: no data reload, no script
+/// run. A volume renders at `scale` times its size (at least 16 pixels a side); a surface,
+/// whose data pass is cached apart from its fringe pass, at its own size.
 pub(crate) fn rerender(
     session: &RenderSession,
-    render: &LastVolumeRender,
+    render: &LastRender,
     edit: &SceneEdit,
     scale: f64,
 ) -> Result<Arc<HdrImage>> {
-    let mut o = edit.apply(render);
-    if scale < 1.0 {
-        let shrink = |v: u32| ((v as f64 * scale).round() as u32).max(16).min(v);
-        (o.width, o.height) = (shrink(o.width), shrink(o.height));
+    match render {
+        LastRender::Volume(v) => {
+            let mut o = edit.apply(v);
+            if scale < 1.0 {
+                let shrink = |v: u32| ((v as f64 * scale).round() as u32).max(16).min(v);
+                (o.width, o.height) = (shrink(o.width), shrink(o.height));
+            }
+            session.render_volume(&v.source, &o)
+        }
+        LastRender::Surface(s) => {
+            let o = edit.apply_surface(s);
+            let images = s.field.render(session, &o)?;
+            let first = images.first().cloned();
+            first
+                .map(Arc::new)
+                .ok_or_else(|| Error::invalid("render_surface", "the surface render gave no image"))
+        }
     }
-    session.render_volume(&render.source, &o)
+}
+
+/// The pixels a quick pass of `render` would save: a volume's image size; `0` for a surface,
+/// which takes no quick pass.
+fn quick_pass_pixels(render: &LastRender) -> u64 {
+    match render {
+        LastRender::Volume(v) => v.options.width as u64 * v.options.height as u64,
+        LastRender::Surface(_) => 0,
+    }
 }
 
 /// A request to re-run the script, or only to render its last volume render again.
@@ -177,12 +193,12 @@ pub(crate) struct RenderDone {
 /// Re-renders smaller than this many pixels skip the quick pass.
 const QUICK_PASS_MIN_PIXELS: u64 = 160 * 160;
 
-/// The render worker's state between jobs: the last full run's volume render and parameters.
+/// The render worker's state between jobs: the last full run's last render and parameters.
 struct RenderWorker {
     script: PathBuf,
     base: ScriptOptions,
     session: Arc<RenderSession>,
-    last_render: Option<LastVolumeRender>,
+    last_render: Option<LastRender>,
     params: Vec<ParamRecord>,
     jobs: Receiver<RenderJob>,
     done: Sender<RenderDone>,
@@ -224,17 +240,15 @@ impl RenderWorker {
         (outcome.map_err(|e| e.to_string()), ms_since(t0))
     }
 
-    /// Renders the last volume render again with the job's edit at `scale`.
-    fn rerender(&self, job: &RenderJob, render: &LastVolumeRender, scale: f64) -> Timed {
+    /// Renders the last render again with the job's edit at `scale`.
+    fn rerender(&self, job: &RenderJob, render: &LastRender, scale: f64) -> Timed {
         let t0 = Instant::now();
         self.session.log().take();
         let outcome = rerender(&self.session, render, &job.edit, scale).map(|image| Scene {
+            keys: Some(SceneKeys::of(render, &job.edit, &image)),
             image,
             params: self.params.clone(),
             passes: self.session.log().take(),
-            volume: Some(VolumeKeys {
-                lens: LensSpace::of(render),
-            }),
             printed: Vec::new(),
         });
         (outcome.map_err(|e| e.to_string()), ms_since(t0))
@@ -245,8 +259,7 @@ impl RenderWorker {
     fn handle(&mut self, job: RenderJob) -> std::result::Result<Option<RenderJob>, ()> {
         let sent = |ok: bool| if ok { Ok(()) } else { Err(()) };
         if let (false, Some(render)) = (job.rerun_script, self.last_render.clone()) {
-            let (w, h) = (render.options.width as u64, render.options.height as u64);
-            if w * h >= QUICK_PASS_MIN_PIXELS {
+            if quick_pass_pixels(&render) >= QUICK_PASS_MIN_PIXELS {
                 let quick = self.rerender(&job, &render, LOW_RES_SCALE);
                 let failed = quick.0.is_err();
                 sent(self.send(&job, true, true, failed, quick))?;

@@ -411,6 +411,88 @@ fn a_script_without_params_is_orbited_and_made_denser_without_rewriting_its_outp
     }
 }
 
+/// A surface script with no `param`: the ν, mode and colour-range keys still work.
+const PLAIN_SURFACE: &str = r#"
+let grid = load_grid(generate("okada", #{ n: 33 }));
+let img = render_surface(grid, #{ property: "uz", nu: 20.0, width: 64, height: 64 });
+save_exr(img, "surface.exr");
+"#;
+
+#[test]
+fn a_surface_script_without_params_takes_the_nu_mode_and_range_keys() {
+    if !tools(&["tmux"]) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (script, out) = (dir.path().join("surf.rhai"), dir.path().join("out"));
+    std::fs::write(&script, PLAIN_SURFACE).unwrap();
+    let bin = env!("CARGO_BIN_EXE_hdrvis");
+    let t = Tmux::start("surf");
+    t.line(&format!(
+        "{bin} tui {} --out {} --protocol halfblocks; echo \"tui\"-exit=$?",
+        script.display(),
+        out.display()
+    ));
+    t.wait_for("image    64×64 full", Duration::from_secs(60));
+    let settle = |t: &Tmux| {
+        let t0 = Instant::now();
+        while t.screen().contains("rendering…") {
+            assert!(t0.elapsed() < Duration::from_secs(60), "{}", t.screen());
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    let mut saved = 0;
+    let mut save = |t: &Tmux| {
+        saved += 1;
+        t.keys(&["s"]);
+        t.wait_for(
+            &format!("saved surf_view00{saved}.exr"),
+            Duration::from_secs(20),
+        );
+    };
+    save(&t);
+    t.keys(&["n"]);
+    settle(&t);
+    save(&t);
+    t.keys(&["m"]);
+    t.wait_for("mode modulated", Duration::from_secs(20));
+    settle(&t);
+    save(&t);
+    t.keys(&[">"]);
+    t.wait_for("colour range [", Duration::from_secs(20));
+    settle(&t);
+    save(&t);
+    t.keys(&["l"]);
+    t.wait_for("map view has no camera", Duration::from_secs(20));
+    t.keys(&["q"]);
+    t.wait_for("tui-exit=0", Duration::from_secs(20));
+
+    let view =
+        |i: u32| hdrvis::io::exr::read_exr(&out.join(format!("surf_view00{i}.exr"))).unwrap();
+    let meta = |i: u32, key: &str| view(i).meta(key).unwrap_or_default().to_string();
+    assert_eq!(meta(1, "nu"), "20");
+    assert_eq!(meta(2, "nu"), "25", "n multiplies ν by 1.25");
+    assert_eq!(
+        (meta(2, "mode"), meta(3, "mode")),
+        ("cyclic".into(), "modulated".into())
+    );
+    let range = |i: u32| -> Vec<f64> {
+        meta(i, "legend_domain")
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (r3, r4) = (range(3), range(4));
+    let width = r3[1] - r3[0];
+    assert!(width > 0.0, "{r3:?}");
+    for k in 0..2 {
+        assert!(
+            (r4[k] - (r3[k] + 0.25 * width)).abs() < 1e-6 * width,
+            "> moves the colour range a quarter of its width: {r3:?} -> {r4:?}"
+        );
+    }
+}
+
 /// Reads an X window dump (`xwd`, ZPixmap, 24/32 bits per pixel) into RGB.
 fn read_xwd(b: &[u8]) -> Option<image::RgbImage> {
     let field = |i: usize| -> Option<u32> {
