@@ -200,6 +200,8 @@ pub struct GridAxis {
     pub values: Vec<f64>,
     /// Longitude or latitude as CF marks it (NetCDF), else plain.
     pub kind: CoordKind,
+    /// The outer cell edges from the coordinate's CF `bounds`, when it names them.
+    pub edges: Option<(f64, f64)>,
 }
 
 /// A 2-D field with its metadata, as [`read_grid`] reads it.
@@ -304,7 +306,13 @@ pub(crate) fn grid_of_array<R: readers::Reader + ?Sized>(
 /// latitude and longitude of a curvilinear grid (when its axes are not geographic).
 pub(crate) fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<readers::GridAxes> {
     let axis = |dim: &str| -> Result<Option<GridAxis>> {
-        Ok(cf::read_coordinate(path, dim)?.map(|var| {
+        let Some(var) = cf::read_coordinate(path, dim)? else {
+            return Ok(None);
+        };
+        // Bounds that cannot be read (named but absent) leave the half spacings, as xarray
+        // opens such files without them.
+        let edges = cf::cf_bounds(path, &var).unwrap_or(None);
+        Ok(Some({
             // Longitude, latitude and depth (drawn downward) matter to a grid; a
             // vertical axis's unit check is the volume reader's concern, so its error is
             // not raised here.
@@ -322,6 +330,7 @@ pub(crate) fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<readers
                 units: var.units,
                 values: var.data,
                 kind,
+                edges,
             }
         }))
     };
@@ -335,6 +344,8 @@ pub(crate) fn netcdf_grid_axes(path: &Path, array: &ArrayData) -> Result<readers
             .and_then(|u| conventions::atmosphere::heights_km(&a.values, u));
         if let Some(heights) = heights {
             a.values = heights;
+            // Bounds in pressure are not edges in height.
+            a.edges = None;
             a.name = format!("{} (standard-atmosphere height of its pressure)", a.name);
             a.units = Some("km".into());
         }
@@ -372,6 +383,7 @@ pub(crate) fn geographic_axis(name: &str, values: Vec<f64>, kind: CoordKind) -> 
         units: Some(units.to_string()),
         values,
         kind,
+        edges: None,
     })
 }
 
@@ -619,6 +631,7 @@ fn grid_coords(axis: Option<GridAxis>, name: &str, n: usize) -> GridCoords {
             units: a.units.unwrap_or_default(),
             values: a.values,
             kind: a.kind,
+            edges: a.edges,
         },
         None => GridCoords::index(name, n),
     }

@@ -40,6 +40,9 @@ pub struct GridCoords {
     pub units: String,
     pub values: Vec<f64>,
     pub kind: CoordKind,
+    /// The outer edges of the end cells, as a file's CF `bounds` give them; `None`: half an
+    /// end spacing beyond the end nodes.
+    pub edges: Option<(f64, f64)>,
 }
 
 /// Metres per unit of a length unit as files write it (m, km, cm, mm, and their spellings);
@@ -62,7 +65,15 @@ impl GridCoords {
             units: "node".to_string(),
             values: (0..n).map(|i| i as f64).collect(),
             kind: CoordKind::Plain,
+            edges: None,
         }
+    }
+
+    /// The file's outer cell edges when they enclose the nodes (bounds that leave a node
+    /// outside are not this axis's cells).
+    pub fn cell_edges(&self) -> Option<(f64, f64)> {
+        let (first, last) = (*self.values.first()?, *self.values.last()?);
+        self.edges.filter(|&(lo, hi)| lo <= first && last <= hi)
     }
 
     /// Mean node spacing (positive).
@@ -284,6 +295,7 @@ impl Grid {
             units: units.to_string(),
             values,
             kind,
+            edges: None,
         };
         Grid::with_coords(
             name,
@@ -542,6 +554,7 @@ pub(crate) fn test_grid(
             units: units.into(),
             values,
             kind,
+            edges: None,
         }
     };
     Grid::with_coords(
@@ -581,12 +594,14 @@ mod tests {
             units: "deg".into(),
             values: vec![2.0, 1.0],
             kind: CoordKind::Longitude,
+            edges: None,
         };
         let y = GridCoords {
             name: "lat".into(),
             units: "deg".into(),
             values: vec![5.0, 4.0],
             kind: CoordKind::Latitude,
+            edges: None,
         };
         let g = Grid::with_coords(
             "g",

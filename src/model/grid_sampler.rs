@@ -6,10 +6,10 @@
 //! applies on even axes, so both routes agree), and each end node covers half its end spacing
 //! beyond it. Longitudes that close the circle interpolate from the last node on to the first.
 
-use super::grid::{CoordKind, Grid};
+use super::grid::{CoordKind, Grid, GridCoords};
 
 /// One axis: its coordinates (increasing), whether it closes the circle (longitudes whose
-/// spacing at both ends makes 360°), and the half end spacings that bound it.
+/// bounds span 360°), and its bounds (the file's cell edges, else half end spacings).
 #[derive(Clone, Debug)]
 struct Axis<'a> {
     values: &'a [f64],
@@ -19,8 +19,11 @@ struct Axis<'a> {
 }
 
 impl<'a> Axis<'a> {
-    /// The axis of `values`: longitudes may close the circle, latitudes end at the poles.
-    fn new(values: &'a [f64], kind: CoordKind) -> Axis<'a> {
+    /// The axis of `coords`: its cell edges where the file gives them (enclosing the nodes),
+    /// else half an end spacing beyond the end nodes; longitudes may close the circle,
+    /// latitudes end at the poles.
+    fn new(coords: &'a GridCoords) -> Axis<'a> {
+        let (values, kind) = (&coords.values[..], coords.kind);
         let longitude = kind == CoordKind::Longitude;
         let n = values.len();
         let (first, last) = (values[0], values[n - 1]);
@@ -29,10 +32,10 @@ impl<'a> Axis<'a> {
         } else {
             (1.0, 1.0)
         };
-        let wraps = longitude
-            && n > 2
-            && (last - first + 0.5 * (h0 + h1) - 360.0).abs() <= 1e-3 * h0.min(h1);
-        let (mut lo, mut hi) = (first - 0.5 * h0, last + 0.5 * h1);
+        let (mut lo, mut hi) = coords
+            .cell_edges()
+            .unwrap_or((first - 0.5 * h0, last + 0.5 * h1));
+        let wraps = longitude && n > 2 && (hi - lo - 360.0).abs() <= 1e-3 * h0.min(h1);
         if kind == CoordKind::Latitude {
             (lo, hi) = (lo.max(-90.0), hi.min(90.0));
         }
@@ -114,12 +117,13 @@ impl<'a> GridSampler<'a> {
     pub fn new(grid: &'a Grid) -> GridSampler<'a> {
         GridSampler {
             grid,
-            x: Axis::new(&grid.x().values, grid.x().kind),
-            y: Axis::new(&grid.y().values, grid.y().kind),
+            x: Axis::new(grid.x()),
+            y: Axis::new(grid.y()),
         }
     }
 
-    /// The axes' bounds, half an end spacing beyond the end nodes: [x_lo, x_hi, y_lo, y_hi].
+    /// The axes' bounds: the file's outer cell edges, else half an end spacing beyond the end
+    /// nodes: [x_lo, x_hi, y_lo, y_hi].
     pub fn bounds(&self) -> [f64; 4] {
         [self.x.lo, self.x.hi, self.y.lo, self.y.hi]
     }
@@ -204,11 +208,23 @@ impl<'a> GridSampler<'a> {
     }
 }
 
-/// Whether both axes of `grid` are evenly spaced (within 1e-3 of a spacing): the views that
-/// place nodes by index draw such grids as they are.
+/// Whether both axes of `grid` are evenly spaced (within 1e-3 of a spacing) with their cell
+/// edges, where the file gives them, half a spacing beyond the end nodes: the views that place
+/// nodes by index draw such grids as they are.
 pub fn evenly_spaced(grid: &Grid) -> bool {
     use super::map_frame::MapAxis;
-    MapAxis::of_coords(grid.x()).is_some() && MapAxis::of_coords(grid.y()).is_some()
+    let even = |c: &GridCoords| {
+        let Some(edges) = c.cell_edges() else {
+            return MapAxis::of_coords(c).is_some();
+        };
+        let (n, h) = (c.values.len(), c.spacing());
+        let half = (c.values[0] - 0.5 * h, c.values[n - 1] + 0.5 * h);
+        let tol = 1e-3 * h.abs();
+        MapAxis::of_coords(c).is_some()
+            && (edges.0 - half.0).abs() <= tol
+            && (edges.1 - half.1).abs() <= tol
+    };
+    even(grid.x()) && even(grid.y())
 }
 
 #[cfg(test)]
@@ -252,6 +268,39 @@ mod tests {
         // Next to the missing node at 20°: its neighbour's value alone; nearest it: missing.
         assert_eq!(s.value_at(0, 12.0, 0.0), 10.0);
         assert!(s.value_at(0, 16.0, 0.0).is_nan());
+    }
+
+    #[test]
+    fn cell_edges_from_the_file_bound_the_axis() {
+        let kinds = [CoordKind::Plain, CoordKind::Latitude];
+        let g = super::super::grid::test_grid(
+            (vec![0.0, 1.0, 2.0, 3.0], vec![0.0, 1.0]),
+            kinds,
+            |x, _| x,
+        );
+        let with_edges = |edges| {
+            let x = GridCoords {
+                edges: Some(edges),
+                ..g.x().clone()
+            };
+            let props = vec![("v".to_string(), g.property_at(0).1.to_vec())];
+            Grid::with_coords("g", x, g.y().clone(), props, None).unwrap()
+        };
+        assert!(evenly_spaced(&g));
+        // Even nodes 0..3 whose file gives cells from -0.5 to 4.0: the last cell is a whole
+        // spacing wide, so the grid is not drawn by index and the sampler reaches 4.0.
+        let wide = with_edges((-0.5, 4.0));
+        assert!(!evenly_spaced(&wide));
+        let s = GridSampler::new(&wide);
+        assert_eq!(s.bounds()[..2], [-0.5, 4.0]);
+        assert_eq!(s.value_at(0, 3.9, 0.0), 3.0);
+        assert!(s.value_at(0, 4.1, 0.0).is_nan());
+        // Edges at half a spacing are what the even route draws; edges that leave a node
+        // outside are not cells of these nodes and are not used.
+        assert!(evenly_spaced(&with_edges((-0.5, 3.5))));
+        let wrong = with_edges((0.5, 3.5));
+        assert!(evenly_spaced(&wrong));
+        assert_eq!(GridSampler::new(&wrong).bounds()[..2], [-0.5, 3.5]);
     }
 
     #[test]

@@ -160,12 +160,14 @@ pub fn great_circle_section(v: &Volume, spec: &SectionSpec) -> Result<Grid> {
             units: unit.clone(),
             values: distance,
             kind: CoordKind::Plain,
+            edges: None,
         },
         GridCoords {
             name: "depth".into(),
             units: unit,
             values: depths,
             kind: CoordKind::Depth,
+            edges: None,
         },
         vec![
             (property_name(v), values),
@@ -307,6 +309,7 @@ pub(crate) fn axis_slice(v: &Volume, spec: &SliceSpec) -> Result<Grid> {
         units: String::new(),
         values,
         kind: CoordKind::Plain,
+        edges: None,
     };
     let mut grid = Grid::with_coords(
         &v.name,
@@ -406,6 +409,7 @@ pub(crate) fn plane_slice(v: &Volume, spec: &PlaneSpec) -> Result<Grid> {
         units: String::new(),
         values,
         kind: CoordKind::Plain,
+        edges: None,
     };
     let mut grid = Grid::with_coords(
         &v.name,

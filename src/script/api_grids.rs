@@ -156,6 +156,7 @@ fn grid_subset(g: &mut ScriptGrid, lo: Array, hi: Array) -> RResult<ScriptGrid> 
         units: c.units.clone(),
         values: c.values[a..b].to_vec(),
         kind: c.kind,
+        edges: None,
     };
     let props: Vec<(String, Vec<f64>)> = (0..g.property_names().len())
         .map(|i| {

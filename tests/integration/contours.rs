@@ -22,6 +22,7 @@ fn axis(kind: CoordKind, units: &str, values: Vec<f64>) -> GridCoords {
         units: units.into(),
         values,
         kind,
+        edges: None,
     }
 }
 

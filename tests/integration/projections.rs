@@ -350,6 +350,18 @@ fn gaussian_and_refined_latitudes_are_drawn_at_their_own_latitudes() {
             .split_whitespace()
             .map(|v| v.parse().unwrap())
             .collect();
+        // The map spans the cells: the ocean grid's CF bounds (80°N is a whole spacing beyond
+        // its last node), the Gaussian grid's half end spacings (it gives no bounds).
+        let n = nodes.len();
+        let edges = if name == "ocean" {
+            [-80.0, 80.0]
+        } else {
+            [
+                nodes[0] - 0.5 * (nodes[1] - nodes[0]),
+                nodes[n - 1] + 0.5 * (nodes[n - 1] - nodes[n - 2]),
+            ]
+        };
+        assert_eq!(extent, edges, "{name}");
         let t = channel(&img, "t");
         let (w, h) = (img.width as usize, img.height as usize);
         // The finest spacing gets at least a pixel.
@@ -446,7 +458,8 @@ fn scripts_draw_projected_maps_and_refuse_bad_projections_in_one_line() {
     let (code, out, err) = crate::cli::hdrvis(&["run", "p.rhai", "--out", "o"], dir.path());
     assert_eq!(code, 0, "{err}");
     assert!(
-        out.contains("+proj=lcc +lat_0=-0.5 +lat_1=30 +lat_2=60 +lon_0=10"),
+        // lat_0 defaults to the middle of the cells' extent (80°S to 80°N by the file's bounds).
+        out.contains("+proj=lcc +lat_0=0 +lat_1=30 +lat_2=60 +lon_0=10"),
         "{out}"
     );
     use image::GenericImageView;

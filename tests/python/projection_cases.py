@@ -51,13 +51,21 @@ def points(request_path):
     json.dump(out, sys.stdout)
 
 
-def write_grid(path, lats, lons, fields=None):
+def write_grid(path, lats, lons, fields=None, lat_edges=None):
+    """A (lat, lon) grid; with `lat_edges` (the outer edges of the end cells) CF cell bounds on
+    latitude as models write them: midpoints between nodes, the given outer edges."""
     d = netCDF4.Dataset(path, "w")
     d.createDimension("lat", len(lats))
     d.createDimension("lon", len(lons))
     lat = d.createVariable("lat", "f8", ("lat",))
     lat.units = "degrees_north"
     lat[:] = lats
+    if lat_edges is not None:
+        d.createDimension("nv", 2)
+        lat.bounds = "lat_bnds"
+        mids = 0.5 * (np.asarray(lats[1:]) + np.asarray(lats[:-1]))
+        edges = np.concatenate([[lat_edges[0]], mids, [lat_edges[1]]])
+        d.createVariable("lat_bnds", "f8", ("lat", "nv"))[:] = np.stack([edges[:-1], edges[1:]], 1)
     lon = d.createVariable("lon", "f8", ("lon",))
     lon.units = "degrees_east"
     lon[:] = lons
@@ -88,7 +96,8 @@ def write(directory):
             np.arange(20.0, 80.0, 2.0),
         ]
     )
-    write_grid(f"{directory}/ocean.nc", ocean, np.arange(0.5, 360.0, 1.0))
+    # Its end cells reach 80°S (half a spacing) and 80°N (a whole one) as its bounds say.
+    write_grid(f"{directory}/ocean.nc", ocean, np.arange(0.5, 360.0, 1.0), lat_edges=(-80.0, 80.0))
     lats, lons = np.arange(-87.5, 90.0, 5.0), np.arange(-177.5, 180.0, 5.0)
     rad = np.radians
     write_grid(

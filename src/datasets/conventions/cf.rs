@@ -278,7 +278,7 @@ pub(crate) fn time_decoding(path: &Path, v: &NcVariable) -> TimeDecoding {
 }
 
 /// The domain `[lo, hi]` from the CF `bounds` variable of a coordinate, when it names one.
-fn cf_bounds(path: &Path, v: &NcVariable) -> Result<Option<(f64, f64)>> {
+pub(crate) fn cf_bounds(path: &Path, v: &NcVariable) -> Result<Option<(f64, f64)>> {
     let Some(name) = text(v, "bounds") else {
         return Ok(None);
     };

@@ -288,6 +288,7 @@ pub(crate) fn axes(
         units: Some(units.to_string()),
         values: (0..n).map(|i| first + (i as f64 + 0.5) * step).collect(),
         kind,
+        edges: None,
     };
     Ok(Some(if degrees {
         (

@@ -68,6 +68,7 @@ impl Reader for NpzReader {
                         units: None,
                         values: axis.data,
                         kind: CoordKind::Plain,
+                        edges: None,
                     }));
                 }
             }

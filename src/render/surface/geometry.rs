@@ -229,6 +229,7 @@ mod tests {
             units: units.into(),
             values: (0..n).map(|i| first + step * i as f64).collect(),
             kind,
+            edges: None,
         }
     }
 

@@ -139,6 +139,7 @@ fn extent_grid(field: &MeshField, ext: &MapExtent, nx: usize, ny: usize) -> Resu
         units: units.into(),
         values: Vec::new(),
         kind,
+        edges: None,
     };
     frame_grid(
         (

@@ -168,6 +168,7 @@ pub(crate) fn sampled_grid(field: &MeshField) -> Result<std::sync::Arc<Grid>> {
         units: units.into(),
         values,
         kind,
+        edges: None,
     };
     let x = axis("longitude", "degrees_east", r.lon, CoordKind::Longitude);
     let y = axis("latitude", "degrees_north", r.lat, CoordKind::Latitude);
