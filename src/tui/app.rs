@@ -180,6 +180,8 @@ pub(crate) struct App {
     requests: Requests,
     /// When the last view was requested: the status line reports key → picture time.
     view_requested: Instant,
+    /// Key → coarse picture of the last view (ms), when it showed one first.
+    view_coarse_ms: Option<f64>,
 }
 
 impl App {
@@ -205,6 +207,7 @@ impl App {
             script_dirty: true,
             requests: Requests::default(),
             view_requested: Instant::now(),
+            view_coarse_ms: None,
         }
     }
 
@@ -607,6 +610,7 @@ impl App {
     /// `None` without an image or with an empty area.
     pub(crate) fn view_job(&mut self, area: Rect) -> Option<ViewJob> {
         self.view_requested = Instant::now();
+        self.view_coarse_ms = None;
         let hdr = self.hdr.clone()?;
         if area.width == 0 || area.height == 0 {
             return None;
@@ -668,10 +672,23 @@ impl App {
                 self.histogram = prepared.histogram;
                 let total = self.view_requested.elapsed().as_secs_f64() * 1e3;
                 self.status.passes.retain(|p| !p.starts_with("view "));
-                self.status.passes.push(format!(
-                    "view {:.0} ms (key→picture {total:.0} ms)",
-                    done.ms
-                ));
+                self.status
+                    .passes
+                    .push(match (done.coarse, self.view_coarse_ms) {
+                        (true, _) => {
+                            format!("view coarse {:.0} ms (key→picture {total:.0} ms)", done.ms)
+                        }
+                        (false, Some(first)) => format!(
+                            "view {:.0} ms (key→picture {first:.0} ms coarse, {total:.0} ms full)",
+                            done.ms
+                        ),
+                        (false, None) => {
+                            format!("view {:.0} ms (key→picture {total:.0} ms)", done.ms)
+                        }
+                    });
+                if done.coarse {
+                    self.view_coarse_ms = Some(total);
+                }
                 FollowUp::ShowPicture(prepared.protocol)
             }
             Err(msg) => {
@@ -1036,6 +1053,7 @@ mod tests {
             id,
             outcome,
             ms: 3.0,
+            coarse: false,
         }
     }
 

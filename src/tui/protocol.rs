@@ -136,6 +136,11 @@ impl Display {
         }
     }
 
+    /// Whether pictures are shown pixel for pixel (sixel, kitty), not one colour per half cell.
+    pub(crate) fn shows_pixels(&self) -> bool {
+        self.picker.protocol_type() != ProtocolType::Halfblocks
+    }
+
     /// The size in pixels a `width` × `height` image is shown at inside `area`: the largest with
     /// its aspect inside the area's pixels at the terminal's cell size, or, for half blocks,
     /// that picture counted in half cells (one column and two rows a cell, whole cells). Half blocks show no

@@ -453,13 +453,96 @@ pub(crate) fn prepare(
     area: Rect,
     downsampled: &mut Downsampled,
 ) -> Result<Prepared> {
+    prepare_at(display, hdr, view, area, downsampled, 1)
+}
+
+/// [`prepare`] with the image tone-mapped at 1/`coarse` of its size along each axis and
+/// enlarged to the same picture.
+fn prepare_at(
+    display: &Display,
+    hdr: &Arc<HdrImage>,
+    view: &ViewSettings,
+    area: Rect,
+    downsampled: &mut Downsampled,
+    coarse: u32,
+) -> Result<Prepared> {
     let size = display.picture_size(hdr.width, hdr.height, area);
-    let (picture, shown, histogram) = view_picture(hdr, view, size, downsampled)?;
+    let (picture, shown, histogram) = view_picture(hdr, view, size, downsampled, coarse)?;
     let protocol = display.encode(picture, shown, area)?;
     Ok(Prepared {
         protocol,
         histogram,
     })
+}
+
+/// Views expected to take longer than this (ms) show a coarse picture first: those that would
+/// come close to the 50 ms a key may take to its picture. The coarse picture delays the full
+/// one by its own time (a fifth to a quarter of it), so quicker views go without.
+pub(crate) const COARSE_VIEW_MS: f64 = 40.0;
+
+/// The coarse picture tone-maps one pixel in this many along each axis.
+pub(crate) const COARSE_STEP: u32 = 2;
+
+/// The view worker's state: the downsampled images of the full and the coarse pictures, and
+/// what each kind of view last cost, so that a view expected to take longer than
+/// [`COARSE_VIEW_MS`] (a local operator on a large picture, or any view on a slow machine)
+/// shows a coarse picture first, tone-mapped at 1/[`COARSE_STEP`] of the size along each axis,
+/// and then the full one. Half blocks, which tone-map only what they show, never need it.
+#[derive(Default)]
+pub(crate) struct ViewPreparer {
+    full: Downsampled,
+    coarse: Downsampled,
+    /// Milliseconds of a full view of each operator (with false colour or not) at each picture
+    /// size: a running mean of the last few.
+    costs: std::collections::HashMap<(usize, bool, (u32, u32)), f64>,
+}
+
+impl ViewPreparer {
+    /// Forgets the downsampled images (a new image arrives), keeping the costs.
+    pub(crate) fn forget_images(&mut self) {
+        self.full = Downsampled::default();
+        self.coarse = Downsampled::default();
+    }
+
+    /// The coarse picture of a view expected to be slow; `None` for one expected to be quick.
+    /// A view not timed yet is expected slow when its operator is a local one.
+    pub(crate) fn coarse(
+        &mut self,
+        display: &Display,
+        hdr: &Arc<HdrImage>,
+        view: &ViewSettings,
+        area: Rect,
+    ) -> Option<Result<Prepared>> {
+        let size = display.picture_size(hdr.width, hdr.height, area);
+        let pixels = display.shows_pixels() && size.0.min(hdr.width) >= 64 * COARSE_STEP;
+        let expected = self.costs.get(&(view.operator, view.false_colour, size));
+        let slow = match expected {
+            Some(&ms) => ms > COARSE_VIEW_MS,
+            None => matches!(view.operator_name(), "reinhard-local" | "durand"),
+        };
+        (pixels && slow)
+            .then(|| prepare_at(display, hdr, view, area, &mut self.coarse, COARSE_STEP))
+    }
+
+    /// The full picture, its cost recorded.
+    pub(crate) fn full(
+        &mut self,
+        display: &Display,
+        hdr: &Arc<HdrImage>,
+        view: &ViewSettings,
+        area: Rect,
+    ) -> Result<Prepared> {
+        let t0 = Instant::now();
+        let prepared = prepare(display, hdr, view, area, &mut self.full)?;
+        let size = display.picture_size(hdr.width, hdr.height, area);
+        let ms = ms_since(t0);
+        // A running mean, so that one slow or quick run does not flip the choice.
+        self.costs
+            .entry((view.operator, view.false_colour, size))
+            .and_modify(|m| *m = 0.5 * (*m + ms))
+            .or_insert(ms);
+        Ok(prepared)
+    }
 }
 
 /// The view of `hdr` as an 8-bit sRGB picture to be shown at a size within `size` (keeping the
@@ -468,28 +551,32 @@ pub(crate) fn prepare(
 /// larger one is the image tone-mapped at its own size, to be enlarged by repeating pixels
 /// ([`Display::encode`]), so that a local operator's scales stay in image pixels, as
 /// `hdrvis tonemap` and a saved view have them, and no more pixels are tone-mapped than the
-/// image has.
+/// image has. A `coarse` picture tone-maps 1/`coarse` of those pixels along each axis.
 pub(crate) fn view_picture(
     hdr: &Arc<HdrImage>,
     view: &ViewSettings,
     size: (u32, u32),
     downsampled: &mut Downsampled,
+    coarse: u32,
 ) -> Result<(image::RgbImage, (u32, u32), Option<LogHistogram>)> {
     let size = (size.0.max(1), size.1.max(1));
     let has_pixels = hdr.width > 0 && hdr.height > 0;
     let enlarged = has_pixels && (size.0 > hdr.width || size.1 > hdr.height);
-    let tone_size = if enlarged {
-        (hdr.width, hdr.height)
+    let (tone_size, shown) = if enlarged {
+        (
+            (hdr.width, hdr.height),
+            fit_within(hdr.width, hdr.height, size.0, size.1),
+        )
     } else {
-        size
+        (size, size)
     };
+    let coarse = coarse.max(1);
+    let tone_size = (
+        tone_size.0.div_ceil(coarse).max(1),
+        tone_size.1.div_ceil(coarse).max(1),
+    );
     let small = downsampled.get(hdr, tone_size);
     let picture = srgb8_picture(&display_image(&small, view)?);
-    let shown = if enlarged {
-        fit_within(hdr.width, hdr.height, size.0, size.1)
-    } else {
-        picture.dimensions()
-    };
     let histogram = downsampled.histogram(&small, &view.channel)?;
     Ok((picture, shown, histogram))
 }
@@ -506,6 +593,8 @@ pub(crate) struct ViewDone {
     pub id: u64,
     pub outcome: std::result::Result<Prepared, String>,
     pub ms: f64,
+    /// A coarse first picture: the full one follows unless a newer view replaces it.
+    pub coarse: bool,
 }
 
 /// Starts the view worker; results arrive on the returned receiver.
@@ -515,16 +604,41 @@ pub(crate) fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<
     std::thread::Builder::new()
         .name("hdrvis-view".into())
         .spawn(move || {
-            let mut downsampled = Downsampled::default();
-            while let Ok(first) = job_rx.recv() {
-                let job = latest(first, &job_rx);
+            let mut preparer = ViewPreparer::default();
+            let mut pending: Option<ViewJob> = None;
+            loop {
+                let job = match pending.take() {
+                    Some(job) => job,
+                    None => match job_rx.recv() {
+                        Ok(first) => latest(first, &job_rx),
+                        Err(_) => return,
+                    },
+                };
+                let (hdr, view, area) = (&job.hdr, &job.view, job.area);
                 let t0 = Instant::now();
-                let outcome = prepare(&display, &job.hdr, &job.view, job.area, &mut downsampled)
-                    .map_err(|e| e.to_string());
+                if let Some(outcome) = preparer.coarse(&display, hdr, view, area) {
+                    let done = ViewDone {
+                        id: job.id,
+                        outcome: outcome.map_err(|e| e.to_string()),
+                        ms: ms_since(t0),
+                        coarse: true,
+                    };
+                    if done_tx.send(done).is_err() {
+                        return;
+                    }
+                    // A newer view makes this one's full picture pointless.
+                    if let Ok(newer) = job_rx.try_recv() {
+                        pending = Some(latest(newer, &job_rx));
+                        continue;
+                    }
+                }
+                let t0 = Instant::now();
+                let outcome = preparer.full(&display, hdr, view, area);
                 let done = ViewDone {
                     id: job.id,
-                    outcome,
-                    ms: t0.elapsed().as_secs_f64() * 1e3,
+                    outcome: outcome.map_err(|e| e.to_string()),
+                    ms: ms_since(t0),
+                    coarse: false,
                 };
                 if done_tx.send(done).is_err() {
                     return;
@@ -569,7 +683,7 @@ mod tests {
             let view = view_of(name);
             // Twice the image's size: every image pixel becomes a 2 × 2 block.
             let (picture, shown, _) =
-                view_picture(&hdr, &view, (96, 64), &mut Downsampled::default()).unwrap();
+                view_picture(&hdr, &view, (96, 64), &mut Downsampled::default(), 1).unwrap();
             assert_eq!(shown, (96, 64));
             let picture = enlarge_nearest(&picture, shown.0, shown.1);
             let settings = view.tonemap_settings().unwrap().unwrap();
@@ -586,7 +700,7 @@ mod tests {
         let hdr = spot();
         let view = view_of("reinhard-local");
         let (picture, shown, histogram) =
-            view_picture(&hdr, &view, (24, 16), &mut Downsampled::default()).unwrap();
+            view_picture(&hdr, &view, (24, 16), &mut Downsampled::default(), 1).unwrap();
         assert_eq!(shown, (24, 16));
         let small = resample(&hdr, 24, 16);
         let settings = view.tonemap_settings().unwrap().unwrap();
@@ -596,4 +710,42 @@ mod tests {
         let counted = histogram.map(|h| h.counts.iter().sum::<u64>() + h.dark_or_missing);
         assert_eq!(counted, Some(24 * 16));
     }
+
+    #[test]
+    fn slow_views_show_a_coarse_picture_of_the_same_size_first() {
+        use crate::tui::protocol::ProtocolChoice;
+        let hdr = Arc::new(HdrImage::from_pixels(
+            256,
+            160,
+            (0..256 * 160)
+                .map(|i| [0.01 + (i % 256) as f32, 1.0, 0.5, 1.0])
+                .collect(),
+        ));
+        let (local, exposure) = (view_of("reinhard-local"), view_of("exposure"));
+        // A coarse picture tone-maps half the pixels along each axis, for the same picture.
+        let (full, shown, _) =
+            view_picture(&hdr, &local, (400, 250), &mut Downsampled::default(), 1).unwrap();
+        let (coarse, coarse_shown, _) =
+            view_picture(&hdr, &local, (400, 250), &mut Downsampled::default(), 2).unwrap();
+        assert_eq!((full.dimensions(), shown), ((256, 160), (400, 250)));
+        assert_eq!((coarse.dimensions(), coarse_shown), ((128, 80), (400, 250)));
+        let sixel = Display::fixed(ProtocolChoice::Sixel, (10, 20));
+        let area = Rect::new(0, 0, 40, 13);
+        let mut p = ViewPreparer::default();
+        // Not timed yet: a local operator is expected slow, the exposure view quick.
+        assert!(p.coarse(&sixel, &hdr, &local, area).is_some());
+        assert!(p.coarse(&sixel, &hdr, &exposure, area).is_none());
+        // Timed: the measured cost decides, as a running mean.
+        let size = sixel.picture_size(256, 160, area);
+        p.costs.insert((local.operator, false, size), 10.0);
+        assert!(p.coarse(&sixel, &hdr, &local, area).is_none());
+        p.costs.insert((exposure.operator, false, size), 2.0 * COARSE_VIEW_MS);
+        assert!(p.coarse(&sixel, &hdr, &exposure, area).is_some());
+        p.full(&sixel, &hdr, &exposure, area).unwrap();
+        assert!(p.costs[&(exposure.operator, false, size)] < 1.5 * COARSE_VIEW_MS);
+        // Half blocks show one colour per half cell: never a coarse picture.
+        let blocks = Display::fixed(ProtocolChoice::Halfblocks, (10, 20));
+        assert!(p.coarse(&blocks, &hdr, &local, area).is_none());
+    }
+
 }
