@@ -20,6 +20,7 @@ pub mod distributed;
 pub mod effects;
 pub mod equal_error;
 pub mod meshes;
+pub(crate) mod peer_scenes;
 pub mod skipping;
 pub mod spherical;
 pub mod surface;

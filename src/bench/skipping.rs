@@ -95,7 +95,7 @@ pub fn bench_skipping(
                 v
             }
         };
-        let mut o = VolumeRenderOptions::new(view.camera(&vol)?, scene.tf());
+        let mut o = VolumeRenderOptions::new(view.camera(&vol)?, scene.tf()?);
         (o.width, o.height, o.step) = (px, px, 1.0);
         let name = format!("{} {n}^3 -> {px}^2", scene.name());
         log(&format!("{name} ..."));

@@ -6,6 +6,7 @@
 //! sample (`--breakdown`).
 
 use super::equal_error::{self, EqualError, PeerNode};
+use super::peer_scenes;
 use super::{bench_tf, bench_volume, mantle_fig5_tf, mantle_fluctuation, median, RenderRuns};
 use super::{time_renders, timing_session};
 use crate::error::{Error, Result};
@@ -64,6 +65,8 @@ pub enum VolumeScene {
     /// The mantle's temperature fluctuation under the paper's Fig. 5 transfer function, missing
     /// outside the shell and in the core.
     Mantle,
+    /// A scene that is not ours ([`peer_scenes`]): `linear`, `opaque`, `sparse` or `dense`.
+    Peer(&'static str),
 }
 
 impl VolumeScene {
@@ -71,6 +74,7 @@ impl VolumeScene {
         match self {
             VolumeScene::Blobs => "blobs",
             VolumeScene::Mantle => "mantle",
+            VolumeScene::Peer(name) => name,
         }
     }
 
@@ -78,31 +82,48 @@ impl VolumeScene {
         match self {
             VolumeScene::Blobs => bench_volume(n),
             VolumeScene::Mantle => mantle_fluctuation(n, 7),
+            VolumeScene::Peer(name) => peer_scenes::volume(name, n),
         }
     }
 
-    pub(crate) fn tf(self) -> TransferFunction {
+    pub(crate) fn tf(self) -> Result<TransferFunction> {
         match self {
-            VolumeScene::Blobs => bench_tf(),
-            VolumeScene::Mantle => TransferFunction::Lut(mantle_fig5_tf()),
+            VolumeScene::Blobs => Ok(bench_tf()),
+            VolumeScene::Mantle => Ok(TransferFunction::Lut(mantle_fig5_tf())),
+            VolumeScene::Peer(name) => peer_scenes::transfer(name),
         }
     }
 }
 
-/// The (scene, volume side, image side) triples of the benchmark: 256³ (257³ for the mantle) →
-/// 512², and with `quick` off also 513³ → 1024².
-pub fn volume_scenes(quick: bool) -> Vec<(VolumeScene, usize, u32)> {
-    let mut v = vec![
-        (VolumeScene::Blobs, 256, 512),
-        (VolumeScene::Mantle, 257, 512),
-    ];
-    if !quick {
-        v.extend([
-            (VolumeScene::Blobs, 513, 1024),
-            (VolumeScene::Mantle, 513, 1024),
-        ]);
+/// The (scene, volume side, image side) triples of the benchmark for `which`: `ours` (the
+/// blobs and the mantle), `peer` (the scenes that are not ours), `all`, or scene names separated
+/// by commas; 256³ (257³ for the mantle) → 512², and with `quick` off also 513³ → 1024².
+pub fn volume_scenes(quick: bool, which: &str) -> Result<Vec<(VolumeScene, usize, u32)>> {
+    let ours = [VolumeScene::Blobs, VolumeScene::Mantle];
+    let peer = peer_scenes::PEER_SCENES.map(VolumeScene::Peer);
+    let mut scenes = Vec::new();
+    for word in which.split(',').map(str::trim) {
+        match word {
+            "ours" => scenes.extend(ours),
+            "peer" => scenes.extend(peer),
+            "all" => scenes.extend(ours.into_iter().chain(peer)),
+            name => match ours.iter().chain(&peer).find(|s| s.name() == name) {
+                Some(s) => scenes.push(*s),
+                None => {
+                    return Err(Error::invalid(
+                        "--scenes",
+                        format!("unknown scene {name:?}: expected ours, peer, all or one of blobs, mantle, {}", peer_scenes::PEER_SCENES.join(", ")),
+                    ))
+                }
+            },
+        }
     }
-    v
+    let small = |s: VolumeScene| if s == VolumeScene::Mantle { 257 } else { 256 };
+    let mut v: Vec<_> = scenes.iter().map(|&s| (s, small(s), 512)).collect();
+    if !quick {
+        v.extend(scenes.iter().map(|&s| (s, 513, 1024)));
+    }
+    Ok(v)
 }
 
 /// Times the volume ray caster on `scenes`, axis view, one sample per voxel; with `breakdown`,
@@ -125,7 +146,7 @@ pub fn bench_volume_render(
             scene.name()
         ));
         let vol = Arc::new(scene.volume(n)?);
-        let mut opts = VolumeRenderOptions::new(Camera::axis(Axis::Z, &vol.bounds()), scene.tf());
+        let mut opts = VolumeRenderOptions::new(Camera::axis(Axis::Z, &vol.bounds()), scene.tf()?);
         opts.width = px;
         opts.height = px;
         opts.step = 1.0;

@@ -23,13 +23,7 @@ impl From<SkippingViewArg> for skipping::SkippingView {
 /// Runs the benchmark `cmd` names and prints its report.
 pub fn run_bench(cmd: BenchCommand, backend: BackendChoice) -> Result<()> {
     match cmd {
-        BenchCommand::Volume {
-            runs,
-            quick,
-            peer,
-            rounds,
-            breakdown,
-        } => bench_volume(backend, (runs, rounds), quick, peer.as_deref(), breakdown),
+        cmd @ BenchCommand::Volume { .. } => bench_volume(backend, cmd),
         BenchCommand::Accuracy {
             runs,
             size,
@@ -261,18 +255,26 @@ fn gpu(backend: BackendChoice) -> Result<(Arc<GpuContext>, String)> {
     Ok((ctx, adapter))
 }
 
-fn bench_volume(
-    backend: BackendChoice,
-    runs: (usize, usize),
-    quick: bool,
-    peer: Option<&str>,
-    breakdown: bool,
-) -> Result<()> {
+/// `hdrvis bench volume` (`cmd` is its [`BenchCommand::Volume`]).
+fn bench_volume(backend: BackendChoice, cmd: BenchCommand) -> Result<()> {
+    let BenchCommand::Volume {
+        runs,
+        quick,
+        scenes,
+        peer,
+        rounds,
+        breakdown,
+    } = cmd
+    else {
+        unreachable!("run_bench passes bench volume's command")
+    };
+    let (runs, peer) = ((runs, rounds), peer.as_deref());
+    let scenes = volume::volume_scenes(quick, &scenes)?;
     let (ctx, adapter) = gpu(backend)?;
     let peer_script = volume::peer_script(peer)?;
     let rows = volume::bench_volume_render(
         ctx,
-        &volume::volume_scenes(quick),
+        &scenes,
         runs,
         peer_script.as_deref(),
         breakdown,

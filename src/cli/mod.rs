@@ -219,6 +219,12 @@ pub enum BenchCommand {
         /// Only the small size (quick check).
         #[arg(long)]
         quick: bool,
+        /// Which scenes: `ours` (the HDR blobs and the mantle), `peer` (scenes that are not
+        /// ours: linear emission-absorption, an opaque isosurface-like wall, sparse blobs and
+        /// dense fractal noise, under piecewise-linear transfer functions as VTK's), `all`, or
+        /// names separated by commas.
+        #[arg(long, default_value = "ours")]
+        scenes: String,
         /// Run a peer on the same data side by side: `vtk` (pip's vtk: its GPU ray caster on the
         /// same llvmpipe, and its fixed-point CPU ray caster on two threads); then compare at
         /// equal error: each peer's image and every hdrvis setting (precision, step,

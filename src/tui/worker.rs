@@ -739,7 +739,8 @@ mod tests {
         let size = sixel.picture_size(256, 160, area);
         p.costs.insert((local.operator, false, size), 10.0);
         assert!(p.coarse(&sixel, &hdr, &local, area).is_none());
-        p.costs.insert((exposure.operator, false, size), 2.0 * COARSE_VIEW_MS);
+        p.costs
+            .insert((exposure.operator, false, size), 2.0 * COARSE_VIEW_MS);
         assert!(p.coarse(&sixel, &hdr, &exposure, area).is_some());
         p.full(&sixel, &hdr, &exposure, area).unwrap();
         assert!(p.costs[&(exposure.operator, false, size)] < 1.5 * COARSE_VIEW_MS);
@@ -747,5 +748,4 @@ mod tests {
         let blocks = Display::fixed(ProtocolChoice::Halfblocks, (10, 20));
         assert!(p.coarse(&blocks, &hdr, &local, area).is_none());
     }
-
 }

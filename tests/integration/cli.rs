@@ -658,6 +658,12 @@ fn accuracy_report_writes_table_files_and_chart() {
             .contains("unknown scene \"nope\"; known: mantle, blobs, band, tsunami, fault, shell"),
         "{stderr}"
     );
+    let (code, _, stderr) = hdrvis(&["bench", "volume", "--scenes", "peer,nope"], dir.path());
+    assert_one_line_error(
+        code,
+        &stderr,
+        "unknown scene \"nope\": expected ours, peer, all",
+    );
 }
 
 /// The accuracy report's tone-mapping scenes: the local operators as the GPU runs them (the
