@@ -424,12 +424,20 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             s.tau += block.tau;
         }
         // At most three interior segments and the last one remain (past the hull, segments
-        // that composite nothing).
+        // that composite nothing). Taken in a loop, not four calls: lavapipe runs a loop only
+        // while one of its lanes is in it, so a group of rays that all stopped, or all missed
+        // the hull (whose samples would composite nothing), takes no samples here.
         s.ta = segment_end(m, k - 1u);
-        march_step(&s, m, k);
-        march_step(&s, m, k + 1u);
-        march_step(&s, m, k + 2u);
-        march_step(&s, m, k + 3u);
+        var tail = UNROLL;
+#if SKIPPING
+        tail = select(UNROLL, 0u, span.x > span.y);
+#endif
+        for (var i = 0u; i < tail; i += 1u) {
+            if (s.stopped) {
+                break;
+            }
+            march_step(&s, m, k + i);
+        }
 #endif
     }
     textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));
