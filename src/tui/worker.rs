@@ -615,15 +615,21 @@ pub(crate) fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<
                     },
                 };
                 let (hdr, view, area) = (&job.hdr, &job.view, job.area);
-                let t0 = Instant::now();
-                if let Some(outcome) = preparer.coarse(&display, hdr, view, area) {
+                // Sends one picture; `false` when the TUI has gone.
+                let send = |outcome: Result<Prepared>, t0: Instant, coarse: bool| {
+                    let outcome = outcome.map_err(|e| e.to_string());
+                    let ms = ms_since(t0);
                     let done = ViewDone {
                         id: job.id,
-                        outcome: outcome.map_err(|e| e.to_string()),
-                        ms: ms_since(t0),
-                        coarse: true,
+                        outcome,
+                        ms,
+                        coarse,
                     };
-                    if done_tx.send(done).is_err() {
+                    done_tx.send(done).is_ok()
+                };
+                let t0 = Instant::now();
+                if let Some(outcome) = preparer.coarse(&display, hdr, view, area) {
+                    if !send(outcome, t0, true) {
                         return;
                     }
                     // A newer view makes this one's full picture pointless.
@@ -633,14 +639,7 @@ pub(crate) fn spawn_view_worker(display: Display) -> (Sender<ViewJob>, Receiver<
                     }
                 }
                 let t0 = Instant::now();
-                let outcome = preparer.full(&display, hdr, view, area);
-                let done = ViewDone {
-                    id: job.id,
-                    outcome: outcome.map_err(|e| e.to_string()),
-                    ms: ms_since(t0),
-                    coarse: false,
-                };
-                if done_tx.send(done).is_err() {
+                if !send(preparer.full(&display, hdr, view, area), t0, false) {
                     return;
                 }
             }
