@@ -346,7 +346,7 @@ impl FrameLayout {
         let widest_y = y_ticks.iter().map(|(_, l)| ty.width(l)).max().unwrap_or(0);
         let left = pad + widest_y + gap + tick + 1;
         let bar_x = left + map_w + 1 + line;
-        let header = Self::header(axes, extras, (left, map_w, bar_x), pad);
+        let header = Self::header(axes, extras, (left, map_w, map_h, bar_x), (pad, tick));
         // The top bar and y labels stand half a line above the map's top edge.
         let top = header.bottom + line / 2 + 1;
         let map = Rect::new(left as i64, top as i64, map_w, map_h);
@@ -393,8 +393,8 @@ impl FrameLayout {
     fn header(
         axes: Option<&MapAxes>,
         extras: &FrameExtras,
-        (left, map_w, bar_x): (u32, u32, u32),
-        pad: u32,
+        (left, map_w, map_h, bar_x): (u32, u32, u32, u32),
+        (pad, tick): (u32, u32),
     ) -> Header {
         let ty = extras.ty;
         let (gap, line) = (ty.gap(), ty.line());
@@ -423,12 +423,18 @@ impl FrameLayout {
         if !y_title.is_empty() {
             rows.push((text(&y_title), y as i64, pad));
         }
-        if !caption.is_empty() {
-            let meets = !y_title.is_empty() && pad + ty.width(&y_title) + gap > bar_x;
+        if let (false, Some(bar)) = (caption.is_empty(), extras.bar) {
+            // A caption longer than the bar's column ends where the column does and reaches
+            // left over the map's top, rather than widening the figure by its length.
+            let right = bar_x + Self::bar_column_width(bar, map_h, ty, tick);
+            let x = bar_x
+                .min(right.saturating_sub(ty.width(&caption)))
+                .max(left);
+            let meets = !y_title.is_empty() && pad + ty.width(&y_title) + gap > x;
             if meets {
                 y += line + gap;
             }
-            rows.push((text(&caption), y as i64, bar_x));
+            rows.push((text(&caption), y as i64, x));
         }
         if !y_title.is_empty() || !caption.is_empty() {
             y += line + gap;
@@ -491,6 +497,22 @@ impl FrameLayout {
     /// The colour bar upright from the map's top to its bottom at column `bar_x`, a line of
     /// text wide, with ticks on its right and their labels a gap beyond (labels that would
     /// overlap the one above are left out); the rightmost column used.
+    /// How many ticks a bar beside a map `map_h` pixels high takes at most.
+    fn bar_tick_count(map_h: u32, ty: Type) -> usize {
+        (map_h / (3 * ty.line())).clamp(2, 10) as usize
+    }
+
+    /// The width of the bar's column: the bar, its ticks and their widest label.
+    fn bar_column_width(bar: &ColourBar, map_h: u32, ty: Type, tick: u32) -> u32 {
+        let widest = bar
+            .ticks(Self::bar_tick_count(map_h, ty))
+            .iter()
+            .map(|(_, l)| ty.width(l))
+            .max()
+            .unwrap_or(0);
+        ty.line() + tick + ty.gap() + widest
+    }
+
     fn colour_bar(&mut self, bar: &ColourBar, bar_x: u32, ty: Type, tick: u32) -> u32 {
         let m = self.map;
         let thick = ty.line();
@@ -499,7 +521,7 @@ impl FrameLayout {
         let (r0, r1) = upright_rows(bar, m.h as u32, thick);
         let tick_x = (bar_x + thick) as i64;
         let mut right = bar_x + thick;
-        let most = (m.h as u32 / (3 * ty.line())).clamp(2, 10) as usize;
+        let most = Self::bar_tick_count(m.h as u32, ty);
         for (v, label) in bar.ticks(most).into_iter().rev() {
             let row =
                 m.y + r0 as i64 + ((1.0 - bar.position(v)) * (r1 - r0 - 1) as f64).round() as i64;
@@ -945,6 +967,46 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// A long caption ends where the bar's column does and reaches left over the map's top: the
+    /// figure is as wide as with a short one, and no text overlaps.
+    #[test]
+    fn a_long_bar_caption_does_not_widen_the_figure() {
+        let axis = |name: &str, n: usize| {
+            MapAxis::of_coords(&coords(name, "m", (0..n).map(|i| i as f64 * 1e3).collect()))
+                .unwrap()
+        };
+        let axes = MapAxes {
+            x: axis("x", 400),
+            y: axis("y", 300),
+            y_down: false,
+            rotated: false,
+        };
+        let img = HdrImage::new(400, 300);
+        let ty = Type::for_figure(img.width, img.height);
+        let short = bar([false; 2]);
+        let long = ColourBar {
+            label: "maximum absolute sea-surface elevation over the run".into(),
+            ..bar([false; 2])
+        };
+        let width = |b: &ColourBar| FrameLayout::new(&img, Some(&axes), &extras(ty, Some(b), None));
+        let (a, b) = (width(&short), width(&long));
+        assert_eq!(a.width, b.width);
+        let caption = b
+            .pieces
+            .iter()
+            .find(|(p, _)| matches!(p, Piece::Text { text, .. } if text.starts_with("maximum")))
+            .map(|(_, r)| *r)
+            .expect("the caption is drawn");
+        assert!(caption.x >= b.map.x && caption.y + caption.h <= b.map.y);
+        for (p, r) in b
+            .pieces
+            .iter()
+            .filter(|(p, _)| matches!(p, Piece::Text { .. }))
+        {
+            assert!(*r == caption || !r.overlaps(&caption), "{p:?} {r:?}");
         }
     }
 
