@@ -132,7 +132,7 @@ pub(crate) const RENDER_SURFACE: OptionTable = OptionTable {
             "width",
             SIDE,
             "from the view and the grid's aspect",
-            "pixels"
+            "pixels; a map is about 1000 on its long side by default (a pixel centred on every node, more pixels where the grid has more nodes), other views 512"
         ),
         opt(
             "height",
