@@ -451,7 +451,10 @@ fn a_surface_script_without_params_takes_the_nu_mode_and_range_keys() {
         );
     };
     save(&t);
+    // The panel shows the edit in the frame that marks the render busy: wait for it, then for
+    // the render.
     t.keys(&["n"]);
+    t.wait_for("×1.25", Duration::from_secs(20));
     settle(&t);
     save(&t);
     t.keys(&["m"]);
