@@ -369,15 +369,9 @@ impl App {
     /// The next colour mode: the script's `mode` parameter when it declares one, else the
     /// edit's mode of the last surface render.
     fn cycle_mode(&mut self) -> Effect {
-        const MODES: [FringeMode; 3] = [
-            FringeMode::Cyclic,
-            FringeMode::Modulated,
-            FringeMode::Direct,
-        ];
-        let next = |m: FringeMode| MODES[(MODES.iter().position(|x| *x == m).unwrap_or(0) + 1) % 3];
         if let Some(current) = self.param_value("mode") {
             let now = FringeMode::parse(&current).unwrap_or(FringeMode::Cyclic);
-            self.set_override("mode", next(now).name());
+            self.set_override("mode", now.next().name());
             return Effect::Rerender;
         }
         let Some(SceneKeys {
@@ -388,8 +382,8 @@ impl App {
             self.message = "the script has no surface render and no param(\"mode\", ...)".into();
             return Effect::None;
         };
-        self.edit.mode = Some(next(mode));
-        self.message = format!("mode {}", next(mode).name());
+        self.edit.mode = Some(mode.next());
+        self.message = format!("mode {}", mode.next().name());
         Effect::Rerender
     }
 

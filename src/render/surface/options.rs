@@ -121,6 +121,15 @@ impl FringeMode {
         }
     }
 
+    /// The mode after this one, cyclic → modulated → direct → cyclic (the TUI's `m`).
+    pub(crate) fn next(self) -> FringeMode {
+        match self {
+            FringeMode::Cyclic => FringeMode::Modulated,
+            FringeMode::Modulated => FringeMode::Direct,
+            FringeMode::Direct => FringeMode::Cyclic,
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             FringeMode::Cyclic => "cyclic",
