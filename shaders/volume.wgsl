@@ -126,15 +126,17 @@ fn march_step_pre(s: ptr<function, RayState>, front: ptr<function, Front>, m: Ma
 }
 #endif
 
-// The fixed quantities of the interior segments (all but the first and the last): texture
-// coordinate of the midpoint of segment 0 (as if it had length ds), the step between
-// midpoints, the length in voxels, the stopping depth, the unit ray direction.
+// The fixed quantities of the interior segments 1..last (all but the first and the last few):
+// texture coordinate of the midpoint of segment 0 (as if it had length ds), the step between
+// midpoints, the length in voxels, the stopping depth, the unit ray direction, and the first
+// segment past the interior (shared/march.wgsl interior_end).
 struct Inner {
     uvw: vec3<f32>,
     step: vec3<f32>,
     len: f32,
     stop_tau: f32,
     dir: vec3<f32>,
+    last: u32,
 }
 
 // Emission–absorption at uvw, or with WORK < 4 only the first parts of that work and a
@@ -176,22 +178,103 @@ fn inner_step(s: ptr<function, RayState>, c: Inner, k: u32) {
     composite(s, ea, c.len, c.stop_tau);
 }
 
+// Adds the block's sums to the ray's totals and empties it.
+fn join_block(s: ptr<function, RayState>, block: ptr<function, RayState>) {
+    (*s).color += (*block).color;
+    (*s).tau += (*block).tau;
+    (*block).color = vec3<f32>(0.0);
+    (*block).tau = 0.0;
+}
+
 #if SKIPPING
+// Segment k's emission–absorption (at its midpoint, shaded with SHADING) and its length in
+// voxels. An interior segment (1 <= k < c.last) samples on the arithmetic sequence of midpoints
+// and has length ds; the first (from the box entry, its length perhaps jittered) and the last
+// ones (the very last cut at the exit) sample between their ends (segment_end). The bricked ray
+// caster places its samples the same way.
+struct Lit {
+    ea: vec4<f32>,
+    len: f32,
+}
+
+fn lit_segment(m: March, c: Inner, k: u32) -> Lit {
+    let interior = k >= 1u && k < c.last;
+    let ta = select(segment_end(m, k - 1u), m.t_enter, k == 0u);
+    let tb = segment_end(m, k);
+    let uvw = select(m.uvw0 + m.duvw * (0.5 * (ta + tb)), c.uvw + c.step * f32(k), interior);
+    var ea = sample_work(uvw);
+#if SHADING
+    if (any(ea.rgb > vec3<f32>(0.0))) {
+        ea = vec4<f32>(ea.rgb * shading_factor(uvw, c.dir), ea.a);
+    }
+#endif
+    return Lit(ea, select((tb - ta) * m.voxels_per_unit, c.len, interior));
+}
+
+// Segment k composited onto the ray's totals, as u8, f16 and compensated sums add every
+// segment; nothing once the ray stopped or at and past `end`.
+fn segment_step(s: ptr<function, RayState>, m: March, c: Inner, k: u32, end: u32) {
+    if ((*s).stopped || k >= end) {
+        return;
+    }
+    let lit = lit_segment(m, c, k);
+    composite(s, lit.ea, lit.len, c.stop_tau);
+}
+
+// Segment k in f32 (PRECISION 0). An interior segment is summed in its block of 64 segments
+// (sum_block), which joins the ray's totals when the next block begins: a 64th of the additions
+// to the large running sums, so about a 64th of their rounding drift on long rays of nearly
+// equal contributions. The first and the last few segments join the totals at once (a block
+// of their own). The blocks are those of the segment index, so a march that jumps over empty
+// segments, and may start a group of UNROLL anywhere, sums exactly as the march without jumps.
+fn blocked_step(s: ptr<function, RayState>, block: ptr<function, RayState>, block_index: ptr<function, u32>, m: March, c: Inner, k: u32, end: u32) {
+    if ((*s).stopped || k >= end) {
+        return;
+    }
+    let interior = k >= 1u && k < c.last;
+    let b = select(0x80000000u + k, sum_block(k), interior);
+    if (b != *block_index) {
+        join_block(s, block);
+        *block_index = b;
+    }
+    let lit = lit_segment(m, c, k);
+    // The block stops where the ray would: its depth is counted from the totals'.
+    composite(block, lit.ea, lit.len, c.stop_tau - (*s).tau);
+    (*s).transmittance = (*block).transmittance;
+    (*s).stopped = (*block).stopped;
+    if (!interior) {
+        join_block(s, block);
+        (*s).stopped = (*s).tau > c.stop_tau;
+        (*block).stopped = (*s).stopped;
+    }
+}
+
+// The edge in cells of the empty cube reaching from the cell holding q (skip-grid cell
+// coordinates) into the ray's octant: 0 where that cell is not empty.
+fn empty_extent(r: SkipRay, cell: vec3<i32>) -> f32 {
+    return round(255.0 * textureSampleLevel(skip_grid, skip_sampler, (vec3<f32>(cell + vec3<i32>(0, 0, r.layer)) + 0.5) * r.inv_cells, 0.0).r);
+}
+
+fn cell_of(r: SkipRay, q: vec3<f32>) -> vec3<i32> {
+    return clamp(vec3<i32>(floor(q)), vec3<i32>(0), r.top);
+}
+
 // Where the march goes on from interior segment k: past every segment whose midpoint lies in
-// the empty cube of cells ahead of k's cell, rounded down to the march's groups of UNROLL (so
-// the segments taken, and the blocks their sums join in, are those of the march without
-// skipping), at most to `last`. Skipped segments would have composited exactly nothing: their
-// samples interpolate voxels of empty cells only (each cell's range covers its one-voxel apron).
-// Not empty, or the cube ends before the next group: k itself.
+// the empty cube of cells ahead of k's cell, at most to `last` (any other k stays). Skipped segments would have
+// composited exactly nothing: their samples interpolate voxels of empty cells only (each cell's
+// range covers its one-voxel apron). Not empty, or the cube ends before the next segment: k
+// itself. The march goes on from the segment it lands on, not from the start of that segment's
+// group of UNROLL, so a ray meets a wall with no samples spent in front of it.
 fn skip_empty(r: SkipRay, k: u32, last: u32) -> u32 {
     let q = r.q0 + r.dq * f32(k);
-    let cell = clamp(vec3<i32>(floor(q)), vec3<i32>(0), r.top);
-    let d = round(255.0 * textureSampleLevel(skip_grid, skip_sampler, (vec3<f32>(cell + vec3<i32>(0, 0, r.layer)) + 0.5) * r.inv_cells, 0.0).r);
+    let cell = cell_of(r, q);
+    let d = empty_extent(r, cell);
     let c = vec3<f32>(cell);
     let exits = (select(c - (d - 1.0), c + d, r.up) - q) * r.inv_dq;
     let t = min(exits.x, min(exits.y, exits.z));
-    let next = k + u32(clamp(floor(t), 0.0, f32(last - k)));
-    return min(1u + ((next - 1u) / UNROLL) * UNROLL, last);
+    // Only interior segments jump (their midpoints are the sequence the cells are found on).
+    let room = select(0u, last - k, k >= 1u && k < last);
+    return k + u32(clamp(floor(t), 0.0, f32(room)));
 }
 
 // A ray's interior segments in skip-grid cells: the midpoint of segment k lies at q0 + dq k;
@@ -298,6 +381,125 @@ fn march_slab(m: March, origin_z: f32, dir_z: f32) -> RayState {
 }
 #endif
 
+#if SKIPPING
+// The march with empty-space skipping: one loop takes every segment, UNROLL at a time, jumping
+// over empty ones. lavapipe runs each loop's body at least once, with all lanes masked off if
+// none enters, so a loop of its own for the first or the last segments would cost a sample of
+// every ray that needs none there (most of them, here).
+fn march_skipping(m: March) -> RayState {
+    var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, m.t_enter, false);
+    // Only segments in the hull can composite anything: the march begins at the segment
+    // before the hull's entry and ends after the one after its exit.
+    let span = hull_span(m.uvw0, m.duvw);
+    let k_in = max(u32(clamp(floor((span.x - m.t_enter - m.first) / m.ds), 0.0, f32(m.steps))), 1u);
+    let k_out = u32(clamp(floor((span.y - m.t_enter - m.first) / m.ds) + 3.0, 1.0, f32(m.steps)));
+    let end = select(0u, k_out, span.x <= span.y);
+    // Segments last.. sample between their ends, as in the march without skipping (and the
+    // bricked ray caster), so every sample lies where theirs do to the last bit.
+    let last = interior_end(m.steps);
+    let inner = Inner(interior_origin(m), m.duvw * m.ds, m.ds * m.voxels_per_unit, m.stop_tau, m.dir, last);
+    let sr = skip_ray(inner);
+    // The first segment only where its sample is not in an empty cell (elsewhere it would
+    // composite nothing); else the march starts at the hull.
+    let first_uvw = m.uvw0 + m.duvw * (0.5 * (m.t_enter + segment_end(m, 0u)));
+    let to_cells = vec3<f32>(textureDimensions(volume_tex)) / P.skip.x;
+    let first_empty = empty_extent(sr, cell_of(sr, first_uvw * to_cells)) > 0.0;
+    var k = select(0u, k_in, first_empty);
+    var block = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, m.t_enter, false);
+    var block_index = 0u;
+    loop {
+        if (k >= end || s.stopped) {
+            break;
+        }
+        // Jump from empty block to empty block until the next segment is not empty: a loop
+        // of lookups only, which runs as long as one of its lanes still jumps.
+        loop {
+            let next = skip_empty(sr, k, last);
+            if (next == k) {
+                break;
+            }
+            k = next;
+        }
+        if (PRECISION == 0u) {
+            blocked_step(&s, &block, &block_index, m, inner, k, end);
+            blocked_step(&s, &block, &block_index, m, inner, k + 1u, end);
+            blocked_step(&s, &block, &block_index, m, inner, k + 2u, end);
+            blocked_step(&s, &block, &block_index, m, inner, k + 3u, end);
+        } else {
+            segment_step(&s, m, inner, k, end);
+            segment_step(&s, m, inner, k + 1u, end);
+            segment_step(&s, m, inner, k + 2u, end);
+            segment_step(&s, m, inner, k + 3u, end);
+        }
+        // Leave as the last lane finishes, not after a masked pass more.
+        continuing {
+            k += UNROLL;
+            break if k >= end || s.stopped;
+        }
+    }
+    if (PRECISION == 0u) {
+        join_block(&s, &block);
+    }
+    return s;
+}
+#else
+// The march without skipping: the first segment (its length may be jittered) and the last ones
+// (cut at the exit) through march_step; the segments between all have length ds, so their
+// midpoints form an arithmetic sequence and need no clamping or carried end point. Every ray
+// takes the first and the last segments, so their own code costs nothing masked; the interior
+// loop's simple positions keep the per-sample work at its least.
+fn march_plain(m: March) -> RayState {
+    var s = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, m.t_enter, false);
+    march_step(&s, m, 0u);
+    let last = interior_end(m.steps);
+    let inner = Inner(interior_origin(m), m.duvw * m.ds, m.ds * m.voxels_per_unit, m.stop_tau, m.dir, last);
+    // f32 sums the interior segments in blocks of 64 (16 iterations) that join the ray's
+    // totals together: a 64th of the additions to the large running sums, so about a 64th of
+    // their rounding drift on long rays of nearly equal contributions. The other precisions
+    // add each segment to the totals, as the arithmetic they emulate does.
+    var block = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, s.transmittance, s.ta, false);
+    var block_index = 0u;
+    var k = 1u;
+    while (k < last && !s.stopped) {
+        if (PRECISION == 0u) {
+            let b = sum_block(k);
+            if (b != block_index) {
+                join_block(&s, &block);
+                block_index = b;
+            }
+            // The block stops where the ray would: its depth is counted from the totals'.
+            let rest = Inner(inner.uvw, inner.step, inner.len, inner.stop_tau - s.tau, inner.dir, last);
+            inner_step(&block, rest, k);
+            inner_step(&block, rest, k + 1u);
+            inner_step(&block, rest, k + 2u);
+            inner_step(&block, rest, k + 3u);
+            s.transmittance = block.transmittance;
+            s.stopped = block.stopped;
+        } else {
+            inner_step(&s, inner, k);
+            inner_step(&s, inner, k + 1u);
+            inner_step(&s, inner, k + 2u);
+            inner_step(&s, inner, k + 3u);
+        }
+        k += UNROLL;
+    }
+    if (PRECISION == 0u) {
+        join_block(&s, &block);
+    }
+    // At most three interior segments and the last one remain, in a loop rather than four
+    // calls: a group of rays that all stopped takes no samples here beyond the loop's one
+    // masked pass.
+    s.ta = segment_end(m, last - 1u);
+    for (var i = 0u; i < UNROLL; i += 1u) {
+        if (s.stopped) {
+            break;
+        }
+        march_step(&s, m, last + i);
+    }
+    return s;
+}
+#endif
+
 // UNROLL (shared/march.wgsl) steps per loop iteration. llvmpipe ends any loop after 65535
 // iterations, so a ray can take at most 4 * 65535 steps (src/render/volume/params.rs refuses renders
 // that would need more).
@@ -348,96 +550,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
 #else
-        // The first segment (its length may be jittered) and the last ones (cut at the exit)
-        // go through march_step; the segments between all have length ds, so their midpoints
-        // form an arithmetic sequence and need no clamping or carried end point.
-        march_step(&s, m, 0u);
-        let inner = Inner(interior_origin(m), m.duvw * m.ds,
-                          m.ds * m.voxels_per_unit, m.stop_tau, m.dir);
-        var k = 1u;
-        // The segments the loop and the tail march: 1..n_to, all of them without skipping.
-        var n_to = n;
 #if SKIPPING
-        // Only segments in the hull can composite anything: the march begins at the group
-        // holding the one before the hull's entry and ends after the one after its exit.
-        let span = hull_span(m.uvw0, m.duvw);
-        let k_in = max(u32(clamp(floor((span.x - m.t_enter - m.first) / m.ds), 0.0, f32(n))), 1u);
-        k = 1u + ((k_in - 1u) / UNROLL) * UNROLL;
-        let k_out = u32(clamp(floor((span.y - m.t_enter - m.first) / m.ds) + 3.0, 1.0, f32(n)));
-        n_to = select(1u, k_out, span.x <= span.y);
+        s = march_skipping(m);
+#else
+        s = march_plain(m);
 #endif
-        // The first k at which the loop below ends: segments k.. are left to the tail.
-        let last = interior_end(n_to);
-        // f32 sums the interior segments in blocks of 64 (16 iterations) that join the ray's
-        // totals together: a 64th of the additions to the large running sums, so about a 64th
-        // of their rounding drift on long rays of nearly equal contributions. The blocks are
-        // those of the segment index, so skipping leaves the sums as they are. The other
-        // precisions add each segment to the totals, as the arithmetic they emulate does.
-        var block = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, s.transmittance, s.ta, false);
-        var block_index = 0u;
-#if SKIPPING
-        let sr = skip_ray(inner);
-#endif
-        while (k + UNROLL < n_to && !s.stopped) {
-#if SKIPPING
-            // Jump from empty block to empty block until the next group of samples is not
-            // empty: a loop of lookups only (lavapipe runs both sides of a branch, but a loop
-            // only as long as one of its lanes still jumps).
-            loop {
-                let next = skip_empty(sr, k, last);
-                if (next == k) {
-                    break;
-                }
-                k = next;
-            }
-            if (k + UNROLL >= n_to) {
-                break;
-            }
-#endif
-            if (PRECISION == 0u) {
-                let b = sum_block(k);
-                if (b != block_index) {
-                    s.color += block.color;
-                    s.tau += block.tau;
-                    block.color = vec3<f32>(0.0);
-                    block.tau = 0.0;
-                    block_index = b;
-                }
-                // The block stops where the ray would: its depth is counted from the totals'.
-                let rest = Inner(inner.uvw, inner.step, inner.len, inner.stop_tau - s.tau, inner.dir);
-                inner_step(&block, rest, k);
-                inner_step(&block, rest, k + 1u);
-                inner_step(&block, rest, k + 2u);
-                inner_step(&block, rest, k + 3u);
-                s.transmittance = block.transmittance;
-                s.stopped = block.stopped;
-            } else {
-                inner_step(&s, inner, k);
-                inner_step(&s, inner, k + 1u);
-                inner_step(&s, inner, k + 2u);
-                inner_step(&s, inner, k + 3u);
-            }
-            k += UNROLL;
-        }
-        if (PRECISION == 0u) {
-            s.color += block.color;
-            s.tau += block.tau;
-        }
-        // At most three interior segments and the last one remain (past the hull, segments
-        // that composite nothing). Taken in a loop, not four calls: lavapipe runs a loop only
-        // while one of its lanes is in it, so a group of rays that all stopped, or all missed
-        // the hull (whose samples would composite nothing), takes no samples here.
-        s.ta = segment_end(m, k - 1u);
-        var tail = UNROLL;
-#if SKIPPING
-        tail = select(UNROLL, 0u, span.x > span.y);
-#endif
-        for (var i = 0u; i < tail; i += 1u) {
-            if (s.stopped) {
-                break;
-            }
-            march_step(&s, m, k + i);
-        }
 #endif
     }
     textureStore(out_image, vec2<i32>(gid.xy), ray_pixel(s));

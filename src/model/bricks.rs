@@ -9,6 +9,7 @@
 use super::transfer::ResolvedTransfer;
 use super::volume::{check_allocation, Volume, VolumeStats};
 use crate::error::{Error, Result};
+use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -120,8 +121,10 @@ pub(crate) type BrickRange = Option<[f32; 2]>;
 /// sample's contribution.
 pub(crate) fn empty_ranges(ranges: &[BrickRange], tf: &ResolvedTransfer) -> Vec<bool> {
     let transparency = tf.transparency();
+    // In parallel: a fine skip grid has millions of cells, classified again on every transfer
+    // function change.
     ranges
-        .iter()
+        .par_iter()
         .map(|r| match r {
             None => true,
             Some([lo, hi]) => transparency.covers(*lo as f64, *hi as f64),
