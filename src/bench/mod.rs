@@ -19,6 +19,7 @@ pub mod datasets;
 pub mod distributed;
 pub mod effects;
 pub mod equal_error;
+pub mod mesh_volume;
 pub mod meshes;
 pub(crate) mod peer_scenes;
 pub mod skipping;

@@ -4,7 +4,8 @@
 
 use super::{BenchCommand, SkippingViewArg};
 use hdrvis::bench::{
-    accuracy, bricks, datasets, effects, meshes, skipping, spherical, surface, tonemap, tui, volume,
+    accuracy, bricks, datasets, effects, mesh_volume, meshes, skipping, spherical, surface,
+    tonemap, tui, volume,
 };
 use hdrvis::gpu::{BackendChoice, GpuContext};
 use hdrvis::{Error, Result};
@@ -126,6 +127,8 @@ fn bench_meshes_command(
         levels,
         width,
         peer,
+        volume,
+        resolution,
     } = cmd
     else {
         unreachable!("called for bench meshes only")
@@ -137,6 +140,24 @@ fn bench_meshes_command(
         ));
     }
     let (ctx, adapter) = gpu(backend)?;
+    if volume {
+        let mut rows = Vec::new();
+        for &level in &levels {
+            let size = (width, resolution);
+            rows.push(mesh_volume::bench_mesh_volume(
+                ctx.clone(),
+                level,
+                size,
+                runs,
+                progress,
+            )?);
+        }
+        print!(
+            "adapter: {adapter}\n{}",
+            mesh_volume::format_mesh_volume_table(width, &rows)
+        );
+        return Ok(());
+    }
     let rows = meshes::bench_meshes(ctx, &levels, width, runs, peer.as_deref(), progress)?;
     print!("{}", meshes::format_meshes_table(&adapter, width, &rows));
     Ok(())

@@ -425,6 +425,14 @@ pub enum BenchCommand {
         /// A peer drawing the same mesh file: geovista.
         #[arg(long)]
         peer: Option<String>,
+        /// Instead: a (depth, cells) volume on each level's ICON triangles, loaded at
+        /// --resolution and rendered width x width, against locating every sample of that frame
+        /// on the mesh (what a native march through the prisms does each frame).
+        #[arg(long)]
+        volume: bool,
+        /// With --volume: load_volume's resolution in degrees.
+        #[arg(long, default_value_t = 0.5)]
+        resolution: f64,
     },
     /// Interference surfaces on an N^2 grid in map view: a ν change (step 2 only) and a full
     /// two-step render, medians.
