@@ -25,7 +25,7 @@ fn depths() -> Vec<f64> {
 /// Writes the (depth, cells) file of `level` at `path`; returns its cells.
 pub(crate) fn write_icon_volume(path: &Path, level: u32) -> Result<usize> {
     use netcdf_reader::NcAttrValue;
-    use netcdf_writer::{NcFileBuilder, NcWriteOptions};
+    use netcdf_writer::NcFileBuilder;
     let (nodes, tris) = icosphere(level);
     let lon_lat = |p: [f64; 3]| (p[1].atan2(p[0]), p[2].clamp(-1.0, 1.0).asin());
     let n = tris.len();
@@ -99,11 +99,7 @@ pub(crate) fn write_icon_volume(path: &Path, level: u32) -> Result<usize> {
         b.add_variable_attribute(v, key, text(value)).map_err(bad)?;
     }
     b.write_variable(v, &field).map_err(bad)?;
-    crate::io::write_atomically(path, |out| {
-        b.write(out, NcWriteOptions::default())
-            .map(|_| ())
-            .map_err(|e| std::io::Error::other(e.to_string()))
-    })?;
+    crate::datasets::readers::netcdf::write_built(path, &b)?;
     Ok(n)
 }
 

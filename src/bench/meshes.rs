@@ -140,7 +140,7 @@ fn lat_lon(v: &[V3]) -> (Vec<f64>, Vec<f64>) {
 /// fine structure (so the sampled map is not flat).
 pub(crate) fn write_mpas(path: &Path, level: u32) -> Result<usize> {
     use netcdf_reader::NcAttrValue;
-    use netcdf_writer::{NcFileBuilder, NcWriteOptions};
+    use netcdf_writer::NcFileBuilder;
     let mesh = voronoi(level);
     let (lat_cell, lon_cell) = lat_lon(&mesh.cells);
     let (lat_vertex, lon_vertex) = lat_lon(&mesh.vertices);
@@ -191,11 +191,7 @@ pub(crate) fn write_mpas(path: &Path, level: u32) -> Result<usize> {
     b.write_variable(v, &temperature).map_err(bad)?;
     b.add_attribute("on_a_sphere", NcAttrValue::Chars("YES".into()))
         .map_err(bad)?;
-    crate::io::write_atomically(path, |out| {
-        b.write(out, NcWriteOptions::default())
-            .map(|_| ())
-            .map_err(|e| std::io::Error::other(e.to_string()))
-    })?;
+    crate::datasets::readers::netcdf::write_built(path, &b)?;
     Ok(n)
 }
 

@@ -14,8 +14,8 @@ use crate::error::{Error, Result};
 mod reader;
 mod write;
 pub(crate) use reader::NetcdfReader;
+pub(crate) use write::{write_built, write_grid_with_aux, AuxCoord, GridAux, GridCoord, GridVar};
 pub use write::{write_grid, write_volume, GridValue};
-pub(crate) use write::{write_grid_with_aux, AuxCoord, GridAux, GridCoord, GridVar};
 
 pub(crate) use super::variables::{dims_in, Dims};
 pub use super::variables::{NcAttribute, NcVariable};

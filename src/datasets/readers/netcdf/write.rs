@@ -155,6 +155,11 @@ pub(crate) fn write_grid_with_aux<T: GridValue>(
             .add_attribute("Conventions", NcAttrValue::Chars("CF-1.8".into()))
             .map_err(|e| Error::invalid("global_attrs.Conventions", e.to_string()))?;
     }
+    write_built(path, &builder)
+}
+
+/// Writes the file `builder` describes to `path` atomically: all of it or, on an error, nothing.
+pub(crate) fn write_built(path: &Path, builder: &NcFileBuilder) -> Result<()> {
     crate::io::write_atomically(path, |out| {
         builder
             .write(out, NcWriteOptions::default())
