@@ -1,6 +1,7 @@
 //! Empty-space skipping for the in-core ray caster. The volume is read once into a coarse grid
-//! of cells of 4³ or 8³ voxels ([`cell_edge`]) holding the finite value range of each cell's footprint (its
-//! voxels and a one-voxel apron: everything a sample inside it interpolates). Against the
+//! of cells of 2³, 4³ or 8³ voxels ([`cell_edge`]) holding the finite value range of each
+//! cell's footprint (its voxels and a one-voxel apron: everything a sample inside it
+//! interpolates). Against the
 //! render's transfer function each cell is empty — every value it can interpolate to has zero
 //! emission and extinction, or it holds only missing data — or not; a transfer-function change
 //! re-classifies the ranges without reading the volume again. The GPU gets, per cell and per
