@@ -293,8 +293,13 @@ struct SkipRay {
     inv_cells: vec3<f32>,
 }
 
+// Skip-grid cells per unit of texture coordinate, along each axis.
+fn cells_per_uvw() -> vec3<f32> {
+    return vec3<f32>(textureDimensions(volume_tex)) / P.skip.x;
+}
+
 fn skip_ray(c: Inner) -> SkipRay {
-    let to_cells = vec3<f32>(textureDimensions(volume_tex)) / P.skip.x;
+    let to_cells = cells_per_uvw();
     let dq = c.step * to_cells;
     let moves = abs(dq) > vec3<f32>(1e-30);
     let inv_dq = select(vec3<f32>(3.0e38), 1.0 / dq, moves);
@@ -402,8 +407,7 @@ fn march_skipping(m: March) -> RayState {
     // The first segment only where its sample is not in an empty cell (elsewhere it would
     // composite nothing); else the march starts at the hull.
     let first_uvw = m.uvw0 + m.duvw * (0.5 * (m.t_enter + segment_end(m, 0u)));
-    let to_cells = vec3<f32>(textureDimensions(volume_tex)) / P.skip.x;
-    let first_empty = empty_extent(sr, cell_of(sr, first_uvw * to_cells)) > 0.0;
+    let first_empty = empty_extent(sr, cell_of(sr, first_uvw * cells_per_uvw())) > 0.0;
     var k = select(0u, k_in, first_empty);
     var block = RayState(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0, 1.0, m.t_enter, false);
     var block_index = 0u;

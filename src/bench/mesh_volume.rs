@@ -156,8 +156,9 @@ pub fn bench_mesh_volume(
     progress(&format!("meshes: volume of level {level}, rendering"));
     let source = VolumeSource::Memory(volume.clone());
     let session = timing_session(ctx);
-    let (rendered, _) = time_renders(&session, &source, &render_options(&volume, width)?, runs)?;
-    let points = frame_samples(&volume, width)?;
+    let render = render_options(&volume, width)?;
+    let (rendered, _) = time_renders(&session, &source, &render, runs)?;
+    let points = frame_samples(&volume, &render.camera, width)?;
     let field = crate::datasets::load_mesh(
         &path,
         &LoadOptions {
@@ -202,10 +203,14 @@ fn render_options(volume: &crate::model::Volume, width: u32) -> Result<VolumeRen
     Ok(o)
 }
 
-/// Longitude and latitude (degrees) of every sample the render of `volume` takes: each pixel's
+/// Longitude and latitude (degrees) of every sample a render of `volume` through `camera` takes: each pixel's
 /// ray cut to the shell between the outer and the inner sphere, sampled at the middle of each
 /// step of the smallest radial spacing (the mapped ray caster's segments, without jitter).
-fn frame_samples(volume: &crate::model::Volume, width: u32) -> Result<Vec<[f64; 2]>> {
+fn frame_samples(
+    volume: &crate::model::Volume,
+    camera: &Camera,
+    width: u32,
+) -> Result<Vec<[f64; 2]>> {
     let Geometry::Spherical(g) = &volume.geometry else {
         return Err(Error::invalid(
             "bench meshes --volume",
@@ -214,7 +219,6 @@ fn frame_samples(volume: &crate::model::Volume, width: u32) -> Result<Vec<[f64; 
     };
     let (inner, outer) = (g.radius.lo, g.radius.hi);
     let step = g.length_scale();
-    let camera = render_options(volume, width)?.camera;
     let mut points = Vec::new();
     for py in 0..width {
         for px in 0..width {
@@ -315,7 +319,8 @@ mod tests {
             g.length_unit
         );
         // Every sample of the frame lies between the spheres, none in the core.
-        let points = frame_samples(&v, 24).unwrap();
+        let camera = render_options(&v, 24).unwrap().camera;
+        let points = frame_samples(&v, &camera, 24).unwrap();
         assert!(points.len() > 24 * 24);
         assert!(points
             .iter()

@@ -1,15 +1,14 @@
-//! Empty-space skipping for the in-core ray caster. The volume is read once into a coarse grid
-//! of cells of 2³, 4³ or 8³ voxels ([`cell_edge`]) holding the finite value range of each
-//! cell's footprint (its voxels and a one-voxel apron: everything a sample inside it
-//! interpolates). Against the
-//! render's transfer function each cell is empty — every value it can interpolate to has zero
-//! emission and extinction, or it holds only missing data — or not; a transfer-function change
-//! re-classifies the ranges without reading the volume again. The GPU gets, per cell and per
+//! Empty-space skipping for the in-core ray caster. The volume is read once into a coarse grid of
+//! cells of 2³, 4³ or 8³ voxels ([`cell_edge`]) holding the finite value range of each cell's
+//! footprint (its voxels and a one-voxel apron: everything a sample inside it interpolates).
+//! Against the render's transfer function each cell is empty — every value it can interpolate to
+//! has zero emission and extinction, or it holds only missing data — or not; a transfer-function
+//! change re-classifies the ranges without reading the volume again. The GPU gets, per cell and per
 //! octant of ray directions, the edge of the largest cube of empty cells reaching from the cell
-//! into that octant ([`octant_extents`]), so one lookup tells how much empty space lies ahead
-//! of a sample and the march jumps to that cube's exit in one loop iteration (`skip_empty` in
-//! shaders/volume.wgsl). The jump lands on the march's own segment grid, so the image is the
-//! one without skipping.
+//! into that octant ([`octant_extents`]), so one lookup tells how much empty space lies ahead of a
+//! sample and the march jumps to that cube's exit in one loop iteration (`skip_empty` in
+//! shaders/volume.wgsl). The jump lands on the march's own segment grid, so the image is the one
+//! without skipping.
 
 use crate::error::Result;
 use crate::gpu::GpuContext;

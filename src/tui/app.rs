@@ -382,8 +382,9 @@ impl App {
             self.message = "the script has no surface render and no param(\"mode\", ...)".into();
             return Effect::None;
         };
-        self.edit.mode = Some(mode.next());
-        self.message = format!("mode {}", mode.next().name());
+        let next = mode.next();
+        self.edit.mode = Some(next);
+        self.message = format!("mode {}", next.name());
         Effect::Rerender
     }
 

@@ -494,9 +494,6 @@ impl FrameLayout {
         }
     }
 
-    /// The colour bar upright from the map's top to its bottom at column `bar_x`, a line of
-    /// text wide, with ticks on its right and their labels a gap beyond (labels that would
-    /// overlap the one above are left out); the rightmost column used.
     /// How many ticks a bar beside a map `map_h` pixels high takes at most.
     fn bar_tick_count(map_h: u32, ty: Type) -> usize {
         (map_h / (3 * ty.line())).clamp(2, 10) as usize
@@ -513,6 +510,9 @@ impl FrameLayout {
         ty.line() + tick + ty.gap() + widest
     }
 
+    /// The colour bar upright from the map's top to its bottom at column `bar_x`, a line of
+    /// text wide, with ticks on its right and their labels a gap beyond (labels that would
+    /// overlap the one above are left out); the rightmost column used.
     fn colour_bar(&mut self, bar: &ColourBar, bar_x: u32, ty: Type, tick: u32) -> u32 {
         let m = self.map;
         let thick = ty.line();
