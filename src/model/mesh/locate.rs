@@ -296,7 +296,7 @@ fn plain_box(mesh: &Mesh, f: usize) -> Option<[f64; 4]> {
     let mut last: Option<f64> = None;
     for &k in ids {
         let (lon, lat) = (mesh.lon[k], mesh.lat[k]);
-        if !(lon.is_finite() && lat.abs() < 90.0 - 1e-9) {
+        if !lon.is_finite() || super::ring::at_a_pole(lat) {
             return None;
         }
         let l = last.map_or(lon, |p| near(lon, p));

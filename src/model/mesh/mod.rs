@@ -48,6 +48,8 @@ pub struct Mesh {
     pub(crate) location: Location,
     /// The dimension the variable's values run along (cells or nodes).
     pub(crate) dim: String,
+    /// How a separate grid file was paired with the values when nothing but a count ties them.
+    pub(crate) pairing: Option<String>,
 }
 
 impl Mesh {
@@ -97,7 +99,7 @@ impl Mesh {
                 let mut pts = Vec::with_capacity(ids.len());
                 for &n in ids {
                     let (lo, la) = (self.lon[n], self.lat[n]);
-                    if !(lo.is_finite() && la.is_finite()) || la.abs() >= 90.0 - 1e-9 {
+                    if !(lo.is_finite() && la.is_finite()) || ring::at_a_pole(la) {
                         return None;
                     }
                     pts.push([lo - 360.0 * ((lo - first) / 360.0).round(), la]);
@@ -136,7 +138,14 @@ impl Mesh {
         for pole in &caps {
             (south, north) = (south.min(*pole), north.max(*pole));
         }
-        let polar = !caps.is_empty() || south <= -90.0 + 1e-9 || north >= 90.0 - 1e-9;
+        // Nodes at a pole (ring::at_a_pole) place it at ±90°, as the rings do.
+        if ring::at_a_pole(south) {
+            south = -90.0;
+        }
+        if ring::at_a_pole(north) {
+            north = 90.0;
+        }
+        let polar = !caps.is_empty() || south == -90.0 || north == 90.0;
         // The longitudes' ranges in [0°, 360°) and in [−180°, 180°), in one pass.
         let widen = |(lo, hi): (f64, f64), v: f64| (lo.min(v), hi.max(v));
         let join = |a: (f64, f64), b: (f64, f64)| (a.0.min(b.0), a.1.max(b.1));
@@ -174,8 +183,12 @@ impl Mesh {
             Location::Faces => "cells",
             Location::Nodes => "nodes",
         };
+        let paired = self
+            .pairing
+            .as_ref()
+            .map_or(String::new(), |p| format!("; {p}"));
         format!(
-            "{} mesh of {} cells and {} nodes, values on its {on} ({})",
+            "{} mesh of {} cells and {} nodes, values on its {on} ({}{paired})",
             self.kind,
             self.faces(),
             self.lon.len(),
@@ -326,5 +339,6 @@ pub(crate) fn test_mesh(
         nodes,
         location,
         dim: "cell".into(),
+        pairing: None,
     }
 }

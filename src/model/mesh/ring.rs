@@ -31,6 +31,16 @@ pub(crate) fn near(l: f64, to: f64) -> f64 {
     }
 }
 
+/// Whether a node at latitude `lat` (degrees) is at a pole: within 5e-5° (5.6 m) of it. Files
+/// that store radians in float32 put the pole up to 2e-5° off it (π/2 has no float32 value, and
+/// ICON's and CDO's own rounding adds to that); no mesh has a node that near a pole but not on it.
+pub(crate) fn at_a_pole(lat: f64) -> bool {
+    lat.abs() >= 90.0 - POLE_TOLERANCE
+}
+
+/// How near a pole (degrees) a node counts as on it ([`at_a_pole`]).
+pub(crate) const POLE_TOLERANCE: f64 = 5e-5;
+
 /// Cell `f` of `mesh` as a ring in the plane; `None` when a node has no finite position.
 #[cfg(test)]
 pub(crate) fn ring(mesh: &Mesh, f: usize) -> Option<Ring> {
@@ -42,7 +52,7 @@ pub(crate) fn ring(mesh: &Mesh, f: usize) -> Option<Ring> {
 /// cell); `false` when a node has no finite position.
 pub(crate) fn ring_into(mesh: &Mesh, f: usize, r: &mut Ring) -> bool {
     let ids = mesh.face(f);
-    let at_pole = |n: usize| mesh.lat[n].abs() >= 90.0 - 1e-9;
+    let at_pole = |n: usize| at_a_pole(mesh.lat[n]);
     if ids
         .iter()
         .any(|&n| !(mesh.lat[n].is_finite() && (mesh.lon[n].is_finite() || at_pole(n))))
@@ -143,7 +153,7 @@ pub(crate) fn on_boundary(points: &[[f64; 2]], p: [f64; 2]) -> bool {
 /// poles, each the short way) add up to a turn.
 pub(crate) fn round_pole(mesh: &Mesh, f: usize) -> Option<f64> {
     let ids = mesh.face(f);
-    let off = |n: usize| mesh.lat[n].abs() < 90.0 - 1e-9 && mesh.lon[n].is_finite();
+    let off = |n: usize| !at_a_pole(mesh.lat[n]) && mesh.lon[n].is_finite();
     if ids.len() < 3 || !ids.iter().all(|&n| off(n)) {
         return None;
     }

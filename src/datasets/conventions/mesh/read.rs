@@ -87,6 +87,8 @@ pub(crate) fn mesh_of(
             _ => &src,
         };
         Some(ugrid(from, topology, attr_text(&attrs, "location"))?)
+    } else if let Some((topology, location)) = ugrid_by_dimension(&src, dims)? {
+        Some(ugrid(&src, &topology, Some(location))?)
     } else if src.has("verticesOnCell") && src.has("nEdgesOnCell") {
         Some(mpas(&src, dims)?)
     } else if src.has("grid_corner_lat") && src.has("grid_corner_lon") {
@@ -121,6 +123,9 @@ pub(crate) fn mesh_of(
         .or_else(|| grid.and_then(|_| dims.iter().rev().find(|(_, n)| *n == want)));
     match on {
         Some((d, _)) => {
+            if let Some(g) = grid {
+                mesh.pairing = pairing(path, g, *d != mesh.dim, want)?;
+            }
             mesh.dim = d.clone();
             Ok(Some(mesh))
         }
@@ -142,6 +147,38 @@ pub(crate) fn mesh_of(
             ),
         )),
         None => Ok(None),
+    }
+}
+
+/// Whether the values of `data` lie on `grid`'s cells, as far as the files can tell: both name
+/// their grid's `uuidOfHGrid` (as ICON writes it) and these differ: refused; they agree: paired.
+/// Otherwise, when only the count of `n` cells or nodes ties them (the values name a grid the
+/// grid file does not, or the dimensions' names differ: `by_length`), the pairing says so, since
+/// two grids of one size may number their cells differently.
+fn pairing(data: &Path, grid: &Path, by_length: bool, n: usize) -> Result<Option<String>> {
+    let uuid = |p: &Path| -> Result<Option<String>> {
+        Ok(attr_text(&variables::global_attributes(p)?, "uuidOfHGrid").map(str::to_string))
+    };
+    let name = grid.file_name().map_or_else(
+        || grid.display().to_string(),
+        |f| f.to_string_lossy().into_owned(),
+    );
+    match (uuid(data)?, uuid(grid)?) {
+        (Some(a), Some(b)) if a != b => Err(Error::format(
+            data,
+            format!(
+                "its values are on the grid uuidOfHGrid {a}, but the grid file {} is {b}",
+                grid.display()
+            ),
+        )),
+        (Some(_), Some(_)) => Ok(None),
+        (Some(a), None) => Ok(Some(format!(
+            "paired with {name} by its {n} count alone: the values name the grid uuidOfHGrid {a}, which {name} does not carry"
+        ))),
+        _ if by_length => Ok(Some(format!(
+            "paired with {name} by its {n} count alone: neither dimension names nor uuidOfHGrid tie them"
+        ))),
+        _ => Ok(None),
     }
 }
 
@@ -225,8 +262,7 @@ fn ugrid(src: &Source, topology: &str, location: Option<&str>) -> Result<Mesh> {
     if conn.dims.len() != 2 {
         return Err(bad(format!("'{conn_name}' is not 2-D")));
     }
-    let face_dim =
-        attr_text(&t, "face_dimension").map_or_else(|| conn.dims[0].0.clone(), str::to_string);
+    let face_dim = ugrid_face_dim(src, &t, &conn.dims).map_err(bad)?;
     let base = attr_number(&src.attributes(conn_name)?, "start_index").unwrap_or(0.0);
     let (offsets, nodes) = cells(
         src,
@@ -255,7 +291,69 @@ fn ugrid(src: &Source, topology: &str, location: Option<&str>) -> Result<Mesh> {
         nodes,
         location,
         dim,
+        pairing: None,
     })
+}
+
+/// The dimension of a UGRID topology's faces: its `face_dimension`, else that of its
+/// `face_coordinates` (UGRID 0.9 files store the connectivity (nodes, faces) and say so only
+/// there), else the connectivity's first, as UGRID 1.0 defaults. It must be one of the
+/// connectivity's two dimensions.
+fn ugrid_face_dim(
+    src: &Source,
+    topology: &Attributes,
+    conn: &Dims,
+) -> std::result::Result<String, String> {
+    let of_coordinates = || {
+        let first = attr_text(topology, "face_coordinates")?
+            .split_whitespace()
+            .next()?;
+        match &src.dims(first)[..] {
+            [(d, _)] => Some(d.clone()),
+            _ => None,
+        }
+    };
+    let dim = attr_text(topology, "face_dimension")
+        .map(str::to_string)
+        .or_else(of_coordinates)
+        .or_else(|| conn.first().map(|d| d.0.clone()))
+        .unwrap_or_default();
+    if conn.iter().any(|(d, _)| *d == dim) {
+        Ok(dim)
+    } else {
+        Err(format!(
+            "face dimension '{dim}' is not one of the connectivity's [{}]",
+            conn.iter()
+                .map(|(d, _)| d.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+    }
+}
+
+/// The UGRID topology of `src` whose faces or nodes a variable without a `mesh` attribute runs
+/// along (UGRID 0.9 files name the mesh only on some of their variables), and where its values
+/// lie.
+fn ugrid_by_dimension(src: &Source, dims: &Dims) -> Result<Option<(String, &'static str)>> {
+    for (name, _) in src.listed.iter().filter(|(_, d)| d.is_empty()) {
+        let t = src.attributes(name)?;
+        let Some(conn) = attr_text(&t, "face_node_connectivity") else {
+            continue;
+        };
+        let faces = ugrid_face_dim(src, &t, &src.dims(conn)).ok();
+        let nodes = attr_text(&t, "node_coordinates")
+            .and_then(|c| c.split_whitespace().next())
+            .and_then(|x| src.dims(x).first().map(|d| d.0.clone()));
+        for (d, _) in dims.iter().rev() {
+            if Some(d) == faces.as_ref() {
+                return Ok(Some((name.clone(), "face")));
+            }
+            if Some(d) == nodes.as_ref() {
+                return Ok(Some((name.clone(), "node")));
+            }
+        }
+    }
+    Ok(None)
 }
 
 fn mpas(src: &Source, dims: &Dims) -> Result<Mesh> {
@@ -284,6 +382,7 @@ fn mpas(src: &Source, dims: &Dims) -> Result<Mesh> {
             Location::Faces
         },
         dim: if on_nodes { "nVertices" } else { "nCells" }.into(),
+        pairing: None,
     })
 }
 
@@ -333,6 +432,7 @@ fn corner_cells(src: &Source, kind: &str, lon: &str, lat: &str, fallback: &str) 
         nodes,
         location: Location::Faces,
         dim: v[0].0.clone(),
+        pairing: None,
     })
 }
 
@@ -470,6 +570,7 @@ fn triangles(src: &Source, dims: &Dims) -> Result<Option<Mesh>> {
             Location::Faces
         },
         dim: if on_nodes { node_dim.0 } else { face_dim.0 },
+        pairing: None,
     }))
 }
 
@@ -544,5 +645,6 @@ fn columns(src: &Source, attrs: &Attributes, dims: &Dims) -> Result<Option<Mesh>
         nodes: tris.into_iter().flatten().collect(),
         location: Location::Nodes,
         dim: on.0,
+        pairing: None,
     }))
 }
