@@ -1,8 +1,10 @@
 //! hdrvis's reading of every numeric variable of real archives, set beside xarray's: the files
 //! climate, ocean and weather projects publish inside their PyPI packages (Met Office, CMIP6
 //! models through ESMValTool, ARM, NCEP/NCAR reanalyses, GFDL), the GRIB files of cfgrib's
-//! source distribution (ECMWF, NCEP, DWD) and the Zarr stores of cfdm and earthkit-data (v2 and
-//! v3, consolidated, one with Python's bare NaN), pinned with their hashes in
+//! source distribution (ECMWF, NCEP, DWD), the Zarr stores of cfdm and earthkit-data (v2 and
+//! v3, consolidated, one with Python's bare NaN) and unstructured meshes (LFRic, FESOM2, ICON,
+//! UGRID 0.9, and NCL's ICON, CAM-SE, SCRIP and coastal examples from Debian), pinned with their
+//! hashes in
 //! tests/python/conformance.py, fetched once into `target/conformance-corpus` by the test (never
 //! by the tool). For each variable `hdrvis info --json` must give xarray + cf_xarray's dims,
 //! roles, shape, units, coordinates, dates, missing count, minimum and maximum (cfgrib's for
@@ -81,7 +83,7 @@ fn every_variable_of_real_archives_reads_as_xarray_reads_it() {
         problems.join("\n")
     );
     assert!(
-        count("files") >= 169 && count("variables") >= 2100,
+        count("files") >= 183 && count("variables") >= 2300,
         "{summary}"
     );
     // docs/formats.md shows this run's table.

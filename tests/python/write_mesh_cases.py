@@ -82,6 +82,7 @@ write: the files below (each under 300 kB) and OUT_DIR/cases.json; prints a tabl
   bad_polygon.nc    ugrid.nc with face 10 having only 2 valid nodes.
   bad_units.nc      icon_data.nc with clon, clat, clon_bnds, clat_bnds in units "furlongs".
   icon_data_mismatch.nc  icon_data_only.nc with ncells = 319 (icon_grid.nc has 320 cells).
+  icon_data_other_grid.nc  icon_data_only.nc naming another grid (uuidOfHGrid) of 320 cells.
 cases.json: {"files": [{"file", "kind", "grid" (the grid file to read it with, or null),
   "format", "dims" {name: length}, "faces", "nodes" (counts, null where the file has no
   geometry of its own nor a grid), "face_dim", "node_dim", "face_variables",
@@ -90,7 +91,9 @@ cases.json: {"files": [{"file", "kind", "grid" (the grid file to read it with, o
 
 sample: REQUEST.json is {"file": NAME, "grid": null or NAME, "variable": NAME, "index": {DIM:
   INT, ...}, "lon": [...], "lat": [...]} (NAME relative to OUT_DIR; every dimension of the
-  variable but the mesh's must be in index unless of length 1). Prints one JSON object
+  variable but the mesh's must be in index unless of length 1), with "points": [[lon, lat], ...]
+  in place of the axes for points anywhere, and optionally "mesh": how to read the geometry of
+  a real file (mesh_from_spec) in place of the rules for the files written here. Prints one JSON object
   {"values": [...]}: one entry per point of the regular grid, lat rows, lon fastest: the value
   (float), null where no cell contains the point or the data there are missing, "edge" where the
   point is within 1e-9 degrees of an edge or vertex of any cell. The geometry, by brute force
@@ -99,7 +102,7 @@ sample: REQUEST.json is {"file": NAME, "grid": null or NAME, "variable": NAME, "
     joined by straight lines in the (longitude, latitude) plane;
   - longitudes are unwrapped from the cell's first vertex (not at a pole): each is shifted by a
     multiple of 360 into [prev - 180, prev + 180) of the previous unwrapped one;
-  - a vertex at a pole (|lat| >= 90 - 1e-9) is replaced by two vertices at that pole (lat +-90)
+  - a vertex at a pole (|lat| >= 90 - 5e-5) is replaced by two vertices at that pole (lat +-90)
     at the unwrapped longitudes of its previous and next vertices (cyclic, pole vertices
     ignored), previous first; in node data both take the pole vertex's own value;
   - a ring round a pole (the closing step, last to first unwrapped the same way, brings the
@@ -139,11 +142,13 @@ except ImportError as exc:  # pragma: no cover - depends on the machine
     sys.exit(77)
 
 EDGE_TOL = 1e-9  # degrees: a point this close to an edge or vertex is "edge"
-POLE_TOL = 1e-9  # degrees: a vertex with |lat| >= 90 - POLE_TOL is at a pole
+POLE_TOL = 5e-5  # degrees: a vertex with |lat| >= 90 - POLE_TOL is at a pole (float32 radians
+#                  put the pole up to 2e-5 degrees off it)
 RING_TOL = 1e-6  # degrees: a ring whose closing brings the first vertex 360 +- this round
 BARY_TOL = 1e-12  # barycentric weight tolerance of the fan triangles
 SHIFTS = (-720.0, -360.0, 0.0, 360.0, 720.0)
 UUID = "6f1c2b6e-0d1a-4c3e-9a55-1c0e5a7d3b21"  # the ICON files' uuidOfHGrid (made up, fixed)
+OTHER_UUID = "0b7e2f4a-5c1d-4e8f-8a3b-2d9c6e1f7a40"  # another grid of the same size
 
 
 class Fail(Exception):
@@ -429,7 +434,7 @@ def write_icon_grid(path, level=2):
                 long_name="vertices of each cell", cdi="ignore")
 
 
-def write_icon_data(path, coords=True, ncells=None, units="radian", level=2):
+def write_icon_data(path, coords=True, ncells=None, units="radian", level=2, uuid=UUID):
     _, tris, _, vlon, vlat, clon, clat = icon_mesh(level)
     s = icon_salinity(clon, clat)
     n = len(clon) if ncells is None else ncells
@@ -437,7 +442,7 @@ def write_icon_data(path, coords=True, ncells=None, units="radian", level=2):
         ds.CDI = "Climate Data Interface version 2.4.0 (https://mpimet.mpg.de/cdi)"
         ds.Conventions = "CF-1.6"
         ds.number_of_grid_used = np.int32(1)
-        ds.uuidOfHGrid = UUID
+        ds.uuidOfHGrid = uuid
         ds.createDimension("time", None)
         ds.createDimension("ncells", n)
         if coords:
@@ -699,7 +704,8 @@ class Mesh:
 def degrees(values, units, what):
     u = (units or "").strip().lower()
     if u.startswith("rad"):
-        return np.degrees(values)
+        # In double precision: float32 radians converted in float32 would move nodes by 1e-6.
+        return np.degrees(np.asarray(values, dtype=float))
     if u.startswith("deg"):
         return np.asarray(values, dtype=float)
     raise Fail(f"{what}: units {units!r} are neither degrees nor radians")
@@ -741,8 +747,9 @@ def load_mesh(ds):
         return Mesh("ugrid", cells_from_nodes(lon, lat, conn, valid), (face_dim,), (x.dimensions[0],), len(lon))
     if "clon" in names and "clat" in names and hasattr(ds["clon"], "bounds"):
         lon_b, lat_b = ds[ds["clon"].bounds], ds[ds["clat"].bounds]
-        lon = degrees(raw(lon_b), getattr(lon_b, "units", None), lon_b.name)
-        lat = degrees(raw(lat_b), getattr(lat_b, "units", None), lat_b.name)
+        # CF: bounds without units have their coordinate's.
+        lon = degrees(raw(lon_b), getattr(lon_b, "units", getattr(ds["clon"], "units", None)), lon_b.name)
+        lat = degrees(raw(lat_b), getattr(lat_b, "units", getattr(ds["clat"], "units", None)), lat_b.name)
         return Mesh("icon", [(lon[k], lat[k], None) for k in range(len(lon))], ("ncells", "cell"))
     if "verticesOnCell" in names:
         lon = degrees(raw(ds["lonVertex"]), ds["lonVertex"].units, "lonVertex")
@@ -778,6 +785,41 @@ def load_mesh(ds):
         tris = ConvexHull(xyz).simplices.astype(np.int64)
         return Mesh("columns", cells_from_nodes(lon, lat, tris, np.ones(tris.shape, bool)), (), ("ncol",), len(lon))
     raise Fail("no mesh found")
+
+
+def mesh_from_spec(ds, spec):
+    """A mesh read as `spec` says (a real file's layout, as a reader of its header states it, so
+    the reference needs no convention rules of its own): "nodes" (node longitudes and latitudes
+    and a connectivity, faces along its first axis unless "faces_first" is false, 0- or 1-based
+    by its start_index attribute, else "base"; its _FillValue marks absent corners), "corners"
+    (each cell's corner longitudes and latitudes, cells along the first axis) or "columns"
+    (centres only: their sphere's Delaunay triangles). Coordinates without units are degrees."""
+    def coord(name):
+        v = ds[name]
+        units = getattr(v, "units", None)
+        return degrees(raw(v), units, name) if units is not None else raw(v).astype(float)
+
+    kind = spec["kind"]
+    lon, lat = coord(spec["lon"]), coord(spec["lat"])
+    face_dims, node_dims = tuple(spec.get("face_dims", ())), tuple(spec.get("node_dims", ()))
+    if kind == "nodes":
+        cv = ds[spec["faces"]]
+        conn = raw(cv).astype(np.int64)
+        if not spec.get("faces_first", True):
+            conn = conn.T
+        fill = getattr(cv, "_FillValue", None)
+        valid = np.ones(conn.shape, dtype=bool) if fill is None else conn != int(fill)
+        conn = conn - int(getattr(cv, "start_index", spec.get("base", 0)))
+        return Mesh("spec", cells_from_nodes(lon, lat, conn, valid), face_dims, node_dims, len(lon))
+    if kind == "corners":
+        return Mesh("spec", [(lon[k], lat[k], None) for k in range(len(lon))], face_dims)
+    if kind == "columns":
+        from scipy.spatial import ConvexHull
+        xyz = np.stack([np.cos(np.radians(lat)) * np.cos(np.radians(lon)),
+                        np.cos(np.radians(lat)) * np.sin(np.radians(lon)), np.sin(np.radians(lat))], axis=1)
+        tris = ConvexHull(xyz).simplices.astype(np.int64)
+        return Mesh("spec", cells_from_nodes(lon, lat, tris, np.ones(tris.shape, bool)), (), node_dims, len(lon))
+    raise Fail(f"unknown mesh kind {kind!r}")
 
 
 def read_field(ds, mesh, name, index):
@@ -979,12 +1021,13 @@ def sample_points(mesh, values, loc, lon, lat):
 def open_request(out, request):
     path = os.path.join(out, request["file"])
     grid = request.get("grid")
+    spec = request.get("mesh")
     with netCDF4.Dataset(path) as ds:
         if grid:
             with netCDF4.Dataset(os.path.join(out, grid)) as gds:
-                mesh = load_mesh(gds)
+                mesh = mesh_from_spec(gds, spec) if spec else load_mesh(gds)
         else:
-            mesh = load_mesh(ds)
+            mesh = mesh_from_spec(ds, spec) if spec else load_mesh(ds)
         values, loc = read_field(ds, mesh, request["variable"], request.get("index") or {})
     return mesh, values, loc
 
@@ -1051,6 +1094,7 @@ def write(out):
     write_ugrid(p("bad_polygon.nc"), fault="polygon")
     write_icon_data(p("bad_units.nc"), units="furlongs")
     write_icon_data(p("icon_data_mismatch.nc"), coords=False, ncells=319)
+    write_icon_data(p("icon_data_other_grid.nc"), coords=False, uuid=OTHER_UUID)
     icon_missing = {"S": "_FillValue -9e33 at depth index 2 where clat > 60 degrees"}
     mpas_notes = "12 pentagons, 150 hexagons; the pole cells' vertices are on one latitude"
     cases = [
@@ -1089,6 +1133,8 @@ def write(out):
         describe(out, "bad_units.nc", "icon", faces_vars=["S"], fault="clon/clat and bounds in units furlongs"),
         describe(out, "icon_data_mismatch.nc", "icon", grid="icon_grid.nc", faces_vars=["S"],
                  fault="ncells = 319, icon_grid.nc has 320 cells"),
+        describe(out, "icon_data_other_grid.nc", "icon", grid="icon_grid.nc", faces_vars=["S"],
+                 fault=f"uuidOfHGrid {OTHER_UUID}, icon_grid.nc is {UUID} (the same 320 cells)"),
     ]
     geometry = {"edge_tol_deg": EDGE_TOL, "pole_tol_deg": POLE_TOL, "ring_tol_deg": RING_TOL,
                 "barycentric_tol": BARY_TOL, "shifts_deg": list(SHIFTS)}
