@@ -158,8 +158,11 @@ pub(crate) fn round_pole(mesh: &Mesh, f: usize) -> Option<f64> {
         return None;
     }
     let (mut turn, mut mean) = (0.0, 0.0);
-    for (k, &n) in ids.iter().enumerate() {
-        let d = mesh.lon[ids[(k + 1) % ids.len()]] - mesh.lon[n];
+    // Each edge from the node before (the last node's edge closes the ring): no index
+    // arithmetic per node, which a 2.6-million-cell mesh feels.
+    let mut before = mesh.lon[ids[ids.len() - 1]];
+    for &n in ids {
+        let d = mesh.lon[n] - before;
         // The short way round (d itself below half a turn, where the rounding gives 0).
         turn += if d.abs() < 180.0 {
             d
@@ -167,6 +170,7 @@ pub(crate) fn round_pole(mesh: &Mesh, f: usize) -> Option<f64> {
             d - 360.0 * (d / 360.0).round()
         };
         mean += mesh.lat[n];
+        before = mesh.lon[n];
     }
     (turn.abs() > 180.0).then_some(if mean > 0.0 { 90.0 } else { -90.0 })
 }

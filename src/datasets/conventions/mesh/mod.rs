@@ -152,7 +152,13 @@ pub(crate) fn field(
         ));
     }
     let units = v.units.clone().unwrap_or_default();
-    MeshField::new(on.mesh, v.data.clone(), &on.name, &units, on.notes)
+    let OnMesh {
+        name,
+        mesh,
+        notes,
+        values,
+    } = on;
+    MeshField::new(mesh, values.data, &name, &units, notes)
         .map_err(|e| Error::format(path, e.to_string()))
 }
 
