@@ -103,6 +103,28 @@ pub(crate) trait Variables: Sync {
     fn rolled_by(&self, _path: &Path, _dim: &str) -> Result<Option<usize>> {
         Ok(None)
     }
+
+    /// Variable `name` whole as its stored 32-bit integers, where it is one that CF decoding
+    /// would only mask (no scale, offset, `_Unsigned` or valid range): the values (C order) and
+    /// the ones that mark missing entries. `None` where it is not, or the format has no such
+    /// read: then [`Variables::read`] it. Meshes' connectivity is tens of millions of these,
+    /// and a detour through f64 costs more than the read.
+    fn integers(&self, _path: &Path, _name: &str) -> Result<Option<Integers>> {
+        Ok(None)
+    }
+}
+
+/// [`Variables::integers`]' answer.
+pub(crate) struct Integers {
+    pub values: Vec<i32>,
+    /// The stored values that mean "missing": `_FillValue` (netCDF's default fill without one)
+    /// and `missing_value`.
+    pub missing: Vec<i32>,
+}
+
+/// [`Variables::integers`] of `path`'s variable `name`.
+pub(crate) fn read_integers(path: &Path, name: &str) -> Result<Option<Integers>> {
+    of(path)?.integers(path, name)
 }
 
 /// The indices a read keeps of each of `dims`: a pick, the window's rows, or all (for readers

@@ -184,10 +184,10 @@ fn pairing(data: &Path, grid: &Path, by_length: bool, n: usize) -> Result<Option
 
 /// Cells from rows of node indices (`rows` of `width`), `base`-based, ending early at a fill
 /// (NaN or negative): each checked against the `nodes` the mesh has.
-fn cells(
+fn cells<T: Copy + Into<f64>>(
     src: &Source,
     what: &str,
-    rows: impl Iterator<Item = impl AsRef<[f64]>>,
+    rows: impl Iterator<Item = impl AsRef<[T]>>,
     base: f64,
     nodes: usize,
 ) -> Result<(Vec<usize>, Vec<usize>)> {
@@ -197,6 +197,7 @@ fn cells(
     for (f, row) in rows.enumerate() {
         let start = flat.len();
         for &v in row.as_ref() {
+            let v: f64 = v.into();
             if !v.is_finite() || v < base {
                 break;
             }
@@ -363,15 +364,28 @@ fn ugrid_by_dimension(src: &Source, dims: &Dims) -> Result<Option<(String, &'sta
 fn mpas(src: &Source, dims: &Dims) -> Result<Mesh> {
     let lon = src.degrees("lonVertex", "radians")?;
     let lat = src.degrees("latVertex", "radians")?;
-    let v = src.read("verticesOnCell")?;
     let counts = src.read("nEdgesOnCell")?.data;
-    let width = v.dims.get(1).map_or(0, |d| d.1);
-    let rows = v
-        .data
-        .chunks(width.max(1))
-        .zip(&counts)
-        .map(|(row, &n)| &row[..(n.max(0.0) as usize).min(row.len())]);
-    let (offsets, nodes) = cells(src, "verticesOnCell", rows, 1.0, lon.len())?;
+    let width = src.dims("verticesOnCell").get(1).map_or(0, |d| d.1).max(1);
+    // Each row's first nEdgesOnCell entries, up to a missing one (the decoded read's NaN).
+    let (offsets, nodes) = match variables::read_integers(src.path, "verticesOnCell")? {
+        Some(ints) => {
+            let rows = ints.values.chunks(width).zip(&counts).map(|(row, &n)| {
+                let row = &row[..(n.max(0.0) as usize).min(row.len())];
+                let end = row.iter().position(|v| ints.missing.contains(v));
+                &row[..end.unwrap_or(row.len())]
+            });
+            cells(src, "verticesOnCell", rows, 1.0, lon.len())?
+        }
+        None => {
+            let v = src.read("verticesOnCell")?;
+            let rows = v
+                .data
+                .chunks(width)
+                .zip(&counts)
+                .map(|(row, &n)| &row[..(n.max(0.0) as usize).min(row.len())]);
+            cells(src, "verticesOnCell", rows, 1.0, lon.len())?
+        }
+    };
     let on_nodes =
         dims.iter().any(|(d, _)| d == "nVertices") && !dims.iter().any(|(d, _)| d == "nCells");
     Ok(Mesh {

@@ -415,6 +415,57 @@ fn numeric_variable<'f>(
     Ok(var)
 }
 
+/// Variable `name` as its stored 32-bit integers ([`Variables::integers`]), where it is an `int`
+/// variable that CF decoding would only mask.
+///
+/// [`Variables::integers`]: crate::datasets::readers::variables::Variables::integers
+pub(crate) fn read_integers(
+    path: &Path,
+    name: &str,
+) -> Result<Option<crate::datasets::readers::variables::Integers>> {
+    let file = open(path)?;
+    let var = numeric_variable(path, &file, name)?;
+    let attr = |key: &str| var.attribute(key).map(|a| &a.value);
+    if !matches!(var.dtype(), netcdf_reader::NcType::Int)
+        || [
+            "scale_factor",
+            "add_offset",
+            "_Unsigned",
+            "valid_min",
+            "valid_max",
+            "valid_range",
+        ]
+        .iter()
+        .any(|k| attr(k).is_some())
+    {
+        return Ok(None);
+    }
+    let numbers = |key: &str| -> Vec<i32> {
+        attr(key)
+            .and_then(|v| v.as_f64_vec())
+            .map(|v| v.into_iter().map(|x| x as i32).collect())
+            .unwrap_or_default()
+    };
+    let mut missing = numbers("_FillValue");
+    if missing.is_empty() {
+        // netCDF's default fill of an int (NC_FILL_INT), as the CF decoding masks it.
+        missing.push(-2_147_483_647);
+    }
+    missing.extend(numbers("missing_value"));
+    let values = file
+        .read_variable::<i32>(name)
+        .map_err(|e| reader_error(path, e))?;
+    let values = if values.is_standard_layout() {
+        values.into_raw_vec_and_offset().0
+    } else {
+        values.iter().copied().collect()
+    };
+    Ok(Some(crate::datasets::readers::variables::Integers {
+        values,
+        missing,
+    }))
+}
+
 /// A hyperslab of variable `name` of an open file, CF-decoded as [`read_variable`] decodes, in C
 /// order.
 pub(crate) fn read_slice(

@@ -100,4 +100,12 @@ impl crate::datasets::readers::variables::Variables for NetcdfReader {
     fn rolled_by(&self, path: &Path, dim: &str) -> Result<Option<usize>> {
         rolled_by(path, dim)
     }
+
+    fn integers(
+        &self,
+        path: &Path,
+        name: &str,
+    ) -> Result<Option<crate::datasets::readers::variables::Integers>> {
+        super::read_integers(path, name)
+    }
 }
