@@ -110,6 +110,18 @@ impl CfDecoding {
         }
     }
 
+    /// The stored values that mean missing, where decoding does nothing else (no `_Unsigned`
+    /// reinterpretation, valid range, scale or offset): then a stored value is its physical one
+    /// unless it is one of these. `None` otherwise.
+    pub(crate) fn masks_only(&self) -> Option<Vec<f64>> {
+        let plain = self.sign.is_none()
+            && self.valid_min.is_none()
+            && self.valid_max.is_none()
+            && self.scale == 1.0
+            && self.offset == 0.0;
+        plain.then(|| self.fill.iter().chain(&self.missing).copied().collect())
+    }
+
     /// The physical value of one stored value: NaN where it is missing.
     pub(crate) fn value(&self, stored: f64) -> f64 {
         let v = reinterpret(self.sign, stored);

@@ -361,6 +361,19 @@ fn ugrid_by_dimension(src: &Source, dims: &Dims) -> Result<Option<(String, &'sta
     Ok(None)
 }
 
+/// MPAS's rows of `width` vertex numbers: each cell's first `counts` entries, up to a missing one.
+fn edge_rows<'a, T>(
+    values: &'a [T],
+    width: usize,
+    counts: &'a [f64],
+    missing: impl Fn(&T) -> bool + 'a,
+) -> impl Iterator<Item = &'a [T]> + 'a {
+    values.chunks(width).zip(counts).map(move |(row, &n)| {
+        let row = &row[..(n.max(0.0) as usize).min(row.len())];
+        &row[..row.iter().position(&missing).unwrap_or(row.len())]
+    })
+}
+
 fn mpas(src: &Source, dims: &Dims) -> Result<Mesh> {
     let lon = src.degrees("lonVertex", "radians")?;
     let lat = src.degrees("latVertex", "radians")?;
@@ -369,20 +382,12 @@ fn mpas(src: &Source, dims: &Dims) -> Result<Mesh> {
     // Each row's first nEdgesOnCell entries, up to a missing one (the decoded read's NaN).
     let (offsets, nodes) = match variables::read_integers(src.path, "verticesOnCell")? {
         Some(ints) => {
-            let rows = ints.values.chunks(width).zip(&counts).map(|(row, &n)| {
-                let row = &row[..(n.max(0.0) as usize).min(row.len())];
-                let end = row.iter().position(|v| ints.missing.contains(v));
-                &row[..end.unwrap_or(row.len())]
-            });
+            let rows = edge_rows(&ints.values, width, &counts, |v| ints.missing.contains(v));
             cells(src, "verticesOnCell", rows, 1.0, lon.len())?
         }
         None => {
             let v = src.read("verticesOnCell")?;
-            let rows = v
-                .data
-                .chunks(width)
-                .zip(&counts)
-                .map(|(row, &n)| &row[..(n.max(0.0) as usize).min(row.len())]);
+            let rows = edge_rows(&v.data, width, &counts, |v| v.is_nan());
             cells(src, "verticesOnCell", rows, 1.0, lon.len())?
         }
     };

@@ -425,33 +425,14 @@ pub(crate) fn read_integers(
 ) -> Result<Option<crate::datasets::readers::variables::Integers>> {
     let file = open(path)?;
     let var = numeric_variable(path, &file, name)?;
-    let attr = |key: &str| var.attribute(key).map(|a| &a.value);
-    if !matches!(var.dtype(), netcdf_reader::NcType::Int)
-        || [
-            "scale_factor",
-            "add_offset",
-            "_Unsigned",
-            "valid_min",
-            "valid_max",
-            "valid_range",
-        ]
-        .iter()
-        .any(|k| attr(k).is_some())
-    {
+    if !matches!(var.dtype(), netcdf_reader::NcType::Int) {
         return Ok(None);
     }
-    let numbers = |key: &str| -> Vec<i32> {
-        attr(key)
-            .and_then(|v| v.as_f64_vec())
-            .map(|v| v.into_iter().map(|x| x as i32).collect())
-            .unwrap_or_default()
+    // The CF decoding's own fill and missing values (netCDF's default fill without _FillValue).
+    let Some(masks) = decoding_of(var).masks_only() else {
+        return Ok(None);
     };
-    let mut missing = numbers("_FillValue");
-    if missing.is_empty() {
-        // netCDF's default fill of an int (NC_FILL_INT), as the CF decoding masks it.
-        missing.push(-2_147_483_647);
-    }
-    missing.extend(numbers("missing_value"));
+    let missing = masks.into_iter().map(|v| v as i32).collect();
     let values = file
         .read_variable::<i32>(name)
         .map_err(|e| reader_error(path, e))?;
@@ -482,6 +463,14 @@ pub(crate) fn read_slice(
 /// The CF decoding of a variable's values, in place (`conventions::cf_decode`, as for every
 /// format with attributes).
 fn decode_cf(var: &netcdf_reader::NcVariable, values: &mut ndarray::ArrayD<f64>) {
+    let decoding = decoding_of(var);
+    values.mapv_inplace(|v| decoding.value(v));
+}
+
+/// How a variable's stored values are CF-decoded (`conventions::cf_decode`).
+fn decoding_of(
+    var: &netcdf_reader::NcVariable,
+) -> crate::datasets::conventions::cf_decode::CfDecoding {
     use crate::datasets::conventions::cf_decode::{CfDecoding, Stored};
     use netcdf_reader::NcType;
     let stored = match var.dtype() {
@@ -526,8 +515,7 @@ fn decode_cf(var: &netcdf_reader::NcVariable, values: &mut ndarray::ArrayD<f64>)
         .iter()
         .filter_map(|a| convert_attribute(&a.value).map(|v| (a.name.clone(), v)))
         .collect();
-    let decoding = CfDecoding::of(&attributes, stored);
-    values.mapv_inplace(|v| decoding.value(v));
+    CfDecoding::of(&attributes, stored)
 }
 
 /// The variables that other variables name as their auxiliary coordinates, bounds, grid
