@@ -22,7 +22,9 @@ struct Params {
     image: vec4<u32>,
     // Blinn–Phong under a headlight: x ambient, y diffuse, z specular, w shininess (SHADING only)
     shading: vec4<f32>,
-    // Empty-space skipping (SKIPPING only): x voxels per cell edge of the skip grid
+    // Empty-space skipping (SKIPPING only): x voxels per cell edge of the skip grid; y, z: every
+    // value up to y and from z on is transparent; w: the slack of a gradient skip (GradientSkip
+    // in src/render/skipping.rs)
     skip: vec4<f32>,
     // One slab of a distributed render (SLAB only): x, y the z range (world units from the
     // box's lower corner) whose segment midpoints this rank composites, z the global index of
@@ -32,6 +34,9 @@ struct Params {
     // and highest projection on each of 13 directions (HULL_DIRECTIONS in
     // src/render/skipping.rs), direction i in hull[i / 2].xy (even i) or .zw (odd i).
     hull: array<vec4<f32>, 7>,
+    // Gradient skip (SKIPPING only): xyz the largest change of the data between neighbouring
+    // voxels along each axis
+    gradient: vec4<f32>,
 }
 
 // 0: lookup table, 1: emission–absorption e·v, a·v.
@@ -46,3 +51,6 @@ override PRECISION: u32 = 0u;
 // cost breakdown of `hdrvis bench volume --breakdown`): 0 no volume read, 1 the sample, 2 its
 // scale, 3 the table index, 4 everything (images).
 override WORK: u32 = 4u;
+// Skipping by the gradient bound inside cells that are not empty (SKIPPING only; GradientSkip in
+// src/render/skipping.rs).
+override GRADIENT_SKIP: bool = false;

@@ -47,6 +47,8 @@ pub(crate) struct CellRanges {
     ranges: Vec<BrickRange>,
     /// The volume's statistics, gathered in the same read (transfer functions resolve on them).
     stats: VolumeStats,
+    /// [`gradient_bound`] of the volume.
+    gradient: Option<[f64; 3]>,
 }
 
 impl CellRanges {
@@ -57,10 +59,12 @@ impl CellRanges {
             brick: edge,
             grid: volume.dims.map(|d| d.div_ceil(edge)),
         };
+        let stats = volume.stats();
         Ok(CellRanges {
             ranges: stencil_ranges(&volume, &layout),
             layout,
-            stats: volume.stats(),
+            gradient: (stats.non_finite == 0).then(|| gradient_bound(&volume)),
+            stats,
         })
     }
 
@@ -82,6 +86,140 @@ impl CellRanges {
     }
 }
 
+/// Per axis, the largest difference between neighbouring voxels of a volume whose voxels are
+/// all finite: a bound on the slope of its trilinear interpolant along that axis (inside a cell
+/// the derivative along x interpolates the cell's four x-edge differences, and the clamped faces
+/// are flat), so two samples whose positions differ by (dx, dy, dz) voxels differ in value by
+/// at most the bound's dot product with (|dx|, |dy|, |dz|).
+pub(crate) fn gradient_bound(volume: &Volume) -> [f64; 3] {
+    let [nx, ny, nz] = volume.dims;
+    let plane = nx * ny;
+    let d = &volume.data;
+    let diff = |m: &mut f64, a: &[f32], b: &[f32]| {
+        for (&p, &q) in a.iter().zip(b) {
+            *m = m.max((f64::from(q) - f64::from(p)).abs());
+        }
+    };
+    (0..nz)
+        .into_par_iter()
+        .map(|z| {
+            let mut m = [0.0f64; 3];
+            let slice = &d[z * plane..][..plane];
+            for y in 0..ny {
+                let row = &slice[y * nx..][..nx];
+                diff(&mut m[0], &row[..nx - 1], &row[1..]);
+                if y + 1 < ny {
+                    diff(&mut m[1], row, &slice[(y + 1) * nx..][..nx]);
+                }
+            }
+            if z + 1 < nz {
+                diff(&mut m[2], slice, &d[(z + 1) * plane..][..plane]);
+            }
+            m
+        })
+        .reduce(
+            || [0.0; 3],
+            |a, b| [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])],
+        )
+}
+
+/// Skipping inside the cells that are not empty: after each sample the march goes on past the
+/// samples that the slope bound proves transparent. A sample of value v lies `margin` below
+/// the highest value of a transparent range at the bottom of the data's values (or above the
+/// lowest of one at the top); the next n samples, each at most `change` further in value,
+/// stay in that range while n · change + slack <= margin, so they composite exactly nothing and
+/// the image is the one without the jump. Found per volume and transfer function; `None` where
+/// some voxel is missing (the bound does not hold across a hole) or neither end of the values
+/// is transparent.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct GradientSkip {
+    /// [`gradient_bound`] of the volume.
+    pub bound: [f64; 3],
+    /// Every value from the data's minimum to `below` is transparent (-f32::MAX where none
+    /// is).
+    pub below: f64,
+    /// Every value from `above` to the data's maximum is transparent (f32::MAX where none is).
+    pub above: f64,
+    /// What the values and the positions may be off by in f32 and through a texture unit's
+    /// filter weights (8 fractional bits on many GPUs): 1e-5 of the largest magnitude and a
+    /// hundredth of a voxel's change along each axis.
+    pub slack: f64,
+}
+
+impl GradientSkip {
+    /// The bounds under `tf` for a volume of these statistics and slope bound.
+    pub(crate) fn new(
+        stats: &VolumeStats,
+        bound: [f64; 3],
+        tf: &ResolvedTransfer,
+    ) -> Option<GradientSkip> {
+        let (min, max) = (stats.min, stats.max);
+        if !(min.is_finite() && max.is_finite() && min < max) {
+            return None;
+        }
+        let t = tf.transparency();
+        // Bisection on the largest transparent [min, x] and the largest transparent [x, max]
+        // (covers is monotone in each end); 64 halvings reach f64's resolution.
+        let search = |mut lo: f64, mut hi: f64, transparent: &dyn Fn(f64) -> bool| {
+            for _ in 0..64 {
+                let mid = 0.5 * (lo + hi);
+                if transparent(mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            lo
+        };
+        let below = if t.covers(min, min) {
+            search(min, max, &|x| t.covers(min, x))
+        } else {
+            -f64::from(f32::MAX)
+        };
+        let above = if t.covers(max, max) {
+            -search(-max, -min, &|x| t.covers(-x, max))
+        } else {
+            f64::from(f32::MAX)
+        };
+        // How far a sample at the far end of a transparent range could jump, in voxels: where
+        // that is under MIN_GRADIENT_REACH the jumps stay short and the samples, which then wait
+        // for each other's values, cost more than they save.
+        let steepest = bound.iter().copied().fold(0.0, f64::max);
+        let reach = (below - min).max(max - above) / steepest;
+        if reach.is_nan() || reach < MIN_GRADIENT_REACH {
+            return None;
+        }
+        Some(GradientSkip {
+            bound,
+            below,
+            above,
+            slack: 1e-5 * min.abs().max(max.abs()) + 1e-2 * bound.iter().sum::<f64>(),
+        })
+    }
+
+    /// One line for the pass log: where it applies and the bound.
+    pub(crate) fn describe(&self) -> String {
+        let mut ranges = Vec::new();
+        if self.below > -f64::from(f32::MAX) {
+            ranges.push(format!("below {:.4e}", self.below));
+        }
+        if self.above < f64::from(f32::MAX) {
+            ranges.push(format!("above {:.4e}", self.above));
+        }
+        let b = self.bound;
+        format!(
+            "gradient skip {} (change per voxel at most {:.3e}, {:.3e}, {:.3e})",
+            ranges.join(" and "),
+            b[0],
+            b[1],
+            b[2]
+        )
+    }
+}
+
+/// The least reach (voxels) at which [`GradientSkip`] pays.
+const MIN_GRADIENT_REACH: f64 = 2.0;
+
 /// A classified skip grid on the GPU.
 pub(crate) struct SkipGrid {
     pub grid: [usize; 3],
@@ -93,6 +231,8 @@ pub(crate) struct SkipGrid {
     pub outside: usize,
     /// The cells that are not empty, bounded by the slabs of [`HULL_DIRECTIONS`].
     hull: [[f32; 2]; 13],
+    /// Skipping inside the cells that are not empty, where the volume and function allow it.
+    pub gradient: Option<GradientSkip>,
     view: wgpu::TextureView,
 }
 
@@ -158,7 +298,11 @@ impl SkipGrid {
     pub(crate) fn new(ctx: &GpuContext, cells: &CellRanges, tf: &ResolvedTransfer) -> SkipGrid {
         let empty = cells.empty_cells(tf);
         let (grid, edge) = (cells.layout.grid, cells.edge());
-        Self::from_empty(ctx, &empty, grid, edge, cells.layout.dims)
+        let mut g = Self::from_empty(ctx, &empty, grid, edge, cells.layout.dims);
+        g.gradient = cells
+            .gradient
+            .and_then(|bound| GradientSkip::new(&cells.stats, bound, tf));
+        g
     }
 
     /// The grid of `grid` cells marked `empty`, of `edge` voxels of a volume of `dims` (the
@@ -197,6 +341,7 @@ impl SkipGrid {
             hull: hull(empty, grid, edge, dims),
             empty: empty.iter().filter(|&&e| e).count(),
             outside: 0,
+            gradient: None,
             view: texture.create_view(&Default::default()),
         }
     }
@@ -210,6 +355,20 @@ impl SkipGrid {
             p[i / 2][2 * (i % 2) + 1] = h[1];
         }
         p
+    }
+
+    /// The shader's `P.skip` (voxels per cell, [`GradientSkip`]'s `below`, `above` and `slack`)
+    /// and `P.gradient` (its bound per axis). Without a gradient skip the bounds lie beyond any
+    /// value, so no sample's margin is positive.
+    pub(crate) fn skip_params(&self) -> ([f32; 4], [f32; 4]) {
+        let edge = self.edge as f32;
+        match self.gradient {
+            Some(g) => (
+                [edge, g.below as f32, g.above as f32, g.slack as f32],
+                [g.bound[0] as f32, g.bound[1] as f32, g.bound[2] as f32, 0.0],
+            ),
+            None => ([edge, -f32::MAX, f32::MAX, 0.0], [1.0, 1.0, 1.0, 0.0]),
+        }
     }
 
     pub(crate) fn view(&self) -> &wgpu::TextureView {
@@ -363,5 +522,89 @@ mod tests {
         assert!(octant_extents(&vec![true; n], grid)
             .iter()
             .all(|&e| u32::from(e) == MAX_EXTENT));
+    }
+}
+
+#[cfg(test)]
+mod gradient_tests {
+    use super::*;
+    use crate::model::{LutTransfer, TransferFunction};
+
+    fn ramp(f: impl Fn(f64, f64, f64) -> f64 + Sync) -> Volume {
+        Volume::from_fn("ramp", [9, 7, 5], f).unwrap()
+    }
+
+    fn tf(domain: [f64; 2], transparent_below: f64) -> TransferFunction {
+        TransferFunction::Lut(LutTransfer {
+            domain: Some(domain),
+            transparent_below,
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn the_slope_bound_of_a_linear_field_is_its_gradient() {
+        let v = ramp(|x, y, z| 2.0 * x - 3.0 * y + 0.5 * z);
+        assert_eq!(gradient_bound(&v), [2.0, 3.0, 0.5]);
+        // The largest step anywhere, not a typical one.
+        let v = ramp(|x, _, _| if (x - 4.5).abs() < 0.1 { 10.0 } else { 0.0 });
+        assert_eq!(gradient_bound(&v), [10.0, 0.0, 0.0]);
+        // Missing voxels: no bound, so no gradient skip.
+        let v = ramp(|x, _, _| if (x - 4.5).abs() < 0.1 { f64::NAN } else { x });
+        assert!(CellRanges::of(Arc::new(v)).unwrap().gradient.is_none());
+    }
+
+    #[test]
+    fn the_transparent_range_ends_within_a_table_entry_of_the_threshold() {
+        let v = ramp(|x, _, _| x / 8.0);
+        let stats = v.stats();
+        let resolved = tf([0.0, 1.0], 0.6).resolve(&stats).unwrap();
+        let g = GradientSkip::new(&stats, [1.0 / 8.0, 0.1, 0.1], &resolved).unwrap();
+        // Transparent from the minimum to just below 0.6 (the table's entry there, less the
+        // margins covers keeps), nothing at the top.
+        let entry = 1.0 / (crate::model::transfer::LUT_SIZE - 1) as f64;
+        assert!(g.below < 0.6 && g.below > 0.6 - 3.0 * entry, "{}", g.below);
+        assert_eq!(g.above, f64::from(f32::MAX));
+        assert!(resolved.eval(g.below).1 == 0.0 && resolved.eval(0.6 + entry).1 > 0.0);
+        let slack = 1e-5 * stats.max + 1e-2 * (0.125 + 0.2);
+        assert!((g.slack - slack).abs() < 1e-15, "{}", g.slack);
+        assert!(g.describe().contains("below 5.99"), "{}", g.describe());
+        // A slope that lets a sample at the minimum jump less than two voxels: no skip.
+        assert!(GradientSkip::new(&stats, [0.4, 0.1, 0.1], &resolved).is_none());
+        // Nothing transparent: no skip.
+        let opaque = tf([0.0, 1.0], 0.0).resolve(&stats).unwrap();
+        assert!(GradientSkip::new(&stats, [0.125, 0.1, 0.1], &opaque).is_none());
+    }
+
+    #[test]
+    fn a_transparent_top_range_and_emission_absorption_s_zero() {
+        let v = ramp(|x, _, _| x / 8.0);
+        let stats = v.stats();
+        // Nothing above 0.7: a top range from just above it.
+        let top = ResolvedTransfer::from_functions(crate::model::Scale::Linear, [0.0, 1.0], |v| {
+            if v > 0.7 {
+                ([0.0; 3], 0.0)
+            } else {
+                ([1.0; 3], 1.0)
+            }
+        })
+        .unwrap();
+        let g = GradientSkip::new(&stats, [0.125, 0.0, 0.0], &top).unwrap();
+        let entry = 1.0 / (crate::model::transfer::LUT_SIZE - 1) as f64;
+        assert!(g.above > 0.7 && g.above < 0.7 + 3.0 * entry, "{}", g.above);
+        assert_eq!(g.below, -f64::from(f32::MAX));
+        assert!(g.describe().contains("above 7.0"), "{}", g.describe());
+        // e·v and a·v leave only values at or below zero transparent.
+        let v = ramp(|x, _, _| x - 4.0);
+        let stats = v.stats();
+        let ea = TransferFunction::EmissionAbsorption {
+            emission: 1.0,
+            absorption: 0.1,
+        }
+        .resolve(&stats)
+        .unwrap();
+        let g = GradientSkip::new(&stats, [1.0, 0.0, 0.0], &ea).unwrap();
+        assert!(g.below <= 0.0 && g.below > -1e-9, "{}", g.below);
+        assert_eq!(g.above, f64::from(f32::MAX));
     }
 }

@@ -12,7 +12,7 @@ use crate::gpu::timestamps::PassTimestamps;
 use crate::gpu::{pipeline, readback, shader, GpuContext};
 use crate::model::transfer::{ResolvedTransfer, TfKind};
 use crate::model::{HdrImage, Volume, VolumeStats};
-use params::{check_steps_per_ray, volume_params};
+use params::{check_steps_per_ray, steps_per_ray, volume_params};
 pub(crate) use params::{
     min_spacing, Frame, Geometry, CF_AXES, MAX_STEPS_PER_RAY, RECTILINEAR, RENORMALISE, SEAM,
     SHELL, SPHERICAL, UNEVEN,
@@ -127,6 +127,8 @@ pub(crate) struct PipelineKey {
     pub preintegrated: bool,
     /// Empty-space skipping through a skip grid (plain ray caster, point sampling).
     pub skipping: bool,
+    /// And inside the cells that are not empty, by the gradient bound (`GradientSkip`).
+    pub gradient_skip: bool,
     /// Voxels placed by coordinate axes (volume_mapped.wgsl): bits of `mapped::RECTILINEAR`,
     /// `SPHERICAL`, `UNEVEN`, `SEAM`, `CF_AXES`, `SHELL`, `RENORMALISE`.
     pub mapped: u32,
@@ -318,6 +320,7 @@ impl VolumeRenderer {
             ("JITTER", key.jitter as u32 as f64),
             ("PRECISION", key.precision as f64),
             ("WORK", key.work.shader_code() as f64),
+            ("GRADIENT_SKIP", key.gradient_skip as u32 as f64),
         ];
         // SAFETY: wgpu's injected runtime checks (buffer index clamps, loop counters) cost about
         // a third of the ray caster's time on lavapipe. The shader needs neither: every table
@@ -391,8 +394,13 @@ impl VolumeRenderer {
         let mut frame = self.frame(geometry, opts, false)?;
         frame.key.work = work;
         frame.key.skipping = skip.is_some();
-        frame.params.skip = [skip.map_or(0, |g| g.edge) as f32, 0.0, 0.0, 0.0];
+        // The gradient skip's march advances at least two steps a loop iteration, not four:
+        // a ray of more steps than twice llvmpipe's iteration limit marches without it.
+        frame.key.gradient_skip = skip.is_some_and(|g| g.gradient.is_some())
+            && steps_per_ray(opts, geometry.voxel, geometry.size())
+                <= (MAX_STEPS_PER_RAY / 2) as f64;
         if let Some(g) = skip {
+            (frame.params.skip, frame.params.gradient) = g.skip_params();
             frame.params.hull = g.hull_params();
         }
         if let Some(slab) = slab {
@@ -510,6 +518,7 @@ impl VolumeRenderer {
             shading: opts.shading.is_some(),
             preintegrated: opts.tf_sampling == TfSampling::PreIntegrated,
             skipping: false,
+            gradient_skip: false,
             mapped: 0,
             slab: false,
             work: SampleWork::Full,

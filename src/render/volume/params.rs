@@ -28,6 +28,7 @@ pub(crate) struct VolumeParams {
     pub(super) skip: [f32; 4],
     pub(super) slab: [f32; 4],
     pub(super) hull: [[f32; 4]; 7],
+    pub(super) gradient: [f32; 4],
 }
 
 /// Pipeline variants of the mapped ray caster, as bits of `PipelineKey::mapped`.
@@ -50,6 +51,12 @@ pub(crate) const RENORMALISE: u32 = 64;
 /// (lavapipe, and GL on Mesa) ends any loop after 65535 iterations.
 pub(crate) const MAX_STEPS_PER_RAY: u64 = 4 * 65535;
 
+/// The most steps a ray across the volume's diagonal takes.
+pub(super) fn steps_per_ray(opts: &VolumeRenderOptions, voxel: f64, size: [f64; 3]) -> f64 {
+    let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
+    diagonal / (opts.step * voxel) + 2.0
+}
+
 /// Rejects a step so small that a ray across the volume's diagonal would take more than
 /// [`MAX_STEPS_PER_RAY`] steps.
 pub(super) fn check_steps_per_ray(
@@ -58,7 +65,7 @@ pub(super) fn check_steps_per_ray(
     size: [f64; 3],
 ) -> Result<()> {
     let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
-    let steps = diagonal / (opts.step * voxel) + 2.0;
+    let steps = steps_per_ray(opts, voxel, size);
     if steps > MAX_STEPS_PER_RAY as f64 {
         return Err(Error::invalid(
             "step",
@@ -125,6 +132,7 @@ pub(super) fn volume_params(
         skip: [0.0; 4],
         slab: [0.0; 4],
         hull: [[0.0; 4]; 7],
+        gradient: [0.0; 4],
     }
 }
 
