@@ -550,15 +550,10 @@ fn march_plain(m: March) -> RayState {
 // iterations, so a ray can take at most 4 * 65535 steps (src/render/volume/params.rs refuses renders
 // that would need more).
 
-// A workgroup is an 8 x 8 tile of pixels, and each run of 8 invocations (a SIMD vector on
-// lavapipe, a quarter warp on NVIDIA) a 4 x 2 block of it rather than a row of 8: neighbouring
-// rays in both directions meet a wall at nearer depths, so a vector's lanes finish closer
-// together (opaque wall 4 %, sparse blobs 5 % faster than rows).
+// One invocation per pixel, in 8 x 8 tiles (shared/camera.wgsl tile_pixel).
 @compute @workgroup_size(64, 1, 1)
 fn main(@builtin(workgroup_id) tile: vec3<u32>, @builtin(local_invocation_index) l: u32) {
-    let block = l / 8u;
-    let lane = l % 8u;
-    let gid = vec2<u32>(tile.x * 8u + (block % 2u) * 4u + lane % 4u, tile.y * 8u + (block / 2u) * 2u + lane / 4u);
+    let gid = tile_pixel(tile, l);
     let w = P.image.x;
     let h = P.image.y;
     if (gid.x >= w || gid.y >= h) {

@@ -170,8 +170,10 @@ fn end_block(s: ptr<function, RayState>) {
     (*s).tau_carry = 0.0;
 }
 
-@compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+// One invocation per pixel, in 8 x 8 tiles (shared/camera.wgsl tile_pixel).
+@compute @workgroup_size(64, 1, 1)
+fn main(@builtin(workgroup_id) tile: vec3<u32>, @builtin(local_invocation_index) l: u32) {
+    let gid = tile_pixel(tile, l);
     let w = P.image.x;
     let h = P.image.y;
     if (gid.x >= w || gid.y >= h) {

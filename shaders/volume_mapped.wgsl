@@ -914,8 +914,10 @@ fn composite_face(s: ptr<function, RayState>, radiance: vec3<f32>) {
     (*s).stopped = true;
 }
 
-@compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+// One invocation per pixel, in 8 x 8 tiles (shared/camera.wgsl tile_pixel).
+@compute @workgroup_size(64, 1, 1)
+fn main(@builtin(workgroup_id) tile: vec3<u32>, @builtin(local_invocation_index) l: u32) {
+    let gid = tile_pixel(tile, l);
     let w = P.image.x;
     let h = P.image.y;
     if (gid.x >= w || gid.y >= h) {

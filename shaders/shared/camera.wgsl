@@ -1,6 +1,17 @@
 // Camera rays and the ray–box test. Keep in sync with src/model/camera.rs (Camera::ray) and
 // src/model/volume.rs (Aabb::intersect). Positions are relative to the volume's lower corner.
 
+// The pixel of invocation l of workgroup `tile` (workgroups of 64 over the image's 8 x 8
+// tiles): each run of 8 invocations (a SIMD vector on lavapipe, a quarter warp on NVIDIA) is a
+// 4 x 2 block of the tile rather than a row of 8, so neighbouring rays in both directions share
+// a vector and its lanes meet walls at nearer depths and finish closer together (in-core ray
+// caster: opaque wall 4 %, sparse blobs 5 % faster than rows).
+fn tile_pixel(tile: vec3<u32>, l: u32) -> vec2<u32> {
+    let block = l / 8u;
+    let lane = l % 8u;
+    return vec2<u32>(tile.x * 8u + (block % 2u) * 4u + lane % 4u, tile.y * 8u + (block / 2u) * 2u + lane / 4u);
+}
+
 struct Ray {
     origin: vec3<f32>,
     dir: vec3<f32>,
