@@ -225,8 +225,8 @@ fn lit_segment(m: March, c: Inner, k: u32) -> Lit {
 // The segment the march takes after sampling segment k at value v: k + 1, or further past the
 // interior segments that the gradient skip (GradientSkip in src/render/skipping.rs) proves
 // transparent. v lies `margin` inside a transparent range at the bottom or the top of the
-// data's values; each interior segment changes the value by at most r.change, so the next n
-// samples with n * r.change <= margin stay in that range and composite exactly nothing. Only
+// data's values; each interior segment changes the value by at most 1 / r.inv_change, so the
+// next n samples with n / r.inv_change <= margin stay in that range and composite exactly nothing. Only
 // from an interior segment over interior ones: their samples lie on the arithmetic sequence, so
 // their distance is exactly n steps.
 fn next_segment(r: SkipRay, last: u32, k: u32, v: f32) -> u32 {
@@ -462,7 +462,8 @@ fn march_skipping(m: March) -> RayState {
         // UNROLL samples, each followed by the segments it proves transparent; two with the
         // gradient skip, whose samples go on past what they prove transparent by themselves, so
         // that a longer group mostly pays for masked lanes (opaque wall: 2 samples 7 % faster
-        // than 4; src/render/volume/params.rs halves the steps a ray may take).
+        // than 4; render_with in src/render/volume/mod.rs keeps rays of more than half the step
+        // limit off it).
         if (PRECISION == 0u) {
             k = blocked_step(&s, &block, &block_index, m, inner, sr, k, end);
             k = blocked_step(&s, &block, &block_index, m, inner, sr, k, end);

@@ -77,15 +77,20 @@ fn diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
         / peak
 }
 
-#[test]
-fn skipping_renders_the_plain_image_of_a_shell_with_missing_data() {
-    let vol = Arc::new(shell());
+/// Renders `vol` under `tf` from four cameras (the second along `side`, jitter in the third) in
+/// f32, u8, f16 and f32c at `step`, without and with skipping, and asserts the same image.
+fn assert_skipping_keeps_the_image(
+    session: &RenderSession,
+    vol: &Arc<Volume>,
+    tf: &TransferFunction,
+    side: Axis,
+    step: f64,
+) {
     let source = VolumeSource::Memory(vol.clone());
-    let session = session();
     let b = vol.bounds();
     let cameras = [
         Camera::axis(Axis::Z, &b),
-        Camera::axis(Axis::X, &b),
+        Camera::axis(side, &b),
         Camera::orbit(&b, 35.0, 20.0, 25.0).unwrap(),
         Camera::orbit(&b, -120.0, -40.0, 60.0).unwrap(),
     ];
@@ -96,12 +101,12 @@ fn skipping_renders_the_plain_image_of_a_shell_with_missing_data() {
             Precision::F16,
             Precision::F32c,
         ] {
-            let mut o = VolumeRenderOptions::new(camera, tf(0.0));
-            (o.width, o.height, o.step) = (80, 72, 0.6);
+            let mut o = VolumeRenderOptions::new(camera, tf.clone());
+            (o.width, o.height, o.step) = (80, 72, step);
             o.filter = FilterMode::Exact;
             o.precision = precision;
             o.jitter = i == 2;
-            let (plain, skipped, path) = pair(&session, &source, &o);
+            let (plain, skipped, path) = pair(session, &source, &o);
             assert_eq!(path, RenderPath::InCore { skipping: true });
             let d = diff(&plain, &skipped);
             // Skipped segments composite exactly nothing, and the blocks of the f32 sums are
@@ -117,6 +122,12 @@ fn skipping_renders_the_plain_image_of_a_shell_with_missing_data() {
     }
 }
 
+#[test]
+fn skipping_renders_the_plain_image_of_a_shell_with_missing_data() {
+    let vol = Arc::new(shell());
+    assert_skipping_keeps_the_image(&session(), &vol, &tf(0.0), Axis::X, 0.6);
+}
+
 /// Smooth waves on [0, 1] in a 72 × 64 × 60 box, no missing values: the gradient skip's slope
 /// bound holds everywhere.
 fn waves() -> Volume {
@@ -130,19 +141,12 @@ fn waves() -> Volume {
 /// Inside the cells that are not empty, the samples that the waves' slope bound proves to lie
 /// in the transparent range below 0.6 are skipped too, with the plain image: bit for bit in f32,
 /// u8 and f16, within 1e-5 with compensated sums, under four cameras, a step that is not a voxel
-/// and jitter. The pass log says the skip ran and gives its bounds.
+/// and jitter. The pass log says the skip ran and gives its bounds. (A bound 20 % too small in
+/// the shader changes the image: this test fails.)
 #[test]
 fn the_gradient_skip_renders_the_plain_image_of_smooth_waves() {
     let vol = Arc::new(waves());
-    let source = VolumeSource::Memory(vol.clone());
     let session = session();
-    let b = vol.bounds();
-    let cameras = [
-        Camera::axis(Axis::Z, &b),
-        Camera::axis(Axis::Y, &b),
-        Camera::orbit(&b, 35.0, 20.0, 25.0).unwrap(),
-        Camera::orbit(&b, -120.0, -40.0, 60.0).unwrap(),
-    ];
     let tf = TransferFunction::Lut(LutTransfer {
         domain: Some([0.0, 1.0]),
         emission: vec![[0.0, -1.0], [1.0, 0.3]],
@@ -150,39 +154,15 @@ fn the_gradient_skip_renders_the_plain_image_of_smooth_waves() {
         transparent_below: 0.6,
         ..Default::default()
     });
-    for (i, camera) in cameras.into_iter().enumerate() {
-        for precision in [
-            Precision::F32,
-            Precision::U8,
-            Precision::F16,
-            Precision::F32c,
-        ] {
-            let mut o = VolumeRenderOptions::new(camera, tf.clone());
-            (o.width, o.height, o.step) = (80, 72, 0.7);
-            o.filter = FilterMode::Exact;
-            o.precision = precision;
-            o.jitter = i == 2;
-            session.take_passes();
-            let (plain, skipped, path) = pair(&session, &source, &o);
-            assert_eq!(path, RenderPath::InCore { skipping: true });
-            let bound = if precision == Precision::F32c {
-                1e-5
-            } else {
-                0.0
-            };
-            let d = diff(&plain, &skipped);
-            assert!(d <= bound, "camera {i} {precision:?}: {d:e}");
-            let passes = session.take_passes();
-            if i == 0 && precision == Precision::F32 {
-                let grid = passes.iter().find(|p| p.name == "skip-grid").unwrap();
-                assert!(
-                    grid.detail.contains("gradient skip below 5.99"),
-                    "{}",
-                    grid.detail
-                );
-            }
-        }
-    }
+    session.take_passes();
+    assert_skipping_keeps_the_image(&session, &vol, &tf, Axis::Y, 0.7);
+    let passes = session.take_passes();
+    let grid = passes.iter().find(|p| p.name == "skip-grid").unwrap();
+    assert!(
+        grid.detail.contains("gradient skip below 5.99"),
+        "{}",
+        grid.detail
+    );
 }
 
 #[test]
