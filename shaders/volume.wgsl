@@ -459,22 +459,23 @@ fn march_skipping(m: March) -> RayState {
             }
             k = next;
         }
-        // UNROLL samples, each followed by the segments it proves transparent; two with the
-        // gradient skip, whose samples go on past what they prove transparent by themselves, so
-        // that a longer group mostly pays for masked lanes (opaque wall: 2 samples 7 % faster
-        // than 4; render_with in src/render/volume/mod.rs keeps rays of more than half the step
-        // limit off it).
+        // SAMPLES_PER_PASS samples (march_plan in src/render/volume/mod.rs), each followed by
+        // the segments it proves transparent.
         if (PRECISION == 0u) {
             k = blocked_step(&s, &block, &block_index, m, inner, sr, k, end);
-            k = blocked_step(&s, &block, &block_index, m, inner, sr, k, end);
-            if (!GRADIENT_SKIP) {
+            if (SAMPLES_PER_PASS >= 2u) {
+                k = blocked_step(&s, &block, &block_index, m, inner, sr, k, end);
+            }
+            if (SAMPLES_PER_PASS >= 4u) {
                 k = blocked_step(&s, &block, &block_index, m, inner, sr, k, end);
                 k = blocked_step(&s, &block, &block_index, m, inner, sr, k, end);
             }
         } else {
             k = segment_step(&s, m, inner, sr, k, end);
-            k = segment_step(&s, m, inner, sr, k, end);
-            if (!GRADIENT_SKIP) {
+            if (SAMPLES_PER_PASS >= 2u) {
+                k = segment_step(&s, m, inner, sr, k, end);
+            }
+            if (SAMPLES_PER_PASS >= 4u) {
                 k = segment_step(&s, m, inner, sr, k, end);
                 k = segment_step(&s, m, inner, sr, k, end);
             }

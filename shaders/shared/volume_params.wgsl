@@ -54,3 +54,5 @@ override WORK: u32 = 4u;
 // Skipping by the gradient bound inside cells that are not empty (SKIPPING only; GradientSkip in
 // src/render/skipping.rs).
 override GRADIENT_SKIP: bool = false;
+// Samples the skipping march takes between lookups: 1, 2 or 4 (SKIPPING only).
+override SAMPLES_PER_PASS: u32 = 4u;

@@ -165,6 +165,40 @@ fn the_gradient_skip_renders_the_plain_image_of_smooth_waves() {
     );
 }
 
+/// Three small Gaussian blobs, four decades high, in the shell's box: nearly every cell empty.
+fn blobs() -> Volume {
+    Volume::from_fn("blobs", [72, 64, 60], |x, y, z| {
+        let centres = [[20.0, 20.0, 15.0], [50.0, 40.0, 30.0], [30.0, 45.0, 44.0]];
+        let d2 = |c: [f64; 3]| (x - c[0]).powi(2) + (y - c[1]).powi(2) + (z - c[2]).powi(2);
+        1e-3 + centres
+            .iter()
+            .map(|&c| 10.0 * (-d2(c) / 8.0).exp())
+            .sum::<f64>()
+    })
+    .unwrap()
+}
+
+/// Where nearly every cell is empty the march takes one sample between lookups
+/// (render::volume::march_plan): the plain image all the same.
+#[test]
+fn skipping_renders_the_plain_image_of_sparse_blobs() {
+    let vol = Arc::new(blobs());
+    let session = session();
+    session.take_passes();
+    assert_skipping_keeps_the_image(&session, &vol, &tf(0.5), Axis::X, 0.6);
+    let passes = session.take_passes();
+    let grid = passes.iter().find(|p| p.name == "skip-grid").unwrap();
+    let counts: Vec<f64> = grid
+        .detail
+        .split(|c: char| !c.is_ascii_digit())
+        .filter(|w| !w.is_empty())
+        .take(2)
+        .map(|w| w.parse().unwrap())
+        .collect();
+    assert!(counts[0] / counts[1] >= 0.9, "{}", grid.detail);
+    assert!(!grid.detail.contains("gradient"), "{}", grid.detail);
+}
+
 #[test]
 fn a_transfer_function_change_reclassifies_the_cells_without_reading_the_volume() {
     let vol = Arc::new(shell());
