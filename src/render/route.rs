@@ -710,10 +710,7 @@ impl RenderSession {
         let cells = self.cell_ranges(volume)?;
         self.skip_grid_stage("skip grid", volume, opts, cells.stats(), |ctx, tf| {
             let g = SkipGrid::new(ctx, &cells, tf);
-            let mut detail = format!("{} of {} cells empty", g.empty, g.cells());
-            if let Some(s) = g.gradient {
-                detail += &format!("; {}", s.describe());
-            }
+            let detail = g.describe();
             (g, detail)
         })
     }

@@ -371,6 +371,15 @@ impl SkipGrid {
         }
     }
 
+    /// The `skip-grid` pass's line: the empty cells, and the gradient skip where it runs.
+    pub(crate) fn describe(&self) -> String {
+        let empty = format!("{} of {} cells empty", self.empty, self.cells());
+        match self.gradient {
+            Some(g) => format!("{empty}; {}", g.describe()),
+            None => empty,
+        }
+    }
+
     pub(crate) fn view(&self) -> &wgpu::TextureView {
         &self.view
     }

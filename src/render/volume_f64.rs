@@ -4,7 +4,7 @@
 //! as the f32 path (voxels are f32 data); positions, interpolation weights, the transfer table,
 //! the scale, the exponentials and the sums are f64, and the image comes back in f64.
 
-use super::volume::{GpuVolume, MAX_STEPS_PER_RAY};
+use super::volume::{min_spacing, steps_per_ray, GpuVolume, MAX_STEPS_PER_RAY};
 use super::VolumeRenderOptions;
 use crate::error::{Error, Result};
 use crate::gpu::{pipeline, readback, shader, GpuContext};
@@ -82,12 +82,9 @@ impl F64RayCaster {
     /// Renders `volume` in f64: row-major RGBA, premultiplied, as `render_volume_f64`.
     pub fn render(&self, volume: &GpuVolume, opts: &VolumeRenderOptions) -> Result<Vec<[f64; 4]>> {
         let out_bytes = self.check_options(opts)?;
-        let voxel = volume.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
-        let size: Vec<f64> = (0..3)
-            .map(|a| volume.dims[a] as f64 * volume.spacing[a])
-            .collect();
-        let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
-        if diagonal / (opts.step * voxel) + 2.0 > MAX_STEPS_PER_RAY as f64 {
+        let voxel = min_spacing(volume.spacing);
+        let size = [0, 1, 2].map(|a| volume.dims[a] as f64 * volume.spacing[a]);
+        if steps_per_ray(opts, voxel, size) > MAX_STEPS_PER_RAY as f64 {
             return Err(Error::invalid(
                 "step",
                 format!(

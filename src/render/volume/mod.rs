@@ -12,10 +12,10 @@ use crate::gpu::timestamps::PassTimestamps;
 use crate::gpu::{pipeline, readback, shader, GpuContext};
 use crate::model::transfer::{ResolvedTransfer, TfKind};
 use crate::model::{HdrImage, Volume, VolumeStats};
-use params::{check_steps_per_ray, steps_per_ray, volume_params};
+use params::{check_steps_per_ray, volume_params, LOOP_ITERATIONS};
 pub(crate) use params::{
-    min_spacing, Frame, Geometry, CF_AXES, MAX_STEPS_PER_RAY, RECTILINEAR, RENORMALISE, SEAM,
-    SHELL, SPHERICAL, UNEVEN,
+    min_spacing, steps_per_ray, Frame, Geometry, CF_AXES, MAX_STEPS_PER_RAY, RECTILINEAR,
+    RENORMALISE, SEAM, SHELL, SPHERICAL, UNEVEN,
 };
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -197,8 +197,8 @@ const SPARSE_EMPTY_FRACTION: f64 = 0.9;
 /// the samples the march takes between lookups. With the gradient skip two (its samples go on
 /// past what they prove transparent by themselves: on the opaque wall 1 / 2 / 3 / 4 a pass took
 /// 47.4 / 46.0 / 48.0 / 49.6 ms), where nearly every cell is empty one, else four. A loop
-/// iteration advances at least that many steps and llvmpipe ends a loop after 65535 of them, so
-/// a ray too long for the plan marches four at a time without the gradient skip.
+/// iteration advances at least that many steps and llvmpipe ends a loop after LOOP_ITERATIONS of
+/// them, so a ray too long for the plan marches four at a time without the gradient skip.
 pub(crate) fn march_plan(gradient: bool, empty_fraction: f64, steps: f64) -> (bool, u32) {
     let samples = if gradient {
         2
@@ -207,7 +207,7 @@ pub(crate) fn march_plan(gradient: bool, empty_fraction: f64, steps: f64) -> (bo
     } else {
         4
     };
-    if steps <= (MAX_STEPS_PER_RAY / 4 * u64::from(samples)) as f64 {
+    if steps <= (LOOP_ITERATIONS * u64::from(samples)) as f64 {
         (gradient, samples)
     } else {
         (false, 4)

@@ -49,10 +49,13 @@ pub(crate) const RENORMALISE: u32 = 64;
 
 /// Most steps one ray may take: the shader advances four steps per loop iteration, and llvmpipe
 /// (lavapipe, and GL on Mesa) ends any loop after 65535 iterations.
-pub(crate) const MAX_STEPS_PER_RAY: u64 = 4 * 65535;
+pub(crate) const MAX_STEPS_PER_RAY: u64 = 4 * LOOP_ITERATIONS;
+
+/// The most iterations llvmpipe lets a shader loop run.
+pub(crate) const LOOP_ITERATIONS: u64 = 65535;
 
 /// The most steps a ray across the volume's diagonal takes.
-pub(super) fn steps_per_ray(opts: &VolumeRenderOptions, voxel: f64, size: [f64; 3]) -> f64 {
+pub(crate) fn steps_per_ray(opts: &VolumeRenderOptions, voxel: f64, size: [f64; 3]) -> f64 {
     let diagonal = size.iter().map(|s| s * s).sum::<f64>().sqrt();
     diagonal / (opts.step * voxel) + 2.0
 }
